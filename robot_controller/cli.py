@@ -1,0 +1,108 @@
+"""``robot-controller``: run the loop, score a recording, list parameters.
+
+Each verb is a plain function returning an exit code; ``main`` only parses.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import sys
+from pathlib import Path
+
+from robot_controller import config as cfg
+from robot_controller.core.errors import ConfigError
+
+HEADLINE = ("tracking_rms_rad", "tracking_max_rad", "measured_rms_rad", "control_rate_hz", "jitter_p99_ms",
+            "missed_cycles", "peak_torque_nm", "duration_s")
+
+
+def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: Path | None,
+        single_process: bool) -> int:
+    from robot_controller import launcher, report
+
+    try:
+        params = cfg.load_stack(preset, config)
+    except ConfigError as exc:
+        print(f"robot-controller: {exc}", file=sys.stderr)
+        return 2
+    if duration_s <= 0:
+        print("robot-controller: --duration must be > 0", file=sys.stderr)
+        return 2
+    params["sensor_node"]["seed"] = seed
+    out = out or Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    result = launcher.launch(params, out_dir=out, duration_s=duration_s, single_process=single_process)
+    if result.exit_code != 0 and not any(result.message_counts.values()):
+        return result.exit_code
+    try:
+        recording = report.read_recording(result.bag_dir)
+        values = report.score(recording, nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"])
+    except ValueError as exc:
+        launcher.say(f"cannot score the recording: {exc}")
+        return result.exit_code or 1
+    values.update({"duration_s": round(result.control_seconds, 3), "preset": preset, "seed": seed,
+                   "mode": "single_process" if single_process else "multi_process", "clock": "wall"})
+    report.write_metrics(out / "metrics.json", values)
+    report.plot_tracking(recording, out / "tracking.png", title=f"preset {preset}, seed {seed}")
+    print_table(values, title=f"run: preset {preset}, seed {seed} → {out}")
+    return result.exit_code
+
+
+def score(run_dir: Path) -> int:
+    from robot_controller import report
+
+    recording = report.read_recording(run_dir / "bag")
+    values = report.score(recording)
+    print_table(values, title=f"re-scored {run_dir / 'bag'}")
+    print(json.dumps(values, indent=2, sort_keys=True))
+    return 0
+
+
+def list_params() -> int:
+    defaults = cfg.load_stack()
+    for node in cfg.NODES:
+        print(f"{node}:")
+        for spec in cfg.SCHEMA[node]:
+            print(f"  {spec.name} = {defaults[node][spec.name]!r}: {spec.describe()}"
+                  + (" (read-only)" if spec.read_only else ""))
+    return 0
+
+
+def print_table(values: dict, title: str) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=title)
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    for key in HEADLINE + tuple(sorted(k for k in values if k not in HEADLINE)):
+        if key in values:
+            value = values[key]
+            table.add_row(key, f"{value:.6g}" if isinstance(value, float) else str(value))
+    Console().print(table)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="robot-controller", description=__doc__.splitlines()[0])
+    verbs = parser.add_subparsers(dest="verb", required=True)
+    p_run = verbs.add_parser("run", help="run the five-node loop, record it and score it")
+    p_run.add_argument("--duration", type=float, default=20.0, help="seconds of control to record (default 20)")
+    p_run.add_argument("--out", type=Path, help="output directory (default runs/<timestamp>)")
+    p_run.add_argument("--preset", default="default", choices=cfg.available_presets())
+    p_run.add_argument("--seed", type=int, default=0, help="sensor noise seed (default 0)")
+    p_run.add_argument("--config", type=Path, help="ROS 2 parameter file layered over the preset")
+    p_run.add_argument("--single-process", action="store_true", help="all five nodes on one executor")
+    p_score = verbs.add_parser("score", help="re-score a run directory from its bag")
+    p_score.add_argument("run_dir", type=Path)
+    verbs.add_parser("params", help="list every node parameter with its default and meaning")
+    args = parser.parse_args(argv)
+    if args.verb == "run":
+        return run(duration_s=args.duration, out=args.out, preset=args.preset, seed=args.seed, config=args.config,
+                   single_process=args.single_process)
+    if args.verb == "score":
+        return score(args.run_dir)
+    return list_params()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

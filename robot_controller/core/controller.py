@@ -1,0 +1,164 @@
+"""The joint controller the ``pid_controller`` node runs: reference handling,
+feedforward, the control law and the sensor watchdog, called once per tick.
+
+It keeps the latest reference and measurement with the times they arrived
+and, on :meth:`JointController.update`, turns them into one torque command.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.feedforward import FeedforwardMode, feedforward_torque
+from robot_controller.core.pid import Pid, PidConfig, PidTerms
+from robot_controller.core.plant import ArmDynamics
+
+
+class Status(str, Enum):
+    OK = "ok"
+    HOLDING = "holding"  #: no reference yet: holding the first measured position
+    NO_MEASUREMENT = "no_measurement"  #: no valid sensor message yet: zero torque
+    WATCHDOG = "watchdog"  #: sensor silent for too long: zero torque
+
+
+@dataclass
+class ControllerConfig:
+    """Options around the control law.
+
+    :param pid: gains and limits of the law
+    :param feedforward: a :class:`FeedforwardMode`
+    :param control_period_s: nominal period, s
+    :param reference_extrapolation: evaluate the latest reference sample at
+        the tick time using its velocity and acceleration, instead of holding it
+    :param latency_compensation: advance the measurement from its stamp to the
+        tick time with its own velocity
+    :param watchdog_periods: control periods without a valid measurement
+        before the command drops to zero
+    """
+
+    pid: PidConfig = field(default_factory=PidConfig)
+    feedforward: FeedforwardMode = FeedforwardMode.NONE
+    control_period_s: float = 0.01
+    reference_extrapolation: bool = False
+    latency_compensation: bool = False
+    watchdog_periods: int = 5
+
+    def __post_init__(self) -> None:
+        try:
+            self.feedforward = FeedforwardMode(self.feedforward)
+        except ValueError:
+            raise ConfigError(
+                f"feedforward: {self.feedforward!r} is not one of {[m.value for m in FeedforwardMode]}"
+            ) from None
+        if not np.isfinite(self.control_period_s) or self.control_period_s <= 0:
+            raise ConfigError(f"control_rate_hz: must be > 0, got period {self.control_period_s}")
+        if int(self.watchdog_periods) < 1:
+            raise ConfigError(f"watchdog_periods: must be >= 1, got {self.watchdog_periods}")
+
+
+@dataclass
+class ControlOutput:
+    """One tick: the command and everything that went into it."""
+
+    time_s: float
+    status: Status
+    reference: np.ndarray
+    measured: np.ndarray
+    terms: PidTerms
+
+    @property
+    def command(self) -> np.ndarray:
+        return self.terms.command
+
+    @property
+    def error(self) -> np.ndarray:
+        return self.reference - self.measured
+
+
+# Extrapolating further than this is guessing, not compensating.
+_MAX_EXTRAPOLATION_S = 0.1
+
+
+class JointController:
+    def __init__(self, config: ControllerConfig, joint_count: int, dynamics: ArmDynamics | None = None) -> None:
+        if config.feedforward is not FeedforwardMode.NONE and dynamics is None:
+            raise ConfigError("feedforward: needs the arm model (urdf_path)")
+        self.config = config
+        self.joint_count = joint_count
+        self.dynamics = dynamics
+        self.pid = Pid(config.pid)
+        self._reference: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._reference_time_s = 0.0
+        self._measurement: tuple[np.ndarray, np.ndarray] | None = None
+        self._measurement_stamp_s = 0.0
+        self._measurement_received_s = -np.inf
+        self._last_update_s: float | None = None
+
+    def set_config(self, config: ControllerConfig) -> None:
+        """New gains and options, applied bumplessly from the next tick."""
+        if config.feedforward is not FeedforwardMode.NONE and self.dynamics is None:
+            raise ConfigError("feedforward: needs the arm model (urdf_path)")
+        self.config = config
+        self.pid.set_config(config.pid)
+
+    def set_reference(self, received_s: float, position: np.ndarray, velocity: np.ndarray,
+                      acceleration: np.ndarray) -> None:
+        self._reference = (position, velocity, acceleration)
+        self._reference_time_s = received_s
+
+    def set_measurement(self, stamp_s: float, received_s: float, position: np.ndarray,
+                        velocity: np.ndarray) -> None:
+        self._measurement = (position, velocity)
+        self._measurement_stamp_s = stamp_s
+        self._measurement_received_s = received_s
+
+    @property
+    def has_measurement(self) -> bool:
+        return self._measurement is not None
+
+    def update(self, now_s: float) -> ControlOutput:
+        """Compute the command for the tick at ``now_s`` seconds."""
+        dt = self.config.control_period_s
+        if self._last_update_s is not None and now_s > self._last_update_s:
+            # The true elapsed time, within reason: a late tick integrates what really passed.
+            dt = min(now_s - self._last_update_s, 5.0 * self.config.control_period_s)
+        self._last_update_s = now_s
+
+        zeros = np.zeros(self.joint_count)
+        if self._measurement is None:
+            return self._idle(now_s, Status.NO_MEASUREMENT, zeros, zeros)
+        measured_position, measured_velocity = self._measurement
+        silent_s = now_s - self._measurement_received_s
+        if silent_s > self.config.watchdog_periods * self.config.control_period_s:
+            self.pid.reset()
+            return self._idle(now_s, Status.WATCHDOG, measured_position, measured_position)
+
+        if self.config.latency_compensation:
+            age = np.clip(now_s - self._measurement_stamp_s, 0.0, _MAX_EXTRAPOLATION_S)
+            measured_position = measured_position + measured_velocity * age
+
+        status = Status.OK
+        if self._reference is None:
+            # Hold where the arm is until the planner speaks.
+            self._reference = (measured_position.copy(), zeros.copy(), zeros.copy())
+            self._reference_time_s = now_s
+            status = Status.HOLDING
+        ref_position, ref_velocity, ref_acceleration = self._reference
+        if self.config.reference_extrapolation:
+            age = float(np.clip(now_s - self._reference_time_s, 0.0, _MAX_EXTRAPOLATION_S))
+            ref_position = ref_position + ref_velocity * age + 0.5 * ref_acceleration * age * age
+            ref_velocity = ref_velocity + ref_acceleration * age
+
+        feedforward = feedforward_torque(
+            self.config.feedforward, self.dynamics, ref_position, ref_velocity, ref_acceleration
+        )
+        terms = self.pid.step(dt, ref_position, ref_velocity, measured_position, measured_velocity, feedforward)
+        return ControlOutput(now_s, status, ref_position, measured_position, terms)
+
+    def _idle(self, now_s: float, status: Status, reference: np.ndarray, measured: np.ndarray) -> ControlOutput:
+        zeros = np.zeros(self.joint_count)
+        terms = PidTerms(zeros, zeros, zeros, zeros, zeros, np.zeros(self.joint_count, dtype=bool))
+        return ControlOutput(now_s, status, np.asarray(reference, float), np.asarray(measured, float), terms)

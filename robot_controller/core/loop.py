@@ -1,0 +1,68 @@
+"""The whole control loop in one Python loop, no ROS: planner, sensor,
+controller, actuator and plant at their rates, with the same core objects
+the nodes use. For tuning, sweeps, tests and as the ideal the ROS graph is
+measured against (no transport delay, perfectly periodic ticks).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robot_controller.core import metrics
+from robot_controller.core.actuator import Actuator
+from robot_controller.core.controller import JointController
+from robot_controller.core.plant import Plant, steps_per_period
+from robot_controller.core.sensor_model import SensorConfig, measure
+from robot_controller.core.trajectory import Trajectory
+
+
+@dataclass
+class LoopResult:
+    """Per-tick record of a run; arrays are ``(ticks, joints)`` except ``tick_time_s``."""
+
+    tick_time_s: np.ndarray
+    reference: np.ndarray
+    measured: np.ndarray
+    true_position: np.ndarray
+    true_velocity: np.ndarray
+    command: np.ndarray
+    applied: np.ndarray
+
+    def tracking_metrics(self, warmup_s: float = metrics.WARMUP_S) -> dict[str, float]:
+        return metrics.tracking_metrics(self.tick_time_s, self.reference, self.true_position, self.measured,
+                                        warmup_s=warmup_s)
+
+
+def run_loop(*, plant: Plant, controller: JointController, actuator: Actuator, sensor: SensorConfig,
+             trajectory: Trajectory, rng: np.random.Generator, duration_s: float, control_period_s: float,
+             planner_period_s: float) -> LoopResult:
+    """Run ``duration_s`` seconds of the loop and return what happened at each tick.
+
+    At each tick ``t_k``: the planner publishes if its period has come round,
+    the sensor samples the true state, the controller computes, and the
+    actuator's torque is held over the next control period of physics steps.
+    """
+    n_steps = steps_per_period(plant.physics_dt, control_period_s)
+    ticks = int(round(duration_s / control_period_s))
+    planner_every = max(1, int(round(planner_period_s / control_period_s)))
+    n = len(plant.joint_names)
+    record = {name: np.zeros((ticks, n)) for name in
+              ("reference", "measured", "true_position", "true_velocity", "command", "applied")}
+    times = np.arange(ticks) * control_period_s
+    for k, t in enumerate(times):
+        if k % planner_every == 0:
+            controller.set_reference(t, *trajectory.sample(t))
+        true_position, true_velocity = plant.state()
+        position, velocity = measure(sensor, true_position, true_velocity, rng)
+        controller.set_measurement(t, t, position, velocity)
+        out = controller.update(t)
+        applied = actuator.apply(out.command, control_period_s)
+        plant.step(applied, n_steps)
+        record["reference"][k] = out.reference
+        record["measured"][k] = position
+        record["true_position"][k] = true_position
+        record["true_velocity"][k] = true_velocity
+        record["command"][k] = out.command
+        record["applied"][k] = applied
+    return LoopResult(tick_time_s=times, **record)

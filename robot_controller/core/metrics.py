@@ -1,0 +1,133 @@
+"""Metrics of DESIGN.md §5, as functions on arrays: they score a live run,
+an in-process simulation or a recording read back from a bag alike."""
+from __future__ import annotations
+
+import numpy as np
+from scipy.interpolate import CubicHermiteSpline
+
+WARMUP_S = 2.0
+
+
+def true_position_at(times_s: np.ndarray, true_time_s: np.ndarray, true_position: np.ndarray,
+                     true_velocity: np.ndarray | None = None) -> np.ndarray:
+    """The true joint position at arbitrary times, shape ``(len(times_s), n)``.
+
+    With velocities, a cubic Hermite spline (exact to third order between
+    samples); otherwise linear interpolation.
+    """
+    true_time_s = np.asarray(true_time_s, dtype=float)
+    true_position = np.asarray(true_position, dtype=float).reshape(len(true_time_s), -1)
+    order = np.argsort(true_time_s, kind="stable")
+    t, q = true_time_s[order], true_position[order]
+    keep = np.concatenate(([True], np.diff(t) > 0))
+    t, q = t[keep], q[keep]
+    if true_velocity is not None and len(t) >= 2:
+        v = np.asarray(true_velocity, dtype=float).reshape(len(true_time_s), -1)[order][keep]
+        return CubicHermiteSpline(t, q, v, axis=0, extrapolate=False)(times_s)
+    return np.column_stack([np.interp(times_s, t, q[:, j], left=np.nan, right=np.nan) for j in range(q.shape[1])])
+
+
+def tracking_metrics(tick_time_s: np.ndarray, reference_position: np.ndarray, true_position_at_tick: np.ndarray,
+                     measured_position: np.ndarray, *, warmup_s: float = WARMUP_S) -> dict[str, float]:
+    """Tracking errors after ``warmup_s`` from the first tick.
+
+    ``tracking_*`` compare the reference with the TRUE position at each
+    control tick; ``measured_rms_rad`` compares it with what the sensor said.
+    RMS and max are over every joint and tick.
+    """
+    t = np.asarray(tick_time_s, dtype=float)
+    ref = np.asarray(reference_position, dtype=float).reshape(len(t), -1)
+    true = np.asarray(true_position_at_tick, dtype=float).reshape(len(t), -1)
+    meas = np.asarray(measured_position, dtype=float).reshape(len(t), -1)
+    window = (t >= t[0] + warmup_s) if len(t) else np.zeros(0, bool)
+    window &= np.all(np.isfinite(true), axis=1)
+    if not np.any(window):
+        raise ValueError(f"no control ticks after the {warmup_s} s warm-up to score")
+    error = ref[window] - true[window]
+    measured_error = ref[window] - meas[window]
+    return {
+        "tracking_rms_rad": float(np.sqrt(np.mean(error ** 2))),
+        "tracking_max_rad": float(np.max(np.abs(error))),
+        "measured_rms_rad": float(np.sqrt(np.mean(measured_error ** 2))),
+        "scored_ticks": int(np.count_nonzero(window)),
+    }
+
+
+def rate_metrics(tick_time_s: np.ndarray, nominal_period_s: float) -> dict[str, float]:
+    """Achieved rate and period jitter (|period − nominal|) of a periodic loop."""
+    t = np.asarray(tick_time_s, dtype=float)
+    if len(t) < 2:
+        raise ValueError("need at least two ticks to measure a rate")
+    periods = np.diff(t)
+    jitter_ms = np.abs(periods - nominal_period_s) * 1e3
+    return {
+        "control_rate_hz": float((len(t) - 1) / (t[-1] - t[0])),
+        "jitter_p50_ms": float(np.percentile(jitter_ms, 50)),
+        "jitter_p99_ms": float(np.percentile(jitter_ms, 99)),
+        "jitter_max_ms": float(np.max(jitter_ms)),
+        "missed_cycles": int(np.count_nonzero(periods > 1.5 * nominal_period_s)),
+    }
+
+
+def latency_metrics(latency_s: np.ndarray, prefix: str = "latency") -> dict[str, float]:
+    lat_ms = np.asarray(latency_s, dtype=float) * 1e3
+    lat_ms = lat_ms[np.isfinite(lat_ms)]
+    if lat_ms.size == 0:
+        return {}
+    return {f"{prefix}_p50_ms": float(np.percentile(lat_ms, 50)),
+            f"{prefix}_p99_ms": float(np.percentile(lat_ms, 99)),
+            f"{prefix}_max_ms": float(np.max(lat_ms))}
+
+
+def step_metrics(time_s: np.ndarray, position: np.ndarray, *, initial: float, target: float,
+                 step_time_s: float = 0.0, settling_band: float = 0.02, torque: np.ndarray | None = None
+                 ) -> dict[str, float]:
+    """Step-response figures of one joint's position (as python-control's ``step_info``).
+
+    :param initial: position before the step, rad
+    :param target: commanded final position, rad
+    :param step_time_s: when the step was commanded, s
+    :param settling_band: settling band as a fraction of the step size (2 %)
+    :returns: ``overshoot_pct``, ``rise_time_s`` (10–90 %), ``settling_time_s``
+        (after ``step_time_s``, last exit from the band), ``steady_state_error_rad``
+        (mean |target − y| over the last 10 % of the record), ``peak_torque_nm``
+    """
+    t = np.asarray(time_s, dtype=float)
+    y = np.asarray(position, dtype=float)
+    after = t >= step_time_s
+    t, y = t[after] - step_time_s, y[after]
+    size = target - initial
+    if size == 0 or len(t) < 3:
+        raise ValueError("a step needs a non-zero size and at least three samples after it")
+    progress = (y - initial) / size  # 0 → 1
+    overshoot = max(0.0, float(np.max(progress)) - 1.0) * 100.0
+
+    def first_crossing(level: float) -> float:
+        idx = np.flatnonzero(progress >= level)
+        if idx.size == 0:
+            return np.nan
+        k = idx[0]
+        if k == 0:
+            return float(t[0])
+        # linear interpolation between samples for sub-sample accuracy
+        p0, p1 = progress[k - 1], progress[k]
+        return float(t[k - 1] + (level - p0) / (p1 - p0) * (t[k] - t[k - 1]))
+
+    rise = first_crossing(0.9) - first_crossing(0.1)
+    outside = np.flatnonzero(np.abs(progress - 1.0) > settling_band)
+    if outside.size == 0:
+        settling = 0.0
+    elif outside[-1] == len(t) - 1:
+        settling = np.nan  # never settled within the record
+    else:
+        settling = float(t[outside[-1] + 1])
+    tail = y[int(0.9 * len(y)):]
+    out = {
+        "overshoot_pct": overshoot,
+        "rise_time_s": float(rise),
+        "settling_time_s": settling,
+        "steady_state_error_rad": float(np.mean(np.abs(target - tail))),
+    }
+    if torque is not None:
+        out["peak_torque_nm"] = float(np.max(np.abs(np.asarray(torque, dtype=float))))
+    return out

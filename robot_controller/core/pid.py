@@ -1,0 +1,212 @@
+"""PID joint controller with anti-windup, derivative options and limits.
+
+All quantities are arrays with one entry per joint (shape ``(n,)``) and
+broadcast, so a batch of gain sets (shape ``(batch, n)``) runs through the
+same code. Units: positions rad, velocities rad/s, torques N·m, time s.
+
+The integral is stored as the I term itself (N·m), not as the integral of
+the error, so that changing ``ki`` while running does not kick the output
+(bumpless gain change).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from robot_controller.core.errors import ConfigError
+
+
+class AntiWindup(str, Enum):
+    """How the integral is kept from winding up while the output saturates."""
+
+    NONE = "none"
+    CLAMP = "clamp"  #: |∫e dt| ≤ integral_limit (rad·s), the tutorial's clamp
+    BACK_CALCULATION = "back_calculation"  #: bleed (u_sat − u)/Tt into the I term
+    CONDITIONAL_INTEGRATION = "conditional_integration"  #: freeze while saturated and error pushes further out
+
+
+class DerivativeSource(str, Enum):
+    """What the D term differentiates."""
+
+    MEASURED_VELOCITY = "measured_velocity"  #: −v_measured, the tutorial's choice
+    VELOCITY_ERROR = "velocity_error"  #: v_reference − v_measured
+    ERROR = "error"  #: finite difference of the position error
+    MEASUREMENT = "measurement"  #: −finite difference of the measured position
+
+
+@dataclass
+class PidConfig:
+    """Gains and options of :class:`Pid`.
+
+    :param kp: proportional gain, N·m/rad, per joint
+    :param ki: integral gain, N·m/(rad·s), per joint
+    :param kd: derivative gain, N·m·s/rad, per joint
+    :param output_limit: symmetric torque limit, N·m (> 0), per joint
+    :param integral_limit: clamp on ∫e dt, rad·s (used by ``clamp``)
+    :param anti_windup: an :class:`AntiWindup` mode
+    :param back_calculation_time_s: tracking time constant Tt of back-calculation, s
+    :param derivative_source: a :class:`DerivativeSource`
+    :param derivative_filter_time_s: first-order low-pass time constant on the D signal, s (0 = off)
+    :param slew_rate_limit: max |du/dt|, N·m/s (0 = off)
+    """
+
+    kp: np.ndarray = field(default_factory=lambda: np.array([50.0]))
+    ki: np.ndarray = field(default_factory=lambda: np.array([10.0]))
+    kd: np.ndarray = field(default_factory=lambda: np.array([5.0]))
+    output_limit: np.ndarray = field(default_factory=lambda: np.array([10.0]))
+    integral_limit: np.ndarray = field(default_factory=lambda: np.array([10.0]))
+    anti_windup: AntiWindup = AntiWindup.CLAMP
+    back_calculation_time_s: float = 0.1
+    derivative_source: DerivativeSource = DerivativeSource.MEASURED_VELOCITY
+    derivative_filter_time_s: float = 0.0
+    slew_rate_limit: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("kp", "ki", "kd", "output_limit", "integral_limit"):
+            value = np.atleast_1d(np.asarray(getattr(self, name), dtype=float))
+            if not np.all(np.isfinite(value)):
+                raise ConfigError(f"{name}: must be finite, got {value.tolist()}")
+            if np.any(value < 0):
+                raise ConfigError(f"{name}: must be >= 0, got {value.tolist()}")
+            setattr(self, name, value)
+        if np.any(self.output_limit <= 0):
+            raise ConfigError(f"output_limit: must be > 0, got {self.output_limit.tolist()}")
+        try:
+            self.anti_windup = AntiWindup(self.anti_windup)
+        except ValueError:
+            raise ConfigError(
+                f"anti_windup: {self.anti_windup!r} is not one of {[m.value for m in AntiWindup]}"
+            ) from None
+        try:
+            self.derivative_source = DerivativeSource(self.derivative_source)
+        except ValueError:
+            raise ConfigError(
+                f"derivative_source: {self.derivative_source!r} is not one of "
+                f"{[m.value for m in DerivativeSource]}"
+            ) from None
+        for name in ("back_calculation_time_s", "derivative_filter_time_s", "slew_rate_limit"):
+            value = float(getattr(self, name))
+            if not np.isfinite(value) or value < 0:
+                raise ConfigError(f"{name}: must be a finite number >= 0, got {value}")
+            setattr(self, name, value)
+        if self.anti_windup is AntiWindup.BACK_CALCULATION and self.back_calculation_time_s <= 0:
+            raise ConfigError("back_calculation_time_s: must be > 0 with anti_windup back_calculation")
+
+
+@dataclass
+class PidTerms:
+    """One step's output and its parts, for tuning plots (all N·m except ``saturated``)."""
+
+    command: np.ndarray
+    p: np.ndarray
+    i: np.ndarray
+    d: np.ndarray
+    feedforward: np.ndarray
+    saturated: np.ndarray  #: bool per joint: the limit (output or slew) cut the command
+
+
+class Pid:
+    """A discrete PID law, called once per control period with explicit ``dt``.
+
+    ``u = ff + kp·e + I + kd·D``, saturated to ``±output_limit`` and, if set,
+    slew-rate limited. ``e = r − y``. Non-finite inputs give a zero command
+    and leave the state untouched: the arm never gets a non-finite torque.
+    """
+
+    def __init__(self, config: PidConfig) -> None:
+        self.config = config
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the integral, filter and derivative history."""
+        self._i_term = np.zeros_like(self.config.kp, dtype=float)
+        self._d_filtered: np.ndarray | None = None
+        self._prev_error: np.ndarray | None = None
+        self._prev_position: np.ndarray | None = None
+        self._prev_command: np.ndarray | None = None
+
+    def set_config(self, config: PidConfig) -> None:
+        """Swap gains and options while running, without a bump in the output.
+
+        The I term is kept in N·m, so a new ``ki`` changes only how fast it
+        grows from here on.
+        """
+        self.config = config
+        self._i_term = np.broadcast_to(self._i_term, np.broadcast_shapes(self._i_term.shape, config.kp.shape)).copy()
+
+    @property
+    def integral_term(self) -> np.ndarray:
+        """The current I term, N·m."""
+        return self._i_term.copy()
+
+    def step(
+        self,
+        dt: float,
+        reference_position: np.ndarray,
+        reference_velocity: np.ndarray,
+        measured_position: np.ndarray,
+        measured_velocity: np.ndarray,
+        feedforward: np.ndarray | float = 0.0,
+    ) -> PidTerms:
+        """Advance one control period of ``dt`` seconds and return the command and its terms."""
+        c = self.config
+        zeros = np.zeros(np.broadcast_shapes(np.shape(reference_position), c.kp.shape))
+        inputs = (reference_position, reference_velocity, measured_position, measured_velocity, feedforward)
+        if not (np.isfinite(dt) and dt > 0) or not all(np.all(np.isfinite(x)) for x in inputs):
+            return PidTerms(zeros, zeros, zeros, zeros, zeros, np.zeros(zeros.shape, dtype=bool))
+
+        error = reference_position - measured_position
+        p_term = c.kp * error
+
+        if c.derivative_source is DerivativeSource.MEASURED_VELOCITY:
+            d_signal = -measured_velocity
+        elif c.derivative_source is DerivativeSource.VELOCITY_ERROR:
+            d_signal = reference_velocity - measured_velocity
+        elif c.derivative_source is DerivativeSource.ERROR:
+            d_signal = zeros if self._prev_error is None else (error - self._prev_error) / dt
+        else:  # MEASUREMENT
+            d_signal = (
+                zeros if self._prev_position is None else -(measured_position - self._prev_position) / dt
+            )
+        self._prev_error = np.array(error, dtype=float)
+        self._prev_position = np.array(measured_position, dtype=float)
+        if c.derivative_filter_time_s > 0:
+            if self._d_filtered is None:
+                self._d_filtered = np.array(d_signal, dtype=float)
+            else:
+                alpha = dt / (c.derivative_filter_time_s + dt)
+                self._d_filtered = self._d_filtered + alpha * (d_signal - self._d_filtered)
+            d_signal = self._d_filtered
+        d_term = c.kd * d_signal
+        feedforward = np.broadcast_to(np.asarray(feedforward, dtype=float), zeros.shape)
+
+        # Integrate, then limit per the anti-windup mode.
+        i_candidate = self._i_term + c.ki * error * dt
+        if c.anti_windup is AntiWindup.CLAMP:
+            i_limit = c.ki * c.integral_limit
+            i_candidate = np.clip(i_candidate, -i_limit, i_limit)
+        unsaturated = feedforward + p_term + i_candidate + d_term
+        limited = self._limit(unsaturated, dt)
+        saturated = np.abs(limited - unsaturated) > 1e-12
+        if c.anti_windup is AntiWindup.BACK_CALCULATION:
+            i_candidate = i_candidate + (limited - unsaturated) * dt / c.back_calculation_time_s
+        elif c.anti_windup is AntiWindup.CONDITIONAL_INTEGRATION:
+            # Keep integrating only where it would pull the output back inside the limit.
+            pushing_out = saturated & (np.sign(error) == np.sign(unsaturated))
+            i_candidate = np.where(pushing_out, self._i_term, i_candidate)
+        self._i_term = np.asarray(i_candidate, dtype=float)
+
+        command = self._limit(feedforward + p_term + self._i_term + d_term, dt)
+        command = np.where(np.isfinite(command), command, 0.0)
+        self._prev_command = command
+        return PidTerms(command, p_term, self._i_term.copy(), d_term, feedforward, saturated)
+
+    def _limit(self, command: np.ndarray, dt: float) -> np.ndarray:
+        limit = self.config.output_limit
+        out = np.clip(command, -limit, limit)
+        if self.config.slew_rate_limit > 0 and self._prev_command is not None:
+            max_step = self.config.slew_rate_limit * dt
+            out = np.clip(out, self._prev_command - max_step, self._prev_command + max_step)
+        return out

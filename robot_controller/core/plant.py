@@ -1,0 +1,142 @@
+"""The physical arm: a ``Plant`` protocol and its MuJoCo implementation.
+
+MuJoCo loads the URDF as it is (``MjSpec.from_file``), so there is no second,
+hand-written model to drift from the robot description. Anything else that
+moves joints (an analytic model, Gazebo behind a bridge, a hardware driver)
+can stand in by providing the same few members.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Protocol
+
+import mujoco
+import numpy as np
+
+from robot_controller.core.errors import ConfigError, TimingError
+
+
+class Plant(Protocol):
+    joint_names: list[str]
+    physics_dt: float
+
+    @property
+    def time_s(self) -> float: ...
+
+    def reset(self, position: np.ndarray, velocity: np.ndarray | None = None) -> None: ...
+
+    def step(self, torque: np.ndarray, n_steps: int = 1) -> None: ...
+
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """True ``(position rad, velocity rad/s)`` per joint."""
+        ...
+
+
+def load_model(urdf_path: str | Path, physics_dt: float | None = None) -> mujoco.MjModel:
+    """Compile a URDF into a MuJoCo model with one 1-DoF hinge or slide per actuated joint."""
+    path = Path(urdf_path)
+    if not path.is_file():
+        raise ConfigError(f"urdf_path: no such file {str(path)!r}")
+    try:
+        model = mujoco.MjSpec.from_file(str(path)).compile()
+    except Exception as exc:  # MuJoCo raises plain ValueError with its parser's text
+        raise ConfigError(f"urdf_path: MuJoCo could not load {str(path)!r}: {exc}") from exc
+    if physics_dt is not None:
+        if not np.isfinite(physics_dt) or physics_dt <= 0:
+            raise ConfigError(f"physics_dt: must be > 0, got {physics_dt}")
+        model.opt.timestep = physics_dt
+    if model.nq != model.nv or model.njnt != model.nv:
+        raise ConfigError("urdf_path: only chains of revolute/prismatic joints are supported (no floating base)")
+    return model
+
+
+def joint_names(model: mujoco.MjModel) -> list[str]:
+    return [model.joint(i).name for i in range(model.njnt)]
+
+
+def steps_per_period(physics_dt: float, period_s: float) -> int:
+    """Whole number of physics steps in one period; refuse ratios that are not whole."""
+    ratio = period_s / physics_dt
+    n = int(round(ratio))
+    if n < 1 or abs(ratio - n) > 1e-6 * max(1.0, ratio):
+        raise TimingError(
+            f"period {period_s} s is not a whole number of physics steps of {physics_dt} s (ratio {ratio:.6g})"
+        )
+    return n
+
+
+class MujocoPlant:
+    """The arm simulated by MuJoCo; torque is applied as generalised force on each joint.
+
+    :param urdf_path: robot description
+    :param physics_dt: physics step, s (1 ms in the reference scenario)
+    """
+
+    def __init__(self, urdf_path: str | Path, physics_dt: float = 0.001) -> None:
+        self.model = load_model(urdf_path, physics_dt)
+        self.data = mujoco.MjData(self.model)
+        self.joint_names = joint_names(self.model)
+        self.physics_dt = float(self.model.opt.timestep)
+        mujoco.mj_forward(self.model, self.data)
+
+    @property
+    def time_s(self) -> float:
+        return float(self.data.time)
+
+    @property
+    def joint_count(self) -> int:
+        return len(self.joint_names)
+
+    def reset(self, position: np.ndarray, velocity: np.ndarray | None = None) -> None:
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[:] = position
+        self.data.qvel[:] = 0.0 if velocity is None else velocity
+        mujoco.mj_forward(self.model, self.data)
+
+    def step(self, torque: np.ndarray, n_steps: int = 1) -> None:
+        """Hold ``torque`` (N·m) for ``n_steps`` physics steps."""
+        self.data.qfrc_applied[:] = torque
+        for _ in range(n_steps):
+            mujoco.mj_step(self.model, self.data)
+
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.data.qpos.copy(), self.data.qvel.copy()
+
+
+class ArmDynamics:
+    """Inverse dynamics of the arm from the same URDF, for feedforward.
+
+    ``torque(q, v, a)`` is the joint torque that produces acceleration ``a``
+    at state ``(q, v)``: inertia·a + damping·v + gravity (+ Coriolis on
+    longer chains), from MuJoCo's ``mj_inverse``.
+    """
+
+    def __init__(self, urdf_path: str | Path) -> None:
+        self.model = load_model(urdf_path)
+        self._data = mujoco.MjData(self.model)
+        self.joint_names = joint_names(self.model)
+
+    def torque(self, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
+        d = self._data
+        d.qpos[:] = position
+        d.qvel[:] = velocity
+        d.qacc[:] = acceleration
+        mujoco.mj_inverse(self.model, d)
+        return d.qfrc_inverse.copy()
+
+    def gravity(self, position: np.ndarray) -> np.ndarray:
+        zero = np.zeros(self.model.nv)
+        return self.torque(position, zero, zero)
+
+    def mass_matrix(self, position: np.ndarray) -> np.ndarray:
+        d = self._data
+        d.qpos[:] = position
+        mujoco.mj_forward(self.model, d)
+        matrix = np.zeros((self.model.nv, self.model.nv))
+        mujoco.mj_fullM(self.model, d, matrix)
+        return matrix
+
+    @property
+    def damping(self) -> np.ndarray:
+        """Viscous joint damping, N·m·s/rad."""
+        return self.model.dof_damping.copy()

@@ -1,0 +1,30 @@
+"""Build and run the in-process loop (no ROS) from the same parameters the
+ROS graph uses."""
+from __future__ import annotations
+
+import numpy as np
+
+from robot_controller import config as cfg
+from robot_controller import resources
+from robot_controller.core.actuator import Actuator
+from robot_controller.core.controller import JointController
+from robot_controller.core.loop import LoopResult, run_loop
+from robot_controller.core.plant import ArmDynamics, MujocoPlant
+from robot_controller.core.trajectory import make_trajectory
+
+
+def simulate(params: cfg.Params, *, duration_s: float, seed: int = 0) -> LoopResult:
+    sim, motor, sensor = params["simulator"], params["motor_node"], params["sensor_node"]
+    ctrl, planner = params["pid_controller"], params["trajectory_planner"]
+    plant = MujocoPlant(resources.resolve_urdf(sim["urdf_path"]), 1.0 / sim["physics_rate_hz"])
+    n = len(plant.joint_names)
+    plant.reset(cfg.per_joint("initial_position", sim["initial_position"], n))
+    dynamics = ArmDynamics(resources.resolve_urdf(ctrl["urdf_path"]))
+    controller_config = cfg.controller_config(ctrl, n)
+    controller = JointController(controller_config, n, dynamics)
+    actuator = Actuator(cfg.per_joint("torque_max", motor["torque_max"], n), motor["lag_time_constant_s"])
+    trajectory = make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner))
+    return run_loop(plant=plant, controller=controller, actuator=actuator, sensor=cfg.sensor_config(sensor),
+                    trajectory=trajectory, rng=np.random.default_rng(seed), duration_s=duration_s,
+                    control_period_s=controller_config.control_period_s,
+                    planner_period_s=1.0 / planner["publish_rate_hz"])

@@ -1,0 +1,41 @@
+"""All five nodes in one process on one executor (the composition mode):
+same topics, same parameters, no inter-process hops."""
+from __future__ import annotations
+
+import sys
+
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+
+from robot_controller.core.errors import ConfigError
+from robot_controller.nodes.motor_node import MotorNode
+from robot_controller.nodes.pid_controller import PidControllerNode
+from robot_controller.nodes.sensor_node import SensorNode
+from robot_controller.nodes.simulator import Simulator
+from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
+
+
+def main(args: list[str] | None = None) -> int:
+    rclpy.init(args=args)
+    nodes = []
+    code = 0
+    executor = SingleThreadedExecutor()
+    try:
+        for node_class in (Simulator, MotorNode, SensorNode, PidControllerNode, TrajectoryPlanner):
+            nodes.append(node_class())
+            executor.add_node(nodes[-1])
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except ConfigError as exc:
+        print(f"error: {exc}", file=sys.stderr, flush=True)
+        code = 2
+    finally:
+        for node in nodes:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,128 @@
+"""What every node here shares: parameters declared from the schema with
+their defaults from ``config/stack.yaml``, validation on set, rate-limited
+warnings, QoS, and the ``main`` skeleton of ros2/examples."""
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable
+from typing import Any
+
+import rclpy
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from robot_controller import config as cfg
+from robot_controller import resources
+from robot_controller.core.errors import ConfigError
+
+# Reliable, volatile, keep-last: matches the tutorial's default-QoS (depth 10)
+# publishers and subscribers, so its nodes talk to ours unchanged.
+CONTROL_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
+                         history=HistoryPolicy.KEEP_LAST, depth=10)
+
+WARN_PERIOD_S = 2.0
+
+
+class StackNode(Node):
+    """A node whose parameters are those of ``config.SCHEMA[schema_name]``.
+
+    Subclasses implement :meth:`check_params` (refuse a combination, raising
+    ``ConfigError``) and :meth:`apply_params` (take new values while running).
+    """
+
+    def __init__(self, schema_name: str, **kwargs: Any) -> None:
+        super().__init__(schema_name, **kwargs)
+        self.schema_name = schema_name
+        defaults = cfg.read_params_file(resources.stack_yaml())[schema_name]
+        for spec in cfg.SCHEMA[schema_name]:
+            descriptor = ParameterDescriptor(
+                description=spec.describe(), read_only=spec.read_only,
+                # numbers: accept 50 as well as 50.0, and a scalar for a per-joint list
+                dynamic_typing=spec.kind in (float, "floats"))
+            self.declare_parameter(spec.name, defaults[spec.name], descriptor)
+        # Overrides from --params-file / -p bypass callbacks at declaration: check them now.
+        self.params = self._validated({spec.name: self.get_parameter(spec.name).value
+                                       for spec in cfg.SCHEMA[schema_name]})
+        self._warned_at: dict[str, tuple[float, int]] = {}
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.add_post_set_parameters_callback(self._post_set_parameters)
+
+    # --- parameters ---------------------------------------------------------
+
+    def check_params(self, params: dict[str, Any]) -> None:
+        """Raise ``ConfigError`` if this combination of values cannot run."""
+
+    def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
+        """Take the new values (already validated) while running."""
+
+    def _validated(self, values: dict[str, Any]) -> dict[str, Any]:
+        out = {name: cfg.spec_of(self.schema_name, name).validate(value) for name, value in values.items()}
+        self.check_params(out)
+        return out
+
+    def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
+        candidate = dict(self.params)
+        for parameter in parameters:
+            if parameter.name not in candidate:
+                continue  # use_sim_time and other built-ins
+            if parameter.type_ == Parameter.Type.NOT_SET:
+                return SetParametersResult(successful=False, reason=f"{parameter.name}: cannot be undeclared")
+            candidate[parameter.name] = parameter.value
+        try:
+            self._pending = self._validated(candidate)
+        except ConfigError as exc:
+            self.get_logger().warning(f"refused parameter change: {exc}")
+            return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    def _post_set_parameters(self, parameters: list[Parameter]) -> None:
+        changed = {p.name for p in parameters if p.name in self.params}
+        if not changed:
+            return
+        self.params = self._pending
+        self.apply_params(self.params, changed)
+        self.get_logger().info("parameters changed: " + ", ".join(f"{n}={self.params[n]}" for n in sorted(changed)))
+
+    # --- helpers ------------------------------------------------------------
+
+    def now_s(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def warn_throttled(self, key: str, message: str) -> None:
+        """Warn at most once per ``WARN_PERIOD_S`` per ``key``, counting what was suppressed."""
+        now = time.monotonic()
+        last, suppressed = self._warned_at.get(key, (-float("inf"), 0))
+        if now - last >= WARN_PERIOD_S:
+            extra = f" ({suppressed} more since the last warning)" if suppressed else ""
+            self.get_logger().warning(message + extra)
+            self._warned_at[key] = (now, 0)
+        else:
+            self._warned_at[key] = (last, suppressed + 1)
+
+
+def stamp_to_s(stamp: Any) -> float:
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
+    """Init, spin until Ctrl-C or shutdown, clean up; a bad parameter exits 2 with its reason."""
+    rclpy.init(args=args)
+    node = None
+    code = 0
+    try:
+        node = node_factory()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except ConfigError as exc:
+        print(f"error: {exc}", file=sys.stderr, flush=True)
+        code = 2
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code

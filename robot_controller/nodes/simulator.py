@@ -1,0 +1,102 @@
+"""simulator: the physics world (the Gazebo role). MuJoCo steps the arm
+from the URDF at ``physics_rate_hz``, paced to the ROS clock, applying the
+latest ``/sim/effort``; the true state goes out on ``/sim/joint_states``.
+
+Wall-clock pacing: each timer callback steps as many physics steps as the
+clock says are due, so the sim keeps real time even if a callback is late,
+and every published state is stamped with its exact physics time.
+"""
+from __future__ import annotations
+
+import numpy as np
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from robot_controller import config as cfg
+from robot_controller import resources
+from robot_controller.core.plant import MujocoPlant, steps_per_period
+from robot_controller.core.validation import check_effort
+from robot_controller.nodes.base import CONTROL_QOS, StackNode, run
+
+# Catch up at most this many physics steps in one callback; beyond, the sim
+# runs slower than real time rather than jumping.
+MAX_CATCH_UP_STEPS = 100
+
+
+class Simulator(StackNode):
+    def __init__(self) -> None:
+        super().__init__("simulator")
+        p = self.params
+        self.plant = MujocoPlant(resources.resolve_urdf(p["urdf_path"]), 1.0 / p["physics_rate_hz"])
+        self.joint_count = len(self.plant.joint_names)
+        self.plant.reset(cfg.per_joint("initial_position", p["initial_position"], self.joint_count))
+        self.effort = np.zeros(self.joint_count)
+        self.steps_done = 0
+        self.anchor_ns: int | None = None  # ROS time of physics time 0
+        self.behind_warned = False
+
+        self.state_pub = self.create_publisher(JointState, "/sim/joint_states", CONTROL_QOS)
+        self.create_subscription(Float64MultiArray, "/sim/effort", self.effort_callback, CONTROL_QOS)
+        self.state_msg = JointState()
+        self.state_msg.name = list(self.plant.joint_names)
+        self.create_timer(1.0 / p["publish_rate_hz"], self.step_callback)
+        if not p["wait_for_first_command"]:
+            self.anchor_ns = self.get_clock().now().nanoseconds
+        self.get_logger().info(
+            f"MuJoCo arm {self.plant.joint_names} at {p['physics_rate_hz']:g} Hz physics, "
+            f"true state at {p['publish_rate_hz']:g} Hz"
+            + (", waiting for the first command" if p["wait_for_first_command"] else ""))
+
+    def check_params(self, params: dict) -> None:
+        steps_per_period(1.0 / params["physics_rate_hz"], 1.0 / params["publish_rate_hz"])
+
+    def apply_params(self, params: dict, changed: set[str]) -> None:
+        if changed & {"physics_rate_hz", "publish_rate_hz", "initial_position"}:
+            self.get_logger().warning("physics and publish rates and the initial position apply on restart")
+
+    def effort_callback(self, msg: Float64MultiArray) -> None:
+        checked = check_effort(msg.data, self.joint_count)
+        if isinstance(checked, str):
+            self.warn_throttled("effort", f"/sim/effort dropped: {checked}")
+            return
+        self.effort = checked
+        if self.anchor_ns is None:
+            # Brakes off: physics time 0 is now.
+            self.anchor_ns = self.get_clock().now().nanoseconds
+            self.get_logger().info("first command received, physics running")
+
+    def step_callback(self) -> None:
+        now_ns = self.get_clock().now().nanoseconds
+        if self.anchor_ns is None:
+            self.publish_state(now_ns)
+            return
+        physics_dt_ns = round(self.plant.physics_dt * 1e9)
+        due = (now_ns - self.anchor_ns) // physics_dt_ns - self.steps_done
+        if due <= 0:
+            return
+        if due > MAX_CATCH_UP_STEPS:
+            if not self.behind_warned:
+                self.get_logger().warning(f"physics {due} steps behind the clock: slowing below real time")
+                self.behind_warned = True
+            self.anchor_ns += (due - MAX_CATCH_UP_STEPS) * physics_dt_ns
+            due = MAX_CATCH_UP_STEPS
+        self.plant.step(self.effort, int(due))
+        self.steps_done += int(due)
+        self.publish_state(self.anchor_ns + self.steps_done * physics_dt_ns)
+
+    def publish_state(self, stamp_ns: int) -> None:
+        position, velocity = self.plant.state()
+        msg = self.state_msg
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(stamp_ns), 1_000_000_000)
+        msg.position = position.tolist()
+        msg.velocity = velocity.tolist()
+        msg.effort = self.effort.tolist()
+        self.state_pub.publish(msg)
+
+
+def main(args: list[str] | None = None) -> int:
+    return run(Simulator, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

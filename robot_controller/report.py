@@ -1,0 +1,136 @@
+"""Score a run from its recording: read the bag, compute the metrics of
+DESIGN.md §5, write ``metrics.json`` and ``tracking.png``. Works on any saved
+bag, so a run can be re-scored later (``robot-controller score DIR``)."""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import Stores, get_typestore
+
+from robot_controller.core import metrics, state_layout
+
+
+@dataclass
+class Recording:
+    """The loop's signals read back from a bag, as arrays (times in s)."""
+
+    state: dict[str, np.ndarray]  #: /controller/state decoded; ``time_s`` is the controller's tick time
+    true_time_s: np.ndarray
+    true_position: np.ndarray
+    true_velocity: np.ndarray
+    true_effort: np.ndarray
+    counts: dict[str, int] = field(default_factory=dict)
+    receipt_s: dict[str, np.ndarray] = field(default_factory=dict)  #: bag receive times per topic
+
+    @property
+    def joint_count(self) -> int:
+        return self.true_position.shape[1]
+
+
+def read_recording(bag_dir: Path) -> Recording:
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    state_rows: list[np.ndarray] = []
+    true_t: list[float] = []
+    true_q: list[np.ndarray] = []
+    true_v: list[np.ndarray] = []
+    true_e: list[np.ndarray] = []
+    receipt: dict[str, list[int]] = {}
+    with Reader(bag_dir) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+        wanted = [c for c in reader.connections if c.topic in ("/controller/state", "/sim/joint_states")]
+        for connection in reader.connections:
+            receipt.setdefault(connection.topic, [])
+        for connection, timestamp, raw in reader.messages():
+            receipt[connection.topic].append(timestamp)
+            if connection not in wanted:
+                continue
+            msg = typestore.deserialize_cdr(raw, connection.msgtype)
+            if connection.topic == "/controller/state":
+                state_rows.append(np.asarray(msg.data, dtype=float))
+            else:
+                true_t.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
+                true_q.append(np.asarray(msg.position, dtype=float))
+                true_v.append(np.asarray(msg.velocity, dtype=float))
+                true_e.append(np.asarray(msg.effort, dtype=float))
+    if not state_rows or not true_t:
+        raise ValueError(f"{bag_dir}: no /controller/state or /sim/joint_states recorded")
+    joint_count = state_layout.joint_count_of(len(state_rows[0]))
+    state = state_layout.decode(np.vstack(state_rows), joint_count)
+    return Recording(state=state, true_time_s=np.asarray(true_t), true_position=np.vstack(true_q),
+                     true_velocity=np.vstack(true_v), true_effort=np.vstack(true_e), counts=counts,
+                     receipt_s={k: np.asarray(v) * 1e-9 for k, v in receipt.items()})
+
+
+def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: float = metrics.WARMUP_S
+          ) -> dict[str, Any]:
+    """The run's metrics: tracking on the TRUE position, rates, message counts."""
+    s = recording.state
+    active = s["status"] == state_layout.STATUS_CODES["ok"]
+    ticks = s["time_s"]
+    true_at_tick = metrics.true_position_at(ticks, recording.true_time_s, recording.true_position,
+                                            recording.true_velocity)
+    out: dict[str, Any] = {}
+    out.update(metrics.tracking_metrics(ticks[active], s["reference"][active], true_at_tick[active],
+                                        s["measured"][active], warmup_s=warmup_s))
+    out.update(metrics.rate_metrics(ticks, nominal_period_s))
+    out["control_ticks"] = int(len(ticks))
+    out["watchdog_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES["watchdog"]))
+    out["saturated_ticks"] = int(np.count_nonzero(np.any(s["saturated"] > 0.5, axis=1)))
+    out["peak_torque_nm"] = float(np.max(np.abs(s["command"])))
+    out["recorded_duration_s"] = float(ticks[-1] - ticks[0])
+    for topic, times in recording.receipt_s.items():
+        key = topic.strip("/").replace("/", "_")
+        out[f"msgs_{key}"] = int(recording.counts.get(topic, len(times)))
+        if len(times) > 1 and times[-1] > times[0]:
+            out[f"rate_{key}_hz"] = float((len(times) - 1) / (times[-1] - times[0]))
+    return out
+
+
+def write_metrics(path: Path, values: dict[str, Any]) -> None:
+    path.write_text(json.dumps(values, indent=2, sort_keys=True) + "\n")
+
+
+def plot_tracking(recording: Recording, path: Path, title: str = "") -> None:
+    """Reference, true and measured position; tracking error; commanded and applied torque."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    s = recording.state
+    t0 = s["time_s"][0]
+    t = s["time_s"] - t0
+    true_at_tick = metrics.true_position_at(s["time_s"], recording.true_time_s, recording.true_position,
+                                            recording.true_velocity)
+    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True, constrained_layout=True)
+    for j in range(recording.joint_count):
+        tag = f" j{j + 1}" if recording.joint_count > 1 else ""
+        axes[0].plot(t, s["reference"][:, j], "k--", lw=1.2, label=f"reference{tag}")
+        axes[0].plot(t, true_at_tick[:, j], lw=1.2, label=f"true{tag}")
+        axes[0].plot(t, s["measured"][:, j], ".", ms=1.5, alpha=0.5, label=f"measured{tag}")
+        axes[1].plot(t, (s["reference"][:, j] - true_at_tick[:, j]) * 1e3, lw=1, label=f"reference − true{tag}")
+        axes[1].plot(t, (s["reference"][:, j] - s["measured"][:, j]) * 1e3, lw=0.5, alpha=0.4,
+                     label=f"reference − measured{tag}")
+        axes[2].plot(t, s["command"][:, j], lw=1, label=f"command{tag}")
+        axes[2].plot(recording.true_time_s - t0, recording.true_effort[:, j], lw=0.8, alpha=0.7,
+                     label=f"applied{tag}")
+    axes[0].set_ylabel("position [rad]")
+    axes[1].set_ylabel("error [mrad]")
+    axes[2].set_ylabel("torque [N·m]")
+    axes[2].set_xlabel("time since first control tick [s]")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper right", fontsize=8)
+    ax1_lim = np.nanpercentile(np.abs((s["reference"] - s["measured"]) * 1e3), 99.5) * 1.3
+    if np.isfinite(ax1_lim) and ax1_lim > 0:
+        axes[1].set_ylim(-ax1_lim, ax1_lim)
+    axes[2].set_xlim(t[0], t[-1])
+    if title:
+        fig.suptitle(title)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
