@@ -140,6 +140,8 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     if bag_dir.exists():
         raise FileExistsError(f"{bag_dir} exists: choose another --out")
 
+    # SIGTERM (a CI timeout, `kill`) stops the run as cleanly as Ctrl-C does.
+    previous_sigterm = signal.signal(signal.SIGTERM, _raise_interrupt)
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     failure: str | None = None
@@ -168,9 +170,14 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
             failure = "node(s) exited with an error on shutdown: " + ", ".join(f"{n} ({c})" for n, c in bad.items())
     finally:
         rclpy.try_shutdown(context=context)
+        signal.signal(signal.SIGTERM, previous_sigterm)
     if failure:
         say(f"FAILED: {failure}")
     return RunResult(1 if failure else 0, bag_dir, control_seconds, counts, failure)
+
+
+def _raise_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
 
 
 def _wait_first_tick(recorder, group: ProcessGroup) -> str | None:

@@ -6,6 +6,7 @@ and, on :meth:`JointController.update`, turns them into one torque command.
 """
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass, field
 from enum import Enum
 
@@ -34,7 +35,7 @@ class ControllerConfig:
     :param reference_extrapolation: evaluate the latest reference sample at
         the tick time using its velocity and acceleration, instead of holding it
     :param latency_compensation: advance the measurement from its stamp to the
-        tick time with its own velocity
+        tick time through the arm model (or its own velocity without a model)
     :param watchdog_periods: control periods without a valid measurement
         before the command drops to zero
     """
@@ -80,6 +81,7 @@ class ControlOutput:
 
 # Extrapolating further than this is guessing, not compensating.
 _MAX_EXTRAPOLATION_S = 0.1
+_COMMAND_HISTORY = 16
 
 
 class JointController:
@@ -96,6 +98,8 @@ class JointController:
         self._measurement_stamp_s = 0.0
         self._measurement_received_s = -np.inf
         self._last_update_s: float | None = None
+        # (time issued, command) of recent ticks, newest last, for latency compensation
+        self._commands: deque[tuple[float, np.ndarray]] = deque(maxlen=_COMMAND_HISTORY)
 
     def set_config(self, config: ControllerConfig) -> None:
         """New gains and options, applied bumplessly from the next tick."""
@@ -137,8 +141,15 @@ class JointController:
             return self._idle(now_s, Status.WATCHDOG, measured_position, measured_position)
 
         if self.config.latency_compensation:
-            age = np.clip(now_s - self._measurement_stamp_s, 0.0, _MAX_EXTRAPOLATION_S)
-            measured_position = measured_position + measured_velocity * age
+            # The reading is as old as its stamp; bring position AND velocity up to
+            # now through the arm model under the torque being applied, so a stale
+            # velocity does not eat the D term's phase margin.
+            age = float(np.clip(now_s - self._measurement_stamp_s, 0.0, _MAX_EXTRAPOLATION_S))
+            if self.dynamics is not None:
+                measured_position, measured_velocity = self._predict(
+                    measured_position, measured_velocity, now_s - age, now_s)
+            else:
+                measured_position = measured_position + measured_velocity * age
 
         status = Status.OK
         if self._reference is None:
@@ -156,9 +167,36 @@ class JointController:
             self.config.feedforward, self.dynamics, ref_position, ref_velocity, ref_acceleration
         )
         terms = self.pid.step(dt, ref_position, ref_velocity, measured_position, measured_velocity, feedforward)
+        self._remember_command(now_s, terms.command)
         return ControlOutput(now_s, status, ref_position, measured_position, terms)
+
+    def _remember_command(self, now_s: float, command: np.ndarray) -> None:
+        self._commands.append((now_s, np.array(command, dtype=float)))
+
+    def _predict(self, position: np.ndarray, velocity: np.ndarray, from_s: float, to_s: float
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """Integrate the arm model from ``from_s`` to ``to_s`` under the commands
+        this controller issued in between (each acting from its tick on)."""
+        assert self.dynamics is not None
+        torque = np.zeros(self.joint_count)
+        segments: list[tuple[float, np.ndarray]] = []
+        for issued_s, command in self._commands:
+            if issued_s <= from_s:
+                torque = command
+            else:
+                segments.append((issued_s, command))
+        t = from_s
+        for issued_s, command in segments:
+            if issued_s >= to_s:
+                break
+            position, velocity = self.dynamics.predict(position, velocity, torque, issued_s - t)
+            t, torque = issued_s, command
+        if to_s > t:
+            position, velocity = self.dynamics.predict(position, velocity, torque, to_s - t)
+        return position, velocity
 
     def _idle(self, now_s: float, status: Status, reference: np.ndarray, measured: np.ndarray) -> ControlOutput:
         zeros = np.zeros(self.joint_count)
+        self._remember_command(now_s, zeros)
         terms = PidTerms(zeros, zeros, zeros, zeros, zeros, np.zeros(self.joint_count, dtype=bool))
         return ControlOutput(now_s, status, np.asarray(reference, float), np.asarray(measured, float), terms)

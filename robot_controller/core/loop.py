@@ -36,17 +36,23 @@ class LoopResult:
 
 def run_loop(*, plant: Plant, controller: JointController, actuator: Actuator, sensor: SensorConfig,
              trajectory: Trajectory, rng: np.random.Generator, duration_s: float, control_period_s: float,
-             planner_period_s: float) -> LoopResult:
+             planner_period_s: float, measurement_delay_s: float = 0.0) -> LoopResult:
     """Run ``duration_s`` seconds of the loop and return what happened at each tick.
 
     At each tick ``t_k``: the planner publishes if its period has come round,
     the sensor samples the true state, the controller computes, and the
     actuator's torque is held over the next control period of physics steps.
+
+    ``measurement_delay_s`` models what the ROS graph adds between the physics
+    and the controller (publish period, sensor phase, transport): the sensor
+    reads the true state that many seconds old, stamped with its own time.
     """
     n_steps = steps_per_period(plant.physics_dt, control_period_s)
     ticks = int(round(duration_s / control_period_s))
     planner_every = max(1, int(round(planner_period_s / control_period_s)))
     n = len(plant.joint_names)
+    delay_steps = int(round(measurement_delay_s / plant.physics_dt))
+    history: list[tuple[float, np.ndarray, np.ndarray]] = []  # (time, q, v) per physics step
     record = {name: np.zeros((ticks, n)) for name in
               ("reference", "measured", "true_position", "true_velocity", "command", "applied")}
     times = np.arange(ticks) * control_period_s
@@ -54,11 +60,23 @@ def run_loop(*, plant: Plant, controller: JointController, actuator: Actuator, s
         if k % planner_every == 0:
             controller.set_reference(t, *trajectory.sample(t))
         true_position, true_velocity = plant.state()
-        position, velocity = measure(sensor, true_position, true_velocity, rng)
-        controller.set_measurement(t, t, position, velocity)
+        if delay_steps:
+            history.append((t, true_position, true_velocity))
+            stamp, seen_q, seen_v = history[max(0, len(history) - 1 - delay_steps)]
+            del history[:max(0, len(history) - 1 - delay_steps)]
+        else:
+            stamp, seen_q, seen_v = t, true_position, true_velocity
+        position, velocity = measure(sensor, seen_q, seen_v, rng)
+        controller.set_measurement(stamp, t, position, velocity)
         out = controller.update(t)
         applied = actuator.apply(out.command, control_period_s)
-        plant.step(applied, n_steps)
+        if delay_steps:
+            for step in range(1, n_steps + 1):
+                plant.step(applied, 1)
+                if step < n_steps:
+                    history.append((t + step * plant.physics_dt, *plant.state()))
+        else:
+            plant.step(applied, n_steps)
         record["reference"][k] = out.reference
         record["measured"][k] = position
         record["true_position"][k] = true_position

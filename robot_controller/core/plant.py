@@ -128,6 +128,26 @@ class ArmDynamics:
         zero = np.zeros(self.model.nv)
         return self.torque(position, zero, zero)
 
+    def acceleration(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        """Forward dynamics: joint acceleration (rad/s²) under ``torque`` at state ``(q, v)``."""
+        d = self._data
+        d.qpos[:] = position
+        d.qvel[:] = velocity
+        d.qfrc_applied[:] = torque
+        mujoco.mj_forward(self.model, d)
+        d.qfrc_applied[:] = 0.0
+        return d.qacc.copy()
+
+    def predict(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float,
+                max_step_s: float = 0.002) -> tuple[np.ndarray, np.ndarray]:
+        """State ``horizon_s`` seconds ahead under constant ``torque`` (semi-implicit Euler)."""
+        steps = max(1, int(np.ceil(horizon_s / max_step_s)))
+        h = horizon_s / steps
+        for _ in range(steps):
+            velocity = velocity + self.acceleration(position, velocity, torque) * h
+            position = position + velocity * h
+        return position, velocity
+
     def mass_matrix(self, position: np.ndarray) -> np.ndarray:
         d = self._data
         d.qpos[:] = position

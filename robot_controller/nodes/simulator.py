@@ -2,9 +2,11 @@
 from the URDF at ``physics_rate_hz``, paced to the ROS clock, applying the
 latest ``/sim/effort``; the true state goes out on ``/sim/joint_states``.
 
-Wall-clock pacing: each timer callback steps as many physics steps as the
-clock says are due, so the sim keeps real time even if a callback is late,
-and every published state is stamped with its exact physics time.
+Wall-clock pacing: each timer callback, and each new effort, steps as many
+physics steps as the clock says are due, so the sim keeps real time even if a
+callback is late, a new torque acts from the physics step it arrived in
+whatever the publish rate, and every published state is stamped with its
+exact physics time.
 """
 from __future__ import annotations
 
@@ -32,6 +34,7 @@ class Simulator(StackNode):
         self.plant.reset(cfg.per_joint("initial_position", p["initial_position"], self.joint_count))
         self.effort = np.zeros(self.joint_count)
         self.steps_done = 0
+        self.physics_dt_ns = round(self.plant.physics_dt * 1e9)
         self.anchor_ns: int | None = None  # ROS time of physics time 0
         self.behind_warned = False
 
@@ -59,6 +62,10 @@ class Simulator(StackNode):
         if isinstance(checked, str):
             self.warn_throttled("effort", f"/sim/effort dropped: {checked}")
             return
+        if self.anchor_ns is not None:
+            # Physics up to now ran on the old torque; the new one acts from here,
+            # whatever the publish rate.
+            self.advance(self.get_clock().now().nanoseconds)
         self.effort = checked
         if self.anchor_ns is None:
             # Brakes off: physics time 0 is now.
@@ -70,7 +77,12 @@ class Simulator(StackNode):
         if self.anchor_ns is None:
             self.publish_state(now_ns)
             return
-        physics_dt_ns = round(self.plant.physics_dt * 1e9)
+        self.advance(now_ns)
+        self.publish_state(self.anchor_ns + self.steps_done * self.physics_dt_ns)
+
+    def advance(self, now_ns: int) -> None:
+        """Step the physics that the clock says is due by ``now_ns``."""
+        physics_dt_ns = self.physics_dt_ns
         due = (now_ns - self.anchor_ns) // physics_dt_ns - self.steps_done
         if due <= 0:
             return
@@ -82,7 +94,6 @@ class Simulator(StackNode):
             due = MAX_CATCH_UP_STEPS
         self.plant.step(self.effort, int(due))
         self.steps_done += int(due)
-        self.publish_state(self.anchor_ns + self.steps_done * physics_dt_ns)
 
     def publish_state(self, stamp_ns: int) -> None:
         position, velocity = self.plant.state()

@@ -1,6 +1,7 @@
 """trajectory_planner: publishes the reference on ``/trajectory`` as
 ``[positions..., velocities..., accelerations...]`` at ``publish_rate_hz``.
-Time starts when the node starts; shape changes apply live."""
+Time starts when the first subscriber is matched (so the controller sees
+the trajectory from its beginning); shape changes apply live."""
 from __future__ import annotations
 
 from typing import Any
@@ -41,6 +42,8 @@ class TrajectoryPlanner(StackNode):
     def publish_callback(self) -> None:
         now_s = self.now_s()
         if self.start_s is None:
+            if self.pub.get_subscription_count() == 0:
+                return  # nobody listens yet: t = 0 is when the controller can hear it
             self.start_s = now_s
         position, velocity, acceleration = self.trajectory.sample(now_s - self.start_s)
         self.msg.data = np.concatenate((position, velocity, acceleration)).tolist()
