@@ -1,0 +1,87 @@
+"""Parameter files: the shipped ones are complete and valid; bad ones name the key and the problem."""
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from robot_controller import config as cfg
+from robot_controller import resources
+from robot_controller.core.errors import ConfigError
+
+
+def test_stack_yaml_has_exactly_the_schema():
+    params = cfg.read_params_file(resources.stack_yaml())
+    for node in cfg.NODES:
+        assert set(params[node]) == {spec.name for spec in cfg.SCHEMA[node]}, node
+
+
+def test_every_parameter_has_a_description():
+    for node in cfg.NODES:
+        for spec in cfg.SCHEMA[node]:
+            assert len(spec.description) > 10, f"{node}.{spec.name}"
+
+
+@pytest.mark.parametrize("preset", cfg.available_presets())
+def test_presets_load(preset):
+    params = cfg.load_stack(preset)
+    cfg.controller_config(params["pid_controller"], 1)
+
+
+def test_seed_preset_is_the_tutorials_controller():
+    c = cfg.load_stack("seed")["pid_controller"]
+    assert (c["kp"], c["ki"], c["kd"], c["integral_limit"]) == ([50.0], [10.0], [5.0], [10.0])
+    assert c["derivative_source"] == "measured_velocity" and c["feedforward"] == "none"
+    assert cfg.load_stack("seed")["trajectory_planner"]["publish_rate_hz"] == 20.0
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("pid_controller:\n  ros__parameters:\n    kp: -3.0\n", r"pid_controller\.kp: must be >= 0"),
+    ("pid_controller:\n  ros__parameters:\n    kpp: 3.0\n", r"pid_controller\.kpp: unknown parameter \(did you mean 'kp'\?\)"),
+    ("pid_controler:\n  ros__parameters:\n    kp: 3.0\n", r"unknown node 'pid_controler'"),
+    ("pid_controller:\n  ros__parameters:\n    anti_windup: maybe\n", r"anti_windup: 'maybe' is not one of"),
+    ("pid_controller:\n  ros__parameters:\n    kd: .nan\n", r"kd: must be finite"),
+    ("sensor_node:\n  ros__parameters:\n    rate_hz: fast\n", r"sensor_node\.rate_hz: expected a number"),
+    ("pid_controller:\n  kp: 3.0\n", r"expected exactly one key 'ros__parameters'"),
+    ("pid_controller: [\n", r"not valid YAML"),
+])
+def test_bad_config_names_key_and_problem(tmp_path, text, expected):
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=expected):
+        cfg.load_stack("default", path)
+
+
+def test_wildcard_and_layering(tmp_path):
+    path = tmp_path / "mine.yaml"
+    path.write_text("/**:\n  ros__parameters:\n    use_sim_time: false\n    torque_max: [5.0]\n"
+                    "pid_controller:\n  ros__parameters:\n    kp: 80\n")
+    params = cfg.load_stack("seed", path)
+    assert params["pid_controller"]["kp"] == 80.0
+    assert params["motor_node"]["torque_max"] == [5.0] and params["pid_controller"]["torque_max"] == [5.0]
+    assert params["pid_controller"]["derivative_source"] == "measured_velocity"  # the preset stays
+
+
+def test_written_params_file_reads_back(tmp_path):
+    params = cfg.load_stack()
+    again = cfg.read_params_file(cfg.write_params_file(params, tmp_path / "p.yaml"))
+    assert again == params
+
+
+def test_cli_reports_a_bad_config_and_exits_2(tmp_path):
+    path = tmp_path / "bad.yaml"
+    path.write_text("pid_controller:\n  ros__parameters:\n    ki: -1\n")
+    proc = subprocess.run([sys.executable, "-m", "robot_controller.cli", "run", "--config", str(path)],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    assert "pid_controller.ki: must be >= 0" in proc.stderr
+
+
+def test_core_never_imports_rclpy():
+    core = Path(resources.share_dir()) / "robot_controller" / "core"
+    for source in core.glob("*.py"):
+        text = source.read_text()
+        assert "import rclpy" not in text and "from rclpy" not in text, source
+    code = "import sys, robot_controller.core.loop, robot_controller.inprocess; print('rclpy' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60)
+    assert out.stdout.strip() == "False"

@@ -1,0 +1,68 @@
+"""Metrics on signals with known answers."""
+import numpy as np
+import pytest
+from scipy import signal
+
+from robot_controller.core import metrics, state_layout
+
+
+def test_tracking_metrics_known_offset_and_warmup():
+    t = np.arange(0, 10, 0.01)
+    ref = np.sin(t)
+    true = ref - 0.01
+    true[:100] += 5.0  # inside the 2 s warm-up: ignored
+    out = metrics.tracking_metrics(t, ref, true, ref + 0.02)
+    assert out["tracking_rms_rad"] == pytest.approx(0.01)
+    assert out["tracking_max_rad"] == pytest.approx(0.01)
+    assert out["measured_rms_rad"] == pytest.approx(0.02)
+    assert out["scored_ticks"] == 800
+
+
+def test_true_position_interpolation_is_accurate_between_samples():
+    t_true = np.arange(0, 5, 0.005)
+    q, v = np.sin(np.pi * t_true), np.pi * np.cos(np.pi * t_true)
+    ticks = np.arange(0.0013, 4.9, 0.01)
+    est = metrics.true_position_at(ticks, t_true, q[:, None], v[:, None])[:, 0]
+    np.testing.assert_allclose(est, np.sin(np.pi * ticks), atol=1e-7)
+
+
+def test_metrics_are_invariant_to_a_time_shift():
+    t = np.arange(0, 6, 0.01)
+    ref, true = np.sin(t), np.sin(t - 0.01)
+    a = metrics.tracking_metrics(t, ref, true, true)
+    b = metrics.tracking_metrics(t + 1e6, ref, true, true)
+    assert a == b
+
+
+def test_rate_metrics():
+    t = np.arange(0, 10, 0.01)
+    t[500:] += 0.02  # one late tick: a 30 ms period
+    out = metrics.rate_metrics(t, 0.01)
+    assert out["missed_cycles"] == 1
+    assert out["jitter_max_ms"] == pytest.approx(20.0)
+    assert out["control_rate_hz"] == pytest.approx(999 / (9.99 + 0.02))
+
+
+def test_step_metrics_on_a_second_order_system():
+    zeta, wn = 0.5, 10.0
+    t = np.linspace(0, 3, 30001)
+    _, y = signal.step(([wn ** 2], [1, 2 * zeta * wn, wn ** 2]), T=t)
+    out = metrics.step_metrics(t, 0.5 * y, initial=0.0, target=0.5)
+    expected_overshoot = 100 * np.exp(-zeta * np.pi / np.sqrt(1 - zeta ** 2))
+    assert out["overshoot_pct"] == pytest.approx(expected_overshoot, rel=1e-3)
+    # 2 % settling of this system (computed from the envelope) lies within ~[0.7, 0.85] s
+    assert 0.6 < out["settling_time_s"] < 0.9
+    assert out["steady_state_error_rad"] < 1e-3
+    first_order = 0.5 * (1 - np.exp(-t / 0.1))
+    assert metrics.step_metrics(t, first_order, initial=0, target=0.5)["rise_time_s"] == pytest.approx(
+        0.1 * np.log(9), rel=1e-3)
+
+
+def test_controller_state_layout_round_trips():
+    values = {name: np.array([k + 0.5, k + 1.5]) for k, name in enumerate(state_layout.FIELDS)}
+    data = state_layout.encode(12.5, "watchdog", 2, values)
+    assert state_layout.joint_count_of(len(data)) == 2
+    back = state_layout.decode(np.array(data), 2)
+    assert back["time_s"] == 12.5 and back["status"] == state_layout.STATUS_CODES["watchdog"]
+    for name in state_layout.FIELDS:
+        np.testing.assert_array_equal(back[name], values[name])
