@@ -48,13 +48,19 @@ def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: 
     return result.exit_code
 
 
-def score(run_dir: Path) -> int:
+def score(run_dir: Path, *, as_json: bool = False) -> int:
     from robot_controller import report
 
-    recording = report.read_recording(run_dir / "bag")
-    values = report.score(recording)
-    print_table(values, title=f"re-scored {run_dir / 'bag'}")
-    print(json.dumps(values, indent=2, sort_keys=True))
+    try:
+        recording = report.read_recording(run_dir / "bag")
+        values = report.score(recording)
+    except (FileNotFoundError, ValueError) as exc:
+        print(f"robot-controller: cannot score {run_dir}: {exc}", file=sys.stderr)
+        return 2
+    if as_json:
+        print(json.dumps(values, indent=2, sort_keys=True))
+    else:
+        print_table(values, title=f"re-scored {run_dir / 'bag'}")
     return 0
 
 
@@ -94,13 +100,14 @@ def main(argv: list[str] | None = None) -> int:
     p_run.add_argument("--single-process", action="store_true", help="all five nodes on one executor")
     p_score = verbs.add_parser("score", help="re-score a run directory from its bag")
     p_score.add_argument("run_dir", type=Path)
+    p_score.add_argument("--json", action="store_true", help="print the metrics as JSON")
     verbs.add_parser("params", help="list every node parameter with its default and meaning")
     args = parser.parse_args(argv)
     if args.verb == "run":
         return run(duration_s=args.duration, out=args.out, preset=args.preset, seed=args.seed, config=args.config,
                    single_process=args.single_process)
     if args.verb == "score":
-        return score(args.run_dir)
+        return score(args.run_dir, as_json=args.json)
     return list_params()
 
 

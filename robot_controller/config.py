@@ -7,6 +7,7 @@ the nodes, the launcher and the in-process loop. No rclpy here.
 """
 from __future__ import annotations
 
+import array
 import difflib
 import math
 from collections.abc import Mapping
@@ -77,7 +78,7 @@ class ParamSpec:
         if kind is float:
             return self._number(value)
         if kind == "floats":
-            if isinstance(value, (list, tuple)):
+            if isinstance(value, (list, tuple, array.array, np.ndarray)):  # rclpy gives array('d')
                 if len(value) == 0:
                     raise ConfigError(f"{self.name}: expected a number or a non-empty list of numbers")
                 return [self._number(v) for v in value]

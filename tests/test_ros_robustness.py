@@ -1,0 +1,188 @@
+"""Bad input never stops the loop; the watchdog; live parameters; the launcher cleans up.
+
+Real nodes in real processes on their own ROS_DOMAIN_ID; the test talks to
+them over DDS like any other node would.
+"""
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from robot_controller import config as cfg
+from tests.rostools import RosProbe, wait_for
+
+pytestmark = pytest.mark.ros
+
+
+def start_node(name, params_file, env=None):
+    return subprocess.Popen([sys.executable, "-m", f"robot_controller.nodes.{name}", "--ros-args",
+                             "--params-file", str(params_file)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, env=env)
+
+
+def joint_state(names, position, velocity, stamp_ns=None):
+    msg = JointState()
+    if stamp_ns is not None:
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
+    msg.name, msg.position, msg.velocity = names, position, velocity
+    return msg
+
+
+def test_malformed_messages_are_dropped_and_the_watchdog_zeroes_torque(tmp_path, ros_domain):
+    params_file = cfg.write_params_file(cfg.load_stack(), tmp_path / "params.yaml")
+    controller = start_node("pid_controller", params_file)
+    probe = RosProbe(ros_domain)
+    try:
+        commands = probe.collect(Float64MultiArray, "/joint_commands")
+        states = probe.node.create_publisher(JointState, "/joint_states", 10)
+        trajectory = probe.node.create_publisher(Float64MultiArray, "/trajectory", 10)
+        clock = probe.node.get_clock()
+        nan, inf = float("nan"), float("inf")
+        malformed_states = [
+            ([], [], []), (["joint1"], [], []), (["joint1"], [0.1, 0.2], [0.0]), (["joint1"], [nan], [0.0]),
+            (["joint1"], [0.0], [inf]), (["elbow"], [0.1], [0.0]), (["joint1", "joint2"], [0.1, 0.2], [0.0, 0.0]),
+        ]
+        malformed_trajectories = [[], [0.1], [0.1, 0.2, 0.3, 0.4], [nan, 0.0, 0.0], [1e308, inf, 0.0]]
+
+        def good_state():
+            states.publish(joint_state(["joint1"], [0.0], [0.0], clock.now().nanoseconds))
+
+        # Prime with valid data, then interleave every malformed message for 2 s.
+        wait_for(lambda: states.get_subscription_count() > 0, 20, "the controller to subscribe")
+        end = time.monotonic() + 2.0
+        k = 0
+        while time.monotonic() < end:
+            good_state()
+            trajectory.publish(Float64MultiArray(data=[0.3, 0.0, 0.0]))
+            states.publish(joint_state(*malformed_states[k % len(malformed_states)]))
+            trajectory.publish(Float64MultiArray(data=malformed_trajectories[k % len(malformed_trajectories)]))
+            k += 1
+            time.sleep(0.01)
+        assert controller.poll() is None, "the controller died on bad input"
+        with probe.lock:
+            received = [m.data.tolist() for _, m in commands]
+        assert len(received) > 100
+        assert all(len(u) == 1 and math.isfinite(u[0]) and abs(u[0]) <= 10.0 for u in received)
+        assert any(abs(u[0]) > 1.0 for u in received[-50:]), "valid reference should drive a real torque"
+
+        # Sensor stops: within a few periods the command drops to exactly zero and stays.
+        time.sleep(0.3)
+        with probe.lock:
+            after = [m.data.tolist()[0] for t, m in commands if t > time.monotonic() - 0.15]
+        assert after and all(u == 0.0 for u in after), after[-10:]
+
+        # ... and control resumes when data returns.
+        for _ in range(30):
+            good_state()
+            time.sleep(0.01)
+        with probe.lock:
+            resumed = [m.data.tolist()[0] for t, m in commands if t > time.monotonic() - 0.1]
+        assert any(u != 0.0 for u in resumed)
+    finally:
+        probe.close()
+        controller.send_signal(signal.SIGINT)
+        output = controller.communicate(timeout=15)[0]
+    assert controller.returncode == 0, output[-2000:]
+    assert "/joint_states dropped: " in output and "/trajectory dropped: " in output
+    assert "zero torque" in output
+
+
+def _set(probe, name, value):
+    client = probe.node.create_client(SetParameters, "/pid_controller/set_parameters")
+    assert client.wait_for_service(timeout_sec=20)
+    request = SetParameters.Request(parameters=[Parameter(name=name, value=value)])
+    future = client.call_async(request)
+    wait_for(future.done, 10, "the parameter service")
+    return future.result().results[0]
+
+
+def test_gains_change_live_and_bad_values_are_refused(tmp_path, ros_domain):
+    params_file = cfg.write_params_file(cfg.load_stack(), tmp_path / "params.yaml")
+    controller = start_node("pid_controller", params_file)
+    probe = RosProbe(ros_domain)
+    try:
+        double = lambda v: ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=v)  # noqa: E731
+        ok = _set(probe, "kp", double(60.0))
+        assert ok.successful, ok.reason
+        ok = _set(probe, "kd", ParameterValue(type=ParameterType.PARAMETER_DOUBLE_ARRAY, double_array_value=[3.0]))
+        assert ok.successful, ok.reason
+        for name, value, reason in [
+            ("kp", double(-1.0), "kp: must be >= 0"),
+            ("ki", double(float("nan")), "ki: must be finite"),
+            ("kd", ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="high"), "kd: expected a number"),
+            ("anti_windup", ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="off"),
+             "anti_windup: 'off' is not one of"),
+            ("kp", ParameterValue(type=ParameterType.PARAMETER_DOUBLE_ARRAY, double_array_value=[1.0, 2.0]),
+             "kp: expected 1 or 1 values"),
+        ]:
+            result = _set(probe, name, value)
+            assert not result.successful and reason in result.reason, (name, result.reason)
+        assert controller.poll() is None
+    finally:
+        probe.close()
+        controller.send_signal(signal.SIGINT)
+        output = controller.communicate(timeout=15)[0]
+    assert "parameters changed: kp=60.0" in output
+
+
+def _children_of(pid):
+    out = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout.split()
+    return [int(p) for p in out]
+
+
+def _cmdline(pid):
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+    except FileNotFoundError:
+        return ""
+
+
+def _alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return not Path(f"/proc/{pid}/stat").read_text().split()[2] == "Z"
+
+
+def _start_launcher(out):
+    launcher = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--duration", "60", "--out",
+                                 str(out)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    deadline = time.monotonic() + 60
+    for line in launcher.stdout:
+        if "control loop running" in line:
+            break
+        assert time.monotonic() < deadline, "the loop did not start"
+    children = _children_of(launcher.pid)
+    assert len(children) == 5, [(_cmdline(p)) for p in children]
+    return launcher, children
+
+
+def test_a_crashing_node_ends_the_run_with_an_error_and_no_orphans(tmp_path, ros_domain):
+    launcher, children = _start_launcher(tmp_path / "run")
+    controller = next(p for p in children if "nodes.pid_controller" in _cmdline(p))
+    os.kill(controller, signal.SIGKILL)
+    output = launcher.communicate(timeout=30)[0]
+    assert launcher.returncode != 0
+    assert "node died: pid_controller" in output
+    wait_for(lambda: not any(_alive(p) for p in children), 10, "every child to exit")
+
+
+def test_ctrl_c_stops_everything_cleanly_and_still_scores(tmp_path, ros_domain):
+    launcher, children = _start_launcher(tmp_path / "run")
+    time.sleep(3.0)
+    launcher.send_signal(signal.SIGINT)
+    output = launcher.communicate(timeout=30)[0]
+    assert launcher.returncode == 0, output[-2000:]
+    assert not any(_alive(p) for p in children)
+    assert json.loads((tmp_path / "run" / "metrics.json").read_text())["control_ticks"] > 100
