@@ -18,7 +18,7 @@ HEADLINE = ("tracking_rms_rad", "tracking_max_rad", "measured_rms_rad", "control
 
 
 def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: Path | None,
-        single_process: bool) -> int:
+        single_process: bool, realtime: bool = True) -> int:
     from robot_controller import launcher, report
 
     try:
@@ -31,7 +31,8 @@ def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: 
         return 2
     params["sensor_node"]["seed"] = seed
     out = out or Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S")
-    result = launcher.launch(params, out_dir=out, duration_s=duration_s, single_process=single_process)
+    result = launcher.launch(params, out_dir=out, duration_s=duration_s, single_process=single_process,
+                             realtime=realtime)
     if result.exit_code != 0 and not any(result.message_counts.values()):
         return result.exit_code
     try:
@@ -41,7 +42,8 @@ def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: 
         launcher.say(f"cannot score the recording: {exc}")
         return result.exit_code or 1
     values.update({"duration_s": round(result.control_seconds, 3), "preset": preset, "seed": seed,
-                   "mode": "single_process" if single_process else "multi_process", "clock": "wall"})
+                   "mode": "single_process" if single_process else "multi_process", "clock": "wall",
+                   "realtime_requested": realtime})
     report.write_metrics(out / "metrics.json", values)
     report.plot_tracking(recording, out / "tracking.png", title=f"preset {preset}, seed {seed}")
     print_table(values, title=f"run: preset {preset}, seed {seed} → {out}")
@@ -98,6 +100,8 @@ def main(argv: list[str] | None = None) -> int:
     p_run.add_argument("--seed", type=int, default=0, help="sensor noise seed (default 0)")
     p_run.add_argument("--config", type=Path, help="ROS 2 parameter file layered over the preset")
     p_run.add_argument("--single-process", action="store_true", help="all five nodes on one executor")
+    p_run.add_argument("--no-realtime", dest="realtime", action="store_false",
+                       help="do not ask for SCHED_FIFO priority for the nodes")
     p_score = verbs.add_parser("score", help="re-score a run directory from its bag")
     p_score.add_argument("run_dir", type=Path)
     p_score.add_argument("--json", action="store_true", help="print the metrics as JSON")
@@ -105,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.verb == "run":
         return run(duration_s=args.duration, out=args.out, preset=args.preset, seed=args.seed, config=args.config,
-                   single_process=args.single_process)
+                   single_process=args.single_process, realtime=args.realtime)
     if args.verb == "score":
         return score(args.run_dir, as_json=args.json)
     return list_params()

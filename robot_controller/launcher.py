@@ -101,8 +101,17 @@ class ProcessGroup:
         self.stop()
 
 
-def child_env(single_process: bool) -> dict[str, str]:
+# SCHED_FIFO priority asked for the nodes (where permitted): above everything
+# else on the machine, below the kernel's own threads (50).
+DEFAULT_RT_PRIORITY = 20
+
+
+def child_env(single_process: bool, realtime: bool = True) -> dict[str, str]:
     env = dict(os.environ)
+    if realtime:
+        env.setdefault("ROBOT_CONTROLLER_RT_PRIORITY", str(DEFAULT_RT_PRIORITY))
+    else:
+        env.pop("ROBOT_CONTROLLER_RT_PRIORITY", None)
     env.setdefault("PYTHONUNBUFFERED", "1")
     env.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "0")
     env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
@@ -127,7 +136,8 @@ class RunResult:
     failure: str | None = None
 
 
-def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_process: bool = False) -> RunResult:
+def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_process: bool = False,
+           realtime: bool = True) -> RunResult:
     """Run the graph for ``duration_s`` seconds of control, recording into ``out_dir/bag``."""
     import rclpy
     from rclpy.signals import SignalHandlerOptions
@@ -147,7 +157,7 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     failure: str | None = None
     control_seconds = 0.0
     try:
-        with BagRecorder(context, bag_dir) as recorder, ProcessGroup(child_env(single_process)) as group:
+        with BagRecorder(context, bag_dir) as recorder, ProcessGroup(child_env(single_process, realtime)) as group:
             if single_process:
                 group.start("stack", node_argv("all_in_one", params_file))
             else:

@@ -8,6 +8,7 @@ import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
 from robot_controller.core.errors import ConfigError
+from robot_controller.nodes.base import request_realtime_priority
 from robot_controller.nodes.motor_node import MotorNode
 from robot_controller.nodes.pid_controller import PidControllerNode
 from robot_controller.nodes.sensor_node import SensorNode
@@ -16,6 +17,7 @@ from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
 
 
 def main(args: list[str] | None = None) -> int:
+    priority_note = request_realtime_priority()
     rclpy.init(args=args)
     nodes = []
     code = 0
@@ -24,6 +26,8 @@ def main(args: list[str] | None = None) -> int:
         for node_class in (Simulator, MotorNode, SensorNode, PidControllerNode, TrajectoryPlanner):
             nodes.append(node_class())
             executor.add_node(nodes[-1])
+        if priority_note:
+            nodes[0].get_logger().info(priority_note)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -3,6 +3,7 @@ their defaults from ``config/stack.yaml``, validation on set, rate-limited
 warnings, QoS, and the ``main`` skeleton of ros2/examples."""
 from __future__ import annotations
 
+import os
 import sys
 import time
 from collections.abc import Callable
@@ -108,13 +109,37 @@ def stamp_to_s(stamp: Any) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
 
 
+RT_PRIORITY_ENV = "ROBOT_CONTROLLER_RT_PRIORITY"
+
+
+def request_realtime_priority() -> str | None:
+    """Run this process under SCHED_FIFO at ``$ROBOT_CONTROLLER_RT_PRIORITY`` (1–99), if set and permitted.
+
+    Called before rclpy starts, so the DDS threads inherit the policy. On a
+    shared 2-core machine this is what keeps a 100 Hz Python loop from being
+    starved for 100 ms at a time. Returns a note for the log, or None.
+    """
+    value = os.environ.get(RT_PRIORITY_ENV, "")
+    if not value:
+        return None
+    try:
+        priority = int(value)
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except (ValueError, OSError, AttributeError) as exc:
+        return f"real-time priority {value!r} not applied ({exc}); running with normal scheduling"
+    return f"running SCHED_FIFO priority {priority}"
+
+
 def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
     """Init, spin until Ctrl-C or shutdown, clean up; a bad parameter exits 2 with its reason."""
+    priority_note = request_realtime_priority()
     rclpy.init(args=args)
     node = None
     code = 0
     try:
         node = node_factory()
+        if priority_note:
+            node.get_logger().info(priority_note)
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -15,7 +15,12 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from robot_controller.nodes.base import CONTROL_QOS
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+# Reliable with a deep queue: the recorder runs at normal priority beside
+# real-time nodes and may be late, but must not lose what it is late for.
+RECORDER_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
+                          history=HistoryPolicy.KEEP_LAST, depth=1000)
 
 # topic → (ROS message class, rosbag2 type name)
 TOPICS = {
@@ -59,7 +64,7 @@ class BagRecorder:
         typestore = get_typestore(Stores.ROS2_JAZZY)
         for topic, (msg_class, type_name) in self.topics.items():
             connection = self.writer.add_connection(topic, type_name, typestore=typestore)
-            self.node.create_subscription(msg_class, topic, self._callback(topic, connection), CONTROL_QOS,
+            self.node.create_subscription(msg_class, topic, self._callback(topic, connection), RECORDER_QOS,
                                           raw=True)
         self._thread = threading.Thread(target=self._spin, name="recorder", daemon=True)
         self._thread.start()
