@@ -24,6 +24,17 @@ from tests.rostools import RosProbe, wait_for
 pytestmark = pytest.mark.ros
 
 
+def stop_node(process):
+    """SIGINT, and the output; a node that does not exit in 15 s is killed and fails the test."""
+    process.send_signal(signal.SIGINT)
+    try:
+        return process.communicate(timeout=15)[0]
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.communicate()
+        raise AssertionError("the node did not exit within 15 s of SIGINT") from None
+
+
 def start_node(name, params_file, env=None):
     return subprocess.Popen([sys.executable, "-m", f"robot_controller.nodes.{name}", "--ros-args",
                              "--params-file", str(params_file)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
@@ -90,8 +101,7 @@ def test_malformed_messages_are_dropped_and_the_watchdog_zeroes_torque(tmp_path,
         assert any(u != 0.0 for u in resumed)
     finally:
         probe.close()
-        controller.send_signal(signal.SIGINT)
-        output = controller.communicate(timeout=15)[0]
+        output = stop_node(controller)
     assert controller.returncode == 0, output[-2000:]
     assert "/joint_states dropped: " in output and "/trajectory dropped: " in output
     assert "zero torque" in output
@@ -130,8 +140,7 @@ def test_gains_change_live_and_bad_values_are_refused(tmp_path, ros_domain):
         assert controller.poll() is None
     finally:
         probe.close()
-        controller.send_signal(signal.SIGINT)
-        output = controller.communicate(timeout=15)[0]
+        output = stop_node(controller)
     assert "parameters changed: kp=60.0" in output
 
 
@@ -168,11 +177,19 @@ def _start_launcher(out):
     return launcher, children
 
 
+def _finish(launcher):
+    try:
+        return launcher.communicate(timeout=30)[0]
+    except subprocess.TimeoutExpired:
+        launcher.kill()
+        raise AssertionError("the launcher did not exit within 30 s") from None
+
+
 def test_a_crashing_node_ends_the_run_with_an_error_and_no_orphans(tmp_path, ros_domain):
     launcher, children = _start_launcher(tmp_path / "run")
     controller = next(p for p in children if "nodes.pid_controller" in _cmdline(p))
     os.kill(controller, signal.SIGKILL)
-    output = launcher.communicate(timeout=30)[0]
+    output = _finish(launcher)
     assert launcher.returncode != 0
     assert "node died: pid_controller" in output
     wait_for(lambda: not any(_alive(p) for p in children), 10, "every child to exit")
@@ -182,7 +199,7 @@ def test_ctrl_c_stops_everything_cleanly_and_still_scores(tmp_path, ros_domain):
     launcher, children = _start_launcher(tmp_path / "run")
     time.sleep(3.0)
     launcher.send_signal(signal.SIGINT)
-    output = launcher.communicate(timeout=30)[0]
+    output = _finish(launcher)
     assert launcher.returncode == 0, output[-2000:]
     assert not any(_alive(p) for p in children)
     assert json.loads((tmp_path / "run" / "metrics.json").read_text())["control_ticks"] > 100

@@ -8,7 +8,7 @@ import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.nodes.base import request_realtime_priority
+from robot_controller.nodes.base import exit_after_cleanup_timeout, request_realtime_priority
 from robot_controller.nodes.motor_node import MotorNode
 from robot_controller.nodes.pid_controller import PidControllerNode
 from robot_controller.nodes.sensor_node import SensorNode
@@ -20,7 +20,7 @@ def main(args: list[str] | None = None) -> int:
     priority_note = request_realtime_priority()
     rclpy.init(args=args)
     nodes = []
-    code = 0
+    code = [0]
     executor = SingleThreadedExecutor()
     try:
         for node_class in (Simulator, MotorNode, SensorNode, PidControllerNode, TrajectoryPlanner):
@@ -33,12 +33,15 @@ def main(args: list[str] | None = None) -> int:
         pass
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr, flush=True)
-        code = 2
+        code[0] = 2
     finally:
+        guard = exit_after_cleanup_timeout(code)
+        executor.shutdown(timeout_sec=1.0)
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
-    return code
+        guard.cancel()
+    return code[0]
 
 
 if __name__ == "__main__":

@@ -5,13 +5,14 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
 import time
 from collections.abc import Callable
 from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -130,24 +131,42 @@ def request_realtime_priority() -> str | None:
     return f"running SCHED_FIFO priority {priority}"
 
 
+# Cleanup that takes longer than this is stuck (rclpy's destroy_node can wait
+# forever on a handle after an external shutdown): exit anyway.
+CLEANUP_TIMEOUT_S = 3.0
+
+
+def exit_after_cleanup_timeout(code_ref: list[int]) -> threading.Timer:
+    """Arm a timer that hard-exits the process if cleanup hangs; cancel it when done."""
+    timer = threading.Timer(CLEANUP_TIMEOUT_S, lambda: os._exit(code_ref[0]))
+    timer.daemon = True
+    timer.start()
+    return timer
+
+
 def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
     """Init, spin until Ctrl-C or shutdown, clean up; a bad parameter exits 2 with its reason."""
     priority_note = request_realtime_priority()
     rclpy.init(args=args)
     node = None
-    code = 0
+    code = [0]
+    executor = SingleThreadedExecutor()
     try:
         node = node_factory()
         if priority_note:
             node.get_logger().info(priority_note)
-        rclpy.spin(node)
+        executor.add_node(node)
+        executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr, flush=True)
-        code = 2
+        code[0] = 2
     finally:
+        guard = exit_after_cleanup_timeout(code)
+        executor.shutdown(timeout_sec=1.0)
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
-    return code
+        guard.cancel()
+    return code[0]
