@@ -111,9 +111,17 @@ def _set(probe, name, value):
     client = probe.node.create_client(SetParameters, "/pid_controller/set_parameters")
     assert client.wait_for_service(timeout_sec=20)
     request = SetParameters.Request(parameters=[Parameter(name=name, value=value)])
-    future = client.call_async(request)
-    wait_for(future.done, 10, "the parameter service")
-    return future.result().results[0]
+    # DDS may match the request before the response path (wait_for_service can
+    # return early): a lost first response is retried, as a real client would.
+    for _ in range(4):
+        future = client.call_async(request)
+        deadline = time.monotonic() + 5.0
+        while not future.done() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        if future.done():
+            return future.result().results[0]
+        client.remove_pending_request(future)
+    raise AssertionError(f"no answer from /pid_controller/set_parameters for {name}")
 
 
 def test_gains_change_live_and_bad_values_are_refused(tmp_path, ros_domain):
