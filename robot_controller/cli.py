@@ -14,11 +14,11 @@ from robot_controller import config as cfg
 from robot_controller.core.errors import ConfigError
 
 HEADLINE = ("tracking_rms_rad", "tracking_max_rad", "measured_rms_rad", "control_rate_hz", "jitter_p99_ms",
-            "missed_cycles", "peak_torque_nm", "duration_s")
+            "missed_cycles", "latency_p50_ms", "latency_p99_ms", "peak_torque_nm", "duration_s", "real_time_factor")
 
 
 def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: Path | None,
-        single_process: bool, realtime: bool = True) -> int:
+        single_process: bool, realtime: bool = True, sim_time: bool = False) -> int:
     from robot_controller import launcher, report
 
     try:
@@ -32,21 +32,28 @@ def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: 
     params["sensor_node"]["seed"] = seed
     out = out or Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     result = launcher.launch(params, out_dir=out, duration_s=duration_s, single_process=single_process,
-                             realtime=realtime)
+                             realtime=realtime, sim_time=sim_time)
     if result.exit_code != 0 and not any(result.message_counts.values()):
         return result.exit_code
     try:
         recording = report.read_recording(result.bag_dir)
-        values = report.score(recording, nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"])
+        values = report.score(recording, nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
+                              window_s=duration_s if sim_time else None)
     except ValueError as exc:
         launcher.say(f"cannot score the recording: {exc}")
         return result.exit_code or 1
-    values.update({"duration_s": round(result.control_seconds, 3), "preset": preset, "seed": seed,
-                   "mode": "single_process" if single_process else "multi_process", "clock": "wall",
-                   "realtime_requested": realtime})
+    values.update({"duration_s": duration_s if sim_time else round(result.control_seconds, 3), "preset": preset,
+                   "seed": seed, "mode": "single_process" if single_process else "multi_process",
+                   "clock": "sim_lockstep" if sim_time else "wall"})
+    # Wall-clock figures of a lockstep run differ run to run: keep them out of metrics.json.
+    wall = {"real_time_factor": result.real_time_factor, "wall_duration_s": result.wall_seconds}
+    if not sim_time:
+        values["realtime_requested"] = realtime
     report.write_metrics(out / "metrics.json", values)
+    if sim_time:
+        report.write_metrics(out / "timing.json", wall)
     report.plot_tracking(recording, out / "tracking.png", title=f"preset {preset}, seed {seed}")
-    print_table(values, title=f"run: preset {preset}, seed {seed} → {out}")
+    print_table(values | (wall if sim_time else {}), title=f"run: preset {preset}, seed {seed} → {out}")
     return result.exit_code
 
 
@@ -100,6 +107,8 @@ def main(argv: list[str] | None = None) -> int:
     p_run.add_argument("--seed", type=int, default=0, help="sensor noise seed (default 0)")
     p_run.add_argument("--config", type=Path, help="ROS 2 parameter file layered over the preset")
     p_run.add_argument("--single-process", action="store_true", help="all five nodes on one executor")
+    p_run.add_argument("--sim-time", action="store_true",
+                       help="deterministic lockstep on /clock, as fast as the graph goes (--duration in sim seconds)")
     p_run.add_argument("--no-realtime", dest="realtime", action="store_false",
                        help="do not ask for SCHED_FIFO priority for the nodes")
     p_score = verbs.add_parser("score", help="re-score a run directory from its bag")
@@ -109,7 +118,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.verb == "run":
         return run(duration_s=args.duration, out=args.out, preset=args.preset, seed=args.seed, config=args.config,
-                   single_process=args.single_process, realtime=args.realtime)
+                   single_process=args.single_process, realtime=args.realtime,
+                   sim_time=args.sim_time)
     if args.verb == "score":
         return score(args.run_dir, as_json=args.json)
     return list_params()

@@ -122,6 +122,9 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         ParamSpec("initial_position", "floats", "initial joint position, rad (one per joint, or one for all)"),
         ParamSpec("wait_for_first_command", bool,
                   "keep the arm still (brakes on) until the first effort arrives, so start-up order does not matter"),
+        ParamSpec("lockstep", bool, "sim-time lockstep: publish /clock and advance one control period per effort",
+                  read_only=True),
+        _positive("control_rate_hz", "control rate the lockstep advances by (one period per effort), Hz"),
     ),
     "motor_node": (
         URDF,
@@ -162,6 +165,10 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         ParamSpec("watchdog_periods", int, "control periods without valid sensor data before zero torque",
                   minimum=1),
         _positive("log_period_s", "period of the target/actual/error/torque log line, s"),
+        _positive("diagnostics_period_s", "period of the loop-health report on /diagnostics, s"),
+        ParamSpec("lockstep", bool,
+                  "compute on each measurement once the due reference is in (sim-time lockstep), not on a timer",
+                  read_only=True),
     ),
     "trajectory_planner": (
         ParamSpec("mode", str, "reference shape", choices=MODES),
@@ -173,6 +180,8 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         _nonneg("end_frequency_hz", "end frequency of the chirp, Hz"),
         _positive("sweep_time_s", "duration of one chirp sweep, s"),
         _positive("publish_rate_hz", "rate of /trajectory, Hz"),
+        ParamSpec("lockstep", bool, "sample on /clock ticks (sim-time lockstep) instead of a timer",
+                  read_only=True),
     ),
 }
 

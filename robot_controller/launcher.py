@@ -102,8 +102,11 @@ class ProcessGroup:
 
 
 # SCHED_FIFO priority asked for the nodes (where permitted): above everything
-# else on the machine, below the kernel's own threads (50).
+# else on the machine, below the kernel's own threads (50). The recorder, in
+# this process, sits just above the nodes: a recording that loses samples
+# under load is worse than a loop that runs a little slower.
 DEFAULT_RT_PRIORITY = 20
+RECORDER_RT_PRIORITY = 21
 
 
 def child_env(single_process: bool, realtime: bool = True) -> dict[str, str]:
@@ -131,33 +134,62 @@ def node_argv(name: str, params_file: Path) -> list[str]:
 class RunResult:
     exit_code: int
     bag_dir: Path
-    control_seconds: float
+    control_seconds: float  #: seconds of control recorded (sim seconds with sim time)
+    wall_seconds: float
     message_counts: dict[str, int]
     failure: str | None = None
 
+    @property
+    def real_time_factor(self) -> float:
+        return self.control_seconds / self.wall_seconds if self.wall_seconds > 0 else float("nan")
+
+
+# Lockstep: no /clock progress for this long (wall) means the graph is stuck.
+STALL_TIMEOUT_S = 10.0
+
+
+def lockstep_params(params: cfg.Params) -> cfg.Params:
+    """The same parameters in sim-time lockstep: every node on /clock, the
+    simulator, controller and planner stepping on messages instead of timers."""
+    out = cfg.merge(params, {})
+    for node in cfg.NODES:
+        out[node]["use_sim_time"] = node != "simulator"  # the simulator is the clock
+    for node in ("simulator", "pid_controller", "trajectory_planner"):
+        out[node]["lockstep"] = True
+    return out
+
 
 def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_process: bool = False,
-           realtime: bool = True) -> RunResult:
-    """Run the graph for ``duration_s`` seconds of control, recording into ``out_dir/bag``."""
+           realtime: bool = True, sim_time: bool = False) -> RunResult:
+    """Run the graph for ``duration_s`` seconds of control (sim seconds with
+    ``sim_time``), recording into ``out_dir/bag``."""
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
     from robot_controller.nodes.recorder import BagRecorder
 
     out_dir.mkdir(parents=True, exist_ok=True)
+    if sim_time:
+        params = lockstep_params(params)
     params_file = cfg.write_params_file(params, out_dir / "params.yaml")
     bag_dir = out_dir / "bag"
     if bag_dir.exists():
         raise FileExistsError(f"{bag_dir} exists: choose another --out")
 
+    if realtime:
+        from robot_controller.nodes.base import request_realtime_priority
+
+        note = request_realtime_priority(str(RECORDER_RT_PRIORITY))
+        if note:
+            say(f"recorder {note}")
     # SIGTERM (a CI timeout, `kill`) stops the run as cleanly as Ctrl-C does.
     previous_sigterm = signal.signal(signal.SIGTERM, _raise_interrupt)
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     failure: str | None = None
-    control_seconds = 0.0
+    control_seconds = wall_seconds = 0.0
     try:
-        with BagRecorder(context, bag_dir) as recorder, ProcessGroup(child_env(single_process, realtime)) as group:
+        with BagRecorder(context, bag_dir, sim_time=sim_time) as recorder, ProcessGroup(child_env(single_process, realtime)) as group:
             if single_process:
                 group.start("stack", node_argv("all_in_one", params_file))
             else:
@@ -167,9 +199,16 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
                 failure = _wait_first_tick(recorder, group)
                 if failure is None:
                     started = time.monotonic()
-                    say(f"control loop running; recording {duration_s:g} s into {bag_dir}")
-                    failure = _wait(group, started + duration_s)
-                    control_seconds = time.monotonic() - started
+                    say(f"control loop running; recording {duration_s:g} {'sim ' if sim_time else ''}s "
+                        f"into {bag_dir}")
+                    if sim_time:
+                        sim_start = recorder.clock_s
+                        failure = _wait_sim(group, recorder, sim_start + duration_s)
+                        control_seconds = recorder.clock_s - sim_start
+                    else:
+                        failure = _wait(group, started + duration_s)
+                        control_seconds = time.monotonic() - started
+                    wall_seconds = time.monotonic() - started
             except KeyboardInterrupt:
                 say("interrupted: stopping the nodes")
                 failure = None if recorder.counts["/controller/state"] else "interrupted before the loop ran"
@@ -183,7 +222,7 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
         signal.signal(signal.SIGTERM, previous_sigterm)
     if failure:
         say(f"FAILED: {failure}")
-    return RunResult(1 if failure else 0, bag_dir, control_seconds, counts, failure)
+    return RunResult(1 if failure else 0, bag_dir, control_seconds, wall_seconds, counts, failure)
 
 
 def _raise_interrupt(signum, frame) -> None:
@@ -207,6 +246,19 @@ def _wait(group: ProcessGroup, until: float) -> str | None:
         if dead := group.dead():
             return _died(dead)
         time.sleep(min(0.1, remaining))
+    return None
+
+
+def _wait_sim(group: ProcessGroup, recorder, until_sim_s: float) -> str | None:
+    last_clock, last_change = recorder.clock_s, time.monotonic()
+    while recorder.clock_s < until_sim_s:
+        if dead := group.dead():
+            return _died(dead)
+        if recorder.clock_s != last_clock:
+            last_clock, last_change = recorder.clock_s, time.monotonic()
+        elif time.monotonic() - last_change > STALL_TIMEOUT_S:
+            return f"lockstep stalled at t = {last_clock:.3f} s: no tick for {STALL_TIMEOUT_S:g} s"
+        time.sleep(0.02)
     return None
 
 

@@ -26,6 +26,7 @@ class Recording:
     true_effort: np.ndarray
     counts: dict[str, int] = field(default_factory=dict)
     receipt_s: dict[str, np.ndarray] = field(default_factory=dict)  #: bag receive times per topic
+    motor_latency_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: stamp → command at the motor
 
     @property
     def joint_count(self) -> int:
@@ -40,9 +41,11 @@ def read_recording(bag_dir: Path) -> Recording:
     true_v: list[np.ndarray] = []
     true_e: list[np.ndarray] = []
     receipt: dict[str, list[int]] = {}
+    latency: list[float] = []
     with Reader(bag_dir) as reader:
         counts = {c.topic: c.msgcount for c in reader.connections}
-        wanted = [c for c in reader.connections if c.topic in ("/controller/state", "/sim/joint_states")]
+        wanted = [c for c in reader.connections
+                  if c.topic in ("/controller/state", "/sim/joint_states", "/motor/command_latency")]
         for connection in reader.connections:
             receipt.setdefault(connection.topic, [])
         for connection, timestamp, raw in reader.messages():
@@ -52,6 +55,8 @@ def read_recording(bag_dir: Path) -> Recording:
             msg = typestore.deserialize_cdr(raw, connection.msgtype)
             if connection.topic == "/controller/state":
                 state_rows.append(np.asarray(msg.data, dtype=float))
+            elif connection.topic == "/motor/command_latency":
+                latency.extend(np.asarray(msg.data, dtype=float).tolist())
             else:
                 true_t.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
                 true_q.append(np.asarray(msg.position, dtype=float))
@@ -63,13 +68,22 @@ def read_recording(bag_dir: Path) -> Recording:
     state = state_layout.decode(np.vstack(state_rows), joint_count)
     return Recording(state=state, true_time_s=np.asarray(true_t), true_position=np.vstack(true_q),
                      true_velocity=np.vstack(true_v), true_effort=np.vstack(true_e), counts=counts,
-                     receipt_s={k: np.asarray(v) * 1e-9 for k, v in receipt.items()})
+                     receipt_s={k: np.asarray(v) * 1e-9 for k, v in receipt.items()},
+                     motor_latency_s=np.asarray(latency))
 
 
-def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: float = metrics.WARMUP_S
-          ) -> dict[str, Any]:
-    """The run's metrics: tracking on the TRUE position, rates, message counts."""
+def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: float = metrics.WARMUP_S,
+          window_s: float | None = None) -> dict[str, Any]:
+    """The run's metrics: tracking on the TRUE position, rates, latency, message counts.
+
+    ``window_s`` keeps only the first ``window_s`` seconds of control ticks
+    and leaves out what depends on when the recorder heard a message: with
+    lockstep sim time, the same seed then gives the same figures, exactly.
+    """
     s = recording.state
+    if window_s is not None:
+        keep = s["time_s"] < s["time_s"][0] + window_s - 1e-9
+        s = {k: v[keep] for k, v in s.items()}
     active = s["status"] == state_layout.STATUS_CODES["ok"]
     ticks = s["time_s"]
     true_at_tick = metrics.true_position_at(ticks, recording.true_time_s, recording.true_position,
@@ -83,6 +97,12 @@ def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: flo
     out["saturated_ticks"] = int(np.count_nonzero(np.any(s["saturated"] > 0.5, axis=1)))
     out["peak_torque_nm"] = float(np.max(np.abs(s["command"])))
     out["recorded_duration_s"] = float(ticks[-1] - ticks[0])
+    ok_ticks = s["status"] != state_layout.STATUS_CODES["no_measurement"]
+    out.update(metrics.latency_metrics(s["time_s"][ok_ticks] - s["measurement_stamp_s"][ok_ticks],
+                                       prefix="controller_latency"))
+    if window_s is not None:
+        return out
+    out.update(metrics.latency_metrics(recording.motor_latency_s, prefix="latency"))
     for topic, times in recording.receipt_s.items():
         key = topic.strip("/").replace("/", "_")
         out[f"msgs_{key}"] = int(recording.counts.get(topic, len(times)))

@@ -136,8 +136,10 @@ def test_joint_state_check(names, pos, vel, ok):
 
 def test_trajectory_and_effort_checks():
     assert not isinstance(check_trajectory([0.1, 0.2, 0.3], 1), str)
-    p, v, a = check_trajectory([0.1, 0.2], 1)  # the tutorial's [position, velocity]
-    assert a[0] == 0.0
+    p, v, a, sample_time = check_trajectory([0.1, 0.2], 1)  # the tutorial's [position, velocity]
+    assert a[0] == 0.0 and sample_time is None
+    assert check_trajectory([0.1, 0.2, 0.3, 12.5], 1)[3] == 12.5  # ours: with the sample time
+    assert isinstance(check_trajectory([0.1, 0.2, 0.3, float("nan")], 1), str)
     assert isinstance(check_trajectory([0.1], 1), str)
     assert isinstance(check_trajectory([0.1, float("nan"), 0.0], 1), str)
     assert isinstance(check_effort([1.0, 2.0], 1), str)

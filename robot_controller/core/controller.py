@@ -82,6 +82,7 @@ class ControlOutput:
 # Extrapolating further than this is guessing, not compensating.
 _MAX_EXTRAPOLATION_S = 0.1
 _COMMAND_HISTORY = 16
+_TIME_EPS_S = 1e-6
 
 
 class JointController:
@@ -94,6 +95,7 @@ class JointController:
         self.pid = Pid(config.pid)
         self._reference: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._reference_time_s = 0.0
+        self.reference_period_s: float | None = None  #: learned from consecutive sample times
         self._measurement: tuple[np.ndarray, np.ndarray] | None = None
         self._measurement_stamp_s = 0.0
         self._measurement_received_s = -np.inf
@@ -109,9 +111,28 @@ class JointController:
         self.pid.set_config(config.pid)
 
     def set_reference(self, received_s: float, position: np.ndarray, velocity: np.ndarray,
-                      acceleration: np.ndarray) -> None:
+                      acceleration: np.ndarray, sample_time_s: float | None = None) -> None:
+        """A new reference sample. Its time base is ``sample_time_s`` when the
+        planner sent one, otherwise the time it arrived."""
+        time_s = received_s if sample_time_s is None else sample_time_s
+        if self._reference is not None and time_s > self._reference_time_s:
+            self.reference_period_s = time_s - self._reference_time_s
         self._reference = (position, velocity, acceleration)
-        self._reference_time_s = received_s
+        self._reference_time_s = time_s
+
+    def reference_ready(self, tick_s: float) -> bool:
+        """Whether every reference sample due by ``tick_s`` is in (lockstep):
+        the latest is at least as new as the tick, or the next is not due yet."""
+        if self._reference is None:
+            return False
+        if self._reference_time_s >= tick_s - _TIME_EPS_S:
+            return True
+        return (self.reference_period_s is not None
+                and self._reference_time_s + self.reference_period_s > tick_s + _TIME_EPS_S)
+
+    @property
+    def measurement_stamp_s(self) -> float:
+        return self._measurement_stamp_s
 
     def set_measurement(self, stamp_s: float, received_s: float, position: np.ndarray,
                         velocity: np.ndarray) -> None:

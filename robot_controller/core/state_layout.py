@@ -1,6 +1,6 @@
 """Layout of ``/controller/state`` (a labelled ``std_msgs/Float64MultiArray``).
 
-``data`` is ``[time_s, status_code]`` followed by one block per field, each
+``data`` is ``[time_s, status_code, measurement_stamp_s]`` followed by one block per field, each
 ``joint_count`` long, in :data:`FIELDS` order. The message's layout carries
 the same labels (one dimension per block), so ``ros2 topic echo`` shows what
 each number is. This module only builds and reads the flat array.
@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import numpy as np
 
-HEADER = ("time_s", "status")
+HEADER = ("time_s", "status", "measurement_stamp_s")
 FIELDS = ("reference", "measured", "error", "p", "i", "d", "feedforward", "command", "saturated")
 STATUS_CODES = {"ok": 0, "holding": 1, "no_measurement": 2, "watchdog": 3}
 
 
-def encode(time_s: float, status: str, joint_count: int, values: dict[str, np.ndarray]) -> list[float]:
-    out = [float(time_s), float(STATUS_CODES[status])]
+def encode(time_s: float, status: str, measurement_stamp_s: float, joint_count: int,
+           values: dict[str, np.ndarray]) -> list[float]:
+    out = [float(time_s), float(STATUS_CODES[status]), float(measurement_stamp_s)]
     for name in FIELDS:
         out.extend(np.broadcast_to(np.asarray(values[name], dtype=float), (joint_count,)).tolist())
     return out
@@ -27,7 +28,7 @@ def decode(data: np.ndarray, joint_count: int) -> dict[str, np.ndarray]:
     expected = len(HEADER) + len(FIELDS) * joint_count
     if data.shape[-1] != expected:
         raise ValueError(f"controller state: expected {expected} values for {joint_count} joint(s), got {data.shape[-1]}")
-    out = {"time_s": data[..., 0], "status": data[..., 1]}
+    out = {name: data[..., k] for k, name in enumerate(HEADER)}
     for k, name in enumerate(FIELDS):
         start = len(HEADER) + k * joint_count
         out[name] = data[..., start:start + joint_count]

@@ -45,22 +45,34 @@ def check_joint_state(
     return position, velocity
 
 
-def check_trajectory(data: Sequence[float], joint_count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray] | str:
-    """Validate a ``/trajectory`` array: ``[p, v, a]`` per joint, or the tutorial's ``[p, v]``.
+TrajectorySample = tuple[np.ndarray, np.ndarray, np.ndarray, float | None]
 
-    Layout: all positions, then all velocities, then all accelerations.
+
+def check_trajectory(data: Sequence[float], joint_count: int) -> TrajectorySample | str:
+    """Validate a ``/trajectory`` array into ``(p, v, a, sample_time_s or None)``.
+
+    Accepted: ``[p…, v…, a…]`` (one block per quantity, one value per
+    joint); the same followed by the sample time in seconds (our planner,
+    so the controller knows when the sample was taken); or the tutorial's
+    ``[p…, v…]``.
     """
     data = np.asarray(data, dtype=float)
-    if data.size == 3 * joint_count:
-        p, v, a = data[:joint_count], data[joint_count:2 * joint_count], data[2 * joint_count:]
-    elif data.size == 2 * joint_count:
-        p, v = data[:joint_count], data[joint_count:]
-        a = np.zeros(joint_count)
+    n = joint_count
+    sample_time: float | None = None
+    if data.size == 3 * n + 1:
+        sample_time = float(data[-1])
+        data = data[:-1]
+    if data.size == 3 * n:
+        p, v, a = data[:n], data[n:2 * n], data[2 * n:]
+    elif data.size == 2 * n:
+        p, v = data[:n], data[n:]
+        a = np.zeros(n)
     else:
-        return f"expected {3 * joint_count} values ([position, velocity, acceleration] per joint), got {data.size}"
-    if not np.all(np.isfinite(data)):
+        return (f"expected {3 * n} values ([position, velocity, acceleration] per joint) "
+                f"or {3 * n + 1} (with the sample time), got {np.asarray(data).size + (sample_time is not None)}")
+    if not np.all(np.isfinite(data)) or (sample_time is not None and not np.isfinite(sample_time)):
         return "non-finite value in trajectory"
-    return p, v, a
+    return p, v, a, sample_time
 
 
 def check_effort(data: Sequence[float], joint_count: int) -> np.ndarray | str:

@@ -3,6 +3,7 @@ their defaults from ``config/stack.yaml``, validation on set, rate-limited
 warnings, QoS, and the ``main`` skeleton of ros2/examples."""
 from __future__ import annotations
 
+import copy
 import os
 import sys
 import threading
@@ -12,6 +13,7 @@ from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -21,10 +23,12 @@ from robot_controller import config as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 
-# Reliable, volatile, keep-last: matches the tutorial's default-QoS (depth 10)
-# publishers and subscribers, so its nodes talk to ours unchanged.
+# Reliable, volatile, keep-last: compatible with the tutorial's default-QoS
+# publishers and subscribers, so its nodes talk to ours unchanged. Depth 100
+# lets a reader that falls behind for a moment (the recorder) catch up
+# without losing samples.
 CONTROL_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
-                         history=HistoryPolicy.KEEP_LAST, depth=10)
+                         history=HistoryPolicy.KEEP_LAST, depth=100)
 
 WARN_PERIOD_S = 2.0
 
@@ -106,6 +110,70 @@ class StackNode(Node):
             self._warned_at[key] = (last, suppressed + 1)
 
 
+# Nodes that only watch (the launcher's recorder) do not count as consumers.
+OBSERVER_NODES = frozenset({"recorder"})
+
+
+# Discovery is two-sided: a writer can see a reader before the reader knows
+# the writer, and the reader drops what arrives in between. A consumer counts
+# as matched once it has been seen for this long.
+MATCH_SETTLE_S = 0.5
+
+
+def has_consumer(node: Node, topic: str) -> bool:
+    """Whether a node other than an observer subscribes to ``topic``."""
+    return any(info.node_name not in OBSERVER_NODES for info in node.get_subscriptions_info_by_topic(topic))
+
+
+class ConsumerWatch:
+    """``ready()`` once a consumer of ``topic`` has been seen for ``MATCH_SETTLE_S`` (wall time)."""
+
+    def __init__(self, node: Node, topic: str) -> None:
+        self.node, self.topic = node, topic
+        self.seen_since: float | None = None
+
+    def ready(self) -> bool:
+        if not has_consumer(self.node, self.topic):
+            self.seen_since = None
+            return False
+        now = time.monotonic()
+        if self.seen_since is None:
+            self.seen_since = now
+        return now - self.seen_since >= MATCH_SETTLE_S
+
+
+class GatedPublisher:
+    """Holds the latest message until a consumer has matched, then publishes.
+
+    In lockstep nothing is ever re-sent (a re-sent effort would double a
+    tick), so the first message must not go out before anyone listens; in
+    wall-clock mode only the newest held message is worth sending.
+    """
+
+    def __init__(self, node: Node, publisher: Any, topic: str) -> None:
+        self.node, self.publisher, self.topic = node, publisher, topic
+        self.watch = ConsumerWatch(node, topic)
+        self.open = False
+        self.pending: list[Any] = []
+        self._poll = node.create_timer(0.05, self._check, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def publish(self, msg: Any) -> None:
+        if self.open:
+            self.publisher.publish(msg)
+        else:
+            self.pending = [copy.deepcopy(msg)]
+            self._check()
+
+    def _check(self) -> None:
+        if self.open or not self.watch.ready():
+            return
+        self.open = True
+        self.node.destroy_timer(self._poll)
+        for msg in self.pending:
+            self.publisher.publish(msg)
+        self.pending.clear()
+
+
 def stamp_to_s(stamp: Any) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
 
@@ -113,14 +181,14 @@ def stamp_to_s(stamp: Any) -> float:
 RT_PRIORITY_ENV = "ROBOT_CONTROLLER_RT_PRIORITY"
 
 
-def request_realtime_priority() -> str | None:
+def request_realtime_priority(priority_env: str | None = None) -> str | None:
     """Run this process under SCHED_FIFO at ``$ROBOT_CONTROLLER_RT_PRIORITY`` (1–99), if set and permitted.
 
     Called before rclpy starts, so the DDS threads inherit the policy. On a
     shared 2-core machine this is what keeps a 100 Hz Python loop from being
     starved for 100 ms at a time. Returns a note for the log, or None.
     """
-    value = os.environ.get(RT_PRIORITY_ENV, "")
+    value = os.environ.get(RT_PRIORITY_ENV, "") if priority_env is None else priority_env
     if not value:
         return None
     try:

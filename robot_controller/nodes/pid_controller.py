@@ -1,25 +1,38 @@
 """pid_controller: the control law at ``control_rate_hz``.
 
 Reads ``/joint_states`` (noisy) and ``/trajectory``, publishes one torque
-per joint on ``/joint_commands`` and every term on ``/controller/state``.
-The maths is ``core.controller.JointController``; this node only converts
-messages and parameters. The name stays ``pid_controller`` for the
-tutorial's sake whatever law ``controller_type`` selects.
+per joint on ``/joint_commands``, every term on ``/controller/state`` and its
+own loop health (period jitter, missed cycles, sensor-stamp-to-command
+latency) on ``/diagnostics``. The maths is ``core.controller.JointController``;
+this node only converts messages and parameters. The name stays
+``pid_controller`` for the tutorial's sake whatever law ``controller_type``
+selects.
+
+Wall clock: a timer ticks at the control rate. Lockstep: each measurement is
+a tick, computed once the reference sample due by then has arrived.
 """
 from __future__ import annotations
 
+import time
 from typing import Any
 
+import numpy as np
+from rclpy.clock import Clock, ClockType
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller import config as cfg
 from robot_controller import resources
-from robot_controller.core import state_layout
-from robot_controller.core.controller import JointController, Status
+from robot_controller.core import metrics, state_layout
+from robot_controller.core.controller import ControlOutput, JointController, Status
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.validation import check_joint_state, check_trajectory
-from robot_controller.nodes.base import CONTROL_QOS, StackNode, run, stamp_to_s
+from robot_controller.nodes.base import CONTROL_QOS, GatedPublisher, StackNode, run, stamp_to_s
+
+
+# Lockstep: how long (wall) a tick waits for a reference sample before using the latest.
+REFERENCE_WAIT_S = 0.3
 
 
 class PidControllerNode(StackNode):
@@ -30,23 +43,36 @@ class PidControllerNode(StackNode):
         self.joint_count = len(self.joint_names)
         self.controller = JointController(cfg.controller_config(self.params, self.joint_count), self.joint_count,
                                           self.dynamics)
-        self.command_pub = self.create_publisher(Float64MultiArray, "/joint_commands", CONTROL_QOS)
+        self.lockstep = self.params["lockstep"]
+        self.command_pub = GatedPublisher(
+            self, self.create_publisher(Float64MultiArray, "/joint_commands", CONTROL_QOS), "/joint_commands")
         self.state_pub = self.create_publisher(Float64MultiArray, "/controller/state", CONTROL_QOS)
+        self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", CONTROL_QOS)
         self.create_subscription(JointState, "/joint_states", self.joint_state_callback, CONTROL_QOS)
         self.create_subscription(Float64MultiArray, "/trajectory", self.trajectory_callback, CONTROL_QOS)
-        self.timer = self.create_timer(1.0 / self.params["control_rate_hz"], self.control_callback)
+        self.timer = None
+        if not self.lockstep:
+            self.timer = self.create_timer(1.0 / self.params["control_rate_hz"], self.control_callback)
+        self.create_timer(self.params["diagnostics_period_s"], self.diagnostics_callback)
+        self.pending_tick_s: float | None = None  # lockstep: measurement waiting for its reference
+        self.pending_since = 0.0  # wall time (monotonic) the pending tick began waiting
+        if self.lockstep:
+            self.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.last_tick_s = -np.inf
+        self.window_ticks: list[float] = []
+        self.window_latency: list[float] = []
         self.command_msg = Float64MultiArray()
         self.state_msg = Float64MultiArray()
         self.state_msg.layout.dim = (
             [MultiArrayDimension(label=name, size=1, stride=1) for name in state_layout.HEADER]
             + [MultiArrayDimension(label=name, size=self.joint_count, stride=self.joint_count)
                for name in state_layout.FIELDS])
-        self.next_log_s = 0.0
+        self.next_log_s = -np.inf
         p = self.params
         self.get_logger().info(
             f"{p['controller_type'].upper()} controller at {p['control_rate_hz']:g} Hz on {self.joint_names}: "
             f"Kp={p['kp']}, Ki={p['ki']}, Kd={p['kd']}, derivative on {p['derivative_source']}, "
-            f"feedforward {p['feedforward']}")
+            f"feedforward {p['feedforward']}" + (", lockstep" if self.lockstep else ""))
 
     def check_params(self, params: dict[str, Any]) -> None:
         if hasattr(self, "joint_count"):
@@ -54,27 +80,62 @@ class PidControllerNode(StackNode):
 
     def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
         self.controller.set_config(cfg.controller_config(params, self.joint_count))
-        if "control_rate_hz" in changed:
+        if "control_rate_hz" in changed and self.timer is not None:
             self.destroy_timer(self.timer)
             self.timer = self.create_timer(1.0 / params["control_rate_hz"], self.control_callback)
+
+    # --- inputs -------------------------------------------------------------------
 
     def joint_state_callback(self, msg: JointState) -> None:
         checked = check_joint_state(msg.name, msg.position, msg.velocity, self.joint_names)
         if isinstance(checked, str):
             self.warn_throttled("joint_states", f"/joint_states dropped: {checked}")
             return
-        self.controller.set_measurement(stamp_to_s(msg.header.stamp), self.now_s(), *checked)
+        stamp_s = stamp_to_s(msg.header.stamp)
+        if self.lockstep:
+            if stamp_s <= self.last_tick_s:
+                return  # already answered this tick
+            self.controller.set_measurement(stamp_s, stamp_s, *checked)
+            self.pending_tick_s = stamp_s
+            self.pending_since = time.monotonic()
+            self.try_lockstep_tick()
+        else:
+            self.controller.set_measurement(stamp_s, self.now_s(), *checked)
 
     def trajectory_callback(self, msg: Float64MultiArray) -> None:
         checked = check_trajectory(msg.data, self.joint_count)
         if isinstance(checked, str):
             self.warn_throttled("trajectory", f"/trajectory dropped: {checked}")
             return
-        self.controller.set_reference(self.now_s(), *checked)
+        position, velocity, acceleration, sample_time_s = checked
+        self.controller.set_reference(self.now_s(), position, velocity, acceleration, sample_time_s)
+        if self.lockstep:
+            self.try_lockstep_tick()
+
+    # --- ticks ----------------------------------------------------------------------
+
+    def try_lockstep_tick(self) -> None:
+        tick_s = self.pending_tick_s
+        if tick_s is None or not self.controller.reference_ready(tick_s):
+            return
+        self.pending_tick_s = None
+        self.tick(tick_s)
+
+    def reference_wait_check(self) -> None:
+        """A planner slower than the control rate leaves ticks with no sample due;
+        until its period is learned from two samples, do not wait forever."""
+        if self.pending_tick_s is not None and time.monotonic() - self.pending_since > REFERENCE_WAIT_S:
+            self.warn_throttled("reference_wait", f"lockstep: no reference sample for t={self.pending_tick_s:.3f} s "
+                                f"after {REFERENCE_WAIT_S:g} s; using the latest")
+            tick_s, self.pending_tick_s = self.pending_tick_s, None
+            self.tick(tick_s)
 
     def control_callback(self) -> None:
-        now_s = self.now_s()
+        self.tick(self.now_s())
+
+    def tick(self, now_s: float) -> None:
         out = self.controller.update(now_s)
+        self.last_tick_s = now_s
         if out.status is Status.NO_MEASUREMENT:
             self.warn_throttled("no_measurement", "no valid /joint_states yet: not commanding")
             return
@@ -83,17 +144,44 @@ class PidControllerNode(StackNode):
                                 f"{self.controller.config.watchdog_periods} periods: zero torque")
         self.command_msg.data = out.command.tolist()
         self.command_pub.publish(self.command_msg)
-        terms = out.terms
-        self.state_msg.data = state_layout.encode(now_s, out.status.value, self.joint_count, {
-            "reference": out.reference, "measured": out.measured, "error": out.error, "p": terms.p,
-            "i": terms.i, "d": terms.d, "feedforward": terms.feedforward, "command": terms.command,
-            "saturated": terms.saturated})
-        self.state_pub.publish(self.state_msg)
+        self.window_ticks.append(now_s)
+        self.window_latency.append(self.now_s() - self.controller.measurement_stamp_s)
+        self.publish_state(out)
         if now_s >= self.next_log_s:
             self.next_log_s = now_s + self.params["log_period_s"]
             self.get_logger().info(
                 f"target={_fmt(out.reference)}, actual={_fmt(out.measured)}, error={_fmt(out.error)}, "
                 f"torque={_fmt(out.command)}")
+
+    def publish_state(self, out: ControlOutput) -> None:
+        terms = out.terms
+        self.state_msg.data = state_layout.encode(
+            out.time_s, out.status.value, self.controller.measurement_stamp_s, self.joint_count, {
+                "reference": out.reference, "measured": out.measured, "error": out.error, "p": terms.p,
+                "i": terms.i, "d": terms.d, "feedforward": terms.feedforward, "command": terms.command,
+                "saturated": terms.saturated})
+        self.state_pub.publish(self.state_msg)
+
+    # --- loop health ------------------------------------------------------------------
+
+    def diagnostics_callback(self) -> None:
+        ticks, latency = self.window_ticks, self.window_latency
+        self.window_ticks, self.window_latency = ticks[-1:], []
+        status = DiagnosticStatus(name="pid_controller: control loop", hardware_id="robot_controller")
+        values: dict[str, float] = {"ticks": float(len(latency))}
+        if len(ticks) >= 2:
+            values.update(metrics.rate_metrics(np.asarray(ticks), self.controller.config.control_period_s))
+        values.update(metrics.latency_metrics(np.asarray(latency)))
+        if len(latency) == 0:
+            status.level, status.message = DiagnosticStatus.WARN, "not commanding"
+        elif values.get("missed_cycles", 0) > 0:
+            status.level, status.message = DiagnosticStatus.WARN, f"{int(values['missed_cycles'])} missed cycle(s)"
+        else:
+            status.level, status.message = DiagnosticStatus.OK, "running"
+        status.values = [KeyValue(key=k, value=f"{v:.6g}") for k, v in values.items()]
+        report = DiagnosticArray(status=[status])
+        report.header.stamp = self.get_clock().now().to_msg()
+        self.diagnostics_pub.publish(report)
 
 
 def _fmt(values: Any) -> str:

@@ -11,11 +11,15 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from robot_controller.nodes.base import CONTROL_QOS
 
 # Reliable with a deep queue: the recorder runs at normal priority beside
 # real-time nodes and may be late, but must not lose what it is late for.
@@ -31,9 +35,11 @@ TOPICS = {
     "/sim/joint_states": (JointState, "sensor_msgs/msg/JointState"),
     "/controller/state": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
 }
-OPTIONAL_TOPICS = {
-    "/clock": (Clock, "rosgraph_msgs/msg/Clock"),
+TELEMETRY_TOPICS = {
+    "/diagnostics": (DiagnosticArray, "diagnostic_msgs/msg/DiagnosticArray"),
+    "/motor/command_latency": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
 }
+CLOCK_TOPIC = {"/clock": (Clock, "rosgraph_msgs/msg/Clock")}
 
 
 class BagRecorder:
@@ -44,10 +50,14 @@ class BagRecorder:
     has arrived.
     """
 
-    def __init__(self, context, bag_dir: Path, topics: dict | None = None) -> None:
+    def __init__(self, context, bag_dir: Path, *, sim_time: bool = False) -> None:
         self.bag_dir = Path(bag_dir)
-        self.topics = dict(TOPICS if topics is None else topics)
-        self.node = Node("recorder", context=context, start_parameter_services=False)
+        self.topics = {**TOPICS, **TELEMETRY_TOPICS, **(CLOCK_TOPIC if sim_time else {})}
+        self.node = Node("recorder", context=context, start_parameter_services=False,
+                         parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, sim_time)])
+        self.clock_s = 0.0  #: latest /clock (sim time), s
+        if sim_time:
+            self.node.create_subscription(Clock, "/clock", self._clock_callback, CONTROL_QOS)
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
         self.writer = Writer(self.bag_dir, version=9, storage_plugin=StoragePlugin.MCAP)
@@ -69,6 +79,9 @@ class BagRecorder:
         self._thread = threading.Thread(target=self._spin, name="recorder", daemon=True)
         self._thread.start()
         return self
+
+    def _clock_callback(self, msg: Clock) -> None:
+        self.clock_s = msg.clock.sec + msg.clock.nanosec * 1e-9
 
     def _spin(self) -> None:
         try:

@@ -1,6 +1,12 @@
-"""sensor_node: the encoder. Samples the latest true state from
-``/sim/joint_states`` at ``rate_hz``, adds seeded noise, publishes
-``/joint_states``. The stamp is that of the true state it measured."""
+"""sensor_node: the encoder. Samples the true state from ``/sim/joint_states``
+on a ``rate_hz`` grid of the simulator's stamps (as a hardware-timed encoder
+latches on its own clock), adds seeded noise and publishes ``/joint_states``
+stamped with the time of the sample.
+
+Sampling on the stamps rather than on a timer of its own means no extra
+phase delay in wall-clock mode, and one sample per tick, deterministic, in
+lockstep.
+"""
 from __future__ import annotations
 
 import numpy as np
@@ -9,7 +15,10 @@ from sensor_msgs.msg import JointState
 from robot_controller import config as cfg
 from robot_controller.core.sensor_model import measure
 from robot_controller.core.validation import check_joint_state
-from robot_controller.nodes.base import CONTROL_QOS, StackNode, run
+from robot_controller.nodes.base import CONTROL_QOS, GatedPublisher, StackNode, run, stamp_to_s
+
+# Stamps within this of a grid point count as on it (float ns rounding).
+_GRID_EPS_S = 1e-6
 
 
 class SensorNode(StackNode):
@@ -18,11 +27,12 @@ class SensorNode(StackNode):
         seed = self.params["seed"]
         self.rng = np.random.default_rng(None if seed < 0 else seed)
         self.sensor = cfg.sensor_config(self.params)
-        self.latest: JointState | None = None
+        self.period_s = 1.0 / self.params["rate_hz"]
+        self.next_sample_s: float | None = None
         self.joint_names: list[str] | None = None
-        self.pub = self.create_publisher(JointState, "/joint_states", CONTROL_QOS)
+        self.pub = GatedPublisher(self, self.create_publisher(JointState, "/joint_states", CONTROL_QOS),
+                                  "/joint_states")
         self.create_subscription(JointState, "/sim/joint_states", self.true_state_callback, CONTROL_QOS)
-        self.timer = self.create_timer(1.0 / self.params["rate_hz"], self.sample_callback)
         self.out = JointState()
         self.get_logger().info(
             f"sensor at {self.params['rate_hz']:g} Hz: σ position {self.sensor.position_noise_std:g} rad, "
@@ -33,23 +43,21 @@ class SensorNode(StackNode):
 
     def apply_params(self, params: dict, changed: set[str]) -> None:
         self.sensor = cfg.sensor_config(params)
-        if "rate_hz" in changed:
-            self.destroy_timer(self.timer)
-            self.timer = self.create_timer(1.0 / params["rate_hz"], self.sample_callback)
+        self.period_s = 1.0 / params["rate_hz"]
 
     def true_state_callback(self, msg: JointState) -> None:
+        stamp_s = stamp_to_s(msg.header.stamp)
+        if self.next_sample_s is not None and stamp_s < self.next_sample_s - _GRID_EPS_S:
+            return  # between samples
         if self.joint_names is None:
             self.joint_names = list(msg.name)
-        self.latest = msg
-
-    def sample_callback(self) -> None:
-        msg = self.latest
-        if msg is None:
-            return
         checked = check_joint_state(msg.name, msg.position, msg.velocity, self.joint_names)
         if isinstance(checked, str):
             self.warn_throttled("true_state", f"/sim/joint_states unusable: {checked}")
             return
+        # Next grid point after this stamp (skips ahead if the sim published sparsely).
+        grid_index = np.floor((stamp_s + _GRID_EPS_S) / self.period_s)
+        self.next_sample_s = (grid_index + 1) * self.period_s
         position, velocity = measure(self.sensor, checked[0], checked[1], self.rng)
         out = self.out
         out.header.stamp = msg.header.stamp

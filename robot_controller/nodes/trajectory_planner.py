@@ -1,30 +1,56 @@
-"""trajectory_planner: publishes the reference on ``/trajectory`` as
-``[positions..., velocities..., accelerations...]`` at ``publish_rate_hz``.
-Time starts when the first subscriber is matched (so the controller sees
-the trajectory from its beginning); shape changes apply live."""
+"""trajectory_planner: publishes the reference on ``/trajectory``.
+
+Each message is ``[positions…, velocities…, accelerations…, time_s]``, the
+layout labelled; ``time_s`` is when the sample was taken, so the controller
+evaluates it at its own tick without guessing the transport delay (the
+tutorial's controller reads only the first two values and is unaffected).
+
+Time starts when the first consumer is matched, so the controller sees the
+trajectory from its beginning. Wall clock: a timer at ``publish_rate_hz``.
+Lockstep: a sample whenever ``/clock`` reaches the next ``1/publish_rate_hz``
+grid point. Shape changes apply live.
+"""
 from __future__ import annotations
 
 from typing import Any
 
 import numpy as np
-from std_msgs.msg import Float64MultiArray
+from rclpy.clock import Clock, ClockType
+from rosgraph_msgs.msg import Clock as ClockMsg
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller import config as cfg
 from robot_controller.core.trajectory import make_trajectory
-from robot_controller.nodes.base import CONTROL_QOS, StackNode, run
+from robot_controller.nodes.base import CONTROL_QOS, ConsumerWatch, StackNode, run, stamp_to_s
+
+_GRID_EPS_S = 1e-6
 
 
 class TrajectoryPlanner(StackNode):
     def __init__(self) -> None:
         super().__init__("trajectory_planner")
-        self.trajectory = self._make(self.params)
+        p = self.params
+        self.trajectory = self._make(p)
         self.pub = self.create_publisher(Float64MultiArray, "/trajectory", CONTROL_QOS)
         self.start_s: float | None = None
-        self.timer = self.create_timer(1.0 / self.params["publish_rate_hz"], self.publish_callback)
+        self.next_sample_s = 0.0
+        self.consumer = ConsumerWatch(self, "/trajectory")
         self.msg = Float64MultiArray()
-        p = self.params
+        n = p["joint_count"]
+        self.msg.layout.dim = [MultiArrayDimension(label=name, size=n, stride=n)
+                               for name in ("position", "velocity", "acceleration")]
+        self.msg.layout.dim.append(MultiArrayDimension(label="time_s", size=1, stride=1))
+        self.timer = None
+        if p["lockstep"]:
+            self.create_subscription(ClockMsg, "/clock", self.clock_callback, CONTROL_QOS)
+            # Before the first /clock the time is 0: poll (on the wall clock) for the controller.
+            self.start_poll = self.create_timer(0.05, lambda: self.sample_at(self.now_s()),
+                                                clock=Clock(clock_type=ClockType.STEADY_TIME))
+        else:
+            self.timer = self.create_timer(1.0 / p["publish_rate_hz"], lambda: self.sample_at(self.now_s()))
         self.get_logger().info(f"trajectory: {p['mode']}, amplitude {p['amplitude']} rad, "
-                               f"{p['frequency_hz']:g} Hz, published at {p['publish_rate_hz']:g} Hz")
+                               f"{p['frequency_hz']:g} Hz, published at {p['publish_rate_hz']:g} Hz"
+                               + (", lockstep" if p["lockstep"] else ""))
 
     @staticmethod
     def _make(params: dict[str, Any]):
@@ -35,18 +61,29 @@ class TrajectoryPlanner(StackNode):
 
     def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
         self.trajectory = self._make(params)
-        if "publish_rate_hz" in changed:
+        if "publish_rate_hz" in changed and self.timer is not None:
             self.destroy_timer(self.timer)
-            self.timer = self.create_timer(1.0 / params["publish_rate_hz"], self.publish_callback)
+            self.timer = self.create_timer(1.0 / params["publish_rate_hz"], lambda: self.sample_at(self.now_s()))
 
-    def publish_callback(self) -> None:
-        now_s = self.now_s()
+    def clock_callback(self, msg: ClockMsg) -> None:
+        if self.start_s is not None:
+            self.sample_at(stamp_to_s(msg.clock))
+
+    def sample_at(self, now_s: float) -> None:
         if self.start_s is None:
-            if self.pub.get_subscription_count() == 0:
-                return  # nobody listens yet: t = 0 is when the controller can hear it
+            if not self.consumer.ready():
+                return  # t = 0 is when the controller can hear it
             self.start_s = now_s
+            self.next_sample_s = now_s
+            if self.params["lockstep"]:
+                self.destroy_timer(self.start_poll)
+        if self.params["lockstep"]:
+            if now_s < self.next_sample_s - _GRID_EPS_S:
+                return
+            period = 1.0 / self.params["publish_rate_hz"]
+            self.next_sample_s = self.start_s + (np.floor((now_s - self.start_s + _GRID_EPS_S) / period) + 1) * period
         position, velocity, acceleration = self.trajectory.sample(now_s - self.start_s)
-        self.msg.data = np.concatenate((position, velocity, acceleration)).tolist()
+        self.msg.data = np.concatenate((position, velocity, acceleration, [now_s])).tolist()
         self.pub.publish(self.msg)
 
 
