@@ -144,6 +144,9 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         URDF,
         ParamSpec("controller_type", str, "control law behind the node", choices=("pid",)),
         _positive("control_rate_hz", "control loop rate, Hz"),
+        ParamSpec("trigger", str, "what starts a control step: a timer at control_rate_hz (the tutorial's way) "
+                  "or each new sensor reading (read-update-write, no phase delay; a timer still runs the "
+                  "watchdog)", choices=("timer", "measurement")),
         ParamSpec("kp", "floats", "proportional gain, N·m/rad", minimum=0.0),
         ParamSpec("ki", "floats", "integral gain, N·m/(rad·s)", minimum=0.0),
         ParamSpec("kd", "floats", "derivative gain, N·m·s/rad", minimum=0.0),

@@ -227,6 +227,11 @@ def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except RuntimeError:
+        # A signal can shut the context down while a callback is taking a
+        # message; that is a normal stop, anything else is not.
+        if rclpy.ok():
+            raise
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr, flush=True)
         code[0] = 2

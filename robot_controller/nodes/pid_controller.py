@@ -8,8 +8,10 @@ this node only converts messages and parameters. The name stays
 ``pid_controller`` for the tutorial's sake whatever law ``controller_type``
 selects.
 
-Wall clock: a timer ticks at the control rate. Lockstep: each measurement is
-a tick, computed once the reference sample due by then has arrived.
+Wall clock: a timer ticks at the control rate (``trigger: timer``), or each
+new reading does (``trigger: measurement``, with the timer left to run the
+watchdog when readings stop). Lockstep: each measurement is a tick, computed
+once the reference sample due by then has arrived.
 """
 from __future__ import annotations
 
@@ -100,7 +102,10 @@ class PidControllerNode(StackNode):
             self.pending_since = time.monotonic()
             self.try_lockstep_tick()
         else:
-            self.controller.set_measurement(stamp_s, self.now_s(), *checked)
+            now_s = self.now_s()
+            self.controller.set_measurement(stamp_s, now_s, *checked)
+            if self.params["trigger"] == "measurement":
+                self.tick(now_s)
 
     def trajectory_callback(self, msg: Float64MultiArray) -> None:
         checked = check_trajectory(msg.data, self.joint_count)
@@ -131,7 +136,10 @@ class PidControllerNode(StackNode):
             self.tick(tick_s)
 
     def control_callback(self) -> None:
-        self.tick(self.now_s())
+        now_s = self.now_s()
+        if self.params["trigger"] == "measurement" and now_s - self.last_tick_s < 1.5 * self.controller.config.control_period_s:
+            return  # readings are driving the loop; this timer only covers for their absence
+        self.tick(now_s)
 
     def tick(self, now_s: float) -> None:
         out = self.controller.update(now_s)
