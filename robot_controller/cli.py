@@ -73,6 +73,14 @@ def score(run_dir: Path, *, as_json: bool = False) -> int:
     return 0
 
 
+def bench(out: Path, *, quick: bool) -> int:
+    from robot_controller import bench as bench_module
+
+    figures = bench_module.bench(out, quick=quick, progress=lambda text: print(f"[bench] {text}", flush=True))
+    print((out / "bench.md").read_text())
+    return 0 if figures else 1
+
+
 def list_params() -> int:
     defaults = cfg.load_stack()
     for node in cfg.NODES:
@@ -114,12 +122,17 @@ def main(argv: list[str] | None = None) -> int:
     p_score = verbs.add_parser("score", help="re-score a run directory from its bag")
     p_score.add_argument("run_dir", type=Path)
     p_score.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    p_bench = verbs.add_parser("bench", help="timing benchmark: jitter, latency, lockstep speed, core speed")
+    p_bench.add_argument("--out", type=Path, default=Path("runs/bench"), help="output directory")
+    p_bench.add_argument("--quick", action="store_true", help="a few seconds per scenario")
     verbs.add_parser("params", help="list every node parameter with its default and meaning")
     args = parser.parse_args(argv)
     if args.verb == "run":
         return run(duration_s=args.duration, out=args.out, preset=args.preset, seed=args.seed, config=args.config,
                    single_process=args.single_process, realtime=args.realtime,
                    sim_time=args.sim_time)
+    if args.verb == "bench":
+        return bench(args.out, quick=args.quick)
     if args.verb == "score":
         return score(args.run_dir, as_json=args.json)
     return list_params()

@@ -176,6 +176,7 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     if bag_dir.exists():
         raise FileExistsError(f"{bag_dir} exists: choose another --out")
 
+    saved_policy = (os.sched_getscheduler(0), os.sched_getparam(0))
     if realtime:
         from robot_controller.nodes.base import request_realtime_priority
 
@@ -220,6 +221,10 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     finally:
         rclpy.try_shutdown(context=context)
         signal.signal(signal.SIGTERM, previous_sigterm)
+        try:
+            os.sched_setscheduler(0, *saved_policy)
+        except OSError:
+            pass
     if failure:
         say(f"FAILED: {failure}")
     return RunResult(1 if failure else 0, bag_dir, control_seconds, wall_seconds, counts, failure)

@@ -144,3 +144,24 @@ def test_trajectory_and_effort_checks():
     assert isinstance(check_trajectory([0.1, float("nan"), 0.0], 1), str)
     assert isinstance(check_effort([1.0, 2.0], 1), str)
     assert isinstance(check_effort([float("inf")], 1), str)
+
+
+def test_analytic_arm_matches_mujoco():
+    from robot_controller.core.batch import AnalyticArmBatch, ArmConstants
+
+    dyn = ArmDynamics(URDF)
+    constants = ArmConstants.from_dynamics(dyn)
+    assert constants.inertia == pytest.approx(INERTIA) and constants.gravity_torque == pytest.approx(MASS * G * LENGTH / 2)
+    plant = MujocoPlant(URDF, 0.001)
+    plant.reset(np.array([0.4]), np.array([-0.5]))
+    batch = AnalyticArmBatch(constants, batch=3)
+    batch.q[:], batch.v[:] = 0.4, -0.5
+    for k in range(2000):
+        # gravity held, plus a push that swings the arm well inside the joint limits
+        torque = constants.torque(plant.state()[0], np.zeros(1), np.zeros(1)) + 0.3 * np.sin(0.005 * k)
+        plant.step(torque, 1)
+        batch.step(np.full((3, 1), torque[0]), 1)
+    assert abs(plant.state()[0][0] - 0.4) > 0.2  # it really moved
+    np.testing.assert_allclose(batch.q[:, 0], plant.state()[0][0], atol=1e-9)
+    np.testing.assert_allclose(constants.torque(np.array([0.7]), np.array([1.0]), np.array([2.0])),
+                               dyn.torque(np.array([0.7]), np.array([1.0]), np.array([2.0])), rtol=1e-9)

@@ -8,7 +8,7 @@ import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.nodes.base import exit_after_cleanup_timeout, request_realtime_priority
+from robot_controller.nodes.base import exit_after_cleanup_timeout, request_realtime_priority, shutting_down
 from robot_controller.nodes.motor_node import MotorNode
 from robot_controller.nodes.pid_controller import PidControllerNode
 from robot_controller.nodes.sensor_node import SensorNode
@@ -34,7 +34,7 @@ def main(args: list[str] | None = None) -> int:
     except RuntimeError:
         # A signal can shut the context down while a callback is taking a
         # message; that is a normal stop, anything else is not.
-        if rclpy.ok():
+        if not shutting_down():
             raise
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr, flush=True)

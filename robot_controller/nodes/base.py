@@ -212,6 +212,17 @@ def exit_after_cleanup_timeout(code_ref: list[int]) -> threading.Timer:
     return timer
 
 
+def shutting_down(within_s: float = 0.5) -> bool:
+    """Whether the context is (about to be) shut down: the signal handler's
+    shutdown can lag the error it caused in the executor by a moment."""
+    deadline = time.monotonic() + within_s
+    while rclpy.ok():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return True
+
+
 def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
     """Init, spin until Ctrl-C or shutdown, clean up; a bad parameter exits 2 with its reason."""
     priority_note = request_realtime_priority()
@@ -230,7 +241,7 @@ def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
     except RuntimeError:
         # A signal can shut the context down while a callback is taking a
         # message; that is a normal stop, anything else is not.
-        if rclpy.ok():
+        if not shutting_down():
             raise
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr, flush=True)

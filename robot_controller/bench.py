@@ -1,0 +1,174 @@
+"""``robot-controller bench``: how steadily and how fast the loop runs.
+
+Every scenario is a real run (five processes over DDS, or one), scored from
+its recording like any other; the core figures time the in-process loop and
+a vectorised batch. Writes ``bench.json`` (flat keys) and ``bench.md``.
+"""
+from __future__ import annotations
+
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robot_controller import config as cfg
+from robot_controller import inprocess, launcher, report, resources
+from robot_controller.core.batch import ArmConstants, run_batch
+from robot_controller.core.pid import PidConfig
+from robot_controller.core.plant import ArmDynamics
+from robot_controller.core.trajectory import make_trajectory
+
+
+@dataclass(frozen=True)
+class Target:
+    key: str
+    limit: float
+    at_most: bool  # True: figure ≤ limit is met; False: figure ≥ limit
+    text: str
+
+
+TARGETS = (
+    Target("wall100_missed", 0, True, "100 Hz wall clock: zero missed cycles"),
+    Target("wall100_jitter_p99_ms", 0.5, True, "100 Hz: p99 jitter ≤ 0.5 ms"),
+    Target("wall100_loaded_missed", 0, True, "… with the other core loaded: zero missed cycles"),
+    Target("wall100_loaded_jitter_p99_ms", 0.5, True, "… with the other core loaded: p99 jitter ≤ 0.5 ms"),
+    Target("wall100_latency_p99_ms", 1.0, True, "latency sensor stamp → motor p99 ≤ 1 ms"),
+    Target("wall1k_missed_pct", 0.1, True, "1 kHz in one process: < 0.1 % missed cycles"),
+    Target("lockstep_rtf_multi", 20.0, False, "lockstep RTF ≥ 20, five processes"),
+    Target("lockstep_rtf_single", 100.0, False, "lockstep RTF ≥ 100, one process"),
+    Target("batch_sim_s_per_s", 10_000.0, False, "batch ≥ 10,000 simulated s per wall s"),
+)
+
+
+def _wall_run(params: cfg.Params, out: Path, duration_s: float, *, single_process: bool = False,
+              sim_time: bool = False) -> dict[str, Any]:
+    result = launcher.launch(params, out_dir=out, duration_s=duration_s, single_process=single_process,
+                             sim_time=sim_time)
+    if result.exit_code != 0:
+        raise RuntimeError(f"bench run in {out} failed: {result.failure}")
+    values = report.score(report.read_recording(result.bag_dir),
+                          nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
+                          window_s=duration_s if sim_time else None)
+    values["real_time_factor"] = result.real_time_factor
+    report.write_metrics(out / "metrics.json", values)
+    return values
+
+
+def _kilohertz(params: cfg.Params) -> cfg.Params:
+    """The reference scenario with the control loop, sensor and true state at 1 kHz."""
+    return cfg.merge(params, {"pid_controller": {"control_rate_hz": 1000.0},
+                              "sensor_node": {"rate_hz": 1000.0},
+                              "simulator": {"publish_rate_hz": 1000.0},
+                              "trajectory_planner": {"publish_rate_hz": 1000.0}})
+
+
+class BusyCore:
+    """A process that keeps one core busy for as long as the context lasts."""
+
+    def __enter__(self) -> BusyCore:
+        # Ordinary scheduling, whatever this process runs at: it is the machine's
+        # other work, not a real-time task.
+        self.process = subprocess.Popen([sys.executable, "-c", "while True: pass"],
+                                        preexec_fn=lambda: os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0)))
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.process.kill()
+        self.process.wait()
+
+
+def core_steps_per_s(duration_s: float) -> float:
+    params = cfg.load_stack()
+    start = time.perf_counter()
+    result = inprocess.simulate(params, duration_s=duration_s, seed=0)
+    return len(result.tick_time_s) / (time.perf_counter() - start)
+
+
+def batch_sim_s_per_s(batch: int, duration_s: float) -> tuple[float, float]:
+    """Simulated seconds per wall second of ``batch`` gain sets at once; also the best RMS found."""
+    rng = np.random.default_rng(0)
+    pid = PidConfig(kp=rng.uniform(10, 100, (batch, 1)), ki=rng.uniform(0, 20, (batch, 1)),
+                    kd=rng.uniform(1, 8, (batch, 1)), output_limit=[10.0], integral_limit=[10.0],
+                    anti_windup="conditional_integration", derivative_source="velocity_error")
+    params = cfg.load_stack()
+    start = time.perf_counter()
+    rms = run_batch(constants=ArmConstants.from_dynamics(ArmDynamics(resources.default_urdf())), pid_config=pid,
+                    trajectory=make_trajectory("sine", joint_count=1), sensor=cfg.sensor_config(params["sensor_node"]),
+                    rng=rng, duration_s=duration_s)
+    return batch * duration_s / (time.perf_counter() - start), float(np.min(rms))
+
+
+def bench(out_dir: Path, *, quick: bool = False, progress: Callable[[str], None] = print) -> dict[str, Any]:
+    out_dir.mkdir(parents=True, exist_ok=True)
+    wall_s, kilo_s, sim_s = (4.0, 2.0, 3.0) if quick else (60.0, 20.0, 60.0)
+    params = cfg.load_stack()
+    figures: dict[str, Any] = {"quick": quick, "wall_duration_s": wall_s, "lockstep_sim_s": sim_s,
+                               "machine": f"{os.cpu_count()} cores, {platform.platform()}",
+                               "python": platform.python_version()}
+
+    def take(prefix: str, values: dict[str, Any], keys: dict[str, str]) -> None:
+        for short, key in keys.items():
+            figures[f"{prefix}_{short}"] = values.get(key, float("nan"))
+
+    timing = {"jitter_p50_ms": "jitter_p50_ms", "jitter_p99_ms": "jitter_p99_ms", "jitter_max_ms": "jitter_max_ms",
+              "missed": "missed_cycles", "latency_p50_ms": "latency_p50_ms", "latency_p99_ms": "latency_p99_ms",
+              "rate_hz": "control_rate_hz", "tracking_rms_rad": "tracking_rms_rad"}
+    progress(f"wall clock 100 Hz, five processes, {wall_s:g} s")
+    take("wall100", _wall_run(params, out_dir / "wall100", wall_s), timing)
+    progress(f"wall clock 100 Hz, five processes, other core busy, {wall_s:g} s")
+    with BusyCore():
+        take("wall100_loaded", _wall_run(params, out_dir / "wall100_loaded", wall_s), timing)
+    for mode, single in (("single", True), ("multi", False)):
+        progress(f"wall clock 1 kHz, {mode} process, {kilo_s:g} s")
+        values = _wall_run(_kilohertz(params), out_dir / f"wall1k_{mode}", kilo_s, single_process=single)
+        take(f"wall1k_{mode}", values, {"rate_hz": "control_rate_hz", "jitter_p99_ms": "jitter_p99_ms",
+                                        "missed": "missed_cycles"})
+        figures[f"wall1k_{mode}_missed_pct"] = 100.0 * values["missed_cycles"] / max(values["control_ticks"], 1)
+    figures["wall1k_missed_pct"] = figures["wall1k_single_missed_pct"]
+    for mode, single in (("multi", False), ("single", True)):
+        progress(f"sim-time lockstep, {mode} process, {sim_s:g} sim s")
+        values = _wall_run(params, out_dir / f"lockstep_{mode}", sim_s, single_process=single, sim_time=True)
+        figures[f"lockstep_rtf_{mode}"] = values["real_time_factor"]
+        figures[f"lockstep_{mode}_tracking_rms_rad"] = values["tracking_rms_rad"]
+    progress("in-process loop (no ROS)")
+    figures["core_steps_per_s"] = core_steps_per_s(2.0 if quick else 30.0)
+    batch = 1000 if quick else 10_000
+    figures["batch_size"] = batch
+    figures["batch_sim_s_per_s"], figures["batch_best_tracking_rms_rad"] = batch_sim_s_per_s(
+        batch, 2.0 if quick else 10.0)
+    (out_dir / "bench.json").write_text(json.dumps(figures, indent=2, sort_keys=True) + "\n")
+    (out_dir / "bench.md").write_text(render_markdown(figures))
+    return figures
+
+
+def render_markdown(figures: dict[str, Any]) -> str:
+    def fmt(value: Any) -> str:
+        if isinstance(value, float):
+            return f"{value:.4g}"
+        return str(value)
+
+    lines = [f"# robot-controller bench{' (quick)' if figures['quick'] else ''}", "",
+             f"Machine: {figures['machine']}, Python {figures['python']}. Wall-clock scenarios "
+             f"{figures['wall_duration_s']:g} s each, lockstep {figures['lockstep_sim_s']:g} sim s.", "",
+             "## Targets", "", "| target | figure | met? |", "|---|---|---|"]
+    for target in TARGETS:
+        value = figures.get(target.key, float("nan"))
+        met = value <= target.limit if target.at_most else value >= target.limit
+        if met:
+            verdict = "yes"
+        elif target.at_most:
+            verdict = f"no: {fmt(value - target.limit)} over"
+        else:
+            verdict = f"no: {fmt(value / target.limit)}× of the target"
+        lines.append(f"| {target.text} | `{target.key}` = {fmt(value)} | {verdict} |")
+    lines += ["", "## All figures", "", "| key | value |", "|---|---|"]
+    lines += [f"| `{k}` | {fmt(v)} |" for k, v in sorted(figures.items())]
+    return "\n".join(lines) + "\n"
