@@ -9,6 +9,7 @@ import sys
 
 import pytest
 from rosbags.rosbag2 import Reader
+from rosbags.typesys import Stores, get_typestore
 
 pytestmark = pytest.mark.ros
 
@@ -56,6 +57,20 @@ def test_stack_runs_records_and_tracks(tmp_path, ros_domain, mode):
         assert types[topic] == msgtype
         assert counts[topic] > 0.5 * rate * 6.0, topic
 
+    # Loop health, once a second on /diagnostics.
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    with Reader(out / "bag") as reader:
+        reports = [typestore.deserialize_cdr(raw, c.msgtype) for c, _, raw in reader.messages()
+                   if c.topic == "/diagnostics"]
+    assert len(reports) >= 4
+    values = {kv.key: float(kv.value) for kv in reports[-1].status[0].values}
+    for key in ("control_rate_hz", "jitter_p50_ms", "jitter_p99_ms", "jitter_max_ms", "missed_cycles",
+                "latency_p50_ms", "latency_p99_ms"):
+        assert key in values, key
+    assert 80 < values["control_rate_hz"] < 120
+    for key in ("latency_p50_ms", "latency_p99_ms", "jitter_p99_ms", "missed_cycles"):
+        assert key in metrics, key
+
 
 def test_seed_preset_runs_and_lags(tmp_path, ros_domain):
     out = tmp_path / "seed"
@@ -76,3 +91,17 @@ def test_rescoring_a_saved_run_gives_the_same_figures(tmp_path, ros_domain):
     assert proc.returncode == 0
     rescored = json.loads(proc.stdout)
     assert rescored["tracking_rms_rad"] == saved["tracking_rms_rad"]
+
+
+def test_bench_quick_writes_every_key(tmp_path, ros_domain):
+    out = tmp_path / "bench"
+    proc = subprocess.run([sys.executable, "-m", "robot_controller.cli", "bench", "--quick", "--out", str(out)],
+                          capture_output=True, text=True, timeout=400)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    figures = json.loads((out / "bench.json").read_text())
+    for key in ("wall100_jitter_p99_ms", "wall100_missed", "wall100_latency_p99_ms", "wall1k_missed_pct",
+                "lockstep_rtf_multi", "lockstep_rtf_single", "core_steps_per_s", "batch_sim_s_per_s",
+                "wall100_loaded_jitter_p99_ms", "wall100_loaded_missed"):
+        assert isinstance(figures[key], (int, float)) and figures[key] == figures[key], key  # present, not NaN
+    assert figures["lockstep_rtf_multi"] > 0 and figures["batch_sim_s_per_s"] > 0
+    assert "| target | figure | met? |" in (out / "bench.md").read_text()

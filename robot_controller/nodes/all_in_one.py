@@ -5,10 +5,11 @@ from __future__ import annotations
 import sys
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.nodes.base import exit_after_cleanup_timeout, request_realtime_priority, shutting_down
+from robot_controller.nodes.base import (exit_after_cleanup_timeout, make_executor, request_realtime_priority,
+                                         shutting_down, spin)
 from robot_controller.nodes.motor_node import MotorNode
 from robot_controller.nodes.pid_controller import PidControllerNode
 from robot_controller.nodes.sensor_node import SensorNode
@@ -21,14 +22,14 @@ def main(args: list[str] | None = None) -> int:
     rclpy.init(args=args)
     nodes = []
     code = [0]
-    executor = SingleThreadedExecutor()
+    executor = make_executor()
     try:
         for node_class in (Simulator, MotorNode, SensorNode, PidControllerNode, TrajectoryPlanner):
             nodes.append(node_class())
             executor.add_node(nodes[-1])
         if priority_note:
             nodes[0].get_logger().info(priority_note)
-        executor.spin()
+        spin(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except RuntimeError:

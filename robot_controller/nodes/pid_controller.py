@@ -153,7 +153,8 @@ class PidControllerNode(StackNode):
         self.command_msg.data = out.command.tolist()
         self.command_pub.publish(self.command_msg)
         self.window_ticks.append(now_s)
-        self.window_latency.append(self.now_s() - self.controller.measurement_stamp_s)
+        if not self.lockstep:  # in lockstep a tick takes no sim time
+            self.window_latency.append(self.now_s() - self.controller.measurement_stamp_s)
         self.publish_state(out)
         if now_s >= self.next_log_s:
             self.next_log_s = now_s + self.params["log_period_s"]
@@ -176,11 +177,11 @@ class PidControllerNode(StackNode):
         ticks, latency = self.window_ticks, self.window_latency
         self.window_ticks, self.window_latency = ticks[-1:], []
         status = DiagnosticStatus(name="pid_controller: control loop", hardware_id="robot_controller")
-        values: dict[str, float] = {"ticks": float(len(latency))}
+        values: dict[str, float] = {"ticks": float(max(len(ticks) - 1, 0))}
         if len(ticks) >= 2:
             values.update(metrics.rate_metrics(np.asarray(ticks), self.controller.config.control_period_s))
         values.update(metrics.latency_metrics(np.asarray(latency)))
-        if len(latency) == 0:
+        if len(ticks) < 2:
             status.level, status.message = DiagnosticStatus.WARN, "not commanding"
         elif values.get("missed_cycles", 0) > 0:
             status.level, status.message = DiagnosticStatus.WARN, f"{int(values['missed_cycles'])} missed cycle(s)"

@@ -34,6 +34,7 @@ class TrajectoryPlanner(StackNode):
         self.pub = self.create_publisher(Float64MultiArray, "/trajectory", CONTROL_QOS)
         self.start_s: float | None = None
         self.next_sample_s = 0.0
+        self.clock_s = 0.0  # lockstep: the latest /clock (time is 0 until the first)
         self.consumer = ConsumerWatch(self, "/trajectory")
         self.msg = Float64MultiArray()
         n = p["joint_count"]
@@ -44,7 +45,7 @@ class TrajectoryPlanner(StackNode):
         if p["lockstep"]:
             self.create_subscription(ClockMsg, "/clock", self.clock_callback, CONTROL_QOS)
             # Before the first /clock the time is 0: poll (on the wall clock) for the controller.
-            self.start_poll = self.create_timer(0.05, lambda: self.sample_at(self.now_s()),
+            self.start_poll = self.create_timer(0.05, lambda: self.sample_at(self.clock_s),
                                                 clock=Clock(clock_type=ClockType.STEADY_TIME))
         else:
             self.timer = self.create_timer(1.0 / p["publish_rate_hz"], lambda: self.sample_at(self.now_s()))
@@ -66,8 +67,9 @@ class TrajectoryPlanner(StackNode):
             self.timer = self.create_timer(1.0 / params["publish_rate_hz"], lambda: self.sample_at(self.now_s()))
 
     def clock_callback(self, msg: ClockMsg) -> None:
+        self.clock_s = stamp_to_s(msg.clock)
         if self.start_s is not None:
-            self.sample_at(stamp_to_s(msg.clock))
+            self.sample_at(self.clock_s)
 
     def sample_at(self, now_s: float) -> None:
         if self.start_s is None:
