@@ -89,8 +89,11 @@ def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: flo
     true_at_tick = metrics.true_position_at(ticks, recording.true_time_s, recording.true_position,
                                             recording.true_velocity)
     out: dict[str, Any] = {}
-    out.update(metrics.tracking_metrics(ticks[active], s["reference"][active], true_at_tick[active],
-                                        s["measured"][active], warmup_s=warmup_s))
+    try:
+        out.update(metrics.tracking_metrics(ticks[active], s["reference"][active], true_at_tick[active],
+                                            s["measured"][active], warmup_s=warmup_s))
+    except ValueError:
+        pass  # too short to score tracking (timing-only runs): the timing figures still stand
     out.update(metrics.rate_metrics(ticks, nominal_period_s))
     out["control_ticks"] = int(len(ticks))
     out["watchdog_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES["watchdog"]))
