@@ -21,6 +21,7 @@ import yaml
 from robot_controller import resources
 from robot_controller.core.controller import ControllerConfig
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.estimator import KalmanConfig
 from robot_controller.core.feedforward import FeedforwardMode
 from robot_controller.core.pid import AntiWindup, DerivativeSource, PidConfig
 from robot_controller.core.sensor_model import SensorConfig
@@ -142,7 +143,15 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
     ),
     "pid_controller": (
         URDF,
-        ParamSpec("controller_type", str, "control law behind the node", choices=("pid",)),
+        ParamSpec("controller_type", str, "control law behind the node: PID with the gains below, or LQR "
+                  "(gains from a discrete Riccati design with lqr_q and lqr_r)", choices=("pid", "lqr")),
+        ParamSpec("lqr_q", "floats", "LQR state weights on [∫error, error, velocity error]", minimum=0.0),
+        _positive("lqr_r", "LQR weight on the feedback torque"),
+        ParamSpec("estimator", str, "state estimate the law acts on: the raw reading, or a Kalman filter on "
+                  "position and velocity with the applied torque as input", choices=("none", "kalman")),
+        _positive("kalman_position_noise_std", "Kalman filter: encoder position noise σ, rad"),
+        _positive("kalman_velocity_noise_std", "Kalman filter: encoder velocity noise σ, rad/s"),
+        _positive("kalman_acceleration_noise_std", "Kalman filter: unmodelled acceleration σ, rad/s²"),
         _positive("control_rate_hz", "control loop rate, Hz"),
         ParamSpec("trigger", str, "what starts a control step: a timer at control_rate_hz (the tutorial's way) "
                   "or each new sensor reading (read-update-write, no phase delay; a timer still runs the "
@@ -328,8 +337,16 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         derivative_filter_time_s=values["derivative_filter_time_s"],
         slew_rate_limit=values["slew_rate_limit"],
     )
+    q = np.atleast_1d(np.asarray(values["lqr_q"], dtype=float))
+    if q.shape != (3,):
+        raise ConfigError(f"lqr_q: expected 3 weights (integral, position, velocity), got {q.size}")
+    estimator = None
+    if values["estimator"] == "kalman":
+        estimator = KalmanConfig(values["kalman_position_noise_std"], values["kalman_velocity_noise_std"],
+                                 values["kalman_acceleration_noise_std"])
     return ControllerConfig(
-        pid=pid, feedforward=values["feedforward"], control_period_s=1.0 / values["control_rate_hz"],
+        pid=pid, law=values["controller_type"], lqr_q=tuple(q.tolist()), lqr_r=values["lqr_r"], estimator=estimator,
+        feedforward=values["feedforward"], control_period_s=1.0 / values["control_rate_hz"],
         reference_extrapolation=values["reference_extrapolation"],
         latency_compensation=values["latency_compensation"], watchdog_periods=values["watchdog_periods"],
     )

@@ -7,14 +7,16 @@ and, on :meth:`JointController.update`, turns them into one torque command.
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.feedforward import FeedforwardMode, feedforward_torque
-from robot_controller.core.pid import Pid, PidConfig, PidTerms
+from robot_controller.core import lqr
+from robot_controller.core.estimator import JointKalmanFilter, KalmanConfig
+from robot_controller.core.pid import DerivativeSource, Pid, PidConfig, PidTerms
 from robot_controller.core.plant import ArmDynamics
 
 
@@ -41,6 +43,10 @@ class ControllerConfig:
     """
 
     pid: PidConfig = field(default_factory=PidConfig)
+    law: str = "pid"  #: "pid", or "lqr": the PID's gains replaced by a discrete LQR design
+    lqr_q: tuple[float, float, float] = (1e4, 1e4, 1.0)  #: weights on ∫e, e, ė
+    lqr_r: float = 1e-2  #: weight on the feedback torque
+    estimator: KalmanConfig | None = None  #: a Kalman filter on the reading, or none
     feedforward: FeedforwardMode = FeedforwardMode.NONE
     control_period_s: float = 0.01
     reference_extrapolation: bool = False
@@ -58,6 +64,8 @@ class ControllerConfig:
             raise ConfigError(f"control_rate_hz: must be > 0, got period {self.control_period_s}")
         if int(self.watchdog_periods) < 1:
             raise ConfigError(f"watchdog_periods: must be >= 1, got {self.watchdog_periods}")
+        if self.law not in ("pid", "lqr"):
+            raise ConfigError(f"controller_type: {self.law!r} is not one of ['pid', 'lqr']")
 
 
 @dataclass
@@ -85,6 +93,22 @@ _COMMAND_HISTORY = 16
 _TIME_EPS_S = 1e-6
 
 
+def law_config(config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int) -> PidConfig:
+    """The PID settings the law runs with. For LQR, the gains come from a
+    discrete Riccati design on each joint's ``[∫e, e, ė]`` at the control rate
+    (with feedforward carrying the motion, the feedback is exactly a PID on
+    velocity error with these gains)."""
+    if config.law == "pid":
+        return config.pid
+    if dynamics is None:
+        raise ConfigError("controller_type lqr: needs the arm model (urdf_path)")
+    inertia = np.diag(dynamics.mass_matrix(np.zeros(joint_count)))
+    gains = np.array([lqr.design(inertia[j], dynamics.damping[j], config.control_period_s, np.array(config.lqr_q),
+                                 config.lqr_r).K[0] for j in range(joint_count)])
+    return replace(config.pid, ki=gains[:, 0], kp=gains[:, 1], kd=gains[:, 2],
+                   derivative_source=DerivativeSource.VELOCITY_ERROR)
+
+
 class JointController:
     def __init__(self, config: ControllerConfig, joint_count: int, dynamics: ArmDynamics | None = None) -> None:
         if config.feedforward is not FeedforwardMode.NONE and dynamics is None:
@@ -92,7 +116,8 @@ class JointController:
         self.config = config
         self.joint_count = joint_count
         self.dynamics = dynamics
-        self.pid = Pid(config.pid)
+        self.pid = Pid(law_config(config, dynamics, joint_count))
+        self.estimator = self._make_estimator(config)
         self._reference: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._reference_time_s = 0.0
         self.reference_period_s: float | None = None  #: learned from consecutive sample times
@@ -100,15 +125,32 @@ class JointController:
         self._measurement_stamp_s = 0.0
         self._measurement_received_s = -np.inf
         self._last_update_s: float | None = None
+        self._filtered_stamp_s = -np.inf
+        self._filtered: tuple[np.ndarray, np.ndarray] | None = None
         # (time issued, command) of recent ticks, newest last, for latency compensation
         self._commands: deque[tuple[float, np.ndarray]] = deque(maxlen=_COMMAND_HISTORY)
+
+    def _make_estimator(self, config: ControllerConfig) -> JointKalmanFilter | None:
+        if config.estimator is None:
+            return None
+        if self.dynamics is None:
+            raise ConfigError("estimator kalman: needs the arm model (urdf_path)")
+        return JointKalmanFilter(config.estimator, self.joint_count, self.dynamics.predict)
+
+    @property
+    def gains(self) -> PidConfig:
+        """The gains in force (for LQR, the designed ones)."""
+        return self.pid.config
 
     def set_config(self, config: ControllerConfig) -> None:
         """New gains and options, applied bumplessly from the next tick."""
         if config.feedforward is not FeedforwardMode.NONE and self.dynamics is None:
             raise ConfigError("feedforward: needs the arm model (urdf_path)")
+        pid = law_config(config, self.dynamics, self.joint_count)
+        if config.estimator != self.config.estimator:
+            self.estimator = self._make_estimator(config)
         self.config = config
-        self.pid.set_config(config.pid)
+        self.pid.set_config(pid)
 
     def set_reference(self, received_s: float, position: np.ndarray, velocity: np.ndarray,
                       acceleration: np.ndarray, sample_time_s: float | None = None) -> None:
@@ -159,7 +201,18 @@ class JointController:
         silent_s = now_s - self._measurement_received_s
         if silent_s > self.config.watchdog_periods * self.config.control_period_s:
             self.pid.reset()
+            if self.estimator is not None:
+                self.estimator.reset()
             return self._idle(now_s, Status.WATCHDOG, measured_position, measured_position)
+
+        if self.estimator is not None:
+            if self._measurement_stamp_s != self._filtered_stamp_s:
+                # The torque that acted since the last reading: the last command issued before it.
+                self._filtered = self.estimator.update(self._measurement_stamp_s, measured_position,
+                                                       measured_velocity,
+                                                       self._command_before(self._measurement_stamp_s))
+                self._filtered_stamp_s = self._measurement_stamp_s
+            measured_position, measured_velocity = self._filtered
 
         if self.config.latency_compensation:
             # The reading is as old as its stamp; bring position AND velocity up to
@@ -190,6 +243,13 @@ class JointController:
         terms = self.pid.step(dt, ref_position, ref_velocity, measured_position, measured_velocity, feedforward)
         self._remember_command(now_s, terms.command)
         return ControlOutput(now_s, status, ref_position, measured_position, terms)
+
+    def _command_before(self, time_s: float) -> np.ndarray:
+        torque = np.zeros(self.joint_count)
+        for issued_s, command in self._commands:
+            if issued_s < time_s - _TIME_EPS_S:
+                torque = command
+        return torque
 
     def _remember_command(self, now_s: float, command: np.ndarray) -> None:
         self._commands.append((now_s, np.array(command, dtype=float)))
