@@ -81,6 +81,34 @@ def bench(out: Path, *, quick: bool) -> int:
     return 0
 
 
+def step(*, amplitude: float, shaping: str, out: Path | None, preset: str, seed: int, config: Path | None,
+         sim_time: bool) -> int:
+    from robot_controller import experiments
+
+    try:
+        params = cfg.load_stack(preset, config)
+    except ConfigError as exc:
+        print(f"robot-controller: {exc}", file=sys.stderr)
+        return 2
+    out = out or Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S"))
+    try:
+        values = experiments.step(params, out, amplitude=amplitude, shaping=shaping, sim_time=sim_time, seed=seed)
+    except (RuntimeError, ValueError) as exc:
+        print(f"robot-controller: {exc}", file=sys.stderr)
+        return 1
+    print_table(values, title=f"step {amplitude} rad ({shaping}) → {out}", headline=STEP_HEADLINE)
+    return 0
+
+
+def compare(*, out: Path, seeds: int, duration_s: float, amplitude: float) -> int:
+    from robot_controller import experiments
+
+    experiments.compare(out, seeds=seeds, sine_duration_s=duration_s, amplitude=amplitude,
+                        progress=lambda text: print(f"[compare] {text}", flush=True))
+    print((out / "compare.md").read_text())
+    return 0
+
+
 def list_params() -> int:
     defaults = cfg.load_stack()
     for node in cfg.NODES:
@@ -91,14 +119,17 @@ def list_params() -> int:
     return 0
 
 
-def print_table(values: dict, title: str) -> None:
+STEP_HEADLINE = ("overshoot_pct", "rise_time_s", "settling_time_s", "steady_state_error_rad", "peak_torque_nm")
+
+
+def print_table(values: dict, title: str, headline: tuple[str, ...] = HEADLINE) -> None:
     from rich.console import Console
     from rich.table import Table
 
     table = Table(title=title)
     table.add_column("metric")
     table.add_column("value", justify="right")
-    for key in HEADLINE + tuple(sorted(k for k in values if k not in HEADLINE)):
+    for key in headline + tuple(sorted(k for k in values if k not in headline)):
         if key in values:
             value = values[key]
             table.add_row(key, f"{value:.6g}" if isinstance(value, float) else str(value))
@@ -122,6 +153,20 @@ def main(argv: list[str] | None = None) -> int:
     p_score = verbs.add_parser("score", help="re-score a run directory from its bag")
     p_score.add_argument("run_dir", type=Path)
     p_score.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    p_step = verbs.add_parser("step", help="a step response: overshoot, rise, settling, steady-state error, torque")
+    p_step.add_argument("--amplitude", type=float, default=0.5, help="step size, rad (default 0.5)")
+    p_step.add_argument("--shaping", default="min_time", choices=("min_time", "none"),
+                        help="shape the step into the fastest move within the acceleration limit (default), or jump")
+    p_step.add_argument("--out", type=Path)
+    p_step.add_argument("--preset", default="default", choices=cfg.available_presets())
+    p_step.add_argument("--seed", type=int, default=0)
+    p_step.add_argument("--config", type=Path)
+    p_step.add_argument("--sim-time", action="store_true", help="deterministic lockstep")
+    p_compare = verbs.add_parser("compare", help="seed preset, PID, PID+FF, PID+FF+Kalman, LQR on sine and step")
+    p_compare.add_argument("--out", type=Path, default=Path("runs/compare"))
+    p_compare.add_argument("--seeds", type=int, default=5)
+    p_compare.add_argument("--duration", type=float, default=10.0, help="sine duration, sim s (default 10)")
+    p_compare.add_argument("--amplitude", type=float, default=0.5, help="step size, rad")
     p_bench = verbs.add_parser("bench", help="timing benchmark: jitter, latency, lockstep speed, core speed")
     p_bench.add_argument("--out", type=Path, default=Path("runs/bench"), help="output directory")
     p_bench.add_argument("--quick", action="store_true", help="a few seconds per scenario")
@@ -131,6 +176,11 @@ def main(argv: list[str] | None = None) -> int:
         return run(duration_s=args.duration, out=args.out, preset=args.preset, seed=args.seed, config=args.config,
                    single_process=args.single_process, realtime=args.realtime,
                    sim_time=args.sim_time)
+    if args.verb == "step":
+        return step(amplitude=args.amplitude, shaping=args.shaping, out=args.out, preset=args.preset, seed=args.seed,
+                    config=args.config, sim_time=args.sim_time)
+    if args.verb == "compare":
+        return compare(out=args.out, seeds=args.seeds, duration_s=args.duration, amplitude=args.amplitude)
     if args.verb == "bench":
         return bench(args.out, quick=args.quick)
     if args.verb == "score":

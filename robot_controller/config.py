@@ -189,6 +189,10 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         _nonneg("frequency_hz", "frequency of sine and square, start frequency of chirp, Hz"),
         ParamSpec("offset", "floats", "centre (sine, square, chirp), start (step) or hold position, rad"),
         _nonneg("step_time_s", "time of the step after the planner starts, s"),
+        ParamSpec("step_shaping", str, "step as a jump, or shaped into the fastest move within max_acceleration "
+                  "(bang-bang), which the arm can follow inside its torque limit", choices=("none", "min_time")),
+        _positive("max_acceleration", "acceleration limit of a shaped step, rad/s² (the reference arm: "
+                  "(10 − 2.45) N·m / 0.0833 kg·m² ≈ 90 at most; 60 leaves the feedback room)"),
         _nonneg("end_frequency_hz", "end frequency of the chirp, Hz"),
         _positive("sweep_time_s", "duration of one chirp sweep, s"),
         _positive("publish_rate_hz", "rate of /trajectory, Hz"),
@@ -359,5 +363,7 @@ def sensor_config(values: Mapping[str, Any]) -> SensorConfig:
 
 
 def trajectory_kwargs(values: Mapping[str, Any]) -> dict[str, Any]:
-    keys = ("amplitude", "frequency_hz", "offset", "step_time_s", "end_frequency_hz", "sweep_time_s")
-    return {"joint_count": values["joint_count"], **{k: values[k] for k in keys}}
+    keys = ("amplitude", "frequency_hz", "offset", "step_time_s", "end_frequency_hz", "sweep_time_s", "step_shaping",
+            "max_acceleration")
+    return {"joint_count": values["joint_count"], "sample_period_s": 1.0 / values["publish_rate_hz"],
+            **{k: values[k] for k in keys}}

@@ -165,3 +165,17 @@ def test_analytic_arm_matches_mujoco():
     np.testing.assert_allclose(batch.q[:, 0], plant.state()[0][0], atol=1e-9)
     np.testing.assert_allclose(constants.torque(np.array([0.7]), np.array([1.0]), np.array([2.0])),
                                dyn.torque(np.array([0.7]), np.array([1.0]), np.array([2.0])), rtol=1e-9)
+
+
+def test_min_time_step_reaches_the_target_within_the_acceleration_limit():
+    traj = make_trajectory("step", joint_count=1, amplitude=0.5, step_time_s=1.0, step_shaping="min_time",
+                           max_acceleration=50.0)
+    duration = 2 * np.sqrt(0.5 / 50.0)
+    assert traj.sample(0.9)[0][0] == 0.0
+    assert traj.sample(1.0 + duration / 2)[0][0] == pytest.approx(0.25)
+    p, v, a = traj.sample(1.0 + duration + 1e-9)
+    assert p[0] == pytest.approx(0.5) and v[0] == pytest.approx(0.0, abs=1e-6) and a[0] == 0.0
+    times = np.linspace(0.9, 1.5, 6001)
+    samples = np.array([traj.sample(t) for t in times])[:, :, 0]
+    assert np.max(np.abs(samples[:, 2])) <= 50.0 and np.all(np.diff(samples[:, 0]) >= -1e-12)
+    np.testing.assert_allclose(np.gradient(samples[:, 0], times), samples[:, 1], atol=0.05)

@@ -52,6 +52,43 @@ class Step:
 
 
 @dataclass(frozen=True)
+class MinTimeStep:
+    """A step shaped into the fastest move within an acceleration limit:
+    full acceleration to the midpoint, full deceleration after (bang-bang),
+    so the arm can follow it inside its torque limit and stop without
+    overshoot. Duration ``2·sqrt(|amplitude| / max_acceleration)``, rounded
+    up to a whole number of ``grid_s`` per half, so that the acceleration
+    switches on a sample instant and is constant over every sample period
+    (a torque held over a period then matches it exactly)."""
+
+    amplitude: np.ndarray
+    step_time_s: float
+    offset: np.ndarray
+    max_acceleration: float
+    grid_s: float = 0.0
+
+    def sample(self, t: float) -> Sample:
+        distance = np.abs(self.amplitude)
+        direction = np.sign(self.amplitude)
+        half = np.sqrt(distance / self.max_acceleration)  # per joint
+        if self.grid_s > 0:
+            half = np.ceil(half / self.grid_s - 1e-9) * self.grid_s
+        a = np.divide(distance, half * half, out=np.zeros_like(distance), where=half > 0)
+        tau = t - self.step_time_s
+        if tau < 0:
+            zero = np.zeros_like(self.offset)
+            return self.offset.copy(), zero, zero.copy()
+        accelerating = tau < half
+        moving = tau < 2 * half
+        first = 0.5 * a * tau * tau
+        second = distance - 0.5 * a * (2 * half - tau) ** 2
+        progress = np.where(accelerating, first, np.where(moving, second, distance))
+        speed = np.where(accelerating, a * tau, np.where(moving, a * (2 * half - tau), 0.0))
+        accel = np.where(accelerating, a, np.where(moving, -a, 0.0))
+        return self.offset + direction * progress, direction * speed, direction * accel
+
+
+@dataclass(frozen=True)
 class Square:
     """A square wave between ``offset ± amplitude`` at ``frequency_hz``."""
 
@@ -110,6 +147,9 @@ def make_trajectory(
     step_time_s: float = 1.0,
     end_frequency_hz: float = 2.0,
     sweep_time_s: float = 10.0,
+    step_shaping: str = "none",
+    max_acceleration: float = 60.0,
+    sample_period_s: float = 0.0,
 ) -> Trajectory:
     """Build a trajectory by name; scalars broadcast to ``joint_count`` joints.
 
@@ -124,6 +164,12 @@ def make_trajectory(
     if mode == "sine":
         return Sine(amp, frequency_hz, off)
     if mode == "step":
+        if step_shaping == "min_time":
+            if not np.isfinite(max_acceleration) or max_acceleration <= 0:
+                raise ConfigError(f"max_acceleration: must be > 0, got {max_acceleration}")
+            return MinTimeStep(amp, step_time_s, off, max_acceleration, sample_period_s)
+        if step_shaping != "none":
+            raise ConfigError(f"step_shaping: {step_shaping!r} is not one of ['none', 'min_time']")
         return Step(amp, step_time_s, off)
     if mode == "square":
         if frequency_hz <= 0:

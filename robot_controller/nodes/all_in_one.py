@@ -8,8 +8,8 @@ import rclpy
 from rclpy.executors import ExternalShutdownException
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.nodes.base import (exit_after_cleanup_timeout, make_executor, request_realtime_priority,
-                                         shutting_down, spin)
+from robot_controller.nodes.base import (exit_after_cleanup_timeout, init_with_own_signals, make_executor,
+                                         request_realtime_priority, shutting_down, spin)
 from robot_controller.nodes.motor_node import MotorNode
 from robot_controller.nodes.pid_controller import PidControllerNode
 from robot_controller.nodes.sensor_node import SensorNode
@@ -19,7 +19,7 @@ from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
 
 def main(args: list[str] | None = None) -> int:
     priority_note = request_realtime_priority()
-    rclpy.init(args=args)
+    init_with_own_signals(args)
     nodes = []
     code = [0]
     executor = make_executor()

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import os
+import signal
 import sys
 import threading
 import time
@@ -17,6 +18,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from robot_controller import config as cfg
@@ -235,17 +237,32 @@ def make_executor() -> Executor:
     return SingleThreadedExecutor()
 
 
+_stop_requested = threading.Event()
+
+
+def init_with_own_signals(args: list[str] | None) -> None:
+    """rclpy.init, with SIGINT/SIGTERM only asking the spin loop to stop.
+
+    rclpy's own handling raises KeyboardInterrupt wherever Python happens to
+    be, inside a callback as often as not; here a signal ends the loop
+    between callbacks and cleanup runs in order.
+    """
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: _stop_requested.set())
+
+
 def spin(executor: Executor) -> None:
-    """Spin until shutdown. A loop of spin_once: the EventsExecutor's own
-    spin() never returns after a shutdown in this rclpy."""
-    while rclpy.ok():
+    """Spin until a stop signal or shutdown. A loop of spin_once: the
+    EventsExecutor's own spin() never returns after a shutdown in this rclpy."""
+    while not _stop_requested.is_set() and rclpy.ok():
         executor.spin_once(timeout_sec=0.1)
 
 
 def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
     """Init, spin until Ctrl-C or shutdown, clean up; a bad parameter exits 2 with its reason."""
     priority_note = request_realtime_priority()
-    rclpy.init(args=args)
+    init_with_own_signals(args)
     node = None
     code = [0]
     executor = make_executor()
