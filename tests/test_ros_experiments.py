@@ -1,0 +1,35 @@
+"""Step responses and the controller comparison, over the real graph in lockstep."""
+import json
+import subprocess
+import sys
+
+import pytest
+
+pytestmark = pytest.mark.ros
+
+
+def test_step_response_meets_the_targets(tmp_path, ros_domain):
+    out = tmp_path / "step"
+    proc = subprocess.run([sys.executable, "-m", "robot_controller.cli", "step", "--sim-time", "--amplitude", "0.5",
+                           "--out", str(out)], capture_output=True, text=True, timeout=180)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    figures = json.loads((out / "metrics.json").read_text())
+    assert figures["overshoot_pct"] <= 2.0
+    assert figures["settling_time_s"] <= 0.25
+    assert figures["peak_torque_nm"] <= 10.0
+    assert abs(figures["steady_state_error_rad"]) < 0.005
+    assert (out / "step.png").stat().st_size > 10_000
+
+
+def test_compare_lists_every_controller(tmp_path, ros_domain):
+    out = tmp_path / "compare"
+    proc = subprocess.run([sys.executable, "-m", "robot_controller.cli", "compare", "--seeds", "1", "--duration", "3",
+                           "--out", str(out)], capture_output=True, text=True, timeout=400)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    table = (out / "compare.md").read_text()
+    for name in ("seed", "pid", "pid_ff", "pid_ff_kf", "lqr"):
+        assert f"| **{name}**" in table, name
+    figures = json.loads((out / "compare.json").read_text())
+    # the tutorial's controller lags the sine; ours tracks it
+    assert figures["seed"]["sine_tracking_rms_rad"]["mean"] > 10 * figures["lqr"]["sine_tracking_rms_rad"]["mean"]
+    assert (out / "compare.png").stat().st_size > 10_000
