@@ -5,7 +5,6 @@ choose parameters and put figures side by side.
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -142,7 +141,7 @@ def compare(out: Path, *, seeds: int, sine_duration_s: float, amplitude: float,
                 rows.setdefault(f"step_{key}", []).append(figures[key])
         table[contender.name] = {key: {"mean": float(np.mean(v)), "std": float(np.std(v)),
                                        "min": float(np.min(v)), "max": float(np.max(v))} for key, v in rows.items()}
-    (out / "compare.json").write_text(json.dumps(table, indent=2, sort_keys=True) + "\n")
+    report.write_metrics(out / "compare.json", table)
     (out / "compare.md").write_text(render_compare(table, seeds, sine_duration_s, amplitude))
     plot_compare(table, out / "compare.png")
     return table
@@ -166,7 +165,10 @@ def render_compare(table, seeds: int, sine_duration_s: float, amplitude: float) 
         cells = []
         for key, _, fmt in columns:
             stats = row[key]
-            cells.append(f"{fmt.format(stats['mean'])} ± {fmt.format(stats['std'])}")
+            if not np.isfinite(stats["mean"]):
+                cells.append(f"never, in {STEP_AFTER_S:g} s" if "settling" in key else "n/a")
+            else:
+                cells.append(f"{fmt.format(stats['mean'])} ± {fmt.format(stats['std'])}")
         lines.append(f"| **{name}**: {names[name]} | " + " | ".join(cells) + " |")
     lines += ["", "Targets (issue 4): sine RMS ≤ 0.0015 rad; step overshoot ≤ 2 %, settling ≤ 0.25 s, "
               "|torque| ≤ 10 N·m throughout.", ""]

@@ -114,8 +114,17 @@ def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: flo
     return out
 
 
+def json_safe(value: Any) -> Any:
+    """NaN (a figure that could not be measured, e.g. a step that never settled) as null: strict JSON."""
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    return value
+
+
 def write_metrics(path: Path, values: dict[str, Any]) -> None:
-    path.write_text(json.dumps(values, indent=2, sort_keys=True) + "\n")
+    path.write_text(json.dumps(json_safe(values), indent=2, sort_keys=True, allow_nan=False) + "\n")
 
 
 def plot_tracking(recording: Recording, path: Path, title: str = "") -> None:
