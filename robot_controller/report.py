@@ -27,6 +27,26 @@ class Recording:
     counts: dict[str, int] = field(default_factory=dict)
     receipt_s: dict[str, np.ndarray] = field(default_factory=dict)  #: bag receive times per topic
     motor_latency_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: stamp → command at the motor
+    reading_stamp_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: /joint_states stamps
+    reading_position: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))  #: the raw, noisy readings
+
+    def raw_reading_at(self, stamps_s: np.ndarray) -> np.ndarray:
+        """The sensor's raw position for each measurement stamp (NaN where not recorded).
+
+        ``/controller/state`` carries what the law acted on, which is the
+        Kalman estimate when the filter is on; ``measured_rms_rad`` is defined
+        on the noisy reading itself.
+        """
+        out = np.full((len(stamps_s), self.true_position.shape[1]), np.nan)
+        if len(self.reading_stamp_s) == 0:
+            return out
+        keys = np.round(self.reading_stamp_s * 1e6).astype(np.int64)
+        order = np.argsort(keys)
+        wanted = np.round(np.asarray(stamps_s) * 1e6).astype(np.int64)
+        index = np.clip(np.searchsorted(keys[order], wanted), 0, len(keys) - 1)
+        found = keys[order][index] == wanted
+        out[found] = self.reading_position[order][index[found]]
+        return out
 
     @property
     def joint_count(self) -> int:
@@ -42,10 +62,12 @@ def read_recording(bag_dir: Path) -> Recording:
     true_e: list[np.ndarray] = []
     receipt: dict[str, list[int]] = {}
     latency: list[float] = []
+    reading_t: list[float] = []
+    reading_q: list[np.ndarray] = []
     with Reader(bag_dir) as reader:
         counts = {c.topic: c.msgcount for c in reader.connections}
         wanted = [c for c in reader.connections
-                  if c.topic in ("/controller/state", "/sim/joint_states", "/motor/command_latency")]
+                  if c.topic in ("/controller/state", "/sim/joint_states", "/motor/command_latency", "/joint_states")]
         for connection in reader.connections:
             receipt.setdefault(connection.topic, [])
         for connection, timestamp, raw in reader.messages():
@@ -57,6 +79,9 @@ def read_recording(bag_dir: Path) -> Recording:
                 state_rows.append(np.asarray(msg.data, dtype=float))
             elif connection.topic == "/motor/command_latency":
                 latency.extend(np.asarray(msg.data, dtype=float).tolist())
+            elif connection.topic == "/joint_states":
+                reading_t.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
+                reading_q.append(np.asarray(msg.position, dtype=float))
             else:
                 true_t.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
                 true_q.append(np.asarray(msg.position, dtype=float))
@@ -69,7 +94,8 @@ def read_recording(bag_dir: Path) -> Recording:
     return Recording(state=state, true_time_s=np.asarray(true_t), true_position=np.vstack(true_q),
                      true_velocity=np.vstack(true_v), true_effort=np.vstack(true_e), counts=counts,
                      receipt_s={k: np.asarray(v) * 1e-9 for k, v in receipt.items()},
-                     motor_latency_s=np.asarray(latency))
+                     motor_latency_s=np.asarray(latency), reading_stamp_s=np.asarray(reading_t),
+                     reading_position=np.vstack(reading_q) if reading_q else np.zeros((0, joint_count)))
 
 
 def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: float = metrics.WARMUP_S,
@@ -89,9 +115,11 @@ def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: flo
     true_at_tick = metrics.true_position_at(ticks, recording.true_time_s, recording.true_position,
                                             recording.true_velocity)
     out: dict[str, Any] = {}
+    raw = recording.raw_reading_at(s["measurement_stamp_s"])
+    measured = np.where(np.isfinite(raw), raw, s["measured"])  # readings not recorded: what the law used
     try:
         out.update(metrics.tracking_metrics(ticks[active], s["reference"][active], true_at_tick[active],
-                                            s["measured"][active], warmup_s=warmup_s))
+                                            measured[active], warmup_s=warmup_s))
     except ValueError:
         pass  # too short to score tracking (timing-only runs): the timing figures still stand
     out.update(metrics.rate_metrics(ticks, nominal_period_s))

@@ -2,6 +2,7 @@
 same topics, same parameters, no inter-process hops."""
 from __future__ import annotations
 
+import gc
 import sys
 
 import rclpy
@@ -29,6 +30,7 @@ def main(args: list[str] | None = None) -> int:
             executor.add_node(nodes[-1])
         if priority_note:
             nodes[0].get_logger().info(priority_note)
+        gc.freeze()  # as in base.run: long-lived start-up objects out of full collections
         spin(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -4,6 +4,7 @@ warnings, QoS, and the ``main`` skeleton of ros2/examples."""
 from __future__ import annotations
 
 import copy
+import gc
 import os
 import signal
 import sys
@@ -271,6 +272,9 @@ def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
         if priority_note:
             node.get_logger().info(priority_note)
         executor.add_node(node)
+        # Everything built so far lives as long as the node: keep it out of every
+        # later full collection, which would otherwise pause the loop.
+        gc.freeze()
         spin(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
