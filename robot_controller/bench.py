@@ -70,14 +70,18 @@ def _kilohertz(params: cfg.Params) -> cfg.Params:
                               "trajectory_planner": {"publish_rate_hz": 1000.0}})
 
 
+def _ordinary_priority() -> None:  # in the child, before exec
+    os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    os.setpriority(os.PRIO_PROCESS, 0, 0)
+
+
 class BusyCore:
     """A process that keeps one core busy for as long as the context lasts."""
 
     def __enter__(self) -> BusyCore:
         # Ordinary scheduling, whatever this process runs at: it is the machine's
         # other work, not a real-time task.
-        self.process = subprocess.Popen([sys.executable, "-c", "while True: pass"],
-                                        preexec_fn=lambda: os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0)))
+        self.process = subprocess.Popen([sys.executable, "-c", "while True: pass"], preexec_fn=_ordinary_priority)
         return self
 
     def __exit__(self, *exc_info) -> None:
