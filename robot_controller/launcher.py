@@ -253,12 +253,19 @@ def _raise_interrupt(signum, frame) -> None:
 
 
 def _wait_first_tick(recorder, group: ProcessGroup) -> str | None:
+    """Wait until the loop is closed: commands flow and the simulator applies them.
+
+    Discovery can take seconds on a busy start (Fast DDS re-announces every
+    few seconds if the first burst is missed); the run's duration counts from
+    when the arm is really driven, not from when the controller first ticks.
+    """
     deadline = time.monotonic() + FIRST_TICK_TIMEOUT_S
-    while not recorder.counts["/controller/state"]:
+    while not (recorder.counts["/controller/state"] and recorder.loop_closed.is_set()):
         if dead := group.dead():
             return _died(dead)
         if time.monotonic() > deadline:
-            return f"no /controller/state within {FIRST_TICK_TIMEOUT_S:g} s of start"
+            waiting = "/controller/state" if not recorder.counts["/controller/state"] else "a torque applied by the simulator"
+            return f"no {waiting} within {FIRST_TICK_TIMEOUT_S:g} s of start"
         recorder.event.wait(0.1)
         recorder.event.clear()
     return None

@@ -56,6 +56,9 @@ class BagRecorder:
         self.node = Node("recorder", context=context, start_parameter_services=False,
                          parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, sim_time)])
         self.clock_s = 0.0  #: latest /clock (sim time), s
+        self.loop_closed = threading.Event()  #: the simulator has applied a torque: the loop runs
+        self._closed_watch = self.node.create_subscription(JointState, "/sim/joint_states", self._true_state_callback,
+                                                           CONTROL_QOS)
         if sim_time:
             self.node.create_subscription(Clock, "/clock", self._clock_callback, CONTROL_QOS)
         self.executor = SingleThreadedExecutor(context=context)
@@ -79,6 +82,11 @@ class BagRecorder:
         self._thread = threading.Thread(target=self._spin, name="recorder", daemon=True)
         self._thread.start()
         return self
+
+    def _true_state_callback(self, msg: JointState) -> None:
+        if any(value != 0.0 for value in msg.effort):
+            self.loop_closed.set()
+            self.node.destroy_subscription(self._closed_watch)
 
     def _clock_callback(self, msg: Clock) -> None:
         self.clock_s = msg.clock.sec + msg.clock.nanosec * 1e-9
