@@ -101,14 +101,16 @@ class ProcessGroup:
         self.stop()
 
 
-# Scheduling priority asked for the nodes and the recorder (where permitted):
-# a raised nice value, ahead of the machine's other work. SCHED_FIFO
+# Scheduling priority asked for the nodes (where permitted): a raised nice
+# value, ahead of the machine's other work. SCHED_FIFO for the nodes
 # ("fifo:20") was tried: the kernel throttles real-time tasks for 50 ms
 # whenever they use over 95 % of a CPU in a second, which froze the whole
-# loop for 50-60 ms a few times a minute. The recorder runs at the nodes'
-# level: a recording that loses samples is worse than a slower loop.
+# loop for 50-60 ms a few times a minute. The recorder alone is real-time:
+# it uses a fraction of a CPU, and it must never fall behind nodes that run
+# flat out in lockstep (a recording that loses samples is worse than a
+# slower loop).
 DEFAULT_RT_PRIORITY = "nice:-10"
-RECORDER_RT_PRIORITY = "nice:-10"
+RECORDER_RT_PRIORITY = "fifo:10"
 
 
 # Fast DDS sends from the publishing thread instead of handing each sample to
@@ -169,7 +171,7 @@ def lockstep_params(params: cfg.Params) -> cfg.Params:
     out = cfg.merge(params, {})
     for node in cfg.NODES:
         out[node]["use_sim_time"] = node in SIM_TIME_NODES
-    for node in ("simulator", "pid_controller", "trajectory_planner"):
+    for node in cfg.NODES:
         out[node]["lockstep"] = True
     return out
 
@@ -196,7 +198,7 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     if realtime:
         from robot_controller.nodes.base import request_realtime_priority
 
-        note = request_realtime_priority(os.environ.get("ROBOT_CONTROLLER_RT_PRIORITY", RECORDER_RT_PRIORITY))
+        note = request_realtime_priority(RECORDER_RT_PRIORITY)
         if note:
             say(f"recorder {note}")
     # SIGTERM (a CI timeout, `kill`) stops the run as cleanly as Ctrl-C does.

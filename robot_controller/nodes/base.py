@@ -26,12 +26,25 @@ from robot_controller import config as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 
-# Reliable, volatile, keep-last: compatible with the tutorial's default-QoS
-# publishers and subscribers, so its nodes talk to ours unchanged. Depth 100
-# lets a reader that falls behind for a moment (the recorder) catch up
-# without losing samples.
+# Reliable, keep-last 100: a reader that falls behind for a moment (the
+# recorder) catches up without losing samples. Subscriptions are volatile, as
+# the tutorial's default-QoS nodes and a Gazebo bridge publish, so they talk
+# to ours unchanged.
 CONTROL_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
                          history=HistoryPolicy.KEEP_LAST, depth=100)
+# Our publishers keep their last 1000 samples for late-joining readers
+# (transient-local: the recorder, lockstep nodes); volatile subscribers still
+# match them.
+PUBLISHER_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                           history=HistoryPolicy.KEEP_LAST, depth=1000)
+# In lockstep nothing is re-sent, and on a busy start a reader can match a
+# writer after its first message went out: lockstep subscriptions ask for the
+# writer's history, so the first tick is never lost.
+LOCKSTEP_QOS = PUBLISHER_QOS
+
+
+def subscription_qos(lockstep: bool) -> QoSProfile:
+    return LOCKSTEP_QOS if lockstep else CONTROL_QOS
 
 WARN_PERIOD_S = 2.0
 
@@ -57,6 +70,7 @@ class StackNode(Node):
         self.params = self._validated({spec.name: self.get_parameter(spec.name).value
                                        for spec in cfg.SCHEMA[schema_name]})
         self._warned_at: dict[str, tuple[float, int]] = {}
+        self.subscription_qos = subscription_qos(bool(self.params.get("lockstep", False)))
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._post_set_parameters)
 
@@ -237,11 +251,13 @@ def shutting_down(within_s: float = 0.5) -> bool:
 
 
 def make_executor() -> Executor:
-    """rclpy's EventsExecutor: it waits on events instead of rebuilding a wait
-    set for every callback, which more than doubles the lockstep speed
-    (measured: real-time factor 2.4 against 1.1). ``ROBOT_CONTROLLER_EXECUTOR=single``
-    picks the SingleThreadedExecutor instead."""
-    if os.environ.get("ROBOT_CONTROLLER_EXECUTOR", "events") == "events":
+    """The SingleThreadedExecutor, or with ``ROBOT_CONTROLLER_EXECUTOR=events``
+    rclpy's experimental EventsExecutor. The EventsExecutor doubles the
+    lockstep speed (real-time factor 2.4 against 1.1, measured), but in this
+    rclpy it now and then starts with every node spinning at full CPU and no
+    message moving (4 of 8 lockstep starts in one measured series), so it is
+    not the default."""
+    if os.environ.get("ROBOT_CONTROLLER_EXECUTOR", "single") == "events":
         from rclpy.experimental import EventsExecutor
 
         return EventsExecutor()

@@ -21,9 +21,10 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from robot_controller.nodes.base import CONTROL_QOS
 
-# Reliable with a deep queue: the recorder runs at normal priority beside
-# real-time nodes and may be late, but must not lose what it is late for.
-RECORDER_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
+# Reliable, deep, and transient-local: the recorder may match a publisher
+# after its first messages went out (discovery on a busy start) and must
+# still record them, so it takes the publishers' history.
+RECORDER_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                           history=HistoryPolicy.KEEP_LAST, depth=1000)
 
 # topic → (ROS message class, rosbag2 type name)
