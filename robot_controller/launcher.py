@@ -22,7 +22,7 @@ from robot_controller import config as cfg
 
 NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
 STOP_TIMEOUT_S = 5.0
-FIRST_TICK_TIMEOUT_S = 60.0
+FIRST_TICK_TIMEOUT_S = float(os.environ.get("ROBOT_CONTROLLER_START_TIMEOUT_S", "60"))
 
 _print_lock = threading.Lock()
 

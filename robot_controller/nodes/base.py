@@ -15,7 +15,6 @@ from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
-from rclpy.clock import Clock, ClockType
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -172,7 +171,7 @@ class GatedPublisher:
         self.watch = ConsumerWatch(node, topic)
         self.open = False
         self.pending: list[Any] = []
-        self._poll = node.create_timer(0.05, self._check, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self._poll = node.create_timer(0.05, self._check)
 
     def publish(self, msg: Any) -> None:
         if self.open:

@@ -19,7 +19,6 @@ import time
 from typing import Any
 
 import numpy as np
-from rclpy.clock import Clock, ClockType
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
@@ -59,7 +58,7 @@ class PidControllerNode(StackNode):
         self.pending_tick_s: float | None = None  # lockstep: measurement waiting for its reference
         self.pending_since = 0.0  # wall time (monotonic) the pending tick began waiting
         if self.lockstep:
-            self.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
+            self.create_timer(0.1, self.reference_wait_check)
         self.last_tick_s = -np.inf
         self.window_ticks: list[float] = []
         self.window_latency: list[float] = []

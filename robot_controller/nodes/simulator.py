@@ -16,7 +16,6 @@ deterministic and as fast as the graph can go.
 from __future__ import annotations
 
 import numpy as np
-from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -58,8 +57,7 @@ class Simulator(StackNode):
             self.clock_msg = ClockMsg()
             self.waiting_for_effort = False
             self.sensor_watch = ConsumerWatch(self, "/sim/joint_states")
-            self.start_poll = self.create_timer(0.05, self.start_lockstep,
-                                                clock=Clock(clock_type=ClockType.STEADY_TIME))
+            self.start_poll = self.create_timer(0.05, self.start_lockstep)
         else:
             self.create_timer(1.0 / p["publish_rate_hz"], self.step_callback)
             if not p["wait_for_first_command"]:

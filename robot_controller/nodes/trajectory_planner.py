@@ -15,7 +15,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
@@ -45,8 +44,7 @@ class TrajectoryPlanner(StackNode):
         if p["lockstep"]:
             self.create_subscription(ClockMsg, "/clock", self.clock_callback, self.subscription_qos)
             # Before the first /clock the time is 0: poll (on the wall clock) for the controller.
-            self.start_poll = self.create_timer(0.05, lambda: self.sample_at(self.clock_s),
-                                                clock=Clock(clock_type=ClockType.STEADY_TIME))
+            self.start_poll = self.create_timer(0.05, lambda: self.sample_at(self.clock_s))
         else:
             self.timer = self.create_timer(1.0 / p["publish_rate_hz"], lambda: self.sample_at(self.now_s()))
         self.get_logger().info(f"trajectory: {p['mode']}, amplitude {p['amplitude']} rad, "
