@@ -149,8 +149,7 @@ def main(argv: list[str] | None = None) -> int:
     p_run.add_argument("--sim-time", action="store_true",
                        help="deterministic lockstep on /clock, as fast as the graph goes (--duration in sim seconds)")
     p_run.add_argument("--no-realtime", dest="realtime", action="store_false",
-                       help="do not raise the nodes' scheduling priority (default: nice -10; "
-                            "ROBOT_CONTROLLER_RT_PRIORITY=fifo:20 for SCHED_FIFO)")
+                       help="do not ask for SCHED_FIFO priority for the nodes")
     p_score = verbs.add_parser("score", help="re-score a run directory from its bag")
     p_score.add_argument("run_dir", type=Path)
     p_score.add_argument("--json", action="store_true", help="print the metrics as JSON")

@@ -132,8 +132,6 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         ParamSpec("torque_max", "floats", "actuator torque limit, N·m (one per joint, or one for all)",
                   minimum=0.0, exclusive_minimum=True),
         _nonneg("lag_time_constant_s", "first-order actuator lag time constant, s (0 = none)"),
-        ParamSpec("lockstep", bool, "sim-time lockstep: subscriptions take the publishers' history, so the "
-                  "first tick is never lost", read_only=True),
     ),
     "sensor_node": (
         _positive("rate_hz", "sensor sample rate, Hz"),
@@ -142,8 +140,6 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         ParamSpec("position_bias", float, "constant position bias, rad"),
         _nonneg("quantization", "position quantisation step, rad (0 = none)"),
         ParamSpec("seed", int, "random seed of the noise; -1 draws one from the OS", minimum=-1),
-        ParamSpec("lockstep", bool, "sim-time lockstep: subscriptions take the publishers' history, so the "
-                  "first tick is never lost", read_only=True),
     ),
     "pid_controller": (
         URDF,

@@ -155,7 +155,7 @@ def render_compare(table, seeds: int, sine_duration_s: float, amplitude: float) 
                ("step_settling_time_s", "settling 2 % [s]", "{:.3f}"),
                ("step_rise_time_s", "rise 10–90 % [s]", "{:.3f}"),
                ("step_peak_torque_nm", "peak torque [N·m]", "{:.2f}")]
-    lines = ["# Controller comparison", "",
+    lines = [f"# Controller comparison", "",
              f"Reference scenario, sim-time lockstep, {seeds} seed(s) each: sine 1 rad 0.5 Hz for "
              f"{sine_duration_s:g} s (2 s warm-up), {amplitude} rad step shaped to the fastest move within "
              f"60 rad/s². Figures on the TRUE joint angle; mean ± standard deviation over seeds.", "",

@@ -22,7 +22,7 @@ from robot_controller import config as cfg
 
 NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
 STOP_TIMEOUT_S = 5.0
-FIRST_TICK_TIMEOUT_S = float(os.environ.get("ROBOT_CONTROLLER_START_TIMEOUT_S", "60"))
+FIRST_TICK_TIMEOUT_S = 60.0
 
 _print_lock = threading.Lock()
 
@@ -101,16 +101,12 @@ class ProcessGroup:
         self.stop()
 
 
-# Scheduling priority asked for the nodes (where permitted): a raised nice
-# value, ahead of the machine's other work. SCHED_FIFO for the nodes
-# ("fifo:20") was tried: the kernel throttles real-time tasks for 50 ms
-# whenever they use over 95 % of a CPU in a second, which froze the whole
-# loop for 50-60 ms a few times a minute. The recorder alone is real-time:
-# it uses a fraction of a CPU, and it must never fall behind nodes that run
-# flat out in lockstep (a recording that loses samples is worse than a
-# slower loop).
-DEFAULT_RT_PRIORITY = "nice:-10"
-RECORDER_RT_PRIORITY = "fifo:10"
+# SCHED_FIFO priority asked for the nodes (where permitted): above everything
+# else on the machine, below the kernel's own threads (50). The recorder, in
+# this process, sits just above the nodes: a recording that loses samples
+# under load is worse than a loop that runs a little slower.
+DEFAULT_RT_PRIORITY = 20
+RECORDER_RT_PRIORITY = 21
 
 
 # Fast DDS sends from the publishing thread instead of handing each sample to
@@ -121,7 +117,7 @@ FASTDDS_PUBLICATION_MODE = ("RMW_FASTRTPS_PUBLICATION_MODE", "SYNCHRONOUS")
 def child_env(single_process: bool, realtime: bool = True) -> dict[str, str]:
     env = dict(os.environ)
     if realtime:
-        env.setdefault("ROBOT_CONTROLLER_RT_PRIORITY", DEFAULT_RT_PRIORITY)
+        env.setdefault("ROBOT_CONTROLLER_RT_PRIORITY", str(DEFAULT_RT_PRIORITY))
     else:
         env.pop("ROBOT_CONTROLLER_RT_PRIORITY", None)
     env.setdefault("PYTHONUNBUFFERED", "1")
@@ -171,7 +167,7 @@ def lockstep_params(params: cfg.Params) -> cfg.Params:
     out = cfg.merge(params, {})
     for node in cfg.NODES:
         out[node]["use_sim_time"] = node in SIM_TIME_NODES
-    for node in cfg.NODES:
+    for node in ("simulator", "pid_controller", "trajectory_planner"):
         out[node]["lockstep"] = True
     return out
 
@@ -194,11 +190,10 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
         raise FileExistsError(f"{bag_dir} exists: choose another --out")
 
     saved_policy = (os.sched_getscheduler(0), os.sched_getparam(0))
-    saved_nice = os.getpriority(os.PRIO_PROCESS, 0)
     if realtime:
         from robot_controller.nodes.base import request_realtime_priority
 
-        note = request_realtime_priority(RECORDER_RT_PRIORITY)
+        note = request_realtime_priority(str(RECORDER_RT_PRIORITY))
         if note:
             say(f"recorder {note}")
     # SIGTERM (a CI timeout, `kill`) stops the run as cleanly as Ctrl-C does.
@@ -242,7 +237,6 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
         signal.signal(signal.SIGTERM, previous_sigterm)
         try:
             os.sched_setscheduler(0, *saved_policy)
-            os.setpriority(os.PRIO_PROCESS, 0, saved_nice)
         except OSError:
             pass
     if failure:
@@ -255,19 +249,12 @@ def _raise_interrupt(signum, frame) -> None:
 
 
 def _wait_first_tick(recorder, group: ProcessGroup) -> str | None:
-    """Wait until the loop is closed: commands flow and the simulator applies them.
-
-    Discovery can take seconds on a busy start (Fast DDS re-announces every
-    few seconds if the first burst is missed); the run's duration counts from
-    when the arm is really driven, not from when the controller first ticks.
-    """
     deadline = time.monotonic() + FIRST_TICK_TIMEOUT_S
-    while not (recorder.counts["/controller/state"] and recorder.loop_closed.is_set()):
+    while not recorder.counts["/controller/state"]:
         if dead := group.dead():
             return _died(dead)
         if time.monotonic() > deadline:
-            waiting = "/controller/state" if not recorder.counts["/controller/state"] else "a torque applied by the simulator"
-            return f"no {waiting} within {FIRST_TICK_TIMEOUT_S:g} s of start"
+            return f"no /controller/state within {FIRST_TICK_TIMEOUT_S:g} s of start"
         recorder.event.wait(0.1)
         recorder.event.clear()
     return None

@@ -110,11 +110,7 @@ def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: flo
     if window_s is not None:
         keep = s["time_s"] < s["time_s"][0] + window_s - 1e-9
         s = {k: v[keep] for k, v in s.items()}
-    # Score from the first tick at which the simulator was applying torque:
-    # before that the arm sat on its brakes (start-up, discovery).
-    driven = np.flatnonzero(np.any(recording.true_effort != 0.0, axis=1))
-    closed_s = recording.true_time_s[driven[0]] if driven.size else np.inf
-    active = (s["status"] == state_layout.STATUS_CODES["ok"]) & (s["time_s"] >= closed_s)
+    active = s["status"] == state_layout.STATUS_CODES["ok"]
     ticks = s["time_s"]
     true_at_tick = metrics.true_position_at(ticks, recording.true_time_s, recording.true_position,
                                             recording.true_velocity)

@@ -186,10 +186,6 @@ class JointController:
     def has_measurement(self) -> bool:
         return self._measurement is not None
 
-    @property
-    def has_reference(self) -> bool:
-        return self._reference is not None
-
     def update(self, now_s: float) -> ControlOutput:
         """Compute the command for the tick at ``now_s`` seconds."""
         dt = self.config.control_period_s

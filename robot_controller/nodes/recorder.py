@@ -21,10 +21,9 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from robot_controller.nodes.base import CONTROL_QOS
 
-# Reliable, deep, and transient-local: the recorder may match a publisher
-# after its first messages went out (discovery on a busy start) and must
-# still record them, so it takes the publishers' history.
-RECORDER_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+# Reliable with a deep queue: the recorder runs at normal priority beside
+# real-time nodes and may be late, but must not lose what it is late for.
+RECORDER_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
                           history=HistoryPolicy.KEEP_LAST, depth=1000)
 
 # topic → (ROS message class, rosbag2 type name)
@@ -57,9 +56,6 @@ class BagRecorder:
         self.node = Node("recorder", context=context, start_parameter_services=False,
                          parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, sim_time)])
         self.clock_s = 0.0  #: latest /clock (sim time), s
-        self.loop_closed = threading.Event()  #: the simulator has applied a torque: the loop runs
-        self._closed_watch = self.node.create_subscription(JointState, "/sim/joint_states", self._true_state_callback,
-                                                           CONTROL_QOS)
         if sim_time:
             self.node.create_subscription(Clock, "/clock", self._clock_callback, CONTROL_QOS)
         self.executor = SingleThreadedExecutor(context=context)
@@ -83,11 +79,6 @@ class BagRecorder:
         self._thread = threading.Thread(target=self._spin, name="recorder", daemon=True)
         self._thread.start()
         return self
-
-    def _true_state_callback(self, msg: JointState) -> None:
-        if any(value != 0.0 for value in msg.effort):
-            self.loop_closed.set()
-            self.node.destroy_subscription(self._closed_watch)
 
     def _clock_callback(self, msg: Clock) -> None:
         self.clock_s = msg.clock.sec + msg.clock.nanosec * 1e-9

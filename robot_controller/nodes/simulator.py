@@ -16,6 +16,7 @@ deterministic and as fast as the graph can go.
 from __future__ import annotations
 
 import numpy as np
+from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -24,7 +25,7 @@ from robot_controller import config as cfg
 from robot_controller import resources
 from robot_controller.core.plant import MujocoPlant, steps_per_period
 from robot_controller.core.validation import check_effort
-from robot_controller.nodes.base import PUBLISHER_QOS, ConsumerWatch, StackNode, run
+from robot_controller.nodes.base import CONTROL_QOS, ConsumerWatch, StackNode, run
 
 # Catch up at most this many physics steps in one callback; beyond, the sim
 # runs slower than real time rather than jumping.
@@ -47,17 +48,18 @@ class Simulator(StackNode):
         self.efforts_applied = 0
         self.ticks_published = 0
 
-        self.state_pub = self.create_publisher(JointState, "/sim/joint_states", PUBLISHER_QOS)
-        self.create_subscription(Float64MultiArray, "/sim/effort", self.effort_callback, self.subscription_qos)
+        self.state_pub = self.create_publisher(JointState, "/sim/joint_states", CONTROL_QOS)
+        self.create_subscription(Float64MultiArray, "/sim/effort", self.effort_callback, CONTROL_QOS)
         self.state_msg = JointState()
         self.state_msg.name = list(self.plant.joint_names)
         if self.lockstep:
             self.steps_per_tick = steps_per_period(self.plant.physics_dt, 1.0 / p["control_rate_hz"])
-            self.clock_pub = self.create_publisher(ClockMsg, "/clock", PUBLISHER_QOS)
+            self.clock_pub = self.create_publisher(ClockMsg, "/clock", CONTROL_QOS)
             self.clock_msg = ClockMsg()
             self.waiting_for_effort = False
             self.sensor_watch = ConsumerWatch(self, "/sim/joint_states")
-            self.start_poll = self.create_timer(0.05, self.start_lockstep)
+            self.start_poll = self.create_timer(0.05, self.start_lockstep,
+                                                clock=Clock(clock_type=ClockType.STEADY_TIME))
         else:
             self.create_timer(1.0 / p["publish_rate_hz"], self.step_callback)
             if not p["wait_for_first_command"]:

@@ -15,12 +15,13 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller import config as cfg
 from robot_controller.core.trajectory import make_trajectory
-from robot_controller.nodes.base import PUBLISHER_QOS, ConsumerWatch, StackNode, run, stamp_to_s
+from robot_controller.nodes.base import CONTROL_QOS, ConsumerWatch, StackNode, run, stamp_to_s
 
 _GRID_EPS_S = 1e-6
 
@@ -30,7 +31,7 @@ class TrajectoryPlanner(StackNode):
         super().__init__("trajectory_planner")
         p = self.params
         self.trajectory = self._make(p)
-        self.pub = self.create_publisher(Float64MultiArray, "/trajectory", PUBLISHER_QOS)
+        self.pub = self.create_publisher(Float64MultiArray, "/trajectory", CONTROL_QOS)
         self.start_s: float | None = None
         self.next_sample_s = 0.0
         self.clock_s = 0.0  # lockstep: the latest /clock (time is 0 until the first)
@@ -42,9 +43,10 @@ class TrajectoryPlanner(StackNode):
         self.msg.layout.dim.append(MultiArrayDimension(label="time_s", size=1, stride=1))
         self.timer = None
         if p["lockstep"]:
-            self.create_subscription(ClockMsg, "/clock", self.clock_callback, self.subscription_qos)
+            self.create_subscription(ClockMsg, "/clock", self.clock_callback, CONTROL_QOS)
             # Before the first /clock the time is 0: poll (on the wall clock) for the controller.
-            self.start_poll = self.create_timer(0.05, lambda: self.sample_at(self.clock_s))
+            self.start_poll = self.create_timer(0.05, lambda: self.sample_at(self.clock_s),
+                                                clock=Clock(clock_type=ClockType.STEADY_TIME))
         else:
             self.timer = self.create_timer(1.0 / p["publish_rate_hz"], lambda: self.sample_at(self.now_s()))
         self.get_logger().info(f"trajectory: {p['mode']}, amplitude {p['amplitude']} rad, "
