@@ -18,7 +18,7 @@ HEADLINE = ("tracking_rms_rad", "tracking_max_rad", "measured_rms_rad", "control
 
 
 def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: Path | None,
-        single_process: bool, realtime: bool = True, sim_time: bool = False) -> int:
+        single_process: bool, realtime: bool = False, sim_time: bool = False) -> int:
     from robot_controller import launcher, report
 
     try:
@@ -47,8 +47,12 @@ def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: 
                    "clock": "sim_lockstep" if sim_time else "wall"})
     # Wall-clock figures of a lockstep run differ run to run: keep them out of metrics.json.
     wall = {"real_time_factor": result.real_time_factor, "wall_duration_s": result.wall_seconds}
-    if not sim_time:
+    if sim_time:
+        wall.update(result.usage)
+    else:
         values["realtime_requested"] = realtime
+        values.update(result.usage)
+    values["unrecorded_messages"] = sum(result.unrecorded.values())
     report.write_metrics(out / "metrics.json", values)
     if sim_time:
         report.write_metrics(out / "timing.json", wall)
@@ -73,10 +77,10 @@ def score(run_dir: Path, *, as_json: bool = False) -> int:
     return 0
 
 
-def bench(out: Path, *, quick: bool) -> int:
+def bench(out: Path, *, quick: bool, soak_s: float | None = None) -> int:
     from robot_controller import bench as bench_module
 
-    bench_module.bench(out, quick=quick, progress=lambda text: print(f"[bench] {text}", flush=True))
+    bench_module.bench(out, quick=quick, soak_s=soak_s, progress=lambda text: print(f"[bench] {text}", flush=True))
     print((out / "bench.md").read_text())
     return 0
 
@@ -148,8 +152,8 @@ def main(argv: list[str] | None = None) -> int:
     p_run.add_argument("--single-process", action="store_true", help="all five nodes on one executor")
     p_run.add_argument("--sim-time", action="store_true",
                        help="deterministic lockstep on /clock, as fast as the graph goes (--duration in sim seconds)")
-    p_run.add_argument("--no-realtime", dest="realtime", action="store_false",
-                       help="do not ask for SCHED_FIFO priority for the nodes")
+    p_run.add_argument("--realtime", action="store_true",
+                       help="run the simulator's pacing thread SCHED_FIFO, with a CPU budget (see README)")
     p_score = verbs.add_parser("score", help="re-score a run directory from its bag")
     p_score.add_argument("run_dir", type=Path)
     p_score.add_argument("--json", action="store_true", help="print the metrics as JSON")
@@ -170,6 +174,7 @@ def main(argv: list[str] | None = None) -> int:
     p_bench = verbs.add_parser("bench", help="timing benchmark: jitter, latency, lockstep speed, core speed")
     p_bench.add_argument("--out", type=Path, default=Path("runs/bench"), help="output directory")
     p_bench.add_argument("--quick", action="store_true", help="a few seconds per scenario")
+    p_bench.add_argument("--soak-s", type=float, help="length of the soak run, wall s (default 600, 20 with --quick)")
     verbs.add_parser("params", help="list every node parameter with its default and meaning")
     args = parser.parse_args(argv)
     if args.verb == "run":
@@ -182,7 +187,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.verb == "compare":
         return compare(out=args.out, seeds=args.seeds, duration_s=args.duration, amplitude=args.amplitude)
     if args.verb == "bench":
-        return bench(args.out, quick=args.quick)
+        return bench(args.out, quick=args.quick, soak_s=args.soak_s)
     if args.verb == "score":
         return score(args.run_dir, as_json=args.json)
     return list_params()

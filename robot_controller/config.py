@@ -13,19 +13,20 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import yaml
 
 from robot_controller import resources
-from robot_controller.core.controller import ControllerConfig
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.estimator import KalmanConfig
 from robot_controller.core.feedforward import FeedforwardMode
 from robot_controller.core.pid import AntiWindup, DerivativeSource, PidConfig
 from robot_controller.core.sensor_model import SensorConfig
 from robot_controller.core.trajectory import MODES
+
+if TYPE_CHECKING:  # the controller pulls in scipy and MuJoCo: only the nodes that run one import it
+    from robot_controller.core.controller import ControllerConfig
 
 NODES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
 # Parameters rclpy declares on every node by itself.
@@ -330,6 +331,9 @@ def per_joint(name: str, value: float | list[float], joint_count: int) -> np.nda
 
 
 def controller_config(values: Mapping[str, Any], joint_count: int) -> ControllerConfig:
+    from robot_controller.core.controller import ControllerConfig
+    from robot_controller.core.estimator import KalmanConfig
+
     def joints(name: str) -> np.ndarray:
         return per_joint(name, values[name], joint_count)
 

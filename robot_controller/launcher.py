@@ -1,24 +1,36 @@
-"""Start the five nodes as OS processes (or on one executor), record the run,
-stop everything cleanly, then score the recording.
+"""Start the five nodes as OS processes (or on one executor) beside a
+recorder process, stop everything cleanly, then score the recording.
 
 Like ``ros2 launch``: each child's output is prefixed with its name; Ctrl-C
 or the end of ``duration`` stops them all with SIGINT, then SIGKILL for any
 that hang; if a node dies the run ends with a non-zero exit. Children die
 with the launcher even if it is killed (``PR_SET_PDEATHSIG``).
+
+The recorder starts first and stops last, so the bag holds every message
+the nodes published (each node writes its counts when it stops; the launcher
+compares). Each child gets its place from ``scheduling``; the launcher
+measures every child's CPU time and memory over the run.
 """
 from __future__ import annotations
 
 import ctypes
+import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from robot_controller import config as cfg
+from robot_controller import proc_stats, scheduling
+from robot_controller.nodes.base import COUNTS_DIR_ENV, RECORDED_ENV
+from robot_controller.nodes import recorder as rec
 
 NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
 STOP_TIMEOUT_S = 5.0
@@ -32,11 +44,15 @@ def say(message: str) -> None:
         print(f"[launcher] {message}", flush=True)
 
 
-def _die_with_parent() -> None:  # runs in the child between fork and exec
-    try:
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-    except OSError:
-        pass
+def _child_setup(place: scheduling.Placement) -> Callable[[], None]:
+    def setup() -> None:  # runs in the child between fork and exec
+        try:
+            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+        except OSError:
+            pass
+        scheduling.apply_in_child(place)
+
+    return setup
 
 
 @dataclass
@@ -53,20 +69,26 @@ class ProcessGroup:
     env: dict[str, str]
     children: list[Child] = field(default_factory=list)
 
-    def start(self, name: str, argv: list[str]) -> Child:
+    def start(self, name: str, argv: list[str], *, env: dict[str, str] | None = None,
+              on_line: Callable[[str], bool] | None = None) -> Child:
+        """Start ``argv`` as ``name``; ``on_line`` sees each output line first and
+        returns True for lines it consumed (not printed)."""
         process = subprocess.Popen(
-            argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=self.env,
-            start_new_session=True, preexec_fn=_die_with_parent, bufsize=1, text=True, errors="replace")
-        reader = threading.Thread(target=self._relay, args=(name, process), daemon=True)
+            argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env or self.env,
+            start_new_session=True, preexec_fn=_child_setup(scheduling.placement(name)), bufsize=1, text=True,
+            errors="replace")
+        reader = threading.Thread(target=self._relay, args=(name, process, on_line), daemon=True)
         reader.start()
         child = Child(name, process, reader)
         self.children.append(child)
         return child
 
     @staticmethod
-    def _relay(name: str, process: subprocess.Popen) -> None:
+    def _relay(name: str, process: subprocess.Popen, on_line: Callable[[str], bool] | None) -> None:
         assert process.stdout is not None
         for line in process.stdout:
+            if on_line is not None and on_line(line):
+                continue
             with _print_lock:
                 sys.stdout.write(f"[{name}] {line}")
                 sys.stdout.flush()
@@ -74,25 +96,26 @@ class ProcessGroup:
     def dead(self) -> list[tuple[str, int]]:
         return [(c.name, c.process.returncode) for c in self.children if c.process.poll() is not None]
 
-    def stop(self) -> dict[str, int]:
-        """SIGINT all, wait, then SIGKILL stragglers. Returns each child's exit code."""
-        for child in self.children:
+    def stop(self, children: list[Child] | None = None) -> dict[str, int]:
+        """SIGINT ``children`` (default all), wait, then SIGKILL stragglers. Returns each one's exit code."""
+        children = self.children if children is None else children
+        for child in children:
             if child.process.poll() is None:
                 try:
                     os.killpg(child.process.pid, signal.SIGINT)
                 except ProcessLookupError:
                     pass
         deadline = time.monotonic() + STOP_TIMEOUT_S
-        for child in self.children:
+        for child in children:
             try:
                 child.process.wait(timeout=max(0.0, deadline - time.monotonic()))
             except subprocess.TimeoutExpired:
                 say(f"{child.name} ignored SIGINT for {STOP_TIMEOUT_S:g} s: killing it")
                 os.killpg(child.process.pid, signal.SIGKILL)
                 child.process.wait()
-        for child in self.children:
+        for child in children:
             child.reader.join(timeout=1.0)
-        return {c.name: c.process.returncode for c in self.children}
+        return {c.name: c.process.returncode for c in children}
 
     def __enter__(self) -> ProcessGroup:
         return self
@@ -101,25 +124,13 @@ class ProcessGroup:
         self.stop()
 
 
-# SCHED_FIFO priority asked for the nodes (where permitted): above everything
-# else on the machine, below the kernel's own threads (50). The recorder, in
-# this process, sits just above the nodes: a recording that loses samples
-# under load is worse than a loop that runs a little slower.
-DEFAULT_RT_PRIORITY = 20
-RECORDER_RT_PRIORITY = 21
-
-
 # Fast DDS sends from the publishing thread instead of handing each sample to
 # a sender thread: measured, the lockstep runs 1.6× faster (RTF 3.8 against 2.4).
 FASTDDS_PUBLICATION_MODE = ("RMW_FASTRTPS_PUBLICATION_MODE", "SYNCHRONOUS")
 
 
-def child_env(single_process: bool, realtime: bool = True) -> dict[str, str]:
+def child_env(single_process: bool) -> dict[str, str]:
     env = dict(os.environ)
-    if realtime:
-        env.setdefault("ROBOT_CONTROLLER_RT_PRIORITY", str(DEFAULT_RT_PRIORITY))
-    else:
-        env.pop("ROBOT_CONTROLLER_RT_PRIORITY", None)
     env.setdefault("PYTHONUNBUFFERED", "1")
     env.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "0")
     env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
@@ -128,6 +139,7 @@ def child_env(single_process: bool, realtime: bool = True) -> dict[str, str]:
                    "[{severity}] [{name}] {message}" if single_process else "[{severity}] {message}")
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     env.setdefault(*FASTDDS_PUBLICATION_MODE)
+    env.pop(scheduling.PACING_RT_ENV, None)
     return env
 
 
@@ -144,10 +156,18 @@ class RunResult:
     wall_seconds: float
     message_counts: dict[str, int]
     failure: str | None = None
+    published_counts: dict[str, int] = field(default_factory=dict)  #: what the nodes say they sent
+    usage: dict[str, float] = field(default_factory=dict)  #: cpu_pct_*, rss_* over the run (proc_stats)
 
     @property
     def real_time_factor(self) -> float:
         return self.control_seconds / self.wall_seconds if self.wall_seconds > 0 else float("nan")
+
+    @property
+    def unrecorded(self) -> dict[str, int]:
+        """Messages published but missing from the bag, per topic (only topics the bag records)."""
+        return {topic: sent - self.message_counts.get(topic, 0) for topic, sent in self.published_counts.items()
+                if topic in self.message_counts and sent != self.message_counts.get(topic, 0)}
 
 
 # Lockstep: no /clock progress for this long (wall) means the graph is stuck.
@@ -172,15 +192,36 @@ def lockstep_params(params: cfg.Params) -> cfg.Params:
     return out
 
 
+class RecorderLink:
+    """What the recorder process reports on its stdout: ready, counts, /clock."""
+
+    def __init__(self, topics: list[str]) -> None:
+        self.ready = threading.Event()
+        self.counts = {topic: 0 for topic in topics}
+        self.clock_s = 0.0
+
+    def on_line(self, line: str) -> bool:
+        if line.startswith(rec.PROGRESS_PREFIX):
+            progress = json.loads(line[len(rec.PROGRESS_PREFIX):])
+            self.counts, self.clock_s = progress["counts"], progress["clock_s"]
+            return True
+        if line.strip() == rec.READY_LINE:
+            self.ready.set()
+            return True
+        return False
+
+
+RECORDER_READY_TIMEOUT_S = 30.0
+# CPU and memory are measured from this long after the loop closes (start-up
+# allocations and imports are not the loop's running cost) to its end.
+USAGE_WARMUP_S = 2.0
+
+
 def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_process: bool = False,
-           realtime: bool = True, sim_time: bool = False) -> RunResult:
+           realtime: bool = False, sim_time: bool = False) -> RunResult:
     """Run the graph for ``duration_s`` seconds of control (sim seconds with
-    ``sim_time``), recording into ``out_dir/bag``."""
-    import rclpy
-    from rclpy.signals import SignalHandlerOptions
-
-    from robot_controller.nodes.recorder import BagRecorder
-
+    ``sim_time``), recording into ``out_dir/bag``. ``realtime``: the
+    simulator's pacing thread runs SCHED_FIFO (see ``scheduling``)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     if sim_time:
         params = lockstep_params(params)
@@ -188,96 +229,152 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     bag_dir = out_dir / "bag"
     if bag_dir.exists():
         raise FileExistsError(f"{bag_dir} exists: choose another --out")
-
-    saved_policy = (os.sched_getscheduler(0), os.sched_getparam(0))
+    counts_dir = Path(tempfile.mkdtemp(prefix="robot-controller-counts-"))
+    env = child_env(single_process)
+    env.update({RECORDED_ENV: "1", COUNTS_DIR_ENV: str(counts_dir)})
+    node_env = dict(env)
     if realtime:
-        from robot_controller.nodes.base import request_realtime_priority
-
-        note = request_realtime_priority(str(RECORDER_RT_PRIORITY))
-        if note:
-            say(f"recorder {note}")
+        node_env[scheduling.PACING_RT_ENV] = str(scheduling.PACING_RT_PRIORITY)
     # SIGTERM (a CI timeout, `kill`) stops the run as cleanly as Ctrl-C does.
     previous_sigterm = signal.signal(signal.SIGTERM, _raise_interrupt)
-    os.environ.setdefault(*FASTDDS_PUBLICATION_MODE)  # the recorder, in this process
-    context = rclpy.Context()
-    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    link = RecorderLink(list(rec.topics_for(sim_time)))
     failure: str | None = None
     control_seconds = wall_seconds = 0.0
+    usage: dict[str, float] = {}
     try:
-        with BagRecorder(context, bag_dir, sim_time=sim_time) as recorder, ProcessGroup(child_env(single_process, realtime)) as group:
-            if single_process:
-                group.start("stack", node_argv("all_in_one", params_file))
-            else:
-                for name in NODE_ORDER:
-                    group.start(name, node_argv(name, params_file))
+        with ProcessGroup(env) as group:
+            recorder = group.start("recorder", [sys.executable, "-m", "robot_controller.nodes.recorder",
+                                                str(bag_dir)] + (["--sim-time"] if sim_time else []),
+                                   on_line=link.on_line)
+            nodes: list[Child] = []
             try:
-                failure = _wait_first_tick(recorder, group)
+                failure = _wait_recorder(link, group)
+                if failure is None:
+                    names = ("stack",) if single_process else NODE_ORDER
+                    for name in names:
+                        nodes.append(group.start(name, node_argv("all_in_one" if single_process else name,
+                                                                 params_file), env=node_env))
+                    failure = _wait_first_tick(link, group)
                 if failure is None:
                     started = time.monotonic()
                     say(f"control loop running; recording {duration_s:g} {'sim ' if sim_time else ''}s "
                         f"into {bag_dir}")
+                    meter = UsageMeter(group.children, started + min(USAGE_WARMUP_S, duration_s / 4))
                     if sim_time:
-                        sim_start = recorder.clock_s
-                        failure = _wait_sim(group, recorder, sim_start + duration_s)
-                        control_seconds = recorder.clock_s - sim_start
+                        sim_start = link.clock_s
+                        failure = _wait_sim(group, link, sim_start + duration_s, meter)
+                        control_seconds = link.clock_s - sim_start
                     else:
-                        failure = _wait(group, started + duration_s)
+                        failure = _wait(group, started + duration_s, meter)
                         control_seconds = time.monotonic() - started
                     wall_seconds = time.monotonic() - started
+                    usage = meter.finish()
             except KeyboardInterrupt:
                 say("interrupted: stopping the nodes")
-                failure = None if recorder.counts["/controller/state"] else "interrupted before the loop ran"
-            codes = group.stop()
-            counts = dict(recorder.counts)
+                failure = None if link.counts.get("/controller/state") else "interrupted before the loop ran"
+            # The nodes first, then the recorder, which takes what is still in flight.
+            codes = group.stop(nodes)
+            codes.update(group.stop([recorder]))
+        counts = dict(link.counts)
+        published = _read_published_counts(counts_dir)
         bad = {n: c for n, c in codes.items() if c not in (0, -signal.SIGINT, 130)}
         if failure is None and bad:
             failure = "node(s) exited with an error on shutdown: " + ", ".join(f"{n} ({c})" for n, c in bad.items())
     finally:
-        rclpy.try_shutdown(context=context)
         signal.signal(signal.SIGTERM, previous_sigterm)
-        try:
-            os.sched_setscheduler(0, *saved_policy)
-        except OSError:
-            pass
+        shutil.rmtree(counts_dir, ignore_errors=True)
+    # What each topic's publishers in the stack say they sent: the bag must hold as many.
+    (out_dir / "published.json").write_text(json.dumps(published, indent=2, sort_keys=True) + "\n")
+    result = RunResult(1 if failure else 0, bag_dir, control_seconds, wall_seconds, counts, failure, published,
+                       usage)
+    if result.unrecorded:
+        say("WARNING: the bag misses messages the nodes published: "
+            + ", ".join(f"{t} {n}" for t, n in result.unrecorded.items()))
     if failure:
         say(f"FAILED: {failure}")
-    return RunResult(1 if failure else 0, bag_dir, control_seconds, wall_seconds, counts, failure)
+    return result
+
+
+class UsageMeter:
+    """Samples every child (and this launcher) once at ``start_at`` and once at the end."""
+
+    def __init__(self, children: list[Child], start_at: float) -> None:
+        self.pids = {c.name: c.process.pid for c in children}
+        self.start_at = start_at
+        self.first: dict[str, proc_stats.Sample | None] | None = None
+        self.first_time = 0.0
+
+    def _sample(self) -> dict[str, proc_stats.Sample | None]:
+        out = {name: proc_stats.sample(pid) for name, pid in self.pids.items()}
+        out["launcher"] = proc_stats.self_sample()
+        return out
+
+    def poll(self) -> None:
+        if self.first is None and time.monotonic() >= self.start_at:
+            self.first, self.first_time = self._sample(), time.monotonic()
+
+    def finish(self) -> dict[str, float]:
+        if self.first is None:
+            return {}
+        return proc_stats.usage(self.first, self._sample(), time.monotonic() - self.first_time)
+
+
+def _read_published_counts(counts_dir: Path) -> dict[str, int]:
+    total: dict[str, int] = {}
+    for path in counts_dir.glob("*.json"):
+        try:
+            for topic, count in json.loads(path.read_text()).items():
+                total[topic] = total.get(topic, 0) + int(count)
+        except (OSError, ValueError):
+            continue
+    return total
 
 
 def _raise_interrupt(signum, frame) -> None:
     raise KeyboardInterrupt
 
 
-def _wait_first_tick(recorder, group: ProcessGroup) -> str | None:
+def _wait_recorder(link: RecorderLink, group: ProcessGroup) -> str | None:
+    deadline = time.monotonic() + RECORDER_READY_TIMEOUT_S
+    while not link.ready.wait(0.05):
+        if dead := group.dead():
+            return _died(dead)
+        if time.monotonic() > deadline:
+            return f"the recorder was not ready within {RECORDER_READY_TIMEOUT_S:g} s"
+    return None
+
+
+def _wait_first_tick(link: RecorderLink, group: ProcessGroup) -> str | None:
     deadline = time.monotonic() + FIRST_TICK_TIMEOUT_S
-    while not recorder.counts["/controller/state"]:
+    while not link.counts.get("/controller/state"):
         if dead := group.dead():
             return _died(dead)
         if time.monotonic() > deadline:
             return f"no /controller/state within {FIRST_TICK_TIMEOUT_S:g} s of start"
-        recorder.event.wait(0.1)
-        recorder.event.clear()
+        time.sleep(0.02)
     return None
 
 
-def _wait(group: ProcessGroup, until: float) -> str | None:
+def _wait(group: ProcessGroup, until: float, meter: UsageMeter) -> str | None:
     while (remaining := until - time.monotonic()) > 0:
         if dead := group.dead():
             return _died(dead)
+        meter.poll()
         time.sleep(min(0.1, remaining))
     return None
 
 
-def _wait_sim(group: ProcessGroup, recorder, until_sim_s: float) -> str | None:
-    last_clock, last_change = recorder.clock_s, time.monotonic()
-    while recorder.clock_s < until_sim_s:
+def _wait_sim(group: ProcessGroup, link: RecorderLink, until_sim_s: float, meter: UsageMeter) -> str | None:
+    last_clock, last_change = link.clock_s, time.monotonic()
+    while link.clock_s < until_sim_s:
         if dead := group.dead():
             return _died(dead)
-        if recorder.clock_s != last_clock:
-            last_clock, last_change = recorder.clock_s, time.monotonic()
+        meter.poll()
+        if link.clock_s != last_clock:
+            last_clock, last_change = link.clock_s, time.monotonic()
         elif time.monotonic() - last_change > STALL_TIMEOUT_S:
             return f"lockstep stalled at t = {last_clock:.3f} s: no tick for {STALL_TIMEOUT_S:g} s"
-        time.sleep(0.02)
+        time.sleep(0.01)
     return None
 
 

@@ -3,6 +3,7 @@ DESIGN.md §5, write ``metrics.json`` and ``tracking.png``. Works on any saved
 bag, so a run can be re-scored later (``robot-controller score DIR``)."""
 from __future__ import annotations
 
+import bisect
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -62,12 +63,14 @@ def read_recording(bag_dir: Path) -> Recording:
     true_e: list[np.ndarray] = []
     receipt: dict[str, list[int]] = {}
     latency: list[float] = []
+    receipts: list[np.ndarray] = []
     reading_t: list[float] = []
     reading_q: list[np.ndarray] = []
     with Reader(bag_dir) as reader:
         counts = {c.topic: c.msgcount for c in reader.connections}
         wanted = [c for c in reader.connections
-                  if c.topic in ("/controller/state", "/sim/joint_states", "/motor/command_latency", "/joint_states")]
+                  if c.topic in ("/controller/state", "/sim/joint_states", "/motor/command_latency",
+                               "/motor/command_receipts", "/joint_states")]
         for connection in reader.connections:
             receipt.setdefault(connection.topic, [])
         for connection, timestamp, raw in reader.messages():
@@ -77,8 +80,10 @@ def read_recording(bag_dir: Path) -> Recording:
             msg = typestore.deserialize_cdr(raw, connection.msgtype)
             if connection.topic == "/controller/state":
                 state_rows.append(np.asarray(msg.data, dtype=float))
-            elif connection.topic == "/motor/command_latency":
+            elif connection.topic == "/motor/command_latency":  # bags from before the receipts
                 latency.extend(np.asarray(msg.data, dtype=float).tolist())
+            elif connection.topic == "/motor/command_receipts":
+                receipts.append(np.asarray(msg.data, dtype=float))
             elif connection.topic == "/joint_states":
                 reading_t.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
                 reading_q.append(np.asarray(msg.position, dtype=float))
@@ -91,11 +96,34 @@ def read_recording(bag_dir: Path) -> Recording:
         raise ValueError(f"{bag_dir}: no /controller/state or /sim/joint_states recorded")
     joint_count = state_layout.joint_count_of(len(state_rows[0]))
     state = state_layout.decode(np.vstack(state_rows), joint_count)
+    if receipts:
+        latency = motor_latency_s(state, np.concatenate(receipts).reshape(-1, 1 + joint_count)).tolist()
     return Recording(state=state, true_time_s=np.asarray(true_t), true_position=np.vstack(true_q),
                      true_velocity=np.vstack(true_v), true_effort=np.vstack(true_e), counts=counts,
                      receipt_s={k: np.asarray(v) * 1e-9 for k, v in receipt.items()},
                      motor_latency_s=np.asarray(latency), reading_stamp_s=np.asarray(reading_t),
                      reading_position=np.vstack(reading_q) if reading_q else np.zeros((0, joint_count)))
+
+
+def motor_latency_s(state: dict[str, np.ndarray], receipts: np.ndarray) -> np.ndarray:
+    """Sensor stamp → command at the motor, per command the motor received.
+
+    ``receipts`` rows are ``[receipt_time_s, command…]`` (the motor's); each is
+    paired with the controller tick that issued the same command, the latest
+    whose reading was taken before the receipt.
+    """
+    stamps_by_command: dict[tuple[float, ...], list[float]] = {}
+    for command, stamp in zip(map(tuple, state["command"].tolist()), state["measurement_stamp_s"].tolist()):
+        stamps_by_command.setdefault(command, []).append(stamp)
+    out = []
+    for row in receipts.tolist():
+        stamps = stamps_by_command.get(tuple(row[1:]))
+        if not stamps:
+            continue  # a command from another publisher, or its tick not recorded
+        index = bisect.bisect_right(stamps, row[0]) - 1  # stamps are in tick order
+        if index >= 0:
+            out.append(row[0] - stamps[index])
+    return np.asarray(out)
 
 
 def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: float = metrics.WARMUP_S,

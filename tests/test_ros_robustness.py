@@ -181,7 +181,7 @@ def _start_launcher(out):
             break
         assert time.monotonic() < deadline, "the loop did not start"
     children = _children_of(launcher.pid)
-    assert len(children) == 5, [(_cmdline(p)) for p in children]
+    assert len(children) == 6, [(_cmdline(p)) for p in children]  # five nodes and the recorder
     return launcher, children
 
 

@@ -3,6 +3,7 @@
 Each test runs the project's own command on its own ROS_DOMAIN_ID.
 """
 import json
+import os
 import re
 import subprocess
 import sys
@@ -18,7 +19,7 @@ EXPECTED_TOPICS = {
     "/joint_states": ("sensor_msgs/msg/JointState", 100.0),
     "/joint_commands": ("std_msgs/msg/Float64MultiArray", 100.0),
     "/sim/effort": ("std_msgs/msg/Float64MultiArray", 100.0),
-    "/sim/joint_states": ("sensor_msgs/msg/JointState", 200.0),
+    "/sim/joint_states": ("sensor_msgs/msg/JointState", 100.0),
     "/controller/state": ("std_msgs/msg/Float64MultiArray", 100.0),
 }
 # The tutorial's log line, under the node's name (process prefix or, in one process, the logger name).
@@ -93,6 +94,63 @@ def test_rescoring_a_saved_run_gives_the_same_figures(tmp_path, ros_domain):
     assert rescored["tracking_rms_rad"] == saved["tracking_rms_rad"]
 
 
+def test_the_bag_holds_every_message_the_nodes_published(tmp_path, ros_domain):
+    out = tmp_path / "run"
+    proc = run_cli(out, duration=5.0)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    published = json.loads((out / "published.json").read_text())
+    with Reader(out / "bag") as reader:
+        recorded = {c.topic: c.msgcount for c in reader.connections}
+    for topic in (*EXPECTED_TOPICS, "/diagnostics", "/motor/command_receipts"):
+        assert published[topic] > 0, topic
+        assert recorded[topic] == published[topic], topic
+    assert json.loads((out / "metrics.json").read_text())["unrecorded_messages"] == 0
+
+
+def _realtime_threads(tmp_path, *extra) -> dict[int, list[int]]:
+    """Run the stack; once the loop runs, each process's SCHED_FIFO/RR threads."""
+    proc = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--duration", "3", "--out",
+                             str(tmp_path / f"run{len(extra)}"), *extra], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    found: dict[int, list[int]] = {}
+    for line in proc.stdout:
+        if "control loop running" in line:
+            for pid in _descendants(proc.pid):
+                for tid in map(int, os.listdir(f"/proc/{pid}/task") if os.path.isdir(f"/proc/{pid}/task") else []):
+                    try:
+                        if os.sched_getscheduler(tid) in (os.SCHED_FIFO, os.SCHED_RR):
+                            found.setdefault(pid, []).append(tid)
+                    except OSError:
+                        pass
+            break
+    output = proc.stdout.read()
+    assert proc.wait(timeout=120) == 0, output[-3000:]
+    return found
+
+
+def test_no_thread_runs_real_time_unless_asked(tmp_path, ros_domain):
+    """The kernel's throttling of SCHED_FIFO tasks froze the whole loop: by
+    default nothing is real-time; --realtime makes one thread so (where permitted)."""
+    assert _realtime_threads(tmp_path) == {}
+    if os.geteuid() != 0:
+        pytest.skip("SCHED_FIFO needs root or CAP_SYS_NICE")
+    asked = _realtime_threads(tmp_path, "--realtime")
+    assert sum(len(tids) for tids in asked.values()) == 1, asked
+
+
+def _descendants(pid: int) -> list[int]:
+    out = subprocess.run(["ps", "-e", "-o", "pid=,ppid="], capture_output=True, text=True).stdout.split()
+    children: dict[int, list[int]] = {}
+    for child, parent in zip(map(int, out[::2]), map(int, out[1::2])):
+        children.setdefault(parent, []).append(child)
+    found, todo = [], [pid]
+    while todo:
+        current = todo.pop()
+        found.append(current)
+        todo.extend(children.get(current, []))
+    return found
+
+
 def test_bench_quick_writes_every_key(tmp_path, ros_domain):
     out = tmp_path / "bench"
     proc = subprocess.run([sys.executable, "-m", "robot_controller.cli", "bench", "--quick", "--out", str(out)],
@@ -101,7 +159,11 @@ def test_bench_quick_writes_every_key(tmp_path, ros_domain):
     figures = json.loads((out / "bench.json").read_text(), parse_constant=lambda c: pytest.fail(f"{c} in JSON"))
     for key in ("wall100_jitter_p99_ms", "wall100_missed", "wall100_latency_p99_ms", "wall1k_missed_pct",
                 "lockstep_rtf_multi", "lockstep_rtf_single", "core_steps_per_s", "batch_sim_s_per_s",
-                "wall100_loaded_jitter_p99_ms", "wall100_loaded_missed"):
+                "wall100_loaded_jitter_p99_ms", "wall100_loaded_missed", "hop_limit_rtf", "lockstep_rtf_vs_hop_limit",
+                "soak_missed", "soak_stalls_30ms", "soak_watchdog_ticks", "soak_jitter_p99_ms", "soak_jitter_max_ms",
+                "soak_tracking_max_rad", "soak_rss_growth_mb", "cpu_pct_total", "cpu_pct_recorder",
+                *(f"cpu_pct_{node}" for node in ("simulator", "motor_node", "sensor_node", "pid_controller",
+                                                 "trajectory_planner"))):
         assert isinstance(figures[key], (int, float)), key
     assert figures["lockstep_rtf_multi"] > 0 and figures["batch_sim_s_per_s"] > 0
     assert "| target | figure | met? |" in (out / "bench.md").read_text()

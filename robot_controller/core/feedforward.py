@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 from enum import Enum
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from robot_controller.core.plant import ArmDynamics
+if TYPE_CHECKING:
+    from robot_controller.core.plant import ArmDynamics
 
 
 class FeedforwardMode(str, Enum):

@@ -53,6 +53,9 @@ def tracking_metrics(tick_time_s: np.ndarray, reference_position: np.ndarray, tr
     }
 
 
+STALL_S = 0.030
+
+
 def rate_metrics(tick_time_s: np.ndarray, nominal_period_s: float) -> dict[str, float]:
     """Achieved rate and period jitter (|period − nominal|) of a periodic loop."""
     t = np.asarray(tick_time_s, dtype=float)
@@ -66,6 +69,9 @@ def rate_metrics(tick_time_s: np.ndarray, nominal_period_s: float) -> dict[str, 
         "jitter_p99_ms": float(np.percentile(jitter_ms, 99)),
         "jitter_max_ms": float(np.max(jitter_ms)),
         "missed_cycles": int(np.count_nonzero(periods > 1.5 * nominal_period_s)),
+        # a gap long enough to matter to an arm: three periods of a 100 Hz loop
+        "stalls_30ms": int(np.count_nonzero(periods > STALL_S)),
+        "longest_period_ms": float(np.max(periods) * 1e3),
     }
 
 

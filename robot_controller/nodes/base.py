@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import gc
+import json
 import os
 import signal
 import sys
@@ -57,6 +58,7 @@ class StackNode(Node):
         self.params = self._validated({spec.name: self.get_parameter(spec.name).value
                                        for spec in cfg.SCHEMA[schema_name]})
         self._warned_at: dict[str, tuple[float, int]] = {}
+        self.gated_publishers: list[GatedPublisher] = []
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._post_set_parameters)
 
@@ -113,12 +115,24 @@ class StackNode(Node):
             self._warned_at[key] = (last, suppressed + 1)
 
 
-# Nodes that only watch (the launcher's recorder) do not count as consumers.
-OBSERVER_NODES = frozenset({"recorder"})
+# Nodes that only watch (the recorder, a viewer) do not count as consumers.
+RECORDER_NODE = "recorder"
+OBSERVER_NODES = frozenset({RECORDER_NODE})
+
+# Set by the launcher when a recorder runs: every publisher then also waits
+# for the recorder, so the bag holds every message the loop ever sent.
+RECORDED_ENV = "ROBOT_CONTROLLER_RECORDED"
+# Where each node writes how many messages it published, per topic, when it
+# stops (the launcher compares them with the bag).
+COUNTS_DIR_ENV = "ROBOT_CONTROLLER_COUNTS_DIR"
+
+
+def recorded() -> bool:
+    return os.environ.get(RECORDED_ENV, "") == "1"
 
 
 # Discovery is two-sided: a writer can see a reader before the reader knows
-# the writer, and the reader drops what arrives in between. A consumer counts
+# the writer, and the reader drops what arrives in between. A reader counts
 # as matched once it has been seen for this long.
 MATCH_SETTLE_S = 0.5
 
@@ -128,15 +142,29 @@ def has_consumer(node: Node, topic: str) -> bool:
     return any(info.node_name not in OBSERVER_NODES for info in node.get_subscriptions_info_by_topic(topic))
 
 
-class ConsumerWatch:
-    """``ready()`` once a consumer of ``topic`` has been seen for ``MATCH_SETTLE_S`` (wall time)."""
+def has_recorder(node: Node, topic: str) -> bool:
+    return any(info.node_name == RECORDER_NODE for info in node.get_subscriptions_info_by_topic(topic))
 
-    def __init__(self, node: Node, topic: str) -> None:
+
+class ConsumerWatch:
+    """``ready()`` once the audience of ``topic`` has been seen for ``MATCH_SETTLE_S`` (wall time).
+
+    The audience is a consumer (unless ``consumer`` is False) and, when the
+    run is recorded, the recorder.
+    """
+
+    def __init__(self, node: Node, topic: str, *, consumer: bool = True) -> None:
         self.node, self.topic = node, topic
+        self.consumer = consumer
+        self.recorder = recorded()
         self.seen_since: float | None = None
 
+    def present(self) -> bool:
+        return ((not self.consumer or has_consumer(self.node, self.topic))
+                and (not self.recorder or has_recorder(self.node, self.topic)))
+
     def ready(self) -> bool:
-        if not has_consumer(self.node, self.topic):
+        if not self.present():
             self.seen_since = None
             return False
         now = time.monotonic()
@@ -146,23 +174,32 @@ class ConsumerWatch:
 
 
 class GatedPublisher:
-    """Holds the latest message until a consumer has matched, then publishes.
+    """Holds the latest message until its audience has matched, then publishes;
+    counts what it published.
 
     In lockstep nothing is ever re-sent (a re-sent effort would double a
     tick), so the first message must not go out before anyone listens; in
     wall-clock mode only the newest held message is worth sending.
+    ``consumer=False``: telemetry, whose only audience is the recorder.
     """
 
-    def __init__(self, node: Node, publisher: Any, topic: str) -> None:
-        self.node, self.publisher, self.topic = node, publisher, topic
-        self.watch = ConsumerWatch(node, topic)
-        self.open = False
+    def __init__(self, node: StackNode, msg_type: Any, topic: str, *, consumer: bool = True,
+                 qos: QoSProfile = None) -> None:
+        self.node, self.topic = node, topic
+        self.publisher = node.create_publisher(msg_type, topic, qos or CONTROL_QOS)
+        self.watch = ConsumerWatch(node, topic, consumer=consumer)
+        self.open = not consumer and not self.watch.recorder
+        self.count = 0
         self.pending: list[Any] = []
-        self._poll = node.create_timer(0.05, self._check, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self._poll = None
+        if not self.open:
+            self._poll = node.create_timer(0.05, self._check, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        node.gated_publishers.append(self)
 
     def publish(self, msg: Any) -> None:
         if self.open:
             self.publisher.publish(msg)
+            self.count += 1
         else:
             self.pending = [copy.deepcopy(msg)]
             self._check()
@@ -174,32 +211,28 @@ class GatedPublisher:
         self.node.destroy_timer(self._poll)
         for msg in self.pending:
             self.publisher.publish(msg)
+            self.count += 1
         self.pending.clear()
+
+
+def write_publish_counts(nodes: list[StackNode]) -> None:
+    """Each node's published-message counts, for the launcher to check the bag against."""
+    counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
+    if not counts_dir:
+        return
+    for node in nodes:
+        counts: dict[str, int] = {}
+        for gated in node.gated_publishers:
+            counts[gated.topic] = counts.get(gated.topic, 0) + gated.count
+        try:
+            with open(os.path.join(counts_dir, f"{node.schema_name}.json"), "w") as f:
+                json.dump(counts, f)
+        except OSError:
+            pass
 
 
 def stamp_to_s(stamp: Any) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
-
-
-RT_PRIORITY_ENV = "ROBOT_CONTROLLER_RT_PRIORITY"
-
-
-def request_realtime_priority(priority_env: str | None = None) -> str | None:
-    """Run this process under SCHED_FIFO at ``$ROBOT_CONTROLLER_RT_PRIORITY`` (1–99), if set and permitted.
-
-    Called before rclpy starts, so the DDS threads inherit the policy. On a
-    shared 2-core machine this is what keeps a 100 Hz Python loop from being
-    starved for 100 ms at a time. Returns a note for the log, or None.
-    """
-    value = os.environ.get(RT_PRIORITY_ENV, "") if priority_env is None else priority_env
-    if not value:
-        return None
-    try:
-        priority = int(value)
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
-    except (ValueError, OSError, AttributeError) as exc:
-        return f"real-time priority {value!r} not applied ({exc}); running with normal scheduling"
-    return f"running SCHED_FIFO priority {priority}"
 
 
 # Cleanup that takes longer than this is stuck (rclpy's destroy_node can wait
@@ -226,7 +259,7 @@ def shutting_down(within_s: float = 0.5) -> bool:
     return True
 
 
-def make_executor() -> Executor:
+def make_executor(context: rclpy.Context | None = None) -> Executor:
     """rclpy's EventsExecutor: it waits on events instead of rebuilding a wait
     set for every callback, which more than doubles the lockstep speed
     (measured: real-time factor 2.4 against 1.1). ``ROBOT_CONTROLLER_EXECUTOR=single``
@@ -234,8 +267,8 @@ def make_executor() -> Executor:
     if os.environ.get("ROBOT_CONTROLLER_EXECUTOR", "events") == "events":
         from rclpy.experimental import EventsExecutor
 
-        return EventsExecutor()
-    return SingleThreadedExecutor()
+        return EventsExecutor(context=context)
+    return SingleThreadedExecutor(context=context)
 
 
 _stop_requested = threading.Event()
@@ -260,20 +293,20 @@ def spin(executor: Executor) -> None:
         executor.spin_once(timeout_sec=0.1)
 
 
-def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
-    """Init, spin until Ctrl-C or shutdown, clean up; a bad parameter exits 2 with its reason."""
-    priority_note = request_realtime_priority()
+def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: list[str] | None = None) -> int:
+    """Init, build the node(s) on one executor, spin until Ctrl-C or shutdown,
+    clean up; a bad parameter exits 2 with its reason."""
+    factories = node_factories if isinstance(node_factories, list) else [node_factories]
     init_with_own_signals(args)
-    node = None
+    nodes: list[Node] = []
     code = [0]
     executor = make_executor()
     try:
-        node = node_factory()
-        if priority_note:
-            node.get_logger().info(priority_note)
-        executor.add_node(node)
-        # Everything built so far lives as long as the node: keep it out of every
-        # later full collection, which would otherwise pause the loop.
+        for factory in factories:
+            nodes.append(factory())
+            executor.add_node(nodes[-1])
+        # Everything built so far lives as long as the nodes: keep it out of
+        # every later full collection, which would otherwise pause the loop.
         gc.freeze()
         spin(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
@@ -289,8 +322,9 @@ def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
     finally:
         guard = exit_after_cleanup_timeout(code)
         executor.shutdown(timeout_sec=1.0)
-        if node is not None:
+        for node in nodes:
             node.destroy_node()
+        write_publish_counts([n for n in nodes if isinstance(n, StackNode)])
         rclpy.try_shutdown()
         guard.cancel()
     return code[0]

@@ -1,25 +1,25 @@
 """motor_node: the actuator. Each ``/joint_commands`` torque is saturated to
 ``±torque_max`` (and lagged, if set) and passed on as ``/sim/effort`` at once.
 
-It also measures the loop's end-to-end latency where it ends: from the
-stamp of the sensor reading a command was computed from (carried on
-``/controller/state`` beside the same command) to the moment the command
-reached the motor. One value per command on ``/motor/command_latency`` (s).
+It also notes when each command reached it, so the loop's end-to-end latency
+(the stamp of the reading a command was computed from, on
+``/controller/state`` beside the same command, to the command's arrival
+here) can be scored from the recording. The receipts go out once a second as
+one ``/motor/command_receipts`` message, rows of ``[receipt_time_s,
+command…]``: a summary instead of a message per tick on the loop's path.
 """
 from __future__ import annotations
 
-from collections import deque
-
-import numpy as np
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller import config as cfg
 from robot_controller import resources
-from robot_controller.core import state_layout
 from robot_controller.core.actuator import Actuator
 from robot_controller.core.plant import joint_names, load_model
 from robot_controller.core.validation import check_effort
-from robot_controller.nodes.base import CONTROL_QOS, StackNode, run
+from robot_controller.nodes.base import CONTROL_QOS, GatedPublisher, StackNode, run
+
+RECEIPTS_PERIOD_S = 1.0
 
 
 class MotorNode(StackNode):
@@ -29,15 +29,12 @@ class MotorNode(StackNode):
         self.joint_count = len(self.joint_names)
         self.actuator = self._make_actuator(self.params)
         self.last_command_s: float | None = None
-        self.effort_pub = self.create_publisher(Float64MultiArray, "/sim/effort", CONTROL_QOS)
+        self.effort_pub = GatedPublisher(self, Float64MultiArray, "/sim/effort")
         self.create_subscription(Float64MultiArray, "/joint_commands", self.command_callback, CONTROL_QOS)
         self.effort_msg = Float64MultiArray()
-        # (receipt time, command) of recent commands, to pair with /controller/state
-        self.recent_commands: deque[tuple[float, tuple[float, ...]]] = deque(maxlen=32)
-        self.latency_pub = self.create_publisher(Float64MultiArray, "/motor/command_latency", CONTROL_QOS)
-        self.create_subscription(Float64MultiArray, "/controller/state", self.controller_state_callback,
-                                 CONTROL_QOS)
-        self.latency_msg = Float64MultiArray()
+        self.receipts: list[float] = []  # flat rows of [receipt_time_s, command…]
+        self.receipts_pub = GatedPublisher(self, Float64MultiArray, "/motor/command_receipts", consumer=False)
+        self.create_timer(RECEIPTS_PERIOD_S, self.publish_receipts)
         self.get_logger().info(f"motor: torque limit ±{self.actuator.torque_max.tolist()} N·m, "
                                f"lag {self.actuator.lag_time_constant_s:g} s")
 
@@ -58,25 +55,29 @@ class MotorNode(StackNode):
             self.warn_throttled("command", f"/joint_commands dropped: {checked}")
             return
         now_s = self.now_s()
-        self.recent_commands.append((now_s, tuple(msg.data)))
+        self.receipts.append(now_s)
+        self.receipts.extend(msg.data)
         dt = 0.0 if self.last_command_s is None else now_s - self.last_command_s
         self.last_command_s = now_s
         applied = self.actuator.apply(checked, dt)
         self.effort_msg.data = applied.tolist()
         self.effort_pub.publish(self.effort_msg)
 
-
-    def controller_state_callback(self, msg: Float64MultiArray) -> None:
-        try:
-            state = state_layout.decode(np.asarray(msg.data), self.joint_count)
-        except ValueError:
+    def publish_receipts(self) -> None:
+        if not self.receipts:
             return
-        command = tuple(state["command"].tolist())
-        for receipt_s, received in reversed(self.recent_commands):
-            if received == command:
-                self.latency_msg.data = [receipt_s - float(state["measurement_stamp_s"])]
-                self.latency_pub.publish(self.latency_msg)
-                return
+        row = 1 + self.joint_count
+        msg = Float64MultiArray()
+        msg.layout.dim = [MultiArrayDimension(label="commands", size=len(self.receipts) // row,
+                                              stride=len(self.receipts)),
+                          MultiArrayDimension(label="receipt_time_s,command", size=row, stride=row)]
+        msg.data = self.receipts
+        self.receipts = []
+        self.receipts_pub.publish(msg)
+
+    def destroy_node(self) -> None:
+        self.publish_receipts()  # the last second's
+        super().destroy_node()
 
 
 def main(args: list[str] | None = None) -> int:

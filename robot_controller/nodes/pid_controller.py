@@ -46,15 +46,14 @@ class PidControllerNode(StackNode):
         self.controller = JointController(cfg.controller_config(self.params, self.joint_count), self.joint_count,
                                           self.dynamics)
         self.lockstep = self.params["lockstep"]
-        self.command_pub = GatedPublisher(
-            self, self.create_publisher(Float64MultiArray, "/joint_commands", CONTROL_QOS), "/joint_commands")
-        self.state_pub = self.create_publisher(Float64MultiArray, "/controller/state", CONTROL_QOS)
-        self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", CONTROL_QOS)
+        self.command_pub = GatedPublisher(self, Float64MultiArray, "/joint_commands")
+        self.state_pub = GatedPublisher(self, Float64MultiArray, "/controller/state", consumer=False)
+        self.diagnostics_pub = GatedPublisher(self, DiagnosticArray, "/diagnostics", consumer=False)
         self.create_subscription(JointState, "/joint_states", self.joint_state_callback, CONTROL_QOS)
         self.create_subscription(Float64MultiArray, "/trajectory", self.trajectory_callback, CONTROL_QOS)
         self.timer = None
         if not self.lockstep:
-            self.timer = self.create_timer(1.0 / self.params["control_rate_hz"], self.control_callback)
+            self.timer = self.create_timer(self.timer_period_s(self.params), self.control_callback)
         self.create_timer(self.params["diagnostics_period_s"], self.diagnostics_callback)
         self.pending_tick_s: float | None = None  # lockstep: measurement waiting for its reference
         self.pending_since = 0.0  # wall time (monotonic) the pending tick began waiting
@@ -82,9 +81,19 @@ class PidControllerNode(StackNode):
 
     def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
         self.controller.set_config(cfg.controller_config(params, self.joint_count))
-        if "control_rate_hz" in changed and self.timer is not None:
+        if changed & {"control_rate_hz", "trigger", "watchdog_periods"} and self.timer is not None:
             self.destroy_timer(self.timer)
-            self.timer = self.create_timer(1.0 / params["control_rate_hz"], self.control_callback)
+            self.timer = self.create_timer(self.timer_period_s(params), self.control_callback)
+
+    @staticmethod
+    def timer_period_s(params: dict[str, Any]) -> float:
+        """The timer ticks the loop (``trigger: timer``), or with readings driving
+        it only watches for their absence: twice per watchdog window is enough,
+        and a quarter of the callbacks of a 100 Hz timer."""
+        period_s = 1.0 / params["control_rate_hz"]
+        if params["trigger"] == "measurement":
+            return period_s * max(1.0, params["watchdog_periods"] / 2)
+        return period_s
 
     # --- inputs -------------------------------------------------------------------
 

@@ -1,28 +1,46 @@
-"""A rosbag2 recorder in Python: subscribes to the loop's topics without
-deserialising (raw CDR) and writes them to an MCAP bag with rosbags, the way
-``ros2 bag record`` would, so Foxglove, PlotJuggler and ``ros2 bag`` open it.
+"""recorder: a rosbag2 recorder in a process of its own, below the loop.
+
+Subscribes to the loop's topics without deserialising (rclpy ``raw=True``
+gives the CDR bytes) and writes them as they arrive to an MCAP bag with
+rosbags, the way ``ros2 bag record`` would, so Foxglove, PlotJuggler and
+``ros2 bag`` open it. It is an observer: the launcher starts it first, at
+normal policy and nice +10, and the nodes' publishers wait for it (so the bag
+holds every message they sent) but it never competes with the loop.
+
+Talks to the launcher on stdout: ``@ready`` once subscribed, then every
+``PROGRESS_PERIOD_S`` a line ``@progress {json}`` with the counts per topic
+and, in lockstep, the latest ``/clock``. On SIGINT/SIGTERM it keeps
+recording until the topics have been quiet for ``DRAIN_QUIET_S`` (the
+nodes stop first), closes the bag and prints the final counts.
+
+    python -m robot_controller.nodes.recorder BAG_DIR [--sim-time]
 """
 from __future__ import annotations
 
+import argparse
+import json
+import signal
+import struct
+import sys
 import threading
+import time
 from pathlib import Path
 
-from rclpy.executors import SingleThreadedExecutor
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
-from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from robot_controller.nodes.base import RECORDER_NODE, make_executor
 
-from robot_controller.nodes.base import CONTROL_QOS
-
-# Reliable with a deep queue: the recorder runs at normal priority beside
-# real-time nodes and may be late, but must not lose what it is late for.
+# Reliable with a deep queue: the recorder runs below the loop and may be
+# late for a moment, but must not lose what it is late for.
 RECORDER_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
                           history=HistoryPolicy.KEEP_LAST, depth=1000)
 
@@ -37,76 +55,100 @@ TOPICS = {
 }
 TELEMETRY_TOPICS = {
     "/diagnostics": (DiagnosticArray, "diagnostic_msgs/msg/DiagnosticArray"),
-    "/motor/command_latency": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
+    "/motor/command_receipts": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
 }
 CLOCK_TOPIC = {"/clock": (Clock, "rosgraph_msgs/msg/Clock")}
 
+PROGRESS_PERIOD_S = 0.1
+DRAIN_QUIET_S = 0.3
+DRAIN_MAX_S = 3.0
+READY_LINE = "@ready"
+PROGRESS_PREFIX = "@progress "
 
-class BagRecorder:
-    """Records ``topics`` into ``bag_dir`` (MCAP) while spinning in a thread.
 
-    A context manager: entering starts recording, leaving stops the node and
-    closes the bag. ``counts`` and ``first_receipt_ns`` tell the caller what
-    has arrived.
-    """
+def topics_for(sim_time: bool) -> dict[str, tuple[type, str]]:
+    return {**TOPICS, **TELEMETRY_TOPICS, **(CLOCK_TOPIC if sim_time else {})}
 
-    def __init__(self, context, bag_dir: Path, *, sim_time: bool = False) -> None:
-        self.bag_dir = Path(bag_dir)
-        self.topics = {**TOPICS, **TELEMETRY_TOPICS, **(CLOCK_TOPIC if sim_time else {})}
-        self.node = Node("recorder", context=context, start_parameter_services=False,
-                         parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, sim_time)])
-        self.clock_s = 0.0  #: latest /clock (sim time), s
-        if sim_time:
-            self.node.create_subscription(Clock, "/clock", self._clock_callback, CONTROL_QOS)
-        self.executor = SingleThreadedExecutor(context=context)
-        self.executor.add_node(self.node)
-        self.writer = Writer(self.bag_dir, version=9, storage_plugin=StoragePlugin.MCAP)
-        self.counts = {topic: 0 for topic in self.topics}
-        self.first_receipt_ns: dict[str, int] = {}
-        self.event = threading.Event()  # set on every message: lets waiters poll cheaply
-        self._thread: threading.Thread | None = None
-        self._lock = threading.Lock()
-        self._open = False
 
-    def __enter__(self) -> BagRecorder:
+def clock_ns_of(cdr: bytes) -> int:
+    """``rosgraph_msgs/Clock`` time from its CDR bytes (little-endian: encapsulation 0x0001)."""
+    sec, nanosec = struct.unpack_from("<iI" if cdr[1] == 1 else ">iI", cdr, 4)
+    return sec * 1_000_000_000 + nanosec
+
+
+class Recorder:
+    """Writes every message of ``topics`` to ``bag_dir`` as it arrives."""
+
+    def __init__(self, context, bag_dir: Path, *, sim_time: bool) -> None:
+        self.node = Node(RECORDER_NODE, context=context, start_parameter_services=False)
+        self.sim_time = sim_time
+        self.clock_ns = 0  #: latest /clock (lockstep): the bag's time base there
+        self.writer = Writer(bag_dir, version=9, storage_plugin=StoragePlugin.MCAP)
         self.writer.open()
-        self._open = True
+        self.counts = {topic: 0 for topic in topics_for(sim_time)}
+        self.last_message = time.monotonic()
         typestore = get_typestore(Stores.ROS2_JAZZY)
-        for topic, (msg_class, type_name) in self.topics.items():
+        for topic, (msg_class, type_name) in topics_for(sim_time).items():
             connection = self.writer.add_connection(topic, type_name, typestore=typestore)
             self.node.create_subscription(msg_class, topic, self._callback(topic, connection), RECORDER_QOS,
                                           raw=True)
-        self._thread = threading.Thread(target=self._spin, name="recorder", daemon=True)
-        self._thread.start()
-        return self
-
-    def _clock_callback(self, msg: Clock) -> None:
-        self.clock_s = msg.clock.sec + msg.clock.nanosec * 1e-9
-
-    def _spin(self) -> None:
-        try:
-            self.executor.spin()
-        except Exception:  # noqa: BLE001 - context shut down under us at the end
-            pass
 
     def _callback(self, topic: str, connection):
-        clock = self.node.get_clock()
+        write = self.writer.write
+        counts = self.counts
+        is_clock = topic == "/clock"
 
         def record(data: bytes) -> None:
-            stamp = clock.now().nanoseconds
-            with self._lock:
-                if not self._open:
-                    return
-                self.writer.write(connection, stamp, data)
-            self.counts[topic] += 1
-            self.first_receipt_ns.setdefault(topic, stamp)
-            self.event.set()
+            if is_clock:
+                self.clock_ns = clock_ns_of(data)
+            write(connection, self.clock_ns if self.sim_time else time.time_ns(), data)
+            counts[topic] += 1
+            self.last_message = time.monotonic()
 
         return record
 
-    def __exit__(self, *exc_info) -> None:
-        self.executor.shutdown(timeout_sec=2.0)
-        with self._lock:
-            self._open = False
-            self.writer.close()
+    def progress(self) -> str:
+        return PROGRESS_PREFIX + json.dumps({"counts": self.counts, "clock_s": self.clock_ns * 1e-9})
+
+    def close(self) -> None:
+        self.writer.close()
         self.node.destroy_node()
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="recorder")
+    parser.add_argument("bag_dir", type=Path)
+    parser.add_argument("--sim-time", action="store_true")
+    args = parser.parse_args(argv)
+    stop = threading.Event()
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    recorder = Recorder(context, args.bag_dir, sim_time=args.sim_time)
+    executor = make_executor(context)
+    executor.add_node(recorder.node)
+    print(READY_LINE, flush=True)
+    next_progress = time.monotonic()
+    try:
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=PROGRESS_PERIOD_S)
+            if time.monotonic() >= next_progress:
+                next_progress += PROGRESS_PERIOD_S
+                print(recorder.progress(), flush=True)
+        # The nodes stop first; take what is still in flight.
+        stopped = time.monotonic()
+        deadline = stopped + DRAIN_MAX_S
+        while (time.monotonic() - max(recorder.last_message, stopped) < DRAIN_QUIET_S
+               and time.monotonic() < deadline):
+            executor.spin_once(timeout_sec=0.05)
+    finally:
+        executor.shutdown(timeout_sec=1.0)
+        recorder.close()
+        rclpy.try_shutdown(context=context)
+    print(recorder.progress(), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -30,8 +30,7 @@ class SensorNode(StackNode):
         self.period_s = 1.0 / self.params["rate_hz"]
         self.next_sample_s: float | None = None
         self.joint_names: list[str] | None = None
-        self.pub = GatedPublisher(self, self.create_publisher(JointState, "/joint_states", CONTROL_QOS),
-                                  "/joint_states")
+        self.pub = GatedPublisher(self, JointState, "/joint_states")
         self.create_subscription(JointState, "/sim/joint_states", self.true_state_callback, CONTROL_QOS)
         self.out = JointState()
         self.get_logger().info(

@@ -3,10 +3,12 @@ from the URDF at ``physics_rate_hz`` applying the latest ``/sim/effort``;
 the true state goes out on ``/sim/joint_states``, stamped with its physics
 time.
 
-Wall clock: each timer callback, and each new effort, steps as many physics
-steps as the clock says are due, so the sim keeps real time even if a
-callback is late and a new torque acts from the physics step it arrived in,
-whatever the publish rate.
+Wall clock: the simulator is the loop's hardware clock. A pacing thread
+sleeps until each absolute deadline of a ``publish_rate_hz`` grid (never a
+drifting timer), steps the physics due by then and publishes the state, so
+the sensor, and through its readings the controller, tick on a steady grid.
+A new effort, taken on the executor thread, first steps the physics up to
+its arrival on the old torque: it acts from the physics step it arrived in.
 
 Lockstep (``lockstep: true``, sim time): the sim owns time. It publishes
 ``/clock`` and the state for tick k, then waits; the effort for tick k
@@ -15,6 +17,10 @@ deterministic and as fast as the graph can go.
 """
 from __future__ import annotations
 
+import sys
+import threading
+import time
+
 import numpy as np
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -22,10 +28,10 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from robot_controller import config as cfg
-from robot_controller import resources
+from robot_controller import resources, scheduling
 from robot_controller.core.plant import MujocoPlant, steps_per_period
 from robot_controller.core.validation import check_effort
-from robot_controller.nodes.base import CONTROL_QOS, ConsumerWatch, StackNode, run
+from robot_controller.nodes.base import CONTROL_QOS, GatedPublisher, StackNode, run
 
 # Catch up at most this many physics steps in one callback; beyond, the sim
 # runs slower than real time rather than jumping.
@@ -42,33 +48,47 @@ class Simulator(StackNode):
         self.effort = np.zeros(self.joint_count)
         self.steps_done = 0
         self.physics_dt_ns = round(self.plant.physics_dt * 1e9)
-        self.anchor_ns: int | None = None  # ROS time of physics time 0 (wall clock)
+        # Wall clock: physics time 0 on the monotonic clock (pacing) and on the
+        # ROS clock (stamps); None while the brakes hold, before the first command.
+        self.anchor_mono_ns: int | None = None
+        self.anchor_ros_ns = 0
+        self.lock = threading.Lock()  # the plant and effort: pacing thread vs effort callback
         self.behind_warned = False
         self.lockstep = p["lockstep"]
         self.efforts_applied = 0
         self.ticks_published = 0
+        self.late_wakeups = 0
 
-        self.state_pub = self.create_publisher(JointState, "/sim/joint_states", CONTROL_QOS)
+        self.state_pub = GatedPublisher(self, JointState, "/sim/joint_states")
         self.create_subscription(Float64MultiArray, "/sim/effort", self.effort_callback, CONTROL_QOS)
         self.state_msg = JointState()
         self.state_msg.name = list(self.plant.joint_names)
+        self.stop_pacing = threading.Event()
+        self.pacer: threading.Thread | None = None
         if self.lockstep:
             self.steps_per_tick = steps_per_period(self.plant.physics_dt, 1.0 / p["control_rate_hz"])
-            self.clock_pub = self.create_publisher(ClockMsg, "/clock", CONTROL_QOS)
+            self.clock_pub = GatedPublisher(self, ClockMsg, "/clock", consumer=False)
             self.clock_msg = ClockMsg()
             self.waiting_for_effort = False
-            self.sensor_watch = ConsumerWatch(self, "/sim/joint_states")
             self.start_poll = self.create_timer(0.05, self.start_lockstep,
                                                 clock=Clock(clock_type=ClockType.STEADY_TIME))
         else:
-            self.create_timer(1.0 / p["publish_rate_hz"], self.step_callback)
             if not p["wait_for_first_command"]:
-                self.anchor_ns = self.get_clock().now().nanoseconds
+                self.release_brakes()
+            self.publish_period_ns = round(1e9 / p["publish_rate_hz"])
+            rt_priority = scheduling.realtime_thread_requested()
+            if rt_priority is not None:
+                scheduling.install_rt_budget()
+            # A short GIL switch interval: the pacing thread must not wait
+            # long for a callback running on the executor thread.
+            sys.setswitchinterval(0.0005)
+            self.pacer = threading.Thread(target=self.pace, args=(rt_priority,), name="pacing", daemon=True)
+            self.pacer.start()
         self.get_logger().info(
             f"MuJoCo arm {self.plant.joint_names} at {p['physics_rate_hz']:g} Hz physics, "
             + (f"lockstep at {p['control_rate_hz']:g} Hz on /clock" if self.lockstep else
-               f"true state at {p['publish_rate_hz']:g} Hz"
-               + (", waiting for the first command" if p["wait_for_first_command"] else "")))
+               f"true state at {p['publish_rate_hz']:g} Hz, paced on absolute deadlines"
+               + (", brakes on until the first command" if p["wait_for_first_command"] else "")))
 
     def check_params(self, params: dict) -> None:
         steps_per_period(1.0 / params["physics_rate_hz"], 1.0 / params["publish_rate_hz"])
@@ -88,35 +108,63 @@ class Simulator(StackNode):
         if self.lockstep:
             self.lockstep_effort(checked)
             return
-        if self.anchor_ns is not None:
-            # Physics up to now ran on the old torque; the new one acts from here.
-            self.advance(self.get_clock().now().nanoseconds)
-        self.effort = checked
-        if self.anchor_ns is None:
-            # Brakes off: physics time 0 is now.
-            self.anchor_ns = self.get_clock().now().nanoseconds
-            self.get_logger().info("first command received, physics running")
+        with self.lock:
+            if self.anchor_mono_ns is None:
+                self.release_brakes()
+                self.get_logger().info("first command received, physics running")
+            else:
+                # Physics up to now ran on the old torque; the new one acts from here.
+                self.advance(time.monotonic_ns())
+            self.effort = checked
 
     # --- wall clock -------------------------------------------------------------
 
-    def step_callback(self) -> None:
-        now_ns = self.get_clock().now().nanoseconds
-        if self.anchor_ns is None:
-            self.publish_state(now_ns)
-            return
-        self.advance(now_ns)
-        self.publish_state(self.anchor_ns + self.steps_done * self.physics_dt_ns)
+    def release_brakes(self) -> None:
+        """Physics time 0 is now."""
+        self.anchor_mono_ns = time.monotonic_ns()
+        self.anchor_ros_ns = self.get_clock().now().nanoseconds
 
-    def advance(self, now_ns: int) -> None:
-        """Step the physics that the clock says is due by ``now_ns``."""
-        due = (now_ns - self.anchor_ns) // self.physics_dt_ns - self.steps_done
+    def pace(self, rt_priority: int | None) -> None:
+        """The pacing thread: sleep to each absolute deadline, step, publish."""
+        if rt_priority is not None:
+            self.get_logger().info(scheduling.make_current_thread_realtime(rt_priority))
+        period_ns = self.publish_period_ns
+        deadline_ns = time.monotonic_ns() + period_ns
+        while not self.stop_pacing.is_set():
+            remaining_ns = deadline_ns - time.monotonic_ns()
+            if remaining_ns > 0:
+                time.sleep(remaining_ns * 1e-9)
+            with self.lock:
+                now_ns = time.monotonic_ns()
+                if self.anchor_mono_ns is None:
+                    stamp_ns = self.get_clock().now().nanoseconds  # brakes on: the arm holds still
+                else:
+                    # Step to the deadline (not to now): the state is that of the grid point.
+                    self.advance(max(deadline_ns, self.anchor_mono_ns))
+                    stamp_ns = self.anchor_ros_ns + self.steps_done * self.physics_dt_ns
+                if self.state_pub.open:
+                    self.publish_state(stamp_ns)
+                anchor = self.anchor_mono_ns
+            # Next deadline on the grid of physics time 0 (or of the last one while
+            # the brakes hold); a late wake-up skips the deadlines it missed.
+            base = anchor if anchor is not None else deadline_ns
+            missed = max(0, (now_ns - deadline_ns) // period_ns)
+            if missed:
+                self.late_wakeups += 1
+            deadline_ns = base + ((max(deadline_ns, now_ns) - base) // period_ns + 1) * period_ns
+
+    def advance(self, until_mono_ns: int) -> None:
+        """Step the physics that the clock says is due by ``until_mono_ns`` (lock held)."""
+        due = (until_mono_ns - self.anchor_mono_ns) // self.physics_dt_ns - self.steps_done
         if due <= 0:
             return
         if due > MAX_CATCH_UP_STEPS:
             if not self.behind_warned:
                 self.get_logger().warning(f"physics {due} steps behind the clock: slowing below real time")
                 self.behind_warned = True
-            self.anchor_ns += (due - MAX_CATCH_UP_STEPS) * self.physics_dt_ns
+            shift_ns = (due - MAX_CATCH_UP_STEPS) * self.physics_dt_ns
+            self.anchor_mono_ns += shift_ns
+            self.anchor_ros_ns += shift_ns
             due = MAX_CATCH_UP_STEPS
         self.plant.step(self.effort, int(due))
         self.steps_done += int(due)
@@ -124,8 +172,8 @@ class Simulator(StackNode):
     # --- lockstep ----------------------------------------------------------------
 
     def start_lockstep(self) -> None:
-        """Publish tick 0 once the sensor listens and the motor talks (nothing is ever re-sent)."""
-        if not (self.sensor_watch.ready() and self.get_publishers_info_by_topic("/sim/effort")):
+        """Publish tick 0 once the sensor (and recorder) listen and the motor talks (nothing is ever re-sent)."""
+        if not (self.state_pub.open and self.clock_pub.open and self.get_publishers_info_by_topic("/sim/effort")):
             return
         self.destroy_timer(self.start_poll)
         self.get_logger().info("lockstep: sensor and motor matched, starting at t = 0")
@@ -160,6 +208,11 @@ class Simulator(StackNode):
         self.state_pub.publish(msg)
 
     def destroy_node(self) -> None:
+        self.stop_pacing.set()
+        if self.pacer is not None:
+            self.pacer.join(timeout=1.0)
+            if self.late_wakeups:
+                self.get_logger().info(f"pacing: {self.late_wakeups} wake-up(s) later than a whole period")
         if self.lockstep:
             self.get_logger().info(f"lockstep: {self.ticks_published} ticks published, {self.efforts_applied} "
                                    f"efforts applied, t = {self.steps_done * self.plant.physics_dt:.3f} s")

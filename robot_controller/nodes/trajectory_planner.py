@@ -21,7 +21,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller import config as cfg
 from robot_controller.core.trajectory import make_trajectory
-from robot_controller.nodes.base import CONTROL_QOS, ConsumerWatch, StackNode, run, stamp_to_s
+from robot_controller.nodes.base import CONTROL_QOS, GatedPublisher, StackNode, run, stamp_to_s
 
 _GRID_EPS_S = 1e-6
 
@@ -31,11 +31,10 @@ class TrajectoryPlanner(StackNode):
         super().__init__("trajectory_planner")
         p = self.params
         self.trajectory = self._make(p)
-        self.pub = self.create_publisher(Float64MultiArray, "/trajectory", CONTROL_QOS)
+        self.pub = GatedPublisher(self, Float64MultiArray, "/trajectory")
         self.start_s: float | None = None
         self.next_sample_s = 0.0
         self.clock_s = 0.0  # lockstep: the latest /clock (time is 0 until the first)
-        self.consumer = ConsumerWatch(self, "/trajectory")
         self.msg = Float64MultiArray()
         n = p["joint_count"]
         self.msg.layout.dim = [MultiArrayDimension(label=name, size=n, stride=n)
@@ -73,8 +72,8 @@ class TrajectoryPlanner(StackNode):
 
     def sample_at(self, now_s: float) -> None:
         if self.start_s is None:
-            if not self.consumer.ready():
-                return  # t = 0 is when the controller can hear it
+            if not self.pub.open:
+                return  # t = 0 is when the controller (and the recorder) can hear it
             self.start_s = now_s
             self.next_sample_s = now_s
             if self.params["lockstep"]:

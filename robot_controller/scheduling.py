@@ -1,0 +1,136 @@
+"""Where and how urgently each process of the loop runs.
+
+The kernel throttles real-time (SCHED_FIFO) tasks that use more than
+``sched_rt_runtime_us`` (95 %) of a CPU in a second: it then freezes ALL of
+them for the rest of that second. With every node SCHED_FIFO, that froze the
+whole loop for 50–70 ms a few times a minute (issue 7). So by default no
+process is real-time:
+
+- the loop's nodes run at normal policy with a raised priority (nice −10),
+  the planner a little lower, and observers (recorder) at nice +10, so on a
+  busy machine the loop wins without being able to freeze it;
+- one thread alone, the simulator's pacing thread (it is the loop's
+  hardware clock, DESIGN.md §3), may run SCHED_FIFO, and only with a budget:
+  ``RLIMIT_RTTIME`` makes the kernel signal it after ``RT_BUDGET_US`` of CPU
+  without sleeping, and the handler drops it back to normal policy. It sleeps
+  between deadlines and uses about 3 % of a core, far from the throttling
+  limit.
+
+``--realtime`` asks for that FIFO thread; nothing else is ever real-time.
+"""
+from __future__ import annotations
+
+import os
+import resource
+import signal
+import threading
+from dataclasses import dataclass
+
+# nice values (−20 most urgent … 19): loop nodes first, the planner (which
+# only feeds samples ahead of time) next, observers last.
+LOOP_NICE = -10
+PLANNER_NICE = -5
+OBSERVER_NICE = 10
+NICE = {"simulator": LOOP_NICE, "motor_node": LOOP_NICE, "sensor_node": LOOP_NICE, "pid_controller": LOOP_NICE,
+        "stack": LOOP_NICE, "trajectory_planner": PLANNER_NICE, "recorder": OBSERVER_NICE}
+
+#: SCHED_FIFO priority of the simulator's pacing thread under ``--realtime``.
+PACING_RT_PRIORITY = 30
+#: CPU time (µs) the FIFO thread may use without blocking before it is demoted.
+RT_BUDGET_US = 20_000
+#: Environment variable the launcher sets to ask for the FIFO pacing thread.
+PACING_RT_ENV = "ROBOT_CONTROLLER_PACING_RT_PRIORITY"
+
+
+LOOP_PROCESSES = frozenset({"simulator", "motor_node", "sensor_node", "pid_controller", "stack"})
+#: ``ROBOT_CONTROLLER_AFFINITY=0`` leaves every process free to run on any CPU.
+AFFINITY_ENV = "ROBOT_CONTROLLER_AFFINITY"
+
+
+@dataclass(frozen=True)
+class Placement:
+    nice: int
+    cpus: frozenset[int] | None = None  #: None: wherever the kernel likes
+
+
+def placement(process_name: str) -> Placement:
+    """The loop's processes share the last allowed CPU, everything else the
+    others. The loop is a chain (simulator → sensor → controller → motor):
+    only one link runs at a time, so one core serves it, and the recorder,
+    planner and the machine's other work cannot wake up in its way."""
+    cpus = None
+    allowed = sorted(os.sched_getaffinity(0))
+    if len(allowed) >= 2 and os.environ.get(AFFINITY_ENV, "1") != "0":
+        loop_cpu = allowed[-1]
+        cpus = frozenset({loop_cpu}) if process_name in LOOP_PROCESSES else frozenset(allowed[:-1])
+    return Placement(nice=NICE.get(process_name, 0), cpus=cpus)
+
+
+def apply_in_child(place: Placement) -> None:
+    """Runs in a child between fork and exec: set its nice value (best effort;
+    an unprivileged user cannot go below 0 and keeps the default)."""
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, place.nice)
+    except OSError:
+        pass
+    if place.cpus:
+        try:
+            os.sched_setaffinity(0, place.cpus)
+        except OSError:
+            pass
+
+
+def realtime_thread_requested() -> int | None:
+    value = os.environ.get(PACING_RT_ENV, "")
+    try:
+        return int(value) if value else None
+    except ValueError:
+        return None
+
+
+_realtime_tids: list[int] = []
+demoted = threading.Event()
+
+
+def install_rt_budget(budget_us: int = RT_BUDGET_US) -> None:
+    """Arm the kernel's budget for real-time threads: past ``budget_us`` of CPU
+    without blocking, the process gets SIGXCPU and every thread made real-time
+    here goes back to normal policy. Call from the main thread (signals)."""
+    resource.setrlimit(resource.RLIMIT_RTTIME, (budget_us, max(budget_us * 50, 1_000_000)))
+    signal.signal(signal.SIGXCPU, _demote_all)
+
+
+def make_current_thread_realtime(priority: int) -> str:
+    """SCHED_FIFO at ``priority`` for the calling thread only (after
+    :func:`install_rt_budget`). Returns a note for the log."""
+    tid = threading.get_native_id()
+    try:
+        os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(priority))
+    except OSError as exc:
+        return f"real-time pacing not applied ({exc}); normal scheduling"
+    _realtime_tids.append(tid)
+    return f"pacing thread SCHED_FIFO {priority}, at most {RT_BUDGET_US / 1000:g} ms of CPU per wake-up"
+
+
+def _demote_all(*_: object) -> None:
+    for tid in _realtime_tids:
+        try:
+            os.sched_setscheduler(tid, os.SCHED_OTHER, os.sched_param(0))
+        except OSError:
+            pass
+    demoted.set()
+
+
+def is_realtime(pid: int) -> bool:
+    """Whether any thread of process ``pid`` runs a real-time policy."""
+    try:
+        tids = os.listdir(f"/proc/{pid}/task")
+    except OSError:
+        return False
+    for tid in tids:
+        try:
+            if os.sched_getscheduler(int(tid)) in (os.SCHED_FIFO, os.SCHED_RR):
+                return True
+        except OSError:
+            continue
+    return False
