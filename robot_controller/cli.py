@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -193,5 +194,15 @@ def main(argv: list[str] | None = None) -> int:
     return list_params()
 
 
+def entry() -> None:
+    """The console script: ``main``, then exit without the interpreter's
+    teardown of rclpy, MuJoCo and matplotlib (a third of a second of every
+    run); every file is written and closed by then."""
+    code = main()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
 if __name__ == "__main__":
-    raise SystemExit(main())
+    entry()

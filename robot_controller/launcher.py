@@ -13,7 +13,6 @@ measures every child's CPU time and memory over the run.
 """
 from __future__ import annotations
 
-import ctypes
 import json
 import os
 import shutil
@@ -28,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from robot_controller import config as cfg
-from robot_controller import proc_stats, scheduling
+from robot_controller import forking, proc_stats, resources, scheduling
 from robot_controller.nodes.base import COUNTS_DIR_ENV, RECORDED_ENV
 from robot_controller.nodes import recorder as rec
 
@@ -45,11 +44,8 @@ def say(message: str) -> None:
 
 
 def _child_setup(place: scheduling.Placement) -> Callable[[], None]:
-    def setup() -> None:  # runs in the child between fork and exec
-        try:
-            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-        except OSError:
-            pass
+    def setup() -> None:  # runs in the child, first thing after the fork
+        forking.die_with_parent()
         scheduling.apply_in_child(place)
 
     return setup
@@ -58,8 +54,8 @@ def _child_setup(place: scheduling.Placement) -> Callable[[], None]:
 @dataclass
 class Child:
     name: str
-    process: subprocess.Popen
-    reader: threading.Thread
+    process: forking.ForkedProcess
+    reader: threading.Thread  #: relays its output; started by ``ProcessGroup.relay``
 
 
 @dataclass
@@ -69,22 +65,19 @@ class ProcessGroup:
     env: dict[str, str]
     children: list[Child] = field(default_factory=list)
 
-    def start(self, name: str, argv: list[str], *, env: dict[str, str] | None = None,
+    def start(self, name: str, module: str, args: list[str], *, env: dict[str, str] | None = None,
               on_line: Callable[[str], bool] | None = None) -> Child:
-        """Start ``argv`` as ``name``; ``on_line`` sees each output line first and
-        returns True for lines it consumed (not printed)."""
-        process = subprocess.Popen(
-            argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env or self.env,
-            start_new_session=True, preexec_fn=_child_setup(scheduling.placement(name)), bufsize=1, text=True,
-            errors="replace")
+        """Fork ``robot_controller.nodes.<module>`` as ``name`` with ``args``; ``on_line``
+        sees each output line first and returns True for lines it consumed (not printed)."""
+        process = forking.fork(module, [f"robot_controller.nodes.{module}", *args], env or self.env,
+                               _child_setup(scheduling.placement(name)))
         reader = threading.Thread(target=self._relay, args=(name, process, on_line), daemon=True)
-        reader.start()
         child = Child(name, process, reader)
         self.children.append(child)
         return child
 
     @staticmethod
-    def _relay(name: str, process: subprocess.Popen, on_line: Callable[[str], bool] | None) -> None:
+    def _relay(name: str, process: forking.ForkedProcess, on_line: Callable[[str], bool] | None) -> None:
         assert process.stdout is not None
         for line in process.stdout:
             if on_line is not None and on_line(line):
@@ -92,6 +85,13 @@ class ProcessGroup:
             with _print_lock:
                 sys.stdout.write(f"[{name}] {line}")
                 sys.stdout.flush()
+
+    def relay(self) -> None:
+        """Start relaying every child's output. Only once all are forked: a fork
+        copies one thread, and the locks the others held, into the child."""
+        for child in self.children:
+            if not child.reader.is_alive() and child.reader.ident is None:
+                child.reader.start()
 
     def dead(self) -> list[tuple[str, int]]:
         return [(c.name, c.process.returncode) for c in self.children if c.process.poll() is not None]
@@ -114,7 +114,8 @@ class ProcessGroup:
                 os.killpg(child.process.pid, signal.SIGKILL)
                 child.process.wait()
         for child in children:
-            child.reader.join(timeout=1.0)
+            if child.reader.ident is not None:
+                child.reader.join(timeout=1.0)
         return {c.name: c.process.returncode for c in children}
 
     def __enter__(self) -> ProcessGroup:
@@ -139,13 +140,13 @@ def child_env(single_process: bool) -> dict[str, str]:
                    "[{severity}] [{name}] {message}" if single_process else "[{severity}] {message}")
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     env.setdefault(*FASTDDS_PUBLICATION_MODE)
+    env.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(resources.fastdds_profiles()))  # quick discovery
     env.pop(scheduling.PACING_RT_ENV, None)
     return env
 
 
-def node_argv(name: str, params_file: Path) -> list[str]:
-    return [sys.executable, "-m", f"robot_controller.nodes.{name}", "--ros-args", "--params-file",
-            str(params_file)]
+def node_args(params_file: Path) -> list[str]:
+    return ["--ros-args", "--params-file", str(params_file)]
 
 
 @dataclass
@@ -235,6 +236,7 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     node_env = dict(env)
     if realtime:
         node_env[scheduling.PACING_RT_ENV] = str(scheduling.PACING_RT_PRIORITY)
+    forking.preload()  # before any thread of this run: the children are forked from here
     # SIGTERM (a CI timeout, `kill`) stops the run as cleanly as Ctrl-C does.
     previous_sigterm = signal.signal(signal.SIGTERM, _raise_interrupt)
     link = RecorderLink(list(rec.topics_for(sim_time)))
@@ -243,17 +245,19 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     usage: dict[str, float] = {}
     try:
         with ProcessGroup(env) as group:
-            recorder = group.start("recorder", [sys.executable, "-m", "robot_controller.nodes.recorder",
-                                                str(bag_dir)] + (["--sim-time"] if sim_time else []),
+            recorder = group.start("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] if sim_time else []),
                                    on_line=link.on_line)
             nodes: list[Child] = []
             try:
+                # All at once: the nodes' publishers wait for the recorder themselves.
+                for name in ("stack",) if single_process else NODE_ORDER:
+                    nodes.append(group.start(name, "all_in_one" if single_process else name,
+                                             node_args(params_file), env=node_env))
+                group.relay()
+                # What scores and plots the run, imported while the nodes find each other.
+                threading.Thread(target=_preload_reporting, daemon=True).start()
                 failure = _wait_recorder(link, group)
                 if failure is None:
-                    names = ("stack",) if single_process else NODE_ORDER
-                    for name in names:
-                        nodes.append(group.start(name, node_argv("all_in_one" if single_process else name,
-                                                                 params_file), env=node_env))
                     failure = _wait_first_tick(link, group)
                 if failure is None:
                     started = time.monotonic()
@@ -293,6 +297,15 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     if failure:
         say(f"FAILED: {failure}")
     return result
+
+
+def _preload_reporting() -> None:
+    from robot_controller import report  # noqa: F401 - rosbags
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot  # noqa: F401
+    import rich.table  # noqa: F401
 
 
 class UsageMeter:

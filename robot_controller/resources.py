@@ -37,3 +37,7 @@ def default_urdf() -> Path:
 def resolve_urdf(urdf_path: str) -> Path:
     """``""`` means the package's reference arm."""
     return Path(urdf_path) if urdf_path else default_urdf()
+
+
+def fastdds_profiles() -> Path:
+    return share_dir() / "config" / "fastdds.xml"

@@ -119,6 +119,7 @@ class JointController:
         self.pid = Pid(law_config(config, dynamics, joint_count))
         self.estimator = self._make_estimator(config)
         self._reference: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._planner_spoke = False  # a reference sample has arrived (not just the hold)
         self._reference_time_s = 0.0
         self.reference_period_s: float | None = None  #: learned from consecutive sample times
         self._measurement: tuple[np.ndarray, np.ndarray] | None = None
@@ -157,10 +158,15 @@ class JointController:
         """A new reference sample. Its time base is ``sample_time_s`` when the
         planner sent one, otherwise the time it arrived."""
         time_s = received_s if sample_time_s is None else sample_time_s
+        self._planner_spoke = True
         if self._reference is not None and time_s > self._reference_time_s:
             self.reference_period_s = time_s - self._reference_time_s
         self._reference = (position, velocity, acceleration)
         self._reference_time_s = time_s
+
+    def has_reference(self) -> bool:
+        """Whether any reference sample has arrived."""
+        return self._planner_spoke
 
     def reference_ready(self, tick_s: float) -> bool:
         """Whether every reference sample due by ``tick_s`` is in (lockstep):

@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm, solve_discrete_are
 
 from robot_controller.core.errors import ConfigError
 
@@ -32,6 +31,8 @@ def discretise(inertia: float, damping: float, dt: float) -> tuple[np.ndarray, n
     Bc = np.array([[0.0], [0.0], [1.0 / inertia]])
     block = np.zeros((4, 4))
     block[:3, :3], block[:3, 3:] = Ac, Bc
+    from scipy.linalg import expm  # imported on first design: a node's start-up is paid for in seconds
+
     phi = expm(block * dt)
     return phi[:3, :3], phi[:3, 3:]
 
@@ -45,6 +46,8 @@ def design(inertia: float, damping: float, dt: float, q_weights: np.ndarray, r_w
         raise ConfigError(f"lqr_r: must be > 0, got {r_weight}")
     A, B = discretise(inertia, damping, dt)
     Q, R = np.diag(q_weights), np.array([[r_weight]])
+    from scipy.linalg import solve_discrete_are
+
     P = solve_discrete_are(A, B, Q, R)
     K = np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A)
     radius = float(np.max(np.abs(np.linalg.eigvals(A - B @ K))))

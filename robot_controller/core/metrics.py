@@ -3,7 +3,6 @@ an in-process simulation or a recording read back from a bag alike."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline
 
 WARMUP_S = 2.0
 
@@ -23,6 +22,8 @@ def true_position_at(times_s: np.ndarray, true_time_s: np.ndarray, true_position
     t, q = t[keep], q[keep]
     if true_velocity is not None and len(t) >= 2:
         v = np.asarray(true_velocity, dtype=float).reshape(len(true_time_s), -1)[order][keep]
+        from scipy.interpolate import CubicHermiteSpline  # here: the controller node imports this module too
+
         return CubicHermiteSpline(t, q, v, axis=0, extrapolate=False)(times_s)
     return np.column_stack([np.interp(times_s, t, q[:, j], left=np.nan, right=np.nan) for j in range(q.shape[1])])
 

@@ -134,7 +134,7 @@ def recorded() -> bool:
 # Discovery is two-sided: a writer can see a reader before the reader knows
 # the writer, and the reader drops what arrives in between. A reader counts
 # as matched once it has been seen for this long.
-MATCH_SETTLE_S = 0.5
+MATCH_SETTLE_S = 0.25
 
 
 def has_consumer(node: Node, topic: str) -> bool:
@@ -209,6 +209,7 @@ class GatedPublisher:
             return
         self.open = True
         self.node.destroy_timer(self._poll)
+        self.node.get_logger().debug(f"{self.topic}: audience matched, publishing")
         for msg in self.pending:
             self.publisher.publish(msg)
             self.count += 1

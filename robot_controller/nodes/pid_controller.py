@@ -138,7 +138,14 @@ class PidControllerNode(StackNode):
     def reference_wait_check(self) -> None:
         """A planner slower than the control rate leaves ticks with no sample due;
         until its period is learned from two samples, do not wait forever."""
-        if self.pending_tick_s is not None and time.monotonic() - self.pending_since > REFERENCE_WAIT_S:
+        if self.pending_tick_s is None:
+            return
+        if not self.controller.has_reference():
+            # Before the planner's first sample, nothing to fall back on: wait (the
+            # launcher ends a run whose lockstep stalls).
+            self.warn_throttled("first_reference", "lockstep: waiting for the first /trajectory sample")
+            return
+        if time.monotonic() - self.pending_since > REFERENCE_WAIT_S:
             self.warn_throttled("reference_wait", f"lockstep: no reference sample for t={self.pending_tick_s:.3f} s "
                                 f"after {REFERENCE_WAIT_S:g} s; using the latest")
             tick_s, self.pending_tick_s = self.pending_tick_s, None

@@ -31,8 +31,6 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
-from rosbags.rosbag2 import StoragePlugin, Writer
-from rosbags.typesys import Stores, get_typestore
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -60,7 +58,7 @@ TELEMETRY_TOPICS = {
 CLOCK_TOPIC = {"/clock": (Clock, "rosgraph_msgs/msg/Clock")}
 
 PROGRESS_PERIOD_S = 0.1
-DRAIN_QUIET_S = 0.3
+DRAIN_QUIET_S = 0.15
 DRAIN_MAX_S = 3.0
 READY_LINE = "@ready"
 PROGRESS_PREFIX = "@progress "
@@ -80,6 +78,11 @@ class Recorder:
     """Writes every message of ``topics`` to ``bag_dir`` as it arrives."""
 
     def __init__(self, context, bag_dir: Path, *, sim_time: bool) -> None:
+        # rosbags is imported here, in the recorder's own process, while the
+        # nodes start beside it (the launcher forks them all from one image).
+        from rosbags.rosbag2 import StoragePlugin, Writer
+        from rosbags.typesys import Stores, get_typestore
+
         self.node = Node(RECORDER_NODE, context=context, start_parameter_services=False)
         self.sim_time = sim_time
         self.clock_ns = 0  #: latest /clock (lockstep): the bag's time base there
@@ -119,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="recorder")
     parser.add_argument("bag_dir", type=Path)
     parser.add_argument("--sim-time", action="store_true")
-    args = parser.parse_args(argv)
+    args = parser.parse_args(None if argv is None else argv[1:])  # argv[0] is the program, as for rclpy
     stop = threading.Event()
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)

@@ -151,6 +151,10 @@ class Simulator(StackNode):
             missed = max(0, (now_ns - deadline_ns) // period_ns)
             if missed:
                 self.late_wakeups += 1
+            if rt_priority is not None and scheduling.demoted.is_set():
+                rt_priority = None
+                self.get_logger().warning("pacing thread used its real-time CPU budget without sleeping: "
+                                          "back to normal scheduling")
             deadline_ns = base + ((max(deadline_ns, now_ns) - base) // period_ns + 1) * period_ns
 
     def advance(self, until_mono_ns: int) -> None:
