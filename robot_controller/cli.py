@@ -48,12 +48,13 @@ def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: 
                    "clock": "sim_lockstep" if sim_time else "wall"})
     # Wall-clock figures of a lockstep run differ run to run: keep them out of metrics.json.
     wall = {"real_time_factor": result.real_time_factor, "wall_duration_s": result.wall_seconds}
+    # How many messages the bag misses depends on when the nodes stopped, not on the seed.
+    (wall if sim_time else values)["unrecorded_messages"] = sum(result.unrecorded.values())
     if sim_time:
         wall.update(result.usage)
     else:
         values["realtime_requested"] = realtime
         values.update(result.usage)
-    values["unrecorded_messages"] = sum(result.unrecorded.values())
     report.write_metrics(out / "metrics.json", values)
     if sim_time:
         report.write_metrics(out / "timing.json", wall)
@@ -108,10 +109,33 @@ def step(*, amplitude: float, shaping: str, out: Path | None, preset: str, seed:
 def compare(*, out: Path, seeds: int, duration_s: float, amplitude: float) -> int:
     from robot_controller import experiments
 
-    experiments.compare(out, seeds=seeds, sine_duration_s=duration_s, amplitude=amplitude,
-                        progress=lambda text: print(f"[compare] {text}", flush=True))
+    try:
+        experiments.compare(out, seeds=seeds, sine_duration_s=duration_s, amplitude=amplitude,
+                            progress=lambda text: print(f"[compare] {text}", flush=True))
+    except (RuntimeError, ValueError, FileExistsError) as exc:
+        print(f"robot-controller: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("robot-controller: compare interrupted", file=sys.stderr)
+        return 130
     print((out / "compare.md").read_text())
     return 0
+
+
+def faults(out: Path, *, quick: bool) -> int:
+    from robot_controller import faults as faults_module
+
+    faults_module.faults(out, quick=quick, progress=lambda text: print(f"[faults] {text}", flush=True))
+    print((out / "faults.md").read_text())
+    return 0
+
+
+def estop(*, release: bool) -> int:
+    from robot_controller import estop as estop_module
+
+    heard, report = estop_module.send(engage=not release)
+    print(f"robot-controller: {report}", file=sys.stdout if heard else sys.stderr)
+    return 0 if heard else 1
 
 
 def list_params() -> int:
@@ -176,6 +200,11 @@ def main(argv: list[str] | None = None) -> int:
     p_bench.add_argument("--out", type=Path, default=Path("runs/bench"), help="output directory")
     p_bench.add_argument("--quick", action="store_true", help="a few seconds per scenario")
     p_bench.add_argument("--soak-s", type=float, help="length of the soak run, wall s (default 600, 20 with --quick)")
+    p_faults = verbs.add_parser("faults", help="freeze each node mid-motion (SIGSTOP) and measure what the arm did")
+    p_faults.add_argument("--out", type=Path, default=Path("runs/faults"), help="output directory")
+    p_faults.add_argument("--quick", action="store_true", help="two cases: sensor and controller frozen 0.5 s")
+    p_estop = verbs.add_parser("estop", help="emergency stop of the running graph: torque off, brakes on, latched")
+    p_estop.add_argument("--release", action="store_true", help="release the e-stop; the loop re-acquires")
     verbs.add_parser("params", help="list every node parameter with its default and meaning")
     args = parser.parse_args(argv)
     if args.verb == "run":
@@ -189,6 +218,10 @@ def main(argv: list[str] | None = None) -> int:
         return compare(out=args.out, seeds=args.seeds, duration_s=args.duration, amplitude=args.amplitude)
     if args.verb == "bench":
         return bench(args.out, quick=args.quick, soak_s=args.soak_s)
+    if args.verb == "faults":
+        return faults(args.out, quick=args.quick)
+    if args.verb == "estop":
+        return estop(release=args.release)
     if args.verb == "score":
         return score(args.run_dir, as_json=args.json)
     return list_params()

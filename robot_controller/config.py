@@ -127,12 +127,18 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         ParamSpec("lockstep", bool, "sim-time lockstep: publish /clock and advance one control period per effort",
                   read_only=True),
         _positive("control_rate_hz", "control rate the lockstep advances by (one period per effort), Hz"),
+        _positive("drive_timeout_s", "efforts missing this long (wall clock) engage the holding brakes and cut "
+                  "the torque (category 0), s"),
+        _positive("brake_torque_nm", "holding torque of each joint's brake, N·m (stops the reference arm from "
+                  "3 rad/s in about 5 ms)"),
     ),
     "motor_node": (
         URDF,
         ParamSpec("torque_max", "floats", "actuator torque limit, N·m (one per joint, or one for all)",
                   minimum=0.0, exclusive_minimum=True),
         _nonneg("lag_time_constant_s", "first-order actuator lag time constant, s (0 = none)"),
+        _positive("command_timeout_s", "no valid /joint_commands for this long: zero torque and brake request "
+                  "(category 0) until commands return, s"),
     ),
     "sensor_node": (
         _positive("rate_hz", "sensor sample rate, Hz"),
@@ -175,8 +181,13 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
                   "evaluate the latest reference at the tick time with its velocity and acceleration"),
         ParamSpec("latency_compensation", bool,
                   "advance the measurement from its stamp to the tick time with its velocity"),
-        ParamSpec("watchdog_periods", int, "control periods without valid sensor data before zero torque",
-                  minimum=1),
+        ParamSpec("watchdog_periods", int, "control periods without valid sensor data before a controlled stop "
+                  "on the arm model's estimate (category 2)", minimum=1),
+        _positive("sensor_timeout_s", "readings missing this long end the controlled stop: no command, the "
+                  "drive's brake holds (category 1), s"),
+        _positive("stop_deceleration", "deceleration of a controlled stop (sensor or planner lost), rad/s²"),
+        _positive("reacquire_acceleration", "acceleration limit of the blend from where the arm is back onto "
+                  "the trajectory after a fault, rad/s²"),
         _positive("log_period_s", "period of the target/actual/error/torque log line, s"),
         _positive("diagnostics_period_s", "period of the loop-health report on /diagnostics, s"),
         ParamSpec("lockstep", bool,
@@ -357,6 +368,8 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         feedforward=values["feedforward"], control_period_s=1.0 / values["control_rate_hz"],
         reference_extrapolation=values["reference_extrapolation"],
         latency_compensation=values["latency_compensation"], watchdog_periods=values["watchdog_periods"],
+        sensor_timeout_s=values["sensor_timeout_s"], stop_deceleration=values["stop_deceleration"],
+        reacquire_acceleration=values["reacquire_acceleration"],
     )
 
 

@@ -5,6 +5,10 @@ choose parameters and put figures side by side.
 """
 from __future__ import annotations
 
+import multiprocessing
+import os
+import signal
+from concurrent import futures
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -20,9 +24,10 @@ STEP_AFTER_S = 2.0  # recorded after the step, s
 
 
 def run_and_score(params: cfg.Params, out: Path, *, duration_s: float, sim_time: bool,
-                  single_process: bool = False) -> tuple[dict[str, Any], report.Recording]:
+                  single_process: bool = False, domain_id: int | None = None
+                  ) -> tuple[dict[str, Any], report.Recording]:
     result = launcher.launch(params, out_dir=out, duration_s=duration_s, sim_time=sim_time,
-                             single_process=single_process)
+                             single_process=single_process, domain_id=domain_id)
     if result.exit_code != 0:
         raise RuntimeError(f"run in {out} failed: {result.failure}")
     recording = report.read_recording(result.bag_dir)
@@ -36,18 +41,31 @@ def step_params(params: cfg.Params, amplitude: float, shaping: str) -> cfg.Param
                                                      "step_time_s": STEP_LEAD_S, "step_shaping": shaping}})
 
 
-def step_figures(recording: report.Recording, amplitude: float, offset: float = 0.0) -> dict[str, Any]:
-    """Step-response figures on the TRUE angle, timed from the tick where the reference starts to move."""
+def step_figures(recording: report.Recording, amplitude: float, offset: float = 0.0,
+                 after_s: float | None = STEP_AFTER_S) -> dict[str, Any]:
+    """Step-response figures on the TRUE angle, timed from the tick where the reference starts to move,
+    over the ``after_s`` seconds that follow it (None: to the end of the recording).
+
+    The recording runs on past the requested duration for as long as the nodes
+    take to stop, a different time each run: settling, overshoot and the
+    steady-state error (the last 10 % of the record) would depend on it.
+    """
     s = recording.state
     t = s["time_s"]
     reference = s["reference"][:, 0]
-    moved = np.flatnonzero(np.abs(reference - offset) > 1e-9)
-    if moved.size == 0:
+    # The step starts after the last sample at rest: the reference may first
+    # blend in from where the joint was, and it never comes back after the step.
+    at_rest = np.flatnonzero(np.abs(reference - offset) <= 1e-9)
+    if at_rest.size == 0:
+        raise ValueError("no sample at rest before the step: the recording misses the run's start")
+    if at_rest[-1] == len(t) - 1:
         raise ValueError("the reference never moved: no step in this recording")
-    step_time = t[moved[0]] - (t[1] - t[0])  # the sample before it was still at rest
+    step_time = t[at_rest[-1]]
     true = metrics.true_position_at(t, recording.true_time_s, recording.true_position,
                                     recording.true_velocity)[:, 0]
     ok = np.isfinite(true)
+    if after_s is not None:
+        ok &= t < step_time + after_s - 1e-9
     figures = metrics.step_metrics(t[ok], true[ok], initial=offset, target=offset + amplitude, step_time_s=step_time,
                                    torque=s["command"][ok & (t >= step_time), 0])
     figures["step_time_s"] = float(step_time - t[0])
@@ -83,11 +101,12 @@ def plot_step(recording: report.Recording, path: Path, title: str) -> None:
     plt.close(fig)
 
 
-def step(params: cfg.Params, out: Path, *, amplitude: float, shaping: str, sim_time: bool, seed: int
-         ) -> dict[str, Any]:
+def step(params: cfg.Params, out: Path, *, amplitude: float, shaping: str, sim_time: bool, seed: int,
+         domain_id: int | None = None) -> dict[str, Any]:
     params = step_params(params, amplitude, shaping)
     params["sensor_node"]["seed"] = seed
-    values, recording = run_and_score(params, out, duration_s=STEP_LEAD_S + STEP_AFTER_S, sim_time=sim_time)
+    values, recording = run_and_score(params, out, duration_s=STEP_LEAD_S + STEP_AFTER_S, sim_time=sim_time,
+                                      domain_id=domain_id)
     values.update(step_figures(recording, amplitude))
     values.update({"amplitude_rad": amplitude, "step_shaping": shaping, "seed": seed,
                    "clock": "sim_lockstep" if sim_time else "wall"})
@@ -119,32 +138,160 @@ COMPARED = {"sine": ("tracking_rms_rad", "tracking_max_rad"),
             "step": ("overshoot_pct", "settling_time_s", "rise_time_s", "peak_torque_nm", "steady_state_error_rad")}
 
 
+#: (contender, seed) pairs run side by side by ``compare``. Measured on 2 cores,
+#: the default compare (50 lockstep runs) on one tree: 140 s one at a time,
+#: 90–96 s with 2 workers, 76 s with 3; the figures of every run the same.
+#: (With 2, about 1.55 of the 2 cores were busy; with 3, 1.8.)
+COMPARE_WORKERS = 3
+
+
 def compare(out: Path, *, seeds: int, sine_duration_s: float, amplitude: float,
-            progress=print) -> dict[str, dict[str, dict[str, float]]]:
-    """Every contender on the sine and on the step, ``seeds`` seeds each, in sim-time lockstep."""
+            progress=print, workers: int = COMPARE_WORKERS) -> dict[str, dict[str, dict[str, float]]]:
+    """Every contender on the sine and on the step, ``seeds`` seeds each, in sim-time lockstep.
+
+    ``workers`` (contender, seed) pairs run at once, each in a worker process
+    of its own with a ROS domain of its own (:func:`worker_domain`);
+    ``workers=1`` runs them one after the other in this process, in the
+    caller's domain. A lockstep run's figures depend only on its seed, so
+    both give the same table. The progress line of a pair is printed as it
+    starts. A failed run raises RuntimeError naming its directory, once the
+    pairs under way have ended.
+    """
     out.mkdir(parents=True, exist_ok=True)
+    pairs = [(contender, seed) for contender in CONTENDERS for seed in range(seeds)]
+    if workers <= 1:
+        figures = {}
+        for contender, seed in pairs:
+            progress(f"{contender.name}: seed {seed}")
+            figures[contender.name, seed] = _compare_pair(contender, seed, out, sine_duration_s, amplitude)
+    else:
+        figures = _compare_side_by_side(pairs, out, sine_duration_s, amplitude, progress, workers)
     table: dict[str, dict[str, dict[str, float]]] = {}
     for contender in CONTENDERS:
-        base = cfg.load_stack(contender.preset)
-        base = cfg.merge(base, {"pid_controller": contender.overrides})
         rows: dict[str, list[float]] = {}
         for seed in range(seeds):
-            progress(f"{contender.name}: seed {seed}")
-            params = cfg.merge(base, {"sensor_node": {"seed": seed}})
-            sine, _ = run_and_score(params, out / contender.name / f"sine_{seed}", duration_s=sine_duration_s,
-                                    sim_time=True)
-            figures = step(base, out / contender.name / f"step_{seed}", amplitude=amplitude, shaping="min_time",
-                           sim_time=True, seed=seed)
-            for key in COMPARED["sine"]:
-                rows.setdefault(f"sine_{key}", []).append(sine[key])
-            for key in COMPARED["step"]:
-                rows.setdefault(f"step_{key}", []).append(figures[key])
+            for key, value in figures[contender.name, seed].items():
+                rows.setdefault(key, []).append(value)
         table[contender.name] = {key: {"mean": float(np.mean(v)), "std": float(np.std(v)),
                                        "min": float(np.min(v)), "max": float(np.max(v))} for key, v in rows.items()}
     report.write_metrics(out / "compare.json", table)
     (out / "compare.md").write_text(render_compare(table, seeds, sine_duration_s, amplitude))
     plot_compare(table, out / "compare.png")
     return table
+
+
+def _compare_pair(contender: Contender, seed: int, out: Path, sine_duration_s: float, amplitude: float,
+                  domain_id: int | None = None) -> dict[str, float]:
+    """One contender, one seed: the sine run, then the step run. The compared figures, keyed as in the table."""
+    base = cfg.merge(cfg.load_stack(contender.preset), {"pid_controller": contender.overrides})
+    params = cfg.merge(base, {"sensor_node": {"seed": seed}})
+    sine, _ = run_and_score(params, out / contender.name / f"sine_{seed}", duration_s=sine_duration_s,
+                            sim_time=True, domain_id=domain_id)
+    _stop_if_asked()
+    step_out = out / contender.name / f"step_{seed}"
+    try:
+        figures = step(base, step_out, amplitude=amplitude, shaping="min_time", sim_time=True, seed=seed,
+                       domain_id=domain_id)
+    except ValueError as exc:  # no step in the recording
+        raise RuntimeError(f"run in {step_out} failed: {exc}") from None
+    _stop_if_asked()
+    return ({f"sine_{key}": sine[key] for key in COMPARED["sine"]}
+            | {f"step_{key}": figures[key] for key in COMPARED["step"]})
+
+
+def worker_domain(base: int, slot: int) -> int:
+    """The ROS domain of worker ``slot``: the caller's own (``base``, its
+    ROS_DOMAIN_ID) for slot 0, the next ones for the others, wrapped into
+    1..101 (all distinct for up to 101 slots; an unset or 0 ``base`` gives 101, 1, 2…)."""
+    return (base - 1 + slot) % 101 + 1
+
+
+def _compare_side_by_side(pairs, out: Path, sine_duration_s: float, amplitude: float, progress, workers: int
+                          ) -> dict[tuple[str, int], dict[str, float]]:
+    """Run the pairs on ``workers`` spawned processes, never more at once than
+    there are workers (so each progress line is printed as its pair starts).
+
+    Processes, not threads: the launcher forks the nodes from the process
+    that calls it, which must then be single-threaded. A spawned worker is a
+    fresh interpreter whose only thread runs the task.
+    """
+    context = multiprocessing.get_context("spawn")
+    slots = context.Value("i", 0)
+    try:
+        base = int(os.environ.get("ROS_DOMAIN_ID", "0"))
+    except ValueError:
+        base = 0
+    figures: dict[tuple[str, int], dict[str, float]] = {}
+    todo = iter(pairs)
+    running: dict[futures.Future, tuple[str, int]] = {}
+    pool = futures.ProcessPoolExecutor(max_workers=min(workers, len(pairs)) or 1, mp_context=context,
+                                       initializer=_init_worker, initargs=(slots, base))
+    try:
+        def start_next() -> None:
+            for contender, seed in todo:
+                progress(f"{contender.name}: seed {seed}")
+                running[pool.submit(_compare_pair_in_worker, contender, seed, out, sine_duration_s,
+                                    amplitude)] = (contender.name, seed)
+                return
+
+        for _ in range(workers):
+            start_next()
+        while running:
+            done, _ = futures.wait(running, return_when=futures.FIRST_COMPLETED)
+            for future in done:
+                key = running.pop(future)
+                figures[key] = future.result()  # a failed run raises here: RuntimeError naming its directory
+                start_next()
+    finally:
+        # On a failure (or Ctrl-C) the pairs under way end first, their nodes stopped cleanly.
+        pool.shutdown(wait=True, cancel_futures=True)
+    return figures
+
+
+# In a worker process: its ROS domain, and whether Ctrl-C arrived during a task.
+_domain_id: int | None = None
+_interrupted = False
+_parent_pid: int | None = None
+
+
+def _init_worker(slots, base: int) -> None:
+    global _domain_id, _parent_pid
+    with slots.get_lock():
+        slot = slots.value
+        slots.value += 1
+    _domain_id = worker_domain(base, slot)
+    _parent_pid = os.getppid()
+    # Ctrl-C reaches the whole process group: idle workers leave it to the
+    # caller; a task stops after the run it interrupted (see below).
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # If the caller dies, SIGTERM: the launcher stops the current run's nodes as for Ctrl-C.
+    from robot_controller import forking
+
+    forking.die_with_parent()
+
+
+def _on_sigint(signum, frame) -> None:
+    global _interrupted
+    _interrupted = True
+    raise KeyboardInterrupt
+
+
+def _stop_if_asked() -> None:
+    """The launcher ends a run cleanly on Ctrl-C or SIGTERM and returns: in a
+    worker, do not go on to the next run then."""
+    if _interrupted or (_parent_pid is not None and os.getppid() != _parent_pid):
+        raise KeyboardInterrupt
+
+
+def _compare_pair_in_worker(contender: Contender, seed: int, out: Path, sine_duration_s: float,
+                            amplitude: float) -> dict[str, float]:
+    global _interrupted
+    _interrupted = False
+    signal.signal(signal.SIGINT, _on_sigint)
+    try:
+        return _compare_pair(contender, seed, out, sine_duration_s, amplitude, domain_id=_domain_id)
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def render_compare(table, seeds: int, sine_duration_s: float, amplitude: float) -> str:

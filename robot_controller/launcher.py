@@ -33,7 +33,7 @@ from robot_controller.nodes import recorder as rec
 
 NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
 STOP_TIMEOUT_S = 5.0
-FIRST_TICK_TIMEOUT_S = 60.0
+FIRST_TICK_TIMEOUT_S = 20.0
 
 _print_lock = threading.Lock()
 
@@ -66,11 +66,11 @@ class ProcessGroup:
     children: list[Child] = field(default_factory=list)
 
     def start(self, name: str, module: str, args: list[str], *, env: dict[str, str] | None = None,
-              on_line: Callable[[str], bool] | None = None) -> Child:
+              on_line: Callable[[str], bool] | None = None, wall_clock: bool = True) -> Child:
         """Fork ``robot_controller.nodes.<module>`` as ``name`` with ``args``; ``on_line``
         sees each output line first and returns True for lines it consumed (not printed)."""
         process = forking.fork(module, [f"robot_controller.nodes.{module}", *args], env or self.env,
-                               _child_setup(scheduling.placement(name)))
+                               _child_setup(scheduling.placement(name, wall_clock)))
         reader = threading.Thread(target=self._relay, args=(name, process, on_line), daemon=True)
         child = Child(name, process, reader)
         self.children.append(child)
@@ -219,10 +219,16 @@ USAGE_WARMUP_S = 2.0
 
 
 def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_process: bool = False,
-           realtime: bool = False, sim_time: bool = False) -> RunResult:
+           realtime: bool = False, sim_time: bool = False, domain_id: int | None = None,
+           watcher: Callable[[float, dict[str, int]], None] | None = None) -> RunResult:
     """Run the graph for ``duration_s`` seconds of control (sim seconds with
     ``sim_time``), recording into ``out_dir/bag``. ``realtime``: the
-    simulator's pacing thread runs SCHED_FIFO (see ``scheduling``)."""
+    simulator's pacing thread runs SCHED_FIFO (see ``scheduling``).
+    ``domain_id``: the graph's ROS_DOMAIN_ID (default: this process's), so
+    runs side by side do not hear each other. ``watcher(elapsed_s, pids)``
+    is called about every 0.1 s while the loop runs (wall clock), with the
+    seconds since the loop closed and each node's process id: the fault
+    bench injects its faults from it."""
     out_dir.mkdir(parents=True, exist_ok=True)
     if sim_time:
         params = lockstep_params(params)
@@ -233,6 +239,8 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     counts_dir = Path(tempfile.mkdtemp(prefix="robot-controller-counts-"))
     env = child_env(single_process)
     env.update({RECORDED_ENV: "1", COUNTS_DIR_ENV: str(counts_dir)})
+    if domain_id is not None:
+        env["ROS_DOMAIN_ID"] = str(domain_id)
     node_env = dict(env)
     if realtime:
         node_env[scheduling.PACING_RT_ENV] = str(scheduling.PACING_RT_PRIORITY)
@@ -246,13 +254,13 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     try:
         with ProcessGroup(env) as group:
             recorder = group.start("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] if sim_time else []),
-                                   on_line=link.on_line)
+                                   on_line=link.on_line, wall_clock=not sim_time)
             nodes: list[Child] = []
             try:
                 # All at once: the nodes' publishers wait for the recorder themselves.
                 for name in ("stack",) if single_process else NODE_ORDER:
                     nodes.append(group.start(name, "all_in_one" if single_process else name,
-                                             node_args(params_file), env=node_env))
+                                             node_args(params_file), env=node_env, wall_clock=not sim_time))
                 group.relay()
                 # What scores and plots the run, imported while the nodes find each other.
                 threading.Thread(target=_preload_reporting, daemon=True).start()
@@ -269,7 +277,9 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
                         failure = _wait_sim(group, link, sim_start + duration_s, meter)
                         control_seconds = link.clock_s - sim_start
                     else:
-                        failure = _wait(group, started + duration_s, meter)
+                        pids = {c.name: c.process.pid for c in nodes}
+                        poll = (lambda: watcher(time.monotonic() - started, pids)) if watcher else None
+                        failure = _wait(group, started + duration_s, meter, poll)
                         control_seconds = time.monotonic() - started
                     wall_seconds = time.monotonic() - started
                     usage = meter.finish()
@@ -368,11 +378,14 @@ def _wait_first_tick(link: RecorderLink, group: ProcessGroup) -> str | None:
     return None
 
 
-def _wait(group: ProcessGroup, until: float, meter: UsageMeter) -> str | None:
+def _wait(group: ProcessGroup, until: float, meter: UsageMeter, poll: Callable[[], None] | None = None
+          ) -> str | None:
     while (remaining := until - time.monotonic()) > 0:
         if dead := group.dead():
             return _died(dead)
         meter.poll()
+        if poll is not None:
+            poll()
         time.sleep(min(0.1, remaining))
     return None
 

@@ -30,6 +30,12 @@ class Recording:
     motor_latency_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: stamp → command at the motor
     reading_stamp_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: /joint_states stamps
     reading_position: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))  #: the raw, noisy readings
+    #: the planner's samples: their time (its stamp, else when recorded) and positions
+    planned_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    planned_position: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
+    #: /sim/brakes: when recorded, and 1/0 per joint
+    brakes_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    brakes: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
 
     def raw_reading_at(self, stamps_s: np.ndarray) -> np.ndarray:
         """The sensor's raw position for each measurement stamp (NaN where not recorded).
@@ -66,11 +72,13 @@ def read_recording(bag_dir: Path) -> Recording:
     receipts: list[np.ndarray] = []
     reading_t: list[float] = []
     reading_q: list[np.ndarray] = []
+    planned: list[tuple[float, np.ndarray]] = []
+    brakes: list[tuple[float, np.ndarray]] = []
     with Reader(bag_dir) as reader:
         counts = {c.topic: c.msgcount for c in reader.connections}
         wanted = [c for c in reader.connections
                   if c.topic in ("/controller/state", "/sim/joint_states", "/motor/command_latency",
-                               "/motor/command_receipts", "/joint_states")]
+                               "/motor/command_receipts", "/joint_states", "/trajectory", "/sim/brakes")]
         for connection in reader.connections:
             receipt.setdefault(connection.topic, [])
         for connection, timestamp, raw in reader.messages():
@@ -84,6 +92,10 @@ def read_recording(bag_dir: Path) -> Recording:
                 latency.extend(np.asarray(msg.data, dtype=float).tolist())
             elif connection.topic == "/motor/command_receipts":
                 receipts.append(np.asarray(msg.data, dtype=float))
+            elif connection.topic == "/trajectory":
+                planned.append((timestamp * 1e-9, np.asarray(msg.data, dtype=float)))
+            elif connection.topic == "/sim/brakes":
+                brakes.append((timestamp * 1e-9, np.asarray(msg.data, dtype=float)))
             elif connection.topic == "/joint_states":
                 reading_t.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
                 reading_q.append(np.asarray(msg.position, dtype=float))
@@ -98,11 +110,18 @@ def read_recording(bag_dir: Path) -> Recording:
     state = state_layout.decode(np.vstack(state_rows), joint_count)
     if receipts:
         latency = motor_latency_s(state, np.concatenate(receipts).reshape(-1, 1 + joint_count)).tolist()
+    # Our planner's message is [positions, velocities, accelerations, time_s]; the tutorial's [p, v].
+    planned = [(data[-1] if len(data) == 3 * joint_count + 1 else t, data[:joint_count]) for t, data in planned
+               if len(data) >= joint_count]
     return Recording(state=state, true_time_s=np.asarray(true_t), true_position=np.vstack(true_q),
                      true_velocity=np.vstack(true_v), true_effort=np.vstack(true_e), counts=counts,
                      receipt_s={k: np.asarray(v) * 1e-9 for k, v in receipt.items()},
                      motor_latency_s=np.asarray(latency), reading_stamp_s=np.asarray(reading_t),
-                     reading_position=np.vstack(reading_q) if reading_q else np.zeros((0, joint_count)))
+                     reading_position=np.vstack(reading_q) if reading_q else np.zeros((0, joint_count)),
+                     planned_time_s=np.asarray([t for t, _ in planned]),
+                     planned_position=np.vstack([q for _, q in planned]) if planned else np.zeros((0, joint_count)),
+                     brakes_time_s=np.asarray([t for t, _ in brakes]),
+                     brakes=np.vstack([b for _, b in brakes]) if brakes else np.zeros((0, joint_count)))
 
 
 def motor_latency_s(state: dict[str, np.ndarray], receipts: np.ndarray) -> np.ndarray:
@@ -153,6 +172,10 @@ def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: flo
     out.update(metrics.rate_metrics(ticks, nominal_period_s))
     out["control_ticks"] = int(len(ticks))
     out["watchdog_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES["watchdog"]))
+    # Ticks spent handling a fault (controlled stops, torque off, re-acquiring, e-stop): not
+    # scored as tracking, so each is counted.
+    for name in ("sensor_lost", "reacquiring", "reference_lost", "stopped"):
+        out[f"{name}_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES[name]))
     out["saturated_ticks"] = int(np.count_nonzero(np.any(s["saturated"] > 0.5, axis=1)))
     out["peak_torque_nm"] = float(np.max(np.abs(s["command"])))
     out["recorded_duration_s"] = float(ticks[-1] - ticks[0])
@@ -176,6 +199,8 @@ def json_safe(value: Any) -> Any:
         return None
     if isinstance(value, dict):
         return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
     return value
 
 

@@ -56,11 +56,17 @@ class Placement:
     cpus: frozenset[int] | None = None  #: None: wherever the kernel likes
 
 
-def placement(process_name: str) -> Placement:
+def placement(process_name: str, wall_clock: bool = True) -> Placement:
     """The loop's processes share the last allowed CPU, everything else the
     others. The loop is a chain (simulator → sensor → controller → motor):
     only one link runs at a time, so one core serves it, and the recorder,
-    planner and the machine's other work cannot wake up in its way."""
+    planner and the machine's other work cannot wake up in its way.
+
+    In sim-time lockstep nothing is urgent and every message must reach the
+    bag: all at the same nice value, anywhere (a recorder at nice +10 beside
+    a loop running flat out fell behind by more than the publishers keep)."""
+    if not wall_clock:
+        return Placement(nice=0)
     cpus = None
     allowed = sorted(os.sched_getaffinity(0))
     if len(allowed) >= 2 and os.environ.get(AFFINITY_ENV, "1") != "0":

@@ -28,6 +28,10 @@ class Actuator:
         """The torque being applied now, N·m."""
         return self._applied.copy()
 
+    def reset(self) -> None:
+        """Torque off at once (a stop), the lag starting again from zero."""
+        self._applied = np.zeros_like(self.torque_max)
+
     def apply(self, command: np.ndarray, dt: float) -> np.ndarray:
         """Take a new command after ``dt`` seconds at the old one; return the applied torque.
 

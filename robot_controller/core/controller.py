@@ -18,13 +18,23 @@ from robot_controller.core import lqr
 from robot_controller.core.estimator import JointKalmanFilter, KalmanConfig
 from robot_controller.core.pid import DerivativeSource, Pid, PidConfig, PidTerms
 from robot_controller.core.plant import ArmDynamics
+from robot_controller.core.safe_motion import Blend, ControlledStop
 
 
 class Status(str, Enum):
     OK = "ok"
     HOLDING = "holding"  #: no reference yet: holding the first measured position
-    NO_MEASUREMENT = "no_measurement"  #: no valid sensor message yet: zero torque
-    WATCHDOG = "watchdog"  #: sensor silent for too long: zero torque
+    NO_MEASUREMENT = "no_measurement"  #: no valid sensor message yet: no command
+    WATCHDOG = "watchdog"  #: readings missing: controlled stop on the model's estimate (category 2)
+    SENSOR_LOST = "sensor_lost"  #: readings missing past sensor_timeout_s: no command, the brake holds (category 1)
+    REACQUIRING = "reacquiring"  #: a fault cleared: led from where the arm is back onto the trajectory
+    REFERENCE_LOST = "reference_lost"  #: the planner went quiet: controlled stop of the reference, holding
+    STOPPED = "stopped"  #: e-stop or brake: no command until it lifts
+
+    @property
+    def commanding(self) -> bool:
+        """Whether a tick in this state sends a torque to the motor."""
+        return self not in (Status.NO_MEASUREMENT, Status.SENSOR_LOST, Status.STOPPED)
 
 
 @dataclass
@@ -52,6 +62,9 @@ class ControllerConfig:
     reference_extrapolation: bool = False
     latency_compensation: bool = False
     watchdog_periods: int = 5
+    sensor_timeout_s: float = 1.0  #: readings missing this long end the controlled stop: torque off, brake
+    stop_deceleration: float = 20.0  #: rad/s², controlled stops (sensor or planner lost)
+    reacquire_acceleration: float = 20.0  #: rad/s², the blend back onto the trajectory after a fault
 
     def __post_init__(self) -> None:
         try:
@@ -64,6 +77,10 @@ class ControllerConfig:
             raise ConfigError(f"control_rate_hz: must be > 0, got period {self.control_period_s}")
         if int(self.watchdog_periods) < 1:
             raise ConfigError(f"watchdog_periods: must be >= 1, got {self.watchdog_periods}")
+        for name in ("sensor_timeout_s", "stop_deceleration", "reacquire_acceleration"):
+            value = getattr(self, name)
+            if not np.isfinite(value) or value <= 0:
+                raise ConfigError(f"{name}: must be a finite number > 0, got {value}")
         if self.law not in ("pid", "lqr"):
             raise ConfigError(f"controller_type: {self.law!r} is not one of ['pid', 'lqr']")
 
@@ -89,6 +106,11 @@ class ControlOutput:
 
 # Extrapolating further than this is guessing, not compensating.
 _MAX_EXTRAPOLATION_S = 0.1
+# A gap this many periods long between this controller's own ticks means it
+# was not running (frozen, starved): the arm was stopped without it meanwhile.
+REACQUIRE_GAP_PERIODS = 5
+# The planner counts as silent after this many of its periods without a sample.
+REFERENCE_TIMEOUT_PERIODS = 5
 _COMMAND_HISTORY = 16
 _TIME_EPS_S = 1e-6
 
@@ -130,6 +152,19 @@ class JointController:
         self._filtered: tuple[np.ndarray, np.ndarray] | None = None
         # (time issued, command) of recent ticks, newest last, for latency compensation
         self._commands: deque[tuple[float, np.ndarray]] = deque(maxlen=_COMMAND_HISTORY)
+        # Fault handling: the latest estimate (q, v, time), the reference last used,
+        # the stops and the blend in progress.
+        self._estimate: tuple[np.ndarray, np.ndarray, float] | None = None
+        self._last_reference: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._last_reference_s = 0.0
+        self._sensor_stop: ControlledStop | None = None
+        self._reference_stop: ControlledStop | None = None
+        self._blend: Blend | None = None
+        # Start as after a fault: lead the arm from where it is onto the trajectory.
+        self._needs_reacquire = True
+        self._hold_position: np.ndarray | None = None
+        self._halted = False
+        self._braked = False
 
     def _make_estimator(self, config: ControllerConfig) -> JointKalmanFilter | None:
         if config.estimator is None:
@@ -192,63 +227,197 @@ class JointController:
     def has_measurement(self) -> bool:
         return self._measurement is not None
 
+    def halt(self, halted: bool) -> None:
+        """An e-stop holds the drive: command nothing; when it is released,
+        re-acquire from the measurement."""
+        if halted and not self._halted:
+            self._needs_reacquire = True
+        self._halted = halted
+
+    def brakes(self, engaged: bool) -> None:
+        """The drive reports its brakes. While they hold, whatever this
+        controller commands does not move the arm: start again from the
+        measurement every tick (no integral winds up), so the release finds a
+        reference that begins where the arm is."""
+        self._braked = engaged
+
     def update(self, now_s: float) -> ControlOutput:
-        """Compute the command for the tick at ``now_s`` seconds."""
+        """Compute the command for the tick at ``now_s`` seconds: supervise the
+        inputs, estimate the arm's state, take the reference for this tick,
+        run the law."""
         dt = self.config.control_period_s
         if self._last_update_s is not None and now_s > self._last_update_s:
-            # The true elapsed time, within reason: a late tick integrates what really passed.
-            dt = min(now_s - self._last_update_s, 5.0 * self.config.control_period_s)
+            gap_s = now_s - self._last_update_s
+            if gap_s > REACQUIRE_GAP_PERIODS * self.config.control_period_s:
+                self._needs_reacquire = True  # this controller itself was not running: the world moved on
+            dt = min(gap_s, REACQUIRE_GAP_PERIODS * self.config.control_period_s)
         self._last_update_s = now_s
 
         zeros = np.zeros(self.joint_count)
         if self._measurement is None:
             return self._idle(now_s, Status.NO_MEASUREMENT, zeros, zeros)
-        measured_position, measured_velocity = self._measurement
+        if self._halted:
+            return self._idle(now_s, Status.STOPPED, self._measurement[0], self._measurement[0])
         silent_s = now_s - self._measurement_received_s
+        if silent_s > self.config.sensor_timeout_s:
+            # Category 1: the controlled stop is over; torque off, the drive's brake holds.
+            self._needs_reacquire = True
+            estimate = self._estimate[0] if self._estimate is not None else self._measurement[0]
+            return self._idle(now_s, Status.SENSOR_LOST, estimate, estimate)
         if silent_s > self.config.watchdog_periods * self.config.control_period_s:
-            self.pid.reset()
-            if self.estimator is not None:
-                self.estimator.reset()
-            return self._idle(now_s, Status.WATCHDOG, measured_position, measured_position)
+            return self._controlled_stop_on_model(now_s, dt)
 
+        if self._braked:
+            self._needs_reacquire = True
+        if self._needs_reacquire and not self._reacquire(now_s):
+            # No fresh reference to lead the arm onto yet: hold it where it is.
+            position, velocity = self._estimate_now(now_s)
+            hold = self._hold_position if self._hold_position is not None else position
+            self._hold_position = hold
+            status = Status.HOLDING if not self._planner_spoke else Status.REACQUIRING
+            return self._law(now_s, dt, status, position, velocity, hold, zeros, zeros)
+        position, velocity = self._estimate_now(now_s)
+        ref_position, ref_velocity, ref_acceleration, status = self._reference_now(now_s, position)
+        return self._law(now_s, dt, status, position, velocity, ref_position, ref_velocity, ref_acceleration)
+
+    # --- steps --------------------------------------------------------------------
+
+    def _estimate_now(self, now_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """The arm's state at ``now_s``: the reading, filtered, advanced from its stamp."""
+        position, velocity = self._measurement
         if self.estimator is not None:
             if self._measurement_stamp_s != self._filtered_stamp_s:
                 # The torque that acted since the last reading: the last command issued before it.
-                self._filtered = self.estimator.update(self._measurement_stamp_s, measured_position,
-                                                       measured_velocity,
+                self._filtered = self.estimator.update(self._measurement_stamp_s, position, velocity,
                                                        self._command_before(self._measurement_stamp_s))
                 self._filtered_stamp_s = self._measurement_stamp_s
-            measured_position, measured_velocity = self._filtered
-
+            position, velocity = self._filtered
         if self.config.latency_compensation:
             # The reading is as old as its stamp; bring position AND velocity up to
             # now through the arm model under the torque being applied, so a stale
             # velocity does not eat the D term's phase margin.
             age = float(np.clip(now_s - self._measurement_stamp_s, 0.0, _MAX_EXTRAPOLATION_S))
             if self.dynamics is not None:
-                measured_position, measured_velocity = self._predict(
-                    measured_position, measured_velocity, now_s - age, now_s)
+                position, velocity = self._predict(position, velocity, now_s - age, now_s)
             else:
-                measured_position = measured_position + measured_velocity * age
+                position = position + velocity * age
+        self._estimate = (position, velocity, now_s)
+        return position, velocity
 
-        status = Status.OK
-        if self._reference is None:
-            # Hold where the arm is until the planner speaks.
-            self._reference = (measured_position.copy(), zeros.copy(), zeros.copy())
-            self._reference_time_s = now_s
-            status = Status.HOLDING
+    def _trajectory_now(self, now_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+        """The planner's reference at ``now_s`` and whether it is fresh. Held
+        (or extrapolated, with its velocity and acceleration) from the latest sample."""
         ref_position, ref_velocity, ref_acceleration = self._reference
+        age = now_s - self._reference_time_s
+        fresh = age <= self._reference_timeout_s()
         if self.config.reference_extrapolation:
-            age = float(np.clip(now_s - self._reference_time_s, 0.0, _MAX_EXTRAPOLATION_S))
+            age = float(np.clip(age, 0.0, _MAX_EXTRAPOLATION_S))
             ref_position = ref_position + ref_velocity * age + 0.5 * ref_acceleration * age * age
             ref_velocity = ref_velocity + ref_acceleration * age
+        return ref_position, ref_velocity, ref_acceleration, fresh
 
-        feedforward = feedforward_torque(
-            self.config.feedforward, self.dynamics, ref_position, ref_velocity, ref_acceleration
-        )
-        terms = self.pid.step(dt, ref_position, ref_velocity, measured_position, measured_velocity, feedforward)
+    def _reference_timeout_s(self) -> float:
+        period = self.reference_period_s if self.reference_period_s is not None else self.config.control_period_s
+        return max(REFERENCE_TIMEOUT_PERIODS * period, _MAX_EXTRAPOLATION_S)
+
+    def _reference_now(self, now_s: float, position: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, Status]:
+        """The reference for this tick: the trajectory, or while re-acquiring the
+        trajectory plus a fading offset, or a controlled stop if the planner went quiet."""
+        zeros = np.zeros(self.joint_count)
+        if self._reference is None:
+            # Hold where the arm is until the planner speaks.
+            self._reference = (position.copy(), zeros.copy(), zeros.copy())
+            self._reference_time_s = now_s
+        if not self._planner_spoke:
+            return *self._reference, Status.HOLDING
+        ref_position, ref_velocity, ref_acceleration, fresh = self._trajectory_now(now_s)
+        if not fresh:
+            if self._reference_stop is None:
+                # From the last reference used, carried on to now at its velocity: no jump.
+                last = self._last_reference or (ref_position, ref_velocity, ref_acceleration)
+                carried = np.clip(now_s - self._last_reference_s, 0.0, _MAX_EXTRAPOLATION_S)
+                self._reference_stop = ControlledStop(now_s, last[0] + last[1] * carried, last[1],
+                                                      self.config.stop_deceleration)
+                self._blend = None
+            position_r, velocity_r, acceleration_r = self._reference_stop.at(now_s)
+            self._last_reference, self._last_reference_s = (position_r, velocity_r, acceleration_r), now_s
+            return position_r, velocity_r, acceleration_r, Status.REFERENCE_LOST
+        if self._reference_stop is not None:
+            # The planner is back: lead from the stop onto its trajectory.
+            held = self._reference_stop.at(now_s)
+            self._blend = Blend.starting(now_s, held[0] - ref_position, held[1] - ref_velocity,
+                                         self.config.reacquire_acceleration)
+            self._reference_stop = None
+        status = Status.OK
+        if self._blend is not None:
+            if self._blend.done(now_s):
+                self._blend = None
+            else:
+                offset = self._blend.offset_at(now_s)
+                ref_position, ref_velocity, ref_acceleration = (
+                    ref_position + offset[0], ref_velocity + offset[1], ref_acceleration + offset[2])
+                status = Status.REACQUIRING
+        self._last_reference, self._last_reference_s = (ref_position, ref_velocity, ref_acceleration), now_s
+        return ref_position, ref_velocity, ref_acceleration, status
+
+    def _law(self, now_s: float, dt: float, status: Status, position: np.ndarray, velocity: np.ndarray,
+             ref_position: np.ndarray, ref_velocity: np.ndarray, ref_acceleration: np.ndarray) -> ControlOutput:
+        feedforward = feedforward_torque(self.config.feedforward, self.dynamics, ref_position, ref_velocity,
+                                         ref_acceleration)
+        terms = self.pid.step(dt, ref_position, ref_velocity, position, velocity, feedforward)
         self._remember_command(now_s, terms.command)
-        return ControlOutput(now_s, status, ref_position, measured_position, terms)
+        return ControlOutput(now_s, status, ref_position, position, terms)
+
+    # --- faults -------------------------------------------------------------------
+
+    def _controlled_stop_on_model(self, now_s: float, dt: float) -> ControlOutput:
+        """Category 2 while readings are missing: bring the reference to rest within
+        the torque limit and hold, acting on the arm model's prediction under the
+        torques this controller issued (the Kalman filter's predict step, open loop)."""
+        self._needs_reacquire = True
+        if self._estimate is None:
+            self._estimate = (self._measurement[0], self._measurement[1], now_s)
+        position, velocity, estimate_s = self._estimate
+        if self.dynamics is not None and now_s > estimate_s:
+            position, velocity = self.dynamics.predict(position, velocity, self._last_command(), now_s - estimate_s)
+        self._estimate = (position, velocity, now_s)
+        if self._sensor_stop is None:
+            # From where the reference is now (no jump in it), then to rest.
+            start_position, start_velocity, _, _ = self._reference_now(now_s, position)
+            self._sensor_stop = ControlledStop(now_s, start_position, start_velocity, self.config.stop_deceleration)
+        ref_position, ref_velocity, ref_acceleration = self._sensor_stop.at(now_s)
+        self._last_reference, self._last_reference_s = (ref_position, ref_velocity, ref_acceleration), now_s
+        return self._law(now_s, dt, Status.WATCHDOG, position, velocity, ref_position, ref_velocity,
+                         ref_acceleration)
+
+    def _reacquire(self, now_s: float) -> bool:
+        """A fault has cleared (or the loop is starting): start again from the
+        measurement (estimator and integral re-initialised) and lead the arm from
+        where it is onto the trajectory. False while there is no fresh
+        reference to lead it onto (the caller holds the arm meanwhile)."""
+        self._sensor_stop = None
+        self.pid.reset()
+        if self.estimator is not None:
+            self.estimator.reset()
+        self._filtered_stamp_s = -np.inf
+        self._estimate = None
+        if self._reference is None or not self._planner_spoke or not self._trajectory_now(now_s)[3]:
+            return False
+        self._needs_reacquire = False
+        self._hold_position = None
+        position, velocity = self._measurement
+        if self.config.latency_compensation:
+            # the reading's age, on the model alone: the last commands are no guide after a fault
+            age = float(np.clip(now_s - self._measurement_stamp_s, 0.0, _MAX_EXTRAPOLATION_S))
+            position = position + velocity * age
+        ref_position, ref_velocity, _, _ = self._trajectory_now(now_s)
+        self._reference_stop = None
+        self._blend = Blend.starting(now_s, position - ref_position, velocity - ref_velocity,
+                                     self.config.reacquire_acceleration)
+
+    def _last_command(self) -> np.ndarray:
+        return self._commands[-1][1] if self._commands else np.zeros(self.joint_count)
 
     def _command_before(self, time_s: float) -> np.ndarray:
         torque = np.zeros(self.joint_count)

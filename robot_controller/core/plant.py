@@ -65,6 +65,10 @@ def steps_per_period(physics_dt: float, period_s: float) -> int:
     return n
 
 
+# Below this speed (rad/s) a braking joint counts as stopped and is held where it is.
+BRAKE_LOCK_SPEED = 0.05
+
+
 class MujocoPlant:
     """The arm simulated by MuJoCo; torque is applied as generalised force on each joint.
 
@@ -77,6 +81,11 @@ class MujocoPlant:
         self.data = mujoco.MjData(self.model)
         self.joint_names = joint_names(self.model)
         self.physics_dt = float(self.model.opt.timestep)
+        dofs = self.model.jnt_dofadr[: self.joint_count]
+        self._free_frictionloss = self.model.dof_frictionloss[dofs].copy()
+        self._free_solref = self.model.dof_solref[dofs].copy()
+        self._braked = np.zeros(self.joint_count, dtype=bool)
+        self._locked_at = np.full(self.joint_count, np.nan)  #: where each braked joint came to rest, rad
         mujoco.mj_forward(self.model, self.data)
 
     @property
@@ -94,10 +103,51 @@ class MujocoPlant:
         mujoco.mj_forward(self.model, self.data)
 
     def step(self, torque: np.ndarray, n_steps: int = 1) -> None:
-        """Hold ``torque`` (N·m) for ``n_steps`` physics steps."""
-        self.data.qfrc_applied[:] = torque
+        """Hold ``torque`` (N·m) for ``n_steps`` physics steps; a braked joint gets none."""
+        self.data.qfrc_applied[:] = np.where(self._braked, 0.0, torque)
+        if not self._braked.any():
+            for _ in range(n_steps):
+                mujoco.mj_step(self.model, self.data)
+            return
         for _ in range(n_steps):
             mujoco.mj_step(self.model, self.data)
+            self._hold_braked_joints()
+
+    def _hold_braked_joints(self) -> None:
+        """A braked joint that has come to rest is locked where it stopped: MuJoCo's
+        friction is a soft constraint and would let a loaded joint creep."""
+        qpos, qvel = self.data.qpos, self.data.qvel
+        for j in np.flatnonzero(self._braked):
+            dof, adr = self.model.jnt_dofadr[j], self.model.jnt_qposadr[j]
+            if np.isnan(self._locked_at[j]) and abs(qvel[dof]) < BRAKE_LOCK_SPEED:
+                self._locked_at[j] = qpos[adr]
+            if not np.isnan(self._locked_at[j]):
+                qpos[adr], qvel[dof] = self._locked_at[j], 0.0
+
+    def set_brakes(self, engaged: np.ndarray, holding_torque_nm: float) -> None:
+        """Engage or release each joint's holding brake.
+
+        A brake is dry friction of ``holding_torque_nm`` on the joint (MuJoCo's
+        friction loss, a constraint): it holds the arm against gravity and stops
+        a moving one at (holding torque − load) / inertia, about 570 rad/s² on
+        the reference arm, so from 3 rad/s within about 5 ms.
+        """
+        engaged = np.asarray(engaged, dtype=bool)
+        dofs = self.model.jnt_dofadr[: self.joint_count]
+        self.model.dof_frictionloss[dofs] = np.where(engaged, holding_torque_nm, self._free_frictionloss)
+        # Stiff: the brake acts within a couple of physics steps.
+        self.model.dof_solref[dofs] = np.where(engaged[:, None], [2 * self.physics_dt, 1.0], self._free_solref)
+        self._locked_at = np.where(engaged & self._braked, self._locked_at, np.nan)
+        self._braked = engaged
+
+    @property
+    def applied_torque(self) -> np.ndarray:
+        """The torque acting on each joint in the last step, N·m."""
+        return self.data.qfrc_applied[: self.joint_count].copy()
+
+    @property
+    def brakes_engaged(self) -> np.ndarray:
+        return self._braked.copy()
 
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         return self.data.qpos.copy(), self.data.qvel.copy()

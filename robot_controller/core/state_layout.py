@@ -11,7 +11,8 @@ import numpy as np
 
 HEADER = ("time_s", "status", "measurement_stamp_s")
 FIELDS = ("reference", "measured", "error", "p", "i", "d", "feedforward", "command", "saturated")
-STATUS_CODES = {"ok": 0, "holding": 1, "no_measurement": 2, "watchdog": 3}
+STATUS_CODES = {"ok": 0, "holding": 1, "no_measurement": 2, "watchdog": 3, "sensor_lost": 4, "reacquiring": 5,
+                "reference_lost": 6, "stopped": 7}
 
 
 def encode(time_s: float, status: str, measurement_stamp_s: float, joint_count: int,

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import gc
+from collections import deque
 import json
 import os
 import signal
@@ -28,11 +29,20 @@ from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 
 # Reliable, volatile, keep-last: compatible with the tutorial's default-QoS
-# publishers and subscribers, so its nodes talk to ours unchanged. Depth 100
-# lets a reader that falls behind for a moment (the recorder) catch up
-# without losing samples.
+# publishers and subscribers, so its nodes talk to ours unchanged. Depth 1000
+# (10 s of a 100 Hz topic, a few hundred kB) lets a reader that falls behind
+# (the recorder, below the loop) catch up without losing samples.
 CONTROL_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
-                         history=HistoryPolicy.KEEP_LAST, depth=100)
+                         history=HistoryPolicy.KEEP_LAST, depth=1000)
+
+# What a controller, a drive or an encoder acts on: the newest message only.
+# A node that was paused must not work through a backlog of stale readings or
+# torques when it resumes (and in lockstep there is one message in flight).
+LATEST_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
+                        history=HistoryPolicy.KEEP_LAST, depth=1)
+# /estop: volatile readers, so a plain `ros2 topic pub /estop` (volatile) matches too;
+# the e-stop is latched by the nodes that obey it, not by DDS.
+ESTOP_QOS = LATEST_QOS
 
 WARN_PERIOD_S = 2.0
 
@@ -173,9 +183,12 @@ class ConsumerWatch:
         return now - self.seen_since >= MATCH_SETTLE_S
 
 
+MAX_HELD = 1000  # messages a gate holds at most (10 s of a 100 Hz topic)
+
+
 class GatedPublisher:
-    """Holds the latest message until its audience has matched, then publishes;
-    counts what it published.
+    """Holds what is published until its audience (a consumer and, when the run
+    is recorded, the recorder) has matched, then publishes; counts what it published.
 
     In lockstep nothing is ever re-sent (a re-sent effort would double a
     tick), so the first message must not go out before anyone listens; in
@@ -189,8 +202,12 @@ class GatedPublisher:
         self.publisher = node.create_publisher(msg_type, topic, qos or CONTROL_QOS)
         self.watch = ConsumerWatch(node, topic, consumer=consumer)
         self.open = not consumer and not self.watch.recorder
+        # Held until open: every message for telemetry and in lockstep (each is a
+        # tick, and the bag must hold them all), only the newest for a wall-clock
+        # consumer (an old reading or torque is worth nothing).
+        self.hold_all = not consumer or bool(node.params.get("lockstep", False))
         self.count = 0
-        self.pending: list[Any] = []
+        self.pending: deque[Any] = deque(maxlen=MAX_HELD if self.hold_all else 1)
         self._poll = None
         if not self.open:
             self._poll = node.create_timer(0.05, self._check, clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -201,8 +218,9 @@ class GatedPublisher:
             self.publisher.publish(msg)
             self.count += 1
         else:
-            self.pending = [copy.deepcopy(msg)]
-            self._check()
+            # Held for the poll timer to flush: publish() may run on a thread of
+            # the node's own (the simulator's pacing), the timer on the executor.
+            self.pending.append(copy.deepcopy(msg))
 
     def _check(self) -> None:
         if self.open or not self.watch.ready():
@@ -210,10 +228,9 @@ class GatedPublisher:
         self.open = True
         self.node.destroy_timer(self._poll)
         self.node.get_logger().debug(f"{self.topic}: audience matched, publishing")
-        for msg in self.pending:
-            self.publisher.publish(msg)
+        while self.pending:  # popleft, not iteration: another thread may still append
+            self.publisher.publish(self.pending.popleft())
             self.count += 1
-        self.pending.clear()
 
 
 def write_publish_counts(nodes: list[StackNode]) -> None:

@@ -1,6 +1,11 @@
 """motor_node: the actuator. Each ``/joint_commands`` torque is saturated to
 ``±torque_max`` (and lagged, if set) and passed on as ``/sim/effort`` at once.
 
+Like a drive, it stops on its own when commands stop: no valid command for
+``command_timeout_s`` → zero torque and a brake request to the simulator
+(``/sim/brake``, category 0), until commands return. ``/estop`` (latched
+until released) does the same.
+
 It also notes when each command reached it, so the loop's end-to-end latency
 (the stamp of the reading a command was computed from, on
 ``/controller/state`` beside the same command, to the command's arrival
@@ -10,14 +15,14 @@ command…]``: a summary instead of a message per tick on the loop's path.
 """
 from __future__ import annotations
 
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
 from robot_controller import config as cfg
 from robot_controller import resources
 from robot_controller.core.actuator import Actuator
 from robot_controller.core.plant import joint_names, load_model
 from robot_controller.core.validation import check_effort
-from robot_controller.nodes.base import CONTROL_QOS, GatedPublisher, StackNode, run
+from robot_controller.nodes.base import ESTOP_QOS, LATEST_QOS, GatedPublisher, StackNode, run
 
 RECEIPTS_PERIOD_S = 1.0
 
@@ -30,7 +35,13 @@ class MotorNode(StackNode):
         self.actuator = self._make_actuator(self.params)
         self.last_command_s: float | None = None
         self.effort_pub = GatedPublisher(self, Float64MultiArray, "/sim/effort")
-        self.create_subscription(Float64MultiArray, "/joint_commands", self.command_callback, CONTROL_QOS)
+        self.create_subscription(Float64MultiArray, "/joint_commands", self.command_callback, LATEST_QOS)
+        # Category 0 on lost commands or e-stop: zero torque and the simulator's brakes.
+        self.brake_pub = GatedPublisher(self, Bool, "/sim/brake")
+        self.stopped_for: str | None = None  # "timeout" or "estop" while stopped
+        self.estop = False
+        self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
+        self.create_timer(self.params["command_timeout_s"] / 2, self.timeout_check)
         self.effort_msg = Float64MultiArray()
         self.receipts: list[float] = []  # flat rows of [receipt_time_s, command…]
         self.receipts_pub = GatedPublisher(self, Float64MultiArray, "/motor/command_receipts", consumer=False)
@@ -54,7 +65,13 @@ class MotorNode(StackNode):
         if isinstance(checked, str):
             self.warn_throttled("command", f"/joint_commands dropped: {checked}")
             return
+        if self.estop:
+            return
         now_s = self.now_s()
+        if self.stopped_for == "timeout":
+            self.get_logger().info("commands back: brake request released")
+            self.request_brake(False)
+            self.stopped_for = None
         self.receipts.append(now_s)
         self.receipts.extend(msg.data)
         dt = 0.0 if self.last_command_s is None else now_s - self.last_command_s
@@ -62,6 +79,40 @@ class MotorNode(StackNode):
         applied = self.actuator.apply(checked, dt)
         self.effort_msg.data = applied.tolist()
         self.effort_pub.publish(self.effort_msg)
+
+    def timeout_check(self) -> None:
+        if self.stopped_for is not None or self.last_command_s is None:
+            return  # already stopped, or no command yet (the brakes are on from start-up)
+        silent_s = self.now_s() - self.last_command_s
+        if silent_s > self.params["command_timeout_s"]:
+            self.get_logger().warning(f"no valid /joint_commands for {silent_s * 1e3:.0f} ms: zero torque, brake "
+                                      "requested (category 0)")
+            self.stop("timeout")
+
+    def stop(self, reason: str) -> None:
+        self.stopped_for = reason
+        self.actuator.reset()
+        self.effort_msg.data = [0.0] * self.joint_count
+        self.effort_pub.publish(self.effort_msg)
+        self.request_brake(True)
+
+    def request_brake(self, on: bool) -> None:
+        msg = Bool()
+        msg.data = on
+        self.brake_pub.publish(msg)
+
+    def estop_callback(self, msg: Bool) -> None:
+        if bool(msg.data) == self.estop:
+            return
+        self.estop = bool(msg.data)
+        if self.estop:
+            self.get_logger().warning("E-STOP: zero torque, brake requested (latched until released)")
+            self.stop("estop")
+        else:
+            self.get_logger().info("e-stop released: forwarding commands again")
+            self.request_brake(False)
+            self.stopped_for = None
+            self.last_command_s = None
 
     def publish_receipts(self) -> None:
         if not self.receipts:

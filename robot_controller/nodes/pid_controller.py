@@ -22,17 +22,20 @@ import numpy as np
 from rclpy.clock import Clock, ClockType
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
 from robot_controller import config as cfg
 from robot_controller import resources
 from robot_controller.core import metrics, state_layout
 from robot_controller.core.controller import ControlOutput, JointController, Status
+from robot_controller.core.errors import ConfigError
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.validation import check_joint_state, check_trajectory
-from robot_controller.nodes.base import CONTROL_QOS, GatedPublisher, StackNode, run, stamp_to_s
+from robot_controller.nodes.base import ESTOP_QOS, LATEST_QOS, GatedPublisher, StackNode, run, stamp_to_s
 
 
+# Readings naming other joints for this long, none usable yet: a configuration mismatch.
+CONFIG_MISMATCH_S = 2.0
 # Lockstep: how long (wall) a tick waits for a reference sample before using the latest.
 REFERENCE_WAIT_S = 0.3
 
@@ -49,11 +52,19 @@ class PidControllerNode(StackNode):
         self.command_pub = GatedPublisher(self, Float64MultiArray, "/joint_commands")
         self.state_pub = GatedPublisher(self, Float64MultiArray, "/controller/state", consumer=False)
         self.diagnostics_pub = GatedPublisher(self, DiagnosticArray, "/diagnostics", consumer=False)
-        self.create_subscription(JointState, "/joint_states", self.joint_state_callback, CONTROL_QOS)
-        self.create_subscription(Float64MultiArray, "/trajectory", self.trajectory_callback, CONTROL_QOS)
-        self.timer = None
+        self.create_subscription(JointState, "/joint_states", self.joint_state_callback, LATEST_QOS)
+        self.create_subscription(Float64MultiArray, "/trajectory", self.trajectory_callback, LATEST_QOS)
+        self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
         if not self.lockstep:
-            self.timer = self.create_timer(self.timer_period_s(self.params), self.control_callback)
+            # The drive's status word: its brakes (a real controller reads its drives' state
+            # too). Not in lockstep, where its arrival against the ticks would be a race.
+            self.create_subscription(Float64MultiArray, "/sim/brakes", self.brakes_callback, LATEST_QOS)
+        self.last_status: Status | None = None
+        self.mismatch_since: float | None = None
+        self.timer = None
+        self.timer_period = 0.0
+        if not self.lockstep:
+            self.set_timer_period(self.timer_period_s(self.params))
         self.create_timer(self.params["diagnostics_period_s"], self.diagnostics_callback)
         self.pending_tick_s: float | None = None  # lockstep: measurement waiting for its reference
         self.pending_since = 0.0  # wall time (monotonic) the pending tick began waiting
@@ -82,14 +93,22 @@ class PidControllerNode(StackNode):
     def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
         self.controller.set_config(cfg.controller_config(params, self.joint_count))
         if changed & {"control_rate_hz", "trigger", "watchdog_periods"} and self.timer is not None:
+            self.set_timer_period(self.timer_period_s(params))
+
+    def set_timer_period(self, period_s: float) -> None:
+        if period_s == self.timer_period:
+            return
+        if self.timer is not None:
             self.destroy_timer(self.timer)
-            self.timer = self.create_timer(self.timer_period_s(params), self.control_callback)
+        self.timer = self.create_timer(period_s, self.control_callback)
+        self.timer_period = period_s
 
     @staticmethod
     def timer_period_s(params: dict[str, Any]) -> float:
         """The timer ticks the loop (``trigger: timer``), or with readings driving
         it only watches for their absence: twice per watchdog window is enough,
-        and a quarter of the callbacks of a 100 Hz timer."""
+        and a quarter of the callbacks of a 100 Hz timer. (While readings are
+        missing it ticks at the control rate: the controlled stop runs on it.)"""
         period_s = 1.0 / params["control_rate_hz"]
         if params["trigger"] == "measurement":
             return period_s * max(1.0, params["watchdog_periods"] / 2)
@@ -101,6 +120,7 @@ class PidControllerNode(StackNode):
         checked = check_joint_state(msg.name, msg.position, msg.velocity, self.joint_names)
         if isinstance(checked, str):
             self.warn_throttled("joint_states", f"/joint_states dropped: {checked}")
+            self.check_configuration(list(msg.name))
             return
         stamp_s = stamp_to_s(msg.header.stamp)
         if self.lockstep:
@@ -114,7 +134,23 @@ class PidControllerNode(StackNode):
             now_s = self.now_s()
             self.controller.set_measurement(stamp_s, now_s, *checked)
             if self.params["trigger"] == "measurement":
+                self.set_timer_period(self.timer_period_s(self.params))  # readings drive the loop again
                 self.tick(now_s)
+
+    def check_configuration(self, names: list[str]) -> None:
+        """Readings that name other joints than this controller's URDF, and never a
+        usable one since start: the graph is configured for different arms. End
+        the run with both sides named (a hostile message later cannot do this:
+        it only counts before the first valid reading)."""
+        if self.controller.has_measurement or not names or sorted(names) == sorted(self.joint_names):
+            self.mismatch_since = None
+            return
+        now = time.monotonic()
+        self.mismatch_since = self.mismatch_since or now
+        if now - self.mismatch_since > CONFIG_MISMATCH_S:
+            raise ConfigError(f"joint names disagree: /joint_states (the simulator's URDF) has {names}, "
+                              f"pid_controller's URDF ({self.params['urdf_path'] or 'the reference arm'}) has "
+                              f"{self.joint_names}")
 
     def trajectory_callback(self, msg: Float64MultiArray) -> None:
         checked = check_trajectory(msg.data, self.joint_count)
@@ -153,9 +189,21 @@ class PidControllerNode(StackNode):
 
     def control_callback(self) -> None:
         now_s = self.now_s()
-        if self.params["trigger"] == "measurement" and now_s - self.last_tick_s < 1.5 * self.controller.config.control_period_s:
-            return  # readings are driving the loop; this timer only covers for their absence
+        period_s = self.controller.config.control_period_s
+        if self.params["trigger"] == "measurement":
+            covering = self.timer_period == period_s  # readings are missing: this timer ticks the loop
+            if now_s - self.last_tick_s < (0.5 if covering else 1.5) * period_s:
+                return  # readings are driving the loop; this timer only covers for their absence
+            self.set_timer_period(period_s)
         self.tick(now_s)
+
+    def brakes_callback(self, msg: Float64MultiArray) -> None:
+        values = np.asarray(msg.data, dtype=float)
+        if values.size == self.joint_count and np.all(np.isfinite(values)):
+            self.controller.brakes(bool(np.any(values > 0.5)))
+
+    def estop_callback(self, msg: Bool) -> None:
+        self.controller.halt(bool(msg.data))
 
     def tick(self, now_s: float) -> None:
         out = self.controller.update(now_s)
@@ -163,11 +211,11 @@ class PidControllerNode(StackNode):
         if out.status is Status.NO_MEASUREMENT:
             self.warn_throttled("no_measurement", "no valid /joint_states yet: not commanding")
             return
-        if out.status is Status.WATCHDOG:
-            self.warn_throttled("watchdog", f"no valid /joint_states for over "
-                                f"{self.controller.config.watchdog_periods} periods: zero torque")
-        self.command_msg.data = out.command.tolist()
-        self.command_pub.publish(self.command_msg)
+        if out.status is not self.last_status:
+            self.report_status(out.status)
+        if out.status.commanding:
+            self.command_msg.data = out.command.tolist()
+            self.command_pub.publish(self.command_msg)
         self.window_ticks.append(now_s)
         if not self.lockstep:  # in lockstep a tick takes no sim time
             self.window_latency.append(self.now_s() - self.controller.measurement_stamp_s)
@@ -177,6 +225,34 @@ class PidControllerNode(StackNode):
             self.get_logger().info(
                 f"target={_fmt(out.reference)}, actual={_fmt(out.measured)}, error={_fmt(out.error)}, "
                 f"torque={_fmt(out.command)}")
+
+    def report_status(self, status: Status) -> None:
+        """One log line when the loop's state changes (faults, stops, recovery)."""
+        config = self.controller.config
+        before, self.last_status = self.last_status, status
+        lines = {
+            Status.WATCHDOG: ("warning", f"no valid /joint_states for over {config.watchdog_periods} periods: "
+                              "controlled stop on the arm model's estimate (category 2)"),
+            Status.SENSOR_LOST: ("warning", f"no valid /joint_states for {config.sensor_timeout_s:g} s: no more "
+                                 "commands, torque off, the brake holds (category 1)"),
+            Status.REFERENCE_LOST: ("warning", "no /trajectory sample for too long: controlled stop, holding"),
+            Status.STOPPED: ("warning", "e-stop: not commanding until it is released"),
+            Status.REACQUIRING: ("info", "fault cleared: re-acquiring from the measurement, blending back onto "
+                                 "the trajectory"),
+        }
+        if status in (Status.REACQUIRING, Status.OK) and before in (None, Status.HOLDING):
+            self.get_logger().info("first reading and reference: leading the arm from where it is onto the "
+                                   "trajectory")
+            return
+        if status in lines:
+            # One call site per severity: rclpy's logger refuses two at one site.
+            level, text = lines[status]
+            if level == "warning":
+                self.get_logger().warning(text)
+            else:
+                self.get_logger().info(text)
+        elif status is Status.OK and before not in (None, Status.HOLDING, Status.OK):
+            self.get_logger().info("tracking the trajectory again")
 
     def publish_state(self, out: ControlOutput) -> None:
         terms = out.terms

@@ -33,7 +33,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Bool, Float64MultiArray
 
 from robot_controller.nodes.base import RECORDER_NODE, make_executor
 
@@ -54,6 +54,9 @@ TOPICS = {
 TELEMETRY_TOPICS = {
     "/diagnostics": (DiagnosticArray, "diagnostic_msgs/msg/DiagnosticArray"),
     "/motor/command_receipts": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
+    "/sim/brakes": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
+    "/sim/brake": (Bool, "std_msgs/msg/Bool"),
+    "/estop": (Bool, "std_msgs/msg/Bool"),
 }
 CLOCK_TOPIC = {"/clock": (Clock, "rosgraph_msgs/msg/Clock")}
 

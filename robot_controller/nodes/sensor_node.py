@@ -15,7 +15,7 @@ from sensor_msgs.msg import JointState
 from robot_controller import config as cfg
 from robot_controller.core.sensor_model import measure
 from robot_controller.core.validation import check_joint_state
-from robot_controller.nodes.base import CONTROL_QOS, GatedPublisher, StackNode, run, stamp_to_s
+from robot_controller.nodes.base import LATEST_QOS, GatedPublisher, StackNode, run, stamp_to_s
 
 # Stamps within this of a grid point count as on it (float ns rounding).
 _GRID_EPS_S = 1e-6
@@ -31,7 +31,7 @@ class SensorNode(StackNode):
         self.next_sample_s: float | None = None
         self.joint_names: list[str] | None = None
         self.pub = GatedPublisher(self, JointState, "/joint_states")
-        self.create_subscription(JointState, "/sim/joint_states", self.true_state_callback, CONTROL_QOS)
+        self.create_subscription(JointState, "/sim/joint_states", self.true_state_callback, LATEST_QOS)
         self.out = JointState()
         self.get_logger().info(
             f"sensor at {self.params['rate_hz']:g} Hz: σ position {self.sensor.position_noise_std:g} rad, "

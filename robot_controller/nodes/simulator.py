@@ -10,6 +10,14 @@ the sensor, and through its readings the controller, tick on a steady grid.
 A new effort, taken on the executor thread, first steps the physics up to
 its arrival on the old torque: it acts from the physics step it arrived in.
 
+Protections of the drive (DESIGN.md §1b), as real hardware has them: each
+joint has a holding brake, engaged before the first effort, on e-stop
+(``/estop``, ``std_msgs/Bool``, latched; or the ``/simulator/estop``
+``std_srvs/SetBool`` service), when the motor asks (``/sim/brake``), and
+when efforts stop arriving for ``drive_timeout_s``; a braked joint gets no
+torque. The brakes' state goes out on ``/sim/brakes`` (one value per joint,
+1 = engaged) whenever it changes and twice a second.
+
 Lockstep (``lockstep: true``, sim time): the sim owns time. It publishes
 ``/clock`` and the state for tick k, then waits; the effort for tick k
 advances exactly one control period. No effort, no time: a run is
@@ -25,17 +33,19 @@ import numpy as np
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
+from std_srvs.srv import SetBool
 
 from robot_controller import config as cfg
 from robot_controller import resources, scheduling
 from robot_controller.core.plant import MujocoPlant, steps_per_period
 from robot_controller.core.validation import check_effort
-from robot_controller.nodes.base import CONTROL_QOS, GatedPublisher, StackNode, run
+from robot_controller.nodes.base import CONTROL_QOS, ESTOP_QOS, LATEST_QOS, GatedPublisher, StackNode, run
 
 # Catch up at most this many physics steps in one callback; beyond, the sim
 # runs slower than real time rather than jumping.
 MAX_CATCH_UP_STEPS = 100
+BRAKES_REPORT_PERIOD_NS = 500_000_000
 
 
 class Simulator(StackNode):
@@ -60,7 +70,19 @@ class Simulator(StackNode):
         self.late_wakeups = 0
 
         self.state_pub = GatedPublisher(self, JointState, "/sim/joint_states")
-        self.create_subscription(Float64MultiArray, "/sim/effort", self.effort_callback, CONTROL_QOS)
+        # Only the newest effort matters to a drive (lockstep sends one at a time anyway).
+        self.create_subscription(Float64MultiArray, "/sim/effort", self.effort_callback, LATEST_QOS)
+        # Brakes: why each is on (any reason holds it), and who may ask.
+        self.brake_reasons: set[str] = {"start"}
+        self.last_effort_mono_ns = 0
+        self.brakes_pub = GatedPublisher(self, Float64MultiArray, "/sim/brakes", consumer=False)
+        self.brakes_msg = Float64MultiArray()
+        self.brakes_msg.layout.dim = [MultiArrayDimension(label="engaged", size=self.joint_count,
+                                                          stride=self.joint_count)]
+        self.next_brakes_report_ns = 0
+        self.create_subscription(Bool, "/sim/brake", self.brake_request_callback, CONTROL_QOS)
+        self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
+        self.create_service(SetBool, "/simulator/estop", self.estop_service)
         self.state_msg = JointState()
         self.state_msg.name = list(self.plant.joint_names)
         self.stop_pacing = threading.Event()
@@ -76,6 +98,7 @@ class Simulator(StackNode):
             if not p["wait_for_first_command"]:
                 self.release_brakes()
             self.publish_period_ns = round(1e9 / p["publish_rate_hz"])
+            self.drive_timeout_ns = round(1e9 * p["drive_timeout_s"])
             rt_priority = scheduling.realtime_thread_requested()
             if rt_priority is not None:
                 scheduling.install_rt_budget()
@@ -109,13 +132,72 @@ class Simulator(StackNode):
             self.lockstep_effort(checked)
             return
         with self.lock:
+            if "estop" in self.brake_reasons:
+                self.warn_throttled("estop_effort", "e-stop: efforts ignored until it is released")
+                return
             if self.anchor_mono_ns is None:
                 self.release_brakes()
                 self.get_logger().info("first command received, physics running")
             else:
                 # Physics up to now ran on the old torque; the new one acts from here.
                 self.advance(time.monotonic_ns())
+            self.last_effort_mono_ns = time.monotonic_ns()
             self.effort = checked
+            self.set_brake("start", False)
+            if "drive_timeout" in self.brake_reasons:
+                self.get_logger().info("efforts back: brakes released")
+            self.set_brake("drive_timeout", False)
+
+    # --- brakes -------------------------------------------------------------------
+
+    def set_brake(self, reason: str, on: bool) -> None:
+        """Add or remove one reason for the brakes (lock held); the brakes hold
+        while any reason does, and a braked joint gets no torque."""
+        before = bool(self.brake_reasons)
+        if on:
+            self.brake_reasons.add(reason)
+        else:
+            self.brake_reasons.discard(reason)
+        engaged = bool(self.brake_reasons)
+        if engaged != before:
+            self.plant.set_brakes(np.full(self.joint_count, engaged), self.params["brake_torque_nm"])
+            if engaged:
+                self.effort = np.zeros(self.joint_count)
+            self.report_brakes()
+
+    def report_brakes(self) -> None:
+        self.brakes_msg.data = [1.0 if self.brake_reasons else 0.0] * self.joint_count
+        self.brakes_pub.publish(self.brakes_msg)
+
+    def brake_request_callback(self, msg: Bool) -> None:
+        with self.lock:
+            if bool(msg.data) != ("requested" in self.brake_reasons):
+                self.get_logger().warning("brake requested by the motor: torque off, brakes on" if msg.data
+                                          else "motor released its brake request")
+            self.set_brake("requested", bool(msg.data))
+
+    def estop_callback(self, msg: Bool) -> None:
+        self.set_estop(bool(msg.data))
+
+    def estop_service(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        self.set_estop(bool(request.data))
+        response.success = True
+        response.message = "e-stop engaged: torque off, brakes on" if request.data else "e-stop released"
+        return response
+
+    def set_estop(self, on: bool) -> None:
+        with self.lock:
+            if on == ("estop" in self.brake_reasons):
+                return
+            if self.anchor_mono_ns is not None and not self.lockstep:
+                self.advance(time.monotonic_ns())
+            self.set_brake("estop", on)
+        self.get_logger().warning("E-STOP: torque off, brakes on (latched until released)" if on
+                                  else "e-stop released: brakes release when efforts arrive")
+        if not on:
+            with self.lock:
+                # Released, the brakes wait for the drive's next effort.
+                self.set_brake("drive_timeout", True)
 
     # --- wall clock -------------------------------------------------------------
 
@@ -139,11 +221,20 @@ class Simulator(StackNode):
                 if self.anchor_mono_ns is None:
                     stamp_ns = self.get_clock().now().nanoseconds  # brakes on: the arm holds still
                 else:
+                    if now_ns - self.last_effort_mono_ns > self.drive_timeout_ns and \
+                            "drive_timeout" not in self.brake_reasons:
+                        self.advance(now_ns)
+                        self.set_brake("drive_timeout", True)
+                        self.warn_throttled("drive_timeout", f"no effort for over {self.params['drive_timeout_s']:g} "
+                                            "s: torque off, brakes on (category 0)")
                     # Step to the deadline (not to now): the state is that of the grid point.
                     self.advance(max(deadline_ns, self.anchor_mono_ns))
                     stamp_ns = self.anchor_ros_ns + self.steps_done * self.physics_dt_ns
                 if self.state_pub.open:
                     self.publish_state(stamp_ns)
+                if now_ns >= self.next_brakes_report_ns:
+                    self.next_brakes_report_ns = now_ns + BRAKES_REPORT_PERIOD_NS
+                    self.report_brakes()
                 anchor = self.anchor_mono_ns
             # Next deadline on the grid of physics time 0 (or of the last one while
             # the brakes hold); a late wake-up skips the deadlines it missed.
@@ -188,9 +279,11 @@ class Simulator(StackNode):
             self.warn_throttled("extra_effort", "lockstep: effort with no tick waiting for it, ignored")
             return
         self.waiting_for_effort = False
-        self.effort = effort
+        self.set_brake("start", False)
+        self.set_brake("drive_timeout", False)
+        self.effort = np.zeros(self.joint_count) if self.brake_reasons else effort
         self.efforts_applied += 1
-        self.plant.step(effort, self.steps_per_tick)
+        self.plant.step(self.effort, self.steps_per_tick)
         self.steps_done += self.steps_per_tick
         self.publish_tick()
 
@@ -208,7 +301,7 @@ class Simulator(StackNode):
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(stamp_ns), 1_000_000_000)
         msg.position = position.tolist()
         msg.velocity = velocity.tolist()
-        msg.effort = self.effort.tolist()
+        msg.effort = (np.zeros(self.joint_count) if self.brake_reasons else self.effort).tolist()
         self.state_pub.publish(msg)
 
     def destroy_node(self) -> None:

@@ -1,0 +1,94 @@
+"""References for the moments a loop is not simply tracking: a controlled
+stop when an input is lost, and a blend back onto the trajectory when it
+returns.
+
+Both are per joint, limited in acceleration so the torque they ask for stays
+within the actuator's reach (IEC 60204-1 stop category 2 is "controlled
+stop, keep holding"; re-acquisition must not jump the reference nor chatter
+at the torque limit). Pure functions of time: no ROS, no clocks.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ControlledStop:
+    """Decelerate from ``(position, velocity)`` at ``start_s`` at ``deceleration``
+    (rad/s², per joint) to rest, then hold where the motion ended."""
+
+    start_s: float
+    position: np.ndarray
+    velocity: np.ndarray
+    deceleration: float
+
+    def at(self, time_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(position, velocity, acceleration)`` at ``time_s``."""
+        v0 = np.asarray(self.velocity, dtype=float)
+        stop_after = np.abs(v0) / self.deceleration  # per joint, s
+        tau = np.clip(time_s - self.start_s, 0.0, stop_after)
+        accel = -np.sign(v0) * self.deceleration
+        position = self.position + v0 * tau + 0.5 * accel * tau * tau
+        velocity = v0 + accel * tau
+        moving = (time_s - self.start_s) < stop_after
+        return position, np.where(moving, velocity, 0.0), np.where(moving, accel, 0.0)
+
+    def at_rest(self, time_s: float) -> bool:
+        return bool(np.all(time_s - self.start_s >= np.abs(self.velocity) / self.deceleration))
+
+
+def _quintic(p0: np.ndarray, v0: np.ndarray, duration_s: float, tau: float
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The quintic from ``(p0, v0, 0)`` at 0 to ``(0, 0, 0)`` at ``duration_s``, at ``tau``."""
+    T = duration_s
+    s = np.clip(tau / T, 0.0, 1.0)
+    # p(s) = p0·(1 − 10s³ + 15s⁴ − 6s⁵) + v0·T·(s − 6s³ + 8s⁴ − 3s⁵)
+    a = 1 - 10 * s**3 + 15 * s**4 - 6 * s**5
+    da = (-30 * s**2 + 60 * s**3 - 30 * s**4) / T
+    dda = (-60 * s + 180 * s**2 - 120 * s**3) / T**2
+    b = T * (s - 6 * s**3 + 8 * s**4 - 3 * s**5)
+    db = 1 - 18 * s**2 + 32 * s**3 - 15 * s**4
+    ddb = (-36 * s + 96 * s**2 - 60 * s**3) / T
+    return p0 * a + v0 * b, p0 * da + v0 * db, p0 * dda + v0 * ddb
+
+
+MIN_BLEND_S = 0.2
+
+
+@dataclass(frozen=True)
+class Blend:
+    """An offset from the trajectory that starts where the arm is and fades out.
+
+    ``offset_position``/``offset_velocity``: arm minus trajectory when the
+    blend starts. The reference is trajectory + offset(t), the offset a
+    quintic reaching zero (position, velocity and acceleration) after
+    ``duration_s``, chosen so its own acceleration stays within
+    ``max_acceleration``: the arm is led back, never yanked.
+    """
+
+    start_s: float
+    offset_position: np.ndarray
+    offset_velocity: np.ndarray
+    duration_s: float
+
+    @classmethod
+    def starting(cls, start_s: float, offset_position: np.ndarray, offset_velocity: np.ndarray,
+                 max_acceleration: float) -> Blend:
+        p0 = np.asarray(offset_position, dtype=float)
+        v0 = np.asarray(offset_velocity, dtype=float)
+        duration = MIN_BLEND_S
+        probe = np.linspace(0.0, 1.0, 41)
+        for _ in range(40):  # ×1.25 from 0.2 s: at most about a minute, always ends
+            peak = max(float(np.max(np.abs(_quintic(p0, v0, duration, s * duration)[2]))) for s in probe)
+            if peak <= max_acceleration:
+                break
+            duration *= 1.25
+        return cls(start_s, p0, v0, duration)
+
+    def offset_at(self, time_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return _quintic(self.offset_position, self.offset_velocity, self.duration_s, time_s - self.start_s)
+
+    def done(self, time_s: float) -> bool:
+        return time_s - self.start_s >= self.duration_s

@@ -1,0 +1,63 @@
+"""``robot-controller estop [--release]``: trigger or release the emergency stop
+of a running graph, the way an operator's button would.
+
+Publishes ``/estop`` (``std_msgs/Bool``: true = stop) and calls the
+simulator's ``/simulator/estop`` service (``std_srvs/SetBool``), so the
+drive stops even if the topic were lost. Latched: the stack stays stopped
+(torque off, brakes on) until released; released, the controller re-acquires
+from where the arm is.
+"""
+from __future__ import annotations
+
+import time
+
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Bool
+from std_srvs.srv import SetBool
+
+# Transient local: a node that starts after the stop still hears it (the
+# nodes' own readers are volatile, so any publisher matches them).
+PUBLISH_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                         history=HistoryPolicy.KEEP_LAST, depth=1)
+DISCOVERY_TIMEOUT_S = 3.0
+
+
+def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, str]:
+    """Engage (or release) the e-stop. Returns (someone obeyed, a one-line report)."""
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = Node("estop_button", context=context, start_parameter_services=False)
+    try:
+        publisher = node.create_publisher(Bool, "/estop", PUBLISH_QOS)
+        client = node.create_client(SetBool, "/simulator/estop")
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline and (publisher.get_subscription_count() == 0
+                                               or not client.service_is_ready()):
+            time.sleep(0.05)
+        listeners = sorted({info.node_name for info in node.get_subscriptions_info_by_topic("/estop")})
+        msg = Bool()
+        msg.data = engage
+        publisher.publish(msg)
+        service_note = "the simulator's service did not answer"
+        if client.service_is_ready():
+            future = client.call_async(SetBool.Request(data=engage))
+            executor = SingleThreadedExecutor(context=context)
+            executor.add_node(node)
+            end = time.monotonic() + timeout_s
+            while not future.done() and time.monotonic() < end:
+                executor.spin_once(timeout_sec=0.05)
+            executor.remove_node(node)
+            if future.done() and future.result() is not None:
+                service_note = f"simulator: {future.result().message}"
+        time.sleep(0.2)  # let the reliable writer deliver before the node goes
+        what = "e-stop ENGAGED" if engage else "e-stop released"
+        if not listeners and service_note.startswith("the simulator's service did not"):
+            return False, f"{what}, but no node is listening on /estop (is the stack running on this ROS_DOMAIN_ID?)"
+        return True, f"{what}: heard by {', '.join(listeners) or 'no /estop subscriber'}; {service_note}"
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+

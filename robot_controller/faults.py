@@ -1,0 +1,170 @@
+"""``robot-controller faults``: freeze each node in turn mid-motion and measure
+what the arm did.
+
+Each case is a real wall-clock run of the default stack on the sine; at
+``FAULT_AT_S`` after the loop closes (a zero crossing of the 0.5 Hz sine: its
+peak speed) one node gets ``SIGSTOP``, then ``SIGCONT`` after the case's
+duration. From the recording: how far the TRUE angle left the band the
+reference sweeps (``max_deviation_rad``), how long after the fault it was
+back within 2 mrad of the planned trajectory (``reacquire_s``), the peak
+torque and whether the brakes engaged. DESIGN.md §1b says what each node's
+loss must cause; this is how it is checked.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robot_controller import config as cfg
+from robot_controller import launcher, report
+
+NODES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
+DURATIONS_S = (0.05, 0.5, 3.0)
+QUICK_CASES = (("sensor_node", 0.5), ("pid_controller", 0.5))
+FAULT_AT_S = 5.0
+AFTER_S = 4.0
+REACQUIRED_RAD = 0.002
+REACQUIRED_HOLD_S = 0.1
+GOAL_DEVIATION_RAD = 0.1
+
+
+@dataclass(frozen=True)
+class Case:
+    node: str
+    duration_s: float
+
+    @property
+    def name(self) -> str:
+        return f"{self.node}_stop_{self.duration_s:g}s"
+
+
+class Freezer:
+    """A launcher watcher: ``SIGSTOP`` the node at ``at_s``, ``SIGCONT`` it ``duration_s`` later.
+
+    Remembers when (system time, the ROS clock of a wall-clock run) it did both.
+    """
+
+    def __init__(self, case: Case, at_s: float) -> None:
+        self.case, self.at_s = case, at_s
+        self.started = False
+        self.stopped_at = self.resumed_at = float("nan")
+        self.thread: threading.Thread | None = None
+
+    def __call__(self, elapsed_s: float, pids: dict[str, int]) -> None:
+        if self.started or elapsed_s < self.at_s:
+            return
+        self.started = True
+        self.thread = threading.Thread(target=self._freeze, args=(pids[self.case.node],), daemon=True)
+        self.thread.start()
+
+    def _freeze(self, pid: int) -> None:
+        try:
+            os.kill(pid, signal.SIGSTOP)
+            self.stopped_at = time.time()
+            time.sleep(self.case.duration_s)
+        finally:
+            os.kill(pid, signal.SIGCONT)
+            self.resumed_at = time.time()
+
+
+def case_figures(recording: report.Recording, fault_start_s: float, fault_end_s: float) -> dict[str, Any]:
+    """What the arm did from the fault on (times on the run's clock, s)."""
+    s = recording.state
+    planned_t, planned_q = recording.planned_time_s, recording.planned_position[:, 0]
+    true_t, true_q = recording.true_time_s, recording.true_position[:, 0]
+    low, high = float(np.min(planned_q)), float(np.max(planned_q))
+    after = true_t >= fault_start_s
+    outside = np.maximum(0.0, np.maximum(true_q - high, low - true_q))
+    error = np.abs(true_q - np.interp(true_t, planned_t, planned_q))
+    # Back: the first moment after the fault from which the error stays within
+    # 2 mrad for REACQUIRED_HOLD_S (a single sample's noise is not "back").
+    reacquire_s = float("nan")
+    within = (true_t >= fault_end_s) & (error < REACQUIRED_RAD)
+    for start in np.flatnonzero(within):
+        window = (true_t >= true_t[start]) & (true_t < true_t[start] + REACQUIRED_HOLD_S)
+        if true_t[-1] >= true_t[start] + REACQUIRED_HOLD_S and np.all(within[window]):
+            reacquire_s = float(true_t[start] - fault_end_s)
+            break
+    ticks = s["time_s"] >= fault_start_s
+    # Up to the last tick: when the run ends the nodes stop and the drive brakes, as it should.
+    last_tick_s = s["time_s"][-1] - 0.1
+    braked = ((recording.brakes_time_s >= fault_start_s) & (recording.brakes_time_s <= last_tick_s)
+              & np.any(recording.brakes > 0.5, axis=1))
+    return {"max_deviation_rad": float(np.max(outside[after])) if np.any(after) else float("nan"),
+            "max_error_from_plan_rad": float(np.max(error[after])) if np.any(after) else float("nan"),
+            "reacquire_s": reacquire_s,
+            "peak_torque_nm": float(np.max(np.abs(s["command"][ticks]))) if np.any(ticks) else 0.0,
+            "brake_engaged": bool(np.any(braked))}
+
+
+def run_case(case: Case, out: Path, params: cfg.Params) -> dict[str, Any]:
+    freezer = Freezer(case, FAULT_AT_S)
+    result = launcher.launch(params, out_dir=out, duration_s=FAULT_AT_S + case.duration_s + AFTER_S,
+                             watcher=freezer)
+    if freezer.thread is not None:
+        freezer.thread.join()
+    entry: dict[str, Any] = {"case": case.name, "node": case.node, "fault": "SIGSTOP", "duration_s": case.duration_s,
+                             "exit_code": result.exit_code}
+    if not result.message_counts.get("/controller/state"):
+        return entry | {"failure": result.failure or "no recording"}
+    recording = report.read_recording(result.bag_dir)
+    values = report.score(recording)
+    entry.update(case_figures(recording, freezer.stopped_at, freezer.resumed_at))
+    entry["tracking_max_rad"] = values.get("tracking_max_rad")
+    if result.failure:
+        entry["failure"] = result.failure
+    report.write_metrics(out / "metrics.json", values)
+    report.plot_tracking(recording, out / "tracking.png", title=f"{case.node} frozen {case.duration_s:g} s")
+    return entry
+
+
+def faults(out: Path, *, quick: bool = False, progress: Callable[[str], None] = print) -> list[dict[str, Any]]:
+    out.mkdir(parents=True, exist_ok=True)
+    params = cfg.load_stack()
+    cases = ([Case(node, d) for node, d in QUICK_CASES] if quick
+             else [Case(node, d) for node in NODES for d in DURATIONS_S])
+    entries = []
+    for case in cases:
+        progress(f"{case.node}: SIGSTOP for {case.duration_s:g} s at t = {FAULT_AT_S:g} s")
+        entries.append(run_case(case, out / case.name, params))
+    report.write_metrics(out / "faults.json", {"cases": entries, **headline(entries)})
+    (out / "faults.md").write_text(render(entries))
+    return entries
+
+
+def headline(entries: list[dict[str, Any]]) -> dict[str, Any]:
+    deviations = [e.get("max_deviation_rad", float("nan")) for e in entries]
+    worst = max(deviations, key=lambda d: -1 if not np.isfinite(d) else d) if deviations else float("nan")
+    return {"worst_max_deviation_rad": worst, "goal_max_deviation_rad": GOAL_DEVIATION_RAD,
+            "all_cases_ran": all("failure" not in e for e in entries)}
+
+
+def render(entries: list[dict[str, Any]]) -> str:
+    def num(value: Any, fmt: str) -> str:
+        return "n/a" if value is None or (isinstance(value, float) and not np.isfinite(value)) else fmt.format(value)
+
+    top = headline(entries)
+    lines = ["# Faults: each node frozen mid-motion", "",
+             f"Default preset, wall clock, sine 1 rad 0.5 Hz. At {FAULT_AT_S:g} s (peak speed) one node gets "
+             "SIGSTOP, then SIGCONT after the duration. Deviation: how far the TRUE angle left the band the "
+             "reference sweeps (±1 rad). Re-acquired: back within 2 mrad of the planned trajectory, after the "
+             "fault ended.", "",
+             f"**Worst deviation: {num(top['worst_max_deviation_rad'], '{:.4f}')} rad** "
+             f"(goal ≤ {GOAL_DEVIATION_RAD:g} rad in every case).", "",
+             "| node | frozen for | deviation [rad] | largest error from the plan [rad] | re-acquired after [s] "
+             "| peak torque [N·m] | brakes engaged | exit |", "|---|---|---|---|---|---|---|---|"]
+    for e in entries:
+        lines.append(f"| {e['node']} | {e['duration_s']:g} s | {num(e.get('max_deviation_rad'), '{:.4f}')} | "
+                     f"{num(e.get('max_error_from_plan_rad'), '{:.3f}')} | {num(e.get('reacquire_s'), '{:.2f}')} | "
+                     f"{num(e.get('peak_torque_nm'), '{:.1f}')} | {'yes' if e.get('brake_engaged') else 'no'} | "
+                     f"{e.get('exit_code')}{' ' + e['failure'] if e.get('failure') else ''} |")
+    return "\n".join(lines) + "\n"
+
