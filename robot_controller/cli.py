@@ -19,7 +19,7 @@ HEADLINE = ("tracking_rms_rad", "tracking_max_rad", "measured_rms_rad", "control
 
 
 def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: Path | None,
-        single_process: bool, realtime: bool = False, sim_time: bool = False) -> int:
+        single_process: bool, realtime: bool = False, sim_time: bool = False, respawn: bool = False) -> int:
     from robot_controller import launcher, report
 
     try:
@@ -33,7 +33,7 @@ def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: 
     params["sensor_node"]["seed"] = seed
     out = out or Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     result = launcher.launch(params, out_dir=out, duration_s=duration_s, single_process=single_process,
-                             realtime=realtime, sim_time=sim_time)
+                             realtime=realtime, sim_time=sim_time, respawn=respawn)
     if result.exit_code != 0 and not any(result.message_counts.values()):
         return result.exit_code
     try:
@@ -177,6 +177,8 @@ def main(argv: list[str] | None = None) -> int:
     p_run.add_argument("--single-process", action="store_true", help="all five nodes on one executor")
     p_run.add_argument("--sim-time", action="store_true",
                        help="deterministic lockstep on /clock, as fast as the graph goes (--duration in sim seconds)")
+    p_run.add_argument("--respawn", action="store_true",
+                       help="start a node that dies again (wall clock), as ros2 launch's respawn=True")
     p_run.add_argument("--realtime", action="store_true",
                        help="run the simulator's pacing thread SCHED_FIFO, with a CPU budget (see README)")
     p_score = verbs.add_parser("score", help="re-score a run directory from its bag")
@@ -210,7 +212,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.verb == "run":
         return run(duration_s=args.duration, out=args.out, preset=args.preset, seed=args.seed, config=args.config,
                    single_process=args.single_process, realtime=args.realtime,
-                   sim_time=args.sim_time)
+                   sim_time=args.sim_time, respawn=args.respawn)
     if args.verb == "step":
         return step(amplitude=args.amplitude, shaping=args.shaping, out=args.out, preset=args.preset, seed=args.seed,
                     config=args.config, sim_time=args.sim_time)

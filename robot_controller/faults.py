@@ -39,11 +39,12 @@ GOAL_DEVIATION_RAD = 0.1
 @dataclass(frozen=True)
 class Case:
     node: str
-    duration_s: float
+    duration_s: float  #: how long it is frozen (SIGSTOP); 0 for a kill
+    kind: str = "SIGSTOP"  #: or "SIGKILL": the launcher respawns the node
 
     @property
     def name(self) -> str:
-        return f"{self.node}_stop_{self.duration_s:g}s"
+        return f"{self.node}_stop_{self.duration_s:g}s" if self.kind == "SIGSTOP" else f"{self.node}_kill"
 
 
 class Freezer:
@@ -66,6 +67,10 @@ class Freezer:
         self.thread.start()
 
     def _freeze(self, pid: int) -> None:
+        if self.case.kind == "SIGKILL":
+            os.kill(pid, signal.SIGKILL)
+            self.stopped_at = self.resumed_at = time.time()
+            return
         try:
             os.kill(pid, signal.SIGSTOP)
             self.stopped_at = time.time()
@@ -108,10 +113,10 @@ def case_figures(recording: report.Recording, fault_start_s: float, fault_end_s:
 def run_case(case: Case, out: Path, params: cfg.Params) -> dict[str, Any]:
     freezer = Freezer(case, FAULT_AT_S)
     result = launcher.launch(params, out_dir=out, duration_s=FAULT_AT_S + case.duration_s + AFTER_S,
-                             watcher=freezer)
+                             watcher=freezer, respawn=case.kind == "SIGKILL")
     if freezer.thread is not None:
         freezer.thread.join()
-    entry: dict[str, Any] = {"case": case.name, "node": case.node, "fault": "SIGSTOP", "duration_s": case.duration_s,
+    entry: dict[str, Any] = {"case": case.name, "node": case.node, "fault": case.kind, "duration_s": case.duration_s,
                              "exit_code": result.exit_code}
     if not result.message_counts.get("/controller/state"):
         return entry | {"failure": result.failure or "no recording"}
@@ -130,10 +135,11 @@ def faults(out: Path, *, quick: bool = False, progress: Callable[[str], None] = 
     out.mkdir(parents=True, exist_ok=True)
     params = cfg.load_stack()
     cases = ([Case(node, d) for node, d in QUICK_CASES] if quick
-             else [Case(node, d) for node in NODES for d in DURATIONS_S])
+             else [Case(node, d) for node in NODES for d in DURATIONS_S] + [Case(node, 0.0, "SIGKILL") for node in NODES])
     entries = []
     for case in cases:
-        progress(f"{case.node}: SIGSTOP for {case.duration_s:g} s at t = {FAULT_AT_S:g} s")
+        progress(f"{case.node}: " + (f"SIGSTOP for {case.duration_s:g} s" if case.kind == "SIGSTOP"
+                                     else "SIGKILL, respawned") + f" at t = {FAULT_AT_S:g} s")
         entries.append(run_case(case, out / case.name, params))
     report.write_metrics(out / "faults.json", {"cases": entries, **headline(entries)})
     (out / "faults.md").write_text(render(entries))
@@ -154,15 +160,18 @@ def render(entries: list[dict[str, Any]]) -> str:
     top = headline(entries)
     lines = ["# Faults: each node frozen mid-motion", "",
              f"Default preset, wall clock, sine 1 rad 0.5 Hz. At {FAULT_AT_S:g} s (peak speed) one node gets "
-             "SIGSTOP, then SIGCONT after the duration. Deviation: how far the TRUE angle left the band the "
+             "SIGSTOP, then SIGCONT after the duration; or SIGKILL, and the launcher respawns it "
+             "(`run --respawn`). Deviation: how far the TRUE angle left the band the "
              "reference sweeps (±1 rad). Re-acquired: back within 2 mrad of the planned trajectory, after the "
              "fault ended.", "",
              f"**Worst deviation: {num(top['worst_max_deviation_rad'], '{:.4f}')} rad** "
              f"(goal ≤ {GOAL_DEVIATION_RAD:g} rad in every case).", "",
-             "| node | frozen for | deviation [rad] | largest error from the plan [rad] | re-acquired after [s] "
+             "| node | fault | deviation [rad] | largest error from the plan [rad] | re-acquired after [s] "
              "| peak torque [N·m] | brakes engaged | exit |", "|---|---|---|---|---|---|---|---|"]
+    fault_text = {"SIGSTOP": "frozen {:g} s", "SIGKILL": "killed, respawned"}
     for e in entries:
-        lines.append(f"| {e['node']} | {e['duration_s']:g} s | {num(e.get('max_deviation_rad'), '{:.4f}')} | "
+        lines.append(f"| {e['node']} | {fault_text[e['fault']].format(e['duration_s'])} | "
+                     f"{num(e.get('max_deviation_rad'), '{:.4f}')} | "
                      f"{num(e.get('max_error_from_plan_rad'), '{:.3f}')} | {num(e.get('reacquire_s'), '{:.2f}')} | "
                      f"{num(e.get('peak_torque_nm'), '{:.1f}')} | {'yes' if e.get('brake_engaged') else 'no'} | "
                      f"{e.get('exit_code')}{' ' + e['failure'] if e.get('failure') else ''} |")

@@ -56,6 +56,8 @@ class Child:
     name: str
     process: forking.ForkedProcess
     reader: threading.Thread  #: relays its output; started by ``ProcessGroup.relay``
+    module: str = ""
+    args: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -72,7 +74,7 @@ class ProcessGroup:
         process = forking.fork(module, [f"robot_controller.nodes.{module}", *args], env or self.env,
                                _child_setup(scheduling.placement(name, wall_clock)))
         reader = threading.Thread(target=self._relay, args=(name, process, on_line), daemon=True)
-        child = Child(name, process, reader)
+        child = Child(name, process, reader, module, args)
         self.children.append(child)
         return child
 
@@ -85,6 +87,14 @@ class ProcessGroup:
             with _print_lock:
                 sys.stdout.write(f"[{name}] {line}")
                 sys.stdout.flush()
+
+    def restart(self, child: Child, *, env: dict[str, str]) -> Child:
+        """Start a dead child again, same module and arguments (``--respawn``)."""
+        child.reader.join(timeout=1.0)
+        self.children.remove(child)
+        again = self.start(child.name, child.module, child.args, env=env)
+        self.relay()
+        return again
 
     def relay(self) -> None:
         """Start relaying every child's output. Only once all are forked: a fork
@@ -220,7 +230,7 @@ USAGE_WARMUP_S = 2.0
 
 def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_process: bool = False,
            realtime: bool = False, sim_time: bool = False, domain_id: int | None = None,
-           watcher: Callable[[float, dict[str, int]], None] | None = None) -> RunResult:
+           watcher: Callable[[float, dict[str, int]], None] | None = None, respawn: bool = False) -> RunResult:
     """Run the graph for ``duration_s`` seconds of control (sim seconds with
     ``sim_time``), recording into ``out_dir/bag``. ``realtime``: the
     simulator's pacing thread runs SCHED_FIFO (see ``scheduling``).
@@ -228,7 +238,9 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     runs side by side do not hear each other. ``watcher(elapsed_s, pids)``
     is called about every 0.1 s while the loop runs (wall clock), with the
     seconds since the loop closed and each node's process id: the fault
-    bench injects its faults from it."""
+    bench injects its faults from it. ``respawn``: a node that dies while the
+    loop runs (wall clock) is started again, as ``ros2 launch``'s
+    ``respawn=True`` does, instead of ending the run."""
     out_dir.mkdir(parents=True, exist_ok=True)
     if sim_time:
         params = lockstep_params(params)
@@ -279,7 +291,14 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
                     else:
                         pids = {c.name: c.process.pid for c in nodes}
                         poll = (lambda: watcher(time.monotonic() - started, pids)) if watcher else None
-                        failure = _wait(group, started + duration_s, meter, poll)
+                        restart = None
+                        if respawn:
+                            def restart(dead: Child) -> Child:
+                                child = group.restart(dead, env=node_env)
+                                nodes[nodes.index(dead)] = child
+                                pids[child.name] = child.process.pid
+                                return child
+                        failure = _wait(group, started + duration_s, meter, poll, restart)
                         control_seconds = time.monotonic() - started
                     wall_seconds = time.monotonic() - started
                     usage = meter.finish()
@@ -332,6 +351,12 @@ class UsageMeter:
         out["launcher"] = proc_stats.self_sample()
         return out
 
+    def forget(self, name: str) -> None:
+        """A process that was replaced (respawned): its share is not measured."""
+        self.pids.pop(name, None)
+        if self.first is not None:
+            self.first.pop(name, None)
+
     def poll(self) -> None:
         if self.first is None and time.monotonic() >= self.start_at:
             self.first, self.first_time = self._sample(), time.monotonic()
@@ -378,11 +403,24 @@ def _wait_first_tick(link: RecorderLink, group: ProcessGroup) -> str | None:
     return None
 
 
-def _wait(group: ProcessGroup, until: float, meter: UsageMeter, poll: Callable[[], None] | None = None
-          ) -> str | None:
+MAX_RESPAWNS = 5  # per node and run: a node that keeps dying ends the run
+
+
+def _wait(group: ProcessGroup, until: float, meter: UsageMeter, poll: Callable[[], None] | None = None,
+          restart: Callable[[Child], Child] | None = None) -> str | None:
+    respawned: dict[str, int] = {}
     while (remaining := until - time.monotonic()) > 0:
         if dead := group.dead():
-            return _died(dead)
+            children = [c for c in group.children if c.process.returncode is not None]
+            if restart is None or any(c.name == "recorder" or respawned.get(c.name, 0) >= MAX_RESPAWNS
+                                      for c in children):
+                return _died(dead)
+            for child in children:
+                respawned[child.name] = respawned.get(child.name, 0) + 1
+                say(f"{child.name} died (exit code {child.process.returncode}): respawning "
+                    f"({respawned[child.name]} of {MAX_RESPAWNS})")
+                meter.forget(child.name)
+                restart(child)
         meter.poll()
         if poll is not None:
             poll()

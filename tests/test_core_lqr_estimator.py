@@ -94,3 +94,13 @@ def test_kalman_velocity_error_is_below_the_raw_readings():
 def test_kalman_settings_are_checked():
     with pytest.raises(ConfigError, match="acceleration_noise_std"):
         KalmanConfig(0.005, 0.02, 0.0)
+
+
+def test_delay_margin_counts_the_periods_of_delay_the_loop_survives():
+    from robot_controller.core.lqr import delay_margin_periods
+
+    one = np.array([[1.0]])
+    # x[k+1] = x[k] − k·x[k−d]: k = 1.5 is stable undelayed but not one period late; k = 0.5 is.
+    assert delay_margin_periods(one, one, np.array([[1.5]])) == 0
+    assert delay_margin_periods(one, one, np.array([[0.5]])) >= 1
+    assert delay_margin_periods(one, one, np.array([[0.05]])) > delay_margin_periods(one, one, np.array([[0.5]]))

@@ -41,7 +41,7 @@ def test_frozen_sensor_and_frozen_controller_leave_the_arm_held(tmp_path, ros_do
 
 def test_estop_latches_until_released_and_the_loop_recovers(tmp_path, ros_domain):
     out = tmp_path / "run"
-    run = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--duration", "10", "--out",
+    run = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--duration", "20", "--out",
                             str(out)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         for line in run.stdout:
@@ -87,3 +87,27 @@ def test_joint_names_that_disagree_end_the_run_fast_naming_both_sides(tmp_path, 
     assert proc.returncode != 0
     assert time.monotonic() - started < 25  # start-up, then 2 s of disagreeing readings
     assert "joint names disagree" in proc.stdout and "shoulder" in proc.stdout and "joint1" in proc.stdout
+
+
+def test_a_killed_node_is_respawned_and_the_loop_recovers(tmp_path, ros_domain):
+    out = tmp_path / "run"
+    run = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--respawn", "--duration", "10",
+                            "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        for line in run.stdout:
+            if "control loop running" in line:
+                break
+        time.sleep(2.0)
+        controller = int(subprocess.run(["pgrep", "-P", str(run.pid), "-f", "robot_controller.nodes.pid_controller"],
+                                        capture_output=True, text=True).stdout.split()[0])
+        subprocess.run(["kill", "-KILL", str(controller)], check=True)
+        output = run.communicate(timeout=120)[0]
+    finally:
+        if run.poll() is None:
+            run.kill()
+    assert run.returncode == 0, output[-3000:]
+    assert "pid_controller died (exit code -9): respawning" in output
+    recording = report.read_recording(out / "bag")
+    assert np.all(np.abs(recording.true_position[:, 0]) < 1.1)
+    assert recording.state["status"][-1] == state_layout.STATUS_CODES["ok"]
+    assert abs(recording.state["reference"][-1, 0] - recording.state["measured"][-1, 0]) < 0.01

@@ -54,3 +54,23 @@ def design(inertia: float, damping: float, dt: float, q_weights: np.ndarray, r_w
     if not radius < 1.0:
         raise ConfigError(f"LQR design does not stabilise the arm (spectral radius {radius:.4f})")
     return LqrDesign(A, B, K, P, radius)
+
+
+def delay_margin_periods(A: np.ndarray, B: np.ndarray, K: np.ndarray, max_periods: int = 50) -> int:
+    """How many whole control periods of delay the loop ``u = −K x`` survives.
+
+    With the feedback acting ``d`` periods late, ``x[k+1] = A x[k] − B K x[k−d]``:
+    the loop is stable while the spectral radius of that system, written over
+    the state and the last ``d`` states, is below 1. Returns the largest such
+    ``d`` (0: not even one period; ``max_periods``: at least that many).
+    """
+    n = A.shape[0]
+    for delay in range(1, max_periods + 1):
+        size = n * (delay + 1)
+        M = np.zeros((size, size))
+        M[:n, :n] = A
+        M[:n, n * delay:] = -B @ K  # the feedback of the oldest stored state
+        M[n:, :-n] = np.eye(n * delay)  # shift: x[k] becomes x[k−1], …
+        if np.max(np.abs(np.linalg.eigvals(M))) >= 1.0:
+            return delay - 1
+    return max_periods
