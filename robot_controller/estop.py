@@ -22,7 +22,8 @@ from std_srvs.srv import SetBool
 # nodes' own readers are volatile, so any publisher matches them).
 PUBLISH_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                          history=HistoryPolicy.KEEP_LAST, depth=1)
-DISCOVERY_TIMEOUT_S = 3.0
+DISCOVERY_TIMEOUT_S = 5.0
+SETTLE_S = 0.5
 
 
 def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, str]:
@@ -33,9 +34,18 @@ def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, st
     try:
         publisher = node.create_publisher(Bool, "/estop", PUBLISH_QOS)
         client = node.create_client(SetBool, "/simulator/estop")
+        # Every node that listens must have matched this publisher before the one
+        # message goes out (their readers are volatile): wait until as many are
+        # matched as the graph shows, unchanged for a moment, and the service is up.
         deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline and (publisher.get_subscription_count() == 0
-                                               or not client.service_is_ready()):
+        settled_since, last = time.monotonic(), -1
+        while time.monotonic() < deadline:
+            matched = publisher.get_subscription_count()
+            listed = len(node.get_subscriptions_info_by_topic("/estop"))
+            if matched != last or matched < listed:
+                settled_since, last = time.monotonic(), matched
+            elif matched > 0 and client.service_is_ready() and time.monotonic() - settled_since >= SETTLE_S:
+                break
             time.sleep(0.05)
         listeners = sorted({info.node_name for info in node.get_subscriptions_info_by_topic("/estop")})
         msg = Bool()
