@@ -125,7 +125,11 @@ def compare(*, out: Path, seeds: int, duration_s: float, amplitude: float) -> in
 def faults(out: Path, *, quick: bool) -> int:
     from robot_controller import faults as faults_module
 
-    faults_module.faults(out, quick=quick, progress=lambda text: print(f"[faults] {text}", flush=True))
+    try:
+        faults_module.faults(out, quick=quick, progress=lambda text: print(f"[faults] {text}", flush=True))
+    except (RuntimeError, ValueError, FileExistsError) as exc:
+        print(f"robot-controller: {exc}", file=sys.stderr)
+        return 1
     print((out / "faults.md").read_text())
     return 0
 

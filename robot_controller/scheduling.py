@@ -131,17 +131,3 @@ def _demote_all(*_: object) -> None:
             pass
     demoted.set()
 
-
-def is_realtime(pid: int) -> bool:
-    """Whether any thread of process ``pid`` runs a real-time policy."""
-    try:
-        tids = os.listdir(f"/proc/{pid}/task")
-    except OSError:
-        return False
-    for tid in tids:
-        try:
-            if os.sched_getscheduler(int(tid)) in (os.SCHED_FIFO, os.SCHED_RR):
-                return True
-        except OSError:
-            continue
-    return False

@@ -39,14 +39,27 @@ def test_frozen_sensor_and_frozen_controller_leave_the_arm_held(tmp_path, ros_do
     assert state_layout.STATUS_CODES["watchdog"] in statuses and state_layout.STATUS_CODES["reacquiring"] in statuses
 
 
-def test_estop_latches_until_released_and_the_loop_recovers(tmp_path, ros_domain):
-    out = tmp_path / "run"
-    run = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--duration", "20", "--out",
-                            str(out)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+def run_while(out, action, *extra, duration="20"):
+    """A wall-clock run into ``out``; ``action(launcher_process)`` once its loop
+    is running. Returns (exit code, everything the run printed)."""
+    run = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", *extra, "--duration", duration,
+                            "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         for line in run.stdout:
             if "control loop running" in line:
                 break
+        action(run)
+        output = run.communicate(timeout=120)[0]
+    finally:
+        if run.poll() is None:
+            run.kill()
+    return run.returncode, output
+
+
+def test_estop_latches_until_released_and_the_loop_recovers(tmp_path, ros_domain):
+    out = tmp_path / "run"
+
+    def press_and_release(_run):
         time.sleep(3.0)
         engaged = cli("estop", timeout=60)
         assert engaged.returncode == 0, engaged.stdout + engaged.stderr
@@ -54,11 +67,9 @@ def test_estop_latches_until_released_and_the_loop_recovers(tmp_path, ros_domain
         time.sleep(2.0)
         released = cli("estop", "--release", timeout=60)
         assert released.returncode == 0, released.stdout + released.stderr
-        output = run.communicate(timeout=120)[0]
-    finally:
-        if run.poll() is None:
-            run.kill()
-    assert run.returncode == 0, output[-3000:]
+
+    code, output = run_while(out, press_and_release)
+    assert code == 0, output[-3000:]
     assert "E-STOP" in output
     recording = report.read_recording(out / "bag")
     status = recording.state["status"].astype(int)
@@ -91,21 +102,15 @@ def test_joint_names_that_disagree_end_the_run_fast_naming_both_sides(tmp_path, 
 
 def test_a_killed_node_is_respawned_and_the_loop_recovers(tmp_path, ros_domain):
     out = tmp_path / "run"
-    run = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--respawn", "--duration", "10",
-                            "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    try:
-        for line in run.stdout:
-            if "control loop running" in line:
-                break
+
+    def kill_the_controller(run):
         time.sleep(2.0)
         controller = int(subprocess.run(["pgrep", "-P", str(run.pid), "-f", "robot_controller.nodes.pid_controller"],
                                         capture_output=True, text=True).stdout.split()[0])
         subprocess.run(["kill", "-KILL", str(controller)], check=True)
-        output = run.communicate(timeout=120)[0]
-    finally:
-        if run.poll() is None:
-            run.kill()
-    assert run.returncode == 0, output[-3000:]
+
+    code, output = run_while(out, kill_the_controller, "--respawn", duration="10")
+    assert code == 0, output[-3000:]
     assert "pid_controller died (exit code -9): respawning" in output
     recording = report.read_recording(out / "bag")
     assert np.all(np.abs(recording.true_position[:, 0]) < 1.1)
