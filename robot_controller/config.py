@@ -185,6 +185,8 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
                   "on the arm model's estimate (category 2)", minimum=1),
         _positive("sensor_timeout_s", "readings missing this long end the controlled stop: no command, the "
                   "drive's brake holds (category 1), s"),
+        _positive("max_reading_age_s", "a reading older than this when it arrives (or stamped this far in the "
+                  "future) is dropped and does not count as a sign of life, s"),
         _positive("stop_deceleration", "deceleration of a controlled stop (sensor or planner lost), rad/s²"),
         _positive("reacquire_acceleration", "acceleration limit of the blend from where the arm is back onto "
                   "the trajectory after a fault, rad/s²"),
@@ -368,7 +370,8 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         feedforward=values["feedforward"], control_period_s=1.0 / values["control_rate_hz"],
         reference_extrapolation=values["reference_extrapolation"],
         latency_compensation=values["latency_compensation"], watchdog_periods=values["watchdog_periods"],
-        sensor_timeout_s=values["sensor_timeout_s"], stop_deceleration=values["stop_deceleration"],
+        sensor_timeout_s=values["sensor_timeout_s"], max_reading_age_s=values["max_reading_age_s"],
+        stop_deceleration=values["stop_deceleration"],
         reacquire_acceleration=values["reacquire_acceleration"],
     )
 

@@ -88,6 +88,26 @@ def test_lost_readings_give_a_controlled_stop_on_the_model_then_a_smooth_return(
     assert abs(loop.log[-1][2] - loop.log[-1][3]) < 0.005
 
 
+def test_a_stale_reading_after_a_sensor_pause_is_refused_not_acted_on():
+    # A paused sensor's first sample after SIGCONT can be the one it held when
+    # it stopped: stamped 0.5 s ago, at full speed. Acted on, it swung the arm.
+    loop = Loop()
+    loop.run(3.0)
+    stale_stamp = loop.t
+    stale_q, stale_v = loop.plant.state()
+    loop.run(0.5, readings=False)
+    reason = loop.controller.set_measurement(stale_stamp, loop.t, stale_q, stale_v)
+    assert reason is not None and "old" in reason
+    assert loop.controller.update(loop.t).status is Status.WATCHDOG  # still no sign of life
+    resumed_at = loop.t
+    loop.run(3.0)
+    after = [row for row in loop.log if row[0] >= resumed_at]
+    assert after[0][1] is Status.REACQUIRING and abs(after[0][2] - after[0][3]) < 0.01
+    assert max(abs(row[4]) for row in after) < 10.0  # no saturation on the way back
+    future = loop.controller.set_measurement(loop.t + 5.0, loop.t, stale_q, stale_v)
+    assert future is not None and "future" in future
+
+
 def test_readings_missing_past_the_timeout_stop_commanding():
     loop = Loop()
     loop.run(2.0)

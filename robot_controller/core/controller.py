@@ -63,6 +63,9 @@ class ControllerConfig:
     latency_compensation: bool = False
     watchdog_periods: int = 5
     sensor_timeout_s: float = 1.0  #: readings missing this long end the controlled stop: torque off, brake
+    #: s; a reading older than this when it arrives (or stamped this far ahead) is refused: after a
+    #: pause, a sensor's first sample can be from before it, and acting on it swings the arm
+    max_reading_age_s: float = 0.1
     stop_deceleration: float = 20.0  #: rad/s², controlled stops (sensor or planner lost)
     reacquire_acceleration: float = 20.0  #: rad/s², the blend back onto the trajectory after a fault
 
@@ -77,7 +80,7 @@ class ControllerConfig:
             raise ConfigError(f"control_rate_hz: must be > 0, got period {self.control_period_s}")
         if int(self.watchdog_periods) < 1:
             raise ConfigError(f"watchdog_periods: must be >= 1, got {self.watchdog_periods}")
-        for name in ("sensor_timeout_s", "stop_deceleration", "reacquire_acceleration"):
+        for name in ("sensor_timeout_s", "max_reading_age_s", "stop_deceleration", "reacquire_acceleration"):
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
                 raise ConfigError(f"{name}: must be a finite number > 0, got {value}")
@@ -218,10 +221,20 @@ class JointController:
         return self._measurement_stamp_s
 
     def set_measurement(self, stamp_s: float, received_s: float, position: np.ndarray,
-                        velocity: np.ndarray) -> None:
+                        velocity: np.ndarray) -> str | None:
+        """Take a reading stamped ``stamp_s`` that arrived at ``received_s``.
+
+        Returns why it was refused (it is then not a sign of life for the
+        watchdog either), or None.
+        """
+        age_s = received_s - stamp_s
+        if abs(age_s) > self.config.max_reading_age_s:
+            when = "old" if age_s > 0 else "in the future"
+            return f"reading stamped {abs(age_s):.3f} s {when} (max_reading_age_s {self.config.max_reading_age_s:g})"
         self._measurement = (position, velocity)
         self._measurement_stamp_s = stamp_s
         self._measurement_received_s = received_s
+        return None
 
     @property
     def has_measurement(self) -> bool:

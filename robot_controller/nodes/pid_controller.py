@@ -132,7 +132,10 @@ class PidControllerNode(StackNode):
             self.try_lockstep_tick()
         else:
             now_s = self.now_s()
-            self.controller.set_measurement(stamp_s, now_s, *checked)
+            refused = self.controller.set_measurement(stamp_s, now_s, *checked)
+            if refused:
+                self.warn_throttled("joint_states_age", f"/joint_states dropped: {refused}")
+                return
             if self.params["trigger"] == "measurement":
                 self.set_timer_period(self.timer_period_s(self.params))  # readings drive the loop again
                 self.tick(now_s)
