@@ -147,6 +147,8 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         ParamSpec("position_bias", float, "constant position bias, rad"),
         _nonneg("quantization", "position quantisation step, rad (0 = none)"),
         ParamSpec("seed", int, "random seed of the noise; -1 draws one from the OS", minimum=-1),
+        ParamSpec("delay_s", float, "each reading is published this late, stamped with its sample time, s "
+                  "(a slow encoder or bus)", minimum=0.0, maximum=1.0),
     ),
     "pid_controller": (
         URDF,
@@ -379,7 +381,8 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
 def sensor_config(values: Mapping[str, Any]) -> SensorConfig:
     return SensorConfig(position_noise_std=values["position_noise_std"],
                         velocity_noise_std=values["velocity_noise_std"],
-                        position_bias=values["position_bias"], quantization=values["quantization"])
+                        position_bias=values["position_bias"], quantization=values["quantization"],
+                        delay_s=values["delay_s"])
 
 
 def trajectory_kwargs(values: Mapping[str, Any]) -> dict[str, Any]:

@@ -13,8 +13,8 @@ from robot_controller.core.plant import ArmDynamics, MujocoPlant
 from robot_controller.core.trajectory import make_trajectory
 
 
-def simulate(params: cfg.Params, *, duration_s: float, seed: int = 0, measurement_delay_s: float = 0.0
-             ) -> LoopResult:
+def simulate(params: cfg.Params, *, duration_s: float, seed: int = 0, measurement_delay_s: float = 0.0,
+             delay_unstamped: bool = False) -> LoopResult:
     sim, motor, sensor = params["simulator"], params["motor_node"], params["sensor_node"]
     ctrl, planner = params["pid_controller"], params["trajectory_planner"]
     plant = MujocoPlant(resources.resolve_urdf(sim["urdf_path"]), 1.0 / sim["physics_rate_hz"])
@@ -28,4 +28,5 @@ def simulate(params: cfg.Params, *, duration_s: float, seed: int = 0, measuremen
     return run_loop(plant=plant, controller=controller, actuator=actuator, sensor=cfg.sensor_config(sensor),
                     trajectory=trajectory, rng=np.random.default_rng(seed), duration_s=duration_s,
                     control_period_s=controller_config.control_period_s,
-                    planner_period_s=1.0 / planner["publish_rate_hz"], measurement_delay_s=measurement_delay_s)
+                    planner_period_s=1.0 / planner["publish_rate_hz"], measurement_delay_s=measurement_delay_s,
+                    delay_unstamped=delay_unstamped)

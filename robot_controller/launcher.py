@@ -28,7 +28,7 @@ from pathlib import Path
 
 from robot_controller import config as cfg
 from robot_controller import forking, proc_stats, resources, scheduling
-from robot_controller.nodes.base import COUNTS_DIR_ENV, RECORDED_ENV
+from robot_controller.nodes.base import COUNTS_DIR_ENV, RECORDED_ENV, WORLD_STATE_ENV
 from robot_controller.nodes import recorder as rec
 
 NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
@@ -185,8 +185,8 @@ class RunResult:
 STALL_TIMEOUT_S = 10.0
 
 
-# In lockstep the sensor and controller step on the stamps of what they
-# receive and the planner on /clock messages it reads itself, so they need no
+# In lockstep the sensor steps on the stamps of what it receives and the
+# controller and planner on /clock messages they read themselves, so they need no
 # ROS sim time (and each such node would pay a /clock callback every tick).
 # The motor's lag integrates over its clock, so it follows /clock.
 SIM_TIME_NODES = ("motor_node",)
@@ -249,8 +249,11 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     if bag_dir.exists():
         raise FileExistsError(f"{bag_dir} exists: choose another --out")
     counts_dir = Path(tempfile.mkdtemp(prefix="robot-controller-counts-"))
+    replaced: set[str] = set()  # nodes killed and respawned
     env = child_env(single_process)
     env.update({RECORDED_ENV: "1", COUNTS_DIR_ENV: str(counts_dir)})
+    if respawn:
+        env[WORLD_STATE_ENV] = str(counts_dir / "world_state.bin")
     if domain_id is not None:
         env["ROS_DOMAIN_ID"] = str(domain_id)
     node_env = dict(env)
@@ -294,6 +297,7 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
                         restart = None
                         if respawn:
                             def restart(dead: Child) -> Child:
+                                replaced.add(dead.name)
                                 child = group.restart(dead, env=node_env)
                                 nodes[nodes.index(dead)] = child
                                 pids[child.name] = child.process.pid
@@ -309,7 +313,7 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
             codes = group.stop(nodes)
             codes.update(group.stop([recorder]))
         counts = dict(link.counts)
-        published = _read_published_counts(counts_dir)
+        published = _read_published_counts(counts_dir, replaced)
         bad = {n: c for n, c in codes.items() if c not in (0, -signal.SIGINT, 130)}
         if failure is None and bad:
             failure = "node(s) exited with an error on shutdown: " + ", ".join(f"{n} ({c})" for n, c in bad.items())
@@ -367,15 +371,21 @@ class UsageMeter:
         return proc_stats.usage(self.first, self._sample(), time.monotonic() - self.first_time)
 
 
-def _read_published_counts(counts_dir: Path) -> dict[str, int]:
+def _read_published_counts(counts_dir: Path, replaced: set[str] = frozenset()) -> dict[str, int]:
+    """Per topic, what the nodes say they published. A node that was killed and
+    respawned took its count with it: its topics are left out (unknown)."""
     total: dict[str, int] = {}
+    unknown: set[str] = set()
     for path in counts_dir.glob("*.json"):
         try:
-            for topic, count in json.loads(path.read_text()).items():
-                total[topic] = total.get(topic, 0) + int(count)
+            counts = {topic: int(count) for topic, count in json.loads(path.read_text()).items()}
         except (OSError, ValueError):
             continue
-    return total
+        if path.stem in replaced:
+            unknown.update(counts)
+        for topic, count in counts.items():
+            total[topic] = total.get(topic, 0) + count
+    return {topic: count for topic, count in total.items() if topic not in unknown}
 
 
 def _raise_interrupt(signum, frame) -> None:

@@ -67,3 +67,13 @@ def test_controller_state_layout_round_trips():
     assert back["measurement_stamp_s"] == 12.49
     for name in state_layout.FIELDS:
         np.testing.assert_array_equal(back[name], values[name])
+
+
+def test_true_position_is_unknown_across_a_gap_in_the_samples():
+    # The simulator was not running from 1.0 to 2.0 s: no invented swing in between.
+    t_true = np.concatenate([np.arange(0, 1.0001, 0.01), np.arange(2.0, 3.0, 0.01)])
+    q = np.sin(t_true)[:, None]
+    v = np.cos(t_true)[:, None]
+    est = metrics.true_position_at(np.array([0.505, 1.5, 2.505]), t_true, q, v)[:, 0]
+    assert abs(est[0] - np.sin(0.505)) < 1e-6 and abs(est[2] - np.sin(2.505)) < 1e-6
+    assert np.isnan(est[1])

@@ -176,6 +176,26 @@ class JointController:
             raise ConfigError("estimator kalman: needs the arm model (urdf_path)")
         return JointKalmanFilter(config.estimator, self.joint_count, self.dynamics.predict)
 
+    def delay_margin_periods(self) -> int | None:
+        """Whole control periods of delay nobody accounts for (a late command, a
+        reading stamped on arrival) the feedback survives, on the worst joint:
+        the gains in force on the arm linearised at rest, as
+        :func:`lqr.delay_margin_periods` reckons it. None without the arm model.
+
+        Delay the stamps show is compensated on the model (``latency_compensation``);
+        this is the margin for the rest, e.g. the controller → motor → simulator path.
+        """
+        if self.dynamics is None:
+            return None
+        gains = self.pid.config
+        inertia = np.diag(self.dynamics.mass_matrix(np.zeros(self.joint_count)))
+        margins = []
+        for j in range(self.joint_count):
+            A, B = lqr.discretise(float(inertia[j]), float(self.dynamics.damping[j]), self.config.control_period_s)
+            K = np.array([[gains.ki[j], gains.kp[j], gains.kd[j]]], dtype=float)
+            margins.append(lqr.delay_margin_periods(A, B, K))
+        return min(margins)
+
     @property
     def gains(self) -> PidConfig:
         """The gains in force (for LQR, the designed ones)."""

@@ -36,7 +36,8 @@ class LoopResult:
 
 def run_loop(*, plant: Plant, controller: JointController, actuator: Actuator, sensor: SensorConfig,
              trajectory: Trajectory, rng: np.random.Generator, duration_s: float, control_period_s: float,
-             planner_period_s: float, measurement_delay_s: float = 0.0) -> LoopResult:
+             planner_period_s: float, measurement_delay_s: float = 0.0,
+             delay_unstamped: bool = False) -> LoopResult:
     """Run ``duration_s`` seconds of the loop and return what happened at each tick.
 
     At each tick ``t_k``: the planner publishes if its period has come round,
@@ -46,6 +47,9 @@ def run_loop(*, plant: Plant, controller: JointController, actuator: Actuator, s
     ``measurement_delay_s`` models what the ROS graph adds between the physics
     and the controller (publish period, sensor phase, transport): the sensor
     reads the true state that many seconds old, stamped with its own time.
+    ``delay_unstamped``: stamped when it arrives instead (as a sensor that
+    stamps on publish), so the controller cannot compensate the delay: what
+    the delay margin is about.
     """
     n_steps = steps_per_period(plant.physics_dt, control_period_s)
     ticks = int(round(duration_s / control_period_s))
@@ -67,7 +71,7 @@ def run_loop(*, plant: Plant, controller: JointController, actuator: Actuator, s
         else:
             stamp, seen_q, seen_v = t, true_position, true_velocity
         position, velocity = measure(sensor, seen_q, seen_v, rng)
-        controller.set_measurement(stamp, t, position, velocity)
+        controller.set_measurement(t if delay_unstamped else stamp, t, position, velocity)
         out = controller.update(t)
         applied = actuator.apply(out.command, control_period_s)
         if delay_steps:

@@ -7,12 +7,18 @@ import numpy as np
 WARMUP_S = 2.0
 
 
+# Samples of the true state further apart than this many typical spacings leave a gap.
+GAP_PERIODS = 5
+
+
 def true_position_at(times_s: np.ndarray, true_time_s: np.ndarray, true_position: np.ndarray,
                      true_velocity: np.ndarray | None = None) -> np.ndarray:
     """The true joint position at arbitrary times, shape ``(len(times_s), n)``.
 
     With velocities, a cubic Hermite spline (exact to third order between
-    samples); otherwise linear interpolation.
+    samples); otherwise linear interpolation. NaN across a gap of more than
+    ``GAP_PERIODS`` typical sample spacings (the simulator was not running):
+    what the arm did there is unknown, not a curve to invent.
     """
     true_time_s = np.asarray(true_time_s, dtype=float)
     true_position = np.asarray(true_position, dtype=float).reshape(len(true_time_s), -1)
@@ -20,12 +26,20 @@ def true_position_at(times_s: np.ndarray, true_time_s: np.ndarray, true_position
     t, q = true_time_s[order], true_position[order]
     keep = np.concatenate(([True], np.diff(t) > 0))
     t, q = t[keep], q[keep]
+    times_s = np.asarray(times_s, dtype=float)
     if true_velocity is not None and len(t) >= 2:
         v = np.asarray(true_velocity, dtype=float).reshape(len(true_time_s), -1)[order][keep]
         from scipy.interpolate import CubicHermiteSpline  # here: the controller node imports this module too
 
-        return CubicHermiteSpline(t, q, v, axis=0, extrapolate=False)(times_s)
-    return np.column_stack([np.interp(times_s, t, q[:, j], left=np.nan, right=np.nan) for j in range(q.shape[1])])
+        out = CubicHermiteSpline(t, q, v, axis=0, extrapolate=False)(times_s)
+    else:
+        out = np.column_stack([np.interp(times_s, t, q[:, j], left=np.nan, right=np.nan) for j in range(q.shape[1])])
+    if len(t) >= 2:
+        spacing = np.diff(t)
+        after = np.clip(np.searchsorted(t, times_s, side="right"), 1, len(t) - 1)
+        in_gap = spacing[after - 1] > GAP_PERIODS * np.median(spacing)
+        out[in_gap] = np.nan
+    return out
 
 
 def tracking_metrics(tick_time_s: np.ndarray, reference_position: np.ndarray, true_position_at_tick: np.ndarray,

@@ -1,6 +1,7 @@
 """Encoder model: what the controller sees instead of the true joint state."""
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,15 +17,18 @@ class SensorConfig:
     :param velocity_noise_std: Gaussian σ on velocity, rad/s
     :param position_bias: constant offset added to position, rad
     :param quantization: position resolution, rad (0 = continuous)
+    :param delay_s: how old each reading is when published, s; its stamp says
+        so (the sample's time), as a hardware-timestamped encoder's does
     """
 
     position_noise_std: float = 0.005
     velocity_noise_std: float = 0.02
     position_bias: float = 0.0
     quantization: float = 0.0
+    delay_s: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("position_noise_std", "velocity_noise_std", "quantization"):
+        for name in ("position_noise_std", "velocity_noise_std", "quantization", "delay_s"):
             value = getattr(self, name)
             if not np.isfinite(value) or value < 0:
                 raise ConfigError(f"{name}: must be a finite number >= 0, got {value}")
@@ -44,3 +48,24 @@ def measure(
     if config.quantization > 0:
         noisy_position = np.round(noisy_position / config.quantization) * config.quantization
     return noisy_position, noisy_velocity
+
+
+class DelayLine:
+    """The true states of the last ``delay_s`` seconds, to publish each one late.
+
+    ``push`` a sample as it happens; ``sample_at(t)`` gives the newest sample
+    stamped at or before ``t`` (the oldest held, before there is one that old).
+    """
+
+    def __init__(self, delay_s: float) -> None:
+        self.delay_s = delay_s
+        self._samples: deque[tuple[float, np.ndarray, np.ndarray]] = deque()
+
+    def push(self, stamp_s: float, position: np.ndarray, velocity: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        """Add the sample at ``stamp_s`` and return the one ``delay_s`` older (with its stamp)."""
+        self._samples.append((stamp_s, position, velocity))
+        due_s = stamp_s - self.delay_s + 1e-9
+        # Keep the newest sample that is due, drop those before it.
+        while len(self._samples) > 1 and self._samples[1][0] <= due_s:
+            self._samples.popleft()
+        return self._samples[0]

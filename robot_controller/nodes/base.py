@@ -22,6 +22,7 @@ from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedE
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
+from rclpy.time import Time
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from robot_controller import config as cfg
@@ -40,6 +41,16 @@ CONTROL_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=Dura
 # torques when it resumes (and in lockstep there is one message in flight).
 LATEST_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
                         history=HistoryPolicy.KEEP_LAST, depth=1)
+# A state, not an event (the motor's brake request): a reader that starts late,
+# such as a respawned simulator, gets the current value at once.
+LATCHED_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                         history=HistoryPolicy.KEEP_LAST, depth=1)
+# /clock in lockstep: a reader that matches late (the controller pairs each
+# reading with its tick's /clock) still gets the latest tick.
+CLOCK_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                       history=HistoryPolicy.KEEP_LAST, depth=1000)
+CLOCK_LATEST_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                              history=HistoryPolicy.KEEP_LAST, depth=1)
 # /estop: volatile readers, so a plain `ros2 topic pub /estop` (volatile) matches too;
 # the e-stop is latched by the nodes that obey it, not by DDS.
 ESTOP_QOS = LATEST_QOS
@@ -135,6 +146,9 @@ RECORDED_ENV = "ROBOT_CONTROLLER_RECORDED"
 # Where each node writes how many messages it published, per topic, when it
 # stops (the launcher compares them with the bag).
 COUNTS_DIR_ENV = "ROBOT_CONTROLLER_COUNTS_DIR"
+# The simulator keeps the arm's state in this file (memory-mapped): a simulator
+# that is respawned finds the arm where it was, as a restarted drive does.
+WORLD_STATE_ENV = "ROBOT_CONTROLLER_WORLD_STATE"
 
 
 def recorded() -> bool:
@@ -251,6 +265,11 @@ def write_publish_counts(nodes: list[StackNode]) -> None:
 
 def stamp_to_s(stamp: Any) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
+
+
+def s_to_stamp(time_s: float) -> Any:
+    """A ``builtin_interfaces/Time`` for ``time_s`` seconds (to the nearest ns)."""
+    return Time(nanoseconds=round(time_s * 1e9)).to_msg()
 
 
 # Cleanup that takes longer than this is stuck (rclpy's destroy_node can wait

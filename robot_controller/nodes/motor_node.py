@@ -22,7 +22,7 @@ from robot_controller import resources
 from robot_controller.core.actuator import Actuator
 from robot_controller.core.plant import joint_names, load_model
 from robot_controller.core.validation import check_effort
-from robot_controller.nodes.base import ESTOP_QOS, LATEST_QOS, GatedPublisher, StackNode, run
+from robot_controller.nodes.base import ESTOP_QOS, LATCHED_QOS, LATEST_QOS, GatedPublisher, StackNode, run
 
 RECEIPTS_PERIOD_S = 1.0
 
@@ -37,11 +37,12 @@ class MotorNode(StackNode):
         self.effort_pub = GatedPublisher(self, Float64MultiArray, "/sim/effort")
         self.create_subscription(Float64MultiArray, "/joint_commands", self.command_callback, LATEST_QOS)
         # Category 0 on lost commands or e-stop: zero torque and the simulator's brakes.
-        self.brake_pub = GatedPublisher(self, Bool, "/sim/brake")
+        self.brake_pub = GatedPublisher(self, Bool, "/sim/brake", qos=LATCHED_QOS)
         self.stopped_for: str | None = None  # "timeout" or "estop" while stopped
         self.estop = False
         self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
         self.create_timer(self.params["command_timeout_s"] / 2, self.timeout_check)
+        self.request_brake(False)  # the request's state is latched: a (re)started simulator learns it
         self.effort_msg = Float64MultiArray()
         self.receipts: list[float] = []  # flat rows of [receipt_time_s, command…]
         self.receipts_pub = GatedPublisher(self, Float64MultiArray, "/motor/command_receipts", consumer=False)
@@ -92,9 +93,9 @@ class MotorNode(StackNode):
     def stop(self, reason: str) -> None:
         self.stopped_for = reason
         self.actuator.reset()
+        self.request_brake(True)  # first: zero torque must never reach an unbraked, gravity-loaded arm first
         self.effort_msg.data = [0.0] * self.joint_count
         self.effort_pub.publish(self.effort_msg)
-        self.request_brake(True)
 
     def request_brake(self, on: bool) -> None:
         msg = Bool()

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 from rclpy.clock import Clock, ClockType
+from rosgraph_msgs.msg import Clock as ClockMsg
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
@@ -31,7 +32,7 @@ from robot_controller.core.controller import ControlOutput, JointController, Sta
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.validation import check_joint_state, check_trajectory
-from robot_controller.nodes.base import ESTOP_QOS, LATEST_QOS, GatedPublisher, StackNode, run, stamp_to_s
+from robot_controller.nodes.base import CLOCK_LATEST_QOS, ESTOP_QOS, LATEST_QOS, GatedPublisher, StackNode, run, stamp_to_s
 
 
 # Readings naming other joints for this long, none usable yet: a configuration mismatch.
@@ -68,8 +69,11 @@ class PidControllerNode(StackNode):
         self.create_timer(self.params["diagnostics_period_s"], self.diagnostics_callback)
         self.pending_tick_s: float | None = None  # lockstep: measurement waiting for its reference
         self.pending_since = 0.0  # wall time (monotonic) the pending tick began waiting
+        self.pending_reading: tuple[float, tuple[np.ndarray, np.ndarray]] | None = None  # lockstep
+        self.sim_clock_s = -np.inf  # lockstep: the latest /clock
         if self.lockstep:
             self.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
+            self.create_subscription(ClockMsg, "/clock", self.clock_callback, CLOCK_LATEST_QOS)
         self.last_tick_s = -np.inf
         self.window_ticks: list[float] = []
         self.window_latency: list[float] = []
@@ -80,11 +84,19 @@ class PidControllerNode(StackNode):
             + [MultiArrayDimension(label=name, size=self.joint_count, stride=self.joint_count)
                for name in state_layout.FIELDS])
         self.next_log_s = -np.inf
-        p = self.params
+        self.log_gains()
+
+    def log_gains(self) -> None:
+        """The gains in force (LQR's are designed, not the kp/ki/kd parameters) and
+        how much unaccounted delay they survive."""
+        p, gains = self.params, self.controller.gains
+        margin = self.controller.delay_margin_periods()
         self.get_logger().info(
             f"{p['controller_type'].upper()} controller at {p['control_rate_hz']:g} Hz on {self.joint_names}: "
-            f"Kp={p['kp']}, Ki={p['ki']}, Kd={p['kd']}, derivative on {p['derivative_source']}, "
-            f"feedforward {p['feedforward']}" + (", lockstep" if self.lockstep else ""))
+            f"Kp={_fmt(gains.kp)}, Ki={_fmt(gains.ki)}, Kd={_fmt(gains.kd)}, derivative on "
+            f"{gains.derivative_source.value}, feedforward {p['feedforward']}; delay margin {margin} control "
+            f"periods ({margin * 1e3 / p['control_rate_hz']:g} ms) beyond what the stamps show"
+            + (", lockstep" if self.lockstep else ""))
 
     def check_params(self, params: dict[str, Any]) -> None:
         if hasattr(self, "joint_count"):
@@ -92,6 +104,8 @@ class PidControllerNode(StackNode):
 
     def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
         self.controller.set_config(cfg.controller_config(params, self.joint_count))
+        if changed & {"controller_type", "lqr_q", "lqr_r", "kp", "ki", "kd", "control_rate_hz"}:
+            self.log_gains()
         if changed & {"control_rate_hz", "trigger", "watchdog_periods"} and self.timer is not None:
             self.set_timer_period(self.timer_period_s(params))
 
@@ -124,12 +138,10 @@ class PidControllerNode(StackNode):
             return
         stamp_s = stamp_to_s(msg.header.stamp)
         if self.lockstep:
-            if stamp_s <= self.last_tick_s:
-                return  # already answered this tick
-            self.controller.set_measurement(stamp_s, stamp_s, *checked)
-            self.pending_tick_s = stamp_s
-            self.pending_since = time.monotonic()
-            self.try_lockstep_tick()
+            # One reading per sim tick; the tick's time is the /clock it pairs with
+            # (a delayed sensor's stamp is older than the tick).
+            self.pending_reading = (stamp_s, checked)
+            self.pair_lockstep_reading()
         else:
             now_s = self.now_s()
             refused = self.controller.set_measurement(stamp_s, now_s, *checked)
@@ -167,12 +179,34 @@ class PidControllerNode(StackNode):
 
     # --- ticks ----------------------------------------------------------------------
 
+    def clock_callback(self, msg: ClockMsg) -> None:
+        self.sim_clock_s = max(self.sim_clock_s, stamp_to_s(msg.clock))
+        self.pair_lockstep_reading()
+
+    def pair_lockstep_reading(self) -> None:
+        """Lockstep: a tick is due once the sim's /clock for it and its reading are
+        both in, whichever came first (the sim publishes the next /clock only
+        after this tick's command, so they pair one to one)."""
+        if self.pending_reading is None or self.pending_tick_s is not None or self.sim_clock_s <= self.last_tick_s:
+            return
+        stamp_s, (position, velocity) = self.pending_reading
+        if stamp_s > self.sim_clock_s + 1e-9:
+            return  # the reading is for a tick whose /clock has not arrived yet
+        self.pending_reading = None
+        refused = self.controller.set_measurement(stamp_s, self.sim_clock_s, position, velocity)
+        if refused:
+            self.warn_throttled("joint_states_age", f"/joint_states dropped: {refused}")
+        self.pending_tick_s = self.sim_clock_s
+        self.pending_since = time.monotonic()
+        self.try_lockstep_tick()
+
     def try_lockstep_tick(self) -> None:
         tick_s = self.pending_tick_s
         if tick_s is None or not self.controller.reference_ready(tick_s):
             return
         self.pending_tick_s = None
         self.tick(tick_s)
+        self.pair_lockstep_reading()
 
     def reference_wait_check(self) -> None:
         """A planner slower than the control rate leaves ticks with no sample due;

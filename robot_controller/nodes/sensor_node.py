@@ -5,7 +5,8 @@ stamped with the time of the sample.
 
 Sampling on the stamps rather than on a timer of its own means no extra
 phase delay in wall-clock mode, and one sample per tick, deterministic, in
-lockstep.
+lockstep. With ``delay_s``, each reading is the sample from that long
+before, stamped with its own time (a slow bus, honestly timestamped).
 """
 from __future__ import annotations
 
@@ -13,9 +14,9 @@ import numpy as np
 from sensor_msgs.msg import JointState
 
 from robot_controller import config as cfg
-from robot_controller.core.sensor_model import measure
+from robot_controller.core.sensor_model import DelayLine, measure
 from robot_controller.core.validation import check_joint_state
-from robot_controller.nodes.base import LATEST_QOS, GatedPublisher, StackNode, run, stamp_to_s
+from robot_controller.nodes.base import LATEST_QOS, GatedPublisher, StackNode, run, s_to_stamp, stamp_to_s
 
 # Stamps within this of a grid point count as on it (float ns rounding).
 _GRID_EPS_S = 1e-6
@@ -27,6 +28,7 @@ class SensorNode(StackNode):
         seed = self.params["seed"]
         self.rng = np.random.default_rng(None if seed < 0 else seed)
         self.sensor = cfg.sensor_config(self.params)
+        self.delay_line = DelayLine(self.sensor.delay_s)
         self.period_s = 1.0 / self.params["rate_hz"]
         self.next_sample_s: float | None = None
         self.joint_names: list[str] | None = None
@@ -35,13 +37,15 @@ class SensorNode(StackNode):
         self.out = JointState()
         self.get_logger().info(
             f"sensor at {self.params['rate_hz']:g} Hz: σ position {self.sensor.position_noise_std:g} rad, "
-            f"σ velocity {self.sensor.velocity_noise_std:g} rad/s, seed {seed}")
+            f"σ velocity {self.sensor.velocity_noise_std:g} rad/s, seed {seed}"
+            + (f", {self.sensor.delay_s * 1e3:g} ms late" if self.sensor.delay_s else ""))
 
     def check_params(self, params: dict) -> None:
         cfg.sensor_config(params)
 
     def apply_params(self, params: dict, changed: set[str]) -> None:
         self.sensor = cfg.sensor_config(params)
+        self.delay_line.delay_s = self.sensor.delay_s
         self.period_s = 1.0 / params["rate_hz"]
 
     def true_state_callback(self, msg: JointState) -> None:
@@ -57,9 +61,13 @@ class SensorNode(StackNode):
         # Next grid point after this stamp (skips ahead if the sim published sparsely).
         grid_index = np.floor((stamp_s + _GRID_EPS_S) / self.period_s)
         self.next_sample_s = (grid_index + 1) * self.period_s
-        position, velocity = measure(self.sensor, checked[0], checked[1], self.rng)
+        position, velocity, stamp = checked[0], checked[1], msg.header.stamp
+        if self.sensor.delay_s > 0:
+            sample_s, position, velocity = self.delay_line.push(stamp_s, position, velocity)
+            stamp = s_to_stamp(sample_s)
+        position, velocity = measure(self.sensor, position, velocity, self.rng)
         out = self.out
-        out.header.stamp = msg.header.stamp
+        out.header.stamp = stamp
         out.name = self.joint_names
         out.position = position.tolist()
         out.velocity = velocity.tolist()

@@ -25,6 +25,7 @@ deterministic and as fast as the graph can go.
 """
 from __future__ import annotations
 
+import os
 import sys
 import threading
 import time
@@ -40,7 +41,9 @@ from robot_controller import config as cfg
 from robot_controller import resources, scheduling
 from robot_controller.core.plant import MujocoPlant, steps_per_period
 from robot_controller.core.validation import check_effort
-from robot_controller.nodes.base import CONTROL_QOS, ESTOP_QOS, LATEST_QOS, GatedPublisher, StackNode, run
+from robot_controller.nodes.base import (CLOCK_QOS, ESTOP_QOS, LATCHED_QOS, LATEST_QOS, WORLD_STATE_ENV,
+                                        GatedPublisher, StackNode, run)
+from robot_controller.nodes.world_state import WorldState
 
 # Catch up at most this many physics steps in one callback; beyond, the sim
 # runs slower than real time rather than jumping.
@@ -55,6 +58,11 @@ class Simulator(StackNode):
         self.plant = MujocoPlant(resources.resolve_urdf(p["urdf_path"]), 1.0 / p["physics_rate_hz"])
         self.joint_count = len(self.plant.joint_names)
         self.plant.reset(cfg.per_joint("initial_position", p["initial_position"], self.joint_count))
+        self.world = WorldState.open(os.environ.get(WORLD_STATE_ENV, ""), self.joint_count)
+        if self.world is not None and self.world.resumed is not None:
+            self.plant.reset(self.world.resumed)
+            self.get_logger().warning(f"respawned: the arm is where it was, at {self.world.resumed.tolist()} rad, "
+                                      "brakes on until the first command")
         self.effort = np.zeros(self.joint_count)
         self.steps_done = 0
         self.physics_dt_ns = round(self.plant.physics_dt * 1e9)
@@ -74,13 +82,15 @@ class Simulator(StackNode):
         self.create_subscription(Float64MultiArray, "/sim/effort", self.effort_callback, LATEST_QOS)
         # Brakes: why each is on (any reason holds it), and who may ask.
         self.brake_reasons: set[str] = {"start"}
+        self.plant.set_brakes(np.ones(self.joint_count, dtype=bool), p["brake_torque_nm"])
         self.last_effort_mono_ns = 0
         self.brakes_pub = GatedPublisher(self, Float64MultiArray, "/sim/brakes", consumer=False)
         self.brakes_msg = Float64MultiArray()
         self.brakes_msg.layout.dim = [MultiArrayDimension(label="engaged", size=self.joint_count,
                                                           stride=self.joint_count)]
         self.next_brakes_report_ns = 0
-        self.create_subscription(Bool, "/sim/brake", self.brake_request_callback, CONTROL_QOS)
+        self.create_subscription(Bool, "/sim/brake", self.brake_request_callback, LATCHED_QOS)
+        self.brake_request_heard = False
         self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
         self.create_service(SetBool, "/simulator/estop", self.estop_service)
         self.state_msg = JointState()
@@ -89,7 +99,7 @@ class Simulator(StackNode):
         self.pacer: threading.Thread | None = None
         if self.lockstep:
             self.steps_per_tick = steps_per_period(self.plant.physics_dt, 1.0 / p["control_rate_hz"])
-            self.clock_pub = GatedPublisher(self, ClockMsg, "/clock", consumer=False)
+            self.clock_pub = GatedPublisher(self, ClockMsg, "/clock", consumer=False, qos=CLOCK_QOS)
             self.clock_msg = ClockMsg()
             self.waiting_for_effort = False
             self.start_poll = self.create_timer(0.05, self.start_lockstep,
@@ -135,6 +145,11 @@ class Simulator(StackNode):
             if "estop" in self.brake_reasons:
                 self.warn_throttled("estop_effort", "e-stop: efforts ignored until it is released")
                 return
+            if not self.brake_request_heard and self.count_publishers("/sim/brake"):
+                # A motor is there: learn whether it asks for the brakes (its latched
+                # state) before any effort releases them.
+                self.warn_throttled("brake_state", "efforts ignored until the motor's /sim/brake state arrives")
+                return
             if self.anchor_mono_ns is None:
                 self.release_brakes()
                 self.get_logger().info("first command received, physics running")
@@ -171,6 +186,7 @@ class Simulator(StackNode):
 
     def brake_request_callback(self, msg: Bool) -> None:
         with self.lock:
+            self.brake_request_heard = True
             if bool(msg.data) != ("requested" in self.brake_reasons):
                 self.get_logger().warning("brake requested by the motor: torque off, brakes on" if msg.data
                                           else "motor released its brake request")
@@ -212,12 +228,18 @@ class Simulator(StackNode):
             self.get_logger().info(scheduling.make_current_thread_realtime(rt_priority))
         period_ns = self.publish_period_ns
         deadline_ns = time.monotonic_ns() + period_ns
+        last_wakeup_ns = time.monotonic_ns()
         while not self.stop_pacing.is_set():
             remaining_ns = deadline_ns - time.monotonic_ns()
             if remaining_ns > 0:
                 time.sleep(remaining_ns * 1e-9)
             with self.lock:
                 now_ns = time.monotonic_ns()
+                if now_ns - last_wakeup_ns > 2 * period_ns:
+                    # This process was not running (frozen, starved): that time does not
+                    # count against the drive, whose efforts may be waiting to be read.
+                    self.last_effort_mono_ns += now_ns - last_wakeup_ns - period_ns
+                last_wakeup_ns = now_ns
                 if self.anchor_mono_ns is None:
                     stamp_ns = self.get_clock().now().nanoseconds  # brakes on: the arm holds still
                 else:
@@ -230,6 +252,8 @@ class Simulator(StackNode):
                     # Step to the deadline (not to now): the state is that of the grid point.
                     self.advance(max(deadline_ns, self.anchor_mono_ns))
                     stamp_ns = self.anchor_ros_ns + self.steps_done * self.physics_dt_ns
+                if self.world is not None:
+                    self.world.save(self.plant.state()[0])
                 if self.state_pub.open:
                     self.publish_state(stamp_ns)
                 if now_ns >= self.next_brakes_report_ns:

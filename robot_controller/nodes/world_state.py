@@ -1,0 +1,43 @@
+"""The simulated arm's joint positions, kept in a memory-mapped file so that a
+simulator that dies and is respawned finds the arm where it was (a real
+drive restarting does not teleport the arm).
+
+Written on every pacing tick: a store into shared memory, no system call,
+and what the dead process last wrote is still in the page cache.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+# [valid flag, position per joint]
+_VALID = 1.0
+
+
+class WorldState:
+    def __init__(self, array: np.memmap, resumed: np.ndarray | None) -> None:
+        self._array = array
+        self.resumed = resumed  #: the positions found at start (a respawn), or None
+
+    @classmethod
+    def open(cls, path: str, joint_count: int) -> WorldState | None:
+        """The state file at ``path`` (None when no path is given). A file left by
+        an earlier simulator of this run, with as many joints and finite values,
+        gives ``resumed``."""
+        if not path:
+            return None
+        file = Path(path)
+        size = (1 + joint_count) * 8
+        resumed = None
+        if file.is_file() and file.stat().st_size == size:
+            previous = np.fromfile(file, dtype=np.float64)
+            if previous[0] == _VALID and np.all(np.isfinite(previous[1:])):
+                resumed = previous[1:].copy()
+        else:
+            file.write_bytes(b"\0" * size)
+        return cls(np.memmap(file, dtype=np.float64, mode="r+", shape=(1 + joint_count,)), resumed)
+
+    def save(self, position: np.ndarray) -> None:
+        self._array[1:] = position
+        self._array[0] = _VALID
