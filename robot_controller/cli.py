@@ -14,6 +14,54 @@ from pathlib import Path
 from robot_controller import config as cfg
 from robot_controller.core.errors import ConfigError
 
+class UsageError(Exception):
+    """A mistake of the user's: one line on stderr, exit code 2."""
+
+
+class Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # argparse's own: usage, then the error; here one line
+        print(f"{self.prog}: {message}", file=sys.stderr)
+        raise SystemExit(2)
+
+
+def positive_seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+# What marks a directory as holding results already.
+RESULT_FILES = ("params.yaml", "bag", "metrics.json", "bench.json", "compare.json", "faults.json", "report.md")
+
+
+def output_dir(out: Path | None, default: Path) -> Path:
+    """Where a verb writes. An ``--out`` that holds results is refused (nothing is
+    overwritten); the default location, if used already, becomes a fresh
+    sibling (``runs/faults-2``), said on screen."""
+    chosen = out if out is not None else default
+    if chosen.exists() and not chosen.is_dir():
+        raise UsageError(f"--out {chosen}: exists and is not a directory")
+    if chosen.is_dir() and any((chosen / name).exists() for name in RESULT_FILES):
+        if out is not None:
+            raise UsageError(f"--out {chosen}: holds an earlier run; choose another directory (nothing was changed)")
+        n = 2
+        while (chosen.parent / f"{chosen.name}-{n}").exists():
+            n += 1
+        chosen = chosen.parent / f"{chosen.name}-{n}"
+        print(f"robot-controller: {default} holds an earlier run: writing to {chosen}", file=sys.stderr)
+    try:
+        chosen.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"--out {chosen}: cannot create it ({exc.strerror})") from None
+    if not os.access(chosen, os.W_OK | os.X_OK):
+        raise UsageError(f"--out {chosen}: not writable")
+    return chosen
+
+
 HEADLINE = ("tracking_rms_rad", "tracking_max_rad", "measured_rms_rad", "control_rate_hz", "jitter_p99_ms",
             "missed_cycles", "latency_p50_ms", "latency_p99_ms", "peak_torque_nm", "duration_s", "real_time_factor")
 
@@ -22,16 +70,9 @@ def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: 
         single_process: bool, realtime: bool = False, sim_time: bool = False, respawn: bool = False) -> int:
     from robot_controller import launcher, report
 
-    try:
-        params = cfg.load_stack(preset, config)
-    except ConfigError as exc:
-        print(f"robot-controller: {exc}", file=sys.stderr)
-        return 2
-    if duration_s <= 0:
-        print("robot-controller: --duration must be > 0", file=sys.stderr)
-        return 2
+    params = cfg.load_stack(preset, config)
     params["sensor_node"]["seed"] = seed
-    out = out or Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    out = output_dir(out, Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S"))
     result = launcher.launch(params, out_dir=out, duration_s=duration_s, single_process=single_process,
                              realtime=realtime, sim_time=sim_time, respawn=respawn)
     if result.exit_code != 0 and not any(result.message_counts.values()):
@@ -91,12 +132,8 @@ def step(*, amplitude: float, shaping: str, out: Path | None, preset: str, seed:
          sim_time: bool) -> int:
     from robot_controller import experiments
 
-    try:
-        params = cfg.load_stack(preset, config)
-    except ConfigError as exc:
-        print(f"robot-controller: {exc}", file=sys.stderr)
-        return 2
-    out = out or Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S"))
+    params = cfg.load_stack(preset, config)
+    out = output_dir(out, Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S")))
     try:
         values = experiments.step(params, out, amplitude=amplitude, shaping=shaping, sim_time=sim_time, seed=seed)
     except (RuntimeError, ValueError) as exc:
@@ -170,10 +207,10 @@ def print_table(values: dict, title: str, headline: tuple[str, ...] = HEADLINE) 
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="robot-controller", description=__doc__.splitlines()[0])
-    verbs = parser.add_subparsers(dest="verb", required=True)
+    parser = Parser(prog="robot-controller", description=__doc__.splitlines()[0])
+    verbs = parser.add_subparsers(dest="verb", required=True, parser_class=Parser)
     p_run = verbs.add_parser("run", help="run the five-node loop, record it and score it")
-    p_run.add_argument("--duration", type=float, default=20.0, help="seconds of control to record (default 20)")
+    p_run.add_argument("--duration", type=positive_seconds, default=20.0, help="seconds of control to record (default 20)")
     p_run.add_argument("--out", type=Path, help="output directory (default runs/<timestamp>)")
     p_run.add_argument("--preset", default="default", choices=cfg.available_presets())
     p_run.add_argument("--seed", type=int, default=0, help="sensor noise seed (default 0)")
@@ -198,21 +235,33 @@ def main(argv: list[str] | None = None) -> int:
     p_step.add_argument("--config", type=Path)
     p_step.add_argument("--sim-time", action="store_true", help="deterministic lockstep")
     p_compare = verbs.add_parser("compare", help="seed preset, PID, PID+FF, PID+FF+Kalman, LQR on sine and step")
-    p_compare.add_argument("--out", type=Path, default=Path("runs/compare"))
+    p_compare.add_argument("--out", type=Path, help="output directory (default runs/compare)")
     p_compare.add_argument("--seeds", type=int, default=5)
-    p_compare.add_argument("--duration", type=float, default=10.0, help="sine duration, sim s (default 10)")
+    p_compare.add_argument("--duration", type=positive_seconds, default=10.0, help="sine duration, sim s (default 10)")
     p_compare.add_argument("--amplitude", type=float, default=0.5, help="step size, rad")
     p_bench = verbs.add_parser("bench", help="timing benchmark: jitter, latency, lockstep speed, core speed")
-    p_bench.add_argument("--out", type=Path, default=Path("runs/bench"), help="output directory")
+    p_bench.add_argument("--out", type=Path, help="output directory (default runs/bench)")
     p_bench.add_argument("--quick", action="store_true", help="a few seconds per scenario")
-    p_bench.add_argument("--soak-s", type=float, help="length of the soak run, wall s (default 600, 20 with --quick)")
+    p_bench.add_argument("--soak-s", type=positive_seconds, help="length of the soak run, wall s (default 600, 20 with --quick)")
     p_faults = verbs.add_parser("faults", help="freeze each node mid-motion (SIGSTOP) and measure what the arm did")
-    p_faults.add_argument("--out", type=Path, default=Path("runs/faults"), help="output directory")
+    p_faults.add_argument("--out", type=Path, help="output directory (default runs/faults)")
     p_faults.add_argument("--quick", action="store_true", help="two cases: sensor and controller frozen 0.5 s")
     p_estop = verbs.add_parser("estop", help="emergency stop of the running graph: torque off, brakes on, latched")
     p_estop.add_argument("--release", action="store_true", help="release the e-stop; the loop re-acquires")
     verbs.add_parser("params", help="list every node parameter with its default and meaning")
     args = parser.parse_args(argv)
+    try:
+        return dispatch(args)
+    except (UsageError, ConfigError) as exc:
+        print(f"robot-controller {args.verb}: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a path of the user's: missing, a directory, not writable
+        where = f" {exc.filename}" if exc.filename else ""
+        print(f"robot-controller {args.verb}:{where}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+
+
+def dispatch(args: argparse.Namespace) -> int:
     if args.verb == "run":
         return run(duration_s=args.duration, out=args.out, preset=args.preset, seed=args.seed, config=args.config,
                    single_process=args.single_process, realtime=args.realtime,
@@ -221,11 +270,11 @@ def main(argv: list[str] | None = None) -> int:
         return step(amplitude=args.amplitude, shaping=args.shaping, out=args.out, preset=args.preset, seed=args.seed,
                     config=args.config, sim_time=args.sim_time)
     if args.verb == "compare":
-        return compare(out=args.out, seeds=args.seeds, duration_s=args.duration, amplitude=args.amplitude)
+        return compare(out=output_dir(args.out, Path("runs/compare")), seeds=args.seeds, duration_s=args.duration, amplitude=args.amplitude)
     if args.verb == "bench":
-        return bench(args.out, quick=args.quick, soak_s=args.soak_s)
+        return bench(output_dir(args.out, Path("runs/bench")), quick=args.quick, soak_s=args.soak_s)
     if args.verb == "faults":
-        return faults(args.out, quick=args.quick)
+        return faults(output_dir(args.out, Path("runs/faults")), quick=args.quick)
     if args.verb == "estop":
         return estop(release=args.release)
     if args.verb == "score":

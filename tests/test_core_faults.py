@@ -128,6 +128,24 @@ def test_after_its_own_pause_the_controller_reacquires_instead_of_jumping():
     assert max(abs(row[4]) for row in loop.log if row[0] >= 3.0) < 10.0  # no saturation on the way back
 
 
+def test_a_pause_that_ends_before_the_reference_is_fresh_holds_where_the_arm_is():
+    # The controller resumes; its first tick comes before the planner's queued
+    # sample: it must hold the arm where it is now, not where it held it at start.
+    loop = Loop()
+    loop.run(3.5)  # the sine at its peak, far from where the loop started
+    loop.plant.set_brakes(np.array([True]), 50.0)
+    loop.plant.step(np.zeros(1), 500)  # 0.5 s: the controller (and, as it sees it, the planner) silent
+    loop.t += 0.5
+    loop.plant.set_brakes(np.array([False]), 50.0)
+    q, v = loop.plant.state()
+    loop.controller.set_measurement(loop.t, loop.t, q, v)
+    first = loop.controller.update(loop.t)  # the reference is 0.5 s old
+    assert first.status is Status.REACQUIRING
+    assert abs(first.reference[0] - q[0]) < 0.01 and abs(first.command[0]) < 10.0
+    loop.run(3.0)
+    assert max(abs(row[4]) for row in loop.log if row[0] >= 3.5) < 10.0
+
+
 def test_an_estop_stops_commanding_until_released_then_reacquires():
     loop = Loop()
     loop.run(2.0)

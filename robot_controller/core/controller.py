@@ -309,6 +309,7 @@ class JointController:
             self._hold_position = hold
             status = Status.HOLDING if not self._planner_spoke else Status.REACQUIRING
             return self._law(now_s, dt, status, position, velocity, hold, zeros, zeros)
+        self._hold_position = None  # a later hold starts where the arm is then
         position, velocity = self._estimate_now(now_s)
         ref_position, ref_velocity, ref_acceleration, status = self._reference_now(now_s, position)
         return self._law(now_s, dt, status, position, velocity, ref_position, ref_velocity, ref_acceleration)
@@ -448,6 +449,7 @@ class JointController:
         self._reference_stop = None
         self._blend = Blend.starting(now_s, position - ref_position, velocity - ref_velocity,
                                      self.config.reacquire_acceleration)
+        return True
 
     def _last_command(self) -> np.ndarray:
         return self._commands[-1][1] if self._commands else np.zeros(self.joint_count)

@@ -4,6 +4,7 @@ warnings, QoS, and the ``main`` skeleton of ros2/examples."""
 from __future__ import annotations
 
 import copy
+import faulthandler
 import gc
 from collections import deque
 import json
@@ -282,6 +283,10 @@ def exit_after_cleanup_timeout(code_ref: list[int]) -> threading.Timer:
     timer = threading.Timer(CLEANUP_TIMEOUT_S, lambda: os._exit(code_ref[0]))
     timer.daemon = True
     timer.start()
+    # The timer needs the GIL; a call stuck in C that holds it (seen once in a
+    # DDS teardown) would stop it. faulthandler's watchdog is a C thread: it
+    # prints where every thread is stuck, then exits (code 1).
+    faulthandler.dump_traceback_later(CLEANUP_TIMEOUT_S + 1.0, exit=True)
     return timer
 
 
@@ -359,9 +364,10 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
     finally:
         guard = exit_after_cleanup_timeout(code)
         executor.shutdown(timeout_sec=1.0)
+        write_publish_counts([n for n in nodes if isinstance(n, StackNode)])  # final once nothing spins
         for node in nodes:
             node.destroy_node()
-        write_publish_counts([n for n in nodes if isinstance(n, StackNode)])
         rclpy.try_shutdown()
         guard.cancel()
+        faulthandler.cancel_dump_traceback_later()
     return code[0]

@@ -49,6 +49,10 @@ from robot_controller.nodes.world_state import WorldState
 # runs slower than real time rather than jumping.
 MAX_CATCH_UP_STEPS = 100
 BRAKES_REPORT_PERIOD_NS = 500_000_000
+# The simulator's own pause (frozen, starved) up to this long does not count
+# against the drive's timeout; after a longer one it resumes braked (by then
+# the controller has given up: sensor_timeout_s, 1 s by default).
+MAX_EXCUSED_GAP_NS = 1_000_000_000
 
 
 class Simulator(StackNode):
@@ -235,11 +239,19 @@ class Simulator(StackNode):
                 time.sleep(remaining_ns * 1e-9)
             with self.lock:
                 now_ns = time.monotonic_ns()
-                if now_ns - last_wakeup_ns > 2 * period_ns:
-                    # This process was not running (frozen, starved): that time does not
-                    # count against the drive, whose efforts may be waiting to be read.
-                    self.last_effort_mono_ns += now_ns - last_wakeup_ns - period_ns
+                gap_ns = now_ns - last_wakeup_ns
                 last_wakeup_ns = now_ns
+                if gap_ns > 2 * period_ns and self.anchor_mono_ns is not None:
+                    if gap_ns <= MAX_EXCUSED_GAP_NS:
+                        # This process was not running (frozen, starved) for a moment: that
+                        # time does not count against the drive, whose efforts are waiting to be read.
+                        self.last_effort_mono_ns += gap_ns - period_ns
+                    elif "drive_timeout" not in self.brake_reasons:
+                        # Longer, and the efforts waiting are as old: resume braked (the arm
+                        # holds from here), until a fresh one arrives.
+                        self.set_brake("drive_timeout", True)
+                        self.warn_throttled("own_gap", f"this simulator did not run for {gap_ns * 1e-9:.2f} s: "
+                                            "resuming with the brakes on")
                 if self.anchor_mono_ns is None:
                     stamp_ns = self.get_clock().now().nanoseconds  # brakes on: the arm holds still
                 else:
