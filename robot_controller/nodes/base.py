@@ -86,6 +86,10 @@ class StackNode(Node):
 
     # --- parameters ---------------------------------------------------------
 
+    def finish(self) -> None:
+        """Last words, once the executor has stopped: stop the node's own threads and
+        publish what is pending, so that the publish counts written next are final."""
+
     def check_params(self, params: dict[str, Any]) -> None:
         """Raise ``ConfigError`` if this combination of values cannot run."""
 
@@ -364,7 +368,10 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
     finally:
         guard = exit_after_cleanup_timeout(code)
         executor.shutdown(timeout_sec=1.0)
-        write_publish_counts([n for n in nodes if isinstance(n, StackNode)])  # final once nothing spins
+        for node in nodes:
+            if isinstance(node, StackNode):
+                node.finish()
+        write_publish_counts([n for n in nodes if isinstance(n, StackNode)])  # final: nothing publishes now
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()

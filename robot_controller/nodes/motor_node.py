@@ -127,9 +127,8 @@ class MotorNode(StackNode):
         self.receipts = []
         self.receipts_pub.publish(msg)
 
-    def destroy_node(self) -> None:
+    def finish(self) -> None:
         self.publish_receipts()  # the last second's
-        super().destroy_node()
 
 
 def main(args: list[str] | None = None) -> int:

@@ -340,12 +340,15 @@ class Simulator(StackNode):
         msg.effort = (np.zeros(self.joint_count) if self.brake_reasons else self.effort).tolist()
         self.state_pub.publish(msg)
 
-    def destroy_node(self) -> None:
+    def finish(self) -> None:
         self.stop_pacing.set()
-        if self.pacer is not None:
+        if self.pacer is not None and self.pacer.is_alive():
             self.pacer.join(timeout=1.0)
             if self.late_wakeups:
                 self.get_logger().info(f"pacing: {self.late_wakeups} wake-up(s) later than a whole period")
+
+    def destroy_node(self) -> None:
+        self.finish()
         if self.lockstep:
             self.get_logger().info(f"lockstep: {self.ticks_published} ticks published, {self.efforts_applied} "
                                    f"efforts applied, t = {self.steps_done * self.plant.physics_dt:.3f} s")
