@@ -8,10 +8,12 @@ import argparse
 import datetime as dt
 import json
 import os
+import signal
 import sys
 from pathlib import Path
 
 from robot_controller import config as cfg
+from robot_controller import config_check
 from robot_controller.core.errors import ConfigError
 
 class UsageError(Exception):
@@ -72,9 +74,12 @@ def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: 
 
     params = cfg.load_stack(preset, config)
     params["sensor_node"]["seed"] = seed
+    config_check.check_stack(params)  # before the output folder is made
     out = output_dir(out, Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S"))
     result = launcher.launch(params, out_dir=out, duration_s=duration_s, single_process=single_process,
                              realtime=realtime, sim_time=sim_time, respawn=respawn)
+    if result.interrupted:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # scoring takes a second: let it finish
     if result.exit_code != 0 and not any(result.message_counts.values()):
         return result.exit_code
     try:
@@ -84,7 +89,8 @@ def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: 
     except ValueError as exc:
         launcher.say(f"cannot score the recording: {exc}")
         return result.exit_code or 1
-    values.update({"duration_s": duration_s if sim_time else round(result.control_seconds, 3), "preset": preset,
+    recorded_s = result.control_seconds if result.interrupted or not sim_time else duration_s
+    values.update({"duration_s": round(recorded_s, 3), "interrupted": result.interrupted, "preset": preset,
                    "seed": seed, "mode": "single_process" if single_process else "multi_process",
                    "clock": "sim_lockstep" if sim_time else "wall"})
     # Wall-clock figures of a lockstep run differ run to run: keep them out of metrics.json.
@@ -133,9 +139,12 @@ def step(*, amplitude: float, shaping: str, out: Path | None, preset: str, seed:
     from robot_controller import experiments
 
     params = cfg.load_stack(preset, config)
+    config_check.check_stack(experiments.step_params(params, amplitude, shaping))
     out = output_dir(out, Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S")))
     try:
         values = experiments.step(params, out, amplitude=amplitude, shaping=shaping, sim_time=sim_time, seed=seed)
+    except ConfigError:
+        raise  # a user error: one line, exit 2
     except (RuntimeError, ValueError) as exc:
         print(f"robot-controller: {exc}", file=sys.stderr)
         return 1

@@ -109,6 +109,12 @@ def _positive(name: str, description: str, kind: Any = float) -> ParamSpec:
     return ParamSpec(name, kind, description, minimum=0.0, exclusive_minimum=True)
 
 
+def _rate(name: str, description: str, low: float, high: float) -> ParamSpec:
+    """A rate in Hz within what this stack can keep (a rate beyond it starves the
+    loop; one below it leaves the watchdog with nothing to watch)."""
+    return ParamSpec(name, float, description, minimum=low, maximum=high)
+
+
 def _nonneg(name: str, description: str, kind: Any = float) -> ParamSpec:
     return ParamSpec(name, kind, description, minimum=0.0)
 
@@ -119,14 +125,15 @@ URDF = ParamSpec("urdf_path", str, "robot description (URDF file); empty means t
 SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
     "simulator": (
         URDF,
-        _positive("physics_rate_hz", "physics steps per second (MuJoCo)"),
-        _positive("publish_rate_hz", "rate of /sim/joint_states (true state), Hz; a whole divisor of physics_rate_hz"),
+        _rate("physics_rate_hz", "physics steps per second (MuJoCo)", 100.0, 10000.0),
+        _rate("publish_rate_hz", "rate of /sim/joint_states (true state), Hz; a whole divisor of physics_rate_hz",
+              10.0, 1000.0),
         ParamSpec("initial_position", "floats", "initial joint position, rad (one per joint, or one for all)"),
         ParamSpec("wait_for_first_command", bool,
                   "keep the arm still (brakes on) until the first effort arrives, so start-up order does not matter"),
         ParamSpec("lockstep", bool, "sim-time lockstep: publish /clock and advance one control period per effort",
                   read_only=True),
-        _positive("control_rate_hz", "control rate the lockstep advances by (one period per effort), Hz"),
+        _rate("control_rate_hz", "control rate the lockstep advances by (one period per effort), Hz", 10.0, 1000.0),
         _positive("drive_timeout_s", "efforts missing this long (wall clock) engage the holding brakes and cut "
                   "the torque (category 0), s"),
         _positive("brake_torque_nm", "holding torque of each joint's brake, N·m (stops the reference arm from "
@@ -141,7 +148,7 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
                   "(category 0) until commands return, s"),
     ),
     "sensor_node": (
-        _positive("rate_hz", "sensor sample rate, Hz"),
+        _rate("rate_hz", "sensor sample rate, Hz", 10.0, 1000.0),
         _nonneg("position_noise_std", "Gaussian position noise σ, rad"),
         _nonneg("velocity_noise_std", "Gaussian velocity noise σ, rad/s"),
         ParamSpec("position_bias", float, "constant position bias, rad"),
@@ -161,7 +168,7 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         _positive("kalman_position_noise_std", "Kalman filter: encoder position noise σ, rad"),
         _positive("kalman_velocity_noise_std", "Kalman filter: encoder velocity noise σ, rad/s"),
         _positive("kalman_acceleration_noise_std", "Kalman filter: unmodelled acceleration σ, rad/s²"),
-        _positive("control_rate_hz", "control loop rate, Hz"),
+        _rate("control_rate_hz", "control loop rate, Hz", 10.0, 1000.0),
         ParamSpec("trigger", str, "what starts a control step: a timer at control_rate_hz (the tutorial's way) "
                   "or each new sensor reading (read-update-write, no phase delay; a timer still runs the "
                   "watchdog)", choices=("timer", "measurement")),
@@ -211,7 +218,7 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
                   "(10 − 2.45) N·m / 0.0833 kg·m² ≈ 90 at most; 60 leaves the feedback room)"),
         _nonneg("end_frequency_hz", "end frequency of the chirp, Hz"),
         _positive("sweep_time_s", "duration of one chirp sweep, s"),
-        _positive("publish_rate_hz", "rate of /trajectory, Hz"),
+        _rate("publish_rate_hz", "rate of /trajectory, Hz", 1.0, 1000.0),
         ParamSpec("lockstep", bool, "sample on /clock ticks (sim-time lockstep) instead of a timer",
                   read_only=True),
     ),
@@ -341,7 +348,8 @@ def per_joint(name: str, value: float | list[float], joint_count: int) -> np.nda
     if array.size == 1:
         return np.full(joint_count, float(array[0]))
     if array.size != joint_count:
-        raise ConfigError(f"{name}: expected 1 or {joint_count} values (one per joint), got {array.size}")
+        expected = "1 value" if joint_count == 1 else f"1 or {joint_count} values (one per joint)"
+        raise ConfigError(f"{name}: expected {expected}, got {array.size}")
     return array
 
 

@@ -23,11 +23,12 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable
+from typing import Any
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from robot_controller import config as cfg
-from robot_controller import forking, proc_stats, resources, scheduling
+from robot_controller import config_check, forking, proc_stats, resources, scheduling
 from robot_controller.nodes.base import COUNTS_DIR_ENV, RECORDED_ENV, WORLD_STATE_ENV
 from robot_controller.nodes import recorder as rec
 
@@ -169,6 +170,7 @@ class RunResult:
     failure: str | None = None
     published_counts: dict[str, int] = field(default_factory=dict)  #: what the nodes say they sent
     usage: dict[str, float] = field(default_factory=dict)  #: cpu_pct_*, rss_* over the run (proc_stats)
+    interrupted: bool = False  #: Ctrl-C or SIGTERM ended it early (what was recorded is still scored)
 
     @property
     def real_time_factor(self) -> float:
@@ -209,12 +211,14 @@ class RecorderLink:
     def __init__(self, topics: list[str]) -> None:
         self.ready = threading.Event()
         self.counts = {topic: 0 for topic in topics}
+        self.oversize: dict[str, int] = {}  #: messages the recorder dropped as too large, per topic
         self.clock_s = 0.0
 
     def on_line(self, line: str) -> bool:
         if line.startswith(rec.PROGRESS_PREFIX):
             progress = json.loads(line[len(rec.PROGRESS_PREFIX):])
             self.counts, self.clock_s = progress["counts"], progress["clock_s"]
+            self.oversize = progress.get("oversize", {})
             return True
         if line.strip() == rec.READY_LINE:
             self.ready.set()
@@ -241,9 +245,10 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     bench injects its faults from it. ``respawn``: a node that dies while the
     loop runs (wall clock) is started again, as ``ros2 launch``'s
     ``respawn=True`` does, instead of ending the run."""
-    out_dir.mkdir(parents=True, exist_ok=True)
     if sim_time:
         params = lockstep_params(params)
+    config_check.check_stack(params)  # before anything is written or started
+    out_dir.mkdir(parents=True, exist_ok=True)
     params_file = cfg.write_params_file(params, out_dir / "params.yaml")
     bag_dir = out_dir / "bag"
     if bag_dir.exists():
@@ -262,10 +267,14 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     forking.preload()  # before any thread of this run: the children are forked from here
     # SIGTERM (a CI timeout, `kill`) stops the run as cleanly as Ctrl-C does.
     previous_sigterm = signal.signal(signal.SIGTERM, _raise_interrupt)
+    previous_sigint = signal.getsignal(signal.SIGINT)
     link = RecorderLink(list(rec.topics_for(sim_time)))
     failure: str | None = None
     control_seconds = wall_seconds = 0.0
     usage: dict[str, float] = {}
+    started: float | None = None
+    sim_start = 0.0
+    interrupted = False
     try:
         with ProcessGroup(env) as group:
             recorder = group.start("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] if sim_time else []),
@@ -307,8 +316,16 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
                     wall_seconds = time.monotonic() - started
                     usage = meter.finish()
             except KeyboardInterrupt:
-                say("interrupted: stopping the nodes")
+                interrupted = True
+                # A second Ctrl-C must not cut the stop short: the bag and the metrics come next.
+                patient = _patient_handler()
+                signal.signal(signal.SIGINT, patient)
+                signal.signal(signal.SIGTERM, patient)
+                say("interrupted: stopping the nodes (the recording is kept and scored)")
                 failure = None if link.counts.get("/controller/state") else "interrupted before the loop ran"
+                if started is not None:
+                    wall_seconds = time.monotonic() - started
+                    control_seconds = link.clock_s - sim_start if sim_time else wall_seconds
             # The nodes first, then the recorder, which takes what is still in flight.
             codes = group.stop(nodes)
             codes.update(group.stop([recorder]))
@@ -319,11 +336,15 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
             failure = "node(s) exited with an error on shutdown: " + ", ".join(f"{n} ({c})" for n, c in bad.items())
     finally:
         signal.signal(signal.SIGTERM, previous_sigterm)
+        signal.signal(signal.SIGINT, previous_sigint)
         shutil.rmtree(counts_dir, ignore_errors=True)
     # What each topic's publishers in the stack say they sent: the bag must hold as many.
     (out_dir / "published.json").write_text(json.dumps(published, indent=2, sort_keys=True) + "\n")
     result = RunResult(1 if failure else 0, bag_dir, control_seconds, wall_seconds, counts, failure, published,
-                       usage)
+                       usage, interrupted)
+    if link.oversize:
+        say("WARNING: messages over the recorder's size cap were dropped (not from this stack): "
+            + ", ".join(f"{t} {n}" for t, n in link.oversize.items()))
     if result.unrecorded:
         say("WARNING: the bag misses messages the nodes published: "
             + ", ".join(f"{t} {n}" for t, n in result.unrecorded.items()))
@@ -390,6 +411,18 @@ def _read_published_counts(counts_dir: Path, replaced: set[str] = frozenset()) -
 
 def _raise_interrupt(signum, frame) -> None:
     raise KeyboardInterrupt
+
+
+def _patient_handler() -> Callable[[int, Any], None]:
+    """After the first interrupt: further ones only say that the stop is under way."""
+    said = [False]
+
+    def handler(signum, frame) -> None:
+        if not said[0]:
+            say("already stopping: nodes get 5 s to exit, then the recording is scored")
+            said[0] = True
+
+    return handler
 
 
 def _wait_recorder(link: RecorderLink, group: ProcessGroup) -> str | None:

@@ -146,7 +146,7 @@ def test_gains_change_live_and_bad_values_are_refused(tmp_path, ros_domain):
             ("anti_windup", ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="off"),
              "anti_windup: 'off' is not one of"),
             ("kp", ParameterValue(type=ParameterType.PARAMETER_DOUBLE_ARRAY, double_array_value=[1.0, 2.0]),
-             "kp: expected 1 or 1 values"),
+             "kp: expected 1 value"),
         ]:
             result = _set(probe, name, value)
             assert not result.successful and reason in result.reason, (name, result.reason)

@@ -65,6 +65,15 @@ def steps_per_period(physics_dt: float, period_s: float) -> int:
     return n
 
 
+def effort_limits(model: mujoco.MjModel) -> np.ndarray:
+    """Each actuated joint's effort limit from the URDF (``<limit effort=…>``), N·m
+    (or N); infinite where the URDF gives none."""
+    count = len(joint_names(model))
+    low, high = model.jnt_actfrcrange[:count, 0], model.jnt_actfrcrange[:count, 1]
+    limited = model.jnt_actfrclimited[:count].astype(bool) & (high > 0)
+    return np.where(limited, np.minimum(np.abs(low), high), np.inf)
+
+
 # Below this speed (rad/s) a braking joint counts as stopped and is held where it is.
 BRAKE_LOCK_SPEED = 0.05
 
@@ -86,6 +95,7 @@ class MujocoPlant:
         self._free_solref = self.model.dof_solref[dofs].copy()
         self._braked = np.zeros(self.joint_count, dtype=bool)
         self._locked_at = np.full(self.joint_count, np.nan)  #: where each braked joint came to rest, rad
+        self.effort_limit = effort_limits(self.model)
         mujoco.mj_forward(self.model, self.data)
 
     @property
@@ -103,7 +113,12 @@ class MujocoPlant:
         mujoco.mj_forward(self.model, self.data)
 
     def step(self, torque: np.ndarray, n_steps: int = 1) -> None:
-        """Hold ``torque`` (N·m) for ``n_steps`` physics steps; a braked joint gets none."""
+        """Hold ``torque`` (N·m) for ``n_steps`` physics steps; a braked joint gets none.
+
+        Whatever it is sent, a joint gets no more than its URDF ``effort`` limit
+        (``effort_limit``), as a real drive limits its current.
+        """
+        torque = np.clip(torque, -self.effort_limit, self.effort_limit)
         self.data.qfrc_applied[:] = np.where(self._braked, 0.0, torque)
         if not self._braked.any():
             for _ in range(n_steps):
@@ -165,6 +180,7 @@ class ArmDynamics:
         self.model = load_model(urdf_path)
         self._data = mujoco.MjData(self.model)
         self.joint_names = joint_names(self.model)
+        self.effort_limit = effort_limits(self.model)
 
     def torque(self, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         d = self._data
@@ -179,11 +195,12 @@ class ArmDynamics:
         return self.torque(position, zero, zero)
 
     def acceleration(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray) -> np.ndarray:
-        """Forward dynamics: joint acceleration (rad/s²) under ``torque`` at state ``(q, v)``."""
+        """Forward dynamics: joint acceleration (rad/s²) under ``torque`` at state ``(q, v)``
+        (limited to the URDF's effort limit, as :class:`MujocoPlant` applies it)."""
         d = self._data
         d.qpos[:] = position
         d.qvel[:] = velocity
-        d.qfrc_applied[:] = torque
+        d.qfrc_applied[:] = np.clip(torque, -self.effort_limit, self.effort_limit)
         mujoco.mj_forward(self.model, d)
         d.qfrc_applied[:] = 0.0
         return d.qacc.copy()

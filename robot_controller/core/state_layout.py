@@ -36,6 +36,11 @@ def decode(data: np.ndarray, joint_count: int) -> dict[str, np.ndarray]:
     return out
 
 
+def width(joint_count: int) -> int:
+    """Values in one ``/controller/state`` message for ``joint_count`` joints."""
+    return len(HEADER) + len(FIELDS) * joint_count
+
+
 def joint_count_of(size: int) -> int:
     n, rem = divmod(size - len(HEADER), len(FIELDS))
     if rem or n < 1:

@@ -97,8 +97,15 @@ class StackNode(Node):
         """Take the new values (already validated) while running."""
 
     def _validated(self, values: dict[str, Any]) -> dict[str, Any]:
-        out = {name: cfg.spec_of(self.schema_name, name).validate(value) for name, value in values.items()}
-        self.check_params(out)
+        """The values checked one by one and together; any failure is a ``ConfigError``
+        with its reason (a design that does not solve, a rate the physics cannot keep)."""
+        try:
+            out = {name: cfg.spec_of(self.schema_name, name).validate(value) for name, value in values.items()}
+            self.check_params(out)
+        except ConfigError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - whatever the check raised, the value is refused, not the node
+            raise ConfigError(f"{type(exc).__name__}: {exc}") from exc
         return out
 
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:

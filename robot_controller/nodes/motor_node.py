@@ -15,12 +15,14 @@ command…]``: a summary instead of a message per tick on the loop's path.
 """
 from __future__ import annotations
 
+import numpy as np
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
 from robot_controller import config as cfg
 from robot_controller import resources
 from robot_controller.core.actuator import Actuator
-from robot_controller.core.plant import joint_names, load_model
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.plant import effort_limits, joint_names, load_model
 from robot_controller.core.validation import check_effort
 from robot_controller.nodes.base import ESTOP_QOS, LATCHED_QOS, LATEST_QOS, GatedPublisher, StackNode, run
 
@@ -30,8 +32,10 @@ RECEIPTS_PERIOD_S = 1.0
 class MotorNode(StackNode):
     def __init__(self) -> None:
         super().__init__("motor_node")
-        self.joint_names = joint_names(load_model(resources.resolve_urdf(self.params["urdf_path"])))
+        model = load_model(resources.resolve_urdf(self.params["urdf_path"]))
+        self.joint_names = joint_names(model)
         self.joint_count = len(self.joint_names)
+        self.effort_limit = effort_limits(model)
         self.actuator = self._make_actuator(self.params)
         self.last_command_s: float | None = None
         self.effort_pub = GatedPublisher(self, Float64MultiArray, "/sim/effort")
@@ -51,8 +55,11 @@ class MotorNode(StackNode):
                                f"lag {self.actuator.lag_time_constant_s:g} s")
 
     def _make_actuator(self, params: dict) -> Actuator:
-        return Actuator(cfg.per_joint("torque_max", params["torque_max"], self.joint_count),
-                        params["lag_time_constant_s"])
+        torque_max = cfg.per_joint("torque_max", params["torque_max"], self.joint_count)
+        if np.any(torque_max > self.effort_limit):
+            raise ConfigError(f"torque_max: {torque_max.tolist()} N·m exceeds the URDF's effort limit "
+                              f"{self.effort_limit.tolist()} N·m (it may lower the drive's limit, never raise it)")
+        return Actuator(torque_max, params["lag_time_constant_s"])
 
     def check_params(self, params: dict) -> None:
         if hasattr(self, "joint_count"):

@@ -28,7 +28,7 @@ from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 from robot_controller import config as cfg
 from robot_controller import resources
 from robot_controller.core import metrics, state_layout
-from robot_controller.core.controller import ControlOutput, JointController, Status
+from robot_controller.core.controller import ControlOutput, JointController, Status, law_config
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.validation import check_joint_state, check_trajectory
@@ -100,7 +100,9 @@ class PidControllerNode(StackNode):
 
     def check_params(self, params: dict[str, Any]) -> None:
         if hasattr(self, "joint_count"):
-            cfg.controller_config(params, self.joint_count)
+            # The law designs here, before the change is accepted (an LQR that does not
+            # stabilise is refused, not found when applying it).
+            law_config(cfg.controller_config(params, self.joint_count), self.dynamics, self.joint_count)
 
     def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
         self.controller.set_config(cfg.controller_config(params, self.joint_count))

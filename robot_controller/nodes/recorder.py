@@ -61,6 +61,10 @@ TELEMETRY_TOPICS = {
 CLOCK_TOPIC = {"/clock": (Clock, "rosgraph_msgs/msg/Clock")}
 
 PROGRESS_PERIOD_S = 0.1
+CHECKPOINT_PERIOD_S = 1.0
+# A recorded message larger than this is dropped and counted: the loop's are
+# under a kilobyte, and a peer publishing million-element arrays must not fill the disk.
+MAX_MESSAGE_BYTES = 64 * 1024
 DRAIN_QUIET_S = 0.15
 DRAIN_MAX_S = 3.0
 READY_LINE = "@ready"
@@ -92,6 +96,7 @@ class Recorder:
         self.writer = Writer(bag_dir, version=9, storage_plugin=StoragePlugin.MCAP)
         self.writer.open()
         self.counts = {topic: 0 for topic in topics_for(sim_time)}
+        self.oversize: dict[str, int] = {}  #: messages over MAX_MESSAGE_BYTES, dropped, per topic
         self.last_message = time.monotonic()
         typestore = get_typestore(Stores.ROS2_JAZZY)
         for topic, (msg_class, type_name) in topics_for(sim_time).items():
@@ -105,6 +110,9 @@ class Recorder:
         is_clock = topic == "/clock"
 
         def record(data: bytes) -> None:
+            if len(data) > MAX_MESSAGE_BYTES:  # no message of the loop is near this: a hostile peer's
+                self.oversize[topic] = self.oversize.get(topic, 0) + 1
+                return
             if is_clock:
                 self.clock_ns = clock_ns_of(data)
             write(connection, self.clock_ns if self.sim_time else time.time_ns(), data)
@@ -113,8 +121,21 @@ class Recorder:
 
         return record
 
+    def checkpoint(self) -> None:
+        """Close the chunk being written and push it to the file: if this process
+        is killed, all but the last ``CHECKPOINT_PERIOD_S`` can be recovered
+        (``bag_recovery``). rosbags has no public call for it; without one the
+        chunks close at 1 MB (a few seconds) instead."""
+        storage = getattr(self.writer, "storage", None)
+        chunk = getattr(storage, "chunk", None)
+        if chunk is None or not hasattr(storage, "close_chunk") or not chunk.bio.tell():
+            return
+        storage.close_chunk()
+        storage.bio.flush()
+
     def progress(self) -> str:
-        return PROGRESS_PREFIX + json.dumps({"counts": self.counts, "clock_s": self.clock_ns * 1e-9})
+        return PROGRESS_PREFIX + json.dumps({"counts": self.counts, "clock_s": self.clock_ns * 1e-9,
+                                             "oversize": self.oversize})
 
     def close(self) -> None:
         self.writer.close()
@@ -135,13 +156,17 @@ def main(argv: list[str] | None = None) -> int:
     executor = make_executor(context)
     executor.add_node(recorder.node)
     print(READY_LINE, flush=True)
-    next_progress = time.monotonic()
+    next_progress = next_checkpoint = time.monotonic()
     try:
         while not stop.is_set():
             executor.spin_once(timeout_sec=PROGRESS_PERIOD_S)
-            if time.monotonic() >= next_progress:
+            now = time.monotonic()
+            if now >= next_progress:
                 next_progress += PROGRESS_PERIOD_S
                 print(recorder.progress(), flush=True)
+            if now >= next_checkpoint:
+                next_checkpoint = now + CHECKPOINT_PERIOD_S
+                recorder.checkpoint()
         # The nodes stop first; take what is still in flight.
         stopped = time.monotonic()
         deadline = stopped + DRAIN_MAX_S

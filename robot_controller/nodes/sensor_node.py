@@ -20,6 +20,9 @@ from robot_controller.nodes.base import LATEST_QOS, GatedPublisher, StackNode, r
 
 # Stamps within this of a grid point count as on it (float ns rounding).
 _GRID_EPS_S = 1e-6
+# A stamp this far before the sampling grid restarts it (a future-stamped message
+# set the grid there: waiting for that time would stop the sensor for good).
+RESYNC_S = 1.0
 
 
 class SensorNode(StackNode):
@@ -51,7 +54,12 @@ class SensorNode(StackNode):
     def true_state_callback(self, msg: JointState) -> None:
         stamp_s = stamp_to_s(msg.header.stamp)
         if self.next_sample_s is not None and stamp_s < self.next_sample_s - _GRID_EPS_S:
-            return  # between samples
+            if stamp_s > self.next_sample_s - self.period_s - RESYNC_S:
+                return  # between samples
+            # Far behind the grid: the last sample's stamp was bogus (one from the far
+            # future) or the simulator started again: follow the stamps from here.
+            self.warn_throttled("resync", f"/sim/joint_states stamp {stamp_s:.3f} s is {self.next_sample_s - stamp_s:.3f} "
+                                "s behind the sampling grid: re-synchronised")
         if self.joint_names is None:
             self.joint_names = list(msg.name)
         checked = check_joint_state(msg.name, msg.position, msg.velocity, self.joint_names)

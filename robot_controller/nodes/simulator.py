@@ -142,6 +142,11 @@ class Simulator(StackNode):
         if isinstance(checked, str):
             self.warn_throttled("effort", f"/sim/effort dropped: {checked}")
             return
+        limit = self.plant.effort_limit
+        if np.any(np.abs(checked) > limit):
+            self.warn_throttled("effort_limit", f"/sim/effort {checked.tolist()} beyond the URDF's effort limit "
+                                f"{limit.tolist()}: clamped")
+            checked = np.clip(checked, -limit, limit)
         if self.lockstep:
             self.lockstep_effort(checked)
             return

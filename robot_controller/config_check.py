@@ -1,0 +1,145 @@
+"""The whole configuration checked before anything starts: each value on its
+own (the schema), then the five nodes' values against each other and
+against the arm the URDFs describe.
+
+``run --config`` and the other verbs call :func:`check_stack`; a problem is a
+``ConfigError`` naming the node, the key and what is wrong. The nodes check
+their own values again on every parameter change (a node alone cannot see
+the others' values: these cross-node rules are enforced here, at start).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from robot_controller import config as cfg
+from robot_controller import resources
+from robot_controller.core.errors import ConfigError
+
+# The watchdog must outlast this many reading periods: a window shorter than
+# the gap between two readings trips on every tick (control_rate_hz 1000 with
+# readings at 100 Hz did).
+WATCHDOG_MIN_READINGS = 2
+# Drive and motor timeouts must outlast this many control periods.
+TIMEOUT_MIN_PERIODS = 2
+
+
+def check_stack(params: cfg.Params) -> None:
+    """Raise ``ConfigError`` for the first problem found."""
+    for node in cfg.NODES:
+        for spec in cfg.SCHEMA[node]:
+            try:
+                spec.validate(params[node][spec.name])
+            except ConfigError as exc:
+                raise ConfigError(f"{node}: {exc}") from None
+    arms = {node: _arm(node, params[node]["urdf_path"]) for node in ("simulator", "motor_node", "pid_controller")}
+    names = arms["simulator"][0]
+    for node, (other, _, _) in arms.items():
+        if other != names:
+            raise ConfigError(f"joint names differ: simulator's URDF has {names}, {node}'s has {other}")
+    joint_count = len(names)
+    _check_per_joint(params, joint_count)
+    _check_rates(params)
+    _check_limits(params, arms["simulator"])
+    _check_controller(params, joint_count)
+
+
+def _arm(node: str, urdf_path: str) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """Joint names, effort limits and position ranges of a node's URDF."""
+    from robot_controller.core.plant import effort_limits, joint_names, load_model
+
+    try:
+        model = load_model(resources.resolve_urdf(urdf_path))
+    except Exception as exc:  # noqa: BLE001 - MuJoCo's and the file system's errors alike
+        raise ConfigError(f"{node}: urdf_path {urdf_path or '(reference arm)'!r}: {exc}") from None
+    count = len(joint_names(model))
+    ranges = np.where(model.jnt_limited[:count, None].astype(bool), model.jnt_range[:count],
+                      [[-np.inf, np.inf]])
+    return joint_names(model), effort_limits(model), ranges
+
+
+def _check_per_joint(params: cfg.Params, joint_count: int) -> None:
+    planner = params["trajectory_planner"]
+    if planner["joint_count"] != joint_count:
+        raise ConfigError(f"trajectory_planner: joint_count {planner['joint_count']} but the URDF has "
+                          f"{joint_count} joint(s)")
+    for node in cfg.NODES:
+        for spec in cfg.SCHEMA[node]:
+            if spec.kind == "floats" and spec.name != "lqr_q":
+                try:
+                    cfg.per_joint(spec.name, params[node][spec.name], joint_count)
+                except ConfigError as exc:
+                    raise ConfigError(f"{node}: {exc}") from None
+
+
+def _check_rates(params: cfg.Params) -> None:
+    from robot_controller.core.plant import steps_per_period
+
+    sim, sensor = params["simulator"], params["sensor_node"]
+    ctrl, motor = params["pid_controller"], params["motor_node"]
+    physics_dt = 1.0 / sim["physics_rate_hz"]
+    try:
+        steps_per_period(physics_dt, 1.0 / sim["publish_rate_hz"])
+    except Exception as exc:  # noqa: BLE001 - TimingError
+        raise ConfigError(f"simulator: publish_rate_hz {sim['publish_rate_hz']:g}: {exc}") from None
+    if sensor["rate_hz"] > sim["publish_rate_hz"] + 1e-9:
+        raise ConfigError(f"sensor_node: rate_hz {sensor['rate_hz']:g} is faster than the simulator publishes "
+                          f"({sim['publish_rate_hz']:g} Hz)")
+    control_period_s = 1.0 / ctrl["control_rate_hz"]
+    watchdog_s = ctrl["watchdog_periods"] * control_period_s
+    reading_period_s = 1.0 / sensor["rate_hz"]
+    if watchdog_s < WATCHDOG_MIN_READINGS * reading_period_s - 1e-9:
+        raise ConfigError(
+            f"pid_controller: watchdog_periods {ctrl['watchdog_periods']} at control_rate_hz "
+            f"{ctrl['control_rate_hz']:g} is a {watchdog_s * 1e3:g} ms window, shorter than "
+            f"{WATCHDOG_MIN_READINGS} readings at {sensor['rate_hz']:g} Hz: raise watchdog_periods to at least "
+            f"{int(np.ceil(WATCHDOG_MIN_READINGS * reading_period_s / control_period_s - 1e-9))}")
+    for node, key, value in (("motor_node", "command_timeout_s", motor["command_timeout_s"]),
+                             ("simulator", "drive_timeout_s", sim["drive_timeout_s"])):
+        if value < TIMEOUT_MIN_PERIODS * control_period_s - 1e-9:
+            raise ConfigError(f"{node}: {key} {value:g} s is shorter than {TIMEOUT_MIN_PERIODS} control periods "
+                              f"({TIMEOUT_MIN_PERIODS * control_period_s:g} s)")
+    if sim["lockstep"] or ctrl["lockstep"]:
+        try:
+            steps_per_period(physics_dt, control_period_s)
+        except Exception as exc:  # noqa: BLE001 - TimingError
+            raise ConfigError(f"pid_controller: control_rate_hz {ctrl['control_rate_hz']:g}: {exc}") from None
+
+
+def _check_limits(params: cfg.Params, arm: tuple[list[str], np.ndarray, np.ndarray]) -> None:
+    names, effort_limit, ranges = arm
+    n = len(names)
+    for node in ("motor_node", "pid_controller"):
+        torque_max = cfg.per_joint("torque_max", params[node]["torque_max"], n)
+        if np.any(torque_max > effort_limit):
+            raise ConfigError(f"{node}: torque_max {torque_max.tolist()} N·m exceeds the URDF's effort limit "
+                              f"{effort_limit.tolist()} N·m (it may lower the limit, never raise it)")
+    planner = params["trajectory_planner"]
+    amplitude = np.abs(cfg.per_joint("amplitude", planner["amplitude"], n))
+    offset = cfg.per_joint("offset", planner["offset"], n)
+    low, high = offset - amplitude, offset + amplitude
+    if planner["mode"] == "step":  # from the offset to offset + amplitude
+        signed = cfg.per_joint("amplitude", planner["amplitude"], n)
+        low, high = np.minimum(offset, offset + signed), np.maximum(offset, offset + signed)
+    outside = (low < ranges[:, 0] - 1e-9) | (high > ranges[:, 1] + 1e-9)
+    if np.any(outside):
+        j = int(np.flatnonzero(outside)[0])
+        raise ConfigError(f"trajectory_planner: amplitude and offset reach [{low[j]:g}, {high[j]:g}] rad on "
+                          f"{names[j]}, beyond its limits [{ranges[j, 0]:g}, {ranges[j, 1]:g}] rad")
+    initial = cfg.per_joint("initial_position", params["simulator"]["initial_position"], n)
+    if np.any((initial < ranges[:, 0]) | (initial > ranges[:, 1])):
+        raise ConfigError(f"simulator: initial_position {initial.tolist()} rad is outside the joint limits")
+
+
+def _check_controller(params: cfg.Params, joint_count: int) -> None:
+    """The controller builds: its law designs (an LQR that does not stabilise is refused here)."""
+    from robot_controller.core.controller import JointController
+    from robot_controller.core.plant import ArmDynamics
+
+    ctrl = params["pid_controller"]
+    try:
+        JointController(cfg.controller_config(ctrl, joint_count), joint_count,
+                        ArmDynamics(resources.resolve_urdf(ctrl["urdf_path"])))
+    except ConfigError as exc:
+        raise ConfigError(f"pid_controller: {exc}") from None
+    except Exception as exc:  # noqa: BLE001 - a solver's error is a refusal, not a crash
+        raise ConfigError(f"pid_controller: {type(exc).__name__}: {exc}") from None

@@ -1,0 +1,148 @@
+"""Hostile peers and careless users (issue 9): a single message, parameter or
+signal must not break the loop or lose the run. Real nodes, real DDS, each
+test on its own ROS_DOMAIN_ID; the test speaks to the graph like any peer."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from robot_controller import config as cfg
+from robot_controller import report
+from tests.rostools import RosProbe, wait_for
+
+pytestmark = pytest.mark.ros
+
+
+def start_run(out, duration="10"):
+    run = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--duration", duration,
+                            "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    deadline = time.monotonic() + 60
+    for line in run.stdout:
+        if "control loop running" in line:
+            return run
+        assert time.monotonic() < deadline, "the loop did not start"
+    raise AssertionError("the run ended before its loop started")
+
+
+def test_one_future_stamp_one_empty_reading_one_huge_effort_leave_the_run_whole(tmp_path, ros_domain):
+    out = tmp_path / "run"
+    run = start_run(out)
+    probe = RosProbe(ros_domain, "hostile_peer")
+    try:
+        true_states = probe.node.create_publisher(JointState, "/sim/joint_states", 10)
+        readings = probe.node.create_publisher(JointState, "/joint_states", 10)
+        efforts = probe.node.create_publisher(Float64MultiArray, "/sim/effort", 10)
+        wait_for(lambda: true_states.get_subscription_count() > 1 and readings.get_subscription_count() > 1
+                 and efforts.get_subscription_count() > 1, 20, "the graph to hear the peer")
+        time.sleep(2.0)
+        future = JointState(name=["joint1"], position=[0.5], velocity=[0.0], effort=[0.0])
+        future.header.stamp.sec = int(time.time()) + 1_000_000  # 11 days ahead
+        true_states.publish(future)
+        time.sleep(1.0)
+        readings.publish(JointState())  # empty
+        time.sleep(1.0)
+        efforts.publish(Float64MultiArray(data=[1e6]))
+        output = run.communicate(timeout=90)[0]
+    finally:
+        probe.close()
+        if run.poll() is None:
+            run.kill()
+    assert run.returncode == 0, output[-3000:]
+    assert "re-synchronised" in output  # the sensor did not wait 11 days for its next sample
+    assert "beyond the URDF's effort limit" in output and "clamped" in output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["tracking_max_rad"] <= 0.05, metrics["tracking_max_rad"]
+    assert metrics["malformed_messages"] >= 1  # the empty reading, recorded and skipped when scoring
+    recording = report.read_recording(out / "bag")
+    assert np.max(np.abs(recording.true_effort)) <= 10.0
+    assert np.all(np.abs(recording.true_position) <= 1.1)
+
+
+def set_parameter(probe, node, name, value):
+    client = probe.node.create_client(SetParameters, f"/{node}/set_parameters")
+    assert client.wait_for_service(timeout_sec=20)
+    request = SetParameters.Request(parameters=[Parameter(name=name, value=value)])
+    for _ in range(4):  # a lost first response is retried, as a real client would
+        future = client.call_async(request)
+        deadline = time.monotonic() + 5.0
+        while not future.done() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        if future.done():
+            return future.result().results[0]
+        client.remove_pending_request(future)
+    raise AssertionError(f"no answer from /{node}/set_parameters for {name}")
+
+
+def double(value):
+    return ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=value)
+
+
+def doubles(values):
+    return ParameterValue(type=ParameterType.PARAMETER_DOUBLE_ARRAY, double_array_value=values)
+
+
+def test_parameters_that_would_break_the_loop_are_refused_with_a_reason(tmp_path, ros_domain):
+    params_file = cfg.write_params_file(cfg.load_stack(), tmp_path / "params.yaml")
+    nodes = {name: subprocess.Popen([sys.executable, "-m", f"robot_controller.nodes.{name}", "--ros-args",
+                                     "--params-file", str(params_file)], stdout=subprocess.PIPE,
+                                    stderr=subprocess.STDOUT, text=True)
+             for name in ("simulator", "motor_node", "pid_controller", "trajectory_planner")}
+    probe = RosProbe(ros_domain)
+    try:
+        for node, name, value, reason in [
+            ("simulator", "publish_rate_hz", double(3.0), "publish_rate_hz: must be >= 10"),
+            ("simulator", "publish_rate_hz", double(300.0), "not a whole number of physics steps"),
+            ("pid_controller", "lqr_q", doubles([0.0, 0.0, 0.0]), "does not stabilise"),
+            ("pid_controller", "control_rate_hz", double(1e6), "control_rate_hz: must be <= 1000"),
+            ("trajectory_planner", "publish_rate_hz", double(1e6), "publish_rate_hz: must be <= 1000"),
+            ("motor_node", "torque_max", doubles([1e6]), "exceeds the URDF's effort limit"),
+        ]:
+            result = set_parameter(probe, node, name, value)
+            assert not result.successful and reason in result.reason, (node, name, result.reason)
+        assert set_parameter(probe, "simulator", "publish_rate_hz", double(200.0)).successful
+        assert all(process.poll() is None for process in nodes.values())
+    finally:
+        probe.close()
+        for process in nodes.values():
+            process.send_signal(signal.SIGINT)
+        for process in nodes.values():
+            try:
+                process.communicate(timeout=15)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.communicate()
+    assert all(process.returncode == 0 for process in nodes.values())
+
+
+def test_a_run_whose_recorder_and_launcher_were_killed_is_still_scored(tmp_path, ros_domain):
+    out = tmp_path / "run"
+    run = start_run(out, duration="30")
+    try:
+        time.sleep(4.0)
+        recorder = subprocess.run(["pgrep", "-P", str(run.pid), "-f", "nodes.recorder"], capture_output=True,
+                                  text=True).stdout.split()
+        assert recorder, "no recorder process"
+        run.kill()  # the launcher first: no chance to score or write anything ...
+        os.kill(int(recorder[0]), signal.SIGKILL)  # ... and the recorder before it closes the bag
+        run.communicate(timeout=30)
+    finally:
+        if run.poll() is None:
+            run.kill()
+    assert not (out / "metrics.json").exists()
+    time.sleep(2.0)  # the nodes die with their launcher
+    scored = subprocess.run([sys.executable, "-m", "robot_controller.cli", "score", str(out), "--json"],
+                            capture_output=True, text=True, timeout=120)
+    assert scored.returncode == 0, scored.stderr[-2000:]
+    assert "recovered" in scored.stderr
+    values = json.loads(scored.stdout)
+    assert values["recorded_duration_s"] > 2.0 and values["tracking_max_rad"] < 0.02
+    assert (out / "bag.torn").is_dir() and (out / "bag" / "metadata.yaml").is_file()
