@@ -70,6 +70,7 @@ def read_recording(bag_dir: Path) -> Recording:
     fit the run (an empty ``JointState``, a short ``/controller/state``: anyone
     on the domain could have published it), is skipped and counted in
     ``malformed``; what is left is scored."""
+    bag_dir = Path(bag_dir)
     if bag_recovery.needs_recovery(bag_dir):
         # The recorder was killed: rebuild the bag from its complete chunks first.
         recovered = bag_recovery.recover(bag_dir)

@@ -58,6 +58,7 @@ def test_one_future_stamp_one_empty_reading_one_huge_effort_leave_the_run_whole(
             run.kill()
     assert run.returncode == 0, output[-3000:]
     assert "re-synchronised" in output  # the sensor did not wait 11 days for its next sample
+    assert "'hostile_peer'" in output and "publishers" in output  # the second publisher, named
     assert "beyond the URDF's effort limit" in output and "clamped" in output
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["tracking_max_rad"] <= 0.05, metrics["tracking_max_rad"]

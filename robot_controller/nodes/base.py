@@ -57,6 +57,7 @@ CLOCK_LATEST_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability
 ESTOP_QOS = LATEST_QOS
 
 WARN_PERIOD_S = 2.0
+PUBLISHER_CHECK_PERIOD_S = 1.0
 
 
 class StackNode(Node):
@@ -135,6 +136,29 @@ class StackNode(Node):
 
     def now_s(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
+
+    def watch_single_publisher(self, topic: str) -> None:
+        """Warn, naming the nodes, whenever ``topic`` has more than one publisher.
+
+        A loop input has one rightful source. rclpy (Jazzy) gives no publisher
+        identity with a message (its message info has none, and the
+        EventsExecutor passes none), and this Fast DDS build has no
+        DDS-Security, so a second publisher's messages cannot be told apart
+        and dropped here; they are only reported. Plausibility checks (stamps,
+        sizes, finiteness, effort limits) still apply to every message.
+        """
+        if not hasattr(self, "_watched_topics"):
+            self._watched_topics: list[str] = []
+            self.create_timer(PUBLISHER_CHECK_PERIOD_S, self._check_publishers,
+                              clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self._watched_topics.append(topic)
+
+    def _check_publishers(self) -> None:
+        for topic in self._watched_topics:
+            names = sorted(info.node_name for info in self.get_publishers_info_by_topic(topic))
+            if len(names) > 1:
+                self.warn_throttled(f"publishers{topic}", f"{topic} has {len(names)} publishers: {names}; only "
+                                    "one should drive this loop (their messages cannot be told apart)")
 
     def warn_throttled(self, key: str, message: str) -> None:
         """Warn at most once per ``WARN_PERIOD_S`` per ``key``, counting what was suppressed."""

@@ -54,7 +54,9 @@ class PidControllerNode(StackNode):
         self.state_pub = GatedPublisher(self, Float64MultiArray, "/controller/state", consumer=False)
         self.diagnostics_pub = GatedPublisher(self, DiagnosticArray, "/diagnostics", consumer=False)
         self.create_subscription(JointState, "/joint_states", self.joint_state_callback, LATEST_QOS)
+        self.watch_single_publisher("/joint_states")
         self.create_subscription(Float64MultiArray, "/trajectory", self.trajectory_callback, LATEST_QOS)
+        self.watch_single_publisher("/trajectory")
         self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
         if not self.lockstep:
             # The drive's status word: its brakes (a real controller reads its drives' state
