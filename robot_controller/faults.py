@@ -98,9 +98,10 @@ def case_figures(recording: report.Recording, fault_start_s: float, fault_end_s:
         if true_t[-1] >= true_t[start] + REACQUIRED_HOLD_S and np.all(within[window]):
             reacquire_s = float(true_t[start] - fault_end_s)
             break
-    ticks = s["time_s"] >= fault_start_s
-    # Up to the last tick: when the run ends the nodes stop and the drive brakes, as it should.
+    # Up to 0.1 s before the last tick: when the run ends the nodes stop one by one (the
+    # drive brakes, the controller sees its readings stop), which is not the fault's doing.
     last_tick_s = s["time_s"][-1] - 0.1
+    ticks = (s["time_s"] >= fault_start_s) & (s["time_s"] <= last_tick_s)
     braked = ((recording.brakes_time_s >= fault_start_s) & (recording.brakes_time_s <= last_tick_s)
               & np.any(recording.brakes > 0.5, axis=1))
     return {"max_deviation_rad": float(np.max(outside[after])) if np.any(after) else float("nan"),

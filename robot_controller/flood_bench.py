@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import threading
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -51,52 +52,60 @@ CASES: dict[str, tuple[str, type, Callable[[float], Any], str]] = {
 
 
 class Flood:
-    """A launcher watcher: from ``FLOOD_AT_S`` publish for ``FLOOD_S`` at ``RATE_HZ``."""
+    """A launcher watcher: from ``FLOOD_AT_S``, a process of its own publishes
+    for ``FLOOD_S`` at ``RATE_HZ`` (never rclpy in the launcher itself: it
+    forks the nodes from its own image)."""
 
     def __init__(self, case: str) -> None:
-        self.topic, self.msg_type, self.make, _ = CASES[case]
-        self.started_s = self.ended_s = float("nan")  # system time (the wall-clock run's ROS time)
-        self.sent = 0
-        self.thread: threading.Thread | None = None
+        self.case = case
+        self.process: subprocess.Popen | None = None
+        self.report: dict[str, float] = {}
 
     def __call__(self, elapsed_s: float, pids: dict[str, int]) -> None:
-        if self.thread is None and elapsed_s >= FLOOD_AT_S:
-            self.thread = threading.Thread(target=self._flood, daemon=True)
-            self.thread.start()
+        if self.process is None and elapsed_s >= FLOOD_AT_S:
+            self.process = subprocess.Popen([sys.executable, "-m", "robot_controller.flood_bench", "--publish",
+                                             self.case], stdout=subprocess.PIPE, text=True)
 
-    def _flood(self) -> None:
-        context = rclpy.Context()
-        rclpy.init(context=context)
-        node = Node("flooder", context=context)
-        publisher = node.create_publisher(self.msg_type, self.topic, 10)
-        time.sleep(0.5)  # discovery
-        self.started_s = time.time()
-        period = 1.0 / RATE_HZ
-        next_s = time.monotonic()
-        while time.time() - self.started_s < FLOOD_S:
-            publisher.publish(self.make(time.time()))
-            self.sent += 1
-            next_s += period
-            delay = next_s - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
-        self.ended_s = time.time()
-        node.destroy_node()
-        rclpy.try_shutdown(context=context)
+    def finish(self) -> dict[str, float]:
+        if self.process is not None:
+            out = self.process.communicate(timeout=60)[0]
+            self.report = json.loads(out.strip().splitlines()[-1]) if out.strip() else {}
+        return self.report
+
+
+def publish(case: str) -> None:
+    """The flooding process: publish, then print when it started and ended (system time) and how many."""
+    topic, msg_type, make, _ = CASES[case]
+    rclpy.init()
+    node = Node("flooder")
+    publisher = node.create_publisher(msg_type, topic, 10)
+    time.sleep(0.5)  # discovery
+    started_s = time.time()
+    period, next_s, sent = 1.0 / RATE_HZ, time.monotonic(), 0
+    while time.time() - started_s < FLOOD_S:
+        publisher.publish(make(time.time()))
+        sent += 1
+        next_s += period
+        delay = next_s - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+    print(json.dumps({"started_s": started_s, "ended_s": time.time(), "sent": sent}), flush=True)
+    node.destroy_node()
+    rclpy.try_shutdown()
 
 
 def run_case(case: str, out: Path) -> dict[str, Any]:
     flood = Flood(case)
     result = launcher.launch(cfg.load_stack(), out_dir=out, duration_s=RUN_S, watcher=flood)
-    if flood.thread is not None:
-        flood.thread.join()
+    sent = flood.finish()
+    started_s, ended_s = sent.get("started_s", float("nan")), sent.get("ended_s", float("nan"))
     entry: dict[str, Any] = {"case": case, "topic": CASES[case][0], "what": CASES[case][3],
-                             "exit_code": result.exit_code, "sent": flood.sent,
-                             "rate_hz": flood.sent / (flood.ended_s - flood.started_s)}
+                             "exit_code": result.exit_code, "sent": sent.get("sent", 0),
+                             "rate_hz": sent.get("sent", 0) / (ended_s - started_s)}
     if not result.message_counts.get("/controller/state"):
         return entry | {"failure": result.failure or "no recording"}
     recording = report.read_recording(result.bag_dir)
-    during = report.tracking_on_sim_timeline(recording, flood.started_s, flood.ended_s)
+    during = report.tracking_on_sim_timeline(recording, started_s, ended_s)
     entry.update({"tracking_max_during_rad": during["tracking_max_rad"],
                   "tracking_rms_during_rad": during["tracking_rms_rad"]})
     values = report.score(recording)
@@ -123,7 +132,11 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m robot_controller.flood_bench")
     parser.add_argument("--out", type=Path, default=Path("runs/flood"))
     parser.add_argument("--case", choices=sorted(CASES), action="append", help="default: every case")
+    parser.add_argument("--publish", choices=sorted(CASES), help=argparse.SUPPRESS)  # the flooding process
     args = parser.parse_args(argv)
+    if args.publish:
+        publish(args.publish)
+        return 0
     args.out.mkdir(parents=True, exist_ok=True)
     entries = [run_case(case, args.out / case) for case in (args.case or CASES)]
     write(args.out, entries)
