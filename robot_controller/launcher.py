@@ -36,7 +36,8 @@ NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "traje
 STOP_TIMEOUT_S = 5.0
 FIRST_TICK_TIMEOUT_S = 20.0
 
-_print_lock = threading.Lock()
+# Re-entrant: a signal handler that prints must not deadlock on a print it interrupted.
+_print_lock = threading.RLock()
 
 
 def say(message: str) -> None:
@@ -419,8 +420,9 @@ def _patient_handler() -> Callable[[int, Any], None]:
 
     def handler(signum, frame) -> None:
         if not said[0]:
-            say("already stopping: nodes get 5 s to exit, then the recording is scored")
             said[0] = True
+            # Straight to the file descriptor: no lock, no buffer the interrupted code may hold.
+            os.write(1, b"[launcher] already stopping: nodes get 5 s to exit, then the recording is scored\n")
 
     return handler
 

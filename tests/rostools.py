@@ -51,3 +51,24 @@ def wait_for(condition: Callable[[], bool], timeout_s: float, what: str) -> None
         if time.monotonic() > deadline:
             raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
         time.sleep(0.05)
+
+
+def set_parameter(probe: RosProbe, node: str, name: str, value):
+    """Set one parameter through ``/<node>/set_parameters``; the node's result (successful, reason)."""
+    from rcl_interfaces.msg import Parameter
+    from rcl_interfaces.srv import SetParameters
+
+    client = probe.node.create_client(SetParameters, f"/{node}/set_parameters")
+    assert client.wait_for_service(timeout_sec=20)
+    request = SetParameters.Request(parameters=[Parameter(name=name, value=value)])
+    # DDS may match the request before the response path (wait_for_service can
+    # return early): a lost first response is retried, as a real client would.
+    for _ in range(4):
+        future = client.call_async(request)
+        deadline = time.monotonic() + 5.0
+        while not future.done() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        if future.done():
+            return future.result().results[0]
+        client.remove_pending_request(future)
+    raise AssertionError(f"no answer from /{node}/set_parameters for {name}")

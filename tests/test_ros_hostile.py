@@ -10,14 +10,13 @@ import time
 
 import numpy as np
 import pytest
-from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-from rcl_interfaces.srv import SetParameters
+from rcl_interfaces.msg import ParameterType, ParameterValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from robot_controller import config as cfg
 from robot_controller import report
-from tests.rostools import RosProbe, wait_for
+from tests.rostools import RosProbe, set_parameter, wait_for
 
 pytestmark = pytest.mark.ros
 
@@ -66,21 +65,6 @@ def test_one_future_stamp_one_empty_reading_one_huge_effort_leave_the_run_whole(
     recording = report.read_recording(out / "bag")
     assert np.max(np.abs(recording.true_effort)) <= 10.0
     assert np.all(np.abs(recording.true_position) <= 1.1)
-
-
-def set_parameter(probe, node, name, value):
-    client = probe.node.create_client(SetParameters, f"/{node}/set_parameters")
-    assert client.wait_for_service(timeout_sec=20)
-    request = SetParameters.Request(parameters=[Parameter(name=name, value=value)])
-    for _ in range(4):  # a lost first response is retried, as a real client would
-        future = client.call_async(request)
-        deadline = time.monotonic() + 5.0
-        while not future.done() and time.monotonic() < deadline:
-            time.sleep(0.02)
-        if future.done():
-            return future.result().results[0]
-        client.remove_pending_request(future)
-    raise AssertionError(f"no answer from /{node}/set_parameters for {name}")
 
 
 def double(value):

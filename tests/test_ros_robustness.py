@@ -13,13 +13,12 @@ import time
 from pathlib import Path
 
 import pytest
-from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-from rcl_interfaces.srv import SetParameters
+from rcl_interfaces.msg import ParameterType, ParameterValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from robot_controller import config as cfg
-from tests.rostools import RosProbe, wait_for
+from tests.rostools import RosProbe, set_parameter, wait_for
 
 pytestmark = pytest.mark.ros
 
@@ -113,20 +112,7 @@ def test_malformed_messages_are_dropped_and_the_watchdog_zeroes_torque(tmp_path,
 
 
 def _set(probe, name, value):
-    client = probe.node.create_client(SetParameters, "/pid_controller/set_parameters")
-    assert client.wait_for_service(timeout_sec=20)
-    request = SetParameters.Request(parameters=[Parameter(name=name, value=value)])
-    # DDS may match the request before the response path (wait_for_service can
-    # return early): a lost first response is retried, as a real client would.
-    for _ in range(4):
-        future = client.call_async(request)
-        deadline = time.monotonic() + 5.0
-        while not future.done() and time.monotonic() < deadline:
-            time.sleep(0.02)
-        if future.done():
-            return future.result().results[0]
-        client.remove_pending_request(future)
-    raise AssertionError(f"no answer from /pid_controller/set_parameters for {name}")
+    return set_parameter(probe, "pid_controller", name, value)
 
 
 def test_gains_change_live_and_bad_values_are_refused(tmp_path, ros_domain):
@@ -195,7 +181,8 @@ def _finish(launcher):
         return launcher.communicate(timeout=30)[0]
     except subprocess.TimeoutExpired:
         launcher.kill()
-        raise AssertionError("the launcher did not exit within 30 s") from None
+        output = launcher.communicate()[0]
+        raise AssertionError("the launcher did not exit within 30 s; it printed:\n" + output[-4000:]) from None
 
 
 def test_a_crashing_node_ends_the_run_with_an_error_and_no_orphans(tmp_path, ros_domain):
