@@ -146,6 +146,22 @@ def test_a_pause_that_ends_before_the_reference_is_fresh_holds_where_the_arm_is(
     assert max(abs(row[4]) for row in loop.log if row[0] >= 3.5) < 10.0
 
 
+def test_a_machine_wide_stall_of_70_ms_is_no_sensor_loss():
+    # Everything stops at once (the host took the CPUs): the arm goes on under the
+    # last torque, no reading and no tick for 70 ms. The controller's first tick
+    # after it, before any reading, must not take that for a lost sensor.
+    loop = Loop()
+    loop.run(3.0)
+    last_command = np.array([loop.log[-1][4]])
+    loop.plant.step(last_command, 70)
+    loop.t += 0.07
+    first = loop.controller.update(loop.t)
+    assert first.status is Status.REACQUIRING and abs(first.command[0]) < 10.0
+    loop.run(2.0)
+    assert max(abs(row[4]) for row in loop.log if row[0] >= 3.0) < 10.0
+    assert Status.WATCHDOG not in {row[1] for row in loop.log}
+
+
 def test_an_estop_stops_commanding_until_released_then_reacquires():
     loop = Loop()
     loop.run(2.0)

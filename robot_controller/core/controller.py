@@ -283,6 +283,10 @@ class JointController:
             gap_s = now_s - self._last_update_s
             if gap_s > REACQUIRE_GAP_PERIODS * self.config.control_period_s:
                 self._needs_reacquire = True  # this controller itself was not running: the world moved on
+                if gap_s <= self.config.max_reading_age_s:
+                    # A brief pause of this process (the whole machine stalls at times): the
+                    # readings it held back are on their way, so that time is not the sensor's silence.
+                    self._measurement_received_s += gap_s - self.config.control_period_s
             dt = min(gap_s, REACQUIRE_GAP_PERIODS * self.config.control_period_s)
         self._last_update_s = now_s
 

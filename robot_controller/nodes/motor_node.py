@@ -29,6 +29,11 @@ from robot_controller.nodes.base import ESTOP_QOS, LATCHED_QOS, LATEST_QOS, Gate
 RECEIPTS_PERIOD_S = 1.0
 
 
+# The motor's own pause up to this long (a machine-wide stall) is not counted as
+# silence of the controller; a longer one is (by then the controller has stopped too).
+MAX_EXCUSED_GAP_S = 0.2
+
+
 class MotorNode(StackNode):
     def __init__(self) -> None:
         super().__init__("motor_node")
@@ -47,6 +52,8 @@ class MotorNode(StackNode):
         self.estop = False
         self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
         self.create_timer(self.params["command_timeout_s"] / 2, self.timeout_check)
+        self.last_check_s = self.now_s()
+        self.excused_s = 0.0  #: of the silence since the last command, time this process itself was not running
         self.request_brake(False)  # the request's state is latched: a (re)started simulator learns it
         self.effort_msg = Float64MultiArray()
         self.receipts: list[float] = []  # flat rows of [receipt_time_s, command…]
@@ -85,14 +92,22 @@ class MotorNode(StackNode):
         self.receipts.extend(msg.data)
         dt = 0.0 if self.last_command_s is None else now_s - self.last_command_s
         self.last_command_s = now_s
+        self.excused_s = 0.0
         applied = self.actuator.apply(checked, dt)
         self.effort_msg.data = applied.tolist()
         self.effort_pub.publish(self.effort_msg)
 
     def timeout_check(self) -> None:
+        now_s = self.now_s()
+        own_gap_s, self.last_check_s = now_s - self.last_check_s, now_s
         if self.stopped_for is not None or self.last_command_s is None:
             return  # already stopped, or no command yet (the brakes are on from start-up)
-        silent_s = self.now_s() - self.last_command_s
+        check_period_s = self.params["command_timeout_s"] / 2
+        if 2 * check_period_s < own_gap_s <= MAX_EXCUSED_GAP_S:
+            # This process was not running (the whole machine stalls at times): the
+            # commands that the pause held back are on their way; that time is not silence.
+            self.excused_s += own_gap_s - check_period_s
+        silent_s = now_s - self.last_command_s - self.excused_s
         if silent_s > self.params["command_timeout_s"]:
             self.get_logger().warning(f"no valid /joint_commands for {silent_s * 1e3:.0f} ms: zero torque, brake "
                                       "requested (category 0)")
