@@ -13,6 +13,7 @@ measures every child's CPU time and memory over the run.
 """
 from __future__ import annotations
 
+import faulthandler
 import json
 import os
 import shutil
@@ -268,7 +269,10 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     forking.preload()  # before any thread of this run: the children are forked from here
     # SIGTERM (a CI timeout, `kill`) stops the run as cleanly as Ctrl-C does.
     previous_sigterm = signal.signal(signal.SIGTERM, _raise_interrupt)
-    previous_sigint = signal.getsignal(signal.SIGINT)
+    # Ctrl-C explicitly too: whatever the process inherited or a library installed.
+    previous_sigint = signal.signal(signal.SIGINT, _raise_interrupt)
+    # `kill -USR1 <launcher>` prints where every thread of a launcher that seems stuck is.
+    faulthandler.register(signal.SIGUSR1, all_threads=True)
     link = RecorderLink(list(rec.topics_for(sim_time)))
     failure: str | None = None
     control_seconds = wall_seconds = 0.0
@@ -337,7 +341,7 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
             failure = "node(s) exited with an error on shutdown: " + ", ".join(f"{n} ({c})" for n, c in bad.items())
     finally:
         signal.signal(signal.SIGTERM, previous_sigterm)
-        signal.signal(signal.SIGINT, previous_sigint)
+        signal.signal(signal.SIGINT, previous_sigint if previous_sigint is not None else signal.SIG_DFL)
         shutil.rmtree(counts_dir, ignore_errors=True)
     # What each topic's publishers in the stack say they sent: the bag must hold as many.
     (out_dir / "published.json").write_text(json.dumps(published, indent=2, sort_keys=True) + "\n")

@@ -180,9 +180,11 @@ def _finish(launcher):
     try:
         return launcher.communicate(timeout=30)[0]
     except subprocess.TimeoutExpired:
+        launcher.send_signal(signal.SIGUSR1)  # faulthandler: where each of its threads is
+        time.sleep(1.0)
         launcher.kill()
         output = launcher.communicate()[0]
-        raise AssertionError("the launcher did not exit within 30 s; it printed:\n" + output[-4000:]) from None
+        raise AssertionError("the launcher did not exit within 30 s; it printed:\n" + output[-8000:]) from None
 
 
 def test_a_crashing_node_ends_the_run_with_an_error_and_no_orphans(tmp_path, ros_domain):
