@@ -61,8 +61,7 @@ def _wall_run(params: cfg.Params, out: Path, duration_s: float, *, single_proces
               sim_time: bool = False) -> dict[str, Any]:
     result = launcher.launch(params, out_dir=out, duration_s=duration_s, single_process=single_process,
                              sim_time=sim_time)
-    if result.interrupted:
-        raise KeyboardInterrupt  # Ctrl-C ends the whole series, not just this run
+    result.raise_if_interrupted()
     if result.exit_code != 0 and not result.message_counts.get("/controller/state"):
         return {"failure": result.failure}
     values = report.score(report.read_recording(result.bag_dir),

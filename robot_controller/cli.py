@@ -219,7 +219,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = Parser(prog="robot-controller", description=__doc__.splitlines()[0])
     verbs = parser.add_subparsers(dest="verb", required=True, parser_class=Parser)
     p_run = verbs.add_parser("run", help="run the five-node loop, record it and score it")
-    p_run.add_argument("--duration", type=positive_seconds, default=20.0, help="seconds of control to record (default 20)")
+    p_run.add_argument("--duration", type=positive_seconds, default=20.0,
+                       help="seconds of control to record (default 20)")
     p_run.add_argument("--out", type=Path, help="output directory (default runs/<timestamp>)")
     p_run.add_argument("--preset", default="default", choices=cfg.available_presets())
     p_run.add_argument("--seed", type=int, default=0, help="sensor noise seed (default 0)")
@@ -251,7 +252,8 @@ def main(argv: list[str] | None = None) -> int:
     p_bench = verbs.add_parser("bench", help="timing benchmark: jitter, latency, lockstep speed, core speed")
     p_bench.add_argument("--out", type=Path, help="output directory (default runs/bench)")
     p_bench.add_argument("--quick", action="store_true", help="a few seconds per scenario")
-    p_bench.add_argument("--soak-s", type=positive_seconds, help="length of the soak run, wall s (default 600, 20 with --quick)")
+    p_bench.add_argument("--soak-s", type=positive_seconds,
+                         help="length of the soak run, wall s (default 600, 20 with --quick)")
     p_faults = verbs.add_parser("faults", help="freeze each node mid-motion (SIGSTOP) and measure what the arm did")
     p_faults.add_argument("--out", type=Path, help="output directory (default runs/faults)")
     p_faults.add_argument("--quick", action="store_true", help="two cases: sensor and controller frozen 0.5 s")
@@ -279,7 +281,8 @@ def dispatch(args: argparse.Namespace) -> int:
         return step(amplitude=args.amplitude, shaping=args.shaping, out=args.out, preset=args.preset, seed=args.seed,
                     config=args.config, sim_time=args.sim_time)
     if args.verb == "compare":
-        return compare(out=output_dir(args.out, Path("runs/compare")), seeds=args.seeds, duration_s=args.duration, amplitude=args.amplitude)
+        return compare(out=output_dir(args.out, Path("runs/compare")), seeds=args.seeds, duration_s=args.duration,
+                       amplitude=args.amplitude)
     if args.verb == "bench":
         return bench(output_dir(args.out, Path("runs/bench")), quick=args.quick, soak_s=args.soak_s)
     if args.verb == "faults":

@@ -28,8 +28,7 @@ def run_and_score(params: cfg.Params, out: Path, *, duration_s: float, sim_time:
                   ) -> tuple[dict[str, Any], report.Recording]:
     result = launcher.launch(params, out_dir=out, duration_s=duration_s, sim_time=sim_time,
                              single_process=single_process, domain_id=domain_id)
-    if result.interrupted:
-        raise KeyboardInterrupt  # Ctrl-C ends the whole series, not just this run
+    result.raise_if_interrupted()
     if result.exit_code != 0:
         raise RuntimeError(f"run in {out} failed: {result.failure}")
     recording = report.read_recording(result.bag_dir)

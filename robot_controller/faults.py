@@ -115,8 +115,7 @@ def run_case(case: Case, out: Path, params: cfg.Params) -> dict[str, Any]:
     freezer = Freezer(case, FAULT_AT_S)
     result = launcher.launch(params, out_dir=out, duration_s=FAULT_AT_S + case.duration_s + AFTER_S,
                              watcher=freezer, respawn=case.kind == "SIGKILL")
-    if result.interrupted:
-        raise KeyboardInterrupt  # Ctrl-C ends the whole series, not just this run
+    result.raise_if_interrupted()
     if freezer.thread is not None:
         freezer.thread.join()
     entry: dict[str, Any] = {"case": case.name, "node": case.node, "fault": case.kind, "duration_s": case.duration_s,

@@ -98,6 +98,7 @@ def run_case(case: str, out: Path) -> dict[str, Any]:
     flood = Flood(case)
     result = launcher.launch(cfg.load_stack(), out_dir=out, duration_s=RUN_S, watcher=flood)
     sent = flood.finish()
+    result.raise_if_interrupted()
     started_s, ended_s = sent.get("started_s", float("nan")), sent.get("ended_s", float("nan"))
     entry: dict[str, Any] = {"case": case, "topic": CASES[case][0], "what": CASES[case][3],
                              "exit_code": result.exit_code, "sent": sent.get("sent", 0),

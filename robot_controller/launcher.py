@@ -174,6 +174,11 @@ class RunResult:
     usage: dict[str, float] = field(default_factory=dict)  #: cpu_pct_*, rss_* over the run (proc_stats)
     interrupted: bool = False  #: Ctrl-C or SIGTERM ended it early (what was recorded is still scored)
 
+    def raise_if_interrupted(self) -> None:
+        """For a series of runs (faults, compare, bench): Ctrl-C ends the whole series, not just this run."""
+        if self.interrupted:
+            raise KeyboardInterrupt
+
     @property
     def real_time_factor(self) -> float:
         return self.control_seconds / self.wall_seconds if self.wall_seconds > 0 else float("nan")

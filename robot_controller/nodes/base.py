@@ -47,11 +47,9 @@ LATEST_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=Durab
 LATCHED_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                          history=HistoryPolicy.KEEP_LAST, depth=1)
 # /clock in lockstep: a reader that matches late (the controller pairs each
-# reading with its tick's /clock) still gets the latest tick.
+# reading with its tick's /clock, reading it with LATCHED_QOS) still gets the latest tick.
 CLOCK_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                        history=HistoryPolicy.KEEP_LAST, depth=1000)
-CLOCK_LATEST_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
-                              history=HistoryPolicy.KEEP_LAST, depth=1)
 # /estop: volatile readers, so a plain `ros2 topic pub /estop` (volatile) matches too;
 # the e-stop is latched by the nodes that obey it, not by DDS.
 ESTOP_QOS = LATEST_QOS

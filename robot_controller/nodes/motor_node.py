@@ -116,7 +116,7 @@ class MotorNode(StackNode):
     def stop(self, reason: str) -> None:
         self.stopped_for = reason
         self.actuator.reset()
-        self.request_brake(True)  # first: zero torque must never reach an unbraked, gravity-loaded arm first
+        self.request_brake(True)  # before the zero torque: it must never reach an unbraked, gravity-loaded arm
         self.effort_msg.data = [0.0] * self.joint_count
         self.effort_pub.publish(self.effort_msg)
 

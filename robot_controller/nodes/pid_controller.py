@@ -32,7 +32,8 @@ from robot_controller.core.controller import ControlOutput, JointController, Sta
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.validation import check_joint_state, check_trajectory
-from robot_controller.nodes.base import CLOCK_LATEST_QOS, ESTOP_QOS, LATEST_QOS, GatedPublisher, StackNode, run, stamp_to_s
+from robot_controller.nodes.base import (ESTOP_QOS, LATCHED_QOS, LATEST_QOS, GatedPublisher, StackNode, run,
+                                        stamp_to_s)
 
 
 # Readings naming other joints for this long, none usable yet: a configuration mismatch.
@@ -75,7 +76,7 @@ class PidControllerNode(StackNode):
         self.sim_clock_s = -np.inf  # lockstep: the latest /clock
         if self.lockstep:
             self.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
-            self.create_subscription(ClockMsg, "/clock", self.clock_callback, CLOCK_LATEST_QOS)
+            self.create_subscription(ClockMsg, "/clock", self.clock_callback, LATCHED_QOS)
         self.last_tick_s = -np.inf
         self.window_ticks: list[float] = []
         self.window_latency: list[float] = []

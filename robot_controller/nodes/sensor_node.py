@@ -59,8 +59,9 @@ class SensorNode(StackNode):
                 return  # between samples
             # Far behind the grid: the last sample's stamp was bogus (one from the far
             # future) or the simulator started again: follow the stamps from here.
-            self.warn_throttled("resync", f"/sim/joint_states stamp {stamp_s:.3f} s is {self.next_sample_s - stamp_s:.3f} "
-                                "s behind the sampling grid: re-synchronised")
+            behind_s = self.next_sample_s - stamp_s
+            self.warn_throttled("resync", f"/sim/joint_states stamp {stamp_s:.3f} s is {behind_s:.3f} s behind the "
+                                "sampling grid: re-synchronised")
         if self.joint_names is None:
             self.joint_names = list(msg.name)
         checked = check_joint_state(msg.name, msg.position, msg.velocity, self.joint_names)
