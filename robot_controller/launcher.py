@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from robot_controller import config as cfg
-from robot_controller import config_check, forking, proc_stats, resources, scheduling
+from robot_controller import config_check, dds_partition, forking, proc_stats, resources, scheduling
 from robot_controller.nodes.base import COUNTS_DIR_ENV, RECORDED_ENV, WORLD_STATE_ENV
 from robot_controller.nodes import recorder as rec
 
@@ -268,6 +268,13 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
         env[WORLD_STATE_ENV] = str(counts_dir / "world_state.bin")
     if domain_id is not None:
         env["ROS_DOMAIN_ID"] = str(domain_id)
+    if dds_partition.PROFILES_ENV in os.environ:
+        say(f"{dds_partition.PROFILES_ENV} is set: the run uses that Fast DDS profile and is not isolated "
+            "from other publishers on its domain")
+    else:  # the run's loop topics in a partition of its own (see dds_partition)
+        partition = dds_partition.new_partition()
+        env[dds_partition.PROFILES_ENV] = str(dds_partition.write_run_profile(out_dir / "fastdds.xml", partition))
+        env[dds_partition.PARTITION_ENV] = partition
     node_env = dict(env)
     if realtime:
         node_env[scheduling.PACING_RT_ENV] = str(scheduling.PACING_RT_PRIORITY)

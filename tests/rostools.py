@@ -1,13 +1,23 @@
 """Helpers for the integration tests: a test-side rclpy node on its own context."""
 from __future__ import annotations
 
+import os
+import tempfile
 import threading
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+
+from robot_controller import dds_partition
+
+# Fast DDS reads its profiles once per process, when the first participant is
+# made: every probe of the session hears (and may speak into) every run's
+# partition and the default one, as an observer tool of ours would.
+_OBSERVER_PROFILE = dds_partition.write_observer_profile(Path(tempfile.mkdtemp(prefix="probe-dds-")) / "observer.xml")
 
 
 class RosProbe:
@@ -15,8 +25,17 @@ class RosProbe:
 
     def __init__(self, domain: int, name: str = "test_probe") -> None:
         self.context = rclpy.Context()
-        rclpy.init(context=self.context, domain_id=domain)
-        self.node = Node(name, context=self.context)
+        # Only while the participant is made: processes the test starts must not inherit it.
+        before = os.environ.get(dds_partition.PROFILES_ENV)
+        os.environ[dds_partition.PROFILES_ENV] = str(_OBSERVER_PROFILE)
+        try:
+            rclpy.init(context=self.context, domain_id=domain)
+            self.node = Node(name, context=self.context)
+        finally:
+            if before is None:
+                os.environ.pop(dds_partition.PROFILES_ENV)
+            else:
+                os.environ[dds_partition.PROFILES_ENV] = before
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.lock = threading.Lock()

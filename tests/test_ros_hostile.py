@@ -67,6 +67,32 @@ def test_one_future_stamp_one_empty_reading_one_huge_effort_leave_the_run_whole(
     assert np.all(np.abs(recording.true_position) <= 1.1)
 
 
+def test_a_foreign_publisher_flooding_wrong_readings_is_named_and_never_heard(tmp_path, ros_domain):
+    """A peer outside the run (no profile of ours: the default DDS partition)
+    publishes plausible wrong readings at 5 kHz; the run's controller must
+    neither obey them nor drown in them, and the bag must not hold them."""
+    out = tmp_path / "run"
+    run = start_run(out, duration="12")
+    try:
+        flooder = subprocess.run([sys.executable, "-m", "robot_controller.flood_bench", "--publish",
+                                  "joint_states_wrong"], capture_output=True, text=True, timeout=60)
+        assert flooder.returncode == 0, flooder.stderr[-2000:]
+        flood = json.loads(flooder.stdout.strip().splitlines()[-1])
+        output = run.communicate(timeout=90)[0]
+    finally:
+        if run.poll() is None:
+            run.kill()
+    assert run.returncode == 0, output[-3000:]
+    assert flood["sent"] > 1000
+    assert "/joint_states has publishers other than sensor_node: ['flooder']" in output
+    assert "not heard" in output
+    recording = report.read_recording(out / "bag")
+    during = report.tracking_on_sim_timeline(recording, flood["started_s"], flood["ended_s"])
+    # Obeyed, the 0.3 rad readings swing the arm by radians (docs/flood.md before partitions: 3.16 rad).
+    assert during["tracking_max_rad"] <= 0.05, during
+    assert not np.any(recording.reading_position == 0.3)  # none recorded: the run's recorder never heard them
+
+
 def double(value):
     return ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=value)
 

@@ -28,6 +28,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from robot_controller import config as cfg
 from robot_controller import resources
+from robot_controller.dds_partition import PARTITION_ENV
 from robot_controller.core.errors import ConfigError
 
 # Reliable, volatile, keep-last: compatible with the tutorial's default-QoS
@@ -56,6 +57,7 @@ ESTOP_QOS = LATEST_QOS
 
 WARN_PERIOD_S = 2.0
 PUBLISHER_CHECK_PERIOD_S = 1.0
+UNKNOWN_NODE_NAME = "_NODE_NAME_UNKNOWN_"  # what rmw reports for a writer of no known node
 
 
 class StackNode(Node):
@@ -135,28 +137,41 @@ class StackNode(Node):
     def now_s(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def watch_single_publisher(self, topic: str) -> None:
-        """Warn, naming the nodes, whenever ``topic`` has more than one publisher.
+    def watch_single_publisher(self, topic: str, expected: str) -> None:
+        """Warn, naming them, whenever ``topic`` has publishers besides the node ``expected``.
 
-        A loop input has one rightful source. rclpy (Jazzy) gives no publisher
-        identity with a message (its message info has none, and the
-        EventsExecutor passes none), and this Fast DDS build has no
-        DDS-Security, so a second publisher's messages cannot be told apart
-        and dropped here; they are only reported. Plausibility checks (stamps,
-        sizes, finiteness, effort limits) still apply to every message.
+        rclpy (Jazzy) gives no publisher identity with a message, so a node
+        cannot drop another publisher's messages itself. When the launcher
+        started it, the run's loop topics are in a DDS partition of their own
+        (``dds_partition``) and a publisher from outside the run is never
+        heard; the warning says so. A node started by hand is in the default
+        partition: there it hears every publisher, and the warning says that.
+        Plausibility checks (stamps, sizes, finiteness, effort limits) apply to
+        every message either way.
         """
         if not hasattr(self, "_watched_topics"):
-            self._watched_topics: list[str] = []
+            self._watched_topics: dict[str, str] = {}
             self.create_timer(PUBLISHER_CHECK_PERIOD_S, self._check_publishers,
                               clock=Clock(clock_type=ClockType.STEADY_TIME))
-        self._watched_topics.append(topic)
+        self._watched_topics[topic] = expected
 
     def _check_publishers(self) -> None:
-        for topic in self._watched_topics:
-            names = sorted(info.node_name for info in self.get_publishers_info_by_topic(topic))
-            if len(names) > 1:
-                self.warn_throttled(f"publishers{topic}", f"{topic} has {len(names)} publishers: {names}; only "
-                                    "one should drive this loop (their messages cannot be told apart)")
+        partition = os.environ.get(PARTITION_ENV, "")
+        for topic, expected in self._watched_topics.items():
+            # A writer whose node is not discovered yet (or that is no ROS node) has no name.
+            others = sorted(info.node_name.replace(UNKNOWN_NODE_NAME, "<unnamed>")
+                            for info in self.get_publishers_info_by_topic(topic))
+            if expected in others:
+                others.remove(expected)
+            if not others:
+                continue
+            if partition:
+                consequence = (f"not heard if started outside this run (its loop topics are in DDS partition "
+                               f"{partition})")
+            else:
+                consequence = "obeyed like it: this node is not in a run's partition, so it hears every publisher"
+            self.warn_throttled(f"publishers{topic}", f"{topic} has publishers other than {expected}: {others}; "
+                                + consequence)
 
     def warn_throttled(self, key: str, message: str) -> None:
         """Warn at most once per ``WARN_PERIOD_S`` per ``key``, counting what was suppressed."""

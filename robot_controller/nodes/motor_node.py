@@ -45,7 +45,7 @@ class MotorNode(StackNode):
         self.last_command_s: float | None = None
         self.effort_pub = GatedPublisher(self, Float64MultiArray, "/sim/effort")
         self.create_subscription(Float64MultiArray, "/joint_commands", self.command_callback, LATEST_QOS)
-        self.watch_single_publisher("/joint_commands")
+        self.watch_single_publisher("/joint_commands", "pid_controller")
         # Category 0 on lost commands or e-stop: zero torque and the simulator's brakes.
         self.brake_pub = GatedPublisher(self, Bool, "/sim/brake", qos=LATCHED_QOS)
         self.stopped_for: str | None = None  # "timeout" or "estop" while stopped

@@ -55,9 +55,9 @@ class PidControllerNode(StackNode):
         self.state_pub = GatedPublisher(self, Float64MultiArray, "/controller/state", consumer=False)
         self.diagnostics_pub = GatedPublisher(self, DiagnosticArray, "/diagnostics", consumer=False)
         self.create_subscription(JointState, "/joint_states", self.joint_state_callback, LATEST_QOS)
-        self.watch_single_publisher("/joint_states")
+        self.watch_single_publisher("/joint_states", "sensor_node")
         self.create_subscription(Float64MultiArray, "/trajectory", self.trajectory_callback, LATEST_QOS)
-        self.watch_single_publisher("/trajectory")
+        self.watch_single_publisher("/trajectory", "trajectory_planner")
         self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
         if not self.lockstep:
             # The drive's status word: its brakes (a real controller reads its drives' state

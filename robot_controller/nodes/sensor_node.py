@@ -37,7 +37,7 @@ class SensorNode(StackNode):
         self.joint_names: list[str] | None = None
         self.pub = GatedPublisher(self, JointState, "/joint_states")
         self.create_subscription(JointState, "/sim/joint_states", self.true_state_callback, LATEST_QOS)
-        self.watch_single_publisher("/sim/joint_states")
+        self.watch_single_publisher("/sim/joint_states", "simulator")
         self.out = JointState()
         self.get_logger().info(
             f"sensor at {self.params['rate_hz']:g} Hz: σ position {self.sensor.position_noise_std:g} rad, "

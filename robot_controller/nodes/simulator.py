@@ -84,7 +84,7 @@ class Simulator(StackNode):
         self.state_pub = GatedPublisher(self, JointState, "/sim/joint_states")
         # Only the newest effort matters to a drive (lockstep sends one at a time anyway).
         self.create_subscription(Float64MultiArray, "/sim/effort", self.effort_callback, LATEST_QOS)
-        self.watch_single_publisher("/sim/effort")
+        self.watch_single_publisher("/sim/effort", "motor_node")
         # Brakes: why each is on (any reason holds it), and who may ask.
         self.brake_reasons: set[str] = {"start"}
         self.plant.set_brakes(np.ones(self.joint_count, dtype=bool), p["brake_torque_nm"])
