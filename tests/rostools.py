@@ -14,10 +14,26 @@ from rclpy.node import Node
 
 from robot_controller import dds_partition
 
-# Fast DDS reads its profiles once per process, when the first participant is
-# made: every probe of the session hears (and may speak into) every run's
-# partition and the default one, as an observer tool of ours would.
-_OBSERVER_PROFILE = dds_partition.write_observer_profile(Path(tempfile.mkdtemp(prefix="probe-dds-")) / "observer.xml")
+# Fast DDS reads its XML profiles once per process, when the first participant
+# is made, so they are loaded here, at collection, before any test makes one:
+# every probe (and any other participant of the test process) then hears, and
+# may speak into, every run's partition and the default one, as an observer
+# tool of ours would. Processes the tests start do not inherit the setting.
+def _load_observer_profile() -> None:
+    profile = dds_partition.write_observer_profile(Path(tempfile.mkdtemp(prefix="probe-dds-")) / "observer.xml")
+    before = dict(os.environ)
+    os.environ.update({dds_partition.PROFILES_ENV: str(profile), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
+    context = rclpy.Context()
+    try:
+        rclpy.init(context=context, domain_id=0)
+        Node("profile_loader", context=context).destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
+        os.environ.clear()
+        os.environ.update(before)
+
+
+_load_observer_profile()
 
 
 class RosProbe:
@@ -25,17 +41,8 @@ class RosProbe:
 
     def __init__(self, domain: int, name: str = "test_probe") -> None:
         self.context = rclpy.Context()
-        # Only while the participant is made: processes the test starts must not inherit it.
-        before = os.environ.get(dds_partition.PROFILES_ENV)
-        os.environ[dds_partition.PROFILES_ENV] = str(_OBSERVER_PROFILE)
-        try:
-            rclpy.init(context=self.context, domain_id=domain)
-            self.node = Node(name, context=self.context)
-        finally:
-            if before is None:
-                os.environ.pop(dds_partition.PROFILES_ENV)
-            else:
-                os.environ[dds_partition.PROFILES_ENV] = before
+        rclpy.init(context=self.context, domain_id=domain)
+        self.node = Node(name, context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.lock = threading.Lock()
