@@ -12,8 +12,8 @@ import signal
 import sys
 from pathlib import Path
 
-from robot_controller import config as cfg
-from robot_controller import config_check
+from robot_controller import parameters as cfg
+from robot_controller.parameters import consistency as config_check
 from robot_controller.core.errors import ConfigError
 
 class UsageError(Exception):
@@ -70,7 +70,8 @@ HEADLINE = ("tracking_rms_rad", "tracking_max_rad", "measured_rms_rad", "control
 
 def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: Path | None,
         single_process: bool, realtime: bool = False, sim_time: bool = False, respawn: bool = False) -> int:
-    from robot_controller import launcher, report
+    from robot_controller.runner import launcher
+    from robot_controller.scoring import report
 
     params = cfg.load_stack(preset, config)
     params["sensor_node"]["seed"] = seed
@@ -111,7 +112,7 @@ def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: 
 
 
 def score(run_dir: Path, *, as_json: bool = False) -> int:
-    from robot_controller import report
+    from robot_controller.scoring import report
 
     try:
         recording = report.read_recording(run_dir / "bag")
@@ -127,7 +128,7 @@ def score(run_dir: Path, *, as_json: bool = False) -> int:
 
 
 def bench(out: Path, *, quick: bool, soak_s: float | None = None) -> int:
-    from robot_controller import bench as bench_module
+    from robot_controller.experiments import bench as bench_module
 
     bench_module.bench(out, quick=quick, soak_s=soak_s, progress=lambda text: print(f"[bench] {text}", flush=True))
     print((out / "bench.md").read_text())
@@ -136,7 +137,7 @@ def bench(out: Path, *, quick: bool, soak_s: float | None = None) -> int:
 
 def step(*, amplitude: float, shaping: str, out: Path | None, preset: str, seed: int, config: Path | None,
          sim_time: bool) -> int:
-    from robot_controller import experiments
+    from robot_controller.experiments import step_compare as experiments
 
     params = cfg.load_stack(preset, config)
     config_check.check_stack(experiments.step_params(params, amplitude, shaping))
@@ -153,7 +154,7 @@ def step(*, amplitude: float, shaping: str, out: Path | None, preset: str, seed:
 
 
 def compare(*, out: Path, seeds: int, duration_s: float, amplitude: float) -> int:
-    from robot_controller import experiments
+    from robot_controller.experiments import step_compare as experiments
 
     try:
         experiments.compare(out, seeds=seeds, sine_duration_s=duration_s, amplitude=amplitude,
@@ -169,7 +170,7 @@ def compare(*, out: Path, seeds: int, duration_s: float, amplitude: float) -> in
 
 
 def faults(out: Path, *, quick: bool) -> int:
-    from robot_controller import faults as faults_module
+    from robot_controller.experiments import faults as faults_module
 
     try:
         faults_module.faults(out, quick=quick, progress=lambda text: print(f"[faults] {text}", flush=True))
@@ -181,7 +182,7 @@ def faults(out: Path, *, quick: bool) -> int:
 
 
 def estop(*, release: bool) -> int:
-    from robot_controller import estop as estop_module
+    from robot_controller.ros import estop as estop_module
 
     heard, report = estop_module.send(engage=not release)
     print(f"robot-controller: {report}", file=sys.stdout if heard else sys.stderr)

@@ -12,7 +12,7 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from robot_controller import dds_partition
+from robot_controller.ros import partition as dds_partition
 
 # Fast DDS reads its XML profiles once per process, when the first participant
 # is made, so they are loaded here, at collection, before any test makes one:

@@ -5,8 +5,8 @@ import sys
 
 import pytest
 
-from robot_controller import config as cfg
-from robot_controller import config_check
+from robot_controller import parameters as cfg
+from robot_controller.parameters import consistency as config_check
 from robot_controller.core.errors import ConfigError
 
 

@@ -18,13 +18,13 @@ from __future__ import annotations
 import numpy as np
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
-from robot_controller import config as cfg
+from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.actuator import Actuator
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.plant import effort_limits, joint_names, load_model
 from robot_controller.core.validation import check_effort
-from robot_controller.nodes.base import ESTOP_QOS, LATCHED_QOS, LATEST_QOS, GatedPublisher, StackNode, run
+from robot_controller.ros.stack_node import ESTOP_QOS, LATCHED_QOS, LATEST_QOS, GatedPublisher, StackNode, run
 
 RECEIPTS_PERIOD_S = 1.0
 

@@ -25,14 +25,14 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
-from robot_controller import config as cfg
+from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core import metrics, state_layout
 from robot_controller.core.controller import ControlOutput, JointController, Status, law_config
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.validation import check_joint_state, check_trajectory
-from robot_controller.nodes.base import (ESTOP_QOS, LATCHED_QOS, LATEST_QOS, GatedPublisher, StackNode, run,
+from robot_controller.ros.stack_node import (ESTOP_QOS, LATCHED_QOS, LATEST_QOS, GatedPublisher, StackNode, run,
                                         stamp_to_s)
 
 

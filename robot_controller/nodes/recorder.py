@@ -35,7 +35,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray
 
-from robot_controller.nodes.base import RECORDER_NODE, make_executor
+from robot_controller.ros.stack_node import RECORDER_NODE, make_executor
 
 # Reliable with a deep queue: the recorder runs below the loop and may be
 # late for a moment, but must not lose what it is late for.

@@ -13,10 +13,10 @@ from __future__ import annotations
 import numpy as np
 from sensor_msgs.msg import JointState
 
-from robot_controller import config as cfg
+from robot_controller import parameters as cfg
 from robot_controller.core.sensor_model import DelayLine, measure
 from robot_controller.core.validation import check_joint_state
-from robot_controller.nodes.base import LATEST_QOS, GatedPublisher, StackNode, run, s_to_stamp, stamp_to_s
+from robot_controller.ros.stack_node import LATEST_QOS, GatedPublisher, StackNode, run, s_to_stamp, stamp_to_s
 
 # Stamps within this of a grid point count as on it (float ns rounding).
 _GRID_EPS_S = 1e-6

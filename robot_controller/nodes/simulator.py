@@ -37,11 +37,12 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import SetBool
 
-from robot_controller import config as cfg
-from robot_controller import resources, scheduling
+from robot_controller import parameters as cfg
+from robot_controller import resources
+from robot_controller.ros import scheduling
 from robot_controller.core.plant import MujocoPlant, steps_per_period
 from robot_controller.core.validation import check_effort
-from robot_controller.nodes.base import (CLOCK_QOS, ESTOP_QOS, LATCHED_QOS, LATEST_QOS, WORLD_STATE_ENV,
+from robot_controller.ros.stack_node import (CLOCK_QOS, ESTOP_QOS, LATCHED_QOS, LATEST_QOS, WORLD_STATE_ENV,
                                         GatedPublisher, StackNode, run)
 from robot_controller.nodes.world_state import WorldState
 

@@ -19,9 +19,9 @@ from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from robot_controller import config as cfg
+from robot_controller import parameters as cfg
 from robot_controller.core.trajectory import make_trajectory
-from robot_controller.nodes.base import CONTROL_QOS, GatedPublisher, StackNode, run, stamp_to_s
+from robot_controller.ros.stack_node import CONTROL_QOS, GatedPublisher, StackNode, run, stamp_to_s
 
 _GRID_EPS_S = 1e-6
 

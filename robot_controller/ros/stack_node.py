@@ -26,9 +26,9 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.time import Time
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from robot_controller import config as cfg
+from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.dds_partition import PARTITION_ENV
+from robot_controller.ros.partition import PARTITION_ENV
 from robot_controller.core.errors import ConfigError
 
 # Reliable, volatile, keep-last: compatible with the tutorial's default-QoS

@@ -15,8 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from robot_controller import config as cfg
-from robot_controller import launcher, report
+from robot_controller import parameters as cfg
+from robot_controller.runner import launcher
+from robot_controller.scoring import report
 from robot_controller.core import metrics
 
 STEP_LEAD_S = 0.5  # time at the start position before the step, s
@@ -266,7 +267,7 @@ def _init_worker(slots, base: int) -> None:
     # caller; a task stops after the run it interrupted (see below).
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     # If the caller dies, SIGTERM: the launcher stops the current run's nodes as for Ctrl-C.
-    from robot_controller import forking
+    from robot_controller.runner import forking
 
     forking.die_with_parent()
 

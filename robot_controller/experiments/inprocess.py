@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_controller import config as cfg
+from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.actuator import Actuator
 from robot_controller.core.controller import JointController

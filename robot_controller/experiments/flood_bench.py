@@ -3,7 +3,7 @@ partition: see ``dds_partition``) floods one loop topic at 5 kHz for 5 s in
 the middle of a wall-clock run of the default stack: how far does the arm get
 from the reference in force during the flood? (Issue 9's goal: within 0.02 rad.)
 
-    python -m robot_controller.flood_bench --out DIR
+    python -m robot_controller.experiments.flood_bench --out DIR
 
 Writes ``flood.json`` and ``flood.md`` in DIR, one run per case below.
 """
@@ -24,8 +24,10 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from robot_controller import config as cfg
-from robot_controller import dds_partition, launcher, report
+from robot_controller import parameters as cfg
+from robot_controller.ros import partition as dds_partition
+from robot_controller.runner import launcher
+from robot_controller.scoring import report
 
 FLOOD_AT_S, FLOOD_S, RATE_HZ, RUN_S = 5.0, 5.0, 5000.0, 14.0
 GOAL_RAD = 0.02
@@ -67,7 +69,7 @@ class Flood:
         if self.process is None and elapsed_s >= FLOOD_AT_S:
             # Foreign: whatever this process's environment says, not with the run's DDS profile.
             env = {k: v for k, v in os.environ.items() if k != dds_partition.PROFILES_ENV}
-            self.process = subprocess.Popen([sys.executable, "-m", "robot_controller.flood_bench", "--publish",
+            self.process = subprocess.Popen([sys.executable, "-m", "robot_controller.experiments.flood_bench", "--publish",
                                              self.case], stdout=subprocess.PIPE, text=True, env=env)
 
     def finish(self) -> dict[str, float]:
@@ -134,7 +136,7 @@ def write(out: Path, entries: list[dict[str, Any]]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m robot_controller.flood_bench")
+    parser = argparse.ArgumentParser(prog="python -m robot_controller.experiments.flood_bench")
     parser.add_argument("--out", type=Path, default=Path("runs/flood"))
     parser.add_argument("--case", choices=sorted(CASES), action="append", help="default: every case")
     parser.add_argument("--publish", choices=sorted(CASES), help=argparse.SUPPRESS)  # the flooding process

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_controller import config as cfg
+from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 

@@ -14,8 +14,8 @@ from rcl_interfaces.msg import ParameterType, ParameterValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from robot_controller import config as cfg
-from robot_controller import report
+from robot_controller import parameters as cfg
+from robot_controller.scoring import report
 from tests.rostools import RosProbe, set_parameter, wait_for
 
 pytestmark = pytest.mark.ros
@@ -74,7 +74,7 @@ def test_a_foreign_publisher_flooding_wrong_readings_is_named_and_never_heard(tm
     out = tmp_path / "run"
     run = start_run(out, duration="12")
     try:
-        flooder = subprocess.run([sys.executable, "-m", "robot_controller.flood_bench", "--publish",
+        flooder = subprocess.run([sys.executable, "-m", "robot_controller.experiments.flood_bench", "--publish",
                                   "joint_states_wrong"], capture_output=True, text=True, timeout=60)
         assert flooder.returncode == 0, flooder.stderr[-2000:]
         flood = json.loads(flooder.stdout.strip().splitlines()[-1])

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from robot_controller import config as cfg
+from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 
@@ -82,6 +82,6 @@ def test_core_never_imports_rclpy():
     for source in core.glob("*.py"):
         text = source.read_text()
         assert "import rclpy" not in text and "from rclpy" not in text, source
-    code = "import sys, robot_controller.core.loop, robot_controller.inprocess; print('rclpy' in sys.modules)"
+    code = "import sys, robot_controller.core.loop, robot_controller.experiments.inprocess; print('rclpy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60)
     assert out.stdout.strip() == "False"

@@ -4,7 +4,7 @@ the trajectory with no jump, and the same after its own pause or an e-stop."""
 import numpy as np
 import pytest
 
-from robot_controller import config as cfg
+from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.controller import JointController, Status
 from robot_controller.core.plant import ArmDynamics, MujocoPlant

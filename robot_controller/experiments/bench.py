@@ -19,8 +19,13 @@ from typing import Any
 
 import numpy as np
 
-from robot_controller import config as cfg
-from robot_controller import forking, hop_bench, inprocess, launcher, report, resources
+from robot_controller import parameters as cfg
+from robot_controller import resources
+from robot_controller.runner import forking
+from robot_controller.experiments import hop_bench
+from robot_controller.experiments import inprocess
+from robot_controller.runner import launcher
+from robot_controller.scoring import report
 from robot_controller.core.batch import ArmConstants, run_batch
 from robot_controller.core.pid import PidConfig
 from robot_controller.core.plant import ArmDynamics

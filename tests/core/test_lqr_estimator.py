@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from robot_controller import config as cfg
+from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core import lqr
 from robot_controller.core.controller import ControllerConfig, law_config

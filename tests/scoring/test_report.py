@@ -1,7 +1,7 @@
 """The motor's once-a-second receipts are paired with the controller's ticks offline."""
 import numpy as np
 
-from robot_controller.report import motor_latency_s
+from robot_controller.scoring.report import motor_latency_s
 
 
 def test_each_receipt_pairs_with_the_latest_tick_that_issued_its_command():

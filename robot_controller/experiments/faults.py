@@ -23,8 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from robot_controller import config as cfg
-from robot_controller import launcher, report
+from robot_controller import parameters as cfg
+from robot_controller.runner import launcher
+from robot_controller.scoring import report
 
 NODES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
 DURATIONS_S = (0.05, 0.5, 3.0)

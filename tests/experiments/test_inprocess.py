@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from robot_controller import config as cfg
-from robot_controller import inprocess
+from robot_controller import parameters as cfg
+from robot_controller.experiments import inprocess
 
 
 @pytest.fixture(scope="module")

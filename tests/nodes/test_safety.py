@@ -9,7 +9,9 @@ import time
 import numpy as np
 import pytest
 
-from robot_controller import report, resources
+from robot_controller import resources
+
+from robot_controller.scoring import report
 from robot_controller.core import state_layout
 
 pytestmark = pytest.mark.ros
@@ -99,7 +101,7 @@ def test_joint_names_that_disagree_end_the_run_fast_naming_both_sides(tmp_path, 
     assert time.monotonic() - started < 5  # the whole configuration is checked before anything starts
     assert "joint names differ" in proc.stderr and "shoulder" in proc.stderr and "joint1" in proc.stderr
     # Nodes started by hand, past that check: the controller itself ends it, naming both sides.
-    from robot_controller import config as cfg
+    from robot_controller import parameters as cfg
 
     params = cfg.load_stack()
     params["simulator"]["urdf_path"] = str(urdf)

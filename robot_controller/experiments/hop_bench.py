@@ -90,7 +90,7 @@ def round_trips_per_s(duration_s: float = 5.0, domain_id: int | None = None, exe
     if executor not in ("events", "single"):
         raise ValueError(f"executor must be 'events' or 'single', not {executor!r}")
     child_env = {**os.environ, **ENV, "ROS_DOMAIN_ID": str(domain_id)}
-    echo = subprocess.Popen([sys.executable, "-m", "robot_controller.hop_bench", "--echo", "--executor", executor],
+    echo = subprocess.Popen([sys.executable, "-m", "robot_controller.experiments.hop_bench", "--echo", "--executor", executor],
                             env=child_env, preexec_fn=lambda: os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0)))
     context = rclpy.Context()
     node = spinner = None

@@ -17,7 +17,7 @@ from rcl_interfaces.msg import ParameterType, ParameterValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from robot_controller import config as cfg
+from robot_controller import parameters as cfg
 from tests.rostools import RosProbe, set_parameter, wait_for
 
 pytestmark = pytest.mark.ros

@@ -28,9 +28,14 @@ from typing import Any
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from robot_controller import config as cfg
-from robot_controller import config_check, dds_partition, forking, proc_stats, resources, scheduling
-from robot_controller.nodes.base import COUNTS_DIR_ENV, RECORDED_ENV, WORLD_STATE_ENV
+from robot_controller import parameters as cfg
+from robot_controller import resources
+from robot_controller.parameters import consistency as config_check
+from robot_controller.ros import partition as dds_partition
+from robot_controller.runner import forking
+from robot_controller.runner import proc_stats
+from robot_controller.ros import scheduling
+from robot_controller.ros.stack_node import COUNTS_DIR_ENV, RECORDED_ENV, WORLD_STATE_ENV
 from robot_controller.nodes import recorder as rec
 
 NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
@@ -371,7 +376,7 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
 
 
 def _preload_reporting() -> None:
-    from robot_controller import report  # noqa: F401 - rosbags
+    from robot_controller.scoring import report  # noqa: F401 - rosbags
     import matplotlib
 
     matplotlib.use("Agg")

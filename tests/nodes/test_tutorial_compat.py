@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from sensor_msgs.msg import JointState
 
-from robot_controller import config as cfg
+from robot_controller import parameters as cfg
 from tests.rostools import RosProbe, wait_for
 
 pytestmark = pytest.mark.ros

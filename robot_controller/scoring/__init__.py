@@ -1,0 +1,1 @@
+"""Reads a run's bag back and scores it: metrics.json and the plots."""
