@@ -98,3 +98,20 @@ def set_parameter(probe: RosProbe, node: str, name: str, value):
             return future.result().results[0]
         client.remove_pending_request(future)
     raise AssertionError(f"no answer from /{node}/set_parameters for {name}")
+
+
+def get_parameter(probe: RosProbe, node: str, name: str):
+    """One parameter's value message through ``/<node>/get_parameters``."""
+    from rcl_interfaces.srv import GetParameters
+
+    client = probe.node.create_client(GetParameters, f"/{node}/get_parameters")
+    assert client.wait_for_service(timeout_sec=20)
+    for _ in range(4):
+        future = client.call_async(GetParameters.Request(names=[name]))
+        deadline = time.monotonic() + 5.0
+        while not future.done() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        if future.done():
+            return future.result().values[0]
+        client.remove_pending_request(future)
+    raise AssertionError(f"no answer from /{node}/get_parameters for {name}")

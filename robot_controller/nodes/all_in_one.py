@@ -2,7 +2,7 @@
 same topics, same parameters, no inter-process hops."""
 from __future__ import annotations
 
-from robot_controller.ros.stack_node import run
+from robot_controller.ros.process import run
 from robot_controller.nodes.motor_node import MotorNode
 from robot_controller.nodes.pid_controller import PidControllerNode
 from robot_controller.nodes.sensor_node import SensorNode

@@ -24,7 +24,10 @@ from robot_controller.core.actuator import Actuator
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.plant import effort_limits, joint_names, load_model
 from robot_controller.core.validation import check_effort
-from robot_controller.ros.stack_node import ESTOP_QOS, LATCHED_QOS, LATEST_QOS, GatedPublisher, StackNode, run
+from robot_controller.ros.process import run
+from robot_controller.ros.publishing import GatedPublisher
+from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS
+from robot_controller.ros.stack_node import StackNode
 
 RECEIPTS_PERIOD_S = 1.0
 
@@ -37,10 +40,6 @@ MAX_EXCUSED_GAP_S = 0.2
 class MotorNode(StackNode):
     def __init__(self) -> None:
         super().__init__("motor_node")
-        model = load_model(resources.resolve_urdf(self.params["urdf_path"]))
-        self.joint_names = joint_names(model)
-        self.joint_count = len(self.joint_names)
-        self.effort_limit = effort_limits(model)
         self.actuator = self._make_actuator(self.params)
         self.last_command_s: float | None = None
         self.effort_pub = GatedPublisher(self, Float64MultiArray, "/sim/effort")
@@ -69,9 +68,14 @@ class MotorNode(StackNode):
                               f"{self.effort_limit.tolist()} N·m (it may lower the drive's limit, never raise it)")
         return Actuator(torque_max, params["lag_time_constant_s"])
 
+    def setup(self, params: dict) -> None:
+        model = load_model(resources.resolve_urdf(params["urdf_path"]))
+        self.joint_names = joint_names(model)
+        self.joint_count = len(self.joint_names)
+        self.effort_limit = effort_limits(model)
+
     def check_params(self, params: dict) -> None:
-        if hasattr(self, "joint_count"):
-            self._make_actuator(params)
+        self._make_actuator(params)
 
     def apply_params(self, params: dict, changed: set[str]) -> None:
         self.actuator = self._make_actuator(params)

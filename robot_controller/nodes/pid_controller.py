@@ -32,8 +32,11 @@ from robot_controller.core.controller import ControlOutput, JointController, Sta
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.validation import check_joint_state, check_trajectory
-from robot_controller.ros.stack_node import (ESTOP_QOS, LATCHED_QOS, LATEST_QOS, GatedPublisher, StackNode, run,
-                                        stamp_to_s)
+from robot_controller.ros.process import run
+from robot_controller.ros.publishing import GatedPublisher
+from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS
+from robot_controller.ros.stack_node import StackNode
+from robot_controller.ros.stamps import stamp_to_s
 
 
 # Readings naming other joints for this long, none usable yet: a configuration mismatch.
@@ -45,9 +48,6 @@ REFERENCE_WAIT_S = 0.3
 class PidControllerNode(StackNode):
     def __init__(self) -> None:
         super().__init__("pid_controller")
-        self.dynamics = ArmDynamics(resources.resolve_urdf(self.params["urdf_path"]))
-        self.joint_names = list(self.dynamics.joint_names)
-        self.joint_count = len(self.joint_names)
         self.controller = JointController(cfg.controller_config(self.params, self.joint_count), self.joint_count,
                                           self.dynamics)
         self.lockstep = self.params["lockstep"]
@@ -90,22 +90,30 @@ class PidControllerNode(StackNode):
         self.log_gains()
 
     def log_gains(self) -> None:
-        """The gains in force (LQR's are designed, not the kp/ki/kd parameters) and
-        how much unaccounted delay they survive."""
+        """The law and gains in force (LQR's are designed, not the kp/ki/kd parameters)
+        and how much unaccounted delay they survive: in the log and as ``law_in_force``."""
         p, gains = self.params, self.controller.gains
         margin = self.controller.delay_margin_periods()
-        self.get_logger().info(
-            f"{p['controller_type'].upper()} controller at {p['control_rate_hz']:g} Hz on {self.joint_names}: "
-            f"Kp={_fmt(gains.kp)}, Ki={_fmt(gains.ki)}, Kd={_fmt(gains.kd)}, derivative on "
-            f"{gains.derivative_source.value}, feedforward {p['feedforward']}; delay margin {margin} control "
-            f"periods ({margin * 1e3 / p['control_rate_hz']:g} ms) beyond what the stamps show"
-            + (", lockstep" if self.lockstep else ""))
+        law = p["controller_type"].upper() + (
+            f" (q={list(p['lqr_q'])}, r={p['lqr_r']:g}; the kp/ki/kd parameters are unused)"
+            if p["controller_type"] == "lqr" else "")
+        in_force = (f"{law}: Kp={_fmt(gains.kp)} N·m/rad, Ki={_fmt(gains.ki)} N·m/(rad·s), "
+                    f"Kd={_fmt(gains.kd)} N·m·s/rad, derivative on {gains.derivative_source.value}, "
+                    f"feedforward {p['feedforward']}; delay margin {margin} control periods "
+                    f"({margin * 1e3 / p['control_rate_hz']:g} ms) beyond what the stamps show")
+        self.report("law_in_force", in_force, "the control law and its gains in force, as designed")
+        self.get_logger().info(f"{in_force}; at {p['control_rate_hz']:g} Hz on {self.joint_names}"
+                               + (", lockstep" if self.lockstep else ""))
+
+    def setup(self, params: dict[str, Any]) -> None:
+        self.dynamics = ArmDynamics(resources.resolve_urdf(params["urdf_path"]))
+        self.joint_names = list(self.dynamics.joint_names)
+        self.joint_count = len(self.joint_names)
 
     def check_params(self, params: dict[str, Any]) -> None:
-        if hasattr(self, "joint_count"):
-            # The law designs here, before the change is accepted (an LQR that does not
-            # stabilise is refused, not found when applying it).
-            law_config(cfg.controller_config(params, self.joint_count), self.dynamics, self.joint_count)
+        # The law designs here, before the change is accepted (an LQR that does not
+        # stabilise is refused, not found when applying it).
+        law_config(cfg.controller_config(params, self.joint_count), self.dynamics, self.joint_count)
 
     def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
         self.controller.set_config(cfg.controller_config(params, self.joint_count))

@@ -35,7 +35,8 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray
 
-from robot_controller.ros.stack_node import RECORDER_NODE, make_executor
+from robot_controller.ros.process import make_executor
+from robot_controller.ros.publishing import RECORDER_NODE
 
 # Reliable with a deep queue: the recorder runs below the loop and may be
 # late for a moment, but must not lose what it is late for.

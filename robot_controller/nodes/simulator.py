@@ -42,8 +42,11 @@ from robot_controller import resources
 from robot_controller.ros import scheduling
 from robot_controller.core.plant import MujocoPlant, steps_per_period
 from robot_controller.core.validation import check_effort
-from robot_controller.ros.stack_node import (CLOCK_QOS, ESTOP_QOS, LATCHED_QOS, LATEST_QOS, WORLD_STATE_ENV,
-                                        GatedPublisher, StackNode, run)
+from robot_controller.nodes.world_state import WORLD_STATE_ENV
+from robot_controller.ros.process import run
+from robot_controller.ros.publishing import GatedPublisher
+from robot_controller.ros.qos import CLOCK_QOS, ESTOP_QOS, LATCHED_QOS, LATEST_QOS
+from robot_controller.ros.stack_node import StackNode
 from robot_controller.nodes.world_state import WorldState
 
 # Catch up at most this many physics steps in one callback; beyond, the sim

@@ -21,7 +21,11 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller import parameters as cfg
 from robot_controller.core.trajectory import make_trajectory
-from robot_controller.ros.stack_node import CONTROL_QOS, GatedPublisher, StackNode, run, stamp_to_s
+from robot_controller.ros.process import run
+from robot_controller.ros.publishing import GatedPublisher
+from robot_controller.ros.qos import CONTROL_QOS
+from robot_controller.ros.stack_node import StackNode
+from robot_controller.ros.stamps import stamp_to_s
 
 _GRID_EPS_S = 1e-6
 

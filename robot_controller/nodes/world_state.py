@@ -11,6 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+# Set by the launcher (with --respawn) to the file's path.
+WORLD_STATE_ENV = "ROBOT_CONTROLLER_WORLD_STATE"
+
 # [valid flag, position per joint]
 _VALID = 1.0
 

@@ -35,7 +35,8 @@ from robot_controller.ros import partition as dds_partition
 from robot_controller.runner import forking
 from robot_controller.runner import proc_stats
 from robot_controller.ros import scheduling
-from robot_controller.ros.stack_node import COUNTS_DIR_ENV, RECORDED_ENV, WORLD_STATE_ENV
+from robot_controller.nodes.world_state import WORLD_STATE_ENV
+from robot_controller.ros.publishing import COUNTS_DIR_ENV, RECORDED_ENV
 from robot_controller.nodes import recorder as rec
 
 NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")

@@ -16,7 +16,7 @@ from std_msgs.msg import Float64MultiArray
 
 from robot_controller import parameters as cfg
 from robot_controller.scoring import report
-from tests.rostools import RosProbe, set_parameter, wait_for
+from tests.rostools import RosProbe, get_parameter, set_parameter, wait_for
 
 pytestmark = pytest.mark.ros
 
@@ -120,6 +120,15 @@ def test_parameters_that_would_break_the_loop_are_refused_with_a_reason(tmp_path
             result = set_parameter(probe, node, name, value)
             assert not result.successful and reason in result.reason, (node, name, result.reason)
         assert set_parameter(probe, "simulator", "publish_rate_hz", double(200.0)).successful
+        # The law in force is shown, not just the parameters behind it (LQR's gains are designed).
+        assert get_parameter(probe, "pid_controller", "law_in_force").string_value.startswith("LQR (q=")
+        result = set_parameter(probe, "pid_controller", "law_in_force",
+                               ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="PID"))
+        assert not result.successful and "not settable" in result.reason
+        pid = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="pid")
+        assert set_parameter(probe, "pid_controller", "controller_type", pid).successful
+        law = get_parameter(probe, "pid_controller", "law_in_force").string_value
+        assert law.startswith("PID: Kp=") and "unused" not in law, law
         assert all(process.poll() is None for process in nodes.values())
     finally:
         probe.close()
