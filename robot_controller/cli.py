@@ -68,7 +68,7 @@ HEADLINE = ("tracking_rms_rad", "tracking_max_rad", "measured_rms_rad", "control
             "missed_cycles", "latency_p50_ms", "latency_p99_ms", "peak_torque_nm", "duration_s", "real_time_factor")
 
 
-def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: Path | None,
+def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: list[Path] | None,
         single_process: bool, realtime: bool = False, sim_time: bool = False, respawn: bool = False) -> int:
     from robot_controller.runner import launcher
     from robot_controller.scoring import report
@@ -135,7 +135,7 @@ def bench(out: Path, *, quick: bool, soak_s: float | None = None) -> int:
     return 0
 
 
-def step(*, amplitude: float, shaping: str, out: Path | None, preset: str, seed: int, config: Path | None,
+def step(*, amplitude: float, shaping: str, out: Path | None, preset: str, seed: int, config: list[Path] | None,
          sim_time: bool) -> int:
     from robot_controller.experiments import step_compare as experiments
 
@@ -189,12 +189,15 @@ def estop(*, release: bool) -> int:
     return 0 if heard else 1
 
 
-def list_params() -> int:
-    defaults = cfg.load_stack()
+def list_params(*, preset: str, config: list[Path] | None, as_yaml: bool) -> int:
+    values = cfg.load_stack(preset, config)
+    if as_yaml:
+        print(cfg.params_yaml(values), end="")
+        return 0
     for node in cfg.NODES:
         print(f"{node}:")
         for spec in cfg.SCHEMA[node]:
-            print(f"  {spec.name} = {defaults[node][spec.name]!r}: {spec.describe()}"
+            print(f"  {spec.name} = {values[node][spec.name]!r}: {spec.describe()}"
                   + (" (read-only)" if spec.read_only else ""))
     return 0
 
@@ -225,7 +228,8 @@ def main(argv: list[str] | None = None) -> int:
     p_run.add_argument("--out", type=Path, help="output directory (default runs/<timestamp>)")
     p_run.add_argument("--preset", default="default", choices=cfg.available_presets())
     p_run.add_argument("--seed", type=int, default=0, help="sensor noise seed (default 0)")
-    p_run.add_argument("--config", type=Path, help="ROS 2 parameter file layered over the preset")
+    p_run.add_argument("--config", type=Path, action="append",
+                       help="ROS 2 parameter file layered over the preset (repeatable: later files over earlier)")
     p_run.add_argument("--single-process", action="store_true", help="all five nodes on one executor")
     p_run.add_argument("--sim-time", action="store_true",
                        help="deterministic lockstep on /clock, as fast as the graph goes (--duration in sim seconds)")
@@ -243,9 +247,9 @@ def main(argv: list[str] | None = None) -> int:
     p_step.add_argument("--out", type=Path)
     p_step.add_argument("--preset", default="default", choices=cfg.available_presets())
     p_step.add_argument("--seed", type=int, default=0)
-    p_step.add_argument("--config", type=Path)
+    p_step.add_argument("--config", type=Path, action="append", help="as run's")
     p_step.add_argument("--sim-time", action="store_true", help="deterministic lockstep")
-    p_compare = verbs.add_parser("compare", help="seed preset, PID, PID+FF, PID+FF+Kalman, LQR on sine and step")
+    p_compare = verbs.add_parser("compare", help="the tutorial preset, PID, PID+FF, PID+FF+Kalman, LQR on sine and step")
     p_compare.add_argument("--out", type=Path, help="output directory (default runs/compare)")
     p_compare.add_argument("--seeds", type=int, default=5)
     p_compare.add_argument("--duration", type=positive_seconds, default=10.0, help="sine duration, sim s (default 10)")
@@ -260,13 +264,19 @@ def main(argv: list[str] | None = None) -> int:
     p_faults.add_argument("--quick", action="store_true", help="two cases: sensor and controller frozen 0.5 s")
     p_estop = verbs.add_parser("estop", help="emergency stop of the running graph: torque off, brakes on, latched")
     p_estop.add_argument("--release", action="store_true", help="release the e-stop; the loop re-acquires")
-    verbs.add_parser("params", help="list every node parameter with its default and meaning")
+    p_params = verbs.add_parser("params", help="list every node parameter with its default and meaning")
+    p_params.add_argument("--yaml", action="store_true",
+                          help="print the values as a ROS 2 parameter file (for --config or --params-file)")
+    p_params.add_argument("--preset", default="default", choices=cfg.available_presets())
+    p_params.add_argument("--config", type=Path, action="append", help="as run's")
     args = parser.parse_args(argv)
     try:
         return dispatch(args)
     except (UsageError, ConfigError) as exc:
         print(f"robot-controller {args.verb}: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # `robot-controller params | head`
+        return 0
     except OSError as exc:  # a path of the user's: missing, a directory, not writable
         where = f" {exc.filename}" if exc.filename else ""
         print(f"robot-controller {args.verb}:{where}: {exc.strerror or exc}", file=sys.stderr)
@@ -292,7 +302,7 @@ def dispatch(args: argparse.Namespace) -> int:
         return estop(release=args.release)
     if args.verb == "score":
         return score(args.run_dir, as_json=args.json)
-    return list_params()
+    return list_params(preset=args.preset, config=args.config, as_yaml=args.yaml)
 
 
 def entry() -> None:

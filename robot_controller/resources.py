@@ -12,7 +12,7 @@ from pathlib import Path
 @lru_cache(maxsize=1)
 def share_dir() -> Path:
     beside = Path(__file__).resolve().parent.parent
-    if (beside / "config" / "stack.yaml").is_file():
+    if (beside / "config" / "fastdds.xml").is_file():
         return beside
     try:
         from ament_index_python.packages import get_package_share_directory
@@ -20,10 +20,6 @@ def share_dir() -> Path:
         return Path(get_package_share_directory("robot_controller"))
     except Exception as exc:  # noqa: BLE001 - any failure means the same thing here
         raise FileNotFoundError("robot_controller's config/ and description/ were not found") from exc
-
-
-def stack_yaml() -> Path:
-    return share_dir() / "config" / "stack.yaml"
 
 
 def preset_yaml(name: str) -> Path:

@@ -126,7 +126,7 @@ class Contender:
 
 
 CONTENDERS = (
-    Contender("seed", "the tutorial's controller as written", "seed", {}),
+    Contender("tutorial", "the tutorial's controller as written", "tutorial", {}),
     Contender("pid", "PID, derivative on velocity error", "default",
               {"controller_type": "pid", "feedforward": "none", "estimator": "none"}),
     Contender("pid_ff", "PID + model feedforward", "default",

@@ -64,7 +64,7 @@ def _check_per_joint(params: cfg.Params, joint_count: int) -> None:
                           f"{joint_count} joint(s)")
     for node in cfg.NODES:
         for spec in cfg.SCHEMA[node]:
-            if spec.kind == "floats" and spec.name != "lqr_q":
+            if spec.per_joint:
                 try:
                     cfg.per_joint(spec.name, params[node][spec.name], joint_count)
                 except ConfigError as exc:

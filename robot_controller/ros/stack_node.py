@@ -14,7 +14,6 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from robot_controller import parameters as cfg
-from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 from robot_controller.ros.partition import PARTITION_ENV
 
@@ -37,13 +36,12 @@ class StackNode(Node):
     def __init__(self, schema_name: str, **kwargs: Any) -> None:
         super().__init__(schema_name, **kwargs)
         self.schema_name = schema_name
-        defaults = cfg.read_params_file(resources.stack_yaml())[schema_name]
         for spec in cfg.SCHEMA[schema_name]:
             descriptor = ParameterDescriptor(
                 description=spec.describe(), read_only=spec.read_only,
                 # numbers: accept 50 as well as 50.0, and a scalar for a per-joint list
-                dynamic_typing=spec.kind in (float, "floats"))
-            self.declare_parameter(spec.name, defaults[spec.name], descriptor)
+                dynamic_typing=spec.kind is float)
+            self.declare_parameter(spec.name, spec.default_value(), descriptor)
         # Overrides from --params-file / -p bypass callbacks at declaration: check them now,
         # each on its own first, then together once the node knows its arm.
         values = {spec.name: self.get_parameter(spec.name).value for spec in cfg.SCHEMA[schema_name]}

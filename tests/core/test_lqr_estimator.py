@@ -55,9 +55,8 @@ def test_lqr_settings_are_checked():
         lqr.design(INERTIA, DAMPING, DT, np.array([1.0, -1.0, 1.0]), 1.0)
     with pytest.raises(ConfigError, match="lqr_r"):
         lqr.design(INERTIA, DAMPING, DT, np.array([1.0, 1.0, 1.0]), 0.0)
-    values = dict(cfg.load_stack()["pid_controller"], lqr_q=[1.0, 2.0])
-    with pytest.raises(ConfigError, match="lqr_q: expected 3 weights"):
-        cfg.controller_config(values, 1)
+    with pytest.raises(ConfigError, match="lqr_q: expected 3 values"):
+        cfg.spec_of("pid_controller", "lqr_q").validate([1.0, 2.0])
 
 
 def test_lqr_law_is_a_pid_with_the_designed_gains():

@@ -15,8 +15,8 @@ def test_default_preset_tracks_the_true_angle(default_run):
     assert default_run.tracking_metrics()["tracking_rms_rad"] < 0.003
 
 
-def test_seed_preset_lags_as_the_tutorial_controller_does():
-    rms = inprocess.simulate(cfg.load_stack("seed"), duration_s=8.0, seed=3).tracking_metrics()["tracking_rms_rad"]
+def test_tutorial_preset_lags_as_the_tutorial_controller_does():
+    rms = inprocess.simulate(cfg.load_stack("tutorial"), duration_s=8.0, seed=3).tracking_metrics()["tracking_rms_rad"]
     assert 0.1 < rms < 0.35
 
 

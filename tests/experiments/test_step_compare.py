@@ -27,9 +27,9 @@ def test_compare_lists_every_controller(tmp_path, ros_domain):
                            "--out", str(out)], capture_output=True, text=True, timeout=400)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
     table = (out / "compare.md").read_text()
-    for name in ("seed", "pid", "pid_ff", "pid_ff_kf", "lqr"):
+    for name in ("tutorial", "pid", "pid_ff", "pid_ff_kf", "lqr"):
         assert f"| **{name}**" in table, name
     figures = json.loads((out / "compare.json").read_text())
     # the tutorial's controller lags the sine; ours tracks it
-    assert figures["seed"]["sine_tracking_rms_rad"]["mean"] > 10 * figures["lqr"]["sine_tracking_rms_rad"]["mean"]
+    assert figures["tutorial"]["sine_tracking_rms_rad"]["mean"] > 10 * figures["lqr"]["sine_tracking_rms_rad"]["mean"]
     assert (out / "compare.png").stat().st_size > 10_000

@@ -73,12 +73,12 @@ def test_stack_runs_records_and_tracks(tmp_path, ros_domain, mode):
         assert key in metrics, key
 
 
-def test_seed_preset_runs_and_lags(tmp_path, ros_domain):
-    out = tmp_path / "seed"
-    proc = run_cli(out, "--preset", "seed", duration=5.0)
+def test_tutorial_preset_runs_and_lags(tmp_path, ros_domain):
+    out = tmp_path / "tutorial"
+    proc = run_cli(out, "--preset", "tutorial", duration=5.0)
     assert proc.returncode == 0, proc.stdout[-3000:]
     metrics = json.loads((out / "metrics.json").read_text())
-    assert metrics["preset"] == "seed"
+    assert metrics["preset"] == "tutorial"
     assert 0.1 < metrics["tracking_rms_rad"] < 0.4
     assert 15 < metrics["rate_trajectory_hz"] < 25
 

@@ -10,10 +10,29 @@ from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 
 
-def test_stack_yaml_has_exactly_the_schema():
-    params = cfg.read_params_file(resources.stack_yaml())
-    for node in cfg.NODES:
-        assert set(params[node]) == {spec.name for spec in cfg.SCHEMA[node]}, node
+def test_the_defaults_written_as_a_parameter_file_read_back_the_same(tmp_path):
+    written = subprocess.run([sys.executable, "-m", "robot_controller.cli", "params", "--yaml"], capture_output=True,
+                             text=True, check=True).stdout
+    (tmp_path / "defaults.yaml").write_text(written)
+    assert cfg.read_params_file(tmp_path / "defaults.yaml") == cfg.defaults()
+
+
+def test_later_config_files_override_earlier_ones(tmp_path):
+    first, second = tmp_path / "first.yaml", tmp_path / "second.yaml"
+    first.write_text("pid_controller:\n  ros__parameters:\n    kp: 1.0\n    ki: 2.0\n")
+    second.write_text("pid_controller:\n  ros__parameters:\n    kp: 3.0\n")
+    values = cfg.load_stack("default", [first, second])["pid_controller"]
+    assert (values["kp"], values["ki"]) == (3.0, 2.0)
+
+
+def test_a_default_that_breaks_its_own_rule_is_caught_at_definition():
+    with pytest.raises(ConfigError, match="rate: must be <= 10"):
+        cfg.ParamSpec("rate", float, 20.0, "a rate, Hz", maximum=10.0)
+
+
+def test_a_fixed_length_list_refuses_another_length():
+    with pytest.raises(ConfigError, match="lqr_q: expected 3 values, got 2"):
+        cfg.spec_of("pid_controller", "lqr_q").validate([1.0, 2.0])
 
 
 def test_every_parameter_has_a_description():
@@ -28,11 +47,11 @@ def test_presets_load(preset):
     cfg.controller_config(params["pid_controller"], 1)
 
 
-def test_seed_preset_is_the_tutorials_controller():
-    c = cfg.load_stack("seed")["pid_controller"]
+def test_tutorial_preset_is_the_tutorials_controller():
+    c = cfg.load_stack("tutorial")["pid_controller"]
     assert (c["kp"], c["ki"], c["kd"], c["integral_limit"]) == ([50.0], [10.0], [5.0], [10.0])
     assert c["derivative_source"] == "measured_velocity" and c["feedforward"] == "none"
-    assert cfg.load_stack("seed")["trajectory_planner"]["publish_rate_hz"] == 20.0
+    assert cfg.load_stack("tutorial")["trajectory_planner"]["publish_rate_hz"] == 20.0
 
 
 @pytest.mark.parametrize("text, expected", [
@@ -56,7 +75,7 @@ def test_wildcard_and_layering(tmp_path):
     path = tmp_path / "mine.yaml"
     path.write_text("/**:\n  ros__parameters:\n    use_sim_time: false\n    torque_max: [5.0]\n"
                     "pid_controller:\n  ros__parameters:\n    kp: 80\n")
-    params = cfg.load_stack("seed", path)
+    params = cfg.load_stack("tutorial", path)
     assert params["pid_controller"]["kp"] == 80.0
     assert params["motor_node"]["torque_max"] == [5.0] and params["pid_controller"]["torque_max"] == [5.0]
     assert params["pid_controller"]["derivative_source"] == "measured_velocity"  # the preset stays

@@ -1,0 +1,59 @@
+"""The core's configuration objects built from a node's parameter values."""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from robot_controller.core.pid import PidConfig
+from robot_controller.core.sensor_model import SensorConfig
+from robot_controller.parameters.spec import per_joint
+
+if TYPE_CHECKING:  # the controller pulls in scipy and MuJoCo: only the nodes that run one import it
+    from robot_controller.core.controller import ControllerConfig
+
+
+def controller_config(values: Mapping[str, Any], joint_count: int) -> ControllerConfig:
+    from robot_controller.core.controller import ControllerConfig
+    from robot_controller.core.estimator import KalmanConfig
+
+    def joints(name: str) -> np.ndarray:
+        return per_joint(name, values[name], joint_count)
+
+    pid = PidConfig(
+        kp=joints("kp"), ki=joints("ki"), kd=joints("kd"),
+        output_limit=joints("torque_max"), integral_limit=joints("integral_limit"),
+        anti_windup=values["anti_windup"], back_calculation_time_s=values["back_calculation_time_s"],
+        derivative_source=values["derivative_source"],
+        derivative_filter_time_s=values["derivative_filter_time_s"],
+        slew_rate_limit=values["slew_rate_limit"],
+    )
+    q = np.asarray(values["lqr_q"], dtype=float)  # three weights: the schema checks the length
+    estimator = None
+    if values["estimator"] == "kalman":
+        estimator = KalmanConfig(values["kalman_position_noise_std"], values["kalman_velocity_noise_std"],
+                                 values["kalman_acceleration_noise_std"])
+    return ControllerConfig(
+        pid=pid, law=values["controller_type"], lqr_q=tuple(q.tolist()), lqr_r=values["lqr_r"], estimator=estimator,
+        feedforward=values["feedforward"], control_period_s=1.0 / values["control_rate_hz"],
+        reference_extrapolation=values["reference_extrapolation"],
+        latency_compensation=values["latency_compensation"], watchdog_periods=values["watchdog_periods"],
+        sensor_timeout_s=values["sensor_timeout_s"], max_reading_age_s=values["max_reading_age_s"],
+        stop_deceleration=values["stop_deceleration"],
+        reacquire_acceleration=values["reacquire_acceleration"],
+    )
+
+
+def sensor_config(values: Mapping[str, Any]) -> SensorConfig:
+    return SensorConfig(position_noise_std=values["position_noise_std"],
+                        velocity_noise_std=values["velocity_noise_std"],
+                        position_bias=values["position_bias"], quantization=values["quantization"],
+                        delay_s=values["delay_s"])
+
+
+def trajectory_kwargs(values: Mapping[str, Any]) -> dict[str, Any]:
+    keys = ("amplitude", "frequency_hz", "offset", "step_time_s", "end_frequency_hz", "sweep_time_s", "step_shaping",
+            "max_acceleration")
+    return {"joint_count": values["joint_count"], "sample_period_s": 1.0 / values["publish_rate_hz"],
+            **{k: values[k] for k in keys}}

@@ -1,0 +1,123 @@
+"""ROS 2 parameter files: read (validated, naming the file, the key and the
+problem), layered (defaults, preset, the user's files) and written."""
+from __future__ import annotations
+
+import difflib
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from robot_controller import resources
+from robot_controller.core.errors import ConfigError
+from robot_controller.parameters.schema import NODES, ROS_BUILTIN, SCHEMA, defaults, has, spec_of
+
+Params = dict[str, dict[str, Any]]
+
+
+def _node_key(key: str) -> str:
+    return key.lstrip("/")
+
+
+def read_params_file(path: str | Path) -> Params:
+    """Read a ROS 2 parameter file into ``{node: {param: value}}``, validated.
+
+    ``/**`` entries apply to every node that has the parameter.
+
+    :raises ConfigError: naming the file, the key and the problem
+    """
+    path = Path(path)
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such file") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+    if raw is None:
+        return {}
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{path}: expected a mapping of node names to 'ros__parameters'")
+    out: Params = {}
+    for key, body in raw.items():
+        node = _node_key(str(key))
+        if node != "**" and node not in NODES:
+            hint = difflib.get_close_matches(node, NODES, n=1)
+            raise ConfigError(f"{path}: unknown node {key!r}; nodes are {list(NODES)}"
+                              + (f" (did you mean {hint[0]!r}?)" if hint else ""))
+        if not isinstance(body, dict) or set(body) != {"ros__parameters"} or not isinstance(
+                body["ros__parameters"], dict):
+            raise ConfigError(f"{path}: {key}: expected exactly one key 'ros__parameters' holding a mapping")
+        for name, value in body["ros__parameters"].items():
+            targets = [n for n in NODES if has(n, name)] if node == "**" else [node]
+            if node == "**" and not targets and name not in ROS_BUILTIN:
+                raise ConfigError(f"{path}: /**.{name}: no node has a parameter {name!r}")
+            for target in targets:
+                out.setdefault(target, {})[name] = _validated(path, target, name, value)
+            if node == "**" and name in ROS_BUILTIN:
+                for target in NODES:
+                    out.setdefault(target, {})[name] = value
+    return out
+
+
+def _validated(path: Path, node: str, name: str, value: Any) -> Any:
+    if name in ROS_BUILTIN:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{path}: {node}.{name}: expected true or false, got {value!r}")
+        return value
+    if not has(node, name):
+        names = [spec.name for spec in SCHEMA[node]]
+        hint = difflib.get_close_matches(name, names, n=1)
+        raise ConfigError(f"{path}: {node}.{name}: unknown parameter"
+                          + (f" (did you mean {hint[0]!r}?)" if hint else f"; {node} has {names}"))
+    try:
+        return spec_of(node, name).validate(value)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {node}.{exc}") from None
+
+
+def merge(*layers: Params) -> Params:
+    out: Params = {}
+    for layer in layers:
+        for node, values in layer.items():
+            out.setdefault(node, {}).update(values)
+    return out
+
+
+def load_stack(preset: str = "default", config: str | Path | list[str | Path] | None = None) -> Params:
+    """The schema's defaults, then the preset's overlay, then the user's file(s), later over earlier."""
+    layers = [defaults()]
+    if preset != "default":
+        preset_path = resources.preset_yaml(preset)
+        if not preset_path.is_file():
+            raise ConfigError(f"--preset: unknown preset {preset!r}; presets are {available_presets()}")
+        layers.append(read_params_file(preset_path))
+    for path in [] if config is None else config if isinstance(config, list) else [config]:
+        layers.append(read_params_file(path))
+    params = merge(*layers)
+    check_complete(params)
+    return params
+
+
+def available_presets() -> list[str]:
+    folder = resources.preset_yaml("default").parent
+    return ["default"] + sorted(p.stem for p in folder.glob("*.yaml"))
+
+
+def check_complete(params: Params) -> None:
+    for node in NODES:
+        missing = [spec.name for spec in SCHEMA[node] if spec.name not in params.get(node, {})]
+        if missing:
+            raise ConfigError(f"{node}: no value for {missing}")
+
+
+def params_yaml(params: Params) -> str:
+    """``params`` as the text of a ROS 2 parameter file."""
+    body = {node: {"ros__parameters": dict(values)} for node, values in params.items()}
+    return yaml.safe_dump(body, sort_keys=False, allow_unicode=True)
+
+
+def write_params_file(params: Params, path: str | Path) -> Path:
+    """Write ``params`` as a ROS 2 parameter file that ``--params-file`` reads."""
+    path = Path(path)
+    path.write_text(params_yaml(params))
+    return path
