@@ -1,0 +1,116 @@
+"""What a run starts, before anything starts: the processes (the recorder and
+the five nodes, or all five in one), each one's arguments and environment,
+the parameter file and the run's DDS profile, all written into the run's
+output directory. ``launcher`` then supervises what this plans."""
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from robot_controller import parameters as cfg
+from robot_controller import resources
+from robot_controller.nodes.world_state import WORLD_STATE_ENV
+from robot_controller.parameters import consistency
+from robot_controller.ros import partition, scheduling
+from robot_controller.ros.publishing import COUNTS_DIR_ENV, RECORDED_ENV
+
+NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
+
+# Fast DDS sends from the publishing thread instead of handing each sample to
+# a sender thread: measured, the lockstep runs 1.6× faster (RTF 3.8 against 2.4).
+FASTDDS_PUBLICATION_MODE = ("RMW_FASTRTPS_PUBLICATION_MODE", "SYNCHRONOUS")
+
+# In lockstep the sensor steps on the stamps of what it receives and the
+# controller and planner on /clock messages they read themselves, so they need no
+# ROS sim time (and each such node would pay a /clock callback every tick).
+# The motor's lag integrates over its clock, so it follows /clock.
+SIM_TIME_NODES = ("motor_node",)
+
+
+@dataclass(frozen=True)
+class Process:
+    name: str  #: as the output prefix and in the usage figures
+    module: str  #: ``robot_controller.nodes.<module>``
+    args: list[str]
+    env: dict[str, str]
+
+
+@dataclass
+class RunPlan:
+    out_dir: Path
+    bag_dir: Path
+    counts_dir: Path  #: a scratch folder for the nodes' publish counts and the arm's kept state
+    recorder: Process
+    nodes: list[Process]
+    sim_time: bool
+    notes: list[str] = field(default_factory=list)  #: what the launcher should say before starting
+
+
+def child_env(single_process: bool) -> dict[str, str]:
+    """This process's environment with the settings every child needs (never changes ``os.environ``)."""
+    env = dict(os.environ)
+    env.setdefault("PYTHONUNBUFFERED", "1")
+    env.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "0")
+    env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
+    # The prefix already names the process; in one process the node name is needed.
+    env.setdefault("RCUTILS_CONSOLE_OUTPUT_FORMAT",
+                   "[{severity}] [{name}] {message}" if single_process else "[{severity}] {message}")
+    env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    env.setdefault(*FASTDDS_PUBLICATION_MODE)
+    env.setdefault(partition.PROFILES_ENV, str(resources.fastdds_profiles()))  # quick discovery
+    env.pop(scheduling.PACING_RT_ENV, None)
+    return env
+
+
+def lockstep_params(params: cfg.Params) -> cfg.Params:
+    """The same parameters in sim-time lockstep: the simulator owns /clock and
+    the simulator, controller and planner step on messages instead of timers."""
+    out = cfg.merge(params, {})
+    for node in cfg.NODES:
+        out[node]["use_sim_time"] = node in SIM_TIME_NODES
+    for node in ("simulator", "pid_controller", "trajectory_planner"):
+        out[node]["lockstep"] = True
+    return out
+
+
+def plan(params: cfg.Params, *, out_dir: Path, single_process: bool = False, realtime: bool = False,
+         sim_time: bool = False, domain_id: int | None = None, respawn: bool = False) -> RunPlan:
+    """Check the whole configuration, then write what the processes read
+    (``params.yaml``, ``fastdds.xml``) and decide how each starts.
+
+    :raises ConfigError: before anything is written
+    :raises FileExistsError: ``out_dir`` already holds a recording
+    """
+    if sim_time:
+        params = lockstep_params(params)
+    consistency.check_stack(params)  # before anything is written or started
+    bag_dir = out_dir / "bag"
+    if bag_dir.exists():
+        raise FileExistsError(f"{bag_dir} exists: choose another --out")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    params_file = cfg.write_params_file(params, out_dir / "params.yaml")
+    counts_dir = Path(tempfile.mkdtemp(prefix="robot-controller-counts-"))
+    notes = []
+    env = child_env(single_process)
+    env.update({RECORDED_ENV: "1", COUNTS_DIR_ENV: str(counts_dir)})
+    if respawn:
+        env[WORLD_STATE_ENV] = str(counts_dir / "world_state.bin")
+    if domain_id is not None:
+        env["ROS_DOMAIN_ID"] = str(domain_id)
+    if partition.PROFILES_ENV in os.environ:
+        notes.append(f"{partition.PROFILES_ENV} is set: the run uses that Fast DDS profile and is not isolated "
+                     "from other publishers on its domain")
+    else:  # the run's loop topics in a partition of its own (see ros.partition)
+        name = partition.new_partition()
+        env[partition.PROFILES_ENV] = str(partition.write_run_profile(out_dir / "fastdds.xml", name))
+        env[partition.PARTITION_ENV] = name
+    node_env = dict(env)
+    if realtime:
+        node_env[scheduling.PACING_RT_ENV] = str(scheduling.PACING_RT_PRIORITY)
+    node_args = ["--ros-args", "--params-file", str(params_file)]
+    nodes = ([Process("stack", "all_in_one", node_args, node_env)] if single_process
+             else [Process(name, name, node_args, node_env) for name in NODE_ORDER])
+    recorder = Process("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] if sim_time else []), env)
+    return RunPlan(out_dir, bag_dir, counts_dir, recorder, nodes, sim_time, notes)

@@ -1,0 +1,120 @@
+"""Child processes as ``ros2 launch`` runs them: each forked from this image
+(``forking``) with its place on the machine (``scheduling``), its output
+prefixed with its name, stopped with SIGINT then SIGKILL if it hangs, and
+dying with the launcher even if that is killed (``PR_SET_PDEATHSIG``)."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from robot_controller.ros import scheduling
+from robot_controller.runner import forking
+
+STOP_TIMEOUT_S = 5.0
+
+
+# Re-entrant: a signal handler that prints must not deadlock on a print it interrupted.
+_print_lock = threading.RLock()
+
+
+def say(message: str) -> None:
+    with _print_lock:
+        print(f"[launcher] {message}", flush=True)
+
+
+def _child_setup(place: scheduling.Placement) -> Callable[[], None]:
+    def setup() -> None:  # runs in the child, first thing after the fork
+        forking.die_with_parent()
+        scheduling.apply_in_child(place)
+
+    return setup
+
+
+@dataclass
+class Child:
+    name: str
+    process: forking.ForkedProcess
+    reader: threading.Thread  #: relays its output; started by ``ProcessGroup.relay``
+    module: str = ""
+    args: list[str] = field(default_factory=list)
+
+
+@dataclass
+class ProcessGroup:
+    """Child processes with prefixed output; a context manager that always stops them."""
+
+    env: dict[str, str]
+    children: list[Child] = field(default_factory=list)
+
+    def start(self, name: str, module: str, args: list[str], *, env: dict[str, str] | None = None,
+              on_line: Callable[[str], bool] | None = None, wall_clock: bool = True) -> Child:
+        """Fork ``robot_controller.nodes.<module>`` as ``name`` with ``args``; ``on_line``
+        sees each output line first and returns True for lines it consumed (not printed)."""
+        process = forking.fork(module, [f"robot_controller.nodes.{module}", *args], env or self.env,
+                               _child_setup(scheduling.placement(name, wall_clock)))
+        reader = threading.Thread(target=self._relay, args=(name, process, on_line), daemon=True)
+        child = Child(name, process, reader, module, args)
+        self.children.append(child)
+        return child
+
+    @staticmethod
+    def _relay(name: str, process: forking.ForkedProcess, on_line: Callable[[str], bool] | None) -> None:
+        assert process.stdout is not None
+        for line in process.stdout:
+            if on_line is not None and on_line(line):
+                continue
+            with _print_lock:
+                sys.stdout.write(f"[{name}] {line}")
+                sys.stdout.flush()
+
+    def restart(self, child: Child, *, env: dict[str, str]) -> Child:
+        """Start a dead child again, same module and arguments (``--respawn``)."""
+        child.reader.join(timeout=1.0)
+        self.children.remove(child)
+        again = self.start(child.name, child.module, child.args, env=env)
+        self.relay()
+        return again
+
+    def relay(self) -> None:
+        """Start relaying every child's output. Only once all are forked: a fork
+        copies one thread, and the locks the others held, into the child."""
+        for child in self.children:
+            if not child.reader.is_alive() and child.reader.ident is None:
+                child.reader.start()
+
+    def dead(self) -> list[tuple[str, int]]:
+        return [(c.name, c.process.returncode) for c in self.children if c.process.poll() is not None]
+
+    def stop(self, children: list[Child] | None = None) -> dict[str, int]:
+        """SIGINT ``children`` (default all), wait, then SIGKILL stragglers. Returns each one's exit code."""
+        children = self.children if children is None else children
+        for child in children:
+            if child.process.poll() is None:
+                try:
+                    os.killpg(child.process.pid, signal.SIGINT)
+                except ProcessLookupError:
+                    pass
+        deadline = time.monotonic() + STOP_TIMEOUT_S
+        for child in children:
+            try:
+                child.process.wait(timeout=max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                say(f"{child.name} ignored SIGINT for {STOP_TIMEOUT_S:g} s: killing it")
+                os.killpg(child.process.pid, signal.SIGKILL)
+                child.process.wait()
+        for child in children:
+            if child.reader.ident is not None:
+                child.reader.join(timeout=1.0)
+        return {c.name: c.process.returncode for c in children}
+
+    def __enter__(self) -> ProcessGroup:
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.stop()

@@ -1,0 +1,175 @@
+"""Watching a run while it goes: what the recorder reports (ready, counts,
+/clock), the waits for the loop to close and to end (a dead node, a stalled
+lockstep, respawns), CPU and memory over the run, and Ctrl-C handling."""
+from __future__ import annotations
+
+import json
+import os
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from robot_controller.nodes import recorder as rec
+from robot_controller.runner import proc_stats
+from robot_controller.runner.processes import Child, ProcessGroup, say
+
+FIRST_TICK_TIMEOUT_S = 20.0
+
+# Lockstep: no /clock progress for this long (wall) means the graph is stuck.
+STALL_TIMEOUT_S = 10.0
+
+
+class RecorderLink:
+    """What the recorder process reports on its stdout: ready, counts, /clock."""
+
+    def __init__(self, topics: list[str]) -> None:
+        self.ready = threading.Event()
+        self.counts = {topic: 0 for topic in topics}
+        self.oversize: dict[str, int] = {}  #: messages the recorder dropped as too large, per topic
+        self.clock_s = 0.0
+
+    def on_line(self, line: str) -> bool:
+        if line.startswith(rec.PROGRESS_PREFIX):
+            progress = json.loads(line[len(rec.PROGRESS_PREFIX):])
+            self.counts, self.clock_s = progress["counts"], progress["clock_s"]
+            self.oversize = progress.get("oversize", {})
+            return True
+        if line.strip() == rec.READY_LINE:
+            self.ready.set()
+            return True
+        return False
+
+
+RECORDER_READY_TIMEOUT_S = 30.0
+# CPU and memory are measured from this long after the loop closes (start-up
+# allocations and imports are not the loop's running cost) to its end.
+USAGE_WARMUP_S = 2.0
+
+
+class UsageMeter:
+    """Samples every child (and this launcher) once at ``start_at`` and once at the end."""
+
+    def __init__(self, children: list[Child], start_at: float) -> None:
+        self.pids = {c.name: c.process.pid for c in children}
+        self.start_at = start_at
+        self.first: dict[str, proc_stats.Sample | None] | None = None
+        self.first_time = 0.0
+
+    def _sample(self) -> dict[str, proc_stats.Sample | None]:
+        out = {name: proc_stats.sample(pid) for name, pid in self.pids.items()}
+        out["launcher"] = proc_stats.self_sample()
+        return out
+
+    def forget(self, name: str) -> None:
+        """A process that was replaced (respawned): its share is not measured."""
+        self.pids.pop(name, None)
+        if self.first is not None:
+            self.first.pop(name, None)
+
+    def poll(self) -> None:
+        if self.first is None and time.monotonic() >= self.start_at:
+            self.first, self.first_time = self._sample(), time.monotonic()
+
+    def finish(self) -> dict[str, float]:
+        if self.first is None:
+            return {}
+        return proc_stats.usage(self.first, self._sample(), time.monotonic() - self.first_time)
+
+
+def read_published_counts(counts_dir: Path, replaced: set[str] = frozenset()) -> dict[str, int]:
+    """Per topic, what the nodes say they published. A node that was killed and
+    respawned took its count with it: its topics are left out (unknown)."""
+    total: dict[str, int] = {}
+    unknown: set[str] = set()
+    for path in counts_dir.glob("*.json"):
+        try:
+            counts = {topic: int(count) for topic, count in json.loads(path.read_text()).items()}
+        except (OSError, ValueError):
+            continue
+        if path.stem in replaced:
+            unknown.update(counts)
+        for topic, count in counts.items():
+            total[topic] = total.get(topic, 0) + count
+    return {topic: count for topic, count in total.items() if topic not in unknown}
+
+
+def raise_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+def patient_handler() -> Callable[[int, Any], None]:
+    """After the first interrupt: further ones only say that the stop is under way."""
+    said = [False]
+
+    def handler(signum, frame) -> None:
+        if not said[0]:
+            said[0] = True
+            # Straight to the file descriptor: no lock, no buffer the interrupted code may hold.
+            os.write(1, b"[launcher] already stopping: nodes get 5 s to exit, then the recording is scored\n")
+
+    return handler
+
+def wait_recorder(link: RecorderLink, group: ProcessGroup) -> str | None:
+    deadline = time.monotonic() + RECORDER_READY_TIMEOUT_S
+    while not link.ready.wait(0.05):
+        if dead := group.dead():
+            return died(dead)
+        if time.monotonic() > deadline:
+            return f"the recorder was not ready within {RECORDER_READY_TIMEOUT_S:g} s"
+    return None
+
+
+def wait_first_tick(link: RecorderLink, group: ProcessGroup) -> str | None:
+    deadline = time.monotonic() + FIRST_TICK_TIMEOUT_S
+    while not link.counts.get("/controller/state"):
+        if dead := group.dead():
+            return died(dead)
+        if time.monotonic() > deadline:
+            return f"no /controller/state within {FIRST_TICK_TIMEOUT_S:g} s of start"
+        time.sleep(0.02)
+    return None
+
+
+MAX_RESPAWNS = 5  # per node and run: a node that keeps dying ends the run
+
+
+def wait_wall(group: ProcessGroup, until: float, meter: UsageMeter, poll: Callable[[], None] | None = None,
+          restart: Callable[[Child], Child] | None = None) -> str | None:
+    respawned: dict[str, int] = {}
+    while (remaining := until - time.monotonic()) > 0:
+        if dead := group.dead():
+            children = [c for c in group.children if c.process.returncode is not None]
+            if restart is None or any(c.name == "recorder" or respawned.get(c.name, 0) >= MAX_RESPAWNS
+                                      for c in children):
+                return died(dead)
+            for child in children:
+                respawned[child.name] = respawned.get(child.name, 0) + 1
+                say(f"{child.name} died (exit code {child.process.returncode}): respawning "
+                    f"({respawned[child.name]} of {MAX_RESPAWNS})")
+                meter.forget(child.name)
+                restart(child)
+        meter.poll()
+        if poll is not None:
+            poll()
+        time.sleep(min(0.1, remaining))
+    return None
+
+
+def wait_sim(group: ProcessGroup, link: RecorderLink, until_sim_s: float, meter: UsageMeter) -> str | None:
+    last_clock, last_change = link.clock_s, time.monotonic()
+    while link.clock_s < until_sim_s:
+        if dead := group.dead():
+            return died(dead)
+        meter.poll()
+        if link.clock_s != last_clock:
+            last_clock, last_change = link.clock_s, time.monotonic()
+        elif time.monotonic() - last_change > STALL_TIMEOUT_S:
+            return f"lockstep stalled at t = {last_clock:.3f} s: no tick for {STALL_TIMEOUT_S:g} s"
+        time.sleep(0.01)
+    return None
+
+
+def died(dead: list[tuple[str, int]]) -> str:
+    return "node died: " + ", ".join(f"{name} (exit code {code})" for name, code in dead)
