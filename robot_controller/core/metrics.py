@@ -1,4 +1,4 @@
-"""Metrics of DESIGN.md §5, as functions on arrays: they score a live run,
+"""Metrics of docs/design.md §7, as functions on arrays: they score a live run,
 an in-process simulation or a recording read back from a bag alike."""
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ peak speed) one node gets ``SIGSTOP``, then ``SIGCONT`` after the case's
 duration. From the recording: how far the TRUE angle left the band the
 reference sweeps (``max_deviation_rad``), how long after the fault it was
 back within 2 mrad of the planned trajectory (``reacquire_s``), the peak
-torque and whether the brakes engaged. DESIGN.md §1b says what each node's
+torque and whether the brakes engaged. docs/design.md §4 says what each node's
 loss must cause; this is how it is checked.
 """
 from __future__ import annotations

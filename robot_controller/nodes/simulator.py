@@ -10,7 +10,7 @@ the sensor, and through its readings the controller, tick on a steady grid.
 A new effort, taken on the executor thread, first steps the physics up to
 its arrival on the old torque: it acts from the physics step it arrived in.
 
-Protections of the drive (DESIGN.md §1b), as real hardware has them: each
+Protections of the drive (docs/design.md §4), as real hardware has them: each
 joint has a holding brake, engaged before the first effort, on e-stop
 (``/estop``, ``std_msgs/Bool``, latched; or the ``/simulator/estop``
 ``std_srvs/SetBool`` service), when the motor asks (``/sim/brake``), and

@@ -10,7 +10,7 @@ process is real-time:
   the planner a little lower, and observers (recorder) at nice +10, so on a
   busy machine the loop wins without being able to freeze it;
 - one thread alone, the simulator's pacing thread (it is the loop's
-  hardware clock, DESIGN.md §3), may run SCHED_FIFO, and only with a budget:
+  hardware clock, docs/design.md §5), may run SCHED_FIFO, and only with a budget:
   ``RLIMIT_RTTIME`` makes the kernel signal it after ``RT_BUDGET_US`` of CPU
   without sleeping, and the handler drops it back to normal policy. It sleeps
   between deadlines and uses about 3 % of a core, far from the throttling

@@ -1,5 +1,5 @@
 """Score a run from its recording: read the bag, compute the metrics of
-DESIGN.md §5, write ``metrics.json`` and ``tracking.png``. Works on any saved
+docs/design.md §7, write ``metrics.json`` and ``tracking.png``. Works on any saved
 bag, so a run can be re-scored later (``robot-controller score DIR``)."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Faults on the real graph (DESIGN.md §1b): a frozen node, an e-stop, a
+"""Faults on the real graph (docs/design.md §4): a frozen node, an e-stop, a
 configuration that disagrees. Each test runs the project's own commands on
 its own ROS_DOMAIN_ID and judges the arm by the TRUE angle in the recording."""
 import json
