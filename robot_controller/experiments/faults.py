@@ -25,7 +25,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.runner import launcher
-from robot_controller.scoring import report
+from robot_controller.scoring import plots, report
 
 NODES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
 DURATIONS_S = (0.05, 0.5, 3.0)
@@ -130,7 +130,7 @@ def run_case(case: Case, out: Path, params: cfg.Params) -> dict[str, Any]:
     if result.failure:
         entry["failure"] = result.failure
     report.write_metrics(out / "metrics.json", values)
-    report.plot_tracking(recording, out / "tracking.png", title=f"{case.node} frozen {case.duration_s:g} s")
+    plots.plot_tracking(recording, out / "tracking.png", title=f"{case.node} frozen {case.duration_s:g} s")
     return entry
 
 

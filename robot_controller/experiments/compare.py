@@ -1,8 +1,6 @@
-"""Experiments built on runs: step responses and the controller comparison.
-
-Each run is a real one (launcher → recording → score); these functions only
-choose parameters and put figures side by side.
-"""
+"""The controller comparison (``robot-controller compare``): each contender on
+the sine and on a step, over several seeds, in lockstep, side by side; real
+runs all (``step.run_and_score``), several at once on domains of their own."""
 from __future__ import annotations
 
 import multiprocessing
@@ -16,105 +14,8 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.runner import launcher
+from robot_controller.experiments.step import STEP_AFTER_S, run_and_score, step_response
 from robot_controller.scoring import report
-from robot_controller.core import metrics
-
-STEP_LEAD_S = 0.5  # time at the start position before the step, s
-STEP_AFTER_S = 2.0  # recorded after the step, s
-
-
-def run_and_score(params: cfg.Params, out: Path, *, duration_s: float, sim_time: bool,
-                  single_process: bool = False, domain_id: int | None = None
-                  ) -> tuple[dict[str, Any], report.Recording]:
-    result = launcher.launch(params, out_dir=out, duration_s=duration_s, sim_time=sim_time,
-                             single_process=single_process, domain_id=domain_id)
-    result.raise_if_interrupted()
-    if result.exit_code != 0:
-        raise RuntimeError(f"run in {out} failed: {result.failure}")
-    recording = report.read_recording(result.bag_dir)
-    values = report.score(recording, nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
-                          window_s=duration_s if sim_time else None)
-    return values, recording
-
-
-def step_params(params: cfg.Params, amplitude: float, shaping: str) -> cfg.Params:
-    return cfg.merge(params, {"trajectory_planner": {"mode": "step", "amplitude": [amplitude],
-                                                     "step_time_s": STEP_LEAD_S, "step_shaping": shaping}})
-
-
-def step_figures(recording: report.Recording, amplitude: float, offset: float = 0.0,
-                 after_s: float | None = STEP_AFTER_S) -> dict[str, Any]:
-    """Step-response figures on the TRUE angle, timed from the tick where the reference starts to move,
-    over the ``after_s`` seconds that follow it (None: to the end of the recording).
-
-    The recording runs on past the requested duration for as long as the nodes
-    take to stop, a different time each run: settling, overshoot and the
-    steady-state error (the last 10 % of the record) would depend on it.
-    """
-    s = recording.state
-    t = s["time_s"]
-    reference = s["reference"][:, 0]
-    # The step starts after the last sample at rest: the reference may first
-    # blend in from where the joint was, and it never comes back after the step.
-    at_rest = np.flatnonzero(np.abs(reference - offset) <= 1e-9)
-    if at_rest.size == 0:
-        raise ValueError("no sample at rest before the step: the recording misses the run's start")
-    if at_rest[-1] == len(t) - 1:
-        raise ValueError("the reference never moved: no step in this recording")
-    step_time = t[at_rest[-1]]
-    true = metrics.true_position_at(t, recording.true_time_s, recording.true_position,
-                                    recording.true_velocity)[:, 0]
-    ok = np.isfinite(true)
-    if after_s is not None:
-        ok &= t < step_time + after_s - 1e-9
-    figures = metrics.step_metrics(t[ok], true[ok], initial=offset, target=offset + amplitude, step_time_s=step_time,
-                                   torque=s["command"][ok & (t >= step_time), 0])
-    figures["step_time_s"] = float(step_time - t[0])
-    return figures
-
-
-def plot_step(recording: report.Recording, path: Path, title: str) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    s = recording.state
-    t = s["time_s"] - s["time_s"][0]
-    true = metrics.true_position_at(s["time_s"], recording.true_time_s, recording.true_position,
-                                    recording.true_velocity)
-    fig, (ax_q, ax_u) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
-    ax_q.plot(t, s["reference"][:, 0], "k--", label="reference")
-    ax_q.plot(t, true[:, 0], label="true")
-    ax_q.plot(t, s["measured"][:, 0], ".", ms=2, alpha=0.4, label="estimate the law used")
-    ax_q.set_ylabel("position [rad]")
-    ax_u.plot(t, s["command"][:, 0], label="command")
-    ax_u.plot(t, s["feedforward"][:, 0], lw=0.8, label="feedforward")
-    ax_u.axhline(10, color="r", lw=0.6)
-    ax_u.axhline(-10, color="r", lw=0.6)
-    ax_u.set_ylabel("torque [N·m]")
-    ax_u.set_xlabel("time [s]")
-    for ax in (ax_q, ax_u):
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    fig.suptitle(title)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def step(params: cfg.Params, out: Path, *, amplitude: float, shaping: str, sim_time: bool, seed: int,
-         domain_id: int | None = None) -> dict[str, Any]:
-    params = step_params(params, amplitude, shaping)
-    params["sensor_node"]["seed"] = seed
-    values, recording = run_and_score(params, out, duration_s=STEP_LEAD_S + STEP_AFTER_S, sim_time=sim_time,
-                                      domain_id=domain_id)
-    values.update(step_figures(recording, amplitude))
-    values.update({"amplitude_rad": amplitude, "step_shaping": shaping, "seed": seed,
-                   "clock": "sim_lockstep" if sim_time else "wall"})
-    report.write_metrics(out / "metrics.json", values)
-    plot_step(recording, out / "step.png", f"{amplitude} rad step ({shaping}), seed {seed}")
-    return values
 
 
 @dataclass(frozen=True)
@@ -192,7 +93,7 @@ def _compare_pair(contender: Contender, seed: int, out: Path, sine_duration_s: f
     _stop_if_asked()
     step_out = out / contender.name / f"step_{seed}"
     try:
-        figures = step(base, step_out, amplitude=amplitude, shaping="min_time", sim_time=True, seed=seed,
+        figures = step_response(base, step_out, amplitude=amplitude, shaping="min_time", sim_time=True, seed=seed,
                        domain_id=domain_id)
     except ValueError as exc:  # no step in the recording
         raise RuntimeError(f"run in {step_out} failed: {exc}") from None
@@ -304,7 +205,7 @@ def render_compare(table, seeds: int, sine_duration_s: float, amplitude: float) 
                ("step_settling_time_s", "settling 2 % [s]", "{:.3f}"),
                ("step_rise_time_s", "rise 10–90 % [s]", "{:.3f}"),
                ("step_peak_torque_nm", "peak torque [N·m]", "{:.2f}")]
-    lines = [f"# Controller comparison", "",
+    lines = ["# Controller comparison", "",
              f"Reference scenario, sim-time lockstep, {seeds} seed(s) each: sine 1 rad 0.5 Hz for "
              f"{sine_duration_s:g} s (2 s warm-up), {amplitude} rad step shaped to the fastest move within "
              f"60 rad/s². Figures on the TRUE joint angle; mean ± standard deviation over seeds.", "",

@@ -1,0 +1,185 @@
+"""A run's bag read back as arrays (``Recording``): every topic the scoring
+needs, decoded; messages that do not fit the run (malformed, another joint
+count) skipped and counted; a torn bag (its recorder killed) rebuilt first."""
+from __future__ import annotations
+
+import bisect
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import Stores, get_typestore
+
+from robot_controller.core import state_layout
+from robot_controller.scoring import bag_recovery
+
+
+@dataclass
+class Recording:
+    """The loop's signals read back from a bag, as arrays (times in s)."""
+
+    state: dict[str, np.ndarray]  #: /controller/state decoded; ``time_s`` is the controller's tick time
+    true_time_s: np.ndarray
+    true_position: np.ndarray
+    true_velocity: np.ndarray
+    true_effort: np.ndarray
+    counts: dict[str, int] = field(default_factory=dict)
+    receipt_s: dict[str, np.ndarray] = field(default_factory=dict)  #: bag receive times per topic
+    motor_latency_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: stamp → command at the motor
+    reading_stamp_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: /joint_states stamps
+    reading_position: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))  #: the raw, noisy readings
+    #: the planner's samples: their time (its stamp, else when recorded) and positions
+    planned_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    planned_position: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
+    planned_velocity: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
+    #: messages that could not be decoded or did not fit the run's joint count, per topic: skipped
+    malformed: dict[str, int] = field(default_factory=dict)
+    #: /sim/brakes: when recorded, and 1/0 per joint
+    brakes_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    brakes: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
+
+    def raw_reading_at(self, stamps_s: np.ndarray) -> np.ndarray:
+        """The sensor's raw position for each measurement stamp (NaN where not recorded).
+
+        ``/controller/state`` carries what the law acted on, which is the
+        Kalman estimate when the filter is on; ``measured_rms_rad`` is defined
+        on the noisy reading itself.
+        """
+        out = np.full((len(stamps_s), self.true_position.shape[1]), np.nan)
+        if len(self.reading_stamp_s) == 0:
+            return out
+        keys = np.round(self.reading_stamp_s * 1e6).astype(np.int64)
+        order = np.argsort(keys)
+        wanted = np.round(np.asarray(stamps_s) * 1e6).astype(np.int64)
+        index = np.clip(np.searchsorted(keys[order], wanted), 0, len(keys) - 1)
+        found = keys[order][index] == wanted
+        out[found] = self.reading_position[order][index[found]]
+        return out
+
+    @property
+    def joint_count(self) -> int:
+        return self.true_position.shape[1]
+
+
+def read_recording(bag_dir: Path) -> Recording:
+    """Read a run's bag. A message that cannot be decoded, or whose sizes do not
+    fit the run (an empty ``JointState``, a short ``/controller/state``: anyone
+    on the domain could have published it), is skipped and counted in
+    ``malformed``; what is left is scored."""
+    bag_dir = Path(bag_dir)
+    if bag_recovery.needs_recovery(bag_dir):
+        # The recorder was killed: rebuild the bag from its complete chunks first.
+        recovered = bag_recovery.recover(bag_dir)
+        print(f"{bag_dir}: the recording was not closed (recorder killed); recovered {recovered} messages "
+              f"into a complete bag, the torn file kept as {bag_dir.name}.torn", file=sys.stderr)
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    decoded: dict[str, list[tuple[int, Any]]] = {topic: [] for topic in WANTED_TOPICS}
+    receipt: dict[str, list[int]] = {}
+    malformed: dict[str, int] = {}
+    with Reader(bag_dir) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+        for connection in reader.connections:
+            receipt.setdefault(connection.topic, [])
+        for connection, timestamp, raw in reader.messages():
+            receipt[connection.topic].append(timestamp)
+            if connection.topic not in decoded:
+                continue
+            try:
+                decoded[connection.topic].append((timestamp, typestore.deserialize_cdr(raw, connection.msgtype)))
+            except Exception:  # noqa: BLE001 - any undecodable bytes: skipped, counted
+                malformed[connection.topic] = malformed.get(connection.topic, 0) + 1
+    joint_count = _joint_count_of(decoded)
+
+    def keep(topic: str, rows: list[Any], fits: Any) -> list[Any]:
+        good = [row for row in rows if fits(row)]
+        if len(good) < len(rows):
+            malformed[topic] = malformed.get(topic, 0) + len(rows) - len(good)
+        return good
+
+    def joint_state_fits(row: tuple[int, Any]) -> bool:
+        msg = row[1]
+        return (len(msg.position) == joint_count and len(msg.velocity) == joint_count
+                and np.all(np.isfinite(msg.position)) and np.all(np.isfinite(msg.velocity)))
+
+    state_width = state_layout.width(joint_count)
+    state_rows = [np.asarray(msg.data, dtype=float) for _, msg in
+                  keep("/controller/state", decoded["/controller/state"], lambda r: len(r[1].data) == state_width)]
+    true = keep("/sim/joint_states", decoded["/sim/joint_states"],
+                lambda r: joint_state_fits(r) and len(r[1].effort) == joint_count)
+    readings = keep("/joint_states", decoded["/joint_states"], joint_state_fits)
+    if not state_rows or not true:
+        raise ValueError(f"{bag_dir}: no usable /controller/state or /sim/joint_states recorded")
+    state = state_layout.decode(np.vstack(state_rows), joint_count)
+    # Our planner's message is [positions, velocities, accelerations, time_s]; the tutorial's [p, v].
+    planned = []
+    for timestamp, msg in decoded["/trajectory"]:
+        data = np.asarray(msg.data, dtype=float)
+        if len(data) == 3 * joint_count + 1 and np.all(np.isfinite(data)):
+            planned.append((data[-1], data[:joint_count], data[joint_count:2 * joint_count]))
+        elif len(data) == 2 * joint_count and np.all(np.isfinite(data)):
+            planned.append((timestamp * 1e-9, data[:joint_count], data[joint_count:]))
+        else:
+            malformed["/trajectory"] = malformed.get("/trajectory", 0) + 1
+    brakes = keep("/sim/brakes", [(t, np.asarray(m.data, dtype=float)) for t, m in decoded["/sim/brakes"]],
+                  lambda r: r[1].size == joint_count)
+    receipts = [np.asarray(m.data, dtype=float) for _, m in decoded["/motor/command_receipts"]]
+    receipts = [r for r in receipts if r.size % (1 + joint_count) == 0]
+    latency = [v for _, m in decoded["/motor/command_latency"] for v in m.data]  # bags from before the receipts
+    if receipts:
+        latency = motor_latency_s(state, np.concatenate(receipts).reshape(-1, 1 + joint_count)).tolist()
+
+    def stamp(msg: Any) -> float:
+        return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+    def rows(values: list[np.ndarray]) -> np.ndarray:
+        return np.vstack(values) if values else np.zeros((0, joint_count))
+
+    return Recording(
+        state=state, true_time_s=np.array([stamp(m) for _, m in true]),
+        true_position=rows([np.asarray(m.position, float) for _, m in true]),
+        true_velocity=rows([np.asarray(m.velocity, float) for _, m in true]),
+        true_effort=rows([np.asarray(m.effort, float) for _, m in true]), counts=counts,
+        receipt_s={k: np.asarray(v) * 1e-9 for k, v in receipt.items()},
+        motor_latency_s=np.asarray(latency, dtype=float), reading_stamp_s=np.array([stamp(m) for _, m in readings]),
+        reading_position=rows([np.asarray(m.position, float) for _, m in readings]),
+        planned_time_s=np.array([t for t, _, _ in planned]), planned_position=rows([q for _, q, _ in planned]),
+        planned_velocity=rows([v for _, _, v in planned]),
+        brakes_time_s=np.array([t * 1e-9 for t, _ in brakes]), brakes=rows([b for _, b in brakes]),
+        malformed=malformed)
+
+
+WANTED_TOPICS = ("/controller/state", "/sim/joint_states", "/motor/command_latency", "/motor/command_receipts",
+                 "/joint_states", "/trajectory", "/sim/brakes")
+
+
+def _joint_count_of(decoded: dict[str, list[tuple[int, Any]]]) -> int:
+    """The run's joint count: what most true-state messages carry (a stray one cannot change it)."""
+    sizes = [len(msg.position) for _, msg in decoded["/sim/joint_states"] if len(msg.position) > 0]
+    if not sizes:
+        raise ValueError("no /sim/joint_states with joint positions recorded")
+    values, counts = np.unique(sizes, return_counts=True)
+    return int(values[np.argmax(counts)])
+
+
+def motor_latency_s(state: dict[str, np.ndarray], receipts: np.ndarray) -> np.ndarray:
+    """Sensor stamp → command at the motor, per command the motor received.
+
+    ``receipts`` rows are ``[receipt_time_s, command…]`` (the motor's); each is
+    paired with the controller tick that issued the same command, the latest
+    whose reading was taken before the receipt.
+    """
+    stamps_by_command: dict[tuple[float, ...], list[float]] = {}
+    for command, stamp in zip(map(tuple, state["command"].tolist()), state["measurement_stamp_s"].tolist()):
+        stamps_by_command.setdefault(command, []).append(stamp)
+    out = []
+    for row in receipts.tolist():
+        stamps = stamps_by_command.get(tuple(row[1:]))
+        if not stamps:
+            continue  # a command from another publisher, or its tick not recorded
+        index = bisect.bisect_right(stamps, row[0]) - 1  # stamps are in tick order
+        if index >= 0:
+            out.append(row[0] - stamps[index])
+    return np.asarray(out)

@@ -1,0 +1,202 @@
+"""The verbs of ``robot-controller``, each a plain function taking typed
+arguments and returning an exit code (``cli`` only parses and dispatches).
+A user's mistake raises ``UsageError`` or ``ConfigError``: one line, exit 2."""
+from __future__ import annotations
+
+import datetime as dt
+import json
+import os
+import signal
+import sys
+from pathlib import Path
+
+from robot_controller import parameters as cfg
+from robot_controller.parameters import consistency as config_check
+from robot_controller.core.errors import ConfigError
+
+
+class UsageError(Exception):
+    """A mistake of the user's: one line on stderr, exit code 2."""
+
+
+# What marks a directory as holding results already.
+RESULT_FILES = ("params.yaml", "bag", "metrics.json", "bench.json", "compare.json", "faults.json", "report.md")
+
+
+def output_dir(out: Path | None, default: Path) -> Path:
+    """Where a verb writes. An ``--out`` that holds results is refused (nothing is
+    overwritten); the default location, if used already, becomes a fresh
+    sibling (``runs/faults-2``), said on screen."""
+    chosen = out if out is not None else default
+    if chosen.exists() and not chosen.is_dir():
+        raise UsageError(f"--out {chosen}: exists and is not a directory")
+    if chosen.is_dir() and any((chosen / name).exists() for name in RESULT_FILES):
+        if out is not None:
+            raise UsageError(f"--out {chosen}: holds an earlier run; choose another directory (nothing was changed)")
+        n = 2
+        while (chosen.parent / f"{chosen.name}-{n}").exists():
+            n += 1
+        chosen = chosen.parent / f"{chosen.name}-{n}"
+        print(f"robot-controller: {default} holds an earlier run: writing to {chosen}", file=sys.stderr)
+    try:
+        chosen.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"--out {chosen}: cannot create it ({exc.strerror})") from None
+    if not os.access(chosen, os.W_OK | os.X_OK):
+        raise UsageError(f"--out {chosen}: not writable")
+    return chosen
+
+
+HEADLINE = ("tracking_rms_rad", "tracking_max_rad", "measured_rms_rad", "control_rate_hz", "jitter_p99_ms",
+            "missed_cycles", "latency_p50_ms", "latency_p99_ms", "peak_torque_nm", "duration_s", "real_time_factor")
+
+
+def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: list[Path] | None,
+        single_process: bool, realtime: bool = False, sim_time: bool = False, respawn: bool = False) -> int:
+    from robot_controller.runner import launcher
+    from robot_controller.scoring import plots, report
+
+    params = cfg.load_stack(preset, config)
+    params["sensor_node"]["seed"] = seed
+    config_check.check_stack(params)  # before the output folder is made
+    out = output_dir(out, Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S"))
+    result = launcher.launch(params, out_dir=out, duration_s=duration_s, single_process=single_process,
+                             realtime=realtime, sim_time=sim_time, respawn=respawn)
+    if result.interrupted:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # scoring takes a second: let it finish
+    if result.exit_code != 0 and not any(result.message_counts.values()):
+        return result.exit_code
+    try:
+        recording = report.read_recording(result.bag_dir)
+        values = report.score(recording, nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
+                              window_s=duration_s if sim_time else None)
+    except ValueError as exc:
+        launcher.say(f"cannot score the recording: {exc}")
+        return result.exit_code or 1
+    recorded_s = result.control_seconds if result.interrupted or not sim_time else duration_s
+    values.update({"duration_s": round(recorded_s, 3), "interrupted": result.interrupted, "preset": preset,
+                   "seed": seed, "mode": "single_process" if single_process else "multi_process",
+                   "clock": "sim_lockstep" if sim_time else "wall"})
+    # Wall-clock figures of a lockstep run differ run to run: keep them out of metrics.json.
+    wall = {"real_time_factor": result.real_time_factor, "wall_duration_s": result.wall_seconds}
+    # How many messages the bag misses depends on when the nodes stopped, not on the seed.
+    (wall if sim_time else values)["unrecorded_messages"] = sum(result.unrecorded.values())
+    if sim_time:
+        wall.update(result.usage)
+    else:
+        values["realtime_requested"] = realtime
+        values.update(result.usage)
+    report.write_metrics(out / "metrics.json", values)
+    if sim_time:
+        report.write_metrics(out / "timing.json", wall)
+    plots.plot_tracking(recording, out / "tracking.png", title=f"preset {preset}, seed {seed}")
+    print_table(values | (wall if sim_time else {}), title=f"run: preset {preset}, seed {seed} → {out}")
+    return result.exit_code
+
+
+def score(run_dir: Path, *, as_json: bool = False) -> int:
+    from robot_controller.scoring import report
+
+    try:
+        recording = report.read_recording(run_dir / "bag")
+        values = report.score(recording)
+    except (FileNotFoundError, ValueError) as exc:
+        print(f"robot-controller: cannot score {run_dir}: {exc}", file=sys.stderr)
+        return 2
+    if as_json:
+        print(json.dumps(values, indent=2, sort_keys=True))
+    else:
+        print_table(values, title=f"re-scored {run_dir / 'bag'}")
+    return 0
+
+
+def bench(out: Path, *, quick: bool, soak_s: float | None = None) -> int:
+    from robot_controller.experiments import bench as bench_module
+
+    bench_module.bench(out, quick=quick, soak_s=soak_s, progress=lambda text: print(f"[bench] {text}", flush=True))
+    print((out / "bench.md").read_text())
+    return 0
+
+
+def step(*, amplitude: float, shaping: str, out: Path | None, preset: str, seed: int, config: list[Path] | None,
+         sim_time: bool) -> int:
+    from robot_controller.experiments import step as experiments
+
+    params = cfg.load_stack(preset, config)
+    config_check.check_stack(experiments.step_params(params, amplitude, shaping))
+    out = output_dir(out, Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S")))
+    try:
+        values = experiments.step_response(params, out, amplitude=amplitude, shaping=shaping, sim_time=sim_time, seed=seed)
+    except ConfigError:
+        raise  # a user error: one line, exit 2
+    except (RuntimeError, ValueError) as exc:
+        print(f"robot-controller: {exc}", file=sys.stderr)
+        return 1
+    print_table(values, title=f"step {amplitude} rad ({shaping}) → {out}", headline=STEP_HEADLINE)
+    return 0
+
+
+def compare(*, out: Path, seeds: int, duration_s: float, amplitude: float) -> int:
+    from robot_controller.experiments import compare as experiments
+
+    try:
+        experiments.compare(out, seeds=seeds, sine_duration_s=duration_s, amplitude=amplitude,
+                            progress=lambda text: print(f"[compare] {text}", flush=True))
+    except (RuntimeError, ValueError, FileExistsError) as exc:
+        print(f"robot-controller: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("robot-controller: compare interrupted", file=sys.stderr)
+        return 130
+    print((out / "compare.md").read_text())
+    return 0
+
+
+def faults(out: Path, *, quick: bool) -> int:
+    from robot_controller.experiments import faults as faults_module
+
+    try:
+        faults_module.faults(out, quick=quick, progress=lambda text: print(f"[faults] {text}", flush=True))
+    except (RuntimeError, ValueError, FileExistsError) as exc:
+        print(f"robot-controller: {exc}", file=sys.stderr)
+        return 1
+    print((out / "faults.md").read_text())
+    return 0
+
+
+def estop(*, release: bool) -> int:
+    from robot_controller.ros import estop as estop_module
+
+    heard, report = estop_module.send(engage=not release)
+    print(f"robot-controller: {report}", file=sys.stdout if heard else sys.stderr)
+    return 0 if heard else 1
+
+
+def list_params(*, preset: str, config: list[Path] | None, as_yaml: bool) -> int:
+    values = cfg.load_stack(preset, config)
+    if as_yaml:
+        print(cfg.params_yaml(values), end="")
+        return 0
+    for node in cfg.NODES:
+        print(f"{node}:")
+        for spec in cfg.SCHEMA[node]:
+            print(f"  {spec.name} = {values[node][spec.name]!r}: {spec.describe()}"
+                  + (" (read-only)" if spec.read_only else ""))
+    return 0
+
+
+STEP_HEADLINE = ("overshoot_pct", "rise_time_s", "settling_time_s", "steady_state_error_rad", "peak_torque_nm")
+
+
+def print_table(values: dict, title: str, headline: tuple[str, ...] = HEADLINE) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=title)
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    for key in headline + tuple(sorted(k for k in values if k not in headline)):
+        if key in values:
+            value = values[key]
+            table.add_row(key, f"{value:.6g}" if isinstance(value, float) else str(value))
+    Console().print(table)
