@@ -30,36 +30,7 @@ from robot_controller.core.batch import ArmConstants, run_batch
 from robot_controller.core.pid import PidConfig
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.trajectory import make_trajectory
-
-
-@dataclass(frozen=True)
-class Target:
-    key: str
-    limit: float
-    at_most: bool  # True: figure ≤ limit is met; False: figure ≥ limit
-    text: str
-
-
-TARGETS = (
-    Target("soak_missed", 2, True, "soak (100 Hz wall clock, default preset): at most 2 missed cycles"),
-    Target("soak_stalls_30ms", 0, True, "soak: no period over 30 ms"),
-    Target("soak_watchdog_ticks", 0, True, "soak: the watchdog never cuts the torque"),
-    Target("soak_jitter_p99_ms", 0.5, True, "soak: p99 of the period's distance from 10 ms ≤ 0.5 ms at the controller"),
-    Target("soak_tracking_max_rad", 0.02, True, "soak: tracking error never over 20 mrad"),
-    Target("soak_rss_growth_mb", 5.0, True, "soak: no process grows by more than 5 MB"),
-    Target("cpu_pct_recorder", 10.0, True, "recorder ≤ 10 % of one core"),
-    Target("cpu_pct_total", 40.0, True, "whole stack, recorder included, ≤ 40 % of one core"),
-    Target("lockstep_rtf_vs_hop_limit", 0.7, False, "lockstep RTF (five processes) ≥ 70 % of the round-trip limit"),
-    Target("wall100_missed", 0, True, "100 Hz wall clock: zero missed cycles"),
-    Target("wall100_jitter_p99_ms", 0.5, True, "100 Hz: p99 jitter ≤ 0.5 ms"),
-    Target("wall100_loaded_missed", 0, True, "… with the other core loaded: zero missed cycles"),
-    Target("wall100_loaded_jitter_p99_ms", 0.5, True, "… with the other core loaded: p99 jitter ≤ 0.5 ms"),
-    Target("wall100_latency_p99_ms", 1.0, True, "latency sensor stamp → motor p99 ≤ 1 ms"),
-    Target("wall1k_missed_pct", 0.1, True, "1 kHz in one process: < 0.1 % missed cycles"),
-    Target("lockstep_rtf_multi", 20.0, False, "lockstep RTF ≥ 20, five processes"),
-    Target("lockstep_rtf_single", 100.0, False, "lockstep RTF ≥ 100, one process"),
-    Target("batch_sim_s_per_s", 10_000.0, False, "batch ≥ 10,000 simulated s per wall s"),
-)
+from robot_controller.experiments.bench_targets import TARGETS, render_markdown
 
 
 def _wall_run(params: cfg.Params, out: Path, duration_s: float, *, single_process: bool = False,
@@ -283,32 +254,5 @@ def bench(out_dir: Path, *, quick: bool = False, soak_s: float | None = None,
         figures.update({key: measured.get(key) for key in scenario.keys})  # None (null): not measured
         figures.update({k: v for k, v in measured.items() if k.endswith("_failure")})
     (out_dir / "bench.json").write_text(json.dumps(report.json_safe(figures), indent=2, sort_keys=True) + "\n")
-    (out_dir / "bench.md").write_text(render_markdown(figures))
+    (out_dir / "bench.md").write_text(render_markdown(figures, [(s.name, f"{s.name}_duration_s") for s in SCENARIOS]))
     return figures
-
-
-def render_markdown(figures: dict[str, Any]) -> str:
-    def fmt(value: Any) -> str:
-        if isinstance(value, float):
-            return f"{value:.4g}"
-        return str(value)
-
-    lines = [f"# robot-controller bench{' (quick)' if figures['quick'] else ''}", "",
-             f"Machine: {figures['machine']}, Python {figures['python']}. Durations: "
-             + ", ".join(f"{s.name} {figures[f'{s.name}_duration_s']:g} s" for s in SCENARIOS) + ".", "",
-             "## Targets", "", "| target | figure | met? |", "|---|---|---|"]
-    for target in TARGETS:
-        value = figures.get(target.key)
-        met = value is not None and (value <= target.limit if target.at_most else value >= target.limit)
-        if value is None:
-            verdict = "not measured"
-        elif met:
-            verdict = "yes"
-        elif target.at_most:
-            verdict = f"no: {fmt(value - target.limit)} over"
-        else:
-            verdict = f"no: {fmt(value / target.limit)}× of the target"
-        lines.append(f"| {target.text} | `{target.key}` = {fmt(value)} | {verdict} |")
-    lines += ["", "## All figures", "", "| key | value |", "|---|---|"]
-    lines += [f"| `{k}` | {fmt(v)} |" for k, v in sorted(figures.items())]
-    return "\n".join(lines) + "\n"

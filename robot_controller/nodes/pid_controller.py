@@ -12,6 +12,10 @@ Wall clock: a timer ticks at the control rate (``trigger: timer``), or each
 new reading does (``trigger: measurement``, with the timer left to run the
 watchdog when readings stop). Lockstep: each measurement is a tick, computed
 once the reference sample due by then has arrived.
+
+Longer than our ~250-line guideline: one node, one file (the ros2/examples
+habit), with its two triggers, the lockstep pairing of readings with ticks
+and its loop-health report; every decision about torque is in the core.
 """
 from __future__ import annotations
 

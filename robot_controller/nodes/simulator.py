@@ -22,6 +22,10 @@ Lockstep (``lockstep: true``, sim time): the sim owns time. It publishes
 ``/clock`` and the state for tick k, then waits; the effort for tick k
 advances exactly one control period. No effort, no time: a run is
 deterministic and as fast as the graph can go.
+
+Longer than our ~250-line guideline: one node, one file (the ros2/examples
+habit), and a drive's three modes (paced, lockstep, braked) share its state.
+The physics is ``core.plant``; the kept arm state is ``world_state``.
 """
 from __future__ import annotations
 
