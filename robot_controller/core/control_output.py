@@ -1,0 +1,69 @@
+"""What one tick of the joint controller reports: its :class:`Status`, where
+the reference came from (:class:`ReferenceSource`) and the command with its
+terms (:class:`ControlOutput`).
+
+A reference the controller made up or rewrote (a hold, a controlled stop, a
+blend back onto the trajectory) is always named in ``reference_source``,
+never passed off as the planner's.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+from robot_controller.core.pid import PidTerms
+
+
+class Status(str, Enum):
+    OK = "ok"
+    HOLDING = "holding"  #: no reference yet: holding the first measured position
+    NO_MEASUREMENT = "no_measurement"  #: no valid sensor message yet: no command
+    WATCHDOG = "watchdog"  #: readings missing: controlled stop on the model's estimate (category 2)
+    SENSOR_LOST = "sensor_lost"  #: readings missing past sensor_timeout_s: no command, the brake holds (category 1)
+    REACQUIRING = "reacquiring"  #: a fault cleared: led from where the arm is back onto the trajectory
+    REFERENCE_LOST = "reference_lost"  #: the planner went quiet: controlled stop of the reference, holding
+    STOPPED = "stopped"  #: e-stop or brake: no command until it lifts
+
+    @property
+    def commanding(self) -> bool:
+        """Whether a tick in this state sends a torque to the motor."""
+        return self not in (Status.NO_MEASUREMENT, Status.SENSOR_LOST, Status.STOPPED)
+
+
+class ReferenceSource(str, Enum):
+    """Where the tick's reference (rad, rad/s, rad/s²) came from."""
+
+    TRAJECTORY = "trajectory"  #: the planner's latest sample as it is (held between samples)
+    EXTRAPOLATED = "extrapolated"  #: the planner's latest sample advanced to the tick on its v and a
+    HOLD_POSITION = "hold_position"  #: no trajectory to follow (yet, or again): hold where the arm was
+    REACQUIRE_BLEND = "reacquire_blend"  #: the trajectory plus a fading offset from where the arm was
+    REFERENCE_STOP = "reference_stop"  #: the planner went quiet: its last reference brought to rest
+    SENSOR_STOP = "sensor_stop"  #: readings missing: the reference brought to rest, the arm on the model
+    NONE = "none"  #: no command this tick: ``reference`` only repeats the arm's position
+
+    @property
+    def from_planner(self) -> bool:
+        """Whether the reference is the planner's own (not held or rewritten by the controller)."""
+        return self in (ReferenceSource.TRAJECTORY, ReferenceSource.EXTRAPOLATED)
+
+
+@dataclass
+class ControlOutput:
+    """One tick: the command and everything that went into it."""
+
+    time_s: float
+    status: Status
+    reference: np.ndarray  #: rad, the position reference the law tracked
+    measured: np.ndarray  #: rad, the arm's position as estimated at the tick
+    terms: PidTerms
+    reference_source: ReferenceSource = ReferenceSource.TRAJECTORY
+
+    @property
+    def command(self) -> np.ndarray:
+        return self.terms.command
+
+    @property
+    def error(self) -> np.ndarray:
+        return self.reference - self.measured

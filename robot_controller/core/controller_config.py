@@ -1,0 +1,71 @@
+"""The joint controller's options (:class:`ControllerConfig`), checked when built.
+
+Units: seconds, radians, N·m. The control law's own gains and limits are a
+:class:`~robot_controller.core.pid.PidConfig` inside it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.estimator import KalmanConfig
+from robot_controller.core.feedforward import FeedforwardMode
+from robot_controller.core.pid import PidConfig
+
+
+@dataclass
+class ControllerConfig:
+    """Options around the control law.
+
+    :param pid: gains and limits of the law
+    :param feedforward: a :class:`FeedforwardMode`
+    :param control_period_s: nominal period, s
+    :param reference_extrapolation: evaluate the latest reference sample at
+        the tick time using its velocity and acceleration, instead of holding it
+    :param latency_compensation: advance the measurement from its stamp to the
+        tick time through the arm model (or its own velocity without a model)
+    :param watchdog_periods: control periods without a valid measurement
+        before the command drops to zero
+    """
+
+    pid: PidConfig = field(default_factory=PidConfig)
+    law: str = "pid"  #: "pid", or "lqr": the PID's gains replaced by a discrete LQR design
+    lqr_q: tuple[float, float, float] = (1e4, 1e4, 1.0)  #: weights on ∫e, e, ė
+    lqr_r: float = 1e-2  #: weight on the feedback torque
+    estimator: KalmanConfig | None = None  #: a Kalman filter on the reading, or none
+    feedforward: FeedforwardMode = FeedforwardMode.NONE
+    control_period_s: float = 0.01
+    reference_extrapolation: bool = False
+    latency_compensation: bool = False
+    watchdog_periods: int = 5
+    sensor_timeout_s: float = 1.0  #: readings missing this long end the controlled stop: torque off, brake
+    #: s; a reading older than this when it arrives (or stamped this far ahead) is refused: after a
+    #: pause, a sensor's first sample can be from before it, and acting on it swings the arm
+    max_reading_age_s: float = 0.1
+    stop_deceleration: float = 20.0  #: rad/s², controlled stops (sensor or planner lost)
+    reacquire_acceleration: float = 20.0  #: rad/s², the blend back onto the trajectory after a fault
+
+    def __post_init__(self) -> None:
+        try:
+            self.feedforward = FeedforwardMode(self.feedforward)
+        except ValueError:
+            raise ConfigError(
+                f"feedforward: {self.feedforward!r} is not one of {[m.value for m in FeedforwardMode]}"
+            ) from None
+        if not np.isfinite(self.control_period_s) or self.control_period_s <= 0:
+            raise ConfigError(f"control_rate_hz: must be > 0, got period {self.control_period_s}")
+        if int(self.watchdog_periods) < 1:
+            raise ConfigError(f"watchdog_periods: must be >= 1, got {self.watchdog_periods}")
+        for name in ("sensor_timeout_s", "max_reading_age_s", "stop_deceleration", "reacquire_acceleration"):
+            value = getattr(self, name)
+            if not np.isfinite(value) or value <= 0:
+                raise ConfigError(f"{name}: must be a finite number > 0, got {value}")
+        if self.law not in ("pid", "lqr"):
+            raise ConfigError(f"controller_type: {self.law!r} is not one of ['pid', 'lqr']")
+
+    @property
+    def watchdog_s(self) -> float:
+        """Silence of the sensor (s) after which the watchdog's controlled stop starts."""
+        return self.watchdog_periods * self.control_period_s

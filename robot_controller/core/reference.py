@@ -1,0 +1,89 @@
+"""The planner's reference as the controller receives it: the latest sample
+and its time base, whether the samples due by a tick are in (lockstep), and
+the trajectory at a tick time — the sample held, or extrapolated on its own
+velocity and acceleration — with whether it is still fresh.
+
+Positions rad, velocities rad/s, accelerations rad/s², times s.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robot_controller.core.control_output import ReferenceSource
+from robot_controller.core.tick_state import MAX_EXTRAPOLATION_S, TIME_EPS_S, clipped_age_s
+
+# The planner counts as silent after this many of its periods without a sample.
+REFERENCE_TIMEOUT_PERIODS = 5
+
+
+@dataclass(frozen=True)
+class TrajectoryPoint:
+    """The planner's trajectory at one tick."""
+
+    position: np.ndarray  #: rad
+    velocity: np.ndarray  #: rad/s
+    acceleration: np.ndarray  #: rad/s²
+    fresh: bool  #: the latest sample is younger than :meth:`PlannerReference.timeout_s`
+    source: ReferenceSource  #: TRAJECTORY (the sample as it is) or EXTRAPOLATED
+
+
+class PlannerReference:
+    """The latest reference sample from the planner."""
+
+    def __init__(self) -> None:
+        self.sample: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  #: (position, velocity, acceleration)
+        self.spoke = False  #: a sample has arrived from the planner (not just a hold written in)
+        self.time_s = 0.0  #: s, the latest sample's time base
+        self.period_s: float | None = None  #: s, learned from consecutive sample times
+
+    def receive(self, received_s: float, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray,
+                sample_time_s: float | None = None) -> None:
+        """A new sample. Its time base is ``sample_time_s`` when the planner sent
+        one, otherwise the time it arrived."""
+        time_s = received_s if sample_time_s is None else sample_time_s
+        self.spoke = True
+        if self.sample is not None and time_s > self.time_s:
+            self.period_s = time_s - self.time_s
+        self.sample = (position, velocity, acceleration)
+        self.time_s = time_s
+
+    def hold_here(self, position: np.ndarray, now_s: float) -> None:
+        """Before the planner has spoken, stand in a sample at rest at ``position``
+        dated ``now_s`` (what a controlled stop starts from then). It counts for
+        :meth:`ready`, and as the previous sample when the first real one comes."""
+        zeros = np.zeros(np.shape(position))
+        self.sample = (position.copy(), zeros.copy(), zeros.copy())
+        self.time_s = now_s
+
+    def ready(self, tick_s: float) -> bool:
+        """Whether every sample due by ``tick_s`` is in (lockstep): the latest is
+        at least as new as the tick, or the next is not due yet."""
+        if self.sample is None:
+            return False
+        if self.time_s >= tick_s - TIME_EPS_S:
+            return True
+        return self.period_s is not None and self.time_s + self.period_s > tick_s + TIME_EPS_S
+
+    def timeout_s(self, control_period_s: float) -> float:
+        """Age (s) past which the latest sample is stale: REFERENCE_TIMEOUT_PERIODS
+        of the planner's period (the control period until it is learned), at
+        least MAX_EXTRAPOLATION_S."""
+        period = self.period_s if self.period_s is not None else control_period_s
+        return max(REFERENCE_TIMEOUT_PERIODS * period, MAX_EXTRAPOLATION_S)
+
+    def at(self, now_s: float, extrapolate: bool, control_period_s: float) -> TrajectoryPoint:
+        """The trajectory at ``now_s``: the latest sample held or, with
+        ``extrapolate``, advanced to ``now_s`` on its velocity and acceleration
+        (by at most MAX_EXTRAPOLATION_S). Needs a sample."""
+        position, velocity, acceleration = self.sample
+        fresh = now_s - self.time_s <= self.timeout_s(control_period_s)
+        source = ReferenceSource.TRAJECTORY
+        if extrapolate:
+            age_s = clipped_age_s(now_s, self.time_s)
+            position = position + velocity * age_s + 0.5 * acceleration * age_s * age_s
+            velocity = velocity + acceleration * age_s
+            if age_s > 0:
+                source = ReferenceSource.EXTRAPOLATED
+        return TrajectoryPoint(position, velocity, acceleration, fresh, source)

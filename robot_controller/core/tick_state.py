@@ -1,0 +1,137 @@
+"""The arm's state at the tick time, from a reading taken earlier: filtered
+(optional Kalman filter), then advanced from the reading's stamp to the tick
+through the arm model under the torques this controller issued (latency
+compensation), or coasted on the model alone while readings are missing.
+
+Positions rad, velocities rad/s, torques N·m, times s. No ROS, no clocks.
+"""
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from robot_controller.core.estimator import JointKalmanFilter
+from robot_controller.core.health import Readings
+from robot_controller.core.plant import ArmDynamics
+
+# Extrapolating further than this (s) is guessing, not compensating.
+MAX_EXTRAPOLATION_S = 0.1
+TIME_EPS_S = 1e-6
+_COMMAND_HISTORY = 16
+
+
+def clipped_age_s(now_s: float, sample_s: float) -> float:
+    """How old (s) a sample taken at ``sample_s`` is at ``now_s``, within [0, MAX_EXTRAPOLATION_S]."""
+    return float(np.clip(now_s - sample_s, 0.0, MAX_EXTRAPOLATION_S))
+
+
+class StateAtTick:
+    """Estimates the arm's ``(position, velocity)`` at a tick, and remembers the
+    commands issued (for the filter's input and the model's prediction)."""
+
+    def __init__(self, joint_count: int, dynamics: ArmDynamics | None, kalman: JointKalmanFilter | None) -> None:
+        self.joint_count = joint_count
+        self.dynamics = dynamics
+        self.kalman = kalman
+        self._filtered_stamp_s = -np.inf
+        self._filtered: tuple[np.ndarray, np.ndarray] | None = None
+        # (time issued s, command N·m) of recent ticks, newest last
+        self._commands: deque[tuple[float, np.ndarray]] = deque(maxlen=_COMMAND_HISTORY)
+        #: (position, velocity, time s) of the latest estimate, None after a reset
+        self.latest: tuple[np.ndarray, np.ndarray, float] | None = None
+
+    def reset(self) -> None:
+        """Start again from the next reading: filter re-initialised, no estimate carried over."""
+        if self.kalman is not None:
+            self.kalman.reset()
+        self._filtered_stamp_s = -np.inf
+        self.latest = None
+
+    def at_tick(self, now_s: float, readings: Readings, latency_compensation: bool
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """The arm's state at ``now_s``: the reading, filtered, then (with
+        ``latency_compensation``) brought from its stamp up to now — position
+        AND velocity, through the arm model under the torque being applied, so
+        a stale velocity does not eat the D term's phase margin."""
+        position, velocity = readings.latest
+        if self.kalman is not None:
+            if readings.stamp_s != self._filtered_stamp_s:
+                # The torque that acted since the last reading: the last command issued before it.
+                self._filtered = self.kalman.update(readings.stamp_s, position, velocity,
+                                                    self.command_before(readings.stamp_s))
+                self._filtered_stamp_s = readings.stamp_s
+            position, velocity = self._filtered
+        if latency_compensation:
+            age_s = clipped_age_s(now_s, readings.stamp_s)
+            if self.dynamics is not None:
+                position, velocity = self.predict(position, velocity, now_s - age_s, now_s)
+            else:
+                position = position + velocity * age_s
+        self.latest = (position, velocity, now_s)
+        return position, velocity
+
+    def coast(self, now_s: float, readings: Readings) -> tuple[np.ndarray, np.ndarray]:
+        """While readings are missing: the latest estimate (or reading) carried on
+        to ``now_s`` on the arm model under the last command issued (the Kalman
+        filter's predict step, open loop). Without a model it stays put."""
+        if self.latest is None:
+            self.latest = (readings.latest[0], readings.latest[1], now_s)
+        position, velocity, estimate_s = self.latest
+        if self.dynamics is not None and now_s > estimate_s:
+            position, velocity = self.dynamics.predict(position, velocity, self.last_command(), now_s - estimate_s)
+        self.latest = (position, velocity, now_s)
+        return position, velocity
+
+    def last_position(self, readings: Readings) -> np.ndarray:
+        """The latest estimated position (rad), or the latest reading's without one."""
+        return self.latest[0] if self.latest is not None else readings.latest[0]
+
+    @staticmethod
+    def reading_alone(now_s: float, readings: Readings, latency_compensation: bool
+                      ) -> tuple[np.ndarray, np.ndarray]:
+        """The reading brought to ``now_s`` on its own velocity only (with
+        ``latency_compensation``): after a fault the last commands are no guide."""
+        position, velocity = readings.latest
+        if latency_compensation:
+            position = position + velocity * clipped_age_s(now_s, readings.stamp_s)
+        return position, velocity
+
+    # --- commands issued ------------------------------------------------------------
+
+    def remember_command(self, now_s: float, command: np.ndarray) -> None:
+        """Record the torque (N·m) issued at ``now_s``."""
+        self._commands.append((now_s, np.array(command, dtype=float)))
+
+    def last_command(self) -> np.ndarray:
+        return self._commands[-1][1] if self._commands else np.zeros(self.joint_count)
+
+    def command_before(self, time_s: float) -> np.ndarray:
+        """The last command issued strictly before ``time_s`` (zero before any)."""
+        torque = np.zeros(self.joint_count)
+        for issued_s, command in self._commands:
+            if issued_s < time_s - TIME_EPS_S:
+                torque = command
+        return torque
+
+    def predict(self, position: np.ndarray, velocity: np.ndarray, from_s: float, to_s: float
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """Integrate the arm model from ``from_s`` to ``to_s`` under the commands
+        this controller issued in between (each acting from its tick on)."""
+        assert self.dynamics is not None
+        torque = np.zeros(self.joint_count)
+        segments: list[tuple[float, np.ndarray]] = []
+        for issued_s, command in self._commands:
+            if issued_s <= from_s:
+                torque = command
+            else:
+                segments.append((issued_s, command))
+        t = from_s
+        for issued_s, command in segments:
+            if issued_s >= to_s:
+                break
+            position, velocity = self.dynamics.predict(position, velocity, torque, issued_s - t)
+            t, torque = issued_s, command
+        if to_s > t:
+            position, velocity = self.dynamics.predict(position, velocity, torque, to_s - t)
+        return position, velocity
