@@ -31,7 +31,7 @@ class ControllerConfig:
     """
 
     pid: PidConfig = field(default_factory=PidConfig)
-    law: str = "pid"  #: "pid", or "lqr": the PID's gains replaced by a discrete LQR design
+    controller_type: str = "pid"  #: "pid", or "lqr": the PID's gains replaced by a discrete LQR design
     lqr_q: tuple[float, float, float] = (1e4, 1e4, 1.0)  #: weights on ∫e, e, ė
     lqr_r: float = 1e-2  #: weight on the feedback torque
     estimator: KalmanConfig | None = None  #: a Kalman filter on the reading, or none
@@ -62,8 +62,8 @@ class ControllerConfig:
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
                 raise ConfigError(f"{name}: must be a finite number > 0, got {value}")
-        if self.law not in ("pid", "lqr"):
-            raise ConfigError(f"controller_type: {self.law!r} is not one of ['pid', 'lqr']")
+        if self.controller_type not in ("pid", "lqr"):
+            raise ConfigError(f"controller_type: {self.controller_type!r} is not one of ['pid', 'lqr']")
 
     @property
     def watchdog_s(self) -> float:

@@ -25,7 +25,7 @@ def law_config(config: ControllerConfig, dynamics: ArmDynamics | None, joint_cou
     discrete Riccati design on each joint's ``[∫e, e, ė]`` at the control rate
     (with feedforward carrying the motion, the feedback is exactly a PID on
     velocity error with these gains)."""
-    if config.law == "pid":
+    if config.controller_type == "pid":
         return config.pid
     if dynamics is None:
         raise ConfigError("controller_type lqr: needs the arm model (urdf_path)")
@@ -47,7 +47,7 @@ def describe_law(config: ControllerConfig, gains: PidConfig) -> str:
     in_force = (f"Kp={_values(gains.kp)} N·m/rad, Ki={_values(gains.ki)} N·m/(rad·s), "
                 f"Kd={_values(gains.kd)} N·m·s/rad, D on {gains.derivative_source.value}, "
                 f"|torque| <= {_values(gains.output_limit)} N·m, feedforward {config.feedforward.value}")
-    if config.law == "lqr":
+    if config.controller_type == "lqr":
         return (f"LQR (q={_values(config.lqr_q)}, r={config.lqr_r:g}, designed at "
                 f"{1.0 / config.control_period_s:g} Hz): {in_force}; the kp/ki/kd parameters are unused")
     return f"PID: {in_force}"

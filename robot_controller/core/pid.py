@@ -113,6 +113,10 @@ class Pid:
     ``u = ff + kp·e + I + kd·D``, saturated to ``±output_limit`` and, if set,
     slew-rate limited. ``e = r − y``. Non-finite inputs give a zero command
     and leave the state untouched: the arm never gets a non-finite torque.
+
+    It also runs the LQR: state feedback on ``[∫e, e, ė]`` is a PID whose
+    gains come from a Riccati design instead of by hand (``core.law``), so both
+    laws share this one implementation of anti-windup, limits and filtering.
     """
 
     def __init__(self, config: PidConfig) -> None:

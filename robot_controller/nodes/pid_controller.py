@@ -96,17 +96,12 @@ class PidControllerNode(StackNode):
     def log_gains(self) -> None:
         """The law and gains in force (LQR's are designed, not the kp/ki/kd parameters)
         and how much unaccounted delay they survive: in the log and as ``law_in_force``."""
-        p, gains = self.params, self.controller.gains
         margin = self.controller.delay_margin_periods()
-        law = p["controller_type"].upper() + (
-            f" (q={list(p['lqr_q'])}, r={p['lqr_r']:g}; the kp/ki/kd parameters are unused)"
-            if p["controller_type"] == "lqr" else "")
-        in_force = (f"{law}: Kp={_fmt(gains.kp)} N·m/rad, Ki={_fmt(gains.ki)} N·m/(rad·s), "
-                    f"Kd={_fmt(gains.kd)} N·m·s/rad, derivative on {gains.derivative_source.value}, "
-                    f"feedforward {p['feedforward']}; delay margin {margin} control periods "
-                    f"({margin * 1e3 / p['control_rate_hz']:g} ms) beyond what the stamps show")
+        rate_hz = self.params["control_rate_hz"]
+        in_force = (f"{self.controller.law_in_force()}; delay margin {margin} control periods "
+                    f"({margin * 1e3 / rate_hz:g} ms) beyond what the stamps show")
         self.report("law_in_force", in_force, "the control law and its gains in force, as designed")
-        self.get_logger().info(f"{in_force}; at {p['control_rate_hz']:g} Hz on {self.joint_names}"
+        self.get_logger().info(f"{in_force}; at {rate_hz:g} Hz on {self.joint_names}"
                                + (", lockstep" if self.lockstep else ""))
 
     def setup(self, params: dict[str, Any]) -> None:

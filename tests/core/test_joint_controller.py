@@ -191,7 +191,7 @@ def test_law_in_force_for_pid_gives_the_pid_gains():
 
 
 def test_law_in_force_for_lqr_gives_the_designed_gains_and_says_kp_ki_kd_are_unused():
-    c = JointController(config(law="lqr", lqr_q=(1e4, 1e4, 1.0), lqr_r=10.0, feedforward="full"), 1, arm())
+    c = JointController(config(controller_type="lqr", lqr_q=(1e4, 1e4, 1.0), lqr_r=10.0, feedforward="full"), 1, arm())
     law, gains = c.law_in_force(), c.gains
     assert law.startswith("LQR (q=[1e+04, 1e+04, 1], r=10")
     for name, value in (("Kp", gains.kp[0]), ("Ki", gains.ki[0]), ("Kd", gains.kd[0])):
@@ -239,7 +239,7 @@ def test_output_is_finite_within_torque_max_and_says_when_the_reference_is_not_t
         c = JointController(config(latency_compensation=True, reference_extrapolation=True), 1)
     else:
         from robot_controller.core.estimator import KalmanConfig
-        c = JointController(config(law="lqr" if law == "lqr" else "pid", feedforward="full",
+        c = JointController(config(controller_type="lqr" if law == "lqr" else "pid", feedforward="full",
                                    estimator=KalmanConfig(), latency_compensation=True,
                                    reference_extrapolation=True), 1, arm())
     t = 0.0

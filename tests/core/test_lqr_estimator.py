@@ -61,7 +61,7 @@ def test_lqr_settings_are_checked():
 
 def test_lqr_law_is_a_pid_with_the_designed_gains():
     dynamics = ArmDynamics(resources.default_urdf())
-    config = ControllerConfig(law="lqr", lqr_q=(1e4, 1e4, 1.0), lqr_r=1e-2, control_period_s=DT)
+    config = ControllerConfig(controller_type="lqr", lqr_q=(1e4, 1e4, 1.0), lqr_r=1e-2, control_period_s=DT)
     gains = law_config(config, dynamics, 1)
     design = lqr.design(INERTIA, DAMPING, DT, np.array([1e4, 1e4, 1.0]), 1e-2)
     np.testing.assert_allclose([gains.ki[0], gains.kp[0], gains.kd[0]], design.K[0], rtol=1e-6)
