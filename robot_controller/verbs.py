@@ -13,6 +13,7 @@ from pathlib import Path
 from robot_controller import parameters as cfg
 from robot_controller.parameters import consistency as config_check
 from robot_controller.core.errors import ConfigError
+from robot_controller.progress import StepProgress
 
 
 class UsageError(Exception):
@@ -113,7 +114,8 @@ def score(run_dir: Path, *, as_json: bool = False) -> int:
 def bench(out: Path, *, quick: bool, soak_s: float | None = None) -> int:
     from robot_controller.experiments import bench as bench_module
 
-    bench_module.bench(out, quick=quick, soak_s=soak_s, progress=lambda text: print(f"[bench] {text}", flush=True))
+    with StepProgress("bench", len(bench_module.SCENARIOS)) as progress:
+        bench_module.bench(out, quick=quick, soak_s=soak_s, progress=progress)
     print((out / "bench.md").read_text())
     return 0
 
@@ -140,8 +142,8 @@ def compare(*, out: Path, seeds: int, duration_s: float, amplitude: float) -> in
     from robot_controller.experiments import compare as experiments
 
     try:
-        experiments.compare(out, seeds=seeds, sine_duration_s=duration_s, amplitude=amplitude,
-                            progress=lambda text: print(f"[compare] {text}", flush=True))
+        with StepProgress("compare", len(experiments.CONTENDERS) * seeds) as progress:
+            experiments.compare(out, seeds=seeds, sine_duration_s=duration_s, amplitude=amplitude, progress=progress)
     except (RuntimeError, ValueError, FileExistsError) as exc:
         print(f"robot-controller: {exc}", file=sys.stderr)
         return 1
@@ -156,7 +158,8 @@ def faults(out: Path, *, quick: bool) -> int:
     from robot_controller.experiments import faults as faults_module
 
     try:
-        faults_module.faults(out, quick=quick, progress=lambda text: print(f"[faults] {text}", flush=True))
+        with StepProgress("faults", len(faults_module.cases(quick))) as progress:
+            faults_module.faults(out, quick=quick, progress=progress)
     except (RuntimeError, ValueError, FileExistsError) as exc:
         print(f"robot-controller: {exc}", file=sys.stderr)
         return 1

@@ -134,13 +134,17 @@ def run_case(case: Case, out: Path, params: cfg.Params) -> dict[str, Any]:
     return entry
 
 
+def cases(quick: bool) -> list[Case]:
+    if quick:
+        return [Case(node, d) for node, d in QUICK_CASES]
+    return [Case(node, d) for node in NODES for d in DURATIONS_S] + [Case(node, 0.0, "SIGKILL") for node in NODES]
+
+
 def faults(out: Path, *, quick: bool = False, progress: Callable[[str], None] = print) -> list[dict[str, Any]]:
     out.mkdir(parents=True, exist_ok=True)
     params = cfg.load_stack()
-    cases = ([Case(node, d) for node, d in QUICK_CASES] if quick
-             else [Case(node, d) for node in NODES for d in DURATIONS_S] + [Case(node, 0.0, "SIGKILL") for node in NODES])
     entries = []
-    for case in cases:
+    for case in cases(quick):
         progress(f"{case.node}: " + (f"SIGSTOP for {case.duration_s:g} s" if case.kind == "SIGSTOP"
                                      else "SIGKILL, respawned") + f" at t = {FAULT_AT_S:g} s")
         entries.append(run_case(case, out / case.name, params))
