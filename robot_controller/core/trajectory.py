@@ -5,7 +5,7 @@ started) and returns three arrays of shape ``(n,)``: rad, rad/s, rad/s².
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
@@ -135,6 +135,35 @@ class Hold:
     def sample(self, t: float) -> Sample:
         zero = np.zeros_like(self.position)
         return self.position.copy(), zero, zero.copy()
+
+
+def time_scaled(trajectory: Trajectory, factor: float) -> Trajectory:
+    """The same motion slowed in time by ``factor`` (≥ 1 slows it): positions
+    are passed through in ``factor`` times the time, so velocities are divided
+    by ``factor`` and accelerations by ``factor²``.
+
+    Sine and square: frequency ÷ factor. Chirp: both frequencies ÷ factor and
+    the sweep × factor. Minimum-time step: ``max_acceleration`` ÷ factor² (the
+    move starts at the same ``step_time_s``; its sample-grid rounding stays).
+    A jump step and a hold have no motion to slow and come back unchanged.
+
+    :raises ConfigError: a factor that is not a finite number > 0
+    """
+    if not np.isfinite(factor) or factor <= 0:
+        raise ConfigError(f"time scale: must be a finite number > 0, got {factor}")
+    if factor == 1.0:
+        return trajectory
+    if isinstance(trajectory, Sine | Square):
+        return replace(trajectory, frequency_hz=trajectory.frequency_hz / factor)
+    if isinstance(trajectory, Chirp):
+        return replace(trajectory, frequency_hz=trajectory.frequency_hz / factor,
+                       end_frequency_hz=trajectory.end_frequency_hz / factor,
+                       sweep_time_s=trajectory.sweep_time_s * factor)
+    if isinstance(trajectory, MinTimeStep):
+        return replace(trajectory, max_acceleration=trajectory.max_acceleration / factor ** 2)
+    if isinstance(trajectory, Step | Hold):
+        return trajectory
+    raise TypeError(f"cannot scale a {type(trajectory).__name__} in time")
 
 
 def make_trajectory(

@@ -9,6 +9,14 @@ Time starts when the first consumer is matched, so the controller sees the
 trajectory from its beginning. Wall clock: a timer at ``publish_rate_hz``.
 Lockstep: a sample whenever ``/clock`` reaches the next ``1/publish_rate_hz``
 grid point. Shape changes apply live.
+
+Before it publishes, the planner checks that the arm can follow the
+trajectory (``core.feasibility``: the URDF's inverse dynamics along the
+path against ``torque_max`` less ``feasibility_margin``). ``feasibility:
+scale`` slows a path that does not fit in time until it does, with one
+warning naming the numbers and the factor; ``refuse`` refuses it (at start,
+or as a parameter change); ``ignore`` only warns. The same applies to every
+parameter change.
 """
 from __future__ import annotations
 
@@ -20,7 +28,11 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller import parameters as cfg
-from robot_controller.core.trajectory import make_trajectory
+from robot_controller import resources
+from robot_controller.core import feasibility
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.plant import ArmDynamics
+from robot_controller.core.trajectory import Trajectory, make_trajectory
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import CONTROL_QOS
@@ -32,6 +44,9 @@ _GRID_EPS_S = 1e-6
 
 class TrajectoryPlanner(StackNode):
     def __init__(self) -> None:
+        self._plan_key: tuple | None = None
+        self._plan: feasibility.Plan | None = None
+        self._warned: str | None = None
         super().__init__("trajectory_planner")
         p = self.params
         self.trajectory = self._make(p)
@@ -54,14 +69,41 @@ class TrajectoryPlanner(StackNode):
             self.timer = self.create_timer(1.0 / p["publish_rate_hz"], lambda: self.sample_at(self.now_s()))
         self.get_logger().info(f"trajectory: {p['mode']}, amplitude {p['amplitude']} rad, "
                                f"{p['frequency_hz']:g} Hz, published at {p['publish_rate_hz']:g} Hz"
-                               + (", lockstep" if p["lockstep"] else ""))
+                               + (", lockstep" if p["lockstep"] else "") + self._slowed())
 
-    @staticmethod
-    def _make(params: dict[str, Any]):
-        return make_trajectory(params["mode"], **cfg.trajectory_kwargs(params))
+    def setup(self, params: dict[str, Any]) -> None:
+        self.dynamics = ArmDynamics(resources.resolve_urdf(params["urdf_path"]))
+        if len(self.dynamics.joint_names) != params["joint_count"]:
+            raise ConfigError(f"joint_count {params['joint_count']} but the URDF has "
+                              f"{len(self.dynamics.joint_names)} joint(s)")
+
+    def _planned(self, params: dict[str, Any]) -> feasibility.Plan:
+        """The trajectory the values describe, slowed if it must be (``ConfigError`` if it is refused)."""
+        key = tuple(sorted((name, repr(value)) for name, value in params.items()))  # checked once per change
+        if key != self._plan_key:
+            trajectory = make_trajectory(params["mode"], **cfg.trajectory_kwargs(params))
+            self._plan = feasibility.plan(trajectory, self.dynamics, params["torque_max"],
+                                          margin=params["feasibility_margin"], policy=params["feasibility"],
+                                          what=params["mode"])
+            self._plan_key = key
+        assert self._plan is not None
+        return self._plan
+
+    def _make(self, params: dict[str, Any]) -> Trajectory:
+        plan = self._planned(params)
+        if plan.warning is not None and plan.warning != self._warned:
+            self.get_logger().warning(plan.warning)
+        self._warned = plan.warning
+        return plan.trajectory
+
+    def _slowed(self) -> str:
+        plan = self._plan
+        if plan is None or self.params["feasibility"] != "scale" or not 1.0 < plan.result.scale < float("inf"):
+            return ""
+        return f", slowed in time ×{plan.result.scale:.2f} to fit the torque limit"
 
     def check_params(self, params: dict[str, Any]) -> None:
-        self._make(params)
+        self._planned(params)
 
     def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
         self.trajectory = self._make(params)

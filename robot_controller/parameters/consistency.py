@@ -40,7 +40,9 @@ def check_stack(params: cfg.Params) -> None:
     _check_per_joint(params, joint_count)
     _check_rates(params)
     _check_limits(params, arms["simulator"])
+    _check_planner_matches(params, joint_count)
     _check_controller(params, joint_count)
+    _check_feasibility(params["trajectory_planner"])
 
 
 def _arm(node: str, urdf_path: str) -> tuple[list[str], np.ndarray, np.ndarray]:
@@ -64,7 +66,7 @@ def _check_per_joint(params: cfg.Params, joint_count: int) -> None:
                           f"{joint_count} joint(s)")
     for node in cfg.NODES:
         for spec in cfg.SCHEMA[node]:
-            if spec.per_joint:
+            if spec.per_joint and not (spec.allow_empty and not np.size(params[node][spec.name])):
                 try:
                     cfg.per_joint(spec.name, params[node][spec.name], joint_count)
                 except ConfigError as exc:
@@ -131,15 +133,44 @@ def _check_limits(params: cfg.Params, arm: tuple[list[str], np.ndarray, np.ndarr
 
 
 def _check_controller(params: cfg.Params, joint_count: int) -> None:
-    """The controller builds: its law designs (an LQR that does not stabilise is refused here)."""
+    """The controller builds: its arm model (the URDF's, or its ``model_*`` values) and its law
+    designs (an LQR that does not stabilise is refused here)."""
     from robot_controller.core.controller import JointController
-    from robot_controller.core.plant import ArmDynamics
+    from robot_controller.parameters.builders import arm_model
 
     ctrl = params["pid_controller"]
     try:
-        JointController(cfg.controller_config(ctrl, joint_count), joint_count,
-                        ArmDynamics(resources.resolve_urdf(ctrl["urdf_path"])))
+        JointController(cfg.controller_config(ctrl, joint_count), joint_count, arm_model(ctrl))
     except ConfigError as exc:
         raise ConfigError(f"pid_controller: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - a solver's error is a refusal, not a crash
         raise ConfigError(f"pid_controller: {type(exc).__name__}: {exc}") from None
+
+
+def _check_planner_matches(params: cfg.Params, joint_count: int) -> None:
+    """The planner checks its trajectory against the arm and the actuator that will follow it."""
+    planner, motor, ctrl = params["trajectory_planner"], params["motor_node"], params["pid_controller"]
+    planned = cfg.per_joint("torque_max", planner["torque_max"], joint_count)
+    actual = cfg.per_joint("torque_max", motor["torque_max"], joint_count)
+    if not np.array_equal(planned, actual):
+        raise ConfigError(f"trajectory_planner: torque_max {planned.tolist()} N·m differs from motor_node's "
+                          f"{actual.tolist()} N·m, the limit its trajectory is checked against: set both "
+                          "(or set it once under /**)")
+    mine, theirs = (resources.resolve_urdf(path).resolve() for path in (planner["urdf_path"], ctrl["urdf_path"]))
+    if mine != theirs:
+        raise ConfigError(f"trajectory_planner: urdf_path {planner['urdf_path'] or '(reference arm)'!r} differs from "
+                          f"pid_controller's {ctrl['urdf_path'] or '(reference arm)'!r}")
+
+
+def _check_feasibility(planner: dict) -> None:
+    """The trajectory fits the usable torque, or is slowed to fit (``feasibility``; the planner does the slowing)."""
+    from robot_controller.core import feasibility
+    from robot_controller.core.plant import ArmDynamics
+    from robot_controller.core.trajectory import make_trajectory
+
+    try:
+        trajectory = make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner))
+        feasibility.plan(trajectory, ArmDynamics(resources.resolve_urdf(planner["urdf_path"])), planner["torque_max"],
+                         margin=planner["feasibility_margin"], policy=planner["feasibility"], what=planner["mode"])
+    except ConfigError as exc:
+        raise ConfigError(f"trajectory_planner: {exc}") from None

@@ -72,7 +72,14 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         ParamSpec('back_calculation_time_s', float, 0.1, 'tracking time constant of back-calculation anti-windup, s', minimum=0.0, exclusive_minimum=True),
         ParamSpec('derivative_source', str, 'velocity_error', 'what the D term differentiates', choices=_values(DerivativeSource)),
         ParamSpec('derivative_filter_time_s', float, 0.0, 'first-order filter on the D term, s (0 = off)', minimum=0.0),
-        ParamSpec('feedforward', str, 'full', 'model feedforward from the URDF', choices=_values(FeedforwardMode)),
+        ParamSpec('feedforward', str, 'full', 'model feedforward from the arm model (the URDF, or the model_* values below)', choices=_values(FeedforwardMode)),
+        # The arm model every model-based part uses (feedforward, Kalman prediction, LQR design, latency
+        # compensation, the controlled stop): the URDF's unless these say otherwise (`robot-controller identify`
+        # writes them). Any one set: tau = I·a + b·v + f_c·sign(v) + G·cos(q) per joint, the rest from the URDF.
+        ParamSpec('model_inertia', float, [], "arm model: each joint's inertia about its axis, kg·m² (empty: the URDF's)", per_joint=True, allow_empty=True, minimum=0.0, exclusive_minimum=True, read_only=True),
+        ParamSpec('model_damping', float, [], "arm model: each joint's viscous damping, N·m·s/rad (empty: the URDF's)", per_joint=True, allow_empty=True, minimum=0.0, read_only=True),
+        ParamSpec('model_coulomb_friction', float, [], "arm model: each joint's Coulomb (dry) friction, N·m (empty: the URDF's)", per_joint=True, allow_empty=True, minimum=0.0, read_only=True),
+        ParamSpec('model_gravity_torque', float, [], "arm model: gravity's torque on each joint with its link horizontal (m·g·l_c), N·m; the torque is this times cos(q), q = 0 horizontal as in the reference arm (empty: the URDF's)", per_joint=True, allow_empty=True, read_only=True),
         ParamSpec('torque_max', float, [10.0], 'output limit, N·m', per_joint=True, minimum=0.0, exclusive_minimum=True),
         ParamSpec('slew_rate_limit', float, 0.0, 'maximum rate of change of the command, N·m/s (0 = off)', minimum=0.0),
         ParamSpec('reference_extrapolation', bool, True, 'evaluate the latest reference at the tick time with its velocity and acceleration'),
@@ -99,6 +106,10 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         ParamSpec('sweep_time_s', float, 10.0, 'duration of one chirp sweep, s', minimum=0.0, exclusive_minimum=True),
         ParamSpec('publish_rate_hz', float, 100.0, 'rate of /trajectory, Hz', minimum=1.0, maximum=1000.0),
         ParamSpec('lockstep', bool, False, 'sample on /clock ticks (sim-time lockstep) instead of a timer', read_only=True),
+        URDF,
+        ParamSpec('torque_max', float, [10.0], "actuator torque limit the trajectory is checked against, N·m (one per joint, or one for all); must equal motor_node's", per_joint=True, minimum=0.0, exclusive_minimum=True),
+        ParamSpec('feasibility', str, 'scale', "a trajectory that needs more than the usable torque (torque_max less feasibility_margin, from the URDF's inverse dynamics along the path): slow it in time until it fits (frequencies, or a shaped step's max_acceleration), refuse it, or run it anyway with a warning", choices=('scale', 'refuse', 'ignore')),
+        ParamSpec('feasibility_margin', float, 0.2, 'fraction of torque_max kept free for the feedback when checking the trajectory (0.2: the path may use 80 %)', minimum=0.0, maximum=0.9),
     ),
 }
 

@@ -22,7 +22,10 @@ class ParamSpec:
     ``kind`` is ``bool``, ``int``, ``float`` or ``str``. A float may be a list:
     ``per_joint`` (one number for every joint, or one per joint; the joint
     count is the URDF's, checked with the whole configuration) or ``length``
-    (exactly that many numbers, e.g. three LQR weights).
+    (exactly that many numbers, e.g. three LQR weights). ``allow_empty`` lets a
+    list be empty, meaning "not set" (e.g. a model parameter taken from the URDF
+    unless given); the ROS parameter-file parser reads ``[]`` as no value, so
+    ``None`` is taken as empty too.
     """
 
     name: str
@@ -36,6 +39,7 @@ class ParamSpec:
     read_only: bool = False
     per_joint: bool = False
     length: int | None = None
+    allow_empty: bool = False
 
     def __post_init__(self) -> None:
         self.validate(self.default)  # a default that fails its own rules is a bug here, found at import
@@ -59,6 +63,8 @@ class ParamSpec:
             rules.append("per joint: one value, or one per joint")
         if self.length is not None:
             rules.append(f"{self.length} values")
+        if self.allow_empty:
+            rules.append("or empty")
         return self.description + (f" [{'; '.join(rules)}]" if rules else "")
 
     def validate(self, value: Any) -> Any:
@@ -82,9 +88,13 @@ class ParamSpec:
             self._check_range(value)
             return value
         if kind is float:
+            if value is None and self.allow_empty:  # what rclpy makes of a parameter file's []
+                return []
             if not self.is_list:
                 return self._number(value)
             if isinstance(value, (list, tuple, array.array, np.ndarray)):  # rclpy gives array('d')
+                if len(value) == 0 and self.allow_empty:
+                    return []
                 if len(value) == 0:
                     raise ConfigError(f"{self.name}: expected a number or a non-empty list of numbers")
                 if self.length is not None and len(value) != self.length:

@@ -1,0 +1,182 @@
+"""Feasible trajectories (no ROS): the torque a path needs from the arm's
+inverse dynamics, against the actuator's limit less the margin kept for
+feedback; the time scale that makes it fit; and the whole-configuration
+check that refuses, scales or only warns."""
+import re
+
+import numpy as np
+import pytest
+
+from robot_controller import parameters as cfg
+from robot_controller import resources
+from robot_controller.core import feasibility
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.plant import ArmDynamics
+from robot_controller.core.trajectory import Chirp, MinTimeStep, Sine, make_trajectory, time_scaled
+from robot_controller.parameters import consistency
+
+
+@pytest.fixture(scope="module")
+def arm():
+    return ArmDynamics(resources.default_urdf())
+
+
+def fast_chirp():
+    """1 rad from 0.5 to 3 Hz: about 30 N·m at the end of its sweep on the reference arm."""
+    return make_trajectory("chirp", joint_count=1, amplitude=1.0, frequency_hz=0.5, end_frequency_hz=3.0,
+                           sweep_time_s=10.0)
+
+
+def test_the_default_sine_is_feasible_and_left_as_it_is(arm):
+    planner = cfg.defaults()["trajectory_planner"]
+    sine = make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner))
+    plan = feasibility.plan(sine, arm, planner["torque_max"], margin=planner["feasibility_margin"],
+                            policy=planner["feasibility"], what="sine")
+    assert plan.trajectory is sine and plan.warning is None
+    result = plan.result
+    assert result.feasible and result.scale == 1.0
+    # Gravity with the arm horizontal (2.45 N·m) plus damping at full speed: about 2.9 N·m of 8 usable.
+    assert 2.7 < result.peak_torque_nm[0] < 3.1
+    assert result.usable_nm[0] == pytest.approx(8.0) and result.limit_nm[0] == 10.0
+
+
+def test_a_fast_chirp_is_infeasible_and_its_scale_factor_brings_it_within_the_usable_torque(arm):
+    chirp = fast_chirp()
+    result = feasibility.check(chirp, arm, 10.0, 0.2)
+    assert not result.feasible and result.fixable
+    assert result.peak_torque_nm[0] > 25.0  # inertia 0.0833 kg·m² × (2π·3 Hz)² × 1 rad alone is 29.6 N·m
+    k = result.scale
+    assert 1.5 < k < 3.0
+    slowed = time_scaled(chirp, k)
+    assert isinstance(slowed, Chirp)
+    assert (slowed.frequency_hz, slowed.end_frequency_hz, slowed.sweep_time_s) == pytest.approx(
+        (0.5 / k, 3.0 / k, 10.0 * k))
+    # Recomputed on the slowed trajectory itself: within the usable 8 N·m, and not by much.
+    peak = feasibility.peak_torque(slowed, arm)
+    assert peak[0] <= 8.0 + 1e-9
+    assert peak[0] > 7.8
+    assert result.scaled_peak_torque_nm[0] == pytest.approx(peak[0])
+    # The smallest factor, to the bisection's tolerance: a little less does not fit.
+    assert feasibility.peak_torque(time_scaled(chirp, k / 1.01), arm)[0] > 8.0
+
+
+def test_slowing_divides_velocity_by_k_and_acceleration_by_k_squared():
+    k = 1.7
+    for trajectory in (Sine(np.array([1.0]), 0.5, np.array([0.2])),
+                       Chirp(np.array([0.8]), 0.5, 3.0, 4.0, np.array([0.0])),
+                       MinTimeStep(np.array([1.0]), 0.0, np.array([0.0]), 60.0)):
+        slowed = time_scaled(trajectory, k)
+        for t in np.linspace(0.0, 0.4, 9):
+            q, v, a = trajectory.sample(t)
+            qs, vs, as_ = slowed.sample(k * t)
+            np.testing.assert_allclose(qs, q, atol=1e-9)
+            np.testing.assert_allclose(vs, v / k, atol=1e-9)
+            np.testing.assert_allclose(as_, a / k**2, atol=1e-9)
+    assert time_scaled(make_trajectory("hold", joint_count=1), 3.0).sample(1.0)[0][0] == 0.0
+
+
+def test_a_shaped_step_too_fast_for_the_arm_gets_a_lower_max_acceleration(arm):
+    step = make_trajectory("step", joint_count=1, amplitude=2.0, step_time_s=0.5, step_shaping="min_time",
+                           max_acceleration=90.0, sample_period_s=0.01)
+    plan = feasibility.plan(step, arm, 10.0, what="step")
+    assert not plan.result.feasible and plan.result.scale > 1.0
+    assert isinstance(plan.trajectory, MinTimeStep)
+    assert plan.trajectory.max_acceleration == pytest.approx(90.0 / plan.result.scale**2)
+    assert feasibility.peak_torque(plan.trajectory, arm)[0] <= 8.0 + 1e-9
+    assert "max_acceleration 90→" in plan.warning
+
+
+def test_the_default_step_experiment_fits_as_it_is(arm):
+    for amplitude in (0.5, 1.0):
+        step = make_trajectory("step", joint_count=1, amplitude=amplitude, step_time_s=0.5, step_shaping="min_time",
+                               max_acceleration=60.0, sample_period_s=0.01)
+        assert feasibility.check(step, arm, 10.0).feasible
+
+
+def test_gravity_alone_beyond_the_usable_torque_cannot_be_fixed_by_slowing(arm):
+    # q = 0 holds the reference arm horizontal: 2.45 N·m of gravity against 0.8 usable.
+    hold = make_trajectory("hold", joint_count=1, offset=0.0)
+    result = feasibility.check(hold, arm, 1.0)
+    assert not result.feasible and not result.fixable and result.scale == float("inf")
+    assert result.gravity_nm[0] == pytest.approx(2.4525, abs=1e-3)
+    for policy in ("scale", "refuse"):
+        with pytest.raises(ConfigError, match="no slowing reduces"):
+            feasibility.plan(hold, arm, 1.0, policy=policy, what="hold")
+    assert "no slowing reduces" in feasibility.plan(hold, arm, 1.0, policy="ignore", what="hold").warning
+    # Near vertical (1.5 rad) the same arm needs 0.17 N·m: it fits.
+    assert feasibility.check(make_trajectory("hold", joint_count=1, offset=1.5), arm, 1.0).feasible
+    # A sine whose positions need more than the limit in gravity alone: slowing is no fix either.
+    assert not feasibility.check(make_trajectory("sine", joint_count=1), arm, 1.0).fixable
+
+
+def test_ignore_keeps_the_trajectory_and_warns(arm):
+    chirp = fast_chirp()
+    plan = feasibility.plan(chirp, arm, 10.0, policy="ignore", what="chirp")
+    assert plan.trajectory is chirp and "feasibility: ignore" in plan.warning
+
+
+def test_scale_warns_once_with_the_numbers_and_the_factor(arm):
+    plan = feasibility.plan(fast_chirp(), arm, 10.0, policy="scale", what="chirp")
+    assert "\n" not in plan.warning
+    assert re.search(r"^the chirp needs \d+\.\d N·m on joint1 against 8\.0 N·m usable \(10\.0 N·m limit, "
+                     r"20 % kept for feedback\): scaled in time ×\d\.\d\d: frequencies 0\.5→0\.\d+ Hz", plan.warning)
+
+
+def chirp_params(**planner):
+    params = cfg.load_stack()
+    params["trajectory_planner"].update(mode="chirp", frequency_hz=0.5, end_frequency_hz=3.0, **planner)
+    return params
+
+
+def test_refuse_is_a_config_error_with_the_numbers():
+    with pytest.raises(ConfigError) as info:
+        consistency.check_stack(chirp_params(feasibility="refuse"))
+    message = str(info.value)
+    assert "\n" not in message
+    assert re.fullmatch(r"trajectory_planner: the chirp needs \d\d\.\d N·m on joint1 against 8\.0 N·m usable "
+                        r"\(10\.0 N·m limit, 20 % kept for feedback\); slow it down \(feasibility: scale\) "
+                        r"or lower the amplitude", message), message
+
+
+def test_scale_and_ignore_pass_the_whole_configuration_check():
+    consistency.check_stack(chirp_params(feasibility="scale"))
+    consistency.check_stack(chirp_params(feasibility="ignore"))
+    consistency.check_stack(cfg.load_stack())  # the default sine
+
+
+def test_the_margin_is_the_planners_parameter():
+    # 1 rad at 0.5 Hz needs about 2.9 N·m: it fits in half of 10 N·m, not in a tenth (gravity alone is 2.45).
+    params = cfg.load_stack()
+    params["trajectory_planner"].update(feasibility="refuse", feasibility_margin=0.5)
+    consistency.check_stack(params)
+    params["trajectory_planner"]["feasibility_margin"] = 0.9
+    with pytest.raises(ConfigError, match=r"against 1\.0 N·m usable \(10\.0 N·m limit, 90 % kept for feedback\)"):
+        consistency.check_stack(params)
+    with pytest.raises(ConfigError, match="feasibility_margin: must be <= 0.9"):
+        cfg.spec_of("trajectory_planner", "feasibility_margin").validate(0.95)
+
+
+def test_the_planner_must_check_against_the_motors_limit_and_the_controllers_arm(tmp_path):
+    params = cfg.load_stack()
+    params["motor_node"]["torque_max"] = [8.0]
+    with pytest.raises(ConfigError, match=r"trajectory_planner: torque_max \[10\.0\] N·m differs from "
+                                          r"motor_node's \[8\.0\] N·m"):
+        consistency.check_stack(params)
+    params["trajectory_planner"]["torque_max"] = [8.0]
+    consistency.check_stack(params)
+    copy = tmp_path / "arm.urdf"
+    copy.write_text(resources.default_urdf().read_text())
+    params["trajectory_planner"]["urdf_path"] = str(copy)
+    with pytest.raises(ConfigError, match=f"trajectory_planner: urdf_path '{copy}' differs from pid_controller's "
+                                          r"'\(reference arm\)'"):
+        consistency.check_stack(params)
+    params["trajectory_planner"]["urdf_path"] = str(resources.default_urdf())  # the same file, named
+    consistency.check_stack(params)
+
+
+def test_a_torque_limit_set_for_every_node_reaches_the_planner(tmp_path):
+    path = tmp_path / "limit.yaml"
+    path.write_text("/**:\n  ros__parameters:\n    torque_max: [6.0]\n")
+    params = cfg.load_stack("default", [path])
+    assert params["trajectory_planner"]["torque_max"] == [6.0]
+    consistency.check_stack(params)
