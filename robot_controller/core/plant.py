@@ -77,9 +77,43 @@ def effort_limits(model: mujoco.MjModel) -> np.ndarray:
 # Below this speed (rad/s) a braking joint counts as stopped and is held where it is.
 BRAKE_LOCK_SPEED = 0.05
 
+# An external disturbance is capped at this torque per joint, N·m (ten times the
+# reference arm's effort limit: a shove, not a crash), and at this duration, s.
+MAX_DISTURBANCE_NM = 100.0
+MAX_DISTURBANCE_S = 60.0
+
+
+def check_disturbance(data, joint_count: int) -> tuple[np.ndarray, float] | str:
+    """Validate a ``/sim/disturbance`` array ``[torque_nm…, duration_s]`` (one
+    torque per joint, then the duration) into ``(torque, duration_s)``, or a
+    reason to drop it. A torque beyond ``MAX_DISTURBANCE_NM`` is returned as
+    sent: the caller caps it (and says so). A duration of 0 ends the current one.
+
+    (Beside the plant rather than in ``core.validation``: the bounds are the plant's.)
+    """
+    data = np.asarray(data, dtype=float).ravel()
+    if data.size != joint_count + 1:
+        return (f"expected {joint_count + 1} values ({joint_count} torque(s) in N·m, then the duration in s), "
+                f"got {data.size}")
+    if not np.all(np.isfinite(data)):
+        return "non-finite torque or duration"
+    duration = float(data[-1])
+    if duration < 0:
+        return f"negative duration {duration:g} s"
+    if duration > MAX_DISTURBANCE_S:
+        return f"duration {duration:g} s over the {MAX_DISTURBANCE_S:g} s limit"
+    return data[:-1].copy(), duration
+
 
 class MujocoPlant:
     """The arm simulated by MuJoCo; torque is applied as generalised force on each joint.
+
+    Two torques act on a joint: the actuator's (``step``'s argument, limited to
+    the URDF's effort limit, none on a braked joint) and an external
+    disturbance (``set_disturbance``: a push on the arm, not an actuator, so
+    neither limited by the drive nor cut by a brake). A brake holds against it
+    as against gravity: a joint at rest stays locked; a moving one is slowed
+    by up to the holding torque. The two are summed into MuJoCo's ``qfrc_applied``.
 
     :param urdf_path: robot description
     :param physics_dt: physics step, s (1 ms in the reference scenario)
@@ -96,6 +130,10 @@ class MujocoPlant:
         self._braked = np.zeros(self.joint_count, dtype=bool)
         self._locked_at = np.full(self.joint_count, np.nan)  #: where each braked joint came to rest, rad
         self.effort_limit = effort_limits(self.model)
+        self._actuator = np.zeros(self.joint_count)  #: the actuator's torque in the last step, N·m
+        self._disturbance = np.zeros(self.joint_count)  #: the external torque being applied, N·m
+        self._disturbance_steps = 0  #: physics steps it still lasts
+        self._disturbance_last = np.zeros(self.joint_count)  #: the external torque in the last step, N·m
         mujoco.mj_forward(self.model, self.data)
 
     @property
@@ -108,6 +146,7 @@ class MujocoPlant:
 
     def reset(self, position: np.ndarray, velocity: np.ndarray | None = None) -> None:
         mujoco.mj_resetData(self.model, self.data)
+        self.set_disturbance(np.zeros(self.joint_count), 0.0)
         self.data.qpos[:] = position
         self.data.qvel[:] = 0.0 if velocity is None else velocity
         mujoco.mj_forward(self.model, self.data)
@@ -119,7 +158,22 @@ class MujocoPlant:
         (``effort_limit``), as a real drive limits its current.
         """
         torque = np.clip(torque, -self.effort_limit, self.effort_limit)
-        self.data.qfrc_applied[:] = np.where(self._braked, 0.0, torque)
+        self._actuator = np.where(self._braked, 0.0, torque)
+        # The disturbance, if one is on, for as many of these steps as it still lasts.
+        disturbed = min(n_steps, self._disturbance_steps)
+        if disturbed > 0:
+            self.data.qfrc_applied[:] = self._actuator + self._disturbance
+            self._run(disturbed)
+            self._disturbance_last = self._disturbance.copy()
+            self._disturbance_steps -= disturbed
+            if self._disturbance_steps == 0:
+                self._disturbance = np.zeros(self.joint_count)
+        if n_steps > disturbed:
+            self.data.qfrc_applied[:] = self._actuator
+            self._run(n_steps - disturbed)
+            self._disturbance_last = np.zeros(self.joint_count)
+
+    def _run(self, n_steps: int) -> None:
         if not self._braked.any():
             for _ in range(n_steps):
                 mujoco.mj_step(self.model, self.data)
@@ -127,6 +181,30 @@ class MujocoPlant:
         for _ in range(n_steps):
             mujoco.mj_step(self.model, self.data)
             self._hold_braked_joints()
+
+    def set_disturbance(self, torque: np.ndarray, duration_s: float) -> None:
+        """Apply an external ``torque`` (N·m per joint) for the next ``duration_s``
+        of physics time (whole physics steps), replacing any current one; 0 s
+        ends it. Not limited by the effort limit (the caller bounds it), and
+        applied to a braked joint too: the brake holds against it."""
+        torque = np.asarray(torque, dtype=float).reshape(self.joint_count)
+        steps = int(round(max(0.0, float(duration_s)) / self.physics_dt))
+        self._disturbance = torque.copy() if steps > 0 else np.zeros(self.joint_count)
+        self._disturbance_steps = steps if np.any(torque != 0.0) else 0
+
+    @property
+    def disturbance_active(self) -> bool:
+        """Whether a disturbance will act in the next physics step."""
+        return self._disturbance_steps > 0
+
+    @property
+    def disturbance_remaining_s(self) -> float:
+        return self._disturbance_steps * self.physics_dt
+
+    @property
+    def disturbance_torque(self) -> np.ndarray:
+        """The external torque that acted on each joint in the last physics step, N·m."""
+        return self._disturbance_last.copy()
 
     def _hold_braked_joints(self) -> None:
         """A braked joint that has come to rest is locked where it stopped: MuJoCo's
@@ -157,8 +235,9 @@ class MujocoPlant:
 
     @property
     def applied_torque(self) -> np.ndarray:
-        """The torque acting on each joint in the last step, N·m."""
-        return self.data.qfrc_applied[: self.joint_count].copy()
+        """The actuator's torque on each joint in the last step, N·m (the
+        disturbance apart: ``disturbance_torque``)."""
+        return self._actuator.copy()
 
     @property
     def brakes_engaged(self) -> np.ndarray:

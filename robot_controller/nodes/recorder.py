@@ -58,6 +58,8 @@ TELEMETRY_TOPICS = {
     "/sim/brakes": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
     "/sim/brake": (Bool, "std_msgs/msg/Bool"),
     "/estop": (Bool, "std_msgs/msg/Bool"),
+    "/sim/disturbance": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
+    "/sim/disturbance_applied": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
 }
 CLOCK_TOPIC = {"/clock": (Clock, "rosgraph_msgs/msg/Clock")}
 

@@ -18,6 +18,16 @@ when efforts stop arriving for ``drive_timeout_s``; a braked joint gets no
 torque. The brakes' state goes out on ``/sim/brakes`` (one value per joint,
 1 = engaged) whenever it changes and twice a second.
 
+Disturbances (``/sim/disturbance``, ``std_msgs/Float64MultiArray``
+``[torque_nm…, duration_s]``): an external torque on each joint, in the
+physics beside the actuator's (not limited by the drive, not cut by the
+brakes, which hold against it as against gravity; capped at
+``MAX_DISTURBANCE_NM``), from its arrival (wall clock) or the next tick
+(lockstep) for ``duration_s`` of physics time; a new one replaces it. The
+torque acting goes out on ``/sim/disturbance_applied`` ``[torque_nm…, time_s]``
+(``time_s`` = the true state's stamp) with every true state while it is on,
+and once more, zero, when it ends.
+
 Lockstep (``lockstep: true``, sim time): the sim owns time. It publishes
 ``/clock`` and the state for tick k, then waits; the effort for tick k
 advances exactly one control period. No effort, no time: a run is
@@ -44,7 +54,7 @@ from std_srvs.srv import SetBool
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.ros import scheduling
-from robot_controller.core.plant import MujocoPlant, steps_per_period
+from robot_controller.core.plant import MAX_DISTURBANCE_NM, MujocoPlant, check_disturbance, steps_per_period
 from robot_controller.core.validation import check_effort
 from robot_controller.nodes.world_state import WORLD_STATE_ENV
 from robot_controller.ros.process import run
@@ -108,6 +118,17 @@ class Simulator(StackNode):
         self.create_service(SetBool, "/simulator/estop", self.estop_service)
         self.state_msg = JointState()
         self.state_msg.name = list(self.plant.joint_names)
+        # External disturbances: taken like an effort, applied in the physics beside it.
+        self.create_subscription(Float64MultiArray, "/sim/disturbance", self.disturbance_callback, LATEST_QOS)
+        self.disturbance_pub = GatedPublisher(self, Float64MultiArray, "/sim/disturbance_applied", consumer=False)
+        self.disturbance_msg = Float64MultiArray()
+        self.disturbance_msg.layout.dim = [
+            MultiArrayDimension(label="torque_nm", size=self.joint_count, stride=self.joint_count),
+            MultiArrayDimension(label="time_s", size=1, stride=1)]
+        self.disturbance_on = False  #: one is being applied (for the INFO line when it ends)
+        self.disturbance_started_s = 0.0  #: physics time it started and ends at
+        self.disturbance_ends_s = 0.0
+        self.disturbance_reported = False  #: the last /sim/disturbance_applied was not zero
         self.stop_pacing = threading.Event()
         self.pacer: threading.Thread | None = None
         if self.lockstep:
@@ -180,6 +201,55 @@ class Simulator(StackNode):
             if "drive_timeout" in self.brake_reasons:
                 self.get_logger().info("efforts back: brakes released")
             self.set_brake("drive_timeout", False)
+
+    # --- disturbance in -------------------------------------------------------
+
+    def disturbance_callback(self, msg: Float64MultiArray) -> None:
+        checked = check_disturbance(msg.data, self.joint_count)
+        if isinstance(checked, str):
+            self.warn_throttled("disturbance", f"/sim/disturbance dropped: {checked}")
+            return
+        torque, duration_s = checked
+        if np.any(np.abs(torque) > MAX_DISTURBANCE_NM):
+            self.warn_throttled("disturbance_limit", f"/sim/disturbance {torque.tolist()} N·m beyond "
+                                f"{MAX_DISTURBANCE_NM:g} N·m per joint: capped")
+            torque = np.clip(torque, -MAX_DISTURBANCE_NM, MAX_DISTURBANCE_NM)
+        with self.lock:
+            if not self.lockstep and self.anchor_mono_ns is not None:
+                # Physics up to now ran without it; it acts from here.
+                self.advance(time.monotonic_ns())
+            replaced = self.disturbance_on
+            self.plant.set_disturbance(torque, duration_s)
+            now_s = self.plant.time_s
+            if not self.plant.disturbance_active:
+                if replaced:
+                    self.disturbance_on = False
+                    self.get_logger().info(f"disturbance ended at physics t = {now_s:.3f} s (after "
+                                           f"{now_s - self.disturbance_started_s:.3f} s): replaced by a zero one")
+                else:
+                    self.get_logger().info("disturbance of zero torque or duration received: nothing to apply")
+                return
+            self.disturbance_on = True
+            self.disturbance_started_s = now_s
+            self.disturbance_ends_s = now_s + self.plant.disturbance_remaining_s
+            joints = ", ".join(f"{name} {value:g}"
+                               for name, value in zip(self.plant.joint_names, torque, strict=True))
+            notes = []
+            if replaced:
+                notes.append("replacing the one in force")
+            if self.brake_reasons:
+                notes.append("brakes on: they hold against it")
+            if not self.lockstep and self.anchor_mono_ns is None:
+                notes.append("acting once the physics runs (first command)")
+            self.get_logger().info(f"disturbance started: {joints} N·m for {duration_s:g} s from physics "
+                                   f"t = {now_s:.3f} s" + (f" ({'; '.join(notes)})" if notes else ""))
+
+    def note_disturbance_end(self) -> None:
+        """After the physics stepped (lock held): say when a disturbance has run its course."""
+        if self.disturbance_on and not self.plant.disturbance_active:
+            self.disturbance_on = False
+            self.get_logger().info(f"disturbance ended at physics t = {self.disturbance_ends_s:.3f} s (applied "
+                                   f"for {self.disturbance_ends_s - self.disturbance_started_s:.3f} s)")
 
     # --- brakes -------------------------------------------------------------------
 
@@ -313,6 +383,7 @@ class Simulator(StackNode):
             due = MAX_CATCH_UP_STEPS
         self.plant.step(self.effort, int(due))
         self.steps_done += int(due)
+        self.note_disturbance_end()
 
     # --- lockstep ----------------------------------------------------------------
 
@@ -335,6 +406,7 @@ class Simulator(StackNode):
         self.efforts_applied += 1
         self.plant.step(self.effort, self.steps_per_tick)
         self.steps_done += self.steps_per_tick
+        self.note_disturbance_end()
         self.publish_tick()
 
     def publish_tick(self) -> None:
@@ -353,6 +425,14 @@ class Simulator(StackNode):
         msg.velocity = velocity.tolist()
         msg.effort = (np.zeros(self.joint_count) if self.brake_reasons else self.effort).tolist()
         self.state_pub.publish(msg)
+        # The disturbance that acted in the last physics step: with every state while
+        # there is one, then once zero.
+        applied = self.plant.disturbance_torque
+        nonzero = bool(np.any(applied != 0.0))
+        if nonzero or self.disturbance_reported:
+            self.disturbance_msg.data = applied.tolist() + [stamp_ns * 1e-9]
+            self.disturbance_pub.publish(self.disturbance_msg)
+            self.disturbance_reported = nonzero
 
     def finish(self) -> None:
         self.stop_pacing.set()

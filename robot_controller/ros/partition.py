@@ -39,6 +39,7 @@ from robot_controller import resources
 LOOP_TOPICS = (
     "/trajectory", "/joint_states", "/joint_commands", "/sim/effort", "/sim/joint_states", "/sim/brake",
     "/sim/brakes", "/controller/state", "/motor/command_receipts", "/diagnostics", "/clock",
+    "/sim/disturbance", "/sim/disturbance_applied",
 )
 
 #: Set by the launcher in each node's environment: the run's partition name.

@@ -40,6 +40,11 @@ class Recording:
     #: /sim/brakes: when recorded, and 1/0 per joint
     brakes_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     brakes: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
+    #: /sim/disturbance_applied: the external torque acting on each joint (N·m) at each time (the
+    #: simulator's stamp, else when recorded); non-zero while a disturbance is on, then one zero row;
+    #: empty when there was none
+    disturbance_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    disturbance: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
 
     def raw_reading_at(self, stamps_s: np.ndarray) -> np.ndarray:
         """The sensor's raw position for each measurement stamp (NaN where not recorded).
@@ -125,6 +130,16 @@ def read_recording(bag_dir: Path) -> Recording:
             malformed["/trajectory"] = malformed.get("/trajectory", 0) + 1
     brakes = keep("/sim/brakes", [(t, np.asarray(m.data, dtype=float)) for t, m in decoded["/sim/brakes"]],
                   lambda r: r[1].size == joint_count)
+    # [torque_nm…, time_s] (the simulator's); one torque per joint without the time: when recorded.
+    disturbance = []
+    for timestamp, msg in decoded["/sim/disturbance_applied"]:
+        data = np.asarray(msg.data, dtype=float)
+        if data.size == joint_count + 1 and np.all(np.isfinite(data)):
+            disturbance.append((float(data[-1]), data[:-1]))
+        elif data.size == joint_count and np.all(np.isfinite(data)):
+            disturbance.append((timestamp * 1e-9, data))
+        else:
+            malformed["/sim/disturbance_applied"] = malformed.get("/sim/disturbance_applied", 0) + 1
     receipts = [np.asarray(m.data, dtype=float) for _, m in decoded["/motor/command_receipts"]]
     receipts = [r for r in receipts if r.size % (1 + joint_count) == 0]
     latency = [v for _, m in decoded["/motor/command_latency"] for v in m.data]  # bags from before the receipts
@@ -148,11 +163,12 @@ def read_recording(bag_dir: Path) -> Recording:
         planned_time_s=np.array([t for t, _, _ in planned]), planned_position=rows([q for _, q, _ in planned]),
         planned_velocity=rows([v for _, _, v in planned]),
         brakes_time_s=np.array([t * 1e-9 for t, _ in brakes]), brakes=rows([b for _, b in brakes]),
+        disturbance_time_s=np.array([t for t, _ in disturbance]), disturbance=rows([d for _, d in disturbance]),
         malformed=malformed)
 
 
 WANTED_TOPICS = ("/controller/state", "/sim/joint_states", "/motor/command_latency", "/motor/command_receipts",
-                 "/joint_states", "/trajectory", "/sim/brakes")
+                 "/joint_states", "/trajectory", "/sim/brakes", "/sim/disturbance_applied")
 
 
 def _joint_count_of(decoded: dict[str, list[tuple[int, Any]]]) -> int:
