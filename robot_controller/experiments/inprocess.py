@@ -9,8 +9,9 @@ from robot_controller import resources
 from robot_controller.core.actuator import Actuator
 from robot_controller.core.controller import JointController
 from robot_controller.core.loop import LoopResult, run_loop
-from robot_controller.core.plant import ArmDynamics, MujocoPlant
+from robot_controller.core.plant import MujocoPlant
 from robot_controller.core.trajectory import make_trajectory
+from robot_controller.parameters.builders import arm_model
 
 
 def simulate(params: cfg.Params, *, duration_s: float, seed: int = 0, measurement_delay_s: float = 0.0,
@@ -20,7 +21,7 @@ def simulate(params: cfg.Params, *, duration_s: float, seed: int = 0, measuremen
     plant = MujocoPlant(resources.resolve_urdf(sim["urdf_path"]), 1.0 / sim["physics_rate_hz"])
     n = len(plant.joint_names)
     plant.reset(cfg.per_joint("initial_position", sim["initial_position"], n))
-    dynamics = ArmDynamics(resources.resolve_urdf(ctrl["urdf_path"]))
+    dynamics = arm_model(ctrl)  # the URDF's, or the controller's model_* values over it
     controller_config = cfg.controller_config(ctrl, n)
     controller = JointController(controller_config, n, dynamics)
     actuator = Actuator(cfg.per_joint("torque_max", motor["torque_max"], n), motor["lag_time_constant_s"])

@@ -30,12 +30,11 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
 from robot_controller import parameters as cfg
-from robot_controller import resources
 from robot_controller.core import metrics, state_layout
 from robot_controller.core.controller import ControlOutput, JointController, Status, law_config
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.validation import check_joint_state, check_trajectory
+from robot_controller.parameters.builders import arm_model, model_overridden
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS
@@ -105,9 +104,12 @@ class PidControllerNode(StackNode):
                                + (", lockstep" if self.lockstep else ""))
 
     def setup(self, params: dict[str, Any]) -> None:
-        self.dynamics = ArmDynamics(resources.resolve_urdf(params["urdf_path"]))
+        # The arm model: the URDF's, or the model_* values over it (read-only: fixed at start).
+        self.dynamics = arm_model(params)
         self.joint_names = list(self.dynamics.joint_names)
         self.joint_count = len(self.joint_names)
+        if model_overridden(params):
+            self.get_logger().info(self.dynamics.describe())
 
     def check_params(self, params: dict[str, Any]) -> None:
         # The law designs here, before the change is accepted (an LQR that does not

@@ -11,7 +11,40 @@ from robot_controller.core.sensor_model import SensorConfig
 from robot_controller.parameters.spec import per_joint
 
 if TYPE_CHECKING:  # the controller pulls in scipy and MuJoCo: only the nodes that run one import it
+    from robot_controller.core.arm_model import JointArmModel
     from robot_controller.core.controller import ControllerConfig
+    from robot_controller.core.plant import ArmDynamics
+
+# The controller's arm-model parameters, in the order of core.arm_model.PARAMETERS; empty = the URDF's.
+MODEL_KEYS = ("model_inertia", "model_damping", "model_coulomb_friction", "model_gravity_torque")
+
+
+def _given(value: Any) -> bool:
+    return value is not None and np.size(value) > 0
+
+
+def model_overridden(values: Mapping[str, Any]) -> bool:
+    """Whether any of the controller's ``model_*`` parameters is set."""
+    return any(_given(values.get(key)) for key in MODEL_KEYS)
+
+
+def arm_model(values: Mapping[str, Any]) -> ArmDynamics | JointArmModel:
+    """The arm model the controller's model-based parts use, from its parameters:
+    the URDF's (``ArmDynamics``, MuJoCo) while every ``model_*`` is empty, so a
+    run without them is the same to the bit; otherwise a ``JointArmModel`` with
+    the values given and the URDF's for the rest."""
+    from robot_controller import resources
+    from robot_controller.core.arm_model import JointArmModel
+    from robot_controller.core.plant import ArmDynamics
+
+    dynamics = ArmDynamics(resources.resolve_urdf(values["urdf_path"]))
+    if not model_overridden(values):
+        return dynamics
+    n = len(dynamics.joint_names)
+    given = {key: per_joint(key, values[key], n) if _given(values.get(key)) else None for key in MODEL_KEYS}
+    return JointArmModel.over_urdf(dynamics, inertia=given["model_inertia"], damping=given["model_damping"],
+                                   coulomb_friction=given["model_coulomb_friction"],
+                                   gravity_torque=given["model_gravity_torque"])
 
 
 def controller_config(values: Mapping[str, Any], joint_count: int) -> ControllerConfig:
