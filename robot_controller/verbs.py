@@ -53,7 +53,8 @@ HEADLINE = ("tracking_rms_rad", "tracking_max_rad", "measured_rms_rad", "control
 
 
 def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: list[Path] | None,
-        single_process: bool, realtime: bool = False, sim_time: bool = False, respawn: bool = False) -> int:
+        single_process: bool, realtime: bool = False, sim_time: bool = False, respawn: bool = False,
+        view_port: int | None = None) -> int:
     from robot_controller.runner import launcher
     from robot_controller.scoring import plots, report
 
@@ -62,7 +63,7 @@ def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: 
     config_check.check_stack(params)  # before the output folder is made
     out = output_dir(out, Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S"))
     result = launcher.launch(params, out_dir=out, duration_s=duration_s, single_process=single_process,
-                             realtime=realtime, sim_time=sim_time, respawn=respawn)
+                             realtime=realtime, sim_time=sim_time, respawn=respawn, view_port=view_port)
     if result.interrupted:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # scoring takes a second: let it finish
     if result.exit_code != 0 and not any(result.message_counts.values()):
@@ -203,3 +204,70 @@ def print_table(values: dict, title: str, headline: tuple[str, ...] = HEADLINE) 
             value = values[key]
             table.add_row(key, f"{value:.6g}" if isinstance(value, float) else str(value))
     Console().print(table)
+
+
+# The exercises by name, for the parser (importing them would slow every verb's start).
+EXERCISE_NAMES = ("tune", "windup", "lqr")
+
+
+def exercise(name: str, out: Path, *, quick: bool) -> int:
+    from robot_controller.experiments.exercises import EXERCISES
+
+    chosen = EXERCISES[name]
+    with StepProgress(f"exercise {name}", chosen.steps(quick)) as progress:
+        chosen.run(out, quick=quick, progress=progress)
+    print((out / "report.md").read_text())
+    return 0
+
+
+def tune(out: Path, *, preset: str, config: list[Path] | None, quick: bool) -> int:
+    from robot_controller.experiments import tune as tune_module
+
+    params = cfg.load_stack(preset, config)
+    config_check.check_stack(params)
+    with StepProgress("tune", tune_module.steps(quick)) as progress:
+        tune_module.tune(params, out, quick=quick, progress=progress)
+    print((out / "report.md").read_text())
+    print(f"robot-controller: use it with --config {out / 'tuned.yaml'}")
+    return 0
+
+
+def identify(out: Path, *, preset: str, config: list[Path] | None, seed: int, duration_s: float) -> int:
+    from robot_controller.experiments import identify as identify_module
+
+    params = cfg.load_stack(preset, config)
+    config_check.check_stack(params)
+    with StepProgress("identify", 4) as progress:
+        identify_module.identify(params, out, duration_s=duration_s, seed=seed, progress=progress)
+    print((out / "identification.md").read_text())
+    print(f"robot-controller: use it with --config {out / 'identified.yaml'} (after your other --config files)")
+    return 0
+
+
+def view(run_dir: Path, *, port: int, serve: bool) -> int:
+    from robot_controller.view import build_view_from_bag
+
+    if not (run_dir / "bag").is_dir():
+        raise UsageError(f"{run_dir}: no bag/ here (not a run directory)")
+    build_view_from_bag(run_dir, port, serve)
+    return 0
+
+
+def disturb(torque_nm: float, duration_s: float, joint: str | None) -> int:
+    from robot_controller.tools.disturb import disturb as send
+
+    return send(torque_nm, duration_s, joint)
+
+
+def topic(kind: str, *args, **kwargs) -> int:
+    from robot_controller.tools import topic as topic_tool
+
+    return {"list": topic_tool.topic_list, "echo": topic_tool.topic_echo, "hz": topic_tool.topic_hz}[kind](
+        *args, **kwargs)
+
+
+def param(kind: str, *args) -> int:
+    from robot_controller.tools import param as param_tool
+
+    return {"list": param_tool.param_list, "get": param_tool.param_get, "set": param_tool.param_set,
+            "dump": param_tool.param_dump}[kind](*args)
