@@ -207,7 +207,7 @@ def print_table(values: dict, title: str, headline: tuple[str, ...] = HEADLINE) 
 
 
 # The exercises by name, for the parser (importing them would slow every verb's start).
-EXERCISE_NAMES = ("tune", "windup", "lqr")
+EXERCISE_NAMES = ("tune", "disturbance", "windup", "lqr")
 
 
 def exercise(name: str, out: Path, *, quick: bool) -> int:

@@ -74,7 +74,10 @@ def law_step(pid: Pid, config: ControllerConfig, dynamics: ArmDynamics | None, d
     """One step of the law over ``dt_s`` seconds: the model's feedforward torque
     for the reference motion plus the PID feedback on the error between the
     reference and the arm's ``position`` (rad) / ``velocity`` (rad/s), limited
-    to the torque limit (and slew rate) by the PID."""
-    feedforward = feedforward_torque(config.feedforward, dynamics, reference.position, reference.velocity,
-                                     reference.acceleration)
+    to the torque limit (and slew rate) by the PID. The feedforward is for
+    ``reference.feedforward`` when it is given (the reference over the period
+    the command is held for), otherwise for the reference at the tick."""
+    ahead = (reference.feedforward if reference.feedforward is not None
+             else (reference.position, reference.velocity, reference.acceleration))
+    feedforward = feedforward_torque(config.feedforward, dynamics, *ahead)
     return pid.step(dt_s, reference.position, reference.velocity, position, velocity, feedforward)

@@ -1,9 +1,11 @@
 """The planner's reference as the controller receives it: the latest sample
 and its time base, whether the samples due by a tick are in (lockstep), and
 the trajectory at a tick time — the sample held, or extrapolated on its own
-velocity and acceleration — with whether it is still fresh.
+velocity and acceleration — with whether it is still fresh; and the
+trajectory over the control period that starts at the tick, which the
+feedforward is computed for (:meth:`PlannerReference.over_period`).
 
-Positions rad, velocities rad/s, accelerations rad/s², times s.
+Positions rad, velocities rad/s, accelerations rad/s², jerks rad/s³, times s.
 """
 from __future__ import annotations
 
@@ -16,6 +18,12 @@ from robot_controller.core.tick_state import MAX_EXTRAPOLATION_S, TIME_EPS_S, cl
 
 # The planner counts as silent after this many of its periods without a sample.
 REFERENCE_TIMEOUT_PERIODS = 5
+
+
+def _minmod(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Per element, the smaller in magnitude of ``a`` and ``b`` where they agree
+    in sign, else 0 (the slope limiter of numerical schemes)."""
+    return np.where(np.sign(a) == np.sign(b), np.sign(a) * np.minimum(np.abs(a), np.abs(b)), 0.0)
 
 
 @dataclass(frozen=True)
@@ -37,15 +45,24 @@ class PlannerReference:
         self.spoke = False  #: a sample has arrived from the planner (not just a hold written in)
         self.time_s = 0.0  #: s, the latest sample's time base
         self.period_s: float | None = None  #: s, learned from consecutive sample times
+        #: rad/s³, the trajectory's jerk as the last three samples' accelerations agree on it (0 where
+        #: they do not: an acceleration that jumps, as a shaped step's does on a sample, has none)
+        self.jerk: np.ndarray | None = None
+        self._acceleration_slope: np.ndarray | None = None  #: rad/s³, between the last two samples
 
     def receive(self, received_s: float, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray,
                 sample_time_s: float | None = None) -> None:
         """A new sample. Its time base is ``sample_time_s`` when the planner sent
         one, otherwise the time it arrived."""
         time_s = received_s if sample_time_s is None else sample_time_s
-        self.spoke = True
         if self.sample is not None and time_s > self.time_s:
             self.period_s = time_s - self.time_s
+            # The jerk, from the planner's own samples only (not a hold written in before it spoke).
+            slope = (np.asarray(acceleration, dtype=float) - self.sample[2]) / self.period_s if self.spoke else None
+            self.jerk = (None if slope is None or self._acceleration_slope is None
+                         else _minmod(slope, self._acceleration_slope))
+            self._acceleration_slope = slope
+        self.spoke = True
         self.sample = (position, velocity, acceleration)
         self.time_s = time_s
 
@@ -87,3 +104,21 @@ class PlannerReference:
             if age_s > 0:
                 source = ReferenceSource.EXTRAPOLATED
         return TrajectoryPoint(position, velocity, acceleration, fresh, source)
+
+    def over_period(self, now_s: float, period_s: float, extrapolate: bool
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The trajectory ``(position, velocity, acceleration)`` a torque held over
+        the control period ``[now_s, now_s + period_s]`` is to be computed for:
+        at the middle of the period, where the model's torque equals its average
+        over the period to second order (the torque at ``now_s`` lags the motion
+        by half a period). With ``extrapolate``, the latest sample advanced
+        there on its velocity, acceleration and :attr:`jerk`; without, the
+        sample as held, as :meth:`at` holds it. Needs a sample."""
+        position, velocity, acceleration = self.sample
+        if not extrapolate:
+            return position, velocity, acceleration
+        s = float(np.clip(now_s + 0.5 * period_s - self.time_s, 0.0, MAX_EXTRAPOLATION_S))
+        jerk = np.zeros(np.shape(acceleration)) if self.jerk is None else self.jerk
+        return (position + velocity * s + acceleration * (s * s / 2) + jerk * (s ** 3 / 6),
+                velocity + acceleration * s + jerk * (s * s / 2),
+                acceleration + jerk * s)

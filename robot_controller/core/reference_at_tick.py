@@ -30,6 +30,10 @@ class Reference:
     acceleration: np.ndarray  #: rad/s²
     status: Status  #: OK, HOLDING, REACQUIRING, REFERENCE_LOST or WATCHDOG
     source: ReferenceSource
+    #: ``(position, velocity, acceleration)`` the feedforward is computed for: the reference at the
+    #: middle of the control period the command is held over (see
+    #: :meth:`~robot_controller.core.reference.PlannerReference.over_period`); None: the reference itself
+    feedforward: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
 
 class ReferenceAtTick:
@@ -117,15 +121,19 @@ class ReferenceAtTick:
             self._blend = Blend.starting(now_s, held[0] - point.position, held[1] - point.velocity,
                                          config.reacquire_acceleration)
             self._reference_stop = None
-        reference = Reference(point.position, point.velocity, point.acceleration, Status.OK, point.source)
+        # The command is held over the period: its feedforward is for the reference over it.
+        mid_s = now_s + 0.5 * config.control_period_s
+        ahead = planner.over_period(now_s, config.control_period_s, config.reference_extrapolation)
+        reference = Reference(point.position, point.velocity, point.acceleration, Status.OK, point.source, ahead)
         if self._blend is not None:
             if self._blend.done(now_s):
                 self._blend = None
             else:
-                offset = self._blend.offset_at(now_s)
+                offset, offset_ahead = self._blend.offset_at(now_s), self._blend.offset_at(mid_s)
                 reference = Reference(point.position + offset[0], point.velocity + offset[1],
                                       point.acceleration + offset[2], Status.REACQUIRING,
-                                      ReferenceSource.REACQUIRE_BLEND)
+                                      ReferenceSource.REACQUIRE_BLEND,
+                                      tuple(x + dx for x, dx in zip(ahead, offset_ahead, strict=True)))
         return self._used(now_s, reference)
 
     def _planner_lost(self, now_s: float, point: TrajectoryPoint, config: ControllerConfig) -> Reference:

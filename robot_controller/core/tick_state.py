@@ -53,7 +53,10 @@ class StateAtTick:
         """The arm's state at ``now_s``: the reading, filtered, then (with
         ``latency_compensation``) brought from its stamp up to now — position
         AND velocity, through the arm model under the torque being applied, so
-        a stale velocity does not eat the D term's phase margin."""
+        a stale velocity does not eat the D term's phase margin. With the
+        filter, the velocity returned is the one at the tick's instant
+        (:meth:`JointKalmanFilter.velocity_at_instant`); :attr:`latest` keeps
+        the model's own."""
         position, velocity = readings.latest
         if self.kalman is not None:
             if readings.stamp_s != self._filtered_stamp_s:
@@ -69,6 +72,8 @@ class StateAtTick:
             else:
                 position = position + velocity * age_s
         self.latest = (position, velocity, now_s)
+        if self.kalman is not None:  # the filter's model step velocity → the velocity at the tick
+            velocity = self.kalman.velocity_at_instant(position, velocity, self.last_command())
         return position, velocity
 
     def coast(self, now_s: float, readings: Readings) -> tuple[np.ndarray, np.ndarray]:

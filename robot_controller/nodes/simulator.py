@@ -129,6 +129,7 @@ class Simulator(StackNode):
         self.disturbance_started_s = 0.0  #: physics time it started and ends at
         self.disturbance_ends_s = 0.0
         self.disturbance_reported = False  #: the last /sim/disturbance_applied was not zero
+        self.scheduled_disturbance_done = False  #: the parameters' one has started (or there is none)
         self.stop_pacing = threading.Event()
         self.pacer: threading.Thread | None = None
         if self.lockstep:
@@ -218,31 +219,46 @@ class Simulator(StackNode):
             if not self.lockstep and self.anchor_mono_ns is not None:
                 # Physics up to now ran without it; it acts from here.
                 self.advance(time.monotonic_ns())
-            replaced = self.disturbance_on
-            self.plant.set_disturbance(torque, duration_s)
-            now_s = self.plant.time_s
-            if not self.plant.disturbance_active:
-                if replaced:
-                    self.disturbance_on = False
-                    self.get_logger().info(f"disturbance ended at physics t = {now_s:.3f} s (after "
-                                           f"{now_s - self.disturbance_started_s:.3f} s): replaced by a zero one")
-                else:
-                    self.get_logger().info("disturbance of zero torque or duration received: nothing to apply")
-                return
-            self.disturbance_on = True
-            self.disturbance_started_s = now_s
-            self.disturbance_ends_s = now_s + self.plant.disturbance_remaining_s
-            joints = ", ".join(f"{name} {value:g}"
-                               for name, value in zip(self.plant.joint_names, torque, strict=True))
-            notes = []
+            self.start_disturbance(torque, duration_s)
+
+    def start_scheduled_disturbance(self) -> None:
+        """The parameters' disturbance, once physics time reaches ``disturbance_start_s`` (lock held):
+        the same input as ``/sim/disturbance``, at a time a lockstep run reproduces exactly."""
+        if self.scheduled_disturbance_done or self.plant.time_s + 1e-9 < self.params["disturbance_start_s"]:
+            return
+        self.scheduled_disturbance_done = True
+        torque = np.clip(cfg.per_joint("disturbance_torque_nm", self.params["disturbance_torque_nm"],
+                                       self.joint_count), -MAX_DISTURBANCE_NM, MAX_DISTURBANCE_NM)
+        if np.any(torque != 0.0):
+            self.start_disturbance(torque, self.params["disturbance_duration_s"])
+
+    def start_disturbance(self, torque: np.ndarray, duration_s: float) -> None:
+        """Apply ``torque`` (N·m per joint) for ``duration_s`` of physics time from now (lock held)."""
+        replaced = self.disturbance_on
+        self.plant.set_disturbance(torque, duration_s)
+        now_s = self.plant.time_s
+        if not self.plant.disturbance_active:
             if replaced:
-                notes.append("replacing the one in force")
-            if self.brake_reasons:
-                notes.append("brakes on: they hold against it")
-            if not self.lockstep and self.anchor_mono_ns is None:
-                notes.append("acting once the physics runs (first command)")
-            self.get_logger().info(f"disturbance started: {joints} N·m for {duration_s:g} s from physics "
-                                   f"t = {now_s:.3f} s" + (f" ({'; '.join(notes)})" if notes else ""))
+                self.disturbance_on = False
+                self.get_logger().info(f"disturbance ended at physics t = {now_s:.3f} s (after "
+                                       f"{now_s - self.disturbance_started_s:.3f} s): replaced by a zero one")
+            else:
+                self.get_logger().info("disturbance of zero torque or duration received: nothing to apply")
+            return
+        self.disturbance_on = True
+        self.disturbance_started_s = now_s
+        self.disturbance_ends_s = now_s + self.plant.disturbance_remaining_s
+        joints = ", ".join(f"{name} {value:g}"
+                           for name, value in zip(self.plant.joint_names, torque, strict=True))
+        notes = []
+        if replaced:
+            notes.append("replacing the one in force")
+        if self.brake_reasons:
+            notes.append("brakes on: they hold against it")
+        if not self.lockstep and self.anchor_mono_ns is None:
+            notes.append("acting once the physics runs (first command)")
+        self.get_logger().info(f"disturbance started: {joints} N·m for {duration_s:g} s from physics "
+                               f"t = {now_s:.3f} s" + (f" ({'; '.join(notes)})" if notes else ""))
 
     def note_disturbance_end(self) -> None:
         """After the physics stepped (lock held): say when a disturbance has run its course."""
@@ -381,6 +397,7 @@ class Simulator(StackNode):
             self.anchor_mono_ns += shift_ns
             self.anchor_ros_ns += shift_ns
             due = MAX_CATCH_UP_STEPS
+        self.start_scheduled_disturbance()
         self.plant.step(self.effort, int(due))
         self.steps_done += int(due)
         self.note_disturbance_end()
@@ -404,6 +421,7 @@ class Simulator(StackNode):
         self.set_brake("drive_timeout", False)
         self.effort = np.zeros(self.joint_count) if self.brake_reasons else effort
         self.efforts_applied += 1
+        self.start_scheduled_disturbance()
         self.plant.step(self.effort, self.steps_per_tick)
         self.steps_done += self.steps_per_tick
         self.note_disturbance_end()

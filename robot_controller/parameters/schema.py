@@ -37,6 +37,11 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         ParamSpec('control_rate_hz', float, 100.0, 'control rate the lockstep advances by (one period per effort), Hz', minimum=10.0, maximum=1000.0),
         ParamSpec('drive_timeout_s', float, 0.05, 'efforts missing this long (wall clock) engage the holding brakes and cut the torque (category 0), s', minimum=0.0, exclusive_minimum=True),
         ParamSpec('brake_torque_nm', float, 50.0, "holding torque of each joint's brake, N·m (stops the reference arm from 3 rad/s in about 5 ms)", minimum=0.0, exclusive_minimum=True),
+        # A disturbance at a set physics time (the tutorial's exercise 2), the same input as /sim/disturbance:
+        # a lockstep run reproduces it exactly.
+        ParamSpec("disturbance_torque_nm", float, [0.0], "external torque on each joint from disturbance_start_s, N·m (0: none)", per_joint=True, minimum=-100.0, maximum=100.0),
+        ParamSpec("disturbance_start_s", float, 0.0, "physics time the disturbance starts at, s (the physics starts with the first command)", minimum=0.0),
+        ParamSpec("disturbance_duration_s", float, 1.0, "how long the disturbance acts, s", minimum=0.0, exclusive_minimum=True, maximum=60.0),
     ),
     "motor_node": (
         URDF,

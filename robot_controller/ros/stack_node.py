@@ -156,6 +156,8 @@ class StackNode(Node):
                 others.remove(expected)
             if not others:
                 continue
+            # The expected name again: a second node of that name (another run on this domain, or a stray copy).
+            others = [f"{name} (a second one)" if name == expected else name for name in others]
             if partition:
                 consequence = (f"not heard if started outside this run (its loop topics are in DDS partition "
                                f"{partition})")

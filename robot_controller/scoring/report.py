@@ -13,8 +13,8 @@ from robot_controller.core import metrics, state_layout
 # What scores a run reads first; importable from here too.
 from robot_controller.scoring.bag_reader import Recording, motor_latency_s, read_recording
 
-__all__ = ["Recording", "json_safe", "motor_latency_s", "read_recording", "score", "tracking_on_sim_timeline",
-           "write_metrics"]
+__all__ = ["Recording", "json_safe", "motor_latency_s", "read_recording", "reference_in_force", "score",
+           "tracking_on_sim_timeline", "write_metrics"]
 
 
 def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: float = metrics.WARMUP_S,
@@ -64,10 +64,9 @@ def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: flo
     return out
 
 
-def tracking_on_sim_timeline(recording: Recording, start_s: float, end_s: float,
-                             nominal_period_s: float = 0.01) -> dict[str, Any]:
-    """Tracking on the simulator's timeline: every true-state sample from
-    ``start_s`` to ``end_s`` against the reference in force at that time.
+def reference_in_force(recording: Recording, nominal_period_s: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
+    """The reference in force at every true-state sample (rad, one column per
+    joint), and whether one was in force there at all.
 
     The reference in force is the controller's: between two ticks a normal
     period apart, interpolated (it moves with the trajectory); across a longer
@@ -75,11 +74,12 @@ def tracking_on_sim_timeline(recording: Recording, start_s: float, end_s: float,
     carried on at its speed for as long as a drive acts on a last command
     (``CARRY_S``, the motor's command timeout), then held. So a stalled
     controller cannot hide: its ticks are missing, the arm's samples are not.
+    None is in force before the first tick, or where the controller commands
+    nothing (no reading yet, sensor lost, e-stop: the brake holds).
     """
     s = recording.state
     ticks, reference = s["time_s"], s["reference"]
-    t, q = recording.true_time_s, recording.true_position
-    window = (t >= start_s - 1e-9) & (t <= end_s + 1e-9) & (t >= ticks[0])
+    t = recording.true_time_s
     index = np.clip(np.searchsorted(ticks, t, side="right") - 1, 0, len(ticks) - 1)
     following = np.clip(index + 1, 0, len(ticks) - 1)
     span = ticks[following] - ticks[index]
@@ -94,10 +94,18 @@ def tracking_on_sim_timeline(recording: Recording, start_s: float, end_s: float,
                      / np.where(step_s > 0, step_s, 1.0)[:, None], 0.0)
     carried = reference[index] + speed * np.clip(t - ticks[index], 0.0, CARRY_S)[:, None]
     in_force = np.where(interpolate[:, None], in_force, carried)
-    # A tick that commands nothing (no reading yet, sensor lost, e-stop: the brake holds) puts no
-    # reference in force.
     idle = np.isin(s["status"], [state_layout.STATUS_CODES[name] for name in IDLE_STATUSES])
-    window &= ~idle[index]
+    return in_force, (t >= ticks[0]) & ~idle[index]
+
+
+def tracking_on_sim_timeline(recording: Recording, start_s: float, end_s: float,
+                             nominal_period_s: float = 0.01) -> dict[str, Any]:
+    """Tracking on the simulator's timeline: every true-state sample from
+    ``start_s`` to ``end_s`` against the reference in force at that time
+    (:func:`reference_in_force`)."""
+    t, q = recording.true_time_s, recording.true_position
+    in_force, valid = reference_in_force(recording, nominal_period_s)
+    window = (t >= start_s - 1e-9) & (t <= end_s + 1e-9) & valid
     if not np.any(window):
         return {"tracking_rms_rad": float("nan"), "tracking_max_rad": float("nan"), "scored_samples": 0}
     error = in_force[window] - q[window]
