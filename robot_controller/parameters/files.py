@@ -10,7 +10,7 @@ import yaml
 
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
-from robot_controller.parameters.schema import NODES, ROS_BUILTIN, SCHEMA, defaults, has, spec_of
+from robot_controller.parameters.schema import NODES, REPORTED, ROS_BUILTIN, SCHEMA, defaults, has, spec_of
 
 Params = dict[str, dict[str, Any]]
 
@@ -48,6 +48,8 @@ def read_params_file(path: str | Path) -> Params:
                 body["ros__parameters"], dict):
             raise ConfigError(f"{path}: {key}: expected exactly one key 'ros__parameters' holding a mapping")
         for name, value in body["ros__parameters"].items():
+            if name in REPORTED:
+                continue  # what a node reports (``param dump`` writes it), not a setting
             targets = [n for n in NODES if has(n, name)] if node == "**" else [node]
             if node == "**" and not targets and name not in ROS_BUILTIN:
                 raise ConfigError(f"{path}: /**.{name}: no node has a parameter {name!r}")

@@ -14,7 +14,10 @@ from robot_controller.parameters.spec import ParamSpec
 
 NODES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
 # Parameters rclpy declares on every node by itself.
-ROS_BUILTIN = ("use_sim_time",)
+ROS_BUILTIN = ("use_sim_time", "start_type_description_service")
+# Parameters a node declares to report something it works out (read-only in effect); a parameter file
+# that holds them (`robot-controller param dump`) is read without them.
+REPORTED = ("law_in_force",)
 
 
 def _values(enum: type[Enum]) -> tuple[str, ...]:

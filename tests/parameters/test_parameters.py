@@ -104,3 +104,13 @@ def test_core_never_imports_rclpy():
     code = "import sys, robot_controller.core.loop, robot_controller.experiments.inprocess; print('rclpy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60)
     assert out.stdout.strip() == "False"
+
+
+def test_a_param_dump_reads_back_as_a_config(tmp_path):
+    """What ``robot-controller param dump`` writes (rclpy's built-ins, the reported law, unset lists as null)."""
+    dump = tmp_path / "dump.yaml"
+    dump.write_text("/pid_controller:\n  ros__parameters:\n    kp: [60.0]\n    use_sim_time: false\n"
+                    "    start_type_description_service: true\n    law_in_force: 'LQR (q=...)'\n"
+                    "    model_inertia: null\n")
+    values = cfg.load_stack("default", [dump])["pid_controller"]
+    assert values["kp"] == [60.0] and "law_in_force" not in values

@@ -1,0 +1,263 @@
+"""What every tool shares: one short-lived, hidden rclpy node on the current
+ROS_DOMAIN_ID, spinning in a thread, that hears every run on the domain.
+
+Each run's loop topics live in a DDS partition of their own
+(``ros.partition``); a tool would hear none of them with Fast DDS's defaults.
+So before the process makes its first participant, unless the user chose a
+profile (``FASTRTPS_DEFAULT_PROFILES_FILE``), an observer profile is written
+to a temporary file and named in this process's environment only: the tool
+then reads every run's partition and the default one alike (the tutorial's
+nodes). Discovery stays on this host unless ``ROS_AUTOMATIC_DISCOVERY_RANGE``
+says otherwise.
+
+Nothing here imports rclpy at module import: ``robot-controller`` stays fast.
+"""
+from __future__ import annotations
+
+import contextlib
+import functools
+import importlib
+import os
+import shutil
+import signal
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+#: How long a tool waits for a topic or a node's service to appear.
+DISCOVERY_TIMEOUT_S = 5.0
+#: One service call: how long each attempt waits for its answer, and how many attempts.
+CALL_ATTEMPT_S = 2.5
+CALL_ATTEMPTS = 4
+POLL_S = 0.02
+
+DISCOVERY_RANGE_ENV = "ROS_AUTOMATIC_DISCOVERY_RANGE"
+
+
+class ToolError(Exception):
+    """Something the user should read: one line on stderr, exit code 1."""
+
+
+# Fast DDS reads its XML profiles once per process, at the first participant:
+# the observer profile is written (and its temporary file removed) only then.
+_participant_made = False
+
+
+def _prepare_environment() -> Path | None:
+    """Name the observer profile in this process's environment; the temporary
+    directory to remove once the first participant has read it (None: nothing to do)."""
+    from robot_controller.ros import partition
+
+    os.environ.setdefault(DISCOVERY_RANGE_ENV, "LOCALHOST")
+    if _participant_made or partition.PROFILES_ENV in os.environ:
+        return None
+    directory = Path(tempfile.mkdtemp(prefix="robot-controller-tools-"))
+    os.environ[partition.PROFILES_ENV] = str(partition.write_observer_profile(directory / "observer.xml"))
+    return directory
+
+
+def _forget_profile(directory: Path | None) -> None:
+    """Read by now: remove it, and the variable, so no child process inherits a path that is gone."""
+    global _participant_made
+    _participant_made = True
+    if directory is None:
+        return
+    from robot_controller.ros import partition
+
+    os.environ.pop(partition.PROFILES_ENV, None)
+    shutil.rmtree(directory, ignore_errors=True)
+
+
+def absolute(name: str) -> str:
+    """``joint_states`` → ``/joint_states`` (the tools' node lives in the root namespace)."""
+    return "/" + name.strip().lstrip("/")
+
+
+def message_class(type_name: str) -> type:
+    """``sensor_msgs/msg/JointState`` → the class, imported as ``sensor_msgs.msg.JointState``."""
+    try:
+        package, kind, name = type_name.split("/")
+        return getattr(importlib.import_module(f"{package}.{kind}"), name)
+    except (ValueError, ImportError, AttributeError) as exc:
+        raise ToolError(f"type {type_name} cannot be loaded here ({exc})") from None
+
+
+class Graph:
+    """The tool's node on the domain, and what the tools ask of the graph through it."""
+
+    def __init__(self, context: Any, node: Any) -> None:
+        self.context = context
+        self.node = node
+        self.domain = context.get_domain_id()
+
+    def topics(self) -> dict[str, list[str]]:
+        """Every topic the graph shows, with its type names (hidden ones left out, as ros2cli does)."""
+        from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden
+
+        return {name: types for name, types in self.node.get_topic_names_and_types()
+                if not topic_or_service_is_hidden(name)}
+
+    def only_mine(self, topic: str) -> bool:
+        """Whether this tool's own node is the topic's only endpoint (its /parameter_events)."""
+        me = self.node.get_name()
+        endpoints = self.node.get_publishers_info_by_topic(topic) + self.node.get_subscriptions_info_by_topic(topic)
+        return all(info.node_name == me for info in endpoints)
+
+    def settled_topics(self, *, minimum_s: float = 1.0, quiet_s: float = 0.5, maximum_s: float = 3.0
+                       ) -> dict[str, list[str]]:
+        """The graph's topics once discovery has gone quiet (no daemon caches them for us)."""
+        start = last_change = time.monotonic()
+        seen = self.topics()
+        while True:
+            now = time.monotonic()
+            if now - start >= maximum_s or (now - start >= minimum_s and now - last_change >= quiet_s):
+                return {name: types for name, types in seen.items() if not self.only_mine(name)}
+            time.sleep(0.05)
+            current = self.topics()
+            if current != seen:
+                seen, last_change = current, time.monotonic()
+
+    def wait_for_topic(self, topic: str, timeout_s: float | None = None) -> list[str]:
+        """The topic's type names, once it shows in the graph; ``ToolError`` if it does not in time."""
+        deadline = time.monotonic() + (DISCOVERY_TIMEOUT_S if timeout_s is None else timeout_s)
+        while True:
+            types = self.topics().get(topic)
+            if types and not self.only_mine(topic):
+                return types
+            if time.monotonic() >= deadline:
+                raise ToolError(f"{topic}: no such topic on domain {self.domain}")
+            time.sleep(0.05)
+
+    def call(self, srv_type: type, service: str, request: Any, *, what: str, wait_s: float | None = None) -> Any:
+        """One service call with a timeout; a lost first response is retried.
+
+        DDS may match the request path before the response path
+        (``service_is_ready`` can be true early), so an unanswered request is
+        withdrawn and sent again, as a person would. ``what`` names the server
+        in the messages (``/pid_controller``).
+        """
+        client = self.node.create_client(srv_type, service)
+        try:
+            deadline = time.monotonic() + (DISCOVERY_TIMEOUT_S if wait_s is None else wait_s)
+            while not client.service_is_ready():
+                if time.monotonic() >= deadline:
+                    raise ToolError(f"{what}: no such node on domain {self.domain} (no {service} service)")
+                time.sleep(POLL_S)
+            for _ in range(CALL_ATTEMPTS):
+                future = client.call_async(request)
+                end = time.monotonic() + CALL_ATTEMPT_S
+                while not future.done() and time.monotonic() < end:
+                    time.sleep(POLL_S)
+                if future.done():
+                    result = future.result()
+                    if result is None:
+                        raise ToolError(f"{what}: {service} failed ({future.exception()})")
+                    return result
+                client.remove_pending_request(future)
+            raise ToolError(f"{what}: no answer from {service} in {CALL_ATTEMPTS * CALL_ATTEMPT_S:g} s")
+        finally:
+            self.node.destroy_client(client)
+
+
+def _tool_node_name(tool: str) -> str:
+    # Hidden (leading underscore), as ros2cli's own nodes: graph listings leave it out.
+    return f"_robot_controller_{''.join(c if c.isalnum() else '_' for c in tool)}_{os.getpid()}"
+
+
+@contextlib.contextmanager
+def open_graph(tool: str) -> Iterator[Graph]:
+    """A hidden node on the current ROS_DOMAIN_ID spinning in a thread, torn down on the way out.
+
+    rclpy installs no signal handler here: Ctrl-C is Python's own
+    ``KeyboardInterrupt`` in the main thread (``command`` turns it into an exit
+    code), and a second Ctrl-C during teardown is ignored.
+    """
+    profile_dir = _prepare_environment()
+    context = node = executor = spinner = None
+    try:  # from here on: a Ctrl-C while rclpy loads leaves no temporary profile behind
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.node import Node
+        from rclpy.signals import SignalHandlerOptions
+
+        context = rclpy.Context()
+        rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+        node = Node(_tool_node_name(tool), context=context, start_parameter_services=False, enable_rosout=False)
+        _forget_profile(profile_dir)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+
+        def spin() -> None:
+            try:
+                executor.spin()
+            except Exception:  # noqa: BLE001 - the context was shut down under it, at teardown
+                pass
+
+        spinner = threading.Thread(target=spin, name=f"{tool} executor", daemon=True)
+        spinner.start()
+        yield Graph(context, node)
+    finally:
+        with _sigint_ignored():
+            if executor is not None:
+                # Jazzy's Executor.shutdown does not wait for spin() to return: the
+                # thread must leave its wait set before the node and context go
+                # (or the process aborts in C++ at exit).
+                executor.shutdown(timeout_sec=1.0)
+                if spinner is not None:
+                    spinner.join(timeout=2.0)
+            if node is not None:
+                node.destroy_node()
+            if context is not None:
+                context.try_shutdown()
+            if profile_dir is not None and profile_dir.exists():  # no node was made: the next attempt writes anew
+                from robot_controller.ros import partition
+
+                os.environ.pop(partition.PROFILES_ENV, None)
+                shutil.rmtree(profile_dir, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def command(name: str, *, interrupted: int = 0) -> Callable[[Callable[..., int]], Callable[..., int]]:
+    """A tool's function as a command: ``ToolError`` → one line on stderr, exit 1;
+    Ctrl-C → ``interrupted`` (0: the way ``echo`` and ``hz`` are meant to end),
+    no traceback; a closed pipe (``| head``) → 0, quietly."""
+    def decorate(function: Callable[..., int]) -> Callable[..., int]:
+        @functools.wraps(function)
+        def run(*args: Any, **kwargs: Any) -> int:
+            try:
+                return function(*args, **kwargs)
+            except ToolError as exc:
+                print(f"robot-controller {name}: {exc}", file=sys.stderr, flush=True)
+                return 1
+            except KeyboardInterrupt:
+                return interrupted
+            except BrokenPipeError:
+                _stdout_to_devnull()
+                return 0
+        return run
+    return decorate
+
+
+def _stdout_to_devnull() -> None:
+    """The reader went away: nothing more reaches it, and the interpreter's last flush must not complain."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):
+        pass
