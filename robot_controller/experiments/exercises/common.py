@@ -1,0 +1,242 @@
+"""What the exercises share: seeded lockstep runs of the real graph and what
+they show (a step's figures, a sine's tracking), the files every exercise
+writes (``report.md``, ``results.json``, plots) and its registry entry."""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robot_controller import parameters as cfg
+from robot_controller.core import metrics
+from robot_controller.experiments.step import run_and_score, step_figures
+from robot_controller.scoring import report
+
+Progress = Callable[[str], None]
+
+#: The sensor's noise seed of every run: the same seed, the same figures.
+SEED = 0
+
+
+@dataclass(frozen=True)
+class Exercise:
+    """One exercise of the tutorial, as the CLI runs it
+    (``robot-controller exercise NAME --out DIR [--quick]``)."""
+
+    name: str
+    title: str  #: one line: what it does
+    run: Callable[..., dict[str, Any]]  #: ``run(out, *, quick=False, progress=print) -> results``
+    steps: Callable[[bool], int]  #: ``steps(quick)``: how many times ``run`` calls ``progress``
+
+
+@dataclass
+class Response:
+    """One lockstep run, as the exercises plot and tabulate it."""
+
+    label: str
+    time_s: np.ndarray  #: control ticks, s from the step (step runs) or from the first tick (sine runs)
+    reference: np.ndarray  #: rad, the reference the law used
+    position: np.ndarray  #: rad, the TRUE joint angle at each tick
+    command: np.ndarray  #: N·m
+    integral: np.ndarray  #: N·m, the I term
+    saturated: np.ndarray  #: bool per tick: the torque limit cut the command
+    figures: dict[str, Any] = field(default_factory=dict)
+    out: Path | None = None
+
+
+def plant_loop(params: cfg.Params) -> tuple[np.ndarray, np.ndarray, float]:
+    """The simulated arm's joint linearised at rest and sampled at the control period
+    (``core.lqr.discretise``: state ``[∫e, e, ė]``): ``A``, ``B`` and the period ``dt``."""
+    from robot_controller import resources
+    from robot_controller.core import lqr
+    from robot_controller.core.plant import ArmDynamics
+
+    dynamics = ArmDynamics(resources.resolve_urdf(params["simulator"]["urdf_path"]))
+    dt = 1.0 / params["pid_controller"]["control_rate_hz"]
+    A, B = lqr.discretise(float(dynamics.mass_matrix(np.zeros(1))[0, 0]), float(dynamics.damping[0]), dt)
+    return A, B, dt
+
+
+def controller_model(params: cfg.Params):
+    """The arm model the controller designs and predicts with: the URDF's, or its
+    ``model_*`` parameters over it where the parameter set has them."""
+    from robot_controller.parameters import builders
+
+    ctrl = params["pid_controller"]
+    make_model = getattr(builders, "arm_model", None)
+    if make_model is not None:
+        return make_model(ctrl)
+    from robot_controller import resources
+    from robot_controller.core.plant import ArmDynamics
+
+    return ArmDynamics(resources.resolve_urdf(ctrl["urdf_path"]))
+
+
+def law_gains(params: cfg.Params):
+    """The PID settings the controller runs with (for an LQR, its designed gains:
+    ``core.law.law_config`` on the controller's own arm model)."""
+    from robot_controller.core.law import law_config
+
+    return law_config(cfg.controller_config(params["pid_controller"], 1), controller_model(params), 1)
+
+
+def run_lockstep(params: cfg.Params, out: Path, duration_s: float) -> tuple[dict[str, Any], report.Recording]:
+    """``step.run_and_score`` in sim-time lockstep. A run that fails (a node exiting with an
+    error, say) is run once more, in ``<out>_retry``, before the failure is raised: a run
+    is deterministic per seed, so the retry's figures are the run's, and one stray failure
+    does not end an exercise of twenty runs."""
+    try:
+        return run_and_score(params, out, duration_s=duration_s, sim_time=True)
+    except RuntimeError as exc:
+        print(f"[exercise] WARNING: {exc}; running it once more", flush=True)
+        return run_and_score(params, out.with_name(out.name + "_retry"), duration_s=duration_s, sim_time=True)
+
+
+def lockstep_params(params: cfg.Params, seed: int = SEED) -> cfg.Params:
+    return cfg.merge(params, {"sensor_node": {"seed": seed}})
+
+
+def _response(label: str, recording: report.Recording, start_s: float, figures: dict[str, Any],
+              out: Path) -> Response:
+    s = recording.state
+    true = metrics.true_position_at(s["time_s"], recording.true_time_s, recording.true_position,
+                                    recording.true_velocity)[:, 0]
+    return Response(label, s["time_s"] - start_s, s["reference"][:, 0], true, s["command"][:, 0], s["i"][:, 0],
+                    s["saturated"][:, 0] > 0.5, figures, out)
+
+
+def step_run(params: cfg.Params, out: Path, label: str, *, amplitude: float, offset: float = 0.0,
+             shaping: str = "none", lead_s: float = 0.5, after_s: float = 2.0, seed: int = SEED) -> Response:
+    """A step from ``offset`` (where the arm starts, at rest) to ``offset + amplitude`` after
+    ``lead_s``, recorded ``after_s`` beyond it: one real five-process run in sim-time lockstep.
+
+    Figures (on the TRUE angle, over the ``after_s`` after the step): those of
+    :func:`robot_controller.experiments.step.step_figures`, ``overshoot_final_pct``
+    (the peak beyond where the response ends, which a loop without integral
+    action never reaches the target to overshoot), ``saturated_s`` (time the
+    torque limit cut the command after the step) and ``peak_torque_nm`` after it.
+    """
+    params = cfg.merge(lockstep_params(params, seed), {
+        "trajectory_planner": {"mode": "step", "amplitude": [amplitude], "offset": [offset], "step_time_s": lead_s,
+                               "step_shaping": shaping},
+        "simulator": {"initial_position": [offset]}})
+    _, recording = run_lockstep(params, out, lead_s + after_s)
+    figures = step_figures(recording, amplitude, offset, after_s)
+    t = recording.state["time_s"]
+    step_at = t[0] + figures["step_time_s"]
+    response = _response(label, recording, step_at, figures, out)
+    _keep(response, response.time_s < after_s - 1e-9)
+    window = response.time_s >= 0
+    period = 1.0 / params["pid_controller"]["control_rate_hz"]
+    figures["saturated_s"] = float(np.count_nonzero(response.saturated[window]) * period)
+    figures["overshoot_final_pct"] = overshoot_vs_final_pct(response.time_s[window], response.position[window])
+    figures["peak_torque_nm"] = float(np.max(np.abs(response.command[window])))
+    return response
+
+
+def overshoot_vs_final_pct(time_s: np.ndarray, position: np.ndarray) -> float:
+    """The peak beyond the response's own final value (the mean of its last 10 %),
+    in % of the distance travelled from the step's start to that value."""
+    if len(position) < 10:
+        return float("nan")
+    start, final = float(position[0]), float(np.mean(position[int(0.9 * len(position)):]))
+    travel = final - start
+    if abs(travel) < 1e-9:
+        return float("nan")
+    return max(0.0, float(np.max((position - final) / travel)) * 100.0)
+
+
+def sine_run(params: cfg.Params, out: Path, label: str, *, duration_s: float, seed: int = SEED) -> Response:
+    """The configured planner (the sine, unless the parameters say otherwise) for ``duration_s``
+    sim seconds in lockstep; figures are the run's scores (``tracking_rms_rad`` on the TRUE angle after
+    the 2 s warm-up, ``tracking_max_rad``, ``peak_torque_nm``, ``saturated_ticks``…)."""
+    params = lockstep_params(params, seed)
+    values, recording = run_lockstep(params, out, duration_s)
+    t = recording.state["time_s"]
+    response = _response(label, recording, t[0], values, out)
+    _keep(response, response.time_s < duration_s - 1e-9)
+    return response
+
+
+def _keep(response: Response, keep: np.ndarray) -> None:
+    """Only the ticks of the requested duration (a recording runs on while the nodes stop)."""
+    for name in ("time_s", "reference", "position", "command", "integral", "saturated"):
+        setattr(response, name, getattr(response, name)[keep])
+
+
+def sine_params(params: cfg.Params) -> cfg.Params:
+    """The reference scenario's sine (1 rad, 0.5 Hz), whatever the planner was set to."""
+    defaults = cfg.defaults()["trajectory_planner"]
+    return cfg.merge(params, {"trajectory_planner": {key: defaults[key] for key in (
+        "mode", "amplitude", "frequency_hz", "offset")}})
+
+
+# ---- the files -----------------------------------------------------------------------------------------------
+
+
+def write_results(out: Path, values: dict[str, Any]) -> dict[str, Any]:
+    """``results.json``: flat keys, numbers (NaN, a figure that could not be measured, as null).
+    Returns what it wrote."""
+    flat: dict[str, Any] = {}
+    for key, value in values.items():
+        if isinstance(value, bool | np.bool_ | int | np.integer):
+            value = int(value)
+        elif isinstance(value, float | np.floating):
+            value = float(value)
+        elif value is not None:
+            raise TypeError(f"results.json: {key} is {type(value).__name__}, not a number")
+        flat[key] = value
+    report.write_metrics(out / "results.json", flat)
+    return report.json_safe(flat)
+
+
+def fmt(value: Any, spec: str = "{:.3g}", missing: str = "—") -> str:
+    """A number for a table; NaN or None as ``missing``."""
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return missing
+    return spec.format(value)
+
+
+def table(headers: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def write_report(out: Path, text: str) -> Path:
+    path = out / "report.md"
+    path.write_text(text.rstrip() + "\n")
+    return path
+
+
+def pyplot():
+    """matplotlib's pyplot on the Agg backend (files only, no display)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_steps(ax, responses: list[Response], *, band: tuple[float, float] | None = None, reference: bool = True,
+               title: str = "") -> None:
+    """The true angle of each response against time since the step, on one axis;
+    ``band`` (low, high): the settling band, shaded."""
+    if reference and responses:
+        first = responses[0]
+        ax.plot(first.time_s, first.reference, "k--", lw=0.9, label="reference")
+    for response in responses:
+        ax.plot(response.time_s, response.position, lw=1.2, label=response.label)
+    if band is not None:
+        ax.axhspan(*band, color="0.88", lw=0, zorder=0)
+    ax.set_xlabel("time since the step [s]")
+    ax.set_ylabel("joint angle, true [rad]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    if title:
+        ax.set_title(title, fontsize=10)

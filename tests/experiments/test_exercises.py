@@ -1,0 +1,135 @@
+"""The tutorial's exercises (robot_controller.experiments.exercises) and the automatic
+gain design (robot_controller.experiments.tune): the quick forms over the real graph
+in lockstep, and their no-ROS parts."""
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from robot_controller import parameters as cfg
+from robot_controller.core.batch import run_batch
+from robot_controller.experiments import tune as tune_module
+from robot_controller.experiments.exercises import EXERCISES, steps
+from robot_controller.experiments.exercises.common import Response, law_gains
+from robot_controller.experiments.exercises.tune import oscillation
+
+ros = pytest.mark.ros
+
+
+def run_quick(name, out):
+    calls = []
+    results = EXERCISES[name].run(out, quick=True, progress=calls.append)
+    assert len(calls) == steps(name, quick=True), calls  # one progress step each, as announced
+    assert (out / "report.md").read_text().startswith("# Exercise")
+    assert any(path.stat().st_size > 10_000 for path in out.glob("*.png"))
+    stored = json.loads((out / "results.json").read_text())
+    assert all(value is None or isinstance(value, int | float) for value in stored.values()), "flat, numbers"
+    assert stored == results
+    return stored
+
+
+def test_every_exercise_is_registered_with_its_steps():
+    assert {"tune", "windup", "lqr"} <= set(EXERCISES)
+    for name, exercise in EXERCISES.items():
+        assert exercise.name == name and exercise.title
+        assert 0 < exercise.steps(True) <= exercise.steps(False)
+
+
+@ros
+def test_tune_finds_the_ultimate_gain_then_kd_then_ki(tmp_path, ros_domain):
+    results = run_quick("tune", tmp_path / "tune")
+    for key in ("ultimate_gain", "ultimate_period_s", "kp", "ki", "kd", "step_overshoot_pct", "step_settling_time_s",
+                "step_steady_state_error_rad", "sine_tracking_rms_rad", "zn_kp", "zn_ki", "zn_kd"):
+        assert key in results, key
+    # the tutorial's Kp = 50 already oscillates on this arm; the sampled model puts Ku near 20
+    assert results["kp_search_1_kp"] == 50 and results["kp_search_1_sustained"] == 1
+    assert results["ultimate_gain_bracket_low"] < results["ultimate_gain"] <= 50
+    assert 10 <= results["ultimate_gain"] <= 40 and 0.2 < results["ultimate_period_s"] < 0.6
+    assert results["kp"] == pytest.approx(0.6 * results["ultimate_gain"])
+    assert results["ki"] > 0 and results["kd"] > 0
+    assert results["sine_tracking_rms_rad"] < 1.0
+
+
+@ros
+def test_windup_without_anti_windup_overshoots_most(tmp_path, ros_domain):
+    results = run_quick("windup", tmp_path / "windup")
+    for mode in ("none", "clamp", "back_calculation", "conditional_integration"):
+        for key in ("overshoot_pct", "settling_time_s", "saturated_s"):
+            assert f"{mode}_{key}" in results, f"{mode}_{key}"
+        assert results[f"{mode}_saturated_s"] > 0.1  # the 1 rad jump saturates a 2 N·m actuator
+    assert results["none_overshoot_pct"] > results["conditional_integration_overshoot_pct"] + 5
+    assert results["none_integral_max_nm"] > 2.0  # wound up beyond what the motor can give
+
+
+@ros
+def test_lqr_against_pid_gains_poles_and_figures(tmp_path, ros_domain):
+    results = run_quick("lqr", tmp_path / "lqr")
+    for name in ("pid", "lqr"):
+        for key in ("kp", "ki", "kd", "spectral_radius", "sine_tracking_rms_rad", "step_overshoot_pct",
+                    "step_settling_time_s"):
+            assert f"{name}_{key}" in results, f"{name}_{key}"
+        poles = [value for key, value in results.items() if key.startswith(f"{name}_pole_") and key.endswith("_abs")]
+        assert len(poles) == 3 and all(p < 1.0 for p in poles)
+    assert (results["pid_kp"], results["pid_ki"], results["pid_kd"]) == (50, 10, 5)
+    lqr = law_gains(cfg.merge(cfg.load_stack("tutorial"), {"pid_controller": {"controller_type": "lqr"}}))
+    assert results["lqr_kp"] == pytest.approx(float(lqr.kp[0]))
+    assert results["lqr_sine_tracking_rms_rad"] < results["pid_sine_tracking_rms_rad"]
+
+
+@ros
+def test_tune_writes_a_robust_parameter_file(tmp_path, ros_domain):
+    out = tmp_path / "tuned"
+    calls = []
+    values = tune_module.tune(cfg.load_stack("tutorial"), out, quick=True, progress=calls.append)
+    assert len(calls) == tune_module.steps(quick=True)
+    stored = json.loads((out / "tune.json").read_text())
+    assert stored["after_meets_constraints"] == 1
+    assert stored["after_gain_margin_db"] >= 6.0 and stored["after_phase_margin_deg"] >= 45.0
+    assert stored["after_delay_margin_periods"] >= 2
+    assert stored["batch_rms_after_rad"] <= stored["batch_rms_before_rad"]
+    assert stored["real_rms_after_rad"] > 0 and stored["real_rms_before_rad"] > 0
+    params = cfg.load_stack("default", [out / "tuned.yaml"])
+    assert params["pid_controller"]["kp"] == [values["after_kp"]]
+    assert "| **after**" in (out / "report.md").read_text()
+
+
+def test_the_lqr_weights_tuned_keep_the_margins_and_design_what_was_checked():
+    result = tune_module.search(cfg.load_stack("default"), quick=True)
+    margins = tune_module.describe_margins(result.problem, result.best_gains)
+    assert margins["meets_constraints"] == 1
+    overlay = result.problem.overlay(result.best_values)
+    designed = law_gains(cfg.merge(cfg.load_stack("default"), {"pid_controller": overlay}))
+    assert (float(designed.kp[0]), float(designed.ki[0]), float(designed.kd[0])) == pytest.approx(
+        tuple(result.best_gains), rel=1e-9)
+
+
+def test_the_tuning_harness_is_the_batch_harness():
+    problem = tune_module.Problem(cfg.load_stack("default"))
+    gains = np.array([[30.0, 27.0, 2.1], [15.0, 0.4, 3.4], [50.0, 10.0, 5.0]])
+    pid = replace(problem.law, kp=gains[:, 0:1], ki=gains[:, 1:2], kd=gains[:, 2:3])
+    kwargs = {"trajectory": problem.sine, "sensor": problem.sensor, "duration_s": 3.0}
+    expected = run_batch(constants=problem.constants, pid_config=pid, rng=np.random.default_rng(4), **kwargs)
+    ours = tune_module.batch_tracking_rms(problem.constants, pid, rng=np.random.default_rng(4), common_noise=False,
+                                          **kwargs)
+    np.testing.assert_array_equal(ours, expected)
+    # common random numbers: the same gains give the same figure wherever they sit in the batch
+    twice = tune_module.batch_tracking_rms(problem.constants, replace(pid, kp=gains[[0, 0], 0:1], ki=gains[[0, 0], 1:2],
+                                                                      kd=gains[[0, 0], 2:3]),
+                                           rng=np.random.default_rng(4), kalman=problem.kalman, **kwargs)
+    assert twice[0] == twice[1]
+
+
+def _response(growth_per_s: float) -> Response:
+    t = np.arange(0.0, 4.0, 0.01)
+    q = 0.2 + 0.1 * np.exp(growth_per_s * t) * np.sin(2 * np.pi * t / 0.4)
+    zeros = np.zeros_like(t)
+    return Response("synthetic", t, zeros + 0.2, q, zeros, zeros, zeros.astype(bool))
+
+
+@pytest.mark.parametrize("growth, sustained", [(-0.5, 0), (-0.1, 0), (0.0, 1), (0.3, 1)])
+def test_an_oscillation_is_sustained_when_its_amplitude_does_not_decay(growth, sustained):
+    figures = oscillation(_response(growth))
+    assert figures["sustained"] == sustained
+    assert figures["growth_per_s"] == pytest.approx(growth, abs=0.05)
+    assert figures["period_s"] == pytest.approx(0.4, rel=0.02)
