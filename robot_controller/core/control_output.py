@@ -59,6 +59,9 @@ class ControlOutput:
     measured: np.ndarray  #: rad, the arm's position as estimated at the tick
     terms: PidTerms
     reference_source: ReferenceSource = ReferenceSource.TRAJECTORY
+    #: N·m per joint, the external torque the disturbance observer estimates (the command
+    #: subtracts it, inside ``terms.feedforward``); None without an observer or a command
+    disturbance: np.ndarray | None = None
 
     @property
     def command(self) -> np.ndarray:

@@ -49,7 +49,9 @@ class JointController:
             return None
         if self.dynamics is None:
             raise ConfigError("estimator kalman: needs the arm model (urdf_path)")
-        return JointKalmanFilter(config.estimator, self.joint_count, self.dynamics.predict)
+        return JointKalmanFilter(config.estimator, self.joint_count, self.dynamics.predict,
+                                 estimate_disturbance=config.observes_disturbance,
+                                 mass_matrix=self.dynamics.mass_matrix, disturbance_limit=config.pid.output_limit)
 
     @property
     def estimator(self) -> JointKalmanFilter | None:
@@ -83,16 +85,24 @@ class JointController:
 
         Delay the stamps show is compensated on the model (``latency_compensation``);
         this is the margin for the rest, e.g. the controller → motor → simulator path.
+        With the disturbance observer, the loop through the filter and the
+        observer (:func:`law.observer_delay_margin_periods`): a fast observer
+        takes a late reading for a push and spends the margin.
         """
-        return delay_margin_periods(self.gains, self.dynamics, self.joint_count, self.config.control_period_s)
+        return delay_margin_periods(self.gains, self.dynamics, self.joint_count, self.config.control_period_s,
+                                    self.config.estimator, self.config.observes_disturbance)
 
     def set_config(self, config: ControllerConfig) -> None:
         """New gains and options, applied bumplessly from the next tick."""
         if config.feedforward is not FeedforwardMode.NONE and self.dynamics is None:
             raise ConfigError("feedforward: needs the arm model (urdf_path)")
         pid = law_config(config, self.dynamics, self.joint_count)
-        if config.estimator != self.config.estimator:
+        if (config.estimator != self.config.estimator
+                or config.observes_disturbance != self.config.observes_disturbance):
             self._state.kalman = self._make_estimator(config)
+        elif self._state.kalman is not None:
+            self._state.kalman.disturbance_limit = np.broadcast_to(
+                np.asarray(config.pid.output_limit, float), (self.joint_count,)).copy()
         self.config = config
         self.pid.set_config(pid)
 
@@ -213,9 +223,11 @@ class JointController:
                    reference: Reference) -> ControlOutput:
         """Feedback plus feedforward within the torque limit; the command is
         remembered for the estimator and the model's predictions."""
-        terms = law_step(self.pid, self.config, self.dynamics, dt_s, position, velocity, reference)
+        disturbance = self._state.disturbance()
+        terms = law_step(self.pid, self.config, self.dynamics, dt_s, position, velocity, reference, disturbance)
         self._state.remember_command(now_s, terms.command)
-        return ControlOutput(now_s, reference.status, reference.position, position, terms, reference.source)
+        return ControlOutput(now_s, reference.status, reference.position, position, terms, reference.source,
+                             disturbance)
 
     def _no_command(self, now_s: float, status: Status) -> ControlOutput:
         """A tick that commands nothing (no reading yet, e-stop, sensor lost):
@@ -229,6 +241,11 @@ class JointController:
             position = self._state.last_position(self._readings)
         zeros = np.zeros(self.joint_count)
         self._state.remember_command(now_s, zeros)
+        # Nothing commanded, nothing to learn from: the arm is braked or
+        # unattended, and a disturbance estimate kept (or grown) meanwhile would
+        # be applied on the way back. The filter starts afresh (d̂ = 0) with the
+        # re-acquisition that every way back to commanding goes through.
+        self._state.reset_filter()
         terms = PidTerms(zeros, zeros, zeros, zeros, zeros, np.zeros(self.joint_count, dtype=bool))
         position = np.asarray(position, float)
         return ControlOutput(now_s, status, position, position, terms, ReferenceSource.NONE)

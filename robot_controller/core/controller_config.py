@@ -28,6 +28,9 @@ class ControllerConfig:
         tick time through the arm model (or its own velocity without a model)
     :param watchdog_periods: control periods without a valid measurement
         before the command drops to zero
+    :param disturbance_observer: with the Kalman filter (``estimator``), also
+        estimate an external torque on each joint and subtract it from the
+        command (within the torque limit); no effect without the filter
     """
 
     pid: PidConfig = field(default_factory=PidConfig)
@@ -35,6 +38,7 @@ class ControllerConfig:
     lqr_q: tuple[float, float, float] = (1e4, 1e4, 1.0)  #: weights on ∫e, e, ė
     lqr_r: float = 1e-2  #: weight on the feedback torque
     estimator: KalmanConfig | None = None  #: a Kalman filter on the reading, or none
+    disturbance_observer: bool = False  #: the filter estimates an external torque, the law subtracts it
     feedforward: FeedforwardMode = FeedforwardMode.NONE
     control_period_s: float = 0.01
     reference_extrapolation: bool = False
@@ -64,6 +68,11 @@ class ControllerConfig:
                 raise ConfigError(f"{name}: must be a finite number > 0, got {value}")
         if self.controller_type not in ("pid", "lqr"):
             raise ConfigError(f"controller_type: {self.controller_type!r} is not one of ['pid', 'lqr']")
+
+    @property
+    def observes_disturbance(self) -> bool:
+        """Whether the disturbance observer runs: asked for, and there is a Kalman filter to carry it."""
+        return bool(self.disturbance_observer) and self.estimator is not None
 
     @property
     def watchdog_s(self) -> float:

@@ -1,7 +1,8 @@
 """The control law: which gains are in force (the PID's own, or for LQR a
 discrete Riccati design that replaces them), a one-line account of them,
-their delay margin, and one step of feedback plus model feedforward within
-the torque limit.
+their delay margin, and one step of feedback plus model feedforward (less
+the disturbance observer's estimate of an external torque) within the torque
+limit.
 
 Gains: Kp N·m/rad, Ki N·m/(rad·s), Kd N·m·s/rad; torques N·m; times s.
 """
@@ -14,6 +15,7 @@ import numpy as np
 from robot_controller.core import lqr
 from robot_controller.core.controller_config import ControllerConfig
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.estimator import KalmanConfig, steady_state_gain
 from robot_controller.core.feedforward import feedforward_torque
 from robot_controller.core.pid import DerivativeSource, Pid, PidConfig, PidTerms
 from robot_controller.core.plant import ArmDynamics
@@ -47,6 +49,9 @@ def describe_law(config: ControllerConfig, gains: PidConfig) -> str:
     in_force = (f"Kp={_values(gains.kp)} N·m/rad, Ki={_values(gains.ki)} N·m/(rad·s), "
                 f"Kd={_values(gains.kd)} N·m·s/rad, D on {gains.derivative_source.value}, "
                 f"|torque| <= {_values(gains.output_limit)} N·m, feedforward {config.feedforward.value}")
+    if config.observes_disturbance:
+        in_force += (f", disturbance observer (σ {config.estimator.disturbance_noise_std:g} N·m/√s, "
+                     "estimate subtracted)")
     if config.controller_type == "lqr":
         return (f"LQR (q={_values(config.lqr_q)}, r={config.lqr_r:g}, designed at "
                 f"{1.0 / config.control_period_s:g} Hz): {in_force}; the kp/ki/kd parameters are unused")
@@ -54,30 +59,92 @@ def describe_law(config: ControllerConfig, gains: PidConfig) -> str:
 
 
 def delay_margin_periods(gains: PidConfig, dynamics: ArmDynamics | None, joint_count: int,
-                         control_period_s: float) -> int | None:
+                         control_period_s: float, estimator: KalmanConfig | None = None,
+                         disturbance_observer: bool = False) -> int | None:
     """Whole control periods of unaccounted delay the feedback with ``gains``
     survives on the worst joint, the arm linearised at rest (see
-    :func:`lqr.delay_margin_periods`). None without the arm model."""
+    :func:`lqr.delay_margin_periods`). None without the arm model.
+
+    With the disturbance observer (``disturbance_observer`` and an
+    ``estimator``), the loop runs through the filter: the estimate of the
+    external torque is fed back too, and it is what a late reading misleads
+    most (the arm lags the model, and the observer takes that for a push). The
+    margin is then that of the whole loop, filter (its steady-state gains) and
+    observer included: :func:`observer_delay_margin_periods`."""
     if dynamics is None:
         return None
     inertia = np.diag(dynamics.mass_matrix(np.zeros(joint_count)))
     margins = []
     for j in range(joint_count):
+        if disturbance_observer and estimator is not None:
+            margins.append(observer_delay_margin_periods(
+                (float(gains.ki[j]), float(gains.kp[j]), float(gains.kd[j])), estimator, float(inertia[j]),
+                float(dynamics.damping[j]), control_period_s))
+            continue
         A, B = lqr.discretise(float(inertia[j]), float(dynamics.damping[j]), control_period_s)
         K = np.array([[gains.ki[j], gains.kp[j], gains.kd[j]]], dtype=float)
         margins.append(lqr.delay_margin_periods(A, B, K))
     return min(margins)
 
 
+def observer_delay_margin_periods(gains: tuple[float, float, float], estimator: KalmanConfig, inertia: float,
+                                  damping: float, period_s: float, max_periods: int = 50) -> int:
+    """How many whole periods of unaccounted delay one joint's loop survives
+    with the Kalman filter and its disturbance observer in it (``gains``:
+    Ki, Kp, Kd of the PID on the filtered state; the arm ``inertia·q̈ +
+    damping·q̇ = τ``, at rest).
+
+    Each tick k: the reading is the arm's state ``delay`` periods ago, taken
+    for the present (stamped on arrival); the filter predicts with the
+    command it issued last and corrects with its steady-state gain
+    (:func:`estimator.steady_state_gain`); the PID (integral as :class:`Pid`
+    keeps it, D on the velocity error) and the estimate ``−d̂`` make the
+    command, held over the period. Stable while the spectral radius of that
+    linear system is below 1. Returns the largest stable delay (0: not even
+    one period, or not stable at all; ``max_periods``: at least that many)."""
+    ki, kp, kd = gains
+    F, Bf, L = steady_state_gain(estimator, inertia, damping, period_s, estimate_disturbance=True)
+    Ap, Bp = F[:2, :2], Bf[:2]
+    H = np.eye(2, 3)
+    for delay in range(0, max_periods + 1):
+        # State: the arm now and `delay` periods back (2 each), the filter's last estimate (3),
+        # the I term and the last command.
+        n = 2 * (delay + 1) + 5
+        est, i_term, last = slice(n - 5, n - 2), n - 2, n - 1
+        predicted = np.zeros((3, n))
+        predicted[:, est] = F
+        predicted[:, last] += Bf[:, 0]
+        reading = np.zeros((2, n))
+        reading[:, 2 * delay:2 * delay + 2] = np.eye(2)
+        estimate = predicted + L @ (reading - H @ predicted)
+        integral = -ki * period_s * estimate[0]
+        integral[i_term] += 1.0
+        command = -kp * estimate[0] - kd * estimate[1] + integral - estimate[2]
+        M = np.zeros((n, n))
+        M[:2] = np.hstack([Ap, np.zeros((2, n - 2))]) + Bp @ command[None, :]
+        M[2:2 * (delay + 1), :2 * delay] = np.eye(2 * delay)  # the arm's history moves back one period
+        M[est], M[i_term], M[last] = estimate, integral, command
+        if np.max(np.abs(np.linalg.eigvals(M))) >= 1.0:
+            return max(delay - 1, 0)
+    return max_periods
+
+
 def law_step(pid: Pid, config: ControllerConfig, dynamics: ArmDynamics | None, dt_s: float,
-             position: np.ndarray, velocity: np.ndarray, reference: Reference) -> PidTerms:
+             position: np.ndarray, velocity: np.ndarray, reference: Reference,
+             disturbance: np.ndarray | None = None) -> PidTerms:
     """One step of the law over ``dt_s`` seconds: the model's feedforward torque
     for the reference motion plus the PID feedback on the error between the
     reference and the arm's ``position`` (rad) / ``velocity`` (rad/s), limited
     to the torque limit (and slew rate) by the PID. The feedforward is for
     ``reference.feedforward`` when it is given (the reference over the period
-    the command is held for), otherwise for the reference at the tick."""
+    the command is held for), otherwise for the reference at the tick.
+
+    ``disturbance`` (N·m per joint, the observer's estimate of an external
+    torque) is subtracted like one more feedforward term (it is part of the
+    reported feedforward): the integral is left only what the estimate misses."""
     ahead = (reference.feedforward if reference.feedforward is not None
              else (reference.position, reference.velocity, reference.acceleration))
     feedforward = feedforward_torque(config.feedforward, dynamics, *ahead)
+    if disturbance is not None:
+        feedforward = feedforward - disturbance
     return pid.step(dt_s, reference.position, reference.velocity, position, velocity, feedforward)

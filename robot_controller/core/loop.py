@@ -17,6 +17,18 @@ from robot_controller.core.sensor_model import SensorConfig, measure
 from robot_controller.core.trajectory import Trajectory
 
 
+@dataclass(frozen=True)
+class Disturbance:
+    """An external torque on the arm from a set physics time, as the simulator's
+    ``disturbance_*`` parameters schedule it: it starts with the first control
+    period that begins at or after ``start_s`` (the simulator starts it with the
+    first batch of physics steps from then on)."""
+
+    torque_nm: np.ndarray  #: N·m per joint
+    start_s: float  #: s of physics time
+    duration_s: float  #: s
+
+
 @dataclass
 class LoopResult:
     """Per-tick record of a run; arrays are ``(ticks, joints)`` except ``tick_time_s``."""
@@ -37,7 +49,7 @@ class LoopResult:
 def run_loop(*, plant: Plant, controller: JointController, actuator: Actuator, sensor: SensorConfig,
              trajectory: Trajectory, rng: np.random.Generator, duration_s: float, control_period_s: float,
              planner_period_s: float, measurement_delay_s: float = 0.0,
-             delay_unstamped: bool = False) -> LoopResult:
+             delay_unstamped: bool = False, disturbance: Disturbance | None = None) -> LoopResult:
     """Run ``duration_s`` seconds of the loop and return what happened at each tick.
 
     At each tick ``t_k``: the planner publishes if its period has come round,
@@ -50,6 +62,9 @@ def run_loop(*, plant: Plant, controller: JointController, actuator: Actuator, s
     ``delay_unstamped``: stamped when it arrives instead (as a sensor that
     stamps on publish), so the controller cannot compensate the delay: what
     the delay margin is about.
+
+    ``disturbance``: an external torque on the plant (it needs ``set_disturbance``,
+    as :class:`~robot_controller.core.plant.MujocoPlant` has), on a schedule.
     """
     n_steps = steps_per_period(plant.physics_dt, control_period_s)
     ticks = int(round(duration_s / control_period_s))
@@ -74,6 +89,9 @@ def run_loop(*, plant: Plant, controller: JointController, actuator: Actuator, s
         controller.set_measurement(t if delay_unstamped else stamp, t, position, velocity)
         out = controller.update(t)
         applied = actuator.apply(out.command, control_period_s)
+        if disturbance is not None and plant.time_s + 1e-9 >= disturbance.start_s:
+            plant.set_disturbance(np.asarray(disturbance.torque_nm, dtype=float), disturbance.duration_s)
+            disturbance = None
         if delay_steps:
             for step in range(1, n_steps + 1):
                 plant.step(applied, 1)

@@ -2,6 +2,9 @@
 (optional Kalman filter), then advanced from the reading's stamp to the tick
 through the arm model under the torques this controller issued (latency
 compensation), or coasted on the model alone while readings are missing.
+With the filter's disturbance observer, every such prediction includes the
+external torque it estimates (the command issued subtracts it: a model
+without it would see the arm driven by −d̂ that it never feels).
 
 Positions rad, velocities rad/s, torques N·m, times s. No ROS, no clocks.
 """
@@ -48,6 +51,13 @@ class StateAtTick:
         self._filtered_stamp_s = -np.inf
         self.latest = None
 
+    def reset_filter(self) -> None:
+        """Re-initialise the filter only (its disturbance estimate back to 0); the
+        latest estimate is kept for reporting."""
+        if self.kalman is not None:
+            self.kalman.reset()
+        self._filtered_stamp_s = -np.inf
+
     def at_tick(self, now_s: float, readings: Readings, latency_compensation: bool
                 ) -> tuple[np.ndarray, np.ndarray]:
         """The arm's state at ``now_s``: the reading, filtered, then (with
@@ -84,9 +94,24 @@ class StateAtTick:
             self.latest = (readings.latest[0], readings.latest[1], now_s)
         position, velocity, estimate_s = self.latest
         if self.dynamics is not None and now_s > estimate_s:
-            position, velocity = self.dynamics.predict(position, velocity, self.last_command(), now_s - estimate_s)
+            position, velocity = self._model(position, velocity, self.last_command(), now_s - estimate_s)
         self.latest = (position, velocity, now_s)
         return position, velocity
+
+    def disturbance(self) -> np.ndarray | None:
+        """The filter's estimate of the external torque on each joint (N·m),
+        or None without a disturbance observer."""
+        if self.kalman is None or not self.kalman.estimates_disturbance:
+            return None
+        return self.kalman.disturbance
+
+    def _model(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float
+               ) -> tuple[np.ndarray, np.ndarray]:
+        """The arm model ``horizon_s`` ahead under ``torque``: with the disturbance
+        observer, the filter's (the estimated external torque included)."""
+        if self.kalman is not None and self.kalman.estimates_disturbance:
+            return self.kalman.predict(position, velocity, torque, horizon_s)
+        return self.dynamics.predict(position, velocity, torque, horizon_s)
 
     def last_position(self, readings: Readings) -> np.ndarray:
         """The latest estimated position (rad), or the latest reading's without one."""
@@ -135,8 +160,8 @@ class StateAtTick:
         for issued_s, command in segments:
             if issued_s >= to_s:
                 break
-            position, velocity = self.dynamics.predict(position, velocity, torque, issued_s - t)
+            position, velocity = self._model(position, velocity, torque, issued_s - t)
             t, torque = issued_s, command
         if to_s > t:
-            position, velocity = self.dynamics.predict(position, velocity, torque, to_s - t)
+            position, velocity = self._model(position, velocity, torque, to_s - t)
         return position, velocity

@@ -8,14 +8,17 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.actuator import Actuator
 from robot_controller.core.controller import JointController
-from robot_controller.core.loop import LoopResult, run_loop
+from robot_controller.core.loop import Disturbance, LoopResult, run_loop
 from robot_controller.core.plant import MujocoPlant
 from robot_controller.core.trajectory import make_trajectory
 from robot_controller.parameters.builders import arm_model
 
 
 def simulate(params: cfg.Params, *, duration_s: float, seed: int = 0, measurement_delay_s: float = 0.0,
-             delay_unstamped: bool = False) -> LoopResult:
+             delay_unstamped: bool = False, disturbance: Disturbance | None = None) -> LoopResult:
+    """``duration_s`` seconds of the loop from ``params`` (see :func:`run_loop`);
+    ``disturbance``: an external torque on the arm on a schedule (the
+    simulator's ``disturbance_*`` parameters are not read: pass one)."""
     sim, motor, sensor = params["simulator"], params["motor_node"], params["sensor_node"]
     ctrl, planner = params["pid_controller"], params["trajectory_planner"]
     plant = MujocoPlant(resources.resolve_urdf(sim["urdf_path"]), 1.0 / sim["physics_rate_hz"])
@@ -30,4 +33,4 @@ def simulate(params: cfg.Params, *, duration_s: float, seed: int = 0, measuremen
                     trajectory=trajectory, rng=np.random.default_rng(seed), duration_s=duration_s,
                     control_period_s=controller_config.control_period_s,
                     planner_period_s=1.0 / planner["publish_rate_hz"], measurement_delay_s=measurement_delay_s,
-                    delay_unstamped=delay_unstamped)
+                    delay_unstamped=delay_unstamped, disturbance=disturbance)

@@ -66,9 +66,12 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
     estimator = None
     if values["estimator"] == "kalman":
         estimator = KalmanConfig(values["kalman_position_noise_std"], values["kalman_velocity_noise_std"],
-                                 values["kalman_acceleration_noise_std"])
+                                 values["kalman_acceleration_noise_std"],
+                                 disturbance_noise_std=values["kalman_disturbance_noise_std"])
     return ControllerConfig(
-        pid=pid, controller_type=values["controller_type"], lqr_q=tuple(q.tolist()), lqr_r=values["lqr_r"], estimator=estimator,
+        pid=pid, controller_type=values["controller_type"], lqr_q=tuple(q.tolist()), lqr_r=values["lqr_r"],
+        estimator=estimator,
+        disturbance_observer=values["disturbance_observer"],
         feedforward=values["feedforward"], control_period_s=1.0 / values["control_rate_hz"],
         reference_extrapolation=values["reference_extrapolation"],
         latency_compensation=values["latency_compensation"], watchdog_periods=values["watchdog_periods"],

@@ -1,0 +1,216 @@
+"""The disturbance observer (issue 12, exercise 2's goal; no ROS): the Kalman
+filter also estimates an external torque d on each joint, and the law
+subtracts it from the command.
+
+What was measured (in-process loop, which reproduces the lockstep graph's
+figures exactly; a 2 N·m push at t = 5 s on the reference sine, seed 0):
+
+- no observer (the default): pushed 79 mrad, not back within 2 mrad in 3 s;
+- observer at its default kalman_disturbance_noise_std (0.3 N·m/√s): 34 mrad,
+  back in 0.78 s, delay margin 2 periods (3 without);
+- observer at 5 N·m/√s: 9.5 mrad, back in 0.14 s (issue 12's goal), but a
+  delay margin of 0 periods: a reading stamped on arrival one period late
+  makes the loop unstable.
+
+No tuning of this loop (LQR weights, acceleration and disturbance noise)
+found both: with two periods of margin the push still moves the arm about
+23 mrad at best. So the observer is off by default.
+"""
+import numpy as np
+import pytest
+
+from robot_controller import parameters as cfg
+from robot_controller import resources
+from robot_controller.core.controller import ControlOutput, JointController, Status
+from robot_controller.core.estimator import KalmanConfig
+from robot_controller.core.loop import Disturbance
+from robot_controller.core.plant import MujocoPlant
+from robot_controller.core.trajectory import make_trajectory
+from robot_controller.experiments import inprocess
+from robot_controller.experiments.exercises.disturbance import GOAL_PEAK_RAD, GOAL_RECOVERY_S, deviation_figures
+from tests.core.joint_rig import PERIOD as RIG_PERIOD
+from tests.core.joint_rig import TORQUE_MAX, arm, config, one
+
+PUSH_NM, PUSH_AT_S, AFTER_S = 2.0, 5.0, 1.5  # the exercise's push (its figures are this loop's)
+FAST = 5.0  #: N·m/√s: an observer fast enough for issue 12's goal
+PERIOD = 0.01
+
+
+def params(observer: bool, noise_std: float | None = None) -> cfg.Params:
+    p = cfg.load_stack("default")
+    p["pid_controller"]["disturbance_observer"] = observer
+    if noise_std is not None:
+        p["pid_controller"]["kalman_disturbance_noise_std"] = noise_std
+    return p
+
+
+def push(torque: float = PUSH_NM) -> Disturbance:
+    return Disturbance(np.array([torque]), PUSH_AT_S, 10.0)
+
+
+def deviation(run: inprocess.LoopResult) -> dict[str, float]:
+    return deviation_figures(run.tick_time_s, run.reference[:, 0] - run.true_position[:, 0], PUSH_AT_S)
+
+
+@pytest.fixture(scope="module")
+def without_observer():
+    return inprocess.simulate(params(False), duration_s=PUSH_AT_S + AFTER_S, seed=0, disturbance=push())
+
+
+# --- the goal -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_fast_observer_rejects_the_push_within_the_goal_and_the_default_law_does_not(seed, without_observer):
+    fast = deviation(inprocess.simulate(params(True, FAST), duration_s=PUSH_AT_S + AFTER_S, seed=seed,
+                                        disturbance=push()))
+    assert fast["peak_deviation_rad"] <= GOAL_PEAK_RAD  # 9.5, 7.3, 6.8 mrad (sensor noise included)
+    assert fast["recovery_s"] <= GOAL_RECOVERY_S  # 0.14, 0.16, 0.17 s
+    plain = deviation(without_observer)
+    assert plain["peak_deviation_rad"] > 5 * GOAL_PEAK_RAD  # 79 mrad: Kp alone holds 2 N·m only that far off
+    assert not plain["recovery_s"] <= GOAL_RECOVERY_S  # not back at all within 1.5 s (nan)
+
+
+def test_the_default_observer_halves_the_push_and_keeps_two_periods_of_delay_margin(without_observer):
+    observed = deviation(inprocess.simulate(params(True), duration_s=PUSH_AT_S + AFTER_S, seed=0,
+                                            disturbance=push()))
+    plain = deviation(without_observer)
+    assert observed["peak_deviation_rad"] < 0.5 * plain["peak_deviation_rad"]  # 34 against 79 mrad
+    assert observed["recovery_s"] < 1.0  # 0.78 s; without: never (but not issue 12's 0.3 s)
+    dynamics = arm()
+    margins = {sigma: JointController(cfg.controller_config(params(True, sigma)["pid_controller"], 1), 1,
+                                      dynamics).delay_margin_periods() for sigma in (None, 1.0, FAST)}
+    off = JointController(cfg.controller_config(params(False)["pid_controller"], 1), 1, dynamics)
+    assert off.delay_margin_periods() == 3
+    assert margins[None] == 2  # the default tuning
+    assert margins[1.0] == 1 and margins[FAST] == 0  # what a faster observer costs
+
+
+def test_two_periods_of_unaccounted_delay_as_the_margin_says():
+    # Readings two periods old, stamped on arrival: nothing compensates them.
+    def late(p: cfg.Params) -> inprocess.LoopResult:
+        return inprocess.simulate(p, duration_s=5.0, seed=1, measurement_delay_s=0.02, delay_unstamped=True,
+                                  disturbance=Disturbance(np.array([PUSH_NM]), 3.0, 10.0))
+
+    kept = late(params(True)).command[200:, 0]
+    assert np.max(np.abs(kept)) < 6.0  # 2.7 N·m: stable through the push, no saturation
+    assert np.std(np.diff(kept[-100:])) < 0.2  # settled, no chatter: 0.12 N·m per tick (0.06 without observer)
+    lost = late(params(True, FAST)).command[200:, 0]
+    assert np.max(np.abs(lost)) >= TORQUE_MAX  # margin 0: it oscillates into the limit
+
+
+# --- the estimate ---------------------------------------------------------------------------
+
+class Rig:
+    """The default controller (with the observer) on the MuJoCo arm tracking the
+    reference sine, noise-free readings, every tick's output kept."""
+
+    def __init__(self, **controller) -> None:
+        values = dict(cfg.load_stack("default")["pid_controller"], disturbance_observer=True, **controller)
+        self.controller = JointController(cfg.controller_config(values, 1), 1, arm())
+        self.plant = MujocoPlant(resources.default_urdf(), 0.001)
+        self.plant.reset(np.zeros(1))
+        self.trajectory = make_trajectory("sine", joint_count=1)
+        self.t = 0.0
+        self.outputs: list[ControlOutput] = []
+
+    def run(self, seconds: float, readings: bool = True) -> list[ControlOutput]:
+        outs = []
+        for _ in range(int(round(seconds / PERIOD))):
+            self.controller.set_reference(self.t, *self.trajectory.sample(self.t), sample_time_s=self.t)
+            if readings:
+                self.controller.set_measurement(self.t, self.t, *self.plant.state())
+            out = self.controller.update(self.t)
+            outs.append(out)
+            self.plant.step(out.command if out.status.commanding else np.zeros(1), 10)
+            self.t += PERIOD
+        self.outputs += outs
+        return outs
+
+    @property
+    def estimate(self) -> float:
+        return float(self.controller.estimator.disturbance[0])
+
+
+@pytest.fixture
+def pushed() -> Rig:
+    rig = Rig()
+    rig.run(2.0)
+    rig.plant.set_disturbance(np.array([PUSH_NM]), 30.0)
+    rig.run(1.0)
+    return rig
+
+
+def test_the_estimate_converges_to_the_push():
+    rig = Rig()
+    before = rig.run(2.0)
+    rig.plant.set_disturbance(np.array([PUSH_NM]), 30.0)
+    after = rig.run(1.5)
+    estimates = np.array([out.disturbance[0] for out in before[100:] + after])
+    assert np.max(np.abs(estimates[:100])) < 0.05  # no push, nothing estimated (the model is the arm)
+    assert np.all(np.abs(estimates[-50:] - PUSH_NM) < 0.02)  # N·m, within 1 % of the push
+    assert abs(after[-1].terms.i[0]) < 0.1  # the integral is left (almost) nothing to do
+    # Subtracted like a feedforward term: without the observer the output names none.
+    plain = JointController(cfg.controller_config(params(False)["pid_controller"], 1), 1, arm())
+    plain.set_reference(0.0, one(0.0), one(0.0), one(0.0), sample_time_s=0.0)
+    plain.set_measurement(0.0, 0.0, one(0.0), one(0.0))
+    assert plain.update(0.0).disturbance is None and plain.estimator.disturbance[0] == 0.0
+
+
+def test_the_estimate_resets_when_an_estop_stops_the_commands(pushed):
+    assert pushed.estimate == pytest.approx(PUSH_NM, abs=0.05)
+    pushed.controller.halt(True)
+    pushed.plant.set_brakes(np.array([True]), 50.0)
+    for out in pushed.run(0.5):
+        assert out.status is Status.STOPPED and out.disturbance is None
+        assert pushed.estimate == 0.0  # forgotten, and nothing learnt while the brake holds the push
+    pushed.controller.halt(False)
+    pushed.plant.set_brakes(np.array([False]), 50.0)
+    back = pushed.run(1.0)
+    assert back[0].status is Status.REACQUIRING and back[0].disturbance[0] == 0.0  # starts from 0: no bump
+    assert abs(back[-1].disturbance[0] - PUSH_NM) < 0.05  # and learns the push again
+
+
+def test_the_estimate_is_held_through_a_controlled_stop_and_reset_when_the_torque_goes_off(pushed):
+    learnt = pushed.estimate
+    stop = pushed.run(0.5, readings=False)  # watchdog: a controlled stop on the model
+    watchdog = [out for out in stop if out.status is Status.WATCHDOG]
+    assert watchdog and all(out.disturbance[0] == learnt for out in watchdog)  # frozen: no wind-up
+    lost = pushed.run(0.6, readings=False)  # past sensor_timeout_s: no command, the brake's job
+    assert lost[-1].status is Status.SENSOR_LOST and pushed.estimate == 0.0
+    back = pushed.run(0.5)
+    assert back[0].status is Status.REACQUIRING and back[0].disturbance[0] == 0.0
+
+
+def test_a_braked_arm_winds_nothing_up():
+    # The arm held where it is (by a brake) while the controller commands: the
+    # filter would take the brake for an external torque.
+    def held(brakes: bool) -> list[ControlOutput]:
+        c = JointController(config(estimator=KalmanConfig(), disturbance_observer=True), 1, arm())
+        c.brakes(brakes)
+        outs = []
+        for k in range(64):
+            t = k * RIG_PERIOD
+            c.set_reference(t, one(0.5 * t), one(0.5), one(0.0), sample_time_s=t)
+            c.set_measurement(t, t, one(0.0), one(0.0))  # horizontal: gravity 2.45 N·m held by the brake
+            outs.append(c.update(t))
+        return outs
+
+    for out in held(True):  # reported: the filter restarts each tick, the estimate stays 0
+        assert out.disturbance[0] == 0.0
+    unreported = np.array([out.disturbance[0] for out in held(False)])
+    assert np.max(np.abs(unreported)) > 1.0  # it would have learnt the brake's torque
+    assert np.max(np.abs(unreported)) <= TORQUE_MAX  # ... though never beyond the torque limit
+
+
+# --- the limit ---------------------------------------------------------------------------------
+
+def test_the_command_and_the_estimate_stay_within_the_torque_limit_under_a_push_beyond_it():
+    rig = Rig(kalman_disturbance_noise_std=FAST)
+    rig.run(1.0)
+    rig.plant.set_disturbance(np.array([-25.0]), 30.0)  # more than the drive can hold
+    outs = rig.run(1.0)
+    commands = np.array([out.command[0] for out in outs])
+    estimates = np.array([out.disturbance[0] for out in outs if out.disturbance is not None])
+    assert np.all(np.isfinite(commands)) and np.max(np.abs(commands)) <= TORQUE_MAX
+    assert np.max(commands) == TORQUE_MAX  # it does push back with all it has
+    assert np.all(np.abs(estimates) <= TORQUE_MAX) and np.min(estimates) == -TORQUE_MAX  # bounded
