@@ -101,7 +101,7 @@ class Simulator(StackNode):
 
         self.state_pub = GatedPublisher(self, JointState, "/sim/joint_states")
         # Only the newest effort matters to a drive (lockstep sends one at a time anyway).
-        self.create_subscription(Float64MultiArray, "/sim/effort", self.effort_callback, LATEST_QOS)
+        self.effort_sub = self.create_subscription(Float64MultiArray, "/sim/effort", self.effort_callback, LATEST_QOS)
         self.watch_single_publisher("/sim/effort", "motor_node")
         # Brakes: why each is on (any reason holds it), and who may ask.
         self.brake_reasons: set[str] = {"start"}
@@ -406,7 +406,8 @@ class Simulator(StackNode):
 
     def start_lockstep(self) -> None:
         """Publish tick 0 once the sensor (and recorder) listen and the motor talks (nothing is ever re-sent)."""
-        if not (self.state_pub.open and self.clock_pub.open and self.get_publishers_info_by_topic("/sim/effort")):
+        # The motor matched (not only named in the graph: a motor of an earlier run can linger there).
+        if not (self.state_pub.open and self.clock_pub.open and self.effort_sub.get_publisher_count()):
             return
         self.destroy_timer(self.start_poll)
         self.get_logger().info("lockstep: sensor and motor matched, starting at t = 0")

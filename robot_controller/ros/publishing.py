@@ -54,18 +54,25 @@ class ConsumerWatch:
     """``ready()`` once the audience of ``topic`` has been seen for ``MATCH_SETTLE_S`` (wall time).
 
     The audience is a consumer (unless ``consumer`` is False) and, when the
-    run is recorded, the recorder.
+    run is recorded, the recorder: both in the graph by name, and as many
+    readers actually matched by ``publisher`` (DDS matching honours the run's
+    partition; the graph does not, and a node of an earlier run on the same
+    domain can linger in it for a moment).
     """
 
-    def __init__(self, node: Node, topic: str, *, consumer: bool = True) -> None:
+    def __init__(self, node: Node, topic: str, *, consumer: bool = True, publisher: Any = None) -> None:
         self.node, self.topic = node, topic
         self.consumer = consumer
         self.recorder = recorded()
+        self.publisher = publisher
         self.seen_since: float | None = None
 
     def present(self) -> bool:
-        return ((not self.consumer or has_consumer(self.node, self.topic))
-                and (not self.recorder or has_recorder(self.node, self.topic)))
+        named = ((not self.consumer or has_consumer(self.node, self.topic))
+                 and (not self.recorder or has_recorder(self.node, self.topic)))
+        if not named or self.publisher is None:
+            return named
+        return self.publisher.get_subscription_count() >= int(self.consumer) + int(self.recorder)
 
     def ready(self) -> bool:
         if not self.present():
@@ -94,7 +101,7 @@ class GatedPublisher:
                  qos: QoSProfile = None) -> None:
         self.node, self.topic = node, topic
         self.publisher = node.create_publisher(msg_type, topic, qos or CONTROL_QOS)
-        self.watch = ConsumerWatch(node, topic, consumer=consumer)
+        self.watch = ConsumerWatch(node, topic, consumer=consumer, publisher=self.publisher)
         self.open = not consumer and not self.watch.recorder
         # Held until open: every message for telemetry and in lockstep (each is a
         # tick, and the bag must hold them all), only the newest for a wall-clock
