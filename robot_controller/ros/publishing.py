@@ -21,7 +21,8 @@ if TYPE_CHECKING:
 
 # Nodes that only watch (the recorder, a viewer) do not count as consumers.
 RECORDER_NODE = "recorder"
-OBSERVER_NODES = frozenset({RECORDER_NODE})
+VIEWER_NODE = "viewer"
+OBSERVER_NODES = frozenset({RECORDER_NODE, VIEWER_NODE})
 
 # Set by the launcher when a recorder runs: every publisher then also waits
 # for the recorder, so the bag holds every message the loop ever sent.

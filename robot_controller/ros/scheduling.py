@@ -77,11 +77,22 @@ def placement(process_name: str, wall_clock: bool = True) -> Placement:
 
 def apply_in_child(place: Placement) -> None:
     """Runs in a child between fork and exec: set its nice value (best effort;
-    an unprivileged user cannot go below 0 and keeps the default)."""
+    an unprivileged user cannot go below 0 and keeps the default).
+
+    Each child starts a session of its own (``setsid``), and with the kernel's
+    autogroup scheduling on, a session is a scheduling group whose members'
+    nice values rank them only against each other: the group's own nice
+    (``/proc/self/autogroup``) is what ranks it against the other processes'
+    groups, so it gets the same value."""
     try:
         os.setpriority(os.PRIO_PROCESS, 0, place.nice)
     except OSError:
         pass
+    try:
+        with open("/proc/self/autogroup", "w") as autogroup:
+            autogroup.write(str(place.nice))
+    except OSError:
+        pass  # no autogroup scheduling here, or not allowed
     if place.cpus:
         try:
             os.sched_setaffinity(0, place.cpus)

@@ -9,6 +9,10 @@ or the end of ``duration`` stops them all with SIGINT, then SIGKILL for any
 that hang; if a node dies the run ends with a non-zero exit (or, with
 ``respawn``, it is started again). The recorder starts first and stops last,
 so the bag holds every message the nodes published.
+
+With ``view_port`` a viewer (``nodes.viewer``) also runs beside the
+recorder: an observer that serves the live view in a browser and saves
+``view.rrd``. Nothing waits for it, and its death does not end the run.
 """
 from __future__ import annotations
 
@@ -61,7 +65,8 @@ class RunResult:
 
 def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_process: bool = False,
            realtime: bool = False, sim_time: bool = False, domain_id: int | None = None,
-           watcher: Callable[[float, dict[str, int]], None] | None = None, respawn: bool = False) -> RunResult:
+           watcher: Callable[[float, dict[str, int]], None] | None = None, respawn: bool = False,
+           view_port: int | None = None) -> RunResult:
     """Run the graph for ``duration_s`` seconds of control (sim seconds with
     ``sim_time``), recording into ``out_dir/bag``. ``realtime``: the
     simulator's pacing thread runs SCHED_FIFO (see ``scheduling``).
@@ -71,9 +76,11 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     seconds since the loop closed and each node's process id: the fault
     bench injects its faults from it. ``respawn``: a node that dies while the
     loop runs (wall clock) is started again, as ``ros2 launch``'s
-    ``respawn=True`` does, instead of ending the run."""
+    ``respawn=True`` does, instead of ending the run. ``view_port``: serve
+    the live view at ``http://127.0.0.1:<view_port>`` (and save
+    ``out_dir/view.rrd``) from a viewer process beside the recorder."""
     run = plan(params, out_dir=out_dir, single_process=single_process, realtime=realtime, sim_time=sim_time,
-               domain_id=domain_id, respawn=respawn)
+               domain_id=domain_id, respawn=respawn, view_port=view_port)
     for note in run.notes:
         say(note)
     forking.preload()  # before any thread of this run: the children are forked from here
@@ -87,16 +94,23 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     outcome = _Outcome()
     replaced: set[str] = set()  # nodes killed and respawned
     try:
-        with ProcessGroup(run.recorder.env) as group:
+        # The viewer is kept out of the group's children: a dead viewer must not end the run.
+        with ProcessGroup(run.recorder.env) as group, ProcessGroup(run.recorder.env) as viewers:
             recorder = group.start("recorder", run.recorder.module, run.recorder.args, on_line=link.on_line,
                                    wall_clock=not sim_time)
             # All at once: the nodes' publishers wait for the recorder themselves.
             nodes = [group.start(p.name, p.module, p.args, env=p.env, wall_clock=not sim_time) for p in run.nodes]
+            if run.viewer is not None:
+                say(f"live view: {run.view_url}")
+                viewers.start(run.viewer.name, run.viewer.module, run.viewer.args, env=run.viewer.env,
+                              wall_clock=not sim_time)
             try:
                 group.relay()
+                viewers.relay()
                 # What scores and plots the run, imported while the nodes find each other.
                 threading.Thread(target=_preload_reporting, daemon=True).start()
-                _run_loop(run, group, nodes, link, outcome, duration_s, watcher, replaced if respawn else None)
+                _run_loop(run, group, nodes, link, outcome, duration_s, watcher, replaced if respawn else None,
+                          viewers.children)
             except KeyboardInterrupt:
                 outcome.interrupted = True
                 # A second Ctrl-C must not cut the stop short: the bag and the metrics come next.
@@ -109,9 +123,10 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
                     outcome.wall_seconds = time.monotonic() - outcome.started
                     outcome.control_seconds = (link.clock_s - outcome.sim_start if sim_time
                                                else outcome.wall_seconds)
-            # The nodes first, then the recorder, which takes what is still in flight.
+            # The nodes first, then the recorder, which takes what is still in flight (and the viewer).
             codes = group.stop(nodes)
-            codes.update(group.stop([recorder]))
+            codes.update(group.stop([recorder, *viewers.children]))
+            _report_viewer(viewers.children, codes)
         published = supervise.read_published_counts(run.counts_dir, replaced)
         bad = {n: c for n, c in codes.items() if c not in (0, -signal.SIGINT, 130)}
         if outcome.failure is None and bad:
@@ -149,15 +164,18 @@ class _Outcome:
 
 def _run_loop(run: RunPlan, group: ProcessGroup, nodes: list[Child], link: supervise.RecorderLink,
               outcome: _Outcome, duration_s: float, watcher: Callable[[float, dict[str, int]], None] | None,
-              replaced: set[str] | None) -> None:
+              replaced: set[str] | None, viewers: list[Child] = ()) -> None:
     """Wait for the recorder and the first tick, then for ``duration_s`` of control; fills ``outcome``.
-    ``replaced``: respawn dead nodes, noting their names there."""
+    ``replaced``: respawn dead nodes, noting their names there. ``viewers``: observers measured
+    apart (their ``cpu_pct_``/``rss_`` figures, outside ``cpu_pct_total``) and never respawned."""
     outcome.failure = supervise.wait_recorder(link, group) or supervise.wait_first_tick(link, group)
     if outcome.failure is not None:
         return
     started = outcome.started = time.monotonic()
     say(f"control loop running; recording {duration_s:g} {'sim ' if run.sim_time else ''}s into {run.bag_dir}")
     meter = supervise.UsageMeter(group.children, started + min(supervise.USAGE_WARMUP_S, duration_s / 4))
+    if viewers:
+        meter = _WithViewers(meter, viewers)
     if run.sim_time:
         outcome.sim_start = link.clock_s
         outcome.failure = supervise.wait_sim(group, link, outcome.sim_start + duration_s, meter)
@@ -179,6 +197,42 @@ def _run_loop(run: RunPlan, group: ProcessGroup, nodes: list[Child], link: super
         outcome.control_seconds = time.monotonic() - started
     outcome.wall_seconds = time.monotonic() - started
     outcome.usage = meter.finish()
+
+
+class _WithViewers:
+    """The run's usage meter, plus the viewers measured on their own (so
+    ``cpu_pct_total`` stays the stack's), and a word if a viewer dies."""
+
+    def __init__(self, meter: supervise.UsageMeter, viewers: list[Child]) -> None:
+        self.meter = meter
+        self.viewers = viewers
+        self.viewer_meter = supervise.UsageMeter(viewers, meter.start_at)
+        self.said: set[str] = set()
+
+    def poll(self) -> None:
+        self.meter.poll()
+        self.viewer_meter.poll()
+        for child in self.viewers:
+            if child.name not in self.said and child.process.poll() is not None:
+                self.said.add(child.name)
+                say(f"{child.name} exited (code {child.process.returncode}): no live view; the run goes on")
+
+    def forget(self, name: str) -> None:
+        self.meter.forget(name)
+
+    def finish(self) -> dict[str, float]:
+        usage = self.meter.finish()
+        names = {c.name for c in self.viewers}
+        usage.update({k: v for k, v in self.viewer_meter.finish().items() if k.rsplit("_", 1)[-1] in names})
+        return usage
+
+
+def _report_viewer(viewers: list[Child], codes: dict[str, int]) -> None:
+    """A viewer's exit code is not the run's: it is taken out of ``codes`` and only reported."""
+    for child in viewers:
+        code = codes.pop(child.name, None)
+        if code not in (None, 0, -signal.SIGINT, 130):
+            say(f"WARNING: {child.name} exited with code {code} (the run itself is unaffected)")
 
 
 def _preload_reporting() -> None:

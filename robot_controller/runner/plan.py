@@ -1,5 +1,6 @@
 """What a run starts, before anything starts: the processes (the recorder and
-the five nodes, or all five in one), each one's arguments and environment,
+the five nodes, or all five in one, and with ``view_port`` the live viewer),
+each one's arguments and environment,
 the parameter file and the run's DDS profile, all written into the run's
 output directory. ``launcher`` then supervises what this plans."""
 from __future__ import annotations
@@ -15,6 +16,7 @@ from robot_controller.nodes.world_state import WORLD_STATE_ENV
 from robot_controller.parameters import consistency
 from robot_controller.ros import partition, scheduling
 from robot_controller.ros.publishing import COUNTS_DIR_ENV, RECORDED_ENV
+from robot_controller.view import serve as view_serve
 
 NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
 
@@ -46,6 +48,8 @@ class RunPlan:
     nodes: list[Process]
     sim_time: bool
     notes: list[str] = field(default_factory=list)  #: what the launcher should say before starting
+    viewer: Process | None = None  #: the live view (``view_port``): an observer, like the recorder
+    view_url: str | None = None  #: where the live view is served
 
 
 def child_env(single_process: bool) -> dict[str, str]:
@@ -76,16 +80,21 @@ def lockstep_params(params: cfg.Params) -> cfg.Params:
 
 
 def plan(params: cfg.Params, *, out_dir: Path, single_process: bool = False, realtime: bool = False,
-         sim_time: bool = False, domain_id: int | None = None, respawn: bool = False) -> RunPlan:
+         sim_time: bool = False, domain_id: int | None = None, respawn: bool = False,
+         view_port: int | None = None) -> RunPlan:
     """Check the whole configuration, then write what the processes read
     (``params.yaml``, ``fastdds.xml``) and decide how each starts.
+    ``view_port``: also start the live viewer, serving at
+    ``http://127.0.0.1:<view_port>`` and saving ``out_dir/view.rrd``.
 
-    :raises ConfigError: before anything is written
+    :raises ConfigError: before anything is written (also: ``view_port`` cannot be served on)
     :raises FileExistsError: ``out_dir`` already holds a recording
     """
     if sim_time:
         params = lockstep_params(params)
     consistency.check_stack(params)  # before anything is written or started
+    if view_port is not None:
+        view_serve.check_port(view_port)
     bag_dir = out_dir / "bag"
     if bag_dir.exists():
         raise FileExistsError(f"{bag_dir} exists: choose another --out")
@@ -113,4 +122,11 @@ def plan(params: cfg.Params, *, out_dir: Path, single_process: bool = False, rea
     nodes = ([Process("stack", "all_in_one", node_args, node_env)] if single_process
              else [Process(name, name, node_args, node_env) for name in NODE_ORDER])
     recorder = Process("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] if sim_time else []), env)
-    return RunPlan(out_dir, bag_dir, counts_dir, recorder, nodes, sim_time, notes)
+    viewer = view_url = None
+    if view_port is not None:
+        viewer = Process("viewer", "viewer", [
+            "--rrd", str(out_dir / "view.rrd"), "--port", str(view_port),
+            "--urdf", str(params["simulator"]["urdf_path"]),
+            "--control-rate", repr(float(params["pid_controller"]["control_rate_hz"]))], dict(env))
+        view_url = view_serve.page_url(view_port)
+    return RunPlan(out_dir, bag_dir, counts_dir, recorder, nodes, sim_time, notes, viewer, view_url)

@@ -1,0 +1,263 @@
+"""viewer: the live view of a run, in a browser, from a process of its own.
+
+An observer like the recorder: the launcher forks it (``run --view``), it
+runs at the observers' nice value on the CPUs the loop does not use, and no
+publisher waits for it. It listens best-effort with short queues, so a slow
+viewer loses samples instead of holding anyone up, and logs what it hears to
+rerun (``robot_controller.view``): the arm in 3-D posed by the TRUE angle,
+with the measured and reference angles as ghosts, and time series of
+position, tracking error, torque and loop timing, thinned to at most 50 Hz a
+series and 20 Hz a pose. The same data goes to ``--rrd`` (``DIR/view.rrd``)
+for replay.
+
+The publishers' gates treat any subscriber whose node is not in
+``publishing.OBSERVER_NODES`` as a consumer. Unless ``"viewer"`` is listed
+there, the viewer first listens only to telemetry (whose gates wait for the
+recorder alone), and subscribes to the loop's topics once the controller
+tracks (or has ticked for ``LOOP_TOPICS_AFTER_S``): by then every gate it
+could open early is open. Listed there, it subscribes to everything at once.
+
+    python -m robot_controller.nodes.viewer --rrd DIR/view.rrd --port 9090 [--urdf FILE] [--control-rate HZ]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import struct
+import sys
+import threading
+import time
+import uuid
+from pathlib import Path
+
+import numpy as np
+
+from robot_controller.core import state_layout
+from robot_controller.ros import scheduling
+from robot_controller.ros.publishing import OBSERVER_NODES
+from robot_controller.view import cdr
+
+VIEWER_NODE = "viewer"
+FLUSH_PERIOD_S = 0.1  # the browser's arm moves 10 times a second...
+SERIES_PERIOD_S = 0.2  # ...and its plots 5 times (each send costs CPU, per entity)
+FILE_PERIOD_S = 2.0  # view.rrd is written in chunks of 2 s
+LOOP_TOPICS_AFTER_S = 3.0  # subscribe to the loop's topics this long after the first tick, tracking or not
+QUEUE_DEPTH = 50
+READY_PREFIX = "live view at "
+SUBSCRIBE_STATUSES = {state_layout.STATUS_CODES["ok"], state_layout.STATUS_CODES["reacquiring"]}
+
+
+def _lower_priority() -> None:
+    """The observers' nice value, before any thread starts (threads inherit it).
+
+    The launcher starts each child in a session of its own, and with the
+    kernel's autogroup scheduling (``/proc/sys/kernel/sched_autogroup_enabled``)
+    each session is a group that competes with the others as a whole, whatever
+    its processes' nice values: the group's own nice is set too."""
+    try:
+        current = os.getpriority(os.PRIO_PROCESS, 0)
+        if current < scheduling.OBSERVER_NICE:
+            os.setpriority(os.PRIO_PROCESS, 0, scheduling.OBSERVER_NICE)
+    except OSError:
+        pass
+    try:
+        with open("/proc/self/autogroup", "w") as f:
+            f.write(str(scheduling.OBSERVER_NICE))
+    except OSError:
+        pass
+
+
+class Viewer:
+    """Subscriptions that feed a ``ViewFeed``."""
+
+    def __init__(self, context, joint_names: list[str]) -> None:
+        from diagnostic_msgs.msg import DiagnosticArray
+        from rclpy.node import Node
+        from std_msgs.msg import Float64MultiArray
+
+        self.feed = None  #: set before the first spin
+        self.joints = list(joint_names)
+        self.n = len(self.joints)
+        self.node = Node(VIEWER_NODE, context=context, start_parameter_services=False)
+        self.qos = _observer_qos()
+        self.first_tick: float | None = None
+        self.tracking = False
+        self.loop_subscribed = False
+        self.order: list[int] | None = None  #: indices of the stack's joints in the JointState names
+        self.node.create_subscription(Float64MultiArray, "/controller/state", self._state, self.qos, raw=True)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._diagnostics, self.qos)
+        self.node.create_subscription(Float64MultiArray, "/motor/command_receipts", self._receipts, self.qos,
+                                      raw=True)
+        if VIEWER_NODE in OBSERVER_NODES:  # no gate takes the viewer for a consumer: listen to all at once
+            self.subscribe_loop()
+
+    def subscribe_loop_when_due(self) -> None:
+        if self.loop_subscribed or self.first_tick is None:
+            return
+        if self.tracking or time.monotonic() - self.first_tick >= LOOP_TOPICS_AFTER_S:
+            self.subscribe_loop()
+
+    def subscribe_loop(self) -> None:
+        from sensor_msgs.msg import JointState
+        from std_msgs.msg import Float64MultiArray
+
+        self.node.create_subscription(JointState, "/sim/joint_states", self._true, self.qos, raw=True)
+        self.node.create_subscription(JointState, "/joint_states", self._measured, self.qos, raw=True)
+        self.node.create_subscription(Float64MultiArray, "/trajectory", self._planned, self.qos, raw=True)
+        self.loop_subscribed = True
+
+    # -- callbacks: each only reads the numbers out; the feed does the work at each flush --
+    # (raw CDR, read by ``view.cdr``: a message the parser cannot read is dropped)
+
+    def _joint_state(self, data: bytes):
+        try:
+            stamp, names, position, effort = cdr.joint_state(data)
+        except (ValueError, struct.error):
+            return None
+        if self.order is None and names:
+            try:
+                self.order = [names.index(j) for j in self.joints]
+            except ValueError:
+                return None
+        if self.order is not None and len(position) == len(names):
+            index = self.order
+        elif len(position) == self.n:
+            index = list(range(self.n))
+        else:
+            return None
+        return stamp, position[index], effort[index] if len(effort) == len(position) else np.full(self.n, np.nan)
+
+    def _true(self, data: bytes) -> None:
+        state = self._joint_state(data)
+        if state is not None:
+            self.feed.true_state(*state)
+
+    def _measured(self, data: bytes) -> None:
+        state = self._joint_state(data)
+        if state is not None:
+            self.feed.measured(state[0], state[1])
+
+    @staticmethod
+    def _array(data: bytes) -> np.ndarray | None:
+        try:
+            return cdr.float64_array(data)
+        except (ValueError, struct.error):
+            return None
+
+    def _state(self, data: bytes) -> None:
+        values = self._array(data)
+        if values is None or len(values) != state_layout.width(self.n):
+            return
+        if self.first_tick is None:
+            self.first_tick = time.monotonic()
+        if int(values[1]) in SUBSCRIBE_STATUSES:
+            self.tracking = True
+        self.feed.controller_state(values)
+
+    def _planned(self, data: bytes) -> None:
+        values, n = self._array(data), self.n
+        if values is None:
+            return
+        if len(values) == 3 * n + 1:  # [q…, q̇…, q̈…, time_s]
+            self.feed.planned(values[-1], values[:n])
+        elif len(values) == 2 * n:  # the tutorial's [q, q̇]: no time of its own
+            self.feed.planned(time.time(), values[:n])
+
+    def _receipts(self, data: bytes) -> None:
+        values = self._array(data)
+        if values is not None:
+            self.feed.receipts(values)
+
+    @staticmethod
+    def _stamp(msg) -> float:
+        return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+    def _diagnostics(self, msg) -> None:
+        for status in msg.status:
+            for kv in status.values:
+                if kv.key == "jitter_p99_ms":
+                    try:
+                        self.feed.diagnostics(self._stamp(msg), float(kv.value))
+                    except ValueError:
+                        pass
+
+
+def _observer_qos():
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    # Best effort: the writers never wait for, nor resend to, the viewer.
+    return QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE,
+                      history=HistoryPolicy.KEEP_LAST, depth=QUEUE_DEPTH)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="viewer")
+    parser.add_argument("--rrd", type=Path, required=True, help="where the view is saved for replay")
+    parser.add_argument("--port", type=int, default=9090, help="serve the view at http://127.0.0.1:PORT")
+    parser.add_argument("--urdf", default="", help="the arm's URDF (default: the package's reference arm)")
+    parser.add_argument("--control-rate", type=float, default=100.0, help="the controller's rate, Hz")
+    args = parser.parse_args(None if argv is None else argv[1:])  # argv[0] is the program, as for rclpy
+    _lower_priority()
+    stop = threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+
+    from robot_controller import resources
+    from robot_controller.ros.process import make_executor
+    from robot_controller.view import arm as arm_view
+    from robot_controller.view import layout
+    from robot_controller.view import serve as serving
+    from robot_controller.view.feed import Outlet, ViewFeed
+    from robot_controller.view.from_bag import stack_joint_order
+
+    urdf = resources.resolve_urdf(args.urdf)
+    arm = arm_view.load_arm(urdf, stack_joint_order(urdf))
+    # Listening first (what arrives waits in the readers' short queues), then rerun and its servers.
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    viewer = Viewer(context, arm.joint_names)
+    # One recording, two streams: to the browser every flush, to the file in larger chunks.
+    recording_id = str(uuid.uuid4())
+    live, saved = serving.open_recording(recording_id), serving.open_recording(recording_id)
+    uri = serving.set_sinks(live, rrd=None, serve=True, blueprint=layout.blueprint(arm, live=True),
+                            newest_first=True)
+    # The file gets few chunks (FILE_PERIOD_S), so its footer (a line per chunk, kept in memory until the
+    # end) stays small; a viewer killed before writing it leaves a file that still reads.
+    serving.set_sinks(saved, rrd=args.rrd, serve=False, blueprint=layout.blueprint(arm, live=True))
+    for rec in (live, saved):
+        layout.log_styles(rec, arm.joint_names)
+        layout.log_scene(rec, arm)
+    web = serving.serve_web(uri, args.port)
+    print(f"{READY_PREFIX}{serving.page_url(args.port)} (data: {uri}; saved to {args.rrd})", flush=True)
+
+    viewer.feed = feed = ViewFeed([Outlet(live, SERIES_PERIOD_S, FLUSH_PERIOD_S), Outlet(saved, FILE_PERIOD_S)],
+                                  arm, nominal_period_s=1.0 / args.control_rate, live=True)
+    executor = make_executor(context)
+    executor.add_node(viewer.node)
+    next_flush = time.monotonic()
+    try:
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=FLUSH_PERIOD_S)
+            now = time.monotonic()
+            if now >= next_flush:
+                next_flush = max(next_flush + FLUSH_PERIOD_S, now)
+                viewer.subscribe_loop_when_due()
+                feed.flush(now)
+    finally:
+        executor.shutdown(timeout_sec=1.0)
+        viewer.node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        feed.flush(time.monotonic(), final=True)
+        web.shutdown()
+        for rec in (saved, live):
+            rec.flush()
+            rec.disconnect()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,340 @@
+"""The loop's signals turned into what the view logs, at a rate a browser takes.
+
+``ViewFeed`` collects raw samples (from live topics or from a bag's arrays),
+and ``flush`` turns what has come in since into rerun columns, held by an
+``Outlet`` per recording stream until it sends them: each series
+at most ``SERIES_HZ`` and each pose at most ``POSE_HZ`` (per time bucket,
+the first sample; for errors and timing, the one of largest magnitude, so a
+spike is never thinned away). Everything held is bounded: the live inputs
+keep at most ``MAX_PENDING`` samples each between flushes (the oldest go
+first if a flush is late), and only a short tail of controller ticks is kept
+for pairing with later samples.
+"""
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Iterable
+
+import numpy as np
+
+from robot_controller.core import state_layout
+from robot_controller.view import arm as arm_view
+from robot_controller.view import layout
+
+SERIES_HZ = 50.0
+POSE_HZ = 20.0
+MAX_PENDING = 5000  # per input: 50 s of a 100 Hz topic
+TICK_TAIL = 400  # controller ticks kept to pair true samples and motor receipts with (4 s at 100 Hz)
+# As in scoring (report.tracking_on_sim_timeline): ticks further apart than
+# this many periods are a gap; across it the last reference is carried on for
+# CARRY_S at its speed, then held; idle ticks put no reference in force.
+GAP_PERIODS = 5
+CARRY_S = 0.05
+IDLE_CODES = [state_layout.STATUS_CODES[name] for name in ("no_measurement", "sensor_lost", "stopped")]
+STATUS_NAMES = {code: name for name, code in state_layout.STATUS_CODES.items()}
+
+
+class Decimator:
+    """At most ``rate_hz`` samples a second of one series, by time buckets.
+
+    The newest bucket may still fill: it is held back until a later sample
+    starts the next one (or ``final``), so each bucket yields exactly one sample.
+    """
+
+    def __init__(self, rate_hz: float, *, extreme: bool = False) -> None:
+        self.period = 1.0 / rate_hz
+        self.extreme = extreme
+        self.t = np.zeros(0)
+        self.v: np.ndarray | None = None
+
+    def take(self, t: np.ndarray, v: np.ndarray, *, final: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        t = np.concatenate([self.t, np.asarray(t, dtype=float)])
+        v = np.asarray(v, dtype=float) if self.v is None else np.concatenate([self.v, np.asarray(v, dtype=float)])
+        if len(t) == 0:
+            self.t, self.v = t, v
+            return t, v
+        bucket = np.floor(t / self.period)
+        done = np.ones(len(t), bool) if final else bucket < bucket[-1]
+        self.t, self.v = t[~done], v[~done]
+        t, v, bucket = t[done], v[done], bucket[done]
+        if len(t) == 0:
+            return t, v
+        starts = np.flatnonzero(np.r_[True, bucket[1:] != bucket[:-1]])
+        if not self.extreme:
+            return t[starts], v[starts]
+        magnitude = np.abs(v) if v.ndim == 1 else np.max(np.abs(v), axis=1)
+        magnitude = np.where(np.isfinite(magnitude), magnitude, -1.0)
+        ends = np.r_[starts[1:], len(t)]
+        pick = np.array([s + int(np.argmax(magnitude[s:e])) for s, e in zip(starts, ends, strict=False)])
+        return t[pick], v[pick]
+
+
+def reference_in_force(ticks: np.ndarray, reference: np.ndarray, status: np.ndarray, t: np.ndarray,
+                       nominal_period_s: float) -> np.ndarray:
+    """The controller's reference in force at each time ``t`` (NaN where an idle tick is in force),
+    as scoring defines it (``report.tracking_on_sim_timeline``)."""
+    index = np.clip(np.searchsorted(ticks, t, side="right") - 1, 0, len(ticks) - 1)
+    following = np.clip(index + 1, 0, len(ticks) - 1)
+    span = ticks[following] - ticks[index]
+    interpolate = (following > index) & (span <= GAP_PERIODS * nominal_period_s)
+    fraction = np.where(interpolate, (t - ticks[index]) / np.where(span > 0, span, 1.0), 0.0)[:, None]
+    in_force = reference[index] + np.clip(fraction, 0.0, 1.0) * (reference[following] - reference[index])
+    previous = np.clip(index - 1, 0, len(ticks) - 1)
+    step_s = ticks[index] - ticks[previous]
+    normal = (index > previous) & (step_s <= GAP_PERIODS * nominal_period_s)
+    speed = np.where(normal[:, None], (reference[index] - reference[previous])
+                     / np.where(step_s > 0, step_s, 1.0)[:, None], 0.0)
+    carried = reference[index] + speed * np.clip(t - ticks[index], 0.0, CARRY_S)[:, None]
+    in_force = np.where(interpolate[:, None], in_force, carried)
+    idle = np.isin(status[index], IDLE_CODES) | (t < ticks[0])
+    in_force[idle] = np.nan
+    return in_force
+
+
+class Outlet:
+    """Columns for one recording stream, held per entity and sent every
+    ``period_s`` (one chunk per entity each time: few, larger chunks keep a
+    file small, a browser quick and the sender's CPU low; ``0`` sends at every
+    flush). The arm's poses go every ``pose_period_s`` (default: the same)."""
+
+    def __init__(self, rec, period_s: float = 0.0, pose_period_s: float | None = None) -> None:
+        self.rec = rec
+        self.period_s = period_s
+        self.pose_period_s = period_s if pose_period_s is None else pose_period_s
+        self.next_send = self.next_pose_send = 0.0
+        self.scalars: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
+        self.arm: arm_view.ArmModel | None = None
+        self.poses: list[tuple[np.ndarray, np.ndarray]] = []  #: (t (m,), q (m, poses, joints))
+
+    def add_scalars(self, path: str, t: np.ndarray, v: np.ndarray) -> None:
+        self.scalars.setdefault(path, []).append((t, v))
+
+    def add_poses(self, arm: arm_view.ArmModel, t: np.ndarray, q: np.ndarray) -> None:
+        self.arm = arm
+        self.poses.append((t, q))
+
+    def text(self, path: str, t: float, text: str, level: str) -> None:
+        import rerun as rr
+
+        self.rec.set_time(layout.TIMELINE, duration=t)
+        self.rec.log(path, rr.TextLog(text, level=level))
+
+    def pump(self, now: float, *, force: bool = False) -> None:
+        """Send what is held if its period has passed since the last send (or ``force``)."""
+        import rerun as rr
+
+        if force or now >= self.next_send:
+            self.next_send = now + self.period_s
+            for path, parts in self.scalars.items():
+                t, v = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+                self.rec.send_columns(path, indexes=[rr.TimeColumn(layout.TIMELINE, duration=t)],
+                                      columns=rr.Scalars.columns(scalars=v))
+            self.scalars.clear()
+        if (force or now >= self.next_pose_send) and self.poses:
+            self.next_pose_send = now + self.pose_period_s
+            t, q = np.concatenate([p[0] for p in self.poses]), np.concatenate([p[1] for p in self.poses])
+            time = [rr.TimeColumn(layout.TIMELINE, duration=t)]
+            for path, columns in arm_view.pose_columns(self.arm, layout.ARM, q):
+                self.rec.send_columns(path, indexes=time, columns=columns)
+            self.poses.clear()
+
+
+class ViewFeed:
+    """Collects the loop's samples and hands them, thinned, to its outlets on ``flush``."""
+
+    def __init__(self, outlets: list[Outlet], arm: arm_view.ArmModel, *, nominal_period_s: float,
+                 live: bool = True) -> None:
+        self.outlets = outlets
+        self.arm = arm
+        self.joints = arm.joint_names
+        self.n = len(self.joints)
+        self.nominal_period_s = nominal_period_s
+        self.live = live
+        self.t0: float | None = None  #: the first controller tick: time 0 of the view
+        pending = (lambda: deque(maxlen=MAX_PENDING)) if live else list
+        self.true_in, self.measured_in, self.state_in = pending(), pending(), pending()
+        self.planned_in, self.receipts_in, self.diagnostics_in = pending(), pending(), pending()
+        self.decimators: dict[str, Decimator] = {}
+        # The controller's recent ticks: time, status, reference, command, reading stamp.
+        self.ticks = np.zeros(0)
+        self.tick_status = np.zeros(0)
+        self.tick_reference = np.zeros((0, self.n))
+        self.tick_command = np.zeros((0, self.n))
+        self.tick_stamp = np.zeros(0)
+        self.readings_t = np.zeros(0)  #: the sensor's recent readings (for the measured arm)
+        self.readings_q = np.zeros((0, self.n))
+        self.unpaired_t = np.zeros(0)  #: true samples newer than the last tick: paired at a later flush
+        self.unpaired_q = np.zeros((0, self.n))
+        self.last_status: int | None = None
+
+    # -- inputs: one call per message (live) or per array (bag) --------------------
+
+    def true_state(self, t: float, q: Iterable[float], effort: Iterable[float]) -> None:
+        self.true_in.append((t, *q, *effort))
+
+    def measured(self, t: float, q: Iterable[float]) -> None:
+        self.measured_in.append((t, *q))
+
+    def controller_state(self, data: Iterable[float]) -> None:
+        row = tuple(data)
+        if len(row) != state_layout.width(self.n):
+            return  # not the run's layout: dropped
+        if self.t0 is None:
+            self.t0 = row[0]
+        self.state_in.append(row)
+
+    def planned(self, t: float, q: Iterable[float]) -> None:
+        self.planned_in.append((t, *q))
+
+    def receipts(self, rows: np.ndarray) -> None:
+        rows = np.asarray(rows, dtype=float)
+        if rows.size % (1 + self.n):
+            return  # not [receipt_time_s, command…] rows: dropped
+        for row in rows.reshape(-1, 1 + self.n):
+            self.receipts_in.append(tuple(row))
+
+    def diagnostics(self, t: float, jitter_p99_ms: float) -> None:
+        self.diagnostics_in.append((t, jitter_p99_ms))
+
+    # -- output ------------------------------------------------------------------
+
+    def _decimate(self, key: str, rate_hz: float, t: np.ndarray, v: np.ndarray, *, extreme: bool = False,
+                  final: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        decimator = self.decimators.get(key)
+        if decimator is None:
+            decimator = self.decimators[key] = Decimator(rate_hz, extreme=extreme)
+        return decimator.take(t, v, final=final)
+
+    def _series(self, series: str, joint: str, t: np.ndarray, v: np.ndarray, *, extreme: bool = False,
+                final: bool = False) -> None:
+        path = layout.series_path(series, joint, self.n)
+        t, v = self._decimate(path, SERIES_HZ, t, v, extreme=extreme, final=final)
+        keep = np.isfinite(v)
+        if np.any(keep):
+            for outlet in self.outlets:
+                outlet.add_scalars(path, t[keep] - self.t0, v[keep])
+
+    def _poses(self, t: np.ndarray, q: np.ndarray, final: bool) -> None:
+        """The three arms at the same instants (the true samples', at most ``POSE_HZ``): the
+        measured one as the latest reading then, the reference as the controller's, interpolated
+        between its ticks (a ghost not known yet sits on the true arm). One row holds all three."""
+        t, q = self._decimate("poses", POSE_HZ, t, q, final=final)
+        if len(t) == 0:
+            return
+        measured, reference = q.copy(), q.copy()
+        if len(self.readings_t):
+            index = np.searchsorted(self.readings_t, t, side="right") - 1
+            seen = index >= 0
+            measured[seen] = self.readings_q[index[seen]]
+        if len(self.ticks):
+            reference = np.column_stack([np.interp(t, self.ticks, self.tick_reference[:, k]) for k in range(self.n)])
+        for outlet in self.outlets:
+            outlet.add_poses(self.arm, t - self.t0, np.stack([q, measured, reference], axis=1))
+
+    @staticmethod
+    def _drain(queue, width: int) -> np.ndarray | None:
+        """What ``queue`` holds, as rows of ``width`` values (rows of another width are dropped)."""
+        rows = [r for r in queue if len(r) == width]
+        queue.clear()
+        return np.array(rows, dtype=float) if rows else None
+
+    def flush(self, now: float = 0.0, *, final: bool = False) -> None:
+        """Take what came in since the last flush, and send what each outlet
+        holds if its period is up at ``now`` (monotonic seconds). ``final``:
+        everything, no bucket held back, every outlet sent."""
+        if self.t0 is not None:  # else nothing can be placed on the timeline yet
+            self._take(final)
+        for outlet in self.outlets:
+            outlet.pump(now, force=final)
+
+    def _take(self, final: bool) -> None:
+        n = self.n
+        states = self._drain(self.state_in, state_layout.width(n))
+        if states is not None:
+            self._controller(states, final)
+        measured = self._drain(self.measured_in, 1 + n)
+        if measured is not None:
+            for k, joint in enumerate(self.joints):
+                self._series("measured", joint, measured[:, 0], measured[:, 1 + k], final=final)
+            keep = slice(-TICK_TAIL if self.live else None, None)
+            self.readings_t = np.concatenate([self.readings_t, measured[:, 0]])[keep]
+            self.readings_q = np.vstack([self.readings_q, measured[:, 1:]])[keep]
+        true = self._drain(self.true_in, 1 + 2 * n)
+        if true is not None:
+            t, q, effort = true[:, 0], true[:, 1:1 + n], true[:, 1 + n:]
+            self._poses(t, q, final)
+            for k, joint in enumerate(self.joints):
+                self._series("true", joint, t, q[:, k], final=final)
+                self._series("applied", joint, t, effort[:, k], final=final)
+            self.unpaired_t = np.concatenate([self.unpaired_t, t])
+            self.unpaired_q = np.vstack([self.unpaired_q, q])
+        self._tracking_error(final)
+        planned = self._drain(self.planned_in, 1 + n)
+        if planned is not None:
+            for k, joint in enumerate(self.joints):
+                self._series("planned", joint, planned[:, 0], planned[:, 1 + k], final=final)
+        receipts = self._drain(self.receipts_in, 1 + n)
+        if receipts is not None and len(self.ticks):
+            self._latency(receipts, final)
+        diagnostics = self._drain(self.diagnostics_in, 2)
+        if diagnostics is not None:
+            self._series("jitter_p99", self.joints[0], diagnostics[:, 0], diagnostics[:, 1], final=True)
+
+    def _controller(self, states: np.ndarray, final: bool) -> None:
+        s = state_layout.decode(states, self.n)
+        t = s["time_s"]
+        for k, joint in enumerate(self.joints):
+            self._series("reference", joint, t, s["reference"][:, k], final=final)
+            self._series("error_controller", joint, t, 1e3 * s["error"][:, k], extreme=True, final=final)
+            self._series("commanded", joint, t, s["command"][:, k], final=final)
+        # Each tick's period against the nominal one, from the previous tick (kept from the last flush).
+        all_t = np.concatenate([self.ticks[-1:], t])
+        jitter = 1e3 * np.abs(np.diff(all_t) - self.nominal_period_s)
+        self._series("jitter", self.joints[0], all_t[1:], jitter, extreme=True, final=final)
+        # Status changes, as a log line each.
+        codes = s["status"].astype(int)
+        previous = np.concatenate([[self.last_status if self.last_status is not None else -1], codes[:-1]])
+        for k in np.flatnonzero(codes != previous):
+            name = STATUS_NAMES.get(int(codes[k]), str(codes[k]))
+            for outlet in self.outlets:
+                outlet.text(layout.STATUS_LOG, float(t[k] - self.t0), f"controller: {name}",
+                            "INFO" if name in ("ok", "reacquiring") else "WARN")
+        self.last_status = int(codes[-1])
+        keep = slice(-TICK_TAIL if self.live else None, None)
+        self.ticks = np.concatenate([self.ticks, t])[keep]
+        self.tick_status = np.concatenate([self.tick_status, s["status"]])[keep]
+        self.tick_reference = np.vstack([self.tick_reference, s["reference"]])[keep]
+        self.tick_command = np.vstack([self.tick_command, s["command"]])[keep]
+        self.tick_stamp = np.concatenate([self.tick_stamp, s["measurement_stamp_s"]])[keep]
+
+    def _tracking_error(self, final: bool) -> None:
+        """Reference in force − true position for every true sample the ticks cover."""
+        if not len(self.ticks) or not len(self.unpaired_t):
+            return
+        # A sample is paired once a later tick has come (or the run is over).
+        ready = np.ones(len(self.unpaired_t), bool) if final else self.unpaired_t <= self.ticks[-1]
+        t, q = self.unpaired_t[ready], self.unpaired_q[ready]
+        self.unpaired_t, self.unpaired_q = self.unpaired_t[~ready][-MAX_PENDING:], self.unpaired_q[~ready][
+            -MAX_PENDING:]
+        if not len(t):
+            return
+        error = 1e3 * (reference_in_force(self.ticks, self.tick_reference, self.tick_status, t,
+                                          self.nominal_period_s) - q)
+        for k, joint in enumerate(self.joints):
+            self._series("error_true", joint, t, error[:, k], extreme=True, final=final)
+
+    def _latency(self, receipts: np.ndarray, final: bool) -> None:
+        """Reading stamp → command at the motor, per receipt matched to the tick that issued its command."""
+        stamps: dict[tuple[float, ...], list[float]] = {}
+        for command, stamp in zip(map(tuple, self.tick_command.tolist()), self.tick_stamp.tolist(), strict=False):
+            stamps.setdefault(command, []).append(stamp)
+        t, latency = [], []
+        for row in receipts.tolist():
+            candidates = [s for s in stamps.get(tuple(row[1:]), []) if s <= row[0]]
+            if candidates:
+                t.append(row[0])
+                latency.append(1e3 * (row[0] - candidates[-1]))
+        if t:
+            order = np.argsort(t)
+            self._series("latency", self.joints[0], np.asarray(t)[order], np.asarray(latency)[order], extreme=True,
+                         final=final)

@@ -1,0 +1,162 @@
+"""The view of a saved run, built from its bag: the same scene, series and
+layout as the live view (``DIR/view.rrd``), so any run can be looked at again,
+including runs recorded without ``--view``."""
+from __future__ import annotations
+
+import signal
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from robot_controller import resources
+from robot_controller.view import arm as arm_view
+from robot_controller.view import layout
+from robot_controller.view import serve as serving
+from robot_controller.view.feed import Outlet, ViewFeed
+
+if TYPE_CHECKING:
+    from robot_controller.scoring.bag_reader import Recording
+
+RRD_NAME = "view.rrd"
+
+
+def run_setup(run_dir: Path) -> tuple[Path, float]:
+    """The run's URDF and control period, from its ``params.yaml`` (the defaults if it has none)."""
+    from robot_controller import parameters as cfg
+
+    params = cfg.read_params_file(run_dir / "params.yaml") if (run_dir / "params.yaml").is_file() else {}
+    urdf = resources.resolve_urdf(params.get("simulator", {}).get("urdf_path", ""))
+    rate = float(params.get("pid_controller", {}).get("control_rate_hz", 100.0))
+    return urdf, 1.0 / rate
+
+
+def stack_joint_order(urdf: Path) -> list[str]:
+    """The joints in the order of every array of the stack (MuJoCo's)."""
+    from robot_controller.core import plant
+
+    return plant.joint_names(plant.load_model(urdf))
+
+
+def _telemetry(bag_dir: Path) -> tuple[list[tuple[float, float]], list[np.ndarray]]:
+    """``/diagnostics`` (stamp, jitter p99 ms) and ``/motor/command_receipts`` rows: what scoring does not read."""
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys import Stores, get_typestore
+
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    diagnostics, receipts = [], []
+    with Reader(bag_dir) as reader:
+        wanted = [c for c in reader.connections if c.topic in ("/diagnostics", "/motor/command_receipts")]
+        for connection, _, raw in reader.messages(connections=wanted):
+            try:
+                msg = typestore.deserialize_cdr(raw, connection.msgtype)
+            except Exception:  # noqa: BLE001 - a malformed message is skipped, as scoring does
+                continue
+            if connection.topic == "/motor/command_receipts":
+                receipts.append(np.asarray(msg.data, dtype=float))
+                continue
+            stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+            for status in msg.status:
+                values = {kv.key: kv.value for kv in status.values}
+                try:
+                    diagnostics.append((stamp, float(values["jitter_p99_ms"])))
+                except (KeyError, ValueError):
+                    pass
+    return diagnostics, receipts
+
+
+@dataclass
+class SavedRun:
+    arm: arm_view.ArmModel
+    period_s: float
+    recording: Recording
+    diagnostics: list[tuple[float, float]]
+    receipts: list[np.ndarray]
+
+
+def load_run(run_dir: Path) -> SavedRun:
+    """What the view of ``run_dir`` shows, read from its bag and parameters.
+
+    :raises ValueError: the bag holds nothing to show, or does not fit the run's URDF
+    """
+    from robot_controller.scoring.report import read_recording
+
+    urdf, period = run_setup(run_dir)
+    recording = read_recording(run_dir / "bag")
+    arm = arm_view.load_arm(urdf, stack_joint_order(urdf))
+    if len(arm.joint_names) != recording.joint_count:
+        raise ValueError(f"{run_dir}: the bag has {recording.joint_count} joint(s), {urdf} {len(arm.joint_names)}")
+    diagnostics, receipts = _telemetry(run_dir / "bag")
+    return SavedRun(arm, period, recording, diagnostics, receipts)
+
+
+def log_run(rec, run: SavedRun) -> None:
+    """Log a saved run to ``rec``: the scene, the styles, every series."""
+    from robot_controller.core import state_layout
+
+    arm, recording = run.arm, run.recording
+    layout.log_styles(rec, arm.joint_names)
+    layout.log_scene(rec, arm)
+    feed = ViewFeed([Outlet(rec, float("inf"))], arm, nominal_period_s=run.period_s, live=False)
+    s = recording.state
+    rows = np.column_stack([s["time_s"], s["status"], s["measurement_stamp_s"]]
+                           + [s[name] for name in state_layout.FIELDS])
+    for row in rows:
+        feed.controller_state(row)
+    for t, q, effort in zip(recording.true_time_s, recording.true_position, recording.true_effort, strict=False):
+        feed.true_state(t, q, effort)
+    for t, q in zip(recording.reading_stamp_s, recording.reading_position, strict=False):
+        feed.measured(t, q)
+    for t, q in zip(recording.planned_time_s, recording.planned_position, strict=False):
+        feed.planned(t, q)
+    for block in run.receipts:
+        if block.size % (1 + recording.joint_count) == 0:
+            feed.receipts(block)
+    for t, jitter in run.diagnostics:
+        feed.diagnostics(t, jitter)
+    feed.flush(final=True)
+
+
+def build_view_from_bag(run_dir: Path, port: int = serving.DEFAULT_PORT, serve: bool = False) -> Path:
+    """Write ``run_dir/view.rrd`` from the run's bag; if ``serve``, also serve
+    it at ``http://127.0.0.1:PORT`` until Ctrl-C (or SIGTERM). Returns the file's path.
+
+    :raises ConfigError: ``port`` cannot be served on (checked before anything is written)
+    :raises ValueError: the bag holds nothing to show (nothing is written)
+    :raises FileNotFoundError: ``run_dir`` has no bag
+    """
+    run_dir = Path(run_dir)
+    if not (run_dir / "bag").is_dir():
+        raise FileNotFoundError(f"{run_dir}: no bag/ (not a run directory?)")
+    if serve:
+        serving.check_port(port)
+    run = load_run(run_dir)
+    out = run_dir / RRD_NAME
+    rec = serving.open_recording()
+    uri = serving.set_sinks(rec, rrd=out, serve=serve, blueprint=layout.blueprint(run.arm, live=False))
+    try:
+        log_run(rec, run)
+        rec.flush()
+        if serve:
+            assert uri is not None
+            web = serving.serve_web(uri, port)
+            print(f"view of {run_dir}: {serving.page_url(port)}  (Ctrl-C to stop; saved as {out})", flush=True)
+            _wait_for_interrupt()
+            web.shutdown()
+    finally:
+        rec.disconnect()  # closes the file (with its footer) and the server
+    return out
+
+
+def _wait_for_interrupt() -> None:
+    stop = threading.Event()
+    previous = signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    try:
+        while not stop.wait(0.5):
+            pass
+    except KeyboardInterrupt:
+        pass
+    finally:
+        signal.signal(signal.SIGTERM, previous)

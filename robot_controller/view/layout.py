@@ -1,0 +1,105 @@
+"""What the view shows and where: entity paths, colours, series styles, and
+the saved blueprint (the arm in 3-D on the left, a column of time series on
+the right), shared by the live view and the view built from a bag."""
+from __future__ import annotations
+
+import numpy as np
+
+from robot_controller.view.arm import ArmModel, log_static
+
+APPLICATION_ID = "robot_controller"
+TIMELINE = "time"  #: seconds since the controller's first tick
+LIVE_WINDOW_S = 10.0  #: the plots of the live view scroll over this many seconds
+
+WORLD = "world"
+ARM = f"{WORLD}/arm"
+POSES = {  # pose → (colour RGBA, radius factor), in instance order: the true arm solid, the others ghosts
+    "true": ([235, 125, 25, 255], 1.0),
+    "measured": ([60, 140, 255, 80], 1.6),
+    "reference": ([40, 190, 90, 80], 2.2),
+}
+POSITION, ERROR, TORQUE, TIMING = "plots/position", "plots/error", "plots/torque", "plots/timing"
+STATUS_LOG = "log/status"
+
+# series → (view, label, colour, width)
+SERIES = {
+    "reference": (POSITION, "reference", [40, 190, 90], 2.0),
+    "true": (POSITION, "true", [235, 125, 25], 2.0),
+    "measured": (POSITION, "measured", [60, 140, 255], 1.0),
+    "planned": (POSITION, "planned", [150, 150, 150], 1.0),
+    "error_true": (ERROR, "reference − true", [220, 50, 50], 1.5),
+    "error_controller": (ERROR, "reference − estimate (controller)", [120, 120, 200], 1.0),
+    "commanded": (TORQUE, "commanded", [150, 80, 200], 1.5),
+    "applied": (TORQUE, "applied", [235, 125, 25], 1.5),
+    "jitter": (TIMING, "tick jitter |period − nominal|", [110, 110, 110], 1.0),
+    "jitter_p99": (TIMING, "jitter p99 (last s, /diagnostics)", [220, 50, 50], 2.0),
+    "latency": (TIMING, "reading → motor latency", [60, 140, 255], 1.0),
+}
+PER_JOINT = {"reference", "true", "measured", "planned", "error_true", "error_controller", "commanded", "applied"}
+
+
+def series_path(series: str, joint: str, joint_count: int) -> str:
+    view = SERIES[series][0]
+    if series not in PER_JOINT or joint_count == 1:
+        return f"{view}/{series}"
+    return f"{view}/{joint}/{series}"
+
+
+def log_styles(rec, joint_names: list[str]) -> None:
+    """Names, colours and widths of every series (static)."""
+    import rerun as rr
+
+    n = len(joint_names)
+    for series, (_, label, colour, width) in SERIES.items():
+        joints = joint_names if series in PER_JOINT else joint_names[:1]
+        for joint in joints:
+            name = label if series not in PER_JOINT or n == 1 else f"{label} ({joint})"
+            rec.log(series_path(series, joint, n), rr.SeriesLines(colors=[colour], widths=[width], names=[name]),
+                    static=True)
+
+
+def log_scene(rec, arm: ArmModel) -> None:
+    """The static part of the 3-D scene: axes convention, a pedestal up to the
+    first joint, and the arm's shapes (one instance per pose)."""
+    import rerun as rr
+
+    rec.log(WORLD, rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+    x, y, z = arm.base_xyz
+    if z > 0.05:  # the arm's first joint stands on something: draw it
+        rec.log(f"{WORLD}/pedestal", rr.Cylinders3D(centers=[[x, y, 0.5 * z - 0.02]], lengths=[z - 0.04],
+                                                    radii=[0.03], colors=[[95, 95, 105]], fill_mode="solid"),
+                static=True)
+    log_static(rec, arm, ARM, list(POSES.values()))
+
+
+def blueprint(arm: ArmModel, *, live: bool):
+    """The saved layout: 3-D view left, time series right (position, tracking
+    error, torque, timing). Live, the plots scroll over the last
+    ``LIVE_WINDOW_S``; built from a bag, they show the whole run."""
+    import rerun.blueprint as rrb
+
+    # Looking at the first joint from the front (−y: the reference arm moves in the x-z plane), a
+    # little from above and the side, from where the arm's whole sweep is in view.
+    target = np.asarray(arm.base_xyz, dtype=float)
+    direction = np.array([0.35, -1.0, 0.3])
+    distance = max(0.8, 2.6 * arm.reach_m)
+    eye = rrb.EyeControls3D(position=(target + direction / np.linalg.norm(direction) * distance).tolist(),
+                            look_target=target.tolist(), eye_up=[0.0, 0.0, 1.0])
+    ranges = None
+    if live:
+        ranges = rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.cursor_relative(seconds=-LIVE_WINDOW_S),
+                                      end=rrb.TimeRangeBoundary.cursor_relative())
+
+    def plot(origin: str, name: str):
+        return rrb.TimeSeriesView(origin=origin, name=name, time_ranges=ranges,
+                                  plot_legend=rrb.PlotLegend(corner="LeftTop"))
+
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Spatial3DView(origin=WORLD, name="arm: true (solid), measured (blue), reference (green)",
+                              eye_controls=eye),
+            rrb.Vertical(plot(POSITION, "position [rad]"), plot(ERROR, "tracking error [mrad]"),
+                         plot(TORQUE, "torque [N·m]"), plot(TIMING, "loop timing [ms]")),
+            column_shares=[2, 3]),
+        rrb.BlueprintPanel(state="collapsed"), rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(state="collapsed", timeline=TIMELINE))
