@@ -4,6 +4,7 @@ Metadata lives in pyproject.toml; this adds the ROS share/ layout (package
 marker, package.xml, config, robot description and launch files) that `ros2 run` and
 `ros2 launch` look for.
 """
+
 from glob import glob
 
 from setuptools import setup

@@ -5,6 +5,7 @@ Each verb is a plain function (in ``verbs``, or a tool in ``tools``) returning
 an exit code; here each subcommand only parses its arguments and names the
 function it calls. A user's mistake is one line, exit 2, never a traceback.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -63,95 +64,184 @@ def _verb(subparsers, name: str, help_text: str, handler: Handler) -> argparse.A
 
 def _stack_options(parser: argparse.ArgumentParser, *, seed: bool = True) -> None:
     parser.add_argument("--preset", default="default", choices=cfg.available_presets())
-    parser.add_argument("--config", type=Path, action="append",
-                        help="ROS 2 parameter file layered over the preset (repeatable: later files over earlier)")
+    parser.add_argument(
+        "--config",
+        type=Path,
+        action="append",
+        help="ROS 2 parameter file layered over the preset (repeatable: later files over earlier)",
+    )
     if seed:
         parser.add_argument("--seed", type=int, default=0, help="sensor noise seed (default 0)")
 
 
 def _loop_verbs(sub) -> None:
-    p = _verb(sub, "run", "run the five-node loop, record it and score it", lambda a: verbs.run(
-        duration_s=a.duration, out=a.out, preset=a.preset, seed=a.seed, config=a.config,
-        single_process=a.single_process, realtime=a.realtime, sim_time=a.sim_time, respawn=a.respawn,
-        view_port=a.view_port if a.view else None))
+    p = _verb(
+        sub,
+        "run",
+        "run the five-node loop, record it and score it",
+        lambda a: verbs.run(
+            duration_s=a.duration,
+            out=a.out,
+            preset=a.preset,
+            seed=a.seed,
+            config=a.config,
+            single_process=a.single_process,
+            realtime=a.realtime,
+            sim_time=a.sim_time,
+            respawn=a.respawn,
+            view_port=a.view_port if a.view else None,
+        ),
+    )
     p.add_argument("--duration", type=positive_seconds, default=20.0, help="seconds of control to record (default 20)")
     p.add_argument("--out", type=Path, help="output directory (default runs/<timestamp>)")
     _stack_options(p)
     p.add_argument("--single-process", action="store_true", help="all five nodes on one executor")
-    p.add_argument("--sim-time", action="store_true",
-                   help="deterministic lockstep on /clock, as fast as the graph goes (--duration in sim seconds)")
-    p.add_argument("--respawn", action="store_true",
-                   help="start a node that dies again (wall clock), as ros2 launch's respawn=True")
-    p.add_argument("--realtime", action="store_true",
-                   help="run the simulator's pacing thread SCHED_FIFO, with a CPU budget (see README)")
+    p.add_argument(
+        "--sim-time",
+        action="store_true",
+        help="deterministic lockstep on /clock, as fast as the graph goes (--duration in sim seconds)",
+    )
+    p.add_argument(
+        "--respawn",
+        action="store_true",
+        help="start a node that dies again (wall clock), as ros2 launch's respawn=True",
+    )
+    p.add_argument(
+        "--realtime",
+        action="store_true",
+        help="run the simulator's pacing thread SCHED_FIFO, with a CPU budget (see README)",
+    )
     p.add_argument("--view", action="store_true", help="live 3D view and plots in the browser (rerun)")
     p.add_argument("--view-port", type=port, default=9090, help="port of the live view (default 9090)")
     p = _verb(sub, "score", "re-score a run directory from its bag", lambda a: verbs.score(a.run_dir, as_json=a.json))
     p.add_argument("run_dir", type=Path)
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
-    p = _verb(sub, "view", "the 3D view and plots of a saved run, served in the browser",
-              lambda a: verbs.view(a.run_dir, port=a.port, serve=not a.no_serve))
+    p = _verb(
+        sub,
+        "view",
+        "the 3D view and plots of a saved run, served in the browser",
+        lambda a: verbs.view(a.run_dir, port=a.port, serve=not a.no_serve),
+    )
     p.add_argument("run_dir", type=Path)
     p.add_argument("--port", type=port, default=9090, help="port (default 9090)")
     p.add_argument("--no-serve", action="store_true", help="only write DIR/view.rrd")
-    p = _verb(sub, "params", "list every node parameter with its default and meaning",
-              lambda a: verbs.list_params(preset=a.preset, config=a.config, as_yaml=a.yaml))
-    p.add_argument("--yaml", action="store_true",
-                   help="print the values as a ROS 2 parameter file (for --config or --params-file)")
+    p = _verb(
+        sub,
+        "params",
+        "list every node parameter with its default and meaning",
+        lambda a: verbs.list_params(preset=a.preset, config=a.config, as_yaml=a.yaml),
+    )
+    p.add_argument(
+        "--yaml", action="store_true", help="print the values as a ROS 2 parameter file (for --config or --params-file)"
+    )
     _stack_options(p, seed=False)
 
 
 def _experiment_verbs(sub) -> None:
-    p = _verb(sub, "step", "a step response: overshoot, rise, settling, steady-state error, torque", lambda a: verbs.step(
-        amplitude=a.amplitude, shaping=a.shaping, out=a.out, preset=a.preset, seed=a.seed, config=a.config,
-        sim_time=a.sim_time))
+    p = _verb(
+        sub,
+        "step",
+        "a step response: overshoot, rise, settling, steady-state error, torque",
+        lambda a: verbs.step(
+            amplitude=a.amplitude,
+            shaping=a.shaping,
+            out=a.out,
+            preset=a.preset,
+            seed=a.seed,
+            config=a.config,
+            sim_time=a.sim_time,
+        ),
+    )
     p.add_argument("--amplitude", type=float, default=0.5, help="step size, rad (default 0.5)")
-    p.add_argument("--shaping", default="min_time", choices=("min_time", "none"),
-                   help="shape the step into the fastest move within the acceleration limit (default), or jump")
+    p.add_argument(
+        "--shaping",
+        default="min_time",
+        choices=("min_time", "none"),
+        help="shape the step into the fastest move within the acceleration limit (default), or jump",
+    )
     p.add_argument("--out", type=Path)
     _stack_options(p)
     p.add_argument("--sim-time", action="store_true", help="deterministic lockstep")
-    p = _verb(sub, "compare", "the tutorial preset, PID, PID+FF, PID+FF+Kalman, LQR on sine and step",
-              lambda a: verbs.compare(out=output_dir(a.out, Path("runs/compare")), seeds=a.seeds,
-                                      duration_s=a.duration, amplitude=a.amplitude))
+    p = _verb(
+        sub,
+        "compare",
+        "the tutorial preset, PID, PID+FF, PID+FF+Kalman, LQR on sine and step",
+        lambda a: verbs.compare(
+            out=output_dir(a.out, Path("runs/compare")), seeds=a.seeds, duration_s=a.duration, amplitude=a.amplitude
+        ),
+    )
     p.add_argument("--out", type=Path, help="output directory (default runs/compare)")
     p.add_argument("--seeds", type=positive_int, default=5)
     p.add_argument("--duration", type=positive_seconds, default=10.0, help="sine duration, sim s (default 10)")
     p.add_argument("--amplitude", type=float, default=0.5, help="step size, rad")
-    p = _verb(sub, "exercise", "one of the tutorial's exercises as a reproducible experiment",
-              lambda a: verbs.exercise(a.name, output_dir(a.out, Path("runs") / f"exercise-{a.name}"), quick=a.quick))
+    p = _verb(
+        sub,
+        "exercise",
+        "one of the tutorial's exercises as a reproducible experiment",
+        lambda a: verbs.exercise(a.name, output_dir(a.out, Path("runs") / f"exercise-{a.name}"), quick=a.quick),
+    )
     p.add_argument("name", choices=verbs.EXERCISE_NAMES)
     p.add_argument("--out", type=Path, help="output directory (default runs/exercise-NAME)")
     p.add_argument("--quick", action="store_true", help="a short form (the test suite's)")
-    p = _verb(sub, "tune", "automatic gain design with robustness margins; writes tuned.yaml",
-              lambda a: verbs.tune(output_dir(a.out, Path("runs/tune")), preset=a.preset, config=a.config,
-                                   quick=a.quick))
+    p = _verb(
+        sub,
+        "tune",
+        "automatic gain design with robustness margins; writes tuned.yaml",
+        lambda a: verbs.tune(output_dir(a.out, Path("runs/tune")), preset=a.preset, config=a.config, quick=a.quick),
+    )
     p.add_argument("--out", type=Path, help="output directory (default runs/tune)")
     _stack_options(p, seed=False)
     p.add_argument("--quick", action="store_true", help="a short search and short checks")
-    p = _verb(sub, "identify", "identify the arm's inertia, damping, friction and gravity; writes identified.yaml",
-              lambda a: verbs.identify(output_dir(a.out, Path("runs/identify")), preset=a.preset, config=a.config,
-                                       seed=a.seed, duration_s=a.duration))
+    p = _verb(
+        sub,
+        "identify",
+        "identify the arm's inertia, damping, friction and gravity; writes identified.yaml",
+        lambda a: verbs.identify(
+            output_dir(a.out, Path("runs/identify")),
+            preset=a.preset,
+            config=a.config,
+            seed=a.seed,
+            duration_s=a.duration,
+        ),
+    )
     p.add_argument("--out", type=Path, help="output directory (default runs/identify)")
     _stack_options(p)
     p.add_argument("--duration", type=positive_seconds, default=20.0, help="excitation, sim s (default 20)")
-    p = _verb(sub, "bench", "timing benchmark: jitter, latency, lockstep speed, core speed",
-              lambda a: verbs.bench(output_dir(a.out, Path("runs/bench")), quick=a.quick, soak_s=a.soak_s))
+    p = _verb(
+        sub,
+        "bench",
+        "timing benchmark: jitter, latency, lockstep speed, core speed",
+        lambda a: verbs.bench(output_dir(a.out, Path("runs/bench")), quick=a.quick, soak_s=a.soak_s),
+    )
     p.add_argument("--out", type=Path, help="output directory (default runs/bench)")
     p.add_argument("--quick", action="store_true", help="a few seconds per scenario")
-    p.add_argument("--soak-s", type=positive_seconds, help="length of the soak run, wall s (default 600, 20 with --quick)")
-    p = _verb(sub, "faults", "freeze each node mid-motion (SIGSTOP) and measure what the arm did",
-              lambda a: verbs.faults(output_dir(a.out, Path("runs/faults")), quick=a.quick))
+    p.add_argument(
+        "--soak-s", type=positive_seconds, help="length of the soak run, wall s (default 600, 20 with --quick)"
+    )
+    p = _verb(
+        sub,
+        "faults",
+        "freeze each node mid-motion (SIGSTOP) and measure what the arm did",
+        lambda a: verbs.faults(output_dir(a.out, Path("runs/faults")), quick=a.quick),
+    )
     p.add_argument("--out", type=Path, help="output directory (default runs/faults)")
     p.add_argument("--quick", action="store_true", help="two cases: sensor and controller frozen 0.5 s")
 
 
 def _graph_verbs(sub) -> None:
-    p = _verb(sub, "estop", "emergency stop of the running graph: torque off, brakes on, latched",
-              lambda a: verbs.estop(release=a.release))
+    p = _verb(
+        sub,
+        "estop",
+        "emergency stop of the running graph: torque off, brakes on, latched",
+        lambda a: verbs.estop(release=a.release),
+    )
     p.add_argument("--release", action="store_true", help="release the e-stop; the loop re-acquires")
-    p = _verb(sub, "disturb", "push the running arm: an external torque for a while (/sim/disturbance)",
-              lambda a: verbs.disturb(a.torque, a.duration, a.joint))
+    p = _verb(
+        sub,
+        "disturb",
+        "push the running arm: an external torque for a while (/sim/disturbance)",
+        lambda a: verbs.disturb(a.torque, a.duration, a.joint),
+    )
     p.add_argument("--torque", type=float, required=True, help="N·m")
     p.add_argument("--duration", type=positive_seconds, default=0.5, help="s (default 0.5)")
     p.add_argument("--joint", help="joint name (default: every joint)")
@@ -159,13 +249,15 @@ def _graph_verbs(sub) -> None:
     topics = topic.add_subparsers(dest="topic_verb", required=True, parser_class=Parser)
     p = _verb(topics, "list", "the graph's topics", lambda a: verbs.topic("list", show_types=a.show_types))
     p.add_argument("-t", "--show-types", action="store_true")
-    p = _verb(topics, "echo", "print a topic's messages", lambda a: verbs.topic("echo", a.topic, count=a.count,
-                                                                                csv=a.csv))
+    p = _verb(
+        topics, "echo", "print a topic's messages", lambda a: verbs.topic("echo", a.topic, count=a.count, csv=a.csv)
+    )
     p.add_argument("topic")
     p.add_argument("--count", type=positive_int, help="stop after this many messages")
     p.add_argument("--csv", action="store_true", help="one line of comma-separated values per message")
-    p = _verb(topics, "hz", "a topic's rate", lambda a: verbs.topic("hz", a.topic, window=a.window,
-                                                                    duration_s=a.duration))
+    p = _verb(
+        topics, "hz", "a topic's rate", lambda a: verbs.topic("hz", a.topic, window=a.window, duration_s=a.duration)
+    )
     p.add_argument("topic")
     p.add_argument("--window", "-w", type=positive_int, default=10_000, help="messages the statistics cover")
     p.add_argument("--duration", type=positive_seconds, help="stop after this long, s (default: Ctrl-C)")
@@ -176,8 +268,12 @@ def _graph_verbs(sub) -> None:
     p = _verb(params, "get", "one parameter's value", lambda a: verbs.param("get", a.node, a.name))
     p.add_argument("node")
     p.add_argument("name")
-    p = _verb(params, "set", "set one parameter (the node refuses a bad value with its reason)",
-              lambda a: verbs.param("set", a.node, a.name, a.value))
+    p = _verb(
+        params,
+        "set",
+        "set one parameter (the node refuses a bad value with its reason)",
+        lambda a: verbs.param("set", a.node, a.name, a.value),
+    )
     p.add_argument("node")
     p.add_argument("name")
     p.add_argument("value")

@@ -3,6 +3,7 @@
 In a source checkout or editable install it sits beside the package; after a
 colcon build it is under the ament share directory.
 """
+
 from __future__ import annotations
 
 from functools import lru_cache

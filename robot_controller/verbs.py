@@ -1,6 +1,7 @@
 """The verbs of ``robot-controller``, each a plain function taking typed
 arguments and returning an exit code (``cli`` only parses and dispatches).
 A user's mistake raises ``UsageError`` or ``ConfigError``: one line, exit 2."""
+
 from __future__ import annotations
 
 import datetime as dt
@@ -11,8 +12,8 @@ import sys
 from pathlib import Path
 
 from robot_controller import parameters as cfg
-from robot_controller.parameters import consistency as config_check
 from robot_controller.core.errors import ConfigError
+from robot_controller.parameters import consistency as config_check
 from robot_controller.progress import StepProgress
 
 
@@ -48,13 +49,34 @@ def output_dir(out: Path | None, default: Path) -> Path:
     return chosen
 
 
-HEADLINE = ("tracking_rms_rad", "tracking_max_rad", "measured_rms_rad", "control_rate_hz", "jitter_p99_ms",
-            "missed_cycles", "latency_p50_ms", "latency_p99_ms", "peak_torque_nm", "duration_s", "real_time_factor")
+HEADLINE = (
+    "tracking_rms_rad",
+    "tracking_max_rad",
+    "measured_rms_rad",
+    "control_rate_hz",
+    "jitter_p99_ms",
+    "missed_cycles",
+    "latency_p50_ms",
+    "latency_p99_ms",
+    "peak_torque_nm",
+    "duration_s",
+    "real_time_factor",
+)
 
 
-def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: list[Path] | None,
-        single_process: bool, realtime: bool = False, sim_time: bool = False, respawn: bool = False,
-        view_port: int | None = None) -> int:
+def run(
+    *,
+    duration_s: float,
+    out: Path | None,
+    preset: str,
+    seed: int,
+    config: list[Path] | None,
+    single_process: bool,
+    realtime: bool = False,
+    sim_time: bool = False,
+    respawn: bool = False,
+    view_port: int | None = None,
+) -> int:
     from robot_controller.runner import launcher
     from robot_controller.scoring import plots, report
 
@@ -62,23 +84,41 @@ def run(*, duration_s: float, out: Path | None, preset: str, seed: int, config: 
     params["sensor_node"]["seed"] = seed
     config_check.check_stack(params)  # before the output folder is made
     out = output_dir(out, Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S"))
-    result = launcher.launch(params, out_dir=out, duration_s=duration_s, single_process=single_process,
-                             realtime=realtime, sim_time=sim_time, respawn=respawn, view_port=view_port)
+    result = launcher.launch(
+        params,
+        out_dir=out,
+        duration_s=duration_s,
+        single_process=single_process,
+        realtime=realtime,
+        sim_time=sim_time,
+        respawn=respawn,
+        view_port=view_port,
+    )
     if result.interrupted:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # scoring takes a second: let it finish
     if result.exit_code != 0 and not any(result.message_counts.values()):
         return result.exit_code
     try:
         recording = report.read_recording(result.bag_dir)
-        values = report.score(recording, nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
-                              window_s=duration_s if sim_time else None)
+        values = report.score(
+            recording,
+            nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
+            window_s=duration_s if sim_time else None,
+        )
     except ValueError as exc:
         launcher.say(f"cannot score the recording: {exc}")
         return result.exit_code or 1
     recorded_s = result.control_seconds if result.interrupted or not sim_time else duration_s
-    values.update({"duration_s": round(recorded_s, 3), "interrupted": result.interrupted, "preset": preset,
-                   "seed": seed, "mode": "single_process" if single_process else "multi_process",
-                   "clock": "sim_lockstep" if sim_time else "wall"})
+    values.update(
+        {
+            "duration_s": round(recorded_s, 3),
+            "interrupted": result.interrupted,
+            "preset": preset,
+            "seed": seed,
+            "mode": "single_process" if single_process else "multi_process",
+            "clock": "sim_lockstep" if sim_time else "wall",
+        }
+    )
     # Wall-clock figures of a lockstep run differ run to run: keep them out of metrics.json.
     wall = {"real_time_factor": result.real_time_factor, "wall_duration_s": result.wall_seconds}
     # How many messages the bag misses depends on when the nodes stopped, not on the seed.
@@ -121,15 +161,25 @@ def bench(out: Path, *, quick: bool, soak_s: float | None = None) -> int:
     return 0
 
 
-def step(*, amplitude: float, shaping: str, out: Path | None, preset: str, seed: int, config: list[Path] | None,
-         sim_time: bool) -> int:
+def step(
+    *,
+    amplitude: float,
+    shaping: str,
+    out: Path | None,
+    preset: str,
+    seed: int,
+    config: list[Path] | None,
+    sim_time: bool,
+) -> int:
     from robot_controller.experiments import step as experiments
 
     params = cfg.load_stack(preset, config)
     config_check.check_stack(experiments.step_params(params, amplitude, shaping))
     out = output_dir(out, Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S")))
     try:
-        values = experiments.step_response(params, out, amplitude=amplitude, shaping=shaping, sim_time=sim_time, seed=seed)
+        values = experiments.step_response(
+            params, out, amplitude=amplitude, shaping=shaping, sim_time=sim_time, seed=seed
+        )
     except ConfigError:
         raise  # a user error: one line, exit 2
     except (RuntimeError, ValueError) as exc:
@@ -184,8 +234,10 @@ def list_params(*, preset: str, config: list[Path] | None, as_yaml: bool) -> int
     for node in cfg.NODES:
         print(f"{node}:")
         for spec in cfg.SCHEMA[node]:
-            print(f"  {spec.name} = {values[node][spec.name]!r}: {spec.describe()}"
-                  + (" (read-only)" if spec.read_only else ""))
+            print(
+                f"  {spec.name} = {values[node][spec.name]!r}: {spec.describe()}"
+                + (" (read-only)" if spec.read_only else "")
+            )
     return 0
 
 
@@ -263,11 +315,16 @@ def topic(kind: str, *args, **kwargs) -> int:
     from robot_controller.tools import topic as topic_tool
 
     return {"list": topic_tool.topic_list, "echo": topic_tool.topic_echo, "hz": topic_tool.topic_hz}[kind](
-        *args, **kwargs)
+        *args, **kwargs
+    )
 
 
 def param(kind: str, *args) -> int:
     from robot_controller.tools import param as param_tool
 
-    return {"list": param_tool.param_list, "get": param_tool.param_get, "set": param_tool.param_set,
-            "dump": param_tool.param_dump}[kind](*args)
+    return {
+        "list": param_tool.param_list,
+        "get": param_tool.param_get,
+        "set": param_tool.param_set,
+        "dump": param_tool.param_dump,
+    }[kind](*args)

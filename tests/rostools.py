@@ -1,4 +1,5 @@
 """Helpers for the integration tests: a test-side rclpy node on its own context."""
+
 from __future__ import annotations
 
 import os
@@ -13,6 +14,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from robot_controller.ros import partition as dds_partition
+
 
 # Fast DDS reads its XML profiles once per process, when the first participant
 # is made, so they are loaded here, at collection, before any test makes one:

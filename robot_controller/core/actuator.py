@@ -1,4 +1,5 @@
 """Actuator model: torque saturation and an optional first-order lag."""
+
 from __future__ import annotations
 
 import numpy as np

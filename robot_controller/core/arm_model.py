@@ -25,6 +25,7 @@ and ``model_gravity_torque``; any left empty is taken from the URDF.
 
 No ROS here.
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -53,9 +54,16 @@ class JointArmModel:
         ``{"inertia": "parameter", "damping": "URDF"}``
     """
 
-    def __init__(self, joint_names: Sequence[str], inertia: np.ndarray, damping: np.ndarray,
-                 coulomb_friction: np.ndarray, gravity_torque: np.ndarray,
-                 effort_limit: np.ndarray | None = None, source: dict[str, str] | None = None) -> None:
+    def __init__(
+        self,
+        joint_names: Sequence[str],
+        inertia: np.ndarray,
+        damping: np.ndarray,
+        coulomb_friction: np.ndarray,
+        gravity_torque: np.ndarray,
+        effort_limit: np.ndarray | None = None,
+        source: dict[str, str] | None = None,
+    ) -> None:
         self.joint_names = list(joint_names)
         n = len(self.joint_names)
 
@@ -72,16 +80,25 @@ class JointArmModel:
         if np.any(self.inertia <= 0):
             raise ConfigError(f"inertia: must be > 0 kg·m², got {self.inertia.tolist()}")
         if np.any(self._damping < 0) or np.any(self.coulomb_friction < 0):
-            raise ConfigError(f"damping and coulomb_friction: must be >= 0, got {self._damping.tolist()} "
-                              f"and {self.coulomb_friction.tolist()}")
-        self.effort_limit = (np.full(n, np.inf) if effort_limit is None
-                             else np.array(effort_limit, dtype=float).reshape(n))
+            raise ConfigError(
+                f"damping and coulomb_friction: must be >= 0, got {self._damping.tolist()} "
+                f"and {self.coulomb_friction.tolist()}"
+            )
+        self.effort_limit = (
+            np.full(n, np.inf) if effort_limit is None else np.array(effort_limit, dtype=float).reshape(n)
+        )
         self.source = dict(source or {name: "given" for name in PARAMETERS})
 
     @classmethod
-    def over_urdf(cls, dynamics, *, inertia: np.ndarray | None = None, damping: np.ndarray | None = None,
-                  coulomb_friction: np.ndarray | None = None,
-                  gravity_torque: np.ndarray | None = None) -> JointArmModel:
+    def over_urdf(
+        cls,
+        dynamics,
+        *,
+        inertia: np.ndarray | None = None,
+        damping: np.ndarray | None = None,
+        coulomb_friction: np.ndarray | None = None,
+        gravity_torque: np.ndarray | None = None,
+    ) -> JointArmModel:
         """The model with the given values, and the URDF's (``dynamics``, an
         :class:`~robot_controller.core.plant.ArmDynamics`) for those left None:
         the inertia and gravity torque with every joint at 0 (the diagonal of
@@ -97,8 +114,12 @@ class JointArmModel:
             "coulomb_friction": lambda: dynamics.model.dof_frictionloss[dofs].copy(),
             "gravity_torque": lambda: np.asarray(dynamics.gravity(zero), dtype=float)[dofs],
         }
-        given = {"inertia": inertia, "damping": damping, "coulomb_friction": coulomb_friction,
-                 "gravity_torque": gravity_torque}
+        given = {
+            "inertia": inertia,
+            "damping": damping,
+            "coulomb_friction": coulomb_friction,
+            "gravity_torque": gravity_torque,
+        }
         values = {name: urdf[name]() if given[name] is None else given[name] for name in PARAMETERS}
         source = {name: "URDF" if given[name] is None else "parameter" for name in PARAMETERS}
         return cls(dynamics.joint_names, effort_limit=dynamics.effort_limit, source=source, **values)
@@ -121,8 +142,12 @@ class JointArmModel:
     def torque(self, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         """Inverse dynamics: the torque (N·m) that gives ``acceleration`` (rad/s²) at ``(position, velocity)``."""
         velocity = np.asarray(velocity, dtype=float)
-        return (self.inertia * np.asarray(acceleration, dtype=float) + self._damping * velocity
-                + self.coulomb_friction * np.sign(velocity) + self.gravity(position))
+        return (
+            self.inertia * np.asarray(acceleration, dtype=float)
+            + self._damping * velocity
+            + self.coulomb_friction * np.sign(velocity)
+            + self.gravity(position)
+        )
 
     def _net(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray) -> np.ndarray:
         """Torque left for acceleration and friction: applied (within the effort limit) − damping − gravity."""
@@ -134,12 +159,21 @@ class JointArmModel:
         At rest, friction holds up to ``coulomb_friction`` (stiction)."""
         velocity = np.asarray(velocity, dtype=float)
         net = self._net(position, velocity, torque)
-        friction = np.where(velocity != 0.0, self.coulomb_friction * np.sign(velocity),
-                            np.clip(net, -self.coulomb_friction, self.coulomb_friction))
+        friction = np.where(
+            velocity != 0.0,
+            self.coulomb_friction * np.sign(velocity),
+            np.clip(net, -self.coulomb_friction, self.coulomb_friction),
+        )
         return (net - friction) / self.inertia
 
-    def predict(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float,
-                max_step_s: float = 0.002) -> tuple[np.ndarray, np.ndarray]:
+    def predict(
+        self,
+        position: np.ndarray,
+        velocity: np.ndarray,
+        torque: np.ndarray,
+        horizon_s: float,
+        max_step_s: float = 0.002,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """State ``horizon_s`` seconds ahead under constant ``torque`` (semi-implicit
         Euler, as ``ArmDynamics.predict``). Friction acts on each step's new
         velocity: it stops a joint within the step rather than reversing it."""
@@ -158,10 +192,12 @@ class JointArmModel:
 
     def describe(self) -> str:
         """One line: the values in force and where each came from."""
+
         def values(name: str) -> str:
             return "[" + ", ".join(f"{v:.4g}" for v in getattr(self, name)) + "]"
 
         units = {"inertia": "kg·m²", "damping": "N·m·s/rad", "coulomb_friction": "N·m", "gravity_torque": "N·m"}
         return "arm model: " + ", ".join(
             f"{name} {values('_damping' if name == 'damping' else name)} {units[name]} ({self.source[name]})"
-            for name in PARAMETERS)
+            for name in PARAMETERS
+        )

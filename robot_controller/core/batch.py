@@ -6,6 +6,7 @@ For sweeps and tuning: thousands of gain sets simulated together, far faster
 than real time. The model's constants come from the URDF through MuJoCo, and
 a test checks its motion against MuJoCo's.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -31,8 +32,9 @@ class ArmConstants:
         if len(dynamics.joint_names) != 1:
             raise ValueError("the analytic arm models one joint")
         zero = np.zeros(1)
-        return cls(float(dynamics.mass_matrix(zero)[0, 0]), float(dynamics.damping[0]),
-                   float(dynamics.gravity(zero)[0]))
+        return cls(
+            float(dynamics.mass_matrix(zero)[0, 0]), float(dynamics.damping[0]), float(dynamics.gravity(zero)[0])
+        )
 
     def acceleration(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray) -> np.ndarray:
         return (torque - self.damping * v - self.gravity_torque * np.cos(q)) / self.inertia
@@ -55,13 +57,24 @@ class AnalyticArmBatch:
         for _ in range(n_steps):
             # Damping implicit, as MuJoCo's Euler integrator treats it.
             self.v = (self.v * c.inertia + dt * (torque - c.gravity_torque * np.cos(self.q))) / (
-                c.inertia + dt * c.damping)
+                c.inertia + dt * c.damping
+            )
             self.q = self.q + dt * self.v
 
 
-def run_batch(*, constants: ArmConstants, pid_config: PidConfig, trajectory: Trajectory, sensor: SensorConfig,
-              rng: np.random.Generator, duration_s: float, control_period_s: float = 0.01,
-              physics_dt: float = 0.001, torque_max: float = 10.0, warmup_s: float = 2.0) -> np.ndarray:
+def run_batch(
+    *,
+    constants: ArmConstants,
+    pid_config: PidConfig,
+    trajectory: Trajectory,
+    sensor: SensorConfig,
+    rng: np.random.Generator,
+    duration_s: float,
+    control_period_s: float = 0.01,
+    physics_dt: float = 0.001,
+    torque_max: float = 10.0,
+    warmup_s: float = 2.0,
+) -> np.ndarray:
     """Simulate every gain set of ``pid_config`` (arrays of shape ``(batch, 1)``)
     with full feedforward; return each one's tracking RMS on the true angle, rad."""
     batch = np.broadcast_shapes(pid_config.kp.shape, pid_config.ki.shape, pid_config.kd.shape)[0]

@@ -6,6 +6,7 @@ A reference the controller made up or rewrote (a hold, a controlled stop, a
 blend back onto the trajectory) is always named in ``reference_source``,
 never passed off as the planner's.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

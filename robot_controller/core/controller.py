@@ -8,6 +8,7 @@ tick, run the law. The steps' workings live in their own modules:
 :mod:`~robot_controller.core.health`, :mod:`~robot_controller.core.tick_state`,
 :mod:`~robot_controller.core.reference_at_tick`, :mod:`~robot_controller.core.law`.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -25,8 +26,16 @@ from robot_controller.core.reference import REFERENCE_TIMEOUT_PERIODS
 from robot_controller.core.reference_at_tick import Reference, ReferenceAtTick
 from robot_controller.core.tick_state import StateAtTick
 
-__all__ = ["REACQUIRE_GAP_PERIODS", "REFERENCE_TIMEOUT_PERIODS", "ControlOutput", "ControllerConfig",
-           "JointController", "ReferenceSource", "Status", "law_config"]
+__all__ = [
+    "REACQUIRE_GAP_PERIODS",
+    "REFERENCE_TIMEOUT_PERIODS",
+    "ControlOutput",
+    "ControllerConfig",
+    "JointController",
+    "ReferenceSource",
+    "Status",
+    "law_config",
+]
 
 
 class JointController:
@@ -49,9 +58,14 @@ class JointController:
             return None
         if self.dynamics is None:
             raise ConfigError("estimator kalman: needs the arm model (urdf_path)")
-        return JointKalmanFilter(config.estimator, self.joint_count, self.dynamics.predict,
-                                 estimate_disturbance=config.observes_disturbance,
-                                 mass_matrix=self.dynamics.mass_matrix, disturbance_limit=config.pid.output_limit)
+        return JointKalmanFilter(
+            config.estimator,
+            self.joint_count,
+            self.dynamics.predict,
+            estimate_disturbance=config.observes_disturbance,
+            mass_matrix=self.dynamics.mass_matrix,
+            disturbance_limit=config.pid.output_limit,
+        )
 
     @property
     def estimator(self) -> JointKalmanFilter | None:
@@ -89,27 +103,39 @@ class JointController:
         observer (:func:`law.observer_delay_margin_periods`): a fast observer
         takes a late reading for a push and spends the margin.
         """
-        return delay_margin_periods(self.gains, self.dynamics, self.joint_count, self.config.control_period_s,
-                                    self.config.estimator, self.config.observes_disturbance)
+        return delay_margin_periods(
+            self.gains,
+            self.dynamics,
+            self.joint_count,
+            self.config.control_period_s,
+            self.config.estimator,
+            self.config.observes_disturbance,
+        )
 
     def set_config(self, config: ControllerConfig) -> None:
         """New gains and options, applied bumplessly from the next tick."""
         if config.feedforward is not FeedforwardMode.NONE and self.dynamics is None:
             raise ConfigError("feedforward: needs the arm model (urdf_path)")
         pid = law_config(config, self.dynamics, self.joint_count)
-        if (config.estimator != self.config.estimator
-                or config.observes_disturbance != self.config.observes_disturbance):
+        if config.estimator != self.config.estimator or config.observes_disturbance != self.config.observes_disturbance:
             self._state.kalman = self._make_estimator(config)
         elif self._state.kalman is not None:
             self._state.kalman.disturbance_limit = np.broadcast_to(
-                np.asarray(config.pid.output_limit, float), (self.joint_count,)).copy()
+                np.asarray(config.pid.output_limit, float), (self.joint_count,)
+            ).copy()
         self.config = config
         self.pid.set_config(pid)
 
     # --- inputs -----------------------------------------------------------------------
 
-    def set_reference(self, received_s: float, position: np.ndarray, velocity: np.ndarray,
-                      acceleration: np.ndarray, sample_time_s: float | None = None) -> None:
+    def set_reference(
+        self,
+        received_s: float,
+        position: np.ndarray,
+        velocity: np.ndarray,
+        acceleration: np.ndarray,
+        sample_time_s: float | None = None,
+    ) -> None:
         """A new reference sample. Its time base is ``sample_time_s`` when the
         planner sent one, otherwise the time it arrived."""
         self._reference.planner.receive(received_s, position, velocity, acceleration, sample_time_s)
@@ -127,8 +153,9 @@ class JointController:
     def measurement_stamp_s(self) -> float:
         return self._readings.stamp_s
 
-    def set_measurement(self, stamp_s: float, received_s: float, position: np.ndarray,
-                        velocity: np.ndarray) -> str | None:
+    def set_measurement(
+        self, stamp_s: float, received_s: float, position: np.ndarray, velocity: np.ndarray
+    ) -> str | None:
         """Take a reading stamped ``stamp_s`` that arrived at ``received_s``.
 
         Returns why it was refused (it is then not a sign of life for the
@@ -219,15 +246,17 @@ class JointController:
         reference = self._reference.sensor_stop(now_s, position, self.config)
         return self._apply_law(now_s, dt_s, position, velocity, reference)
 
-    def _apply_law(self, now_s: float, dt_s: float, position: np.ndarray, velocity: np.ndarray,
-                   reference: Reference) -> ControlOutput:
+    def _apply_law(
+        self, now_s: float, dt_s: float, position: np.ndarray, velocity: np.ndarray, reference: Reference
+    ) -> ControlOutput:
         """Feedback plus feedforward within the torque limit; the command is
         remembered for the estimator and the model's predictions."""
         disturbance = self._state.disturbance()
         terms = law_step(self.pid, self.config, self.dynamics, dt_s, position, velocity, reference, disturbance)
         self._state.remember_command(now_s, terms.command)
-        return ControlOutput(now_s, reference.status, reference.position, position, terms, reference.source,
-                             disturbance)
+        return ControlOutput(
+            now_s, reference.status, reference.position, position, terms, reference.source, disturbance
+        )
 
     def _no_command(self, now_s: float, status: Status) -> ControlOutput:
         """A tick that commands nothing (no reading yet, e-stop, sensor lost):

@@ -3,6 +3,7 @@
 Units: seconds, radians, N·m. The control law's own gains and limits are a
 :class:`~robot_controller.core.pid.PidConfig` inside it.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field

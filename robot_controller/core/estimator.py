@@ -29,6 +29,7 @@ says. The estimate is kept within ``±disturbance_limit`` (the controller's
 torque limit: a larger one could not be compensated anyway) and starts from
 0 whenever the filter does (:meth:`JointKalmanFilter.reset`).
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -70,8 +71,13 @@ class KalmanConfig:
     disturbance_noise_std: float = 0.3
 
     def __post_init__(self) -> None:
-        for name in ("position_noise_std", "velocity_noise_std", "acceleration_noise_std", "model_step_s",
-                     "disturbance_noise_std"):
+        for name in (
+            "position_noise_std",
+            "velocity_noise_std",
+            "acceleration_noise_std",
+            "model_step_s",
+            "disturbance_noise_std",
+        ):
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
                 raise ConfigError(f"{name}: must be a finite number > 0, got {value}")
@@ -84,25 +90,26 @@ def process_noise(config: KalmanConfig, dt: float, acceleration_per_nm: np.ndarr
     on ``[q, v, d]``, adding the random walk of ``d`` carried through the double
     integrator over ``dt`` (the continuous model's, exactly)."""
     G = np.array([0.5 * dt * dt, dt])
-    Q2 = np.outer(G, G) * config.acceleration_noise_std ** 2
+    Q2 = np.outer(G, G) * config.acceleration_noise_std**2
     if acceleration_per_nm is None:
         return Q2
     b = np.asarray(acceleration_per_nm, dtype=float).reshape(-1)
-    w = config.disturbance_noise_std ** 2
+    w = config.disturbance_noise_std**2
     Q = np.zeros((b.size, 3, 3))
     Q[:, :2, :2] = Q2
-    Q[:, 0, 0] += w * b * b * dt ** 5 / 20
-    Q[:, 0, 1] += w * b * b * dt ** 4 / 8
-    Q[:, 1, 1] += w * b * b * dt ** 3 / 3
-    Q[:, 0, 2] += w * b * dt ** 3 / 6
-    Q[:, 1, 2] += w * b * dt ** 2 / 2
+    Q[:, 0, 0] += w * b * b * dt**5 / 20
+    Q[:, 0, 1] += w * b * b * dt**4 / 8
+    Q[:, 1, 1] += w * b * b * dt**3 / 3
+    Q[:, 0, 2] += w * b * dt**3 / 6
+    Q[:, 1, 2] += w * b * dt**2 / 2
     Q[:, 2, 2] += w * dt
     Q[:, 1, 0], Q[:, 2, 0], Q[:, 2, 1] = Q[:, 0, 1], Q[:, 0, 2], Q[:, 1, 2]
     return Q
 
 
-def steady_state_gain(config: KalmanConfig, inertia: float, damping: float, period_s: float,
-                      estimate_disturbance: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def steady_state_gain(
+    config: KalmanConfig, inertia: float, damping: float, period_s: float, estimate_disturbance: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One joint's filter at rest, linear (``inertia·q̈ + damping·q̇ = τ (+ d)``,
     gravity's stiffness left out as at the horizontal), readings every
     ``period_s``, in steady state: its transition ``F`` and torque input ``B``
@@ -125,7 +132,7 @@ def steady_state_gain(config: KalmanConfig, inertia: float, damping: float, peri
     else:
         Q = process_noise(config, period_s)
     H = np.eye(2, m)
-    R = np.diag([config.position_noise_std ** 2, config.velocity_noise_std ** 2])
+    R = np.diag([config.position_noise_std**2, config.velocity_noise_std**2])
     P = solve_discrete_are(F.T, H.T, Q, R)  # the predicted covariance
     L = P @ H.T @ np.linalg.inv(H @ P @ H.T + R)
     return F, B, L
@@ -140,9 +147,16 @@ class JointKalmanFilter:
     :param disturbance_limit: N·m per joint, the bound on ``|d|`` (none if None)
     """
 
-    def __init__(self, config: KalmanConfig, joint_count: int, predictor: Predictor, *,
-                 estimate_disturbance: bool = False, mass_matrix: MassMatrix | None = None,
-                 disturbance_limit: np.ndarray | None = None) -> None:
+    def __init__(
+        self,
+        config: KalmanConfig,
+        joint_count: int,
+        predictor: Predictor,
+        *,
+        estimate_disturbance: bool = False,
+        mass_matrix: MassMatrix | None = None,
+        disturbance_limit: np.ndarray | None = None,
+    ) -> None:
         if estimate_disturbance and mass_matrix is None:
             raise ConfigError("disturbance_observer: needs the arm model's mass matrix")
         self.config = config
@@ -150,12 +164,15 @@ class JointKalmanFilter:
         self.joint_count = joint_count
         self.estimates_disturbance = bool(estimate_disturbance)
         self.mass_matrix = mass_matrix
-        self.disturbance_limit = (np.full(joint_count, np.inf) if disturbance_limit is None
-                                  else np.broadcast_to(np.asarray(disturbance_limit, float), (joint_count,)).copy())
+        self.disturbance_limit = (
+            np.full(joint_count, np.inf)
+            if disturbance_limit is None
+            else np.broadcast_to(np.asarray(disturbance_limit, float), (joint_count,)).copy()
+        )
         self.size = 3 if self.estimates_disturbance else 2
         self.x: np.ndarray | None = None  # (n, 2): q, v per joint; (n, 3): q, v, d
         self.P = np.zeros((joint_count, self.size, self.size))
-        self.R = np.diag([config.position_noise_std ** 2, config.velocity_noise_std ** 2])
+        self.R = np.diag([config.position_noise_std**2, config.velocity_noise_std**2])
         self.time_s: float | None = None
         #: per joint, rad/s² per N·m of external torque on each joint ((n, n): M⁻¹ at the last estimate)
         self._inverse_mass: np.ndarray | None = None
@@ -179,8 +196,9 @@ class JointKalmanFilter:
             return np.zeros(self.joint_count)
         return self._inverse_mass @ self.x[:, 2]
 
-    def update(self, time_s: float, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray]:
+    def update(
+        self, time_s: float, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Take a reading stamped ``time_s``; ``torque`` is what acted since the last one.
 
         Returns the filtered ``(position, velocity)``.
@@ -193,7 +211,7 @@ class JointKalmanFilter:
             self.P = np.zeros((self.joint_count, m, m))
             self.P[:, :2, :2] = self.R
             if self.estimates_disturbance:
-                self.P[:, 2, 2] = DISTURBANCE_PRIOR_STD_NM ** 2
+                self.P[:, 2, 2] = DISTURBANCE_PRIOR_STD_NM**2
                 self._inverse_mass = np.linalg.inv(self.mass_matrix(np.asarray(position, float)))
             self.time_s = time_s
             return position.copy(), velocity.copy()
@@ -226,8 +244,9 @@ class JointKalmanFilter:
             self.x[:, 2] = np.clip(self.x[:, 2], -self.disturbance_limit, self.disturbance_limit)
         return self.x[:, 0].copy(), self.x[:, 1].copy()
 
-    def _step_model(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, horizon_s: float
-                    ) -> tuple[np.ndarray, np.ndarray]:
+    def _step_model(
+        self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, horizon_s: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The arm model over ``horizon_s`` under ``torque`` (and the estimated
         external torque, if any), in steps of at most ``model_step_s``."""
         steps = max(1, int(np.ceil(horizon_s / self.config.model_step_s - 1e-9)))
@@ -240,15 +259,15 @@ class JointKalmanFilter:
                 q = q + extra * h
         return q, v
 
-    def predict(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float
-                ) -> tuple[np.ndarray, np.ndarray]:
+    def predict(
+        self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The state ``horizon_s`` seconds ahead under the actuator's ``torque``
         (N·m) and the external torque as estimated now (a latency compensation
         or a coast on the model that agrees with the filter)."""
         if horizon_s <= 0:
             return np.array(position, dtype=float), np.array(velocity, dtype=float)
-        return self._step_model(np.array(position, dtype=float), np.array(velocity, dtype=float), torque,
-                                horizon_s)
+        return self._step_model(np.array(position, dtype=float), np.array(velocity, dtype=float), torque, horizon_s)
 
     def _transition(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> np.ndarray:
         """Per joint, the model linearised at ``(q, v)`` over ``dt``: ``(n, 2, 2)``.

@@ -22,6 +22,7 @@ to have its move checked.
 
 No rclpy here; ``dynamics`` is anything with ``torque(q, v, a)``.
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -93,19 +94,25 @@ class Feasibility:
     def shortfall(self, what: str) -> str:
         """``the chirp needs 31.8 N·m on joint1 against 8.0 N·m usable (10.0 N·m limit, 20 % kept for feedback)``."""
         j = self.worst_joint
-        return (f"the {what} needs {_nm(self.peak_torque_nm[j])} N·m on {self.joint_names[j]} against "
-                f"{_nm(self.usable_nm[j])} N·m usable ({_nm(self.limit_nm[j])} N·m limit, "
-                f"{self.margin * 100:.0f} % kept for feedback)")
+        return (
+            f"the {what} needs {_nm(self.peak_torque_nm[j])} N·m on {self.joint_names[j]} against "
+            f"{_nm(self.usable_nm[j])} N·m usable ({_nm(self.limit_nm[j])} N·m limit, "
+            f"{self.margin * 100:.0f} % kept for feedback)"
+        )
 
     def gravity_shortfall(self) -> str:
         """Why slowing cannot help, naming the joint where gravity alone is too much."""
         over = self.gravity_nm / self.usable_nm
         j = int(np.argmax(over))
         if over[j] <= 1.0:  # fits, but with so little to spare that no reasonable slowing gets there
-            return (f"holding its positions alone takes {_nm(self.gravity_nm[j])} N·m on {self.joint_names[j]} "
-                    f"(gravity), so it would have to go more than {MAX_SCALE:g} times slower")
-        return (f"holding its positions alone needs {_nm(self.gravity_nm[j])} N·m on {self.joint_names[j]} "
-                f"(gravity), which no slowing reduces")
+            return (
+                f"holding its positions alone takes {_nm(self.gravity_nm[j])} N·m on {self.joint_names[j]} "
+                f"(gravity), so it would have to go more than {MAX_SCALE:g} times slower"
+            )
+        return (
+            f"holding its positions alone needs {_nm(self.gravity_nm[j])} N·m on {self.joint_names[j]} "
+            f"(gravity), which no slowing reduces"
+        )
 
 
 @dataclass(frozen=True)
@@ -176,8 +183,13 @@ def peak_torque(trajectory: Trajectory, dynamics: InverseDynamics) -> np.ndarray
     return _peak(dynamics, *_path(trajectory))
 
 
-def check(trajectory: Trajectory, dynamics: InverseDynamics, limit_nm: float | Sequence[float] | np.ndarray,
-          margin: float = DEFAULT_MARGIN, joint_names: Sequence[str] | None = None) -> Feasibility:
+def check(
+    trajectory: Trajectory,
+    dynamics: InverseDynamics,
+    limit_nm: float | Sequence[float] | np.ndarray,
+    margin: float = DEFAULT_MARGIN,
+    joint_names: Sequence[str] | None = None,
+) -> Feasibility:
     """The torque ``trajectory`` needs against ``limit_nm`` less ``margin``, and the time scale that fits.
 
     :param limit_nm: actuator torque limit, one per joint (or one for all)
@@ -194,8 +206,11 @@ def check(trajectory: Trajectory, dynamics: InverseDynamics, limit_nm: float | S
         limit = np.full(n, float(limit[0]))
     if limit.shape != (n,) or not np.all(np.isfinite(limit)) or np.any(limit <= 0):
         raise ConfigError(f"torque_max: expected {n} finite value(s) > 0, got {limit.tolist()}")
-    names = tuple(joint_names if joint_names is not None
-                  else getattr(dynamics, "joint_names", None) or [f"joint{i + 1}" for i in range(n)])
+    names = tuple(
+        joint_names
+        if joint_names is not None
+        else getattr(dynamics, "joint_names", None) or [f"joint{i + 1}" for i in range(n)]
+    )
     usable = limit * (1.0 - margin)
     zero = np.zeros_like(v)
     peak = _peak(dynamics, q, v, a)
@@ -238,20 +253,31 @@ def check(trajectory: Trajectory, dynamics: InverseDynamics, limit_nm: float | S
 def describe_scaling(original: Trajectory, scaled: Trajectory) -> str:
     """What slowing changed, in the parameters' own terms: ``frequencies 0.5→0.31 Hz …``."""
     if isinstance(original, Chirp) and isinstance(scaled, Chirp):
-        return (f"frequencies {original.frequency_hz:.3g}→{scaled.frequency_hz:.3g} Hz to "
-                f"{original.end_frequency_hz:.3g}→{scaled.end_frequency_hz:.3g} Hz, "
-                f"sweep {original.sweep_time_s:.3g}→{scaled.sweep_time_s:.3g} s")
+        return (
+            f"frequencies {original.frequency_hz:.3g}→{scaled.frequency_hz:.3g} Hz to "
+            f"{original.end_frequency_hz:.3g}→{scaled.end_frequency_hz:.3g} Hz, "
+            f"sweep {original.sweep_time_s:.3g}→{scaled.sweep_time_s:.3g} s"
+        )
     if isinstance(original, Sine | Square) and isinstance(scaled, Sine | Square):
         return f"frequency {original.frequency_hz:.3g}→{scaled.frequency_hz:.3g} Hz"
     if isinstance(original, MinTimeStep) and isinstance(scaled, MinTimeStep):
-        return (f"max_acceleration {original.max_acceleration:.3g}→{scaled.max_acceleration:.3g} rad/s² "
-                f"(move {_move_time_s(original):.3g}→{_move_time_s(scaled):.3g} s)")
+        return (
+            f"max_acceleration {original.max_acceleration:.3g}→{scaled.max_acceleration:.3g} rad/s² "
+            f"(move {_move_time_s(original):.3g}→{_move_time_s(scaled):.3g} s)"
+        )
     return "unchanged"
 
 
-def plan(trajectory: Trajectory, dynamics: InverseDynamics, limit_nm: float | Sequence[float] | np.ndarray, *,
-         margin: float = DEFAULT_MARGIN, policy: str = "scale", what: str = "trajectory",
-         joint_names: Sequence[str] | None = None) -> Plan:
+def plan(
+    trajectory: Trajectory,
+    dynamics: InverseDynamics,
+    limit_nm: float | Sequence[float] | np.ndarray,
+    *,
+    margin: float = DEFAULT_MARGIN,
+    policy: str = "scale",
+    what: str = "trajectory",
+    joint_names: Sequence[str] | None = None,
+) -> Plan:
     """Check ``trajectory`` and act on the result as ``policy`` says.
 
     ``scale``: a path that does not fit is slowed in time until it does (the
@@ -270,14 +296,23 @@ def plan(trajectory: Trajectory, dynamics: InverseDynamics, limit_nm: float | Se
     need = result.shortfall(what)
     if policy == "ignore":
         cannot = "" if result.fixable else f"; {result.gravity_shortfall()}"
-        return Plan(trajectory, result, f"{need}{cannot}; running it as it is (feasibility: ignore): "
-                                        "expect the torque to saturate and the arm to lag")
+        return Plan(
+            trajectory,
+            result,
+            f"{need}{cannot}; running it as it is (feasibility: ignore): "
+            "expect the torque to saturate and the arm to lag",
+        )
     if not result.fixable:
-        raise ConfigError(f"{need}; {result.gravity_shortfall()}: lower the amplitude or offset, "
-                          "or raise torque_max")
+        raise ConfigError(
+            f"{need}; {result.gravity_shortfall()}: lower the amplitude or offset, " "or raise torque_max"
+        )
     if policy == "refuse":
         raise ConfigError(f"{need}; slow it down (feasibility: scale) or lower the amplitude")
     scaled = time_scaled(trajectory, result.scale)
     j = result.worst_joint
-    return Plan(scaled, result, f"{need}: scaled in time ×{result.scale:.2f}: {describe_scaling(trajectory, scaled)}; "
-                                f"it now needs {_nm(result.scaled_peak_torque_nm[j])} N·m")
+    return Plan(
+        scaled,
+        result,
+        f"{need}: scaled in time ×{result.scale:.2f}: {describe_scaling(trajectory, scaled)}; "
+        f"it now needs {_nm(result.scaled_peak_torque_nm[j])} N·m",
+    )

@@ -1,4 +1,5 @@
 """Model feedforward: the torque the reference motion needs, from the arm model."""
+
 from __future__ import annotations
 
 from enum import Enum

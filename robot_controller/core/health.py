@@ -6,6 +6,7 @@ tracks, stops on the model, or commands nothing.
 
 Times are in seconds on the controller's clock; no ROS, no clocks read here.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -30,8 +31,9 @@ class Readings:
         self.stamp_s = 0.0
         self.received_s = -np.inf
 
-    def accept(self, stamp_s: float, received_s: float, position: np.ndarray, velocity: np.ndarray,
-               max_age_s: float) -> str | None:
+    def accept(
+        self, stamp_s: float, received_s: float, position: np.ndarray, velocity: np.ndarray, max_age_s: float
+    ) -> str | None:
         """Keep the reading unless it is more than ``max_age_s`` old when it
         arrives (or stamped that far ahead): after a pause, a sensor's first
         sample can be from before it, and acting on it swings the arm. Returns
@@ -95,8 +97,7 @@ class Health:
     restart: bool
 
 
-def check_health(readings: Readings, now_s: float, halted: bool, braked: bool,
-                 config: ControllerConfig) -> Health:
+def check_health(readings: Readings, now_s: float, halted: bool, braked: bool, config: ControllerConfig) -> Health:
     """Judge the inputs at ``now_s`` (s), most severe first: no reading ever,
     the e-stop, readings missing past ``sensor_timeout_s`` (category 1: torque
     off, the brake holds), missing past ``watchdog_periods`` (category 2: a

@@ -29,6 +29,7 @@ which parameter the excitation pinned down and which it did not.
 
 No ROS here.
 """
+
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
@@ -89,8 +90,9 @@ def regressors(position: np.ndarray, velocity: np.ndarray, acceleration: np.ndar
     return np.column_stack([acceleration, velocity, np.sign(velocity), np.cos(position)])
 
 
-def intervals(time_s: np.ndarray, position: np.ndarray, velocity: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def intervals(
+    time_s: np.ndarray, position: np.ndarray, velocity: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per interval between consecutive samples: ``(duration s, mid position,
     mid velocity, mean acceleration, velocity changes sign or stops)``; arrays
     of shape ``(N-1, n)`` (``(N-1,)`` for the duration)."""
@@ -110,10 +112,18 @@ def _widen(mask: np.ndarray, half_width: int) -> np.ndarray:
     return np.convolve(mask.astype(float), kernel, mode="same") > 0
 
 
-def identify(time_s: np.ndarray, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, *,
-             effort_limit: np.ndarray | float | None = None, braked: np.ndarray | None = None,
-             min_speed: float = MIN_SPEED, window: int = SMOOTHING_WINDOW,
-             order: int = SMOOTHING_ORDER) -> list[JointFit]:
+def identify(
+    time_s: np.ndarray,
+    position: np.ndarray,
+    velocity: np.ndarray,
+    torque: np.ndarray,
+    *,
+    effort_limit: np.ndarray | float | None = None,
+    braked: np.ndarray | None = None,
+    min_speed: float = MIN_SPEED,
+    window: int = SMOOTHING_WINDOW,
+    order: int = SMOOTHING_ORDER,
+) -> list[JointFit]:
     """Fit each joint's model to a recorded motion.
 
     :param time_s: sample times, s, increasing, shape ``(N,)``
@@ -131,8 +141,9 @@ def identify(time_s: np.ndarray, position: np.ndarray, velocity: np.ndarray, tor
     :raises IdentificationError: when a joint's data cannot pin the model down
     """
     time_s = np.asarray(time_s, dtype=float).reshape(-1)
-    position, velocity, torque = (np.asarray(x, dtype=float).reshape(len(time_s), -1)
-                                  for x in (position, velocity, torque))
+    position, velocity, torque = (
+        np.asarray(x, dtype=float).reshape(len(time_s), -1) for x in (position, velocity, torque)
+    )
     n = position.shape[1]
     if len(time_s) < 3:
         raise IdentificationError(f"{len(time_s)} samples: nothing to fit")
@@ -143,10 +154,12 @@ def identify(time_s: np.ndarray, position: np.ndarray, velocity: np.ndarray, tor
         time_s, position, velocity, torque = time_s[order_], position[order_], velocity[order_], torque[order_]
         if braked is not None:
             braked = np.asarray(braked)[order_]
-    limit = np.full(n, np.inf) if effort_limit is None else np.broadcast_to(
-        np.asarray(effort_limit, dtype=float), (n,))
-    held = (np.zeros((len(time_s), n), dtype=bool) if braked is None
-            else np.broadcast_to(np.asarray(braked, dtype=bool).reshape(len(time_s), -1), (len(time_s), n)))
+    limit = np.full(n, np.inf) if effort_limit is None else np.broadcast_to(np.asarray(effort_limit, dtype=float), (n,))
+    held = (
+        np.zeros((len(time_s), n), dtype=bool)
+        if braked is None
+        else np.broadcast_to(np.asarray(braked, dtype=bool).reshape(len(time_s), -1), (len(time_s), n))
+    )
 
     dt, q, v, a, reversing = intervals(time_s, position, velocity)
     tau = torque[1:]  # the torque over each interval: reported at its end
@@ -174,11 +187,18 @@ def identify(time_s: np.ndarray, position: np.ndarray, velocity: np.ndarray, tor
         a_f, v_f, s_f, c_f, tau_f = columns
         X = np.column_stack([a_f, v_f, s_f, c_f])
         theta, stderr, rms = _fit(X, tau_f, use)
-        fits.append(JointFit(
-            *theta, *stderr, residual_rms_nm=rms, samples=int(use.sum()),
-            excluded_braked=int(off.sum()), excluded_saturated=int((saturated & ~off).sum()),
-            excluded_slow=int((slow & ~off & ~saturated).sum()),
-            excluded_other=int((other & ~off & ~saturated & ~slow).sum())))
+        fits.append(
+            JointFit(
+                *theta,
+                *stderr,
+                residual_rms_nm=rms,
+                samples=int(use.sum()),
+                excluded_braked=int(off.sum()),
+                excluded_saturated=int((saturated & ~off).sum()),
+                excluded_slow=int((slow & ~off & ~saturated).sum()),
+                excluded_other=int((other & ~off & ~saturated & ~slow).sum()),
+            )
+        )
     return fits
 
 
@@ -189,13 +209,16 @@ def _fit(X: np.ndarray, y: np.ndarray, use: np.ndarray) -> tuple[np.ndarray, np.
     count, p = X.shape
     needed = max(MIN_SAMPLES, 2 * p)
     if count < needed:
-        raise IdentificationError(f"{count} usable samples, at least {needed} needed (the motion was too slow, "
-                                  "saturated or braked)")
+        raise IdentificationError(
+            f"{count} usable samples, at least {needed} needed (the motion was too slow, " "saturated or braked)"
+        )
     theta, _, rank, _ = np.linalg.lstsq(X, y, rcond=None)
     if rank < p:
-        raise IdentificationError("the motion does not excite every parameter (rank-deficient regression): "
-                                  "it needs acceleration, speed in both directions and a range of positions")
+        raise IdentificationError(
+            "the motion does not excite every parameter (rank-deficient regression): "
+            "it needs acceleration, speed in both directions and a range of positions"
+        )
     residual = y - X @ theta
     sigma2 = float(residual @ residual) / (count - p)
     covariance = sigma2 * np.linalg.inv(X.T @ X)
-    return theta, np.sqrt(np.diag(covariance)), float(np.sqrt(np.mean(residual ** 2)))
+    return theta, np.sqrt(np.diag(covariance)), float(np.sqrt(np.mean(residual**2)))

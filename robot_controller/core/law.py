@@ -6,6 +6,7 @@ limit.
 
 Gains: Kp N·m/rad, Ki N·m/(rad·s), Kd N·m·s/rad; torques N·m; times s.
 """
+
 from __future__ import annotations
 
 from dataclasses import replace
@@ -32,10 +33,17 @@ def law_config(config: ControllerConfig, dynamics: ArmDynamics | None, joint_cou
     if dynamics is None:
         raise ConfigError("controller_type lqr: needs the arm model (urdf_path)")
     inertia = np.diag(dynamics.mass_matrix(np.zeros(joint_count)))
-    gains = np.array([lqr.design(inertia[j], dynamics.damping[j], config.control_period_s, np.array(config.lqr_q),
-                                 config.lqr_r).K[0] for j in range(joint_count)])
-    return replace(config.pid, ki=gains[:, 0], kp=gains[:, 1], kd=gains[:, 2],
-                   derivative_source=DerivativeSource.VELOCITY_ERROR)
+    gains = np.array(
+        [
+            lqr.design(
+                inertia[j], dynamics.damping[j], config.control_period_s, np.array(config.lqr_q), config.lqr_r
+            ).K[0]
+            for j in range(joint_count)
+        ]
+    )
+    return replace(
+        config.pid, ki=gains[:, 0], kp=gains[:, 1], kd=gains[:, 2], derivative_source=DerivativeSource.VELOCITY_ERROR
+    )
 
 
 def _values(values: np.ndarray | tuple[float, ...]) -> str:
@@ -46,21 +54,31 @@ def describe_law(config: ControllerConfig, gains: PidConfig) -> str:
     """One line for a log or a status topic: the law, the gains in force with
     their units, the torque limit and the feedforward. In LQR mode it says so,
     and that the kp/ki/kd parameters are unused (the design replaced them)."""
-    in_force = (f"Kp={_values(gains.kp)} N·m/rad, Ki={_values(gains.ki)} N·m/(rad·s), "
-                f"Kd={_values(gains.kd)} N·m·s/rad, D on {gains.derivative_source.value}, "
-                f"|torque| <= {_values(gains.output_limit)} N·m, feedforward {config.feedforward.value}")
+    in_force = (
+        f"Kp={_values(gains.kp)} N·m/rad, Ki={_values(gains.ki)} N·m/(rad·s), "
+        f"Kd={_values(gains.kd)} N·m·s/rad, D on {gains.derivative_source.value}, "
+        f"|torque| <= {_values(gains.output_limit)} N·m, feedforward {config.feedforward.value}"
+    )
     if config.observes_disturbance:
-        in_force += (f", disturbance observer (σ {config.estimator.disturbance_noise_std:g} N·m/√s, "
-                     "estimate subtracted)")
+        in_force += (
+            f", disturbance observer (σ {config.estimator.disturbance_noise_std:g} N·m/√s, " "estimate subtracted)"
+        )
     if config.controller_type == "lqr":
-        return (f"LQR (q={_values(config.lqr_q)}, r={config.lqr_r:g}, designed at "
-                f"{1.0 / config.control_period_s:g} Hz): {in_force}; the kp/ki/kd parameters are unused")
+        return (
+            f"LQR (q={_values(config.lqr_q)}, r={config.lqr_r:g}, designed at "
+            f"{1.0 / config.control_period_s:g} Hz): {in_force}; the kp/ki/kd parameters are unused"
+        )
     return f"PID: {in_force}"
 
 
-def delay_margin_periods(gains: PidConfig, dynamics: ArmDynamics | None, joint_count: int,
-                         control_period_s: float, estimator: KalmanConfig | None = None,
-                         disturbance_observer: bool = False) -> int | None:
+def delay_margin_periods(
+    gains: PidConfig,
+    dynamics: ArmDynamics | None,
+    joint_count: int,
+    control_period_s: float,
+    estimator: KalmanConfig | None = None,
+    disturbance_observer: bool = False,
+) -> int | None:
     """Whole control periods of unaccounted delay the feedback with ``gains``
     survives on the worst joint, the arm linearised at rest (see
     :func:`lqr.delay_margin_periods`). None without the arm model.
@@ -77,9 +95,15 @@ def delay_margin_periods(gains: PidConfig, dynamics: ArmDynamics | None, joint_c
     margins = []
     for j in range(joint_count):
         if disturbance_observer and estimator is not None:
-            margins.append(observer_delay_margin_periods(
-                (float(gains.ki[j]), float(gains.kp[j]), float(gains.kd[j])), estimator, float(inertia[j]),
-                float(dynamics.damping[j]), control_period_s))
+            margins.append(
+                observer_delay_margin_periods(
+                    (float(gains.ki[j]), float(gains.kp[j]), float(gains.kd[j])),
+                    estimator,
+                    float(inertia[j]),
+                    float(dynamics.damping[j]),
+                    control_period_s,
+                )
+            )
             continue
         A, B = lqr.discretise(float(inertia[j]), float(dynamics.damping[j]), control_period_s)
         K = np.array([[gains.ki[j], gains.kp[j], gains.kd[j]]], dtype=float)
@@ -87,8 +111,14 @@ def delay_margin_periods(gains: PidConfig, dynamics: ArmDynamics | None, joint_c
     return min(margins)
 
 
-def observer_delay_margin_periods(gains: tuple[float, float, float], estimator: KalmanConfig, inertia: float,
-                                  damping: float, period_s: float, max_periods: int = 50) -> int:
+def observer_delay_margin_periods(
+    gains: tuple[float, float, float],
+    estimator: KalmanConfig,
+    inertia: float,
+    damping: float,
+    period_s: float,
+    max_periods: int = 50,
+) -> int:
     """How many whole periods of unaccounted delay one joint's loop survives
     with the Kalman filter and its disturbance observer in it (``gains``:
     Ki, Kp, Kd of the PID on the filtered state; the arm ``inertia·q̈ +
@@ -115,23 +145,30 @@ def observer_delay_margin_periods(gains: tuple[float, float, float], estimator: 
         predicted[:, est] = F
         predicted[:, last] += Bf[:, 0]
         reading = np.zeros((2, n))
-        reading[:, 2 * delay:2 * delay + 2] = np.eye(2)
+        reading[:, 2 * delay : 2 * delay + 2] = np.eye(2)
         estimate = predicted + L @ (reading - H @ predicted)
         integral = -ki * period_s * estimate[0]
         integral[i_term] += 1.0
         command = -kp * estimate[0] - kd * estimate[1] + integral - estimate[2]
         M = np.zeros((n, n))
         M[:2] = np.hstack([Ap, np.zeros((2, n - 2))]) + Bp @ command[None, :]
-        M[2:2 * (delay + 1), :2 * delay] = np.eye(2 * delay)  # the arm's history moves back one period
+        M[2 : 2 * (delay + 1), : 2 * delay] = np.eye(2 * delay)  # the arm's history moves back one period
         M[est], M[i_term], M[last] = estimate, integral, command
         if np.max(np.abs(np.linalg.eigvals(M))) >= 1.0:
             return max(delay - 1, 0)
     return max_periods
 
 
-def law_step(pid: Pid, config: ControllerConfig, dynamics: ArmDynamics | None, dt_s: float,
-             position: np.ndarray, velocity: np.ndarray, reference: Reference,
-             disturbance: np.ndarray | None = None) -> PidTerms:
+def law_step(
+    pid: Pid,
+    config: ControllerConfig,
+    dynamics: ArmDynamics | None,
+    dt_s: float,
+    position: np.ndarray,
+    velocity: np.ndarray,
+    reference: Reference,
+    disturbance: np.ndarray | None = None,
+) -> PidTerms:
     """One step of the law over ``dt_s`` seconds: the model's feedforward torque
     for the reference motion plus the PID feedback on the error between the
     reference and the arm's ``position`` (rad) / ``velocity`` (rad/s), limited
@@ -142,8 +179,11 @@ def law_step(pid: Pid, config: ControllerConfig, dynamics: ArmDynamics | None, d
     ``disturbance`` (N·m per joint, the observer's estimate of an external
     torque) is subtracted like one more feedforward term (it is part of the
     reported feedforward): the integral is left only what the estimate misses."""
-    ahead = (reference.feedforward if reference.feedforward is not None
-             else (reference.position, reference.velocity, reference.acceleration))
+    ahead = (
+        reference.feedforward
+        if reference.feedforward is not None
+        else (reference.position, reference.velocity, reference.acceleration)
+    )
     feedforward = feedforward_torque(config.feedforward, dynamics, *ahead)
     if disturbance is not None:
         feedforward = feedforward - disturbance

@@ -3,6 +3,7 @@ controller, actuator and plant at their rates, with the same core objects
 the nodes use. For tuning, sweeps, tests and as the ideal the ROS graph is
 measured against (no transport delay, perfectly periodic ticks).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -42,14 +43,26 @@ class LoopResult:
     applied: np.ndarray
 
     def tracking_metrics(self, warmup_s: float = metrics.WARMUP_S) -> dict[str, float]:
-        return metrics.tracking_metrics(self.tick_time_s, self.reference, self.true_position, self.measured,
-                                        warmup_s=warmup_s)
+        return metrics.tracking_metrics(
+            self.tick_time_s, self.reference, self.true_position, self.measured, warmup_s=warmup_s
+        )
 
 
-def run_loop(*, plant: Plant, controller: JointController, actuator: Actuator, sensor: SensorConfig,
-             trajectory: Trajectory, rng: np.random.Generator, duration_s: float, control_period_s: float,
-             planner_period_s: float, measurement_delay_s: float = 0.0,
-             delay_unstamped: bool = False, disturbance: Disturbance | None = None) -> LoopResult:
+def run_loop(
+    *,
+    plant: Plant,
+    controller: JointController,
+    actuator: Actuator,
+    sensor: SensorConfig,
+    trajectory: Trajectory,
+    rng: np.random.Generator,
+    duration_s: float,
+    control_period_s: float,
+    planner_period_s: float,
+    measurement_delay_s: float = 0.0,
+    delay_unstamped: bool = False,
+    disturbance: Disturbance | None = None,
+) -> LoopResult:
     """Run ``duration_s`` seconds of the loop and return what happened at each tick.
 
     At each tick ``t_k``: the planner publishes if its period has come round,
@@ -72,8 +85,10 @@ def run_loop(*, plant: Plant, controller: JointController, actuator: Actuator, s
     n = len(plant.joint_names)
     delay_steps = int(round(measurement_delay_s / plant.physics_dt))
     history: list[tuple[float, np.ndarray, np.ndarray]] = []  # (time, q, v) per physics step
-    record = {name: np.zeros((ticks, n)) for name in
-              ("reference", "measured", "true_position", "true_velocity", "command", "applied")}
+    record = {
+        name: np.zeros((ticks, n))
+        for name in ("reference", "measured", "true_position", "true_velocity", "command", "applied")
+    }
     times = np.arange(ticks) * control_period_s
     for k, t in enumerate(times):
         if k % planner_every == 0:
@@ -82,7 +97,7 @@ def run_loop(*, plant: Plant, controller: JointController, actuator: Actuator, s
         if delay_steps:
             history.append((t, true_position, true_velocity))
             stamp, seen_q, seen_v = history[max(0, len(history) - 1 - delay_steps)]
-            del history[:max(0, len(history) - 1 - delay_steps)]
+            del history[: max(0, len(history) - 1 - delay_steps)]
         else:
             stamp, seen_q, seen_v = t, true_position, true_velocity
         position, velocity = measure(sensor, seen_q, seen_v, rng)

@@ -7,6 +7,7 @@ reference: ``J ë + b ė = u_fb`` per joint. The design state is
 at the control period; ``u_fb = −K x``. The gain is checked: the closed
 loop's spectral radius must be below 1.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -69,7 +70,7 @@ def delay_margin_periods(A: np.ndarray, B: np.ndarray, K: np.ndarray, max_period
         size = n * (delay + 1)
         M = np.zeros((size, size))
         M[:n, :n] = A
-        M[:n, n * delay:] = -B @ K  # the feedback of the oldest stored state
+        M[:n, n * delay :] = -B @ K  # the feedback of the oldest stored state
         M[n:, :-n] = np.eye(n * delay)  # shift: x[k] becomes x[k−1], …
         if np.max(np.abs(np.linalg.eigvals(M))) >= 1.0:
             return delay - 1

@@ -1,5 +1,6 @@
 """Metrics of docs/design.md §7, as functions on arrays: they score a live run,
 an in-process simulation or a recording read back from a bag alike."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -11,8 +12,9 @@ WARMUP_S = 2.0
 GAP_PERIODS = 5
 
 
-def true_position_at(times_s: np.ndarray, true_time_s: np.ndarray, true_position: np.ndarray,
-                     true_velocity: np.ndarray | None = None) -> np.ndarray:
+def true_position_at(
+    times_s: np.ndarray, true_time_s: np.ndarray, true_position: np.ndarray, true_velocity: np.ndarray | None = None
+) -> np.ndarray:
     """The true joint position at arbitrary times, shape ``(len(times_s), n)``.
 
     With velocities, a cubic Hermite spline (exact to third order between
@@ -42,8 +44,14 @@ def true_position_at(times_s: np.ndarray, true_time_s: np.ndarray, true_position
     return out
 
 
-def tracking_metrics(tick_time_s: np.ndarray, reference_position: np.ndarray, true_position_at_tick: np.ndarray,
-                     measured_position: np.ndarray, *, warmup_s: float = WARMUP_S) -> dict[str, float]:
+def tracking_metrics(
+    tick_time_s: np.ndarray,
+    reference_position: np.ndarray,
+    true_position_at_tick: np.ndarray,
+    measured_position: np.ndarray,
+    *,
+    warmup_s: float = WARMUP_S,
+) -> dict[str, float]:
     """Tracking errors after ``warmup_s`` from the first tick.
 
     ``tracking_*`` compare the reference with the TRUE position at each
@@ -61,9 +69,9 @@ def tracking_metrics(tick_time_s: np.ndarray, reference_position: np.ndarray, tr
     error = ref[window] - true[window]
     measured_error = ref[window] - meas[window]
     return {
-        "tracking_rms_rad": float(np.sqrt(np.mean(error ** 2))),
+        "tracking_rms_rad": float(np.sqrt(np.mean(error**2))),
         "tracking_max_rad": float(np.max(np.abs(error))),
-        "measured_rms_rad": float(np.sqrt(np.mean(measured_error ** 2))),
+        "measured_rms_rad": float(np.sqrt(np.mean(measured_error**2))),
         "scored_ticks": int(np.count_nonzero(window)),
     }
 
@@ -95,14 +103,23 @@ def latency_metrics(latency_s: np.ndarray, prefix: str = "latency") -> dict[str,
     lat_ms = lat_ms[np.isfinite(lat_ms)]
     if lat_ms.size == 0:
         return {}
-    return {f"{prefix}_p50_ms": float(np.percentile(lat_ms, 50)),
-            f"{prefix}_p99_ms": float(np.percentile(lat_ms, 99)),
-            f"{prefix}_max_ms": float(np.max(lat_ms))}
+    return {
+        f"{prefix}_p50_ms": float(np.percentile(lat_ms, 50)),
+        f"{prefix}_p99_ms": float(np.percentile(lat_ms, 99)),
+        f"{prefix}_max_ms": float(np.max(lat_ms)),
+    }
 
 
-def step_metrics(time_s: np.ndarray, position: np.ndarray, *, initial: float, target: float,
-                 step_time_s: float = 0.0, settling_band: float = 0.02, torque: np.ndarray | None = None
-                 ) -> dict[str, float]:
+def step_metrics(
+    time_s: np.ndarray,
+    position: np.ndarray,
+    *,
+    initial: float,
+    target: float,
+    step_time_s: float = 0.0,
+    settling_band: float = 0.02,
+    torque: np.ndarray | None = None,
+) -> dict[str, float]:
     """Step-response figures of one joint's position (as python-control's ``step_info``).
 
     :param initial: position before the step, rad
@@ -142,7 +159,7 @@ def step_metrics(time_s: np.ndarray, position: np.ndarray, *, initial: float, ta
         settling = np.nan  # never settled within the record
     else:
         settling = float(t[outside[-1] + 1])
-    tail = y[int(0.9 * len(y)):]
+    tail = y[int(0.9 * len(y)) :]
     out = {
         "overshoot_pct": overshoot,
         "rise_time_s": float(rise),

@@ -8,6 +8,7 @@ The integral is stored as the I term itself (N·m), not as the integral of
 the error, so that changing ``ki`` while running does not kick the output
 (bumpless gain change).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -83,8 +84,7 @@ class PidConfig:
             self.derivative_source = DerivativeSource(self.derivative_source)
         except ValueError:
             raise ConfigError(
-                f"derivative_source: {self.derivative_source!r} is not one of "
-                f"{[m.value for m in DerivativeSource]}"
+                f"derivative_source: {self.derivative_source!r} is not one of " f"{[m.value for m in DerivativeSource]}"
             ) from None
         for name in ("back_calculation_time_s", "derivative_filter_time_s", "slew_rate_limit"):
             value = float(getattr(self, name))
@@ -171,9 +171,7 @@ class Pid:
         elif c.derivative_source is DerivativeSource.ERROR:
             d_signal = zeros if self._prev_error is None else (error - self._prev_error) / dt
         else:  # MEASUREMENT
-            d_signal = (
-                zeros if self._prev_position is None else -(measured_position - self._prev_position) / dt
-            )
+            d_signal = zeros if self._prev_position is None else -(measured_position - self._prev_position) / dt
         self._prev_error = np.array(error, dtype=float)
         self._prev_position = np.array(measured_position, dtype=float)
         if c.derivative_filter_time_s > 0:

@@ -5,6 +5,7 @@ hand-written model to drift from the robot description. Anything else that
 moves joints (an analytic model, Gazebo behind a bridge, a hardware driver)
 can stand in by providing the same few members.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -93,8 +94,10 @@ def check_disturbance(data, joint_count: int) -> tuple[np.ndarray, float] | str:
     """
     data = np.asarray(data, dtype=float).ravel()
     if data.size != joint_count + 1:
-        return (f"expected {joint_count + 1} values ({joint_count} torque(s) in N·m, then the duration in s), "
-                f"got {data.size}")
+        return (
+            f"expected {joint_count + 1} values ({joint_count} torque(s) in N·m, then the duration in s), "
+            f"got {data.size}"
+        )
     if not np.all(np.isfinite(data)):
         return "non-finite torque or duration"
     duration = float(data[-1])
@@ -284,8 +287,14 @@ class ArmDynamics:
         d.qfrc_applied[:] = 0.0
         return d.qacc.copy()
 
-    def predict(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float,
-                max_step_s: float = 0.002) -> tuple[np.ndarray, np.ndarray]:
+    def predict(
+        self,
+        position: np.ndarray,
+        velocity: np.ndarray,
+        torque: np.ndarray,
+        horizon_s: float,
+        max_step_s: float = 0.002,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """State ``horizon_s`` seconds ahead under constant ``torque`` (semi-implicit Euler)."""
         steps = max(1, int(np.ceil(horizon_s / max_step_s)))
         h = horizon_s / steps

@@ -7,6 +7,7 @@ feedforward is computed for (:meth:`PlannerReference.over_period`).
 
 Positions rad, velocities rad/s, accelerations rad/s², jerks rad/s³, times s.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -50,8 +51,14 @@ class PlannerReference:
         self.jerk: np.ndarray | None = None
         self._acceleration_slope: np.ndarray | None = None  #: rad/s³, between the last two samples
 
-    def receive(self, received_s: float, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray,
-                sample_time_s: float | None = None) -> None:
+    def receive(
+        self,
+        received_s: float,
+        position: np.ndarray,
+        velocity: np.ndarray,
+        acceleration: np.ndarray,
+        sample_time_s: float | None = None,
+    ) -> None:
         """A new sample. Its time base is ``sample_time_s`` when the planner sent
         one, otherwise the time it arrived."""
         time_s = received_s if sample_time_s is None else sample_time_s
@@ -59,8 +66,9 @@ class PlannerReference:
             self.period_s = time_s - self.time_s
             # The jerk, from the planner's own samples only (not a hold written in before it spoke).
             slope = (np.asarray(acceleration, dtype=float) - self.sample[2]) / self.period_s if self.spoke else None
-            self.jerk = (None if slope is None or self._acceleration_slope is None
-                         else _minmod(slope, self._acceleration_slope))
+            self.jerk = (
+                None if slope is None or self._acceleration_slope is None else _minmod(slope, self._acceleration_slope)
+            )
             self._acceleration_slope = slope
         self.spoke = True
         self.sample = (position, velocity, acceleration)
@@ -105,8 +113,9 @@ class PlannerReference:
                 source = ReferenceSource.EXTRAPOLATED
         return TrajectoryPoint(position, velocity, acceleration, fresh, source)
 
-    def over_period(self, now_s: float, period_s: float, extrapolate: bool
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def over_period(
+        self, now_s: float, period_s: float, extrapolate: bool
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The trajectory ``(position, velocity, acceleration)`` a torque held over
         the control period ``[now_s, now_s + period_s]`` is to be computed for:
         at the middle of the period, where the model's torque equals its average
@@ -119,6 +128,8 @@ class PlannerReference:
             return position, velocity, acceleration
         s = float(np.clip(now_s + 0.5 * period_s - self.time_s, 0.0, MAX_EXTRAPOLATION_S))
         jerk = np.zeros(np.shape(acceleration)) if self.jerk is None else self.jerk
-        return (position + velocity * s + acceleration * (s * s / 2) + jerk * (s ** 3 / 6),
-                velocity + acceleration * s + jerk * (s * s / 2),
-                acceleration + jerk * s)
+        return (
+            position + velocity * s + acceleration * (s * s / 2) + jerk * (s**3 / 6),
+            velocity + acceleration * s + jerk * (s * s / 2),
+            acceleration + jerk * s,
+        )

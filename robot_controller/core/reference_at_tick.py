@@ -8,6 +8,7 @@ Each :class:`Reference` names its source, so a held or rewritten reference
 is never passed off as the planner's. Positions rad, velocities rad/s,
 accelerations rad/s², times s.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -63,23 +64,28 @@ class ReferenceAtTick:
     def reacquire_pending(self) -> bool:
         return self._needs_reacquire
 
-    def try_reacquire(self, now_s: float, arm_position: np.ndarray, arm_velocity: np.ndarray,
-                      config: ControllerConfig) -> bool:
+    def try_reacquire(
+        self, now_s: float, arm_position: np.ndarray, arm_velocity: np.ndarray, config: ControllerConfig
+    ) -> bool:
         """Leave the sensor-loss stop and, if the planner's trajectory is fresh,
         start a blend from the arm's ``(position, velocity)`` onto it (within
         ``reacquire_acceleration``). False while there is no fresh trajectory to
         lead the arm onto: :meth:`at_tick` holds it meanwhile."""
         self._sensor_stop = None
         planner = self.planner
-        if (planner.sample is None or not planner.spoke
-                or not planner.at(now_s, config.reference_extrapolation, config.control_period_s).fresh):
+        if (
+            planner.sample is None
+            or not planner.spoke
+            or not planner.at(now_s, config.reference_extrapolation, config.control_period_s).fresh
+        ):
             return False
         self._needs_reacquire = False
         self._hold_position = None
         point = planner.at(now_s, config.reference_extrapolation, config.control_period_s)
         self._reference_stop = None
-        self._blend = Blend.starting(now_s, arm_position - point.position, arm_velocity - point.velocity,
-                                     config.reacquire_acceleration)
+        self._blend = Blend.starting(
+            now_s, arm_position - point.position, arm_velocity - point.velocity, config.reacquire_acceleration
+        )
         return True
 
     # --- the reference at the tick ------------------------------------------------------
@@ -118,8 +124,9 @@ class ReferenceAtTick:
         if self._reference_stop is not None:
             # The planner is back: lead from the stop onto its trajectory.
             held = self._reference_stop.at(now_s)
-            self._blend = Blend.starting(now_s, held[0] - point.position, held[1] - point.velocity,
-                                         config.reacquire_acceleration)
+            self._blend = Blend.starting(
+                now_s, held[0] - point.position, held[1] - point.velocity, config.reacquire_acceleration
+            )
             self._reference_stop = None
         # The command is held over the period: its feedforward is for the reference over it.
         mid_s = now_s + 0.5 * config.control_period_s
@@ -130,10 +137,14 @@ class ReferenceAtTick:
                 self._blend = None
             else:
                 offset, offset_ahead = self._blend.offset_at(now_s), self._blend.offset_at(mid_s)
-                reference = Reference(point.position + offset[0], point.velocity + offset[1],
-                                      point.acceleration + offset[2], Status.REACQUIRING,
-                                      ReferenceSource.REACQUIRE_BLEND,
-                                      tuple(x + dx for x, dx in zip(ahead, offset_ahead, strict=True)))
+                reference = Reference(
+                    point.position + offset[0],
+                    point.velocity + offset[1],
+                    point.acceleration + offset[2],
+                    Status.REACQUIRING,
+                    ReferenceSource.REACQUIRE_BLEND,
+                    tuple(x + dx for x, dx in zip(ahead, offset_ahead, strict=True)),
+                )
         return self._used(now_s, reference)
 
     def _planner_lost(self, now_s: float, point: TrajectoryPoint, config: ControllerConfig) -> Reference:
@@ -143,11 +154,11 @@ class ReferenceAtTick:
         if self._reference_stop is None:
             last = self._last or (point.position, point.velocity, point.acceleration)
             carried = np.clip(now_s - self._last_s, 0.0, MAX_EXTRAPOLATION_S)
-            self._reference_stop = ControlledStop(now_s, last[0] + last[1] * carried, last[1],
-                                                  config.stop_deceleration)
+            self._reference_stop = ControlledStop(now_s, last[0] + last[1] * carried, last[1], config.stop_deceleration)
             self._blend = None
-        return self._used(now_s, Reference(*self._reference_stop.at(now_s), Status.REFERENCE_LOST,
-                                           ReferenceSource.REFERENCE_STOP))
+        return self._used(
+            now_s, Reference(*self._reference_stop.at(now_s), Status.REFERENCE_LOST, ReferenceSource.REFERENCE_STOP)
+        )
 
     def sensor_stop(self, now_s: float, arm_position: np.ndarray, config: ControllerConfig) -> Reference:
         """Readings are missing (watchdog): from where the reference is at the
@@ -156,8 +167,7 @@ class ReferenceAtTick:
         if self._sensor_stop is None:
             start = self.from_trajectory(now_s, arm_position, config)
             self._sensor_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
-        return self._used(now_s, Reference(*self._sensor_stop.at(now_s), Status.WATCHDOG,
-                                           ReferenceSource.SENSOR_STOP))
+        return self._used(now_s, Reference(*self._sensor_stop.at(now_s), Status.WATCHDOG, ReferenceSource.SENSOR_STOP))
 
     def _used(self, now_s: float, reference: Reference) -> Reference:
         """Remember ``reference`` as the last one used (a later stop starts from it)."""

@@ -23,6 +23,7 @@ The margins say something only of a loop that is stable to begin with:
 :func:`margins` checks the closed loop's spectral radius first. Pure maths:
 numpy only.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -58,11 +59,16 @@ class Margins:
         return self.delay_margin_s / dt
 
     def as_dict(self, prefix: str = "") -> dict[str, float]:
-        return {f"{prefix}stable": int(self.stable), f"{prefix}spectral_radius": self.spectral_radius,
-                f"{prefix}gain_margin_db": self.gain_margin_db, f"{prefix}gain_margin_low_db": self.gain_margin_low_db,
-                f"{prefix}phase_margin_deg": self.phase_margin_deg, f"{prefix}delay_margin_s": self.delay_margin_s,
-                f"{prefix}crossover_rad_s": self.crossover_rad_s,
-                f"{prefix}phase_crossover_rad_s": self.phase_crossover_rad_s}
+        return {
+            f"{prefix}stable": int(self.stable),
+            f"{prefix}spectral_radius": self.spectral_radius,
+            f"{prefix}gain_margin_db": self.gain_margin_db,
+            f"{prefix}gain_margin_low_db": self.gain_margin_low_db,
+            f"{prefix}phase_margin_deg": self.phase_margin_deg,
+            f"{prefix}delay_margin_s": self.delay_margin_s,
+            f"{prefix}crossover_rad_s": self.crossover_rad_s,
+            f"{prefix}phase_crossover_rad_s": self.phase_crossover_rad_s,
+        }
 
 
 def frequency_grid(points: int = GRID_POINTS) -> np.ndarray:
@@ -98,7 +104,7 @@ def stable_with_delay(A: np.ndarray, B: np.ndarray, K: np.ndarray, delay: int) -
     n, size = A.shape[0], A.shape[0] * (delay + 1)
     M = np.zeros((len(K), size, size))
     M[:, :n, :n] = A
-    M[:, :n, n * delay:] -= B[None] * K[:, None, :]
+    M[:, :n, n * delay :] -= B[None] * K[:, None, :]
     M[:, n:, :-n] = np.eye(n * delay)
     return np.max(np.abs(np.linalg.eigvals(M)), axis=1) < 1.0
 
@@ -113,8 +119,9 @@ def _sign_changes(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return rows, cols, fraction
 
 
-def margins_batch(A: np.ndarray, B: np.ndarray, K: np.ndarray, dt: float,
-                  theta: np.ndarray | None = None) -> dict[str, np.ndarray]:
+def margins_batch(
+    A: np.ndarray, B: np.ndarray, K: np.ndarray, dt: float, theta: np.ndarray | None = None
+) -> dict[str, np.ndarray]:
     """The margins of many gain rows of ``K`` at once, for searches: arrays
     ``stable``, ``spectral_radius``, ``gain_margin_db``, ``gain_margin_low_db``,
     ``phase_margin_deg``, ``delay_margin_s``, ``crossover_rad_s``,
@@ -158,9 +165,16 @@ def margins_batch(A: np.ndarray, B: np.ndarray, K: np.ndarray, dt: float,
         if margin < phase_margin[row]:
             phase_margin[row], crossover[row] = margin, omega
         delay[row] = min(delay[row], np.radians(margin) / omega if margin > 0 else 0.0)
-    out = {"stable": stable, "spectral_radius": radius, "gain_margin_db": gain_up, "gain_margin_low_db": gain_low,
-           "phase_margin_deg": phase_margin, "delay_margin_s": delay, "crossover_rad_s": crossover,
-           "phase_crossover_rad_s": phase_x}
+    out = {
+        "stable": stable,
+        "spectral_radius": radius,
+        "gain_margin_db": gain_up,
+        "gain_margin_low_db": gain_low,
+        "phase_margin_deg": phase_margin,
+        "delay_margin_s": delay,
+        "crossover_rad_s": crossover,
+        "phase_crossover_rad_s": phase_x,
+    }
     for key in out:
         if key not in ("stable", "spectral_radius"):
             out[key] = np.where(stable, out[key], np.nan)
@@ -176,9 +190,21 @@ def margins(A: np.ndarray, B: np.ndarray, K: np.ndarray, dt: float, points: int 
     """The margins of the loop ``u = −K x`` on ``x[k+1] = A x[k] + B u[k]``
     at the control period ``dt`` (s), on a fine grid of the unit circle."""
     values = margins_batch(A, B, np.atleast_2d(K)[:1], dt, frequency_grid(points))
-    return Margins(bool(values["stable"][0]), *(float(values[key][0]) for key in (
-        "spectral_radius", "gain_margin_db", "gain_margin_low_db", "phase_margin_deg", "delay_margin_s",
-        "crossover_rad_s", "phase_crossover_rad_s")))
+    return Margins(
+        bool(values["stable"][0]),
+        *(
+            float(values[key][0])
+            for key in (
+                "spectral_radius",
+                "gain_margin_db",
+                "gain_margin_low_db",
+                "phase_margin_deg",
+                "delay_margin_s",
+                "crossover_rad_s",
+                "phase_crossover_rad_s",
+            )
+        ),
+    )
 
 
 def pid_gain_row(kp: float, ki: float, kd: float) -> np.ndarray:

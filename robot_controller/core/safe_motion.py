@@ -7,6 +7,7 @@ within the actuator's reach (IEC 60204-1 stop category 2 is "controlled
 stop, keep holding"; re-acquisition must not jump the reference nor chatter
 at the torque limit). Pure functions of time: no ROS, no clocks.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -39,8 +40,9 @@ class ControlledStop:
         return bool(np.all(time_s - self.start_s >= np.abs(self.velocity) / self.deceleration))
 
 
-def _quintic(p0: np.ndarray, v0: np.ndarray, duration_s: float, tau: float
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _quintic(
+    p0: np.ndarray, v0: np.ndarray, duration_s: float, tau: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The quintic from ``(p0, v0, 0)`` at 0 to ``(0, 0, 0)`` at ``duration_s``, at ``tau``."""
     T = duration_s
     s = np.clip(tau / T, 0.0, 1.0)
@@ -74,8 +76,9 @@ class Blend:
     duration_s: float
 
     @classmethod
-    def starting(cls, start_s: float, offset_position: np.ndarray, offset_velocity: np.ndarray,
-                 max_acceleration: float) -> Blend:
+    def starting(
+        cls, start_s: float, offset_position: np.ndarray, offset_velocity: np.ndarray, max_acceleration: float
+    ) -> Blend:
         p0 = np.asarray(offset_position, dtype=float)
         v0 = np.asarray(offset_velocity, dtype=float)
         duration = MIN_BLEND_S

@@ -1,4 +1,5 @@
 """Encoder model: what the controller sees instead of the true joint state."""
+
 from __future__ import annotations
 
 from collections import deque

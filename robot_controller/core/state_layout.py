@@ -5,18 +5,28 @@
 the same labels (one dimension per block), so ``ros2 topic echo`` shows what
 each number is. This module only builds and reads the flat array.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
 HEADER = ("time_s", "status", "measurement_stamp_s")
 FIELDS = ("reference", "measured", "error", "p", "i", "d", "feedforward", "command", "saturated")
-STATUS_CODES = {"ok": 0, "holding": 1, "no_measurement": 2, "watchdog": 3, "sensor_lost": 4, "reacquiring": 5,
-                "reference_lost": 6, "stopped": 7}
+STATUS_CODES = {
+    "ok": 0,
+    "holding": 1,
+    "no_measurement": 2,
+    "watchdog": 3,
+    "sensor_lost": 4,
+    "reacquiring": 5,
+    "reference_lost": 6,
+    "stopped": 7,
+}
 
 
-def encode(time_s: float, status: str, measurement_stamp_s: float, joint_count: int,
-           values: dict[str, np.ndarray]) -> list[float]:
+def encode(
+    time_s: float, status: str, measurement_stamp_s: float, joint_count: int, values: dict[str, np.ndarray]
+) -> list[float]:
     out = [float(time_s), float(STATUS_CODES[status]), float(measurement_stamp_s)]
     for name in FIELDS:
         out.extend(np.broadcast_to(np.asarray(values[name], dtype=float), (joint_count,)).tolist())
@@ -28,11 +38,13 @@ def decode(data: np.ndarray, joint_count: int) -> dict[str, np.ndarray]:
     data = np.asarray(data, dtype=float)
     expected = len(HEADER) + len(FIELDS) * joint_count
     if data.shape[-1] != expected:
-        raise ValueError(f"controller state: expected {expected} values for {joint_count} joint(s), got {data.shape[-1]}")
+        raise ValueError(
+            f"controller state: expected {expected} values for {joint_count} joint(s), got {data.shape[-1]}"
+        )
     out = {name: data[..., k] for k, name in enumerate(HEADER)}
     for k, name in enumerate(FIELDS):
         start = len(HEADER) + k * joint_count
-        out[name] = data[..., start:start + joint_count]
+        out[name] = data[..., start : start + joint_count]
     return out
 
 

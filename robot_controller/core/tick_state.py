@@ -8,6 +8,7 @@ without it would see the arm driven by −d̂ that it never feels).
 
 Positions rad, velocities rad/s, torques N·m, times s. No ROS, no clocks.
 """
+
 from __future__ import annotations
 
 from collections import deque
@@ -58,8 +59,7 @@ class StateAtTick:
             self.kalman.reset()
         self._filtered_stamp_s = -np.inf
 
-    def at_tick(self, now_s: float, readings: Readings, latency_compensation: bool
-                ) -> tuple[np.ndarray, np.ndarray]:
+    def at_tick(self, now_s: float, readings: Readings, latency_compensation: bool) -> tuple[np.ndarray, np.ndarray]:
         """The arm's state at ``now_s``: the reading, filtered, then (with
         ``latency_compensation``) brought from its stamp up to now — position
         AND velocity, through the arm model under the torque being applied, so
@@ -71,8 +71,9 @@ class StateAtTick:
         if self.kalman is not None:
             if readings.stamp_s != self._filtered_stamp_s:
                 # The torque that acted since the last reading: the last command issued before it.
-                self._filtered = self.kalman.update(readings.stamp_s, position, velocity,
-                                                    self.command_before(readings.stamp_s))
+                self._filtered = self.kalman.update(
+                    readings.stamp_s, position, velocity, self.command_before(readings.stamp_s)
+                )
                 self._filtered_stamp_s = readings.stamp_s
             position, velocity = self._filtered
         if latency_compensation:
@@ -105,8 +106,9 @@ class StateAtTick:
             return None
         return self.kalman.disturbance
 
-    def _model(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float
-               ) -> tuple[np.ndarray, np.ndarray]:
+    def _model(
+        self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The arm model ``horizon_s`` ahead under ``torque``: with the disturbance
         observer, the filter's (the estimated external torque included)."""
         if self.kalman is not None and self.kalman.estimates_disturbance:
@@ -118,8 +120,7 @@ class StateAtTick:
         return self.latest[0] if self.latest is not None else readings.latest[0]
 
     @staticmethod
-    def reading_alone(now_s: float, readings: Readings, latency_compensation: bool
-                      ) -> tuple[np.ndarray, np.ndarray]:
+    def reading_alone(now_s: float, readings: Readings, latency_compensation: bool) -> tuple[np.ndarray, np.ndarray]:
         """The reading brought to ``now_s`` on its own velocity only (with
         ``latency_compensation``): after a fault the last commands are no guide."""
         position, velocity = readings.latest
@@ -144,8 +145,9 @@ class StateAtTick:
                 torque = command
         return torque
 
-    def predict(self, position: np.ndarray, velocity: np.ndarray, from_s: float, to_s: float
-                ) -> tuple[np.ndarray, np.ndarray]:
+    def predict(
+        self, position: np.ndarray, velocity: np.ndarray, from_s: float, to_s: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Integrate the arm model from ``from_s`` to ``to_s`` under the commands
         this controller issued in between (each acting from its tick on)."""
         assert self.dynamics is not None

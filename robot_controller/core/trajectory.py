@@ -3,6 +3,7 @@
 Every trajectory is a pure function of ``t`` (s since the trajectory
 started) and returns three arrays of shape ``(n,)``: rad, rad/s, rad/s².
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
@@ -156,11 +157,14 @@ def time_scaled(trajectory: Trajectory, factor: float) -> Trajectory:
     if isinstance(trajectory, Sine | Square):
         return replace(trajectory, frequency_hz=trajectory.frequency_hz / factor)
     if isinstance(trajectory, Chirp):
-        return replace(trajectory, frequency_hz=trajectory.frequency_hz / factor,
-                       end_frequency_hz=trajectory.end_frequency_hz / factor,
-                       sweep_time_s=trajectory.sweep_time_s * factor)
+        return replace(
+            trajectory,
+            frequency_hz=trajectory.frequency_hz / factor,
+            end_frequency_hz=trajectory.end_frequency_hz / factor,
+            sweep_time_s=trajectory.sweep_time_s * factor,
+        )
     if isinstance(trajectory, MinTimeStep):
-        return replace(trajectory, max_acceleration=trajectory.max_acceleration / factor ** 2)
+        return replace(trajectory, max_acceleration=trajectory.max_acceleration / factor**2)
     if isinstance(trajectory, Step | Hold):
         return trajectory
     raise TypeError(f"cannot scale a {type(trajectory).__name__} in time")
@@ -186,8 +190,12 @@ def make_trajectory(
     """
     amp = per_joint("amplitude", amplitude, joint_count)
     off = per_joint("offset", offset, joint_count)
-    for name, value in (("frequency_hz", frequency_hz), ("step_time_s", step_time_s),
-                        ("end_frequency_hz", end_frequency_hz), ("sweep_time_s", sweep_time_s)):
+    for name, value in (
+        ("frequency_hz", frequency_hz),
+        ("step_time_s", step_time_s),
+        ("end_frequency_hz", end_frequency_hz),
+        ("sweep_time_s", sweep_time_s),
+    ):
         if not np.isfinite(value) or value < 0:
             raise ConfigError(f"{name}: must be a finite number >= 0, got {value}")
     if mode == "sine":

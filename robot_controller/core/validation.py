@@ -1,5 +1,6 @@
 """Checks on incoming data, before any maths. Each returns the clean arrays
 or a reason (a short sentence for a rate-limited warning)."""
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -29,8 +30,7 @@ def check_joint_state(
         order = np.arange(n)
     else:
         if len(names) != position.size or len(names) != velocity.size:
-            return (f"name, position and velocity lengths differ "
-                    f"({len(names)}, {position.size}, {velocity.size})")
+            return f"name, position and velocity lengths differ " f"({len(names)}, {position.size}, {velocity.size})"
         index = {name: k for k, name in enumerate(names)}
         unknown = [name for name in names if name not in expected_names]
         if unknown:
@@ -63,13 +63,15 @@ def check_trajectory(data: Sequence[float], joint_count: int) -> TrajectorySampl
         sample_time = float(data[-1])
         data = data[:-1]
     if data.size == 3 * n:
-        p, v, a = data[:n], data[n:2 * n], data[2 * n:]
+        p, v, a = data[:n], data[n : 2 * n], data[2 * n :]
     elif data.size == 2 * n:
         p, v = data[:n], data[n:]
         a = np.zeros(n)
     else:
-        return (f"expected {3 * n} values ([position, velocity, acceleration] per joint) "
-                f"or {3 * n + 1} (with the sample time), got {np.asarray(data).size + (sample_time is not None)}")
+        return (
+            f"expected {3 * n} values ([position, velocity, acceleration] per joint) "
+            f"or {3 * n + 1} (with the sample time), got {np.asarray(data).size + (sample_time is not None)}"
+        )
     if not np.all(np.isfinite(data)) or (sample_time is not None and not np.isfinite(sample_time)):
         return "non-finite value in trajectory"
     return p, v, a, sample_time

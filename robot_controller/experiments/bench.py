@@ -4,6 +4,7 @@ Every scenario is a real run (five processes over DDS, or one), scored from
 its recording like any other; the core figures time the in-process loop and
 a vectorised batch. Writes ``bench.json`` (flat keys) and ``bench.md``.
 """
+
 from __future__ import annotations
 
 import json
@@ -21,28 +22,30 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.runner import forking
-from robot_controller.experiments import hop_bench
-from robot_controller.experiments import inprocess
-from robot_controller.runner import launcher
-from robot_controller.scoring import report
 from robot_controller.core.batch import ArmConstants, run_batch
 from robot_controller.core.pid import PidConfig
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.trajectory import make_trajectory
+from robot_controller.experiments import hop_bench, inprocess
 from robot_controller.experiments.bench_targets import TARGETS, render_markdown
+from robot_controller.runner import forking, launcher
+from robot_controller.scoring import report
 
 
-def _wall_run(params: cfg.Params, out: Path, duration_s: float, *, single_process: bool = False,
-              sim_time: bool = False) -> dict[str, Any]:
-    result = launcher.launch(params, out_dir=out, duration_s=duration_s, single_process=single_process,
-                             sim_time=sim_time)
+def _wall_run(
+    params: cfg.Params, out: Path, duration_s: float, *, single_process: bool = False, sim_time: bool = False
+) -> dict[str, Any]:
+    result = launcher.launch(
+        params, out_dir=out, duration_s=duration_s, single_process=single_process, sim_time=sim_time
+    )
     result.raise_if_interrupted()
     if result.exit_code != 0 and not result.message_counts.get("/controller/state"):
         return {"failure": result.failure}
-    values = report.score(report.read_recording(result.bag_dir),
-                          nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
-                          window_s=duration_s if sim_time else None)
+    values = report.score(
+        report.read_recording(result.bag_dir),
+        nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
+        window_s=duration_s if sim_time else None,
+    )
     values["real_time_factor"] = result.real_time_factor
     if result.failure:
         values["failure"] = result.failure  # scored as far as it ran, and said so
@@ -54,10 +57,15 @@ def _wall_run(params: cfg.Params, out: Path, duration_s: float, *, single_proces
 
 def _kilohertz(params: cfg.Params) -> cfg.Params:
     """The reference scenario with the control loop, sensor and true state at 1 kHz."""
-    return cfg.merge(params, {"pid_controller": {"control_rate_hz": 1000.0},
-                              "sensor_node": {"rate_hz": 1000.0},
-                              "simulator": {"publish_rate_hz": 1000.0},
-                              "trajectory_planner": {"publish_rate_hz": 1000.0}})
+    return cfg.merge(
+        params,
+        {
+            "pid_controller": {"control_rate_hz": 1000.0},
+            "sensor_node": {"rate_hz": 1000.0},
+            "simulator": {"publish_rate_hz": 1000.0},
+            "trajectory_planner": {"publish_rate_hz": 1000.0},
+        },
+    )
 
 
 def _ordinary_child() -> None:
@@ -90,23 +98,41 @@ def core_steps_per_s(duration_s: float) -> float:
 def batch_sim_s_per_s(batch: int, duration_s: float) -> tuple[float, float]:
     """Simulated seconds per wall second of ``batch`` gain sets at once; also the best RMS found."""
     rng = np.random.default_rng(0)
-    pid = PidConfig(kp=rng.uniform(10, 100, (batch, 1)), ki=rng.uniform(0, 20, (batch, 1)),
-                    kd=rng.uniform(1, 8, (batch, 1)), output_limit=[10.0], integral_limit=[10.0],
-                    anti_windup="conditional_integration", derivative_source="velocity_error")
+    pid = PidConfig(
+        kp=rng.uniform(10, 100, (batch, 1)),
+        ki=rng.uniform(0, 20, (batch, 1)),
+        kd=rng.uniform(1, 8, (batch, 1)),
+        output_limit=[10.0],
+        integral_limit=[10.0],
+        anti_windup="conditional_integration",
+        derivative_source="velocity_error",
+    )
     params = cfg.load_stack()
     start = time.perf_counter()
-    rms = run_batch(constants=ArmConstants.from_dynamics(ArmDynamics(resources.default_urdf())), pid_config=pid,
-                    trajectory=make_trajectory("sine", joint_count=1), sensor=cfg.sensor_config(params["sensor_node"]),
-                    rng=rng, duration_s=duration_s)
+    rms = run_batch(
+        constants=ArmConstants.from_dynamics(ArmDynamics(resources.default_urdf())),
+        pid_config=pid,
+        trajectory=make_trajectory("sine", joint_count=1),
+        sensor=cfg.sensor_config(params["sensor_node"]),
+        rng=rng,
+        duration_s=duration_s,
+    )
     return batch * duration_s / (time.perf_counter() - start), float(np.min(rms))
 
 
 SOAK_S, QUICK_SOAK_S = 600.0, 20.0
 NODE_NAMES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
 # What every wall-clock scenario reports, and under which metrics key.
-TIMING = {"jitter_p50_ms": "jitter_p50_ms", "jitter_p99_ms": "jitter_p99_ms", "jitter_max_ms": "jitter_max_ms",
-          "missed": "missed_cycles", "latency_p50_ms": "latency_p50_ms", "latency_p99_ms": "latency_p99_ms",
-          "rate_hz": "control_rate_hz", "tracking_rms_rad": "tracking_rms_rad"}
+TIMING = {
+    "jitter_p50_ms": "jitter_p50_ms",
+    "jitter_p99_ms": "jitter_p99_ms",
+    "jitter_max_ms": "jitter_max_ms",
+    "missed": "missed_cycles",
+    "latency_p50_ms": "latency_p50_ms",
+    "latency_p99_ms": "latency_p99_ms",
+    "rate_hz": "control_rate_hz",
+    "tracking_rms_rad": "tracking_rms_rad",
+}
 
 
 @dataclass(frozen=True)
@@ -146,9 +172,17 @@ def _soak(run: Run) -> dict[str, Any]:
     stalls: the kernel's throttling and the machine's other work come by
     every few tens of seconds."""
     values = _wall_run(run.params, run.out, run.duration_s)
-    figures = _figures("soak", values, {**TIMING, "stalls_30ms": "stalls_30ms", "watchdog_ticks": "watchdog_ticks",
-                                        "tracking_max_rad": "tracking_max_rad",
-                                        "unrecorded_messages": "unrecorded_messages"})
+    figures = _figures(
+        "soak",
+        values,
+        {
+            **TIMING,
+            "stalls_30ms": "stalls_30ms",
+            "watchdog_ticks": "watchdog_ticks",
+            "tracking_max_rad": "tracking_max_rad",
+            "unrecorded_messages": "unrecorded_messages",
+        },
+    )
     growth = [v for k, v in values.items() if k.startswith("rss_growth_mb_") and k != "rss_growth_mb_launcher"]
     figures["soak_rss_growth_mb"] = max(growth) if growth else None
     figures.update({k: values.get(k) for k in CPU_KEYS})
@@ -170,10 +204,14 @@ def _wall1k(single: bool) -> Callable[[Run], dict[str, Any]]:
 
     def measure(run: Run) -> dict[str, Any]:
         values = _wall_run(_kilohertz(run.params), run.out, run.duration_s, single_process=single)
-        figures = _figures(f"wall1k_{mode}", values, {"rate_hz": "control_rate_hz", "jitter_p99_ms": "jitter_p99_ms",
-                                                      "missed": "missed_cycles"})
-        figures[f"wall1k_{mode}_missed_pct"] = (100.0 * values["missed_cycles"] / max(values["control_ticks"], 1)
-                                                if "missed_cycles" in values else None)
+        figures = _figures(
+            f"wall1k_{mode}",
+            values,
+            {"rate_hz": "control_rate_hz", "jitter_p99_ms": "jitter_p99_ms", "missed": "missed_cycles"},
+        )
+        figures[f"wall1k_{mode}_missed_pct"] = (
+            100.0 * values["missed_cycles"] / max(values["control_ticks"], 1) if "missed_cycles" in values else None
+        )
         if single:
             figures["wall1k_missed_pct"] = figures["wall1k_single_missed_pct"]
         return figures
@@ -186,8 +224,10 @@ def _lockstep(single: bool) -> Callable[[Run], dict[str, Any]]:
 
     def measure(run: Run) -> dict[str, Any]:
         values = _wall_run(run.params, run.out, run.duration_s, single_process=single, sim_time=True)
-        return {**_figures(f"lockstep_{mode}", values, {"tracking_rms_rad": "tracking_rms_rad"}),
-                f"lockstep_rtf_{mode}": values.get("real_time_factor")}
+        return {
+            **_figures(f"lockstep_{mode}", values, {"tracking_rms_rad": "tracking_rms_rad"}),
+            f"lockstep_rtf_{mode}": values.get("real_time_factor"),
+        }
 
     return measure
 
@@ -196,52 +236,131 @@ def _hop(run: Run) -> dict[str, Any]:
     round_trips = hop_bench.round_trips_per_s(run.duration_s)
     limit = round_trips / 2 / run.params["pid_controller"]["control_rate_hz"]
     multi = run.figures.get("lockstep_rtf_multi")
-    return {"hop_round_trips_per_s": round_trips, "hop_limit_rtf": limit,
-            "lockstep_rtf_vs_hop_limit": multi / limit if multi else None}
+    return {
+        "hop_round_trips_per_s": round_trips,
+        "hop_limit_rtf": limit,
+        "lockstep_rtf_vs_hop_limit": multi / limit if multi else None,
+    }
 
 
 def _core(run: Run) -> dict[str, Any]:
     batch = 1000 if run.quick else 10_000
     sim_s_per_s, best = batch_sim_s_per_s(batch, run.duration_s)
-    return {"core_steps_per_s": core_steps_per_s(run.duration_s), "batch_size": batch,
-            "batch_sim_s_per_s": sim_s_per_s, "batch_best_tracking_rms_rad": best}
+    return {
+        "core_steps_per_s": core_steps_per_s(run.duration_s),
+        "batch_size": batch,
+        "batch_sim_s_per_s": sim_s_per_s,
+        "batch_best_tracking_rms_rad": best,
+    }
 
 
 CPU_KEYS = tuple(f"cpu_pct_{name}" for name in ("total", "recorder", "launcher", *NODE_NAMES))
 _TIMING_KEYS = tuple(TIMING)
 SCENARIOS = (
-    Scenario("soak", "soak: wall clock 100 Hz, default preset", SOAK_S, QUICK_SOAK_S,
-             tuple(f"soak_{k}" for k in (*_TIMING_KEYS, "stalls_30ms", "watchdog_ticks", "tracking_max_rad",
-                                         "unrecorded_messages", "rss_growth_mb")) + CPU_KEYS, _soak),
-    Scenario("wall100", "wall clock 100 Hz, five processes", 60.0, 4.0,
-             tuple(f"wall100_{k}" for k in _TIMING_KEYS), _wall100(loaded=False)),
-    Scenario("wall100_loaded", "wall clock 100 Hz, five processes, the other core busy", 60.0, 4.0,
-             tuple(f"wall100_loaded_{k}" for k in _TIMING_KEYS), _wall100(loaded=True)),
-    Scenario("wall1k_single", "wall clock 1 kHz, one process", 20.0, 3.0,
-             ("wall1k_single_rate_hz", "wall1k_single_jitter_p99_ms", "wall1k_single_missed",
-              "wall1k_single_missed_pct", "wall1k_missed_pct"), _wall1k(single=True)),
-    Scenario("wall1k_multi", "wall clock 1 kHz, five processes", 20.0, 3.0,
-             ("wall1k_multi_rate_hz", "wall1k_multi_jitter_p99_ms", "wall1k_multi_missed",
-              "wall1k_multi_missed_pct"), _wall1k(single=False)),
-    Scenario("lockstep_multi", "sim-time lockstep, five processes", 60.0, 3.0,
-             ("lockstep_multi_tracking_rms_rad", "lockstep_rtf_multi"), _lockstep(single=False)),
-    Scenario("lockstep_single", "sim-time lockstep, one process", 60.0, 3.0,
-             ("lockstep_single_tracking_rms_rad", "lockstep_rtf_single"), _lockstep(single=True)),
-    Scenario("hop", "two-process rclpy round trips (the lockstep bound)", 10.0, 2.0,
-             ("hop_round_trips_per_s", "hop_limit_rtf", "lockstep_rtf_vs_hop_limit"), _hop),
-    Scenario("core", "in-process loop and batch (no ROS)", 10.0, 2.0,
-             ("core_steps_per_s", "batch_size", "batch_sim_s_per_s", "batch_best_tracking_rms_rad"), _core),
+    Scenario(
+        "soak",
+        "soak: wall clock 100 Hz, default preset",
+        SOAK_S,
+        QUICK_SOAK_S,
+        tuple(
+            f"soak_{k}"
+            for k in (
+                *_TIMING_KEYS,
+                "stalls_30ms",
+                "watchdog_ticks",
+                "tracking_max_rad",
+                "unrecorded_messages",
+                "rss_growth_mb",
+            )
+        )
+        + CPU_KEYS,
+        _soak,
+    ),
+    Scenario(
+        "wall100",
+        "wall clock 100 Hz, five processes",
+        60.0,
+        4.0,
+        tuple(f"wall100_{k}" for k in _TIMING_KEYS),
+        _wall100(loaded=False),
+    ),
+    Scenario(
+        "wall100_loaded",
+        "wall clock 100 Hz, five processes, the other core busy",
+        60.0,
+        4.0,
+        tuple(f"wall100_loaded_{k}" for k in _TIMING_KEYS),
+        _wall100(loaded=True),
+    ),
+    Scenario(
+        "wall1k_single",
+        "wall clock 1 kHz, one process",
+        20.0,
+        3.0,
+        (
+            "wall1k_single_rate_hz",
+            "wall1k_single_jitter_p99_ms",
+            "wall1k_single_missed",
+            "wall1k_single_missed_pct",
+            "wall1k_missed_pct",
+        ),
+        _wall1k(single=True),
+    ),
+    Scenario(
+        "wall1k_multi",
+        "wall clock 1 kHz, five processes",
+        20.0,
+        3.0,
+        ("wall1k_multi_rate_hz", "wall1k_multi_jitter_p99_ms", "wall1k_multi_missed", "wall1k_multi_missed_pct"),
+        _wall1k(single=False),
+    ),
+    Scenario(
+        "lockstep_multi",
+        "sim-time lockstep, five processes",
+        60.0,
+        3.0,
+        ("lockstep_multi_tracking_rms_rad", "lockstep_rtf_multi"),
+        _lockstep(single=False),
+    ),
+    Scenario(
+        "lockstep_single",
+        "sim-time lockstep, one process",
+        60.0,
+        3.0,
+        ("lockstep_single_tracking_rms_rad", "lockstep_rtf_single"),
+        _lockstep(single=True),
+    ),
+    Scenario(
+        "hop",
+        "two-process rclpy round trips (the lockstep bound)",
+        10.0,
+        2.0,
+        ("hop_round_trips_per_s", "hop_limit_rtf", "lockstep_rtf_vs_hop_limit"),
+        _hop,
+    ),
+    Scenario(
+        "core",
+        "in-process loop and batch (no ROS)",
+        10.0,
+        2.0,
+        ("core_steps_per_s", "batch_size", "batch_sim_s_per_s", "batch_best_tracking_rms_rad"),
+        _core,
+    ),
 )
 _DECLARED = {key for scenario in SCENARIOS for key in scenario.keys}
 assert all(target.key in _DECLARED for target in TARGETS), "a target names a key no scenario measures"
 
 
-def bench(out_dir: Path, *, quick: bool = False, soak_s: float | None = None,
-          progress: Callable[[str], None] = print) -> dict[str, Any]:
+def bench(
+    out_dir: Path, *, quick: bool = False, soak_s: float | None = None, progress: Callable[[str], None] = print
+) -> dict[str, Any]:
     out_dir.mkdir(parents=True, exist_ok=True)
     params = cfg.load_stack()
-    figures: dict[str, Any] = {"quick": quick, "machine": f"{os.cpu_count()} cores, {platform.platform()}",
-                               "python": platform.python_version()}
+    figures: dict[str, Any] = {
+        "quick": quick,
+        "machine": f"{os.cpu_count()} cores, {platform.platform()}",
+        "python": platform.python_version(),
+    }
     for scenario in SCENARIOS:
         duration_s = scenario.quick_duration_s if quick else scenario.duration_s
         if scenario.name == "soak" and soak_s is not None:

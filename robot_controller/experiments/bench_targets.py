@@ -1,5 +1,6 @@
 """What the bench is measured against (``TARGETS``) and ``bench.md``, written
 from the same figures as ``bench.json``."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -38,15 +39,24 @@ TARGETS = (
 
 def render_markdown(figures: dict[str, Any], durations: list[tuple[str, str]]) -> str:
     """``bench.md`` from the same figures as ``bench.json``; ``durations``: (scenario, key of its duration)."""
+
     def fmt(value: Any) -> str:
         if isinstance(value, float):
             return f"{value:.4g}"
         return str(value)
 
-    lines = [f"# robot-controller bench{' (quick)' if figures['quick'] else ''}", "",
-             f"Machine: {figures['machine']}, Python {figures['python']}. Durations: "
-             + ", ".join(f"{name} {figures[key]:g} s" for name, key in durations) + ".", "",
-             "## Targets", "", "| target | figure | met? |", "|---|---|---|"]
+    lines = [
+        f"# robot-controller bench{' (quick)' if figures['quick'] else ''}",
+        "",
+        f"Machine: {figures['machine']}, Python {figures['python']}. Durations: "
+        + ", ".join(f"{name} {figures[key]:g} s" for name, key in durations)
+        + ".",
+        "",
+        "## Targets",
+        "",
+        "| target | figure | met? |",
+        "|---|---|---|",
+    ]
     for target in TARGETS:
         value = figures.get(target.key)
         met = value is not None and (value <= target.limit if target.at_most else value >= target.limit)

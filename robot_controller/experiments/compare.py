@@ -1,6 +1,7 @@
 """The controller comparison (``robot-controller compare``): each contender on
 the sine and on a step, over several seeds, in lockstep, side by side; real
 runs all (``step.run_and_score``), several at once on domains of their own."""
+
 from __future__ import annotations
 
 import multiprocessing
@@ -28,17 +29,35 @@ class Contender:
 
 CONTENDERS = (
     Contender("tutorial", "the tutorial's controller as written", "tutorial", {}),
-    Contender("pid", "PID, derivative on velocity error", "default",
-              {"controller_type": "pid", "feedforward": "none", "estimator": "none"}),
-    Contender("pid_ff", "PID + model feedforward", "default",
-              {"controller_type": "pid", "feedforward": "full", "estimator": "none"}),
-    Contender("pid_ff_kf", "PID + feedforward + Kalman filter", "default",
-              {"controller_type": "pid", "feedforward": "full", "estimator": "kalman"}),
-    Contender("lqr", "LQR + feedforward + Kalman filter (default)", "default",
-              {"controller_type": "lqr", "feedforward": "full", "estimator": "kalman"}),
+    Contender(
+        "pid",
+        "PID, derivative on velocity error",
+        "default",
+        {"controller_type": "pid", "feedforward": "none", "estimator": "none"},
+    ),
+    Contender(
+        "pid_ff",
+        "PID + model feedforward",
+        "default",
+        {"controller_type": "pid", "feedforward": "full", "estimator": "none"},
+    ),
+    Contender(
+        "pid_ff_kf",
+        "PID + feedforward + Kalman filter",
+        "default",
+        {"controller_type": "pid", "feedforward": "full", "estimator": "kalman"},
+    ),
+    Contender(
+        "lqr",
+        "LQR + feedforward + Kalman filter (default)",
+        "default",
+        {"controller_type": "lqr", "feedforward": "full", "estimator": "kalman"},
+    ),
 )
-COMPARED = {"sine": ("tracking_rms_rad", "tracking_max_rad"),
-            "step": ("overshoot_pct", "settling_time_s", "rise_time_s", "peak_torque_nm", "steady_state_error_rad")}
+COMPARED = {
+    "sine": ("tracking_rms_rad", "tracking_max_rad"),
+    "step": ("overshoot_pct", "settling_time_s", "rise_time_s", "peak_torque_nm", "steady_state_error_rad"),
+}
 
 
 #: (contender, seed) pairs run side by side by ``compare``. Measured on 2 cores,
@@ -48,8 +67,9 @@ COMPARED = {"sine": ("tracking_rms_rad", "tracking_max_rad"),
 COMPARE_WORKERS = 3
 
 
-def compare(out: Path, *, seeds: int, sine_duration_s: float, amplitude: float,
-            progress=print, workers: int = COMPARE_WORKERS) -> dict[str, dict[str, dict[str, float]]]:
+def compare(
+    out: Path, *, seeds: int, sine_duration_s: float, amplitude: float, progress=print, workers: int = COMPARE_WORKERS
+) -> dict[str, dict[str, dict[str, float]]]:
     """Every contender on the sine and on the step, ``seeds`` seeds each, in sim-time lockstep.
 
     ``workers`` (contender, seed) pairs run at once, each in a worker process
@@ -75,31 +95,37 @@ def compare(out: Path, *, seeds: int, sine_duration_s: float, amplitude: float,
         for seed in range(seeds):
             for key, value in figures[contender.name, seed].items():
                 rows.setdefault(key, []).append(value)
-        table[contender.name] = {key: {"mean": float(np.mean(v)), "std": float(np.std(v)),
-                                       "min": float(np.min(v)), "max": float(np.max(v))} for key, v in rows.items()}
+        table[contender.name] = {
+            key: {"mean": float(np.mean(v)), "std": float(np.std(v)), "min": float(np.min(v)), "max": float(np.max(v))}
+            for key, v in rows.items()
+        }
     report.write_metrics(out / "compare.json", table)
     (out / "compare.md").write_text(render_compare(table, seeds, sine_duration_s, amplitude))
     plot_compare(table, out / "compare.png")
     return table
 
 
-def _compare_pair(contender: Contender, seed: int, out: Path, sine_duration_s: float, amplitude: float,
-                  domain_id: int | None = None) -> dict[str, float]:
+def _compare_pair(
+    contender: Contender, seed: int, out: Path, sine_duration_s: float, amplitude: float, domain_id: int | None = None
+) -> dict[str, float]:
     """One contender, one seed: the sine run, then the step run. The compared figures, keyed as in the table."""
     base = cfg.merge(cfg.load_stack(contender.preset), {"pid_controller": contender.overrides})
     params = cfg.merge(base, {"sensor_node": {"seed": seed}})
-    sine, _ = run_and_score(params, out / contender.name / f"sine_{seed}", duration_s=sine_duration_s,
-                            sim_time=True, domain_id=domain_id)
+    sine, _ = run_and_score(
+        params, out / contender.name / f"sine_{seed}", duration_s=sine_duration_s, sim_time=True, domain_id=domain_id
+    )
     _stop_if_asked()
     step_out = out / contender.name / f"step_{seed}"
     try:
-        figures = step_response(base, step_out, amplitude=amplitude, shaping="min_time", sim_time=True, seed=seed,
-                       domain_id=domain_id)
+        figures = step_response(
+            base, step_out, amplitude=amplitude, shaping="min_time", sim_time=True, seed=seed, domain_id=domain_id
+        )
     except ValueError as exc:  # no step in the recording
         raise RuntimeError(f"run in {step_out} failed: {exc}") from None
     _stop_if_asked()
-    return ({f"sine_{key}": sine[key] for key in COMPARED["sine"]}
-            | {f"step_{key}": figures[key] for key in COMPARED["step"]})
+    return {f"sine_{key}": sine[key] for key in COMPARED["sine"]} | {
+        f"step_{key}": figures[key] for key in COMPARED["step"]
+    }
 
 
 def worker_domain(base: int, slot: int) -> int:
@@ -109,8 +135,9 @@ def worker_domain(base: int, slot: int) -> int:
     return (base - 1 + slot) % 101 + 1
 
 
-def _compare_side_by_side(pairs, out: Path, sine_duration_s: float, amplitude: float, progress, workers: int
-                          ) -> dict[tuple[str, int], dict[str, float]]:
+def _compare_side_by_side(
+    pairs, out: Path, sine_duration_s: float, amplitude: float, progress, workers: int
+) -> dict[tuple[str, int], dict[str, float]]:
     """Run the pairs on ``workers`` spawned processes, never more at once than
     there are workers (so each progress line is printed as its pair starts).
 
@@ -127,14 +154,18 @@ def _compare_side_by_side(pairs, out: Path, sine_duration_s: float, amplitude: f
     figures: dict[tuple[str, int], dict[str, float]] = {}
     todo = iter(pairs)
     running: dict[futures.Future, tuple[str, int]] = {}
-    pool = futures.ProcessPoolExecutor(max_workers=min(workers, len(pairs)) or 1, mp_context=context,
-                                       initializer=_init_worker, initargs=(slots, base))
+    pool = futures.ProcessPoolExecutor(
+        max_workers=min(workers, len(pairs)) or 1, mp_context=context, initializer=_init_worker, initargs=(slots, base)
+    )
     try:
+
         def start_next() -> None:
             for contender, seed in todo:
                 progress(f"{contender.name}: seed {seed}")
-                running[pool.submit(_compare_pair_in_worker, contender, seed, out, sine_duration_s,
-                                    amplitude)] = (contender.name, seed)
+                running[pool.submit(_compare_pair_in_worker, contender, seed, out, sine_duration_s, amplitude)] = (
+                    contender.name,
+                    seed,
+                )
                 return
 
         for _ in range(workers):
@@ -186,8 +217,9 @@ def _stop_if_asked() -> None:
         raise KeyboardInterrupt
 
 
-def _compare_pair_in_worker(contender: Contender, seed: int, out: Path, sine_duration_s: float,
-                            amplitude: float) -> dict[str, float]:
+def _compare_pair_in_worker(
+    contender: Contender, seed: int, out: Path, sine_duration_s: float, amplitude: float
+) -> dict[str, float]:
     global _interrupted
     _interrupted = False
     signal.signal(signal.SIGINT, _on_sigint)
@@ -199,18 +231,24 @@ def _compare_pair_in_worker(contender: Contender, seed: int, out: Path, sine_dur
 
 def render_compare(table, seeds: int, sine_duration_s: float, amplitude: float) -> str:
     names = {c.name: c.description for c in CONTENDERS}
-    columns = [("sine_tracking_rms_rad", "sine RMS, true [rad]", "{:.5f}"),
-               ("sine_tracking_max_rad", "sine max [rad]", "{:.4f}"),
-               ("step_overshoot_pct", "step overshoot [%]", "{:.2f}"),
-               ("step_settling_time_s", "settling 2 % [s]", "{:.3f}"),
-               ("step_rise_time_s", "rise 10–90 % [s]", "{:.3f}"),
-               ("step_peak_torque_nm", "peak torque [N·m]", "{:.2f}")]
-    lines = ["# Controller comparison", "",
-             f"Reference scenario, sim-time lockstep, {seeds} seed(s) each: sine 1 rad 0.5 Hz for "
-             f"{sine_duration_s:g} s (2 s warm-up), {amplitude} rad step shaped to the fastest move within "
-             f"60 rad/s². Figures on the TRUE joint angle; mean ± standard deviation over seeds.", "",
-             "| controller | " + " | ".join(c[1] for c in columns) + " |",
-             "|---|" + "---|" * len(columns)]
+    columns = [
+        ("sine_tracking_rms_rad", "sine RMS, true [rad]", "{:.5f}"),
+        ("sine_tracking_max_rad", "sine max [rad]", "{:.4f}"),
+        ("step_overshoot_pct", "step overshoot [%]", "{:.2f}"),
+        ("step_settling_time_s", "settling 2 % [s]", "{:.3f}"),
+        ("step_rise_time_s", "rise 10–90 % [s]", "{:.3f}"),
+        ("step_peak_torque_nm", "peak torque [N·m]", "{:.2f}"),
+    ]
+    lines = [
+        "# Controller comparison",
+        "",
+        f"Reference scenario, sim-time lockstep, {seeds} seed(s) each: sine 1 rad 0.5 Hz for "
+        f"{sine_duration_s:g} s (2 s warm-up), {amplitude} rad step shaped to the fastest move within "
+        f"60 rad/s². Figures on the TRUE joint angle; mean ± standard deviation over seeds.",
+        "",
+        "| controller | " + " | ".join(c[1] for c in columns) + " |",
+        "|---|" + "---|" * len(columns),
+    ]
     for name, row in table.items():
         cells = []
         for key, _, fmt in columns:
@@ -220,8 +258,12 @@ def render_compare(table, seeds: int, sine_duration_s: float, amplitude: float) 
             else:
                 cells.append(f"{fmt.format(stats['mean'])} ± {fmt.format(stats['std'])}")
         lines.append(f"| **{name}**: {names[name]} | " + " | ".join(cells) + " |")
-    lines += ["", "Targets (issue 4): sine RMS ≤ 0.0015 rad; step overshoot ≤ 2 %, settling ≤ 0.25 s, "
-              "|torque| ≤ 10 N·m throughout.", ""]
+    lines += [
+        "",
+        "Targets (issue 4): sine RMS ≤ 0.0015 rad; step overshoot ≤ 2 %, settling ≤ 0.25 s, "
+        "|torque| ≤ 10 N·m throughout.",
+        "",
+    ]
     return "\n".join(lines)
 
 
@@ -233,9 +275,11 @@ def plot_compare(table, path: Path) -> None:
 
     names = list(table)
     fig, axes = plt.subplots(1, 3, figsize=(13, 4), constrained_layout=True)
-    for ax, key, label, log in ((axes[0], "sine_tracking_rms_rad", "sine RMS error, true angle [rad]", True),
-                                (axes[1], "step_settling_time_s", "step settling time (2 %) [s]", False),
-                                (axes[2], "step_overshoot_pct", "step overshoot [%]", False)):
+    for ax, key, label, log in (
+        (axes[0], "sine_tracking_rms_rad", "sine RMS error, true angle [rad]", True),
+        (axes[1], "step_settling_time_s", "step settling time (2 %) [s]", False),
+        (axes[2], "step_overshoot_pct", "step overshoot [%]", False),
+    ):
         means = [table[n][key]["mean"] for n in names]
         stds = [table[n][key]["std"] for n in names]
         ax.bar(names, means, yerr=stds, capsize=3, color=["#999"] + ["#4c72b0"] * (len(names) - 1))

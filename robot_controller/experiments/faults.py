@@ -10,6 +10,7 @@ back within 2 mrad of the planned trajectory (``reacquire_s``), the peak
 torque and whether the brakes engaged. docs/design.md §4 says what each node's
 loss must cause; this is how it is checked.
 """
+
 from __future__ import annotations
 
 import os
@@ -103,24 +104,39 @@ def case_figures(recording: report.Recording, fault_start_s: float, fault_end_s:
     # drive brakes, the controller sees its readings stop), which is not the fault's doing.
     last_tick_s = s["time_s"][-1] - 0.1
     ticks = (s["time_s"] >= fault_start_s) & (s["time_s"] <= last_tick_s)
-    braked = ((recording.brakes_time_s >= fault_start_s) & (recording.brakes_time_s <= last_tick_s)
-              & np.any(recording.brakes > 0.5, axis=1))
-    return {"max_deviation_rad": float(np.max(outside[after])) if np.any(after) else float("nan"),
-            "max_error_from_plan_rad": float(np.max(error[after])) if np.any(after) else float("nan"),
-            "reacquire_s": reacquire_s,
-            "peak_torque_nm": float(np.max(np.abs(s["command"][ticks]))) if np.any(ticks) else 0.0,
-            "brake_engaged": bool(np.any(braked))}
+    braked = (
+        (recording.brakes_time_s >= fault_start_s)
+        & (recording.brakes_time_s <= last_tick_s)
+        & np.any(recording.brakes > 0.5, axis=1)
+    )
+    return {
+        "max_deviation_rad": float(np.max(outside[after])) if np.any(after) else float("nan"),
+        "max_error_from_plan_rad": float(np.max(error[after])) if np.any(after) else float("nan"),
+        "reacquire_s": reacquire_s,
+        "peak_torque_nm": float(np.max(np.abs(s["command"][ticks]))) if np.any(ticks) else 0.0,
+        "brake_engaged": bool(np.any(braked)),
+    }
 
 
 def run_case(case: Case, out: Path, params: cfg.Params) -> dict[str, Any]:
     freezer = Freezer(case, FAULT_AT_S)
-    result = launcher.launch(params, out_dir=out, duration_s=FAULT_AT_S + case.duration_s + AFTER_S,
-                             watcher=freezer, respawn=case.kind == "SIGKILL")
+    result = launcher.launch(
+        params,
+        out_dir=out,
+        duration_s=FAULT_AT_S + case.duration_s + AFTER_S,
+        watcher=freezer,
+        respawn=case.kind == "SIGKILL",
+    )
     result.raise_if_interrupted()
     if freezer.thread is not None:
         freezer.thread.join()
-    entry: dict[str, Any] = {"case": case.name, "node": case.node, "fault": case.kind, "duration_s": case.duration_s,
-                             "exit_code": result.exit_code}
+    entry: dict[str, Any] = {
+        "case": case.name,
+        "node": case.node,
+        "fault": case.kind,
+        "duration_s": case.duration_s,
+        "exit_code": result.exit_code,
+    }
     if not result.message_counts.get("/controller/state"):
         return entry | {"failure": result.failure or "no recording"}
     recording = report.read_recording(result.bag_dir)
@@ -145,8 +161,11 @@ def faults(out: Path, *, quick: bool = False, progress: Callable[[str], None] = 
     params = cfg.load_stack()
     entries = []
     for case in cases(quick):
-        progress(f"{case.node}: " + (f"SIGSTOP for {case.duration_s:g} s" if case.kind == "SIGSTOP"
-                                     else "SIGKILL, respawned") + f" at t = {FAULT_AT_S:g} s")
+        progress(
+            f"{case.node}: "
+            + (f"SIGSTOP for {case.duration_s:g} s" if case.kind == "SIGSTOP" else "SIGKILL, respawned")
+            + f" at t = {FAULT_AT_S:g} s"
+        )
         entries.append(run_case(case, out / case.name, params))
     report.write_metrics(out / "faults.json", {"cases": entries, **headline(entries)})
     (out / "faults.md").write_text(render(entries))
@@ -156,8 +175,11 @@ def faults(out: Path, *, quick: bool = False, progress: Callable[[str], None] = 
 def headline(entries: list[dict[str, Any]]) -> dict[str, Any]:
     deviations = [e.get("max_deviation_rad", float("nan")) for e in entries]
     worst = max(deviations, key=lambda d: -1 if not np.isfinite(d) else d) if deviations else float("nan")
-    return {"worst_max_deviation_rad": worst, "goal_max_deviation_rad": GOAL_DEVIATION_RAD,
-            "all_cases_ran": all("failure" not in e for e in entries)}
+    return {
+        "worst_max_deviation_rad": worst,
+        "goal_max_deviation_rad": GOAL_DEVIATION_RAD,
+        "all_cases_ran": all("failure" not in e for e in entries),
+    }
 
 
 def render(entries: list[dict[str, Any]]) -> str:
@@ -165,22 +187,29 @@ def render(entries: list[dict[str, Any]]) -> str:
         return "n/a" if value is None or (isinstance(value, float) and not np.isfinite(value)) else fmt.format(value)
 
     top = headline(entries)
-    lines = ["# Faults: each node frozen mid-motion", "",
-             f"Default preset, wall clock, sine 1 rad 0.5 Hz. At {FAULT_AT_S:g} s (peak speed) one node gets "
-             "SIGSTOP, then SIGCONT after the duration; or SIGKILL, and the launcher respawns it "
-             "(`run --respawn`). Deviation: how far the TRUE angle left the band the "
-             "reference sweeps (±1 rad). Re-acquired: back within 2 mrad of the planned trajectory, after the "
-             "fault ended.", "",
-             f"**Worst deviation: {num(top['worst_max_deviation_rad'], '{:.4f}')} rad** "
-             f"(goal ≤ {GOAL_DEVIATION_RAD:g} rad in every case).", "",
-             "| node | fault | deviation [rad] | largest error from the plan [rad] | re-acquired after [s] "
-             "| peak torque [N·m] | brakes engaged | exit |", "|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "# Faults: each node frozen mid-motion",
+        "",
+        f"Default preset, wall clock, sine 1 rad 0.5 Hz. At {FAULT_AT_S:g} s (peak speed) one node gets "
+        "SIGSTOP, then SIGCONT after the duration; or SIGKILL, and the launcher respawns it "
+        "(`run --respawn`). Deviation: how far the TRUE angle left the band the "
+        "reference sweeps (±1 rad). Re-acquired: back within 2 mrad of the planned trajectory, after the "
+        "fault ended.",
+        "",
+        f"**Worst deviation: {num(top['worst_max_deviation_rad'], '{:.4f}')} rad** "
+        f"(goal ≤ {GOAL_DEVIATION_RAD:g} rad in every case).",
+        "",
+        "| node | fault | deviation [rad] | largest error from the plan [rad] | re-acquired after [s] "
+        "| peak torque [N·m] | brakes engaged | exit |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     fault_text = {"SIGSTOP": "frozen {:g} s", "SIGKILL": "killed, respawned"}
     for e in entries:
-        lines.append(f"| {e['node']} | {fault_text[e['fault']].format(e['duration_s'])} | "
-                     f"{num(e.get('max_deviation_rad'), '{:.4f}')} | "
-                     f"{num(e.get('max_error_from_plan_rad'), '{:.3f}')} | {num(e.get('reacquire_s'), '{:.2f}')} | "
-                     f"{num(e.get('peak_torque_nm'), '{:.1f}')} | {'yes' if e.get('brake_engaged') else 'no'} | "
-                     f"{e.get('exit_code')}{' ' + e['failure'] if e.get('failure') else ''} |")
+        lines.append(
+            f"| {e['node']} | {fault_text[e['fault']].format(e['duration_s'])} | "
+            f"{num(e.get('max_deviation_rad'), '{:.4f}')} | "
+            f"{num(e.get('max_error_from_plan_rad'), '{:.3f}')} | {num(e.get('reacquire_s'), '{:.2f}')} | "
+            f"{num(e.get('peak_torque_nm'), '{:.1f}')} | {'yes' if e.get('brake_engaged') else 'no'} | "
+            f"{e.get('exit_code')}{' ' + e['failure'] if e.get('failure') else ''} |"
+        )
     return "\n".join(lines) + "\n"
-

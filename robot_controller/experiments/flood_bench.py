@@ -7,6 +7,7 @@ from the reference in force during the flood? (Issue 9's goal: within 0.02 rad.)
 
 Writes ``flood.json`` and ``flood.md`` in DIR, one run per case below.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -69,8 +70,12 @@ class Flood:
         if self.process is None and elapsed_s >= FLOOD_AT_S:
             # Foreign: whatever this process's environment says, not with the run's DDS profile.
             env = {k: v for k, v in os.environ.items() if k != dds_partition.PROFILES_ENV}
-            self.process = subprocess.Popen([sys.executable, "-m", "robot_controller.experiments.flood_bench", "--publish",
-                                             self.case], stdout=subprocess.PIPE, text=True, env=env)
+            self.process = subprocess.Popen(
+                [sys.executable, "-m", "robot_controller.experiments.flood_bench", "--publish", self.case],
+                stdout=subprocess.PIPE,
+                text=True,
+                env=env,
+            )
 
     def finish(self) -> dict[str, float]:
         if self.process is not None:
@@ -106,15 +111,21 @@ def run_case(case: str, out: Path) -> dict[str, Any]:
     sent = flood.finish()
     result.raise_if_interrupted()
     started_s, ended_s = sent.get("started_s", float("nan")), sent.get("ended_s", float("nan"))
-    entry: dict[str, Any] = {"case": case, "topic": CASES[case][0], "what": CASES[case][3],
-                             "exit_code": result.exit_code, "sent": sent.get("sent", 0),
-                             "rate_hz": sent.get("sent", 0) / (ended_s - started_s)}
+    entry: dict[str, Any] = {
+        "case": case,
+        "topic": CASES[case][0],
+        "what": CASES[case][3],
+        "exit_code": result.exit_code,
+        "sent": sent.get("sent", 0),
+        "rate_hz": sent.get("sent", 0) / (ended_s - started_s),
+    }
     if not result.message_counts.get("/controller/state"):
         return entry | {"failure": result.failure or "no recording"}
     recording = report.read_recording(result.bag_dir)
     during = report.tracking_on_sim_timeline(recording, started_s, ended_s)
-    entry.update({"tracking_max_during_rad": during["tracking_max_rad"],
-                  "tracking_rms_during_rad": during["tracking_rms_rad"]})
+    entry.update(
+        {"tracking_max_during_rad": during["tracking_max_rad"], "tracking_rms_during_rad": during["tracking_rms_rad"]}
+    )
     values = report.score(recording)
     entry.update({k: values.get(k) for k in ("tracking_max_rad", "watchdog_ticks", "saturated_ticks")})
     return entry
@@ -122,17 +133,23 @@ def run_case(case: str, out: Path) -> dict[str, Any]:
 
 def write(out: Path, entries: list[dict[str, Any]]) -> None:
     (out / "flood.json").write_text(json.dumps(report.json_safe(entries), indent=2) + "\n")
-    rows = ["| topic | flood | sent (rate) | tracking max during [rad] | watchdog ticks | saturated ticks |",
-            "|---|---|---|---|---|---|"]
+    rows = [
+        "| topic | flood | sent (rate) | tracking max during [rad] | watchdog ticks | saturated ticks |",
+        "|---|---|---|---|---|---|",
+    ]
     for e in entries:
         during = e.get("tracking_max_during_rad")
-        rows.append(f"| `{e['topic']}` | {e['what']} | {e['sent']} ({e['rate_hz']:.0f} Hz) | "
-                    f"{'–' if during is None else f'{during:.4f}'} | {e.get('watchdog_ticks')} | "
-                    f"{e.get('saturated_ticks')} |")
+        rows.append(
+            f"| `{e['topic']}` | {e['what']} | {e['sent']} ({e['rate_hz']:.0f} Hz) | "
+            f"{'–' if during is None else f'{during:.4f}'} | {e.get('watchdog_ticks')} | "
+            f"{e.get('saturated_ticks')} |"
+        )
     (out / "flood.md").write_text(
         f"# A foreign publisher floods a loop topic\n\nDefault preset, wall clock; {RATE_HZ:g} Hz for "
         f"{FLOOD_S:g} s from {FLOOD_AT_S:g} s. Goal: tracking within {GOAL_RAD} rad during the flood.\n\n"
-        + "\n".join(rows) + "\n")
+        + "\n".join(rows)
+        + "\n"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

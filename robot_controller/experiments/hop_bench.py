@@ -10,6 +10,7 @@ Why: a lockstep tick of the stack is two round trips (simulator → sensor →
 controller → motor → simulator), so ``round_trips_per_s() / 2 / control_rate_hz``
 bounds the lockstep real-time factor this machine can reach.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -27,8 +28,12 @@ from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Float64MultiArray
 
 PING, PONG = "/hop_bench/ping", "/hop_bench/pong"
-QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
-                 history=HistoryPolicy.KEEP_LAST, depth=10)
+QOS = QoSProfile(
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+)
 ENV = {"RMW_FASTRTPS_PUBLICATION_MODE": "SYNCHRONOUS", "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
 MATCH_TIMEOUT_S, WARMUP_S, PING_PERIOD_S = 30.0, 0.5, 0.05
 
@@ -36,6 +41,7 @@ MATCH_TIMEOUT_S, WARMUP_S, PING_PERIOD_S = 30.0, 0.5, 0.05
 def _executor(kind: str, context):
     if kind == "events":
         from rclpy.experimental import EventsExecutor
+
         return EventsExecutor(context=context)
     return SingleThreadedExecutor(context=context)
 
@@ -90,8 +96,11 @@ def round_trips_per_s(duration_s: float = 5.0, domain_id: int | None = None, exe
     if executor not in ("events", "single"):
         raise ValueError(f"executor must be 'events' or 'single', not {executor!r}")
     child_env = {**os.environ, **ENV, "ROS_DOMAIN_ID": str(domain_id)}
-    echo = subprocess.Popen([sys.executable, "-m", "robot_controller.experiments.hop_bench", "--echo", "--executor", executor],
-                            env=child_env, preexec_fn=lambda: os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0)))
+    echo = subprocess.Popen(
+        [sys.executable, "-m", "robot_controller.experiments.hop_bench", "--echo", "--executor", executor],
+        env=child_env,
+        preexec_fn=lambda: os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0)),
+    )
     context = rclpy.Context()
     node = spinner = None
     try:

@@ -21,6 +21,7 @@ out what the brakes held, what saturated, and reversals.
 - ``identification.md``: the same as a table, beside the URDF's values;
 - ``run/``: the run itself (``params.yaml``, ``bag/``).
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -45,12 +46,27 @@ UNITS = {"inertia": "kg_m2", "damping": "nm_s_per_rad", "coulomb_friction": "nm"
 READABLE_UNITS = {"inertia": "kg·m²", "damping": "N·m·s/rad", "coulomb_friction": "N·m", "gravity_torque": "N·m"}
 
 
-def excitation_params(params: cfg.Params, duration_s: float, *, amplitude_rad: float = AMPLITUDE_RAD,
-                      start_hz: float = START_HZ, end_hz: float = END_HZ) -> cfg.Params:
+def excitation_params(
+    params: cfg.Params,
+    duration_s: float,
+    *,
+    amplitude_rad: float = AMPLITUDE_RAD,
+    start_hz: float = START_HZ,
+    end_hz: float = END_HZ,
+) -> cfg.Params:
     """``params`` with the planner in chirp mode, one sweep over ``duration_s``."""
-    return cfg.merge(params, {"trajectory_planner": {
-        "mode": "chirp", "amplitude": [float(amplitude_rad)], "frequency_hz": float(start_hz),
-        "end_frequency_hz": float(end_hz), "sweep_time_s": float(duration_s)}})
+    return cfg.merge(
+        params,
+        {
+            "trajectory_planner": {
+                "mode": "chirp",
+                "amplitude": [float(amplitude_rad)],
+                "frequency_hz": float(start_hz),
+                "end_frequency_hz": float(end_hz),
+                "sweep_time_s": float(duration_s),
+            }
+        },
+    )
 
 
 def _step_at(times_s: np.ndarray, event_times_s: np.ndarray, values: np.ndarray, joint_count: int) -> np.ndarray:
@@ -96,8 +112,12 @@ def urdf_model(params: cfg.Params) -> JointArmModel:
 
 def overlay(fits: list[identification.JointFit]) -> cfg.Params:
     """The parameter overlay: the controller's ``model_*`` values, one per joint."""
-    return {"pid_controller": {key: [float(f"{getattr(fit, name):.6g}") for fit in fits]
-                               for key, name in zip(MODEL_KEYS, PARAMETERS, strict=True)}}
+    return {
+        "pid_controller": {
+            key: [float(f"{getattr(fit, name):.6g}") for fit in fits]
+            for key, name in zip(MODEL_KEYS, PARAMETERS, strict=True)
+        }
+    }
 
 
 def flat_results(joint_names: list[str], fits: list[identification.JointFit]) -> dict[str, Any]:
@@ -116,40 +136,70 @@ def flat_results(joint_names: list[str], fits: list[identification.JointFit]) ->
     return out
 
 
-def markdown(joint_names: list[str], fits: list[identification.JointFit], urdf: JointArmModel,
-             facts: dict[str, Any]) -> str:
-    lines = ["# Identification", "",
-             f"{facts['duration_s']:g} sim s, lockstep, seed {facts['seed']}: chirp {facts['amplitude_rad']:g} rad "
-             f"from {facts['start_hz']:g} to {facts['end_hz']:g} Hz; fitted on the true joint state and the "
-             "applied torque, tau = I·a + b·v + f_c·sign(v) + G·cos(q). Tracking during the run "
-             f"(the controller as configured): {facts['tracking_rms_rad'] * 1e3:.2f} mrad RMS, "
-             f"peak torque {facts['peak_torque_nm']:.2f} N·m.", "",
-             "| joint | parameter | identified | ± standard error | controller's URDF | identified / URDF |",
-             "|---|---|---|---|---|---|"]
-    urdf_values = {"inertia": urdf.inertia, "damping": urdf.damping, "coulomb_friction": urdf.coulomb_friction,
-                   "gravity_torque": urdf.gravity_torque}
+def markdown(
+    joint_names: list[str], fits: list[identification.JointFit], urdf: JointArmModel, facts: dict[str, Any]
+) -> str:
+    lines = [
+        "# Identification",
+        "",
+        f"{facts['duration_s']:g} sim s, lockstep, seed {facts['seed']}: chirp {facts['amplitude_rad']:g} rad "
+        f"from {facts['start_hz']:g} to {facts['end_hz']:g} Hz; fitted on the true joint state and the "
+        "applied torque, tau = I·a + b·v + f_c·sign(v) + G·cos(q). Tracking during the run "
+        f"(the controller as configured): {facts['tracking_rms_rad'] * 1e3:.2f} mrad RMS, "
+        f"peak torque {facts['peak_torque_nm']:.2f} N·m.",
+        "",
+        "| joint | parameter | identified | ± standard error | controller's URDF | identified / URDF |",
+        "|---|---|---|---|---|---|",
+    ]
+    urdf_values = {
+        "inertia": urdf.inertia,
+        "damping": urdf.damping,
+        "coulomb_friction": urdf.coulomb_friction,
+        "gravity_torque": urdf.gravity_torque,
+    }
     for j, (name, fit) in enumerate(zip(joint_names, fits, strict=True)):
         for parameter in PARAMETERS:
             value, err, ref = getattr(fit, parameter), getattr(fit, f"{parameter}_stderr"), urdf_values[parameter][j]
             ratio = f"{value / ref:.2f}" if ref != 0 else "n/a"
-            lines.append(f"| {name} | {parameter.replace('_', ' ')} [{READABLE_UNITS[parameter]}] | {value:.4g} "
-                         f"| {err:.2g} | {ref:.4g} | {ratio} |")
-    lines += ["", "| joint | residual RMS [N·m] | samples used | left out: braked or torque off | saturated "
-              "| slow or reversing | other |", "|---|---|---|---|---|---|---|"]
+            lines.append(
+                f"| {name} | {parameter.replace('_', ' ')} [{READABLE_UNITS[parameter]}] | {value:.4g} "
+                f"| {err:.2g} | {ref:.4g} | {ratio} |"
+            )
+    lines += [
+        "",
+        "| joint | residual RMS [N·m] | samples used | left out: braked or torque off | saturated "
+        "| slow or reversing | other |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for name, fit in zip(joint_names, fits, strict=True):
-        lines.append(f"| {name} | {fit.residual_rms_nm:.3g} | {fit.samples} | {fit.excluded_braked} "
-                     f"| {fit.excluded_saturated} | {fit.excluded_slow} | {fit.excluded_other} |")
-    lines += ["", "Standard errors are the least-squares fit's (σ²·(XᵀX)⁻¹); the residuals of the "
-              "filtered regression are correlated, so they are optimistic.", "",
-              "Use: `--config <your arm's file> --config identified.yaml` (the overlay holds only the "
-              "controller's `model_*` values).", ""]
+        lines.append(
+            f"| {name} | {fit.residual_rms_nm:.3g} | {fit.samples} | {fit.excluded_braked} "
+            f"| {fit.excluded_saturated} | {fit.excluded_slow} | {fit.excluded_other} |"
+        )
+    lines += [
+        "",
+        "Standard errors are the least-squares fit's (σ²·(XᵀX)⁻¹); the residuals of the "
+        "filtered regression are correlated, so they are optimistic.",
+        "",
+        "Use: `--config <your arm's file> --config identified.yaml` (the overlay holds only the "
+        "controller's `model_*` values).",
+        "",
+    ]
     return "\n".join(lines)
 
 
-def identify(params: cfg.Params, out: Path, *, duration_s: float = 20.0, seed: int = 0,
-             progress: Callable[[str], None] = print, amplitude_rad: float = AMPLITUDE_RAD,
-             start_hz: float = START_HZ, end_hz: float = END_HZ,
-             domain_id: int | None = None) -> dict[str, Any]:
+def identify(
+    params: cfg.Params,
+    out: Path,
+    *,
+    duration_s: float = 20.0,
+    seed: int = 0,
+    progress: Callable[[str], None] = print,
+    amplitude_rad: float = AMPLITUDE_RAD,
+    start_hz: float = START_HZ,
+    end_hz: float = END_HZ,
+    domain_id: int | None = None,
+) -> dict[str, Any]:
     """Excite the arm through the whole stack, fit its model, write the results
     into ``out`` (see the module's description); returns what
     ``identification.json`` holds."""
@@ -157,38 +207,61 @@ def identify(params: cfg.Params, out: Path, *, duration_s: float = 20.0, seed: i
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    run_params = excitation_params(params, duration_s, amplitude_rad=amplitude_rad, start_hz=start_hz,
-                                   end_hz=end_hz)
+    run_params = excitation_params(params, duration_s, amplitude_rad=amplitude_rad, start_hz=start_hz, end_hz=end_hz)
     run_params["sensor_node"]["seed"] = seed
-    progress(f"identify: {duration_s:g} sim s of a chirp, {amplitude_rad:g} rad, {start_hz:g} → {end_hz:g} Hz "
-             f"(lockstep, run in {out / 'run'})")
-    scored, recording = run_and_score(run_params, out / "run", duration_s=duration_s, sim_time=True,
-                                      domain_id=domain_id)
+    progress(
+        f"identify: {duration_s:g} sim s of a chirp, {amplitude_rad:g} rad, {start_hz:g} → {end_hz:g} Hz "
+        f"(lockstep, run in {out / 'run'})"
+    )
+    scored, recording = run_and_score(
+        run_params, out / "run", duration_s=duration_s, sim_time=True, domain_id=domain_id
+    )
     joint_names = _joint_names(run_params)
     progress(f"identify: fitting {len(recording.true_time_s)} samples of {', '.join(joint_names)}")
-    fits = identification.identify(recording.true_time_s, recording.true_position, recording.true_velocity,
-                                   recording.true_effort, effort_limit=torque_limit(run_params, len(joint_names)),
-                                   braked=held_or_pushed(recording))
-    facts = {"duration_s": float(duration_s), "seed": int(seed), "amplitude_rad": float(amplitude_rad),
-             "start_hz": float(start_hz), "end_hz": float(end_hz),
-             "tracking_rms_rad": scored.get("tracking_rms_rad"), "peak_torque_nm": scored.get("peak_torque_nm"),
-             "saturated_ticks": scored.get("saturated_ticks")}
-    results = {**flat_results(joint_names, fits),
-               **{f"excitation_{k}": v for k, v in facts.items() if k not in ("tracking_rms_rad", "peak_torque_nm",
-                                                                               "saturated_ticks")},
-               "run_tracking_rms_rad": facts["tracking_rms_rad"], "run_peak_torque_nm": facts["peak_torque_nm"],
-               "run_saturated_ticks": facts["saturated_ticks"],
-               "simulator_urdf": run_params["simulator"]["urdf_path"] or "(reference arm)",
-               "controller_urdf": run_params["pid_controller"]["urdf_path"] or "(reference arm)"}
+    fits = identification.identify(
+        recording.true_time_s,
+        recording.true_position,
+        recording.true_velocity,
+        recording.true_effort,
+        effort_limit=torque_limit(run_params, len(joint_names)),
+        braked=held_or_pushed(recording),
+    )
+    facts = {
+        "duration_s": float(duration_s),
+        "seed": int(seed),
+        "amplitude_rad": float(amplitude_rad),
+        "start_hz": float(start_hz),
+        "end_hz": float(end_hz),
+        "tracking_rms_rad": scored.get("tracking_rms_rad"),
+        "peak_torque_nm": scored.get("peak_torque_nm"),
+        "saturated_ticks": scored.get("saturated_ticks"),
+    }
+    results = {
+        **flat_results(joint_names, fits),
+        **{
+            f"excitation_{k}": v
+            for k, v in facts.items()
+            if k not in ("tracking_rms_rad", "peak_torque_nm", "saturated_ticks")
+        },
+        "run_tracking_rms_rad": facts["tracking_rms_rad"],
+        "run_peak_torque_nm": facts["peak_torque_nm"],
+        "run_saturated_ticks": facts["saturated_ticks"],
+        "simulator_urdf": run_params["simulator"]["urdf_path"] or "(reference arm)",
+        "controller_urdf": run_params["pid_controller"]["urdf_path"] or "(reference arm)",
+    }
     cfg.write_params_file(overlay(fits), out / "identified.yaml")
     from robot_controller.scoring import report
 
     report.write_metrics(out / "identification.json", results)
     (out / "identification.md").write_text(markdown(joint_names, fits, urdf_model(run_params), facts))
     for name, fit in zip(joint_names, fits, strict=True):
-        progress(f"identify: {name}: " + ", ".join(
-            f"{p} {getattr(fit, p):.4g} ± {getattr(fit, p + '_stderr'):.2g} {READABLE_UNITS[p]}" for p in PARAMETERS)
-            + f"; residual {fit.residual_rms_nm:.3g} N·m RMS over {fit.samples} samples")
+        progress(
+            f"identify: {name}: "
+            + ", ".join(
+                f"{p} {getattr(fit, p):.4g} ± {getattr(fit, p + '_stderr'):.2g} {READABLE_UNITS[p]}" for p in PARAMETERS
+            )
+            + f"; residual {fit.residual_rms_nm:.3g} N·m RMS over {fit.samples} samples"
+        )
     progress(f"identify: wrote {out / 'identified.yaml'}, identification.json, identification.md")
     return results
 

@@ -1,5 +1,6 @@
 """Build and run the in-process loop (no ROS) from the same parameters the
 ROS graph uses."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -14,8 +15,15 @@ from robot_controller.core.trajectory import make_trajectory
 from robot_controller.parameters.builders import arm_model
 
 
-def simulate(params: cfg.Params, *, duration_s: float, seed: int = 0, measurement_delay_s: float = 0.0,
-             delay_unstamped: bool = False, disturbance: Disturbance | None = None) -> LoopResult:
+def simulate(
+    params: cfg.Params,
+    *,
+    duration_s: float,
+    seed: int = 0,
+    measurement_delay_s: float = 0.0,
+    delay_unstamped: bool = False,
+    disturbance: Disturbance | None = None,
+) -> LoopResult:
     """``duration_s`` seconds of the loop from ``params`` (see :func:`run_loop`);
     ``disturbance``: an external torque on the arm on a schedule (the
     simulator's ``disturbance_*`` parameters are not read: pass one)."""
@@ -29,8 +37,17 @@ def simulate(params: cfg.Params, *, duration_s: float, seed: int = 0, measuremen
     controller = JointController(controller_config, n, dynamics)
     actuator = Actuator(cfg.per_joint("torque_max", motor["torque_max"], n), motor["lag_time_constant_s"])
     trajectory = make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner))
-    return run_loop(plant=plant, controller=controller, actuator=actuator, sensor=cfg.sensor_config(sensor),
-                    trajectory=trajectory, rng=np.random.default_rng(seed), duration_s=duration_s,
-                    control_period_s=controller_config.control_period_s,
-                    planner_period_s=1.0 / planner["publish_rate_hz"], measurement_delay_s=measurement_delay_s,
-                    delay_unstamped=delay_unstamped, disturbance=disturbance)
+    return run_loop(
+        plant=plant,
+        controller=controller,
+        actuator=actuator,
+        sensor=cfg.sensor_config(sensor),
+        trajectory=trajectory,
+        rng=np.random.default_rng(seed),
+        duration_s=duration_s,
+        control_period_s=controller_config.control_period_s,
+        planner_period_s=1.0 / planner["publish_rate_hz"],
+        measurement_delay_s=measurement_delay_s,
+        delay_unstamped=delay_unstamped,
+        disturbance=disturbance,
+    )

@@ -1,6 +1,7 @@
 """The step response experiment (``robot-controller step``): a real run
 (launcher → recording → score) of a step, and its figures: overshoot, rise,
 settling, steady-state error, peak torque."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -9,35 +10,60 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
+from robot_controller.core import metrics
 from robot_controller.runner import launcher
 from robot_controller.scoring import report
-from robot_controller.core import metrics
 
 STEP_LEAD_S = 0.5  # time at the start position before the step, s
 STEP_AFTER_S = 2.0  # recorded after the step, s
 
 
-def run_and_score(params: cfg.Params, out: Path, *, duration_s: float, sim_time: bool,
-                  single_process: bool = False, domain_id: int | None = None
-                  ) -> tuple[dict[str, Any], report.Recording]:
-    result = launcher.launch(params, out_dir=out, duration_s=duration_s, sim_time=sim_time,
-                             single_process=single_process, domain_id=domain_id)
+def run_and_score(
+    params: cfg.Params,
+    out: Path,
+    *,
+    duration_s: float,
+    sim_time: bool,
+    single_process: bool = False,
+    domain_id: int | None = None,
+) -> tuple[dict[str, Any], report.Recording]:
+    result = launcher.launch(
+        params,
+        out_dir=out,
+        duration_s=duration_s,
+        sim_time=sim_time,
+        single_process=single_process,
+        domain_id=domain_id,
+    )
     result.raise_if_interrupted()
     if result.exit_code != 0:
         raise RuntimeError(f"run in {out} failed: {result.failure}")
     recording = report.read_recording(result.bag_dir)
-    values = report.score(recording, nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
-                          window_s=duration_s if sim_time else None)
+    values = report.score(
+        recording,
+        nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
+        window_s=duration_s if sim_time else None,
+    )
     return values, recording
 
 
 def step_params(params: cfg.Params, amplitude: float, shaping: str) -> cfg.Params:
-    return cfg.merge(params, {"trajectory_planner": {"mode": "step", "amplitude": [amplitude],
-                                                     "step_time_s": STEP_LEAD_S, "step_shaping": shaping}})
+    return cfg.merge(
+        params,
+        {
+            "trajectory_planner": {
+                "mode": "step",
+                "amplitude": [amplitude],
+                "step_time_s": STEP_LEAD_S,
+                "step_shaping": shaping,
+            }
+        },
+    )
 
 
-def step_figures(recording: report.Recording, amplitude: float, offset: float = 0.0,
-                 after_s: float | None = STEP_AFTER_S) -> dict[str, Any]:
+def step_figures(
+    recording: report.Recording, amplitude: float, offset: float = 0.0, after_s: float | None = STEP_AFTER_S
+) -> dict[str, Any]:
     """Step-response figures on the TRUE angle, timed from the tick where the reference starts to move,
     over the ``after_s`` seconds that follow it (None: to the end of the recording).
 
@@ -56,13 +82,18 @@ def step_figures(recording: report.Recording, amplitude: float, offset: float = 
     if at_rest[-1] == len(t) - 1:
         raise ValueError("the reference never moved: no step in this recording")
     step_time = t[at_rest[-1]]
-    true = metrics.true_position_at(t, recording.true_time_s, recording.true_position,
-                                    recording.true_velocity)[:, 0]
+    true = metrics.true_position_at(t, recording.true_time_s, recording.true_position, recording.true_velocity)[:, 0]
     ok = np.isfinite(true)
     if after_s is not None:
         ok &= t < step_time + after_s - 1e-9
-    figures = metrics.step_metrics(t[ok], true[ok], initial=offset, target=offset + amplitude, step_time_s=step_time,
-                                   torque=s["command"][ok & (t >= step_time), 0])
+    figures = metrics.step_metrics(
+        t[ok],
+        true[ok],
+        initial=offset,
+        target=offset + amplitude,
+        step_time_s=step_time,
+        torque=s["command"][ok & (t >= step_time), 0],
+    )
     figures["step_time_s"] = float(step_time - t[0])
     return figures
 
@@ -75,8 +106,9 @@ def plot_step(recording: report.Recording, path: Path, title: str) -> None:
 
     s = recording.state
     t = s["time_s"] - s["time_s"][0]
-    true = metrics.true_position_at(s["time_s"], recording.true_time_s, recording.true_position,
-                                    recording.true_velocity)
+    true = metrics.true_position_at(
+        s["time_s"], recording.true_time_s, recording.true_position, recording.true_velocity
+    )
     fig, (ax_q, ax_u) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
     ax_q.plot(t, s["reference"][:, 0], "k--", label="reference")
     ax_q.plot(t, true[:, 0], label="true")
@@ -96,15 +128,30 @@ def plot_step(recording: report.Recording, path: Path, title: str) -> None:
     plt.close(fig)
 
 
-def step_response(params: cfg.Params, out: Path, *, amplitude: float, shaping: str, sim_time: bool, seed: int,
-         domain_id: int | None = None) -> dict[str, Any]:
+def step_response(
+    params: cfg.Params,
+    out: Path,
+    *,
+    amplitude: float,
+    shaping: str,
+    sim_time: bool,
+    seed: int,
+    domain_id: int | None = None,
+) -> dict[str, Any]:
     params = step_params(params, amplitude, shaping)
     params["sensor_node"]["seed"] = seed
-    values, recording = run_and_score(params, out, duration_s=STEP_LEAD_S + STEP_AFTER_S, sim_time=sim_time,
-                                      domain_id=domain_id)
+    values, recording = run_and_score(
+        params, out, duration_s=STEP_LEAD_S + STEP_AFTER_S, sim_time=sim_time, domain_id=domain_id
+    )
     values.update(step_figures(recording, amplitude))
-    values.update({"amplitude_rad": amplitude, "step_shaping": shaping, "seed": seed,
-                   "clock": "sim_lockstep" if sim_time else "wall"})
+    values.update(
+        {
+            "amplitude_rad": amplitude,
+            "step_shaping": shaping,
+            "seed": seed,
+            "clock": "sim_lockstep" if sim_time else "wall",
+        }
+    )
     report.write_metrics(out / "metrics.json", values)
     plot_step(recording, out / "step.png", f"{amplitude} rad step ({shaping}), seed {seed}")
     return values

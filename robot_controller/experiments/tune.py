@@ -36,6 +36,7 @@ hold (the reference is evaluated at every tick), reference extrapolation,
 latency compensation and MuJoCo's own arm. The real runs show what these
 change.
 """
+
 from __future__ import annotations
 
 import math
@@ -92,8 +93,9 @@ class Plan:
 def plan(quick: bool) -> Plan:
     if quick:
         return Plan(first=2048, rounds=((256, 0.25), (256, 0.1)), duration_s=4.0, real_s=3.0)
-    return Plan(first=8192, rounds=((1024, 0.3), (1024, 0.15), (1024, 0.07), (1024, 0.03)), duration_s=10.0,
-                real_s=10.0)
+    return Plan(
+        first=8192, rounds=((1024, 0.3), (1024, 0.15), (1024, 0.07), (1024, 0.03)), duration_s=10.0, real_s=10.0
+    )
 
 
 def steps(quick: bool = False) -> int:
@@ -132,8 +134,13 @@ class Problem:
         self.kalman = cfg.controller_config(ctrl, 1).estimator  # None without the filter
         self.lqr_r = float(ctrl["lqr_r"])
         planner = params["trajectory_planner"]
-        self.sine = make_trajectory("sine", joint_count=1, amplitude=planner["amplitude"],
-                                    frequency_hz=planner["frequency_hz"], offset=planner["offset"])
+        self.sine = make_trajectory(
+            "sine",
+            joint_count=1,
+            amplitude=planner["amplitude"],
+            frequency_hz=planner["frequency_hz"],
+            offset=planner["offset"],
+        )
         self.sensor = cfg.sensor_config(params["sensor_node"])
         self.box = PID_BOX if self.controller_type == "pid" else LQR_BOX
 
@@ -185,8 +192,11 @@ class Problem:
         ok = finite & margins["stable"]
         with np.errstate(invalid="ignore"):
             ok &= margins["gain_margin_db"] >= MIN_GAIN_MARGIN_DB
-            ok &= (margins["gain_margin_low_db"] == np.inf) if UNCONDITIONALLY_STABLE else (
-                margins["gain_margin_low_db"] >= MIN_GAIN_MARGIN_DB)
+            ok &= (
+                (margins["gain_margin_low_db"] == np.inf)
+                if UNCONDITIONALLY_STABLE
+                else (margins["gain_margin_low_db"] >= MIN_GAIN_MARGIN_DB)
+            )
             ok &= margins["phase_margin_deg"] >= MIN_PHASE_MARGIN_DEG
         ok &= margins["spectral_radius"] <= math.exp(-self.dt / MAX_TIME_CONSTANT_S)
         for delay in range(1, MIN_DELAY_PERIODS + 1):
@@ -199,9 +209,18 @@ class Problem:
     def tracking_rms(self, gains: np.ndarray, duration_s: float, seed: int = SEED) -> np.ndarray:
         """The sine's tracking RMS (true angle, after the 2 s warm-up) of each gain set (rows Kp, Ki, Kd), rad."""
         pid = replace(self.law, kp=gains[:, 0:1], ki=gains[:, 1:2], kd=gains[:, 2:3])
-        return batch_tracking_rms(self.constants, pid, self.sine, self.sensor, np.random.default_rng(seed),
-                                  duration_s=duration_s, control_period_s=self.dt, torque_max=self.torque_max,
-                                  feedforward=self.feedforward, kalman=self.kalman)
+        return batch_tracking_rms(
+            self.constants,
+            pid,
+            self.sine,
+            self.sensor,
+            np.random.default_rng(seed),
+            duration_s=duration_s,
+            control_period_s=self.dt,
+            torque_max=self.torque_max,
+            feedforward=self.feedforward,
+            kalman=self.kalman,
+        )
 
 
 class CommonNoise:
@@ -216,10 +235,22 @@ class CommonNoise:
         return np.broadcast_to(self.rng.normal(loc, scale, (1, *size[1:])), size)
 
 
-def batch_tracking_rms(constants: ArmConstants, pid_config: PidConfig, trajectory: Trajectory, sensor: SensorConfig,
-                       rng: np.random.Generator, *, duration_s: float, control_period_s: float = 0.01,
-                       torque_max: float = 10.0, feedforward: str = "full", kalman: KalmanConfig | None = None,
-                       common_noise: bool = True, warmup_s: float = 2.0, physics_dt: float = 0.001) -> np.ndarray:
+def batch_tracking_rms(
+    constants: ArmConstants,
+    pid_config: PidConfig,
+    trajectory: Trajectory,
+    sensor: SensorConfig,
+    rng: np.random.Generator,
+    *,
+    duration_s: float,
+    control_period_s: float = 0.01,
+    torque_max: float = 10.0,
+    feedforward: str = "full",
+    kalman: KalmanConfig | None = None,
+    common_noise: bool = True,
+    warmup_s: float = 2.0,
+    physics_dt: float = 0.001,
+) -> np.ndarray:
     """``core.batch.run_batch``'s loop (the analytic arm, the same PID code, the sensor's
     noise, the torque limit), with what the controller may also be configured with:
     feedforward ``none``, ``gravity`` or ``full``, and the Kalman filter (the core's own,
@@ -231,9 +262,11 @@ def batch_tracking_rms(constants: ArmConstants, pid_config: PidConfig, trajector
     noise = CommonNoise(rng) if common_noise else rng
     filter_ = None
     if kalman is not None:
+
         def predict(q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
             v = (v * constants.inertia + dt * (torque - constants.gravity_torque * np.cos(q))) / (
-                constants.inertia + dt * constants.damping)
+                constants.inertia + dt * constants.damping
+            )
             return q + dt * v, v
 
         filter_ = JointKalmanFilter(replace(kalman, model_step_s=physics_dt), batch, predict)
@@ -292,8 +325,9 @@ class SearchResult:
     history: Candidates  #: every robust set simulated (for the plot)
 
 
-def search(params: cfg.Params, *, quick: bool = False, progress: Callable[[str], None] | None = None,
-           seed: int = SEED) -> SearchResult:
+def search(
+    params: cfg.Params, *, quick: bool = False, progress: Callable[[str], None] | None = None, seed: int = SEED
+) -> SearchResult:
     """The search on the batch harness alone (no ROS): the most accurate robust gains found."""
     problem = Problem(params)
     settings = plan(quick)
@@ -308,8 +342,10 @@ def search(params: cfg.Params, *, quick: bool = False, progress: Callable[[str],
     schedule = [(settings.first, None)] + list(settings.rounds)
     for index, (samples, spread) in enumerate(schedule):
         if progress is not None:
-            progress(f"search round {index + 1} of {len(schedule)}: {samples} gain sets"
-                     + ("" if spread is None else f" within ±{spread:g} decades of the best"))
+            progress(
+                f"search round {index + 1} of {len(schedule)}: {samples} gain sets"
+                + ("" if spread is None else f" within ±{spread:g} decades of the best")
+            )
         if spread is None or len(top) == 0:
             log_params = latin_hypercube(rng, samples, problem.box)
             if index == 0:  # the configured gains compete too
@@ -324,8 +360,11 @@ def search(params: cfg.Params, *, quick: bool = False, progress: Callable[[str],
         rms = np.full(samples, np.inf)
         if np.any(ok):
             rms[ok] = problem.tracking_rms(gains[ok], settings.duration_s, seed)
-        kept = Candidates(np.vstack([kept.log_params, log_params[ok]]), np.vstack([kept.gains, gains[ok]]),
-                          rms=np.concatenate([kept.rms, rms[ok]]))
+        kept = Candidates(
+            np.vstack([kept.log_params, log_params[ok]]),
+            np.vstack([kept.gains, gains[ok]]),
+            rms=np.concatenate([kept.rms, rms[ok]]),
+        )
         finite = np.isfinite(kept.rms)
         if np.any(finite):
             order = np.argsort(np.where(finite, kept.rms, np.inf))
@@ -334,15 +373,17 @@ def search(params: cfg.Params, *, quick: bool = False, progress: Callable[[str],
                 best_rms, best_log = float(kept.rms[order[0]]), kept.log_params[order[0]]
         rounds.append({"samples": samples, "robust": int(np.count_nonzero(ok)), "best_rms_rad": best_rms})
     if best_log is None:
-        raise RuntimeError("tune: no gain set in the search met the margins "
-                           f"(gain ≥ {MIN_GAIN_MARGIN_DB:g} dB, phase ≥ {MIN_PHASE_MARGIN_DEG:g}°, delay ≥ "
-                           f"{MIN_DELAY_PERIODS} periods)")
+        raise RuntimeError(
+            "tune: no gain set in the search met the margins "
+            f"(gain ≥ {MIN_GAIN_MARGIN_DB:g} dB, phase ≥ {MIN_PHASE_MARGIN_DEG:g}°, delay ≥ "
+            f"{MIN_DELAY_PERIODS} periods)"
+        )
     # The overlay is rounded: the result is what the rounded values give.
     best_values = problem.rounded(best_log)
     best_gains = problem.gains_of_values(best_values)[0]
     _, ok = problem.robustness(best_gains[None])
     if not ok[0]:  # rounding to 4 digits moved it across a margin: keep the exact values
-        best_values = 10.0 ** best_log
+        best_values = 10.0**best_log
         best_gains = problem.gains_of_values(best_values)[0]
     return SearchResult(problem, best_values, best_gains, best_rms, evaluated, robust_count, rounds, kept)
 
@@ -355,17 +396,31 @@ def describe_margins(problem: Problem, gains: np.ndarray) -> dict[str, float]:
     slowest = float(np.max(np.abs(robustness.poles(problem.A, problem.B, row))))
     tau = -problem.dt / math.log(slowest) if 0 < slowest < 1 else math.inf
     low_ok = m.gain_margin_low_db == math.inf if UNCONDITIONALLY_STABLE else m.gain_margin_low_db >= MIN_GAIN_MARGIN_DB
-    meets = (m.stable and m.gain_margin_db >= MIN_GAIN_MARGIN_DB and low_ok and tau <= MAX_TIME_CONSTANT_S
-             and m.phase_margin_deg >= MIN_PHASE_MARGIN_DEG and delay >= MIN_DELAY_PERIODS)
-    return {"stable": int(m.stable), "spectral_radius": m.spectral_radius, "slowest_time_constant_s": tau,
-            "gain_margin_db": m.gain_margin_db,
-            "gain_margin_low_db": m.gain_margin_low_db, "phase_margin_deg": m.phase_margin_deg,
-            "delay_margin_periods": delay, "delay_margin_s": m.delay_margin_s, "crossover_rad_s": m.crossover_rad_s,
-            "meets_constraints": int(meets)}
+    meets = (
+        m.stable
+        and m.gain_margin_db >= MIN_GAIN_MARGIN_DB
+        and low_ok
+        and tau <= MAX_TIME_CONSTANT_S
+        and m.phase_margin_deg >= MIN_PHASE_MARGIN_DEG
+        and delay >= MIN_DELAY_PERIODS
+    )
+    return {
+        "stable": int(m.stable),
+        "spectral_radius": m.spectral_radius,
+        "slowest_time_constant_s": tau,
+        "gain_margin_db": m.gain_margin_db,
+        "gain_margin_low_db": m.gain_margin_low_db,
+        "phase_margin_deg": m.phase_margin_deg,
+        "delay_margin_periods": delay,
+        "delay_margin_s": m.delay_margin_s,
+        "crossover_rad_s": m.crossover_rad_s,
+        "meets_constraints": int(meets),
+    }
 
 
-def tune(params: cfg.Params, out: Path, *, quick: bool = False, progress: Callable[[str], None] = print,
-         seed: int = SEED) -> dict[str, Any]:
+def tune(
+    params: cfg.Params, out: Path, *, quick: bool = False, progress: Callable[[str], None] = print, seed: int = SEED
+) -> dict[str, Any]:
     """Search, write ``tuned.yaml``, run before and after on the real graph, write ``tune.json`` and ``report.md``."""
     from robot_controller.experiments.exercises.common import run_lockstep
 
@@ -383,14 +438,22 @@ def tune(params: cfg.Params, out: Path, *, quick: bool = False, progress: Callab
     tuned_path.write_text(_yaml_header(problem, result) + tuned_path.read_text())
     tuned_params = cfg.merge(params, {"pid_controller": overlay})
 
-    values: dict[str, Any] = {"quick": int(quick), "seed": seed,
-                              "controller_type_lqr": int(problem.controller_type == "lqr"),
-                              "search_wall_s": search_s, "candidates_evaluated": result.evaluated,
-                              "candidates_robust": result.robust, "batch_duration_s": settings.duration_s,
-                              "min_gain_margin_db": MIN_GAIN_MARGIN_DB, "min_phase_margin_deg": MIN_PHASE_MARGIN_DEG,
-                              "min_delay_margin_periods": MIN_DELAY_PERIODS}
-    for name, gains, searched in (("before", before_gains, 10.0 ** problem.current_log_params()),
-                                  ("after", result.best_gains, result.best_values)):
+    values: dict[str, Any] = {
+        "quick": int(quick),
+        "seed": seed,
+        "controller_type_lqr": int(problem.controller_type == "lqr"),
+        "search_wall_s": search_s,
+        "candidates_evaluated": result.evaluated,
+        "candidates_robust": result.robust,
+        "batch_duration_s": settings.duration_s,
+        "min_gain_margin_db": MIN_GAIN_MARGIN_DB,
+        "min_phase_margin_deg": MIN_PHASE_MARGIN_DEG,
+        "min_delay_margin_periods": MIN_DELAY_PERIODS,
+    }
+    for name, gains, searched in (
+        ("before", before_gains, 10.0 ** problem.current_log_params()),
+        ("after", result.best_gains, result.best_values),
+    ):
         values.update({f"{name}_kp": gains[0], f"{name}_ki": gains[1], f"{name}_kd": gains[2]})
         if problem.controller_type == "lqr":
             for key, value in zip(("q_integral", "q_position", "q_velocity"), searched, strict=True):
@@ -419,13 +482,15 @@ def tune(params: cfg.Params, out: Path, *, quick: bool = False, progress: Callab
 
 def _yaml_header(problem: Problem, result: SearchResult) -> str:
     what = "Kp, Ki, Kd" if problem.controller_type == "pid" else "lqr_q (lqr_r unchanged)"
-    return (f"# robot-controller tune: {what} for controller_type {problem.controller_type}, feedforward "
-            f"{problem.feedforward}, chosen on the batch harness (sine RMS {result.best_rms:.3g} rad) with gain "
-            f"margin >= {MIN_GAIN_MARGIN_DB:g} dB, phase margin >= {MIN_PHASE_MARGIN_DEG:g} deg, delay margin >= "
-            f"{MIN_DELAY_PERIODS} control periods, no lower gain limit, slowest pole within "
-            f"{MAX_TIME_CONSTANT_S:g} s.\n"
-            "# Use over the same preset and files it was tuned with: "
-            "robot-controller run [--preset P] [--config F ...] --config tuned.yaml\n")
+    return (
+        f"# robot-controller tune: {what} for controller_type {problem.controller_type}, feedforward "
+        f"{problem.feedforward}, chosen on the batch harness (sine RMS {result.best_rms:.3g} rad) with gain "
+        f"margin >= {MIN_GAIN_MARGIN_DB:g} dB, phase margin >= {MIN_PHASE_MARGIN_DEG:g} deg, delay margin >= "
+        f"{MIN_DELAY_PERIODS} control periods, no lower gain limit, slowest pole within "
+        f"{MAX_TIME_CONSTANT_S:g} s.\n"
+        "# Use over the same preset and files it was tuned with: "
+        "robot-controller run [--preset P] [--config F ...] --config tuned.yaml\n"
+    )
 
 
 def _plot(path: Path, result: SearchResult, before: np.ndarray) -> None:
@@ -435,11 +500,15 @@ def _plot(path: Path, result: SearchResult, before: np.ndarray) -> None:
     history = result.history
     finite = np.isfinite(history.rms)
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.5), constrained_layout=True)
-    pairs = ((0, 2, "Kp [N·m/rad]", "Kd [N·m·s/rad]"), (0, 1, "Kp [N·m/rad]", "Ki [N·m/(rad·s)]"),
-             (2, 1, "Kd [N·m·s/rad]", "Ki [N·m/(rad·s)]"))
+    pairs = (
+        (0, 2, "Kp [N·m/rad]", "Kd [N·m·s/rad]"),
+        (0, 1, "Kp [N·m/rad]", "Ki [N·m/(rad·s)]"),
+        (2, 1, "Kd [N·m·s/rad]", "Ki [N·m/(rad·s)]"),
+    )
     for ax, (x, y, xlabel, ylabel) in zip(axes, pairs, strict=True):
-        points = ax.scatter(history.gains[finite, x], history.gains[finite, y], c=np.log10(history.rms[finite]), s=6,
-                            cmap="viridis_r")
+        points = ax.scatter(
+            history.gains[finite, x], history.gains[finite, y], c=np.log10(history.rms[finite]), s=6, cmap="viridis_r"
+        )
         ax.plot(before[x], before[y], "rs", ms=9, mfc="none", mew=2, label="before")
         ax.plot(result.best_gains[x], result.best_gains[y], "r*", ms=14, label="after")
         ax.set_xscale("log")
@@ -464,54 +533,92 @@ def _report(values: dict[str, Any], problem: Problem, result: SearchResult, quic
     searched = "the LQR weights lqr_q (lqr_r kept: only their ratio matters)" if lqr_mode else "Kp, Ki, Kd"
     rows = []
     for name in ("before", "after"):
-        weights = ([f"[{f(values[f'{name}_lqr_q_integral'])}, {f(values[f'{name}_lqr_q_position'])}, "
-                    f"{f(values[f'{name}_lqr_q_velocity'])}], {f(values[f'{name}_lqr_r'])}"] if lqr_mode else [])
-        rows.append([f"**{name}**", *weights, f(values[f"{name}_kp"]), f(values[f"{name}_ki"]),
-                     f(values[f"{name}_kd"]), f(values[f"{name}_gain_margin_db"], "{:.1f}"),
-                     f(values[f"{name}_gain_margin_low_db"], "{:.1f}"),
-                     f(values[f"{name}_phase_margin_deg"], "{:.0f}"), str(values[f"{name}_delay_margin_periods"]),
-                     "yes" if values[f"{name}_meets_constraints"] else "**no**",
-                     f(values[f"{name}_slowest_time_constant_s"], "{:.2g}"),
-                     f(values[f"batch_rms_{name}_rad"] * 1e3, "{:.3f}"),
-                     f(values[f"real_rms_{name}_rad"] * 1e3, "{:.3f}")])
-    headers = (["", *(["lqr_q, lqr_r"] if lqr_mode else []), "Kp", "Ki", "Kd", "gain margin, up [dB]",
-                "gain margin, down [dB]", "phase margin [°]", "delay margin [periods]", "meets the margins",
-                "slowest pole, τ [s]",
-                "sine RMS, batch [mrad]", "sine RMS, real graph [mrad]"])
+        weights = (
+            [
+                f"[{f(values[f'{name}_lqr_q_integral'])}, {f(values[f'{name}_lqr_q_position'])}, "
+                f"{f(values[f'{name}_lqr_q_velocity'])}], {f(values[f'{name}_lqr_r'])}"
+            ]
+            if lqr_mode
+            else []
+        )
+        rows.append(
+            [
+                f"**{name}**",
+                *weights,
+                f(values[f"{name}_kp"]),
+                f(values[f"{name}_ki"]),
+                f(values[f"{name}_kd"]),
+                f(values[f"{name}_gain_margin_db"], "{:.1f}"),
+                f(values[f"{name}_gain_margin_low_db"], "{:.1f}"),
+                f(values[f"{name}_phase_margin_deg"], "{:.0f}"),
+                str(values[f"{name}_delay_margin_periods"]),
+                "yes" if values[f"{name}_meets_constraints"] else "**no**",
+                f(values[f"{name}_slowest_time_constant_s"], "{:.2g}"),
+                f(values[f"batch_rms_{name}_rad"] * 1e3, "{:.3f}"),
+                f(values[f"real_rms_{name}_rad"] * 1e3, "{:.3f}"),
+            ]
+        )
+    headers = [
+        "",
+        *(["lqr_q, lqr_r"] if lqr_mode else []),
+        "Kp",
+        "Ki",
+        "Kd",
+        "gain margin, up [dB]",
+        "gain margin, down [dB]",
+        "phase margin [°]",
+        "delay margin [periods]",
+        "meets the margins",
+        "slowest pole, τ [s]",
+        "sine RMS, batch [mrad]",
+        "sine RMS, real graph [mrad]",
+    ]
     table = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
     table += ["| " + " | ".join(row) + " |" for row in rows]
     real_before, real_after = values["real_rms_before_rad"], values["real_rms_after_rad"]
     ratio = max(real_before, real_after) / max(min(real_before, real_after), 1e-12)
-    change = (f"the real graph's sine RMS goes from {real_before * 1e3:.3f} to {real_after * 1e3:.3f} mrad ("
-              + (f"{abs(real_after / real_before - 1) * 100:.0f} % " if ratio < 1.5 else f"a factor {ratio:.2g} ")
-              + ("better)" if real_after < real_before else "worse)"))
-    lines = ["# Automatic gain design", "",
-             f"Controller type **{problem.controller_type}**, feedforward {problem.feedforward}, derivative on "
-             f"{problem.law.derivative_source.value}, anti-windup {problem.law.anti_windup.value}, torque limit "
-             f"{problem.torque_max:g} N·m." + (" **Quick form**: a smaller search and shorter runs." if quick else ""),
-             "",
-             f"Searched: {searched} on the batch harness: {result.evaluated} gain sets in {len(result.rounds)} "
-             "rounds (a Latin hypercube over a wide log-scaled box, then samples around the best, narrower each "
-             "round), of which "
-             f"{result.robust} met every margin and were simulated ({values['batch_duration_s']:g} s of the sine "
-             f"each, the first 2 s not scored); {values['search_wall_s']:.1f} s in all.", "",
-             f"Margins required of the sampled loop (the arm linearised at rest, zero-order hold every "
-             f"{problem.dt * 1e3:g} ms, the feedback on [∫e, e, ė]): gain ≥ {MIN_GAIN_MARGIN_DB:g} dB, phase ≥ "
-             f"{MIN_PHASE_MARGIN_DEG:g}°, stable with {MIN_DELAY_PERIODS} control periods of extra delay, and "
-             "stable however much the loop gain drops (∞ dB down: saturation lowers the gain, and a loop that is "
-             "unstable at a lower gain can swing into a limit cycle when the torque saturates); and the slowest "
-             f"closed-loop pole's time constant at most {MAX_TIME_CONSTANT_S:g} s (integral action that removes a "
-             "steady load within seconds, which the sine alone does not reward).", "",
-             *table, "",
-             f"Real graph: one seeded lockstep sine run each, {values['real_duration_s']:g} sim s (2 s warm-up), RMS "
-             f"of (reference − true angle): {change}.", "", *_caveats(values),
-             "The batch figure and the real one differ where the batch is simpler than the graph: it simulates the "
-             "arm analytically and evaluates the reference at every tick (the planner's rate and the controller's "
-             "hold of a sample are not modelled); every gain set meets the same sensor noise there, a different "
-             "draw from the real run's.", "",
-             f"Use it: `robot-controller run --config {Path('tuned.yaml')}` over the same preset and files (the "
-             "file's first lines say what it was tuned for). Plot: `tune.png` (every gain set that met the margins, "
-             "coloured by its tracking error; before and after marked).", ""]
+    change = (
+        f"the real graph's sine RMS goes from {real_before * 1e3:.3f} to {real_after * 1e3:.3f} mrad ("
+        + (f"{abs(real_after / real_before - 1) * 100:.0f} % " if ratio < 1.5 else f"a factor {ratio:.2g} ")
+        + ("better)" if real_after < real_before else "worse)")
+    )
+    lines = [
+        "# Automatic gain design",
+        "",
+        f"Controller type **{problem.controller_type}**, feedforward {problem.feedforward}, derivative on "
+        f"{problem.law.derivative_source.value}, anti-windup {problem.law.anti_windup.value}, torque limit "
+        f"{problem.torque_max:g} N·m." + (" **Quick form**: a smaller search and shorter runs." if quick else ""),
+        "",
+        f"Searched: {searched} on the batch harness: {result.evaluated} gain sets in {len(result.rounds)} "
+        "rounds (a Latin hypercube over a wide log-scaled box, then samples around the best, narrower each "
+        "round), of which "
+        f"{result.robust} met every margin and were simulated ({values['batch_duration_s']:g} s of the sine "
+        f"each, the first 2 s not scored); {values['search_wall_s']:.1f} s in all.",
+        "",
+        f"Margins required of the sampled loop (the arm linearised at rest, zero-order hold every "
+        f"{problem.dt * 1e3:g} ms, the feedback on [∫e, e, ė]): gain ≥ {MIN_GAIN_MARGIN_DB:g} dB, phase ≥ "
+        f"{MIN_PHASE_MARGIN_DEG:g}°, stable with {MIN_DELAY_PERIODS} control periods of extra delay, and "
+        "stable however much the loop gain drops (∞ dB down: saturation lowers the gain, and a loop that is "
+        "unstable at a lower gain can swing into a limit cycle when the torque saturates); and the slowest "
+        f"closed-loop pole's time constant at most {MAX_TIME_CONSTANT_S:g} s (integral action that removes a "
+        "steady load within seconds, which the sine alone does not reward).",
+        "",
+        *table,
+        "",
+        f"Real graph: one seeded lockstep sine run each, {values['real_duration_s']:g} sim s (2 s warm-up), RMS "
+        f"of (reference − true angle): {change}.",
+        "",
+        *_caveats(values),
+        "The batch figure and the real one differ where the batch is simpler than the graph: it simulates the "
+        "arm analytically and evaluates the reference at every tick (the planner's rate and the controller's "
+        "hold of a sample are not modelled); every gain set meets the same sensor noise there, a different "
+        "draw from the real run's.",
+        "",
+        f"Use it: `robot-controller run --config {Path('tuned.yaml')}` over the same preset and files (the "
+        "file's first lines say what it was tuned for). Plot: `tune.png` (every gain set that met the margins, "
+        "coloured by its tracking error; before and after marked).",
+        "",
+    ]
     return "\n".join(lines)
 
 
@@ -520,6 +627,9 @@ def _caveats(values: dict[str, Any]) -> list[str]:
     tau = values["after_slowest_time_constant_s"]
     if tau is None or not math.isfinite(tau) or tau <= 1.0:
         return []
-    return [f"The objective is the sine alone. The tuned loop's slowest pole has a time constant of {tau:.3g} s "
-            "(its integral is weak): a steady load that the feedforward does not cancel (a payload, a push, gravity "
-            "without feedforward) is removed that slowly. Weigh that before using it where loads change.", ""]
+    return [
+        f"The objective is the sine alone. The tuned loop's slowest pole has a time constant of {tau:.3g} s "
+        "(its integral is weak): a steady load that the feedforward does not cancel (a payload, a push, gravity "
+        "without feedforward) is removed that slowly. Weigh that before using it where loads change.",
+        "",
+    ]

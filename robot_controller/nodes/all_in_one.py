@@ -1,13 +1,14 @@
 """All five nodes in one process on one executor (the composition mode):
 same topics, same parameters, no inter-process hops."""
+
 from __future__ import annotations
 
-from robot_controller.ros.process import run
 from robot_controller.nodes.motor_node import MotorNode
 from robot_controller.nodes.pid_controller import PidControllerNode
 from robot_controller.nodes.sensor_node import SensorNode
 from robot_controller.nodes.simulator import Simulator
 from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
+from robot_controller.ros.process import run
 
 
 def main(args: list[str] | None = None) -> int:

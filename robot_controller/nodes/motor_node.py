@@ -13,6 +13,7 @@ here) can be scored from the recording. The receipts go out once a second as
 one ``/motor/command_receipts`` message, rows of ``[receipt_time_s,
 command…]``: a summary instead of a message per tick on the loop's path.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -58,14 +59,18 @@ class MotorNode(StackNode):
         self.receipts: list[float] = []  # flat rows of [receipt_time_s, command…]
         self.receipts_pub = GatedPublisher(self, Float64MultiArray, "/motor/command_receipts", consumer=False)
         self.create_timer(RECEIPTS_PERIOD_S, self.publish_receipts)
-        self.get_logger().info(f"motor: torque limit ±{self.actuator.torque_max.tolist()} N·m, "
-                               f"lag {self.actuator.lag_time_constant_s:g} s")
+        self.get_logger().info(
+            f"motor: torque limit ±{self.actuator.torque_max.tolist()} N·m, "
+            f"lag {self.actuator.lag_time_constant_s:g} s"
+        )
 
     def _make_actuator(self, params: dict) -> Actuator:
         torque_max = cfg.per_joint("torque_max", params["torque_max"], self.joint_count)
         if np.any(torque_max > self.effort_limit):
-            raise ConfigError(f"torque_max: {torque_max.tolist()} N·m exceeds the URDF's effort limit "
-                              f"{self.effort_limit.tolist()} N·m (it may lower the drive's limit, never raise it)")
+            raise ConfigError(
+                f"torque_max: {torque_max.tolist()} N·m exceeds the URDF's effort limit "
+                f"{self.effort_limit.tolist()} N·m (it may lower the drive's limit, never raise it)"
+            )
         return Actuator(torque_max, params["lag_time_constant_s"])
 
     def setup(self, params: dict) -> None:
@@ -113,8 +118,9 @@ class MotorNode(StackNode):
             self.excused_s += own_gap_s - check_period_s
         silent_s = now_s - self.last_command_s - self.excused_s
         if silent_s > self.params["command_timeout_s"]:
-            self.get_logger().warning(f"no valid /joint_commands for {silent_s * 1e3:.0f} ms: zero torque, brake "
-                                      "requested (category 0)")
+            self.get_logger().warning(
+                f"no valid /joint_commands for {silent_s * 1e3:.0f} ms: zero torque, brake " "requested (category 0)"
+            )
             self.stop("timeout")
 
     def stop(self, reason: str) -> None:
@@ -147,9 +153,10 @@ class MotorNode(StackNode):
             return
         row = 1 + self.joint_count
         msg = Float64MultiArray()
-        msg.layout.dim = [MultiArrayDimension(label="commands", size=len(self.receipts) // row,
-                                              stride=len(self.receipts)),
-                          MultiArrayDimension(label="receipt_time_s,command", size=row, stride=row)]
+        msg.layout.dim = [
+            MultiArrayDimension(label="commands", size=len(self.receipts) // row, stride=len(self.receipts)),
+            MultiArrayDimension(label="receipt_time_s,command", size=row, stride=row),
+        ]
         msg.data = self.receipts
         self.receipts = []
         self.receipts_pub.publish(msg)

@@ -17,15 +17,16 @@ Longer than our ~250-line guideline: one node, one file (the ros2/examples
 habit), with its two triggers, the lockstep pairing of readings with ticks
 and its loop-health report; every decision about torque is in the core.
 """
+
 from __future__ import annotations
 
 import time
 from typing import Any
 
 import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
@@ -41,7 +42,6 @@ from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS
 from robot_controller.ros.stack_node import StackNode
 from robot_controller.ros.stamps import stamp_to_s
 
-
 # Readings naming other joints for this long, none usable yet: a configuration mismatch.
 CONFIG_MISMATCH_S = 2.0
 # Lockstep: how long (wall) a tick waits for a reference sample before using the latest.
@@ -51,8 +51,9 @@ REFERENCE_WAIT_S = 0.3
 class PidControllerNode(StackNode):
     def __init__(self) -> None:
         super().__init__("pid_controller")
-        self.controller = JointController(cfg.controller_config(self.params, self.joint_count), self.joint_count,
-                                          self.dynamics)
+        self.controller = JointController(
+            cfg.controller_config(self.params, self.joint_count), self.joint_count, self.dynamics
+        )
         self.lockstep = self.params["lockstep"]
         self.command_pub = GatedPublisher(self, Float64MultiArray, "/joint_commands")
         self.state_pub = GatedPublisher(self, Float64MultiArray, "/controller/state", consumer=False)
@@ -85,10 +86,12 @@ class PidControllerNode(StackNode):
         self.window_latency: list[float] = []
         self.command_msg = Float64MultiArray()
         self.state_msg = Float64MultiArray()
-        self.state_msg.layout.dim = (
-            [MultiArrayDimension(label=name, size=1, stride=1) for name in state_layout.HEADER]
-            + [MultiArrayDimension(label=name, size=self.joint_count, stride=self.joint_count)
-               for name in state_layout.FIELDS])
+        self.state_msg.layout.dim = [
+            MultiArrayDimension(label=name, size=1, stride=1) for name in state_layout.HEADER
+        ] + [
+            MultiArrayDimension(label=name, size=self.joint_count, stride=self.joint_count)
+            for name in state_layout.FIELDS
+        ]
         self.next_log_s = -np.inf
         self.log_gains()
 
@@ -97,11 +100,14 @@ class PidControllerNode(StackNode):
         and how much unaccounted delay they survive: in the log and as ``law_in_force``."""
         margin = self.controller.delay_margin_periods()
         rate_hz = self.params["control_rate_hz"]
-        in_force = (f"{self.controller.law_in_force()}; delay margin {margin} control periods "
-                    f"({margin * 1e3 / rate_hz:g} ms) beyond what the stamps show")
+        in_force = (
+            f"{self.controller.law_in_force()}; delay margin {margin} control periods "
+            f"({margin * 1e3 / rate_hz:g} ms) beyond what the stamps show"
+        )
         self.report("law_in_force", in_force, "the control law and its gains in force, as designed")
-        self.get_logger().info(f"{in_force}; at {rate_hz:g} Hz on {self.joint_names}"
-                               + (", lockstep" if self.lockstep else ""))
+        self.get_logger().info(
+            f"{in_force}; at {rate_hz:g} Hz on {self.joint_names}" + (", lockstep" if self.lockstep else "")
+        )
 
     def setup(self, params: dict[str, Any]) -> None:
         # The arm model: the URDF's, or the model_* values over it (read-only: fixed at start).
@@ -177,9 +183,11 @@ class PidControllerNode(StackNode):
         now = time.monotonic()
         self.mismatch_since = self.mismatch_since or now
         if now - self.mismatch_since > CONFIG_MISMATCH_S:
-            raise ConfigError(f"joint names disagree: /joint_states (the simulator's URDF) has {names}, "
-                              f"pid_controller's URDF ({self.params['urdf_path'] or 'the reference arm'}) has "
-                              f"{self.joint_names}")
+            raise ConfigError(
+                f"joint names disagree: /joint_states (the simulator's URDF) has {names}, "
+                f"pid_controller's URDF ({self.params['urdf_path'] or 'the reference arm'}) has "
+                f"{self.joint_names}"
+            )
 
     def trajectory_callback(self, msg: Float64MultiArray) -> None:
         checked = check_trajectory(msg.data, self.joint_count)
@@ -233,8 +241,11 @@ class PidControllerNode(StackNode):
             self.warn_throttled("first_reference", "lockstep: waiting for the first /trajectory sample")
             return
         if time.monotonic() - self.pending_since > REFERENCE_WAIT_S:
-            self.warn_throttled("reference_wait", f"lockstep: no reference sample for t={self.pending_tick_s:.3f} s "
-                                f"after {REFERENCE_WAIT_S:g} s; using the latest")
+            self.warn_throttled(
+                "reference_wait",
+                f"lockstep: no reference sample for t={self.pending_tick_s:.3f} s "
+                f"after {REFERENCE_WAIT_S:g} s; using the latest",
+            )
             tick_s, self.pending_tick_s = self.pending_tick_s, None
             self.tick(tick_s)
 
@@ -275,25 +286,35 @@ class PidControllerNode(StackNode):
             self.next_log_s = now_s + self.params["log_period_s"]
             self.get_logger().info(
                 f"target={_fmt(out.reference)}, actual={_fmt(out.measured)}, error={_fmt(out.error)}, "
-                f"torque={_fmt(out.command)}")
+                f"torque={_fmt(out.command)}"
+            )
 
     def report_status(self, status: Status) -> None:
         """One log line when the loop's state changes (faults, stops, recovery)."""
         config = self.controller.config
         before, self.last_status = self.last_status, status
         lines = {
-            Status.WATCHDOG: ("warning", f"no valid /joint_states for over {config.watchdog_periods} periods: "
-                              "controlled stop on the arm model's estimate (category 2)"),
-            Status.SENSOR_LOST: ("warning", f"no valid /joint_states for {config.sensor_timeout_s:g} s: no more "
-                                 "commands, torque off, the brake holds (category 1)"),
+            Status.WATCHDOG: (
+                "warning",
+                f"no valid /joint_states for over {config.watchdog_periods} periods: "
+                "controlled stop on the arm model's estimate (category 2)",
+            ),
+            Status.SENSOR_LOST: (
+                "warning",
+                f"no valid /joint_states for {config.sensor_timeout_s:g} s: no more "
+                "commands, torque off, the brake holds (category 1)",
+            ),
             Status.REFERENCE_LOST: ("warning", "no /trajectory sample for too long: controlled stop, holding"),
             Status.STOPPED: ("warning", "e-stop: not commanding until it is released"),
-            Status.REACQUIRING: ("info", "fault cleared: re-acquiring from the measurement, blending back onto "
-                                 "the trajectory"),
+            Status.REACQUIRING: (
+                "info",
+                "fault cleared: re-acquiring from the measurement, blending back onto " "the trajectory",
+            ),
         }
         if status in (Status.REACQUIRING, Status.OK) and before in (None, Status.HOLDING):
-            self.get_logger().info("first reading and reference: leading the arm from where it is onto the "
-                                   "trajectory")
+            self.get_logger().info(
+                "first reading and reference: leading the arm from where it is onto the " "trajectory"
+            )
             return
         if status in lines:
             # One call site per severity: rclpy's logger refuses two at one site.
@@ -308,10 +329,22 @@ class PidControllerNode(StackNode):
     def publish_state(self, out: ControlOutput) -> None:
         terms = out.terms
         self.state_msg.data = state_layout.encode(
-            out.time_s, out.status.value, self.controller.measurement_stamp_s, self.joint_count, {
-                "reference": out.reference, "measured": out.measured, "error": out.error, "p": terms.p,
-                "i": terms.i, "d": terms.d, "feedforward": terms.feedforward, "command": terms.command,
-                "saturated": terms.saturated})
+            out.time_s,
+            out.status.value,
+            self.controller.measurement_stamp_s,
+            self.joint_count,
+            {
+                "reference": out.reference,
+                "measured": out.measured,
+                "error": out.error,
+                "p": terms.p,
+                "i": terms.i,
+                "d": terms.d,
+                "feedforward": terms.feedforward,
+                "command": terms.command,
+                "saturated": terms.saturated,
+            },
+        )
         self.state_pub.publish(self.state_msg)
 
     # --- loop health ------------------------------------------------------------------

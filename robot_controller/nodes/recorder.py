@@ -15,6 +15,7 @@ nodes stop first), closes the bag and prints the final counts.
 
     python -m robot_controller.nodes.recorder BAG_DIR [--sim-time]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -40,8 +41,12 @@ from robot_controller.ros.publishing import RECORDER_NODE
 
 # Reliable with a deep queue: the recorder runs below the loop and may be
 # late for a moment, but must not lose what it is late for.
-RECORDER_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
-                          history=HistoryPolicy.KEEP_LAST, depth=1000)
+RECORDER_QOS = QoSProfile(
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1000,
+)
 
 # topic → (ROS message class, rosbag2 type name)
 TOPICS = {
@@ -104,8 +109,7 @@ class Recorder:
         typestore = get_typestore(Stores.ROS2_JAZZY)
         for topic, (msg_class, type_name) in topics_for(sim_time).items():
             connection = self.writer.add_connection(topic, type_name, typestore=typestore)
-            self.node.create_subscription(msg_class, topic, self._callback(topic, connection), RECORDER_QOS,
-                                          raw=True)
+            self.node.create_subscription(msg_class, topic, self._callback(topic, connection), RECORDER_QOS, raw=True)
 
     def _callback(self, topic: str, connection):
         write = self.writer.write
@@ -137,8 +141,9 @@ class Recorder:
         storage.bio.flush()
 
     def progress(self) -> str:
-        return PROGRESS_PREFIX + json.dumps({"counts": self.counts, "clock_s": self.clock_ns * 1e-9,
-                                             "oversize": self.oversize})
+        return PROGRESS_PREFIX + json.dumps(
+            {"counts": self.counts, "clock_s": self.clock_ns * 1e-9, "oversize": self.oversize}
+        )
 
     def close(self) -> None:
         self.writer.close()
@@ -173,8 +178,7 @@ def main(argv: list[str] | None = None) -> int:
         # The nodes stop first; take what is still in flight.
         stopped = time.monotonic()
         deadline = stopped + DRAIN_MAX_S
-        while (time.monotonic() - max(recorder.last_message, stopped) < DRAIN_QUIET_S
-               and time.monotonic() < deadline):
+        while time.monotonic() - max(recorder.last_message, stopped) < DRAIN_QUIET_S and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
     finally:
         executor.shutdown(timeout_sec=1.0)

@@ -8,6 +8,7 @@ phase delay in wall-clock mode, and one sample per tick, deterministic, in
 lockstep. With ``delay_s``, each reading is the sample from that long
 before, stamped with its own time (a slow bus, honestly timestamped).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -46,7 +47,8 @@ class SensorNode(StackNode):
         self.get_logger().info(
             f"sensor at {self.params['rate_hz']:g} Hz: σ position {self.sensor.position_noise_std:g} rad, "
             f"σ velocity {self.sensor.velocity_noise_std:g} rad/s, seed {seed}"
-            + (f", {self.sensor.delay_s * 1e3:g} ms late" if self.sensor.delay_s else ""))
+            + (f", {self.sensor.delay_s * 1e3:g} ms late" if self.sensor.delay_s else "")
+        )
 
     def check_params(self, params: dict) -> None:
         cfg.sensor_config(params)
@@ -64,8 +66,11 @@ class SensorNode(StackNode):
             # Far behind the grid: the last sample's stamp was bogus (one from the far
             # future) or the simulator started again: follow the stamps from here.
             behind_s = self.next_sample_s - stamp_s
-            self.warn_throttled("resync", f"/sim/joint_states stamp {stamp_s:.3f} s is {behind_s:.3f} s behind the "
-                                "sampling grid: re-synchronised")
+            self.warn_throttled(
+                "resync",
+                f"/sim/joint_states stamp {stamp_s:.3f} s is {behind_s:.3f} s behind the "
+                "sampling grid: re-synchronised",
+            )
         if self.joint_names is None:
             self.joint_names = list(msg.name)
         checked = check_joint_state(msg.name, msg.position, msg.velocity, self.joint_names)

@@ -37,6 +37,7 @@ Longer than our ~250-line guideline: one node, one file (the ros2/examples
 habit), and a drive's three modes (paced, lockstep, braked) share its state.
 The physics is ``core.plant``; the kept arm state is ``world_state``.
 """
+
 from __future__ import annotations
 
 import os
@@ -53,15 +54,14 @@ from std_srvs.srv import SetBool
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.ros import scheduling
 from robot_controller.core.plant import MAX_DISTURBANCE_NM, MujocoPlant, check_disturbance, steps_per_period
 from robot_controller.core.validation import check_effort
-from robot_controller.nodes.world_state import WORLD_STATE_ENV
+from robot_controller.nodes.world_state import WORLD_STATE_ENV, WorldState
+from robot_controller.ros import scheduling
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import CLOCK_QOS, ESTOP_QOS, LATCHED_QOS, LATEST_QOS
 from robot_controller.ros.stack_node import StackNode
-from robot_controller.nodes.world_state import WorldState
 
 # Catch up at most this many physics steps in one callback; beyond, the sim
 # runs slower than real time rather than jumping.
@@ -83,8 +83,10 @@ class Simulator(StackNode):
         self.world = WorldState.open(os.environ.get(WORLD_STATE_ENV, ""), self.joint_count)
         if self.world is not None and self.world.resumed is not None:
             self.plant.reset(self.world.resumed)
-            self.get_logger().warning(f"respawned: the arm is where it was, at {self.world.resumed.tolist()} rad, "
-                                      "brakes on until the first command")
+            self.get_logger().warning(
+                f"respawned: the arm is where it was, at {self.world.resumed.tolist()} rad, "
+                "brakes on until the first command"
+            )
         self.effort = np.zeros(self.joint_count)
         self.steps_done = 0
         self.physics_dt_ns = round(self.plant.physics_dt * 1e9)
@@ -109,8 +111,9 @@ class Simulator(StackNode):
         self.last_effort_mono_ns = 0
         self.brakes_pub = GatedPublisher(self, Float64MultiArray, "/sim/brakes", consumer=False)
         self.brakes_msg = Float64MultiArray()
-        self.brakes_msg.layout.dim = [MultiArrayDimension(label="engaged", size=self.joint_count,
-                                                          stride=self.joint_count)]
+        self.brakes_msg.layout.dim = [
+            MultiArrayDimension(label="engaged", size=self.joint_count, stride=self.joint_count)
+        ]
         self.next_brakes_report_ns = 0
         self.create_subscription(Bool, "/sim/brake", self.brake_request_callback, LATCHED_QOS)
         self.brake_request_heard = False
@@ -124,7 +127,8 @@ class Simulator(StackNode):
         self.disturbance_msg = Float64MultiArray()
         self.disturbance_msg.layout.dim = [
             MultiArrayDimension(label="torque_nm", size=self.joint_count, stride=self.joint_count),
-            MultiArrayDimension(label="time_s", size=1, stride=1)]
+            MultiArrayDimension(label="time_s", size=1, stride=1),
+        ]
         self.disturbance_on = False  #: one is being applied (for the INFO line when it ends)
         self.disturbance_started_s = 0.0  #: physics time it started and ends at
         self.disturbance_ends_s = 0.0
@@ -137,8 +141,9 @@ class Simulator(StackNode):
             self.clock_pub = GatedPublisher(self, ClockMsg, "/clock", consumer=False, qos=CLOCK_QOS)
             self.clock_msg = ClockMsg()
             self.waiting_for_effort = False
-            self.start_poll = self.create_timer(0.05, self.start_lockstep,
-                                                clock=Clock(clock_type=ClockType.STEADY_TIME))
+            self.start_poll = self.create_timer(
+                0.05, self.start_lockstep, clock=Clock(clock_type=ClockType.STEADY_TIME)
+            )
         else:
             if not p["wait_for_first_command"]:
                 self.release_brakes()
@@ -154,9 +159,13 @@ class Simulator(StackNode):
             self.pacer.start()
         self.get_logger().info(
             f"MuJoCo arm {self.plant.joint_names} at {p['physics_rate_hz']:g} Hz physics, "
-            + (f"lockstep at {p['control_rate_hz']:g} Hz on /clock" if self.lockstep else
-               f"true state at {p['publish_rate_hz']:g} Hz, paced on absolute deadlines"
-               + (", brakes on until the first command" if p["wait_for_first_command"] else "")))
+            + (
+                f"lockstep at {p['control_rate_hz']:g} Hz on /clock"
+                if self.lockstep
+                else f"true state at {p['publish_rate_hz']:g} Hz, paced on absolute deadlines"
+                + (", brakes on until the first command" if p["wait_for_first_command"] else "")
+            )
+        )
 
     def check_params(self, params: dict) -> None:
         steps_per_period(1.0 / params["physics_rate_hz"], 1.0 / params["publish_rate_hz"])
@@ -175,8 +184,10 @@ class Simulator(StackNode):
             return
         limit = self.plant.effort_limit
         if np.any(np.abs(checked) > limit):
-            self.warn_throttled("effort_limit", f"/sim/effort {checked.tolist()} beyond the URDF's effort limit "
-                                f"{limit.tolist()}: clamped")
+            self.warn_throttled(
+                "effort_limit",
+                f"/sim/effort {checked.tolist()} beyond the URDF's effort limit " f"{limit.tolist()}: clamped",
+            )
             checked = np.clip(checked, -limit, limit)
         if self.lockstep:
             self.lockstep_effort(checked)
@@ -212,8 +223,10 @@ class Simulator(StackNode):
             return
         torque, duration_s = checked
         if np.any(np.abs(torque) > MAX_DISTURBANCE_NM):
-            self.warn_throttled("disturbance_limit", f"/sim/disturbance {torque.tolist()} N·m beyond "
-                                f"{MAX_DISTURBANCE_NM:g} N·m per joint: capped")
+            self.warn_throttled(
+                "disturbance_limit",
+                f"/sim/disturbance {torque.tolist()} N·m beyond " f"{MAX_DISTURBANCE_NM:g} N·m per joint: capped",
+            )
             torque = np.clip(torque, -MAX_DISTURBANCE_NM, MAX_DISTURBANCE_NM)
         with self.lock:
             if not self.lockstep and self.anchor_mono_ns is not None:
@@ -227,8 +240,11 @@ class Simulator(StackNode):
         if self.scheduled_disturbance_done or self.plant.time_s + 1e-9 < self.params["disturbance_start_s"]:
             return
         self.scheduled_disturbance_done = True
-        torque = np.clip(cfg.per_joint("disturbance_torque_nm", self.params["disturbance_torque_nm"],
-                                       self.joint_count), -MAX_DISTURBANCE_NM, MAX_DISTURBANCE_NM)
+        torque = np.clip(
+            cfg.per_joint("disturbance_torque_nm", self.params["disturbance_torque_nm"], self.joint_count),
+            -MAX_DISTURBANCE_NM,
+            MAX_DISTURBANCE_NM,
+        )
         if np.any(torque != 0.0):
             self.start_disturbance(torque, self.params["disturbance_duration_s"])
 
@@ -240,16 +256,17 @@ class Simulator(StackNode):
         if not self.plant.disturbance_active:
             if replaced:
                 self.disturbance_on = False
-                self.get_logger().info(f"disturbance ended at physics t = {now_s:.3f} s (after "
-                                       f"{now_s - self.disturbance_started_s:.3f} s): replaced by a zero one")
+                self.get_logger().info(
+                    f"disturbance ended at physics t = {now_s:.3f} s (after "
+                    f"{now_s - self.disturbance_started_s:.3f} s): replaced by a zero one"
+                )
             else:
                 self.get_logger().info("disturbance of zero torque or duration received: nothing to apply")
             return
         self.disturbance_on = True
         self.disturbance_started_s = now_s
         self.disturbance_ends_s = now_s + self.plant.disturbance_remaining_s
-        joints = ", ".join(f"{name} {value:g}"
-                           for name, value in zip(self.plant.joint_names, torque, strict=True))
+        joints = ", ".join(f"{name} {value:g}" for name, value in zip(self.plant.joint_names, torque, strict=True))
         notes = []
         if replaced:
             notes.append("replacing the one in force")
@@ -257,15 +274,19 @@ class Simulator(StackNode):
             notes.append("brakes on: they hold against it")
         if not self.lockstep and self.anchor_mono_ns is None:
             notes.append("acting once the physics runs (first command)")
-        self.get_logger().info(f"disturbance started: {joints} N·m for {duration_s:g} s from physics "
-                               f"t = {now_s:.3f} s" + (f" ({'; '.join(notes)})" if notes else ""))
+        self.get_logger().info(
+            f"disturbance started: {joints} N·m for {duration_s:g} s from physics "
+            f"t = {now_s:.3f} s" + (f" ({'; '.join(notes)})" if notes else "")
+        )
 
     def note_disturbance_end(self) -> None:
         """After the physics stepped (lock held): say when a disturbance has run its course."""
         if self.disturbance_on and not self.plant.disturbance_active:
             self.disturbance_on = False
-            self.get_logger().info(f"disturbance ended at physics t = {self.disturbance_ends_s:.3f} s (applied "
-                                   f"for {self.disturbance_ends_s - self.disturbance_started_s:.3f} s)")
+            self.get_logger().info(
+                f"disturbance ended at physics t = {self.disturbance_ends_s:.3f} s (applied "
+                f"for {self.disturbance_ends_s - self.disturbance_started_s:.3f} s)"
+            )
 
     # --- brakes -------------------------------------------------------------------
 
@@ -292,8 +313,11 @@ class Simulator(StackNode):
         with self.lock:
             self.brake_request_heard = True
             if bool(msg.data) != ("requested" in self.brake_reasons):
-                self.get_logger().warning("brake requested by the motor: torque off, brakes on" if msg.data
-                                          else "motor released its brake request")
+                self.get_logger().warning(
+                    "brake requested by the motor: torque off, brakes on"
+                    if msg.data
+                    else "motor released its brake request"
+                )
             self.set_brake("requested", bool(msg.data))
 
     def estop_callback(self, msg: Bool) -> None:
@@ -312,8 +336,11 @@ class Simulator(StackNode):
             if self.anchor_mono_ns is not None and not self.lockstep:
                 self.advance(time.monotonic_ns())
             self.set_brake("estop", on)
-        self.get_logger().warning("E-STOP: torque off, brakes on (latched until released)" if on
-                                  else "e-stop released: brakes release when efforts arrive")
+        self.get_logger().warning(
+            "E-STOP: torque off, brakes on (latched until released)"
+            if on
+            else "e-stop released: brakes release when efforts arrive"
+        )
         if not on:
             with self.lock:
                 # Released, the brakes wait for the drive's next effort.
@@ -350,17 +377,24 @@ class Simulator(StackNode):
                         # Longer, and the efforts waiting are as old: resume braked (the arm
                         # holds from here), until a fresh one arrives.
                         self.set_brake("drive_timeout", True)
-                        self.warn_throttled("own_gap", f"this simulator did not run for {gap_ns * 1e-9:.2f} s: "
-                                            "resuming with the brakes on")
+                        self.warn_throttled(
+                            "own_gap",
+                            f"this simulator did not run for {gap_ns * 1e-9:.2f} s: " "resuming with the brakes on",
+                        )
                 if self.anchor_mono_ns is None:
                     stamp_ns = self.get_clock().now().nanoseconds  # brakes on: the arm holds still
                 else:
-                    if now_ns - self.last_effort_mono_ns > self.drive_timeout_ns and \
-                            "drive_timeout" not in self.brake_reasons:
+                    if (
+                        now_ns - self.last_effort_mono_ns > self.drive_timeout_ns
+                        and "drive_timeout" not in self.brake_reasons
+                    ):
                         self.advance(now_ns)
                         self.set_brake("drive_timeout", True)
-                        self.warn_throttled("drive_timeout", f"no effort for over {self.params['drive_timeout_s']:g} "
-                                            "s: torque off, brakes on (category 0)")
+                        self.warn_throttled(
+                            "drive_timeout",
+                            f"no effort for over {self.params['drive_timeout_s']:g} "
+                            "s: torque off, brakes on (category 0)",
+                        )
                     # Step to the deadline (not to now): the state is that of the grid point.
                     self.advance(max(deadline_ns, self.anchor_mono_ns))
                     stamp_ns = self.anchor_ros_ns + self.steps_done * self.physics_dt_ns
@@ -380,8 +414,9 @@ class Simulator(StackNode):
                 self.late_wakeups += 1
             if rt_priority is not None and scheduling.demoted.is_set():
                 rt_priority = None
-                self.get_logger().warning("pacing thread used its real-time CPU budget without sleeping: "
-                                          "back to normal scheduling")
+                self.get_logger().warning(
+                    "pacing thread used its real-time CPU budget without sleeping: " "back to normal scheduling"
+                )
             deadline_ns = base + ((max(deadline_ns, now_ns) - base) // period_ns + 1) * period_ns
 
     def advance(self, until_mono_ns: int) -> None:
@@ -463,8 +498,10 @@ class Simulator(StackNode):
     def destroy_node(self) -> None:
         self.finish()
         if self.lockstep:
-            self.get_logger().info(f"lockstep: {self.ticks_published} ticks published, {self.efforts_applied} "
-                                   f"efforts applied, t = {self.steps_done * self.plant.physics_dt:.3f} s")
+            self.get_logger().info(
+                f"lockstep: {self.ticks_published} ticks published, {self.efforts_applied} "
+                f"efforts applied, t = {self.steps_done * self.plant.physics_dt:.3f} s"
+            )
         super().destroy_node()
 
 

@@ -18,6 +18,7 @@ warning naming the numbers and the factor; ``refuse`` refuses it (at start,
 or as a parameter change); ``ignore`` only warns. The same applies to every
 parameter change.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -56,35 +57,46 @@ class TrajectoryPlanner(StackNode):
         self.clock_s = 0.0  # lockstep: the latest /clock (time is 0 until the first)
         self.msg = Float64MultiArray()
         n = p["joint_count"]
-        self.msg.layout.dim = [MultiArrayDimension(label=name, size=n, stride=n)
-                               for name in ("position", "velocity", "acceleration")]
+        self.msg.layout.dim = [
+            MultiArrayDimension(label=name, size=n, stride=n) for name in ("position", "velocity", "acceleration")
+        ]
         self.msg.layout.dim.append(MultiArrayDimension(label="time_s", size=1, stride=1))
         self.timer = None
         if p["lockstep"]:
             self.create_subscription(ClockMsg, "/clock", self.clock_callback, CONTROL_QOS)
             # Before the first /clock the time is 0: poll (on the wall clock) for the controller.
-            self.start_poll = self.create_timer(0.05, lambda: self.sample_at(self.clock_s),
-                                                clock=Clock(clock_type=ClockType.STEADY_TIME))
+            self.start_poll = self.create_timer(
+                0.05, lambda: self.sample_at(self.clock_s), clock=Clock(clock_type=ClockType.STEADY_TIME)
+            )
         else:
             self.timer = self.create_timer(1.0 / p["publish_rate_hz"], lambda: self.sample_at(self.now_s()))
-        self.get_logger().info(f"trajectory: {p['mode']}, amplitude {p['amplitude']} rad, "
-                               f"{p['frequency_hz']:g} Hz, published at {p['publish_rate_hz']:g} Hz"
-                               + (", lockstep" if p["lockstep"] else "") + self._slowed())
+        self.get_logger().info(
+            f"trajectory: {p['mode']}, amplitude {p['amplitude']} rad, "
+            f"{p['frequency_hz']:g} Hz, published at {p['publish_rate_hz']:g} Hz"
+            + (", lockstep" if p["lockstep"] else "")
+            + self._slowed()
+        )
 
     def setup(self, params: dict[str, Any]) -> None:
         self.dynamics = ArmDynamics(resources.resolve_urdf(params["urdf_path"]))
         if len(self.dynamics.joint_names) != params["joint_count"]:
-            raise ConfigError(f"joint_count {params['joint_count']} but the URDF has "
-                              f"{len(self.dynamics.joint_names)} joint(s)")
+            raise ConfigError(
+                f"joint_count {params['joint_count']} but the URDF has " f"{len(self.dynamics.joint_names)} joint(s)"
+            )
 
     def _planned(self, params: dict[str, Any]) -> feasibility.Plan:
         """The trajectory the values describe, slowed if it must be (``ConfigError`` if it is refused)."""
         key = tuple(sorted((name, repr(value)) for name, value in params.items()))  # checked once per change
         if key != self._plan_key:
             trajectory = make_trajectory(params["mode"], **cfg.trajectory_kwargs(params))
-            self._plan = feasibility.plan(trajectory, self.dynamics, params["torque_max"],
-                                          margin=params["feasibility_margin"], policy=params["feasibility"],
-                                          what=params["mode"])
+            self._plan = feasibility.plan(
+                trajectory,
+                self.dynamics,
+                params["torque_max"],
+                margin=params["feasibility_margin"],
+                policy=params["feasibility"],
+                what=params["mode"],
+            )
             self._plan_key = key
         assert self._plan is not None
         return self._plan

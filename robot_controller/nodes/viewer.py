@@ -19,6 +19,7 @@ could open early is open. Listed there, it subscribes to everything at once.
 
     python -m robot_controller.nodes.viewer --rrd DIR/view.rrd --port 9090 [--urdf FILE] [--control-rate HZ]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -87,8 +88,7 @@ class Viewer:
         self.order: list[int] | None = None  #: indices of the stack's joints in the JointState names
         self.node.create_subscription(Float64MultiArray, "/controller/state", self._state, self.qos, raw=True)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._diagnostics, self.qos)
-        self.node.create_subscription(Float64MultiArray, "/motor/command_receipts", self._receipts, self.qos,
-                                      raw=True)
+        self.node.create_subscription(Float64MultiArray, "/motor/command_receipts", self._receipts, self.qos, raw=True)
         if VIEWER_NODE in OBSERVER_NODES:  # no gate takes the viewer for a consumer: listen to all at once
             self.subscribe_loop()
 
@@ -187,8 +187,12 @@ def _observer_qos():
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
     # Best effort: the writers never wait for, nor resend to, the viewer.
-    return QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE,
-                      history=HistoryPolicy.KEEP_LAST, depth=QUEUE_DEPTH)
+    return QoSProfile(
+        reliability=ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.VOLATILE,
+        history=HistoryPolicy.KEEP_LAST,
+        depth=QUEUE_DEPTH,
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -223,8 +227,7 @@ def main(argv: list[str] | None = None) -> int:
     # One recording, two streams: to the browser every flush, to the file in larger chunks.
     recording_id = str(uuid.uuid4())
     live, saved = serving.open_recording(recording_id), serving.open_recording(recording_id)
-    uri = serving.set_sinks(live, rrd=None, serve=True, blueprint=layout.blueprint(arm, live=True),
-                            newest_first=True)
+    uri = serving.set_sinks(live, rrd=None, serve=True, blueprint=layout.blueprint(arm, live=True), newest_first=True)
     # The file gets few chunks (FILE_PERIOD_S), so its footer (a line per chunk, kept in memory until the
     # end) stays small; a viewer killed before writing it leaves a file that still reads.
     serving.set_sinks(saved, rrd=args.rrd, serve=False, blueprint=layout.blueprint(arm, live=True))
@@ -234,8 +237,12 @@ def main(argv: list[str] | None = None) -> int:
     web = serving.serve_web(uri, args.port)
     print(f"{READY_PREFIX}{serving.page_url(args.port)} (data: {uri}; saved to {args.rrd})", flush=True)
 
-    viewer.feed = feed = ViewFeed([Outlet(live, SERIES_PERIOD_S, FLUSH_PERIOD_S), Outlet(saved, FILE_PERIOD_S)],
-                                  arm, nominal_period_s=1.0 / args.control_rate, live=True)
+    viewer.feed = feed = ViewFeed(
+        [Outlet(live, SERIES_PERIOD_S, FLUSH_PERIOD_S), Outlet(saved, FILE_PERIOD_S)],
+        arm,
+        nominal_period_s=1.0 / args.control_rate,
+        live=True,
+    )
     executor = make_executor(context)
     executor.add_node(viewer.node)
     next_flush = time.monotonic()

@@ -5,6 +5,7 @@ drive restarting does not teleport the arm).
 Written on every pacing tick: a store into shared memory, no system call,
 and what the dead process last wrote is still in the page cache.
 """
+
 from __future__ import annotations
 
 from pathlib import Path

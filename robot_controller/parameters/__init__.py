@@ -5,12 +5,40 @@ configs built from values (``builders``) and the whole-configuration check
 
 The names most callers need are importable from the package itself.
 """
+
 from robot_controller.parameters.builders import controller_config, sensor_config, trajectory_kwargs
-from robot_controller.parameters.files import (Params, available_presets, check_complete, load_stack, merge,
-                                               params_yaml, read_params_file, write_params_file)
+from robot_controller.parameters.files import (
+    Params,
+    available_presets,
+    check_complete,
+    load_stack,
+    merge,
+    params_yaml,
+    read_params_file,
+    write_params_file,
+)
 from robot_controller.parameters.schema import NODES, ROS_BUILTIN, SCHEMA, URDF, defaults, has, spec_of
 from robot_controller.parameters.spec import ParamSpec, per_joint
 
-__all__ = ["NODES", "ROS_BUILTIN", "SCHEMA", "URDF", "ParamSpec", "Params", "available_presets", "check_complete",
-           "controller_config", "defaults", "has", "load_stack", "merge", "params_yaml", "per_joint", "read_params_file",
-           "sensor_config", "spec_of", "trajectory_kwargs", "write_params_file"]
+__all__ = [
+    "NODES",
+    "ROS_BUILTIN",
+    "SCHEMA",
+    "URDF",
+    "ParamSpec",
+    "Params",
+    "available_presets",
+    "check_complete",
+    "controller_config",
+    "defaults",
+    "has",
+    "load_stack",
+    "merge",
+    "params_yaml",
+    "per_joint",
+    "read_params_file",
+    "sensor_config",
+    "spec_of",
+    "trajectory_kwargs",
+    "write_params_file",
+]

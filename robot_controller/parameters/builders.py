@@ -1,4 +1,5 @@
 """The core's configuration objects built from a node's parameter values."""
+
 from __future__ import annotations
 
 from collections.abc import Mapping
@@ -42,9 +43,13 @@ def arm_model(values: Mapping[str, Any]) -> ArmDynamics | JointArmModel:
         return dynamics
     n = len(dynamics.joint_names)
     given = {key: per_joint(key, values[key], n) if _given(values.get(key)) else None for key in MODEL_KEYS}
-    return JointArmModel.over_urdf(dynamics, inertia=given["model_inertia"], damping=given["model_damping"],
-                                   coulomb_friction=given["model_coulomb_friction"],
-                                   gravity_torque=given["model_gravity_torque"])
+    return JointArmModel.over_urdf(
+        dynamics,
+        inertia=given["model_inertia"],
+        damping=given["model_damping"],
+        coulomb_friction=given["model_coulomb_friction"],
+        gravity_torque=given["model_gravity_torque"],
+    )
 
 
 def controller_config(values: Mapping[str, Any], joint_count: int) -> ControllerConfig:
@@ -55,9 +60,13 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         return per_joint(name, values[name], joint_count)
 
     pid = PidConfig(
-        kp=joints("kp"), ki=joints("ki"), kd=joints("kd"),
-        output_limit=joints("torque_max"), integral_limit=joints("integral_limit"),
-        anti_windup=values["anti_windup"], back_calculation_time_s=values["back_calculation_time_s"],
+        kp=joints("kp"),
+        ki=joints("ki"),
+        kd=joints("kd"),
+        output_limit=joints("torque_max"),
+        integral_limit=joints("integral_limit"),
+        anti_windup=values["anti_windup"],
+        back_calculation_time_s=values["back_calculation_time_s"],
         derivative_source=values["derivative_source"],
         derivative_filter_time_s=values["derivative_filter_time_s"],
         slew_rate_limit=values["slew_rate_limit"],
@@ -65,31 +74,54 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
     q = np.asarray(values["lqr_q"], dtype=float)  # three weights: the schema checks the length
     estimator = None
     if values["estimator"] == "kalman":
-        estimator = KalmanConfig(values["kalman_position_noise_std"], values["kalman_velocity_noise_std"],
-                                 values["kalman_acceleration_noise_std"],
-                                 disturbance_noise_std=values["kalman_disturbance_noise_std"])
+        estimator = KalmanConfig(
+            values["kalman_position_noise_std"],
+            values["kalman_velocity_noise_std"],
+            values["kalman_acceleration_noise_std"],
+            disturbance_noise_std=values["kalman_disturbance_noise_std"],
+        )
     return ControllerConfig(
-        pid=pid, controller_type=values["controller_type"], lqr_q=tuple(q.tolist()), lqr_r=values["lqr_r"],
+        pid=pid,
+        controller_type=values["controller_type"],
+        lqr_q=tuple(q.tolist()),
+        lqr_r=values["lqr_r"],
         estimator=estimator,
         disturbance_observer=values["disturbance_observer"],
-        feedforward=values["feedforward"], control_period_s=1.0 / values["control_rate_hz"],
+        feedforward=values["feedforward"],
+        control_period_s=1.0 / values["control_rate_hz"],
         reference_extrapolation=values["reference_extrapolation"],
-        latency_compensation=values["latency_compensation"], watchdog_periods=values["watchdog_periods"],
-        sensor_timeout_s=values["sensor_timeout_s"], max_reading_age_s=values["max_reading_age_s"],
+        latency_compensation=values["latency_compensation"],
+        watchdog_periods=values["watchdog_periods"],
+        sensor_timeout_s=values["sensor_timeout_s"],
+        max_reading_age_s=values["max_reading_age_s"],
         stop_deceleration=values["stop_deceleration"],
         reacquire_acceleration=values["reacquire_acceleration"],
     )
 
 
 def sensor_config(values: Mapping[str, Any]) -> SensorConfig:
-    return SensorConfig(position_noise_std=values["position_noise_std"],
-                        velocity_noise_std=values["velocity_noise_std"],
-                        position_bias=values["position_bias"], quantization=values["quantization"],
-                        delay_s=values["delay_s"])
+    return SensorConfig(
+        position_noise_std=values["position_noise_std"],
+        velocity_noise_std=values["velocity_noise_std"],
+        position_bias=values["position_bias"],
+        quantization=values["quantization"],
+        delay_s=values["delay_s"],
+    )
 
 
 def trajectory_kwargs(values: Mapping[str, Any]) -> dict[str, Any]:
-    keys = ("amplitude", "frequency_hz", "offset", "step_time_s", "end_frequency_hz", "sweep_time_s", "step_shaping",
-            "max_acceleration")
-    return {"joint_count": values["joint_count"], "sample_period_s": 1.0 / values["publish_rate_hz"],
-            **{k: values[k] for k in keys}}
+    keys = (
+        "amplitude",
+        "frequency_hz",
+        "offset",
+        "step_time_s",
+        "end_frequency_hz",
+        "sweep_time_s",
+        "step_shaping",
+        "max_acceleration",
+    )
+    return {
+        "joint_count": values["joint_count"],
+        "sample_period_s": 1.0 / values["publish_rate_hz"],
+        **{k: values[k] for k in keys},
+    }

@@ -7,6 +7,7 @@ against the arm the URDFs describe.
 their own values again on every parameter change (a node alone cannot see
 the others' values: these cross-node rules are enforced here, at start).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -54,16 +55,16 @@ def _arm(node: str, urdf_path: str) -> tuple[list[str], np.ndarray, np.ndarray]:
     except Exception as exc:  # noqa: BLE001 - MuJoCo's and the file system's errors alike
         raise ConfigError(f"{node}: urdf_path {urdf_path or '(reference arm)'!r}: {exc}") from None
     count = len(joint_names(model))
-    ranges = np.where(model.jnt_limited[:count, None].astype(bool), model.jnt_range[:count],
-                      [[-np.inf, np.inf]])
+    ranges = np.where(model.jnt_limited[:count, None].astype(bool), model.jnt_range[:count], [[-np.inf, np.inf]])
     return joint_names(model), effort_limits(model), ranges
 
 
 def _check_per_joint(params: cfg.Params, joint_count: int) -> None:
     planner = params["trajectory_planner"]
     if planner["joint_count"] != joint_count:
-        raise ConfigError(f"trajectory_planner: joint_count {planner['joint_count']} but the URDF has "
-                          f"{joint_count} joint(s)")
+        raise ConfigError(
+            f"trajectory_planner: joint_count {planner['joint_count']} but the URDF has " f"{joint_count} joint(s)"
+        )
     for node in cfg.NODES:
         for spec in cfg.SCHEMA[node]:
             if spec.per_joint and not (spec.allow_empty and not np.size(params[node][spec.name])):
@@ -84,8 +85,10 @@ def _check_rates(params: cfg.Params) -> None:
     except Exception as exc:  # noqa: BLE001 - TimingError
         raise ConfigError(f"simulator: publish_rate_hz {sim['publish_rate_hz']:g}: {exc}") from None
     if sensor["rate_hz"] > sim["publish_rate_hz"] + 1e-9:
-        raise ConfigError(f"sensor_node: rate_hz {sensor['rate_hz']:g} is faster than the simulator publishes "
-                          f"({sim['publish_rate_hz']:g} Hz)")
+        raise ConfigError(
+            f"sensor_node: rate_hz {sensor['rate_hz']:g} is faster than the simulator publishes "
+            f"({sim['publish_rate_hz']:g} Hz)"
+        )
     control_period_s = 1.0 / ctrl["control_rate_hz"]
     watchdog_s = ctrl["watchdog_periods"] * control_period_s
     reading_period_s = 1.0 / sensor["rate_hz"]
@@ -94,12 +97,17 @@ def _check_rates(params: cfg.Params) -> None:
             f"pid_controller: watchdog_periods {ctrl['watchdog_periods']} at control_rate_hz "
             f"{ctrl['control_rate_hz']:g} is a {watchdog_s * 1e3:g} ms window, shorter than "
             f"{WATCHDOG_MIN_READINGS} readings at {sensor['rate_hz']:g} Hz: raise watchdog_periods to at least "
-            f"{int(np.ceil(WATCHDOG_MIN_READINGS * reading_period_s / control_period_s - 1e-9))}")
-    for node, key, value in (("motor_node", "command_timeout_s", motor["command_timeout_s"]),
-                             ("simulator", "drive_timeout_s", sim["drive_timeout_s"])):
+            f"{int(np.ceil(WATCHDOG_MIN_READINGS * reading_period_s / control_period_s - 1e-9))}"
+        )
+    for node, key, value in (
+        ("motor_node", "command_timeout_s", motor["command_timeout_s"]),
+        ("simulator", "drive_timeout_s", sim["drive_timeout_s"]),
+    ):
         if value < TIMEOUT_MIN_PERIODS * control_period_s - 1e-9:
-            raise ConfigError(f"{node}: {key} {value:g} s is shorter than {TIMEOUT_MIN_PERIODS} control periods "
-                              f"({TIMEOUT_MIN_PERIODS * control_period_s:g} s)")
+            raise ConfigError(
+                f"{node}: {key} {value:g} s is shorter than {TIMEOUT_MIN_PERIODS} control periods "
+                f"({TIMEOUT_MIN_PERIODS * control_period_s:g} s)"
+            )
     if sim["lockstep"] or ctrl["lockstep"]:
         try:
             steps_per_period(physics_dt, control_period_s)
@@ -113,8 +121,10 @@ def _check_limits(params: cfg.Params, arm: tuple[list[str], np.ndarray, np.ndarr
     for node in ("motor_node", "pid_controller"):
         torque_max = cfg.per_joint("torque_max", params[node]["torque_max"], n)
         if np.any(torque_max > effort_limit):
-            raise ConfigError(f"{node}: torque_max {torque_max.tolist()} N·m exceeds the URDF's effort limit "
-                              f"{effort_limit.tolist()} N·m (it may lower the limit, never raise it)")
+            raise ConfigError(
+                f"{node}: torque_max {torque_max.tolist()} N·m exceeds the URDF's effort limit "
+                f"{effort_limit.tolist()} N·m (it may lower the limit, never raise it)"
+            )
     planner = params["trajectory_planner"]
     amplitude = np.abs(cfg.per_joint("amplitude", planner["amplitude"], n))
     offset = cfg.per_joint("offset", planner["offset"], n)
@@ -125,8 +135,10 @@ def _check_limits(params: cfg.Params, arm: tuple[list[str], np.ndarray, np.ndarr
     outside = (low < ranges[:, 0] - 1e-9) | (high > ranges[:, 1] + 1e-9)
     if np.any(outside):
         j = int(np.flatnonzero(outside)[0])
-        raise ConfigError(f"trajectory_planner: amplitude and offset reach [{low[j]:g}, {high[j]:g}] rad on "
-                          f"{names[j]}, beyond its limits [{ranges[j, 0]:g}, {ranges[j, 1]:g}] rad")
+        raise ConfigError(
+            f"trajectory_planner: amplitude and offset reach [{low[j]:g}, {high[j]:g}] rad on "
+            f"{names[j]}, beyond its limits [{ranges[j, 0]:g}, {ranges[j, 1]:g}] rad"
+        )
     initial = cfg.per_joint("initial_position", params["simulator"]["initial_position"], n)
     if np.any((initial < ranges[:, 0]) | (initial > ranges[:, 1])):
         raise ConfigError(f"simulator: initial_position {initial.tolist()} rad is outside the joint limits")
@@ -153,13 +165,17 @@ def _check_planner_matches(params: cfg.Params, joint_count: int) -> None:
     planned = cfg.per_joint("torque_max", planner["torque_max"], joint_count)
     actual = cfg.per_joint("torque_max", motor["torque_max"], joint_count)
     if not np.array_equal(planned, actual):
-        raise ConfigError(f"trajectory_planner: torque_max {planned.tolist()} N·m differs from motor_node's "
-                          f"{actual.tolist()} N·m, the limit its trajectory is checked against: set both "
-                          "(or set it once under /**)")
+        raise ConfigError(
+            f"trajectory_planner: torque_max {planned.tolist()} N·m differs from motor_node's "
+            f"{actual.tolist()} N·m, the limit its trajectory is checked against: set both "
+            "(or set it once under /**)"
+        )
     mine, theirs = (resources.resolve_urdf(path).resolve() for path in (planner["urdf_path"], ctrl["urdf_path"]))
     if mine != theirs:
-        raise ConfigError(f"trajectory_planner: urdf_path {planner['urdf_path'] or '(reference arm)'!r} differs from "
-                          f"pid_controller's {ctrl['urdf_path'] or '(reference arm)'!r}")
+        raise ConfigError(
+            f"trajectory_planner: urdf_path {planner['urdf_path'] or '(reference arm)'!r} differs from "
+            f"pid_controller's {ctrl['urdf_path'] or '(reference arm)'!r}"
+        )
 
 
 def _check_feasibility(planner: dict) -> None:
@@ -170,7 +186,13 @@ def _check_feasibility(planner: dict) -> None:
 
     try:
         trajectory = make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner))
-        feasibility.plan(trajectory, ArmDynamics(resources.resolve_urdf(planner["urdf_path"])), planner["torque_max"],
-                         margin=planner["feasibility_margin"], policy=planner["feasibility"], what=planner["mode"])
+        feasibility.plan(
+            trajectory,
+            ArmDynamics(resources.resolve_urdf(planner["urdf_path"])),
+            planner["torque_max"],
+            margin=planner["feasibility_margin"],
+            policy=planner["feasibility"],
+            what=planner["mode"],
+        )
     except ConfigError as exc:
         raise ConfigError(f"trajectory_planner: {exc}") from None

@@ -1,5 +1,6 @@
 """ROS 2 parameter files: read (validated, naming the file, the key and the
 problem), layered (defaults, preset, the user's files) and written."""
+
 from __future__ import annotations
 
 import difflib
@@ -42,10 +43,15 @@ def read_params_file(path: str | Path) -> Params:
         node = _node_key(str(key))
         if node != "**" and node not in NODES:
             hint = difflib.get_close_matches(node, NODES, n=1)
-            raise ConfigError(f"{path}: unknown node {key!r}; nodes are {list(NODES)}"
-                              + (f" (did you mean {hint[0]!r}?)" if hint else ""))
-        if not isinstance(body, dict) or set(body) != {"ros__parameters"} or not isinstance(
-                body["ros__parameters"], dict):
+            raise ConfigError(
+                f"{path}: unknown node {key!r}; nodes are {list(NODES)}"
+                + (f" (did you mean {hint[0]!r}?)" if hint else "")
+            )
+        if (
+            not isinstance(body, dict)
+            or set(body) != {"ros__parameters"}
+            or not isinstance(body["ros__parameters"], dict)
+        ):
             raise ConfigError(f"{path}: {key}: expected exactly one key 'ros__parameters' holding a mapping")
         for name, value in body["ros__parameters"].items():
             if name in REPORTED:
@@ -69,8 +75,10 @@ def _validated(path: Path, node: str, name: str, value: Any) -> Any:
     if not has(node, name):
         names = [spec.name for spec in SCHEMA[node]]
         hint = difflib.get_close_matches(name, names, n=1)
-        raise ConfigError(f"{path}: {node}.{name}: unknown parameter"
-                          + (f" (did you mean {hint[0]!r}?)" if hint else f"; {node} has {names}"))
+        raise ConfigError(
+            f"{path}: {node}.{name}: unknown parameter"
+            + (f" (did you mean {hint[0]!r}?)" if hint else f"; {node} has {names}")
+        )
     try:
         return spec_of(node, name).validate(value)
     except ConfigError as exc:

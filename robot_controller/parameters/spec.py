@@ -1,6 +1,7 @@
 """One parameter's definition and the check of a value against it; ``per_joint``,
 the one way a per-joint value (a number for all joints, or one per joint)
 becomes an array."""
+
 from __future__ import annotations
 
 import array
@@ -79,8 +80,10 @@ class ParamSpec:
                 raise ConfigError(f"{self.name}: expected a string, got {value!r}")
             if self.choices and value not in self.choices:
                 hint = difflib.get_close_matches(value, self.choices, n=1)
-                raise ConfigError(f"{self.name}: {value!r} is not one of {list(self.choices)}"
-                                  + (f" (did you mean {hint[0]!r}?)" if hint else ""))
+                raise ConfigError(
+                    f"{self.name}: {value!r} is not one of {list(self.choices)}"
+                    + (f" (did you mean {hint[0]!r}?)" if hint else "")
+                )
             return value
         if kind is int:
             if isinstance(value, bool) or not isinstance(value, int):
@@ -115,10 +118,12 @@ class ParamSpec:
         return value
 
     def _check_range(self, value: float) -> None:
-        if self.minimum is not None:
-            if value < self.minimum or (self.exclusive_minimum and value == self.minimum):
-                op = ">" if self.exclusive_minimum else ">="
-                raise ConfigError(f"{self.name}: must be {op} {self.minimum:g}, got {value:g}")
+        below = self.minimum is not None and (
+            value < self.minimum or (self.exclusive_minimum and value == self.minimum)
+        )
+        if below:
+            op = ">" if self.exclusive_minimum else ">="
+            raise ConfigError(f"{self.name}: must be {op} {self.minimum:g}, got {value:g}")
         if self.maximum is not None and value > self.maximum:
             raise ConfigError(f"{self.name}: must be <= {self.maximum:g}, got {value:g}")
 

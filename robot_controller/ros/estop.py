@@ -7,6 +7,7 @@ drive stops even if the topic were lost. Latched: the stack stays stopped
 (torque off, brakes on) until released; released, the controller re-acquires
 from where the arm is.
 """
+
 from __future__ import annotations
 
 import time
@@ -20,8 +21,12 @@ from std_srvs.srv import SetBool
 
 # Transient local: a node that starts after the stop still hears it (the
 # nodes' own readers are volatile, so any publisher matches them).
-PUBLISH_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
-                         history=HistoryPolicy.KEEP_LAST, depth=1)
+PUBLISH_QOS = QoSProfile(
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+)
 DISCOVERY_TIMEOUT_S = 5.0
 SETTLE_S = 0.5
 
@@ -70,4 +75,3 @@ def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, st
     finally:
         node.destroy_node()
         rclpy.try_shutdown(context=context)
-

@@ -25,6 +25,7 @@ An observer that should hear every run (the tests' probe, a viewer) uses
 ``write_observer_profile``: it reads from the default partition and every
 named one, and writes into every named one.
 """
+
 from __future__ import annotations
 
 import copy
@@ -37,9 +38,19 @@ from robot_controller import resources
 # Every topic the stack's nodes publish or consume to run the loop; /estop is
 # deliberately left out (a stop must be heard from anyone).
 LOOP_TOPICS = (
-    "/trajectory", "/joint_states", "/joint_commands", "/sim/effort", "/sim/joint_states", "/sim/brake",
-    "/sim/brakes", "/controller/state", "/motor/command_receipts", "/diagnostics", "/clock",
-    "/sim/disturbance", "/sim/disturbance_applied",
+    "/trajectory",
+    "/joint_states",
+    "/joint_commands",
+    "/sim/effort",
+    "/sim/joint_states",
+    "/sim/brake",
+    "/sim/brakes",
+    "/controller/state",
+    "/motor/command_receipts",
+    "/diagnostics",
+    "/clock",
+    "/sim/disturbance",
+    "/sim/disturbance_applied",
 )
 
 #: Set by the launcher in each node's environment: the run's partition name.
@@ -64,8 +75,9 @@ def write_run_profile(path: Path, partition: str, base: Path | None = None) -> P
 
 def write_observer_profile(path: Path, base: Path | None = None) -> Path:
     """A profile for a process that should hear every run and the default partition alike."""
-    return _write(path, base, writer_partitions=_EVERY_NAMED_PARTITION_WRITER,
-                  reader_partitions=_EVERY_PARTITION_READER)
+    return _write(
+        path, base, writer_partitions=_EVERY_NAMED_PARTITION_WRITER, reader_partitions=_EVERY_PARTITION_READER
+    )
 
 
 def _write(path: Path, base: Path | None, *, writer_partitions: str, reader_partitions: str) -> Path:

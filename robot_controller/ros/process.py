@@ -1,6 +1,7 @@
 """The process skeleton every node runs in (as ros2/examples' ``main``): init
 with our own signal handling, one executor for one node or many, spin until
 Ctrl-C or shutdown, then an orderly cleanup that cannot hang."""
+
 from __future__ import annotations
 
 import faulthandler
@@ -20,7 +21,6 @@ from rclpy.signals import SignalHandlerOptions
 from robot_controller.core.errors import ConfigError
 from robot_controller.ros.publishing import write_publish_counts
 from robot_controller.ros.stack_node import StackNode
-
 
 # Cleanup that takes longer than this is stuck (rclpy's destroy_node can wait
 # forever on a handle after an external shutdown): exit anyway.

@@ -1,6 +1,7 @@
 """Publishing that waits for its audience: a gate holds what a node publishes
 until its consumer (and, when the run is recorded, the recorder) has matched,
 so nothing the loop sends is lost to discovery; each gate counts what it sent."""
+
 from __future__ import annotations
 
 import copy
@@ -69,8 +70,9 @@ class ConsumerWatch:
         self.seen_since: float | None = None
 
     def present(self) -> bool:
-        named = ((not self.consumer or has_consumer(self.node, self.topic))
-                 and (not self.recorder or has_recorder(self.node, self.topic)))
+        named = (not self.consumer or has_consumer(self.node, self.topic)) and (
+            not self.recorder or has_recorder(self.node, self.topic)
+        )
         if not named or self.publisher is None:
             return named
         return self.publisher.get_subscription_count() >= int(self.consumer) + int(self.recorder)
@@ -98,8 +100,9 @@ class GatedPublisher:
     ``consumer=False``: telemetry, whose only audience is the recorder.
     """
 
-    def __init__(self, node: StackNode, msg_type: Any, topic: str, *, consumer: bool = True,
-                 qos: QoSProfile = None) -> None:
+    def __init__(
+        self, node: StackNode, msg_type: Any, topic: str, *, consumer: bool = True, qos: QoSProfile = None
+    ) -> None:
         self.node, self.topic = node, topic
         self.publisher = node.create_publisher(msg_type, topic, qos or CONTROL_QOS)
         self.watch = ConsumerWatch(node, topic, consumer=consumer, publisher=self.publisher)

@@ -18,6 +18,7 @@ process is real-time:
 
 ``--realtime`` asks for that FIFO thread; nothing else is ever real-time.
 """
+
 from __future__ import annotations
 
 import os
@@ -31,8 +32,15 @@ from dataclasses import dataclass
 LOOP_NICE = -10
 PLANNER_NICE = -5
 OBSERVER_NICE = 10
-NICE = {"simulator": LOOP_NICE, "motor_node": LOOP_NICE, "sensor_node": LOOP_NICE, "pid_controller": LOOP_NICE,
-        "stack": LOOP_NICE, "trajectory_planner": PLANNER_NICE, "recorder": OBSERVER_NICE}
+NICE = {
+    "simulator": LOOP_NICE,
+    "motor_node": LOOP_NICE,
+    "sensor_node": LOOP_NICE,
+    "pid_controller": LOOP_NICE,
+    "stack": LOOP_NICE,
+    "trajectory_planner": PLANNER_NICE,
+    "recorder": OBSERVER_NICE,
+}
 
 #: SCHED_FIFO priority of the simulator's pacing thread under ``--realtime``.
 PACING_RT_PRIORITY = 30
@@ -141,4 +149,3 @@ def _demote_all(*_: object) -> None:
         except OSError:
             pass
     demoted.set()
-

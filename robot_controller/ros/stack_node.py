@@ -2,6 +2,7 @@
 descriptions and limits), each change validated as a whole before it is
 accepted (whatever the check raises becomes a refusal with its reason),
 rate-limited warnings, and a watch on who else publishes its inputs."""
+
 from __future__ import annotations
 
 import os
@@ -38,9 +39,11 @@ class StackNode(Node):
         self.schema_name = schema_name
         for spec in cfg.SCHEMA[schema_name]:
             descriptor = ParameterDescriptor(
-                description=spec.describe(), read_only=spec.read_only,
+                description=spec.describe(),
+                read_only=spec.read_only,
                 # numbers: accept 50 as well as 50.0, and a scalar for a per-joint list
-                dynamic_typing=spec.kind is float)
+                dynamic_typing=spec.kind is float,
+            )
             self.declare_parameter(spec.name, spec.default_value(), descriptor)
         # Overrides from --params-file / -p bypass callbacks at declaration: check them now,
         # each on its own first, then together once the node knows its arm.
@@ -88,8 +91,11 @@ class StackNode(Node):
         candidate = dict(self.params)
         for parameter in parameters:
             if parameter.name in self._reports and not self._reporting:
-                return SetParametersResult(successful=False, reason=f"{parameter.name}: reported by the node, "
-                                           "not settable (" + self._reports[parameter.name] + ")")
+                return SetParametersResult(
+                    successful=False,
+                    reason=f"{parameter.name}: reported by the node, "
+                    "not settable (" + self._reports[parameter.name] + ")",
+                )
             if parameter.name not in candidate:
                 continue  # use_sim_time and other built-ins
             if parameter.type_ == Parameter.Type.NOT_SET:
@@ -142,16 +148,19 @@ class StackNode(Node):
         """
         if not hasattr(self, "_watched_topics"):
             self._watched_topics: dict[str, str] = {}
-            self.create_timer(PUBLISHER_CHECK_PERIOD_S, self._check_publishers,
-                              clock=Clock(clock_type=ClockType.STEADY_TIME))
+            self.create_timer(
+                PUBLISHER_CHECK_PERIOD_S, self._check_publishers, clock=Clock(clock_type=ClockType.STEADY_TIME)
+            )
         self._watched_topics[topic] = expected
 
     def _check_publishers(self) -> None:
         partition = os.environ.get(PARTITION_ENV, "")
         for topic, expected in self._watched_topics.items():
             # A writer whose node is not discovered yet (or that is no ROS node) has no name.
-            others = sorted(info.node_name.replace(UNKNOWN_NODE_NAME, "<unnamed>")
-                            for info in self.get_publishers_info_by_topic(topic))
+            others = sorted(
+                info.node_name.replace(UNKNOWN_NODE_NAME, "<unnamed>")
+                for info in self.get_publishers_info_by_topic(topic)
+            )
             if expected in others:
                 others.remove(expected)
             if not others:
@@ -159,12 +168,14 @@ class StackNode(Node):
             # The expected name again: a second node of that name (another run on this domain, or a stray copy).
             others = [f"{name} (a second one)" if name == expected else name for name in others]
             if partition:
-                consequence = (f"not heard if started outside this run (its loop topics are in DDS partition "
-                               f"{partition})")
+                consequence = (
+                    f"not heard if started outside this run (its loop topics are in DDS partition " f"{partition})"
+                )
             else:
                 consequence = "obeyed like it: this node is not in a run's partition, so it hears every publisher"
-            self.warn_throttled(f"publishers{topic}", f"{topic} has publishers other than {expected}: {others}; "
-                                + consequence)
+            self.warn_throttled(
+                f"publishers{topic}", f"{topic} has publishers other than {expected}: {others}; " + consequence
+            )
 
     def warn_throttled(self, key: str, message: str) -> None:
         """Warn at most once per ``WARN_PERIOD_S`` per ``key``, counting what was suppressed."""

@@ -1,4 +1,5 @@
 """``builtin_interfaces/Time`` to and from seconds."""
+
 from __future__ import annotations
 
 from typing import Any

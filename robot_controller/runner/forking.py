@@ -8,6 +8,7 @@ share the imported code and start in milliseconds. Each child then gets its
 own session, scheduling place, environment and output pipe, and runs the
 node's ``main`` as ``python -m robot_controller.nodes.NAME`` would.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -23,8 +24,15 @@ from collections.abc import Callable
 import setproctitle
 
 # Every module a child runs: imported once in the launcher before forking.
-NODE_MODULES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner", "all_in_one",
-                "recorder")
+NODE_MODULES = (
+    "simulator",
+    "motor_node",
+    "sensor_node",
+    "pid_controller",
+    "trajectory_planner",
+    "all_in_one",
+    "recorder",
+)
 
 
 def preload() -> None:
@@ -82,8 +90,8 @@ def fork(module: str, argv: list[str], env: dict[str, str], setup: Callable[[], 
             devnull = os.open(os.devnull, os.O_RDONLY)
             os.dup2(devnull, 0)
             # Fresh Python streams: the parent's may have been locked mid-write at the fork.
-            sys.stdout = open(1, "w", buffering=1, closefd=False, errors="replace")
-            sys.stderr = open(2, "w", buffering=1, closefd=False, errors="replace")
+            sys.stdout = open(1, "w", buffering=1, closefd=False, errors="replace")  # noqa: SIM115 - for its life
+            sys.stderr = open(2, "w", buffering=1, closefd=False, errors="replace")  # noqa: SIM115
             for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGCHLD):
                 signal.signal(signum, signal.SIG_DFL)
             os.environ.clear()

@@ -14,6 +14,7 @@ With ``view_port`` a viewer (``nodes.viewer``) also runs beside the
 recorder: an observer that serves the live view in a browser and saves
 ``view.rrd``. Nothing waits for it, and its death does not end the run.
 """
+
 from __future__ import annotations
 
 import faulthandler
@@ -59,14 +60,26 @@ class RunResult:
     @property
     def unrecorded(self) -> dict[str, int]:
         """Messages published but missing from the bag, per topic (only topics the bag records)."""
-        return {topic: sent - self.message_counts.get(topic, 0) for topic, sent in self.published_counts.items()
-                if topic in self.message_counts and sent != self.message_counts.get(topic, 0)}
+        return {
+            topic: sent - self.message_counts.get(topic, 0)
+            for topic, sent in self.published_counts.items()
+            if topic in self.message_counts and sent != self.message_counts.get(topic, 0)
+        }
 
 
-def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_process: bool = False,
-           realtime: bool = False, sim_time: bool = False, domain_id: int | None = None,
-           watcher: Callable[[float, dict[str, int]], None] | None = None, respawn: bool = False,
-           view_port: int | None = None) -> RunResult:
+def launch(
+    params: cfg.Params,
+    *,
+    out_dir: Path,
+    duration_s: float,
+    single_process: bool = False,
+    realtime: bool = False,
+    sim_time: bool = False,
+    domain_id: int | None = None,
+    watcher: Callable[[float, dict[str, int]], None] | None = None,
+    respawn: bool = False,
+    view_port: int | None = None,
+) -> RunResult:
     """Run the graph for ``duration_s`` seconds of control (sim seconds with
     ``sim_time``), recording into ``out_dir/bag``. ``realtime``: the
     simulator's pacing thread runs SCHED_FIFO (see ``scheduling``).
@@ -79,8 +92,16 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     ``respawn=True`` does, instead of ending the run. ``view_port``: serve
     the live view at ``http://127.0.0.1:<view_port>`` (and save
     ``out_dir/view.rrd``) from a viewer process beside the recorder."""
-    run = plan(params, out_dir=out_dir, single_process=single_process, realtime=realtime, sim_time=sim_time,
-               domain_id=domain_id, respawn=respawn, view_port=view_port)
+    run = plan(
+        params,
+        out_dir=out_dir,
+        single_process=single_process,
+        realtime=realtime,
+        sim_time=sim_time,
+        domain_id=domain_id,
+        respawn=respawn,
+        view_port=view_port,
+    )
     for note in run.notes:
         say(note)
     forking.preload()  # before any thread of this run: the children are forked from here
@@ -96,21 +117,32 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
     try:
         # The viewer is kept out of the group's children: a dead viewer must not end the run.
         with ProcessGroup(run.recorder.env) as group, ProcessGroup(run.recorder.env) as viewers:
-            recorder = group.start("recorder", run.recorder.module, run.recorder.args, on_line=link.on_line,
-                                   wall_clock=not sim_time)
+            recorder = group.start(
+                "recorder", run.recorder.module, run.recorder.args, on_line=link.on_line, wall_clock=not sim_time
+            )
             # All at once: the nodes' publishers wait for the recorder themselves.
             nodes = [group.start(p.name, p.module, p.args, env=p.env, wall_clock=not sim_time) for p in run.nodes]
             if run.viewer is not None:
                 say(f"live view: {run.view_url}")
-                viewers.start(run.viewer.name, run.viewer.module, run.viewer.args, env=run.viewer.env,
-                              wall_clock=not sim_time)
+                viewers.start(
+                    run.viewer.name, run.viewer.module, run.viewer.args, env=run.viewer.env, wall_clock=not sim_time
+                )
             try:
                 group.relay()
                 viewers.relay()
                 # What scores and plots the run, imported while the nodes find each other.
                 threading.Thread(target=_preload_reporting, daemon=True).start()
-                _run_loop(run, group, nodes, link, outcome, duration_s, watcher, replaced if respawn else None,
-                          viewers.children)
+                _run_loop(
+                    run,
+                    group,
+                    nodes,
+                    link,
+                    outcome,
+                    duration_s,
+                    watcher,
+                    replaced if respawn else None,
+                    viewers.children,
+                )
             except KeyboardInterrupt:
                 outcome.interrupted = True
                 # A second Ctrl-C must not cut the stop short: the bag and the metrics come next.
@@ -121,8 +153,7 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
                 outcome.failure = None if link.counts.get("/controller/state") else "interrupted before the loop ran"
                 if outcome.started is not None:
                     outcome.wall_seconds = time.monotonic() - outcome.started
-                    outcome.control_seconds = (link.clock_s - outcome.sim_start if sim_time
-                                               else outcome.wall_seconds)
+                    outcome.control_seconds = link.clock_s - outcome.sim_start if sim_time else outcome.wall_seconds
             # The nodes first, then the recorder, which takes what is still in flight (and the viewer).
             codes = group.stop(nodes)
             codes.update(group.stop([recorder, *viewers.children]))
@@ -130,22 +161,36 @@ def launch(params: cfg.Params, *, out_dir: Path, duration_s: float, single_proce
         published = supervise.read_published_counts(run.counts_dir, replaced)
         bad = {n: c for n, c in codes.items() if c not in (0, -signal.SIGINT, 130)}
         if outcome.failure is None and bad:
-            outcome.failure = ("node(s) exited with an error on shutdown: "
-                               + ", ".join(f"{n} ({c})" for n, c in bad.items()))
+            outcome.failure = "node(s) exited with an error on shutdown: " + ", ".join(
+                f"{n} ({c})" for n, c in bad.items()
+            )
     finally:
         signal.signal(signal.SIGTERM, previous_sigterm)
         signal.signal(signal.SIGINT, previous_sigint if previous_sigint is not None else signal.SIG_DFL)
         shutil.rmtree(run.counts_dir, ignore_errors=True)
     # What each topic's publishers in the stack say they sent: the bag must hold as many.
     (out_dir / "published.json").write_text(json.dumps(published, indent=2, sort_keys=True) + "\n")
-    result = RunResult(1 if outcome.failure else 0, run.bag_dir, outcome.control_seconds, outcome.wall_seconds,
-                       dict(link.counts), outcome.failure, published, outcome.usage, outcome.interrupted)
+    result = RunResult(
+        1 if outcome.failure else 0,
+        run.bag_dir,
+        outcome.control_seconds,
+        outcome.wall_seconds,
+        dict(link.counts),
+        outcome.failure,
+        published,
+        outcome.usage,
+        outcome.interrupted,
+    )
     if link.oversize:
-        say("WARNING: messages over the recorder's size cap were dropped (not from this stack): "
-            + ", ".join(f"{t} {n}" for t, n in link.oversize.items()))
+        say(
+            "WARNING: messages over the recorder's size cap were dropped (not from this stack): "
+            + ", ".join(f"{t} {n}" for t, n in link.oversize.items())
+        )
     if result.unrecorded:
-        say("WARNING: the bag misses messages the nodes published: "
-            + ", ".join(f"{t} {n}" for t, n in result.unrecorded.items()))
+        say(
+            "WARNING: the bag misses messages the nodes published: "
+            + ", ".join(f"{t} {n}" for t, n in result.unrecorded.items())
+        )
     if outcome.failure:
         say(f"FAILED: {outcome.failure}")
     return result
@@ -162,9 +207,17 @@ class _Outcome:
     interrupted: bool = False
 
 
-def _run_loop(run: RunPlan, group: ProcessGroup, nodes: list[Child], link: supervise.RecorderLink,
-              outcome: _Outcome, duration_s: float, watcher: Callable[[float, dict[str, int]], None] | None,
-              replaced: set[str] | None, viewers: list[Child] = ()) -> None:
+def _run_loop(
+    run: RunPlan,
+    group: ProcessGroup,
+    nodes: list[Child],
+    link: supervise.RecorderLink,
+    outcome: _Outcome,
+    duration_s: float,
+    watcher: Callable[[float, dict[str, int]], None] | None,
+    replaced: set[str] | None,
+    viewers: list[Child] = (),
+) -> None:
     """Wait for the recorder and the first tick, then for ``duration_s`` of control; fills ``outcome``.
     ``replaced``: respawn dead nodes, noting their names there. ``viewers``: observers measured
     apart (their ``cpu_pct_``/``rss_`` figures, outside ``cpu_pct_total``) and never respawned."""
@@ -192,8 +245,9 @@ def _run_loop(run: RunPlan, group: ProcessGroup, nodes: list[Child], link: super
             pids[child.name] = child.process.pid
             return child
 
-        outcome.failure = supervise.wait_wall(group, started + duration_s, meter, poll,
-                                              respawn if replaced is not None else None)
+        outcome.failure = supervise.wait_wall(
+            group, started + duration_s, meter, poll, respawn if replaced is not None else None
+        )
         outcome.control_seconds = time.monotonic() - started
     outcome.wall_seconds = time.monotonic() - started
     outcome.usage = meter.finish()

@@ -3,6 +3,7 @@ the five nodes, or all five in one, and with ``view_port`` the live viewer),
 each one's arguments and environment,
 the parameter file and the run's DDS profile, all written into the run's
 output directory. ``launcher`` then supervises what this plans."""
+
 from __future__ import annotations
 
 import os
@@ -59,8 +60,10 @@ def child_env(single_process: bool) -> dict[str, str]:
     env.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "0")
     env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
     # The prefix already names the process; in one process the node name is needed.
-    env.setdefault("RCUTILS_CONSOLE_OUTPUT_FORMAT",
-                   "[{severity}] [{name}] {message}" if single_process else "[{severity}] {message}")
+    env.setdefault(
+        "RCUTILS_CONSOLE_OUTPUT_FORMAT",
+        "[{severity}] [{name}] {message}" if single_process else "[{severity}] {message}",
+    )
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     env.setdefault(*FASTDDS_PUBLICATION_MODE)
     env.setdefault(partition.PROFILES_ENV, str(resources.fastdds_profiles()))  # quick discovery
@@ -79,9 +82,17 @@ def lockstep_params(params: cfg.Params) -> cfg.Params:
     return out
 
 
-def plan(params: cfg.Params, *, out_dir: Path, single_process: bool = False, realtime: bool = False,
-         sim_time: bool = False, domain_id: int | None = None, respawn: bool = False,
-         view_port: int | None = None) -> RunPlan:
+def plan(
+    params: cfg.Params,
+    *,
+    out_dir: Path,
+    single_process: bool = False,
+    realtime: bool = False,
+    sim_time: bool = False,
+    domain_id: int | None = None,
+    respawn: bool = False,
+    view_port: int | None = None,
+) -> RunPlan:
     """Check the whole configuration, then write what the processes read
     (``params.yaml``, ``fastdds.xml``) and decide how each starts.
     ``view_port``: also start the live viewer, serving at
@@ -109,8 +120,10 @@ def plan(params: cfg.Params, *, out_dir: Path, single_process: bool = False, rea
     if domain_id is not None:
         env["ROS_DOMAIN_ID"] = str(domain_id)
     if partition.PROFILES_ENV in os.environ:
-        notes.append(f"{partition.PROFILES_ENV} is set: the run uses that Fast DDS profile and is not isolated "
-                     "from other publishers on its domain")
+        notes.append(
+            f"{partition.PROFILES_ENV} is set: the run uses that Fast DDS profile and is not isolated "
+            "from other publishers on its domain"
+        )
     else:  # the run's loop topics in a partition of its own (see ros.partition)
         name = partition.new_partition()
         env[partition.PROFILES_ENV] = str(partition.write_run_profile(out_dir / "fastdds.xml", name))
@@ -119,14 +132,28 @@ def plan(params: cfg.Params, *, out_dir: Path, single_process: bool = False, rea
     if realtime:
         node_env[scheduling.PACING_RT_ENV] = str(scheduling.PACING_RT_PRIORITY)
     node_args = ["--ros-args", "--params-file", str(params_file)]
-    nodes = ([Process("stack", "all_in_one", node_args, node_env)] if single_process
-             else [Process(name, name, node_args, node_env) for name in NODE_ORDER])
+    nodes = (
+        [Process("stack", "all_in_one", node_args, node_env)]
+        if single_process
+        else [Process(name, name, node_args, node_env) for name in NODE_ORDER]
+    )
     recorder = Process("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] if sim_time else []), env)
     viewer = view_url = None
     if view_port is not None:
-        viewer = Process("viewer", "viewer", [
-            "--rrd", str(out_dir / "view.rrd"), "--port", str(view_port),
-            "--urdf", str(params["simulator"]["urdf_path"]),
-            "--control-rate", repr(float(params["pid_controller"]["control_rate_hz"]))], dict(env))
+        viewer = Process(
+            "viewer",
+            "viewer",
+            [
+                "--rrd",
+                str(out_dir / "view.rrd"),
+                "--port",
+                str(view_port),
+                "--urdf",
+                str(params["simulator"]["urdf_path"]),
+                "--control-rate",
+                repr(float(params["pid_controller"]["control_rate_hz"])),
+            ],
+            dict(env),
+        )
         view_url = view_serve.page_url(view_port)
     return RunPlan(out_dir, bag_dir, counts_dir, recorder, nodes, sim_time, notes, viewer, view_url)

@@ -5,6 +5,7 @@ CPU as percent of one core over that window (user + system, all threads),
 memory as resident set size, so a run reports what each node costs and
 whether it grows.
 """
+
 from __future__ import annotations
 
 import os
@@ -30,8 +31,7 @@ def sample(pid: int) -> Sample | None:
     except (OSError, IndexError, ValueError):
         return None
     # After the ")" of the command name: fields[11] is utime, fields[12] stime (stat(5) fields 14, 15).
-    return Sample(cpu_s=(int(fields[11]) + int(fields[12])) / _TICKS_PER_S,
-                  rss_mb=resident_pages * _PAGE_BYTES / 2**20)
+    return Sample(cpu_s=(int(fields[11]) + int(fields[12])) / _TICKS_PER_S, rss_mb=resident_pages * _PAGE_BYTES / 2**20)
 
 
 def self_sample() -> Sample:

@@ -2,6 +2,7 @@
 (``forking``) with its place on the machine (``scheduling``), its output
 prefixed with its name, stopped with SIGINT then SIGKILL if it hangs, and
 dying with the launcher even if that is killed (``PR_SET_PDEATHSIG``)."""
+
 from __future__ import annotations
 
 import os
@@ -52,12 +53,24 @@ class ProcessGroup:
     env: dict[str, str]
     children: list[Child] = field(default_factory=list)
 
-    def start(self, name: str, module: str, args: list[str], *, env: dict[str, str] | None = None,
-              on_line: Callable[[str], bool] | None = None, wall_clock: bool = True) -> Child:
+    def start(
+        self,
+        name: str,
+        module: str,
+        args: list[str],
+        *,
+        env: dict[str, str] | None = None,
+        on_line: Callable[[str], bool] | None = None,
+        wall_clock: bool = True,
+    ) -> Child:
         """Fork ``robot_controller.nodes.<module>`` as ``name`` with ``args``; ``on_line``
         sees each output line first and returns True for lines it consumed (not printed)."""
-        process = forking.fork(module, [f"robot_controller.nodes.{module}", *args], env or self.env,
-                               _child_setup(scheduling.placement(name, wall_clock)))
+        process = forking.fork(
+            module,
+            [f"robot_controller.nodes.{module}", *args],
+            env or self.env,
+            _child_setup(scheduling.placement(name, wall_clock)),
+        )
         reader = threading.Thread(target=self._relay, args=(name, process, on_line), daemon=True)
         child = Child(name, process, reader, module, args)
         self.children.append(child)

@@ -1,6 +1,7 @@
 """Watching a run while it goes: what the recorder reports (ready, counts,
 /clock), the waits for the loop to close and to end (a dead node, a stalled
 lockstep, respawns), CPU and memory over the run, and Ctrl-C handling."""
+
 from __future__ import annotations
 
 import json
@@ -32,7 +33,7 @@ class RecorderLink:
 
     def on_line(self, line: str) -> bool:
         if line.startswith(rec.PROGRESS_PREFIX):
-            progress = json.loads(line[len(rec.PROGRESS_PREFIX):])
+            progress = json.loads(line[len(rec.PROGRESS_PREFIX) :])
             self.counts, self.clock_s = progress["counts"], progress["clock_s"]
             self.oversize = progress.get("oversize", {})
             return True
@@ -111,6 +112,7 @@ def patient_handler() -> Callable[[int, Any], None]:
 
     return handler
 
+
 def wait_recorder(link: RecorderLink, group: ProcessGroup) -> str | None:
     deadline = time.monotonic() + RECORDER_READY_TIMEOUT_S
     while not link.ready.wait(0.05):
@@ -135,19 +137,27 @@ def wait_first_tick(link: RecorderLink, group: ProcessGroup) -> str | None:
 MAX_RESPAWNS = 5  # per node and run: a node that keeps dying ends the run
 
 
-def wait_wall(group: ProcessGroup, until: float, meter: UsageMeter, poll: Callable[[], None] | None = None,
-          restart: Callable[[Child], Child] | None = None) -> str | None:
+def wait_wall(
+    group: ProcessGroup,
+    until: float,
+    meter: UsageMeter,
+    poll: Callable[[], None] | None = None,
+    restart: Callable[[Child], Child] | None = None,
+) -> str | None:
     respawned: dict[str, int] = {}
     while (remaining := until - time.monotonic()) > 0:
         if dead := group.dead():
             children = [c for c in group.children if c.process.returncode is not None]
-            if restart is None or any(c.name == "recorder" or respawned.get(c.name, 0) >= MAX_RESPAWNS
-                                      for c in children):
+            if restart is None or any(
+                c.name == "recorder" or respawned.get(c.name, 0) >= MAX_RESPAWNS for c in children
+            ):
                 return died(dead)
             for child in children:
                 respawned[child.name] = respawned.get(child.name, 0) + 1
-                say(f"{child.name} died (exit code {child.process.returncode}): respawning "
-                    f"({respawned[child.name]} of {MAX_RESPAWNS})")
+                say(
+                    f"{child.name} died (exit code {child.process.returncode}): respawning "
+                    f"({respawned[child.name]} of {MAX_RESPAWNS})"
+                )
                 meter.forget(child.name)
                 restart(child)
         meter.poll()

@@ -1,6 +1,7 @@
 """A run's bag read back as arrays (``Recording``): every topic the scoring
 needs, decoded; messages that do not fit the run (malformed, another joint
 count) skipped and counted; a torn bag (its recorder killed) rebuilt first."""
+
 from __future__ import annotations
 
 import bisect
@@ -78,8 +79,11 @@ def read_recording(bag_dir: Path) -> Recording:
     if bag_recovery.needs_recovery(bag_dir):
         # The recorder was killed: rebuild the bag from its complete chunks first.
         recovered = bag_recovery.recover(bag_dir)
-        print(f"{bag_dir}: the recording was not closed (recorder killed); recovered {recovered} messages "
-              f"into a complete bag, the torn file kept as {bag_dir.name}.torn", file=sys.stderr)
+        print(
+            f"{bag_dir}: the recording was not closed (recorder killed); recovered {recovered} messages "
+            f"into a complete bag, the torn file kept as {bag_dir.name}.torn",
+            file=sys.stderr,
+        )
     typestore = get_typestore(Stores.ROS2_JAZZY)
     decoded: dict[str, list[tuple[int, Any]]] = {topic: [] for topic in WANTED_TOPICS}
     receipt: dict[str, list[int]] = {}
@@ -106,14 +110,23 @@ def read_recording(bag_dir: Path) -> Recording:
 
     def joint_state_fits(row: tuple[int, Any]) -> bool:
         msg = row[1]
-        return (len(msg.position) == joint_count and len(msg.velocity) == joint_count
-                and np.all(np.isfinite(msg.position)) and np.all(np.isfinite(msg.velocity)))
+        return (
+            len(msg.position) == joint_count
+            and len(msg.velocity) == joint_count
+            and np.all(np.isfinite(msg.position))
+            and np.all(np.isfinite(msg.velocity))
+        )
 
     state_width = state_layout.width(joint_count)
-    state_rows = [np.asarray(msg.data, dtype=float) for _, msg in
-                  keep("/controller/state", decoded["/controller/state"], lambda r: len(r[1].data) == state_width)]
-    true = keep("/sim/joint_states", decoded["/sim/joint_states"],
-                lambda r: joint_state_fits(r) and len(r[1].effort) == joint_count)
+    state_rows = [
+        np.asarray(msg.data, dtype=float)
+        for _, msg in keep("/controller/state", decoded["/controller/state"], lambda r: len(r[1].data) == state_width)
+    ]
+    true = keep(
+        "/sim/joint_states",
+        decoded["/sim/joint_states"],
+        lambda r: joint_state_fits(r) and len(r[1].effort) == joint_count,
+    )
     readings = keep("/joint_states", decoded["/joint_states"], joint_state_fits)
     if not state_rows or not true:
         raise ValueError(f"{bag_dir}: no usable /controller/state or /sim/joint_states recorded")
@@ -123,13 +136,16 @@ def read_recording(bag_dir: Path) -> Recording:
     for timestamp, msg in decoded["/trajectory"]:
         data = np.asarray(msg.data, dtype=float)
         if len(data) == 3 * joint_count + 1 and np.all(np.isfinite(data)):
-            planned.append((data[-1], data[:joint_count], data[joint_count:2 * joint_count]))
+            planned.append((data[-1], data[:joint_count], data[joint_count : 2 * joint_count]))
         elif len(data) == 2 * joint_count and np.all(np.isfinite(data)):
             planned.append((timestamp * 1e-9, data[:joint_count], data[joint_count:]))
         else:
             malformed["/trajectory"] = malformed.get("/trajectory", 0) + 1
-    brakes = keep("/sim/brakes", [(t, np.asarray(m.data, dtype=float)) for t, m in decoded["/sim/brakes"]],
-                  lambda r: r[1].size == joint_count)
+    brakes = keep(
+        "/sim/brakes",
+        [(t, np.asarray(m.data, dtype=float)) for t, m in decoded["/sim/brakes"]],
+        lambda r: r[1].size == joint_count,
+    )
     # [torque_nm…, time_s] (the simulator's); one torque per joint without the time: when recorded.
     disturbance = []
     for timestamp, msg in decoded["/sim/disturbance_applied"]:
@@ -153,22 +169,37 @@ def read_recording(bag_dir: Path) -> Recording:
         return np.vstack(values) if values else np.zeros((0, joint_count))
 
     return Recording(
-        state=state, true_time_s=np.array([stamp(m) for _, m in true]),
+        state=state,
+        true_time_s=np.array([stamp(m) for _, m in true]),
         true_position=rows([np.asarray(m.position, float) for _, m in true]),
         true_velocity=rows([np.asarray(m.velocity, float) for _, m in true]),
-        true_effort=rows([np.asarray(m.effort, float) for _, m in true]), counts=counts,
+        true_effort=rows([np.asarray(m.effort, float) for _, m in true]),
+        counts=counts,
         receipt_s={k: np.asarray(v) * 1e-9 for k, v in receipt.items()},
-        motor_latency_s=np.asarray(latency, dtype=float), reading_stamp_s=np.array([stamp(m) for _, m in readings]),
+        motor_latency_s=np.asarray(latency, dtype=float),
+        reading_stamp_s=np.array([stamp(m) for _, m in readings]),
         reading_position=rows([np.asarray(m.position, float) for _, m in readings]),
-        planned_time_s=np.array([t for t, _, _ in planned]), planned_position=rows([q for _, q, _ in planned]),
+        planned_time_s=np.array([t for t, _, _ in planned]),
+        planned_position=rows([q for _, q, _ in planned]),
         planned_velocity=rows([v for _, _, v in planned]),
-        brakes_time_s=np.array([t * 1e-9 for t, _ in brakes]), brakes=rows([b for _, b in brakes]),
-        disturbance_time_s=np.array([t for t, _ in disturbance]), disturbance=rows([d for _, d in disturbance]),
-        malformed=malformed)
+        brakes_time_s=np.array([t * 1e-9 for t, _ in brakes]),
+        brakes=rows([b for _, b in brakes]),
+        disturbance_time_s=np.array([t for t, _ in disturbance]),
+        disturbance=rows([d for _, d in disturbance]),
+        malformed=malformed,
+    )
 
 
-WANTED_TOPICS = ("/controller/state", "/sim/joint_states", "/motor/command_latency", "/motor/command_receipts",
-                 "/joint_states", "/trajectory", "/sim/brakes", "/sim/disturbance_applied")
+WANTED_TOPICS = (
+    "/controller/state",
+    "/sim/joint_states",
+    "/motor/command_latency",
+    "/motor/command_receipts",
+    "/joint_states",
+    "/trajectory",
+    "/sim/brakes",
+    "/sim/disturbance_applied",
+)
 
 
 def _joint_count_of(decoded: dict[str, list[tuple[int, Any]]]) -> int:
@@ -188,7 +219,8 @@ def motor_latency_s(state: dict[str, np.ndarray], receipts: np.ndarray) -> np.nd
     whose reading was taken before the receipt.
     """
     stamps_by_command: dict[tuple[float, ...], list[float]] = {}
-    for command, stamp in zip(map(tuple, state["command"].tolist()), state["measurement_stamp_s"].tolist()):
+    commands = map(tuple, state["command"].tolist())
+    for command, stamp in zip(commands, state["measurement_stamp_s"].tolist(), strict=True):
         stamps_by_command.setdefault(command, []).append(stamp)
     out = []
     for row in receipts.tolist():

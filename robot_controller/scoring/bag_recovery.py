@@ -7,6 +7,7 @@ complete chunk is there. This scans the records from the start, stops at
 the first incomplete one, and writes a new, complete bag from the messages
 found (the torn file is kept beside it as ``bag.torn``).
 """
+
 from __future__ import annotations
 
 import struct
@@ -45,7 +46,7 @@ def scan(data: bytes) -> Scan:
     out = Scan()
     if not data.startswith(MAGIC):
         raise ValueError("not an MCAP file (bad magic)")
-    _records(memoryview(data)[len(MAGIC):], out)
+    _records(memoryview(data)[len(MAGIC) :], out)
     return out
 
 
@@ -72,7 +73,7 @@ def _records(view: memoryview, out: Scan) -> None:
             (records_length,) = struct.unpack_from("<Q", content, position)
             if compression:
                 raise ValueError(f"compressed chunks ({compression}) are not recovered")
-            _records(content[position + 8:position + 8 + records_length], out)
+            _records(content[position + 8 : position + 8 + records_length], out)
         elif opcode == OP_FOOTER:
             out.complete = True
             return
@@ -81,7 +82,7 @@ def _records(view: memoryview, out: Scan) -> None:
 
 def _string(view: memoryview, offset: int) -> tuple[str, int]:
     (length,) = struct.unpack_from("<I", view, offset)
-    return bytes(view[offset + 4:offset + 4 + length]).decode(), offset + 4 + length
+    return bytes(view[offset + 4 : offset + 4 + length]).decode(), offset + 4 + length
 
 
 def _schema(view: memoryview) -> tuple[int, str, int]:

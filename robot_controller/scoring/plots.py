@@ -1,4 +1,5 @@
 """The run's picture: reference, true and measured position; error; torque."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -19,8 +20,9 @@ def plot_tracking(recording: Recording, path: Path, title: str = "") -> None:
     s = recording.state
     t0 = s["time_s"][0]
     t = s["time_s"] - t0
-    true_at_tick = metrics.true_position_at(s["time_s"], recording.true_time_s, recording.true_position,
-                                            recording.true_velocity)
+    true_at_tick = metrics.true_position_at(
+        s["time_s"], recording.true_time_s, recording.true_position, recording.true_velocity
+    )
     fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True, constrained_layout=True)
     for j in range(recording.joint_count):
         tag = f" j{j + 1}" if recording.joint_count > 1 else ""
@@ -28,11 +30,11 @@ def plot_tracking(recording: Recording, path: Path, title: str = "") -> None:
         axes[0].plot(t, true_at_tick[:, j], lw=1.2, label=f"true{tag}")
         axes[0].plot(t, s["measured"][:, j], ".", ms=1.5, alpha=0.5, label=f"measured{tag}")
         axes[1].plot(t, (s["reference"][:, j] - true_at_tick[:, j]) * 1e3, lw=1, label=f"reference − true{tag}")
-        axes[1].plot(t, (s["reference"][:, j] - s["measured"][:, j]) * 1e3, lw=0.5, alpha=0.4,
-                     label=f"reference − measured{tag}")
+        axes[1].plot(
+            t, (s["reference"][:, j] - s["measured"][:, j]) * 1e3, lw=0.5, alpha=0.4, label=f"reference − measured{tag}"
+        )
         axes[2].plot(t, s["command"][:, j], lw=1, label=f"command{tag}")
-        axes[2].plot(recording.true_time_s - t0, recording.true_effort[:, j], lw=0.8, alpha=0.7,
-                     label=f"applied{tag}")
+        axes[2].plot(recording.true_time_s - t0, recording.true_effort[:, j], lw=0.8, alpha=0.7, label=f"applied{tag}")
     axes[0].set_ylabel("position [rad]")
     axes[1].set_ylabel("error [mrad]")
     axes[2].set_ylabel("torque [N·m]")

@@ -1,6 +1,7 @@
 """Score a run from its recording: the metrics of docs/design.md §7, tracking
 on the simulator's timeline, and ``metrics.json``. Works on any saved bag, so
 a run can be re-scored later (``robot-controller score DIR``)."""
+
 from __future__ import annotations
 
 import json
@@ -10,15 +11,29 @@ from typing import Any
 import numpy as np
 
 from robot_controller.core import metrics, state_layout
+
 # What scores a run reads first; importable from here too.
 from robot_controller.scoring.bag_reader import Recording, motor_latency_s, read_recording
 
-__all__ = ["Recording", "json_safe", "motor_latency_s", "read_recording", "reference_in_force", "score",
-           "tracking_on_sim_timeline", "write_metrics"]
+__all__ = [
+    "Recording",
+    "json_safe",
+    "motor_latency_s",
+    "read_recording",
+    "reference_in_force",
+    "score",
+    "tracking_on_sim_timeline",
+    "write_metrics",
+]
 
 
-def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: float = metrics.WARMUP_S,
-          window_s: float | None = None) -> dict[str, Any]:
+def score(
+    recording: Recording,
+    *,
+    nominal_period_s: float = 0.01,
+    warmup_s: float = metrics.WARMUP_S,
+    window_s: float | None = None,
+) -> dict[str, Any]:
     """The run's metrics: tracking on the TRUE position, rates, latency, message counts.
 
     ``window_s`` keeps only the first ``window_s`` seconds of control ticks
@@ -37,8 +52,9 @@ def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: flo
     active = s["status"] == state_layout.STATUS_CODES["ok"]
     raw = recording.raw_reading_at(s["measurement_stamp_s"])
     scored = active & (ticks >= ticks[0] + warmup_s) & np.all(np.isfinite(raw), axis=1)
-    out["measured_rms_rad"] = (float(np.sqrt(np.mean((s["reference"][scored] - raw[scored]) ** 2)))
-                               if np.any(scored) else float("nan"))
+    out["measured_rms_rad"] = (
+        float(np.sqrt(np.mean((s["reference"][scored] - raw[scored]) ** 2))) if np.any(scored) else float("nan")
+    )
     out["malformed_messages"] = int(sum(recording.malformed.values()))
     out.update(metrics.rate_metrics(ticks, nominal_period_s))
     out["control_ticks"] = int(len(ticks))
@@ -51,8 +67,9 @@ def score(recording: Recording, *, nominal_period_s: float = 0.01, warmup_s: flo
     out["peak_torque_nm"] = float(np.max(np.abs(s["command"])))
     out["recorded_duration_s"] = float(ticks[-1] - ticks[0])
     ok_ticks = s["status"] != state_layout.STATUS_CODES["no_measurement"]
-    out.update(metrics.latency_metrics(s["time_s"][ok_ticks] - s["measurement_stamp_s"][ok_ticks],
-                                       prefix="controller_latency"))
+    out.update(
+        metrics.latency_metrics(s["time_s"][ok_ticks] - s["measurement_stamp_s"][ok_ticks], prefix="controller_latency")
+    )
     if window_s is not None:
         return out
     out.update(metrics.latency_metrics(recording.motor_latency_s, prefix="latency"))
@@ -90,16 +107,18 @@ def reference_in_force(recording: Recording, nominal_period_s: float = 0.01) -> 
     previous = np.clip(index - 1, 0, len(ticks) - 1)
     step_s = ticks[index] - ticks[previous]
     normal = (index > previous) & (step_s <= GAP_PERIODS * nominal_period_s)
-    speed = np.where(normal[:, None], (reference[index] - reference[previous])
-                     / np.where(step_s > 0, step_s, 1.0)[:, None], 0.0)
+    speed = np.where(
+        normal[:, None], (reference[index] - reference[previous]) / np.where(step_s > 0, step_s, 1.0)[:, None], 0.0
+    )
     carried = reference[index] + speed * np.clip(t - ticks[index], 0.0, CARRY_S)[:, None]
     in_force = np.where(interpolate[:, None], in_force, carried)
     idle = np.isin(s["status"], [state_layout.STATUS_CODES[name] for name in IDLE_STATUSES])
     return in_force, (t >= ticks[0]) & ~idle[index]
 
 
-def tracking_on_sim_timeline(recording: Recording, start_s: float, end_s: float,
-                             nominal_period_s: float = 0.01) -> dict[str, Any]:
+def tracking_on_sim_timeline(
+    recording: Recording, start_s: float, end_s: float, nominal_period_s: float = 0.01
+) -> dict[str, Any]:
     """Tracking on the simulator's timeline: every true-state sample from
     ``start_s`` to ``end_s`` against the reference in force at that time
     (:func:`reference_in_force`)."""
@@ -109,8 +128,11 @@ def tracking_on_sim_timeline(recording: Recording, start_s: float, end_s: float,
     if not np.any(window):
         return {"tracking_rms_rad": float("nan"), "tracking_max_rad": float("nan"), "scored_samples": 0}
     error = in_force[window] - q[window]
-    return {"tracking_rms_rad": float(np.sqrt(np.mean(error ** 2))), "tracking_max_rad": float(np.max(np.abs(error))),
-            "scored_samples": int(np.count_nonzero(window))}
+    return {
+        "tracking_rms_rad": float(np.sqrt(np.mean(error**2))),
+        "tracking_max_rad": float(np.max(np.abs(error))),
+        "scored_samples": int(np.count_nonzero(window)),
+    }
 
 
 # Ticks further apart than this many control periods: the controller was not running.

@@ -16,6 +16,7 @@ profile, which hears every run and writes into every run's partition (so
 every run on the domain gets the push), with ``/sim/disturbance`` written into
 the default partition too, where a simulator started by hand listens.
 """
+
 from __future__ import annotations
 
 import os
@@ -145,8 +146,12 @@ def disturb(torque_nm: float, duration_s: float, joint: str | None) -> int:
             shutil.rmtree(folder, ignore_errors=True)
     try:
         domain = context.get_domain_id()
-        qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
-                         history=HistoryPolicy.KEEP_LAST, depth=1)
+        qos = QoSProfile(
+            reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.VOLATILE,
+            history=HistoryPolicy.KEEP_LAST,
+            depth=1,
+        )
         heard: list[str] = []
 
         def on_state(msg: JointState) -> None:
@@ -181,26 +186,36 @@ def disturb(torque_nm: float, duration_s: float, joint: str | None) -> int:
             if matching != seen:
                 seen, seen_since = matching, now
             elif matching is not None and now - seen_since >= (
-                    MATCH_SETTLE_S if matching[1] >= matching[0] else UNMATCHED_SETTLE_S):
+                MATCH_SETTLE_S if matching[1] >= matching[0] else UNMATCHED_SETTLE_S
+            ):
                 break
             if now - start > MATCH_TIMEOUT_S:
                 return _fail(f"no simulator is listening on {TOPIC} (domain {domain})", 1)
             time.sleep(0.05)
         msg = Float64MultiArray()
-        msg.layout.dim = [MultiArrayDimension(label="torque_nm", size=len(names), stride=len(names)),
-                          MultiArrayDimension(label="duration_s", size=1, stride=1)]
+        msg.layout.dim = [
+            MultiArrayDimension(label="torque_nm", size=len(names), stride=len(names)),
+            MultiArrayDimension(label="duration_s", size=1, stride=1),
+        ]
         msg.data = disturbance_data(torque, duration_s)
         publisher.publish(msg)
         # Reliable: do not take the participant away before the readers have it.
         from rclpy.duration import Duration
 
         delivered = publisher.wait_for_all_acked(Duration(seconds=DELIVERY_TIMEOUT_S))
-        where = (f"on {joint}" if joint is not None else
-                 "on " + (names[0] if len(names) == 1 else "each of " + ", ".join(names)))
-        capped = (f" (the simulator caps it at {MAX_DISTURBANCE_NM:g} N·m)"
-                  if abs(torque_nm) > MAX_DISTURBANCE_NM else "")
-        print(f"{PROG}: sent {torque_nm:g} N·m {where} for {duration_s:g} s on {TOPIC} (domain {domain})"
-              + capped + ("" if delivered else "; not acknowledged within 2 s"))
+        where = (
+            f"on {joint}"
+            if joint is not None
+            else "on " + (names[0] if len(names) == 1 else "each of " + ", ".join(names))
+        )
+        capped = (
+            f" (the simulator caps it at {MAX_DISTURBANCE_NM:g} N·m)" if abs(torque_nm) > MAX_DISTURBANCE_NM else ""
+        )
+        print(
+            f"{PROG}: sent {torque_nm:g} N·m {where} for {duration_s:g} s on {TOPIC} (domain {domain})"
+            + capped
+            + ("" if delivered else "; not acknowledged within 2 s")
+        )
         return 0
     finally:
         if executor is not None:

@@ -12,6 +12,7 @@ says otherwise.
 
 Nothing here imports rclpy at module import: ``robot-controller`` stays fast.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -98,8 +99,9 @@ class Graph:
         """Every topic the graph shows, with its type names (hidden ones left out, as ros2cli does)."""
         from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden
 
-        return {name: types for name, types in self.node.get_topic_names_and_types()
-                if not topic_or_service_is_hidden(name)}
+        return {
+            name: types for name, types in self.node.get_topic_names_and_types() if not topic_or_service_is_hidden(name)
+        }
 
     def only_mine(self, topic: str) -> bool:
         """Whether this tool's own node is the topic's only endpoint (its /parameter_events)."""
@@ -107,8 +109,9 @@ class Graph:
         endpoints = self.node.get_publishers_info_by_topic(topic) + self.node.get_subscriptions_info_by_topic(topic)
         return all(info.node_name == me for info in endpoints)
 
-    def settled_topics(self, *, minimum_s: float = 1.0, quiet_s: float = 0.5, maximum_s: float = 3.0
-                       ) -> dict[str, list[str]]:
+    def settled_topics(
+        self, *, minimum_s: float = 1.0, quiet_s: float = 0.5, maximum_s: float = 3.0
+    ) -> dict[str, list[str]]:
         """The graph's topics once discovery has gone quiet (no daemon caches them for us)."""
         start = last_change = time.monotonic()
         seen = self.topics()
@@ -236,6 +239,7 @@ def command(name: str, *, interrupted: int = 0) -> Callable[[Callable[..., int]]
     """A tool's function as a command: ``ToolError`` → one line on stderr, exit 1;
     Ctrl-C → ``interrupted`` (0: the way ``echo`` and ``hz`` are meant to end),
     no traceback; a closed pipe (``| head``) → 0, quietly."""
+
     def decorate(function: Callable[..., int]) -> Callable[..., int]:
         @functools.wraps(function)
         def run(*args: Any, **kwargs: Any) -> int:
@@ -249,7 +253,9 @@ def command(name: str, *, interrupted: int = 0) -> Callable[[Callable[..., int]]
             except BrokenPipeError:
                 _stdout_to_devnull()
                 return 0
+
         return run
+
     return decorate
 
 

@@ -11,6 +11,7 @@ parameter. Where the node's value is a double (or a double array), a number
 (or a list of numbers) is sent as a double (or a double array: ``kp 60`` sends
 ``[60.0]``, one gain for every joint), and the parameter keeps its type.
 """
+
 from __future__ import annotations
 
 import sys
@@ -26,17 +27,33 @@ INTERRUPTED = 130  # Ctrl-C before the node answered: the change may or may not 
 NOT_SET, BOOL, INTEGER, DOUBLE, STRING = 0, 1, 2, 3, 4
 BYTE_ARRAY, BOOL_ARRAY, INTEGER_ARRAY, DOUBLE_ARRAY, STRING_ARRAY = 5, 6, 7, 8, 9
 
-_FIELDS = {BOOL: "bool_value", INTEGER: "integer_value", DOUBLE: "double_value", STRING: "string_value",
-           BYTE_ARRAY: "byte_array_value", BOOL_ARRAY: "bool_array_value", INTEGER_ARRAY: "integer_array_value",
-           DOUBLE_ARRAY: "double_array_value", STRING_ARRAY: "string_array_value"}
+_FIELDS = {
+    BOOL: "bool_value",
+    INTEGER: "integer_value",
+    DOUBLE: "double_value",
+    STRING: "string_value",
+    BYTE_ARRAY: "byte_array_value",
+    BOOL_ARRAY: "bool_array_value",
+    INTEGER_ARRAY: "integer_array_value",
+    DOUBLE_ARRAY: "double_array_value",
+    STRING_ARRAY: "string_array_value",
+}
 # What `ros2 param get` says before the value.
-_LABELS = {BOOL: "Boolean value is:", INTEGER: "Integer value is:", DOUBLE: "Double value is:",
-           STRING: "String value is:", BYTE_ARRAY: "Byte array value is:", BOOL_ARRAY: "Boolean array value is:",
-           INTEGER_ARRAY: "Integer array value is:", DOUBLE_ARRAY: "Double array value is:",
-           STRING_ARRAY: "String array value is:"}
+_LABELS = {
+    BOOL: "Boolean value is:",
+    INTEGER: "Integer value is:",
+    DOUBLE: "Double value is:",
+    STRING: "String value is:",
+    BYTE_ARRAY: "Byte array value is:",
+    BOOL_ARRAY: "Boolean array value is:",
+    INTEGER_ARRAY: "Integer array value is:",
+    DOUBLE_ARRAY: "Double array value is:",
+    STRING_ARRAY: "String array value is:",
+}
 
 
 # --- values -----------------------------------------------------------------
+
 
 def parse_value(text: str, current: int | None = None) -> tuple[int, Any]:
     """``(ParameterType, value)`` for what the user typed; ``current`` is the type
@@ -111,6 +128,7 @@ def describe(message: Any) -> str:
 
 # --- services ---------------------------------------------------------------
 
+
 def _names(g: graph.Graph, node: str) -> list[str]:
     from rcl_interfaces.srv import ListParameters
 
@@ -130,6 +148,7 @@ def _values(g: graph.Graph, node: str, names: list[str]) -> list[Any]:
 
 
 # --- verbs ------------------------------------------------------------------
+
 
 @graph.command("param list", interrupted=INTERRUPTED)
 def param_list(node: str) -> int:
@@ -183,8 +202,16 @@ def param_dump(node: str) -> int:
     with graph.open_graph("param dump") as g:
         names = _names(g, node)
         values = _values(g, node, names) if names else []
-    print(yaml.safe_dump(dump_document(node, {n: to_python(v) for n, v in zip(names, values, strict=True)}),
-                         default_flow_style=False, allow_unicode=True, width=float("inf")), end="", flush=True)
+    print(
+        yaml.safe_dump(
+            dump_document(node, {n: to_python(v) for n, v in zip(names, values, strict=True)}),
+            default_flow_style=False,
+            allow_unicode=True,
+            width=float("inf"),
+        ),
+        end="",
+        flush=True,
+    )
     return 0
 
 

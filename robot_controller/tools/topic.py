@@ -5,6 +5,7 @@ The type of a topic is the graph's (``get_topic_names_and_types``), imported
 from its name; messages are formatted field by field from
 ``get_fields_and_field_types`` (there is no rosidl_runtime_py here).
 """
+
 from __future__ import annotations
 
 import math
@@ -28,6 +29,7 @@ HZ_DEPTH = 100
 
 # --- list -------------------------------------------------------------------
 
+
 @graph.command("topic list")
 def topic_list(show_types: bool = False) -> int:
     """``ros2 topic list [-t]``: every topic on the domain, sorted; with its types in brackets."""
@@ -39,6 +41,7 @@ def topic_list(show_types: bool = False) -> int:
 
 
 # --- echo -------------------------------------------------------------------
+
 
 @graph.command("topic echo")
 def topic_echo(topic: str, count: int | None = None, csv: bool = False) -> int:
@@ -85,11 +88,13 @@ def _echo_qos(g: graph.Graph, topic: str) -> Any:
 
     publishers = g.node.get_publishers_info_by_topic(topic)
     best_effort = any(p.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for p in publishers)
-    latched = bool(publishers) and all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
-                                       for p in publishers)
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=ECHO_DEPTH,
-                      reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
-                      durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
+    latched = bool(publishers) and all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers)
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=ECHO_DEPTH,
+        reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+    )
 
 
 def is_message(value: Any) -> bool:
@@ -113,12 +118,14 @@ def message_to_yaml(msg: Any) -> str:
     """``field: value`` lines, nested messages indented, sequences as ``- x`` items (ros2cli's layout)."""
     import yaml
 
-    return yaml.safe_dump(message_to_plain(msg), default_flow_style=False, sort_keys=False, allow_unicode=True,
-                          width=float("inf"))
+    return yaml.safe_dump(
+        message_to_plain(msg), default_flow_style=False, sort_keys=False, allow_unicode=True, width=float("inf")
+    )
 
 
 def message_to_csv(msg: Any) -> str:
     """The flattened values in field order, comma-separated (an empty sequence leaves an empty cell)."""
+
     def cell(value: Any) -> str:
         if is_message(value):
             return ",".join(cell(getattr(value, name)) for name in value.get_fields_and_field_types())
@@ -134,6 +141,7 @@ def message_to_csv(msg: Any) -> str:
 
 
 # --- hz ---------------------------------------------------------------------
+
 
 class RateWindow:
     """Intervals between receptions over the last ``window`` of them: ros2 topic hz's statistics."""
@@ -163,8 +171,10 @@ class RateWindow:
         mean = sum(times) / n
         rate = 1e9 / mean if mean > 0 else 0.0
         std_dev = math.sqrt(sum((t - mean) ** 2 for t in times) / n)
-        return (f"average rate: {rate:.3f}\n\tmin: {min(times) * 1e-9:.3f}s max: {max(times) * 1e-9:.3f}s "
-                f"std dev: {std_dev * 1e-9:.5f}s window: {n}")
+        return (
+            f"average rate: {rate:.3f}\n\tmin: {min(times) * 1e-9:.3f}s max: {max(times) * 1e-9:.3f}s "
+            f"std dev: {std_dev * 1e-9:.5f}s window: {n}"
+        )
 
 
 @graph.command("topic hz")
@@ -217,5 +227,9 @@ def _hz_qos() -> Any:
     and never holds a writer back."""
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=HZ_DEPTH, reliability=ReliabilityPolicy.BEST_EFFORT,
-                      durability=DurabilityPolicy.VOLATILE)
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=HZ_DEPTH,
+        reliability=ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.VOLATILE,
+    )

@@ -9,6 +9,7 @@
 The live stream itself is ``robot_controller.nodes.viewer``, an observer
 process the launcher starts beside the recorder (``run --view``).
 """
+
 from __future__ import annotations
 
 from pathlib import Path

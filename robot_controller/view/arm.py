@@ -9,6 +9,7 @@ measured, reference), so one row moves all three arms together: a browser
 never shows one arm at a newer instant than another. The joint order is
 MuJoCo's (``core.plant.joint_names``), the stack's order for every array.
 """
+
 from __future__ import annotations
 
 import math
@@ -104,8 +105,9 @@ def _visuals(link: ET.Element, urdf_dir: Path) -> list[Visual]:
             if shape.tag == "box":
                 out.append(Visual("box", xyz, rpy, _floats(shape.get("size"), (0.1, 0.1, 0.1))))
             elif shape.tag == "cylinder":
-                out.append(Visual("cylinder", xyz, rpy, (float(shape.get("radius", 0.02)),
-                                                         float(shape.get("length", 0.1)))))
+                out.append(
+                    Visual("cylinder", xyz, rpy, (float(shape.get("radius", 0.02)), float(shape.get("length", 0.1))))
+                )
             elif shape.tag == "sphere":
                 out.append(Visual("sphere", xyz, rpy, (float(shape.get("radius", 0.02)),)))
             elif shape.tag == "mesh":
@@ -128,10 +130,14 @@ def load_arm(urdf: Path, joint_order: list[str] | None = None) -> ArmModel:
         parent, child = e.find("parent").get("link"), e.find("child").get("link")
         raw_axis = np.array(_floats(axis.get("xyz") if axis is not None else None, (1.0, 0.0, 0.0)))
         norm = float(np.linalg.norm(raw_axis)) or 1.0
-        joint = Joint(e.get("name"), e.get("type", "fixed"),
-                      _floats(origin.get("xyz") if origin is not None else None, (0.0, 0.0, 0.0)),
-                      _floats(origin.get("rpy") if origin is not None else None, (0.0, 0.0, 0.0)),
-                      tuple(float(v) for v in raw_axis / norm), links[child])
+        joint = Joint(
+            e.get("name"),
+            e.get("type", "fixed"),
+            _floats(origin.get("xyz") if origin is not None else None, (0.0, 0.0, 0.0)),
+            _floats(origin.get("rpy") if origin is not None else None, (0.0, 0.0, 0.0)),
+            tuple(float(v) for v in raw_axis / norm),
+            links[child],
+        )
         links[parent].children.append(joint)
         children.add(child)
         joints.append(joint)
@@ -145,7 +151,8 @@ def load_arm(urdf: Path, joint_order: list[str] | None = None) -> ArmModel:
         raise ValueError(f"{urdf}: no moving joint named {missing}")
     first = next((j for j in joints if j.kind in MOVING), joints[0] if joints else None)
     reach = sum(float(np.linalg.norm(j.xyz)) for j in joints if j is not first) + max(
-        (_extent(v) for link in links.values() for v in link.visuals), default=0.1)
+        (_extent(v) for link in links.values() for v in link.visuals), default=0.1
+    )
     base = first.xyz if first is not None else (0.0, 0.0, 0.0)
     return ArmModel(roots[0], order, reach, base)
 
@@ -166,9 +173,13 @@ def rpy_matrix(rpy: tuple[float, float, float]) -> np.ndarray:
     """URDF's fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)."""
     r, p, y = rpy
     cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
 
 
 def z_to(axis: tuple[float, float, float]) -> np.ndarray:
@@ -205,8 +216,10 @@ def link_frames(arm: ArmModel, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.
         if joint.kind in ("revolute", "continuous"):
             frames[joint.child.name] = (at_joint[0] @ axis_matrices(joint.axis, value), at_joint[1])
         elif joint.kind == "prismatic":
-            frames[joint.child.name] = (at_joint[0], at_joint[1] + at_joint[0] @ np.asarray(joint.axis)
-                                        * value[:, None])
+            frames[joint.child.name] = (
+                at_joint[0],
+                at_joint[1] + at_joint[0] @ np.asarray(joint.axis) * value[:, None],
+            )
         else:
             frames[joint.child.name] = at_joint
         if joint.kind in MOVING:
@@ -243,20 +256,41 @@ def log_static(rec, arm: ArmModel, root: str, poses: list[tuple[list[int], float
         for k, v in enumerate(link.visuals):
             path = _visual_path(root, link, k)
             if v.kind == "box":
-                rec.log(path, rr.Boxes3D(half_sizes=[[0.5 * s * f for s in v.size] for _, f in poses],
-                                         colors=colors, fill_mode="solid"), static=True)
+                rec.log(
+                    path,
+                    rr.Boxes3D(
+                        half_sizes=[[0.5 * s * f for s in v.size] for _, f in poses], colors=colors, fill_mode="solid"
+                    ),
+                    static=True,
+                )
             elif v.kind == "cylinder":
-                rec.log(path, rr.Cylinders3D(lengths=[v.size[1]] * len(poses), radii=[v.size[0] * f for _, f in poses],
-                                             colors=colors, fill_mode="solid"), static=True)
+                rec.log(
+                    path,
+                    rr.Cylinders3D(
+                        lengths=[v.size[1]] * len(poses),
+                        radii=[v.size[0] * f for _, f in poses],
+                        colors=colors,
+                        fill_mode="solid",
+                    ),
+                    static=True,
+                )
             elif v.kind == "sphere":
-                rec.log(path, rr.Ellipsoids3D(half_sizes=[[v.size[0] * f] * 3 for _, f in poses], colors=colors,
-                                              fill_mode="solid"), static=True)
+                rec.log(
+                    path,
+                    rr.Ellipsoids3D(
+                        half_sizes=[[v.size[0] * f] * 3 for _, f in poses], colors=colors, fill_mode="solid"
+                    ),
+                    static=True,
+                )
             elif v.kind == "mesh" and v.mesh is not None:  # one colour for every instance of a mesh
                 rec.log(path, rr.Asset3D(path=v.mesh, albedo_factor=colors[0]), static=True)
     for _, joint in arm.joints():
         if joint.kind in MOVING:
-            rec.log(_hub_path(root, joint), rr.Cylinders3D(lengths=[HUB_LENGTH_M], radii=[HUB_RADIUS_M],
-                                                           colors=[HUB_COLOR], fill_mode="solid"), static=True)
+            rec.log(
+                _hub_path(root, joint),
+                rr.Cylinders3D(lengths=[HUB_LENGTH_M], radii=[HUB_RADIUS_M], colors=[HUB_COLOR], fill_mode="solid"),
+                static=True,
+            )
 
 
 def pose_columns(arm: ArmModel, root: str, q: np.ndarray) -> list[tuple[str, object]]:
@@ -281,8 +315,9 @@ def pose_columns(arm: ArmModel, root: str, q: np.ndarray) -> list[tuple[str, obj
             elif v.kind == "sphere":
                 columns = rr.Ellipsoids3D.columns(centers=centers, quaternions=quaternions)
             elif v.kind == "mesh" and v.mesh is not None:
-                columns = rr.InstancePoses3D.columns(translations=centers, quaternions=quaternions,
-                                                     scales=np.broadcast_to(v.size, (m * count, 3)))
+                columns = rr.InstancePoses3D.columns(
+                    translations=centers, quaternions=quaternions, scales=np.broadcast_to(v.size, (m * count, 3))
+                )
             else:
                 continue
             out.append((_visual_path(root, link, k), columns.partition([count] * m)))
@@ -290,14 +325,22 @@ def pose_columns(arm: ArmModel, root: str, q: np.ndarray) -> list[tuple[str, obj
         if joint.kind in MOVING:
             rotation, position = frames[f"{joint.name}@"]
             hub = rotation[::count] @ z_to_matrix(joint.axis)
-            out.append((_hub_path(root, joint), rr.Cylinders3D.columns(centers=position[::count],
-                                                                       quaternions=_quaternions(hub))))
+            out.append(
+                (
+                    _hub_path(root, joint),
+                    rr.Cylinders3D.columns(centers=position[::count], quaternions=_quaternions(hub)),
+                )
+            )
     return out
 
 
 def z_to_matrix(axis: tuple[float, float, float]) -> np.ndarray:
     """The rotation matrix turning +z onto ``axis``."""
     x, y, z, w = z_to(axis)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )

@@ -6,6 +6,7 @@ object for each of some 400 messages a second (a labelled
 rest of its work. Plain CDR (XCDR1), either byte order; alignment counts from
 the end of the 4-byte encapsulation header.
 """
+
 from __future__ import annotations
 
 import struct
@@ -42,7 +43,7 @@ class _Reader:
 
     def string(self) -> str:
         n = self.u32()
-        text = self.data[self.pos:self.pos + n].rstrip(b"\0").decode("utf-8", "replace")
+        text = self.data[self.pos : self.pos + n].rstrip(b"\0").decode("utf-8", "replace")
         self.pos += n
         return text
 

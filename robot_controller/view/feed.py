@@ -10,6 +10,7 @@ keep at most ``MAX_PENDING`` samples each between flushes (the oldest go
 first if a flush is late), and only a short tail of controller ticks is kept
 for pairing with later samples.
 """
+
 from __future__ import annotations
 
 from collections import deque
@@ -69,8 +70,9 @@ class Decimator:
         return t[pick], v[pick]
 
 
-def reference_in_force(ticks: np.ndarray, reference: np.ndarray, status: np.ndarray, t: np.ndarray,
-                       nominal_period_s: float) -> np.ndarray:
+def reference_in_force(
+    ticks: np.ndarray, reference: np.ndarray, status: np.ndarray, t: np.ndarray, nominal_period_s: float
+) -> np.ndarray:
     """The controller's reference in force at each time ``t`` (NaN where an idle tick is in force),
     as scoring defines it (``report.tracking_on_sim_timeline``)."""
     index = np.clip(np.searchsorted(ticks, t, side="right") - 1, 0, len(ticks) - 1)
@@ -82,8 +84,9 @@ def reference_in_force(ticks: np.ndarray, reference: np.ndarray, status: np.ndar
     previous = np.clip(index - 1, 0, len(ticks) - 1)
     step_s = ticks[index] - ticks[previous]
     normal = (index > previous) & (step_s <= GAP_PERIODS * nominal_period_s)
-    speed = np.where(normal[:, None], (reference[index] - reference[previous])
-                     / np.where(step_s > 0, step_s, 1.0)[:, None], 0.0)
+    speed = np.where(
+        normal[:, None], (reference[index] - reference[previous]) / np.where(step_s > 0, step_s, 1.0)[:, None], 0.0
+    )
     carried = reference[index] + speed * np.clip(t - ticks[index], 0.0, CARRY_S)[:, None]
     in_force = np.where(interpolate[:, None], in_force, carried)
     idle = np.isin(status[index], IDLE_CODES) | (t < ticks[0])
@@ -127,8 +130,9 @@ class Outlet:
             self.next_send = now + self.period_s
             for path, parts in self.scalars.items():
                 t, v = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
-                self.rec.send_columns(path, indexes=[rr.TimeColumn(layout.TIMELINE, duration=t)],
-                                      columns=rr.Scalars.columns(scalars=v))
+                self.rec.send_columns(
+                    path, indexes=[rr.TimeColumn(layout.TIMELINE, duration=t)], columns=rr.Scalars.columns(scalars=v)
+                )
             self.scalars.clear()
         if (force or now >= self.next_pose_send) and self.poses:
             self.next_pose_send = now + self.pose_period_s
@@ -142,8 +146,9 @@ class Outlet:
 class ViewFeed:
     """Collects the loop's samples and hands them, thinned, to its outlets on ``flush``."""
 
-    def __init__(self, outlets: list[Outlet], arm: arm_view.ArmModel, *, nominal_period_s: float,
-                 live: bool = True) -> None:
+    def __init__(
+        self, outlets: list[Outlet], arm: arm_view.ArmModel, *, nominal_period_s: float, live: bool = True
+    ) -> None:
         self.outlets = outlets
         self.arm = arm
         self.joints = arm.joint_names
@@ -198,15 +203,17 @@ class ViewFeed:
 
     # -- output ------------------------------------------------------------------
 
-    def _decimate(self, key: str, rate_hz: float, t: np.ndarray, v: np.ndarray, *, extreme: bool = False,
-                  final: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    def _decimate(
+        self, key: str, rate_hz: float, t: np.ndarray, v: np.ndarray, *, extreme: bool = False, final: bool = False
+    ) -> tuple[np.ndarray, np.ndarray]:
         decimator = self.decimators.get(key)
         if decimator is None:
             decimator = self.decimators[key] = Decimator(rate_hz, extreme=extreme)
         return decimator.take(t, v, final=final)
 
-    def _series(self, series: str, joint: str, t: np.ndarray, v: np.ndarray, *, extreme: bool = False,
-                final: bool = False) -> None:
+    def _series(
+        self, series: str, joint: str, t: np.ndarray, v: np.ndarray, *, extreme: bool = False, final: bool = False
+    ) -> None:
         path = layout.series_path(series, joint, self.n)
         t, v = self._decimate(path, SERIES_HZ, t, v, extreme=extreme, final=final)
         keep = np.isfinite(v)
@@ -261,7 +268,7 @@ class ViewFeed:
             self.readings_q = np.vstack([self.readings_q, measured[:, 1:]])[keep]
         true = self._drain(self.true_in, 1 + 2 * n)
         if true is not None:
-            t, q, effort = true[:, 0], true[:, 1:1 + n], true[:, 1 + n:]
+            t, q, effort = true[:, 0], true[:, 1 : 1 + n], true[:, 1 + n :]
             self._poses(t, q, final)
             for k, joint in enumerate(self.joints):
                 self._series("true", joint, t, q[:, k], final=final)
@@ -297,8 +304,12 @@ class ViewFeed:
         for k in np.flatnonzero(codes != previous):
             name = STATUS_NAMES.get(int(codes[k]), str(codes[k]))
             for outlet in self.outlets:
-                outlet.text(layout.STATUS_LOG, float(t[k] - self.t0), f"controller: {name}",
-                            "INFO" if name in ("ok", "reacquiring") else "WARN")
+                outlet.text(
+                    layout.STATUS_LOG,
+                    float(t[k] - self.t0),
+                    f"controller: {name}",
+                    "INFO" if name in ("ok", "reacquiring") else "WARN",
+                )
         self.last_status = int(codes[-1])
         keep = slice(-TICK_TAIL if self.live else None, None)
         self.ticks = np.concatenate([self.ticks, t])[keep]
@@ -314,12 +325,15 @@ class ViewFeed:
         # A sample is paired once a later tick has come (or the run is over).
         ready = np.ones(len(self.unpaired_t), bool) if final else self.unpaired_t <= self.ticks[-1]
         t, q = self.unpaired_t[ready], self.unpaired_q[ready]
-        self.unpaired_t, self.unpaired_q = self.unpaired_t[~ready][-MAX_PENDING:], self.unpaired_q[~ready][
-            -MAX_PENDING:]
+        self.unpaired_t, self.unpaired_q = (
+            self.unpaired_t[~ready][-MAX_PENDING:],
+            self.unpaired_q[~ready][-MAX_PENDING:],
+        )
         if not len(t):
             return
-        error = 1e3 * (reference_in_force(self.ticks, self.tick_reference, self.tick_status, t,
-                                          self.nominal_period_s) - q)
+        error = 1e3 * (
+            reference_in_force(self.ticks, self.tick_reference, self.tick_status, t, self.nominal_period_s) - q
+        )
         for k, joint in enumerate(self.joints):
             self._series("error_true", joint, t, error[:, k], extreme=True, final=final)
 
@@ -336,5 +350,6 @@ class ViewFeed:
                 latency.append(1e3 * (row[0] - candidates[-1]))
         if t:
             order = np.argsort(t)
-            self._series("latency", self.joints[0], np.asarray(t)[order], np.asarray(latency)[order], extreme=True,
-                         final=final)
+            self._series(
+                "latency", self.joints[0], np.asarray(t)[order], np.asarray(latency)[order], extreme=True, final=final
+            )

@@ -1,6 +1,7 @@
 """The view of a saved run, built from its bag: the same scene, series and
 layout as the live view (``DIR/view.rrd``), so any run can be looked at again,
 including runs recorded without ``--view``."""
+
 from __future__ import annotations
 
 import signal
@@ -101,8 +102,9 @@ def log_run(rec, run: SavedRun) -> None:
     layout.log_scene(rec, arm)
     feed = ViewFeed([Outlet(rec, float("inf"))], arm, nominal_period_s=run.period_s, live=False)
     s = recording.state
-    rows = np.column_stack([s["time_s"], s["status"], s["measurement_stamp_s"]]
-                           + [s[name] for name in state_layout.FIELDS])
+    rows = np.column_stack(
+        [s["time_s"], s["status"], s["measurement_stamp_s"]] + [s[name] for name in state_layout.FIELDS]
+    )
     for row in rows:
         feed.controller_state(row)
     for t, q, effort in zip(recording.true_time_s, recording.true_position, recording.true_effort, strict=False):

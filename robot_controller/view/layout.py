@@ -1,6 +1,7 @@
 """What the view shows and where: entity paths, colours, series styles, and
 the saved blueprint (the arm in 3-D on the left, a column of time series on
 the right), shared by the live view and the view built from a bag."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -54,8 +55,11 @@ def log_styles(rec, joint_names: list[str]) -> None:
         joints = joint_names if series in PER_JOINT else joint_names[:1]
         for joint in joints:
             name = label if series not in PER_JOINT or n == 1 else f"{label} ({joint})"
-            rec.log(series_path(series, joint, n), rr.SeriesLines(colors=[colour], widths=[width], names=[name]),
-                    static=True)
+            rec.log(
+                series_path(series, joint, n),
+                rr.SeriesLines(colors=[colour], widths=[width], names=[name]),
+                static=True,
+            )
 
 
 def log_scene(rec, arm: ArmModel) -> None:
@@ -66,9 +70,17 @@ def log_scene(rec, arm: ArmModel) -> None:
     rec.log(WORLD, rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     x, y, z = arm.base_xyz
     if z > 0.05:  # the arm's first joint stands on something: draw it
-        rec.log(f"{WORLD}/pedestal", rr.Cylinders3D(centers=[[x, y, 0.5 * z - 0.02]], lengths=[z - 0.04],
-                                                    radii=[0.03], colors=[[95, 95, 105]], fill_mode="solid"),
-                static=True)
+        rec.log(
+            f"{WORLD}/pedestal",
+            rr.Cylinders3D(
+                centers=[[x, y, 0.5 * z - 0.02]],
+                lengths=[z - 0.04],
+                radii=[0.03],
+                colors=[[95, 95, 105]],
+                fill_mode="solid",
+            ),
+            static=True,
+        )
     log_static(rec, arm, ARM, list(POSES.values()))
 
 
@@ -83,23 +95,38 @@ def blueprint(arm: ArmModel, *, live: bool):
     target = np.asarray(arm.base_xyz, dtype=float)
     direction = np.array([0.35, -1.0, 0.3])
     distance = max(0.8, 2.6 * arm.reach_m)
-    eye = rrb.EyeControls3D(position=(target + direction / np.linalg.norm(direction) * distance).tolist(),
-                            look_target=target.tolist(), eye_up=[0.0, 0.0, 1.0])
+    eye = rrb.EyeControls3D(
+        position=(target + direction / np.linalg.norm(direction) * distance).tolist(),
+        look_target=target.tolist(),
+        eye_up=[0.0, 0.0, 1.0],
+    )
     ranges = None
     if live:
-        ranges = rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.cursor_relative(seconds=-LIVE_WINDOW_S),
-                                      end=rrb.TimeRangeBoundary.cursor_relative())
+        ranges = rrb.VisibleTimeRange(
+            TIMELINE,
+            start=rrb.TimeRangeBoundary.cursor_relative(seconds=-LIVE_WINDOW_S),
+            end=rrb.TimeRangeBoundary.cursor_relative(),
+        )
 
     def plot(origin: str, name: str):
-        return rrb.TimeSeriesView(origin=origin, name=name, time_ranges=ranges,
-                                  plot_legend=rrb.PlotLegend(corner="LeftTop"))
+        return rrb.TimeSeriesView(
+            origin=origin, name=name, time_ranges=ranges, plot_legend=rrb.PlotLegend(corner="LeftTop")
+        )
 
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial3DView(origin=WORLD, name="arm: true (solid), measured (blue), reference (green)",
-                              eye_controls=eye),
-            rrb.Vertical(plot(POSITION, "position [rad]"), plot(ERROR, "tracking error [mrad]"),
-                         plot(TORQUE, "torque [N·m]"), plot(TIMING, "loop timing [ms]")),
-            column_shares=[2, 3]),
-        rrb.BlueprintPanel(state="collapsed"), rrb.SelectionPanel(state="collapsed"),
-        rrb.TimePanel(state="collapsed", timeline=TIMELINE))
+            rrb.Spatial3DView(
+                origin=WORLD, name="arm: true (solid), measured (blue), reference (green)", eye_controls=eye
+            ),
+            rrb.Vertical(
+                plot(POSITION, "position [rad]"),
+                plot(ERROR, "tracking error [mrad]"),
+                plot(TORQUE, "torque [N·m]"),
+                plot(TIMING, "loop timing [ms]"),
+            ),
+            column_shares=[2, 3],
+        ),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(state="collapsed", timeline=TIMELINE),
+    )

@@ -15,6 +15,7 @@ The gRPC and web ports are free ones picked at start, so runs side by side do
 not collide. rerun binds its web server on every interface (it has no option
 for that); it only serves the viewer's files, and the data stays on 127.0.0.1.
 """
+
 from __future__ import annotations
 
 import socket
@@ -45,8 +46,9 @@ def check_port(port: int) -> None:
         try:
             s.bind((HOST, port))
         except OSError as exc:
-            raise ConfigError(f"view port {port}: cannot serve on {HOST}:{port} ({exc.strerror}); "
-                              "choose another port") from None
+            raise ConfigError(
+                f"view port {port}: cannot serve on {HOST}:{port} ({exc.strerror}); " "choose another port"
+            ) from None
 
 
 def page_url(port: int) -> str:
@@ -61,8 +63,9 @@ def open_recording(recording_id: str | None = None):
     return rr.RecordingStream(APPLICATION_ID, recording_id=recording_id)
 
 
-def set_sinks(rec, *, rrd: Path | None, serve: bool, blueprint, write_footer: bool = True,
-              newest_first: bool = False) -> str | None:
+def set_sinks(
+    rec, *, rrd: Path | None, serve: bool, blueprint, write_footer: bool = True, newest_first: bool = False
+) -> str | None:
     """Where ``rec`` goes: ``rrd`` (a file) and, if ``serve``, a local gRPC
     server (``newest_first``: a browser that connects late gets the present
     first, then the past). Returns the server's ``rerun+http://…/proxy``
@@ -72,8 +75,9 @@ def set_sinks(rec, *, rrd: Path | None, serve: bool, blueprint, write_footer: bo
     sinks = []
     uri = None
     if serve:
-        server = rr.GrpcServerSink(bind_ip=HOST, port=free_port(), server_memory_limit=SERVER_MEMORY_LIMIT,
-                                   newest_first=newest_first)
+        server = rr.GrpcServerSink(
+            bind_ip=HOST, port=free_port(), server_memory_limit=SERVER_MEMORY_LIMIT, newest_first=newest_first
+        )
         uri = server.uri
         sinks.append(server)
     if rrd is not None:
@@ -106,8 +110,9 @@ def serve_web(grpc_uri: str, port: int) -> ThreadingHTTPServer:
 
     web_port = free_port()
     rr.serve_web_viewer(web_port=web_port, open_browser=False, connect_to=grpc_uri)
-    handler = type("Redirect", (_Redirect,), {
-        "target": f"http://{HOST}:{web_port}/?url={urllib.parse.quote(grpc_uri, safe='')}"})
+    handler = type(
+        "Redirect", (_Redirect,), {"target": f"http://{HOST}:{web_port}/?url={urllib.parse.quote(grpc_uri, safe='')}"}
+    )
     server = ThreadingHTTPServer((HOST, port), handler)
     server.daemon_threads = True
     threading.Thread(target=server.serve_forever, name="view-redirect", daemon=True).start()

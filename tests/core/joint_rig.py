@@ -1,5 +1,6 @@
 """A JointController test rig: an exact period, numbers for times, a ramp
 planner and an arm read exactly on it (no ROS, no sleeping)."""
+
 from functools import lru_cache
 
 import numpy as np
@@ -23,14 +24,21 @@ def arm() -> ArmDynamics:
 
 
 def config(**kw) -> ControllerConfig:
-    base = {"control_period_s": PERIOD,
-            "pid": PidConfig(kp=[50.0], ki=[10.0], kd=[5.0], output_limit=[TORQUE_MAX])}
+    base = {"control_period_s": PERIOD, "pid": PidConfig(kp=[50.0], ki=[10.0], kd=[5.0], output_limit=[TORQUE_MAX])}
     base.update(kw)
     return ControllerConfig(**base)
 
 
-def run(c: JointController, ticks, *, speed: float = 0.0, planner: bool = True, readings: bool = True,
-        every: int = 1, arm_at: float | None = None) -> list[ControlOutput]:
+def run(
+    c: JointController,
+    ticks,
+    *,
+    speed: float = 0.0,
+    planner: bool = True,
+    readings: bool = True,
+    every: int = 1,
+    arm_at: float | None = None,
+) -> list[ControlOutput]:
     """Tick ``c`` at k·PERIOD for k in ``ticks``: the planner on a ramp of ``speed``
     rad/s (a sample every ``every`` ticks), the arm read exactly on it (or at ``arm_at``)."""
     outs = []

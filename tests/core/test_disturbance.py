@@ -1,5 +1,6 @@
 """External disturbances on the MuJoCo plant (issue 11): an external torque on
 the joint, beside the actuator's, for a given physics time (no ROS)."""
+
 import numpy as np
 import pytest
 

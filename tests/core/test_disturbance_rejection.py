@@ -16,6 +16,7 @@ No tuning of this loop (LQR weights, acceleration and disturbance noise)
 found both: with two periods of margin the push still moves the arm about
 23 mrad at best. So the observer is off by default.
 """
+
 import numpy as np
 import pytest
 
@@ -59,10 +60,12 @@ def without_observer():
 
 # --- the goal -----------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_a_fast_observer_rejects_the_push_within_the_goal_and_the_default_law_does_not(seed, without_observer):
-    fast = deviation(inprocess.simulate(params(True, FAST), duration_s=PUSH_AT_S + AFTER_S, seed=seed,
-                                        disturbance=push()))
+    fast = deviation(
+        inprocess.simulate(params(True, FAST), duration_s=PUSH_AT_S + AFTER_S, seed=seed, disturbance=push())
+    )
     assert fast["peak_deviation_rad"] <= GOAL_PEAK_RAD  # 9.5, 7.3, 6.8 mrad (sensor noise included)
     assert fast["recovery_s"] <= GOAL_RECOVERY_S  # 0.14, 0.16, 0.17 s
     plain = deviation(without_observer)
@@ -71,14 +74,17 @@ def test_a_fast_observer_rejects_the_push_within_the_goal_and_the_default_law_do
 
 
 def test_the_default_observer_halves_the_push_and_keeps_two_periods_of_delay_margin(without_observer):
-    observed = deviation(inprocess.simulate(params(True), duration_s=PUSH_AT_S + AFTER_S, seed=0,
-                                            disturbance=push()))
+    observed = deviation(inprocess.simulate(params(True), duration_s=PUSH_AT_S + AFTER_S, seed=0, disturbance=push()))
     plain = deviation(without_observer)
     assert observed["peak_deviation_rad"] < 0.5 * plain["peak_deviation_rad"]  # 34 against 79 mrad
     assert observed["recovery_s"] < 1.0  # 0.78 s; without: never (but not issue 12's 0.3 s)
     dynamics = arm()
-    margins = {sigma: JointController(cfg.controller_config(params(True, sigma)["pid_controller"], 1), 1,
-                                      dynamics).delay_margin_periods() for sigma in (None, 1.0, FAST)}
+    margins = {
+        sigma: JointController(
+            cfg.controller_config(params(True, sigma)["pid_controller"], 1), 1, dynamics
+        ).delay_margin_periods()
+        for sigma in (None, 1.0, FAST)
+    }
     off = JointController(cfg.controller_config(params(False)["pid_controller"], 1), 1, dynamics)
     assert off.delay_margin_periods() == 3
     assert margins[None] == 2  # the default tuning
@@ -88,8 +94,14 @@ def test_the_default_observer_halves_the_push_and_keeps_two_periods_of_delay_mar
 def test_two_periods_of_unaccounted_delay_as_the_margin_says():
     # Readings two periods old, stamped on arrival: nothing compensates them.
     def late(p: cfg.Params) -> inprocess.LoopResult:
-        return inprocess.simulate(p, duration_s=5.0, seed=1, measurement_delay_s=0.02, delay_unstamped=True,
-                                  disturbance=Disturbance(np.array([PUSH_NM]), 3.0, 10.0))
+        return inprocess.simulate(
+            p,
+            duration_s=5.0,
+            seed=1,
+            measurement_delay_s=0.02,
+            delay_unstamped=True,
+            disturbance=Disturbance(np.array([PUSH_NM]), 3.0, 10.0),
+        )
 
     kept = late(params(True)).command[200:, 0]
     assert np.max(np.abs(kept)) < 6.0  # 2.7 N·m: stable through the push, no saturation
@@ -99,6 +111,7 @@ def test_two_periods_of_unaccounted_delay_as_the_margin_says():
 
 
 # --- the estimate ---------------------------------------------------------------------------
+
 
 class Rig:
     """The default controller (with the observer) on the MuJoCo arm tracking the
@@ -203,6 +216,7 @@ def test_a_braked_arm_winds_nothing_up():
 
 
 # --- the limit ---------------------------------------------------------------------------------
+
 
 def test_the_command_and_the_estimate_stay_within_the_torque_limit_under_a_push_beyond_it():
     rig = Rig(kalman_disturbance_noise_std=FAST)

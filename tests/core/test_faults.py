@@ -1,6 +1,7 @@
 """What the controller does when an input is lost and when it returns (no ROS):
 controlled stop on the model, torque off after the timeout, a blend back onto
 the trajectory with no jump, and the same after its own pause or an e-stop."""
+
 import numpy as np
 import pytest
 

@@ -2,6 +2,7 @@
 inverse dynamics, against the actuator's limit less the margin kept for
 feedback; the time scale that makes it fit; and the whole-configuration
 check that refuses, scales or only warns."""
+
 import re
 
 import numpy as np
@@ -23,15 +24,22 @@ def arm():
 
 def fast_chirp():
     """1 rad from 0.5 to 3 Hz: about 30 N·m at the end of its sweep on the reference arm."""
-    return make_trajectory("chirp", joint_count=1, amplitude=1.0, frequency_hz=0.5, end_frequency_hz=3.0,
-                           sweep_time_s=10.0)
+    return make_trajectory(
+        "chirp", joint_count=1, amplitude=1.0, frequency_hz=0.5, end_frequency_hz=3.0, sweep_time_s=10.0
+    )
 
 
 def test_the_default_sine_is_feasible_and_left_as_it_is(arm):
     planner = cfg.defaults()["trajectory_planner"]
     sine = make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner))
-    plan = feasibility.plan(sine, arm, planner["torque_max"], margin=planner["feasibility_margin"],
-                            policy=planner["feasibility"], what="sine")
+    plan = feasibility.plan(
+        sine,
+        arm,
+        planner["torque_max"],
+        margin=planner["feasibility_margin"],
+        policy=planner["feasibility"],
+        what="sine",
+    )
     assert plan.trajectory is sine and plan.warning is None
     result = plan.result
     assert result.feasible and result.scale == 1.0
@@ -50,7 +58,8 @@ def test_a_fast_chirp_is_infeasible_and_its_scale_factor_brings_it_within_the_us
     slowed = time_scaled(chirp, k)
     assert isinstance(slowed, Chirp)
     assert (slowed.frequency_hz, slowed.end_frequency_hz, slowed.sweep_time_s) == pytest.approx(
-        (0.5 / k, 3.0 / k, 10.0 * k))
+        (0.5 / k, 3.0 / k, 10.0 * k)
+    )
     # Recomputed on the slowed trajectory itself: within the usable 8 N·m, and not by much.
     peak = feasibility.peak_torque(slowed, arm)
     assert peak[0] <= 8.0 + 1e-9
@@ -62,9 +71,11 @@ def test_a_fast_chirp_is_infeasible_and_its_scale_factor_brings_it_within_the_us
 
 def test_slowing_divides_velocity_by_k_and_acceleration_by_k_squared():
     k = 1.7
-    for trajectory in (Sine(np.array([1.0]), 0.5, np.array([0.2])),
-                       Chirp(np.array([0.8]), 0.5, 3.0, 4.0, np.array([0.0])),
-                       MinTimeStep(np.array([1.0]), 0.0, np.array([0.0]), 60.0)):
+    for trajectory in (
+        Sine(np.array([1.0]), 0.5, np.array([0.2])),
+        Chirp(np.array([0.8]), 0.5, 3.0, 4.0, np.array([0.0])),
+        MinTimeStep(np.array([1.0]), 0.0, np.array([0.0]), 60.0),
+    ):
         slowed = time_scaled(trajectory, k)
         for t in np.linspace(0.0, 0.4, 9):
             q, v, a = trajectory.sample(t)
@@ -76,8 +87,15 @@ def test_slowing_divides_velocity_by_k_and_acceleration_by_k_squared():
 
 
 def test_a_shaped_step_too_fast_for_the_arm_gets_a_lower_max_acceleration(arm):
-    step = make_trajectory("step", joint_count=1, amplitude=2.0, step_time_s=0.5, step_shaping="min_time",
-                           max_acceleration=90.0, sample_period_s=0.01)
+    step = make_trajectory(
+        "step",
+        joint_count=1,
+        amplitude=2.0,
+        step_time_s=0.5,
+        step_shaping="min_time",
+        max_acceleration=90.0,
+        sample_period_s=0.01,
+    )
     plan = feasibility.plan(step, arm, 10.0, what="step")
     assert not plan.result.feasible and plan.result.scale > 1.0
     assert isinstance(plan.trajectory, MinTimeStep)
@@ -88,8 +106,15 @@ def test_a_shaped_step_too_fast_for_the_arm_gets_a_lower_max_acceleration(arm):
 
 def test_the_default_step_experiment_fits_as_it_is(arm):
     for amplitude in (0.5, 1.0):
-        step = make_trajectory("step", joint_count=1, amplitude=amplitude, step_time_s=0.5, step_shaping="min_time",
-                               max_acceleration=60.0, sample_period_s=0.01)
+        step = make_trajectory(
+            "step",
+            joint_count=1,
+            amplitude=amplitude,
+            step_time_s=0.5,
+            step_shaping="min_time",
+            max_acceleration=60.0,
+            sample_period_s=0.01,
+        )
         assert feasibility.check(step, arm, 10.0).feasible
 
 
@@ -118,8 +143,11 @@ def test_ignore_keeps_the_trajectory_and_warns(arm):
 def test_scale_warns_once_with_the_numbers_and_the_factor(arm):
     plan = feasibility.plan(fast_chirp(), arm, 10.0, policy="scale", what="chirp")
     assert "\n" not in plan.warning
-    assert re.search(r"^the chirp needs \d+\.\d N·m on joint1 against 8\.0 N·m usable \(10\.0 N·m limit, "
-                     r"20 % kept for feedback\): scaled in time ×\d\.\d\d: frequencies 0\.5→0\.\d+ Hz", plan.warning)
+    assert re.search(
+        r"^the chirp needs \d+\.\d N·m on joint1 against 8\.0 N·m usable \(10\.0 N·m limit, "
+        r"20 % kept for feedback\): scaled in time ×\d\.\d\d: frequencies 0\.5→0\.\d+ Hz",
+        plan.warning,
+    )
 
 
 def chirp_params(**planner):
@@ -133,9 +161,12 @@ def test_refuse_is_a_config_error_with_the_numbers():
         consistency.check_stack(chirp_params(feasibility="refuse"))
     message = str(info.value)
     assert "\n" not in message
-    assert re.fullmatch(r"trajectory_planner: the chirp needs \d\d\.\d N·m on joint1 against 8\.0 N·m usable "
-                        r"\(10\.0 N·m limit, 20 % kept for feedback\); slow it down \(feasibility: scale\) "
-                        r"or lower the amplitude", message), message
+    assert re.fullmatch(
+        r"trajectory_planner: the chirp needs \d\d\.\d N·m on joint1 against 8\.0 N·m usable "
+        r"\(10\.0 N·m limit, 20 % kept for feedback\); slow it down \(feasibility: scale\) "
+        r"or lower the amplitude",
+        message,
+    ), message
 
 
 def test_scale_and_ignore_pass_the_whole_configuration_check():
@@ -159,16 +190,19 @@ def test_the_margin_is_the_planners_parameter():
 def test_the_planner_must_check_against_the_motors_limit_and_the_controllers_arm(tmp_path):
     params = cfg.load_stack()
     params["motor_node"]["torque_max"] = [8.0]
-    with pytest.raises(ConfigError, match=r"trajectory_planner: torque_max \[10\.0\] N·m differs from "
-                                          r"motor_node's \[8\.0\] N·m"):
+    with pytest.raises(
+        ConfigError, match=r"trajectory_planner: torque_max \[10\.0\] N·m differs from " r"motor_node's \[8\.0\] N·m"
+    ):
         consistency.check_stack(params)
     params["trajectory_planner"]["torque_max"] = [8.0]
     consistency.check_stack(params)
     copy = tmp_path / "arm.urdf"
     copy.write_text(resources.default_urdf().read_text())
     params["trajectory_planner"]["urdf_path"] = str(copy)
-    with pytest.raises(ConfigError, match=f"trajectory_planner: urdf_path '{copy}' differs from pid_controller's "
-                                          r"'\(reference arm\)'"):
+    with pytest.raises(
+        ConfigError,
+        match=f"trajectory_planner: urdf_path '{copy}' differs from pid_controller's " r"'\(reference arm\)'",
+    ):
         consistency.check_stack(params)
     params["trajectory_planner"]["urdf_path"] = str(resources.default_urdf())  # the same file, named
     consistency.check_stack(params)

@@ -1,5 +1,6 @@
 """Identification of an arm from a recorded motion (no ROS), the arm model it
 feeds, and the controller parameters that carry it."""
+
 import numpy as np
 import pytest
 
@@ -20,8 +21,12 @@ CONTROL_PERIOD_S = 0.01
 def truth(urdf) -> dict[str, float]:
     """The arm's four model values as MuJoCo computes them from its URDF."""
     model = JointArmModel.over_urdf(ArmDynamics(urdf))
-    return {"inertia": float(model.inertia[0]), "damping": float(model.damping[0]),
-            "coulomb_friction": float(model.coulomb_friction[0]), "gravity_torque": float(model.gravity_torque[0])}
+    return {
+        "inertia": float(model.inertia[0]),
+        "damping": float(model.damping[0]),
+        "coulomb_friction": float(model.coulomb_friction[0]),
+        "gravity_torque": float(model.gravity_torque[0]),
+    }
 
 
 def record(urdf, duration_s: float = 12.0):
@@ -114,8 +119,9 @@ def test_model_over_the_reference_urdf_agrees_with_mujoco():
         np.testing.assert_allclose(model.torque(*state), urdf.torque(*state), atol=1e-9)
         np.testing.assert_allclose(model.gravity(state[0]), urdf.gravity(state[0]), atol=1e-9)
         tau = np.array([3.0])
-        np.testing.assert_allclose(model.acceleration(state[0], state[1], tau),
-                                   urdf.acceleration(state[0], state[1], tau), rtol=1e-9)
+        np.testing.assert_allclose(
+            model.acceleration(state[0], state[1], tau), urdf.acceleration(state[0], state[1], tau), rtol=1e-9
+        )
 
 
 def test_model_predicts_the_heavy_arm_as_mujoco_simulates_it():
@@ -176,8 +182,12 @@ def test_model_overlay_replaces_the_urdf_and_partial_values_fill_from_it(tmp_pat
     assert isinstance(model, JointArmModel)
     assert model.inertia.tolist() == [0.3] and model.gravity_torque.tolist() == [7.0]
     assert model.damping.tolist() == pytest.approx([0.1]) and model.coulomb_friction.tolist() == [0.0]
-    assert model.source == {"inertia": "parameter", "damping": "URDF", "coulomb_friction": "URDF",
-                            "gravity_torque": "parameter"}
+    assert model.source == {
+        "inertia": "parameter",
+        "damping": "URDF",
+        "coulomb_friction": "URDF",
+        "gravity_torque": "parameter",
+    }
     assert set(PARAMETERS) == set(model.source)
 
 

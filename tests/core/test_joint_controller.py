@@ -2,6 +2,7 @@
 ROS, no sleeping: times are numbers): health (watchdog, sensor timeout, stale
 readings, e-stop, brakes, pauses), the estimate at the tick, the reference at
 the tick (extrapolated, held, stopped, blended back), the law and law_in_force."""
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -14,6 +15,7 @@ from robot_controller.core.reference_at_tick import Reference
 from tests.core.joint_rig import PERIOD, TORQUE_MAX, arm, config, one, run, tracking
 
 # --- health: watchdog, sensor timeout, stale readings, e-stop, brakes, pauses -------------
+
 
 def test_watchdog_starts_a_controlled_stop_after_watchdog_periods_without_readings():
     c = tracking(speed=1.0)  # last reading at tick 16
@@ -105,6 +107,7 @@ def test_a_short_pause_of_the_controller_is_not_the_sensors_silence_but_restarts
 
 # --- the estimate at the tick ------------------------------------------------------------
 
+
 def test_estimate_without_latency_compensation_is_the_reading():
     c = JointController(config(latency_compensation=False), 1)
     c.set_measurement(0.0, 0.0625, one(1.0), one(2.0))
@@ -133,6 +136,7 @@ def test_latency_compensation_on_the_arm_model_under_the_commands_issued():
 
 # --- the reference at the tick ----------------------------------------------------------
 
+
 def test_between_samples_the_output_says_whether_the_reference_was_extrapolated():
     c = tracking(speed=1.0, reference_extrapolation=True)
     outs = run(c, range(18, 22), speed=1.0, every=2)  # samples on even ticks
@@ -160,8 +164,9 @@ def test_a_stale_reference_is_brought_to_rest_and_held_then_blended_back():
     assert all(out.status is Status.OK for out in quiet[:6])
     assert quiet[5].reference[0] == pytest.approx(22 * PERIOD)
     stop = quiet[6:]
-    assert all(out.status is Status.REFERENCE_LOST and out.reference_source is ReferenceSource.REFERENCE_STOP
-               for out in stop)
+    assert all(
+        out.status is Status.REFERENCE_LOST and out.reference_source is ReferenceSource.REFERENCE_STOP for out in stop
+    )
     # From the last reference carried on one period at 1 rad/s, to rest 0.025 rad further.
     assert stop[0].reference[0] == pytest.approx(23 * PERIOD)
     assert stop[-1].reference[0] == pytest.approx(23 * PERIOD + 0.025) == stop[-2].reference[0]
@@ -182,6 +187,7 @@ def test_reference_ready_waits_for_the_samples_due():
 
 
 # --- the law ---------------------------------------------------------------------------
+
 
 def test_law_in_force_for_pid_gives_the_pid_gains():
     c = JointController(config(), 1)
@@ -217,19 +223,22 @@ def test_the_law_is_feedback_plus_the_models_feedforward_within_the_limit():
 
 def test_control_output_keeps_its_five_field_constructor():
     zeros = np.zeros(1)
-    out = ControlOutput(0.0, Status.OK, one(1.0), one(0.5), PidTerms(zeros, zeros, zeros, zeros, zeros,
-                                                                       np.zeros(1, dtype=bool)))
+    out = ControlOutput(
+        0.0, Status.OK, one(1.0), one(0.5), PidTerms(zeros, zeros, zeros, zeros, zeros, np.zeros(1, dtype=bool))
+    )
     assert out.reference_source is ReferenceSource.TRAJECTORY and out.error[0] == 0.5
 
 
 finite = st.floats(-1e4, 1e4, allow_nan=False, allow_infinity=False)
-event = st.fixed_dictionaries({
-    "dt": st.floats(1e-4, 0.3),
-    "reference": st.none() | st.tuples(finite, finite, finite),
-    "reading": st.none() | st.tuples(st.floats(-0.2, 0.2), finite, finite),  # stamp offset, q, v
-    "halt": st.sampled_from([False, False, False, True]),
-    "brakes": st.sampled_from([False, False, False, True]),
-})
+event = st.fixed_dictionaries(
+    {
+        "dt": st.floats(1e-4, 0.3),
+        "reference": st.none() | st.tuples(finite, finite, finite),
+        "reading": st.none() | st.tuples(st.floats(-0.2, 0.2), finite, finite),  # stamp offset, q, v
+        "halt": st.sampled_from([False, False, False, True]),
+        "brakes": st.sampled_from([False, False, False, True]),
+    }
+)
 
 
 @settings(max_examples=80, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
@@ -239,9 +248,18 @@ def test_output_is_finite_within_torque_max_and_says_when_the_reference_is_not_t
         c = JointController(config(latency_compensation=True, reference_extrapolation=True), 1)
     else:
         from robot_controller.core.estimator import KalmanConfig
-        c = JointController(config(controller_type="lqr" if law == "lqr" else "pid", feedforward="full",
-                                   estimator=KalmanConfig(), latency_compensation=True,
-                                   reference_extrapolation=True), 1, arm())
+
+        c = JointController(
+            config(
+                controller_type="lqr" if law == "lqr" else "pid",
+                feedforward="full",
+                estimator=KalmanConfig(),
+                latency_compensation=True,
+                reference_extrapolation=True,
+            ),
+            1,
+            arm(),
+        )
     t = 0.0
     for e in events:
         t += e["dt"]
@@ -258,4 +276,3 @@ def test_output_is_finite_within_torque_max_and_says_when_the_reference_is_not_t
         if not out.status.commanding:
             assert np.all(out.command == 0.0) and out.reference_source is ReferenceSource.NONE
         assert (out.status is Status.OK) == out.reference_source.from_planner
-

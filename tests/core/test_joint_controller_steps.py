@@ -1,6 +1,7 @@
 """The parts JointController.update() is made of, each on its own: the
 health verdict, the tick clock, the state estimate's model prediction, the
 planner's reference at a tick (no ROS, no sleeping)."""
+
 import pytest
 
 from robot_controller.core.control_output import ReferenceSource, Status
@@ -10,6 +11,7 @@ from robot_controller.core.tick_state import StateAtTick
 from tests.core.joint_rig import PERIOD, arm, config, one
 
 # --- health -----------------------------------------------------------------------------
+
 
 def test_check_health_ranks_the_faults():
     cfg = config(sensor_timeout_s=0.5)
@@ -40,6 +42,7 @@ def test_tick_clock_limits_the_period_and_notices_a_pause():
 
 # --- the estimate at the tick ------------------------------------------------------------
 
+
 def test_the_model_is_integrated_under_each_command_from_its_tick_on():
     state = StateAtTick(1, arm(), None)
     state.remember_command(0.0, one(1.0))
@@ -65,11 +68,12 @@ def test_while_readings_are_missing_the_state_coasts_on_the_model_under_the_last
 
 # --- the reference at the tick ----------------------------------------------------------
 
+
 def test_reference_extrapolation_on_the_samples_velocity_and_acceleration():
     planner = PlannerReference()
     planner.receive(1.0, one(1.0), one(2.0), one(4.0), sample_time_s=1.0)
     point = planner.at(1.0625, extrapolate=True, control_period_s=PERIOD)
-    assert point.position[0] == pytest.approx(1.0 + 2.0 * 0.0625 + 0.5 * 4.0 * 0.0625 ** 2)
+    assert point.position[0] == pytest.approx(1.0 + 2.0 * 0.0625 + 0.5 * 4.0 * 0.0625**2)
     assert point.velocity[0] == pytest.approx(2.25)
     assert point.source is ReferenceSource.EXTRAPOLATED and point.fresh
     held = planner.at(1.0625, extrapolate=False, control_period_s=PERIOD)

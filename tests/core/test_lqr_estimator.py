@@ -1,4 +1,5 @@
 """LQR design and the Kalman filter (no ROS)."""
+
 import numpy as np
 import pytest
 

@@ -1,4 +1,5 @@
 """Metrics on signals with known answers."""
+
 import numpy as np
 import pytest
 from scipy import signal
@@ -46,16 +47,17 @@ def test_rate_metrics():
 def test_step_metrics_on_a_second_order_system():
     zeta, wn = 0.5, 10.0
     t = np.linspace(0, 3, 30001)
-    _, y = signal.step(([wn ** 2], [1, 2 * zeta * wn, wn ** 2]), T=t)
+    _, y = signal.step(([wn**2], [1, 2 * zeta * wn, wn**2]), T=t)
     out = metrics.step_metrics(t, 0.5 * y, initial=0.0, target=0.5)
-    expected_overshoot = 100 * np.exp(-zeta * np.pi / np.sqrt(1 - zeta ** 2))
+    expected_overshoot = 100 * np.exp(-zeta * np.pi / np.sqrt(1 - zeta**2))
     assert out["overshoot_pct"] == pytest.approx(expected_overshoot, rel=1e-3)
     # 2 % settling of this system (computed from the envelope) lies within ~[0.7, 0.85] s
     assert 0.6 < out["settling_time_s"] < 0.9
     assert out["steady_state_error_rad"] < 1e-3
     first_order = 0.5 * (1 - np.exp(-t / 0.1))
     assert metrics.step_metrics(t, first_order, initial=0, target=0.5)["rise_time_s"] == pytest.approx(
-        0.1 * np.log(9), rel=1e-3)
+        0.1 * np.log(9), rel=1e-3
+    )
 
 
 def test_controller_state_layout_round_trips():

@@ -1,4 +1,5 @@
 """Trajectories, sensor, actuator, plant and feedforward (no ROS)."""
+
 import numpy as np
 import pytest
 
@@ -13,7 +14,7 @@ from robot_controller.core.validation import check_effort, check_joint_state, ch
 
 URDF = resources.default_urdf()
 MASS, LENGTH, DAMPING, G = 1.0, 0.5, 0.1, 9.81
-INERTIA = MASS * LENGTH ** 2 / 3
+INERTIA = MASS * LENGTH**2 / 3
 
 
 @pytest.mark.parametrize("mode", [m for m in MODES if m in ("sine", "chirp")])
@@ -31,7 +32,7 @@ def test_smooth_trajectories_are_self_consistent(mode):
 def test_sine_reference_values():
     p, v, a = make_trajectory("sine", joint_count=1, amplitude=1.0, frequency_hz=0.5).sample(0.5)
     assert p[0] == pytest.approx(1.0) and v[0] == pytest.approx(0.0, abs=1e-12)
-    assert a[0] == pytest.approx(-np.pi ** 2)
+    assert a[0] == pytest.approx(-(np.pi**2))
 
 
 def test_step_square_hold():
@@ -42,8 +43,14 @@ def test_step_square_hold():
     assert make_trajectory("hold", joint_count=1, offset=0.2).sample(7.0)[0][0] == 0.2
 
 
-@pytest.mark.parametrize("kwargs, key", [(dict(mode="zigzag"), "mode"), (dict(amplitude=[1, 2, 3]), "amplitude"),
-                                         (dict(frequency_hz=float("nan")), "frequency_hz")])
+@pytest.mark.parametrize(
+    "kwargs, key",
+    [
+        (dict(mode="zigzag"), "mode"),
+        (dict(amplitude=[1, 2, 3]), "amplitude"),
+        (dict(frequency_hz=float("nan")), "frequency_hz"),
+    ],
+)
 def test_bad_trajectory_names_the_key(kwargs, key):
     args = dict(mode="sine", joint_count=2) | kwargs
     with pytest.raises(ConfigError, match=key):
@@ -89,8 +96,9 @@ def test_feedforward_matches_the_analytic_arm_and_mujoco(q, v, a):
     q, v, a = np.array([q]), np.array([v]), np.array([a])
     analytic = INERTIA * a + DAMPING * v + MASS * G * LENGTH / 2 * np.cos(q)
     np.testing.assert_allclose(feedforward_torque(FeedforwardMode.FULL, dyn, q, v, a), analytic, rtol=1e-6)
-    np.testing.assert_allclose(feedforward_torque(FeedforwardMode.GRAVITY, dyn, q, v, a),
-                               MASS * G * LENGTH / 2 * np.cos(q), rtol=1e-6)
+    np.testing.assert_allclose(
+        feedforward_torque(FeedforwardMode.GRAVITY, dyn, q, v, a), MASS * G * LENGTH / 2 * np.cos(q), rtol=1e-6
+    )
     assert feedforward_torque(FeedforwardMode.NONE, dyn, q, v, a)[0] == 0.0
 
 
@@ -124,11 +132,18 @@ def test_prediction_through_the_model_matches_the_plant():
     np.testing.assert_allclose(v, plant.state()[1], atol=1e-2)
 
 
-@pytest.mark.parametrize("names, pos, vel, ok", [
-    (["joint1"], [0.1], [0.2], True), ([], [0.1], [0.2], True), (["joint1"], [], [], False),
-    (["joint1"], [0.1, 0.2], [0.2], False), (["elbow"], [0.1], [0.2], False),
-    (["joint1"], [float("nan")], [0.0], False), (["joint1"], [0.0], [float("inf")], False),
-])
+@pytest.mark.parametrize(
+    "names, pos, vel, ok",
+    [
+        (["joint1"], [0.1], [0.2], True),
+        ([], [0.1], [0.2], True),
+        (["joint1"], [], [], False),
+        (["joint1"], [0.1, 0.2], [0.2], False),
+        (["elbow"], [0.1], [0.2], False),
+        (["joint1"], [float("nan")], [0.0], False),
+        (["joint1"], [0.0], [float("inf")], False),
+    ],
+)
 def test_joint_state_check(names, pos, vel, ok):
     result = check_joint_state(names, pos, vel, ["joint1"])
     assert (not isinstance(result, str)) == ok
@@ -151,7 +166,9 @@ def test_analytic_arm_matches_mujoco():
 
     dyn = ArmDynamics(URDF)
     constants = ArmConstants.from_dynamics(dyn)
-    assert constants.inertia == pytest.approx(INERTIA) and constants.gravity_torque == pytest.approx(MASS * G * LENGTH / 2)
+    assert constants.inertia == pytest.approx(INERTIA) and constants.gravity_torque == pytest.approx(
+        MASS * G * LENGTH / 2
+    )
     plant = MujocoPlant(URDF, 0.001)
     plant.reset(np.array([0.4]), np.array([-0.5]))
     batch = AnalyticArmBatch(constants, batch=3)
@@ -163,13 +180,17 @@ def test_analytic_arm_matches_mujoco():
         batch.step(np.full((3, 1), torque[0]), 1)
     assert abs(plant.state()[0][0] - 0.4) > 0.2  # it really moved
     np.testing.assert_allclose(batch.q[:, 0], plant.state()[0][0], atol=1e-9)
-    np.testing.assert_allclose(constants.torque(np.array([0.7]), np.array([1.0]), np.array([2.0])),
-                               dyn.torque(np.array([0.7]), np.array([1.0]), np.array([2.0])), rtol=1e-9)
+    np.testing.assert_allclose(
+        constants.torque(np.array([0.7]), np.array([1.0]), np.array([2.0])),
+        dyn.torque(np.array([0.7]), np.array([1.0]), np.array([2.0])),
+        rtol=1e-9,
+    )
 
 
 def test_min_time_step_reaches_the_target_within_the_acceleration_limit():
-    traj = make_trajectory("step", joint_count=1, amplitude=0.5, step_time_s=1.0, step_shaping="min_time",
-                           max_acceleration=50.0)
+    traj = make_trajectory(
+        "step", joint_count=1, amplitude=0.5, step_time_s=1.0, step_shaping="min_time", max_acceleration=50.0
+    )
     duration = 2 * np.sqrt(0.5 / 50.0)
     assert traj.sample(0.9)[0][0] == 0.0
     assert traj.sample(1.0 + duration / 2)[0][0] == pytest.approx(0.25)

@@ -1,4 +1,5 @@
 """The PID law alone: terms, limits, anti-windup, guards (no ROS, no sleeping)."""
+
 import numpy as np
 import pytest
 
@@ -87,11 +88,17 @@ def test_batch_of_gain_sets_broadcasts():
     np.testing.assert_allclose(out.command, [10, 20, 30])
 
 
-@pytest.mark.parametrize("kwargs, key", [
-    (dict(kp=[-1.0]), "kp"), (dict(ki=[np.nan]), "ki"), (dict(output_limit=[0.0]), "output_limit"),
-    (dict(anti_windup="sometimes"), "anti_windup"), (dict(derivative_source="x"), "derivative_source"),
-    (dict(derivative_filter_time_s=-1.0), "derivative_filter_time_s"),
-])
+@pytest.mark.parametrize(
+    "kwargs, key",
+    [
+        (dict(kp=[-1.0]), "kp"),
+        (dict(ki=[np.nan]), "ki"),
+        (dict(output_limit=[0.0]), "output_limit"),
+        (dict(anti_windup="sometimes"), "anti_windup"),
+        (dict(derivative_source="x"), "derivative_source"),
+        (dict(derivative_filter_time_s=-1.0), "derivative_filter_time_s"),
+    ],
+)
 def test_invalid_config_names_the_key(kwargs, key):
     with pytest.raises(ConfigError, match=key):
         make(**kwargs)
@@ -102,8 +109,16 @@ def _saturated_plant_run(mode):
 
     Returns the overshoot past the target, rad.
     """
-    pid = make(kp=[20.0], ki=[20.0], kd=[8.0], output_limit=[2.0], integral_limit=[0.05], anti_windup=mode,
-               derivative_source="measured_velocity", back_calculation_time_s=0.05)
+    pid = make(
+        kp=[20.0],
+        ki=[20.0],
+        kd=[8.0],
+        output_limit=[2.0],
+        integral_limit=[0.05],
+        anti_windup=mode,
+        derivative_source="measured_velocity",
+        back_calculation_time_s=0.05,
+    )
     q = v = 0.0
     peak = 0.0
     for _ in range(800):

@@ -1,4 +1,5 @@
 """Gain, phase and delay margins of the sampled loop (core.robustness), against textbook cases."""
+
 import numpy as np
 import pytest
 from scipy.linalg import expm
@@ -87,7 +88,7 @@ def test_many_loops_at_once_match_one_at_a_time():
     rows = 10 ** np.column_stack([rng.uniform(-1, 2.5, 40), rng.uniform(0, 3, 40), rng.uniform(-1, 1.3, 40)])
     batch = robustness.margins_batch(A, B, rows, DT)
     for i in range(0, 40, 7):
-        one = robustness.margins(A, B, rows[i:i + 1], DT)
+        one = robustness.margins(A, B, rows[i : i + 1], DT)
         assert bool(batch["stable"][i]) == one.stable
         if one.stable:
             assert batch["gain_margin_db"][i] == pytest.approx(one.gain_margin_db, abs=0.05)

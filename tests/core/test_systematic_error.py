@@ -31,6 +31,7 @@ With the reference noise (σ 5 mrad, 0.02 rad/s) the error is the filter's
 position estimate (about 1 mrad RMS ≈ √(σq·σv·T)), which no gain or filter
 setting tried takes below 0.93 mrad; the defaults give 1.10–1.17 mrad (was 1.19–1.26).
 """
+
 import numpy as np
 import pytest
 
@@ -57,6 +58,7 @@ def simulate(seed: int, *, noise: bool = True, **controller) -> inprocess.LoopRe
 
 
 # --- the figures ----------------------------------------------------------------------
+
 
 def test_noise_free_tracking_of_the_reference_sine_is_under_a_tenth_of_a_milliradian():
     run = simulate(1, noise=False)
@@ -87,6 +89,7 @@ def test_a_filter_that_trusts_the_model_keeps_the_arm():
 
 # --- cause 1: the feedforward over the held period ------------------------------------
 
+
 def planner_on_the_sine(until_s: float, period_s: float) -> PlannerReference:
     planner = PlannerReference()
     for k in range(int(round(until_s / period_s)) + 1):
@@ -113,8 +116,9 @@ def test_the_feedforward_is_for_the_middle_of_the_period_the_command_is_held_ove
 def test_no_jerk_is_guessed_where_the_acceleration_jumps():
     # A shaped step switches its acceleration on a sample and holds it over each period.
     T = 0.01
-    step = make_trajectory("step", joint_count=1, step_shaping="min_time", max_acceleration=60.0,
-                           step_time_s=0.1, sample_period_s=T)
+    step = make_trajectory(
+        "step", joint_count=1, step_shaping="min_time", max_acceleration=60.0, step_time_s=0.1, sample_period_s=T
+    )
     planner = PlannerReference()
     for k in range(60):
         t = k * T
@@ -141,6 +145,7 @@ def test_the_controller_feeds_forward_the_reference_over_the_period():
 
 
 # --- causes 2 and 3: the filter's model and the plant's velocity ----------------------
+
 
 def test_the_filters_model_steps_like_the_plant():
     dynamics = ArmDynamics(resources.default_urdf())
@@ -169,8 +174,7 @@ def test_the_velocity_at_the_instant_is_the_one_the_position_moves_at():
     plant.step(torque, 1)
     after, _ = plant.state()
     central = (after - before) / 0.002
-    at_instant = JointKalmanFilter(KalmanConfig(), 1, dynamics.predict).velocity_at_instant(position, velocity,
-                                                                                            torque)
+    at_instant = JointKalmanFilter(KalmanConfig(), 1, dynamics.predict).velocity_at_instant(position, velocity, torque)
     assert abs(at_instant[0] - central[0]) < 5e-5
     assert abs(velocity[0] - central[0]) > 5e-3  # the plant's own is half a step behind
 

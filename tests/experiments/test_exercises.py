@@ -1,6 +1,7 @@
 """The tutorial's exercises (robot_controller.experiments.exercises) and the automatic
 gain design (robot_controller.experiments.tune): the quick forms over the real graph
 in lockstep, and their no-ROS parts."""
+
 import json
 from dataclasses import replace
 
@@ -39,8 +40,20 @@ def test_every_exercise_is_registered_with_its_steps():
 @ros
 def test_tune_finds_the_ultimate_gain_then_kd_then_ki(tmp_path, ros_domain):
     results = run_quick("tune", tmp_path / "tune")
-    for key in ("ultimate_gain", "ultimate_period_s", "kp", "ki", "kd", "step_overshoot_pct", "step_settling_time_s",
-                "step_steady_state_error_rad", "sine_tracking_rms_rad", "zn_kp", "zn_ki", "zn_kd"):
+    for key in (
+        "ultimate_gain",
+        "ultimate_period_s",
+        "kp",
+        "ki",
+        "kd",
+        "step_overshoot_pct",
+        "step_settling_time_s",
+        "step_steady_state_error_rad",
+        "sine_tracking_rms_rad",
+        "zn_kp",
+        "zn_ki",
+        "zn_kd",
+    ):
         assert key in results, key
     # the tutorial's Kp = 50 already oscillates on this arm; the sampled model puts Ku near 20
     assert results["kp_search_1_kp"] == 50 and results["kp_search_1_sustained"] == 1
@@ -66,8 +79,15 @@ def test_windup_without_anti_windup_overshoots_most(tmp_path, ros_domain):
 def test_lqr_against_pid_gains_poles_and_figures(tmp_path, ros_domain):
     results = run_quick("lqr", tmp_path / "lqr")
     for name in ("pid", "lqr"):
-        for key in ("kp", "ki", "kd", "spectral_radius", "sine_tracking_rms_rad", "step_overshoot_pct",
-                    "step_settling_time_s"):
+        for key in (
+            "kp",
+            "ki",
+            "kd",
+            "spectral_radius",
+            "sine_tracking_rms_rad",
+            "step_overshoot_pct",
+            "step_settling_time_s",
+        ):
             assert f"{name}_{key}" in results, f"{name}_{key}"
         poles = [value for key, value in results.items() if key.startswith(f"{name}_pole_") and key.endswith("_abs")]
         assert len(poles) == 3 and all(p < 1.0 for p in poles)
@@ -101,7 +121,8 @@ def test_the_lqr_weights_tuned_keep_the_margins_and_design_what_was_checked():
     overlay = result.problem.overlay(result.best_values)
     designed = law_gains(cfg.merge(cfg.load_stack("default"), {"pid_controller": overlay}))
     assert (float(designed.kp[0]), float(designed.ki[0]), float(designed.kd[0])) == pytest.approx(
-        tuple(result.best_gains), rel=1e-9)
+        tuple(result.best_gains), rel=1e-9
+    )
 
 
 def test_the_tuning_harness_is_the_batch_harness():
@@ -110,13 +131,18 @@ def test_the_tuning_harness_is_the_batch_harness():
     pid = replace(problem.law, kp=gains[:, 0:1], ki=gains[:, 1:2], kd=gains[:, 2:3])
     kwargs = {"trajectory": problem.sine, "sensor": problem.sensor, "duration_s": 3.0}
     expected = run_batch(constants=problem.constants, pid_config=pid, rng=np.random.default_rng(4), **kwargs)
-    ours = tune_module.batch_tracking_rms(problem.constants, pid, rng=np.random.default_rng(4), common_noise=False,
-                                          **kwargs)
+    ours = tune_module.batch_tracking_rms(
+        problem.constants, pid, rng=np.random.default_rng(4), common_noise=False, **kwargs
+    )
     np.testing.assert_array_equal(ours, expected)
     # common random numbers: the same gains give the same figure wherever they sit in the batch
-    twice = tune_module.batch_tracking_rms(problem.constants, replace(pid, kp=gains[[0, 0], 0:1], ki=gains[[0, 0], 1:2],
-                                                                      kd=gains[[0, 0], 2:3]),
-                                           rng=np.random.default_rng(4), kalman=problem.kalman, **kwargs)
+    twice = tune_module.batch_tracking_rms(
+        problem.constants,
+        replace(pid, kp=gains[[0, 0], 0:1], ki=gains[[0, 0], 1:2], kd=gains[[0, 0], 2:3]),
+        rng=np.random.default_rng(4),
+        kalman=problem.kalman,
+        **kwargs,
+    )
     assert twice[0] == twice[1]
 
 

@@ -1,4 +1,5 @@
 """The two-process rclpy round-trip benchmark runs and gives a figure."""
+
 import math
 
 import pytest

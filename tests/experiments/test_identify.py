@@ -1,6 +1,7 @@
 """Identification through the real graph (lockstep): the heavy test arm under a
 controller that believes the reference URDF, identified, and the overlay it
 writes loaded and checked like any configuration."""
+
 import json
 import subprocess
 import sys
@@ -23,13 +24,16 @@ DURATION_S = 10.0
 
 def test_identify_recovers_the_heavy_arm_through_the_graph(tmp_path, ros_domain):
     heavy = tmp_path / "heavy.yaml"
-    cfg.write_params_file({"simulator": {"urdf_path": str(HEAVY_URDF)},
-                           "motor_node": {"urdf_path": str(HEAVY_URDF)}}, heavy)
+    cfg.write_params_file(
+        {"simulator": {"urdf_path": str(HEAVY_URDF)}, "motor_node": {"urdf_path": str(HEAVY_URDF)}}, heavy
+    )
     out = tmp_path / "identify"
-    code = ("from pathlib import Path; from robot_controller import parameters as cfg; "
-            "from robot_controller.experiments.identify import identify; "
-            f"identify(cfg.load_stack('default', [{str(heavy)!r}]), Path({str(out)!r}), "
-            f"duration_s={DURATION_S}, seed=1)")
+    code = (
+        "from pathlib import Path; from robot_controller import parameters as cfg; "
+        "from robot_controller.experiments.identify import identify; "
+        f"identify(cfg.load_stack('default', [{str(heavy)!r}]), Path({str(out)!r}), "
+        f"duration_s={DURATION_S}, seed=1)"
+    )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=180)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
 

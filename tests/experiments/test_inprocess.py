@@ -1,4 +1,5 @@
 """The whole loop in one Python loop (no ROS): accuracy, determinism, limits."""
+
 import numpy as np
 import pytest
 
@@ -57,12 +58,12 @@ def test_the_default_survives_its_delay_margin_of_delay_nobody_accounts_for():
     from robot_controller.core.plant import ArmDynamics
 
     params = cfg.load_stack("default")
-    controller = JointController(cfg.controller_config(params["pid_controller"], 1), 1,
-                                 ArmDynamics(resources.default_urdf()))
+    controller = JointController(
+        cfg.controller_config(params["pid_controller"], 1), 1, ArmDynamics(resources.default_urdf())
+    )
     margin = controller.delay_margin_periods()
     assert margin >= 2
-    run = inprocess.simulate(params, duration_s=6.0, seed=1, measurement_delay_s=margin * 0.01,
-                             delay_unstamped=True)
+    run = inprocess.simulate(params, duration_s=6.0, seed=1, measurement_delay_s=margin * 0.01, delay_unstamped=True)
     assert np.max(np.abs(run.command)) < 10.0  # no saturation chatter
     # The arm follows where the late readings say it is: off by the speed times the delay, no more.
     assert run.tracking_metrics()["tracking_max_rad"] < 3.2 * margin * 0.01 * 1.5

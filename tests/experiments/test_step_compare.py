@@ -1,4 +1,5 @@
 """Step responses and the controller comparison, over the real graph in lockstep."""
+
 import json
 import subprocess
 import sys
@@ -10,8 +11,12 @@ pytestmark = pytest.mark.ros
 
 def test_step_response_meets_the_targets(tmp_path, ros_domain):
     out = tmp_path / "step"
-    proc = subprocess.run([sys.executable, "-m", "robot_controller.cli", "step", "--sim-time", "--amplitude", "0.5",
-                           "--out", str(out)], capture_output=True, text=True, timeout=180)
+    proc = subprocess.run(
+        [sys.executable, "-m", "robot_controller.cli", "step", "--sim-time", "--amplitude", "0.5", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=180,
+    )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
     figures = json.loads((out / "metrics.json").read_text())
     assert figures["overshoot_pct"] <= 2.0
@@ -23,8 +28,12 @@ def test_step_response_meets_the_targets(tmp_path, ros_domain):
 
 def test_compare_lists_every_controller(tmp_path, ros_domain):
     out = tmp_path / "compare"
-    proc = subprocess.run([sys.executable, "-m", "robot_controller.cli", "compare", "--seeds", "1", "--duration", "3",
-                           "--out", str(out)], capture_output=True, text=True, timeout=400)
+    proc = subprocess.run(
+        [sys.executable, "-m", "robot_controller.cli", "compare", "--seeds", "1", "--duration", "3", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=400,
+    )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
     table = (out / "compare.md").read_text()
     for name in ("tutorial", "pid", "pid_ff", "pid_ff_kf", "lqr"):

@@ -2,6 +2,7 @@
 ``robot_controller.tools.disturb`` from a process of its own, applied by the
 simulator, recorded, and rejected by the default controller. Real nodes, real
 DDS, each test on its own ROS_DOMAIN_ID."""
+
 import json
 import subprocess
 import sys
@@ -20,8 +21,12 @@ TORQUE_NM, DURATION_S = 3.0, 0.3
 
 
 def start_run(out, duration="12"):
-    run = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--duration", duration,
-                            "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    run = subprocess.Popen(
+        [sys.executable, "-m", "robot_controller.cli", "run", "--duration", duration, "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     deadline = time.monotonic() + 60
     for line in run.stdout:
         if "control loop running" in line:
@@ -31,9 +36,17 @@ def start_run(out, duration="12"):
 
 
 def disturb(torque_nm, duration_s, joint=None):
-    return subprocess.run([sys.executable, "-c", "import sys; from robot_controller.tools.disturb import disturb; "
-                           f"sys.exit(disturb({torque_nm!r}, {duration_s!r}, {joint!r}))"],
-                          capture_output=True, text=True, timeout=60)
+    return subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from robot_controller.tools.disturb import disturb; "
+            f"sys.exit(disturb({torque_nm!r}, {duration_s!r}, {joint!r}))",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
 
 
 def test_a_push_is_applied_recorded_and_rejected(tmp_path, ros_domain):
@@ -96,8 +109,9 @@ def test_with_no_simulator_the_tool_says_so_and_fails(ros_domain):
     started = time.monotonic()
     sent = disturb(2.0, 0.5)
     assert sent.returncode == 1
-    assert sent.stderr.strip() == (f"robot-controller disturb: no simulator is listening on /sim/disturbance "
-                                   f"(domain {ros_domain})")
+    assert sent.stderr.strip() == (
+        f"robot-controller disturb: no simulator is listening on /sim/disturbance " f"(domain {ros_domain})"
+    )
     assert time.monotonic() - started >= 10.0
     unknown = disturb(2.0, 0.5, "elbow")  # the reference arm's joints, with no simulator heard
     assert unknown.returncode == 2 and "unknown joint 'elbow'" in unknown.stderr

@@ -2,6 +2,7 @@
 inside its torque limit is slowed by the planner (one warning with the
 numbers), refused before anything starts (``feasibility: refuse``), or run
 as it is (``ignore``); parameter changes go through the same check."""
+
 import json
 import subprocess
 import sys
@@ -32,9 +33,24 @@ CHIRP = """trajectory_planner:
 def cli_run(tmp_path, policy, name):
     config = tmp_path / f"{name}.yaml"
     config.write_text(CHIRP.format(policy=policy))
-    return subprocess.run([sys.executable, "-m", "robot_controller.cli", "run", "--sim-time", "--duration",
-                           f"{DURATION_S:g}", "--config", str(config), "--out", str(tmp_path / name)],
-                          capture_output=True, text=True, timeout=120)
+    return subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "robot_controller.cli",
+            "run",
+            "--sim-time",
+            "--duration",
+            f"{DURATION_S:g}",
+            "--config",
+            str(config),
+            "--out",
+            str(tmp_path / name),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
 
 
 def test_an_infeasible_chirp_is_slowed_to_fit_and_tracked(tmp_path, ros_domain):
@@ -42,8 +58,12 @@ def test_an_infeasible_chirp_is_slowed_to_fit_and_tracked(tmp_path, ros_domain):
     assert scaled.returncode == 0, scaled.stdout[-3000:] + scaled.stderr[-2000:]
     warnings = [line for line in scaled.stdout.splitlines() if line.startswith("[trajectory_planner] [WARN]")]
     assert len(warnings) == 1, scaled.stdout[-3000:]
-    assert "the chirp needs" in warnings[0] and "against 8.0 N·m usable (10.0 N·m limit, 20 % kept for feedback)" \
-        in warnings[0] and "scaled in time ×" in warnings[0] and "frequencies 0.5→" in warnings[0], warnings[0]
+    assert (
+        "the chirp needs" in warnings[0]
+        and "against 8.0 N·m usable (10.0 N·m limit, 20 % kept for feedback)" in warnings[0]
+        and "scaled in time ×" in warnings[0]
+        and "frequencies 0.5→" in warnings[0]
+    ), warnings[0]
     metrics = json.loads((tmp_path / "scaled" / "metrics.json").read_text())
     recording = report.read_recording(tmp_path / "scaled" / "bag")
     # The torque the arm received never reached the 10 N·m limit: no saturation, room left for the feedback.
@@ -66,8 +86,11 @@ def test_refuse_ends_the_cli_with_one_line_and_nothing_started(tmp_path, ros_dom
     assert "Traceback" not in proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1, proc.stderr
-    assert "trajectory_planner: the chirp needs" in lines[0] and "against 8.0 N·m usable (10.0 N·m limit, " \
-        "20 % kept for feedback); slow it down (feasibility: scale)" in lines[0], lines[0]
+    assert (
+        "trajectory_planner: the chirp needs" in lines[0]
+        and "against 8.0 N·m usable (10.0 N·m limit, " "20 % kept for feedback); slow it down (feasibility: scale)"
+        in lines[0]
+    ), lines[0]
     assert not (tmp_path / "refused").exists()
 
 
@@ -82,8 +105,11 @@ def test_parameter_changes_are_checked_and_scaled_the_same_way(ros_domain):
         node = TrajectoryPlanner()
         try:
             assert node.trajectory.frequency_hz == 0.5  # the default sine, as it is
-            chirp = [Parameter("mode", value="chirp"), Parameter("end_frequency_hz", value=3.0),
-                     Parameter("feasibility", value="refuse")]
+            chirp = [
+                Parameter("mode", value="chirp"),
+                Parameter("end_frequency_hz", value=3.0),
+                Parameter("feasibility", value="refuse"),
+            ]
             result = node.set_parameters_atomically(chirp)
             assert not result.successful and "slow it down (feasibility: scale)" in result.reason
             assert node.params["mode"] == "sine" and node.trajectory.frequency_hz == 0.5

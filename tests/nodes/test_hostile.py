@@ -1,6 +1,7 @@
 """Hostile peers and careless users (issue 9): a single message, parameter or
 signal must not break the loop or lose the run. Real nodes, real DDS, each
 test on its own ROS_DOMAIN_ID; the test speaks to the graph like any peer."""
+
 import json
 import os
 import signal
@@ -22,8 +23,12 @@ pytestmark = pytest.mark.ros
 
 
 def start_run(out, duration="10"):
-    run = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--duration", duration,
-                            "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    run = subprocess.Popen(
+        [sys.executable, "-m", "robot_controller.cli", "run", "--duration", duration, "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     deadline = time.monotonic() + 60
     for line in run.stdout:
         if "control loop running" in line:
@@ -40,8 +45,13 @@ def test_one_future_stamp_one_empty_reading_one_huge_effort_leave_the_run_whole(
         true_states = probe.node.create_publisher(JointState, "/sim/joint_states", 10)
         readings = probe.node.create_publisher(JointState, "/joint_states", 10)
         efforts = probe.node.create_publisher(Float64MultiArray, "/sim/effort", 10)
-        wait_for(lambda: true_states.get_subscription_count() > 1 and readings.get_subscription_count() > 1
-                 and efforts.get_subscription_count() > 1, 20, "the graph to hear the peer")
+        wait_for(
+            lambda: true_states.get_subscription_count() > 1
+            and readings.get_subscription_count() > 1
+            and efforts.get_subscription_count() > 1,
+            20,
+            "the graph to hear the peer",
+        )
         time.sleep(2.0)
         future = JointState(name=["joint1"], position=[0.5], velocity=[0.0], effort=[0.0])
         future.header.stamp.sec = int(time.time()) + 1_000_000  # 11 days ahead
@@ -74,8 +84,12 @@ def test_a_foreign_publisher_flooding_wrong_readings_is_named_and_never_heard(tm
     out = tmp_path / "run"
     run = start_run(out, duration="12")
     try:
-        flooder = subprocess.run([sys.executable, "-m", "robot_controller.experiments.flood_bench", "--publish",
-                                  "joint_states_wrong"], capture_output=True, text=True, timeout=60)
+        flooder = subprocess.run(
+            [sys.executable, "-m", "robot_controller.experiments.flood_bench", "--publish", "joint_states_wrong"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
         assert flooder.returncode == 0, flooder.stderr[-2000:]
         flood = json.loads(flooder.stdout.strip().splitlines()[-1])
         output = run.communicate(timeout=90)[0]
@@ -103,10 +117,15 @@ def doubles(values):
 
 def test_parameters_that_would_break_the_loop_are_refused_with_a_reason(tmp_path, ros_domain):
     params_file = cfg.write_params_file(cfg.load_stack(), tmp_path / "params.yaml")
-    nodes = {name: subprocess.Popen([sys.executable, "-m", f"robot_controller.nodes.{name}", "--ros-args",
-                                     "--params-file", str(params_file)], stdout=subprocess.PIPE,
-                                    stderr=subprocess.STDOUT, text=True)
-             for name in ("simulator", "motor_node", "pid_controller", "trajectory_planner")}
+    nodes = {
+        name: subprocess.Popen(
+            [sys.executable, "-m", f"robot_controller.nodes.{name}", "--ros-args", "--params-file", str(params_file)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
+        for name in ("simulator", "motor_node", "pid_controller", "trajectory_planner")
+    }
     probe = RosProbe(ros_domain)
     try:
         for node, name, value, reason in [
@@ -122,8 +141,12 @@ def test_parameters_that_would_break_the_loop_are_refused_with_a_reason(tmp_path
         assert set_parameter(probe, "simulator", "publish_rate_hz", double(200.0)).successful
         # The law in force is shown, not just the parameters behind it (LQR's gains are designed).
         assert get_parameter(probe, "pid_controller", "law_in_force").string_value.startswith("LQR (q=")
-        result = set_parameter(probe, "pid_controller", "law_in_force",
-                               ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="PID"))
+        result = set_parameter(
+            probe,
+            "pid_controller",
+            "law_in_force",
+            ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="PID"),
+        )
         assert not result.successful and "not settable" in result.reason
         pid = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="pid")
         assert set_parameter(probe, "pid_controller", "controller_type", pid).successful
@@ -148,8 +171,9 @@ def test_a_run_whose_recorder_and_launcher_were_killed_is_still_scored(tmp_path,
     run = start_run(out, duration="30")
     try:
         time.sleep(4.0)
-        recorder = subprocess.run(["pgrep", "-P", str(run.pid), "-f", "nodes.recorder"], capture_output=True,
-                                  text=True).stdout.split()
+        recorder = subprocess.run(
+            ["pgrep", "-P", str(run.pid), "-f", "nodes.recorder"], capture_output=True, text=True
+        ).stdout.split()
         assert recorder, "no recorder process"
         run.kill()  # the launcher first: no chance to score or write anything ...
         os.kill(int(recorder[0]), signal.SIGKILL)  # ... and the recorder before it closes the bag
@@ -159,8 +183,12 @@ def test_a_run_whose_recorder_and_launcher_were_killed_is_still_scored(tmp_path,
             run.kill()
     assert not (out / "metrics.json").exists()
     time.sleep(2.0)  # the nodes die with their launcher
-    scored = subprocess.run([sys.executable, "-m", "robot_controller.cli", "score", str(out), "--json"],
-                            capture_output=True, text=True, timeout=120)
+    scored = subprocess.run(
+        [sys.executable, "-m", "robot_controller.cli", "score", str(out), "--json"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert scored.returncode == 0, scored.stderr[-2000:]
     assert "recovered" in scored.stderr
     values = json.loads(scored.stdout)

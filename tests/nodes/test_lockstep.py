@@ -1,11 +1,13 @@
 """Sim-time lockstep over the real graph: deterministic, no tick skipped or
 doubled, the same in five processes and in one."""
+
 import json
 import os
 import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,9 +22,25 @@ DURATION = "3"
 
 
 def lockstep_run(out, *extra):
-    proc = subprocess.run([sys.executable, "-m", "robot_controller.cli", "run", "--sim-time", "--seed", "7",
-                           "--duration", DURATION, "--out", str(out), *extra],
-                          capture_output=True, text=True, timeout=180)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "robot_controller.cli",
+            "run",
+            "--sim-time",
+            "--seed",
+            "7",
+            "--duration",
+            DURATION,
+            "--out",
+            str(out),
+            *extra,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=180,
+    )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
     return json.loads((out / "metrics.json").read_text())
 
@@ -36,9 +54,24 @@ def test_same_seed_gives_identical_metrics_in_every_mode(tmp_path, ros_domain):
     single = lockstep_run(tmp_path / "c", "--single-process")
     for key in ("tracking_rms_rad", "tracking_max_rad", "measured_rms_rad", "peak_torque_nm"):
         assert single[key] == pytest.approx(first[key], abs=1e-9), key
-    other_seed = subprocess.run([sys.executable, "-m", "robot_controller.cli", "run", "--sim-time", "--seed", "8",
-                                 "--duration", DURATION, "--out", str(tmp_path / "d")],
-                                capture_output=True, text=True, timeout=180)
+    other_seed = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "robot_controller.cli",
+            "run",
+            "--sim-time",
+            "--seed",
+            "8",
+            "--duration",
+            DURATION,
+            "--out",
+            str(tmp_path / "d"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=180,
+    )
     assert other_seed.returncode == 0
     assert json.loads((tmp_path / "d" / "metrics.json").read_text())["measured_rms_rad"] != first["measured_rms_rad"]
 
@@ -67,16 +100,31 @@ def test_every_command_is_applied_to_exactly_one_tick(tmp_path, ros_domain):
 
 
 def test_a_dying_node_ends_a_lockstep_run_with_an_error(tmp_path, ros_domain):
-    launcher = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--sim-time",
-                                 "--duration", "100000", "--out", str(tmp_path / "run")],
-                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    launcher = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "robot_controller.cli",
+            "run",
+            "--sim-time",
+            "--duration",
+            "100000",
+            "--out",
+            str(tmp_path / "run"),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     try:
         for line in launcher.stdout:
             if "control loop running" in line:
                 break
-        sensor = next(int(p) for p in subprocess.run(["pgrep", "-P", str(launcher.pid)], capture_output=True,
-                                                      text=True).stdout.split()
-                      if b"nodes.sensor_node" in open(f"/proc/{p}/cmdline", "rb").read())
+        sensor = next(
+            int(p)
+            for p in subprocess.run(["pgrep", "-P", str(launcher.pid)], capture_output=True, text=True).stdout.split()
+            if b"nodes.sensor_node" in Path(f"/proc/{p}/cmdline").read_bytes()
+        )
         killed_at = time.monotonic()
         os.kill(sensor, signal.SIGKILL)
         output = launcher.communicate(timeout=30)[0]

@@ -3,6 +3,7 @@
 Real nodes in real processes on their own ROS_DOMAIN_ID; the test talks to
 them over DDS like any other node would.
 """
+
 import json
 import math
 import os
@@ -35,9 +36,13 @@ def stop_node(process):
 
 
 def start_node(name, params_file, env=None):
-    return subprocess.Popen([sys.executable, "-m", f"robot_controller.nodes.{name}", "--ros-args",
-                             "--params-file", str(params_file)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, env=env)
+    return subprocess.Popen(
+        [sys.executable, "-m", f"robot_controller.nodes.{name}", "--ros-args", "--params-file", str(params_file)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env,
+    )
 
 
 def joint_state(names, position, velocity, stamp_ns=None):
@@ -59,8 +64,13 @@ def test_malformed_messages_are_dropped_and_the_watchdog_zeroes_torque(tmp_path,
         clock = probe.node.get_clock()
         nan, inf = float("nan"), float("inf")
         malformed_states = [
-            ([], [], []), (["joint1"], [], []), (["joint1"], [0.1, 0.2], [0.0]), (["joint1"], [nan], [0.0]),
-            (["joint1"], [0.0], [inf]), (["elbow"], [0.1], [0.0]), (["joint1", "joint2"], [0.1, 0.2], [0.0, 0.0]),
+            ([], [], []),
+            (["joint1"], [], []),
+            (["joint1"], [0.1, 0.2], [0.0]),
+            (["joint1"], [nan], [0.0]),
+            (["joint1"], [0.0], [inf]),
+            (["elbow"], [0.1], [0.0]),
+            (["joint1", "joint2"], [0.1, 0.2], [0.0, 0.0]),
         ]
         malformed_trajectories = [[], [0.1], [0.1, 0.2, 0.3, 0.4], [nan, 0.0, 0.0], [1e308, inf, 0.0]]
 
@@ -129,10 +139,16 @@ def test_gains_change_live_and_bad_values_are_refused(tmp_path, ros_domain):
             ("kp", double(-1.0), "kp: must be >= 0"),
             ("ki", double(float("nan")), "ki: must be finite"),
             ("kd", ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="high"), "kd: expected a number"),
-            ("anti_windup", ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="off"),
-             "anti_windup: 'off' is not one of"),
-            ("kp", ParameterValue(type=ParameterType.PARAMETER_DOUBLE_ARRAY, double_array_value=[1.0, 2.0]),
-             "kp: expected 1 value"),
+            (
+                "anti_windup",
+                ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="off"),
+                "anti_windup: 'off' is not one of",
+            ),
+            (
+                "kp",
+                ParameterValue(type=ParameterType.PARAMETER_DOUBLE_ARRAY, double_array_value=[1.0, 2.0]),
+                "kp: expected 1 value",
+            ),
         ]:
             result = _set(probe, name, value)
             assert not result.successful and reason in result.reason, (name, result.reason)
@@ -160,12 +176,16 @@ def _alive(pid):
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    return not Path(f"/proc/{pid}/stat").read_text().split()[2] == "Z"
+    return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
 
 
 def _start_launcher(out):
-    launcher = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--duration", "60", "--out",
-                                 str(out)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    launcher = subprocess.Popen(
+        [sys.executable, "-m", "robot_controller.cli", "run", "--duration", "60", "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     deadline = time.monotonic() + 60
     for line in launcher.stdout:
         if "control loop running" in line:

@@ -1,6 +1,7 @@
 """Faults on the real graph (docs/design.md §4): a frozen node, an e-stop, a
 configuration that disagrees. Each test runs the project's own commands on
 its own ROS_DOMAIN_ID and judges the arm by the TRUE angle in the recording."""
+
 import json
 import subprocess
 import sys
@@ -10,16 +11,16 @@ import numpy as np
 import pytest
 
 from robot_controller import resources
-
-from robot_controller.scoring import report
 from robot_controller.core import state_layout
+from robot_controller.scoring import report
 
 pytestmark = pytest.mark.ros
 
 
 def cli(*args, timeout=240, **kwargs):
-    return subprocess.run([sys.executable, "-m", "robot_controller.cli", *args], capture_output=True, text=True,
-                          timeout=timeout, **kwargs)
+    return subprocess.run(
+        [sys.executable, "-m", "robot_controller.cli", *args], capture_output=True, text=True, timeout=timeout, **kwargs
+    )
 
 
 def test_frozen_sensor_and_frozen_controller_leave_the_arm_held(tmp_path, ros_domain):
@@ -44,8 +45,12 @@ def test_frozen_sensor_and_frozen_controller_leave_the_arm_held(tmp_path, ros_do
 def run_while(out, action, *extra, duration="20"):
     """A wall-clock run into ``out``; ``action(launcher_process)`` once its loop
     is running. Returns (exit code, everything the run printed)."""
-    run = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", *extra, "--duration", duration,
-                            "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    run = subprocess.Popen(
+        [sys.executable, "-m", "robot_controller.cli", "run", *extra, "--duration", duration, "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     try:
         for line in run.stdout:
             if "control loop running" in line:
@@ -81,10 +86,12 @@ def test_estop_latches_until_released_and_the_loop_recovers(tmp_path, ros_domain
     t = recording.state["time_s"]
     during = (recording.true_time_s > t[stopped[0]] + 0.05) & (recording.true_time_s < t[stopped[-1]])
     assert np.ptp(recording.true_position[during, 0]) < 0.01
-    assert np.all(recording.brakes[(recording.brakes_time_s > t[stopped[0]] + 0.05)
-                                   & (recording.brakes_time_s < t[stopped[-1]])] > 0.5)
+    assert np.all(
+        recording.brakes[(recording.brakes_time_s > t[stopped[0]] + 0.05) & (recording.brakes_time_s < t[stopped[-1]])]
+        > 0.5
+    )
     # Released: re-acquired, then tracking again.
-    after = status[stopped[-1] + 1:]
+    after = status[stopped[-1] + 1 :]
     assert state_layout.STATUS_CODES["reacquiring"] in after.tolist()
     assert after[-1] == state_layout.STATUS_CODES["ok"]
     assert abs(recording.state["reference"][-1, 0] - recording.state["measured"][-1, 0]) < 0.01
@@ -106,10 +113,15 @@ def test_joint_names_that_disagree_end_the_run_fast_naming_both_sides(tmp_path, 
     params = cfg.load_stack()
     params["simulator"]["urdf_path"] = str(urdf)
     params_file = cfg.write_params_file(params, tmp_path / "params.yaml")
-    nodes = [subprocess.Popen([sys.executable, "-m", f"robot_controller.nodes.{name}", "--ros-args",
-                               "--params-file", str(params_file)], stdout=subprocess.PIPE,
-                              stderr=subprocess.STDOUT, text=True)
-             for name in ("simulator", "sensor_node", "pid_controller")]
+    nodes = [
+        subprocess.Popen(
+            [sys.executable, "-m", f"robot_controller.nodes.{name}", "--ros-args", "--params-file", str(params_file)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
+        for name in ("simulator", "sensor_node", "pid_controller")
+    ]
     try:
         output = nodes[2].communicate(timeout=60)[0]
     finally:
@@ -125,8 +137,13 @@ def test_a_killed_node_is_respawned_and_the_loop_recovers(tmp_path, ros_domain):
 
     def kill_the_controller(run):
         time.sleep(2.0)
-        controller = int(subprocess.run(["pgrep", "-P", str(run.pid), "-f", "robot_controller.nodes.pid_controller"],
-                                        capture_output=True, text=True).stdout.split()[0])
+        controller = int(
+            subprocess.run(
+                ["pgrep", "-P", str(run.pid), "-f", "robot_controller.nodes.pid_controller"],
+                capture_output=True,
+                text=True,
+            ).stdout.split()[0]
+        )
         subprocess.run(["kill", "-KILL", str(controller)], check=True)
 
     code, output = run_while(out, kill_the_controller, "--respawn", duration="10")

@@ -2,6 +2,7 @@
 
 Each test runs the project's own command on its own ROS_DOMAIN_ID.
 """
+
 import json
 import os
 import re
@@ -23,13 +24,19 @@ EXPECTED_TOPICS = {
     "/controller/state": ("std_msgs/msg/Float64MultiArray", 100.0),
 }
 # The tutorial's log line, under the node's name (process prefix or, in one process, the logger name).
-LOG_LINE = re.compile(r"\[pid_controller\].* target=-?\d+\.\d{3}, actual=-?\d+\.\d{3}, "
-                      r"error=-?\d+\.\d{3}, torque=-?\d+\.\d{3}$", re.MULTILINE)
+LOG_LINE = re.compile(
+    r"\[pid_controller\].* target=-?\d+\.\d{3}, actual=-?\d+\.\d{3}, " r"error=-?\d+\.\d{3}, torque=-?\d+\.\d{3}$",
+    re.MULTILINE,
+)
 
 
 def run_cli(out, *extra, duration=6.0):
-    return subprocess.run([sys.executable, "-m", "robot_controller.cli", "run", "--duration", str(duration),
-                           "--out", str(out), *extra], capture_output=True, text=True, timeout=150)
+    return subprocess.run(
+        [sys.executable, "-m", "robot_controller.cli", "run", "--duration", str(duration), "--out", str(out), *extra],
+        capture_output=True,
+        text=True,
+        timeout=150,
+    )
 
 
 @pytest.mark.parametrize("mode", ["multi_process", "single_process"])
@@ -61,12 +68,20 @@ def test_stack_runs_records_and_tracks(tmp_path, ros_domain, mode):
     # Loop health, once a second on /diagnostics.
     typestore = get_typestore(Stores.ROS2_JAZZY)
     with Reader(out / "bag") as reader:
-        reports = [typestore.deserialize_cdr(raw, c.msgtype) for c, _, raw in reader.messages()
-                   if c.topic == "/diagnostics"]
+        reports = [
+            typestore.deserialize_cdr(raw, c.msgtype) for c, _, raw in reader.messages() if c.topic == "/diagnostics"
+        ]
     assert len(reports) >= 4
     values = {kv.key: float(kv.value) for kv in reports[-1].status[0].values}
-    for key in ("control_rate_hz", "jitter_p50_ms", "jitter_p99_ms", "jitter_max_ms", "missed_cycles",
-                "latency_p50_ms", "latency_p99_ms"):
+    for key in (
+        "control_rate_hz",
+        "jitter_p50_ms",
+        "jitter_p99_ms",
+        "jitter_max_ms",
+        "missed_cycles",
+        "latency_p50_ms",
+        "latency_p99_ms",
+    ):
         assert key in values, key
     assert 80 < values["control_rate_hz"] < 120
     for key in ("latency_p50_ms", "latency_p99_ms", "jitter_p99_ms", "missed_cycles"):
@@ -87,8 +102,12 @@ def test_rescoring_a_saved_run_gives_the_same_figures(tmp_path, ros_domain):
     out = tmp_path / "run"
     assert run_cli(out, duration=4.0).returncode == 0
     saved = json.loads((out / "metrics.json").read_text())
-    proc = subprocess.run([sys.executable, "-m", "robot_controller.cli", "score", str(out), "--json"],
-                          capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "robot_controller.cli", "score", str(out), "--json"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 0
     rescored = json.loads(proc.stdout)
     assert rescored["tracking_rms_rad"] == saved["tracking_rms_rad"]
@@ -109,9 +128,22 @@ def test_the_bag_holds_every_message_the_nodes_published(tmp_path, ros_domain):
 
 def _realtime_threads(tmp_path, *extra) -> dict[int, list[int]]:
     """Run the stack; once the loop runs, each process's SCHED_FIFO/RR threads."""
-    proc = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--duration", "3", "--out",
-                             str(tmp_path / f"run{len(extra)}"), *extra], stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "robot_controller.cli",
+            "run",
+            "--duration",
+            "3",
+            "--out",
+            str(tmp_path / f"run{len(extra)}"),
+            *extra,
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     found: dict[int, list[int]] = {}
     for line in proc.stdout:
         if "control loop running" in line:
@@ -141,7 +173,7 @@ def test_no_thread_runs_real_time_unless_asked(tmp_path, ros_domain):
 def _descendants(pid: int) -> list[int]:
     out = subprocess.run(["ps", "-e", "-o", "pid=,ppid="], capture_output=True, text=True).stdout.split()
     children: dict[int, list[int]] = {}
-    for child, parent in zip(map(int, out[::2]), map(int, out[1::2])):
+    for child, parent in zip(map(int, out[::2]), map(int, out[1::2]), strict=False):
         children.setdefault(parent, []).append(child)
     found, todo = [], [pid]
     while todo:
@@ -153,17 +185,41 @@ def _descendants(pid: int) -> list[int]:
 
 def test_bench_quick_writes_every_key(tmp_path, ros_domain):
     out = tmp_path / "bench"
-    proc = subprocess.run([sys.executable, "-m", "robot_controller.cli", "bench", "--quick", "--out", str(out)],
-                          capture_output=True, text=True, timeout=400)
+    proc = subprocess.run(
+        [sys.executable, "-m", "robot_controller.cli", "bench", "--quick", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=400,
+    )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
     figures = json.loads((out / "bench.json").read_text(), parse_constant=lambda c: pytest.fail(f"{c} in JSON"))
-    for key in ("wall100_jitter_p99_ms", "wall100_missed", "wall100_latency_p99_ms", "wall1k_missed_pct",
-                "lockstep_rtf_multi", "lockstep_rtf_single", "core_steps_per_s", "batch_sim_s_per_s",
-                "wall100_loaded_jitter_p99_ms", "wall100_loaded_missed", "hop_limit_rtf", "lockstep_rtf_vs_hop_limit",
-                "soak_missed", "soak_stalls_30ms", "soak_watchdog_ticks", "soak_jitter_p99_ms", "soak_jitter_max_ms",
-                "soak_tracking_max_rad", "soak_rss_growth_mb", "cpu_pct_total", "cpu_pct_recorder",
-                *(f"cpu_pct_{node}" for node in ("simulator", "motor_node", "sensor_node", "pid_controller",
-                                                 "trajectory_planner"))):
+    for key in (
+        "wall100_jitter_p99_ms",
+        "wall100_missed",
+        "wall100_latency_p99_ms",
+        "wall1k_missed_pct",
+        "lockstep_rtf_multi",
+        "lockstep_rtf_single",
+        "core_steps_per_s",
+        "batch_sim_s_per_s",
+        "wall100_loaded_jitter_p99_ms",
+        "wall100_loaded_missed",
+        "hop_limit_rtf",
+        "lockstep_rtf_vs_hop_limit",
+        "soak_missed",
+        "soak_stalls_30ms",
+        "soak_watchdog_ticks",
+        "soak_jitter_p99_ms",
+        "soak_jitter_max_ms",
+        "soak_tracking_max_rad",
+        "soak_rss_growth_mb",
+        "cpu_pct_total",
+        "cpu_pct_recorder",
+        *(
+            f"cpu_pct_{node}"
+            for node in ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
+        ),
+    ):
         assert isinstance(figures[key], (int, float)), key
     assert figures["lockstep_rtf_multi"] > 0 and figures["batch_sim_s_per_s"] > 0
     assert "| target | figure | met? |" in (out / "bench.md").read_text()

@@ -1,6 +1,7 @@
 """The tutorial's own planner and controller, unchanged, against our simulator,
 motor and sensor. Their code is read from the tutorial text in shared/seed at
 test time (not copied into this repository)."""
+
 import re
 import signal
 import subprocess
@@ -24,8 +25,11 @@ def seed_node_source(filename: str) -> str:
     """The code block of the tutorial that follows the comment naming ``filename``."""
     for text_file in sorted(SEED_DIR.glob("*.txt")):
         text = text_file.read_text()
-        match = re.search(rf"^# robot_controller/robot_controller/{re.escape(filename)}\n(.*?^    main\(\)\n)",
-                          text, re.MULTILINE | re.DOTALL)
+        match = re.search(
+            rf"^# robot_controller/robot_controller/{re.escape(filename)}\n(.*?^    main\(\)\n)",
+            text,
+            re.MULTILINE | re.DOTALL,
+        )
         if match:
             return match.group(1)
     pytest.skip(f"the tutorial's {filename} is not in {SEED_DIR}")
@@ -38,14 +42,28 @@ def test_tutorial_planner_and_controller_drive_our_arm(tmp_path, ros_domain):
     probe = RosProbe(ros_domain)
     try:
         for name in ("simulator", "motor_node", "sensor_node"):
-            processes.append(subprocess.Popen(
-                [sys.executable, "-m", f"robot_controller.nodes.{name}", "--ros-args", "--params-file",
-                 str(params_file)], stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT))
+            processes.append(
+                subprocess.Popen(
+                    [
+                        sys.executable,
+                        "-m",
+                        f"robot_controller.nodes.{name}",
+                        "--ros-args",
+                        "--params-file",
+                        str(params_file),
+                    ],
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.STDOUT,
+                )
+            )
         for name, source in sources.items():
             script = tmp_path / f"seed_{name}.py"
             script.write_text(source)
-            processes.append(subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
-                                              stderr=subprocess.STDOUT, text=True))
+            processes.append(
+                subprocess.Popen(
+                    [sys.executable, str(script)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+                )
+            )
         true_states = probe.collect(JointState, "/sim/joint_states", qos=500)
 
         def moving():

@@ -3,6 +3,7 @@ built from this tree carries the ament share/ layout (package marker,
 package.xml, config, description, launch files), and every executable a launch
 file starts is one of the package's console scripts. `ros2 launch` itself
 cannot be installed here: the launch files are read, not run."""
+
 import ast
 import subprocess
 import sys
@@ -40,15 +41,33 @@ def test_launch_files_start_only_console_scripts():
 
 
 def test_wheel_carries_the_ament_share_layout(tmp_path):
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "--no-build-isolation",
-                    "--wheel-dir", str(tmp_path), str(ROOT)], check=True, capture_output=True, timeout=300)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--quiet",
+            "--no-deps",
+            "--no-build-isolation",
+            "--wheel-dir",
+            str(tmp_path),
+            str(ROOT),
+        ],
+        check=True,
+        capture_output=True,
+        timeout=300,
+    )
     (wheel,) = tmp_path.glob("robot_controller-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
     share = {n.split(".data/data/", 1)[1] for n in names if ".data/data/" in n}
-    expected = {"share/ament_index/resource_index/packages/robot_controller",
-                "share/robot_controller/package.xml", "share/robot_controller/config/fastdds.xml",
-                "share/robot_controller/config/presets/tutorial.yaml",
-                "share/robot_controller/description/one_dof_arm.urdf",
-                *(f"share/robot_controller/launch/{p.name}" for p in LAUNCH_FILES)}
+    expected = {
+        "share/ament_index/resource_index/packages/robot_controller",
+        "share/robot_controller/package.xml",
+        "share/robot_controller/config/fastdds.xml",
+        "share/robot_controller/config/presets/tutorial.yaml",
+        "share/robot_controller/description/one_dof_arm.urdf",
+        *(f"share/robot_controller/launch/{p.name}" for p in LAUNCH_FILES),
+    }
     assert expected <= share, expected - share
     assert len(LAUNCH_FILES) == 2

@@ -1,4 +1,5 @@
 """Parameter files: the shipped ones are complete and valid; bad ones name the key and the problem."""
+
 import subprocess
 import sys
 from pathlib import Path
@@ -11,8 +12,9 @@ from robot_controller.core.errors import ConfigError
 
 
 def test_the_defaults_written_as_a_parameter_file_read_back_the_same(tmp_path):
-    written = subprocess.run([sys.executable, "-m", "robot_controller.cli", "params", "--yaml"], capture_output=True,
-                             text=True, check=True).stdout
+    written = subprocess.run(
+        [sys.executable, "-m", "robot_controller.cli", "params", "--yaml"], capture_output=True, text=True, check=True
+    ).stdout
     (tmp_path / "defaults.yaml").write_text(written)
     assert cfg.read_params_file(tmp_path / "defaults.yaml") == cfg.defaults()
 
@@ -54,16 +56,22 @@ def test_tutorial_preset_is_the_tutorials_controller():
     assert cfg.load_stack("tutorial")["trajectory_planner"]["publish_rate_hz"] == 20.0
 
 
-@pytest.mark.parametrize("text, expected", [
-    ("pid_controller:\n  ros__parameters:\n    kp: -3.0\n", r"pid_controller\.kp: must be >= 0"),
-    ("pid_controller:\n  ros__parameters:\n    kpp: 3.0\n", r"pid_controller\.kpp: unknown parameter \(did you mean 'kp'\?\)"),
-    ("pid_controler:\n  ros__parameters:\n    kp: 3.0\n", r"unknown node 'pid_controler'"),
-    ("pid_controller:\n  ros__parameters:\n    anti_windup: maybe\n", r"anti_windup: 'maybe' is not one of"),
-    ("pid_controller:\n  ros__parameters:\n    kd: .nan\n", r"kd: must be finite"),
-    ("sensor_node:\n  ros__parameters:\n    rate_hz: fast\n", r"sensor_node\.rate_hz: expected a number"),
-    ("pid_controller:\n  kp: 3.0\n", r"expected exactly one key 'ros__parameters'"),
-    ("pid_controller: [\n", r"not valid YAML"),
-])
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("pid_controller:\n  ros__parameters:\n    kp: -3.0\n", r"pid_controller\.kp: must be >= 0"),
+        (
+            "pid_controller:\n  ros__parameters:\n    kpp: 3.0\n",
+            r"pid_controller\.kpp: unknown parameter \(did you mean 'kp'\?\)",
+        ),
+        ("pid_controler:\n  ros__parameters:\n    kp: 3.0\n", r"unknown node 'pid_controler'"),
+        ("pid_controller:\n  ros__parameters:\n    anti_windup: maybe\n", r"anti_windup: 'maybe' is not one of"),
+        ("pid_controller:\n  ros__parameters:\n    kd: .nan\n", r"kd: must be finite"),
+        ("sensor_node:\n  ros__parameters:\n    rate_hz: fast\n", r"sensor_node\.rate_hz: expected a number"),
+        ("pid_controller:\n  kp: 3.0\n", r"expected exactly one key 'ros__parameters'"),
+        ("pid_controller: [\n", r"not valid YAML"),
+    ],
+)
 def test_bad_config_names_key_and_problem(tmp_path, text, expected):
     path = tmp_path / "bad.yaml"
     path.write_text(text)
@@ -73,8 +81,10 @@ def test_bad_config_names_key_and_problem(tmp_path, text, expected):
 
 def test_wildcard_and_layering(tmp_path):
     path = tmp_path / "mine.yaml"
-    path.write_text("/**:\n  ros__parameters:\n    use_sim_time: false\n    torque_max: [5.0]\n"
-                    "pid_controller:\n  ros__parameters:\n    kp: 80\n")
+    path.write_text(
+        "/**:\n  ros__parameters:\n    use_sim_time: false\n    torque_max: [5.0]\n"
+        "pid_controller:\n  ros__parameters:\n    kp: 80\n"
+    )
     params = cfg.load_stack("tutorial", path)
     assert params["pid_controller"]["kp"] == 80.0
     assert params["motor_node"]["torque_max"] == [5.0] and params["pid_controller"]["torque_max"] == [5.0]
@@ -90,8 +100,12 @@ def test_written_params_file_reads_back(tmp_path):
 def test_cli_reports_a_bad_config_and_exits_2(tmp_path):
     path = tmp_path / "bad.yaml"
     path.write_text("pid_controller:\n  ros__parameters:\n    ki: -1\n")
-    proc = subprocess.run([sys.executable, "-m", "robot_controller.cli", "run", "--config", str(path)],
-                          capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "robot_controller.cli", "run", "--config", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 2
     assert "pid_controller.ki: must be >= 0" in proc.stderr
 
@@ -101,7 +115,9 @@ def test_core_never_imports_rclpy():
     for source in core.glob("*.py"):
         text = source.read_text()
         assert "import rclpy" not in text and "from rclpy" not in text, source
-    code = "import sys, robot_controller.core.loop, robot_controller.experiments.inprocess; print('rclpy' in sys.modules)"
+    code = (
+        "import sys, robot_controller.core.loop, robot_controller.experiments.inprocess; print('rclpy' in sys.modules)"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60)
     assert out.stdout.strip() == "False"
 
@@ -109,8 +125,10 @@ def test_core_never_imports_rclpy():
 def test_a_param_dump_reads_back_as_a_config(tmp_path):
     """What ``robot-controller param dump`` writes (rclpy's built-ins, the reported law, unset lists as null)."""
     dump = tmp_path / "dump.yaml"
-    dump.write_text("/pid_controller:\n  ros__parameters:\n    kp: [60.0]\n    use_sim_time: false\n"
-                    "    start_type_description_service: true\n    law_in_force: 'LQR (q=...)'\n"
-                    "    model_inertia: null\n")
+    dump.write_text(
+        "/pid_controller:\n  ros__parameters:\n    kp: [60.0]\n    use_sim_time: false\n"
+        "    start_type_description_service: true\n    law_in_force: 'LQR (q=...)'\n"
+        "    model_inertia: null\n"
+    )
     values = cfg.load_stack("default", [dump])["pid_controller"]
     assert values["kp"] == [60.0] and "law_in_force" not in values

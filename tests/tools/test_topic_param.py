@@ -5,6 +5,7 @@ Fast DDS reads its XML profile once per process, so the tools cannot run in
 this one. The run puts its loop topics in a partition of its own and the tools'
 processes get no profile from us: that they hear /joint_states at all is the
 observer profile they write for themselves."""
+
 import os
 import re
 import signal
@@ -36,8 +37,9 @@ def tool(code: str, timeout: float = 15) -> subprocess.CompletedProcess:
     """Run ``code`` in a fresh interpreter with ``topic``, ``param``, ``graph`` and ``sys`` imported.
     (The slowest, hz for 3.5 s, takes 5; an echo that hears nothing would wait for ever.)"""
     script = "import sys\nfrom robot_controller.tools import graph, param, topic\n" + code
-    return subprocess.run([sys.executable, "-c", script], env=tool_env(), capture_output=True, text=True,
-                          timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-c", script], env=tool_env(), capture_output=True, text=True, timeout=timeout
+    )
 
 
 def one_error_line(done: subprocess.CompletedProcess) -> str:
@@ -50,6 +52,7 @@ def one_error_line(done: subprocess.CompletedProcess) -> str:
 
 
 # --- without the run ----------------------------------------------------------
+
 
 def test_a_topic_that_is_not_there_is_one_line_on_stderr_and_exit_1():
     done = tool("topic.TOPIC_WAIT_S = 1.0\nsys.exit(topic.topic_echo('/nope', 3, False))")
@@ -78,19 +81,26 @@ def test_the_tools_hear_every_partition_through_a_profile_of_their_own_that_they
         "    assert g.domain == int(os.environ['ROS_DOMAIN_ID'])\n"
         "with graph.open_graph('again'):\n"
         "    pass\n"
-        "print(seen['text'])\n")
+        "print(seen['text'])\n"
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     assert "<name>partitions</name>" in done.stdout and "<value>;*</value>" in done.stdout  # every partition, read
 
 
 # --- against the run ------------------------------------------------------------
 
+
 @pytest.fixture(scope="module")
 def running_graph(tmp_path_factory):
     """A 25 s run on DOMAIN, its loop running; interrupted (Ctrl-C) once the module is done."""
     out = tmp_path_factory.mktemp("tools") / "run"
-    run = subprocess.Popen([sys.executable, "-m", "robot_controller.cli", "run", "--duration", "25", "--out", str(out)],
-                           env=tool_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    run = subprocess.Popen(
+        [sys.executable, "-m", "robot_controller.cli", "run", "--duration", "25", "--out", str(out)],
+        env=tool_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     output: list[str] = []
     deadline = time.monotonic() + 60
     for line in run.stdout:
@@ -146,8 +156,10 @@ def test_echo_of_a_partitioned_loop_topic_indents_its_nested_fields(running_grap
     alive(running_graph)
     done = tool("sys.exit(topic.topic_echo('joint_states', 1, False))")  # a relative name, as ros2 takes it
     assert done.returncode == 0, done.stderr[-3000:]
-    assert re.match(r"header:\n  stamp:\n    sec: \d+\n    nanosec: \d+\n  frame_id: ''\nname:\n- joint1\n"
-                    r"position:\n- \S+\n", done.stdout), done.stdout
+    assert re.match(
+        r"header:\n  stamp:\n    sec: \d+\n    nanosec: \d+\n  frame_id: ''\nname:\n- joint1\n" r"position:\n- \S+\n",
+        done.stdout,
+    ), done.stdout
     assert done.stdout.count("---\n") == 1
 
 
@@ -168,8 +180,7 @@ def test_hz_reports_the_sensor_rate_every_second_in_ros2_s_format(running_graph)
     done = tool("sys.exit(topic.topic_hz('/joint_states', 10000, 3.5))")
     assert done.returncode == 0, done.stderr[-3000:]
     rates = [float(x) for x in re.findall(r"^average rate: (\d+\.\d{3})$", done.stdout, re.M)]
-    details = re.findall(r"^\tmin: \d+\.\d{3}s max: \d+\.\d{3}s std dev: \d+\.\d{5}s window: (\d+)$", done.stdout,
-                         re.M)
+    details = re.findall(r"^\tmin: \d+\.\d{3}s max: \d+\.\d{3}s std dev: \d+\.\d{5}s window: (\d+)$", done.stdout, re.M)
     assert len(rates) >= 2 and len(details) == len(rates), done.stdout
     assert 80 <= rates[-1] <= 120, done.stdout  # 100 Hz on a quiet machine; this one is shared
     assert int(details[-1]) > 150  # about 3 s of intervals
@@ -193,11 +204,17 @@ def test_param_set_of_a_value_the_node_refuses_prints_its_reason_and_exits_1(run
 
 def test_param_get_labels_each_type_as_ros2_does_several_calls_in_one_process(running_graph):
     alive(running_graph)
-    done = tool("for name in ('controller_type', 'control_rate_hz', 'watchdog_periods', 'reference_extrapolation'):\n"
-                "    assert param.param_get('pid_controller', name) == 0\n")
+    done = tool(
+        "for name in ('controller_type', 'control_rate_hz', 'watchdog_periods', 'reference_extrapolation'):\n"
+        "    assert param.param_get('pid_controller', name) == 0\n"
+    )
     assert done.returncode == 0, done.stderr[-3000:]
-    assert done.stdout.splitlines() == ["String value is: lqr", "Double value is: 100.0", "Integer value is: 5",
-                                        "Boolean value is: True"]
+    assert done.stdout.splitlines() == [
+        "String value is: lqr",
+        "Double value is: 100.0",
+        "Integer value is: 5",
+        "Boolean value is: True",
+    ]
 
 
 def test_param_list_and_dump_show_every_parameter(running_graph):

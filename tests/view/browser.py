@@ -5,6 +5,7 @@ the WebAssembly compile of rerun's viewer does not advance, so it often
 catches the loading screen. Here the page gets real seconds to render, and a
 screenshot is taken whenever asked for.
 """
+
 from __future__ import annotations
 
 import base64
@@ -15,10 +16,20 @@ import subprocess
 import time
 from pathlib import Path
 
-CHROMIUM_FLAGS = ("--headless=new", "--no-sandbox", "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
-                  "--disable-gpu-sandbox", "--no-first-run", "--no-default-browser-check", "--mute-audio",
-                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                  "--remote-debugging-pipe")
+CHROMIUM_FLAGS = (
+    "--headless=new",
+    "--no-sandbox",
+    "--enable-unsafe-swiftshader",
+    "--use-angle=swiftshader",
+    "--disable-gpu-sandbox",
+    "--no-first-run",
+    "--no-default-browser-check",
+    "--mute-audio",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--remote-debugging-pipe",
+)
 
 
 MAX_EVENTS = 2000
@@ -31,8 +42,16 @@ def chromium_path() -> str | None:
 class Browser:
     """One headless Chromium showing ``url`` in a ``width`` × ``height`` window."""
 
-    def __init__(self, url: str, *, width: int = 1400, height: int = 900, profile_dir: Path, nice: int = 0,
-                 cpus: frozenset[int] | None = None) -> None:
+    def __init__(
+        self,
+        url: str,
+        *,
+        width: int = 1400,
+        height: int = 900,
+        profile_dir: Path,
+        nice: int = 0,
+        cpus: frozenset[int] | None = None,
+    ) -> None:
         exe = chromium_path()
         if exe is None:
             raise FileNotFoundError("chromium is not installed")
@@ -57,8 +76,13 @@ class Browser:
 
         self.process = subprocess.Popen(
             [exe, *CHROMIUM_FLAGS, f"--window-size={width},{height}", f"--user-data-dir={profile_dir}", url],
-            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            preexec_fn=fds, close_fds=False, start_new_session=True)
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            preexec_fn=fds,
+            close_fds=False,
+            start_new_session=True,
+        )
         os.close(to_child_r)
         os.close(from_child_w)
         self._buffer = b""
@@ -66,11 +90,15 @@ class Browser:
         self._next_id = 0
         self.session = self._attach(url)
         # The page's own size, whatever the window's frame takes.
-        self._send("Emulation.setDeviceMetricsOverride", {"width": width, "height": height, "deviceScaleFactor": 1,
-                                                          "mobile": False}, self.session)
+        self._send(
+            "Emulation.setDeviceMetricsOverride",
+            {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False},
+            self.session,
+        )
 
-    def _send(self, method: str, params: dict | None = None, session: str | None = None,
-              timeout_s: float = 30.0) -> dict:
+    def _send(
+        self, method: str, params: dict | None = None, session: str | None = None, timeout_s: float = 30.0
+    ) -> dict:
         self._next_id += 1
         message = {"id": self._next_id, "method": method, "params": params or {}}
         if session:
@@ -81,8 +109,11 @@ class Browser:
             while b"\0" in self._buffer:
                 raw, self._buffer = self._buffer.split(b"\0", 1)
                 reply = json.loads(raw)
-                if ("method" in reply and len(self.events) < MAX_EVENTS
-                        and reply.get("params", {}).get("type") != "debug"):
+                if (
+                    "method" in reply
+                    and len(self.events) < MAX_EVENTS
+                    and reply.get("params", {}).get("type") != "debug"
+                ):
                     self.events.append(reply)
                 if reply.get("id") == self._next_id:
                     if "error" in reply:
@@ -101,7 +132,8 @@ class Browser:
             pages = [t for t in self._send("Target.getTargets")["targetInfos"] if t["type"] == "page"]
             if pages:
                 return self._send("Target.attachToTarget", {"targetId": pages[0]["targetId"], "flatten": True})[
-                    "sessionId"]
+                    "sessionId"
+                ]
             time.sleep(0.2)
         raise TimeoutError(f"chromium opened no page for {url}")
 
@@ -116,8 +148,10 @@ class Browser:
         for event in self.events:
             params = event.get("params", {})
             if event["method"] == "Runtime.consoleAPICalled":
-                out.append(f"{params.get('type')}: " + " ".join(str(a.get("value", a.get("description", "")))
-                                                              for a in params.get("args", [])))
+                out.append(
+                    f"{params.get('type')}: "
+                    + " ".join(str(a.get("value", a.get("description", ""))) for a in params.get("args", []))
+                )
             elif event["method"] == "Runtime.exceptionThrown":
                 out.append(f"exception: {params.get('exceptionDetails', {}).get('text')}")
             elif event["method"] == "Log.entryAdded":

@@ -1,6 +1,7 @@
 """The live view (``run --view``): its pieces without ROS, then a real run
 with the viewer, looked at in headless Chromium, and the view rebuilt from
 the run's bag."""
+
 from __future__ import annotations
 
 import json
@@ -64,8 +65,8 @@ def test_decimator_keeps_at_most_one_sample_per_bucket_and_every_spike():
     extreme = feed.Decimator(50.0, extreme=True)
     out_t, out_e = [], []
     for k in range(0, len(t), 37):  # in uneven pieces, as flushes come
-        out_t.append(first.take(t[k:k + 37], v[k:k + 37])[0])
-        out_e.append(extreme.take(t[k:k + 37], v[k:k + 37])[1])
+        out_t.append(first.take(t[k : k + 37], v[k : k + 37])[0])
+        out_e.append(extreme.take(t[k : k + 37], v[k : k + 37])[1])
     out_t.append(first.take(np.zeros(0), np.zeros(0), final=True)[0])
     out_e.append(extreme.take(np.zeros(0), np.zeros(0), final=True)[1])
     kept = np.concatenate(out_t)
@@ -93,8 +94,7 @@ def test_feed_thins_the_loop_to_browser_rates_and_stays_bounded():
     width = state_layout.width(1)
     for k in range(1000):  # 10 s of a 100 Hz loop, flushed every 0.1 s
         t = 100.0 + 0.01 * k
-        row = state_layout.encode(t, "ok", t - 0.001, 1, {name: np.array([np.sin(t)]) for name in
-                                                           state_layout.FIELDS})
+        row = state_layout.encode(t, "ok", t - 0.001, 1, {name: np.array([np.sin(t)]) for name in state_layout.FIELDS})
         assert len(row) == width
         view.controller_state(row)
         view.true_state(t, [np.sin(t)], [1.0])
@@ -102,8 +102,13 @@ def test_feed_thins_the_loop_to_browser_rates_and_stays_bounded():
         if k % 10 == 9:
             view.flush(0.01 * k)
     view.flush(100.0, final=True)
-    for path in ("plots/position/true", "plots/position/reference", "plots/error/error_true",
-                 "plots/timing/jitter", "plots/torque/commanded"):
+    for path in (
+        "plots/position/true",
+        "plots/position/reference",
+        "plots/error/error_true",
+        "plots/timing/jitter",
+        "plots/torque/commanded",
+    ):
         assert 0.9 * 500 <= live.rows(path) <= 501, path  # 50 Hz of 100 Hz, over 10 s
         assert live.rows(path) == saved.rows(path), path  # the file gets the same samples
     pose = "world/arm/link1/visual_0"
@@ -126,8 +131,12 @@ def test_cdr_reader_matches_rclpy():
     msg = JointState(name=["joint1", "joint2"], position=[0.5, -0.25], velocity=[1.0, 2.0], effort=[3.0, -4.0])
     msg.header.stamp.sec, msg.header.stamp.nanosec, msg.header.frame_id = 12, 250_000_000, "base"
     stamp, names, position, effort = cdr.joint_state(serialize_message(msg))
-    assert (stamp, names, position.tolist(), effort.tolist()) == (12.25, ["joint1", "joint2"], [0.5, -0.25],
-                                                                  [3.0, -4.0])
+    assert (stamp, names, position.tolist(), effort.tolist()) == (
+        12.25,
+        ["joint1", "joint2"],
+        [0.5, -0.25],
+        [3.0, -4.0],
+    )
     array = Float64MultiArray(data=[1.0, 2.5, -3.0])
     array.layout.dim = [MultiArrayDimension(label="header", size=3, stride=3)]
     assert cdr.float64_array(serialize_message(array)).tolist() == [1.0, 2.5, -3.0]
@@ -140,7 +149,7 @@ def test_arm_from_the_reference_urdf_posed_by_forward_kinematics():
     assert arm.joint_names == ["joint1"]
     assert arm.base_xyz == (0.0, 0.0, 1.0)
     assert 0.45 < arm.reach_m < 0.6
-    (parent, joint), = arm.joints()
+    ((parent, joint),) = arm.joints()
     assert (parent.name, joint.name, joint.kind, joint.axis) == ("base_link", "joint1", "revolute", (0.0, -1.0, 0.0))
     # q = 0: the link lies along +x from the joint; q = π/2 about −y raises it straight up.
     frames = arm_view.link_frames(arm, np.array([[0.0], [np.pi / 2]]))
@@ -200,8 +209,10 @@ def _chromium() -> str:
         make = subprocess.run(["make", "-C", str(REPO), "chromium"], capture_output=True, text=True, timeout=900)
         found = shutil.which("chromium")
         if found is None:
-            pytest.skip("chromium is not installed and `make chromium` could not install it: "
-                        + (make.stdout + make.stderr)[-500:])
+            pytest.skip(
+                "chromium is not installed and `make chromium` could not install it: "
+                + (make.stdout + make.stderr)[-500:]
+            )
     return found
 
 
@@ -258,8 +269,13 @@ def test_live_view_of_a_real_run_in_headless_chromium(tmp_path, ros_domain):
     port = serving.free_port()
     url = serving.page_url(port)
     # `robot-controller run --view` once the CLI is wired; the launcher's API meanwhile.
-    run = subprocess.Popen([sys.executable, "-c", LAUNCH, str(out), "25", str(port)], cwd=REPO,
-                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    run = subprocess.Popen(
+        [sys.executable, "-c", LAUNCH, str(out), "25", str(port)],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     lines: list[str] = []
     reader = threading.Thread(target=lambda: lines.extend(run.stdout), daemon=True)
     reader.start()

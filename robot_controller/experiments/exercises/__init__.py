@@ -10,6 +10,7 @@ short form for the test suite.
 To add one: a module beside these with an
 ``EXERCISE = Exercise(name, title, run, steps)``, listed in ``EXERCISES`` below.
 """
+
 from __future__ import annotations
 
 from robot_controller.experiments.exercises import disturbance, lqr, tune, windup

@@ -1,6 +1,7 @@
 """What the exercises share: seeded lockstep runs of the real graph and what
 they show (a step's figures, a sine's tracking), the files every exercise
 writes (``report.md``, ``results.json``, plots) and its registry entry."""
+
 from __future__ import annotations
 
 import math
@@ -100,17 +101,36 @@ def lockstep_params(params: cfg.Params, seed: int = SEED) -> cfg.Params:
     return cfg.merge(params, {"sensor_node": {"seed": seed}})
 
 
-def _response(label: str, recording: report.Recording, start_s: float, figures: dict[str, Any],
-              out: Path) -> Response:
+def _response(label: str, recording: report.Recording, start_s: float, figures: dict[str, Any], out: Path) -> Response:
     s = recording.state
-    true = metrics.true_position_at(s["time_s"], recording.true_time_s, recording.true_position,
-                                    recording.true_velocity)[:, 0]
-    return Response(label, s["time_s"] - start_s, s["reference"][:, 0], true, s["command"][:, 0], s["i"][:, 0],
-                    s["saturated"][:, 0] > 0.5, figures, out)
+    true = metrics.true_position_at(
+        s["time_s"], recording.true_time_s, recording.true_position, recording.true_velocity
+    )[:, 0]
+    return Response(
+        label,
+        s["time_s"] - start_s,
+        s["reference"][:, 0],
+        true,
+        s["command"][:, 0],
+        s["i"][:, 0],
+        s["saturated"][:, 0] > 0.5,
+        figures,
+        out,
+    )
 
 
-def step_run(params: cfg.Params, out: Path, label: str, *, amplitude: float, offset: float = 0.0,
-             shaping: str = "none", lead_s: float = 0.5, after_s: float = 2.0, seed: int = SEED) -> Response:
+def step_run(
+    params: cfg.Params,
+    out: Path,
+    label: str,
+    *,
+    amplitude: float,
+    offset: float = 0.0,
+    shaping: str = "none",
+    lead_s: float = 0.5,
+    after_s: float = 2.0,
+    seed: int = SEED,
+) -> Response:
     """A step from ``offset`` (where the arm starts, at rest) to ``offset + amplitude`` after
     ``lead_s``, recorded ``after_s`` beyond it: one real five-process run in sim-time lockstep.
 
@@ -120,10 +140,19 @@ def step_run(params: cfg.Params, out: Path, label: str, *, amplitude: float, off
     action never reaches the target to overshoot), ``saturated_s`` (time the
     torque limit cut the command after the step) and ``peak_torque_nm`` after it.
     """
-    params = cfg.merge(lockstep_params(params, seed), {
-        "trajectory_planner": {"mode": "step", "amplitude": [amplitude], "offset": [offset], "step_time_s": lead_s,
-                               "step_shaping": shaping},
-        "simulator": {"initial_position": [offset]}})
+    params = cfg.merge(
+        lockstep_params(params, seed),
+        {
+            "trajectory_planner": {
+                "mode": "step",
+                "amplitude": [amplitude],
+                "offset": [offset],
+                "step_time_s": lead_s,
+                "step_shaping": shaping,
+            },
+            "simulator": {"initial_position": [offset]},
+        },
+    )
     _, recording = run_lockstep(params, out, lead_s + after_s)
     figures = step_figures(recording, amplitude, offset, after_s)
     t = recording.state["time_s"]
@@ -143,7 +172,7 @@ def overshoot_vs_final_pct(time_s: np.ndarray, position: np.ndarray) -> float:
     in % of the distance travelled from the step's start to that value."""
     if len(position) < 10:
         return float("nan")
-    start, final = float(position[0]), float(np.mean(position[int(0.9 * len(position)):]))
+    start, final = float(position[0]), float(np.mean(position[int(0.9 * len(position)) :]))
     travel = final - start
     if abs(travel) < 1e-9:
         return float("nan")
@@ -171,8 +200,9 @@ def _keep(response: Response, keep: np.ndarray) -> None:
 def sine_params(params: cfg.Params) -> cfg.Params:
     """The reference scenario's sine (1 rad, 0.5 Hz), whatever the planner was set to."""
     defaults = cfg.defaults()["trajectory_planner"]
-    return cfg.merge(params, {"trajectory_planner": {key: defaults[key] for key in (
-        "mode", "amplitude", "frequency_hz", "offset")}})
+    return cfg.merge(
+        params, {"trajectory_planner": {key: defaults[key] for key in ("mode", "amplitude", "frequency_hz", "offset")}}
+    )
 
 
 # ---- the files -----------------------------------------------------------------------------------------------
@@ -223,8 +253,9 @@ def pyplot():
     return plt
 
 
-def plot_steps(ax, responses: list[Response], *, band: tuple[float, float] | None = None, reference: bool = True,
-               title: str = "") -> None:
+def plot_steps(
+    ax, responses: list[Response], *, band: tuple[float, float] | None = None, reference: bool = True, title: str = ""
+) -> None:
     """The true angle of each response against time since the step, on one axis;
     ``band`` (low, high): the settling band, shaded."""
     if reference and responses:

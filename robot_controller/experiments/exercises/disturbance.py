@@ -7,6 +7,7 @@ input as ``/sim/disturbance``, at a physics time a lockstep run reproduces
 exactly), one seeded lockstep run per controller: the tutorial's, a plain PID
 with the model's feedforward, and the default.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -37,8 +38,11 @@ GOAL_PEAK_RAD, GOAL_RECOVERY_S = 0.010, 0.3
 
 CONTENDERS = {
     "tutorial": ("tutorial", {}, "the tutorial's PID as written (Kp 50, Ki 10, Kd 5, no feedforward)"),
-    "pid": ("default", {"pid_controller": {"controller_type": "pid", "estimator": "none"}},
-            "PID (Kp 50, Ki 10, Kd 5) with the model's feedforward, no filter"),
+    "pid": (
+        "default",
+        {"pid_controller": {"controller_type": "pid", "estimator": "none"}},
+        "PID (Kp 50, Ki 10, Kd 5) with the model's feedforward, no filter",
+    ),
     "default": ("default", {}, "the default: LQR, Kalman filter, feedforward"),
 }
 
@@ -53,10 +57,18 @@ def steps(quick: bool = False) -> int:
 
 def contender_params(name: str, seed: int, duration_s: float) -> cfg.Params:
     preset, overrides, _ = CONTENDERS[name]
-    return cfg.merge(cfg.load_stack(preset), overrides, {
-        "sensor_node": {"seed": seed},
-        "simulator": {"disturbance_torque_nm": [TORQUE_NM], "disturbance_start_s": START_S,
-                      "disturbance_duration_s": duration_s}})
+    return cfg.merge(
+        cfg.load_stack(preset),
+        overrides,
+        {
+            "sensor_node": {"seed": seed},
+            "simulator": {
+                "disturbance_torque_nm": [TORQUE_NM],
+                "disturbance_start_s": START_S,
+                "disturbance_duration_s": duration_s,
+            },
+        },
+    )
 
 
 def deviation_figures(time_s: np.ndarray, error: np.ndarray, start_s: float) -> dict[str, float]:
@@ -77,8 +89,12 @@ def deviation_figures(time_s: np.ndarray, error: np.ndarray, start_s: float) -> 
         recovery = float("nan")  # not back by the end of the run
     else:
         recovery = float(t_after[outside[-1] + 1] - start_s)
-    return {"peak_deviation_rad": float(np.max(e_after)) if len(e_after) else float("nan"),
-            "before_max_rad": before_max, "recovery_band_rad": band, "recovery_s": recovery}
+    return {
+        "peak_deviation_rad": float(np.max(e_after)) if len(e_after) else float("nan"),
+        "before_max_rad": before_max,
+        "recovery_band_rad": band,
+        "recovery_s": recovery,
+    }
 
 
 def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int = SEED) -> dict[str, Any]:
@@ -89,8 +105,9 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
     traces = {}
     for name in plan["contenders"]:
         progress(f"{name}: {TORQUE_NM:g} N·m from t = {START_S:g} s")
-        _, recording = run_and_score(contender_params(name, seed, duration_s), out / name, duration_s=duration_s,
-                                     sim_time=True)
+        _, recording = run_and_score(
+            contender_params(name, seed, duration_s), out / name, duration_s=duration_s, sim_time=True
+        )
         # On the simulator's timeline: every true-state sample against the reference in force.
         t = recording.true_time_s
         reference, valid = report.reference_in_force(recording)
@@ -130,32 +147,53 @@ def _plot(path: Path, traces: dict[str, tuple[np.ndarray, np.ndarray]]) -> None:
 def _report(results: dict[str, Any], plan: dict[str, Any], quick: bool) -> str:
     rows = []
     for name in plan["contenders"]:
-        rows.append([f"**{name}**: {CONTENDERS[name][2]}", fmt(results[f"{name}_before_max_rad"] * 1e3, "{:.1f}"),
-                     fmt(results[f"{name}_peak_deviation_rad"] * 1e3, "{:.1f}"),
-                     fmt(results[f"{name}_recovery_s"], "{:.2f}", f"not in {plan['after_s']:g} s")])
+        rows.append(
+            [
+                f"**{name}**: {CONTENDERS[name][2]}",
+                fmt(results[f"{name}_before_max_rad"] * 1e3, "{:.1f}"),
+                fmt(results[f"{name}_peak_deviation_rad"] * 1e3, "{:.1f}"),
+                fmt(results[f"{name}_recovery_s"], "{:.2f}", f"not in {plan['after_s']:g} s"),
+            ]
+        )
     default = ("default" in plan["contenders"]) and (
-        results["default_peak_deviation_rad"] is not None and results["default_recovery_s"] is not None)
+        results["default_peak_deviation_rad"] is not None and results["default_recovery_s"] is not None
+    )
     verdict = ""
     if default:
-        met = (results["default_peak_deviation_rad"] <= GOAL_PEAK_RAD
-               and results["default_recovery_s"] <= GOAL_RECOVERY_S)
-        verdict = (f"Goal for the default controller: pushed at most {GOAL_PEAK_RAD * 1e3:g} mrad, back within "
-                   f"{GOAL_RECOVERY_S:g} s: **{'met' if met else 'not met'}**.")
-    return "\n".join([
-        "# Exercise 2: a step disturbance", "",
-        "*The tutorial: apply a step torque disturbance of 2 N·m at t = 5 s and watch the controller recover.*", "",
-        f"The arm tracks the reference sine (1 rad, 0.5 Hz). At physics time {START_S:g} s an external torque of "
-        f"{TORQUE_NM:g} N·m starts acting on the joint and stays ({plan['after_s']:g} s recorded after it). Each "
-        "controller runs once on the whole graph (five processes, sim-time lockstep, sensor seed "
-        f"{results['seed']}); the error is the reference in force minus the TRUE angle, on the simulator's "
-        "timeline." + (" **Quick form**." if quick else ""), "",
-        table(["controller", "error before, max [mrad]", "peak deviation [mrad]", "recovery [s]"], rows), "",
-        f"*Recovery*: from the push until the error is back within {RECOVERED_RAD * 1e3:g} mrad (or within 1.2× "
-        "the largest error of the second before the push, if that is wider) and stays there.", "",
-        "What it shows: a constant torque the controller does not know about is first fought by the proportional "
-        "and derivative terms (the arm is pushed until they balance it), then removed by the integral term, "
-        "which takes as long as its gain allows. The feedforward does not help here: it knows the arm, not the "
-        "push.", "", verdict, "", "![error](disturbance.png)"])
+        met = (
+            results["default_peak_deviation_rad"] <= GOAL_PEAK_RAD and results["default_recovery_s"] <= GOAL_RECOVERY_S
+        )
+        verdict = (
+            f"Goal for the default controller: pushed at most {GOAL_PEAK_RAD * 1e3:g} mrad, back within "
+            f"{GOAL_RECOVERY_S:g} s: **{'met' if met else 'not met'}**."
+        )
+    return "\n".join(
+        [
+            "# Exercise 2: a step disturbance",
+            "",
+            "*The tutorial: apply a step torque disturbance of 2 N·m at t = 5 s and watch the controller recover.*",
+            "",
+            f"The arm tracks the reference sine (1 rad, 0.5 Hz). At physics time {START_S:g} s an external torque of "
+            f"{TORQUE_NM:g} N·m starts acting on the joint and stays ({plan['after_s']:g} s recorded after it). Each "
+            "controller runs once on the whole graph (five processes, sim-time lockstep, sensor seed "
+            f"{results['seed']}); the error is the reference in force minus the TRUE angle, on the simulator's "
+            "timeline." + (" **Quick form**." if quick else ""),
+            "",
+            table(["controller", "error before, max [mrad]", "peak deviation [mrad]", "recovery [s]"], rows),
+            "",
+            f"*Recovery*: from the push until the error is back within {RECOVERED_RAD * 1e3:g} mrad (or within 1.2× "
+            "the largest error of the second before the push, if that is wider) and stays there.",
+            "",
+            "What it shows: a constant torque the controller does not know about is first fought by the proportional "
+            "and derivative terms (the arm is pushed until they balance it), then removed by the integral term, "
+            "which takes as long as its gain allows. The feedforward does not help here: it knows the arm, not the "
+            "push.",
+            "",
+            verdict,
+            "",
+            "![error](disturbance.png)",
+        ]
+    )
 
 
 EXERCISE = Exercise("disturbance", "a 2 N·m step disturbance at t = 5 s: how far and how long", run, steps)

@@ -9,6 +9,7 @@ them. For each: the gains (an LQR's are designed: ``core.law.law_config``),
 the closed-loop poles of the sampled arm model under them, their margins, and
 the figures on the sine and on a step.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -51,10 +52,18 @@ class Contender:
 
 CONTENDERS = (
     Contender("pid", "the tutorial's PID as written", "tutorial", {}),
-    Contender("lqr", "LQR in the tutorial's plumbing (no feedforward, no Kalman filter)", "tutorial",
-              {"controller_type": "lqr"}),
-    Contender("lqr_default", "LQR as the default stack runs it (feedforward, Kalman filter)", "default",
-              {"controller_type": "lqr"}),
+    Contender(
+        "lqr",
+        "LQR in the tutorial's plumbing (no feedforward, no Kalman filter)",
+        "tutorial",
+        {"controller_type": "lqr"},
+    ),
+    Contender(
+        "lqr_default",
+        "LQR as the default stack runs it (feedforward, Kalman filter)",
+        "default",
+        {"controller_type": "lqr"},
+    ),
 )
 
 
@@ -78,10 +87,16 @@ def loop_analysis(params: cfg.Params) -> dict[str, Any]:
     gains = law_gains(params)
     A, B, dt = plant_loop(params)
     K = robustness.pid_gain_row(float(gains.kp[0]), float(gains.ki[0]), float(gains.kd[0]))
-    return {"kp": float(gains.kp[0]), "ki": float(gains.ki[0]), "kd": float(gains.kd[0]),
-            "derivative_source": gains.derivative_source.value, "dt": dt,
-            "poles": robustness.poles(A, B, K), "margins": robustness.margins(A, B, K, dt),
-            "delay_margin_periods": lqr_design.delay_margin_periods(A, B, K)}
+    return {
+        "kp": float(gains.kp[0]),
+        "ki": float(gains.ki[0]),
+        "kd": float(gains.kd[0]),
+        "derivative_source": gains.derivative_source.value,
+        "dt": dt,
+        "poles": robustness.poles(A, B, K),
+        "margins": robustness.margins(A, B, K, dt),
+        "delay_margin_periods": lqr_design.delay_margin_periods(A, B, K),
+    }
 
 
 def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int = SEED) -> dict[str, Any]:
@@ -96,11 +111,17 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
         analysis = loop_analysis(params)
         analyses[contender.name] = analysis
         name = contender.name
-        results.update({f"{name}_kp": analysis["kp"], f"{name}_ki": analysis["ki"], f"{name}_kd": analysis["kd"],
-                        f"{name}_spectral_radius": float(np.max(np.abs(analysis["poles"]))),
-                        f"{name}_gain_margin_db": analysis["margins"].gain_margin_db,
-                        f"{name}_phase_margin_deg": analysis["margins"].phase_margin_deg,
-                        f"{name}_delay_margin_periods": analysis["delay_margin_periods"]})
+        results.update(
+            {
+                f"{name}_kp": analysis["kp"],
+                f"{name}_ki": analysis["ki"],
+                f"{name}_kd": analysis["kd"],
+                f"{name}_spectral_radius": float(np.max(np.abs(analysis["poles"]))),
+                f"{name}_gain_margin_db": analysis["margins"].gain_margin_db,
+                f"{name}_phase_margin_deg": analysis["margins"].phase_margin_deg,
+                f"{name}_delay_margin_periods": analysis["delay_margin_periods"],
+            }
+        )
         for index, pole in enumerate(analysis["poles"]):
             results[f"{name}_pole_{index + 1}_re"] = float(pole.real)
             results[f"{name}_pole_{index + 1}_im"] = float(pole.imag)
@@ -114,8 +135,14 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
         progress(f"{name}: step")
         step = step_run(params, out / name / "step", name, amplitude=STEP_RAD, after_s=plan["after_s"], seed=seed)
         steps_run.append(step)
-        for key in ("overshoot_pct", "settling_time_s", "rise_time_s", "steady_state_error_rad", "peak_torque_nm",
-                    "saturated_s"):
+        for key in (
+            "overshoot_pct",
+            "settling_time_s",
+            "rise_time_s",
+            "steady_state_error_rad",
+            "peak_torque_nm",
+            "saturated_s",
+        ):
             results[f"{name}_step_{key}"] = step.figures[key]
     results = write_results(out, results)
     _plot(out / "lqr.png", steps_run, sines, analyses)
@@ -153,48 +180,104 @@ def _plot(path: Path, steps_run: list[Response], sines: list[Response], analyses
 
 def _report(results: dict[str, Any], plan: dict[str, Any], analyses: dict[str, dict[str, Any]], quick: bool) -> str:
     contenders = plan["contenders"]
-    lines = ["# Exercise 4: switch to LQR", "",
-             "*The tutorial: replace the PID with an LQR gain (from Day 3). Compare tracking accuracy.*", "",
-             "The LQR here is designed at the control rate on each joint's `[∫e, e, ė]` (the arm `J ë + b ė = u` "
-             "sampled with a zero-order hold, weights `lqr_q` on the state and `lqr_r` on the torque). The "
-             "design's feedback `u = −K x` *is* a PID (`K = [Ki, Kp, Kd]`, derivative on the velocity error), so "
-             "both laws can be put side by side gain by gain. Every run is the whole graph in sim-time lockstep "
-             f"(sensor seed {results['seed']}); figures on the TRUE angle." + (" **Quick form**." if quick else ""),
-             "", "## The gains and the closed loop", ""]
+    lines = [
+        "# Exercise 4: switch to LQR",
+        "",
+        "*The tutorial: replace the PID with an LQR gain (from Day 3). Compare tracking accuracy.*",
+        "",
+        "The LQR here is designed at the control rate on each joint's `[∫e, e, ė]` (the arm `J ë + b ė = u` "
+        "sampled with a zero-order hold, weights `lqr_q` on the state and `lqr_r` on the torque). The "
+        "design's feedback `u = −K x` *is* a PID (`K = [Ki, Kp, Kd]`, derivative on the velocity error), so "
+        "both laws can be put side by side gain by gain. Every run is the whole graph in sim-time lockstep "
+        f"(sensor seed {results['seed']}); figures on the TRUE angle." + (" **Quick form**." if quick else ""),
+        "",
+        "## The gains and the closed loop",
+        "",
+    ]
     cells = []
     for contender in contenders:
         n, a = contender.name, analyses[contender.name]
         poles = ", ".join(_pole_text(p) for p in a["poles"])
-        cells.append([f"**{n}**: {contender.description}", fmt(a["kp"], "{:.3g}"), fmt(a["ki"], "{:.3g}"),
-                      fmt(a["kd"], "{:.3g}"), poles, fmt(float(np.max(np.abs(a["poles"]))), "{:.4f}"),
-                      fmt(a["margins"].gain_margin_db, "{:.1f}"), fmt(a["margins"].phase_margin_deg, "{:.0f}"),
-                      str(a["delay_margin_periods"])])
-    lines += [table(["controller", "Kp [N·m/rad]", "Ki [N·m/(rad·s)]", "Kd [N·m·s/rad]",
-                     "closed-loop poles z (time constant or ωn, ζ)", "largest |z|", "gain margin [dB]",
-                     "phase margin [°]", "delay margin [periods]"], cells), ""]
-    lines += ["Poles: the eigenvalues of `A − B K` for the arm sampled every 10 ms. Inside the unit circle means "
-              "stable; the closer to 1, the slower that part of the response dies away (a real pole z lasts "
-              "about 10 ms / (1 − z)).", "", "## The figures", ""]
+        cells.append(
+            [
+                f"**{n}**: {contender.description}",
+                fmt(a["kp"], "{:.3g}"),
+                fmt(a["ki"], "{:.3g}"),
+                fmt(a["kd"], "{:.3g}"),
+                poles,
+                fmt(float(np.max(np.abs(a["poles"]))), "{:.4f}"),
+                fmt(a["margins"].gain_margin_db, "{:.1f}"),
+                fmt(a["margins"].phase_margin_deg, "{:.0f}"),
+                str(a["delay_margin_periods"]),
+            ]
+        )
+    lines += [
+        table(
+            [
+                "controller",
+                "Kp [N·m/rad]",
+                "Ki [N·m/(rad·s)]",
+                "Kd [N·m·s/rad]",
+                "closed-loop poles z (time constant or ωn, ζ)",
+                "largest |z|",
+                "gain margin [dB]",
+                "phase margin [°]",
+                "delay margin [periods]",
+            ],
+            cells,
+        ),
+        "",
+    ]
+    lines += [
+        "Poles: the eigenvalues of `A − B K` for the arm sampled every 10 ms. Inside the unit circle means "
+        "stable; the closer to 1, the slower that part of the response dies away (a real pole z lasts "
+        "about 10 ms / (1 − z)).",
+        "",
+        "## The figures",
+        "",
+    ]
     cells = []
     for contender in contenders:
         n = contender.name
-        cells.append([f"**{n}**", fmt(results[f"{n}_sine_tracking_rms_rad"], "{:.4f}"),
-                      fmt(results[f"{n}_sine_tracking_max_rad"], "{:.4f}"),
-                      fmt(results[f"{n}_step_overshoot_pct"], "{:.1f}"),
-                      fmt(results[f"{n}_step_settling_time_s"], "{:.2f}", f"not in {plan['after_s']:g} s"),
-                      fmt(results[f"{n}_step_rise_time_s"], "{:.3f}"),
-                      fmt(results[f"{n}_step_steady_state_error_rad"], "{:.4f}"),
-                      fmt(results[f"{n}_step_peak_torque_nm"], "{:.1f}")])
-    lines += [table(["controller", "sine RMS error [rad]", "sine max error [rad]", "step overshoot [%]",
-                     "settling 2 % [s]", "rise 10–90 % [s]", "steady-state error [rad]", "peak torque [N·m]"],
-                    cells), "",
-              f"Sine: 1 rad, 0.5 Hz, {plan['sine_s']:g} s, RMS after a 2 s warm-up. Step: {STEP_RAD:g} rad, a jump, "
-              f"figures over the {plan['after_s']:g} s after it. The error is against the reference the controller "
-              "used: "
-              "the tutorial's planner publishes at 20 Hz and its controller holds each sample, hence the saw-tooth "
-              "in the plot.", "", _verdict(results, analyses, contenders), "",
-              "Plot: `lqr.png` (the steps, the sine's tracking error, the poles). Each run's bag and metrics are in "
-              "the folders named after the controller.", ""]
+        cells.append(
+            [
+                f"**{n}**",
+                fmt(results[f"{n}_sine_tracking_rms_rad"], "{:.4f}"),
+                fmt(results[f"{n}_sine_tracking_max_rad"], "{:.4f}"),
+                fmt(results[f"{n}_step_overshoot_pct"], "{:.1f}"),
+                fmt(results[f"{n}_step_settling_time_s"], "{:.2f}", f"not in {plan['after_s']:g} s"),
+                fmt(results[f"{n}_step_rise_time_s"], "{:.3f}"),
+                fmt(results[f"{n}_step_steady_state_error_rad"], "{:.4f}"),
+                fmt(results[f"{n}_step_peak_torque_nm"], "{:.1f}"),
+            ]
+        )
+    lines += [
+        table(
+            [
+                "controller",
+                "sine RMS error [rad]",
+                "sine max error [rad]",
+                "step overshoot [%]",
+                "settling 2 % [s]",
+                "rise 10–90 % [s]",
+                "steady-state error [rad]",
+                "peak torque [N·m]",
+            ],
+            cells,
+        ),
+        "",
+        f"Sine: 1 rad, 0.5 Hz, {plan['sine_s']:g} s, RMS after a 2 s warm-up. Step: {STEP_RAD:g} rad, a jump, "
+        f"figures over the {plan['after_s']:g} s after it. The error is against the reference the controller "
+        "used: "
+        "the tutorial's planner publishes at 20 Hz and its controller holds each sample, hence the saw-tooth "
+        "in the plot.",
+        "",
+        _verdict(results, analyses, contenders),
+        "",
+        "Plot: `lqr.png` (the steps, the sine's tracking error, the poles). Each run's bag and metrics are in "
+        "the folders named after the controller.",
+        "",
+    ]
     return "\n".join(lines)
 
 
@@ -209,19 +292,29 @@ def _pole_text(z: complex, dt: float = 0.01) -> str:
 def _verdict(results: dict[str, Any], analyses: dict[str, dict[str, Any]], contenders) -> str:
     pid, lqr = results["pid_sine_tracking_rms_rad"], results["lqr_sine_tracking_rms_rad"]
     slow_pid = max(abs(p) for p in analyses["pid"]["poles"])
-    words = [f"What it shows: in the same plumbing the LQR tracks the sine with {lqr * 1e3:.1f} mrad RMS, the "
-             f"tutorial's PID with {pid * 1e3:.1f} mrad ({'better' if lqr < pid else 'worse'} by a factor "
-             f"{max(pid, lqr) / min(pid, lqr):.2g})."]
-    words.append(f"The PID's slowest pole sits at z = {slow_pid:.4f}: its integral (Ki = "
-                 f"{analyses['pid']['ki']:g} against Kp = {analyses['pid']['kp']:g}) removes an error over "
-                 f"about {0.01 / max(1 - slow_pid, 1e-9):.1f} s, while the LQR's weights place every pole "
-                 f"at |z| ≤ {max(abs(p) for p in analyses['lqr']['poles']):.4f}.")
+    words = [
+        f"What it shows: in the same plumbing the LQR tracks the sine with {lqr * 1e3:.1f} mrad RMS, the "
+        f"tutorial's PID with {pid * 1e3:.1f} mrad ({'better' if lqr < pid else 'worse'} by a factor "
+        f"{max(pid, lqr) / min(pid, lqr):.2g})."
+    ]
+    words.append(
+        f"The PID's slowest pole sits at z = {slow_pid:.4f}: its integral (Ki = "
+        f"{analyses['pid']['ki']:g} against Kp = {analyses['pid']['kp']:g}) removes an error over "
+        f"about {0.01 / max(1 - slow_pid, 1e-9):.1f} s, while the LQR's weights place every pole "
+        f"at |z| ≤ {max(abs(p) for p in analyses['lqr']['poles']):.4f}."
+    )
     if "lqr_default_sine_tracking_rms_rad" in results:
         default = results["lqr_default_sine_tracking_rms_rad"]
-        words.append(f"The same LQR gains with model feedforward and the Kalman filter (the default stack) track "
-                     f"with {default * 1e3:.2f} mrad"
-                     + (": most of the error left was the feedback having to produce, from an error, the torque "
-                        "the motion needs, which the arm model supplies in advance." if default < lqr else "."))
+        words.append(
+            f"The same LQR gains with model feedforward and the Kalman filter (the default stack) track "
+            f"with {default * 1e3:.2f} mrad"
+            + (
+                ": most of the error left was the feedback having to produce, from an error, the torque "
+                "the motion needs, which the arm model supplies in advance."
+                if default < lqr
+                else "."
+            )
+        )
     return " ".join(words)
 
 

@@ -20,6 +20,7 @@ the tutorial's controller: PID, no feedforward, no Kalman filter):
 5. The gains chosen on the sine; in the full form the tutorial's own gains
    (50, 10, 5) beside them.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -60,16 +61,38 @@ TUTORIAL_GAINS = (50.0, 10.0, 5.0)
 
 def _plan(quick: bool) -> dict[str, Any]:
     if quick:
-        return {"ku_runs": 3, "ku_after_s": 2.5, "kd_factors": (4.0,), "ti_tu": (4.0,), "stage_after_s": 1.5,
-                "sine_s": 3.0, "zn_run": False, "tutorial_runs": False}
-    return {"ku_runs": 8, "ku_after_s": 4.0, "kd_factors": (1.0, 2.0, 4.0, 8.0), "ti_tu": (8.0, 4.0, 2.0, 1.0),
-            "stage_after_s": 2.0, "sine_s": 10.0, "zn_run": True, "tutorial_runs": True}
+        return {
+            "ku_runs": 3,
+            "ku_after_s": 2.5,
+            "kd_factors": (4.0,),
+            "ti_tu": (4.0,),
+            "stage_after_s": 1.5,
+            "sine_s": 3.0,
+            "zn_run": False,
+            "tutorial_runs": False,
+        }
+    return {
+        "ku_runs": 8,
+        "ku_after_s": 4.0,
+        "kd_factors": (1.0, 2.0, 4.0, 8.0),
+        "ti_tu": (8.0, 4.0, 2.0, 1.0),
+        "stage_after_s": 2.0,
+        "sine_s": 10.0,
+        "zn_run": True,
+        "tutorial_runs": True,
+    }
 
 
 def steps(quick: bool = False) -> int:
     plan = _plan(quick)
-    return (plan["ku_runs"] + int(plan["zn_run"]) + len(plan["kd_factors"]) + len(plan["ti_tu"]) + 1
-            + 2 * int(plan["tutorial_runs"]))
+    return (
+        plan["ku_runs"]
+        + int(plan["zn_run"])
+        + len(plan["kd_factors"])
+        + len(plan["ti_tu"])
+        + 1
+        + 2 * int(plan["tutorial_runs"])
+    )
 
 
 def _gains(params: cfg.Params, kp: float, ki: float, kd: float) -> cfg.Params:
@@ -105,8 +128,13 @@ def oscillation(response: Response, *, settle_s: float = 0.3, window_s: float = 
     crossings = t[up] + (t[up + 1] - t[up]) * (-x[up] / (x[up + 1] - x[up]))
     period = float(np.mean(np.diff(crossings))) if len(crossings) >= 2 else float("nan")
     sustained = growth >= SUSTAINED_GROWTH_PER_S and a_late >= NOISE_FLOOR_RAD
-    return {"amplitude_early_rad": a_early, "amplitude_late_rad": a_late, "growth_per_s": growth,
-            "period_s": period, "sustained": int(sustained)}
+    return {
+        "amplitude_early_rad": a_early,
+        "amplitude_late_rad": a_late,
+        "growth_per_s": growth,
+        "period_s": period,
+        "sustained": int(sustained),
+    }
 
 
 def model_ultimate(params: cfg.Params) -> tuple[float, float]:
@@ -153,8 +181,14 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
         else:
             kp = 0.5 * (low + high)
         progress(f"Kp alone: Kp = {kp:.4g} (run {index + 1} of {plan['ku_runs']})")
-        response = step_run(_gains(base, kp, 0.0, 0.0), out / "kp_search" / f"run_{index + 1}", f"Kp {kp:.3g}",
-                            amplitude=KU_STEP_RAD, after_s=plan["ku_after_s"], seed=seed)
+        response = step_run(
+            _gains(base, kp, 0.0, 0.0),
+            out / "kp_search" / f"run_{index + 1}",
+            f"Kp {kp:.3g}",
+            amplitude=KU_STEP_RAD,
+            after_s=plan["ku_after_s"],
+            seed=seed,
+        )
         response.figures.update(oscillation(response))
         response.figures["kp"] = kp
         search.append(response)
@@ -165,19 +199,27 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
         for key in ("kp", "growth_per_s", "amplitude_early_rad", "amplitude_late_rad", "period_s", "sustained"):
             results[f"kp_search_{index + 1}_{key}"] = response.figures[key]
     if high is None or low is None:
-        raise RuntimeError(f"tune: no bracket of the ultimate gain in {plan['ku_runs']} runs from Kp {KP_START:g} "
-                           f"(sustained from {high}, decaying up to {low}); see {out / 'kp_search'}")
+        raise RuntimeError(
+            f"tune: no bracket of the ultimate gain in {plan['ku_runs']} runs from Kp {KP_START:g} "
+            f"(sustained from {high}, decaying up to {low}); see {out / 'kp_search'}"
+        )
     at_ku = next(r for r in search if r.figures["kp"] == high)
     ku, tu = high, at_ku.figures["period_s"]
     model_ku, model_tu = model_ultimate(base)
-    results.update({"ultimate_gain": ku, "ultimate_period_s": tu, "ultimate_gain_bracket_low": low,
-                    "model_ultimate_gain": model_ku, "model_ultimate_period_s": model_tu})
+    results.update(
+        {
+            "ultimate_gain": ku,
+            "ultimate_period_s": tu,
+            "ultimate_gain_bracket_low": low,
+            "model_ultimate_gain": model_ku,
+            "model_ultimate_period_s": model_tu,
+        }
+    )
 
     # 2. Ziegler–Nichols' classic PID from Ku, Tu.
     zn = (0.6 * ku, 1.2 * ku / tu, 0.075 * ku * tu)
     results.update({"zn_kp": zn[0], "zn_ki": zn[1], "zn_kd": zn[2]})
-    stage_kwargs = {"amplitude": STAGE_STEP_RAD, "lead_s": STAGE_LEAD_S, "after_s": plan["stage_after_s"],
-                    "seed": seed}
+    stage_kwargs = {"amplitude": STAGE_STEP_RAD, "lead_s": STAGE_LEAD_S, "after_s": plan["stage_after_s"], "seed": seed}
     zn_response = None
     if plan["zn_run"]:
         progress(f"Ziegler–Nichols PID: Kp {zn[0]:.3g}, Ki {zn[1]:.3g}, Kd {zn[2]:.3g}")
@@ -192,8 +234,12 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
     for index, factor in enumerate(plan["kd_factors"]):
         candidate = zn[2] * factor
         progress(f"then Kd: Kp {kp:.3g}, Kd {candidate:.3g}, Ki 0")
-        response = step_run(_gains(base, kp, 0.0, candidate), out / "kd_stage" / f"run_{index + 1}",
-                            f"Kd {candidate:.3g}", **stage_kwargs)
+        response = step_run(
+            _gains(base, kp, 0.0, candidate),
+            out / "kd_stage" / f"run_{index + 1}",
+            f"Kd {candidate:.3g}",
+            **stage_kwargs,
+        )
         response.figures["kd"] = candidate
         kd_runs.append(response)
         rows.append(_row(f"Kd stage {index + 1}", (kp, 0.0, candidate), response))
@@ -209,8 +255,12 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
     for index, ti_tu in enumerate(plan["ti_tu"]):
         candidate = kp / (ti_tu * tu)
         progress(f"then Ki: Kp {kp:.3g}, Kd {kd:.3g}, Ki {candidate:.3g} (Ti = {ti_tu:g} Tu)")
-        response = step_run(_gains(base, kp, candidate, kd), out / "ki_stage" / f"run_{index + 1}",
-                            f"Ki {candidate:.3g}", **stage_kwargs)
+        response = step_run(
+            _gains(base, kp, candidate, kd),
+            out / "ki_stage" / f"run_{index + 1}",
+            f"Ki {candidate:.3g}",
+            **stage_kwargs,
+        )
         response.figures["ki"] = candidate
         ki_runs.append(response)
         rows.append(_row(f"Ki stage {index + 1}", (kp, candidate, kd), response))
@@ -224,19 +274,26 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
 
     # 5. The gains chosen on the sine (and the tutorial's own gains beside them).
     progress(f"the gains chosen on the sine: Kp {kp:.3g}, Ki {ki:.3g}, Kd {kd:.3g}")
-    sine = sine_run(_gains(sine_params(base), kp, ki, kd), out / "sine_chosen", "chosen", duration_s=plan["sine_s"],
-                    seed=seed)
+    sine = sine_run(
+        _gains(sine_params(base), kp, ki, kd), out / "sine_chosen", "chosen", duration_s=plan["sine_s"], seed=seed
+    )
     results["sine_tracking_rms_rad"] = sine.figures["tracking_rms_rad"]
     results["sine_tracking_max_rad"] = sine.figures["tracking_max_rad"]
     tutorial_step = tutorial_sine = None
     if plan["tutorial_runs"]:
         progress("the tutorial's gains (50, 10, 5): step")
-        tutorial_step = step_run(_gains(base, *TUTORIAL_GAINS), out / "tutorial_step", "tutorial (50, 10, 5)",
-                                 **stage_kwargs)
+        tutorial_step = step_run(
+            _gains(base, *TUTORIAL_GAINS), out / "tutorial_step", "tutorial (50, 10, 5)", **stage_kwargs
+        )
         _store(results, "tutorial_step", tutorial_step.figures)
         progress("the tutorial's gains (50, 10, 5): sine")
-        tutorial_sine = sine_run(_gains(sine_params(base), *TUTORIAL_GAINS), out / "sine_tutorial", "tutorial",
-                                 duration_s=plan["sine_s"], seed=seed)
+        tutorial_sine = sine_run(
+            _gains(sine_params(base), *TUTORIAL_GAINS),
+            out / "sine_tutorial",
+            "tutorial",
+            duration_s=plan["sine_s"],
+            seed=seed,
+        )
         results["tutorial_sine_tracking_rms_rad"] = tutorial_sine.figures["tracking_rms_rad"]
 
     margins = _margins(base, kp, ki, kd)
@@ -264,8 +321,15 @@ def choose_ki(runs: list[Response], step_rad: float) -> Response:
 
 
 def _store(results: dict[str, Any], prefix: str, figures: dict[str, Any]) -> None:
-    for key in ("overshoot_pct", "overshoot_final_pct", "settling_time_s", "rise_time_s", "steady_state_error_rad",
-                "peak_torque_nm", "saturated_s"):
+    for key in (
+        "overshoot_pct",
+        "overshoot_final_pct",
+        "settling_time_s",
+        "rise_time_s",
+        "steady_state_error_rad",
+        "peak_torque_nm",
+        "saturated_s",
+    ):
         results[f"{prefix}_{key}"] = figures[key]
 
 
@@ -283,8 +347,9 @@ def _delay_periods(params: cfg.Params, kp: float, ki: float, kd: float) -> int:
     return lqr.delay_margin_periods(A, B, robustness.pid_gain_row(kp, ki, kd))
 
 
-def _plot(path: Path, search, zn_response, kd_runs, ki_runs, chosen, tutorial_step, ku: float, kp: float,
-          kd: float) -> None:
+def _plot(
+    path: Path, search, zn_response, kd_runs, ki_runs, chosen, tutorial_step, ku: float, kp: float, kd: float
+) -> None:
     plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(13, 8.5), constrained_layout=True)
     ordered = sorted(search, key=lambda r: r.figures["kp"])
@@ -292,14 +357,25 @@ def _plot(path: Path, search, zn_response, kd_runs, ki_runs, chosen, tutorial_st
         tag = "oscillates on" if response.figures["sustained"] else "decays"
         response.label = f"Kp {response.figures['kp']:.3g} ({tag})"
     plot_steps(axes[0, 0], ordered, title=f"1. Kp alone (Ki = Kd = 0): Ku ≈ {ku:.3g} N·m/rad")
-    plot_steps(axes[0, 1], ([zn_response] if zn_response else []) + kd_runs,
-               title="2–3. Ziegler–Nichols, then Kd (Ki = 0) until the overshoot is gone")
-    plot_steps(axes[1, 0], ki_runs, title=f"4. then Ki (Kd {kd:.3g}) until the steady-state error is gone",
-               band=(STAGE_STEP_RAD * 0.98, STAGE_STEP_RAD * 1.02))
+    plot_steps(
+        axes[0, 1],
+        ([zn_response] if zn_response else []) + kd_runs,
+        title="2–3. Ziegler–Nichols, then Kd (Ki = 0) until the overshoot is gone",
+    )
+    plot_steps(
+        axes[1, 0],
+        ki_runs,
+        title=f"4. then Ki (Kd {kd:.3g}) until the steady-state error is gone",
+        band=(STAGE_STEP_RAD * 0.98, STAGE_STEP_RAD * 1.02),
+    )
     final = [chosen] + ([tutorial_step] if tutorial_step else [])
     chosen.label = f"chosen: Kp {kp:.3g}, Ki {chosen.figures['ki']:.3g}, Kd {kd:.3g}"
-    plot_steps(axes[1, 1], final + ([zn_response] if zn_response else []), title="the gains chosen",
-               band=(STAGE_STEP_RAD * 0.98, STAGE_STEP_RAD * 1.02))
+    plot_steps(
+        axes[1, 1],
+        final + ([zn_response] if zn_response else []),
+        title="the gains chosen",
+        band=(STAGE_STEP_RAD * 0.98, STAGE_STEP_RAD * 1.02),
+    )
     fig.suptitle("Exercise 1: tune the PID (the tutorial's controller, real graph, lockstep)")
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -323,77 +399,178 @@ def _plot_sine(path: Path, sine: Response, tutorial: Response | None) -> None:
     plt.close(fig)
 
 
-def _report(results: dict[str, Any], plan: dict[str, Any], search: list[Response], rows: list[dict[str, Any]],
-            chosen: Response, quick: bool) -> str:
+def _report(
+    results: dict[str, Any],
+    plan: dict[str, Any],
+    search: list[Response],
+    rows: list[dict[str, Any]],
+    chosen: Response,
+    quick: bool,
+) -> str:
     ku, tu = results["ultimate_gain"], results["ultimate_period_s"]
-    lines = ["# Exercise 1: tune the PID", "",
-             "*The tutorial: start with Kp = 50, Ki = 0, Kd = 0. Increase Kp until oscillation, then add Kd, "
-             "then Ki. Compare responses.*", "",
-             "Every run below is the whole graph (simulator, motor, sensor, controller, planner as five "
-             "processes) in sim-time lockstep, so the same seed gives the same figures. The controller is the "
-             f"tutorial's (`--preset tutorial`: PID, no feedforward, no Kalman filter, derivative on the measured "
-             f"velocity) with only Kp, Ki and Kd changed. Figures are on the TRUE joint angle (sensor seed "
-             f"{results['seed']})." + (" **Quick form**: fewer and shorter runs." if quick else ""), "",
-             "## 1. Kp alone: the ultimate gain", "",
-             f"A {KU_STEP_RAD} rad step with Ki = Kd = 0. The oscillation's amplitude in the first second after the "
-             f"step is compared with the last second's: if it shrinks by less than {-SUSTAINED_GROWTH_PER_S:.0%} "
-             "a second, the loop oscillates on by itself.", ""]
+    lines = [
+        "# Exercise 1: tune the PID",
+        "",
+        "*The tutorial: start with Kp = 50, Ki = 0, Kd = 0. Increase Kp until oscillation, then add Kd, "
+        "then Ki. Compare responses.*",
+        "",
+        "Every run below is the whole graph (simulator, motor, sensor, controller, planner as five "
+        "processes) in sim-time lockstep, so the same seed gives the same figures. The controller is the "
+        f"tutorial's (`--preset tutorial`: PID, no feedforward, no Kalman filter, derivative on the measured "
+        f"velocity) with only Kp, Ki and Kd changed. Figures are on the TRUE joint angle (sensor seed "
+        f"{results['seed']})." + (" **Quick form**: fewer and shorter runs." if quick else ""),
+        "",
+        "## 1. Kp alone: the ultimate gain",
+        "",
+        f"A {KU_STEP_RAD} rad step with Ki = Kd = 0. The oscillation's amplitude in the first second after the "
+        f"step is compared with the last second's: if it shrinks by less than {-SUSTAINED_GROWTH_PER_S:.0%} "
+        "a second, the loop oscillates on by itself.",
+        "",
+    ]
     cells = []
     for index, response in enumerate(search):
         f = response.figures
-        cells.append([str(index + 1), fmt(f["kp"], "{:.4g}"), fmt(f["amplitude_early_rad"], "{:.3f}"),
-                      fmt(f["amplitude_late_rad"], "{:.3f}"), fmt(f["growth_per_s"], "{:+.3f}"),
-                      fmt(f["period_s"], "{:.3f}"), "oscillates on" if f["sustained"] else "decays"])
-    lines += [table(["run", "Kp [N·m/rad]", "amplitude, first s [rad]", "amplitude, last s [rad]",
-                     "growth [1/s]", "period [s]", "verdict"], cells), ""]
-    lines += [f"**Ultimate gain Ku = {ku:.3g} N·m/rad**, the smallest Kp that oscillated on (at "
-              f"{results['ultimate_gain_bracket_low']:.3g} it still decayed), **period Tu = {fmt(tu, '{:.3f}')} s**. "
-              "The arm's linear model, sampled at the control rate, puts the "
-              f"limit at Ku = {results['model_ultimate_gain']:.3g} N·m/rad, Tu = "
-              f"{results['model_ultimate_period_s']:.3f} s.", "",
-              "What it shows: the arm itself would never oscillate under P control alone (its friction damps "
-              "any gain in continuous time). The oscillation comes from the loop being *sampled*: the torque is "
-              "held for a whole 10 ms period, which acts like a 5 ms delay, and the arm has so little friction "
-              "that this delay is enough to undamp it. The tutorial's starting point Kp = 50 is already "
-              "beyond that limit on this arm" + (" (run 1 above)." if search[0].figures["kp"] == KP_START
-                                                 and search[0].figures["sustained"] else "."), ""]
-    lines += ["## 2–4. Then Kd, then Ki", "",
-              f"Ziegler–Nichols' classic rule turns Ku and Tu into a starting point: Kp = 0.6 Ku = "
-              f"{results['zn_kp']:.3g}, Ki = 1.2 Ku/Tu = {results['zn_ki']:.3g}, Kd = 0.075 Ku Tu = "
-              f"{results['zn_kd']:.3g}. Keeping its Kp, Kd is raised (Ki = 0) until the overshoot is gone "
-              f"(≤ {OVERSHOOT_MAX_PCT:g} % beyond where the response ends: without Ki the arm sags under gravity and "
-              f"never reaches the target), then Ki (as Kp/Ti) until the steady-state error is gone "
-              f"(≤ {SSE_MAX_FRACTION:.0%} of the {STAGE_STEP_RAD} rad step), stopping before the overshoot comes "
-              f"back. Step {STAGE_STEP_RAD} rad, a jump, after {STAGE_LEAD_S:g} s at rest.", ""]
+        cells.append(
+            [
+                str(index + 1),
+                fmt(f["kp"], "{:.4g}"),
+                fmt(f["amplitude_early_rad"], "{:.3f}"),
+                fmt(f["amplitude_late_rad"], "{:.3f}"),
+                fmt(f["growth_per_s"], "{:+.3f}"),
+                fmt(f["period_s"], "{:.3f}"),
+                "oscillates on" if f["sustained"] else "decays",
+            ]
+        )
+    lines += [
+        table(
+            [
+                "run",
+                "Kp [N·m/rad]",
+                "amplitude, first s [rad]",
+                "amplitude, last s [rad]",
+                "growth [1/s]",
+                "period [s]",
+                "verdict",
+            ],
+            cells,
+        ),
+        "",
+    ]
+    lines += [
+        f"**Ultimate gain Ku = {ku:.3g} N·m/rad**, the smallest Kp that oscillated on (at "
+        f"{results['ultimate_gain_bracket_low']:.3g} it still decayed), **period Tu = {fmt(tu, '{:.3f}')} s**. "
+        "The arm's linear model, sampled at the control rate, puts the "
+        f"limit at Ku = {results['model_ultimate_gain']:.3g} N·m/rad, Tu = "
+        f"{results['model_ultimate_period_s']:.3f} s.",
+        "",
+        "What it shows: the arm itself would never oscillate under P control alone (its friction damps "
+        "any gain in continuous time). The oscillation comes from the loop being *sampled*: the torque is "
+        "held for a whole 10 ms period, which acts like a 5 ms delay, and the arm has so little friction "
+        "that this delay is enough to undamp it. The tutorial's starting point Kp = 50 is already "
+        "beyond that limit on this arm"
+        + (" (run 1 above)." if search[0].figures["kp"] == KP_START and search[0].figures["sustained"] else "."),
+        "",
+    ]
+    lines += [
+        "## 2–4. Then Kd, then Ki",
+        "",
+        f"Ziegler–Nichols' classic rule turns Ku and Tu into a starting point: Kp = 0.6 Ku = "
+        f"{results['zn_kp']:.3g}, Ki = 1.2 Ku/Tu = {results['zn_ki']:.3g}, Kd = 0.075 Ku Tu = "
+        f"{results['zn_kd']:.3g}. Keeping its Kp, Kd is raised (Ki = 0) until the overshoot is gone "
+        f"(≤ {OVERSHOOT_MAX_PCT:g} % beyond where the response ends: without Ki the arm sags under gravity and "
+        f"never reaches the target), then Ki (as Kp/Ti) until the steady-state error is gone "
+        f"(≤ {SSE_MAX_FRACTION:.0%} of the {STAGE_STEP_RAD} rad step), stopping before the overshoot comes "
+        f"back. Step {STAGE_STEP_RAD} rad, a jump, after {STAGE_LEAD_S:g} s at rest.",
+        "",
+    ]
     cells = []
     for row in rows:
-        cells.append([row["label"], fmt(row["kp"], "{:.3g}"), fmt(row["ki"], "{:.3g}"), fmt(row["kd"], "{:.3g}"),
-                      fmt(row["overshoot_pct"], "{:.1f}"), fmt(row["overshoot_final_pct"], "{:.1f}"),
-                      fmt(row["settling_time_s"], "{:.2f}", f"not in {plan['stage_after_s']:g} s"),
-                      fmt(row["steady_state_error_rad"], "{:.4f}"), fmt(row["peak_torque_nm"], "{:.2f}")])
-    lines += [table(["run", "Kp", "Ki", "Kd", "overshoot of target [%]", "overshoot of final value [%]",
-                     "settling 2 % [s]", "steady-state error [rad]", "peak torque [N·m]"], cells), ""]
-    lines += ["## The gains chosen", "",
-              table(["", "Kp [N·m/rad]", "Ki [N·m/(rad·s)]", "Kd [N·m·s/rad]", "step overshoot [%]",
-                     "settling 2 % [s]", "steady-state error [rad]", "sine RMS error [rad]"],
-                    [["chosen", fmt(results["kp"], "{:.3g}"), fmt(results["ki"], "{:.3g}"),
-                      fmt(results["kd"], "{:.3g}"), fmt(results["step_overshoot_pct"], "{:.1f}"),
-                      fmt(results["step_settling_time_s"], "{:.2f}", f"not in {plan['stage_after_s']:g} s"),
-                      fmt(results["step_steady_state_error_rad"], "{:.4f}"),
-                      fmt(results["sine_tracking_rms_rad"], "{:.4f}")]]
-                    + ([["the tutorial's", "50", "10", "5", fmt(results["tutorial_step_overshoot_pct"], "{:.1f}"),
-                         fmt(results["tutorial_step_settling_time_s"], "{:.2f}", f"not in {plan['stage_after_s']:g} s"),
-                         fmt(results["tutorial_step_steady_state_error_rad"], "{:.4f}"),
-                         fmt(results["tutorial_sine_tracking_rms_rad"], "{:.4f}")]]
-                       if "tutorial_sine_tracking_rms_rad" in results else [])), "",
-              f"Sine: 1 rad, 0.5 Hz, {plan['sine_s']:g} s, RMS of (reference − true angle) after a 2 s warm-up. "
-              f"Margins of the chosen gains on the sampled arm model: gain "
-              f"{fmt(results['margin_gain_margin_db'], '{:.1f}')} dB, phase "
-              f"{fmt(results['margin_phase_margin_deg'], '{:.0f}')}°, delay {results['margin_delay_periods']} "
-              "whole control period(s).", "",
-              _verdict(results, plan), "",
-              "Plots: `tune.png` (every stage's steps side by side), `tune_sine.png` (the chosen gains on the "
-              "sine). Each run's bag and metrics are in the folders beside this report.", ""]
+        cells.append(
+            [
+                row["label"],
+                fmt(row["kp"], "{:.3g}"),
+                fmt(row["ki"], "{:.3g}"),
+                fmt(row["kd"], "{:.3g}"),
+                fmt(row["overshoot_pct"], "{:.1f}"),
+                fmt(row["overshoot_final_pct"], "{:.1f}"),
+                fmt(row["settling_time_s"], "{:.2f}", f"not in {plan['stage_after_s']:g} s"),
+                fmt(row["steady_state_error_rad"], "{:.4f}"),
+                fmt(row["peak_torque_nm"], "{:.2f}"),
+            ]
+        )
+    lines += [
+        table(
+            [
+                "run",
+                "Kp",
+                "Ki",
+                "Kd",
+                "overshoot of target [%]",
+                "overshoot of final value [%]",
+                "settling 2 % [s]",
+                "steady-state error [rad]",
+                "peak torque [N·m]",
+            ],
+            cells,
+        ),
+        "",
+    ]
+    lines += [
+        "## The gains chosen",
+        "",
+        table(
+            [
+                "",
+                "Kp [N·m/rad]",
+                "Ki [N·m/(rad·s)]",
+                "Kd [N·m·s/rad]",
+                "step overshoot [%]",
+                "settling 2 % [s]",
+                "steady-state error [rad]",
+                "sine RMS error [rad]",
+            ],
+            [
+                [
+                    "chosen",
+                    fmt(results["kp"], "{:.3g}"),
+                    fmt(results["ki"], "{:.3g}"),
+                    fmt(results["kd"], "{:.3g}"),
+                    fmt(results["step_overshoot_pct"], "{:.1f}"),
+                    fmt(results["step_settling_time_s"], "{:.2f}", f"not in {plan['stage_after_s']:g} s"),
+                    fmt(results["step_steady_state_error_rad"], "{:.4f}"),
+                    fmt(results["sine_tracking_rms_rad"], "{:.4f}"),
+                ]
+            ]
+            + (
+                [
+                    [
+                        "the tutorial's",
+                        "50",
+                        "10",
+                        "5",
+                        fmt(results["tutorial_step_overshoot_pct"], "{:.1f}"),
+                        fmt(results["tutorial_step_settling_time_s"], "{:.2f}", f"not in {plan['stage_after_s']:g} s"),
+                        fmt(results["tutorial_step_steady_state_error_rad"], "{:.4f}"),
+                        fmt(results["tutorial_sine_tracking_rms_rad"], "{:.4f}"),
+                    ]
+                ]
+                if "tutorial_sine_tracking_rms_rad" in results
+                else []
+            ),
+        ),
+        "",
+        f"Sine: 1 rad, 0.5 Hz, {plan['sine_s']:g} s, RMS of (reference − true angle) after a 2 s warm-up. "
+        f"Margins of the chosen gains on the sampled arm model: gain "
+        f"{fmt(results['margin_gain_margin_db'], '{:.1f}')} dB, phase "
+        f"{fmt(results['margin_phase_margin_deg'], '{:.0f}')}°, delay {results['margin_delay_periods']} "
+        "whole control period(s).",
+        "",
+        _verdict(results, plan),
+        "",
+        "Plots: `tune.png` (every stage's steps side by side), `tune_sine.png` (the chosen gains on the "
+        "sine). Each run's bag and metrics are in the folders beside this report.",
+        "",
+    ]
     return "\n".join(lines)
 
 
@@ -402,22 +579,40 @@ def _verdict(results: dict[str, Any], plan: dict[str, Any]) -> str:
     overshoot, sse = results["step_overshoot_pct"], results["step_steady_state_error_rad"]
     settling = results["step_settling_time_s"]
     clean = overshoot <= OVERSHOOT_MAX_PCT and sse <= SSE_MAX_FRACTION * STAGE_STEP_RAD
-    words = ["What it shows: the recipe ends "
-             + (f"clean on the step (overshoot {overshoot:.1f} %, steady-state error {sse * 1e3:.1f} mrad)"
-                if clean else f"with overshoot {overshoot:.1f} % and a steady-state error of {sse * 1e3:.1f} mrad")
-             + (f", settled {settling:.2f} s after it" if np.isfinite(settling or np.nan) else
-                f", not settled within {plan['stage_after_s']:g} s") + "."]
-    words.append(f"Every gain is scaled from Ku = {results['ultimate_gain']:.3g} N·m/rad, which is small on an arm "
-                 "this lightly damped, so the loop is gentle: once Kd damps it, a much larger Kp is stable (the "
-                 "ultimate gain of P alone is not the limit of a PD), as the tutorial's own Kp = 50 with Kd = 5 is.")
+    words = [
+        "What it shows: the recipe ends "
+        + (
+            f"clean on the step (overshoot {overshoot:.1f} %, steady-state error {sse * 1e3:.1f} mrad)"
+            if clean
+            else f"with overshoot {overshoot:.1f} % and a steady-state error of {sse * 1e3:.1f} mrad"
+        )
+        + (
+            f", settled {settling:.2f} s after it"
+            if np.isfinite(settling or np.nan)
+            else f", not settled within {plan['stage_after_s']:g} s"
+        )
+        + "."
+    ]
+    words.append(
+        f"Every gain is scaled from Ku = {results['ultimate_gain']:.3g} N·m/rad, which is small on an arm "
+        "this lightly damped, so the loop is gentle: once Kd damps it, a much larger Kp is stable (the "
+        "ultimate gain of P alone is not the limit of a PD), as the tutorial's own Kp = 50 with Kd = 5 is."
+    )
     if "tutorial_sine_tracking_rms_rad" in results:
         ours, theirs = results["sine_tracking_rms_rad"], results["tutorial_sine_tracking_rms_rad"]
-        words.append(f"On the sine the chosen gains track with {ours * 1e3:.0f} mrad RMS, the tutorial's with "
-                     f"{theirs * 1e3:.0f} mrad: " + ("the stiffer loop follows a moving reference better."
-                                                     if theirs < ours else "the recipe's gains track better.")
-                     )
-    words.append("Without feedforward every gain choice lags a moving reference: `robot-controller tune` searches "
-                 "the gains (or the LQR weights) against the sine directly, keeping gain, phase and delay margins.")
+        words.append(
+            f"On the sine the chosen gains track with {ours * 1e3:.0f} mrad RMS, the tutorial's with "
+            f"{theirs * 1e3:.0f} mrad: "
+            + (
+                "the stiffer loop follows a moving reference better."
+                if theirs < ours
+                else "the recipe's gains track better."
+            )
+        )
+    words.append(
+        "Without feedforward every gain choice lags a moving reference: `robot-controller tune` searches "
+        "the gains (or the LQR weights) against the sine directly, keeping gain, phase and delay margins."
+    )
     return " ".join(words)
 
 

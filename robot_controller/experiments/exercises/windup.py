@@ -6,6 +6,7 @@ feedforward) with the torque limited to 2 N·m in the controller and in the
 motor, a 1 rad step (a jump) the arm cannot follow at once, and every
 anti-windup mode of the controller side by side, one seeded lockstep run each.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -68,29 +69,53 @@ def mode_params(base: cfg.Params, mode: str) -> cfg.Params:
         planner["torque_max"] = [TORQUE_MAX_NM]
     if cfg.has("trajectory_planner", "feasibility"):
         planner["feasibility"] = "ignore"  # a jump the arm cannot follow at once is the point here
-    return cfg.merge(base, {"pid_controller": overrides, "motor_node": {"torque_max": [TORQUE_MAX_NM]},
-                            "trajectory_planner": planner})
+    return cfg.merge(
+        base,
+        {"pid_controller": overrides, "motor_node": {"torque_max": [TORQUE_MAX_NM]}, "trajectory_planner": planner},
+    )
 
 
 def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int = SEED) -> dict[str, Any]:
     out.mkdir(parents=True, exist_ok=True)
     plan = _plan(quick)
     base = cfg.load_stack(PRESET)
-    results: dict[str, Any] = {"quick": int(quick), "seed": seed, "torque_max_nm": TORQUE_MAX_NM,
-                               "step_rad": STEP_RAD, "offset_rad": OFFSET_RAD,
-                               "kp": base["pid_controller"]["kp"][0], "ki": base["pid_controller"]["ki"][0],
-                               "kd": base["pid_controller"]["kd"][0]}
+    results: dict[str, Any] = {
+        "quick": int(quick),
+        "seed": seed,
+        "torque_max_nm": TORQUE_MAX_NM,
+        "step_rad": STEP_RAD,
+        "offset_rad": OFFSET_RAD,
+        "kp": base["pid_controller"]["kp"][0],
+        "ki": base["pid_controller"]["ki"][0],
+        "kd": base["pid_controller"]["kd"][0],
+    }
     responses: list[Response] = []
     for mode in plan["modes"]:
         progress(f"anti-windup {mode}")
-        response = step_run(mode_params(base, mode), out / mode, mode, amplitude=STEP_RAD, offset=OFFSET_RAD,
-                            lead_s=LEAD_S, after_s=plan["after_s"], seed=seed)
+        response = step_run(
+            mode_params(base, mode),
+            out / mode,
+            mode,
+            amplitude=STEP_RAD,
+            offset=OFFSET_RAD,
+            lead_s=LEAD_S,
+            after_s=plan["after_s"],
+            seed=seed,
+        )
         after = response.time_s >= 0
         response.figures["integral_max_nm"] = float(np.max(response.integral[after]))
         response.figures["integral_min_nm"] = float(np.min(response.integral[after]))
         responses.append(response)
-        for key in ("overshoot_pct", "settling_time_s", "saturated_s", "rise_time_s", "steady_state_error_rad",
-                    "integral_max_nm", "integral_min_nm", "peak_torque_nm"):
+        for key in (
+            "overshoot_pct",
+            "settling_time_s",
+            "saturated_s",
+            "rise_time_s",
+            "steady_state_error_rad",
+            "integral_max_nm",
+            "integral_min_nm",
+            "peak_torque_nm",
+        ):
             results[f"{mode}_{key}"] = response.figures[key]
     results = write_results(out, results)
     _plot(out / "windup.png", responses)
@@ -102,8 +127,12 @@ def _plot(path: Path, responses: list[Response]) -> None:
     plt = pyplot()
     fig, (ax_q, ax_i, ax_u) = plt.subplots(3, 1, figsize=(10, 10), sharex=True, constrained_layout=True)
     target = OFFSET_RAD + STEP_RAD
-    plot_steps(ax_q, responses, band=(target - 0.02 * STEP_RAD, target + 0.02 * STEP_RAD),
-               title=f"{STEP_RAD:g} rad step from {OFFSET_RAD:g} rad, torque limited to ±{TORQUE_MAX_NM:g} N·m")
+    plot_steps(
+        ax_q,
+        responses,
+        band=(target - 0.02 * STEP_RAD, target + 0.02 * STEP_RAD),
+        title=f"{STEP_RAD:g} rad step from {OFFSET_RAD:g} rad, torque limited to ±{TORQUE_MAX_NM:g} N·m",
+    )
     for response in responses:
         ax_i.plot(response.time_s, response.integral, lw=1.1, label=response.label)
         ax_u.plot(response.time_s, response.command, lw=1.0, label=response.label)
@@ -122,68 +151,105 @@ def _plot(path: Path, responses: list[Response]) -> None:
 
 def _report(results: dict[str, Any], plan: dict[str, Any], responses: list[Response], quick: bool) -> str:
     after = plan["after_s"]
-    lines = ["# Exercise 3: saturation without anti-windup", "",
-             "*The tutorial: comment out the np.clip line (its anti-windup). Saturate the motor by setting "
-             "torque_max = 2.0. Watch the system overshoot.*", "",
-             f"The tutorial's controller (Kp {results['kp']:g}, Ki {results['ki']:g}, Kd {results['kd']:g}, no "
-             f"feedforward) with the torque limited to {TORQUE_MAX_NM:g} N·m in the controller and in the motor. The "
-             f"arm starts at rest at {OFFSET_RAD:g} rad (above horizontal, where holding it against gravity takes "
-             f"1.3 N·m of the 2) and the reference jumps by {STEP_RAD:g} rad, over the top to "
-             f"{OFFSET_RAD + STEP_RAD:g} rad: far more than the arm can follow at once, so the command sits at the "
-             "limit while the arm catches up. One run per anti-windup mode, everything else identical: the whole "
-             f"graph as five processes in sim-time lockstep (sensor seed {results['seed']}), figures on the TRUE "
-             f"angle over the {after:g} s after the step." + (" **Quick form**." if quick else ""), "", ]
+    lines = [
+        "# Exercise 3: saturation without anti-windup",
+        "",
+        "*The tutorial: comment out the np.clip line (its anti-windup). Saturate the motor by setting "
+        "torque_max = 2.0. Watch the system overshoot.*",
+        "",
+        f"The tutorial's controller (Kp {results['kp']:g}, Ki {results['ki']:g}, Kd {results['kd']:g}, no "
+        f"feedforward) with the torque limited to {TORQUE_MAX_NM:g} N·m in the controller and in the motor. The "
+        f"arm starts at rest at {OFFSET_RAD:g} rad (above horizontal, where holding it against gravity takes "
+        f"1.3 N·m of the 2) and the reference jumps by {STEP_RAD:g} rad, over the top to "
+        f"{OFFSET_RAD + STEP_RAD:g} rad: far more than the arm can follow at once, so the command sits at the "
+        "limit while the arm catches up. One run per anti-windup mode, everything else identical: the whole "
+        f"graph as five processes in sim-time lockstep (sensor seed {results['seed']}), figures on the TRUE "
+        f"angle over the {after:g} s after the step." + (" **Quick form**." if quick else ""),
+        "",
+    ]
     cells = []
     for response in responses:
         mode = response.label
-        cells.append([f"**{mode}**: {MEANING[mode]}", fmt(results[f"{mode}_overshoot_pct"], "{:.1f}"),
-                      fmt(results[f"{mode}_settling_time_s"], "{:.2f}", f"not in {after:g} s"),
-                      fmt(results[f"{mode}_saturated_s"], "{:.2f}"),
-                      f"{fmt(results[f'{mode}_integral_min_nm'], '{:.2f}')} … "
-                      f"{fmt(results[f'{mode}_integral_max_nm'], '{:.2f}')}",
-                      fmt(results[f"{mode}_steady_state_error_rad"], "{:.4f}")])
-    lines += [table(["anti-windup", "overshoot [%]", "settling 2 % [s]", "time saturated [s]",
-                     "I term, lowest … highest [N·m]", "error at the end [rad]"], cells), ""]
-    lines += ["*Time saturated*: control ticks after the step on which the torque limit cut the command (the "
-              "controller's `saturated` flag on `/controller/state`), times the 10 ms period. *I term*: "
-              "the integral's share of the command after the step; beyond 2 N·m it is torque the motor can never "
-              "give, stored up to be paid back as overshoot.", "", _verdict(results, responses), "",
-              "Plot: `windup.png` (angle, integral term and command of every mode). Each run's bag and "
-              "metrics are in the folder named after its mode.", ""]
+        cells.append(
+            [
+                f"**{mode}**: {MEANING[mode]}",
+                fmt(results[f"{mode}_overshoot_pct"], "{:.1f}"),
+                fmt(results[f"{mode}_settling_time_s"], "{:.2f}", f"not in {after:g} s"),
+                fmt(results[f"{mode}_saturated_s"], "{:.2f}"),
+                f"{fmt(results[f'{mode}_integral_min_nm'], '{:.2f}')} … "
+                f"{fmt(results[f'{mode}_integral_max_nm'], '{:.2f}')}",
+                fmt(results[f"{mode}_steady_state_error_rad"], "{:.4f}"),
+            ]
+        )
+    lines += [
+        table(
+            [
+                "anti-windup",
+                "overshoot [%]",
+                "settling 2 % [s]",
+                "time saturated [s]",
+                "I term, lowest … highest [N·m]",
+                "error at the end [rad]",
+            ],
+            cells,
+        ),
+        "",
+    ]
+    lines += [
+        "*Time saturated*: control ticks after the step on which the torque limit cut the command (the "
+        "controller's `saturated` flag on `/controller/state`), times the 10 ms period. *I term*: "
+        "the integral's share of the command after the step; beyond 2 N·m it is torque the motor can never "
+        "give, stored up to be paid back as overshoot.",
+        "",
+        _verdict(results, responses),
+        "",
+        "Plot: `windup.png` (angle, integral term and command of every mode). Each run's bag and "
+        "metrics are in the folder named after its mode.",
+        "",
+    ]
     return "\n".join(lines)
 
 
 def _verdict(results: dict[str, Any], responses: list[Response]) -> str:
     none, best = results["none_overshoot_pct"], results["conditional_integration_overshoot_pct"]
-    words = [f"What it shows: while the command is stuck at the limit, the error stays large and an integral "
-             f"without anti-windup keeps growing (to {results['none_integral_max_nm']:.2f} N·m here, against a "
-             f"{TORQUE_MAX_NM:g} N·m motor). When the arm reaches the target that stored-up integral is still "
-             f"there and pushes it past: {none:.1f} % overshoot without anti-windup, against {best:.1f} % with "
-             "conditional integration, which simply stops integrating while saturated."]
+    words = [
+        f"What it shows: while the command is stuck at the limit, the error stays large and an integral "
+        f"without anti-windup keeps growing (to {results['none_integral_max_nm']:.2f} N·m here, against a "
+        f"{TORQUE_MAX_NM:g} N·m motor). When the arm reaches the target that stored-up integral is still "
+        f"there and pushes it past: {none:.1f} % overshoot without anti-windup, against {best:.1f} % with "
+        "conditional integration, which simply stops integrating while saturated."
+    ]
     clamp = results.get("clamp_overshoot_pct")
     if clamp is not None:
         words.append(f"A clamp sized to the actuator (|Ki ∫e| ≤ {TORQUE_MAX_NM:g} N·m) gives {clamp:.1f} %.")
     tutorial = results.get("clamp_tutorial_overshoot_pct")
     if tutorial is not None:
         same = abs(tutorial - none) < 0.05
-        words.append(f"The tutorial's own clamp (±10 rad·s on ∫e, so up to 100 N·m of I term) gives {tutorial:.1f} %"
-                     + (", exactly what no anti-windup gives: its limit is never reached, so commenting out the "
-                        "tutorial's np.clip changes nothing at this torque limit. A clamp only helps if its limit "
-                        "is sized to the actuator." if same else
-                        f" (no anti-windup: {none:.1f} %): a clamp only helps if its limit is sized to the actuator."))
+        words.append(
+            f"The tutorial's own clamp (±10 rad·s on ∫e, so up to 100 N·m of I term) gives {tutorial:.1f} %"
+            + (
+                ", exactly what no anti-windup gives: its limit is never reached, so commenting out the "
+                "tutorial's np.clip changes nothing at this torque limit. A clamp only helps if its limit "
+                "is sized to the actuator."
+                if same
+                else f" (no anti-windup: {none:.1f} %): a clamp only helps if its limit is sized to the actuator."
+            )
+        )
     back = results.get("back_calculation_steady_state_error_rad")
     if back is not None:
         low = results["back_calculation_integral_min_nm"]
-        words.append(f"Back-calculation has the opposite problem here: it feeds everything the limit cuts off back "
-                     f"into the integral, and right after the jump the proportional term alone asks for "
-                     f"Kp × {STEP_RAD:g} rad = {results['kp'] * STEP_RAD:g} N·m, so within its 0.1 s time constant "
-                     f"it drives the I term down to {low:.1f} N·m to cancel that. As the arm moves and the "
-                     f"proportional term shrinks, this negative integral holds the arm back, and with Ki = "
-                     f"{results['ki']:g} it takes seconds to unwind: {back * 1e3:.0f} mrad short of the target at "
-                     "the end. Back-calculation suits a loop in which the integral is what drives the output "
-                     "into the limit; against a proportional term this far beyond it, it needs a much longer time "
-                     "constant (`back_calculation_time_s`) or a reference the arm can follow (`step_shaping: "
-                     "min_time`).")
+        words.append(
+            f"Back-calculation has the opposite problem here: it feeds everything the limit cuts off back "
+            f"into the integral, and right after the jump the proportional term alone asks for "
+            f"Kp × {STEP_RAD:g} rad = {results['kp'] * STEP_RAD:g} N·m, so within its 0.1 s time constant "
+            f"it drives the I term down to {low:.1f} N·m to cancel that. As the arm moves and the "
+            f"proportional term shrinks, this negative integral holds the arm back, and with Ki = "
+            f"{results['ki']:g} it takes seconds to unwind: {back * 1e3:.0f} mrad short of the target at "
+            "the end. Back-calculation suits a loop in which the integral is what drives the output "
+            "into the limit; against a proportional term this far beyond it, it needs a much longer time "
+            "constant (`back_calculation_time_s`) or a reference the arm can follow (`step_shaping: "
+            "min_time`)."
+        )
     return " ".join(words)
 
 
