@@ -16,6 +16,7 @@ import importlib
 import io
 import os
 import signal
+import subprocess
 import sys
 import time
 import traceback
@@ -60,20 +61,52 @@ class ForkedProcess:
         deadline = None if timeout is None else time.monotonic() + timeout
         while self.poll() is None:
             if deadline is not None and time.monotonic() > deadline:
-                import subprocess
-
                 raise subprocess.TimeoutExpired(f"pid {self.pid}", timeout)
             time.sleep(0.01)
         return self.returncode
 
 
-def fork(module: str, argv: list[str], env: dict[str, str], setup: Callable[[], None]) -> ForkedProcess:
+def dds_started_here() -> bool:
+    """Whether Fast DDS has run in this process (its threads are named ``dds.…``).
+
+    A child forked from such a process inherits its half-state: the XML
+    profiles already loaded (so the child never reads the run's own profile
+    and its partition) and locks held by threads that do not exist in the
+    child. A test process with a probe is one."""
+    for task in os.listdir("/proc/self/task"):
+        try:
+            with open(f"/proc/self/task/{task}/comm") as comm:
+                if comm.read().startswith("dds."):
+                    return True
+        except OSError:
+            continue
+    return False
+
+
+def fork(
+    module: str, argv: list[str], env: dict[str, str], setup: Callable[[], None]
+) -> ForkedProcess | subprocess.Popen:
     """Fork a child that runs ``robot_controller.nodes.<module>.main(argv)``.
 
     ``setup`` runs first in the child (scheduling, parent-death signal). The
     child's stdout and stderr go to a pipe, returned as the process's
-    ``stdout``; its environment becomes ``env``.
+    ``stdout``; its environment becomes ``env``. Where forking is not safe
+    (:func:`dds_started_here`), a fresh interpreter runs the module instead:
+    the same process, a second slower to start.
     """
+    if dds_started_here():
+        return subprocess.Popen(
+            [sys.executable, "-m", *argv],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            errors="replace",
+            bufsize=1,
+            env=env,
+            start_new_session=True,
+            preexec_fn=setup,
+        )
     read_fd, write_fd = os.pipe()
     pid = os.fork()
     if pid == 0:  # the child: never returns

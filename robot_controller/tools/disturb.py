@@ -117,11 +117,12 @@ def _matching(node, publisher) -> tuple[int, int] | None:
     return (len(readers), matched) if matched > observers else None
 
 
-def disturb(torque_nm: float, duration_s: float, joint: str | None) -> int:
+def disturb(torque_nm: float, duration_s: float, joint: str | None, *, wait_s: float = MATCH_TIMEOUT_S) -> int:
     """Send one disturbance to the running simulator: ``torque_nm`` (N·m) on
     ``joint`` (zero on the others; every joint if None) for ``duration_s`` of
     the simulator's time. Returns 0 once sent, 1 if no simulator is listening,
-    2 for a request the simulator would drop (unknown joint, bad numbers)."""
+    2 for a request the simulator would drop (unknown joint, bad numbers).
+    ``wait_s``: how long to wait for the simulator to match."""
     from robot_controller.core.plant import MAX_DISTURBANCE_NM, check_disturbance
 
     if not (np.isfinite(torque_nm) and np.isfinite(duration_s)):
@@ -189,7 +190,7 @@ def disturb(torque_nm: float, duration_s: float, joint: str | None) -> int:
                 MATCH_SETTLE_S if matching[1] >= matching[0] else UNMATCHED_SETTLE_S
             ):
                 break
-            if now - start > MATCH_TIMEOUT_S:
+            if now - start > wait_s:
                 return _fail(f"no simulator is listening on {TOPIC} (domain {domain})", 1)
             time.sleep(0.05)
         msg = Float64MultiArray()
