@@ -7,6 +7,9 @@ health, estimate the arm's state at the tick, take the reference at the
 tick, run the law. The steps' workings live in their own modules:
 :mod:`~robot_controller.core.health`, :mod:`~robot_controller.core.tick_state`,
 :mod:`~robot_controller.core.reference_at_tick`, :mod:`~robot_controller.core.law`.
+
+Longer than our ~250-line guideline: the public API of the controller and its
+named steps; each step's work is in its own module.
 """
 
 from __future__ import annotations

@@ -28,6 +28,8 @@ held over a period T changes the velocity by ``d·T/I`` more than the model
 says. The estimate is kept within ``±disturbance_limit`` (the controller's
 torque limit: a larger one could not be compensated anyway) and starts from
 0 whenever the filter does (:meth:`JointKalmanFilter.reset`).
+
+Longer than our ~250-line guideline: the filter with and without the disturbance state, and its linearised covariance.
 """
 
 from __future__ import annotations

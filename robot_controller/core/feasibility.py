@@ -21,6 +21,8 @@ check: only holding its levels is. Shape a step (``step_shaping: min_time``)
 to have its move checked.
 
 No rclpy here; ``dynamics`` is anything with ``torque(q, v, a)``.
+
+Longer than our ~250-line guideline: each trajectory shape's span and the search for the scale factor.
 """
 
 from __future__ import annotations

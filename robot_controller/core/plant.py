@@ -4,6 +4,9 @@ MuJoCo loads the URDF as it is (``MjSpec.from_file``), so there is no second,
 hand-written model to drift from the robot description. Anything else that
 moves joints (an analytic model, Gazebo behind a bridge, a hardware driver)
 can stand in by providing the same few members.
+
+Longer than our ~250-line guideline: the Plant protocol, the MuJoCo plant with
+brakes and disturbances, and the arm's dynamics.
 """
 
 from __future__ import annotations

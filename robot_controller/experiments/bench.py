@@ -3,6 +3,8 @@
 Every scenario is a real run (five processes over DDS, or one), scored from
 its recording like any other; the core figures time the in-process loop and
 a vectorised batch. Writes ``bench.json`` (flat keys) and ``bench.md``.
+
+Longer than our ~250-line guideline: the scenarios as data and how each is measured.
 """
 
 from __future__ import annotations

@@ -1,6 +1,9 @@
 """The controller comparison (``robot-controller compare``): each contender on
 the sine and on a step, over several seeds, in lockstep, side by side; real
-runs all (``step.run_and_score``), several at once on domains of their own."""
+runs all (``step.run_and_score``), several at once on domains of their own.
+
+Longer than our ~250-line guideline: the contenders, running them side by side, and the table.
+"""
 
 from __future__ import annotations
 

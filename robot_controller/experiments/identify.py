@@ -20,6 +20,8 @@ out what the brakes held, what saturated, and reversals.
   the residual RMS and the samples used (flat keys, units in the names);
 - ``identification.md``: the same as a table, beside the URDF's values;
 - ``run/``: the run itself (``params.yaml``, ``bag/``).
+
+Longer than our ~250-line guideline: the excitation, the fit's bookkeeping and its report.
 """
 
 from __future__ import annotations

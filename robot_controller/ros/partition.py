@@ -22,8 +22,8 @@ discovery, and a peer that copies one is heard. Authentication needs
 DDS-Security, which the PyPI Fast DDS is built without.
 
 An observer that should hear every run (the tests' probe, a viewer) uses
-``write_observer_profile``: it reads from the default partition and every
-named one, and writes into every named one.
+``write_observer_profile``: it reads from and writes into the default
+partition and every named one.
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ PROFILES_ENV = "FASTRTPS_DEFAULT_PROFILES_FILE"
 _NS = "http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles"
 # "" is the default partition (every peer that sets none); "*" matches every named one.
 _EVERY_PARTITION_READER = ";*"
-_EVERY_NAMED_PARTITION_WRITER = "*"
+_EVERY_PARTITION_WRITER = ";*"
 
 
 def new_partition() -> str:
@@ -75,9 +75,7 @@ def write_run_profile(path: Path, partition: str, base: Path | None = None) -> P
 
 def write_observer_profile(path: Path, base: Path | None = None) -> Path:
     """A profile for a process that should hear every run and the default partition alike."""
-    return _write(
-        path, base, writer_partitions=_EVERY_NAMED_PARTITION_WRITER, reader_partitions=_EVERY_PARTITION_READER
-    )
+    return _write(path, base, writer_partitions=_EVERY_PARTITION_WRITER, reader_partitions=_EVERY_PARTITION_READER)
 
 
 def _write(path: Path, base: Path | None, *, writer_partitions: str, reader_partitions: str) -> Path:

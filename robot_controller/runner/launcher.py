@@ -13,6 +13,8 @@ so the bag holds every message the nodes published.
 With ``view_port`` a viewer (``nodes.viewer``) also runs beside the
 recorder: an observer that serves the live view in a browser and saves
 ``view.rrd``. Nothing waits for it, and its death does not end the run.
+
+Longer than our ~250-line guideline: launch() and the run loop it supervises.
 """
 
 from __future__ import annotations

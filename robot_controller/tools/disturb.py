@@ -13,8 +13,8 @@ heard within ``NAMES_TIMEOUT_S``), else the package's reference arm's.
 A run's loop topics are in a DDS partition of its own (``ros.partition``): unless
 ``FASTRTPS_DEFAULT_PROFILES_FILE`` is set, this process takes the observer
 profile, which hears every run and writes into every run's partition (so
-every run on the domain gets the push), with ``/sim/disturbance`` written into
-the default partition too, where a simulator started by hand listens.
+every run on the domain gets the push) and into the default partition, where a
+simulator started by hand listens.
 """
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ import shutil
 import sys
 import tempfile
 import time
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -67,23 +66,6 @@ def _fail(message: str, code: int) -> int:
     return code
 
 
-def _write_profile(path: Path) -> Path:
-    """The observer profile, its ``/sim/disturbance`` writer also in the default partition
-    (the observer's writers reach every named partition, not the default one)."""
-    partition.write_observer_profile(path)
-    ns = {"dds": "http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles"}
-    ET.register_namespace("", ns["dds"])
-    tree = ET.parse(path)
-    for writer in tree.getroot().findall("dds:data_writer", ns):
-        if writer.get("profile_name") != TOPIC:
-            continue
-        for prop in writer.iterfind(".//dds:property", ns):
-            if prop.findtext("dds:name", namespaces=ns) == "partitions":
-                prop.find("dds:value", ns).text = ";" + prop.findtext("dds:value", namespaces=ns)
-    tree.write(path, encoding="UTF-8", xml_declaration=True)
-    return path
-
-
 def _isolation_env() -> tuple[dict[str, str | None], Path | None]:
     """Before this process's first DDS participant: the observer profile and
     localhost discovery, unless set already. Returns what to restore."""
@@ -91,7 +73,7 @@ def _isolation_env() -> tuple[dict[str, str | None], Path | None]:
     folder = None
     if not os.environ.get(partition.PROFILES_ENV):
         folder = Path(tempfile.mkdtemp(prefix="robot-controller-disturb-"))
-        os.environ[partition.PROFILES_ENV] = str(_write_profile(folder / "observer.xml"))
+        os.environ[partition.PROFILES_ENV] = str(partition.write_observer_profile(folder / "observer.xml"))
     if not os.environ.get(RANGE_ENV):
         os.environ[RANGE_ENV] = "LOCALHOST"
     return saved, folder

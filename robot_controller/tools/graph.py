@@ -11,6 +11,8 @@ nodes). Discovery stays on this host unless ``ROS_AUTOMATIC_DISCOVERY_RANGE``
 says otherwise.
 
 Nothing here imports rclpy at module import: ``robot-controller`` stays fast.
+
+Longer than our ~250-line guideline: rclpy's context, spinning, teardown and Ctrl-C handled once for every tool.
 """
 
 from __future__ import annotations

@@ -8,6 +8,8 @@ ghosts. Each visual geometry is one entity with three instances (true,
 measured, reference), so one row moves all three arms together: a browser
 never shows one arm at a newer instant than another. The joint order is
 MuJoCo's (``core.plant.joint_names``), the stack's order for every array.
+
+Longer than our ~250-line guideline: a URDF reader and forward kinematics for the ghosts.
 """
 
 from __future__ import annotations

@@ -9,6 +9,8 @@ spike is never thinned away). Everything held is bounded: the live inputs
 keep at most ``MAX_PENDING`` samples each between flushes (the oldest go
 first if a flush is late), and only a short tail of controller ticks is kept
 for pairing with later samples.
+
+Longer than our ~250-line guideline: thinning each series without losing spikes, with bounded buffers.
 """
 
 from __future__ import annotations

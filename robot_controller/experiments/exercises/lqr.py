@@ -8,6 +8,8 @@ default stack's LQR (with model feedforward and the Kalman filter) beside
 them. For each: the gains (an LQR's are designed: ``core.law.law_config``),
 the closed-loop poles of the sampled arm model under them, their margins, and
 the figures on the sine and on a step.
+
+Longer than our ~250-line guideline: the loop analysis, its table and plots.
 """
 
 from __future__ import annotations
