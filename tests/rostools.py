@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import tempfile
 import threading
 import time
@@ -117,3 +119,19 @@ def get_parameter(probe: RosProbe, node: str, name: str):
             return future.result().values[0]
         client.remove_pending_request(future)
     raise AssertionError(f"no answer from /{node}/get_parameters for {name}")
+
+
+def start_run(out, duration: str = "10") -> subprocess.Popen:
+    """``robot-controller run --duration D --out OUT`` in a subprocess, returned once its loop runs."""
+    run = subprocess.Popen(
+        [sys.executable, "-m", "robot_controller.cli", "run", "--duration", duration, "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    deadline = time.monotonic() + 60
+    for line in run.stdout:
+        if "control loop running" in line:
+            return run
+        assert time.monotonic() < deadline, "the loop did not start"
+    raise AssertionError("the run ended before its loop started")

@@ -21,6 +21,7 @@ __all__ = [
     "motor_latency_s",
     "read_recording",
     "reference_in_force",
+    "reference_in_force_at",
     "score",
     "tracking_on_sim_timeline",
     "write_metrics",
@@ -82,8 +83,18 @@ def score(
 
 
 def reference_in_force(recording: Recording, nominal_period_s: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
-    """The reference in force at every true-state sample (rad, one column per
-    joint), and whether one was in force there at all.
+    """The reference in force at every true-state sample of ``recording`` (see
+    :func:`reference_in_force_at`)."""
+    s = recording.state
+    return reference_in_force_at(s["time_s"], s["reference"], s["status"], recording.true_time_s, nominal_period_s)
+
+
+def reference_in_force_at(
+    ticks: np.ndarray, reference: np.ndarray, status: np.ndarray, t: np.ndarray, nominal_period_s: float = 0.01
+) -> tuple[np.ndarray, np.ndarray]:
+    """The controller's reference in force at each time ``t`` (rad, one column
+    per joint), and whether one was in force there at all; ``ticks``,
+    ``reference`` and ``status`` are ``/controller/state``'s.
 
     The reference in force is the controller's: between two ticks a normal
     period apart, interpolated (it moves with the trajectory); across a longer
@@ -94,9 +105,6 @@ def reference_in_force(recording: Recording, nominal_period_s: float = 0.01) -> 
     None is in force before the first tick, or where the controller commands
     nothing (no reading yet, sensor lost, e-stop: the brake holds).
     """
-    s = recording.state
-    ticks, reference = s["time_s"], s["reference"]
-    t = recording.true_time_s
     index = np.clip(np.searchsorted(ticks, t, side="right") - 1, 0, len(ticks) - 1)
     following = np.clip(index + 1, 0, len(ticks) - 1)
     span = ticks[following] - ticks[index]
@@ -112,7 +120,7 @@ def reference_in_force(recording: Recording, nominal_period_s: float = 0.01) -> 
     )
     carried = reference[index] + speed * np.clip(t - ticks[index], 0.0, CARRY_S)[:, None]
     in_force = np.where(interpolate[:, None], in_force, carried)
-    idle = np.isin(s["status"], [state_layout.STATUS_CODES[name] for name in IDLE_STATUSES])
+    idle = np.isin(status, [state_layout.STATUS_CODES[name] for name in IDLE_STATUSES])
     return in_force, (t >= ticks[0]) & ~idle[index]
 
 

@@ -21,6 +21,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from robot_controller.core import state_layout
+from robot_controller.scoring import report
 from robot_controller.view import arm as arm_view
 from robot_controller.view import layout
 
@@ -28,12 +29,6 @@ SERIES_HZ = 50.0
 POSE_HZ = 20.0
 MAX_PENDING = 5000  # per input: 50 s of a 100 Hz topic
 TICK_TAIL = 400  # controller ticks kept to pair true samples and motor receipts with (4 s at 100 Hz)
-# As in scoring (report.tracking_on_sim_timeline): ticks further apart than
-# this many periods are a gap; across it the last reference is carried on for
-# CARRY_S at its speed, then held; idle ticks put no reference in force.
-GAP_PERIODS = 5
-CARRY_S = 0.05
-IDLE_CODES = [state_layout.STATUS_CODES[name] for name in ("no_measurement", "sensor_lost", "stopped")]
 STATUS_NAMES = {code: name for name, code in state_layout.STATUS_CODES.items()}
 
 
@@ -75,24 +70,10 @@ class Decimator:
 def reference_in_force(
     ticks: np.ndarray, reference: np.ndarray, status: np.ndarray, t: np.ndarray, nominal_period_s: float
 ) -> np.ndarray:
-    """The controller's reference in force at each time ``t`` (NaN where an idle tick is in force),
-    as scoring defines it (``report.tracking_on_sim_timeline``)."""
-    index = np.clip(np.searchsorted(ticks, t, side="right") - 1, 0, len(ticks) - 1)
-    following = np.clip(index + 1, 0, len(ticks) - 1)
-    span = ticks[following] - ticks[index]
-    interpolate = (following > index) & (span <= GAP_PERIODS * nominal_period_s)
-    fraction = np.where(interpolate, (t - ticks[index]) / np.where(span > 0, span, 1.0), 0.0)[:, None]
-    in_force = reference[index] + np.clip(fraction, 0.0, 1.0) * (reference[following] - reference[index])
-    previous = np.clip(index - 1, 0, len(ticks) - 1)
-    step_s = ticks[index] - ticks[previous]
-    normal = (index > previous) & (step_s <= GAP_PERIODS * nominal_period_s)
-    speed = np.where(
-        normal[:, None], (reference[index] - reference[previous]) / np.where(step_s > 0, step_s, 1.0)[:, None], 0.0
-    )
-    carried = reference[index] + speed * np.clip(t - ticks[index], 0.0, CARRY_S)[:, None]
-    in_force = np.where(interpolate[:, None], in_force, carried)
-    idle = np.isin(status[index], IDLE_CODES) | (t < ticks[0])
-    in_force[idle] = np.nan
+    """The controller's reference in force at each time ``t`` (NaN where none is),
+    as scoring defines it (``report.reference_in_force_at``)."""
+    in_force, valid = report.reference_in_force_at(ticks, reference, status, t, nominal_period_s)
+    in_force[~valid] = np.nan
     return in_force
 
 

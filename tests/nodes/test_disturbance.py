@@ -13,6 +13,7 @@ import pytest
 from std_msgs.msg import Float64MultiArray
 
 from robot_controller.scoring import report
+from tests import rostools
 from tests.rostools import RosProbe, wait_for
 
 pytestmark = pytest.mark.ros
@@ -21,18 +22,7 @@ TORQUE_NM, DURATION_S = 3.0, 0.3
 
 
 def start_run(out, duration="12"):
-    run = subprocess.Popen(
-        [sys.executable, "-m", "robot_controller.cli", "run", "--duration", duration, "--out", str(out)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    deadline = time.monotonic() + 60
-    for line in run.stdout:
-        if "control loop running" in line:
-            return run
-        assert time.monotonic() < deadline, "the loop did not start"
-    raise AssertionError("the run ended before its loop started")
+    return rostools.start_run(out, duration)
 
 
 def disturb(torque_nm, duration_s, joint=None, wait_s=10.0):

@@ -17,24 +17,14 @@ from std_msgs.msg import Float64MultiArray
 
 from robot_controller import parameters as cfg
 from robot_controller.scoring import report
+from tests import rostools
 from tests.rostools import RosProbe, get_parameter, set_parameter, wait_for
 
 pytestmark = pytest.mark.ros
 
 
 def start_run(out, duration="10"):
-    run = subprocess.Popen(
-        [sys.executable, "-m", "robot_controller.cli", "run", "--duration", duration, "--out", str(out)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    deadline = time.monotonic() + 60
-    for line in run.stdout:
-        if "control loop running" in line:
-            return run
-        assert time.monotonic() < deadline, "the loop did not start"
-    raise AssertionError("the run ended before its loop started")
+    return rostools.start_run(out, duration)
 
 
 def test_one_future_stamp_one_empty_reading_one_huge_effort_leave_the_run_whole(tmp_path, ros_domain):

@@ -14,7 +14,6 @@ Longer than our ~250-line guideline: the loop analysis, its table and plots.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +22,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller.core import lqr as lqr_design
 from robot_controller.core import robustness
+from robot_controller.experiments.compare import Contender
 from robot_controller.experiments.exercises.common import (
     SEED,
     Exercise,
@@ -42,14 +42,6 @@ from robot_controller.experiments.exercises.common import (
 )
 
 STEP_RAD = 0.5
-
-
-@dataclass(frozen=True)
-class Contender:
-    name: str
-    description: str
-    preset: str
-    overrides: dict[str, Any]
 
 
 CONTENDERS = (
