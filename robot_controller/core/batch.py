@@ -9,10 +9,11 @@ a test checks its motion against MuJoCo's.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from robot_controller.core.estimator import JointKalmanFilter, KalmanConfig
 from robot_controller.core.pid import Pid, PidConfig
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.sensor_model import SensorConfig, measure
@@ -62,6 +63,18 @@ class AnalyticArmBatch:
             self.q = self.q + dt * self.v
 
 
+class CommonNoise:
+    """A random generator whose ``normal`` draws ONE value per joint and gives it to every
+    gain set of a batch: every set meets the same sensor noise (common random numbers),
+    so the search compares gains, not noise realisations."""
+
+    def __init__(self, rng: np.random.Generator) -> None:
+        self.rng = rng
+
+    def normal(self, loc: float, scale: float, size: tuple[int, ...]) -> np.ndarray:
+        return np.broadcast_to(self.rng.normal(loc, scale, (1, *size[1:])), size)
+
+
 def run_batch(
     *,
     constants: ArmConstants,
@@ -71,26 +84,55 @@ def run_batch(
     rng: np.random.Generator,
     duration_s: float,
     control_period_s: float = 0.01,
-    physics_dt: float = 0.001,
     torque_max: float = 10.0,
+    feedforward: str = "full",
+    kalman: KalmanConfig | None = None,
+    common_noise: bool = False,
     warmup_s: float = 2.0,
+    physics_dt: float = 0.001,
 ) -> np.ndarray:
-    """Simulate every gain set of ``pid_config`` (arrays of shape ``(batch, 1)``)
-    with full feedforward; return each one's tracking RMS on the true angle, rad."""
+    """Simulate every gain set of ``pid_config`` (arrays of shape ``(batch, 1)``) on the
+    analytic arm with the controller's own PID code, the sensor's noise and the torque
+    limit; with feedforward ``none``, ``gravity`` or ``full`` and, if given, the Kalman
+    filter (the core's own, predicting with the analytic arm). With ``common_noise``
+    every gain set meets the same noise. Returns each one's tracking RMS on the true
+    angle, rad."""
     batch = np.broadcast_shapes(pid_config.kp.shape, pid_config.ki.shape, pid_config.kd.shape)[0]
     arm = AnalyticArmBatch(constants, batch, physics_dt)
     pid = Pid(pid_config)
+    noise = CommonNoise(rng) if common_noise else rng
+    filter_ = None
+    if kalman is not None:
+
+        def predict(q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+            v = (v * constants.inertia + dt * (torque - constants.gravity_torque * np.cos(q))) / (
+                constants.inertia + dt * constants.damping
+            )
+            return q + dt * v, v
+
+        filter_ = JointKalmanFilter(replace(kalman, model_step_s=physics_dt), batch, predict)
     n_steps = int(round(control_period_s / physics_dt))
-    ticks = int(round(duration_s / control_period_s))
+    applied = np.zeros((batch, 1))
     squared = np.zeros((batch, 1))
     scored = 0
-    for k in range(ticks):
+    for k in range(int(round(duration_s / control_period_s))):
         t = k * control_period_s
         p, v, a = (np.broadcast_to(x, (batch, 1)) for x in trajectory.sample(t))
-        q_meas, v_meas = measure(sensor, arm.q, arm.v, rng)
-        terms = pid.step(control_period_s, p, v, q_meas, v_meas, constants.torque(p, v, a))
+        q_meas, v_meas = measure(sensor, arm.q, arm.v, noise)
+        if filter_ is not None:
+            q_f, v_f = filter_.update(t, q_meas[:, 0], v_meas[:, 0], applied[:, 0])
+            v_f = filter_.velocity_at_instant(q_f, v_f, applied[:, 0])
+            q_meas, v_meas = q_f[:, None], v_f[:, None]
+        if feedforward == "full":
+            ff = constants.torque(p, v, a)
+        elif feedforward == "gravity":
+            ff = constants.gravity_torque * np.cos(p)
+        else:
+            ff = 0.0
+        terms = pid.step(control_period_s, p, v, q_meas, v_meas, ff)
         if t >= warmup_s:
             squared += (p - arm.q) ** 2
             scored += 1
-        arm.step(np.clip(terms.command, -torque_max, torque_max), n_steps)
+        applied = np.clip(terms.command, -torque_max, torque_max)
+        arm.step(applied, n_steps)
     return np.sqrt(squared[:, 0] / max(scored, 1))

@@ -54,12 +54,11 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core import lqr, robustness
-from robot_controller.core.batch import AnalyticArmBatch, ArmConstants
+from robot_controller.core.batch import ArmConstants, run_batch
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.estimator import JointKalmanFilter, KalmanConfig
-from robot_controller.core.pid import Pid, PidConfig
+from robot_controller.core.pid import PidConfig
 from robot_controller.core.plant import ArmDynamics
-from robot_controller.core.sensor_model import SensorConfig, measure
+from robot_controller.core.sensor_model import SensorConfig
 from robot_controller.core.trajectory import Trajectory, make_trajectory
 from robot_controller.scoring import report
 
@@ -226,18 +225,6 @@ class Problem:
         )
 
 
-class CommonNoise:
-    """A random generator whose ``normal`` draws ONE value per joint and gives it to every
-    gain set of a batch: every set meets the same sensor noise (common random numbers),
-    so the search compares gains, not noise realisations."""
-
-    def __init__(self, rng: np.random.Generator) -> None:
-        self.rng = rng
-
-    def normal(self, loc: float, scale: float, size: tuple[int, ...]) -> np.ndarray:
-        return np.broadcast_to(self.rng.normal(loc, scale, (1, *size[1:])), size)
-
-
 def batch_tracking_rms(
     constants: ArmConstants,
     pid_config: PidConfig,
@@ -245,59 +232,19 @@ def batch_tracking_rms(
     sensor: SensorConfig,
     rng: np.random.Generator,
     *,
-    duration_s: float,
-    control_period_s: float = 0.01,
-    torque_max: float = 10.0,
-    feedforward: str = "full",
-    kalman: KalmanConfig | None = None,
     common_noise: bool = True,
-    warmup_s: float = 2.0,
-    physics_dt: float = 0.001,
+    **options: Any,
 ) -> np.ndarray:
-    """``core.batch.run_batch``'s loop (the analytic arm, the same PID code, the sensor's
-    noise, the torque limit), with what the controller may also be configured with:
-    feedforward ``none``, ``gravity`` or ``full``, and the Kalman filter (the core's own,
-    predicting with the analytic arm). With ``common_noise`` every gain set meets the
-    same noise. Returns each gain set's tracking RMS on the true angle, rad."""
-    batch = np.broadcast_shapes(pid_config.kp.shape, pid_config.ki.shape, pid_config.kd.shape)[0]
-    arm = AnalyticArmBatch(constants, batch, physics_dt)
-    pid = Pid(pid_config)
-    noise = CommonNoise(rng) if common_noise else rng
-    filter_ = None
-    if kalman is not None:
-
-        def predict(q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-            v = (v * constants.inertia + dt * (torque - constants.gravity_torque * np.cos(q))) / (
-                constants.inertia + dt * constants.damping
-            )
-            return q + dt * v, v
-
-        filter_ = JointKalmanFilter(replace(kalman, model_step_s=physics_dt), batch, predict)
-    n_steps = int(round(control_period_s / physics_dt))
-    applied = np.zeros((batch, 1))
-    squared = np.zeros((batch, 1))
-    scored = 0
-    for k in range(int(round(duration_s / control_period_s))):
-        t = k * control_period_s
-        p, v, a = (np.broadcast_to(x, (batch, 1)) for x in trajectory.sample(t))
-        q_meas, v_meas = measure(sensor, arm.q, arm.v, noise)
-        if filter_ is not None:
-            q_f, v_f = filter_.update(t, q_meas[:, 0], v_meas[:, 0], applied[:, 0])
-            v_f = filter_.velocity_at_instant(q_f, v_f, applied[:, 0])
-            q_meas, v_meas = q_f[:, None], v_f[:, None]
-        if feedforward == "full":
-            ff = constants.torque(p, v, a)
-        elif feedforward == "gravity":
-            ff = constants.gravity_torque * np.cos(p)
-        else:
-            ff = 0.0
-        terms = pid.step(control_period_s, p, v, q_meas, v_meas, ff)
-        if t >= warmup_s:
-            squared += (p - arm.q) ** 2
-            scored += 1
-        applied = np.clip(terms.command, -torque_max, torque_max)
-        arm.step(applied, n_steps)
-    return np.sqrt(squared[:, 0] / max(scored, 1))
+    """The search's harness: ``core.batch.run_batch`` with common random numbers by default."""
+    return run_batch(
+        constants=constants,
+        pid_config=pid_config,
+        trajectory=trajectory,
+        sensor=sensor,
+        rng=rng,
+        common_noise=common_noise,
+        **options,
+    )
 
 
 def _round(value: float, digits: int = 4) -> float:
