@@ -1,0 +1,218 @@
+"""Exercise 1, "Tune the PID": start with Kp = 50, Ki = Kd = 0; increase Kp
+until oscillation, then add Kd, then Ki; compare the responses.
+
+Automated on the real graph (every run a seeded five-process lockstep run of
+the tutorial's controller: PID, no feedforward, no Kalman filter):
+
+1. **Kp alone** (Ki = Kd = 0) on a small step: from the tutorial's Kp = 50,
+   halve or double until one run oscillates without end and another does not,
+   then bisect. A run *oscillates without end* when its oscillation's amplitude
+   does not decay from the first second after the step to the last one
+   (:func:`oscillation`). The smallest such Kp is the ultimate gain Ku; the
+   period of that oscillation is Tu.
+2. **Ziegler–Nichols** (the classic PID rule) from Ku and Tu, as the textbook's
+   starting point: Kp = 0.6 Ku, Ki = 1.2 Ku/Tu, Kd = 0.075 Ku Tu.
+3. **Then Kd**: at the rule's Kp, Ki = 0, Kd from the rule's value, doubled
+   until the step's overshoot is gone (≤ 2 % beyond where the response ends).
+4. **Then Ki**: Ki = Kp/Ti with the integral time Ti from 8 Tu down to Tu,
+   until the steady-state error is gone (≤ 1 % of the step), stopping before
+   the overshoot comes back (> 2 %).
+5. The gains chosen on the sine; in the full form the tutorial's own gains
+   (50, 10, 5) beside them.
+
+The parts: its numbers and run plan (``settings``), stage 1 and the ultimate
+gain (``ultimate``), the report (``report``) and the plots (``plots``); this
+module is the procedure itself (:func:`run`) and the exercise's entry.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from robot_controller import parameters as cfg
+from robot_controller.core import lqr, robustness
+from robot_controller.experiments.exercises.common import (
+    SEED,
+    Exercise,
+    Progress,
+    Response,
+    plant_loop,
+    sine_params,
+    sine_run,
+    step_run,
+    write_report,
+    write_results,
+)
+from robot_controller.experiments.exercises.tune.plots import plot_sine, plot_stages
+from robot_controller.experiments.exercises.tune.report import report_text
+from robot_controller.experiments.exercises.tune.settings import (
+    OVERSHOOT_MAX_PCT,
+    PRESET,
+    SSE_MAX_FRACTION,
+    STAGE_LEAD_S,
+    STAGE_STEP_RAD,
+    TUTORIAL_GAINS,
+    make_plan,
+    steps,
+    with_gains,
+)
+from robot_controller.experiments.exercises.tune.ultimate import kp_search, model_ultimate, oscillation
+
+__all__ = ["EXERCISE", "choose_ki", "model_ultimate", "oscillation", "run", "steps"]
+
+
+def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int = SEED) -> dict[str, Any]:
+    out.mkdir(parents=True, exist_ok=True)
+    plan = make_plan(quick)
+    base = cfg.load_stack(PRESET)
+    results: dict[str, Any] = {"quick": int(quick), "seed": seed}
+    rows: list[dict[str, Any]] = []  # every run, for the tables
+
+    # 1. Kp alone, until it oscillates without end.
+    search, low, high = kp_search(base, out, plan, results, progress=progress, seed=seed)
+    at_ku = next(r for r in search if r.figures["kp"] == high)
+    ku, tu = high, at_ku.figures["period_s"]
+    model_ku, model_tu = model_ultimate(base)
+    results.update(
+        {
+            "ultimate_gain": ku,
+            "ultimate_period_s": tu,
+            "ultimate_gain_bracket_low": low,
+            "model_ultimate_gain": model_ku,
+            "model_ultimate_period_s": model_tu,
+        }
+    )
+
+    # 2. Ziegler–Nichols' classic PID from Ku, Tu.
+    zn = (0.6 * ku, 1.2 * ku / tu, 0.075 * ku * tu)
+    results.update({"zn_kp": zn[0], "zn_ki": zn[1], "zn_kd": zn[2]})
+    stage_kwargs = {"amplitude": STAGE_STEP_RAD, "lead_s": STAGE_LEAD_S, "after_s": plan["stage_after_s"], "seed": seed}
+    zn_response = None
+    if plan["zn_run"]:
+        progress(f"Ziegler–Nichols PID: Kp {zn[0]:.3g}, Ki {zn[1]:.3g}, Kd {zn[2]:.3g}")
+        zn_response = step_run(with_gains(base, *zn), out / "ziegler_nichols", "Ziegler–Nichols", **stage_kwargs)
+        _store(results, "zn_step", zn_response.figures)
+        rows.append(_row("Ziegler–Nichols PID", zn, zn_response))
+
+    # 3. Then Kd, until the overshoot is gone.
+    kp = zn[0]
+    kd_runs: list[Response] = []
+    kd = None
+    for index, factor in enumerate(plan["kd_factors"]):
+        candidate = zn[2] * factor
+        progress(f"then Kd: Kp {kp:.3g}, Kd {candidate:.3g}, Ki 0")
+        response = step_run(
+            with_gains(base, kp, 0.0, candidate),
+            out / "kd_stage" / f"run_{index + 1}",
+            f"Kd {candidate:.3g}",
+            **stage_kwargs,
+        )
+        response.figures["kd"] = candidate
+        kd_runs.append(response)
+        rows.append(_row(f"Kd stage {index + 1}", (kp, 0.0, candidate), response))
+        results[f"kd_stage_{index + 1}_kd"] = candidate
+        results[f"kd_stage_{index + 1}_overshoot_final_pct"] = response.figures["overshoot_final_pct"]
+        if kd is None and response.figures["overshoot_final_pct"] <= OVERSHOOT_MAX_PCT:
+            kd = candidate
+    if kd is None:  # none was clean enough: the least overshoot
+        kd = min(kd_runs, key=lambda r: r.figures["overshoot_final_pct"]).figures["kd"]
+
+    # 4. Then Ki, until the steady-state error is gone (and before the overshoot returns).
+    ki_runs: list[Response] = []
+    for index, ti_tu in enumerate(plan["ti_tu"]):
+        candidate = kp / (ti_tu * tu)
+        progress(f"then Ki: Kp {kp:.3g}, Kd {kd:.3g}, Ki {candidate:.3g} (Ti = {ti_tu:g} Tu)")
+        response = step_run(
+            with_gains(base, kp, candidate, kd),
+            out / "ki_stage" / f"run_{index + 1}",
+            f"Ki {candidate:.3g}",
+            **stage_kwargs,
+        )
+        response.figures["ki"] = candidate
+        ki_runs.append(response)
+        rows.append(_row(f"Ki stage {index + 1}", (kp, candidate, kd), response))
+        results[f"ki_stage_{index + 1}_ki"] = candidate
+        results[f"ki_stage_{index + 1}_steady_state_error_rad"] = response.figures["steady_state_error_rad"]
+        results[f"ki_stage_{index + 1}_overshoot_pct"] = response.figures["overshoot_pct"]
+    chosen = choose_ki(ki_runs, STAGE_STEP_RAD)
+    ki = chosen.figures["ki"]
+    results.update({"kp": kp, "ki": ki, "kd": kd})
+    _store(results, "step", chosen.figures)
+
+    # 5. The gains chosen on the sine (and the tutorial's own gains beside them).
+    progress(f"the gains chosen on the sine: Kp {kp:.3g}, Ki {ki:.3g}, Kd {kd:.3g}")
+    sine = sine_run(
+        with_gains(sine_params(base), kp, ki, kd), out / "sine_chosen", "chosen", duration_s=plan["sine_s"], seed=seed
+    )
+    results["sine_tracking_rms_rad"] = sine.figures["tracking_rms_rad"]
+    results["sine_tracking_max_rad"] = sine.figures["tracking_max_rad"]
+    tutorial_step = tutorial_sine = None
+    if plan["tutorial_runs"]:
+        progress("the tutorial's gains (50, 10, 5): step")
+        tutorial_step = step_run(
+            with_gains(base, *TUTORIAL_GAINS), out / "tutorial_step", "tutorial (50, 10, 5)", **stage_kwargs
+        )
+        _store(results, "tutorial_step", tutorial_step.figures)
+        progress("the tutorial's gains (50, 10, 5): sine")
+        tutorial_sine = sine_run(
+            with_gains(sine_params(base), *TUTORIAL_GAINS),
+            out / "sine_tutorial",
+            "tutorial",
+            duration_s=plan["sine_s"],
+            seed=seed,
+        )
+        results["tutorial_sine_tracking_rms_rad"] = tutorial_sine.figures["tracking_rms_rad"]
+
+    margins = _margins(base, kp, ki, kd)
+    results.update(margins.as_dict("margin_"))
+    results["margin_delay_periods"] = _delay_periods(base, kp, ki, kd)
+    results = write_results(out, results)
+    plot_stages(out / "tune.png", search, zn_response, kd_runs, ki_runs, chosen, tutorial_step, ku, kp, kd)
+    plot_sine(out / "tune_sine.png", sine, tutorial_sine)
+    write_report(out, report_text(results, plan, search, rows, chosen, quick))
+    return results
+
+
+def choose_ki(runs: list[Response], step_rad: float) -> Response:
+    """Up the Ki candidates (increasing): the first whose steady-state error is
+    gone, unless the overshoot came back before it (then the one before)."""
+    chosen = None
+    for response in runs:
+        if chosen is not None and response.figures["overshoot_pct"] > OVERSHOOT_MAX_PCT:
+            break
+        chosen = response
+        if response.figures["steady_state_error_rad"] <= SSE_MAX_FRACTION * step_rad:
+            break
+    assert chosen is not None, "no Ki candidate"
+    return chosen
+
+
+def _store(results: dict[str, Any], prefix: str, figures: dict[str, Any]) -> None:
+    for key in (
+        "overshoot_pct",
+        "overshoot_final_pct",
+        "settling_time_s",
+        "rise_time_s",
+        "steady_state_error_rad",
+        "peak_torque_nm",
+        "saturated_s",
+    ):
+        results[f"{prefix}_{key}"] = figures[key]
+
+
+def _row(label: str, gains: tuple[float, float, float], response: Response) -> dict[str, Any]:
+    return {"label": label, "kp": gains[0], "ki": gains[1], "kd": gains[2], **response.figures}
+
+
+def _margins(params: cfg.Params, kp: float, ki: float, kd: float) -> robustness.Margins:
+    A, B, dt = plant_loop(params)
+    return robustness.margins(A, B, robustness.pid_gain_row(kp, ki, kd), dt)
+
+
+def _delay_periods(params: cfg.Params, kp: float, ki: float, kd: float) -> int:
+    A, B, _ = plant_loop(params)
+    return lqr.delay_margin_periods(A, B, robustness.pid_gain_row(kp, ki, kd))
+
+
+EXERCISE = Exercise("tune", "tune the PID: Kp until it oscillates (Ku, Tu), then Kd, then Ki", run, steps)

@@ -1,0 +1,60 @@
+"""Exercise 1's numbers: the tutorial's starting point and gains, the steps it
+uses, what counts as a sustained oscillation, "overshoot gone" and "steady-state
+error gone", and how many runs of what length each form (quick or full) makes."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from robot_controller import parameters as cfg
+
+PRESET = "tutorial"
+KP_START = 50.0  #: the tutorial's starting point, N·m/rad
+KU_STEP_RAD = 0.2  #: the Kp search's step: small, so the oscillation stays inside the torque limit at first
+STAGE_STEP_RAD = 0.5  #: the Kd and Ki stages' step
+STAGE_LEAD_S = 1.0  #: at rest before the step (the arm sags under gravity first: no feedforward)
+SUSTAINED_GROWTH_PER_S = -0.02  #: an amplitude shrinking slower than 2 %/s is not decaying
+NOISE_FLOOR_RAD = 0.005  #: an oscillation smaller than this (the sensor's σ) is no oscillation
+OVERSHOOT_MAX_PCT = 2.0  #: "overshoot gone" (the tutorial's "< 2 %")
+SSE_MAX_FRACTION = 0.01  #: "steady-state error gone": within 1 % of the step
+TUTORIAL_GAINS = (50.0, 10.0, 5.0)
+
+
+def make_plan(quick: bool) -> dict[str, Any]:
+    if quick:
+        return {
+            "ku_runs": 3,
+            "ku_after_s": 2.5,
+            "kd_factors": (4.0,),
+            "ti_tu": (4.0,),
+            "stage_after_s": 1.5,
+            "sine_s": 3.0,
+            "zn_run": False,
+            "tutorial_runs": False,
+        }
+    return {
+        "ku_runs": 8,
+        "ku_after_s": 4.0,
+        "kd_factors": (1.0, 2.0, 4.0, 8.0),
+        "ti_tu": (8.0, 4.0, 2.0, 1.0),
+        "stage_after_s": 2.0,
+        "sine_s": 10.0,
+        "zn_run": True,
+        "tutorial_runs": True,
+    }
+
+
+def steps(quick: bool = False) -> int:
+    plan = make_plan(quick)
+    return (
+        plan["ku_runs"]
+        + int(plan["zn_run"])
+        + len(plan["kd_factors"])
+        + len(plan["ti_tu"])
+        + 1
+        + 2 * int(plan["tutorial_runs"])
+    )
+
+
+def with_gains(params: cfg.Params, kp: float, ki: float, kd: float) -> cfg.Params:
+    return cfg.merge(params, {"pid_controller": {"kp": [float(kp)], "ki": [float(ki)], "kd": [float(kd)]}})
