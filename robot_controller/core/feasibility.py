@@ -3,8 +3,11 @@ much slower it must go if it cannot.
 
 The torque a path needs is the arm's inverse dynamics along it (MuJoCo's
 ``mj_inverse`` through :class:`~robot_controller.core.plant.ArmDynamics`:
-inertia·q̈ + damping·q̇ + Coriolis + gravity), sampled densely over what
-repeats or happens once: one period of a sine or square, one chirp sweep,
+inertia·q̈ + damping·q̇ + Coriolis + gravity, or the controller's
+:class:`~robot_controller.core.arm_model.JointArmModel` when it has ``model_*``
+values), sampled densely over what repeats or happens once: one period of a
+sine or square, a chirp's sweep up and its sweep back down (it is
+continuous at its turns: :class:`~robot_controller.core.trajectory.Chirp`),
 the move of a step, the position of a hold. A fraction ``margin`` of the
 limit is kept free for the feedback law (0.2: the path may use 80 %).
 
@@ -134,15 +137,20 @@ def sample_times(trajectory: Trajectory) -> np.ndarray:
     """Times (s since the trajectory started) that cover everything it does once:
     one period of a sine or square, one chirp sweep, a step's move and the
     rest either side of it, a hold's one position. Time-scaling the trajectory
-    by k gives k times these times (the same count)."""
+    by k gives k times these times (the same count).
+
+    A chirp's window is its sweep up and its sweep back down: the acceleration
+    term of the sweep rate changes sign between them, so both signs are seen
+    at every frequency (and either side of each turn)."""
     if isinstance(trajectory, Sine | Square):
         if trajectory.frequency_hz <= 0:
             return np.zeros(1)
         return np.linspace(0.0, 1.0 / trajectory.frequency_hz, MIN_SAMPLES, endpoint=False)
     if isinstance(trajectory, Chirp):
-        cycles = trajectory.sweep_time_s * max(trajectory.frequency_hz, trajectory.end_frequency_hz)
+        window_s = 2.0 * trajectory.sweep_time_s
+        cycles = window_s * max(trajectory.frequency_hz, trajectory.end_frequency_hz)
         count = max(MIN_SAMPLES, int(np.ceil(cycles * SAMPLES_PER_CYCLE)))
-        return np.linspace(0.0, trajectory.sweep_time_s, count, endpoint=False)
+        return np.linspace(0.0, window_s, count, endpoint=False)
     if isinstance(trajectory, MinTimeStep):
         start = trajectory.step_time_s
         move = np.linspace(start, start + _move_time_s(trajectory), MIN_SAMPLES + 1)

@@ -105,7 +105,19 @@ class Square:
 
 @dataclass(frozen=True)
 class Chirp:
-    """A linear chirp from ``frequency_hz`` to ``end_frequency_hz`` over ``sweep_time_s``, then repeating."""
+    """A linear chirp from ``frequency_hz`` to ``end_frequency_hz`` over
+    ``sweep_time_s``, then back over the next ``sweep_time_s``, and so on: the
+    frequency goes up and down in a triangle, and the phase runs on.
+
+    Every sweep covers the same band at the same rate, and the first is the
+    chirp as it always was. At each turn the position and the velocity are
+    continuous; only the acceleration's sweep-rate term ``A·2π·df/dt·cos(phase)``
+    changes sign (a finite step, like a shaped step's). Before, each sweep
+    started again at ``frequency_hz`` and phase 0: a jump in velocity at every
+    wrap (and in position unless ``sweep_time_s·(frequency_hz + end_frequency_hz)``
+    is a whole number), which no torque follows. A sweep after a turn starts at
+    another phase than the first (the phase the sweeps before it ran through).
+    """
 
     amplitude: np.ndarray
     frequency_hz: float
@@ -114,11 +126,22 @@ class Chirp:
     offset: np.ndarray
 
     def sample(self, t: float) -> Sample:
-        tau = t % self.sweep_time_s
-        k = (self.end_frequency_hz - self.frequency_hz) / self.sweep_time_s
-        phase = 2.0 * np.pi * (self.frequency_hz * tau + 0.5 * k * tau * tau)
-        w = 2.0 * np.pi * (self.frequency_hz + k * tau)
-        dw = 2.0 * np.pi * k
+        f0, f1, sweep = self.frequency_hz, self.end_frequency_hz, self.sweep_time_s
+        k = (f1 - f0) / sweep
+        cycles_per_sweep = 0.5 * (f0 + f1) * sweep  # the phase one sweep runs through, in cycles
+        pair, within = divmod(t, 2.0 * sweep)  # an up and a down sweep per pair
+        start = (2.0 * cycles_per_sweep * pair) % 1.0  # the phase (cycles) the sweeps before ran through
+        if within < sweep:  # f0 → f1
+            tau = within
+            cycles = start + f0 * tau + 0.5 * k * tau * tau
+            w = 2.0 * np.pi * (f0 + k * tau)
+            dw = 2.0 * np.pi * k
+        else:  # f1 → f0, from where the sweep up ended
+            tau = within - sweep
+            cycles = start + cycles_per_sweep + f1 * tau - 0.5 * k * tau * tau
+            w = 2.0 * np.pi * (f1 - k * tau)
+            dw = -2.0 * np.pi * k
+        phase = 2.0 * np.pi * cycles
         s, c = np.sin(phase), np.cos(phase)
         return (
             self.offset + self.amplitude * s,
@@ -144,8 +167,9 @@ def time_scaled(trajectory: Trajectory, factor: float) -> Trajectory:
     by ``factor`` and accelerations by ``factor²``.
 
     Sine and square: frequency ÷ factor. Chirp: both frequencies ÷ factor and
-    the sweep × factor. Minimum-time step: ``max_acceleration`` ÷ factor² (the
-    move starts at the same ``step_time_s``; its sample-grid rounding stays).
+    the sweep × factor (its turns come ``factor`` times later too).
+    Minimum-time step: ``max_acceleration`` ÷ factor² (the move starts at the
+    same ``step_time_s``; its sample-grid rounding stays).
     A jump step and a hold have no motion to slow and come back unchanged.
 
     :raises ConfigError: a factor that is not a finite number > 0

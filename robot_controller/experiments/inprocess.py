@@ -3,6 +3,8 @@ ROS graph uses."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from robot_controller import parameters as cfg
@@ -11,8 +13,8 @@ from robot_controller.core.actuator import Actuator
 from robot_controller.core.controller import JointController
 from robot_controller.core.loop import Disturbance, LoopResult, run_loop
 from robot_controller.core.plant import MujocoPlant
-from robot_controller.core.trajectory import make_trajectory
 from robot_controller.parameters.builders import arm_model
+from robot_controller.parameters.consistency import trajectory_plan
 
 
 def simulate(
@@ -23,12 +25,25 @@ def simulate(
     measurement_delay_s: float = 0.0,
     delay_unstamped: bool = False,
     disturbance: Disturbance | None = None,
+    on_warning: Callable[[str], None] | None = None,
 ) -> LoopResult:
     """``duration_s`` seconds of the loop from ``params`` (see :func:`run_loop`);
     ``disturbance``: an external torque on the arm on a schedule (the
-    simulator's ``disturbance_*`` parameters are not read: pass one)."""
+    simulator's ``disturbance_*`` parameters are not read: pass one).
+
+    The trajectory is the planner's as the planner would run it: checked
+    against the torque limit and slowed, refused or left as its
+    ``feasibility`` says (:func:`~robot_controller.parameters.consistency.trajectory_plan`,
+    on the controller's arm model). ``on_warning`` receives the planner's
+    one-line warning when there is one (slowed, or run as it is).
+
+    :raises ConfigError: the planner's one line, when it refuses the trajectory
+    """
     sim, motor, sensor = params["simulator"], params["motor_node"], params["sensor_node"]
     ctrl, planner = params["pid_controller"], params["trajectory_planner"]
+    plan = trajectory_plan(params)  # refused: the planner's one line, before anything is built
+    if plan.warning is not None and on_warning is not None:
+        on_warning(plan.warning)
     plant = MujocoPlant(resources.resolve_urdf(sim["urdf_path"]), 1.0 / sim["physics_rate_hz"])
     n = len(plant.joint_names)
     plant.reset(cfg.per_joint("initial_position", sim["initial_position"], n))
@@ -36,13 +51,12 @@ def simulate(
     controller_config = cfg.controller_config(ctrl, n)
     controller = JointController(controller_config, n, dynamics)
     actuator = Actuator(cfg.per_joint("torque_max", motor["torque_max"], n), motor["lag_time_constant_s"])
-    trajectory = make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner))
     return run_loop(
         plant=plant,
         controller=controller,
         actuator=actuator,
         sensor=cfg.sensor_config(sensor),
-        trajectory=trajectory,
+        trajectory=plan.trajectory,
         rng=np.random.default_rng(seed),
         duration_s=duration_s,
         control_period_s=controller_config.control_period_s,

@@ -17,6 +17,12 @@ scale`` slows a path that does not fit in time until it does, with one
 warning naming the numbers and the factor; ``refuse`` refuses it (at start,
 or as a parameter change); ``ignore`` only warns. The same applies to every
 parameter change.
+
+The check before start (``parameters.consistency.trajectory_plan``, which
+the in-process loop runs too) uses the controller's arm model: its
+``model_*`` values over the URDF when it has any. This node knows only its
+URDF (the controller's, ``urdf_path`` must match): the same arm unless the
+controller has ``model_*`` values.
 """
 
 from __future__ import annotations

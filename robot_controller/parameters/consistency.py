@@ -10,11 +10,16 @@ the others' values: these cross-node rules are enforced here, at start).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
+
+if TYPE_CHECKING:  # MuJoCo and the trajectories: imported when used
+    from robot_controller.core.feasibility import Plan
 
 # The watchdog must outlast this many reading periods: a window shorter than
 # the gap between two readings trips on every tick (control_rate_hz 1000 with
@@ -43,7 +48,7 @@ def check_stack(params: cfg.Params) -> None:
     _check_limits(params, arms["simulator"])
     _check_planner_matches(params, joint_count)
     _check_controller(params, joint_count)
-    _check_feasibility(params["trajectory_planner"])
+    trajectory_plan(params)  # refused: a ConfigError
 
 
 def _arm(node: str, urdf_path: str) -> tuple[list[str], np.ndarray, np.ndarray]:
@@ -178,17 +183,31 @@ def _check_planner_matches(params: cfg.Params, joint_count: int) -> None:
         )
 
 
-def _check_feasibility(planner: dict) -> None:
-    """The trajectory fits the usable torque, or is slowed to fit (``feasibility``; the planner does the slowing)."""
-    from robot_controller.core import feasibility
-    from robot_controller.core.plant import ArmDynamics
-    from robot_controller.core.trajectory import make_trajectory
+def trajectory_plan(params: cfg.Params) -> Plan:
+    """The trajectory the run follows: the planner's, checked against the
+    controller's arm model and slowed, refused or left as the planner's
+    ``feasibility`` says (:func:`robot_controller.core.feasibility.plan`).
 
+    The arm model is the one the controller uses (``builders.arm_model``): the
+    URDF's (the planner's too: ``urdf_path`` must match), or the controller's
+    ``model_*`` values over it when it has any, e.g. from ``robot-controller
+    identify``: the better-known arm. The in-process loop runs the plan this
+    returns; the ROS planner plans against its URDF alone, the same arm unless
+    the controller has ``model_*`` values.
+
+    :raises ConfigError: ``trajectory_planner: …``, one line, when it is refused
+    """
+    from robot_controller.core import feasibility
+    from robot_controller.core.trajectory import make_trajectory
+    from robot_controller.parameters.builders import arm_model
+
+    planner = params["trajectory_planner"]
+    dynamics = arm_model(params["pid_controller"])
     try:
         trajectory = make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner))
-        feasibility.plan(
+        return feasibility.plan(
             trajectory,
-            ArmDynamics(resources.resolve_urdf(planner["urdf_path"])),
+            dynamics,
             planner["torque_max"],
             margin=planner["feasibility_margin"],
             policy=planner["feasibility"],

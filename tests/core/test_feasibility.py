@@ -1,7 +1,8 @@
 """Feasible trajectories (no ROS): the torque a path needs from the arm's
 inverse dynamics, against the actuator's limit less the margin kept for
-feedback; the time scale that makes it fit; and the whole-configuration
-check that refuses, scales or only warns."""
+feedback; the time scale that makes it fit; the chirp's turns, which it can
+follow; and the whole-configuration check that refuses, scales or only warns,
+on the controller's arm model."""
 
 import re
 
@@ -11,10 +12,12 @@ import pytest
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core import feasibility
+from robot_controller.core.arm_model import JointArmModel
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.trajectory import Chirp, MinTimeStep, Sine, make_trajectory, time_scaled
 from robot_controller.parameters import consistency
+from robot_controller.parameters.builders import arm_model
 
 
 @pytest.fixture(scope="module")
@@ -214,3 +217,92 @@ def test_a_torque_limit_set_for_every_node_reaches_the_planner(tmp_path):
     params = cfg.load_stack("default", [path])
     assert params["trajectory_planner"]["torque_max"] == [6.0]
     consistency.check_stack(params)
+
+
+@pytest.mark.parametrize(
+    "chirp",
+    [
+        fast_chirp(),  # 10 s × (0.5 + 3) Hz is 35 whole cycles: the old wrap kept the position, not the velocity
+        Chirp(np.array([0.8]), 0.1, 0.5, 4.0, np.array([0.3])),  # 2.4 cycles: the old wrap jumped 0.76 rad too
+        Chirp(np.array([0.5]), 2.0, 0.5, 3.0, np.array([0.0])),  # sweeping down first
+    ],
+)
+def test_the_chirp_runs_on_without_a_jump_where_one_sweep_turns_into_the_next(chirp):
+    f0, f1, sweep = chirp.frequency_hz, chirp.end_frequency_hz, chirp.sweep_time_s
+    amplitude = chirp.amplitude[0]
+    # The first sweep is the chirp as it was: offset + A·sin(2π(f0·t + ½·k·t²)).
+    k = (f1 - f0) / sweep
+    for t in np.linspace(0.0, sweep, 37, endpoint=False):
+        expected = chirp.offset[0] + amplitude * np.sin(2.0 * np.pi * (f0 * t + 0.5 * k * t * t))
+        assert chirp.sample(t)[0][0] == pytest.approx(expected, abs=1e-12)
+    eps = 1e-9
+    for turn in range(1, 6):
+        (q0, v0, a0), (q1, v1, a1) = chirp.sample(turn * sweep - eps), chirp.sample(turn * sweep + eps)
+        assert abs(q1[0] - q0[0]) < 1e-6 and abs(v1[0] - v0[0]) < 1e-5, (turn, q0, q1, v0, v1)
+        # Only the sweep-rate term A·2π·k·cos(phase) of the acceleration changes sign: a finite step.
+        assert abs(a1[0] - a0[0]) <= 2.0 * amplitude * 2.0 * np.pi * abs(k) + 1e-3
+    # After the turn the frequency goes back: half a second either side of it, it is f1 − k/2
+    # (position A·sin(phase) and velocity A·2π·f·cos(phase) put together give back A at that f only).
+    w = 2.0 * np.pi * (f1 - 0.5 * k)
+    for t in (sweep - 0.5, sweep + 0.5):
+        q, v, _ = chirp.sample(t)
+        assert np.hypot(q[0] - chirp.offset[0], v[0] / w) == pytest.approx(amplitude, rel=1e-9)
+
+
+def test_the_check_covers_the_chirp_where_its_sweeps_turn(arm):
+    # The slowed chirp, as a controller sees it: positions only, differentiated numerically
+    # across its first three turns. The torque that asks of the arm stays within what the
+    # check found (8 N·m usable); a jump at a turn would ask for thousands of N·m.
+    chirp = make_trajectory(
+        "chirp", joint_count=1, amplitude=1.0, frequency_hz=0.5, end_frequency_hz=3.0, sweep_time_s=4.5
+    )
+    plan = feasibility.plan(chirp, arm, 10.0, what="chirp")
+    slowed = plan.trajectory
+    assert isinstance(slowed, Chirp) and plan.result.scale > 1.5
+    h = 1e-3
+    worst = 0.0
+    for turn in (1, 2, 3):
+        for t in turn * slowed.sweep_time_s + np.arange(-0.05, 0.05, h / 3):
+            q0, q1, q2 = (slowed.sample(t + d)[0] for d in (-h, 0.0, h))
+            torque = arm.torque(q1, (q2 - q0) / (2 * h), (q2 - 2 * q1 + q0) / h**2)
+            worst = max(worst, abs(float(torque[0])))
+    assert 5.0 < worst <= 8.0 * 1.01, worst
+    # And the check's window (a sweep up and one back down) sees what four sweeps need, to the sampling.
+    dense = np.linspace(0.0, 4 * slowed.sweep_time_s, 20000)
+    needed = max(abs(float(arm.torque(*slowed.sample(t))[0])) for t in dense)
+    assert needed <= plan.result.scaled_peak_torque_nm[0] * 1.001
+
+
+def test_the_check_before_start_uses_the_controllers_arm_model_when_it_has_one():
+    params = cfg.load_stack()
+    params["trajectory_planner"]["feasibility"] = "refuse"
+    consistency.check_stack(params)  # the default sine on the URDF: 2.9 N·m of 8 usable
+    # The controller's model: 12 times the URDF's inertia (0.0833 kg·m²); π² rad/s² × 1 kg·m² alone is 9.9 N·m.
+    params["pid_controller"]["model_inertia"] = [1.0]
+    with pytest.raises(
+        ConfigError, match=r"^trajectory_planner: the sine needs 1\d\.\d N·m on joint1 against 8\.0 N·m usable"
+    ):
+        consistency.check_stack(params)
+    # Under scale it passes, slowed as that arm needs.
+    params["trajectory_planner"]["feasibility"] = "scale"
+    consistency.check_stack(params)
+    plan = consistency.trajectory_plan(params)
+    model = arm_model(params["pid_controller"])
+    assert isinstance(model, JointArmModel) and plan.result.scale > 1.2
+    assert isinstance(plan.trajectory, Sine) and plan.trajectory.frequency_hz < 0.45
+    assert 7.8 < feasibility.peak_torque(plan.trajectory, model)[0] <= 8.0 + 1e-9
+    # Gravity from the model that no slowing removes: refused under scale too.
+    params["pid_controller"]["model_gravity_torque"] = [9.0]
+    with pytest.raises(ConfigError, match=r"holding its positions alone needs 9\.0 N·m on joint1 \(gravity\)"):
+        consistency.check_stack(params)
+
+
+def test_a_lighter_controller_model_lets_through_what_the_urdf_would_refuse():
+    params = chirp_params(feasibility="refuse")  # 30 N·m on the URDF against 8 usable
+    with pytest.raises(ConfigError, match="the chirp needs"):
+        consistency.check_stack(params)
+    # 0.005 kg·m²: (2π·3 Hz)² × 1 rad × 0.005 is 1.8 N·m, with 2.45 of gravity and 1.9 of damping.
+    params["pid_controller"]["model_inertia"] = [0.005]
+    consistency.check_stack(params)
+    plan = consistency.trajectory_plan(params)
+    assert plan.warning is None and plan.result.peak_torque_nm[0] < 8.0

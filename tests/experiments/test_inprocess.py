@@ -1,10 +1,17 @@
-"""The whole loop in one Python loop (no ROS): accuracy, determinism, limits."""
+"""The whole loop in one Python loop (no ROS): accuracy, determinism, limits,
+and the planner's feasibility policy applied as the planner applies it."""
 
 import numpy as np
 import pytest
 
 from robot_controller import parameters as cfg
+from robot_controller import resources
+from robot_controller.core import feasibility
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.plant import ArmDynamics
+from robot_controller.core.trajectory import Chirp, Sine, make_trajectory
 from robot_controller.experiments import inprocess
+from robot_controller.parameters import consistency
 
 
 @pytest.fixture(scope="module")
@@ -70,3 +77,87 @@ def test_the_default_survives_its_delay_margin_of_delay_nobody_accounts_for():
     params["pid_controller"]["lqr_r"] = 0.01  # the old default's gains: no margin at all
     twitchy = inprocess.simulate(params, duration_s=6.0, seed=1, measurement_delay_s=0.02, delay_unstamped=True)
     assert np.max(np.abs(twitchy.command)) >= 10.0
+
+
+# The ROS feasibility test's chirp: 1 rad, 0.5 → 3 Hz in 4.5 s, about 30 N·m against 8 usable.
+CHIRP = dict(mode="chirp", amplitude=[1.0], frequency_hz=0.5, end_frequency_hz=3.0, sweep_time_s=4.5)
+# The controller first leads the arm from where it rests onto the reference (0.3 to 0.8 s here).
+ON_THE_REFERENCE_S = 1.0
+
+
+def chirp_params(policy: str) -> cfg.Params:
+    params = cfg.load_stack("default")
+    params["trajectory_planner"].update(CHIRP, feasibility=policy)
+    return params
+
+
+def planner_plan(params: cfg.Params) -> feasibility.Plan:
+    """What the ROS planner does with these values (trajectory_planner._planned): its URDF's arm."""
+    planner = params["trajectory_planner"]
+    return feasibility.plan(
+        make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner)),
+        ArmDynamics(resources.resolve_urdf(planner["urdf_path"])),
+        planner["torque_max"],
+        margin=planner["feasibility_margin"],
+        policy=planner["feasibility"],
+        what=planner["mode"],
+    )
+
+
+def assert_follows(run, trajectory) -> None:
+    """The controller's reference is ``trajectory``'s position at every tick once it is on it."""
+    on = run.tick_time_s >= ON_THE_REFERENCE_S
+    expected = np.array([trajectory.sample(t)[0] for t in run.tick_time_s[on]])
+    np.testing.assert_allclose(run.reference[on], expected, rtol=0, atol=1e-9)
+
+
+def test_an_infeasible_chirp_runs_slowed_as_the_planner_slows_it():
+    params = chirp_params("scale")
+    expected = planner_plan(params)
+    assert isinstance(expected.trajectory, Chirp) and expected.result.scale > 1.5
+    warnings: list[str] = []
+    run = inprocess.simulate(params, duration_s=6.0, seed=1, on_warning=warnings.append)
+    assert warnings == [expected.warning] and "scaled in time ×" in warnings[0]
+    assert_follows(run, expected.trajectory)
+    # Within the limit all along, and on the reference.
+    assert np.max(np.abs(run.applied)) < 9.0
+    assert run.tracking_metrics()["tracking_max_rad"] < 0.01
+
+
+def test_ignore_runs_the_chirp_as_it_is_and_it_saturates():
+    params = chirp_params("ignore")
+    original = make_trajectory("chirp", **cfg.trajectory_kwargs(params["trajectory_planner"]))
+    warnings: list[str] = []
+    run = inprocess.simulate(params, duration_s=6.0, seed=1, on_warning=warnings.append)
+    assert warnings == [planner_plan(params).warning] and "(feasibility: ignore)" in warnings[0]
+    assert_follows(run, original)
+    assert np.max(np.abs(run.applied)) == pytest.approx(10.0)
+    assert run.tracking_metrics()["tracking_max_rad"] > 0.3
+
+
+def test_refuse_raises_the_planners_one_line_before_anything_runs():
+    params = chirp_params("refuse")
+    with pytest.raises(ConfigError) as refused:
+        inprocess.simulate(params, duration_s=6.0, seed=1)
+    with pytest.raises(ConfigError) as before_start:
+        consistency.check_stack(params)
+    message = str(refused.value)
+    assert message == str(before_start.value)
+    assert "\n" not in message
+    assert message.startswith("trajectory_planner: the chirp needs ") and message.endswith(
+        "; slow it down (feasibility: scale) or lower the amplitude"
+    )
+
+
+def test_the_in_process_plan_is_on_the_controllers_arm_model():
+    # The controller believes in 12 times the URDF's inertia: the default sine needs about 10 N·m on
+    # that arm, so the run slows it as the check before start judged (the URDF alone would leave it).
+    params = cfg.load_stack("default")
+    params["pid_controller"]["model_inertia"] = [1.0]
+    assert planner_plan(params).warning is None
+    plan = consistency.trajectory_plan(params)
+    assert isinstance(plan.trajectory, Sine) and plan.trajectory.frequency_hz < 0.45
+    warnings: list[str] = []
+    run = inprocess.simulate(params, duration_s=3.0, seed=1, on_warning=warnings.append)
+    assert warnings == [plan.warning]
+    assert_follows(run, plan.trajectory)
