@@ -175,15 +175,18 @@ class JointArmModel:
         max_step_s: float = 0.002,
     ) -> tuple[np.ndarray, np.ndarray]:
         """State ``horizon_s`` seconds ahead under constant ``torque`` (semi-implicit
-        Euler, as ``ArmDynamics.predict``). Friction acts on each step's new
-        velocity: it stops a joint within the step rather than reversing it."""
+        Euler, implicit in the damping, as ``ArmDynamics.predict`` and MuJoCo's
+        physics). Friction acts on each step's new velocity: it stops a joint
+        within the step rather than reversing it."""
         position = np.array(position, dtype=float)
         velocity = np.array(velocity, dtype=float)
         steps = max(1, int(np.ceil(horizon_s / max_step_s)))
         h = horizon_s / steps
-        stop = self.coulomb_friction * h / self.inertia  # the speed friction takes away in one step
+        # Implicit damping: inertia·(v' − v)/h = net force with −damping·v' in place of −damping·v.
+        effective_inertia = self.inertia + h * self._damping
+        stop = self.coulomb_friction * h / effective_inertia  # the speed friction takes away in one step
         for _ in range(steps):
-            free = velocity + self._net(position, velocity, torque) * h / self.inertia
+            free = velocity + self._net(position, velocity, torque) * h / effective_inertia
             velocity = np.where(np.abs(free) <= stop, 0.0, free - stop * np.sign(free))
             position = position + velocity * h
         return position, velocity

@@ -266,6 +266,12 @@ class ArmDynamics:
         self._data = mujoco.MjData(self.model)
         self.joint_names = joint_names(self.model)
         self.effort_limit = effort_limits(self.model)
+        # MuJoCo's Euler integrator takes the joint damping implicitly unless told not to.
+        self._implicit_damping = bool(
+            self.model.opt.integrator == mujoco.mjtIntegrator.mjINT_EULER
+            and not self.model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_EULERDAMP
+            and np.any(self.model.dof_damping > 0)
+        )
 
     def torque(self, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         d = self._data
@@ -298,11 +304,21 @@ class ArmDynamics:
         horizon_s: float,
         max_step_s: float = 0.002,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """State ``horizon_s`` seconds ahead under constant ``torque`` (semi-implicit Euler)."""
+        """State ``horizon_s`` seconds ahead under constant ``torque``, stepped as
+        :class:`MujocoPlant`'s physics steps (MuJoCo's Euler): semi-implicit,
+        and implicit in the joint damping, each step's acceleration being
+        ``(M + h·D)⁻¹·M·q̈``. With the damping explicit instead, the
+        acceleration comes out h·D/M (0.12 % on the reference arm) too large, a
+        bias a filter that trusts its model turns into 0.3 mrad of tracking error."""
         steps = max(1, int(np.ceil(horizon_s / max_step_s)))
         h = horizon_s / steps
+        damping = np.diag(self.damping) if self._implicit_damping else None
         for _ in range(steps):
-            velocity = velocity + self.acceleration(position, velocity, torque) * h
+            acceleration = self.acceleration(position, velocity, torque)
+            if damping is not None:
+                mass = self.mass_matrix(position)
+                acceleration = np.linalg.solve(mass + h * damping, mass @ acceleration)
+            velocity = velocity + acceleration * h
             position = position + velocity * h
         return position, velocity
 
