@@ -35,7 +35,7 @@ Longer than our ~250-line guideline: the filter with and without the disturbance
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -52,6 +52,14 @@ MassMatrix = Callable[[np.ndarray], np.ndarray]
 # N·m, σ of the disturbance estimate when the filter (re)starts: nothing is known
 # of it yet, so the first readings set it (a couple of periods).
 DISTURBANCE_PRIOR_STD_NM = 2.0
+# How the filter tells whether its readings agree with it: the squared Mahalanobis distance of
+# each reading's innovation (χ² with 2 degrees of freedom, mean 2 when they agree), averaged
+# over about CONSISTENCY_TIME_S. From MISMATCH_FROM on the process noise moves towards the
+# mismatch σ, reached at MISMATCH_FROM + MISMATCH_SPAN; a jump is taken only below
+# MISMATCH_FROM (a reading that stands out from readings that agree).
+CONSISTENCY_TIME_S = 0.3
+MISMATCH_FROM = 4.0
+MISMATCH_SPAN = 2.0
 
 
 @dataclass(frozen=True)
@@ -65,12 +73,22 @@ class KalmanConfig:
 
     position_noise_std: float = 0.005
     velocity_noise_std: float = 0.02
-    acceleration_noise_std: float = 2.0
+    acceleration_noise_std: float = 0.005
     #: s, the longest step the arm model is integrated in between two readings: the plant's own
     #: (the simulator's physics step, 1 ms in the reference scenario), so that the prediction and
     #: the readings agree (a coarser step puts the predicted position off by about a·T·step/2)
     model_step_s: float = 0.001
-    disturbance_noise_std: float = 0.3
+    disturbance_noise_std: float = 0.0001
+    #: a reading this many σ (Mahalanobis distance of its innovation) from the prediction, among
+    #: readings that otherwise agree with the filter, is taken as a sudden external torque (a push, a
+    #: collision, a load let go): the observer allows its torque a jump (σ DISTURBANCE_PRIOR_STD_NM)
+    #: that period and follows it within a period or two, while between jumps the torque may change
+    #: only slowly (disturbance_noise_std). 0: never.
+    jump_detection_sigma: float = 5.0
+    #: the σ the filter moves to while its readings disagree with it (an arm unlike its model,
+    #: readings later than their stamps): it then follows the readings rather than its model
+    mismatch_acceleration_noise_std: float = 2.0
+    mismatch_disturbance_noise_std: float = 0.3
 
     def __post_init__(self) -> None:
         for name in (
@@ -79,24 +97,43 @@ class KalmanConfig:
             "acceleration_noise_std",
             "model_step_s",
             "disturbance_noise_std",
+            "mismatch_acceleration_noise_std",
+            "mismatch_disturbance_noise_std",
         ):
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
                 raise ConfigError(f"{name}: must be a finite number > 0, got {value}")
+        if not np.isfinite(self.jump_detection_sigma) or self.jump_detection_sigma < 0:
+            raise ConfigError(f"jump_detection_sigma: must be a finite number ≥ 0, got {self.jump_detection_sigma}")
+
+    def at_mismatch(self) -> KalmanConfig:
+        """The filter as it is while its readings disagree with it (the most it moves to)."""
+        return replace(
+            self,
+            acceleration_noise_std=max(self.acceleration_noise_std, self.mismatch_acceleration_noise_std),
+            disturbance_noise_std=max(self.disturbance_noise_std, self.mismatch_disturbance_noise_std),
+        )
 
 
-def process_noise(config: KalmanConfig, dt: float, acceleration_per_nm: np.ndarray | None = None) -> np.ndarray:
+def process_noise(
+    config: KalmanConfig,
+    dt: float,
+    acceleration_per_nm: np.ndarray | None = None,
+    disturbance_noise_std: np.ndarray | None = None,
+    acceleration_noise_std: np.ndarray | None = None,
+) -> np.ndarray:
     """The filter's process noise over ``dt`` s: ``(2, 2)`` on ``[q, v]`` from
     the white unmodelled acceleration; with ``acceleration_per_nm`` (rad/s² per
     N·m on each joint, shape ``(n,)``: the disturbance observer) ``(n, 3, 3)``
     on ``[q, v, d]``, adding the random walk of ``d`` carried through the double
     integrator over ``dt`` (the continuous model's, exactly)."""
     G = np.array([0.5 * dt * dt, dt])
-    Q2 = np.outer(G, G) * config.acceleration_noise_std**2
     if acceleration_per_nm is None:
-        return Q2
+        return np.outer(G, G) * config.acceleration_noise_std**2
     b = np.asarray(acceleration_per_nm, dtype=float).reshape(-1)
-    w = config.disturbance_noise_std**2
+    sigma_a = config.acceleration_noise_std if acceleration_noise_std is None else np.asarray(acceleration_noise_std)
+    Q2 = np.outer(G, G) * np.reshape(np.broadcast_to(sigma_a, b.shape) ** 2, (-1, 1, 1))
+    w = (config.disturbance_noise_std if disturbance_noise_std is None else np.asarray(disturbance_noise_std)) ** 2
     Q = np.zeros((b.size, 3, 3))
     Q[:, :2, :2] = Q2
     Q[:, 0, 0] += w * b * b * dt**5 / 20
@@ -178,6 +215,10 @@ class JointKalmanFilter:
         self.time_s: float | None = None
         #: per joint, rad/s² per N·m of external torque on each joint ((n, n): M⁻¹ at the last estimate)
         self._inverse_mass: np.ndarray | None = None
+        #: per joint, how many readings were taken as a jump of the external torque
+        self.jump_count = np.zeros(joint_count, dtype=int)
+        #: per joint, the innovation's squared Mahalanobis distance, averaged (2 while readings agree)
+        self._distance_sq_average = np.full(joint_count, 2.0)
 
     def reset(self) -> None:
         """Forget the state: the next reading starts the filter again (and the disturbance from 0)."""
@@ -216,28 +257,45 @@ class JointKalmanFilter:
                 self.P[:, 2, 2] = DISTURBANCE_PRIOR_STD_NM**2
                 self._inverse_mass = np.linalg.inv(self.mass_matrix(np.asarray(position, float)))
             self.time_s = time_s
+            self._distance_sq_average = np.full(self.joint_count, 2.0)  # agreeing, as expected
             return position.copy(), velocity.copy()
         dt = time_s - self.time_s
         self.time_s = time_s
         q, v = self.x[:, 0], self.x[:, 1]
         F = np.zeros((self.joint_count, m, m))
         F[:, :2, :2] = self._transition(q, v, torque, dt)
+        sigma_d, sigma_a = self._noise_in_force()
         if not self.estimates_disturbance:
-            Q = process_noise(self.config, dt)
+            G = np.array([0.5 * dt * dt, dt])
+            Q = np.outer(G, G) * (sigma_a**2)[:, None, None]
         else:
             self._inverse_mass = np.linalg.inv(self.mass_matrix(q))
             b = np.diag(self._inverse_mass)  # rad/s² per N·m on each joint's own axis
             F[:, 0, 2] = 0.5 * b * dt * dt
             F[:, 1, 2] = b * dt
             F[:, 2, 2] = 1.0
-            Q = process_noise(self.config, dt, b)
+            Q = process_noise(self.config, dt, b, sigma_d, sigma_a)
         q, v = self._step_model(q, v, torque, dt)
         x_pred = self.x.copy()
         x_pred[:, 0], x_pred[:, 1] = q, v
         P_pred = F @ self.P @ np.swapaxes(F, -1, -2) + Q
+        innovation = z - x_pred[:, :2]
         S = P_pred[:, :2, :2] + self.R
+        distance_sq = np.einsum("ni,nij,nj->n", innovation, np.linalg.inv(S), innovation)
+        agreeing = self._distance_sq_average < MISMATCH_FROM
+        jumped = np.zeros(self.joint_count, dtype=bool)
+        if self.estimates_disturbance and self.config.jump_detection_sigma > 0:
+            jumped = agreeing & (distance_sq > self.config.jump_detection_sigma**2)
+            P_pred, S = self._allow_jumps(P_pred, jumped, b, dt)
+        # A reading taken as a jump is explained by it: it does not count as disagreement.
+        alpha = min(1.0, dt / CONSISTENCY_TIME_S)
+        self._distance_sq_average = np.where(
+            jumped,
+            self._distance_sq_average,
+            self._distance_sq_average + alpha * (distance_sq - self._distance_sq_average),
+        )
         K = P_pred[:, :, :2] @ np.linalg.inv(S)  # (n, m, 2)
-        self.x = x_pred + np.einsum("nij,nj->ni", K, z - x_pred[:, :2])
+        self.x = x_pred + np.einsum("nij,nj->ni", K, innovation)
         KH = np.zeros((self.joint_count, m, m))
         KH[:, :, :2] = K
         self.P = (np.eye(m) - KH) @ P_pred
@@ -245,6 +303,41 @@ class JointKalmanFilter:
             self.P = 0.5 * (self.P + np.swapaxes(self.P, -1, -2))
             self.x[:, 2] = np.clip(self.x[:, 2], -self.disturbance_limit, self.disturbance_limit)
         return self.x[:, 0].copy(), self.x[:, 1].copy()
+
+    def _noise_in_force(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per joint, the σ of the disturbance's random walk (N·m/√s) and of the
+        unmodelled acceleration (rad/s²) this period: the configured ones while
+        the readings agree with the filter, moving (in variance, linearly with
+        the average distance) to the mismatch ones as they stop agreeing. A
+        filter that trusts its model averages the sensor noise away; one whose
+        model is wrong must follow the readings instead."""
+        c = self.config
+        w = np.clip((self._distance_sq_average - MISMATCH_FROM) / MISMATCH_SPAN, 0.0, 1.0)
+        far = c.at_mismatch()
+        sigma_d = np.sqrt(c.disturbance_noise_std**2 + w * (far.disturbance_noise_std**2 - c.disturbance_noise_std**2))
+        sigma_a = np.sqrt(
+            c.acceleration_noise_std**2 + w * (far.acceleration_noise_std**2 - c.acceleration_noise_std**2)
+        )
+        return sigma_d, sigma_a
+
+    def _allow_jumps(
+        self, P_pred: np.ndarray, jumped: np.ndarray, b: np.ndarray, dt: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """For each joint whose reading is taken as a jump (``jumped``), add to
+        its predicted covariance that of a jump of the external torque at the
+        start of the period (σ DISTURBANCE_PRIOR_STD_NM, carried through the
+        period as the torque moves the arm), so that the reading's surprise goes
+        to the torque and the state it moved, not to noise. A push then costs
+        one or two periods; without it, a filter whose torque may change only
+        slowly would take tenths of a second. Returns the covariance and the
+        innovation's."""
+        if jumped.any():
+            P_pred = P_pred.copy()
+            for j in np.flatnonzero(jumped):
+                G = np.array([0.5 * b[j] * dt * dt, b[j] * dt, 1.0])
+                P_pred[j] += DISTURBANCE_PRIOR_STD_NM**2 * np.outer(G, G)
+            self.jump_count += jumped
+        return P_pred, P_pred[:, :2, :2] + self.R
 
     def _step_model(
         self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, horizon_s: float

@@ -88,21 +88,26 @@ def delay_margin_periods(
     external torque is fed back too, and it is what a late reading misleads
     most (the arm lags the model, and the observer takes that for a push). The
     margin is then that of the whole loop, filter (its steady-state gains) and
-    observer included: :func:`observer_delay_margin_periods`."""
+    observer included: :func:`observer_delay_margin_periods`, for the filter
+    as it is while the readings agree with it and as it becomes when they do
+    not (late readings make them disagree: ``KalmanConfig.at_mismatch``), the
+    worse of the two. (A jump is taken only among agreeing readings, so late
+    readings do not make the observer jump.)"""
     if dynamics is None:
         return None
     inertia = np.diag(dynamics.mass_matrix(np.zeros(joint_count)))
     margins = []
     for j in range(joint_count):
         if disturbance_observer and estimator is not None:
-            margins.append(
+            margins.extend(
                 observer_delay_margin_periods(
                     (float(gains.ki[j]), float(gains.kp[j]), float(gains.kd[j])),
-                    estimator,
+                    filter_,
                     float(inertia[j]),
                     float(dynamics.damping[j]),
                     control_period_s,
                 )
+                for filter_ in (estimator, estimator.at_mismatch())
             )
             continue
         A, B = lqr.discretise(float(inertia[j]), float(dynamics.damping[j]), control_period_s)

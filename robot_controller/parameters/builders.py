@@ -79,6 +79,9 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
             values["kalman_velocity_noise_std"],
             values["kalman_acceleration_noise_std"],
             disturbance_noise_std=values["kalman_disturbance_noise_std"],
+            jump_detection_sigma=values["kalman_disturbance_jump_sigma"],
+            mismatch_acceleration_noise_std=values["kalman_mismatch_acceleration_noise_std"],
+            mismatch_disturbance_noise_std=values["kalman_mismatch_disturbance_noise_std"],
         )
     return ControllerConfig(
         pid=pid,
