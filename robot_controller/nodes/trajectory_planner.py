@@ -11,18 +11,20 @@ Lockstep: a sample whenever ``/clock`` reaches the next ``1/publish_rate_hz``
 grid point. Shape changes apply live.
 
 Before it publishes, the planner checks that the arm can follow the
-trajectory (``core.feasibility``: the URDF's inverse dynamics along the
+trajectory (``core.feasibility``: the arm model's inverse dynamics along the
 path against ``torque_max`` less ``feasibility_margin``). ``feasibility:
 scale`` slows a path that does not fit in time until it does, with one
 warning naming the numbers and the factor; ``refuse`` refuses it (at start,
 or as a parameter change); ``ignore`` only warns. The same applies to every
 parameter change.
 
-The check before start (``parameters.consistency.trajectory_plan``, which
-the in-process loop runs too) uses the controller's arm model: its
-``model_*`` values over the URDF when it has any. This node knows only its
-URDF (the controller's, ``urdf_path`` must match): the same arm unless the
-controller has ``model_*`` values.
+The arm model is the controller's (``parameters.builders.arm_model``): the
+URDF's, or the ``model_*`` values over it. This node builds it from its own
+``urdf_path`` and ``model_*``, which ``run`` fills with the controller's
+(``runner.plan.with_controller_model``, e.g. from an ``identify`` overlay)
+and the check before start requires to be the controller's; that check
+(``parameters.consistency.trajectory_plan``, which the in-process loop runs
+too) plans on the same model, so every path slows a trajectory alike.
 """
 
 from __future__ import annotations
@@ -35,11 +37,10 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller import parameters as cfg
-from robot_controller import resources
 from robot_controller.core import feasibility
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.trajectory import Trajectory, make_trajectory
+from robot_controller.parameters.builders import arm_model, model_overridden
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import CONTROL_QOS
@@ -84,11 +85,14 @@ class TrajectoryPlanner(StackNode):
         )
 
     def setup(self, params: dict[str, Any]) -> None:
-        self.dynamics = ArmDynamics(resources.resolve_urdf(params["urdf_path"]))
+        # The arm model: the URDF's, or the model_* values over it (read-only: fixed at start).
+        self.dynamics = arm_model(params)
         if len(self.dynamics.joint_names) != params["joint_count"]:
             raise ConfigError(
-                f"joint_count {params['joint_count']} but the URDF has " f"{len(self.dynamics.joint_names)} joint(s)"
+                f"joint_count {params['joint_count']} but the URDF has {len(self.dynamics.joint_names)} joint(s)"
             )
+        if model_overridden(params):
+            self.get_logger().info(f"trajectory checked against {self.dynamics.describe()}")
 
     def _planned(self, params: dict[str, Any]) -> feasibility.Plan:
         """The trajectory the values describe, slowed if it must be (``ConfigError`` if it is refused)."""

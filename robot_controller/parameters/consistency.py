@@ -17,6 +17,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
+from robot_controller.parameters.builders import MODEL_KEYS
 
 if TYPE_CHECKING:  # MuJoCo and the trajectories: imported when used
     from robot_controller.core.feasibility import Plan
@@ -165,7 +166,8 @@ def _check_controller(params: cfg.Params, joint_count: int) -> None:
 
 
 def _check_planner_matches(params: cfg.Params, joint_count: int) -> None:
-    """The planner checks its trajectory against the arm and the actuator that will follow it."""
+    """The planner checks its trajectory against the arm the controller models and the actuator that will
+    follow it: the motor's ``torque_max``, the controller's URDF and ``model_*`` values."""
     planner, motor, ctrl = params["trajectory_planner"], params["motor_node"], params["pid_controller"]
     planned = cfg.per_joint("torque_max", planner["torque_max"], joint_count)
     actual = cfg.per_joint("torque_max", motor["torque_max"], joint_count)
@@ -182,6 +184,23 @@ def _check_planner_matches(params: cfg.Params, joint_count: int) -> None:
             f"pid_controller's {ctrl['urdf_path'] or '(reference arm)'!r}"
         )
 
+    def given(value: object) -> bool:
+        return value is not None and np.size(value) > 0
+
+    for key in MODEL_KEYS:  # empty: the controller's (``run`` passes it on); set: the controller's too
+        if not given(planner[key]):
+            continue
+        if given(ctrl[key]) and np.array_equal(
+            cfg.per_joint(key, planner[key], joint_count), cfg.per_joint(key, ctrl[key], joint_count)
+        ):
+            continue
+        theirs = ctrl[key] if given(ctrl[key]) else "[] (the URDF's)"
+        raise ConfigError(
+            f"trajectory_planner: {key} {planner[key]} differs from pid_controller's {theirs}, the arm model "
+            "its trajectory is checked against: leave it empty (run passes the controller's on) or set both "
+            "(or set it once under /**)"
+        )
+
 
 def trajectory_plan(params: cfg.Params) -> Plan:
     """The trajectory the run follows: the planner's, checked against the
@@ -192,8 +211,10 @@ def trajectory_plan(params: cfg.Params) -> Plan:
     URDF's (the planner's too: ``urdf_path`` must match), or the controller's
     ``model_*`` values over it when it has any, e.g. from ``robot-controller
     identify``: the better-known arm. The in-process loop runs the plan this
-    returns; the ROS planner plans against its URDF alone, the same arm unless
-    the controller has ``model_*`` values.
+    returns; the ROS planner builds the same model from its own ``urdf_path``
+    and ``model_*``, which ``run`` fills with the controller's
+    (``runner.plan.with_controller_model``) and :func:`check_stack` refuses
+    when they differ from the controller's.
 
     :raises ConfigError: ``trajectory_planner: …``, one line, when it is refused
     """

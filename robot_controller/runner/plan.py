@@ -6,15 +6,19 @@ output directory. ``launcher`` then supervises what this plans."""
 
 from __future__ import annotations
 
+import copy
 import os
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.nodes.world_state import WORLD_STATE_ENV
 from robot_controller.parameters import consistency
+from robot_controller.parameters.builders import MODEL_KEYS
 from robot_controller.ros import partition, scheduling
 from robot_controller.ros.publishing import COUNTS_DIR_ENV, RECORDED_ENV
 from robot_controller.view import serve as view_serve
@@ -82,6 +86,21 @@ def lockstep_params(params: cfg.Params) -> cfg.Params:
     return out
 
 
+def with_controller_model(params: cfg.Params) -> cfg.Params:
+    """The same parameters with the controller's arm model given to the planner
+    too: each ``model_*`` the planner leaves empty takes pid_controller's value
+    (e.g. from an ``identify`` overlay, which sets only the controller's), so that
+    the planner checks its trajectory against the arm the controller models, as
+    ``consistency.trajectory_plan`` and the in-process loop do. One the planner
+    sets must be the controller's: ``consistency.check_stack`` refuses others."""
+    out = cfg.merge(params, {})
+    planner, ctrl = out["trajectory_planner"], out["pid_controller"]
+    for key in MODEL_KEYS:
+        if planner.get(key) is None or np.size(planner[key]) == 0:
+            planner[key] = copy.deepcopy(ctrl[key])  # not the same list: YAML would write an alias, which rcl refuses
+    return out
+
+
 def plan(
     params: cfg.Params,
     *,
@@ -101,6 +120,7 @@ def plan(
     :raises ConfigError: before anything is written (also: ``view_port`` cannot be served on)
     :raises FileExistsError: ``out_dir`` already holds a recording
     """
+    params = with_controller_model(params)
     if sim_time:
         params = lockstep_params(params)
     consistency.check_stack(params)  # before anything is written or started

@@ -1,7 +1,8 @@
 """Feasible trajectories over the real graph: a chirp the arm cannot follow
 inside its torque limit is slowed by the planner (one warning with the
 numbers), refused before anything starts (``feasibility: refuse``), or run
-as it is (``ignore``); parameter changes go through the same check."""
+as it is (``ignore``); parameter changes go through the same check; the
+planner node plans on the controller's arm model, as the check before start."""
 
 import json
 import subprocess
@@ -11,14 +12,15 @@ import numpy as np
 import pytest
 
 from robot_controller.core.trajectory import Chirp
+from robot_controller.parameters.builders import arm_model
 from robot_controller.scoring import report
 
 pytestmark = pytest.mark.ros
 
 DURATION_S = 6.0
-# 1 rad from 0.5 to 3 Hz in 4.5 s: about 28 N·m at the end of the sweep against 8 usable (10 N·m, 20 % kept).
-# Slowed about ×2, one sweep lasts about 9 s: longer than the recording, so its wrap back to 0.5 Hz (a jump
-# no slowing removes) stays out of it.
+# 1 rad from 0.5 to 3 Hz in 4.5 s: about 30.6 N·m at the end of the sweep against 8 usable (10 N·m, 20 % kept).
+# Slowed about ×2.1, one sweep lasts about 9.5 s: longer than the recording, which sees the sweep up only
+# (the chirp then sweeps back down, without a jump: the check covers that too).
 CHIRP = """trajectory_planner:
   ros__parameters:
     mode: chirp
@@ -119,6 +121,40 @@ def test_parameter_changes_are_checked_and_scaled_the_same_way(ros_domain):
             assert 0.15 < node.trajectory.frequency_hz < 0.35 and node.trajectory.sweep_time_s > 15.0
             assert node.set_parameters_atomically([Parameter("feasibility", value="ignore")]).successful
             assert node.trajectory.end_frequency_hz == 3.0
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown()
+
+
+def test_the_planner_node_plans_on_the_controllers_arm_model_from_the_run_plan(tmp_path, ros_domain):
+    # identified.yaml sets only the controller's model_*: with 12 times the URDF's inertia the default
+    # sine needs about 11 N·m. The planner node, started from the run's parameter file, slows it exactly
+    # as the check before start (and the in-process loop) does; on its URDF alone it would leave it.
+    import rclpy
+
+    from robot_controller import parameters as cfg
+    from robot_controller.core.trajectory import Sine
+    from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
+    from robot_controller.parameters import consistency
+    from robot_controller.runner import plan
+
+    overlay = tmp_path / "identified.yaml"
+    overlay.write_text("pid_controller:\n  ros__parameters:\n    model_inertia: [1.0]\n")
+    params = cfg.load_stack("default", [overlay])
+    expected = consistency.trajectory_plan(params)
+    assert isinstance(expected.trajectory, Sine) and expected.trajectory.frequency_hz < 0.45
+    run = plan.plan(params, out_dir=tmp_path / "run", sim_time=True)
+    (planner,) = [node for node in run.nodes if node.name == "trajectory_planner"]
+    rclpy.init(args=["trajectory_planner", *planner.args], domain_id=ros_domain)
+    try:
+        node = TrajectoryPlanner()
+        try:
+            assert node.params["model_inertia"] == [1.0]
+            assert node.dynamics.describe() == arm_model(params["pid_controller"]).describe()
+            assert isinstance(node.trajectory, Sine)
+            assert node.trajectory.frequency_hz == expected.trajectory.frequency_hz
+            assert node._plan.warning == expected.warning
         finally:
             node.destroy_node()
     finally:

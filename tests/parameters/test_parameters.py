@@ -132,3 +132,63 @@ def test_a_param_dump_reads_back_as_a_config(tmp_path):
     )
     values = cfg.load_stack("default", [dump])["pid_controller"]
     assert values["kp"] == [60.0] and "law_in_force" not in values
+
+
+def test_a_run_plan_gives_the_planner_the_controllers_arm_model(tmp_path):
+    """``identified.yaml`` sets only the controller's ``model_*``: the planner node gets the same values
+    in the run's parameter file, so it checks its trajectory against the arm the controller models."""
+    from robot_controller.parameters import consistency
+    from robot_controller.parameters.builders import MODEL_KEYS, arm_model
+    from robot_controller.runner import plan
+
+    overlay = tmp_path / "identified.yaml"
+    overlay.write_text(
+        "pid_controller:\n  ros__parameters:\n    model_inertia: [1.0]\n    model_gravity_torque: [2.0]\n"
+    )
+    params = cfg.load_stack("default", [overlay])
+    assert params["trajectory_planner"]["model_inertia"] == []  # nothing set for the planner itself
+    run = plan.plan(params, out_dir=tmp_path / "run", sim_time=True)
+    written = cfg.read_params_file(tmp_path / "run" / "params.yaml")
+    assert "&id" not in (tmp_path / "run" / "params.yaml").read_text()  # no YAML alias: rcl refuses them
+    for key in MODEL_KEYS:
+        assert written["trajectory_planner"][key] == written["pid_controller"][key] == params["pid_controller"][key]
+    planner_model = arm_model(written["trajectory_planner"])
+    assert planner_model.describe() == arm_model(params["pid_controller"]).describe()
+    assert "inertia [1]" in planner_model.describe()
+    assert all(str(tmp_path / "run" / "params.yaml") in node.args for node in run.nodes)
+    # The check before start plans on that model too: the sine slowed (on the URDF alone it is left).
+    assert "scaled in time" in consistency.trajectory_plan(params).warning
+    assert params["trajectory_planner"]["model_inertia"] == []  # the caller's values are left as they were
+
+
+def test_planner_model_values_that_disagree_with_the_controllers_are_refused(tmp_path):
+    from robot_controller.parameters import consistency
+    from robot_controller.runner import plan
+
+    params = cfg.load_stack("default")
+    params["pid_controller"]["model_inertia"] = [0.2]
+    params["trajectory_planner"]["model_inertia"] = [0.2]  # the same: accepted
+    consistency.check_stack(params)
+    params["trajectory_planner"]["model_inertia"] = [0.3]
+    with pytest.raises(ConfigError) as refused:
+        consistency.check_stack(params)
+    message = str(refused.value)
+    assert "\n" not in message
+    assert message.startswith(
+        "trajectory_planner: model_inertia [0.3] differs from pid_controller's [0.2], the arm model its trajectory "
+        "is checked against"
+    ), message
+    with pytest.raises(ConfigError, match=r"^trajectory_planner: model_inertia \[0\.3\] differs"):
+        plan.plan(params, out_dir=tmp_path / "run")
+    assert not (tmp_path / "run").exists()
+    # Set for the planner alone, the controller on its URDF: refused too.
+    params["pid_controller"]["model_inertia"] = []
+    params["trajectory_planner"].update(model_inertia=[], model_damping=[0.5])
+    with pytest.raises(ConfigError, match=r"model_damping \[0\.5\] differs from pid_controller's \[\] \(the URDF's\)"):
+        consistency.check_stack(params)
+    # Set once for every node: the same on both, accepted.
+    everyone = tmp_path / "everyone.yaml"
+    everyone.write_text("/**:\n  ros__parameters:\n    model_damping: [0.5]\n")
+    both = cfg.load_stack("default", [everyone])
+    assert both["trajectory_planner"]["model_damping"] == both["pid_controller"]["model_damping"] == [0.5]
+    consistency.check_stack(both)
