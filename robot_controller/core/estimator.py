@@ -89,6 +89,10 @@ class KalmanConfig:
     #: readings later than their stamps): it then follows the readings rather than its model
     mismatch_acceleration_noise_std: float = 2.0
     mismatch_disturbance_noise_std: float = 0.3
+    #: s, how uncertain the instant is from which a new command acts on the arm: 0 where commands take
+    #: effect on a known schedule (lockstep, the in-process loop); on the wall clock, the command path's
+    #: latency and its jitter. A change of command Δτ then leaves the velocity uncertain by Δτ·this/inertia.
+    command_timing_uncertainty_s: float = 0.0
 
     def __post_init__(self) -> None:
         for name in (
@@ -103,6 +107,10 @@ class KalmanConfig:
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
                 raise ConfigError(f"{name}: must be a finite number > 0, got {value}")
+        if not np.isfinite(self.command_timing_uncertainty_s) or self.command_timing_uncertainty_s < 0:
+            raise ConfigError(
+                f"command_timing_uncertainty_s: must be a finite number ≥ 0, got {self.command_timing_uncertainty_s}"
+            )
         if not np.isfinite(self.jump_detection_sigma) or self.jump_detection_sigma < 0:
             raise ConfigError(f"jump_detection_sigma: must be a finite number ≥ 0, got {self.jump_detection_sigma}")
 
@@ -240,9 +248,17 @@ class JointKalmanFilter:
         return self._inverse_mass @ self.x[:, 2]
 
     def update(
-        self, time_s: float, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray
+        self,
+        time_s: float,
+        position: np.ndarray,
+        velocity: np.ndarray,
+        torque: np.ndarray,
+        torque_change: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Take a reading stamped ``time_s``; ``torque`` is what acted since the last one.
+        ``torque_change`` (N·m per joint): how much the command changed about the
+        start of that span, when the instant it took effect is uncertain
+        (``command_timing_uncertainty_s``).
 
         Returns the filtered ``(position, velocity)``.
         """
@@ -275,6 +291,14 @@ class JointKalmanFilter:
             F[:, 1, 2] = b * dt
             F[:, 2, 2] = 1.0
             Q = process_noise(self.config, dt, b, sigma_d, sigma_a)
+        if torque_change is not None and self.config.command_timing_uncertainty_s > 0:
+            # A velocity step of unknown size (the change acting that much sooner or later) early in the span.
+            inverse_inertia = 1.0 / np.diag(self.mass_matrix(q)) if self.mass_matrix is not None else None
+            if inverse_inertia is not None:
+                sigma_v = np.abs(torque_change) * self.config.command_timing_uncertainty_s * inverse_inertia
+                G = np.array([dt, 1.0])
+                Q = Q.copy()
+                Q[..., :2, :2] = Q[..., :2, :2] + np.outer(G, G) * (sigma_v**2)[:, None, None]
         q, v = self._step_model(q, v, torque, dt)
         x_pred = self.x.copy()
         x_pred[:, 0], x_pred[:, 1] = q, v

@@ -72,7 +72,11 @@ class StateAtTick:
             if readings.stamp_s != self._filtered_stamp_s:
                 # The torque that acted since the last reading: the last command issued before it.
                 self._filtered = self.kalman.update(
-                    readings.stamp_s, position, velocity, self.command_before(readings.stamp_s)
+                    readings.stamp_s,
+                    position,
+                    velocity,
+                    self.command_before(readings.stamp_s),
+                    self.command_change(self._filtered_stamp_s, readings.stamp_s),
                 )
                 self._filtered_stamp_s = readings.stamp_s
             position, velocity = self._filtered
@@ -144,6 +148,21 @@ class StateAtTick:
             if issued_s < time_s - TIME_EPS_S:
                 torque = command
         return torque
+
+    def command_change(self, from_s: float, to_s: float) -> np.ndarray:
+        """How much the command changed (N·m per joint, root of the sum of
+        squares of each change) with the commands issued in ``[from_s, to_s)``,
+        against the one in force before."""
+        squared = np.zeros(self.joint_count)
+        before: np.ndarray | None = None
+        for issued_s, command in self._commands:
+            if issued_s < from_s - TIME_EPS_S:
+                before = command
+            elif issued_s < to_s - TIME_EPS_S:
+                if before is not None:
+                    squared += (command - before) ** 2
+                before = command
+        return np.sqrt(squared)
 
     def predict(
         self, position: np.ndarray, velocity: np.ndarray, from_s: float, to_s: float

@@ -48,7 +48,9 @@ def simulate(
     n = len(plant.joint_names)
     plant.reset(cfg.per_joint("initial_position", sim["initial_position"], n))
     dynamics = arm_model(ctrl)  # the URDF's, or the controller's model_* values over it
-    controller_config = cfg.controller_config(ctrl, n)
+    controller_config = cfg.controller_config(
+        dict(ctrl, lockstep=True), n
+    )  # each command acts from its tick, as in lockstep
     controller = JointController(controller_config, n, dynamics)
     actuator = Actuator(cfg.per_joint("torque_max", motor["torque_max"], n), motor["lag_time_constant_s"])
     return run_loop(

@@ -82,6 +82,8 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
             jump_detection_sigma=values["kalman_disturbance_jump_sigma"],
             mismatch_acceleration_noise_std=values["kalman_mismatch_acceleration_noise_std"],
             mismatch_disturbance_noise_std=values["kalman_mismatch_disturbance_noise_std"],
+            # Lockstep applies each command from its tick exactly; on the wall clock it is a guess.
+            command_timing_uncertainty_s=0.0 if values["lockstep"] else values["kalman_command_timing_uncertainty_s"],
         )
     return ControllerConfig(
         pid=pid,

@@ -242,6 +242,14 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
             exclusive_minimum=True,
         ),
         ParamSpec(
+            "kalman_command_timing_uncertainty_s",
+            float,
+            0.01,
+            "Kalman filter, on the wall clock only: how uncertain the instant is from which a new command acts on the arm (the command path's latency and jitter), s; a change of command Δτ leaves the velocity that much less certain (Δτ·this/inertia). Lockstep applies each command from its tick: 0 there",
+            minimum=0.0,
+            maximum=0.1,
+        ),
+        ParamSpec(
             "kalman_mismatch_disturbance_noise_std",
             float,
             0.3,
