@@ -181,7 +181,13 @@ class JointController:
         """The drive reports its brakes. While they hold, whatever this
         controller commands does not move the arm: start again from the
         measurement every tick (no integral winds up), so the release finds a
-        reference that begins where the arm is."""
+        reference that begins where the arm is. Their release asks for one more
+        start: a reading taken while they held, or across the moment they let
+        go, shows the brake's work, which the filter's model knows nothing of
+        (a one-tick brake took 3 rad/s off the arm, and the filter read it as
+        a 10 N·m external torque)."""
+        if self._braked and not engaged:
+            self._reference.request_reacquire()
         self._braked = engaged
 
     # --- the tick ---------------------------------------------------------------------

@@ -60,6 +60,11 @@ DISTURBANCE_PRIOR_STD_NM = 2.0
 CONSISTENCY_TIME_S = 0.3
 MISMATCH_FROM = 4.0
 MISMATCH_SPAN = 2.0
+# A jump is taken only when what a torque step does not explain of a reading's surprise is noise:
+# below this squared distance (χ² with 1 degree of freedom: 3 σ).
+JUMP_RESIDUAL_MAX = 9.0
+# Where a (re)started filter's average starts: fully disagreeing, until its readings show otherwise.
+UNPROVEN_DISTANCE_SQ = MISMATCH_FROM + MISMATCH_SPAN
 
 
 @dataclass(frozen=True)
@@ -226,7 +231,7 @@ class JointKalmanFilter:
         #: per joint, how many readings were taken as a jump of the external torque
         self.jump_count = np.zeros(joint_count, dtype=int)
         #: per joint, the innovation's squared Mahalanobis distance, averaged (2 while readings agree)
-        self._distance_sq_average = np.full(joint_count, 2.0)
+        self._distance_sq_average = np.full(joint_count, UNPROVEN_DISTANCE_SQ)
 
     def reset(self) -> None:
         """Forget the state: the next reading starts the filter again (and the disturbance from 0)."""
@@ -273,7 +278,11 @@ class JointKalmanFilter:
                 self.P[:, 2, 2] = DISTURBANCE_PRIOR_STD_NM**2
                 self._inverse_mass = np.linalg.inv(self.mass_matrix(np.asarray(position, float)))
             self.time_s = time_s
-            self._distance_sq_average = np.full(self.joint_count, 2.0)  # agreeing, as expected
+            # Trust is earned: a (re)started filter follows its readings, and takes no jump, until
+            # they have agreed with it for a while (about 0.2 s). After a fault (a frozen node, a
+            # brake that held the arm a little longer than reported) the first readings can be far
+            # from any model, and one taken as a jump would command the full torque the wrong way.
+            self._distance_sq_average = np.full(self.joint_count, UNPROVEN_DISTANCE_SQ)
             return position.copy(), velocity.copy()
         dt = time_s - self.time_s
         self.time_s = time_s
@@ -305,11 +314,12 @@ class JointKalmanFilter:
         P_pred = F @ self.P @ np.swapaxes(F, -1, -2) + Q
         innovation = z - x_pred[:, :2]
         S = P_pred[:, :2, :2] + self.R
-        distance_sq = np.einsum("ni,nij,nj->n", innovation, np.linalg.inv(S), innovation)
+        S_inv = np.linalg.inv(S)
+        distance_sq = np.einsum("ni,nij,nj->n", innovation, S_inv, innovation)
         agreeing = self._distance_sq_average < MISMATCH_FROM
         jumped = np.zeros(self.joint_count, dtype=bool)
         if self.estimates_disturbance and self.config.jump_detection_sigma > 0:
-            jumped = agreeing & (distance_sq > self.config.jump_detection_sigma**2)
+            jumped = agreeing & self._looks_like_a_jump(innovation, S_inv, distance_sq, b, dt)
             P_pred, S = self._allow_jumps(P_pred, jumped, b, dt)
         # A reading taken as a jump is explained by it: it does not count as disagreement.
         alpha = min(1.0, dt / CONSISTENCY_TIME_S)
@@ -343,6 +353,22 @@ class JointKalmanFilter:
             c.acceleration_noise_std**2 + w * (far.acceleration_noise_std**2 - c.acceleration_noise_std**2)
         )
         return sigma_d, sigma_a
+
+    def _looks_like_a_jump(
+        self, innovation: np.ndarray, S_inv: np.ndarray, distance_sq: np.ndarray, b: np.ndarray, dt: float
+    ) -> np.ndarray:
+        """Per joint, whether the reading's surprise is that of a torque step at
+        the start of the period (a generalised likelihood ratio test): the part
+        of its squared distance a step explains (the step moves velocity by
+        ``b·dt`` and position by ``b·dt²/2`` per N·m, so it is almost all
+        velocity) beyond ``jump_detection_sigma``², and what is left no more
+        than noise. A reading late by more than its stamp says is surprising
+        mostly in position, and is not taken for a push."""
+        g = np.stack([0.5 * b * dt * dt, b * dt], axis=-1)  # (n, 2): the reading's change per N·m of step
+        along = np.einsum("ni,nij,nj->n", g, S_inv, innovation)
+        weight = np.einsum("ni,nij,nj->n", g, S_inv, g)
+        explained = along**2 / weight
+        return (explained > self.config.jump_detection_sigma**2) & (distance_sq - explained < JUMP_RESIDUAL_MAX)
 
     def _allow_jumps(
         self, P_pred: np.ndarray, jumped: np.ndarray, b: np.ndarray, dt: float
