@@ -36,6 +36,48 @@ URDF = ParamSpec(
     read_only=True,
 )
 
+
+def arm_model_specs(lead: str = "arm model: ") -> tuple[ParamSpec, ...]:
+    """The arm model's per-joint values (empty: the URDF's), for the controller and, led by ``lead``,
+    for the planner that checks its trajectory against the same model."""
+    common = {"per_joint": True, "allow_empty": True, "read_only": True}
+    return (
+        ParamSpec(
+            "model_inertia",
+            float,
+            [],
+            lead + "each joint's inertia about its axis, kg·m² (empty: the URDF's)",
+            minimum=0.0,
+            exclusive_minimum=True,
+            **common,
+        ),
+        ParamSpec(
+            "model_damping",
+            float,
+            [],
+            lead + "each joint's viscous damping, N·m·s/rad (empty: the URDF's)",
+            minimum=0.0,
+            **common,
+        ),
+        ParamSpec(
+            "model_coulomb_friction",
+            float,
+            [],
+            lead + "each joint's Coulomb (dry) friction, N·m (empty: the URDF's)",
+            minimum=0.0,
+            **common,
+        ),
+        ParamSpec(
+            "model_gravity_torque",
+            float,
+            [],
+            lead + "gravity's torque on each joint with its link horizontal (m·g·l_c), N·m; the torque is this "
+            "times cos(q), q = 0 horizontal as in the reference arm (empty: the URDF's)",
+            **common,
+        ),
+    )
+
+
 # Rates have a floor and a ceiling this stack can keep: a rate beyond it starves
 # the loop, one below it leaves the watchdog with nothing to watch.
 SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
@@ -303,46 +345,7 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         # The arm model every model-based part uses (feedforward, Kalman prediction, LQR design, latency
         # compensation, the controlled stop): the URDF's unless these say otherwise (`robot-controller identify`
         # writes them). Any one set: tau = I·a + b·v + f_c·sign(v) + G·cos(q) per joint, the rest from the URDF.
-        ParamSpec(
-            "model_inertia",
-            float,
-            [],
-            "arm model: each joint's inertia about its axis, kg·m² (empty: the URDF's)",
-            per_joint=True,
-            allow_empty=True,
-            minimum=0.0,
-            exclusive_minimum=True,
-            read_only=True,
-        ),
-        ParamSpec(
-            "model_damping",
-            float,
-            [],
-            "arm model: each joint's viscous damping, N·m·s/rad (empty: the URDF's)",
-            per_joint=True,
-            allow_empty=True,
-            minimum=0.0,
-            read_only=True,
-        ),
-        ParamSpec(
-            "model_coulomb_friction",
-            float,
-            [],
-            "arm model: each joint's Coulomb (dry) friction, N·m (empty: the URDF's)",
-            per_joint=True,
-            allow_empty=True,
-            minimum=0.0,
-            read_only=True,
-        ),
-        ParamSpec(
-            "model_gravity_torque",
-            float,
-            [],
-            "arm model: gravity's torque on each joint with its link horizontal (m·g·l_c), N·m; the torque is this times cos(q), q = 0 horizontal as in the reference arm (empty: the URDF's)",
-            per_joint=True,
-            allow_empty=True,
-            read_only=True,
-        ),
+        *arm_model_specs(),
         ParamSpec(
             "torque_max", float, [10.0], "output limit, N·m", per_joint=True, minimum=0.0, exclusive_minimum=True
         ),
@@ -457,45 +460,9 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         URDF,
         # The arm model the trajectory is checked against: the controller's (`run` passes pid_controller's
         # model_* values on to these when they are empty; set, they must equal the controller's).
-        ParamSpec(
-            "model_inertia",
-            float,
-            [],
-            "arm model the trajectory is checked against: each joint's inertia about its axis, kg·m² (empty: the URDF's); the controller's model_inertia (run passes it on), set here it must equal it",
-            per_joint=True,
-            allow_empty=True,
-            minimum=0.0,
-            exclusive_minimum=True,
-            read_only=True,
-        ),
-        ParamSpec(
-            "model_damping",
-            float,
-            [],
-            "arm model the trajectory is checked against: each joint's viscous damping, N·m·s/rad (empty: the URDF's); the controller's model_damping (run passes it on), set here it must equal it",
-            per_joint=True,
-            allow_empty=True,
-            minimum=0.0,
-            read_only=True,
-        ),
-        ParamSpec(
-            "model_coulomb_friction",
-            float,
-            [],
-            "arm model the trajectory is checked against: each joint's Coulomb (dry) friction, N·m (empty: the URDF's); the controller's model_coulomb_friction (run passes it on), set here it must equal it",
-            per_joint=True,
-            allow_empty=True,
-            minimum=0.0,
-            read_only=True,
-        ),
-        ParamSpec(
-            "model_gravity_torque",
-            float,
-            [],
-            "arm model the trajectory is checked against: gravity's torque on each joint with its link horizontal, N·m, times cos(q) (empty: the URDF's); the controller's model_gravity_torque (run passes it on), set here it must equal it",
-            per_joint=True,
-            allow_empty=True,
-            read_only=True,
+        *arm_model_specs(
+            "the arm model the trajectory is checked against, the controller's (run passes its values on; set "
+            "here, they must equal it): "
         ),
         ParamSpec(
             "torque_max",
