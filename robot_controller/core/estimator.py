@@ -230,6 +230,8 @@ class JointKalmanFilter:
         self._inverse_mass: np.ndarray | None = None
         #: per joint, how many readings were taken as a jump of the external torque
         self.jump_count = np.zeros(joint_count, dtype=int)
+        #: per joint, how many readings no external torque within the limit could explain (restarts)
+        self.restart_count = np.zeros(joint_count, dtype=int)
         #: per joint, the innovation's squared Mahalanobis distance, averaged (2 while readings agree)
         self._distance_sq_average = np.full(joint_count, UNPROVEN_DISTANCE_SQ)
 
@@ -271,18 +273,11 @@ class JointKalmanFilter:
         m = self.size
         if self.x is None or self.time_s is None or not (0 < time_s - self.time_s < 1.0):
             self.x = np.zeros((self.joint_count, m))
-            self.x[:, :2] = z
             self.P = np.zeros((self.joint_count, m, m))
-            self.P[:, :2, :2] = self.R
             if self.estimates_disturbance:
-                self.P[:, 2, 2] = DISTURBANCE_PRIOR_STD_NM**2
                 self._inverse_mass = np.linalg.inv(self.mass_matrix(np.asarray(position, float)))
+            self._start(np.ones(self.joint_count, dtype=bool), z)
             self.time_s = time_s
-            # Trust is earned: a (re)started filter follows its readings, and takes no jump, until
-            # they have agreed with it for a while (about 0.2 s). After a fault (a frozen node, a
-            # brake that held the arm a little longer than reported) the first readings can be far
-            # from any model, and one taken as a jump would command the full torque the wrong way.
-            self._distance_sq_average = np.full(self.joint_count, UNPROVEN_DISTANCE_SQ)
             return position.copy(), velocity.copy()
         dt = time_s - self.time_s
         self.time_s = time_s
@@ -314,6 +309,7 @@ class JointKalmanFilter:
         P_pred = F @ self.P @ np.swapaxes(F, -1, -2) + Q
         innovation = z - x_pred[:, :2]
         S = P_pred[:, :2, :2] + self.R
+        unexplainable = self._beyond_any_disturbance(innovation, S, b, dt) if self.estimates_disturbance else None
         S_inv = np.linalg.inv(S)
         distance_sq = np.einsum("ni,nij,nj->n", innovation, S_inv, innovation)
         agreeing = self._distance_sq_average < MISMATCH_FROM
@@ -336,7 +332,36 @@ class JointKalmanFilter:
         if self.estimates_disturbance:
             self.P = 0.5 * (self.P + np.swapaxes(self.P, -1, -2))
             self.x[:, 2] = np.clip(self.x[:, 2], -self.disturbance_limit, self.disturbance_limit)
+            if unexplainable.any():
+                self._start(unexplainable, z)
+                self.restart_count += unexplainable
         return self.x[:, 0].copy(), self.x[:, 1].copy()
+
+    def _start(self, joints: np.ndarray, z: np.ndarray) -> None:
+        """Start the filter of ``joints`` (bool per joint) afresh from the reading ``z`` (n, 2):
+        the state the reading, the external torque 0. Trust is earned: a (re)started filter
+        follows its readings, and takes no jump, until they have agreed with it for a while
+        (about 0.2 s). After a fault (a frozen node, a brake that held the arm a little longer
+        than reported) the first readings can be far from any model, and one taken as a jump
+        would command the full torque the wrong way."""
+        self.x[joints] = 0.0
+        self.x[joints, :2] = z[joints]
+        self.P[joints] = 0.0
+        self.P[joints, :2, :2] = self.R
+        if self.estimates_disturbance:
+            self.P[joints, 2, 2] = DISTURBANCE_PRIOR_STD_NM**2
+        self._distance_sq_average[joints] = UNPROVEN_DISTANCE_SQ
+
+    def _beyond_any_disturbance(self, innovation: np.ndarray, S: np.ndarray, b: np.ndarray, dt: float) -> np.ndarray:
+        """Per joint, whether the reading's velocity is further from the prediction
+        than any external torque within ``disturbance_limit`` could have moved it
+        over the period (with 5 σ of noise to spare): a brake that held the arm, a
+        hard contact, a reading from before a fault. Such a reading is true but
+        says nothing of a torque that will go on acting: the filter starts again
+        from it (the external torque back to 0) instead of estimating one at
+        the limit, which would be commanded against a force that is gone."""
+        reach = self.disturbance_limit * b * dt + 5.0 * np.sqrt(S[:, 1, 1])
+        return np.abs(innovation[:, 1]) > reach
 
     def _noise_in_force(self) -> tuple[np.ndarray, np.ndarray]:
         """Per joint, the σ of the disturbance's random walk (N·m/√s) and of the

@@ -135,3 +135,27 @@ def test_the_command_change_over_a_span_is_what_the_controller_issued_in_it():
     assert state.command_change(0.005, 0.015)[0] == pytest.approx(0.5)
     assert state.command_change(0.015, 0.025)[0] == pytest.approx(0.0)
     assert state.command_change(0.005, 0.035)[0] == pytest.approx(np.hypot(0.5, 1.0))
+
+
+def test_a_reading_no_torque_within_the_limit_explains_restarts_the_filter(dynamics):
+    # A brake that held the moving arm for part of a period: the velocity drops by more than
+    # the torque limit could do in a period. Taken as an external torque it would be estimated
+    # at the limit and commanded against once the brake has let go; instead the filter starts
+    # again from the reading, the external torque back to 0.
+    kf = JointKalmanFilter(
+        KalmanConfig(),
+        1,
+        dynamics.predict,
+        estimate_disturbance=True,
+        mass_matrix=dynamics.mass_matrix,
+        disturbance_limit=np.array([10.0]),
+    )
+    torque = dynamics.gravity(np.zeros(1))
+    for k in range(100):  # at rest, horizontal, held by the model's torque
+        kf.update(k * DT, np.zeros(1), np.zeros(1), torque)
+    q, v = kf.update(100 * DT, np.zeros(1), np.array([-3.0]), torque)  # 3 rad/s gone in one period
+    assert kf.restart_count[0] == 1 and kf.disturbance[0] == 0.0
+    assert v[0] == -3.0  # the reading, as it is
+    q_next, v_next = kf.predict(q, v, torque, DT)
+    kf.update(101 * DT, q_next, v_next + 0.06, torque)  # 0.5 N·m's worth: within reach, no restart
+    assert kf.restart_count[0] == 1
