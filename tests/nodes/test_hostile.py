@@ -147,13 +147,15 @@ def test_parameters_that_would_break_the_loop_are_refused_with_a_reason(tmp_path
         probe.close()
         for process in nodes.values():
             process.send_signal(signal.SIGINT)
-        for process in nodes.values():
+        outputs = {}
+        for name, process in nodes.items():
             try:
-                process.communicate(timeout=15)
+                outputs[name] = process.communicate(timeout=15)[0]
             except subprocess.TimeoutExpired:
                 process.kill()
-                process.communicate()
-    assert all(process.returncode == 0 for process in nodes.values())
+                outputs[name] = process.communicate()[0]
+    failed = {name: (p.returncode, outputs[name][-800:]) for name, p in nodes.items() if p.returncode != 0}
+    assert not failed, failed  # each node's exit code and last words
 
 
 def test_a_run_whose_recorder_and_launcher_were_killed_is_still_scored(tmp_path, ros_domain):
