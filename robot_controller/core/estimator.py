@@ -29,7 +29,15 @@ says. The estimate is kept within ``±disturbance_limit`` (the controller's
 torque limit: a larger one could not be compensated anyway) and starts from
 0 whenever the filter does (:meth:`JointKalmanFilter.reset`).
 
-Longer than our ~250-line guideline: the filter with and without the disturbance state, and its linearised covariance.
+**Trust**: while the readings agree with it, the filter trusts its model
+(small process noise) and so averages the sensor noise over about a second;
+a reading that stands out as a torque step would is taken as a jump of ``d``;
+while the readings disagree it moves to following them; a reading no torque
+within the limit explains restarts it. What it makes of each reading's
+surprise is in :mod:`robot_controller.core.innovation`.
+
+Longer than our ~250-line guideline: the filter with and without the
+disturbance state, its linearised covariance and the uses of its surprise.
 """
 
 from __future__ import annotations
@@ -39,6 +47,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from robot_controller.core import innovation
 from robot_controller.core.errors import ConfigError
 
 # Finite-difference steps for the model's slopes, rad and rad/s.
@@ -52,19 +61,6 @@ MassMatrix = Callable[[np.ndarray], np.ndarray]
 # N·m, σ of the disturbance estimate when the filter (re)starts: nothing is known
 # of it yet, so the first readings set it (a couple of periods).
 DISTURBANCE_PRIOR_STD_NM = 2.0
-# How the filter tells whether its readings agree with it: the squared Mahalanobis distance of
-# each reading's innovation (χ² with 2 degrees of freedom, mean 2 when they agree), averaged
-# over about CONSISTENCY_TIME_S. From MISMATCH_FROM on the process noise moves towards the
-# mismatch σ, reached at MISMATCH_FROM + MISMATCH_SPAN; a jump is taken only below
-# MISMATCH_FROM (a reading that stands out from readings that agree).
-CONSISTENCY_TIME_S = 0.3
-MISMATCH_FROM = 4.0
-MISMATCH_SPAN = 2.0
-# A jump is taken only when what a torque step does not explain of a reading's surprise is noise:
-# below this squared distance (χ² with 1 degree of freedom: 3 σ).
-JUMP_RESIDUAL_MAX = 9.0
-# Where a (re)started filter's average starts: fully disagreeing, until its readings show otherwise.
-UNPROVEN_DISTANCE_SQ = MISMATCH_FROM + MISMATCH_SPAN
 
 
 @dataclass(frozen=True)
@@ -233,7 +229,7 @@ class JointKalmanFilter:
         #: per joint, how many readings no external torque within the limit could explain (restarts)
         self.restart_count = np.zeros(joint_count, dtype=int)
         #: per joint, the innovation's squared Mahalanobis distance, averaged (2 while readings agree)
-        self._distance_sq_average = np.full(joint_count, UNPROVEN_DISTANCE_SQ)
+        self._distance_sq_average = np.full(joint_count, innovation.UNPROVEN_DISTANCE_SQ)
 
     def reset(self) -> None:
         """Forget the state: the next reading starts the filter again (and the disturbance from 0)."""
@@ -307,25 +303,23 @@ class JointKalmanFilter:
         x_pred = self.x.copy()
         x_pred[:, 0], x_pred[:, 1] = q, v
         P_pred = F @ self.P @ np.swapaxes(F, -1, -2) + Q
-        innovation = z - x_pred[:, :2]
+        surprise = z - x_pred[:, :2]  # the innovation
         S = P_pred[:, :2, :2] + self.R
-        unexplainable = self._beyond_any_disturbance(innovation, S, b, dt) if self.estimates_disturbance else None
+        unexplainable = None
+        if self.estimates_disturbance:
+            unexplainable = innovation.beyond_any_disturbance(surprise, S, b * dt, self.disturbance_limit)
         S_inv = np.linalg.inv(S)
-        distance_sq = np.einsum("ni,nij,nj->n", innovation, S_inv, innovation)
-        agreeing = self._distance_sq_average < MISMATCH_FROM
+        distance_sq = np.einsum("ni,nij,nj->n", surprise, S_inv, surprise)
         jumped = np.zeros(self.joint_count, dtype=bool)
         if self.estimates_disturbance and self.config.jump_detection_sigma > 0:
-            jumped = agreeing & self._looks_like_a_jump(innovation, S_inv, distance_sq, b, dt)
+            step = np.stack([0.5 * b * dt * dt, b * dt], axis=-1)  # the reading's change per N·m of a step
+            jumped = innovation.agreeing(self._distance_sq_average) & innovation.looks_like_a_jump(
+                surprise, S_inv, distance_sq, step, self.config.jump_detection_sigma
+            )
             P_pred, S = self._allow_jumps(P_pred, jumped, b, dt)
-        # A reading taken as a jump is explained by it: it does not count as disagreement.
-        alpha = min(1.0, dt / CONSISTENCY_TIME_S)
-        self._distance_sq_average = np.where(
-            jumped,
-            self._distance_sq_average,
-            self._distance_sq_average + alpha * (distance_sq - self._distance_sq_average),
-        )
+        self._distance_sq_average = innovation.updated_average(self._distance_sq_average, distance_sq, jumped, dt)
         K = P_pred[:, :, :2] @ np.linalg.inv(S)  # (n, m, 2)
-        self.x = x_pred + np.einsum("nij,nj->ni", K, innovation)
+        self.x = x_pred + np.einsum("nij,nj->ni", K, surprise)
         KH = np.zeros((self.joint_count, m, m))
         KH[:, :, :2] = K
         self.P = (np.eye(m) - KH) @ P_pred
@@ -350,50 +344,17 @@ class JointKalmanFilter:
         self.P[joints, :2, :2] = self.R
         if self.estimates_disturbance:
             self.P[joints, 2, 2] = DISTURBANCE_PRIOR_STD_NM**2
-        self._distance_sq_average[joints] = UNPROVEN_DISTANCE_SQ
-
-    def _beyond_any_disturbance(self, innovation: np.ndarray, S: np.ndarray, b: np.ndarray, dt: float) -> np.ndarray:
-        """Per joint, whether the reading's velocity is further from the prediction
-        than any external torque within ``disturbance_limit`` could have moved it
-        over the period (with 5 σ of noise to spare): a brake that held the arm, a
-        hard contact, a reading from before a fault. Such a reading is true but
-        says nothing of a torque that will go on acting: the filter starts again
-        from it (the external torque back to 0) instead of estimating one at
-        the limit, which would be commanded against a force that is gone."""
-        reach = self.disturbance_limit * b * dt + 5.0 * np.sqrt(S[:, 1, 1])
-        return np.abs(innovation[:, 1]) > reach
+        self._distance_sq_average[joints] = innovation.UNPROVEN_DISTANCE_SQ
 
     def _noise_in_force(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per joint, the σ of the disturbance's random walk (N·m/√s) and of the
-        unmodelled acceleration (rad/s²) this period: the configured ones while
-        the readings agree with the filter, moving (in variance, linearly with
-        the average distance) to the mismatch ones as they stop agreeing. A
-        filter that trusts its model averages the sensor noise away; one whose
-        model is wrong must follow the readings instead."""
-        c = self.config
-        w = np.clip((self._distance_sq_average - MISMATCH_FROM) / MISMATCH_SPAN, 0.0, 1.0)
-        far = c.at_mismatch()
-        sigma_d = np.sqrt(c.disturbance_noise_std**2 + w * (far.disturbance_noise_std**2 - c.disturbance_noise_std**2))
-        sigma_a = np.sqrt(
-            c.acceleration_noise_std**2 + w * (far.acceleration_noise_std**2 - c.acceleration_noise_std**2)
+        """Per joint, the σ in force this period (disturbance N·m/√s, acceleration rad/s²):
+        :func:`innovation.noise_in_force` at the readings' agreement so far."""
+        c, far = self.config, self.config.at_mismatch()
+        return innovation.noise_in_force(
+            self._distance_sq_average,
+            (c.disturbance_noise_std, c.acceleration_noise_std),
+            (far.disturbance_noise_std, far.acceleration_noise_std),
         )
-        return sigma_d, sigma_a
-
-    def _looks_like_a_jump(
-        self, innovation: np.ndarray, S_inv: np.ndarray, distance_sq: np.ndarray, b: np.ndarray, dt: float
-    ) -> np.ndarray:
-        """Per joint, whether the reading's surprise is that of a torque step at
-        the start of the period (a generalised likelihood ratio test): the part
-        of its squared distance a step explains (the step moves velocity by
-        ``b·dt`` and position by ``b·dt²/2`` per N·m, so it is almost all
-        velocity) beyond ``jump_detection_sigma``², and what is left no more
-        than noise. A reading late by more than its stamp says is surprising
-        mostly in position, and is not taken for a push."""
-        g = np.stack([0.5 * b * dt * dt, b * dt], axis=-1)  # (n, 2): the reading's change per N·m of step
-        along = np.einsum("ni,nij,nj->n", g, S_inv, innovation)
-        weight = np.einsum("ni,nij,nj->n", g, S_inv, g)
-        explained = along**2 / weight
-        return (explained > self.config.jump_detection_sigma**2) & (distance_sq - explained < JUMP_RESIDUAL_MAX)
 
     def _allow_jumps(
         self, P_pred: np.ndarray, jumped: np.ndarray, b: np.ndarray, dt: float

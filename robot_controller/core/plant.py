@@ -272,6 +272,8 @@ class ArmDynamics:
             and not self.model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_EULERDAMP
             and np.any(self.model.dof_damping > 0)
         )
+        self._damping_matrix = np.diag(self.model.dof_damping)
+        self._mass = np.zeros((self.model.nv, self.model.nv))  # scratch for predict
 
     def torque(self, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         d = self._data
@@ -312,12 +314,15 @@ class ArmDynamics:
         bias a filter that trusts its model turns into 0.3 mrad of tracking error."""
         steps = max(1, int(np.ceil(horizon_s / max_step_s)))
         h = horizon_s / steps
-        damping = np.diag(self.damping) if self._implicit_damping else None
+        mass = self._mass
         for _ in range(steps):
             acceleration = self.acceleration(position, velocity, torque)
-            if damping is not None:
-                mass = self.mass_matrix(position)
-                acceleration = np.linalg.solve(mass + h * damping, mass @ acceleration)
+            if self._implicit_damping:
+                mujoco.mj_fullM(self.model, self._data, mass)  # of the forward pass just made
+                if self.model.nv == 1:  # one joint: a scalar, without numpy's solver around it
+                    acceleration = acceleration * (mass[0, 0] / (mass[0, 0] + h * self._damping_matrix[0, 0]))
+                else:
+                    acceleration = np.linalg.solve(mass + h * self._damping_matrix, mass @ acceleration)
             velocity = velocity + acceleration * h
             position = position + velocity * h
         return position, velocity
