@@ -218,6 +218,7 @@ class JointKalmanFilter:
             else np.broadcast_to(np.asarray(disturbance_limit, float), (joint_count,)).copy()
         )
         self.size = 3 if self.estimates_disturbance else 2
+        self._mismatch = config.at_mismatch()  #: the filter while its readings disagree with it
         self.x: np.ndarray | None = None  # (n, 2): q, v per joint; (n, 3): q, v, d
         self.P = np.zeros((joint_count, self.size, self.size))
         self.R = np.diag([config.position_noise_std**2, config.velocity_noise_std**2])
@@ -281,24 +282,25 @@ class JointKalmanFilter:
         F = np.zeros((self.joint_count, m, m))
         F[:, :2, :2] = self._transition(q, v, torque, dt)
         sigma_d, sigma_a = self._noise_in_force()
+        timing_uncertain = (
+            torque_change is not None and self.config.command_timing_uncertainty_s > 0 and self.mass_matrix is not None
+        )
+        if self.estimates_disturbance or timing_uncertain:
+            self._inverse_mass = np.linalg.inv(self.mass_matrix(q))
+            b = np.diag(self._inverse_mass)  # rad/s² per N·m on each joint's own axis
         if not self.estimates_disturbance:
             G = np.array([0.5 * dt * dt, dt])
             Q = np.outer(G, G) * (sigma_a**2)[:, None, None]
         else:
-            self._inverse_mass = np.linalg.inv(self.mass_matrix(q))
-            b = np.diag(self._inverse_mass)  # rad/s² per N·m on each joint's own axis
             F[:, 0, 2] = 0.5 * b * dt * dt
             F[:, 1, 2] = b * dt
             F[:, 2, 2] = 1.0
             Q = process_noise(self.config, dt, b, sigma_d, sigma_a)
-        if torque_change is not None and self.config.command_timing_uncertainty_s > 0:
+        if timing_uncertain:
             # A velocity step of unknown size (the change acting that much sooner or later) early in the span.
-            inverse_inertia = 1.0 / np.diag(self.mass_matrix(q)) if self.mass_matrix is not None else None
-            if inverse_inertia is not None:
-                sigma_v = np.abs(torque_change) * self.config.command_timing_uncertainty_s * inverse_inertia
-                G = np.array([dt, 1.0])
-                Q = Q.copy()
-                Q[..., :2, :2] = Q[..., :2, :2] + np.outer(G, G) * (sigma_v**2)[:, None, None]
+            sigma_v = np.abs(torque_change) * self.config.command_timing_uncertainty_s * b
+            G = np.array([dt, 1.0])
+            Q[:, :2, :2] += np.outer(G, G) * (sigma_v**2)[:, None, None]
         q, v = self._step_model(q, v, torque, dt)
         x_pred = self.x.copy()
         x_pred[:, 0], x_pred[:, 1] = q, v
@@ -349,7 +351,7 @@ class JointKalmanFilter:
     def _noise_in_force(self) -> tuple[np.ndarray, np.ndarray]:
         """Per joint, the σ in force this period (disturbance N·m/√s, acceleration rad/s²):
         :func:`innovation.noise_in_force` at the readings' agreement so far."""
-        c, far = self.config, self.config.at_mismatch()
+        c, far = self.config, self._mismatch
         return innovation.noise_in_force(
             self._distance_sq_average,
             (c.disturbance_noise_std, c.acceleration_noise_std),
