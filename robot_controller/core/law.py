@@ -92,7 +92,8 @@ def delay_margin_periods(
     as it is while the readings agree with it and as it becomes when they do
     not (late readings make them disagree: ``KalmanConfig.at_mismatch``), the
     worse of the two. (A jump is taken only among agreeing readings, so late
-    readings do not make the observer jump.)"""
+    readings seldom make the observer jump: twice in 6 s with 20 ms of
+    unaccounted delay, a bump but no chatter.)"""
     if dynamics is None:
         return None
     inertia = np.diag(dynamics.mass_matrix(np.zeros(joint_count)))
