@@ -250,7 +250,7 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
             "kalman_acceleration_noise_std",
             float,
             0.005,
-            "Kalman filter: unmodelled acceleration σ, rad/s², while the readings agree with the filter: small, so that it trusts the arm model and averages the sensor noise away over about a second",
+            "Kalman filter: unmodelled acceleration σ, rad/s², while the readings agree with the filter: small, so that it trusts the arm model and averages the sensor noise away over about a second. Lockstep only: on the wall clock the filter runs at its mismatch settings and takes no jumps",
             minimum=0.0,
             exclusive_minimum=True,
         ),
@@ -272,7 +272,7 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
             "kalman_disturbance_jump_sigma",
             float,
             5.0,
-            "disturbance observer: a reading this many σ from the filter's prediction, among readings that agree with it, is taken as a sudden external torque (a push), which the observer follows within a period or two; 0: never",
+            "disturbance observer: a reading this many σ from the filter's prediction, among readings that agree with it, is taken as a sudden external torque (a push), which the observer follows within a period or two; 0: never. Lockstep only (on the wall clock a push begins anywhere inside a period)",
             minimum=0.0,
         ),
         ParamSpec(
