@@ -34,6 +34,12 @@ import numpy as np
 
 from robot_controller.core.errors import ConfigError
 
+
+def step_count(horizon_s: float, max_step_s: float) -> int:
+    """Whole steps of at most ``max_step_s`` in ``horizon_s`` (a rounding error does not add one)."""
+    return max(1, int(np.ceil(horizon_s / max_step_s - 1e-9)))
+
+
 # The model parameters, in the order of the regression (identification) and of the parameters.
 PARAMETERS = ("inertia", "damping", "coulomb_friction", "gravity_torque")
 
@@ -149,9 +155,14 @@ class JointArmModel:
             + self.gravity(position)
         )
 
-    def _net(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray) -> np.ndarray:
-        """Torque left for acceleration and friction: applied (within the effort limit) − damping − gravity."""
+    def _net(
+        self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, external_nm: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Torque left for acceleration and friction: applied (within the effort limit) + external
+        − damping − gravity."""
         torque = np.clip(np.asarray(torque, dtype=float), -self.effort_limit, self.effort_limit)
+        if external_nm is not None:
+            torque = torque + external_nm
         return torque - self._damping * velocity - self.gravity(position)
 
     def acceleration(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray) -> np.ndarray:
@@ -173,20 +184,22 @@ class JointArmModel:
         torque: np.ndarray,
         horizon_s: float,
         max_step_s: float = 0.002,
+        external_nm: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """State ``horizon_s`` seconds ahead under constant ``torque`` (semi-implicit
+        """State ``horizon_s`` seconds ahead under constant ``torque`` (limited to
+        the effort limit) and ``external_nm`` (not limited), semi-implicit
         Euler, implicit in the damping, as ``ArmDynamics.predict`` and MuJoCo's
-        physics). Friction acts on each step's new velocity: it stops a joint
+        physics. Friction acts on each step's new velocity: it stops a joint
         within the step rather than reversing it."""
         position = np.array(position, dtype=float)
         velocity = np.array(velocity, dtype=float)
-        steps = max(1, int(np.ceil(horizon_s / max_step_s)))
+        steps = step_count(horizon_s, max_step_s)
         h = horizon_s / steps
         # Implicit damping: inertia·(v' − v)/h = net force with −damping·v' in place of −damping·v.
         effective_inertia = self.inertia + h * self._damping
         stop = self.coulomb_friction * h / effective_inertia  # the speed friction takes away in one step
         for _ in range(steps):
-            free = velocity + self._net(position, velocity, torque) * h / effective_inertia
+            free = velocity + self._net(position, velocity, torque, external_nm) * h / effective_inertia
             velocity = np.where(np.abs(free) <= stop, 0.0, free - stop * np.sign(free))
             position = position + velocity * h
         return position, velocity

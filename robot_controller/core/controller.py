@@ -65,6 +65,7 @@ class JointController:
             config.estimator,
             self.joint_count,
             self.dynamics.predict,
+            jacobian=getattr(self.dynamics, "step_jacobian", None),
             estimate_disturbance=config.observes_disturbance,
             mass_matrix=self.dynamics.mass_matrix,
             disturbance_limit=config.pid.output_limit,
@@ -113,6 +114,7 @@ class JointController:
             self.config.control_period_s,
             self.config.estimator,
             self.config.observes_disturbance,
+            self.config.design_position,
         )
 
     def set_config(self, config: ControllerConfig) -> None:

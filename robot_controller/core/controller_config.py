@@ -38,6 +38,9 @@ class ControllerConfig:
     controller_type: str = "pid"  #: "pid", or "lqr": the PID's gains replaced by a discrete LQR design
     lqr_q: tuple[float, float, float] = (1e4, 1e4, 1.0)  #: weights on ∫e, e, ė
     lqr_r: float = 1e-2  #: weight on the feedback torque
+    #: kg·m², the joint inertia lqr_r is the weight for; each joint's is lqr_r·(this/its inertia)²
+    #: (the same closed-loop poles on every joint); 0: lqr_r on every joint as it is
+    lqr_reference_inertia: float = 0.0
     estimator: KalmanConfig | None = None  #: a Kalman filter on the reading, or none
     disturbance_observer: bool = False  #: the filter estimates an external torque, the law subtracts it
     feedforward: FeedforwardMode = FeedforwardMode.NONE
@@ -51,6 +54,9 @@ class ControllerConfig:
     max_reading_age_s: float = 0.1
     stop_deceleration: float = 20.0  #: rad/s², controlled stops (sensor or planner lost)
     reacquire_acceleration: float = 20.0  #: rad/s², the blend back onto the trajectory after a fault
+    #: rad per joint, the pose the LQR gains and the delay margin are designed at (each joint's inertia
+    #: there: a wrist has a hundredth of a shoulder's); None: every joint at 0
+    design_position: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         try:

@@ -23,9 +23,20 @@ actuator's (a push, a load, and whatever the arm model gets wrong), modelled
 as a random walk of ``disturbance_noise_std`` N·m/√s. The model moves the arm
 under the actuator's torque (limited to the effort limit, as the drive
 limits it) plus ``d`` (not limited: it is not the drive's), its acceleration
-``M(q)⁻¹·d``. Mostly the velocity reading tells ``d`` apart: a torque ``d``
+``d_j·(M⁻¹)_jj`` on joint j. Mostly the velocity reading tells ``d`` apart: a torque ``d``
 held over a period T changes the velocity by ``d·T/I`` more than the model
-says. The estimate is kept within ``±disturbance_limit`` (the controller's
+says.
+
+On a chain of joints, each joint's filter sees only what its own readings
+show: an acceleration beyond the model's, ``α_j``, whatever torques on which
+joints caused it. So ``d_j`` is that acceleration in torque units on the
+joint's own axis (``α_j / (M⁻¹)_jj``), which keeps the joints' filters
+independent, and the torque that cancels the accelerations is ``M(q)·α``
+(:attr:`JointKalmanFilter.disturbance`): exactly the external torques,
+coupling included. (With ``M⁻¹·d`` in the prediction instead, one joint's
+estimate moves the others' predictions, which their filters take for a
+disturbance of their own; on the two-joint arm that doubled the tracking
+error.) On one joint the two are the same. The estimate is kept within ``±disturbance_limit`` (the controller's
 torque limit: a larger one could not be compensated anyway) and starts from
 0 whenever the filter does (:meth:`JointKalmanFilter.reset`).
 
@@ -53,8 +64,10 @@ from robot_controller.core.errors import ConfigError
 # Finite-difference steps for the model's slopes, rad and rad/s.
 _BUMP_Q, _BUMP_V = 1e-6, 1e-5
 
-# (q, v, torque, dt) → predicted (q, v)
-Predictor = Callable[[np.ndarray, np.ndarray, np.ndarray, float], tuple[np.ndarray, np.ndarray]]
+# (q, v, torque, horizon_s, max_step_s=, external_nm=) → predicted (q, v): the arm model's ``predict``
+Predictor = Callable[..., tuple[np.ndarray, np.ndarray]]
+# (q, v, torque, step_s) → one model step's ∂[q'; v']/∂[q; v], (2n, 2n)
+StepJacobian = Callable[[np.ndarray, np.ndarray, np.ndarray, float], np.ndarray]
 # q → the arm's mass matrix M(q), (n, n), kg·m²
 MassMatrix = Callable[[np.ndarray], np.ndarray]
 
@@ -189,6 +202,17 @@ def steady_state_gain(
 class JointKalmanFilter:
     """Predict with the arm model, correct with each reading.
 
+    The state is ``x`` (n, m): per joint ``q, v`` (and ``d``). Its covariance
+    is one matrix over every joint's state (``P``, nm × nm, joint by joint),
+    since on a chain of joints each joint's prediction leans on the others'
+    states (gravity, inertia and Coriolis couple them): a wrist's predicted
+    acceleration moves by tens of rad/s² per radian of the shoulder, so the
+    shoulder's uncertainty is the wrist's too. The tests of each reading's
+    surprise (agreement, jumps, beyond any torque) look at each joint's own.
+
+    :param predictor: the arm model's ``predict`` (q, v, torque, horizon_s, max_step_s, external_nm)
+    :param jacobian: one model step's slopes ``(q, v, torque, step_s) → ∂[q'; v']/∂[q; v]`` (2n × 2n);
+        None: by finite differences of ``predictor``
     :param estimate_disturbance: add the external torque ``d`` to the state
         (the disturbance observer); needs ``mass_matrix``
     :param mass_matrix: the arm's M(q) (what ``d`` accelerates)
@@ -201,6 +225,7 @@ class JointKalmanFilter:
         joint_count: int,
         predictor: Predictor,
         *,
+        jacobian: StepJacobian | None = None,
         estimate_disturbance: bool = False,
         mass_matrix: MassMatrix | None = None,
         disturbance_limit: np.ndarray | None = None,
@@ -209,6 +234,7 @@ class JointKalmanFilter:
             raise ConfigError("disturbance_observer: needs the arm model's mass matrix")
         self.config = config
         self.predictor = predictor
+        self.jacobian = jacobian
         self.joint_count = joint_count
         self.estimates_disturbance = bool(estimate_disturbance)
         self.mass_matrix = mass_matrix
@@ -217,14 +243,19 @@ class JointKalmanFilter:
             if disturbance_limit is None
             else np.broadcast_to(np.asarray(disturbance_limit, float), (joint_count,)).copy()
         )
-        self.size = 3 if self.estimates_disturbance else 2
+        self.size = m = 3 if self.estimates_disturbance else 2
+        n = joint_count
         self._mismatch = config.at_mismatch()  #: the filter while its readings disagree with it
         self.x: np.ndarray | None = None  # (n, 2): q, v per joint; (n, 3): q, v, d
-        self.P = np.zeros((joint_count, self.size, self.size))
+        self.P = np.zeros((n * m, n * m))  #: joint by joint: [q1, v1, (d1), q2, v2, ...]
         self.R = np.diag([config.position_noise_std**2, config.velocity_noise_std**2])
+        self._R_all = np.kron(np.eye(n), self.R)
+        #: where each reading (q1, v1, q2, v2, ...) sits in the state
+        self._read = (np.arange(n)[:, None] * m + np.arange(2)[None, :]).reshape(-1)
         self.time_s: float | None = None
         #: per joint, rad/s² per N·m of external torque on each joint ((n, n): M⁻¹ at the last estimate)
         self._inverse_mass: np.ndarray | None = None
+        self._mass: np.ndarray | None = None  #: M(q) at the last estimate, kg·m²
         #: per joint, how many readings were taken as a jump of the external torque
         self.jump_count = np.zeros(joint_count, dtype=int)
         #: per joint, how many readings no external torque within the limit could explain (restarts)
@@ -237,19 +268,47 @@ class JointKalmanFilter:
         self.x = None
         self.time_s = None
         self._inverse_mass = None
+        self._mass = None
+
+    @property
+    def joint_covariance(self) -> np.ndarray:
+        """Each joint's own covariance (n, m, m): the diagonal blocks of ``P``."""
+        n, m = self.joint_count, self.size
+        return np.einsum("iaib->iab", self.P.reshape(n, m, n, m)).copy()
 
     @property
     def disturbance(self) -> np.ndarray:
-        """The estimated external torque on each joint, N·m (0 without the observer or a state)."""
+        """The estimated external torque on each joint, N·m: the one that gives the
+        unexplained accelerations, ``M(q)·α`` (0 without the observer or a state)."""
         if not self.estimates_disturbance or self.x is None:
             return np.zeros(self.joint_count)
-        return self.x[:, 2].copy()
+        if self.joint_count == 1 or self._mass is None:
+            return self.x[:, 2].copy()  # one joint: α·I is its d
+        return self._mass @ self._disturbance_acceleration()
 
     def _disturbance_acceleration(self) -> np.ndarray:
-        """rad/s² the estimated external torque gives each joint (0 without one)."""
+        """rad/s² the estimate leaves unexplained on each joint, ``α_j = d_j·(M⁻¹)_jj`` (0 without one)."""
         if not self.estimates_disturbance or self.x is None or self._inverse_mass is None:
             return np.zeros(self.joint_count)
-        return self._inverse_mass @ self.x[:, 2]
+        return np.diag(self._inverse_mass) * self.x[:, 2]
+
+    def _disturbance_torque(self) -> np.ndarray | None:
+        """The torque that gives ``α`` on the model, N·m (None without one): what the prediction applies."""
+        if not self.estimates_disturbance or self.x is None or self._mass is None:
+            return None
+        return self._mass @ self._disturbance_acceleration()
+
+    def _set_mass(self, position: np.ndarray) -> None:
+        """The mass matrix and its inverse at ``position``, for the next prediction and the estimate's torque."""
+        self._mass = np.asarray(self.mass_matrix(np.asarray(position, float)), dtype=float)
+        self._inverse_mass = np.linalg.inv(self._mass)
+
+    def _blocks(self, per_joint: np.ndarray) -> np.ndarray:
+        """(n, m, m) per-joint blocks as one block-diagonal (nm, nm) matrix."""
+        n, m = self.joint_count, self.size
+        out = np.zeros((n, m, n, m))
+        out[np.arange(n), :, np.arange(n), :] = per_joint
+        return out.reshape(n * m, n * m)
 
     def update(
         self,
@@ -267,85 +326,93 @@ class JointKalmanFilter:
         Returns the filtered ``(position, velocity)``.
         """
         z = np.stack([position, velocity], axis=-1)  # (n, 2)
-        m = self.size
+        n, m = self.joint_count, self.size
         if self.x is None or self.time_s is None or not (0 < time_s - self.time_s < 1.0):
-            self.x = np.zeros((self.joint_count, m))
-            self.P = np.zeros((self.joint_count, m, m))
+            self.x = np.zeros((n, m))
+            self.P = np.zeros((n * m, n * m))
             if self.estimates_disturbance:
-                self._inverse_mass = np.linalg.inv(self.mass_matrix(np.asarray(position, float)))
-            self._start(np.ones(self.joint_count, dtype=bool), z)
+                self._set_mass(position)
+            self._start(np.ones(n, dtype=bool), z)
             self.time_s = time_s
             return position.copy(), velocity.copy()
         dt = time_s - self.time_s
         self.time_s = time_s
         q, v = self.x[:, 0], self.x[:, 1]
-        F = np.zeros((self.joint_count, m, m))
-        F[:, :2, :2] = self._transition(q, v, torque, dt)
+        F = self._transition(q, v, torque, dt)
         sigma_d, sigma_a = self._noise_in_force()
         timing_uncertain = (
             torque_change is not None and self.config.command_timing_uncertainty_s > 0 and self.mass_matrix is not None
         )
+        q_pred, v_pred = self._step_model(q, v, torque, dt)  # with the external torque of the last estimate
         if self.estimates_disturbance or timing_uncertain:
-            self._inverse_mass = np.linalg.inv(self.mass_matrix(q))
+            self._set_mass(q)
             b = np.diag(self._inverse_mass)  # rad/s² per N·m on each joint's own axis
         if not self.estimates_disturbance:
             G = np.array([0.5 * dt * dt, dt])
             Q = np.outer(G, G) * (sigma_a**2)[:, None, None]
         else:
-            F[:, 0, 2] = 0.5 * b * dt * dt
-            F[:, 1, 2] = b * dt
-            F[:, 2, 2] = 1.0
             Q = process_noise(self.config, dt, b, sigma_d, sigma_a)
         if timing_uncertain:
             # A velocity step of unknown size (the change acting that much sooner or later) early in the span.
             sigma_v = np.abs(torque_change) * self.config.command_timing_uncertainty_s * b
             G = np.array([dt, 1.0])
             Q[:, :2, :2] += np.outer(G, G) * (sigma_v**2)[:, None, None]
-        q, v = self._step_model(q, v, torque, dt)
         x_pred = self.x.copy()
-        x_pred[:, 0], x_pred[:, 1] = q, v
-        P_pred = F @ self.P @ np.swapaxes(F, -1, -2) + Q
-        surprise = z - x_pred[:, :2]  # the innovation
-        S = P_pred[:, :2, :2] + self.R
+        x_pred[:, 0], x_pred[:, 1] = q_pred, v_pred
+        P_pred = F @ self.P @ F.T + self._blocks(Q)
+        surprise = z - x_pred[:, :2]  # the innovation, per joint
+        S_joint = self._joint_blocks(P_pred)  # each joint's own (n, 2, 2)
         unexplainable = None
         if self.estimates_disturbance:
-            unexplainable = innovation.beyond_any_disturbance(surprise, S, b * dt, self.disturbance_limit)
-        S_inv = np.linalg.inv(S)
+            unexplainable = innovation.beyond_any_disturbance(surprise, S_joint, b * dt, self.disturbance_limit)
+        S_inv = np.linalg.inv(S_joint)
         distance_sq = np.einsum("ni,nij,nj->n", surprise, S_inv, surprise)
-        jumped = np.zeros(self.joint_count, dtype=bool)
+        jumped = np.zeros(n, dtype=bool)
         if self.estimates_disturbance and self.config.jump_detection_sigma > 0:
             step = np.stack([0.5 * b * dt * dt, b * dt], axis=-1)  # the reading's change per N·m of a step
             jumped = innovation.agreeing(self._distance_sq_average) & innovation.looks_like_a_jump(
                 surprise, S_inv, distance_sq, step, self.config.jump_detection_sigma
             )
-            P_pred, S = self._allow_jumps(P_pred, jumped, b, dt)
+            P_pred = self._allow_jumps(P_pred, jumped, b, dt)
         self._distance_sq_average = innovation.updated_average(self._distance_sq_average, distance_sq, jumped, dt)
-        K = P_pred[:, :, :2] @ np.linalg.inv(S)  # (n, m, 2)
-        self.x = x_pred + np.einsum("nij,nj->ni", K, surprise)
-        KH = np.zeros((self.joint_count, m, m))
-        KH[:, :, :2] = K
-        self.P = (np.eye(m) - KH) @ P_pred
+        read = self._read
+        S = P_pred[np.ix_(read, read)] + self._R_all
+        K = np.linalg.solve(S, P_pred[read, :]).T  # (nm, 2n): S is symmetric
+        self.x = (x_pred.reshape(-1) + K @ surprise.reshape(-1)).reshape(n, m)
+        self.P = P_pred - K @ P_pred[read, :]
+        self.P = 0.5 * (self.P + self.P.T)
         if self.estimates_disturbance:
-            self.P = 0.5 * (self.P + np.swapaxes(self.P, -1, -2))
             self.x[:, 2] = np.clip(self.x[:, 2], -self.disturbance_limit, self.disturbance_limit)
             if unexplainable.any():
                 self._start(unexplainable, z)
                 self.restart_count += unexplainable
         return self.x[:, 0].copy(), self.x[:, 1].copy()
 
+    def _joint_blocks(self, P: np.ndarray) -> np.ndarray:
+        """Each joint's reading covariance (n, 2, 2): its own block of ``P`` plus the sensor's."""
+        n, m = self.joint_count, self.size
+        own = np.einsum("iaib->iab", P.reshape(n, m, n, m))
+        return own[:, :2, :2] + self.R
+
     def _start(self, joints: np.ndarray, z: np.ndarray) -> None:
         """Start the filter of ``joints`` (bool per joint) afresh from the reading ``z`` (n, 2):
-        the state the reading, the external torque 0. Trust is earned: a (re)started filter
-        follows its readings, and takes no jump, until they have agreed with it for a while
-        (about 0.2 s). After a fault (a frozen node, a brake that held the arm a little longer
-        than reported) the first readings can be far from any model, and one taken as a jump
-        would command the full torque the wrong way."""
+        the state the reading, the external torque 0, no correlation with the other joints.
+        Trust is earned: a (re)started filter follows its readings, and takes no jump, until
+        they have agreed with it for a while (about 0.2 s). After a fault (a frozen node, a
+        brake that held the arm a little longer than reported) the first readings can be far
+        from any model, and one taken as a jump would command the full torque the wrong way."""
+        m = self.size
         self.x[joints] = 0.0
         self.x[joints, :2] = z[joints]
-        self.P[joints] = 0.0
-        self.P[joints, :2, :2] = self.R
+        rows = (np.flatnonzero(joints)[:, None] * m + np.arange(m)[None, :]).reshape(-1)
+        self.P[rows, :] = 0.0
+        self.P[:, rows] = 0.0
+        prior = np.zeros((m, m))
+        prior[:2, :2] = self.R
         if self.estimates_disturbance:
-            self.P[joints, 2, 2] = DISTURBANCE_PRIOR_STD_NM**2
+            prior[2, 2] = DISTURBANCE_PRIOR_STD_NM**2
+        for j in np.flatnonzero(joints):
+            self.P[j * m : (j + 1) * m, j * m : (j + 1) * m] = prior
         self._distance_sq_average[joints] = innovation.UNPROVEN_DISTANCE_SQ
 
     def _noise_in_force(self) -> tuple[np.ndarray, np.ndarray]:
@@ -358,39 +425,31 @@ class JointKalmanFilter:
             (far.disturbance_noise_std, far.acceleration_noise_std),
         )
 
-    def _allow_jumps(
-        self, P_pred: np.ndarray, jumped: np.ndarray, b: np.ndarray, dt: float
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def _allow_jumps(self, P_pred: np.ndarray, jumped: np.ndarray, b: np.ndarray, dt: float) -> np.ndarray:
         """For each joint whose reading is taken as a jump (``jumped``), add to
-        its predicted covariance that of a jump of the external torque at the
+        the predicted covariance that of a jump of its external torque at the
         start of the period (σ DISTURBANCE_PRIOR_STD_NM, carried through the
         period as the torque moves the arm), so that the reading's surprise goes
         to the torque and the state it moved, not to noise. A push then costs
         one or two periods; without it, a filter whose torque may change only
-        slowly would take tenths of a second. Returns the covariance and the
-        innovation's."""
+        slowly would take tenths of a second."""
         if jumped.any():
             P_pred = P_pred.copy()
+            m = self.size
             for j in np.flatnonzero(jumped):
                 G = np.array([0.5 * b[j] * dt * dt, b[j] * dt, 1.0])
-                P_pred[j] += DISTURBANCE_PRIOR_STD_NM**2 * np.outer(G, G)
+                P_pred[j * m : (j + 1) * m, j * m : (j + 1) * m] += DISTURBANCE_PRIOR_STD_NM**2 * np.outer(G, G)
             self.jump_count += jumped
-        return P_pred, P_pred[:, :2, :2] + self.R
+        return P_pred
 
     def _step_model(
         self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, horizon_s: float
     ) -> tuple[np.ndarray, np.ndarray]:
         """The arm model over ``horizon_s`` under ``torque`` (and the estimated
         external torque, if any), in steps of at most ``model_step_s``."""
-        steps = max(1, int(np.ceil(horizon_s / self.config.model_step_s - 1e-9)))
-        h = horizon_s / steps
-        extra = self._disturbance_acceleration() * h  # the velocity d adds per step (semi-implicit)
-        for _ in range(steps):
-            q, v = self.predictor(q, v, torque, h)
-            if self.estimates_disturbance:
-                v = v + extra
-                q = q + extra * h
-        return q, v
+        return self.predictor(
+            q, v, torque, horizon_s, max_step_s=self.config.model_step_s, external_nm=self._disturbance_torque()
+        )
 
     def predict(
         self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float
@@ -402,24 +461,43 @@ class JointKalmanFilter:
             return np.array(position, dtype=float), np.array(velocity, dtype=float)
         return self._step_model(np.array(position, dtype=float), np.array(velocity, dtype=float), torque, horizon_s)
 
+    def _step_slopes(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, h: float) -> np.ndarray:
+        """One model step's ∂[q'; v']/∂[q; v] (2n × 2n): the model's own, or by finite differences."""
+        if self.jacobian is not None:
+            return self.jacobian(q, v, torque, h)
+        n = self.joint_count
+        q1, v1 = self.predictor(q, v, torque, h, max_step_s=h)
+        slopes = np.zeros((2 * n, 2 * n))
+        for k in range(2 * n):
+            bump = _BUMP_Q if k < n else _BUMP_V
+            dq, dv = np.zeros(n), np.zeros(n)
+            (dq if k < n else dv)[k % n] = bump
+            q2, v2 = self.predictor(q + dq, v + dv, torque, h, max_step_s=h)
+            slopes[:n, k], slopes[n:, k] = (q2 - q1) / bump, (v2 - v1) / bump
+        return slopes
+
     def _transition(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> np.ndarray:
-        """Per joint, the model linearised at ``(q, v)`` over ``dt``: ``(n, 2, 2)``.
-        The acceleration's slopes in q (gravity's stiffness, which is
-        destabilising on one side of the arm's travel) and in v (damping), from
-        one model step each; with only the double integrator, a filter that
-        trusts the model (a small acceleration_noise_std) lets its error grow
-        where gravity pulls the arm away."""
-        h = self.config.model_step_s
-        _, v0 = self.predictor(q, v, torque, h)
-        F = np.zeros((self.joint_count, 2, 2))
-        for j in range(self.joint_count):
-            bump = np.zeros(self.joint_count)
-            bump[j] = _BUMP_Q
-            a_q = (self.predictor(q + bump, v, torque, h)[1][j] - v0[j]) / (h * _BUMP_Q)
-            bump[j] = _BUMP_V
-            a_v = (self.predictor(q, v + bump, torque, h)[1][j] - v0[j] - _BUMP_V) / (h * _BUMP_V)
-            F[j] = [[1.0 + 0.5 * a_q * dt * dt, dt + 0.5 * a_v * dt * dt], [a_q * dt, 1.0 + a_v * dt]]
-        return F
+        """The model linearised at ``(q, v)`` over ``dt`` (nm × nm, joint by joint): one
+        model step's slopes carried over the period's steps, every joint's on every
+        joint's, gravity's stiffness (destabilising on one side of the arm's travel)
+        and the damping included; with only the double integrator, a filter that trusts
+        the model (a small acceleration_noise_std) lets its error grow where gravity
+        pulls the arm away. ``d`` moves its own joint as a torque there would."""
+        from robot_controller.core.arm_model import step_count
+
+        n, m = self.joint_count, self.size
+        steps = step_count(dt, self.config.model_step_s)
+        h = dt / steps
+        slopes = np.linalg.matrix_power(self._step_slopes(q, v, torque, h), steps)  # [q; v] by [q; v]
+        F = np.zeros((n, m, n, m))
+        F[:, :2, :, :2] = slopes.reshape(2, n, 2, n).transpose(1, 0, 3, 2)
+        if self.estimates_disturbance:
+            b = np.diag(self._inverse_mass) if self._inverse_mass is not None else np.zeros(n)
+            joints = np.arange(n)
+            F[joints, 0, joints, 2] = 0.5 * b * dt * dt
+            F[joints, 1, joints, 2] = b * dt
+            F[joints, 2, joints, 2] = 1.0
+        return F.reshape(n * m, n * m)
 
     def velocity_at_instant(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray) -> np.ndarray:
         """The velocity (rad/s) at the instant of the state ``(position, velocity)``
@@ -431,7 +509,5 @@ class JointKalmanFilter:
         acceleration × model_step_s / 2, which the law's D term turns into a
         systematic torque (0.3 mrad of tracking error on the reference sine)."""
         h = self.config.model_step_s
-        _, ahead = self.predictor(position, velocity, torque, h)
-        if self.estimates_disturbance:
-            ahead = ahead + self._disturbance_acceleration() * h
+        _, ahead = self.predictor(position, velocity, torque, h, max_step_s=h, external_nm=self._disturbance_torque())
         return 0.5 * (velocity + ahead)

@@ -32,11 +32,15 @@ def law_config(config: ControllerConfig, dynamics: ArmDynamics | None, joint_cou
         return config.pid
     if dynamics is None:
         raise ConfigError("controller_type lqr: needs the arm model (urdf_path)")
-    inertia = np.diag(dynamics.mass_matrix(np.zeros(joint_count)))
+    inertia = design_inertia(dynamics, joint_count, config.design_position)
     gains = np.array(
         [
             lqr.design(
-                inertia[j], dynamics.damping[j], config.control_period_s, np.array(config.lqr_q), config.lqr_r
+                inertia[j],
+                dynamics.damping[j],
+                config.control_period_s,
+                np.array(config.lqr_q),
+                torque_weight(config.lqr_r, config.lqr_reference_inertia, inertia[j]),
             ).K[0]
             for j in range(joint_count)
         ]
@@ -44,6 +48,28 @@ def law_config(config: ControllerConfig, dynamics: ArmDynamics | None, joint_cou
     return replace(
         config.pid, ki=gains[:, 0], kp=gains[:, 1], kd=gains[:, 2], derivative_source=DerivativeSource.VELOCITY_ERROR
     )
+
+
+def design_inertia(
+    dynamics: ArmDynamics, joint_count: int, design_position: tuple[float, ...] | None = None
+) -> np.ndarray:
+    """Each joint's own inertia (the mass matrix's diagonal, kg·m²) at the design
+    pose (rad per joint; None: every joint at 0). Each joint's gains are designed
+    for it, so one set of weights serves a shoulder and a wrist a hundred times lighter."""
+    pose = np.zeros(joint_count) if design_position is None else np.asarray(design_position, dtype=float)
+    return np.diag(dynamics.mass_matrix(pose)).copy()
+
+
+def torque_weight(lqr_r: float, reference_inertia_kgm2: float, inertia_kgm2: float) -> float:
+    """A joint's LQR torque weight: ``lqr_r`` scaled so that the cost of an
+    acceleration is the same on every joint (``lqr_r`` as it is for a joint of
+    the reference inertia, or for every joint when that is 0). The gains then
+    come out in proportion to each joint's inertia, and every joint's error
+    dies away alike: with one torque weight for all, a wrist 200 times lighter
+    than the shoulder would be stiffened far beyond it, the shoulder left soft."""
+    if reference_inertia_kgm2 <= 0:
+        return lqr_r
+    return lqr_r * (reference_inertia_kgm2 / inertia_kgm2) ** 2
 
 
 def _values(values: np.ndarray | tuple[float, ...]) -> str:
@@ -78,6 +104,7 @@ def delay_margin_periods(
     control_period_s: float,
     estimator: KalmanConfig | None = None,
     disturbance_observer: bool = False,
+    design_position: tuple[float, ...] | None = None,
 ) -> int | None:
     """Whole control periods of unaccounted delay the feedback with ``gains``
     survives on the worst joint, the arm linearised at rest (see
@@ -96,7 +123,7 @@ def delay_margin_periods(
     unaccounted delay, a bump but no chatter.)"""
     if dynamics is None:
         return None
-    inertia = np.diag(dynamics.mass_matrix(np.zeros(joint_count)))
+    inertia = design_inertia(dynamics, joint_count, design_position)
     margins = []
     for j in range(joint_count):
         if disturbance_observer and estimator is not None:

@@ -17,6 +17,7 @@ from typing import Protocol
 import mujoco
 import numpy as np
 
+from robot_controller.core.arm_model import step_count
 from robot_controller.core.errors import ConfigError, TimingError
 
 
@@ -254,11 +255,15 @@ class MujocoPlant:
 
 
 class ArmDynamics:
-    """Inverse dynamics of the arm from the same URDF, for feedforward.
+    """The arm's multibody dynamics from the same URDF, on a private ``MjData``:
+    what the controller's model-based parts ask of it, coupling between the
+    joints included.
 
     ``torque(q, v, a)`` is the joint torque that produces acceleration ``a``
-    at state ``(q, v)``: inertia·a + damping·v + gravity (+ Coriolis on
-    longer chains), from MuJoCo's ``mj_inverse``.
+    at state ``(q, v)``: M(q)·a + Coriolis + damping·v + gravity, from
+    MuJoCo's ``mj_inverse``. ``predict`` steps the arm as the plant does
+    (``mj_step``: the same integrator, so the same numbers), and
+    ``step_jacobian`` linearises one such step (``mjd_transitionFD``).
     """
 
     def __init__(self, urdf_path: str | Path) -> None:
@@ -266,14 +271,6 @@ class ArmDynamics:
         self._data = mujoco.MjData(self.model)
         self.joint_names = joint_names(self.model)
         self.effort_limit = effort_limits(self.model)
-        # MuJoCo's Euler integrator takes the joint damping implicitly unless told not to.
-        self._implicit_damping = bool(
-            self.model.opt.integrator == mujoco.mjtIntegrator.mjINT_EULER
-            and not self.model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_EULERDAMP
-            and np.any(self.model.dof_damping > 0)
-        )
-        self._damping_matrix = np.diag(self.model.dof_damping)
-        self._mass = np.zeros((self.model.nv, self.model.nv))  # scratch for predict
 
     def torque(self, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         d = self._data
@@ -298,6 +295,16 @@ class ArmDynamics:
         d.qfrc_applied[:] = 0.0
         return d.qacc.copy()
 
+    def _load(
+        self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, external_nm: np.ndarray | None
+    ) -> None:
+        """The private state at ``(q, v)`` with ``torque`` (within the effort limit) and ``external_nm`` applied."""
+        d = self._data
+        d.qpos[:] = position
+        d.qvel[:] = velocity
+        applied = np.clip(torque, -self.effort_limit, self.effort_limit)
+        d.qfrc_applied[:] = applied if external_nm is None else applied + external_nm
+
     def predict(
         self,
         position: np.ndarray,
@@ -305,27 +312,38 @@ class ArmDynamics:
         torque: np.ndarray,
         horizon_s: float,
         max_step_s: float = 0.002,
+        external_nm: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """State ``horizon_s`` seconds ahead under constant ``torque``, stepped as
-        :class:`MujocoPlant`'s physics steps (MuJoCo's Euler): semi-implicit,
-        and implicit in the joint damping, each step's acceleration being
-        ``(M + h·D)⁻¹·M·q̈``. With the damping explicit instead, the
-        acceleration comes out h·D/M (0.12 % on the reference arm) too large, a
-        bias a filter that trusts its model turns into 0.3 mrad of tracking error."""
-        steps = max(1, int(np.ceil(horizon_s / max_step_s)))
-        h = horizon_s / steps
-        mass = self._mass
+        """State ``horizon_s`` seconds ahead under constant ``torque`` (limited to
+        the effort limit) and an ``external_nm`` torque (not limited), in equal
+        steps of at most ``max_step_s``: MuJoCo's own steps, as
+        :class:`MujocoPlant` takes them (semi-implicit Euler, implicit in the
+        joint damping; with the damping explicit instead, the acceleration
+        comes out h·D/M too large, a bias a filter that trusts its model turns
+        into 0.3 mrad of tracking error)."""
+        steps = step_count(horizon_s, max_step_s)
+        self.model.opt.timestep = horizon_s / steps
+        self._load(position, velocity, torque, external_nm)
+        d = self._data
         for _ in range(steps):
-            acceleration = self.acceleration(position, velocity, torque)
-            if self._implicit_damping:
-                mujoco.mj_fullM(self.model, self._data, mass)  # of the forward pass just made
-                if self.model.nv == 1:  # one joint: a scalar, without numpy's solver around it
-                    acceleration = acceleration * (mass[0, 0] / (mass[0, 0] + h * self._damping_matrix[0, 0]))
-                else:
-                    acceleration = np.linalg.solve(mass + h * self._damping_matrix, mass @ acceleration)
-            velocity = velocity + acceleration * h
-            position = position + velocity * h
-        return position, velocity
+            mujoco.mj_step(self.model, d)
+        d.qfrc_applied[:] = 0.0
+        return d.qpos.copy(), d.qvel.copy()
+
+    def step_jacobian(
+        self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, step_s: float
+    ) -> np.ndarray:
+        """How one step of ``step_s`` moves the state ``[q; v]`` (2n × 2n): the
+        step's slopes in every joint's position and velocity (gravity's
+        stiffness, damping, Coriolis and the coupling between joints), by
+        MuJoCo's finite differences in C."""
+        n = self.model.nv
+        self.model.opt.timestep = step_s
+        self._load(position, velocity, torque, None)
+        jacobian = np.zeros((2 * n, 2 * n))
+        mujoco.mjd_transitionFD(self.model, self._data, 1e-6, 0, jacobian, None, None, None)
+        self._data.qfrc_applied[:] = 0.0
+        return jacobian
 
     def mass_matrix(self, position: np.ndarray) -> np.ndarray:
         d = self._data

@@ -11,7 +11,7 @@ import multiprocessing
 import os
 import signal
 from concurrent import futures
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +28,7 @@ class Contender:
     description: str
     preset: str
     overrides: dict[str, Any]
+    robot: str = "one_dof"
 
 
 CONTENDERS = (
@@ -71,7 +72,14 @@ COMPARE_WORKERS = 3
 
 
 def compare(
-    out: Path, *, seeds: int, sine_duration_s: float, amplitude: float, progress=print, workers: int = COMPARE_WORKERS
+    out: Path,
+    *,
+    seeds: int,
+    sine_duration_s: float,
+    amplitude: float,
+    progress=print,
+    workers: int = COMPARE_WORKERS,
+    robot: str = "one_dof",
 ) -> dict[str, dict[str, dict[str, float]]]:
     """Every contender on the sine and on the step, ``seeds`` seeds each, in sim-time lockstep.
 
@@ -84,7 +92,7 @@ def compare(
     pairs under way have ended.
     """
     out.mkdir(parents=True, exist_ok=True)
-    pairs = [(contender, seed) for contender in CONTENDERS for seed in range(seeds)]
+    pairs = [(replace(contender, robot=robot), seed) for contender in CONTENDERS for seed in range(seeds)]
     if workers <= 1:
         figures = {}
         for contender, seed in pairs:
@@ -112,7 +120,7 @@ def _compare_pair(
     contender: Contender, seed: int, out: Path, sine_duration_s: float, amplitude: float, domain_id: int | None = None
 ) -> dict[str, float]:
     """One contender, one seed: the sine run, then the step run. The compared figures, keyed as in the table."""
-    base = cfg.merge(cfg.load_stack(contender.preset), {"pid_controller": contender.overrides})
+    base = cfg.merge(cfg.load_stack(contender.preset, robot=contender.robot), {"pid_controller": contender.overrides})
     params = cfg.merge(base, {"sensor_node": {"seed": seed}})
     sine, _ = run_and_score(
         params, out / contender.name / f"sine_{seed}", duration_s=sine_duration_s, sim_time=True, domain_id=domain_id

@@ -156,9 +156,11 @@ def cases(quick: bool) -> list[Case]:
     return [Case(node, d) for node in NODES for d in DURATIONS_S] + [Case(node, 0.0, "SIGKILL") for node in NODES]
 
 
-def faults(out: Path, *, quick: bool = False, progress: Callable[[str], None] = print) -> list[dict[str, Any]]:
+def faults(
+    out: Path, *, quick: bool = False, progress: Callable[[str], None] = print, robot: str = "one_dof"
+) -> list[dict[str, Any]]:
     out.mkdir(parents=True, exist_ok=True)
-    params = cfg.load_stack()
+    params = cfg.load_stack(robot=robot)
     entries = []
     for case in cases(quick):
         progress(

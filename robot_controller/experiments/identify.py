@@ -37,6 +37,7 @@ from robot_controller import resources
 from robot_controller.core import identification
 from robot_controller.core.arm_model import PARAMETERS, JointArmModel
 from robot_controller.parameters.builders import MODEL_KEYS
+from robot_controller.parameters.limits import torque_limit as node_torque_limit
 
 # The excitation: a chirp within the reference sine's range and speed, which an
 # arm about four times the reference arm's inertia still follows inside 10 N·m.
@@ -101,7 +102,7 @@ def torque_limit(params: cfg.Params, joint_count: int) -> np.ndarray:
 
     limit = effort_limits(load_model(resources.resolve_urdf(params["simulator"]["urdf_path"])))
     for node in ("motor_node", "pid_controller"):
-        limit = np.minimum(limit, cfg.per_joint("torque_max", params[node]["torque_max"], joint_count))
+        limit = np.minimum(limit, node_torque_limit(params[node], joint_count))
     return limit
 
 

@@ -15,6 +15,7 @@ from robot_controller.core.loop import Disturbance, LoopResult, run_loop
 from robot_controller.core.plant import MujocoPlant
 from robot_controller.parameters.builders import arm_model
 from robot_controller.parameters.consistency import trajectory_plan
+from robot_controller.parameters.limits import torque_limit
 
 
 def simulate(
@@ -52,7 +53,7 @@ def simulate(
         dict(ctrl, lockstep=True), n
     )  # each command acts from its tick, as in lockstep
     controller = JointController(controller_config, n, dynamics)
-    actuator = Actuator(cfg.per_joint("torque_max", motor["torque_max"], n), motor["lag_time_constant_s"])
+    actuator = Actuator(torque_limit(motor, n), motor["lag_time_constant_s"])
     return run_loop(
         plant=plant,
         controller=controller,

@@ -19,12 +19,12 @@ from __future__ import annotations
 import numpy as np
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
-from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.actuator import Actuator
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.plant import effort_limits, joint_names, load_model
 from robot_controller.core.validation import check_effort
+from robot_controller.parameters.limits import torque_limit
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS
@@ -65,7 +65,7 @@ class MotorNode(StackNode):
         )
 
     def _make_actuator(self, params: dict) -> Actuator:
-        torque_max = cfg.per_joint("torque_max", params["torque_max"], self.joint_count)
+        torque_max = torque_limit(params, self.joint_count)
         if np.any(torque_max > self.effort_limit):
             raise ConfigError(
                 f"torque_max: {torque_max.tolist()} N·m exceeds the URDF's effort limit "

@@ -9,6 +9,7 @@ import numpy as np
 
 from robot_controller.core.pid import PidConfig
 from robot_controller.core.sensor_model import SensorConfig
+from robot_controller.parameters.limits import torque_limit
 from robot_controller.parameters.spec import per_joint
 
 if TYPE_CHECKING:  # the controller pulls in scipy and MuJoCo: only the nodes that run one import it
@@ -63,7 +64,7 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         kp=joints("kp"),
         ki=joints("ki"),
         kd=joints("kd"),
-        output_limit=joints("torque_max"),
+        output_limit=torque_limit(values, joint_count),
         integral_limit=joints("integral_limit"),
         anti_windup=values["anti_windup"],
         back_calculation_time_s=values["back_calculation_time_s"],
@@ -80,6 +81,7 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         controller_type=values["controller_type"],
         lqr_q=tuple(q.tolist()),
         lqr_r=values["lqr_r"],
+        lqr_reference_inertia=values["lqr_reference_inertia"],
         estimator=estimator,
         disturbance_observer=values["disturbance_observer"],
         feedforward=values["feedforward"],
@@ -91,6 +93,7 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         max_reading_age_s=values["max_reading_age_s"],
         stop_deceleration=values["stop_deceleration"],
         reacquire_acceleration=values["reacquire_acceleration"],
+        design_position=tuple(joints("design_position").tolist()) if _given(values.get("design_position")) else None,
     )
 
 

@@ -18,6 +18,7 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 from robot_controller.parameters.builders import MODEL_KEYS
+from robot_controller.parameters.limits import torque_limit
 
 if TYPE_CHECKING:  # MuJoCo and the trajectories: imported when used
     from robot_controller.core.feasibility import Plan
@@ -125,7 +126,7 @@ def _check_limits(params: cfg.Params, arm: tuple[list[str], np.ndarray, np.ndarr
     names, effort_limit, ranges = arm
     n = len(names)
     for node in ("motor_node", "pid_controller"):
-        torque_max = cfg.per_joint("torque_max", params[node]["torque_max"], n)
+        torque_max = torque_limit(params[node], n)
         if np.any(torque_max > effort_limit):
             raise ConfigError(
                 f"{node}: torque_max {torque_max.tolist()} N·m exceeds the URDF's effort limit "
@@ -169,8 +170,8 @@ def _check_planner_matches(params: cfg.Params, joint_count: int) -> None:
     """The planner checks its trajectory against the arm the controller models and the actuator that will
     follow it: the motor's ``torque_max``, the controller's URDF and ``model_*`` values."""
     planner, motor, ctrl = params["trajectory_planner"], params["motor_node"], params["pid_controller"]
-    planned = cfg.per_joint("torque_max", planner["torque_max"], joint_count)
-    actual = cfg.per_joint("torque_max", motor["torque_max"], joint_count)
+    planned = torque_limit(planner, joint_count)
+    actual = torque_limit(motor, joint_count)
     if not np.array_equal(planned, actual):
         raise ConfigError(
             f"trajectory_planner: torque_max {planned.tolist()} N·m differs from motor_node's "
@@ -229,7 +230,7 @@ def trajectory_plan(params: cfg.Params) -> Plan:
         return feasibility.plan(
             trajectory,
             dynamics,
-            planner["torque_max"],
+            torque_limit(planner, len(dynamics.joint_names)),
             margin=planner["feasibility_margin"],
             policy=planner["feasibility"],
             what=planner["mode"],

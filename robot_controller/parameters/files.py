@@ -93,9 +93,17 @@ def merge(*layers: Params) -> Params:
     return out
 
 
-def load_stack(preset: str = "default", config: str | Path | list[str | Path] | None = None) -> Params:
-    """The schema's defaults, then the preset's overlay, then the user's file(s), later over earlier."""
-    layers = [defaults()]
+def load_stack(
+    preset: str = "default", config: str | Path | list[str | Path] | None = None, robot: str = "one_dof"
+) -> Params:
+    """The schema's defaults, then the robot's layer (its URDF, home pose and
+    trajectory), the preset's overlay and the user's file(s), later over
+    earlier. An empty ``torque_max`` is then written out as its node's URDF
+    effort limits, so every check and the run's ``params.yaml`` see the numbers."""
+    from robot_controller.parameters.limits import fill_torque_limits
+    from robot_controller.robots import robot_layer
+
+    layers = [defaults(), robot_layer(robot)]
     if preset != "default":
         preset_path = resources.preset_yaml(preset)
         if not preset_path.is_file():
@@ -105,6 +113,7 @@ def load_stack(preset: str = "default", config: str | Path | list[str | Path] | 
         layers.append(read_params_file(path))
     params = merge(*layers)
     check_complete(params)
+    fill_torque_limits(params)
     return params
 
 
@@ -123,7 +132,14 @@ def check_complete(params: Params) -> None:
 def params_yaml(params: Params) -> str:
     """``params`` as the text of a ROS 2 parameter file."""
     body = {node: {"ros__parameters": dict(values)} for node, values in params.items()}
-    return yaml.safe_dump(body, sort_keys=False, allow_unicode=True)
+    return yaml.dump(body, Dumper=_NoAliasDumper, sort_keys=False, allow_unicode=True)
+
+
+class _NoAliasDumper(yaml.SafeDumper):
+    """Writes a value shared by two nodes twice: rcl's parameter-file parser refuses YAML anchors."""
+
+    def ignore_aliases(self, data: Any) -> bool:
+        return True
 
 
 def write_params_file(params: Params, path: str | Path) -> Path:

@@ -78,6 +78,20 @@ def arm_model_specs(lead: str = "arm model: ") -> tuple[ParamSpec, ...]:
     )
 
 
+def torque_max_spec(description: str) -> ParamSpec:
+    """A node's torque limit per joint; empty (the default): each joint's URDF effort limit."""
+    return ParamSpec(
+        "torque_max",
+        float,
+        [],
+        description + ", N·m (one per joint, or one for all; empty: each joint's URDF effort limit)",
+        per_joint=True,
+        allow_empty=True,
+        minimum=0.0,
+        exclusive_minimum=True,
+    )
+
+
 # Rates have a floor and a ceiling this stack can keep: a rate beyond it starves
 # the loop, one below it leaves the watchdog with nothing to watch.
 SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
@@ -168,15 +182,7 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
     ),
     "motor_node": (
         URDF,
-        ParamSpec(
-            "torque_max",
-            float,
-            [10.0],
-            "actuator torque limit, N·m (one per joint, or one for all)",
-            per_joint=True,
-            minimum=0.0,
-            exclusive_minimum=True,
-        ),
+        torque_max_spec("actuator torque limit"),
         ParamSpec(
             "lag_time_constant_s", float, 0.0, "first-order actuator lag time constant, s (0 = none)", minimum=0.0
         ),
@@ -223,6 +229,15 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
             minimum=0.0,
         ),
         ParamSpec("lqr_r", float, 10.0, "LQR weight on the feedback torque", minimum=0.0, exclusive_minimum=True),
+        ParamSpec(
+            "lqr_reference_inertia",
+            float,
+            1.0 / 12.0,
+            "the joint inertia lqr_r is the torque weight for, kg·m² (the reference arm's); each joint's weight "
+            "is lqr_r·(this / its inertia at design_position)², so every joint gets the same closed-loop poles "
+            "(0: lqr_r on every joint as it is)",
+            minimum=0.0,
+        ),
         ParamSpec(
             "estimator",
             str,
@@ -346,8 +361,16 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         # compensation, the controlled stop): the URDF's unless these say otherwise (`robot-controller identify`
         # writes them). Any one set: tau = I·a + b·v + f_c·sign(v) + G·cos(q) per joint, the rest from the URDF.
         *arm_model_specs(),
+        torque_max_spec("output limit"),
         ParamSpec(
-            "torque_max", float, [10.0], "output limit, N·m", per_joint=True, minimum=0.0, exclusive_minimum=True
+            "design_position",
+            float,
+            [],
+            "the pose the LQR gains and the delay margin are designed at (each joint's inertia there), rad per "
+            "joint (empty: every joint at 0, within its limits); --robot sets the robot's home pose",
+            per_joint=True,
+            allow_empty=True,
+            read_only=True,
         ),
         ParamSpec("slew_rate_limit", float, 0.0, "maximum rate of change of the command, N·m/s (0 = off)", minimum=0.0),
         ParamSpec(
@@ -464,15 +487,7 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
             "the arm model the trajectory is checked against, the controller's (run passes its values on; set "
             "here, they must equal it): "
         ),
-        ParamSpec(
-            "torque_max",
-            float,
-            [10.0],
-            "actuator torque limit the trajectory is checked against, N·m (one per joint, or one for all); must equal motor_node's",
-            per_joint=True,
-            minimum=0.0,
-            exclusive_minimum=True,
-        ),
+        torque_max_spec("actuator torque limit the trajectory is checked against; must equal motor_node's"),
         ParamSpec(
             "feasibility",
             str,

@@ -119,7 +119,7 @@ def test_a_command_change_whose_instant_is_uncertain_widens_the_velocity(dynamic
         for k in range(50):
             kf.update(k * DT, np.zeros(1), np.zeros(1), dynamics.gravity(np.zeros(1)))
         kf.update(50 * DT, np.zeros(1), np.zeros(1), dynamics.gravity(np.zeros(1)), np.array([change]))
-        return kf.P[0, 1, 1]
+        return kf.joint_covariance[0, 1, 1]
 
     exact = velocity_variance(0.0, 1.0)
     assert velocity_variance(0.01, 0.0) == pytest.approx(exact)  # no change: nothing uncertain

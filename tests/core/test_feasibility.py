@@ -33,7 +33,7 @@ def fast_chirp():
 
 
 def test_the_default_sine_is_feasible_and_left_as_it_is(arm):
-    planner = cfg.defaults()["trajectory_planner"]
+    planner = cfg.load_stack()["trajectory_planner"]
     sine = make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner))
     plan = feasibility.plan(
         sine,

@@ -11,12 +11,32 @@ from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 
 
-def test_the_defaults_written_as_a_parameter_file_read_back_the_same(tmp_path):
+@pytest.mark.parametrize("robot", ["one_dof", "planar2"])
+def test_the_values_written_as_a_parameter_file_read_back_the_same(tmp_path, robot):
     written = subprocess.run(
-        [sys.executable, "-m", "robot_controller.cli", "params", "--yaml"], capture_output=True, text=True, check=True
+        [sys.executable, "-m", "robot_controller.cli", "params", "--yaml", "--robot", robot],
+        capture_output=True,
+        text=True,
+        check=True,
     ).stdout
     (tmp_path / "defaults.yaml").write_text(written)
-    assert cfg.read_params_file(tmp_path / "defaults.yaml") == cfg.defaults()
+    assert cfg.read_params_file(tmp_path / "defaults.yaml") == cfg.load_stack(robot=robot)
+
+
+def test_an_empty_torque_limit_is_each_joints_urdf_effort_limit():
+    params = cfg.load_stack(robot="planar2")
+    for node in ("motor_node", "pid_controller", "trajectory_planner"):
+        assert params[node]["torque_max"] == [30.0, 10.0]
+    assert cfg.load_stack()["motor_node"]["torque_max"] == [10.0]  # the reference arm's 10 N·m
+
+
+def test_a_torque_limit_above_the_urdf_effort_limit_is_refused(tmp_path):
+    from robot_controller.parameters import consistency
+
+    path = tmp_path / "over.yaml"
+    path.write_text("/**:\n  ros__parameters:\n    torque_max: [40.0, 10.0]\n")
+    with pytest.raises(ConfigError, match=r"torque_max \[40\.0, 10\.0\] N·m exceeds the URDF's effort limit"):
+        consistency.check_stack(cfg.load_stack(config=path, robot="planar2"))
 
 
 def test_later_config_files_override_earlier_ones(tmp_path):
