@@ -48,6 +48,13 @@ def positive_int(text: str) -> int:
     return value
 
 
+def joint_list(text: str) -> list[str]:
+    names = [name.strip() for name in text.split(",")]
+    if not all(names):
+        raise argparse.ArgumentTypeError(f"expected comma-separated joint names, got {text!r}")
+    return names
+
+
 def port(text: str) -> int:
     value = positive_int(text)
     if value > 65535:
@@ -64,7 +71,19 @@ def _verb(subparsers, name: str, help_text: str, handler: Handler) -> argparse.A
     return parser
 
 
+def _robot_option(parser: argparse.ArgumentParser) -> None:
+    from robot_controller.robots import DEFAULT_ROBOT, ROBOTS
+
+    parser.add_argument(
+        "--robot",
+        default=DEFAULT_ROBOT,
+        choices=sorted(ROBOTS),
+        help=f"the arm: its URDF, limits, home pose and default trajectory (default {DEFAULT_ROBOT})",
+    )
+
+
 def _stack_options(parser: argparse.ArgumentParser, *, seed: bool = True) -> None:
+    _robot_option(parser)
     parser.add_argument("--preset", default="default", choices=cfg.available_presets())
     parser.add_argument(
         "--config",
@@ -85,6 +104,7 @@ def _loop_verbs(sub) -> None:
             duration_s=a.duration,
             out=a.out,
             preset=a.preset,
+            robot=a.robot,
             seed=a.seed,
             config=a.config,
             single_process=a.single_process,
@@ -131,7 +151,7 @@ def _loop_verbs(sub) -> None:
         sub,
         "params",
         "list every node parameter with its default and meaning",
-        lambda a: verbs.list_params(preset=a.preset, config=a.config, as_yaml=a.yaml),
+        lambda a: verbs.list_params(preset=a.preset, config=a.config, as_yaml=a.yaml, robot=a.robot),
     )
     p.add_argument(
         "--yaml", action="store_true", help="print the values as a ROS 2 parameter file (for --config or --params-file)"
@@ -149,6 +169,7 @@ def _experiment_verbs(sub) -> None:
             shaping=a.shaping,
             out=a.out,
             preset=a.preset,
+            robot=a.robot,
             seed=a.seed,
             config=a.config,
             sim_time=a.sim_time,
@@ -169,9 +190,14 @@ def _experiment_verbs(sub) -> None:
         "compare",
         "the tutorial preset, PID, PID+FF, PID+FF+Kalman, LQR on sine and step",
         lambda a: verbs.compare(
-            out=output_dir(a.out, Path("runs/compare")), seeds=a.seeds, duration_s=a.duration, amplitude=a.amplitude
+            out=output_dir(a.out, Path("runs/compare")),
+            seeds=a.seeds,
+            duration_s=a.duration,
+            amplitude=a.amplitude,
+            robot=a.robot,
         ),
     )
+    _robot_option(p)
     p.add_argument("--out", type=Path, help="output directory (default runs/compare)")
     p.add_argument("--seeds", type=positive_int, default=5)
     p.add_argument("--duration", type=positive_seconds, default=10.0, help="sine duration, sim s (default 10)")
@@ -189,7 +215,9 @@ def _experiment_verbs(sub) -> None:
         sub,
         "tune",
         "automatic gain design with robustness margins; writes tuned.yaml",
-        lambda a: verbs.tune(output_dir(a.out, Path("runs/tune")), preset=a.preset, config=a.config, quick=a.quick),
+        lambda a: verbs.tune(
+            output_dir(a.out, Path("runs/tune")), preset=a.preset, config=a.config, quick=a.quick, robot=a.robot
+        ),
     )
     p.add_argument("--out", type=Path, help="output directory (default runs/tune)")
     _stack_options(p, seed=False)
@@ -201,6 +229,7 @@ def _experiment_verbs(sub) -> None:
         lambda a: verbs.identify(
             output_dir(a.out, Path("runs/identify")),
             preset=a.preset,
+            robot=a.robot,
             config=a.config,
             seed=a.seed,
             duration_s=a.duration,
@@ -224,8 +253,9 @@ def _experiment_verbs(sub) -> None:
         sub,
         "faults",
         "freeze each node mid-motion (SIGSTOP) and measure what the arm did",
-        lambda a: verbs.faults(output_dir(a.out, Path("runs/faults")), quick=a.quick),
+        lambda a: verbs.faults(output_dir(a.out, Path("runs/faults")), quick=a.quick, robot=a.robot),
     )
+    _robot_option(p)
     p.add_argument("--out", type=Path, help="output directory (default runs/faults)")
     p.add_argument("--quick", action="store_true", help="two cases: sensor and controller frozen 0.5 s")
 
@@ -247,6 +277,24 @@ def _graph_verbs(sub) -> None:
     p.add_argument("--torque", type=float, required=True, help="N·m")
     p.add_argument("--duration", type=positive_seconds, default=0.5, help="s (default 0.5)")
     p.add_argument("--joint", help="joint name (default: every joint)")
+    p = _verb(
+        sub,
+        "goto",
+        "move the running arm to joint positions, at rest after --time (a JointTrajectory to the planner)",
+        lambda a: verbs.goto(a.positions, a.time, a.joints),
+    )
+    p.add_argument("positions", type=float, nargs="+", metavar="Q", help="rad, one per joint")
+    p.add_argument("--time", type=positive_seconds, help="s to get there (default: from the distance, at least 1)")
+    p.add_argument(
+        "--joints", type=joint_list, help="names of the positions' joints, comma-separated (default: the arm's)"
+    )
+    p = _verb(
+        sub,
+        "trajectory",
+        "send a joint trajectory from a YAML file to the running planner (joint_names, points)",
+        lambda a: verbs.send_trajectory(a.file),
+    )
+    p.add_argument("file", type=Path, help="YAML: joint_names: [...], points: [{time_from_start, positions}, ...]")
     topic = sub.add_parser("topic", help="ros2 topic's habits: list, echo, hz")
     topics = topic.add_subparsers(dest="topic_verb", required=True, parser_class=Parser)
     p = _verb(topics, "list", "the graph's topics", lambda a: verbs.topic("list", show_types=a.show_types))

@@ -75,6 +75,7 @@ def run(
     seed: int,
     config: list[Path] | None,
     single_process: bool,
+    robot: str = "one_dof",
     realtime: bool = False,
     sim_time: bool = False,
     respawn: bool = False,
@@ -83,7 +84,7 @@ def run(
     from robot_controller.runner import launcher
     from robot_controller.scoring import plots, report
 
-    params = cfg.load_stack(preset, config)
+    params = cfg.load_stack(preset, config, robot)
     params["sensor_node"]["seed"] = seed
     config_check.check_stack(params)  # before the output folder is made
     out = output_dir(out, Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S"))
@@ -117,6 +118,7 @@ def run(
             "duration_s": round(recorded_s, 3),
             "interrupted": result.interrupted,
             "preset": preset,
+            "robot": robot,
             "seed": seed,
             "mode": "single_process" if single_process else "multi_process",
             "clock": "sim_lockstep" if sim_time else "wall",
@@ -134,8 +136,8 @@ def run(
     report.write_metrics(out / "metrics.json", values)
     if sim_time:
         report.write_metrics(out / "timing.json", wall)
-    plots.plot_tracking(recording, out / "tracking.png", title=f"preset {preset}, seed {seed}")
-    print_table(values | (wall if sim_time else {}), title=f"run: preset {preset}, seed {seed} → {out}")
+    plots.plot_tracking(recording, out / "tracking.png", title=f"{robot}, preset {preset}, seed {seed}")
+    print_table(values | (wall if sim_time else {}), title=f"run: {robot}, preset {preset}, seed {seed} → {out}")
     return result.exit_code
 
 
@@ -173,10 +175,11 @@ def step(
     seed: int,
     config: list[Path] | None,
     sim_time: bool,
+    robot: str = "one_dof",
 ) -> int:
     from robot_controller.experiments import step as experiments
 
-    params = cfg.load_stack(preset, config)
+    params = cfg.load_stack(preset, config, robot)
     config_check.check_stack(experiments.step_params(params, amplitude, shaping))
     out = output_dir(out, Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S")))
     try:
@@ -192,12 +195,14 @@ def step(
     return 0
 
 
-def compare(*, out: Path, seeds: int, duration_s: float, amplitude: float) -> int:
+def compare(*, out: Path, seeds: int, duration_s: float, amplitude: float, robot: str = "one_dof") -> int:
     from robot_controller.experiments import compare as experiments
 
     try:
         with StepProgress("compare", len(experiments.CONTENDERS) * seeds) as progress:
-            experiments.compare(out, seeds=seeds, sine_duration_s=duration_s, amplitude=amplitude, progress=progress)
+            experiments.compare(
+                out, seeds=seeds, sine_duration_s=duration_s, amplitude=amplitude, progress=progress, robot=robot
+            )
     except (RuntimeError, ValueError, FileExistsError) as exc:
         print(f"robot-controller: {exc}", file=sys.stderr)
         return 1
@@ -208,12 +213,12 @@ def compare(*, out: Path, seeds: int, duration_s: float, amplitude: float) -> in
     return 0
 
 
-def faults(out: Path, *, quick: bool) -> int:
+def faults(out: Path, *, quick: bool, robot: str = "one_dof") -> int:
     from robot_controller.experiments import faults as faults_module
 
     try:
         with StepProgress("faults", len(faults_module.cases(quick))) as progress:
-            faults_module.faults(out, quick=quick, progress=progress)
+            faults_module.faults(out, quick=quick, progress=progress, robot=robot)
     except (RuntimeError, ValueError, FileExistsError) as exc:
         print(f"robot-controller: {exc}", file=sys.stderr)
         return 1
@@ -229,8 +234,8 @@ def estop(*, release: bool) -> int:
     return 0 if heard else 1
 
 
-def list_params(*, preset: str, config: list[Path] | None, as_yaml: bool) -> int:
-    values = cfg.load_stack(preset, config)
+def list_params(*, preset: str, config: list[Path] | None, as_yaml: bool, robot: str = "one_dof") -> int:
+    values = cfg.load_stack(preset, config, robot)
     if as_yaml:
         print(cfg.params_yaml(values), end="")
         return 0
@@ -251,14 +256,19 @@ def print_table(values: dict, title: str, headline: tuple[str, ...] = HEADLINE) 
     from rich.console import Console
     from rich.table import Table
 
+    from robot_controller.scoring.report import joint_table
+
     table = Table(title=title)
     table.add_column("metric")
     table.add_column("value", justify="right")
     for key in headline + tuple(sorted(k for k in values if k not in headline)):
-        if key in values:
+        if key in values and not isinstance(values[key], list):  # the per-joint lists: in their own table
             value = values[key]
             table.add_row(key, f"{value:.6g}" if isinstance(value, float) else str(value))
     Console().print(table)
+    joints = joint_table(values)
+    if joints is not None:
+        Console().print(joints)
 
 
 # The exercises by name, for the parser (importing them would slow every verb's start).
@@ -275,10 +285,10 @@ def exercise(name: str, out: Path, *, quick: bool) -> int:
     return 0
 
 
-def tune(out: Path, *, preset: str, config: list[Path] | None, quick: bool) -> int:
+def tune(out: Path, *, preset: str, config: list[Path] | None, quick: bool, robot: str = "one_dof") -> int:
     from robot_controller.experiments import tune as tune_module
 
-    params = cfg.load_stack(preset, config)
+    params = cfg.load_stack(preset, config, robot)
     config_check.check_stack(params)
     with StepProgress("tune", tune_module.steps(quick)) as progress:
         tune_module.tune(params, out, quick=quick, progress=progress)
@@ -287,10 +297,12 @@ def tune(out: Path, *, preset: str, config: list[Path] | None, quick: bool) -> i
     return 0
 
 
-def identify(out: Path, *, preset: str, config: list[Path] | None, seed: int, duration_s: float) -> int:
+def identify(
+    out: Path, *, preset: str, config: list[Path] | None, seed: int, duration_s: float, robot: str = "one_dof"
+) -> int:
     from robot_controller.experiments import identify as identify_module
 
-    params = cfg.load_stack(preset, config)
+    params = cfg.load_stack(preset, config, robot)
     config_check.check_stack(params)
     with StepProgress("identify", 4) as progress:
         identify_module.identify(params, out, duration_s=duration_s, seed=seed, progress=progress)
@@ -312,6 +324,18 @@ def disturb(torque_nm: float, duration_s: float, joint: str | None) -> int:
     from robot_controller.tools.disturb import disturb as send
 
     return send(torque_nm, duration_s, joint)
+
+
+def goto(positions: list[float], time_s: float | None, joints: list[str] | None) -> int:
+    from robot_controller.tools.send_trajectory import goto as send
+
+    return send(positions, time_s, joints)
+
+
+def send_trajectory(path: Path) -> int:
+    from robot_controller.tools.send_trajectory import send_file
+
+    return send_file(path)
 
 
 def topic(kind: str, *args, **kwargs) -> int:

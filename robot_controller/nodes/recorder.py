@@ -35,6 +35,7 @@ from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray
+from trajectory_msgs.msg import JointTrajectory
 
 from robot_controller.ros.process import make_executor
 from robot_controller.ros.publishing import RECORDER_NODE
@@ -65,6 +66,7 @@ TELEMETRY_TOPICS = {
     "/estop": (Bool, "std_msgs/msg/Bool"),
     "/sim/disturbance": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
     "/sim/disturbance_applied": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
+    "/trajectory_planner/joint_trajectory": (JointTrajectory, "trajectory_msgs/msg/JointTrajectory"),
 }
 CLOCK_TOPIC = {"/clock": (Clock, "rosgraph_msgs/msg/Clock")}
 

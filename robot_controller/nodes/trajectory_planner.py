@@ -25,6 +25,19 @@ URDF's, or the ``model_*`` values over it. This node builds it from its own
 and the check before start requires to be the controller's; that check
 (``parameters.consistency.trajectory_plan``, which the in-process loop runs
 too) plans on the same model, so every path slows a trajectory alike.
+
+Joint trajectories: a ``trajectory_msgs/JointTrajectory`` on
+``/trajectory_planner/joint_trajectory`` (as ros2_controllers'
+JointTrajectoryController takes it) replaces the motion. It is checked
+(``core.joint_trajectory``: the arm's joints, times, lengths, the URDF's
+position and velocity limits, the path between the points, the torque by the
+arm model, not slowed) and blended from the reference being published at
+that instant; its ``time_from_start`` counts from ``header.stamp`` if that is
+set and not past, else from receipt. One info line when it is taken, one
+warning with the reason when it is refused (the motion then goes on as it
+was). After its last point the planner holds it, until the next trajectory
+or a change of the shape parameters (``mode``, ``amplitude``…), which brings
+the parameters' motion back.
 """
 
 from __future__ import annotations
@@ -35,19 +48,38 @@ import numpy as np
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 
 from robot_controller import parameters as cfg
-from robot_controller.core import feasibility
+from robot_controller import resources
+from robot_controller.core import feasibility, joint_trajectory
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.joint_limits import joint_limits
 from robot_controller.core.trajectory import Trajectory, make_trajectory
 from robot_controller.parameters.builders import arm_model, model_overridden
+from robot_controller.parameters.limits import torque_limit
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher
-from robot_controller.ros.qos import CONTROL_QOS
+from robot_controller.ros.qos import CONTROL_QOS, LATEST_QOS
 from robot_controller.ros.stack_node import StackNode
 from robot_controller.ros.stamps import stamp_to_s
 
 _GRID_EPS_S = 1e-6
+JOINT_TRAJECTORY_TOPIC = "/trajectory_planner/joint_trajectory"
+# A change of these brings the parameters' motion back in place of a joint trajectory.
+SHAPE_KEYS = frozenset(
+    (
+        "mode",
+        "amplitude",
+        "frequency_hz",
+        "offset",
+        "step_time_s",
+        "end_frequency_hz",
+        "sweep_time_s",
+        "step_shaping",
+        "max_acceleration",
+    )
+)
 
 
 class TrajectoryPlanner(StackNode):
@@ -61,6 +93,8 @@ class TrajectoryPlanner(StackNode):
         self.pub = GatedPublisher(self, Float64MultiArray, "/trajectory")
         self.start_s: float | None = None
         self.next_sample_s = 0.0
+        self.waypoints: joint_trajectory.JointTrajectory | None = None  # a joint trajectory in force, if any
+        self.origin_s = 0.0  # when the motion in force has its time 0 (the start, or a joint trajectory's receipt)
         self.clock_s = 0.0  # lockstep: the latest /clock (time is 0 until the first)
         self.msg = Float64MultiArray()
         n = p["joint_count"]
@@ -77,6 +111,7 @@ class TrajectoryPlanner(StackNode):
             )
         else:
             self.timer = self.create_timer(1.0 / p["publish_rate_hz"], lambda: self.sample_at(self.now_s()))
+        self.create_subscription(JointTrajectoryMsg, JOINT_TRAJECTORY_TOPIC, self.joint_trajectory_callback, LATEST_QOS)
         self.get_logger().info(
             f"trajectory: {p['mode']}, amplitude {p['amplitude']} rad, "
             f"{p['frequency_hz']:g} Hz, published at {p['publish_rate_hz']:g} Hz"
@@ -93,6 +128,8 @@ class TrajectoryPlanner(StackNode):
             )
         if model_overridden(params):
             self.get_logger().info(f"trajectory checked against {self.dynamics.describe()}")
+        # Position and velocity limits, for joint trajectories (read-only URDF: fixed at start).
+        self.limits = joint_limits(resources.resolve_urdf(params["urdf_path"]))
 
     def _planned(self, params: dict[str, Any]) -> feasibility.Plan:
         """The trajectory the values describe, slowed if it must be (``ConfigError`` if it is refused)."""
@@ -102,7 +139,7 @@ class TrajectoryPlanner(StackNode):
             self._plan = feasibility.plan(
                 trajectory,
                 self.dynamics,
-                params["torque_max"],
+                torque_limit(params, len(self.dynamics.joint_names)),
                 margin=params["feasibility_margin"],
                 policy=params["feasibility"],
                 what=params["mode"],
@@ -129,6 +166,10 @@ class TrajectoryPlanner(StackNode):
 
     def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
         self.trajectory = self._make(params)
+        if self.waypoints is not None and changed & SHAPE_KEYS:
+            self.waypoints = None
+            self.origin_s = self.start_s or 0.0
+            self.get_logger().info(f"joint trajectory left for the parameters' {params['mode']}")
         if "publish_rate_hz" in changed and self.timer is not None:
             self.destroy_timer(self.timer)
             self.timer = self.create_timer(1.0 / params["publish_rate_hz"], lambda: self.sample_at(self.now_s()))
@@ -144,6 +185,7 @@ class TrajectoryPlanner(StackNode):
                 return  # t = 0 is when the controller (and the recorder) can hear it
             self.start_s = now_s
             self.next_sample_s = now_s
+            self.origin_s = now_s
             if self.params["lockstep"]:
                 self.destroy_timer(self.start_poll)
         if self.params["lockstep"]:
@@ -151,9 +193,56 @@ class TrajectoryPlanner(StackNode):
                 return
             period = 1.0 / self.params["publish_rate_hz"]
             self.next_sample_s = self.start_s + (np.floor((now_s - self.start_s + _GRID_EPS_S) / period) + 1) * period
-        position, velocity, acceleration = self.trajectory.sample(now_s - self.start_s)
+        position, velocity, acceleration = self.reference_at(now_s)
         self.msg.data = np.concatenate((position, velocity, acceleration, [now_s])).tolist()
         self.pub.publish(self.msg)
+
+    def reference_at(self, now_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The reference in force at ``now_s``: a joint trajectory's, else the parameters' motion."""
+        motion = self.waypoints if self.waypoints is not None else self.trajectory
+        return motion.sample(now_s - self.origin_s)
+
+    def joint_trajectory_callback(self, msg: JointTrajectoryMsg) -> None:
+        now_s = self.clock_s if self.params["lockstep"] else self.now_s()
+        taken = self._joint_trajectory(msg, now_s)
+        if isinstance(taken, str):
+            self.warn_throttled("joint_trajectory", f"joint trajectory refused: {taken}; the motion goes on as it was")
+            return
+        trajectory = taken.trajectory
+        self.waypoints, self.origin_s = trajectory, now_s
+        points = len(trajectory.waypoints.times_s)
+        target = np.round(trajectory.final_position, 4).tolist()
+        delayed = trajectory.start_delay_s
+        j = int(np.argmax(taken.peak_torque_nm))
+        self.get_logger().info(
+            f"joint trajectory taken: {points} point(s), reaching {target} rad {trajectory.duration_s:.3g} s from now"
+            + (f" (its time 0 at its stamp, {delayed:.3g} s from now)" if delayed else "")
+            + f"; peak torque {taken.peak_torque_nm[j]:.2f} N·m on {self.limits.joint_names[j]}"
+        )
+        if taken.warning is not None:
+            self.get_logger().warning(f"{taken.warning}; running it as it is (feasibility: ignore)")
+
+    def _joint_trajectory(self, msg: JointTrajectoryMsg, now_s: float) -> joint_trajectory.Accepted | str:
+        if self.start_s is None:
+            return "the planner is not publishing yet (its consumers are not matched)"
+        delay = joint_trajectory.start_delay(stamp_to_s(msg.header.stamp), now_s)
+        if isinstance(delay, str):
+            return delay
+        points = msg.points
+        return joint_trajectory.accept(
+            list(msg.joint_names),
+            [point.time_from_start.sec + point.time_from_start.nanosec * 1e-9 for point in points],
+            [list(point.positions) for point in points],
+            [list(point.velocities) for point in points],
+            [list(point.accelerations) for point in points],
+            start=self.reference_at(now_s),
+            limits=self.limits,
+            dynamics=self.dynamics,
+            torque_limit_nm=torque_limit(self.params, len(self.limits.joint_names)),
+            margin=self.params["feasibility_margin"],
+            start_delay_s=delay,
+            torque_policy="warn" if self.params["feasibility"] == "ignore" else "refuse",
+        )
 
 
 def main(args: list[str] | None = None) -> int:

@@ -51,6 +51,8 @@ LOOP_TOPICS = (
     "/clock",
     "/sim/disturbance",
     "/sim/disturbance_applied",
+    # A command that moves the arm: heard from the run and the project's tools (observer profile) only.
+    "/trajectory_planner/joint_trajectory",
 )
 
 #: Set by the launcher in each node's environment: the run's partition name.
