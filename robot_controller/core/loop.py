@@ -6,7 +6,8 @@ measured against (no transport delay, perfectly periodic ticks).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -41,11 +42,16 @@ class LoopResult:
     true_velocity: np.ndarray
     command: np.ndarray
     applied: np.ndarray
+    joint_names: list[str] = field(default_factory=list)  #: the columns' joints (the plant's order)
 
-    def tracking_metrics(self, warmup_s: float = metrics.WARMUP_S) -> dict[str, float]:
-        return metrics.tracking_metrics(
+    def tracking_metrics(self, warmup_s: float = metrics.WARMUP_S) -> dict[str, Any]:
+        """Tracking per joint and the worst joint's (:func:`metrics.tracking_metrics`), with
+        ``joint_names``, as ``metrics.json`` has them."""
+        out = metrics.tracking_metrics(
             self.tick_time_s, self.reference, self.true_position, self.measured, warmup_s=warmup_s
         )
+        names = self.joint_names or [f"joint{k + 1}" for k in range(self.reference.shape[1])]
+        return {"joint_names": list(names), **out}
 
 
 def run_loop(
@@ -120,4 +126,4 @@ def run_loop(
         record["true_velocity"][k] = true_velocity
         record["command"][k] = out.command
         record["applied"][k] = applied
-    return LoopResult(tick_time_s=times, **record)
+    return LoopResult(tick_time_s=times, joint_names=list(plant.joint_names), **record)

@@ -3,6 +3,8 @@ an in-process simulation or a recording read back from a bag alike."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 WARMUP_S = 2.0
@@ -51,12 +53,13 @@ def tracking_metrics(
     measured_position: np.ndarray,
     *,
     warmup_s: float = WARMUP_S,
-) -> dict[str, float]:
+) -> dict[str, Any]:
     """Tracking errors after ``warmup_s`` from the first tick.
 
     ``tracking_*`` compare the reference with the TRUE position at each
     control tick; ``measured_rms_rad`` compares it with what the sensor said.
-    RMS and max are over every joint and tick.
+    Each is computed per joint (``*_per_joint``, lists in joint order) and
+    the headline figure is the worst joint's (see :func:`joint_errors`).
     """
     t = np.asarray(tick_time_s, dtype=float)
     ref = np.asarray(reference_position, dtype=float).reshape(len(t), -1)
@@ -66,14 +69,43 @@ def tracking_metrics(
     window &= np.all(np.isfinite(true), axis=1)
     if not np.any(window):
         raise ValueError(f"no control ticks after the {warmup_s} s warm-up to score")
-    error = ref[window] - true[window]
-    measured_error = ref[window] - meas[window]
+    measured = joint_errors(ref[window] - meas[window], "measured")
     return {
-        "tracking_rms_rad": float(np.sqrt(np.mean(error**2))),
-        "tracking_max_rad": float(np.max(np.abs(error))),
-        "measured_rms_rad": float(np.sqrt(np.mean(measured_error**2))),
+        **joint_errors(ref[window] - true[window]),
+        "measured_rms_rad": measured["measured_rms_rad"],
+        "measured_rms_rad_per_joint": measured["measured_rms_rad_per_joint"],
         "scored_ticks": int(np.count_nonzero(window)),
     }
+
+
+def joint_errors(error: np.ndarray, prefix: str = "tracking") -> dict[str, Any]:
+    """RMS and largest |error| of each joint, and the worst joint's as the headline.
+
+    :param error: rad, one row per sample, one column per joint
+    :returns: ``{prefix}_rms_rad``, ``{prefix}_max_rad`` (the largest over the
+        joints, so one badly tracked joint is never averaged away by good ones),
+        and ``{prefix}_rms_rad_per_joint``, ``{prefix}_max_rad_per_joint``
+        (lists in joint order). With one joint the headline is that joint's.
+    """
+    error = np.asarray(error, dtype=float)
+    error = error.reshape(len(error), -1)
+    # Column by column: each a contiguous 1-D reduction, as the whole array of one joint is.
+    rms = [float(np.sqrt(np.mean(error[:, j] ** 2))) for j in range(error.shape[1])]
+    peak = [float(np.max(np.abs(error[:, j]))) for j in range(error.shape[1])]
+    return {
+        f"{prefix}_rms_rad": float(np.max(rms)),
+        f"{prefix}_max_rad": float(np.max(peak)),
+        f"{prefix}_rms_rad_per_joint": rms,
+        f"{prefix}_max_rad_per_joint": peak,
+    }
+
+
+def peak_torque(command: np.ndarray) -> dict[str, Any]:
+    """Largest |command| of each joint (N·m, ``peak_torque_nm_per_joint``) and over all (``peak_torque_nm``)."""
+    command = np.asarray(command, dtype=float)
+    command = command.reshape(len(command), -1)
+    per_joint = [float(np.max(np.abs(command[:, j]))) for j in range(command.shape[1])]
+    return {"peak_torque_nm": float(np.max(per_joint)), "peak_torque_nm_per_joint": per_joint}
 
 
 STALL_S = 0.030

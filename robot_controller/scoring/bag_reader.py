@@ -46,6 +46,8 @@ class Recording:
     #: empty when there was none
     disturbance_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     disturbance: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
+    #: the joints' names as /sim/joint_states gives them, in the order of every array's columns
+    recorded_joint_names: list[str] = field(default_factory=list)
 
     def raw_reading_at(self, stamps_s: np.ndarray) -> np.ndarray:
         """The sensor's raw position for each measurement stamp (NaN where not recorded).
@@ -68,6 +70,13 @@ class Recording:
     @property
     def joint_count(self) -> int:
         return self.true_position.shape[1]
+
+    @property
+    def joint_names(self) -> list[str]:
+        """The joints' names, in column order (``joint1``, ``joint2``… if the bag has none that fit)."""
+        if len(self.recorded_joint_names) == self.joint_count:
+            return list(self.recorded_joint_names)
+        return [f"joint{k + 1}" for k in range(self.joint_count)]
 
 
 def read_recording(bag_dir: Path) -> Recording:
@@ -187,6 +196,7 @@ def read_recording(bag_dir: Path) -> Recording:
         disturbance_time_s=np.array([t for t, _ in disturbance]),
         disturbance=rows([d for _, d in disturbance]),
         malformed=malformed,
+        recorded_joint_names=_joint_names_of(true, joint_count),
     )
 
 
@@ -209,6 +219,14 @@ def _joint_count_of(decoded: dict[str, list[tuple[int, Any]]]) -> int:
         raise ValueError("no /sim/joint_states with joint positions recorded")
     values, counts = np.unique(sizes, return_counts=True)
     return int(values[np.argmax(counts)])
+
+
+def _joint_names_of(true: list[tuple[int, Any]], joint_count: int) -> list[str]:
+    """The names most true-state messages carry (empty if none names every joint)."""
+    named = [tuple(msg.name) for _, msg in true if len(msg.name) == joint_count]
+    if not named:
+        return []
+    return list(max(set(named), key=named.count))
 
 
 def motor_latency_s(state: dict[str, np.ndarray], receipts: np.ndarray) -> np.ndarray:

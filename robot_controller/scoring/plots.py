@@ -1,4 +1,9 @@
-"""The run's picture: reference, true and measured position; error; torque."""
+"""The run's picture: reference, true and measured position; error; torque.
+
+One joint: three panels stacked. More: one row per joint (named on the
+left), with the same three panels side by side, so a seven-joint arm stays
+readable and every joint keeps its own scale.
+"""
 
 from __future__ import annotations
 
@@ -11,7 +16,7 @@ from robot_controller.scoring.bag_reader import Recording
 
 
 def plot_tracking(recording: Recording, path: Path, title: str = "") -> None:
-    """Reference, true and measured position; tracking error; commanded and applied torque."""
+    """Reference, true and measured position; tracking error; commanded and applied torque, for every joint."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -23,29 +28,54 @@ def plot_tracking(recording: Recording, path: Path, title: str = "") -> None:
     true_at_tick = metrics.true_position_at(
         s["time_s"], recording.true_time_s, recording.true_position, recording.true_velocity
     )
-    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True, constrained_layout=True)
-    for j in range(recording.joint_count):
-        tag = f" j{j + 1}" if recording.joint_count > 1 else ""
-        axes[0].plot(t, s["reference"][:, j], "k--", lw=1.2, label=f"reference{tag}")
-        axes[0].plot(t, true_at_tick[:, j], lw=1.2, label=f"true{tag}")
-        axes[0].plot(t, s["measured"][:, j], ".", ms=1.5, alpha=0.5, label=f"measured{tag}")
-        axes[1].plot(t, (s["reference"][:, j] - true_at_tick[:, j]) * 1e3, lw=1, label=f"reference − true{tag}")
-        axes[1].plot(
-            t, (s["reference"][:, j] - s["measured"][:, j]) * 1e3, lw=0.5, alpha=0.4, label=f"reference − measured{tag}"
+    n = recording.joint_count
+    if n == 1:
+        fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True, constrained_layout=True)
+        rows = [axes]
+    else:
+        fig, grid = plt.subplots(n, 3, figsize=(16, 1.1 + 2.0 * n), sharex=True, squeeze=False, constrained_layout=True)
+        rows = list(grid)
+    for j, (position, error, torque) in enumerate(rows):
+        position.plot(t, s["reference"][:, j], "k--", lw=1.2, label="reference")
+        position.plot(t, true_at_tick[:, j], lw=1.2, label="true")
+        position.plot(t, s["measured"][:, j], ".", ms=1.5, alpha=0.5, label="measured")
+        error.plot(t, (s["reference"][:, j] - true_at_tick[:, j]) * 1e3, lw=1, label="reference − true")
+        error.plot(
+            t, (s["reference"][:, j] - s["measured"][:, j]) * 1e3, lw=0.5, alpha=0.4, label="reference − measured"
         )
-        axes[2].plot(t, s["command"][:, j], lw=1, label=f"command{tag}")
-        axes[2].plot(recording.true_time_s - t0, recording.true_effort[:, j], lw=0.8, alpha=0.7, label=f"applied{tag}")
-    axes[0].set_ylabel("position [rad]")
-    axes[1].set_ylabel("error [mrad]")
-    axes[2].set_ylabel("torque [N·m]")
-    axes[2].set_xlabel("time since first control tick [s]")
-    for ax in axes:
-        ax.grid(alpha=0.3)
-        ax.legend(loc="upper right", fontsize=8)
-    ax1_lim = np.nanpercentile(np.abs((s["reference"] - s["measured"]) * 1e3), 99.5) * 1.3
-    if np.isfinite(ax1_lim) and ax1_lim > 0:
-        axes[1].set_ylim(-ax1_lim, ax1_lim)
-    axes[2].set_xlim(t[0], t[-1])
+        torque.plot(t, s["command"][:, j], lw=1, label="command")
+        torque.plot(recording.true_time_s - t0, recording.true_effort[:, j], lw=0.8, alpha=0.7, label="applied")
+        # The error's scale from the noisy reading's spread; with several joints, widened to show
+        # each joint's whole true error after the warm-up (its panel is the only place it is shown).
+        limit = np.nanpercentile(np.abs((s["reference"][:, j] - s["measured"][:, j]) * 1e3), 99.5) * 1.3
+        scored = np.abs(s["reference"][t >= metrics.WARMUP_S, j] - true_at_tick[t >= metrics.WARMUP_S, j]) * 1e3
+        if n > 1 and np.any(np.isfinite(scored)):
+            limit = max(limit, 1.1 * float(np.nanmax(scored)))
+        if np.isfinite(limit) and limit > 0:
+            error.set_ylim(-limit, limit)
+        for ax in (position, error, torque):
+            ax.grid(alpha=0.3)
+    last = rows[-1]
+    last[-1].set_xlim(t[0], t[-1])
+    if n == 1:
+        position, error, torque = rows[0]
+        position.set_ylabel("position [rad]")
+        error.set_ylabel("error [mrad]")
+        torque.set_ylabel("torque [N·m]")
+        torque.set_xlabel("time since first control tick [s]")
+        for ax in rows[0]:
+            ax.legend(loc="upper right", fontsize=8)
+    else:
+        for ax, heading in zip(rows[0], ("position [rad]", "error [mrad]", "torque [N·m]"), strict=True):
+            ax.set_title(heading, fontsize=10)
+            ax.legend(loc="upper right", fontsize=7)
+        for (position, _, _), name in zip(rows, recording.joint_names, strict=True):
+            position.set_ylabel(name, fontsize=9)
+        for ax in last:
+            ax.set_xlabel("time since first control tick [s]")
+        for row in rows:
+            for ax in row:
+                ax.tick_params(labelsize=8)
     if title:
         fig.suptitle(title)
     fig.savefig(path, dpi=110)

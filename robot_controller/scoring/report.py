@@ -46,16 +46,20 @@ def score(
         keep = s["time_s"] < s["time_s"][0] + window_s - 1e-9
         s = {k: v[keep] for k, v in s.items()}
     ticks = s["time_s"]
-    out: dict[str, Any] = {}
+    out: dict[str, Any] = {"joint_names": list(recording.joint_names)}
     end_s = ticks[0] + window_s if window_s is not None else ticks[-1]
     out.update(tracking_on_sim_timeline(recording, ticks[0] + warmup_s, end_s, nominal_period_s))
     # The sensor's own readings against the reference the law used with them (null if not recorded).
     active = s["status"] == state_layout.STATUS_CODES["ok"]
     raw = recording.raw_reading_at(s["measurement_stamp_s"])
     scored = active & (ticks >= ticks[0] + warmup_s) & np.all(np.isfinite(raw), axis=1)
-    out["measured_rms_rad"] = (
-        float(np.sqrt(np.mean((s["reference"][scored] - raw[scored]) ** 2))) if np.any(scored) else float("nan")
-    )
+    if np.any(scored):
+        measured = metrics.joint_errors(s["reference"][scored] - raw[scored], "measured")
+        out["measured_rms_rad"] = measured["measured_rms_rad"]
+        out["measured_rms_rad_per_joint"] = measured["measured_rms_rad_per_joint"]
+    else:
+        out["measured_rms_rad"] = float("nan")
+        out["measured_rms_rad_per_joint"] = [float("nan")] * recording.joint_count
     out["malformed_messages"] = int(sum(recording.malformed.values()))
     out.update(metrics.rate_metrics(ticks, nominal_period_s))
     out["control_ticks"] = int(len(ticks))
@@ -65,7 +69,7 @@ def score(
     for name in ("sensor_lost", "reacquiring", "reference_lost", "stopped"):
         out[f"{name}_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES[name]))
     out["saturated_ticks"] = int(np.count_nonzero(np.any(s["saturated"] > 0.5, axis=1)))
-    out["peak_torque_nm"] = float(np.max(np.abs(s["command"])))
+    out.update(metrics.peak_torque(s["command"]))
     out["recorded_duration_s"] = float(ticks[-1] - ticks[0])
     ok_ticks = s["status"] != state_layout.STATUS_CODES["no_measurement"]
     out.update(
@@ -129,16 +133,22 @@ def tracking_on_sim_timeline(
 ) -> dict[str, Any]:
     """Tracking on the simulator's timeline: every true-state sample from
     ``start_s`` to ``end_s`` against the reference in force at that time
-    (:func:`reference_in_force`)."""
+    (:func:`reference_in_force`), per joint and the worst joint's
+    (:func:`robot_controller.core.metrics.joint_errors`)."""
     t, q = recording.true_time_s, recording.true_position
     in_force, valid = reference_in_force(recording, nominal_period_s)
     window = (t >= start_s - 1e-9) & (t <= end_s + 1e-9) & valid
     if not np.any(window):
-        return {"tracking_rms_rad": float("nan"), "tracking_max_rad": float("nan"), "scored_samples": 0}
-    error = in_force[window] - q[window]
+        unknown = [float("nan")] * recording.joint_count
+        return {
+            "tracking_rms_rad": float("nan"),
+            "tracking_max_rad": float("nan"),
+            "tracking_rms_rad_per_joint": unknown,
+            "tracking_max_rad_per_joint": list(unknown),
+            "scored_samples": 0,
+        }
     return {
-        "tracking_rms_rad": float(np.sqrt(np.mean(error**2))),
-        "tracking_max_rad": float(np.max(np.abs(error))),
+        **metrics.joint_errors(in_force[window] - q[window]),
         "scored_samples": int(np.count_nonzero(window)),
     }
 
@@ -164,3 +174,42 @@ def json_safe(value: Any) -> Any:
 
 def write_metrics(path: Path, values: dict[str, Any]) -> None:
     path.write_text(json.dumps(json_safe(values), indent=2, sort_keys=True, allow_nan=False) + "\n")
+
+
+# The per-joint lists of metrics.json, in the order the summary shows them, with their column headings.
+PER_JOINT_KEYS = {
+    "tracking_rms_rad_per_joint": "tracking\nRMS [rad]",
+    "tracking_max_rad_per_joint": "tracking\nmax [rad]",
+    "measured_rms_rad_per_joint": "measured\nRMS [rad]",
+    "peak_torque_nm_per_joint": "peak\ntorque [N·m]",
+}
+
+
+def joint_table(values: dict[str, Any], title: str = "per joint (worst in bold: the headline figure)"):
+    """A ``rich`` table of the per-joint figures, one row per joint; None for a
+    one-joint arm (its headline figures are the joint's own)."""
+    names = values.get("joint_names") or []
+    if len(names) < 2:
+        return None
+    from rich.markup import escape
+    from rich.table import Table
+
+    keys = [key for key in PER_JOINT_KEYS if len(values.get(key) or []) == len(names)]
+    table = Table(title=title)
+    table.add_column("joint")
+    for key in keys:
+        table.add_column(escape(PER_JOINT_KEYS[key]), justify="right")  # "[rad]" is not markup
+    worst = {key: _worst(values[key]) for key in keys}
+    for j, name in enumerate(names):
+        cells = []
+        for key in keys:
+            value = values[key][j]
+            text = "—" if value is None or not np.isfinite(value) else f"{value:.6g}"
+            cells.append(f"[bold]{text}[/bold]" if j == worst[key] else text)
+        table.add_row(name, *cells)
+    return table
+
+
+def _worst(figures: list[float | None]) -> int | None:
+    finite = [(v, j) for j, v in enumerate(figures) if v is not None and np.isfinite(v)]
+    return max(finite)[1] if finite else None

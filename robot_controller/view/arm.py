@@ -4,10 +4,15 @@ sphere, or a mesh file rerun can read), placed by forward kinematics.
 The URDF is read here with the standard library rather than handed to
 rerun's URDF loader, so the arm can be drawn three times at once: posed by
 the TRUE angles, and by the measured and the reference angles as translucent
-ghosts. Each visual geometry is one entity with three instances (true,
-measured, reference), so one row moves all three arms together: a browser
-never shows one arm at a newer instant than another. The joint order is
-MuJoCo's (``core.plant.joint_names``), the stack's order for every array.
+ghosts. Each primitive (box, cylinder, sphere) is one entity with three
+instances (true, measured, reference), so one row moves all three arms
+together: a browser never shows one arm at a newer instant than another. A
+mesh takes one colour for all its instances, so each ghost of a mesh is an
+entity of its own (``…/visual_k/ghost_1``, ``…/ghost_2``), posed by the same
+send, translucent and a little smaller (``MESH_GHOST_SCALE``): a shell
+around a mesh would tint the whole arm, a ghost inside it shows only where
+its pose leaves the true arm's. The joint order is MuJoCo's
+(``core.plant.joint_names``), the stack's order for every array.
 
 Longer than our ~250-line guideline: a URDF reader and forward kinematics for the ghosts.
 """
@@ -23,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 MOVING = ("revolute", "continuous", "prismatic")
-MESH_FORMATS = (".stl", ".obj", ".glb", ".gltf", ".dae")
+MESH_FORMATS = (".stl", ".obj", ".glb", ".gltf")  # what rerun's Asset3D reads (not COLLADA's .dae)
 
 
 @dataclass(frozen=True)
@@ -33,6 +38,8 @@ class Visual:
     rpy: tuple[float, float, float]
     size: tuple[float, ...] = ()  #: box (x, y, z); cylinder (radius, length); sphere (radius,); mesh scale
     mesh: Path | None = None
+    #: a mesh's bounding-box centre in its own frame, unscaled (its ghosts shrink about it); 0 if unknown
+    centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 @dataclass
@@ -81,7 +88,7 @@ def _floats(text: str | None, default: tuple[float, ...]) -> tuple[float, ...]:
     return tuple(float(v) for v in text.split())
 
 
-def _part(name: str) -> str:
+def entity_part(name: str) -> str:
     """An entity path part for a URDF name."""
     return re.sub(r"[^A-Za-z0-9_\-]", "_", name) or "_"
 
@@ -115,8 +122,27 @@ def _visuals(link: ET.Element, urdf_dir: Path) -> list[Visual]:
             elif shape.tag == "mesh":
                 mesh = _resolve_mesh(shape.get("filename", ""), urdf_dir)
                 if mesh is not None:
-                    out.append(Visual("mesh", xyz, rpy, _floats(shape.get("scale"), (1.0, 1.0, 1.0)), mesh))
+                    scale = _floats(shape.get("scale"), (1.0, 1.0, 1.0))
+                    out.append(Visual("mesh", xyz, rpy, scale, mesh, _mesh_centre(mesh)))
     return out
+
+
+def _mesh_centre(path: Path) -> tuple[float, float, float]:
+    """The centre of an STL mesh's bounding box (binary or ASCII); the origin for other formats."""
+    if path.suffix.lower() != ".stl":
+        return (0.0, 0.0, 0.0)
+    data = path.read_bytes()
+    count = int.from_bytes(data[80:84], "little") if len(data) >= 84 else -1
+    if len(data) == 84 + 50 * count:  # binary: per triangle a normal, three vertices, two spare bytes
+        records = np.frombuffer(data, dtype=np.uint8, offset=84).reshape(count, 50)
+        vertices = records[:, 12:48].copy().view("<f4").reshape(-1, 3)
+    else:
+        numbers = re.findall(rb"vertex\s+(\S+)\s+(\S+)\s+(\S+)", data)
+        vertices = np.array(numbers, dtype=float).reshape(-1, 3)
+    if len(vertices) == 0:
+        return (0.0, 0.0, 0.0)
+    centre = 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
+    return (float(centre[0]), float(centre[1]), float(centre[2]))
 
 
 def load_arm(urdf: Path, joint_order: list[str] | None = None) -> ArmModel:
@@ -229,6 +255,24 @@ def link_frames(arm: ArmModel, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.
     return frames
 
 
+def view_sphere(arm: ArmModel) -> tuple[np.ndarray, float]:
+    """Where the camera looks (the first joint) and how large a sphere about it must stay in
+    view (m): one joint, its reach; more, how far the arm reaches from the first joint at its
+    zero pose (the links' origins and visuals; the summed lengths of a folding chain overstate it)."""
+    base = np.asarray(arm.base_xyz, dtype=float)
+    if len(arm.joint_names) <= 1:
+        return base, arm.reach_m
+    frames = link_frames(arm, np.zeros((1, len(arm.joint_names))))
+    radius = 0.0
+    for link in arm.links():
+        rotation, position = frames[link.name]
+        radius = max(radius, float(np.linalg.norm(position[0] - base)))
+        for v in link.visuals:
+            centre = position[0] + rotation[0] @ np.asarray(v.xyz)
+            radius = max(radius, float(np.linalg.norm(centre - base)) + _extent(v) - float(np.linalg.norm(v.xyz)))
+    return base, radius
+
+
 def _quaternions(rotations: np.ndarray) -> np.ndarray:
     from scipy.spatial.transform import Rotation
 
@@ -236,13 +280,19 @@ def _quaternions(rotations: np.ndarray) -> np.ndarray:
 
 
 def _visual_path(root: str, link: Link, k: int) -> str:
-    return f"{root}/{_part(link.name)}/visual_{k}"
+    return f"{root}/{entity_part(link.name)}/visual_{k}"
+
+
+def _mesh_path(visual_path: str, pose: int) -> str:
+    """The entity of a mesh drawn in pose ``pose`` (0: true, then the ghosts)."""
+    return visual_path if pose == 0 else f"{visual_path}/ghost_{pose}"
 
 
 def _hub_path(root: str, joint: Joint) -> str:
-    return f"{root}/hubs/{_part(joint.name)}"
+    return f"{root}/hubs/{entity_part(joint.name)}"
 
 
+MESH_GHOST_SCALE = 0.97  # a mesh's ghosts, about the visual's origin: inside the true arm where they agree
 HUB_COLOR = [70, 70, 78]
 HUB_LENGTH_M, HUB_RADIUS_M = 0.06, 0.035
 
@@ -284,8 +334,9 @@ def log_static(rec, arm: ArmModel, root: str, poses: list[tuple[list[int], float
                     ),
                     static=True,
                 )
-            elif v.kind == "mesh" and v.mesh is not None:  # one colour for every instance of a mesh
-                rec.log(path, rr.Asset3D(path=v.mesh, albedo_factor=colors[0]), static=True)
+            elif v.kind == "mesh" and v.mesh is not None:  # one colour a mesh: an entity per pose
+                for k_pose, colour in enumerate(colors):
+                    rec.log(_mesh_path(path, k_pose), rr.Asset3D(path=v.mesh, albedo_factor=colour), static=True)
     for _, joint in arm.joints():
         if joint.kind in MOVING:
             rec.log(
@@ -317,9 +368,17 @@ def pose_columns(arm: ArmModel, root: str, q: np.ndarray) -> list[tuple[str, obj
             elif v.kind == "sphere":
                 columns = rr.Ellipsoids3D.columns(centers=centers, quaternions=quaternions)
             elif v.kind == "mesh" and v.mesh is not None:
-                columns = rr.InstancePoses3D.columns(
-                    translations=centers, quaternions=quaternions, scales=np.broadcast_to(v.size, (m * count, 3))
-                )
+                for pose in range(count):  # rows are sample-major: every count-th row is this pose's
+                    shrink = 1.0 if pose == 0 else MESH_GHOST_SCALE
+                    # Shrunk about the mesh's centre, which then stays where the full-size one has it.
+                    offset = visual_rotation[pose::count] @ ((1.0 - shrink) * np.asarray(v.size) * v.centre)
+                    columns = rr.InstancePoses3D.columns(
+                        translations=centers[pose::count] + offset,
+                        quaternions=quaternions[pose::count],
+                        scales=np.broadcast_to(np.asarray(v.size) * shrink, (m, 3)),
+                    )
+                    out.append((_mesh_path(_visual_path(root, link, k), pose), columns))
+                continue
             else:
                 continue
             out.append((_visual_path(root, link, k), columns.partition([count] * m)))

@@ -29,6 +29,7 @@ SERIES_HZ = 50.0
 POSE_HZ = 20.0
 MAX_PENDING = 5000  # per input: 50 s of a 100 Hz topic
 TICK_TAIL = 400  # controller ticks kept to pair true samples and motor receipts with (4 s at 100 Hz)
+OTHER_CLOCK_S = 60.0  # a /diagnostics stamp this far outside the ticks' span is on another clock
 STATUS_NAMES = {code: name for name, code in state_layout.STATUS_CODES.items()}
 
 
@@ -267,8 +268,13 @@ class ViewFeed:
         if receipts is not None and len(self.ticks):
             self._latency(receipts, final)
         diagnostics = self._drain(self.diagnostics_in, 2)
-        if diagnostics is not None:
-            self._series("jitter_p99", self.joints[0], diagnostics[:, 0], diagnostics[:, 1], final=True)
+        if diagnostics is not None and len(self.ticks):
+            # Stamped on another clock than the ticks (the wall clock's, in a lockstep run): not on
+            # this timeline, where it would stretch every plot over years.
+            t = diagnostics[:, 0]
+            near = (t >= self.t0 - OTHER_CLOCK_S) & (t <= self.ticks[-1] + OTHER_CLOCK_S)
+            if np.any(near):
+                self._series("jitter_p99", self.joints[0], t[near], diagnostics[near, 1], final=True)
 
     def _controller(self, states: np.ndarray, final: bool) -> None:
         s = state_layout.decode(states, self.n)

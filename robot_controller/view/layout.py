@@ -1,12 +1,18 @@
 """What the view shows and where: entity paths, colours, series styles, and
 the saved blueprint (the arm in 3-D on the left, a column of time series on
-the right), shared by the live view and the view built from a bag."""
+the right), shared by the live view and the view built from a bag.
+
+With several joints the plots are in tabs: "all joints" first (the tracking
+error, position and commanded torque of every joint, a colour and a legend
+entry per joint, by name), then a tab per joint with that joint's series as
+a one-joint arm shows them.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-from robot_controller.view.arm import ArmModel, log_static
+from robot_controller.view.arm import ArmModel, entity_part, log_static, view_sphere
 
 APPLICATION_ID = "robot_controller"
 TIMELINE = "time"  #: seconds since the controller's first tick
@@ -37,13 +43,33 @@ SERIES = {
     "latency": (TIMING, "reading → motor latency", [60, 140, 255], 1.0),
 }
 PER_JOINT = {"reference", "true", "measured", "planned", "error_true", "error_controller", "commanded", "applied"}
+# The "all joints" tab: (view, series, title), each series drawn in its joint's colour; the
+# first plot's legend names the colours.
+OVERVIEW = (
+    (ERROR, "error_true", "tracking error, reference − true [mrad]"),
+    (POSITION, "true", "position, true [rad] (colours as above)"),
+    (TORQUE, "commanded", "torque, commanded [N·m] (colours as above)"),
+)
+# A colour per joint in the "all joints" tab (matplotlib's tab10), repeated past ten joints.
+JOINT_COLOURS = (
+    [31, 119, 180],
+    [255, 127, 14],
+    [44, 160, 44],
+    [214, 39, 40],
+    [148, 103, 189],
+    [140, 86, 75],
+    [227, 119, 194],
+    [127, 127, 127],
+    [188, 189, 34],
+    [23, 190, 207],
+)
 
 
 def series_path(series: str, joint: str, joint_count: int) -> str:
     view = SERIES[series][0]
     if series not in PER_JOINT or joint_count == 1:
         return f"{view}/{series}"
-    return f"{view}/{joint}/{series}"
+    return f"{view}/{entity_part(joint)}/{series}"
 
 
 def log_styles(rec, joint_names: list[str]) -> None:
@@ -90,11 +116,11 @@ def blueprint(arm: ArmModel, *, live: bool):
     ``LIVE_WINDOW_S``; built from a bag, they show the whole run."""
     import rerun.blueprint as rrb
 
-    # Looking at the first joint from the front (−y: the reference arm moves in the x-z plane), a
-    # little from above and the side, from where the arm's whole sweep is in view.
-    target = np.asarray(arm.base_xyz, dtype=float)
+    # Looking at the arm from the front (−y: the reference arm moves in the x-z plane), a little
+    # from above and the side, from where the arm's whole sweep is in view (one joint: about the joint).
+    target, radius = view_sphere(arm)
     direction = np.array([0.35, -1.0, 0.3])
-    distance = max(0.8, 2.6 * arm.reach_m)
+    distance = max(0.8, 2.6 * radius)
     eye = rrb.EyeControls3D(
         position=(target + direction / np.linalg.norm(direction) * distance).tolist(),
         look_target=target.tolist(),
@@ -108,25 +134,76 @@ def blueprint(arm: ArmModel, *, live: bool):
             end=rrb.TimeRangeBoundary.cursor_relative(),
         )
 
-    def plot(origin: str, name: str):
-        return rrb.TimeSeriesView(
-            origin=origin, name=name, time_ranges=ranges, plot_legend=rrb.PlotLegend(corner="LeftTop")
-        )
+    def plot(origin: str, name: str, **more):
+        more.setdefault("plot_legend", rrb.PlotLegend(corner="LeftTop"))
+        return rrb.TimeSeriesView(origin=origin, name=name, time_ranges=ranges, **more)
 
+    joints = arm.joint_names
+    if len(joints) == 1:
+        plots = rrb.Vertical(
+            plot(POSITION, "position [rad]"),
+            plot(ERROR, "tracking error [mrad]"),
+            plot(TORQUE, "torque [N·m]"),
+            plot(TIMING, "loop timing [ms]"),
+        )
+    else:
+        plots = rrb.Vertical(
+            rrb.Tabs(
+                rrb.Vertical(
+                    *(
+                        overview_plot(plot, view, series, title, joints, legend=k == 0)
+                        for k, (view, series, title) in enumerate(OVERVIEW)
+                    ),
+                    row_shares=[3, 2, 2],  # the first holds the legend: a line per joint
+                    name="all joints",
+                ),
+                *(
+                    rrb.Vertical(
+                        plot(f"{POSITION}/{entity_part(joint)}", f"{joint}: position [rad]"),
+                        plot(f"{ERROR}/{entity_part(joint)}", f"{joint}: tracking error [mrad]"),
+                        plot(f"{TORQUE}/{entity_part(joint)}", f"{joint}: torque [N·m]"),
+                        name=joint,
+                    )
+                    for joint in joints
+                ),
+                active_tab=0,
+                name="plots",
+            ),
+            plot(TIMING, "loop timing [ms]"),
+            row_shares=[4, 1],
+        )
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Spatial3DView(
                 origin=WORLD, name="arm: true (solid), measured (blue), reference (green)", eye_controls=eye
             ),
-            rrb.Vertical(
-                plot(POSITION, "position [rad]"),
-                plot(ERROR, "tracking error [mrad]"),
-                plot(TORQUE, "torque [N·m]"),
-                plot(TIMING, "loop timing [ms]"),
-            ),
+            plots,
             column_shares=[2, 3],
         ),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline=TIMELINE),
+    )
+
+
+def overview_plot(plot, view: str, series: str, title: str, joints: list[str], *, legend: bool):
+    """One series of every joint in one plot (``plot`` makes the view), each in its joint's
+    colour and named by the joint: the view's overrides, so the series keep their own style
+    in their joint's tab."""
+    import rerun as rr
+    import rerun.blueprint as rrb
+
+    paths = [series_path(series, joint, len(joints)) for joint in joints]
+    width = SERIES[series][3]
+    return plot(
+        view,
+        title,
+        plot_legend=rrb.PlotLegend(corner="LeftTop", visible=legend),
+        contents=[f"+ {path}" for path in paths],
+        overrides={
+            path: rr.SeriesLines(
+                colors=[JOINT_COLOURS[k % len(JOINT_COLOURS)]], widths=[width], names=[joint]
+            ).visualizer()
+            for k, (path, joint) in enumerate(zip(paths, joints, strict=True))
+        },
     )

@@ -79,3 +79,31 @@ def test_true_position_is_unknown_across_a_gap_in_the_samples():
     est = metrics.true_position_at(np.array([0.505, 1.5, 2.505]), t_true, q, v)[:, 0]
     assert abs(est[0] - np.sin(0.505)) < 1e-6 and abs(est[2] - np.sin(2.505)) < 1e-6
     assert np.isnan(est[1])
+
+
+def test_each_joint_is_scored_and_the_worst_is_the_headline():
+    t = np.arange(0, 10, 0.01)
+    ref = np.column_stack([np.sin(t), np.cos(t)])
+    true = ref - [0.01, -0.03]  # the second joint tracks three times worse
+    measured = ref + [0.02, 0.005]
+    out = metrics.tracking_metrics(t, ref, true, measured)
+    assert out["tracking_rms_rad_per_joint"] == pytest.approx([0.01, 0.03])
+    assert out["tracking_max_rad_per_joint"] == pytest.approx([0.01, 0.03])
+    assert out["measured_rms_rad_per_joint"] == pytest.approx([0.02, 0.005])
+    assert out["tracking_rms_rad"] == pytest.approx(0.03)  # not the pooled 0.0224
+    assert out["tracking_max_rad"] == pytest.approx(0.03)
+    assert out["measured_rms_rad"] == pytest.approx(0.02)  # the worst joint here is the first
+    torque = metrics.peak_torque(np.column_stack([3.0 * np.sin(t), -7.0 * np.cos(t)]))
+    assert torque["peak_torque_nm_per_joint"] == pytest.approx([3.0, 7.0], abs=1e-3)
+    assert torque["peak_torque_nm"] == torque["peak_torque_nm_per_joint"][1]
+
+
+def test_one_joint_figures_are_the_pooled_ones_exactly():
+    rng = np.random.default_rng(7)
+    error = rng.normal(0.0, 0.01, (1234, 1))
+    out = metrics.joint_errors(error)
+    assert out["tracking_rms_rad"] == float(np.sqrt(np.mean(error**2)))  # bit for bit, as before
+    assert out["tracking_max_rad"] == float(np.max(np.abs(error)))
+    assert out["tracking_rms_rad_per_joint"] == [out["tracking_rms_rad"]]
+    command = rng.normal(0.0, 3.0, (500, 1))
+    assert metrics.peak_torque(command)["peak_torque_nm"] == float(np.max(np.abs(command)))
