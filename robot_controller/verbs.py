@@ -290,6 +290,11 @@ def tune(out: Path, *, preset: str, config: list[Path] | None, quick: bool, robo
 
     params = cfg.load_stack(preset, config, robot)
     config_check.check_stack(params)
+    if params["trajectory_planner"]["joint_count"] > 1:
+        raise UsageError(
+            f"--robot {robot}: tune designs one joint's gains; on a chain of joints the LQR's weights serve "
+            "every joint, each scaled by its own inertia (lqr_q, lqr_r, lqr_reference_inertia)"
+        )
     with StepProgress("tune", tune_module.steps(quick)) as progress:
         tune_module.tune(params, out, quick=quick, progress=progress)
     print((out / "report.md").read_text())

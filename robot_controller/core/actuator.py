@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from robot_controller.core.arrays import within
 from robot_controller.core.errors import ConfigError
 
 
@@ -39,7 +40,7 @@ class Actuator:
         Non-finite entries count as zero; the result is always within ``±torque_max``.
         """
         command = np.where(np.isfinite(command), command, 0.0)
-        target = np.clip(command, -self.torque_max, self.torque_max)
+        target = within(command, self.torque_max)
         if self.lag_time_constant_s > 0 and np.isfinite(dt) and dt >= 0:
             alpha = dt / (self.lag_time_constant_s + dt) if dt > 0 else 0.0
             self._applied = self._applied + alpha * (target - self._applied)

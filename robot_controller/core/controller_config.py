@@ -44,6 +44,8 @@ class ControllerConfig:
     estimator: KalmanConfig | None = None  #: a Kalman filter on the reading, or none
     disturbance_observer: bool = False  #: the filter estimates an external torque, the law subtracts it
     feedforward: FeedforwardMode = FeedforwardMode.NONE
+    #: on a chain of joints, the feedback torques through M(q)·diag(M(q))⁻¹ (computed-torque feedback)
+    feedback_decoupling: bool = False
     control_period_s: float = 0.01
     reference_extrapolation: bool = False
     latency_compensation: bool = False

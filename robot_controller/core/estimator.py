@@ -55,10 +55,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import numpy as np
 
 from robot_controller.core import innovation
+from robot_controller.core.arm_model import step_count
+from robot_controller.core.arrays import matrix_power, within
 from robot_controller.core.errors import ConfigError
 
 # Finite-difference steps for the model's slopes, rad and rad/s.
@@ -149,23 +152,41 @@ def process_noise(
     N·m on each joint, shape ``(n,)``: the disturbance observer) ``(n, 3, 3)``
     on ``[q, v, d]``, adding the random walk of ``d`` carried through the double
     integrator over ``dt`` (the continuous model's, exactly)."""
-    G = np.array([0.5 * dt * dt, dt])
+    G = (0.5 * dt * dt, dt)
     if acceleration_per_nm is None:
         return np.outer(G, G) * config.acceleration_noise_std**2
     b = np.asarray(acceleration_per_nm, dtype=float).reshape(-1)
-    sigma_a = config.acceleration_noise_std if acceleration_noise_std is None else np.asarray(acceleration_noise_std)
-    Q2 = np.outer(G, G) * np.reshape(np.broadcast_to(sigma_a, b.shape) ** 2, (-1, 1, 1))
-    w = (config.disturbance_noise_std if disturbance_noise_std is None else np.asarray(disturbance_noise_std)) ** 2
-    Q = np.zeros((b.size, 3, 3))
-    Q[:, :2, :2] = Q2
-    Q[:, 0, 0] += w * b * b * dt**5 / 20
-    Q[:, 0, 1] += w * b * b * dt**4 / 8
-    Q[:, 1, 1] += w * b * b * dt**3 / 3
-    Q[:, 0, 2] += w * b * dt**3 / 6
-    Q[:, 1, 2] += w * b * dt**2 / 2
-    Q[:, 2, 2] += w * dt
-    Q[:, 1, 0], Q[:, 2, 0], Q[:, 2, 1] = Q[:, 0, 1], Q[:, 0, 2], Q[:, 1, 2]
-    return Q
+    sigma_a = config.acceleration_noise_std if acceleration_noise_std is None else acceleration_noise_std
+    sigma_d = config.disturbance_noise_std if disturbance_noise_std is None else disturbance_noise_std
+    # Per joint, Q = σa²·A + w·b²·B + w·b·C + w·D (w = σd²): one product with the templates.
+    weights = np.empty((b.size, 4))
+    weights[:, 0] = np.square(sigma_a)
+    weights[:, 3] = w = np.square(sigma_d)
+    weights[:, 2] = wb = w * b
+    weights[:, 1] = wb * b
+    return weights.dot(_noise_templates(dt)).reshape(b.size, 3, 3)
+
+
+@lru_cache(maxsize=64)  # a filter's periods are a handful of roundings of one period
+def _noise_templates(dt: float) -> np.ndarray:
+    """The four parts of the process noise on ``[q, v, d]`` over ``dt`` s, flattened (4, 9):
+    ``A``, the white acceleration through the double integrator (``G·Gᵀ``, G = [dt²/2, dt]);
+    ``B``, ``C``, ``D``, the random walk of ``d`` carried through it, in ``[q, v]``, between
+    ``[q, v]`` and ``d``, and in ``d`` itself (:func:`process_noise` weighs them). Shared
+    between calls (cached): read only."""
+    g0, g1 = 0.5 * dt * dt, dt
+    qq, qv, vv = dt**5 / 20, dt**4 / 8, dt**3 / 3
+    qd, vd = dt**3 / 6, dt**2 / 2
+    templates = np.array(
+        [
+            [g0 * g0, g0 * g1, 0.0, g0 * g1, g1 * g1, 0.0, 0.0, 0.0, 0.0],
+            [qq, qv, 0.0, qv, vv, 0.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, qd, 0.0, 0.0, vd, qd, vd, 0.0],
+            [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt],
+        ]
+    )
+    templates.flags.writeable = False
+    return templates
 
 
 def steady_state_gain(
@@ -197,6 +218,48 @@ def steady_state_gain(
     P = solve_discrete_are(F.T, H.T, Q, R)  # the predicted covariance
     L = P @ H.T @ np.linalg.inv(H @ P @ H.T + R)
     return F, B, L
+
+
+def inverse_2x2(A: np.ndarray) -> np.ndarray:
+    """The inverses of a stack of 2 × 2 matrices ``(..., 2, 2)``, in closed form
+    (adjugate over determinant): what ``np.linalg.inv`` gives to rounding, at a
+    fraction of the cost of a LAPACK call per filter update."""
+    a, b, c, d = A[..., 0, 0], A[..., 0, 1], A[..., 1, 0], A[..., 1, 1]
+    det = a * d - b * c
+    inverse = np.empty_like(A)
+    inverse[..., 0, 0], inverse[..., 0, 1] = d / det, -b / det
+    inverse[..., 1, 0], inverse[..., 1, 1] = -c / det, a / det
+    return inverse
+
+
+def _solve_symmetric(S: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``S⁻¹·B`` for the symmetric positive definite innovation covariance ``S``:
+    by :func:`inverse_2x2` for one joint's readings, otherwise by LAPACK."""
+    if S.shape == (2, 2):
+        return inverse_2x2(S).dot(B)
+    return np.linalg.solve(S, B)
+
+
+class _StateIndex:
+    """Where each joint's quantities sit in the filter's state ``[q1, v1, (d1), q2, v2, ...]``
+    (``m`` per joint) and its covariance: index arrays made once per filter, so that
+    each update picks and places blocks with one indexing operation apiece."""
+
+    def __init__(self, n: int, m: int) -> None:
+        first = np.arange(n) * m
+        self.q, self.v, self.d = first, first + 1, first + 2  #: each joint's q, v and (m = 3) d
+        rows = first[:, None, None] + np.arange(m)[:, None]
+        #: each joint's own (m, m) block of the covariance: ``P[blocks]`` is (n, m, m)
+        self.blocks = (rows, rows.transpose(0, 2, 1))
+        read_rows = rows[:, :2, :2]
+        #: each joint's own reading block (q and v): ``P[own_readings]`` is (n, 2, 2)
+        self.own_readings = (read_rows, read_rows.transpose(0, 2, 1))
+        read = np.stack([self.q, self.v], axis=-1).reshape(-1)
+        #: every reading by every reading, ``P[readings]`` is (2n, 2n) in reading order
+        self.readings = np.ix_(read, read)
+        qv = np.concatenate([self.q, self.v])
+        #: where the model's slopes, ``[q1..qn, v1..vn]`` by the same, go in the transition
+        self.model_slopes = np.ix_(qv, qv)
 
 
 class JointKalmanFilter:
@@ -246,15 +309,20 @@ class JointKalmanFilter:
         self.size = m = 3 if self.estimates_disturbance else 2
         n = joint_count
         self._mismatch = config.at_mismatch()  #: the filter while its readings disagree with it
+        #: σ (disturbance N·m/√s, acceleration rad/s²) while the readings agree, and at the mismatch
+        self._agreeing_std = np.array([config.disturbance_noise_std, config.acceleration_noise_std])
+        self._mismatch_std = np.array([self._mismatch.disturbance_noise_std, self._mismatch.acceleration_noise_std])
         self.x: np.ndarray | None = None  # (n, 2): q, v per joint; (n, 3): q, v, d
         self.P = np.zeros((n * m, n * m))  #: joint by joint: [q1, v1, (d1), q2, v2, ...]
         self.R = np.diag([config.position_noise_std**2, config.velocity_noise_std**2])
         self._R_all = np.kron(np.eye(n), self.R)
         #: where each reading (q1, v1, q2, v2, ...) sits in the state
         self._read = (np.arange(n)[:, None] * m + np.arange(2)[None, :]).reshape(-1)
+        self._index = _StateIndex(n, m)
         self.time_s: float | None = None
         #: per joint, rad/s² per N·m of external torque on each joint ((n, n): M⁻¹ at the last estimate)
         self._inverse_mass: np.ndarray | None = None
+        self._own_inverse_mass: np.ndarray | None = None  #: its diagonal, (M⁻¹)_jj: d_j's acceleration per N·m
         self._mass: np.ndarray | None = None  #: M(q) at the last estimate, kg·m²
         #: per joint, how many readings were taken as a jump of the external torque
         self.jump_count = np.zeros(joint_count, dtype=int)
@@ -268,6 +336,7 @@ class JointKalmanFilter:
         self.x = None
         self.time_s = None
         self._inverse_mass = None
+        self._own_inverse_mass = None
         self._mass = None
 
     @property
@@ -290,7 +359,7 @@ class JointKalmanFilter:
         """rad/s² the estimate leaves unexplained on each joint, ``α_j = d_j·(M⁻¹)_jj`` (0 without one)."""
         if not self.estimates_disturbance or self.x is None or self._inverse_mass is None:
             return np.zeros(self.joint_count)
-        return np.diag(self._inverse_mass) * self.x[:, 2]
+        return self._own_inverse_mass * self.x[:, 2]
 
     def _disturbance_torque(self) -> np.ndarray | None:
         """The torque that gives ``α`` on the model, N·m (None without one): what the prediction applies."""
@@ -301,14 +370,9 @@ class JointKalmanFilter:
     def _set_mass(self, position: np.ndarray) -> None:
         """The mass matrix and its inverse at ``position``, for the next prediction and the estimate's torque."""
         self._mass = np.asarray(self.mass_matrix(np.asarray(position, float)), dtype=float)
-        self._inverse_mass = np.linalg.inv(self._mass)
-
-    def _blocks(self, per_joint: np.ndarray) -> np.ndarray:
-        """(n, m, m) per-joint blocks as one block-diagonal (nm, nm) matrix."""
-        n, m = self.joint_count, self.size
-        out = np.zeros((n, m, n, m))
-        out[np.arange(n), :, np.arange(n), :] = per_joint
-        return out.reshape(n * m, n * m)
+        # One joint: 1/M is what LAPACK's inverse of a 1 × 1 comes to, without its call.
+        self._inverse_mass = 1.0 / self._mass if self.joint_count == 1 else np.linalg.inv(self._mass)
+        self._own_inverse_mass = self._inverse_mass.diagonal().copy()
 
     def update(
         self,
@@ -325,8 +389,9 @@ class JointKalmanFilter:
 
         Returns the filtered ``(position, velocity)``.
         """
-        z = np.stack([position, velocity], axis=-1)  # (n, 2)
         n, m = self.joint_count, self.size
+        z = np.empty((n, 2))  # the reading, per joint
+        z[:, 0], z[:, 1] = position, velocity
         if self.x is None or self.time_s is None or not (0 < time_s - self.time_s < 1.0):
             self.x = np.zeros((n, m))
             self.P = np.zeros((n * m, n * m))
@@ -346,7 +411,7 @@ class JointKalmanFilter:
         q_pred, v_pred = self._step_model(q, v, torque, dt)  # with the external torque of the last estimate
         if self.estimates_disturbance or timing_uncertain:
             self._set_mass(q)
-            b = np.diag(self._inverse_mass)  # rad/s² per N·m on each joint's own axis
+            b = self._own_inverse_mass  # rad/s² per N·m on each joint's own axis
         if not self.estimates_disturbance:
             G = np.array([0.5 * dt * dt, dt])
             Q = np.outer(G, G) * (sigma_a**2)[:, None, None]
@@ -359,30 +424,36 @@ class JointKalmanFilter:
             Q[:, :2, :2] += np.outer(G, G) * (sigma_v**2)[:, None, None]
         x_pred = self.x.copy()
         x_pred[:, 0], x_pred[:, 1] = q_pred, v_pred
-        P_pred = F @ self.P @ F.T + self._blocks(Q)
+        P_pred = F.dot(self.P).dot(F.T)
+        P_pred[self._index.blocks] += Q  # each joint's own process noise
         surprise = z - x_pred[:, :2]  # the innovation, per joint
         S_joint = self._joint_blocks(P_pred)  # each joint's own (n, 2, 2)
         unexplainable = None
         if self.estimates_disturbance:
             unexplainable = innovation.beyond_any_disturbance(surprise, S_joint, b * dt, self.disturbance_limit)
-        S_inv = np.linalg.inv(S_joint)
+        S_inv = inverse_2x2(S_joint)
         distance_sq = np.einsum("ni,nij,nj->n", surprise, S_inv, surprise)
         jumped = np.zeros(n, dtype=bool)
         if self.estimates_disturbance and self.config.jump_detection_sigma > 0:
-            step = np.stack([0.5 * b * dt * dt, b * dt], axis=-1)  # the reading's change per N·m of a step
+            step = np.empty((n, 2))  # the reading's change per N·m of a step
+            step[:, 0], step[:, 1] = 0.5 * b * dt * dt, b * dt
             jumped = innovation.agreeing(self._distance_sq_average) & innovation.looks_like_a_jump(
                 surprise, S_inv, distance_sq, step, self.config.jump_detection_sigma
             )
             P_pred = self._allow_jumps(P_pred, jumped, b, dt)
         self._distance_sq_average = innovation.updated_average(self._distance_sq_average, distance_sq, jumped, dt)
         read = self._read
-        S = P_pred[np.ix_(read, read)] + self._R_all
-        K = np.linalg.solve(S, P_pred[read, :]).T  # (nm, 2n): S is symmetric
-        self.x = (x_pred.reshape(-1) + K @ surprise.reshape(-1)).reshape(n, m)
-        self.P = P_pred - K @ P_pred[read, :]
+        P_read = P_pred[read, :]
+        if n == 1 and not jumped[0]:  # S is the joint's own block, inverted above
+            K = S_inv[0].dot(P_read).T  # (m, 2)
+        else:
+            S = P_pred[self._index.readings] + self._R_all
+            K = _solve_symmetric(S, P_read).T  # (nm, 2n)
+        self.x = (x_pred.reshape(-1) + K.dot(surprise.reshape(-1))).reshape(n, m)
+        self.P = P_pred - K.dot(P_read)
         self.P = 0.5 * (self.P + self.P.T)
         if self.estimates_disturbance:
-            self.x[:, 2] = np.clip(self.x[:, 2], -self.disturbance_limit, self.disturbance_limit)
+            within(self.x[:, 2], self.disturbance_limit, out=self.x[:, 2])
             if unexplainable.any():
                 self._start(unexplainable, z)
                 self.restart_count += unexplainable
@@ -390,9 +461,7 @@ class JointKalmanFilter:
 
     def _joint_blocks(self, P: np.ndarray) -> np.ndarray:
         """Each joint's reading covariance (n, 2, 2): its own block of ``P`` plus the sensor's."""
-        n, m = self.joint_count, self.size
-        own = np.einsum("iaib->iab", P.reshape(n, m, n, m))
-        return own[:, :2, :2] + self.R
+        return P[self._index.own_readings] + self.R
 
     def _start(self, joints: np.ndarray, z: np.ndarray) -> None:
         """Start the filter of ``joints`` (bool per joint) afresh from the reading ``z`` (n, 2):
@@ -418,12 +487,7 @@ class JointKalmanFilter:
     def _noise_in_force(self) -> tuple[np.ndarray, np.ndarray]:
         """Per joint, the σ in force this period (disturbance N·m/√s, acceleration rad/s²):
         :func:`innovation.noise_in_force` at the readings' agreement so far."""
-        c, far = self.config, self._mismatch
-        return innovation.noise_in_force(
-            self._distance_sq_average,
-            (c.disturbance_noise_std, c.acceleration_noise_std),
-            (far.disturbance_noise_std, far.acceleration_noise_std),
-        )
+        return innovation.noise_in_force(self._distance_sq_average, self._agreeing_std, self._mismatch_std)
 
     def _allow_jumps(self, P_pred: np.ndarray, jumped: np.ndarray, b: np.ndarray, dt: float) -> np.ndarray:
         """For each joint whose reading is taken as a jump (``jumped``), add to
@@ -483,21 +547,19 @@ class JointKalmanFilter:
         and the damping included; with only the double integrator, a filter that trusts
         the model (a small acceleration_noise_std) lets its error grow where gravity
         pulls the arm away. ``d`` moves its own joint as a torque there would."""
-        from robot_controller.core.arm_model import step_count
-
         n, m = self.joint_count, self.size
         steps = step_count(dt, self.config.model_step_s)
         h = dt / steps
-        slopes = np.linalg.matrix_power(self._step_slopes(q, v, torque, h), steps)  # [q; v] by [q; v]
-        F = np.zeros((n, m, n, m))
-        F[:, :2, :, :2] = slopes.reshape(2, n, 2, n).transpose(1, 0, 3, 2)
+        slopes = matrix_power(self._step_slopes(q, v, torque, h), steps)  # [q; v] by [q; v]
+        F = np.zeros((n * m, n * m))
+        at = self._index
+        F[at.model_slopes] = slopes
         if self.estimates_disturbance:
-            b = np.diag(self._inverse_mass) if self._inverse_mass is not None else np.zeros(n)
-            joints = np.arange(n)
-            F[joints, 0, joints, 2] = 0.5 * b * dt * dt
-            F[joints, 1, joints, 2] = b * dt
-            F[joints, 2, joints, 2] = 1.0
-        return F.reshape(n * m, n * m)
+            b = self._own_inverse_mass if self._inverse_mass is not None else np.zeros(n)
+            F[at.q, at.d] = 0.5 * b * dt * dt
+            F[at.v, at.d] = b * dt
+            F[at.d, at.d] = 1.0
+        return F
 
     def velocity_at_instant(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray) -> np.ndarray:
         """The velocity (rad/s) at the instant of the state ``(position, velocity)``

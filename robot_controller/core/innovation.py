@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from robot_controller.core.arrays import clip
+
 CONSISTENCY_TIME_S = 0.3
 MISMATCH_FROM = 4.0
 MISMATCH_SPAN = 2.0
@@ -41,7 +43,7 @@ def updated_average(average: np.ndarray, distance_sq: np.ndarray, jumped: np.nda
 
 
 def noise_in_force(
-    average: np.ndarray, agreeing_std: tuple[float, float], mismatch_std: tuple[float, float]
+    average: np.ndarray, agreeing_std: tuple[float, float] | np.ndarray, mismatch_std: tuple[float, float] | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per joint, the σ of the disturbance's random walk (N·m/√s) and of the
     unmodelled acceleration (rad/s²): ``agreeing_std`` (both, in that order)
@@ -49,7 +51,10 @@ def noise_in_force(
     with the average distance) to ``mismatch_std`` as they stop agreeing. A
     filter that trusts its model averages the sensor noise away; one whose
     model is wrong must follow the readings instead."""
-    w = np.clip((average - MISMATCH_FROM) / MISMATCH_SPAN, 0.0, 1.0)
+    if (average <= MISMATCH_FROM).all():  # every joint agrees (w = 0): the formula gives these back exactly
+        n = np.shape(average)[0]
+        return np.full(n, float(agreeing_std[0])), np.full(n, float(agreeing_std[1]))
+    w = clip((average - MISMATCH_FROM) / MISMATCH_SPAN, 0.0, 1.0)
     near, far = np.asarray(agreeing_std, float), np.asarray(mismatch_std, float)
     variance = near**2 + w[:, None] * (far**2 - near**2)
     return np.sqrt(variance[:, 0]), np.sqrt(variance[:, 1])

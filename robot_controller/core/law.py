@@ -220,4 +220,25 @@ def law_step(
     feedforward = feedforward_torque(config.feedforward, dynamics, *ahead)
     if disturbance is not None:
         feedforward = feedforward - disturbance
-    return pid.step(dt_s, reference.position, reference.velocity, position, velocity, feedforward)
+    return pid.step(
+        dt_s,
+        reference.position,
+        reference.velocity,
+        position,
+        velocity,
+        feedforward,
+        decoupling_map(config, dynamics, position),
+    )
+
+
+def decoupling_map(config: ControllerConfig, dynamics: ArmDynamics | None, position: np.ndarray) -> np.ndarray | None:
+    """``M(q)·diag(M(q))⁻¹`` at ``position`` (None on one joint, without the arm model or when
+    ``feedback_decoupling`` is off). Each joint's gains are for its own inertia, ``M_jj``: they
+    ask for an acceleration ``τ_j / M_jj``. On a chain the joints' inertias couple, and a torque
+    on one joint accelerates the others too; this map gives the torques that produce exactly the
+    accelerations asked for (the feedback half of computed-torque control). Without it, a
+    payload of 1 kg on the Panda's flange drove its joints to their torque limits."""
+    if not config.feedback_decoupling or dynamics is None or np.size(position) < 2:
+        return None
+    mass = dynamics.mass_matrix(position)
+    return mass / np.diag(mass)[None, :]

@@ -96,7 +96,7 @@ def run_loop(
         for name in ("reference", "measured", "true_position", "true_velocity", "command", "applied")
     }
     times = np.arange(ticks) * control_period_s
-    for k, t in enumerate(times):
+    for k, t in enumerate(times.tolist()):  # Python floats: the controller's scalar time arithmetic is cheaper
         if k % planner_every == 0:
             controller.set_reference(t, *trajectory.sample(t))
         true_position, true_velocity = plant.state()

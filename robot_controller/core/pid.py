@@ -16,6 +16,7 @@ from enum import Enum
 
 import numpy as np
 
+from robot_controller.core.arrays import all_finite, as_shape, clip, within
 from robot_controller.core.errors import ConfigError
 
 
@@ -153,12 +154,17 @@ class Pid:
         measured_position: np.ndarray,
         measured_velocity: np.ndarray,
         feedforward: np.ndarray | float = 0.0,
+        feedback_map: np.ndarray | None = None,
     ) -> PidTerms:
-        """Advance one control period of ``dt`` seconds and return the command and its terms."""
+        """Advance one control period of ``dt`` seconds and return the command and its terms.
+
+        ``feedback_map`` (n × n): the feedback torques (P + I + D, each joint's
+        own) pass through it before the feedforward is added and the command
+        limited; the terms reported are the joints' own."""
         c = self.config
         zeros = np.zeros(np.broadcast_shapes(np.shape(reference_position), c.kp.shape))
         inputs = (reference_position, reference_velocity, measured_position, measured_velocity, feedforward)
-        if not (np.isfinite(dt) and dt > 0) or not all(np.all(np.isfinite(x)) for x in inputs):
+        if not (np.isfinite(dt) and dt > 0) or not all_finite(*inputs):
             return PidTerms(zeros, zeros, zeros, zeros, zeros, np.zeros(zeros.shape, dtype=bool))
 
         error = reference_position - measured_position
@@ -182,33 +188,38 @@ class Pid:
                 self._d_filtered = self._d_filtered + alpha * (d_signal - self._d_filtered)
             d_signal = self._d_filtered
         d_term = c.kd * d_signal
-        feedforward = np.broadcast_to(np.asarray(feedforward, dtype=float), zeros.shape)
+        feedforward = as_shape(feedforward, zeros.shape)
 
         # Integrate, then limit per the anti-windup mode.
         i_candidate = self._i_term + c.ki * error * dt
         if c.anti_windup is AntiWindup.CLAMP:
             i_limit = c.ki * c.integral_limit
-            i_candidate = np.clip(i_candidate, -i_limit, i_limit)
-        unsaturated = feedforward + p_term + i_candidate + d_term
+            i_candidate = within(i_candidate, i_limit)
+        unsaturated = feedforward + _mapped(feedback_map, p_term + i_candidate + d_term)
         limited = self._limit(unsaturated, dt)
         saturated = np.abs(limited - unsaturated) > 1e-12
         if c.anti_windup is AntiWindup.BACK_CALCULATION:
             i_candidate = i_candidate + (limited - unsaturated) * dt / c.back_calculation_time_s
-        elif c.anti_windup is AntiWindup.CONDITIONAL_INTEGRATION:
+        elif c.anti_windup is AntiWindup.CONDITIONAL_INTEGRATION and saturated.any():
             # Keep integrating only where it would pull the output back inside the limit.
             pushing_out = saturated & (np.sign(error) == np.sign(unsaturated))
             i_candidate = np.where(pushing_out, self._i_term, i_candidate)
         self._i_term = np.asarray(i_candidate, dtype=float)
 
-        command = self._limit(feedforward + p_term + self._i_term + d_term, dt)
+        command = self._limit(feedforward + _mapped(feedback_map, p_term + self._i_term + d_term), dt)
         command = np.where(np.isfinite(command), command, 0.0)
         self._prev_command = command
         return PidTerms(command, p_term, self._i_term.copy(), d_term, feedforward, saturated)
 
     def _limit(self, command: np.ndarray, dt: float) -> np.ndarray:
         limit = self.config.output_limit
-        out = np.clip(command, -limit, limit)
+        out = within(command, limit)
         if self.config.slew_rate_limit > 0 and self._prev_command is not None:
             max_step = self.config.slew_rate_limit * dt
-            out = np.clip(out, self._prev_command - max_step, self._prev_command + max_step)
+            out = clip(out, self._prev_command - max_step, self._prev_command + max_step)
         return out
+
+
+def _mapped(feedback_map: np.ndarray | None, feedback: np.ndarray) -> np.ndarray:
+    """The feedback torques through ``feedback_map`` (as they are without one)."""
+    return feedback if feedback_map is None else feedback_map @ feedback

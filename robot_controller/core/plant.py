@@ -18,7 +18,10 @@ import mujoco
 import numpy as np
 
 from robot_controller.core.arm_model import step_count
+from robot_controller.core.arrays import within
 from robot_controller.core.errors import ConfigError, TimingError
+from robot_controller.core.payload import Payload, carrying_link
+from robot_controller.core.payload import add_to as add_payload
 
 
 class Plant(Protocol):
@@ -37,13 +40,20 @@ class Plant(Protocol):
         ...
 
 
-def load_model(urdf_path: str | Path, physics_dt: float | None = None) -> mujoco.MjModel:
-    """Compile a URDF into a MuJoCo model with one 1-DoF hinge or slide per actuated joint."""
+def load_model(
+    urdf_path: str | Path, physics_dt: float | None = None, payload: Payload | None = None
+) -> mujoco.MjModel:
+    """Compile a URDF into a MuJoCo model with one 1-DoF hinge or slide per actuated joint,
+    carrying ``payload`` on its last joint's link if one is given."""
     path = Path(urdf_path)
     if not path.is_file():
         raise ConfigError(f"urdf_path: no such file {str(path)!r}")
     try:
-        model = mujoco.MjSpec.from_file(str(path)).compile()
+        spec = mujoco.MjSpec.from_file(str(path))
+        model = spec.compile()
+        if payload is not None:
+            add_payload(spec, carrying_link(model), payload)
+            model = spec.compile()
     except Exception as exc:  # MuJoCo raises plain ValueError with its parser's text
         raise ConfigError(f"urdf_path: MuJoCo could not load {str(path)!r}: {exc}") from exc
     if physics_dt is not None:
@@ -124,10 +134,11 @@ class MujocoPlant:
 
     :param urdf_path: robot description
     :param physics_dt: physics step, s (1 ms in the reference scenario)
+    :param payload: a load on the last joint's link the URDF does not have
     """
 
-    def __init__(self, urdf_path: str | Path, physics_dt: float = 0.001) -> None:
-        self.model = load_model(urdf_path, physics_dt)
+    def __init__(self, urdf_path: str | Path, physics_dt: float = 0.001, payload: Payload | None = None) -> None:
+        self.model = load_model(urdf_path, physics_dt, payload)
         self.data = mujoco.MjData(self.model)
         self.joint_names = joint_names(self.model)
         self.physics_dt = float(self.model.opt.timestep)
@@ -141,6 +152,7 @@ class MujocoPlant:
         self._disturbance = np.zeros(self.joint_count)  #: the external torque being applied, N·m
         self._disturbance_steps = 0  #: physics steps it still lasts
         self._disturbance_last = np.zeros(self.joint_count)  #: the external torque in the last step, N·m
+        self._no_disturbance = np.zeros(self.joint_count)  #: never written to: shared, not copied, per step
         mujoco.mj_forward(self.model, self.data)
 
     @property
@@ -164,7 +176,7 @@ class MujocoPlant:
         Whatever it is sent, a joint gets no more than its URDF ``effort`` limit
         (``effort_limit``), as a real drive limits its current.
         """
-        torque = np.clip(torque, -self.effort_limit, self.effort_limit)
+        torque = within(torque, self.effort_limit)
         self._actuator = np.where(self._braked, 0.0, torque)
         # The disturbance, if one is on, for as many of these steps as it still lasts.
         disturbed = min(n_steps, self._disturbance_steps)
@@ -178,12 +190,11 @@ class MujocoPlant:
         if n_steps > disturbed:
             self.data.qfrc_applied[:] = self._actuator
             self._run(n_steps - disturbed)
-            self._disturbance_last = np.zeros(self.joint_count)
+            self._disturbance_last = self._no_disturbance
 
     def _run(self, n_steps: int) -> None:
         if not self._braked.any():
-            for _ in range(n_steps):
-                mujoco.mj_step(self.model, self.data)
+            mujoco.mj_step(self.model, self.data, n_steps)  # MuJoCo's own loop: the same steps
             return
         for _ in range(n_steps):
             mujoco.mj_step(self.model, self.data)
@@ -266,8 +277,9 @@ class ArmDynamics:
     ``step_jacobian`` linearises one such step (``mjd_transitionFD``).
     """
 
-    def __init__(self, urdf_path: str | Path) -> None:
-        self.model = load_model(urdf_path)
+    def __init__(self, urdf_path: str | Path, payload: Payload | None = None) -> None:
+        self.model = load_model(urdf_path, payload=payload)
+        self.payload = payload
         self._data = mujoco.MjData(self.model)
         self.joint_names = joint_names(self.model)
         self.effort_limit = effort_limits(self.model)
@@ -302,8 +314,9 @@ class ArmDynamics:
         d = self._data
         d.qpos[:] = position
         d.qvel[:] = velocity
-        applied = np.clip(torque, -self.effort_limit, self.effort_limit)
-        d.qfrc_applied[:] = applied if external_nm is None else applied + external_nm
+        within(torque, self.effort_limit, out=d.qfrc_applied)
+        if external_nm is not None:
+            d.qfrc_applied += external_nm
 
     def predict(
         self,
@@ -325,8 +338,7 @@ class ArmDynamics:
         self.model.opt.timestep = horizon_s / steps
         self._load(position, velocity, torque, external_nm)
         d = self._data
-        for _ in range(steps):
-            mujoco.mj_step(self.model, d)
+        mujoco.mj_step(self.model, d, steps)
         d.qfrc_applied[:] = 0.0
         return d.qpos.copy(), d.qvel.copy()
 
@@ -346,9 +358,14 @@ class ArmDynamics:
         return jacobian
 
     def mass_matrix(self, position: np.ndarray) -> np.ndarray:
+        """M(q) at ``position`` (kg·m²): MuJoCo's position stages that build it
+        (kinematics, the bodies' inertias, composite rigid bodies), not the whole
+        forward pass, which gives the same matrix."""
         d = self._data
         d.qpos[:] = position
-        mujoco.mj_forward(self.model, d)
+        mujoco.mj_kinematics(self.model, d)
+        mujoco.mj_comPos(self.model, d)
+        mujoco.mj_crb(self.model, d)
         matrix = np.zeros((self.model.nv, self.model.nv))
         mujoco.mj_fullM(self.model, d, matrix)
         return matrix

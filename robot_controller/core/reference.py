@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robot_controller.core.arrays import clip_scalar
 from robot_controller.core.control_output import ReferenceSource
 from robot_controller.core.tick_state import MAX_EXTRAPOLATION_S, TIME_EPS_S, clipped_age_s
 
@@ -107,9 +108,9 @@ class PlannerReference:
         source = ReferenceSource.TRAJECTORY
         if extrapolate:
             age_s = clipped_age_s(now_s, self.time_s)
-            position = position + velocity * age_s + 0.5 * acceleration * age_s * age_s
-            velocity = velocity + acceleration * age_s
-            if age_s > 0:
+            if age_s > 0:  # (a sample of the tick's own instant is the trajectory there)
+                position = position + velocity * age_s + 0.5 * acceleration * age_s * age_s
+                velocity = velocity + acceleration * age_s
                 source = ReferenceSource.EXTRAPOLATED
         return TrajectoryPoint(position, velocity, acceleration, fresh, source)
 
@@ -126,7 +127,7 @@ class PlannerReference:
         position, velocity, acceleration = self.sample
         if not extrapolate:
             return position, velocity, acceleration
-        s = float(np.clip(now_s + 0.5 * period_s - self.time_s, 0.0, MAX_EXTRAPOLATION_S))
+        s = clip_scalar(float(now_s + 0.5 * period_s - self.time_s), 0.0, MAX_EXTRAPOLATION_S)
         jerk = np.zeros(np.shape(acceleration)) if self.jerk is None else self.jerk
         return (
             position + velocity * s + acceleration * (s * s / 2) + jerk * (s**3 / 6),

@@ -41,9 +41,10 @@ class ControlledStop:
 
 
 def _quintic(
-    p0: np.ndarray, v0: np.ndarray, duration_s: float, tau: float
+    p0: np.ndarray, v0: np.ndarray, duration_s: float, tau: float | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The quintic from ``(p0, v0, 0)`` at 0 to ``(0, 0, 0)`` at ``duration_s``, at ``tau``."""
+    """The quintic from ``(p0, v0, 0)`` at 0 to ``(0, 0, 0)`` at ``duration_s``, at ``tau``
+    (s, or a column of times: a row per time)."""
     T = duration_s
     s = np.clip(tau / T, 0.0, 1.0)
     # p(s) = p0·(1 − 10s³ + 15s⁴ − 6s⁵) + v0·T·(s − 6s³ + 8s⁴ − 3s⁵)
@@ -82,9 +83,9 @@ class Blend:
         p0 = np.asarray(offset_position, dtype=float)
         v0 = np.asarray(offset_velocity, dtype=float)
         duration = MIN_BLEND_S
-        probe = np.linspace(0.0, 1.0, 41)
+        probe = np.linspace(0.0, 1.0, 41)[:, None]  # fractions of the blend, one row each
         for _ in range(40):  # ×1.25 from 0.2 s: at most about a minute, always ends
-            peak = max(float(np.max(np.abs(_quintic(p0, v0, duration, s * duration)[2]))) for s in probe)
+            peak = float(np.max(np.abs(_quintic(p0, v0, duration, probe * duration)[2])))
             if peak <= max_acceleration:
                 break
             duration *= 1.25

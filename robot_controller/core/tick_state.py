@@ -15,6 +15,7 @@ from collections import deque
 
 import numpy as np
 
+from robot_controller.core.arrays import clip_scalar
 from robot_controller.core.estimator import JointKalmanFilter
 from robot_controller.core.health import Readings
 from robot_controller.core.plant import ArmDynamics
@@ -27,7 +28,7 @@ _COMMAND_HISTORY = 16
 
 def clipped_age_s(now_s: float, sample_s: float) -> float:
     """How old (s) a sample taken at ``sample_s`` is at ``now_s``, within [0, MAX_EXTRAPOLATION_S]."""
-    return float(np.clip(now_s - sample_s, 0.0, MAX_EXTRAPOLATION_S))
+    return clip_scalar(float(now_s - sample_s), 0.0, MAX_EXTRAPOLATION_S)
 
 
 class StateAtTick:
@@ -70,13 +71,13 @@ class StateAtTick:
         position, velocity = readings.latest
         if self.kalman is not None:
             if readings.stamp_s != self._filtered_stamp_s:
-                # The torque that acted since the last reading: the last command issued before it.
+                # The torque that acted since the last reading: the last command issued before it; how
+                # much it changed matters only to a filter unsure when a command takes effect.
+                change = None
+                if self.kalman.config.command_timing_uncertainty_s > 0:
+                    change = self.command_change(self._filtered_stamp_s, readings.stamp_s)
                 self._filtered = self.kalman.update(
-                    readings.stamp_s,
-                    position,
-                    velocity,
-                    self.command_before(readings.stamp_s),
-                    self.command_change(self._filtered_stamp_s, readings.stamp_s),
+                    readings.stamp_s, position, velocity, self.command_before(readings.stamp_s), change
                 )
                 self._filtered_stamp_s = readings.stamp_s
             position, velocity = self._filtered
@@ -143,11 +144,10 @@ class StateAtTick:
 
     def command_before(self, time_s: float) -> np.ndarray:
         """The last command issued strictly before ``time_s`` (zero before any)."""
-        torque = np.zeros(self.joint_count)
-        for issued_s, command in self._commands:
+        for issued_s, command in reversed(self._commands):
             if issued_s < time_s - TIME_EPS_S:
-                torque = command
-        return torque
+                return command
+        return np.zeros(self.joint_count)
 
     def command_change(self, from_s: float, to_s: float) -> np.ndarray:
         """How much the command changed (N·m per joint, root of the sum of
@@ -170,6 +170,8 @@ class StateAtTick:
         """Integrate the arm model from ``from_s`` to ``to_s`` under the commands
         this controller issued in between (each acting from its tick on)."""
         assert self.dynamics is not None
+        if to_s <= from_s:  # nothing to integrate (a reading stamped at the tick)
+            return position, velocity
         torque = np.zeros(self.joint_count)
         segments: list[tuple[float, np.ndarray]] = []
         for issued_s, command in self._commands:

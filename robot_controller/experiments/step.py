@@ -62,10 +62,15 @@ def step_params(params: cfg.Params, amplitude: float, shaping: str) -> cfg.Param
 
 
 def step_figures(
-    recording: report.Recording, amplitude: float, offset: float = 0.0, after_s: float | None = STEP_AFTER_S
+    recording: report.Recording,
+    amplitude: float,
+    offset: float | np.ndarray = 0.0,
+    after_s: float | None = STEP_AFTER_S,
 ) -> dict[str, Any]:
     """Step-response figures on the TRUE angle, timed from the tick where the reference starts to move,
-    over the ``after_s`` seconds that follow it (None: to the end of the recording).
+    over the ``after_s`` seconds that follow it (None: to the end of the recording). Every joint steps
+    by ``amplitude`` from its ``offset`` (rad, one or one per joint); on a chain of joints each
+    figure is the worst joint's, and ``<figure>_per_joint`` lists them all.
 
     The recording runs on past the requested duration for as long as the nodes
     take to stop, a different time each run: settling, overshoot and the
@@ -73,32 +78,43 @@ def step_figures(
     """
     s = recording.state
     t = s["time_s"]
-    reference = s["reference"][:, 0]
+    reference = s["reference"]
+    joint_count = reference.shape[1]
+    offsets = np.broadcast_to(np.asarray(offset, dtype=float), (joint_count,))
     # The step starts after the last sample at rest: the reference may first
     # blend in from where the joint was, and it never comes back after the step.
-    at_rest = np.flatnonzero(np.abs(reference - offset) <= 1e-9)
+    at_rest = np.flatnonzero(np.all(np.abs(reference - offsets) <= 1e-9, axis=1))
     if at_rest.size == 0:
         raise ValueError("no sample at rest before the step: the recording misses the run's start")
     if at_rest[-1] == len(t) - 1:
         raise ValueError("the reference never moved: no step in this recording")
     step_time = t[at_rest[-1]]
-    true = metrics.true_position_at(t, recording.true_time_s, recording.true_position, recording.true_velocity)[:, 0]
-    ok = np.isfinite(true)
+    true = metrics.true_position_at(t, recording.true_time_s, recording.true_position, recording.true_velocity)
+    ok = np.all(np.isfinite(true), axis=1)
     if after_s is not None:
         ok &= t < step_time + after_s - 1e-9
-    figures = metrics.step_metrics(
-        t[ok],
-        true[ok],
-        initial=offset,
-        target=offset + amplitude,
-        step_time_s=step_time,
-        torque=s["command"][ok & (t >= step_time), 0],
-    )
+    per_joint = [
+        metrics.step_metrics(
+            t[ok],
+            true[ok, j],
+            initial=offsets[j],
+            target=offsets[j] + amplitude,
+            step_time_s=step_time,
+            torque=s["command"][ok & (t >= step_time), j],
+        )
+        for j in range(joint_count)
+    ]
+    figures: dict[str, Any] = dict(per_joint[0])
+    if joint_count > 1:
+        for key in per_joint[0]:
+            values = [joint[key] for joint in per_joint]
+            figures[key] = max(values, key=lambda value: abs(value) if np.isfinite(value) else np.inf)
+            figures[f"{key}_per_joint"] = values
     figures["step_time_s"] = float(step_time - t[0])
     return figures
 
 
-def plot_step(recording: report.Recording, path: Path, title: str) -> None:
+def plot_step(recording: report.Recording, path: Path, title: str, limit_nm: np.ndarray | None = None) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -110,14 +126,20 @@ def plot_step(recording: report.Recording, path: Path, title: str) -> None:
         s["time_s"], recording.true_time_s, recording.true_position, recording.true_velocity
     )
     fig, (ax_q, ax_u) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
-    ax_q.plot(t, s["reference"][:, 0], "k--", label="reference")
-    ax_q.plot(t, true[:, 0], label="true")
-    ax_q.plot(t, s["measured"][:, 0], ".", ms=2, alpha=0.4, label="estimate the law used")
+    joint_count = s["reference"].shape[1]
+    for j in range(joint_count):
+        name = "" if joint_count == 1 else f"joint {j + 1} "
+        ax_q.plot(t, s["reference"][:, j], "k--", lw=0.8, label=f"{name}reference" if j == 0 else None)
+        ax_q.plot(t, true[:, j], label=f"{name}true")
+        ax_u.plot(t, s["command"][:, j], label=f"{name}command")
+        if joint_count == 1:
+            ax_q.plot(t, s["measured"][:, 0], ".", ms=2, alpha=0.4, label="estimate the law used")
+            ax_u.plot(t, s["feedforward"][:, 0], lw=0.8, label="feedforward")
     ax_q.set_ylabel("position [rad]")
-    ax_u.plot(t, s["command"][:, 0], label="command")
-    ax_u.plot(t, s["feedforward"][:, 0], lw=0.8, label="feedforward")
-    ax_u.axhline(10, color="r", lw=0.6)
-    ax_u.axhline(-10, color="r", lw=0.6)
+    if limit_nm is not None:
+        for value in np.unique(np.atleast_1d(limit_nm)):
+            ax_u.axhline(value, color="r", lw=0.6)
+            ax_u.axhline(-value, color="r", lw=0.6)
     ax_u.set_ylabel("torque [N·m]")
     ax_u.set_xlabel("time [s]")
     for ax in (ax_q, ax_u):
@@ -143,7 +165,7 @@ def step_response(
     values, recording = run_and_score(
         params, out, duration_s=STEP_LEAD_S + STEP_AFTER_S, sim_time=sim_time, domain_id=domain_id
     )
-    values.update(step_figures(recording, amplitude))
+    values.update(step_figures(recording, amplitude, np.asarray(params["trajectory_planner"]["offset"], float)))
     values.update(
         {
             "amplitude_rad": amplitude,
@@ -153,5 +175,10 @@ def step_response(
         }
     )
     report.write_metrics(out / "metrics.json", values)
-    plot_step(recording, out / "step.png", f"{amplitude} rad step ({shaping}), seed {seed}")
+    plot_step(
+        recording,
+        out / "step.png",
+        f"{amplitude} rad step ({shaping}), seed {seed}",
+        np.asarray(params["motor_node"]["torque_max"], float),
+    )
     return values

@@ -54,6 +54,7 @@ from std_srvs.srv import SetBool
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
+from robot_controller.core.payload import Payload
 from robot_controller.core.plant import MAX_DISTURBANCE_NM, MujocoPlant, check_disturbance, steps_per_period
 from robot_controller.core.validation import check_effort
 from robot_controller.nodes.world_state import WORLD_STATE_ENV, WorldState
@@ -77,7 +78,11 @@ class Simulator(StackNode):
     def __init__(self) -> None:
         super().__init__("simulator")
         p = self.params
-        self.plant = MujocoPlant(resources.resolve_urdf(p["urdf_path"]), 1.0 / p["physics_rate_hz"])
+        self.plant = MujocoPlant(
+            resources.resolve_urdf(p["urdf_path"]),
+            1.0 / p["physics_rate_hz"],
+            Payload.from_values("payload", p["payload"]),
+        )
         self.joint_count = len(self.plant.joint_names)
         self.plant.reset(cfg.per_joint("initial_position", p["initial_position"], self.joint_count))
         self.world = WorldState.open(os.environ.get(WORLD_STATE_ENV, ""), self.joint_count)

@@ -20,6 +20,8 @@ if TYPE_CHECKING:  # the controller pulls in scipy and MuJoCo: only the nodes th
 
 # The controller's arm-model parameters, in the order of core.arm_model.PARAMETERS; empty = the URDF's.
 MODEL_KEYS = ("model_inertia", "model_damping", "model_coulomb_friction", "model_gravity_torque")
+# Every parameter of the controller's arm model: the per-joint ones and a payload on the last link.
+ARM_MODEL_KEYS = (*MODEL_KEYS, "model_payload")
 
 
 def _given(value: Any) -> bool:
@@ -38,9 +40,11 @@ def arm_model(values: Mapping[str, Any]) -> ArmDynamics | JointArmModel:
     the values given and the URDF's for the rest."""
     from robot_controller import resources
     from robot_controller.core.arm_model import JointArmModel
+    from robot_controller.core.payload import Payload
     from robot_controller.core.plant import ArmDynamics
 
-    dynamics = ArmDynamics(resources.resolve_urdf(values["urdf_path"]))
+    payload = Payload.from_values("model_payload", values.get("model_payload"))
+    dynamics = ArmDynamics(resources.resolve_urdf(values["urdf_path"]), payload)
     if not model_overridden(values):
         return dynamics
     n = len(dynamics.joint_names)
@@ -85,6 +89,7 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         estimator=estimator,
         disturbance_observer=values["disturbance_observer"],
         feedforward=values["feedforward"],
+        feedback_decoupling=values["feedback_decoupling"],
         control_period_s=1.0 / values["control_rate_hz"],
         reference_extrapolation=values["reference_extrapolation"],
         latency_compensation=values["latency_compensation"],

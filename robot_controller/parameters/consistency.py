@@ -17,7 +17,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
-from robot_controller.parameters.builders import MODEL_KEYS
+from robot_controller.parameters.builders import ARM_MODEL_KEYS
 from robot_controller.parameters.limits import torque_limit
 
 if TYPE_CHECKING:  # MuJoCo and the trajectories: imported when used
@@ -188,10 +188,13 @@ def _check_planner_matches(params: cfg.Params, joint_count: int) -> None:
     def given(value: object) -> bool:
         return value is not None and np.size(value) > 0
 
-    for key in MODEL_KEYS:  # empty: the controller's (``run`` passes it on); set: the controller's too
+    for key in ARM_MODEL_KEYS:  # empty: the controller's (``run`` passes it on); set: the controller's too
         if not given(planner[key]):
             continue
-        if given(ctrl[key]) and np.array_equal(
+        if key == "model_payload":
+            if given(ctrl[key]) and np.array_equal(planner[key], ctrl[key]):
+                continue
+        elif given(ctrl[key]) and np.array_equal(
             cfg.per_joint(key, planner[key], joint_count), cfg.per_joint(key, ctrl[key], joint_count)
         ):
             continue

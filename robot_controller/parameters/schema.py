@@ -75,6 +75,16 @@ def arm_model_specs(lead: str = "arm model: ") -> tuple[ParamSpec, ...]:
             "times cos(q), q = 0 horizontal as in the reference arm (empty: the URDF's)",
             **common,
         ),
+        ParamSpec(
+            "model_payload",
+            float,
+            [],
+            lead + "a load on the last joint's link beyond the URDF: [mass_kg, x_m, y_m, z_m], a point mass at "
+            "that point of the link's frame (empty: none; identify fits it on a chain of joints)",
+            length=4,
+            allow_empty=True,
+            read_only=True,
+        ),
     )
 
 
@@ -97,6 +107,16 @@ def torque_max_spec(description: str) -> ParamSpec:
 SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
     "simulator": (
         URDF,
+        ParamSpec(
+            "payload",
+            float,
+            [],
+            "a load the arm carries that its URDF lacks: [mass_kg, x_m, y_m, z_m], a point mass at that point "
+            "of the last joint's link's frame (empty: none)",
+            length=4,
+            allow_empty=True,
+            read_only=True,
+        ),
         ParamSpec(
             "physics_rate_hz", float, 1000.0, "physics steps per second (MuJoCo)", minimum=100.0, maximum=10000.0
         ),
@@ -356,6 +376,14 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
             "full",
             "model feedforward from the arm model (the URDF, or the model_* values below)",
             choices=_values(FeedforwardMode),
+        ),
+        ParamSpec(
+            "feedback_decoupling",
+            bool,
+            True,
+            "on a chain of joints, pass the feedback torques through M(q)·diag(M(q))⁻¹ (the arm model's mass "
+            "matrix), so each joint gets the acceleration its own gains ask for whatever the others do, as "
+            "computed-torque control does; no effect on one joint or without the arm model",
         ),
         # The arm model every model-based part uses (feedforward, Kalman prediction, LQR design, latency
         # compensation, the controlled stop): the URDF's unless these say otherwise (`robot-controller identify`

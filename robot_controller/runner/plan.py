@@ -18,7 +18,7 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.nodes.world_state import WORLD_STATE_ENV
 from robot_controller.parameters import consistency
-from robot_controller.parameters.builders import MODEL_KEYS
+from robot_controller.parameters.builders import ARM_MODEL_KEYS
 from robot_controller.ros import partition, scheduling
 from robot_controller.ros.publishing import COUNTS_DIR_ENV, RECORDED_ENV
 from robot_controller.view import serve as view_serve
@@ -95,7 +95,7 @@ def with_controller_model(params: cfg.Params) -> cfg.Params:
     sets must be the controller's: ``consistency.check_stack`` refuses others."""
     out = cfg.merge(params, {})
     planner, ctrl = out["trajectory_planner"], out["pid_controller"]
-    for key in MODEL_KEYS:
+    for key in ARM_MODEL_KEYS:
         if planner.get(key) is None or np.size(planner[key]) == 0:
             planner[key] = copy.deepcopy(ctrl[key])  # not the same list: YAML would write an alias, which rcl refuses
     return out
