@@ -293,7 +293,7 @@ def tune(out: Path, *, preset: str, config: list[Path] | None, quick: bool, robo
     if params["trajectory_planner"]["joint_count"] > 1:
         raise UsageError(
             f"--robot {robot}: tune designs one joint's gains; on a chain of joints the LQR's weights serve "
-            "every joint, each scaled by its own inertia (lqr_q, lqr_r, lqr_reference_inertia)"
+            "every joint, each scaled by its own inertia (lqr_q, lqr_r, reference_inertia)"
         )
     with StepProgress("tune", tune_module.steps(quick)) as progress:
         tune_module.tune(params, out, quick=quick, progress=progress)

@@ -22,7 +22,14 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimator import JointKalmanFilter
 from robot_controller.core.feedforward import FeedforwardMode
 from robot_controller.core.health import REACQUIRE_GAP_PERIODS, Health, Readings, Tick, TickClock, check_health
-from robot_controller.core.law import delay_margin_periods, describe_law, law_config, law_step
+from robot_controller.core.law import (
+    delay_margin_periods,
+    describe_law,
+    design_inertia,
+    law_config,
+    law_step,
+    observer_torque_scale,
+)
 from robot_controller.core.pid import Pid, PidConfig, PidTerms
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.reference import REFERENCE_TIMEOUT_PERIODS
@@ -69,6 +76,9 @@ class JointController:
             estimate_disturbance=config.observes_disturbance,
             mass_matrix=self.dynamics.mass_matrix,
             disturbance_limit=config.pid.output_limit,
+            torque_scale=observer_torque_scale(
+                design_inertia(self.dynamics, self.joint_count, config.design_position), config.reference_inertia
+            ),
         )
 
     @property
@@ -115,6 +125,7 @@ class JointController:
             self.config.estimator,
             self.config.observes_disturbance,
             self.config.design_position,
+            self.config.reference_inertia,
         )
 
     def set_config(self, config: ControllerConfig) -> None:

@@ -38,9 +38,10 @@ class ControllerConfig:
     controller_type: str = "pid"  #: "pid", or "lqr": the PID's gains replaced by a discrete LQR design
     lqr_q: tuple[float, float, float] = (1e4, 1e4, 1.0)  #: weights on ∫e, e, ė
     lqr_r: float = 1e-2  #: weight on the feedback torque
-    #: kg·m², the joint inertia lqr_r is the weight for; each joint's is lqr_r·(this/its inertia)²
-    #: (the same closed-loop poles on every joint); 0: lqr_r on every joint as it is
-    lqr_reference_inertia: float = 0.0
+    #: kg·m², the joint inertia lqr_r and the filter's torque σs are for; each joint's LQR weight is
+    #: lqr_r·(this/its inertia)², its observer's σs ×(its inertia/this): the same closed loop on every
+    #: joint; 0: the values as they are on every joint
+    reference_inertia: float = 0.0
     estimator: KalmanConfig | None = None  #: a Kalman filter on the reading, or none
     disturbance_observer: bool = False  #: the filter estimates an external torque, the law subtracts it
     feedforward: FeedforwardMode = FeedforwardMode.NONE

@@ -131,6 +131,15 @@ class KalmanConfig:
         if not np.isfinite(self.jump_detection_sigma) or self.jump_detection_sigma < 0:
             raise ConfigError(f"jump_detection_sigma: must be a finite number ≥ 0, got {self.jump_detection_sigma}")
 
+    def for_inertia(self, torque_scale: float) -> KalmanConfig:
+        """The filter with its torque figures (the observer's σs) ``torque_scale`` times larger: for a
+        joint that much heavier than the one they were chosen for, the same in acceleration."""
+        return replace(
+            self,
+            disturbance_noise_std=self.disturbance_noise_std * torque_scale,
+            mismatch_disturbance_noise_std=self.mismatch_disturbance_noise_std * torque_scale,
+        )
+
     def at_mismatch(self) -> KalmanConfig:
         """The filter as it is while its readings disagree with it (the most it moves to)."""
         return replace(
@@ -280,6 +289,9 @@ class JointKalmanFilter:
         (the disturbance observer); needs ``mass_matrix``
     :param mass_matrix: the arm's M(q) (what ``d`` accelerates)
     :param disturbance_limit: N·m per joint, the bound on ``|d|`` (none if None)
+    :param torque_scale: per joint, the factor on the observer's torque σs (its noise and the
+        jump's and start's prior): the joint's inertia over the one they were chosen for, so that
+        a wrist and a shoulder get the same observer in acceleration (None: 1 on every joint)
     """
 
     def __init__(
@@ -292,6 +304,7 @@ class JointKalmanFilter:
         estimate_disturbance: bool = False,
         mass_matrix: MassMatrix | None = None,
         disturbance_limit: np.ndarray | None = None,
+        torque_scale: np.ndarray | None = None,
     ) -> None:
         if estimate_disturbance and mass_matrix is None:
             raise ConfigError("disturbance_observer: needs the arm model's mass matrix")
@@ -310,6 +323,8 @@ class JointKalmanFilter:
         n = joint_count
         self._mismatch = config.at_mismatch()  #: the filter while its readings disagree with it
         #: σ (disturbance N·m/√s, acceleration rad/s²) while the readings agree, and at the mismatch
+        #: per joint, how much heavier than the joint the torque σs were chosen for (None: 1 on every joint)
+        self._torque_scale = None if torque_scale is None else np.asarray(torque_scale, dtype=float).reshape(n)
         self._agreeing_std = np.array([config.disturbance_noise_std, config.acceleration_noise_std])
         self._mismatch_std = np.array([self._mismatch.disturbance_noise_std, self._mismatch.acceleration_noise_std])
         self.x: np.ndarray | None = None  # (n, 2): q, v per joint; (n, 3): q, v, d
@@ -482,12 +497,15 @@ class JointKalmanFilter:
             prior[2, 2] = DISTURBANCE_PRIOR_STD_NM**2
         for j in np.flatnonzero(joints):
             self.P[j * m : (j + 1) * m, j * m : (j + 1) * m] = prior
+            if self.estimates_disturbance and self._torque_scale is not None:
+                self.P[j * m + 2, j * m + 2] *= self._torque_scale[j] ** 2
         self._distance_sq_average[joints] = innovation.UNPROVEN_DISTANCE_SQ
 
     def _noise_in_force(self) -> tuple[np.ndarray, np.ndarray]:
         """Per joint, the σ in force this period (disturbance N·m/√s, acceleration rad/s²):
         :func:`innovation.noise_in_force` at the readings' agreement so far."""
-        return innovation.noise_in_force(self._distance_sq_average, self._agreeing_std, self._mismatch_std)
+        sigma_d, sigma_a = innovation.noise_in_force(self._distance_sq_average, self._agreeing_std, self._mismatch_std)
+        return (sigma_d if self._torque_scale is None else sigma_d * self._torque_scale), sigma_a
 
     def _allow_jumps(self, P_pred: np.ndarray, jumped: np.ndarray, b: np.ndarray, dt: float) -> np.ndarray:
         """For each joint whose reading is taken as a jump (``jumped``), add to
@@ -502,7 +520,8 @@ class JointKalmanFilter:
             m = self.size
             for j in np.flatnonzero(jumped):
                 G = np.array([0.5 * b[j] * dt * dt, b[j] * dt, 1.0])
-                P_pred[j * m : (j + 1) * m, j * m : (j + 1) * m] += DISTURBANCE_PRIOR_STD_NM**2 * np.outer(G, G)
+                jump_std = DISTURBANCE_PRIOR_STD_NM * (1.0 if self._torque_scale is None else self._torque_scale[j])
+                P_pred[j * m : (j + 1) * m, j * m : (j + 1) * m] += jump_std**2 * np.outer(G, G)
             self.jump_count += jumped
         return P_pred
 

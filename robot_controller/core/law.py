@@ -40,7 +40,7 @@ def law_config(config: ControllerConfig, dynamics: ArmDynamics | None, joint_cou
                 dynamics.damping[j],
                 config.control_period_s,
                 np.array(config.lqr_q),
-                torque_weight(config.lqr_r, config.lqr_reference_inertia, inertia[j]),
+                torque_weight(config.lqr_r, config.reference_inertia, inertia[j]),
             ).K[0]
             for j in range(joint_count)
         ]
@@ -58,6 +58,14 @@ def design_inertia(
     for it, so one set of weights serves a shoulder and a wrist a hundred times lighter."""
     pose = np.zeros(joint_count) if design_position is None else np.asarray(design_position, dtype=float)
     return np.diag(dynamics.mass_matrix(pose)).copy()
+
+
+def observer_torque_scale(inertia_kgm2: np.ndarray, reference_inertia_kgm2: float) -> np.ndarray | None:
+    """Per joint, the factor on the disturbance observer's torque σs: the joint's inertia over the
+    reference inertia they were chosen for (None when that is 0: the σs as they are)."""
+    if reference_inertia_kgm2 <= 0:
+        return None
+    return np.asarray(inertia_kgm2, dtype=float) / reference_inertia_kgm2
 
 
 def torque_weight(lqr_r: float, reference_inertia_kgm2: float, inertia_kgm2: float) -> float:
@@ -105,6 +113,7 @@ def delay_margin_periods(
     estimator: KalmanConfig | None = None,
     disturbance_observer: bool = False,
     design_position: tuple[float, ...] | None = None,
+    reference_inertia: float = 0.0,
 ) -> int | None:
     """Whole control periods of unaccounted delay the feedback with ``gains``
     survives on the worst joint, the arm linearised at rest (see
@@ -124,9 +133,11 @@ def delay_margin_periods(
     if dynamics is None:
         return None
     inertia = design_inertia(dynamics, joint_count, design_position)
+    scale = observer_torque_scale(inertia, reference_inertia)
     margins = []
     for j in range(joint_count):
         if disturbance_observer and estimator is not None:
+            joint_filter = estimator if scale is None else estimator.for_inertia(float(scale[j]))
             margins.extend(
                 observer_delay_margin_periods(
                     (float(gains.ki[j]), float(gains.kp[j]), float(gains.kd[j])),
@@ -135,7 +146,7 @@ def delay_margin_periods(
                     float(dynamics.damping[j]),
                     control_period_s,
                 )
-                for filter_ in (estimator, estimator.at_mismatch())
+                for filter_ in (joint_filter, joint_filter.at_mismatch())
             )
             continue
         A, B = lqr.discretise(float(inertia[j]), float(dynamics.damping[j]), control_period_s)

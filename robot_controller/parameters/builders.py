@@ -85,7 +85,7 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         controller_type=values["controller_type"],
         lqr_q=tuple(q.tolist()),
         lqr_r=values["lqr_r"],
-        lqr_reference_inertia=values["lqr_reference_inertia"],
+        reference_inertia=values["reference_inertia"],
         estimator=estimator,
         disturbance_observer=values["disturbance_observer"],
         feedforward=values["feedforward"],

@@ -250,13 +250,15 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
         ),
         ParamSpec("lqr_r", float, 10.0, "LQR weight on the feedback torque", minimum=0.0, exclusive_minimum=True),
         ParamSpec(
-            "lqr_reference_inertia",
+            "reference_inertia",
             float,
             1.0 / 12.0,
-            "the joint inertia lqr_r is the torque weight for, kg·m² (the reference arm's); each joint's weight "
-            "is lqr_r·(this / its inertia at design_position)², so every joint gets the same closed-loop poles "
-            "(0: lqr_r on every joint as it is)",
+            "the joint inertia lqr_r and the Kalman filter's torque noise figures are for, kg·m² (the reference "
+            "arm's); on each joint the LQR's torque weight is lqr_r·(this / its inertia at design_position)² and the "
+            "observer's torque σs are scaled by (its inertia / this), so every joint gets the same closed-loop "
+            "poles and the same observer (0: the values as they are on every joint)",
             minimum=0.0,
+            read_only=True,
         ),
         ParamSpec(
             "estimator",
