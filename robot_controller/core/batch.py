@@ -13,6 +13,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from robot_controller.core.arm_model import step_count
 from robot_controller.core.estimator import JointKalmanFilter, KalmanConfig
 from robot_controller.core.pid import Pid, PidConfig
 from robot_controller.core.plant import ArmDynamics
@@ -104,13 +105,25 @@ def run_batch(
     filter_ = None
     if kalman is not None:
 
-        def predict(q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-            v = (v * constants.inertia + dt * (torque - constants.gravity_torque * np.cos(q))) / (
-                constants.inertia + dt * constants.damping
-            )
-            return q + dt * v, v
+        def predict(
+            q: np.ndarray,
+            v: np.ndarray,
+            torque: np.ndarray,
+            horizon_s: float,
+            max_step_s: float = physics_dt,
+            external_nm: np.ndarray | None = None,
+        ) -> tuple[np.ndarray, np.ndarray]:
+            force = torque if external_nm is None else torque + external_nm
+            steps = step_count(horizon_s, max_step_s)
+            h = horizon_s / steps
+            for _ in range(steps):
+                v = (v * constants.inertia + h * (force - constants.gravity_torque * np.cos(q))) / (
+                    constants.inertia + h * constants.damping
+                )
+                q = q + h * v
+            return q, v
 
-        filter_ = JointKalmanFilter(replace(kalman, model_step_s=physics_dt), batch, predict)
+        filter_ = JointKalmanFilter(replace(kalman, model_step_s=physics_dt), batch, predict, independent_joints=True)
     n_steps = int(round(control_period_s / physics_dt))
     applied = np.zeros((batch, 1))
     squared = np.zeros((batch, 1))

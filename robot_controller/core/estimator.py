@@ -275,12 +275,15 @@ class JointKalmanFilter:
     """Predict with the arm model, correct with each reading.
 
     The state is ``x`` (n, m): per joint ``q, v`` (and ``d``). Its covariance
-    is one matrix over every joint's state (``P``, nm × nm, joint by joint),
+    is one matrix over every joint's state (``P[0]``, nm × nm, joint by joint),
     since on a chain of joints each joint's prediction leans on the others'
     states (gravity, inertia and Coriolis couple them): a wrist's predicted
     acceleration moves by tens of rad/s² per radian of the shoulder, so the
     shoulder's uncertainty is the wrist's too. The tests of each reading's
     surprise (agreement, jumps, beyond any torque) look at each joint's own.
+    With ``independent_joints`` the joints are separate arms (the batch
+    harness's gain sets, one joint each): one m × m covariance per joint
+    (``P``, n × m × m), the same arithmetic on each.
 
     :param predictor: the arm model's ``predict`` (q, v, torque, horizon_s, max_step_s, external_nm)
     :param jacobian: one model step's slopes ``(q, v, torque, step_s) → ∂[q'; v']/∂[q; v]`` (2n × 2n);
@@ -292,6 +295,7 @@ class JointKalmanFilter:
     :param torque_scale: per joint, the factor on the observer's torque σs (its noise and the
         jump's and start's prior): the joint's inertia over the one they were chosen for, so that
         a wrist and a shoulder get the same observer in acceleration (None: 1 on every joint)
+    :param independent_joints: the joints do not act on one another (separate one-joint arms)
     """
 
     def __init__(
@@ -305,6 +309,7 @@ class JointKalmanFilter:
         mass_matrix: MassMatrix | None = None,
         disturbance_limit: np.ndarray | None = None,
         torque_scale: np.ndarray | None = None,
+        independent_joints: bool = False,
     ) -> None:
         if estimate_disturbance and mass_matrix is None:
             raise ConfigError("disturbance_observer: needs the arm model's mass matrix")
@@ -328,12 +333,16 @@ class JointKalmanFilter:
         self._agreeing_std = np.array([config.disturbance_noise_std, config.acceleration_noise_std])
         self._mismatch_std = np.array([self._mismatch.disturbance_noise_std, self._mismatch.acceleration_noise_std])
         self.x: np.ndarray | None = None  # (n, 2): q, v per joint; (n, 3): q, v, d
-        self.P = np.zeros((n * m, n * m))  #: joint by joint: [q1, v1, (d1), q2, v2, ...]
+        #: groups of joints that act on one another: one (the arm), or each joint its own
+        self._groups, self._per_group = (n, 1) if independent_joints else (1, n)
+        k = self._per_group
+        #: per group, joint by joint: [q1, v1, (d1), q2, v2, ...]
+        self.P = np.zeros((self._groups, k * m, k * m))
         self.R = np.diag([config.position_noise_std**2, config.velocity_noise_std**2])
-        self._R_all = np.kron(np.eye(n), self.R)
-        #: where each reading (q1, v1, q2, v2, ...) sits in the state
-        self._read = (np.arange(n)[:, None] * m + np.arange(2)[None, :]).reshape(-1)
-        self._index = _StateIndex(n, m)
+        self._R_all = np.kron(np.eye(k), self.R)
+        #: where each reading (q1, v1, q2, v2, ...) of a group sits in its state
+        self._read = (np.arange(k)[:, None] * m + np.arange(2)[None, :]).reshape(-1)
+        self._index = _StateIndex(k, m)
         self.time_s: float | None = None
         #: per joint, rad/s² per N·m of external torque on each joint ((n, n): M⁻¹ at the last estimate)
         self._inverse_mass: np.ndarray | None = None
@@ -358,7 +367,7 @@ class JointKalmanFilter:
     def joint_covariance(self) -> np.ndarray:
         """Each joint's own covariance (n, m, m): the diagonal blocks of ``P``."""
         n, m = self.joint_count, self.size
-        return np.einsum("iaib->iab", self.P.reshape(n, m, n, m)).copy()
+        return self.P[(slice(None), *self._index.blocks)].reshape(n, m, m)
 
     @property
     def disturbance(self) -> np.ndarray:
@@ -407,9 +416,10 @@ class JointKalmanFilter:
         n, m = self.joint_count, self.size
         z = np.empty((n, 2))  # the reading, per joint
         z[:, 0], z[:, 1] = position, velocity
+        g, k = self._groups, self._per_group
         if self.x is None or self.time_s is None or not (0 < time_s - self.time_s < 1.0):
             self.x = np.zeros((n, m))
-            self.P = np.zeros((n * m, n * m))
+            self.P = np.zeros((g, k * m, k * m))
             if self.estimates_disturbance:
                 self._set_mass(position)
             self._start(np.ones(n, dtype=bool), z)
@@ -439,8 +449,8 @@ class JointKalmanFilter:
             Q[:, :2, :2] += np.outer(G, G) * (sigma_v**2)[:, None, None]
         x_pred = self.x.copy()
         x_pred[:, 0], x_pred[:, 1] = q_pred, v_pred
-        P_pred = F.dot(self.P).dot(F.T)
-        P_pred[self._index.blocks] += Q  # each joint's own process noise
+        P_pred = np.matmul(np.matmul(F, self.P), F.transpose(0, 2, 1))
+        P_pred[(slice(None), *self._index.blocks)] += Q.reshape(g, k, m, m)  # each joint's own process noise
         surprise = z - x_pred[:, :2]  # the innovation, per joint
         S_joint = self._joint_blocks(P_pred)  # each joint's own (n, 2, 2)
         unexplainable = None
@@ -457,16 +467,16 @@ class JointKalmanFilter:
             )
             P_pred = self._allow_jumps(P_pred, jumped, b, dt)
         self._distance_sq_average = innovation.updated_average(self._distance_sq_average, distance_sq, jumped, dt)
-        read = self._read
-        P_read = P_pred[read, :]
-        if n == 1 and not jumped[0]:  # S is the joint's own block, inverted above
-            K = S_inv[0].dot(P_read).T  # (m, 2)
+        P_read = P_pred[:, self._read, :]  # (g, 2k, km)
+        if k == 1 and not jumped.any():  # S is each joint's own block, inverted above
+            K = np.matmul(S_inv, P_read).transpose(0, 2, 1)  # (g, m, 2)
         else:
-            S = P_pred[self._index.readings] + self._R_all
-            K = _solve_symmetric(S, P_read).T  # (nm, 2n)
-        self.x = (x_pred.reshape(-1) + K.dot(surprise.reshape(-1))).reshape(n, m)
-        self.P = P_pred - K.dot(P_read)
-        self.P = 0.5 * (self.P + self.P.T)
+            S = P_pred[(slice(None), *self._index.readings)] + self._R_all
+            K = (inverse_2x2(S) @ P_read if k == 1 else np.linalg.solve(S, P_read)).transpose(0, 2, 1)
+        gain = np.matmul(K, surprise.reshape(g, 2 * k, 1))[:, :, 0]
+        self.x = (x_pred.reshape(g, k * m) + gain).reshape(n, m)
+        self.P = P_pred - np.matmul(K, P_read)
+        self.P = 0.5 * (self.P + self.P.transpose(0, 2, 1))
         if self.estimates_disturbance:
             within(self.x[:, 2], self.disturbance_limit, out=self.x[:, 2])
             if unexplainable.any():
@@ -476,7 +486,7 @@ class JointKalmanFilter:
 
     def _joint_blocks(self, P: np.ndarray) -> np.ndarray:
         """Each joint's reading covariance (n, 2, 2): its own block of ``P`` plus the sensor's."""
-        return P[self._index.own_readings] + self.R
+        return P[(slice(None), *self._index.own_readings)].reshape(self.joint_count, 2, 2) + self.R
 
     def _start(self, joints: np.ndarray, z: np.ndarray) -> None:
         """Start the filter of ``joints`` (bool per joint) afresh from the reading ``z`` (n, 2):
@@ -485,20 +495,25 @@ class JointKalmanFilter:
         they have agreed with it for a while (about 0.2 s). After a fault (a frozen node, a
         brake that held the arm a little longer than reported) the first readings can be far
         from any model, and one taken as a jump would command the full torque the wrong way."""
-        m = self.size
+        m, k = self.size, self._per_group
         self.x[joints] = 0.0
         self.x[joints, :2] = z[joints]
-        rows = (np.flatnonzero(joints)[:, None] * m + np.arange(m)[None, :]).reshape(-1)
-        self.P[rows, :] = 0.0
-        self.P[:, rows] = 0.0
         prior = np.zeros((m, m))
         prior[:2, :2] = self.R
         if self.estimates_disturbance:
             prior[2, 2] = DISTURBANCE_PRIOR_STD_NM**2
-        for j in np.flatnonzero(joints):
-            self.P[j * m : (j + 1) * m, j * m : (j + 1) * m] = prior
+        if k == 1:  # each joint its own group: its whole covariance is the prior
+            self.P[joints] = prior
             if self.estimates_disturbance and self._torque_scale is not None:
-                self.P[j * m + 2, j * m + 2] *= self._torque_scale[j] ** 2
+                self.P[joints, 2, 2] *= self._torque_scale[joints] ** 2
+        else:
+            rows = (np.flatnonzero(joints)[:, None] * m + np.arange(m)[None, :]).reshape(-1)
+            self.P[0, rows, :] = 0.0
+            self.P[0, :, rows] = 0.0
+            for j in np.flatnonzero(joints):
+                self.P[0, j * m : (j + 1) * m, j * m : (j + 1) * m] = prior
+                if self.estimates_disturbance and self._torque_scale is not None:
+                    self.P[0, j * m + 2, j * m + 2] *= self._torque_scale[j] ** 2
         self._distance_sq_average[joints] = innovation.UNPROVEN_DISTANCE_SQ
 
     def _noise_in_force(self) -> tuple[np.ndarray, np.ndarray]:
@@ -518,10 +533,12 @@ class JointKalmanFilter:
         if jumped.any():
             P_pred = P_pred.copy()
             m = self.size
+            k = self._per_group
             for j in np.flatnonzero(jumped):
                 G = np.array([0.5 * b[j] * dt * dt, b[j] * dt, 1.0])
                 jump_std = DISTURBANCE_PRIOR_STD_NM * (1.0 if self._torque_scale is None else self._torque_scale[j])
-                P_pred[j * m : (j + 1) * m, j * m : (j + 1) * m] += jump_std**2 * np.outer(G, G)
+                group, at = divmod(j, k)
+                P_pred[group, at * m : (at + 1) * m, at * m : (at + 1) * m] += jump_std**2 * np.outer(G, G)
             self.jump_count += jumped
         return P_pred
 
@@ -567,18 +584,32 @@ class JointKalmanFilter:
         the model (a small acceleration_noise_std) lets its error grow where gravity
         pulls the arm away. ``d`` moves its own joint as a torque there would."""
         n, m = self.joint_count, self.size
+        g, k = self._groups, self._per_group
         steps = step_count(dt, self.config.model_step_s)
         h = dt / steps
-        slopes = matrix_power(self._step_slopes(q, v, torque, h), steps)  # [q; v] by [q; v]
-        F = np.zeros((n * m, n * m))
+        F = np.zeros((g, k * m, k * m))
         at = self._index
-        F[at.model_slopes] = slopes
+        if g == 1:
+            F[0][at.model_slopes] = matrix_power(self._step_slopes(q, v, torque, h), steps)  # [q; v] by [q; v]
+        else:
+            F[:, :2, :2] = np.linalg.matrix_power(self._own_slopes(q, v, torque, h), steps)
         if self.estimates_disturbance:
             b = self._own_inverse_mass if self._inverse_mass is not None else np.zeros(n)
-            F[at.q, at.d] = 0.5 * b * dt * dt
-            F[at.v, at.d] = b * dt
-            F[at.d, at.d] = 1.0
+            F[:, at.q, at.d] = (0.5 * b * dt * dt).reshape(g, k)
+            F[:, at.v, at.d] = (b * dt).reshape(g, k)
+            F[:, at.d, at.d] = 1.0
         return F
+
+    def _own_slopes(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, h: float) -> np.ndarray:
+        """Independent joints: each one's step slopes ∂[q'; v']/∂[q; v] (n, 2, 2), every joint
+        bumped at once (none moves another)."""
+        q1, v1 = self.predictor(q, v, torque, h, max_step_s=h)
+        q2, v2 = self.predictor(q + _BUMP_Q, v, torque, h, max_step_s=h)
+        q3, v3 = self.predictor(q, v + _BUMP_V, torque, h, max_step_s=h)
+        slopes = np.empty((self.joint_count, 2, 2))
+        slopes[:, 0, 0], slopes[:, 1, 0] = (q2 - q1) / _BUMP_Q, (v2 - v1) / _BUMP_Q
+        slopes[:, 0, 1], slopes[:, 1, 1] = (q3 - q1) / _BUMP_V, (v3 - v1) / _BUMP_V
+        return slopes
 
     def velocity_at_instant(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray) -> np.ndarray:
         """The velocity (rad/s) at the instant of the state ``(position, velocity)``

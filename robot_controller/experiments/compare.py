@@ -111,7 +111,7 @@ def compare(
             for key, v in rows.items()
         }
     report.write_metrics(out / "compare.json", table)
-    (out / "compare.md").write_text(render_compare(table, seeds, sine_duration_s, amplitude))
+    (out / "compare.md").write_text(render_compare(table, seeds, sine_duration_s, amplitude, robot))
     plot_compare(table, out / "compare.png")
     return table
 
@@ -240,7 +240,7 @@ def _compare_pair_in_worker(
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def render_compare(table, seeds: int, sine_duration_s: float, amplitude: float) -> str:
+def render_compare(table, seeds: int, sine_duration_s: float, amplitude: float, robot: str = "one_dof") -> str:
     names = {c.name: c.description for c in CONTENDERS}
     columns = [
         ("sine_tracking_rms_rad", "sine RMS, true [rad]", "{:.5f}"),
@@ -253,9 +253,10 @@ def render_compare(table, seeds: int, sine_duration_s: float, amplitude: float) 
     lines = [
         "# Controller comparison",
         "",
-        f"Reference scenario, sim-time lockstep, {seeds} seed(s) each: sine 1 rad 0.5 Hz for "
-        f"{sine_duration_s:g} s (2 s warm-up), {amplitude} rad step shaped to the fastest move within "
-        f"60 rad/s². Figures on the TRUE joint angle; mean ± standard deviation over seeds.",
+        f"Robot {robot}, sim-time lockstep, {seeds} seed(s) each: its default sine for "
+        f"{sine_duration_s:g} s (2 s warm-up), a {amplitude} rad step of every joint shaped to the fastest move "
+        "within 60 rad/s² (slowed if the torque needs it). Figures on the TRUE joint angle, the worst joint's; "
+        "mean ± standard deviation over seeds.",
         "",
         "| controller | " + " | ".join(c[1] for c in columns) + " |",
         "|---|" + "---|" * len(columns),
@@ -271,7 +272,7 @@ def render_compare(table, seeds: int, sine_duration_s: float, amplitude: float) 
         lines.append(f"| **{name}**: {names[name]} | " + " | ".join(cells) + " |")
     lines += [
         "",
-        "Targets (issue 4): sine RMS ≤ 0.0015 rad; step overshoot ≤ 2 %, settling ≤ 0.25 s, "
+        "Targets on the reference arm (one_dof): sine RMS ≤ 0.0015 rad; step overshoot ≤ 2 %, settling ≤ 0.25 s, "
         "|torque| ≤ 10 N·m throughout.",
         "",
     ]
