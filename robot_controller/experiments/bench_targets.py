@@ -34,6 +34,8 @@ TARGETS = (
     Target("lockstep_rtf_multi", 20.0, False, "lockstep RTF ≥ 20, five processes"),
     Target("lockstep_rtf_single", 100.0, False, "lockstep RTF ≥ 100, one process"),
     Target("batch_sim_s_per_s", 10_000.0, False, "batch ≥ 10,000 simulated s per wall s"),
+    Target("core_steps_per_s", 10_000.0, False, "in-process loop, one joint: ≥ 10,000 control steps per wall s"),
+    Target("core_steps_per_s_panda", 1_000.0, False, "in-process loop, the 7-joint Panda: ≥ 1,000 steps per wall s"),
 )
 
 
