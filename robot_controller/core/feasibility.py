@@ -289,8 +289,10 @@ def plan(
     policy: str = "scale",
     what: str = "trajectory",
     joint_names: Sequence[str] | None = None,
+    velocity_limit: np.ndarray | None = None,
 ) -> Plan:
-    """Check ``trajectory`` and act on the result as ``policy`` says.
+    """Check ``trajectory`` (torque, then each joint's ``velocity_limit``, rad/s,
+    if given) and act on the result as ``policy`` says.
 
     ``scale``: a path that does not fit is slowed in time until it does (the
     warning names the numbers and the factor). ``refuse``: it is refused.
@@ -300,6 +302,60 @@ def plan(
     :param what: how the messages name the path (the planner's ``mode``)
     :raises ConfigError: one line with the numbers, when the path is refused
     """
+    torque_plan = _torque_plan(trajectory, dynamics, limit_nm, margin, policy, what, joint_names)
+    if velocity_limit is None:
+        return torque_plan
+    return _within_velocity_limits(torque_plan, np.asarray(velocity_limit, float), policy, what, joint_names)
+
+
+def _within_velocity_limits(
+    planned: Plan, velocity_limit: np.ndarray, policy: str, what: str, joint_names: Sequence[str] | None
+) -> Plan:
+    """The plan slowed further (``scale``), refused or run with a warning when its
+    path goes faster than a joint's URDF velocity limit (naming the joint)."""
+
+    def fastest(trajectory: Trajectory) -> tuple[np.ndarray, int, float]:
+        speed = np.max(np.abs(_path(trajectory)[1]), axis=0)
+        ratio = speed / velocity_limit
+        worst = int(np.argmax(ratio))
+        return speed, worst, float(ratio[worst])
+
+    speed, j, ratio = fastest(planned.trajectory)
+    if ratio <= 1.0 + 1e-9:
+        return planned
+    name = joint_names[j] if joint_names is not None else f"joint {j + 1}"
+    need = (
+        f"the {what} moves {name} at {speed[j]:.3g} rad/s, beyond its URDF velocity limit "
+        f"{velocity_limit[j]:.3g} rad/s"
+    )
+    earlier = "" if planned.warning is None else planned.warning + "; "
+    if policy == "ignore":
+        return Plan(planned.trajectory, planned.result, f"{earlier}{need}; running it as it is (feasibility: ignore)")
+    if policy == "refuse" or not _scalable(planned.trajectory):
+        raise ConfigError(f"{need}; slow it down or lower the amplitude")
+    factor = ratio
+    while factor <= MAX_SCALE:
+        scaled = time_scaled(planned.trajectory, factor)
+        if fastest(scaled)[2] <= 1.0 + 1e-9:
+            return Plan(
+                scaled,
+                planned.result,
+                f"{earlier}{need}: scaled in time ×{factor:.2f}: {describe_scaling(planned.trajectory, scaled)}",
+            )
+        factor *= 1.01
+    raise ConfigError(f"{need}; slow it down or lower the amplitude")
+
+
+def _torque_plan(
+    trajectory: Trajectory,
+    dynamics: InverseDynamics,
+    limit_nm: float | Sequence[float] | np.ndarray,
+    margin: float,
+    policy: str,
+    what: str,
+    joint_names: Sequence[str] | None,
+) -> Plan:
+    """:func:`plan` on the torque alone."""
     if policy not in POLICIES:
         raise ConfigError(f"feasibility: {policy!r} is not one of {list(POLICIES)}")
     result = check(trajectory, dynamics, limit_nm, margin, joint_names)

@@ -54,7 +54,7 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core import feasibility, joint_trajectory
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.joint_limits import joint_limits
+from robot_controller.core.joint_limits import joint_limits, urdf_velocity_limits
 from robot_controller.core.trajectory import Trajectory, make_trajectory
 from robot_controller.parameters.builders import arm_model, model_overridden
 from robot_controller.parameters.limits import torque_limit
@@ -143,6 +143,10 @@ class TrajectoryPlanner(StackNode):
                 margin=params["feasibility_margin"],
                 policy=params["feasibility"],
                 what=params["mode"],
+                joint_names=self.dynamics.joint_names,
+                velocity_limit=urdf_velocity_limits(
+                    resources.resolve_urdf(params["urdf_path"]), self.dynamics.joint_names
+                ),
             )
             self._plan_key = key
         assert self._plan is not None

@@ -17,6 +17,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.joint_limits import urdf_velocity_limits
 from robot_controller.parameters.builders import ARM_MODEL_KEYS
 from robot_controller.parameters.limits import torque_limit
 
@@ -237,6 +238,8 @@ def trajectory_plan(params: cfg.Params) -> Plan:
             margin=planner["feasibility_margin"],
             policy=planner["feasibility"],
             what=planner["mode"],
+            joint_names=dynamics.joint_names,
+            velocity_limit=urdf_velocity_limits(resources.resolve_urdf(planner["urdf_path"]), dynamics.joint_names),
         )
     except ConfigError as exc:
         raise ConfigError(f"trajectory_planner: {exc}") from None

@@ -306,3 +306,20 @@ def test_a_lighter_controller_model_lets_through_what_the_urdf_would_refuse():
     consistency.check_stack(params)
     plan = consistency.trajectory_plan(params)
     assert plan.warning is None and plan.result.peak_torque_nm[0] < 8.0
+
+
+def test_a_sine_faster_than_a_joints_urdf_velocity_limit_is_slowed_naming_the_joint(tmp_path):
+    from robot_controller.parameters import consistency
+
+    path = tmp_path / "fast.yaml"
+    path.write_text("trajectory_planner:\n  ros__parameters:\n    frequency_hz: 1.5\n")
+    params = cfg.load_stack(robot="panda", config=path)
+    plan = consistency.trajectory_plan(params)
+    assert "panda_joint7 at 5.32 rad/s, beyond its URDF velocity limit 2.61 rad/s" in plan.warning
+    assert plan.trajectory.frequency_hz == pytest.approx(0.69, abs=0.01)
+    params["trajectory_planner"]["feasibility"] = "refuse"
+    with pytest.raises(ConfigError, match="trajectory_planner: the sine needs"):
+        consistency.trajectory_plan(params)
+    params["trajectory_planner"]["frequency_hz"] = 0.8  # torque fits; the wrist's speed does not
+    with pytest.raises(ConfigError, match="panda_joint7 at 3.02 rad/s, beyond its URDF velocity limit"):
+        consistency.trajectory_plan(params)
