@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import os
+import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -81,7 +82,14 @@ def urdf_path() -> Path:
     """The resolved Panda URDF, written once per installed package (rewritten if it differs)."""
     share = _share()
     text = resolved_urdf_text(share)
-    path = _cache_dir() / "panda.urdf"
+    try:
+        return _written(_cache_dir() / "panda.urdf", text)
+    except OSError:  # a read-only home: the system's temporary folder instead
+        return _written(Path(tempfile.gettempdir()) / f"robot_controller-{os.getuid()}" / "panda.urdf", text)
+
+
+def _written(path: Path, text: str) -> Path:
+    """``path`` holding ``text``, written only if it does not already."""
     if path.is_file() and path.read_text() == text:
         return path
     path.parent.mkdir(parents=True, exist_ok=True)
