@@ -54,9 +54,18 @@ def design_inertia(
     dynamics: ArmDynamics, joint_count: int, design_position: tuple[float, ...] | None = None
 ) -> np.ndarray:
     """Each joint's own inertia (the mass matrix's diagonal, kg·m²) at the design
-    pose (rad per joint; None: every joint at 0). Each joint's gains are designed
-    for it, so one set of weights serves a shoulder and a wrist a hundred times lighter."""
-    pose = np.zeros(joint_count) if design_position is None else np.asarray(design_position, dtype=float)
+    pose (rad per joint; None: every joint at 0, or the nearest end of its range
+    where 0 is outside it). Each joint's gains are designed for it, so one set of
+    weights serves a shoulder and a wrist a hundred times lighter."""
+    if design_position is not None:
+        pose = np.asarray(design_position, dtype=float)
+    else:
+        pose = np.zeros(joint_count)
+        model = getattr(dynamics, "model", None)  # a MuJoCo model knows the joints' ranges
+        if model is not None:
+            limited = model.jnt_limited[:joint_count].astype(bool)
+            low, high = model.jnt_range[:joint_count, 0], model.jnt_range[:joint_count, 1]
+            pose = np.where(limited, np.clip(pose, low, high), pose)
     return np.diag(dynamics.mass_matrix(pose)).copy()
 
 

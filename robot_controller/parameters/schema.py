@@ -397,7 +397,7 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
             float,
             [],
             "the pose the LQR gains and the delay margin are designed at (each joint's inertia there), rad per "
-            "joint (empty: every joint at 0, within its limits); --robot sets the robot's home pose",
+            "joint (empty: every joint at 0, or the nearest end of its range); --robot sets the robot's home pose",
             per_joint=True,
             allow_empty=True,
             read_only=True,
