@@ -28,8 +28,15 @@ def encode(
     time_s: float, status: str, measurement_stamp_s: float, joint_count: int, values: dict[str, np.ndarray]
 ) -> list[float]:
     out = [float(time_s), float(STATUS_CODES[status]), float(measurement_stamp_s)]
+    shape = (joint_count,)
     for name in FIELDS:
-        out.extend(np.broadcast_to(np.asarray(values[name], dtype=float), (joint_count,)).tolist())
+        value = values[name]
+        if isinstance(value, np.ndarray) and value.shape == shape:
+            # One value per joint already (every tick's case): its floats as they are,
+            # without broadcast_to's view, which costs more than the copy for a few joints.
+            out.extend((value if value.dtype == np.float64 else value.astype(float)).tolist())
+        else:
+            out.extend(np.broadcast_to(np.asarray(value, dtype=float), shape).tolist())
     return out
 
 

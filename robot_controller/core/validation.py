@@ -3,9 +3,12 @@ or a reason (a short sentence for a rate-limited warning)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
+
+from robot_controller.core.arrays import all_finite
 
 Checked = tuple[np.ndarray, np.ndarray] | str
 
@@ -24,6 +27,11 @@ def check_joint_state(
     velocity = np.asarray(velocity, dtype=float)
     if position.size == 0:
         return "empty position array"
+    if len(names) == n and position.size == n and velocity.size == n and list(names) == list(expected_names):
+        # Every reading of a well-configured graph: already in the arm's order (copies, as the reorder gives).
+        if not all_finite(position, velocity):
+            return "non-finite position or velocity"
+        return position.copy(), velocity.copy()
     if len(names) == 0:
         if position.size != n or velocity.size != n:
             return f"expected {n} position and velocity values, got {position.size} and {velocity.size}"
@@ -40,7 +48,7 @@ def check_joint_state(
             return f"missing joint(s) {missing}"
         order = np.array([index[name] for name in expected_names])
     position, velocity = position[order], velocity[order]
-    if not (np.all(np.isfinite(position)) and np.all(np.isfinite(velocity))):
+    if not all_finite(position, velocity):
         return "non-finite position or velocity"
     return position, velocity
 
@@ -72,7 +80,7 @@ def check_trajectory(data: Sequence[float], joint_count: int) -> TrajectorySampl
             f"expected {3 * n} values ([position, velocity, acceleration] per joint) "
             f"or {3 * n + 1} (with the sample time), got {np.asarray(data).size + (sample_time is not None)}"
         )
-    if not np.all(np.isfinite(data)) or (sample_time is not None and not np.isfinite(sample_time)):
+    if not all_finite(data) or (sample_time is not None and not math.isfinite(sample_time)):
         return "non-finite value in trajectory"
     return p, v, a, sample_time
 
@@ -81,6 +89,6 @@ def check_effort(data: Sequence[float], joint_count: int) -> np.ndarray | str:
     data = np.asarray(data, dtype=float)
     if data.size != joint_count:
         return f"expected {joint_count} torque value(s), got {data.size}"
-    if not np.all(np.isfinite(data)):
+    if not all_finite(data):
         return "non-finite torque"
     return data

@@ -482,12 +482,12 @@ class Simulator(StackNode):
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(stamp_ns), 1_000_000_000)
         msg.position = position.tolist()
         msg.velocity = velocity.tolist()
-        msg.effort = (np.zeros(self.joint_count) if self.brake_reasons else self.effort).tolist()
+        msg.effort = [0.0] * self.joint_count if self.brake_reasons else self.effort.tolist()
         self.state_pub.publish(msg)
         # The disturbance that acted in the last physics step: with every state while
         # there is one, then once zero.
         applied = self.plant.disturbance_torque
-        nonzero = bool(np.any(applied != 0.0))
+        nonzero = bool(applied.any())
         if nonzero or self.disturbance_reported:
             self.disturbance_msg.data = applied.tolist() + [stamp_ns * 1e-9]
             self.disturbance_pub.publish(self.disturbance_msg)

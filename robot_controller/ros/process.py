@@ -80,8 +80,12 @@ def init_with_own_signals(args: list[str] | None) -> None:
 def spin(executor: Executor) -> None:
     """Spin until a stop signal or shutdown. A loop of spin_once: the
     EventsExecutor's own spin() never returns after a shutdown in this rclpy."""
-    while not _stop_requested.is_set() and rclpy.ok():
-        executor.spin_once(timeout_sec=0.1)
+    # The executor's context, looked up once: rclpy.ok() finds the default context
+    # again on every call, and this loop turns once per message.
+    context = executor.context
+    stop_requested, spin_once = _stop_requested.is_set, executor.spin_once
+    while not stop_requested() and context.ok():
+        spin_once(timeout_sec=0.1)
 
 
 def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: list[str] | None = None) -> int:

@@ -132,7 +132,11 @@ class StackNode(Node):
     # --- helpers ------------------------------------------------------------
 
     def now_s(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
+        """The node's clock in seconds: ``get_clock().now()``, read without building
+        the ``Time`` object that its callers (several per tick) would throw away."""
+        handle = self.get_clock().handle
+        with handle:
+            return handle.get_now().nanoseconds * 1e-9
 
     def watch_single_publisher(self, topic: str, expected: str) -> None:
         """Warn, naming them, whenever ``topic`` has publishers besides the node ``expected``.
