@@ -46,7 +46,10 @@ class Robot:
         return {
             "simulator": {"urdf_path": urdf, "initial_position": home},
             "motor_node": {"urdf_path": urdf},
-            "pid_controller": {"urdf_path": urdf, "design_position": home},
+            # Without readings the controller stops on its model open loop; on a chain of joints gravity
+            # makes that unstable (the Panda's estimate drifted 2 rad within the default 1 s), so the
+            # brakes take over after 0.2 s.
+            "pid_controller": {"urdf_path": urdf, "design_position": home, "sensor_timeout_s": CHAIN_SENSOR_TIMEOUT_S},
             "trajectory_planner": {
                 "urdf_path": urdf,
                 "joint_count": len(home),
@@ -69,6 +72,8 @@ def _panda_urdf() -> str:
 
 
 DEFAULT_ROBOT = "one_dof"
+#: s, how long a chain of joints is stopped on its model alone before the brakes hold it
+CHAIN_SENSOR_TIMEOUT_S = 0.2
 
 ROBOTS: dict[str, Robot] = {
     robot.name: robot
