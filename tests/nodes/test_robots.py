@@ -53,3 +53,17 @@ def test_the_panda_tracks_its_seven_joints(tmp_path, ros_domain):
     limits = [87.0] * 4 + [12.0] * 3
     assert all(peak < limit for peak, limit in zip(metrics["peak_torque_nm_per_joint"], limits, strict=True))
     assert metrics["peak_torque_nm_per_joint"][3] > 15.0  # joint 4 holds the arm up at the ready pose
+
+
+def test_a_panda_that_loses_its_sensor_for_two_seconds_is_braked_within_its_band(tmp_path, ros_domain):
+    """Without readings a chain of joints stops on its model only briefly (the
+    open-loop model drifts: gravity makes it unstable), then the brakes hold it."""
+    from robot_controller import parameters as cfg
+    from robot_controller.experiments import faults
+
+    case = faults.Case("sensor_node", 2.0)
+    entry = faults.run_case(case, tmp_path / case.name, cfg.load_stack(robot="panda"))
+    assert entry["exit_code"] == 0 and "failure" not in entry, entry
+    assert entry["brake_engaged"], entry
+    assert max(entry["max_deviation_rad_per_joint"]) <= 0.1, entry  # every joint inside the band it sweeps
+    assert entry["reacquire_s"] == entry["reacquire_s"], entry  # back on the trajectory before the run ended
