@@ -56,7 +56,7 @@ from robot_controller.core import feasibility, joint_trajectory
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.joint_limits import joint_limits, urdf_velocity_limits
 from robot_controller.core.trajectory import Trajectory, make_trajectory
-from robot_controller.parameters.builders import arm_model, model_overridden
+from robot_controller.parameters.builders import TRAJECTORY_SHAPE_KEYS, arm_model, model_overridden
 from robot_controller.parameters.limits import torque_limit
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher
@@ -67,19 +67,7 @@ from robot_controller.ros.stamps import stamp_to_s
 _GRID_EPS_S = 1e-6
 JOINT_TRAJECTORY_TOPIC = "/trajectory_planner/joint_trajectory"
 # A change of these brings the parameters' motion back in place of a joint trajectory.
-SHAPE_KEYS = frozenset(
-    (
-        "mode",
-        "amplitude",
-        "frequency_hz",
-        "offset",
-        "step_time_s",
-        "end_frequency_hz",
-        "sweep_time_s",
-        "step_shaping",
-        "max_acceleration",
-    )
-)
+SHAPE_KEYS = frozenset(("mode", *TRAJECTORY_SHAPE_KEYS))
 
 
 class TrajectoryPlanner(StackNode):

@@ -112,17 +112,21 @@ def sensor_config(values: Mapping[str, Any]) -> SensorConfig:
     )
 
 
+# The planner's parameters that shape its trajectory (besides ``mode``).
+TRAJECTORY_SHAPE_KEYS = (
+    "amplitude",
+    "frequency_hz",
+    "offset",
+    "step_time_s",
+    "end_frequency_hz",
+    "sweep_time_s",
+    "step_shaping",
+    "max_acceleration",
+)
+
+
 def trajectory_kwargs(values: Mapping[str, Any]) -> dict[str, Any]:
-    keys = (
-        "amplitude",
-        "frequency_hz",
-        "offset",
-        "step_time_s",
-        "end_frequency_hz",
-        "sweep_time_s",
-        "step_shaping",
-        "max_acceleration",
-    )
+    keys = TRAJECTORY_SHAPE_KEYS
     return {
         "joint_count": values["joint_count"],
         "sample_period_s": 1.0 / values["publish_rate_hz"],

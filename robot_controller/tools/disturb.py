@@ -29,21 +29,14 @@ from pathlib import Path
 import numpy as np
 
 from robot_controller.ros import partition
+from robot_controller.tools.graph import wait_until_heard
 
 TOPIC = "/sim/disturbance"
 PROG = "robot-controller disturb"
 NAMES_TIMEOUT_S = 2.0  #: how long to listen for the running simulator's joint names
 MATCH_TIMEOUT_S = 10.0  #: how long to wait for the simulator's subscription
-# Discovery is two-sided and staggered: a reader seen by this writer may not know
-# the writer yet, and the run's recorder may be found a few hundred ms after its
-# simulator. Sent once the readers found have all matched and nothing has changed
-# for MATCH_SETTLE_S; or for UNMATCHED_SETTLE_S if some never match (readers in a
-# partition this process does not write to).
-MATCH_SETTLE_S = 0.5
-UNMATCHED_SETTLE_S = 1.5
 DELIVERY_TIMEOUT_S = 2.0
 SIMULATOR_NODE = "simulator"
-OBSERVER_NODES = frozenset({"recorder"})
 RANGE_ENV = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 
 
@@ -85,18 +78,6 @@ def _restore_env(saved: dict[str, str | None]) -> None:
             os.environ.pop(key, None)
         else:
             os.environ[key] = value
-
-
-def _matching(node, publisher) -> tuple[int, int] | None:
-    """``(readers listed, readers matched)`` once a simulator subscribes to the topic and
-    a reader besides the observers has matched this writer, else None (the graph lists
-    readers of every partition; matching is per partition)."""
-    readers = node.get_subscriptions_info_by_topic(TOPIC)
-    if not any(info.node_name == SIMULATOR_NODE for info in readers):
-        return None
-    observers = sum(info.node_name in OBSERVER_NODES for info in readers)
-    matched = publisher.get_subscription_count()
-    return (len(readers), matched) if matched > observers else None
 
 
 def disturb(torque_nm: float, duration_s: float, joint: str | None, *, wait_s: float = MATCH_TIMEOUT_S) -> int:
@@ -162,19 +143,8 @@ def disturb(torque_nm: float, duration_s: float, joint: str | None, *, wait_s: f
         checked = check_disturbance(disturbance_data(torque, duration_s), len(names))
         if isinstance(checked, str):
             return _fail(checked, 2)
-        seen, seen_since = None, 0.0
-        while True:
-            now = time.monotonic()
-            matching = _matching(node, publisher)
-            if matching != seen:
-                seen, seen_since = matching, now
-            elif matching is not None and now - seen_since >= (
-                MATCH_SETTLE_S if matching[1] >= matching[0] else UNMATCHED_SETTLE_S
-            ):
-                break
-            if now - start > wait_s:
-                return _fail(f"no simulator is listening on {TOPIC} (domain {domain})", 1)
-            time.sleep(0.05)
+        if not wait_until_heard(node, publisher, TOPIC, SIMULATOR_NODE, since=start, wait_s=wait_s):
+            return _fail(f"no simulator is listening on {TOPIC} (domain {domain})", 1)
         msg = Float64MultiArray()
         msg.layout.dim = [
             MultiArrayDimension(label="torque_nm", size=len(names), stride=len(names)),

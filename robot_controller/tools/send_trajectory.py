@@ -42,13 +42,8 @@ from robot_controller.tools.trajectory_file import goto as goto_spec
 
 TOPIC = "/trajectory_planner/joint_trajectory"
 PLANNER_NODE = "trajectory_planner"
-OBSERVER_NODES = frozenset({"recorder"})
 STATE_TIMEOUT_S = 2.0  #: how long goto listens for the arm's /joint_states
 MATCH_TIMEOUT_S = 10.0  #: how long to wait for the planner's subscription
-# Sent once the readers found have all matched and nothing changed for MATCH_SETTLE_S (see tools.disturb),
-# or for UNMATCHED_SETTLE_S if some never match (readers in a partition this process does not write to).
-MATCH_SETTLE_S = 0.5
-UNMATCHED_SETTLE_S = 1.5
 DELIVERY_TIMEOUT_S = 2.0
 ANSWER_TIMEOUT_S = 2.0  #: how long to listen on /rosout for the planner's verdict
 TAKEN, REFUSED = "joint trajectory taken: ", "joint trajectory refused: "
@@ -95,17 +90,6 @@ def _arm_state(g: graph.Graph) -> Any | None:
         g.node.destroy_subscription(subscription)
 
 
-def _matching(g: graph.Graph, publisher: Any) -> tuple[int, int] | None:
-    """``(readers listed, readers matched)`` once the planner subscribes and a reader besides
-    the observers has matched this writer, else None (the graph lists every partition's readers)."""
-    readers = g.node.get_subscriptions_info_by_topic(TOPIC)
-    if not any(info.node_name == PLANNER_NODE for info in readers):
-        return None
-    observers = sum(info.node_name in OBSERVER_NODES for info in readers)
-    matched = publisher.get_subscription_count()
-    return (len(readers), matched) if matched > observers else None
-
-
 def _send(g: graph.Graph, spec: TrajectorySpec, prog: str, what: str, wait_s: float) -> int:
     from rcl_interfaces.msg import Log
     from rclpy.duration import Duration
@@ -126,20 +110,8 @@ def _send(g: graph.Graph, spec: TrajectorySpec, prog: str, what: str, wait_s: fl
     )
     g.node.create_subscription(Log, "/rosout", on_log, reliable)  # volatile: no earlier lines
     publisher = g.node.create_publisher(JointTrajectory, TOPIC, reliable)
-    start = time.monotonic()
-    seen, seen_since = None, start
-    while True:
-        now = time.monotonic()
-        matching = _matching(g, publisher)
-        if matching != seen:
-            seen, seen_since = matching, now
-        elif matching is not None and now - seen_since >= (
-            MATCH_SETTLE_S if matching[1] >= matching[0] else UNMATCHED_SETTLE_S
-        ):
-            break
-        if now - start > wait_s:
-            raise ToolError(f"no trajectory planner is listening on {TOPIC} (domain {g.domain})")
-        time.sleep(0.05)
+    if not graph.wait_until_heard(g.node, publisher, TOPIC, PLANNER_NODE, since=time.monotonic(), wait_s=wait_s):
+        raise ToolError(f"no trajectory planner is listening on {TOPIC} (domain {g.domain})")
     publisher.publish(to_message(spec))
     delivered = publisher.wait_for_all_acked(Duration(seconds=DELIVERY_TIMEOUT_S))
     sent = f"sent {what} on {TOPIC} (domain {g.domain})"
