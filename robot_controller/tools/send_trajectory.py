@@ -14,9 +14,11 @@ arm's state is not heard. ``trajectory`` sends a YAML file
 
 The topic carries no answer (JTC's topic has none either), so the tool
 listens on ``/rosout`` for the planner's one line about it for
-``ANSWER_TIMEOUT_S`` and reports it: exit 0 once sent (taken, or no answer
-heard), 2 if the planner refused it or the request is malformed (one line
-with the reason), 1 if no planner is listening. Like ``disturb``, it speaks
+``ANSWER_TIMEOUT_S`` and reports it: exit 0 once the planner took it, 2 if
+it refused it or the request is malformed (one line with the reason), 1 if
+no planner is listening or no answer was heard (the planner says why it
+refuses at most once per 2 s, so a second refusal soon after another is
+silent: the outcome is then unknown, and said so). Like ``disturb``, it speaks
 through the observer profile (``tools.graph``), into every run's partition.
 """
 
@@ -119,8 +121,12 @@ def _send(g: graph.Graph, spec: TrajectorySpec, prog: str, what: str, wait_s: fl
         answer = answers.get(timeout=ANSWER_TIMEOUT_S)
     except queue.Empty:
         unacked = "" if delivered else ", not acknowledged"
-        print(f"robot-controller {prog}: {sent}{unacked}; no answer from the planner heard on /rosout", flush=True)
-        return 0
+        return _fail(
+            prog,
+            f"{sent}{unacked}, but no answer from the planner on /rosout within {ANSWER_TIMEOUT_S:g} s: taken or "
+            "refused is unknown (it says why it refuses at most once per 2 s); see the planner's log",
+            code=1,
+        )
     if answer.startswith(REFUSED):
         return _fail(prog, f"the planner refused it: {answer[len(REFUSED) :]}")
     print(f"robot-controller {prog}: {sent}; the planner took it: {answer[len(TAKEN) :]}", flush=True)
