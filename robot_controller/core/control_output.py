@@ -26,11 +26,13 @@ class Status(str, Enum):
     REACQUIRING = "reacquiring"  #: a fault cleared: led from where the arm is back onto the trajectory
     REFERENCE_LOST = "reference_lost"  #: the planner went quiet: controlled stop of the reference, holding
     STOPPED = "stopped"  #: e-stop or brake: no command until it lifts
+    LAW_FAULT = "law_fault"  #: the plugin law failed: controlled stop on the built-in law (category 2)
+    LAW_STOPPED = "law_stopped"  #: after LAW_FAULT's stop and hold: no command, the brake holds (category 1)
 
     @property
     def commanding(self) -> bool:
         """Whether a tick in this state sends a torque to the motor."""
-        return self not in (Status.NO_MEASUREMENT, Status.SENSOR_LOST, Status.STOPPED)
+        return self not in (Status.NO_MEASUREMENT, Status.SENSOR_LOST, Status.STOPPED, Status.LAW_STOPPED)
 
 
 class ReferenceSource(str, Enum):
@@ -42,6 +44,7 @@ class ReferenceSource(str, Enum):
     REACQUIRE_BLEND = "reacquire_blend"  #: the trajectory plus a fading offset from where the arm was
     REFERENCE_STOP = "reference_stop"  #: the planner went quiet: its last reference brought to rest
     SENSOR_STOP = "sensor_stop"  #: readings missing: the reference brought to rest, the arm on the model
+    LAW_STOP = "law_stop"  #: the plugin law failed: the reference brought to rest for the built-in law
     NONE = "none"  #: no command this tick: ``reference`` only repeats the arm's position
 
     @property
@@ -63,6 +66,8 @@ class ControlOutput:
     #: N·m per joint, the external torque the disturbance observer estimates (the command
     #: subtracts it, inside ``terms.feedforward``); None without an observer or a command
     disturbance: np.ndarray | None = None
+    #: a plugin law's extra terms for ``/controller/state`` (its ``state_terms``), N·m per joint
+    law_terms: dict[str, np.ndarray] | None = None
 
     @property
     def command(self) -> np.ndarray:

@@ -14,6 +14,8 @@ named steps; each step's work is in its own module.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from robot_controller.core.control_output import ControlOutput, ReferenceSource, Status
@@ -27,9 +29,12 @@ from robot_controller.core.law import (
     describe_law,
     design_inertia,
     law_config,
-    law_step,
     observer_torque_scale,
 )
+from robot_controller.core.laws import registry
+from robot_controller.core.laws.builtin import BuiltinLaw
+from robot_controller.core.laws.containment import LawFault
+from robot_controller.core.laws.plugin import PluginLaw
 from robot_controller.core.pid import Pid, PidConfig, PidTerms
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.reference import REFERENCE_TIMEOUT_PERIODS
@@ -48,14 +53,33 @@ __all__ = [
 ]
 
 
+# After a plugin law fails, the arm is held at rest on the built-in law this long before the
+# torque goes off and the brakes hold (category 2, then 1).
+LAW_FAULT_HOLD_S = 0.5
+
+
 class JointController:
-    def __init__(self, config: ControllerConfig, joint_count: int, dynamics: ArmDynamics | None = None) -> None:
+    """``law_clock``: a function giving seconds of wall time, to hold a plugin law to
+    its ``law_budget_s`` (None: its time is not checked, as in the in-process loops)."""
+
+    def __init__(
+        self,
+        config: ControllerConfig,
+        joint_count: int,
+        dynamics: ArmDynamics | None = None,
+        law_clock: Callable[[], float] | None = None,
+    ) -> None:
         if config.feedforward is not FeedforwardMode.NONE and dynamics is None:
             raise ConfigError("feedforward: needs the arm model (urdf_path)")
         self.config = config
         self.joint_count = joint_count
         self.dynamics = dynamics
-        self.pid = Pid(law_config(config, dynamics, joint_count))
+        # The built-in law: the law itself, or under a plugin law the one that stops the arm if it fails.
+        self.builtin = BuiltinLaw.of_kind(config.builtin_law, config, dynamics, joint_count)
+        if not config.plugin_law and not issubclass(registry.resolve(config.controller_type), BuiltinLaw):
+            raise ConfigError(f"controller_type: {config.controller_type!r} is registered to a law not built in")
+        self.plugin = PluginLaw.build(config, dynamics, joint_count, law_clock) if config.plugin_law else None
+        self._law_fault_rest_s: float | None = None  # when the stop after a law fault came to rest
         self._state = StateAtTick(joint_count, dynamics, self._make_estimator(config))
         self._reference = ReferenceAtTick(joint_count)
         self._readings = Readings()
@@ -82,6 +106,16 @@ class JointController:
         )
 
     @property
+    def pid(self) -> Pid:
+        """The built-in law's PID (for a plugin law, the one its stops run on)."""
+        return self.builtin.pid
+
+    @property
+    def law_fault(self) -> LawFault | None:
+        """What the plugin law did wrong, once it has (it is then never called again)."""
+        return None if self.plugin is None else self.plugin.fault
+
+    @property
     def estimator(self) -> JointKalmanFilter | None:
         """The Kalman filter on the readings, or None."""
         return self._state.kalman
@@ -102,7 +136,10 @@ class JointController:
         """One line saying which law runs and with which gains, e.g. ``"LQR (q=[...],
         r=10, ...): Kp=[29.7] N·m/rad, ...; the kp/ki/kd parameters are unused"``
         or ``"PID: Kp=[50] N·m/rad, ..."``: in LQR mode the design replaces
-        kp/ki/kd, which would otherwise be silently ignored."""
+        kp/ki/kd, which would otherwise be silently ignored. For a plugin law: its
+        name and parameters, and the built-in law its stops run on."""
+        if self.plugin is not None:
+            return f"{self.plugin.describe()}; stops on the built-in {describe_law(self.config, self.gains)}"
         return describe_law(self.config, self.gains)
 
     def delay_margin_periods(self) -> int | None:
@@ -115,8 +152,11 @@ class JointController:
         this is the margin for the rest, e.g. the controller → motor → simulator path.
         With the disturbance observer, the loop through the filter and the
         observer (:func:`law.observer_delay_margin_periods`): a fast observer
-        takes a late reading for a push and spends the margin.
+        takes a late reading for a push and spends the margin. None for a plugin
+        law: its feedback is not known here.
         """
+        if self.plugin is not None:
+            return None
         return delay_margin_periods(
             self.gains,
             self.dynamics,
@@ -132,7 +172,13 @@ class JointController:
         """New gains and options, applied bumplessly from the next tick."""
         if config.feedforward is not FeedforwardMode.NONE and self.dynamics is None:
             raise ConfigError("feedforward: needs the arm model (urdf_path)")
-        pid = law_config(config, self.dynamics, self.joint_count)
+        if config.controller_type != self.config.controller_type and (config.plugin_law or self.config.plugin_law):
+            raise ConfigError(
+                "controller_type: a law of one's own is chosen when the controller starts; restart it to change"
+            )
+        law_config(config, self.dynamics, self.joint_count, config.builtin_law)  # refuses a bad design first
+        if self.plugin is not None:
+            self.plugin.set_params(config)
         if config.estimator != self.config.estimator or config.observes_disturbance != self.config.observes_disturbance:
             self._state.kalman = self._make_estimator(config)
         elif self._state.kalman is not None:
@@ -140,7 +186,10 @@ class JointController:
                 np.asarray(config.pid.output_limit, float), (self.joint_count,)
             ).copy()
         self.config = config
-        self.pid.set_config(pid)
+        if config.builtin_law != self.builtin.kind:
+            self.builtin = BuiltinLaw.of_kind(config.builtin_law, config, self.dynamics, self.joint_count)
+        else:
+            self.builtin.set_config(config)
 
     # --- inputs -----------------------------------------------------------------------
 
@@ -211,6 +260,8 @@ class JointController:
         health = self._check_health(now_s)
         if not health.status.commanding:
             return self._no_command(now_s, health.status)
+        if self.law_fault is not None:
+            return self._stop_after_law_fault(now_s, tick.dt_s, health.status)
         if health.status is Status.WATCHDOG:
             return self._stop_on_model(now_s, tick.dt_s)
         if self._reference.reacquire_pending:
@@ -247,6 +298,8 @@ class JointController:
         self.pid.reset()
         self._state.reset()
         position, velocity = StateAtTick.reading_alone(now_s, self._readings, self.config.latency_compensation)
+        if self.plugin is not None:
+            self.plugin.reset(now_s, position, velocity, self._readings.latest)
         self._reference.try_reacquire(now_s, position, velocity, self.config)
 
     def _estimate_at_tick(self, now_s: float) -> tuple[np.ndarray, np.ndarray]:
@@ -271,14 +324,42 @@ class JointController:
     def _apply_law(
         self, now_s: float, dt_s: float, position: np.ndarray, velocity: np.ndarray, reference: Reference
     ) -> ControlOutput:
-        """Feedback plus feedforward within the torque limit; the command is
-        remembered for the estimator and the model's predictions."""
+        """The law's torque within the torque limit (a plugin law's, or the built-in
+        law's feedback plus feedforward); the command is remembered for the
+        estimator and the model's predictions. A plugin law that fails here is
+        answered at once: this tick already starts the stop on the built-in law."""
         disturbance = self._state.disturbance()
-        terms = law_step(self.pid, self.config, self.dynamics, dt_s, position, velocity, reference, disturbance)
+        law_terms = None
+        if self.plugin is not None and self.plugin.fault is None:
+            outcome = self.plugin.step(now_s, dt_s, position, velocity, self._readings.latest, reference, disturbance)
+            if isinstance(outcome, LawFault):
+                self.pid.reset()
+                reference = self._reference.law_stop(now_s, reference, self.config)
+                terms = self.builtin.step(dt_s, position, velocity, reference, disturbance)
+            else:
+                terms, law_terms = outcome
+        else:
+            terms = self.builtin.step(dt_s, position, velocity, reference, disturbance)
         self._state.remember_command(now_s, terms.command)
         return ControlOutput(
-            now_s, reference.status, reference.position, position, terms, reference.source, disturbance
+            now_s, reference.status, reference.position, position, terms, reference.source, disturbance, law_terms
         )
+
+    def _stop_after_law_fault(self, now_s: float, dt_s: float, status: Status) -> ControlOutput:
+        """The plugin law failed: the built-in law brings the reference to rest
+        (category 2, on the model's estimate while readings are missing), holds
+        the arm there for LAW_FAULT_HOLD_S, then commands nothing: the drive's
+        command timeout takes the torque off and the brakes hold (category 1)."""
+        if self._law_fault_rest_s is not None and now_s - self._law_fault_rest_s >= LAW_FAULT_HOLD_S:
+            return self._no_command(now_s, Status.LAW_STOPPED)
+        if status is Status.WATCHDOG:
+            position, velocity = self._state.coast(now_s, self._readings)
+        else:
+            position, velocity = self._estimate_at_tick(now_s)
+        reference = self._reference.law_stop(now_s, None, self.config)
+        if self._law_fault_rest_s is None and self._reference.law_stop_at_rest(now_s):
+            self._law_fault_rest_s = now_s
+        return self._apply_law(now_s, dt_s, position, velocity, reference)
 
     def _no_command(self, now_s: float, status: Status) -> ControlOutput:
         """A tick that commands nothing (no reading yet, e-stop, sensor lost):
@@ -288,7 +369,7 @@ class JointController:
             position = np.zeros(self.joint_count)
         elif status is Status.STOPPED:
             position = self._readings.latest[0]
-        else:  # SENSOR_LOST: the controlled stop is over; torque off, the drive's brake holds
+        else:  # SENSOR_LOST, LAW_STOPPED: the controlled stop is over; torque off, the drive's brake holds
             position = self._state.last_position(self._readings)
         zeros = np.zeros(self.joint_count)
         self._state.remember_command(now_s, zeros)

@@ -7,12 +7,14 @@ Units: seconds, radians, N·m. The control law's own gains and limits are a
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimator import KalmanConfig
 from robot_controller.core.feedforward import FeedforwardMode
+from robot_controller.core.laws.registry import BUILTIN_LAWS
 from robot_controller.core.pid import PidConfig
 
 
@@ -35,7 +37,15 @@ class ControllerConfig:
     """
 
     pid: PidConfig = field(default_factory=PidConfig)
-    controller_type: str = "pid"  #: "pid", or "lqr": the PID's gains replaced by a discrete LQR design
+    #: "pid"; "lqr" (the PID's gains replaced by a discrete LQR design); or a law of one's own: an
+    #: installed plugin's name, ``module:Class`` or ``path/to/file.py:Class`` (core.laws)
+    controller_type: str = "pid"
+    #: a plugin law's parameter values, by the names it declares (checked against them when it is built)
+    law_parameters: dict[str, Any] = field(default_factory=dict)
+    #: s of wall time a plugin law's update may take (checked only where the controller is given a clock)
+    law_budget_s: float = 0.005
+    #: the built-in law ("pid" or "lqr", with this config's gains) that brings the arm to rest when a plugin law fails
+    stop_law: str = "lqr"
     lqr_q: tuple[float, float, float] = (1e4, 1e4, 1.0)  #: weights on ∫e, e, ė
     lqr_r: float = 1e-2  #: weight on the feedback torque
     #: kg·m², the joint inertia lqr_r and the filter's torque σs are for; each joint's LQR weight is
@@ -76,8 +86,22 @@ class ControllerConfig:
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
                 raise ConfigError(f"{name}: must be a finite number > 0, got {value}")
-        if self.controller_type not in ("pid", "lqr"):
-            raise ConfigError(f"controller_type: {self.controller_type!r} is not one of ['pid', 'lqr']")
+        if not isinstance(self.controller_type, str) or not self.controller_type.strip():
+            raise ConfigError("controller_type: give pid, lqr, an installed law, module:Class or file.py:Class")
+        if self.stop_law not in BUILTIN_LAWS:
+            raise ConfigError(f"stop_law: {self.stop_law!r} is not one of {list(BUILTIN_LAWS)}")
+        if not np.isfinite(self.law_budget_s) or self.law_budget_s <= 0:
+            raise ConfigError(f"law_budget_s: must be a finite number > 0, got {self.law_budget_s}")
+
+    @property
+    def plugin_law(self) -> bool:
+        """Whether the law is one of the user's (not a built-in)."""
+        return self.controller_type not in BUILTIN_LAWS
+
+    @property
+    def builtin_law(self) -> str:
+        """The built-in law this config runs: ``controller_type``, or for a plugin law ``stop_law``."""
+        return self.stop_law if self.plugin_law else self.controller_type
 
     @property
     def observes_disturbance(self) -> bool:

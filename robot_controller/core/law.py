@@ -23,12 +23,15 @@ from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.reference_at_tick import Reference
 
 
-def law_config(config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int) -> PidConfig:
-    """The PID settings the law runs with. For LQR, the gains come from a
+def law_config(
+    config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int, kind: str | None = None
+) -> PidConfig:
+    """The PID settings the built-in law ``kind`` ("pid" or "lqr"; None: the one
+    ``config`` runs, see :attr:`ControllerConfig.builtin_law`) runs with. For LQR, the gains come from a
     discrete Riccati design on each joint's ``[∫e, e, ė]`` at the control rate
     (with feedforward carrying the motion, the feedback is exactly a PID on
     velocity error with these gains)."""
-    if config.controller_type == "pid":
+    if (kind or config.builtin_law) == "pid":
         return config.pid
     if dynamics is None:
         raise ConfigError("controller_type lqr: needs the arm model (urdf_path)")

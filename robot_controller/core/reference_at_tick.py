@@ -51,6 +51,7 @@ class ReferenceAtTick:
         self._last_s = 0.0
         self._sensor_stop: ControlledStop | None = None
         self._reference_stop: ControlledStop | None = None
+        self._law_stop: ControlledStop | None = None
         self._blend: Blend | None = None
 
     # --- re-acquisition -------------------------------------------------------------
@@ -168,6 +169,20 @@ class ReferenceAtTick:
             start = self.from_trajectory(now_s, arm_position, config)
             self._sensor_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
         return self._used(now_s, Reference(*self._sensor_stop.at(now_s), Status.WATCHDOG, ReferenceSource.SENSOR_STOP))
+
+    def law_stop(self, now_s: float, start: Reference | None, config: ControllerConfig) -> Reference:
+        """The plugin law failed: from ``start`` (the reference of the tick it failed
+        on; later ticks pass None), decelerate to rest at ``stop_deceleration`` and
+        hold there for good."""
+        if self._law_stop is None:
+            if start is None:
+                last = self._last or (np.zeros(self.joint_count),) * 3
+                start = Reference(*last, Status.LAW_FAULT, ReferenceSource.LAW_STOP)
+            self._law_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
+        return self._used(now_s, Reference(*self._law_stop.at(now_s), Status.LAW_FAULT, ReferenceSource.LAW_STOP))
+
+    def law_stop_at_rest(self, now_s: float) -> bool:
+        return self._law_stop is not None and self._law_stop.at_rest(now_s)
 
     def _used(self, now_s: float, reference: Reference) -> Reference:
         """Remember ``reference`` as the last one used (a later stop starts from it)."""

@@ -21,6 +21,8 @@ STATUS_CODES = {
     "reacquiring": 5,
     "reference_lost": 6,
     "stopped": 7,
+    "law_fault": 8,
+    "law_stopped": 9,
 }
 
 

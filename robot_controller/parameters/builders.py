@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from robot_controller.core.laws.parameters import PREFIX as LAW_PREFIX
 from robot_controller.core.pid import PidConfig
 from robot_controller.core.sensor_model import SensorConfig
 from robot_controller.parameters.limits import torque_limit
@@ -83,6 +84,9 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
     return ControllerConfig(
         pid=pid,
         controller_type=values["controller_type"],
+        law_parameters={key[len(LAW_PREFIX) :]: value for key, value in values.items() if key.startswith(LAW_PREFIX)},
+        law_budget_s=values["law_budget_s"],
+        stop_law=values["stop_law"],
         lqr_q=tuple(q.tolist()),
         lqr_r=values["lqr_r"],
         reference_inertia=values["reference_inertia"],

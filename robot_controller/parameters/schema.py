@@ -237,8 +237,26 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
             "controller_type",
             str,
             "lqr",
-            "control law behind the node: PID with the gains below, or LQR (gains from a discrete Riccati design with lqr_q and lqr_r)",
+            "control law behind the node: pid (the gains below), lqr (gains from a discrete Riccati design with "
+            "lqr_q and lqr_r), or a law of your own: an installed plugin's name, package.module:Class or "
+            "path/to/file.py:Class (docs/own-controller.md), chosen at start; its declared parameters are law.NAME",
+        ),
+        ParamSpec(
+            "stop_law",
+            str,
+            "lqr",
+            "under a law of your own: the built-in law (with the gains here) that brings the arm to rest if it "
+            "raises, returns a non-finite torque or the wrong shape, or overruns law_budget_s",
             choices=("pid", "lqr"),
+        ),
+        ParamSpec(
+            "law_budget_s",
+            float,
+            0.005,
+            "under a law of your own: the wall time its update may take per tick, s; longer is a fault "
+            "(controlled stop); lockstep and wall clock alike",
+            minimum=0.0,
+            exclusive_minimum=True,
         ),
         ParamSpec(
             "lqr_q",

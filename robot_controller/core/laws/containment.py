@@ -1,0 +1,116 @@
+"""A law the framework does not trust: every call to it is checked, and the
+first thing it gets wrong becomes a :class:`LawFault` instead of a torque.
+
+A law faults when it raises, returns anything but one finite number per
+joint, or takes longer than its budget (measured on ``clock``, a function
+giving seconds; without one, time is not checked, as in the deterministic
+in-process loop). The controller answers a fault with a controlled stop on
+its built-in law; the law is never called again.
+"""
+
+from __future__ import annotations
+
+import traceback
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from robot_controller.core.laws.interface import Reference, State
+
+
+@dataclass(frozen=True)
+class LawFault:
+    """What a law did wrong, and when."""
+
+    law: str  #: the law as ``controller_type`` names it
+    what: str  #: e.g. "raised ZeroDivisionError: division by zero"
+    time_s: float  #: the tick it happened on, s
+    traceback: str = ""  #: the law's traceback when it raised
+
+    def line(self) -> str:
+        return f"control law {self.law} {self.what} at t = {self.time_s:.3f} s"
+
+
+class ContainedLaw:
+    """Calls a law's methods and checks what comes back."""
+
+    def __init__(
+        self, law: Any, name: str, joint_count: int, budget_s: float, clock: Callable[[], float] | None = None
+    ) -> None:
+        self.law = law
+        self.name = name
+        self.joint_count = joint_count
+        self.budget_s = budget_s
+        self.clock = clock
+        self.fault: LawFault | None = None
+        self.last_duration_s = 0.0
+
+    def reset(self, time_s: float, state: State) -> LawFault | None:
+        reset = getattr(self.law, "reset", None)
+        if reset is None:
+            return None
+        return self._call(time_s, "reset", lambda: reset(state)) if self.fault is None else self.fault
+
+    def set_params(self, time_s: float, params: Mapping[str, Any]) -> LawFault | None:
+        setter = getattr(self.law, "set_params", None)
+        if setter is None:
+            self.law.params = dict(params)
+            return None
+        return self._call(time_s, "set_params", lambda: setter(params))
+
+    def update(self, time_s: float, state: State, reference: Reference) -> np.ndarray | LawFault:
+        """The law's torque per joint (float64, finite), or the fault it made."""
+        if self.fault is not None:
+            return self.fault
+        returned = self._call(time_s, "update", lambda: self.law.update(time_s, state, reference))
+        if isinstance(returned, LawFault):
+            return returned
+        try:
+            torque = np.asarray(returned, dtype=float)
+        except (TypeError, ValueError):
+            return self._faulted(time_s, f"returned {type(returned).__name__}, not one torque per joint")
+        if torque.ndim == 0 and self.joint_count == 1:
+            torque = torque.reshape(1)
+        if torque.shape != (self.joint_count,):
+            return self._faulted(
+                time_s, f"returned a torque of shape {torque.shape}, expected ({self.joint_count},): one per joint"
+            )
+        if not np.all(np.isfinite(torque)):
+            return self._faulted(time_s, f"returned a non-finite torque {torque.tolist()}")
+        return torque
+
+    def terms(self) -> Mapping[str, np.ndarray]:
+        """The law's reported terms, or none if reporting them fails (never a reason to stop)."""
+        terms = getattr(self.law, "terms", None)
+        if terms is None or self.fault is not None:
+            return {}
+        try:
+            return dict(terms())
+        except Exception:
+            return {}
+
+    def _call(self, time_s: float, method: str, call: Callable[[], Any]) -> Any:
+        started = self.clock() if self.clock is not None else 0.0
+        try:
+            value = call()
+        except Exception as exc:
+            return self._faulted(
+                time_s,
+                f"raised {type(exc).__name__}: {exc}" + ("" if method == "update" else f" in {method}()"),
+                traceback.format_exc(),
+            )
+        if self.clock is not None:
+            self.last_duration_s = self.clock() - started
+            if self.last_duration_s > self.budget_s:
+                return self._faulted(
+                    time_s,
+                    f"took {self.last_duration_s * 1e3:.1f} ms in {method}(), over its budget of "
+                    f"{self.budget_s * 1e3:g} ms (law_budget_s)",
+                )
+        return value
+
+    def _faulted(self, time_s: float, what: str, trace: str = "") -> LawFault:
+        self.fault = LawFault(self.name, what, time_s, trace)
+        return self.fault
