@@ -13,10 +13,14 @@ import numpy as np
 
 from robot_controller.core import metrics
 from robot_controller.core.actuator import Actuator
+from robot_controller.core.control_output import Status
 from robot_controller.core.controller import JointController
 from robot_controller.core.plant import Plant, steps_per_period
 from robot_controller.core.sensor_model import SensorConfig, measure
 from robot_controller.core.trajectory import Trajectory
+
+# Ticks that command nothing once a controlled stop is over: the drive brakes the arm.
+BRAKING_STATUSES = (Status.SENSOR_LOST, Status.LAW_STOPPED)
 
 
 @dataclass(frozen=True)
@@ -43,6 +47,7 @@ class LoopResult:
     command: np.ndarray
     applied: np.ndarray
     joint_names: list[str] = field(default_factory=list)  #: the columns' joints (the plant's order)
+    law_fault: str | None = None  #: what a plugin law did wrong (its one line), if it did
 
     def tracking_metrics(self, warmup_s: float = metrics.WARMUP_S) -> dict[str, Any]:
         """Tracking per joint and the worst joint's (:func:`metrics.tracking_metrics`), with
@@ -68,6 +73,7 @@ def run_loop(
     measurement_delay_s: float = 0.0,
     delay_unstamped: bool = False,
     disturbance: Disturbance | None = None,
+    brake_torque_nm: float | None = None,
 ) -> LoopResult:
     """Run ``duration_s`` seconds of the loop and return what happened at each tick.
 
@@ -84,6 +90,10 @@ def run_loop(
 
     ``disturbance``: an external torque on the plant (it needs ``set_disturbance``,
     as :class:`~robot_controller.core.plant.MujocoPlant` has), on a schedule.
+
+    ``brake_torque_nm``: once the controller commands nothing after a controlled
+    stop (sensor lost, a plugin law failed), the brakes engage with this holding
+    torque, as the drive's command timeout engages them in the graph.
     """
     n_steps = steps_per_period(plant.physics_dt, control_period_s)
     ticks = int(round(duration_s / control_period_s))
@@ -96,6 +106,7 @@ def run_loop(
         for name in ("reference", "measured", "true_position", "true_velocity", "command", "applied")
     }
     times = np.arange(ticks) * control_period_s
+    braked = False
     for k, t in enumerate(times.tolist()):  # Python floats: the controller's scalar time arithmetic is cheaper
         if k % planner_every == 0:
             controller.set_reference(t, *trajectory.sample(t))
@@ -109,6 +120,9 @@ def run_loop(
         position, velocity = measure(sensor, seen_q, seen_v, rng)
         controller.set_measurement(t if delay_unstamped else stamp, t, position, velocity)
         out = controller.update(t)
+        if brake_torque_nm is not None and out.status in BRAKING_STATUSES and not braked:
+            plant.set_brakes(np.ones(n, dtype=bool), brake_torque_nm)
+            braked = True
         applied = actuator.apply(out.command, control_period_s)
         if disturbance is not None and plant.time_s + 1e-9 >= disturbance.start_s:
             plant.set_disturbance(np.asarray(disturbance.torque_nm, dtype=float), disturbance.duration_s)
@@ -126,4 +140,10 @@ def run_loop(
         record["true_velocity"][k] = true_velocity
         record["command"][k] = out.command
         record["applied"][k] = applied
-    return LoopResult(tick_time_s=times, joint_names=list(plant.joint_names), **record)
+    fault = controller.law_fault
+    return LoopResult(
+        tick_time_s=times,
+        joint_names=list(plant.joint_names),
+        law_fault=None if fault is None else fault.line(),
+        **record,
+    )

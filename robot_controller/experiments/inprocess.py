@@ -100,4 +100,5 @@ def prepare(
         measurement_delay_s=measurement_delay_s,
         delay_unstamped=delay_unstamped,
         disturbance=disturbance,
+        brake_torque_nm=sim["brake_torque_nm"],
     )
