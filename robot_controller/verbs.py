@@ -112,7 +112,8 @@ def run(
     except ValueError as exc:
         launcher.say(f"cannot score the recording: {exc}")
         return result.exit_code or 1
-    recorded_s = result.control_seconds if result.interrupted or not sim_time else duration_s
+    ended_early = result.interrupted or result.failure is not None
+    recorded_s = result.control_seconds if ended_early or not sim_time else duration_s
     values.update(
         {
             "duration_s": round(recorded_s, 3),
@@ -239,9 +240,11 @@ def list_params(*, preset: str, config: list[Path] | None, as_yaml: bool, robot:
     if as_yaml:
         print(cfg.params_yaml(values), end="")
         return 0
+    from robot_controller.parameters.law_params import node_specs
+
     for node in cfg.NODES:
         print(f"{node}:")
-        for spec in cfg.SCHEMA[node]:
+        for spec in node_specs(node, values[node]):
             print(
                 f"  {spec.name} = {values[node][spec.name]!r}: {spec.describe()}"
                 + (" (read-only)" if spec.read_only else "")

@@ -109,7 +109,7 @@ def describe_law(config: ControllerConfig, gains: PidConfig) -> str:
         in_force += (
             f", disturbance observer (σ {config.estimator.disturbance_noise_std:g} N·m/√s, " "estimate subtracted)"
         )
-    if config.controller_type == "lqr":
+    if config.builtin_law == "lqr":
         return (
             f"LQR (q={_values(config.lqr_q)}, r={config.lqr_r:g}, designed at "
             f"{1.0 / config.control_period_s:g} Hz): {in_force}; the kp/ki/kd parameters are unused"

@@ -4,9 +4,17 @@
 ``joint_count`` long, in :data:`FIELDS` order. The message's layout carries
 the same labels (one dimension per block), so ``ros2 topic echo`` shows what
 each number is. This module only builds and reads the flat array.
+
+Under a law of one's own, its extra terms (its ``state_terms``) follow as more
+blocks of ``joint_count``, labelled with their names in the layout, in every
+message of the run. A reader that knows only the standard blocks takes the
+first :func:`width` values (:func:`standard`); :func:`extra` reads the rest.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
+from itertools import chain
 
 import numpy as np
 
@@ -27,12 +35,18 @@ STATUS_CODES = {
 
 
 def encode(
-    time_s: float, status: str, measurement_stamp_s: float, joint_count: int, values: dict[str, np.ndarray]
+    time_s: float,
+    status: str,
+    measurement_stamp_s: float,
+    joint_count: int,
+    values: dict[str, np.ndarray],
+    extra: Sequence[np.ndarray] = (),
 ) -> list[float]:
+    """The flat array: the header, the :data:`FIELDS` blocks from ``values``, then the ``extra``
+    blocks in order (a law's terms, one value per joint each)."""
     out = [float(time_s), float(STATUS_CODES[status]), float(measurement_stamp_s)]
     shape = (joint_count,)
-    for name in FIELDS:
-        value = values[name]
+    for value in chain(map(values.__getitem__, FIELDS), extra):
         if isinstance(value, np.ndarray) and value.shape == shape:
             # One value per joint already (every tick's case): its floats as they are,
             # without broadcast_to's view, which costs more than the copy for a few joints.
@@ -45,11 +59,12 @@ def encode(
 def decode(data: np.ndarray, joint_count: int) -> dict[str, np.ndarray]:
     """Inverse of :func:`encode` for one message, or for rows of many (shape ``(m, size)``)."""
     data = np.asarray(data, dtype=float)
-    expected = len(HEADER) + len(FIELDS) * joint_count
-    if data.shape[-1] != expected:
+    expected = width(joint_count)
+    if not fits(data.shape[-1], joint_count):
         raise ValueError(
             f"controller state: expected {expected} values for {joint_count} joint(s), got {data.shape[-1]}"
         )
+    data = data[..., :expected]  # a law's extra blocks after the standard ones: see extra()
     out = {name: data[..., k] for k, name in enumerate(HEADER)}
     for k, name in enumerate(FIELDS):
         start = len(HEADER) + k * joint_count
@@ -60,6 +75,28 @@ def decode(data: np.ndarray, joint_count: int) -> dict[str, np.ndarray]:
 def width(joint_count: int) -> int:
     """Values in one ``/controller/state`` message for ``joint_count`` joints."""
     return len(HEADER) + len(FIELDS) * joint_count
+
+
+def fits(size: int, joint_count: int) -> bool:
+    """Whether ``size`` values are a message of this layout: the standard blocks, then
+    any whole extra blocks (a law's terms)."""
+    extra = size - width(joint_count)
+    return extra >= 0 and extra % joint_count == 0
+
+
+def standard(data: Sequence[float], joint_count: int) -> Sequence[float] | None:
+    """The header and standard blocks of one message (its first :func:`width` values),
+    or None if it does not fit the layout."""
+    return data[: width(joint_count)] if fits(len(data), joint_count) else None
+
+
+def extra(data: Sequence[float], joint_count: int, names: Sequence[str]) -> dict[str, np.ndarray]:
+    """A message's extra blocks by name (``names``: the layout's labels after the standard
+    ones); empty if their number does not match the names."""
+    rest = np.asarray(data[width(joint_count) :], dtype=float)
+    if not names or rest.size != len(names) * joint_count:
+        return {}
+    return {name: rest[k * joint_count : (k + 1) * joint_count] for k, name in enumerate(names)}
 
 
 def joint_count_of(size: int) -> int:

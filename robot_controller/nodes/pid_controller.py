@@ -20,7 +20,10 @@ and its loop-health report; every decision about torque is in the core.
 
 from __future__ import annotations
 
+import dataclasses
+import os
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -34,10 +37,13 @@ from robot_controller import parameters as cfg
 from robot_controller.core import metrics, state_layout
 from robot_controller.core.controller import ControlOutput, JointController, Status, law_config
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.laws import parameters as law_parameters
+from robot_controller.core.laws import registry
 from robot_controller.core.validation import check_joint_state, check_trajectory
+from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model, model_overridden
-from robot_controller.ros.process import run
-from robot_controller.ros.publishing import GatedPublisher
+from robot_controller.ros.process import LAW_FAULT_FILE, LAW_STOPPED_EXIT_CODE, request_exit, run
+from robot_controller.ros.publishing import COUNTS_DIR_ENV, GatedPublisher
 from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS
 from robot_controller.ros.stack_node import StackNode
 from robot_controller.ros.stamps import stamp_to_s
@@ -46,14 +52,29 @@ from robot_controller.ros.stamps import stamp_to_s
 CONFIG_MISMATCH_S = 2.0
 # Lockstep: how long (wall) a tick waits for a reference sample before using the latest.
 REFERENCE_WAIT_S = 0.3
+# Wall clock: after a failed law's stop, state is still published this long (the brakes engaging
+# are recorded), then the node ends. In lockstep it ends at once: without commands sim time stops.
+LAW_STOPPED_LINGER_S = 0.5
 
 
 class PidControllerNode(StackNode):
     def __init__(self) -> None:
         super().__init__("pid_controller")
+        # A law of one's own is held to its law_budget_s in wall time, in lockstep too.
         self.controller = JointController(
-            cfg.controller_config(self.params, self.joint_count), self.joint_count, self.dynamics
+            cfg.controller_config(self.params, self.joint_count),
+            self.joint_count,
+            self.dynamics,
+            law_clock=time.perf_counter,
         )
+        plugin = self.controller.plugin
+        # The law's extra terms on /controller/state, after the standard blocks (state_layout).
+        self.extra_terms = tuple(
+            name
+            for name in (plugin.extra_terms if plugin is not None else ())
+            if name not in state_layout.FIELDS and name not in state_layout.HEADER
+        )
+        self.law_stopped_since: float | None = None  # monotonic time LAW_STOPPED was first reached
         self.lockstep = self.params["lockstep"]
         self.command_pub = GatedPublisher(self, Float64MultiArray, "/joint_commands")
         self.state_pub = GatedPublisher(self, Float64MultiArray, "/controller/state", consumer=False)
@@ -82,6 +103,7 @@ class PidControllerNode(StackNode):
             self.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
             self.create_subscription(ClockMsg, "/clock", self.clock_callback, LATCHED_QOS)
         self.last_tick_s = -np.inf
+        self.first_tick_s: float | None = None
         self.window_ticks: list[float] = []
         self.window_latency: list[float] = []
         self.command_msg = Float64MultiArray()
@@ -90,7 +112,7 @@ class PidControllerNode(StackNode):
             MultiArrayDimension(label=name, size=1, stride=1) for name in state_layout.HEADER
         ] + [
             MultiArrayDimension(label=name, size=self.joint_count, stride=self.joint_count)
-            for name in state_layout.FIELDS
+            for name in (*state_layout.FIELDS, *self.extra_terms)
         ]
         self.next_log_s = -np.inf
         self.log_gains()
@@ -100,10 +122,11 @@ class PidControllerNode(StackNode):
         and how much unaccounted delay they survive: in the log and as ``law_in_force``."""
         margin = self.controller.delay_margin_periods()
         rate_hz = self.params["control_rate_hz"]
-        in_force = (
-            f"{self.controller.law_in_force()}; delay margin {margin} control periods "
-            f"({margin * 1e3 / rate_hz:g} ms) beyond what the stamps show"
-        )
+        in_force = self.controller.law_in_force()
+        if margin is not None:  # None: a law of one's own, whose feedback is not known here
+            in_force += (
+                f"; delay margin {margin} control periods ({margin * 1e3 / rate_hz:g} ms) beyond what the stamps show"
+            )
         self.report("law_in_force", in_force, "the control law and its gains in force, as designed")
         self.get_logger().info(
             f"{in_force}; at {rate_hz:g} Hz on {self.joint_names}" + (", lockstep" if self.lockstep else "")
@@ -117,14 +140,36 @@ class PidControllerNode(StackNode):
         if model_overridden(params):
             self.get_logger().info(self.dynamics.describe())
 
+    def more_specs(self, values: dict[str, Any]) -> tuple[cfg.ParamSpec, ...]:
+        """A law of one's own: its declared parameters, law.NAME (a value given for one it does
+        not declare is refused, as the launcher's check does)."""
+        specs = law_params.law_specs(values["controller_type"])
+        declared = {spec.name for spec in specs}
+        overrides = getattr(self, "_parameter_overrides", {})  # --params-file and -p values
+        for name in sorted(overrides):
+            if law_params.is_law_key(name) and name not in declared:
+                law_params.check_values({"controller_type": values["controller_type"], name: None}, self.get_name())
+        return specs
+
     def check_params(self, params: dict[str, Any]) -> None:
         # The law designs here, before the change is accepted (an LQR that does not
         # stabilise is refused, not found when applying it).
-        law_config(cfg.controller_config(params, self.joint_count), self.dynamics, self.joint_count)
+        config = cfg.controller_config(params, self.joint_count)
+        law_config(config, self.dynamics, self.joint_count)
+        running = getattr(self, "controller", None)
+        changed = running is not None and config.controller_type != running.config.controller_type
+        if changed and (config.plugin_law or running.config.plugin_law):
+            raise ConfigError(
+                "controller_type: a law of one's own is chosen when the controller starts; restart it to change"
+            )
+        if config.plugin_law:  # per-joint lengths and the like, as the law will be given them
+            law_parameters.values(registry.resolve(config.controller_type), config.law_parameters, self.joint_count)
 
     def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
         self.controller.set_config(cfg.controller_config(params, self.joint_count))
-        if changed & {"controller_type", "lqr_q", "lqr_r", "kp", "ki", "kd", "control_rate_hz"}:
+        if changed & {"controller_type", "lqr_q", "lqr_r", "kp", "ki", "kd", "control_rate_hz"} or any(
+            law_params.is_law_key(name) for name in changed
+        ):
             self.log_gains()
         if changed & {"control_rate_hz", "trigger", "watchdog_periods"} and self.timer is not None:
             self.set_timer_period(self.timer_period_s(params))
@@ -270,6 +315,8 @@ class PidControllerNode(StackNode):
     def tick(self, now_s: float) -> None:
         out = self.controller.update(now_s)
         self.last_tick_s = now_s
+        if self.first_tick_s is None:
+            self.first_tick_s = now_s
         if out.status is Status.NO_MEASUREMENT:
             self.warn_throttled("no_measurement", "no valid /joint_states yet: not commanding")
             return
@@ -288,6 +335,8 @@ class PidControllerNode(StackNode):
                 f"target={_fmt(out.reference)}, actual={_fmt(out.measured)}, error={_fmt(out.error)}, "
                 f"torque={_fmt(out.command)}"
             )
+        if out.status is Status.LAW_STOPPED:
+            self.end_after_law_stop()
 
     def report_status(self, status: Status) -> None:
         """One log line when the loop's state changes (faults, stops, recovery)."""
@@ -311,6 +360,15 @@ class PidControllerNode(StackNode):
                 "fault cleared: re-acquiring from the measurement, blending back onto " "the trajectory",
             ),
         }
+        if status is Status.LAW_FAULT and before is not Status.LAW_FAULT and self.controller.law_fault is not None:
+            self.report_law_fault()
+            return
+        if status is Status.LAW_STOPPED:
+            self.get_logger().warning(
+                "the arm is at rest after the control law's failure: no more commands, torque off, "
+                f"the brakes hold (category 1); pid_controller ends (exit code {LAW_STOPPED_EXIT_CODE})"
+            )
+            return
         if status in (Status.REACQUIRING, Status.OK) and before in (None, Status.HOLDING):
             self.get_logger().info(
                 "first reading and reference: leading the arm from where it is onto the " "trajectory"
@@ -325,6 +383,35 @@ class PidControllerNode(StackNode):
                 self.get_logger().info(text)
         elif status is Status.OK and before not in (None, Status.HOLDING, Status.OK):
             self.get_logger().info("tracking the trajectory again")
+
+    def report_law_fault(self) -> None:
+        """Once, when the law first fails: one error line (what it did, what happens next), the
+        law's traceback after it, and the line in the run's folder for the launcher to name."""
+        fault = self.controller.law_fault
+        if not self.lockstep:  # the wall clock's tick times are the system's: count from the first tick
+            fault = dataclasses.replace(fault, time_s=fault.time_s - self.first_tick_s)
+        line = (
+            f"{fault.line()}: controlled stop on the built-in {self.controller.config.stop_law}, "
+            "then torque off and the brakes"
+        )
+        self.get_logger().error(line)
+        if fault.traceback:
+            self.get_logger().info("the control law's traceback:\n" + fault.traceback.rstrip())
+        counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
+        if counts_dir:
+            try:
+                (Path(counts_dir) / LAW_FAULT_FILE).write_text(line + "\n")
+            except OSError:
+                pass  # the launcher then only knows the node's exit code
+
+    def end_after_law_stop(self) -> None:
+        """The failed law's stop is over and the brakes hold: end the node (its exit code says
+        why), at once in lockstep, after LAW_STOPPED_LINGER_S of state on the wall clock."""
+        now = time.monotonic()
+        if self.law_stopped_since is None:
+            self.law_stopped_since = now
+        if self.lockstep or now - self.law_stopped_since >= LAW_STOPPED_LINGER_S:
+            request_exit(LAW_STOPPED_EXIT_CODE)
 
     def publish_state(self, out: ControlOutput) -> None:
         terms = out.terms
@@ -344,8 +431,17 @@ class PidControllerNode(StackNode):
                 "command": terms.command,
                 "saturated": terms.saturated,
             },
+            self.law_term_blocks(out),
         )
         self.state_pub.publish(self.state_msg)
+
+    def law_term_blocks(self, out: ControlOutput) -> tuple[np.ndarray, ...]:
+        """The law's extra terms in the layout's order; zeros on a tick the law did not run."""
+        if not self.extra_terms:
+            return ()
+        reported = out.law_terms or {}
+        zeros = np.zeros(self.joint_count)
+        return tuple(reported.get(name, zeros) for name in self.extra_terms)
 
     # --- loop health ------------------------------------------------------------------
 

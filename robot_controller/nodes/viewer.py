@@ -149,7 +149,8 @@ class Viewer:
 
     def _state(self, data: bytes) -> None:
         values = self._array(data)
-        if values is None or len(values) != state_layout.width(self.n):
+        values = None if values is None else state_layout.standard(values, self.n)  # a law's extra terms: not drawn
+        if values is None:
             return
         if self.first_tick is None:
             self.first_tick = time.monotonic()

@@ -18,6 +18,7 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.joint_limits import urdf_velocity_limits
+from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import ARM_MODEL_KEYS
 from robot_controller.parameters.limits import torque_limit
 
@@ -40,6 +41,7 @@ def check_stack(params: cfg.Params) -> None:
                 spec.validate(params[node][spec.name])
             except ConfigError as exc:
                 raise ConfigError(f"{node}: {exc}") from None
+    law_params.check_values(params["pid_controller"])  # the law controller_type names, and its law.* values
     arms = {node: _arm(node, params[node]["urdf_path"]) for node in ("simulator", "motor_node", "pid_controller")}
     names = arms["simulator"][0]
     for node, (other, _, _) in arms.items():
@@ -74,7 +76,9 @@ def _check_per_joint(params: cfg.Params, joint_count: int) -> None:
             f"trajectory_planner: joint_count {planner['joint_count']} but the URDF has " f"{joint_count} joint(s)"
         )
     for node in cfg.NODES:
-        for spec in cfg.SCHEMA[node]:
+        for spec in law_params.node_specs(node, params[node]):
+            if spec.per_joint and spec.name not in params[node]:
+                continue  # a law's parameter left to its default (the law builds with it)
             if spec.per_joint and not (spec.allow_empty and not np.size(params[node][spec.name])):
                 try:
                     cfg.per_joint(spec.name, params[node][spec.name], joint_count)

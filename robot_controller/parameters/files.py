@@ -11,6 +11,7 @@ import yaml
 
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
+from robot_controller.parameters import law_params
 from robot_controller.parameters.schema import NODES, REPORTED, ROS_BUILTIN, SCHEMA, defaults, has, spec_of
 
 Params = dict[str, dict[str, Any]]
@@ -53,10 +54,10 @@ def read_params_file(path: str | Path) -> Params:
             or not isinstance(body["ros__parameters"], dict)
         ):
             raise ConfigError(f"{path}: {key}: expected exactly one key 'ros__parameters' holding a mapping")
-        for name, value in body["ros__parameters"].items():
+        for name, value in _flattened(body["ros__parameters"]).items():
             if name in REPORTED:
                 continue  # what a node reports (``param dump`` writes it), not a setting
-            targets = [n for n in NODES if has(n, name)] if node == "**" else [node]
+            targets = [n for n in NODES if _has(n, name)] if node == "**" else [node]
             if node == "**" and not targets and name not in ROS_BUILTIN:
                 raise ConfigError(f"{path}: /**.{name}: no node has a parameter {name!r}")
             for target in targets:
@@ -67,7 +68,29 @@ def read_params_file(path: str | Path) -> Params:
     return out
 
 
+def _flattened(values: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested mappings as dotted names, as rcl reads a parameter file: ``law: {kp: 1}`` is ``law.kp``."""
+    out: dict[str, Any] = {}
+    for key, value in values.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out.update(_flattened(value, name + "."))
+        else:
+            out[name] = value
+    return out
+
+
+def _has(node: str, name: str) -> bool:
+    """Whether ``node`` may have ``name``: in the schema, or a law's ``law.*`` (checked once the law is known)."""
+    return has(node, name) or (node == law_params.NODE and law_params.is_law_key(name))
+
+
 def _validated(path: Path, node: str, name: str, value: Any) -> Any:
+    if law_params.is_law_key(name) and node == law_params.NODE:
+        try:
+            return law_params.plain_value(name, value)
+        except ConfigError as exc:
+            raise ConfigError(f"{path}: {node}.{exc}") from None
     if name in ROS_BUILTIN:
         if not isinstance(value, bool):
             raise ConfigError(f"{path}: {node}.{name}: expected true or false, got {value!r}")
@@ -104,15 +127,18 @@ def load_stack(
     from robot_controller.robots import robot_layer
 
     layers = [defaults(), robot_layer(robot)]
+    files = []
     if preset != "default":
         preset_path = resources.preset_yaml(preset)
         if not preset_path.is_file():
             raise ConfigError(f"--preset: unknown preset {preset!r}; presets are {available_presets()}")
-        layers.append(read_params_file(preset_path))
-    for path in [] if config is None else config if isinstance(config, list) else [config]:
-        layers.append(read_params_file(path))
-    params = merge(*layers)
+        files.append(preset_path)
+    files += [] if config is None else config if isinstance(config, list) else [config]
+    sources = [(Path(path), read_params_file(path)) for path in files]
+    params = merge(*layers, *(layer for _, layer in sources))
     check_complete(params)
+    # The law controller_type names: found (a file's path made absolute), its law.* values checked, defaults in.
+    law_params.settle(params, sources)
     fill_torque_limits(params)
     return params
 

@@ -22,6 +22,32 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.ros.publishing import write_publish_counts
 from robot_controller.ros.stack_node import StackNode
 
+# The controller ended itself after its control law failed and the arm was stopped and braked.
+LAW_STOPPED_EXIT_CODE = 3
+# Where in the run's scratch folder (COUNTS_DIR_ENV) the controller writes the law's fault, one line.
+LAW_FAULT_FILE = "law_fault.txt"
+
+
+class NodeExit(Exception):
+    """A node ends the process on purpose, with ``code`` (its reason already logged). Raised
+    while building a node; from a callback, :func:`request_exit` ends the spin loop without
+    the executor's report of an exception in a callback."""
+
+    def __init__(self, code: int, reason: str = "") -> None:
+        super().__init__(reason)
+        self.code = code
+
+
+_exit_code: list[int] = []
+
+
+def request_exit(code: int) -> None:
+    """End the process after the current callback, with ``code``: the spin loop stops,
+    cleanup runs as after Ctrl-C (gates flushed, counts written)."""
+    _exit_code.append(code)
+    _stop_requested.set()
+
+
 # Cleanup that takes longer than this is stuck (rclpy's destroy_node can wait
 # forever on a handle after an external shutdown): exit anyway.
 CLEANUP_TIMEOUT_S = 3.0
@@ -90,7 +116,7 @@ def spin(executor: Executor) -> None:
 
 def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: list[str] | None = None) -> int:
     """Init, build the node(s) on one executor, spin until Ctrl-C or shutdown,
-    clean up; a bad parameter exits 2 with its reason."""
+    clean up; a bad parameter exits 2 with its reason, a node's ``NodeExit`` with its code."""
     factories = node_factories if isinstance(node_factories, list) else [node_factories]
     init_with_own_signals(args)
     nodes: list[Node] = []
@@ -104,6 +130,8 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
         # every later full collection, which would otherwise pause the loop.
         gc.freeze()
         spin(executor)
+        if _exit_code:
+            code[0] = _exit_code[0]
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except RuntimeError:
@@ -114,6 +142,8 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr, flush=True)
         code[0] = 2
+    except NodeExit as exc:
+        code[0] = exc.code
     finally:
         guard = exit_after_cleanup_timeout(code)
         executor.shutdown(timeout_sec=1.0)

@@ -27,7 +27,8 @@ UNKNOWN_NODE_NAME = "_NODE_NAME_UNKNOWN_"  # what rmw reports for a writer of no
 
 
 class StackNode(Node):
-    """A node whose parameters are those of ``parameters.SCHEMA[schema_name]``.
+    """A node whose parameters are those of ``parameters.SCHEMA[schema_name]`` (and
+    :meth:`more_specs`'s).
 
     Subclasses implement :meth:`setup` (what the checks need to know, from the
     read-only parameters), :meth:`check_params` (refuse a combination, raising
@@ -37,18 +38,14 @@ class StackNode(Node):
     def __init__(self, schema_name: str, **kwargs: Any) -> None:
         super().__init__(schema_name, **kwargs)
         self.schema_name = schema_name
-        for spec in cfg.SCHEMA[schema_name]:
-            descriptor = ParameterDescriptor(
-                description=spec.describe(),
-                read_only=spec.read_only,
-                # numbers: accept 50 as well as 50.0, and a scalar for a per-joint list
-                dynamic_typing=spec.kind is float,
-            )
-            self.declare_parameter(spec.name, spec.default_value(), descriptor)
+        self.specs: dict[str, cfg.ParamSpec] = {}
+        self._declare(cfg.SCHEMA[schema_name])
         # Overrides from --params-file / -p bypass callbacks at declaration: check them now,
         # each on its own first, then together once the node knows its arm.
-        values = {spec.name: self.get_parameter(spec.name).value for spec in cfg.SCHEMA[schema_name]}
-        values = {name: cfg.spec_of(schema_name, name).validate(value) for name, value in values.items()}
+        values = {name: spec.validate(self.get_parameter(name).value) for name, spec in self.specs.items()}
+        more = self.more_specs(values)  # what the values say the node has besides its schema's
+        self._declare(more)
+        values.update({spec.name: spec.validate(self.get_parameter(spec.name).value) for spec in more})
         self.setup(values)
         self.params = self._validated(values)
         self._reports: dict[str, str] = {}  # name → description of what the node reports there
@@ -60,6 +57,22 @@ class StackNode(Node):
         self.add_post_set_parameters_callback(self._post_set_parameters)
 
     # --- parameters ---------------------------------------------------------
+
+    def _declare(self, specs: tuple[cfg.ParamSpec, ...]) -> None:
+        for spec in specs:
+            descriptor = ParameterDescriptor(
+                description=spec.describe(),
+                read_only=spec.read_only,
+                # numbers: accept 50 as well as 50.0, and a scalar for a per-joint list
+                dynamic_typing=spec.kind is float,
+            )
+            self.declare_parameter(spec.name, spec.default_value(), descriptor)
+            self.specs[spec.name] = spec
+
+    def more_specs(self, values: dict[str, Any]) -> tuple[cfg.ParamSpec, ...]:
+        """Parameters the node has besides its schema's, given the schema's values (e.g. the
+        controller's law's ``law.*``); declared with them and checked the same way."""
+        return ()
 
     def finish(self) -> None:
         """Last words, once the executor has stopped: stop the node's own threads and
@@ -79,7 +92,7 @@ class StackNode(Node):
         """The values checked one by one and together; any failure is a ``ConfigError``
         with its reason (a design that does not solve, a rate the physics cannot keep)."""
         try:
-            out = {name: cfg.spec_of(self.schema_name, name).validate(value) for name, value in values.items()}
+            out = {name: self.specs[name].validate(value) for name, value in values.items()}
             self.check_params(out)
         except ConfigError:
             raise

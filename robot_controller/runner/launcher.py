@@ -161,6 +161,9 @@ def launch(
             codes.update(group.stop([recorder, *viewers.children]))
             _report_viewer(viewers.children, codes)
         published = supervise.read_published_counts(run.counts_dir, replaced)
+        if law_fault := supervise.read_law_fault(run.counts_dir):
+            # The controller stopped the arm and ended itself (or the run ended first): say why, in one line.
+            outcome.failure = f"the control law failed: {law_fault}"
         bad = {n: c for n, c in codes.items() if c not in (0, -signal.SIGINT, 130)}
         if outcome.failure is None and bad:
             outcome.failure = "node(s) exited with an error on shutdown: " + ", ".join(

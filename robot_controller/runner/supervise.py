@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from robot_controller.nodes import recorder as rec
+from robot_controller.ros.process import LAW_FAULT_FILE, LAW_STOPPED_EXIT_CODE
 from robot_controller.runner import proc_stats
 from robot_controller.runner.processes import Child, ProcessGroup, say
 
@@ -96,6 +97,14 @@ def read_published_counts(counts_dir: Path, replaced: set[str] = frozenset()) ->
     return {topic: count for topic, count in total.items() if topic not in unknown}
 
 
+def read_law_fault(counts_dir: Path) -> str | None:
+    """The controller's line on its control law's failure, if it wrote one (``nodes.pid_controller``)."""
+    try:
+        return (counts_dir / LAW_FAULT_FILE).read_text().strip() or None
+    except OSError:
+        return None
+
+
 def raise_interrupt(signum, frame) -> None:
     raise KeyboardInterrupt
 
@@ -149,7 +158,10 @@ def wait_wall(
         if dead := group.dead():
             children = [c for c in group.children if c.process.returncode is not None]
             if restart is None or any(
-                c.name == "recorder" or respawned.get(c.name, 0) >= MAX_RESPAWNS for c in children
+                c.name == "recorder"
+                or c.process.returncode == LAW_STOPPED_EXIT_CODE  # the law failed: restarting runs it again
+                or respawned.get(c.name, 0) >= MAX_RESPAWNS
+                for c in children
             ):
                 return died(dead)
             for child in children:

@@ -48,6 +48,9 @@ class Recording:
     disturbance: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
     #: the joints' names as /sim/joint_states gives them, in the order of every array's columns
     recorded_joint_names: list[str] = field(default_factory=list)
+    #: a law of one's own's extra terms on /controller/state (its ``state_terms``), by name: one row per
+    #: row of ``state`` (N·m per joint; NaN where a message did not carry the term); empty for a built-in law
+    law_terms: dict[str, np.ndarray] = field(default_factory=dict)
 
     def raw_reading_at(self, stamps_s: np.ndarray) -> np.ndarray:
         """The sensor's raw position for each measurement stamp (NaN where not recorded).
@@ -127,10 +130,14 @@ def read_recording(bag_dir: Path) -> Recording:
         )
 
     state_width = state_layout.width(joint_count)
-    state_rows = [
-        np.asarray(msg.data, dtype=float)
-        for _, msg in keep("/controller/state", decoded["/controller/state"], lambda r: len(r[1].data) == state_width)
+    state_msgs = [
+        msg
+        for _, msg in keep(
+            "/controller/state", decoded["/controller/state"], lambda r: state_layout.fits(len(r[1].data), joint_count)
+        )
     ]
+    state_rows = [np.asarray(msg.data[:state_width], dtype=float) for msg in state_msgs]
+    law_terms = _law_terms(state_msgs, joint_count)
     true = keep(
         "/sim/joint_states",
         decoded["/sim/joint_states"],
@@ -197,6 +204,7 @@ def read_recording(bag_dir: Path) -> Recording:
         disturbance=rows([d for _, d in disturbance]),
         malformed=malformed,
         recorded_joint_names=_joint_names_of(true, joint_count),
+        law_terms=law_terms,
     )
 
 
@@ -219,6 +227,17 @@ def _joint_count_of(decoded: dict[str, list[tuple[int, Any]]]) -> int:
         raise ValueError("no /sim/joint_states with joint positions recorded")
     values, counts = np.unique(sizes, return_counts=True)
     return int(values[np.argmax(counts)])
+
+
+def _law_terms(messages: list[Any], joint_count: int) -> dict[str, np.ndarray]:
+    """The extra blocks of ``/controller/state`` by their layout labels (those after the standard ones)."""
+    standard = len(state_layout.HEADER) + len(state_layout.FIELDS)
+    rows = [
+        state_layout.extra(msg.data, joint_count, [dim.label for dim in msg.layout.dim[standard:]]) for msg in messages
+    ]
+    names = list(dict.fromkeys(name for row in rows for name in row))
+    nan = np.full(joint_count, np.nan)
+    return {name: np.vstack([row.get(name, nan) for row in rows]) for name in names}
 
 
 def _joint_names_of(true: list[tuple[int, Any]], joint_count: int) -> list[str]:

@@ -165,8 +165,8 @@ class ViewFeed:
         self.measured_in.append((t, *q))
 
     def controller_state(self, data: Iterable[float]) -> None:
-        row = tuple(data)
-        if len(row) != state_layout.width(self.n):
+        row = state_layout.standard(tuple(data), self.n)  # a law's extra terms after the standard ones: not drawn
+        if row is None:
             return  # not the run's layout: dropped
         if self.t0 is None:
             self.t0 = row[0]
