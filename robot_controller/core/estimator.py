@@ -407,6 +407,8 @@ class JointKalmanFilter:
         """The torque that gives ``α`` on the model, N·m (None without one): what the prediction applies."""
         if not self.estimates_disturbance or self.x is None or self._mass is None:
             return None
+        if self.joint_count == 1:  # the same product on floats
+            return np.array([self._mass.item() * (self._own_inverse_mass.item() * self.x.item(0, 2))])
         return self._mass @ self._disturbance_acceleration()
 
     def _set_mass(self, position: np.ndarray) -> None:
@@ -611,7 +613,9 @@ class JointKalmanFilter:
         x_pred = [q_pred, v_pred, *state[2:]]
         x_new = [x_pred[i] + (K[i][0] * surprise_q + K[i][1] * surprise_v) for i in range(m)]
         P_new = [[P_pred[i][j] - (K[i][0] * read_q[j] + K[i][1] * read_v[j]) for j in range(m)] for i in range(m)]
-        P_new = [[0.5 * (P_new[i][j] + P_new[j][i]) for j in range(m)] for i in range(m)]
+        for i in range(m):  # symmetric: (P + Pᵀ)/2, each pair once
+            for j in range(i, m):
+                P_new[i][j] = P_new[j][i] = 0.5 * (P_new[i][j] + P_new[j][i])
         if observer:
             x_new[2] = min(max(x_new[2], -limit), limit)
         self.x = np.array([x_new])
@@ -624,11 +628,11 @@ class JointKalmanFilter:
     def _one_joint_transition(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> np.ndarray:
         """:meth:`_transition` of a one-joint filter (m × m), without the index arrays."""
         steps = step_count(dt, self.config.model_step_s)
-        F = np.eye(self.size)
+        F = np.zeros((self.size, self.size))
         F[:2, :2] = matrix_power(self._step_slopes(q, v, torque, dt / steps), steps)
         if self.estimates_disturbance:
-            b = 0.0 if self._own_inverse_mass is None else float(self._own_inverse_mass[0])
-            F[0, 2], F[1, 2] = 0.5 * b * dt * dt, b * dt
+            b = 0.0 if self._own_inverse_mass is None else self._own_inverse_mass.item()
+            F[0, 2], F[1, 2], F[2, 2] = 0.5 * b * dt * dt, b * dt, 1.0
         return F
 
     def _one_joint_noise_in_force(self) -> tuple[float, float]:
