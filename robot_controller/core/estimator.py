@@ -568,11 +568,10 @@ class JointKalmanFilter:
             Q[0][1] += dt * variance_v
             Q[1][0] += dt * variance_v
             Q[1][1] += variance_v
-        P_pred = F.dot(self.P[0]).dot(F.T).tolist()
-        for i in range(m):
-            row, noise = P_pred[i], Q[i]
-            for j in range(m):
-                row[j] += noise[j]
+        P_pred = [
+            [p + w for p, w in zip(row, noise, strict=True)]
+            for row, noise in zip(F.dot(self.P[0]).dot(F.T).tolist(), Q, strict=True)
+        ]
         r_q, r_v = self._r_diagonal
         surprise_q, surprise_v = z_q - q_pred, z_v - v_pred
         s00, s01, s10, s11 = P_pred[0][0] + r_q, P_pred[0][1], P_pred[1][0], P_pred[1][1] + r_v
@@ -609,10 +608,15 @@ class JointKalmanFilter:
             self._distance_sq_average = np.array([average])
         # The gain K = (S⁻¹·P_read)ᵀ, P_read the rows of the readings (q and v).
         read_q, read_v = P_pred[0], P_pred[1]
-        K = [(i00 * read_q[j] + i01 * read_v[j], i10 * read_q[j] + i11 * read_v[j]) for j in range(m)]
+        # K's two columns: per state, the gain on the position reading and on the velocity reading
+        gain_q = [i00 * a + i01 * b for a, b in zip(read_q, read_v, strict=True)]
+        gain_v = [i10 * a + i11 * b for a, b in zip(read_q, read_v, strict=True)]
         x_pred = [q_pred, v_pred, *state[2:]]
-        x_new = [x_pred[i] + (K[i][0] * surprise_q + K[i][1] * surprise_v) for i in range(m)]
-        P_new = [[P_pred[i][j] - (K[i][0] * read_q[j] + K[i][1] * read_v[j]) for j in range(m)] for i in range(m)]
+        x_new = [x + (kq * surprise_q + kv * surprise_v) for x, kq, kv in zip(x_pred, gain_q, gain_v, strict=True)]
+        P_new = [
+            [p - (kq * a + kv * b) for p, a, b in zip(row, read_q, read_v, strict=True)]
+            for row, kq, kv in zip(P_pred, gain_q, gain_v, strict=True)
+        ]
         for i in range(m):  # symmetric: (P + Pᵀ)/2, each pair once
             for j in range(i, m):
                 P_new[i][j] = P_new[j][i] = 0.5 * (P_new[i][j] + P_new[j][i])
