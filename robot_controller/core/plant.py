@@ -288,6 +288,10 @@ class ArmDynamics:
         self.joint_names = joint_names(self.model)
         self.effort_limit = effort_limits(self.model)
         self._effort_low = -self.effort_limit
+        #: (low, high) N·m of the one joint's effort limit, as floats; None for more joints
+        self._one_joint_limit = (
+            (self._effort_low.item(), self.effort_limit.item()) if self.effort_limit.shape == (1,) else None
+        )
         # Views into the private MjData and the model's options, kept: the controller asks several
         # times a tick, and each lookup through the bindings costs as much as a small array operation.
         d = self._data
@@ -323,6 +327,16 @@ class ArmDynamics:
         """The private state at ``(q, v)`` with ``torque`` (within the effort limit) and ``external_nm`` applied."""
         self._qpos[:] = position
         self._qvel[:] = velocity
+        if (
+            self._one_joint_limit is not None
+            and _is_one_value(torque)
+            and (external_nm is None or _is_one_value(external_nm))
+        ):
+            # One joint: the same clip and sum on floats (each NumPy call costs more than its arithmetic).
+            low, high = self._one_joint_limit
+            applied = min(max(torque.item(), low), high)
+            self._qfrc_applied[0] = applied if external_nm is None else applied + external_nm.item()
+            return
         applied = clip(torque, self._effort_low, self.effort_limit)
         # (Summed here, then written: a ufunc writing into MuJoCo's array costs more than the copy.)
         self._qfrc_applied[:] = applied if external_nm is None else applied + external_nm
@@ -382,3 +396,7 @@ class ArmDynamics:
     def damping(self) -> np.ndarray:
         """Viscous joint damping, N·m·s/rad."""
         return self.model.dof_damping.copy()
+
+
+def _is_one_value(value: object) -> bool:
+    return type(value) is np.ndarray and value.shape == (1,)
