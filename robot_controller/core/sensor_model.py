@@ -44,10 +44,8 @@ def measure(
 
     ``rng`` is a seeded generator so a run can be repeated exactly.
     """
-    # One draw for both (the same numbers, in the same order, as a ``normal(0, σ)`` for each: σ·z).
-    noise = rng.standard_normal((2, *np.shape(position)))
-    noisy_position = position + config.position_bias + config.position_noise_std * noise[0]
-    noisy_velocity = velocity + config.velocity_noise_std * noise[1]
+    noisy_position = position + config.position_bias + rng.normal(0.0, config.position_noise_std, np.shape(position))
+    noisy_velocity = velocity + rng.normal(0.0, config.velocity_noise_std, np.shape(velocity))
     if config.quantization > 0:
         noisy_position = np.round(noisy_position / config.quantization) * config.quantization
     return noisy_position, noisy_velocity
