@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_controller.core.arrays import within
+from robot_controller.core.arrays import clip
 from robot_controller.core.errors import ConfigError
 
 
@@ -22,6 +22,7 @@ class Actuator:
         if not np.isfinite(lag_time_constant_s) or lag_time_constant_s < 0:
             raise ConfigError(f"lag_time_constant_s: must be a finite number >= 0, got {lag_time_constant_s}")
         self.torque_max = torque_max
+        self._low = -torque_max
         self.lag_time_constant_s = float(lag_time_constant_s)
         self._applied = np.zeros_like(torque_max)
 
@@ -40,7 +41,7 @@ class Actuator:
         Non-finite entries count as zero; the result is always within ``±torque_max``.
         """
         command = np.where(np.isfinite(command), command, 0.0)
-        target = within(command, self.torque_max)
+        target = clip(command, self._low, self.torque_max)
         if self.lag_time_constant_s > 0 and np.isfinite(dt) and dt >= 0:
             alpha = dt / (self.lag_time_constant_s + dt) if dt > 0 else 0.0
             self._applied = self._applied + alpha * (target - self._applied)

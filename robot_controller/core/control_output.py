@@ -32,7 +32,11 @@ class Status(str, Enum):
     @property
     def commanding(self) -> bool:
         """Whether a tick in this state sends a torque to the motor."""
-        return self not in (Status.NO_MEASUREMENT, Status.SENSOR_LOST, Status.STOPPED, Status.LAW_STOPPED)
+        return self not in _NOT_COMMANDING
+
+
+# (A set made once: asked every tick, the members looked up each time cost more than the test.)
+_NOT_COMMANDING = frozenset((Status.NO_MEASUREMENT, Status.SENSOR_LOST, Status.STOPPED, Status.LAW_STOPPED))
 
 
 class ReferenceSource(str, Enum):

@@ -53,6 +53,7 @@ disturbance state, its linearised covariance and the uses of its surprise.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from functools import lru_cache
@@ -249,6 +250,17 @@ def _solve_symmetric(S: np.ndarray, B: np.ndarray) -> np.ndarray:
     return np.linalg.solve(S, B)
 
 
+def _inverse_2x2(a: float, b: float, c: float, d: float) -> tuple[float, float, float, float]:
+    """:func:`inverse_2x2` of one matrix ``[[a, b], [c, d]]``, row by row, on floats."""
+    det = a * d - b * c
+    return d / det, -b / det, -c / det, a / det
+
+
+def _quadratic(u0: float, u1: float, a: float, b: float, c: float, d: float, w0: float, w1: float) -> float:
+    """``uᵀ·[[a, b], [c, d]]·w`` for 2-vectors, on floats."""
+    return u0 * (a * w0 + b * w1) + u1 * (c * w0 + d * w1)
+
+
 class _StateIndex:
     """Where each joint's quantities sit in the filter's state ``[q1, v1, (d1), q2, v2, ...]``
     (``m`` per joint) and its covariance: index arrays made once per filter, so that
@@ -332,6 +344,11 @@ class JointKalmanFilter:
         self._torque_scale = None if torque_scale is None else np.asarray(torque_scale, dtype=float).reshape(n)
         self._agreeing_std = np.array([config.disturbance_noise_std, config.acceleration_noise_std])
         self._mismatch_std = np.array([self._mismatch.disturbance_noise_std, self._mismatch.acceleration_noise_std])
+        self._agreeing_std_floats = (float(config.disturbance_noise_std), float(config.acceleration_noise_std))
+        self._mismatch_std_floats = (
+            float(self._mismatch.disturbance_noise_std),
+            float(self._mismatch.acceleration_noise_std),
+        )
         self.x: np.ndarray | None = None  # (n, 2): q, v per joint; (n, 3): q, v, d
         #: groups of joints that act on one another: one (the arm), or each joint its own
         self._groups, self._per_group = (n, 1) if independent_joints else (1, n)
@@ -339,6 +356,7 @@ class JointKalmanFilter:
         #: per group, joint by joint: [q1, v1, (d1), q2, v2, ...]
         self.P = np.zeros((self._groups, k * m, k * m))
         self.R = np.diag([config.position_noise_std**2, config.velocity_noise_std**2])
+        self._r_diagonal = (float(self.R[0, 0]), float(self.R[1, 1]))
         self._R_all = np.kron(np.eye(k), self.R)
         #: where each reading (q1, v1, q2, v2, ...) of a group sits in its state
         self._read = (np.arange(k)[:, None] * m + np.arange(2)[None, :]).reshape(-1)
@@ -389,6 +407,8 @@ class JointKalmanFilter:
         """The torque that gives ``α`` on the model, N·m (None without one): what the prediction applies."""
         if not self.estimates_disturbance or self.x is None or self._mass is None:
             return None
+        if self.joint_count == 1:  # the same product on floats
+            return np.array([self._mass.item() * (self._own_inverse_mass.item() * self.x.item(0, 2))])
         return self._mass @ self._disturbance_acceleration()
 
     def _set_mass(self, position: np.ndarray) -> None:
@@ -413,6 +433,19 @@ class JointKalmanFilter:
 
         Returns the filtered ``(position, velocity)``.
         """
+        if self.joint_count == 1 and self.x is not None and self.time_s is not None and 0 < time_s - self.time_s < 1.0:
+            return self._update_one_joint(time_s, position, velocity, torque, torque_change)
+        return self._update_joints(time_s, position, velocity, torque, torque_change)
+
+    def _update_joints(
+        self,
+        time_s: float,
+        position: np.ndarray,
+        velocity: np.ndarray,
+        torque: np.ndarray,
+        torque_change: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`update` on arrays, any number of joints."""
         n, m = self.joint_count, self.size
         z = np.empty((n, 2))  # the reading, per joint
         z[:, 0], z[:, 1] = position, velocity
@@ -483,6 +516,143 @@ class JointKalmanFilter:
                 self._start(unexplainable, z)
                 self.restart_count += unexplainable
         return self.x[:, 0].copy(), self.x[:, 1].copy()
+
+    def _update_one_joint(
+        self,
+        time_s: float,
+        position: np.ndarray,
+        velocity: np.ndarray,
+        torque: np.ndarray,
+        torque_change: np.ndarray | None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`update` of a running one-joint filter, the same arithmetic on Python
+        floats: on arrays of one to three values NumPy's per-call cost is most of the
+        work. The matrices' products are in the order :meth:`update` takes them."""
+        m, config = self.size, self.config
+        observer = self.estimates_disturbance
+        dt = time_s - self.time_s
+        self.time_s = time_s
+        z_q, z_v = float(position[0]), float(velocity[0])
+        state = self.x[0].tolist()
+        q_now, v_now = self.x[:, 0], self.x[:, 1]
+        F = self._one_joint_transition(q_now, v_now, torque, dt)
+        sigma_d, sigma_a = self._one_joint_noise_in_force()
+        timing_uncertain = (
+            torque_change is not None and config.command_timing_uncertainty_s > 0 and self.mass_matrix is not None
+        )
+        q_pred, v_pred = self._step_model(q_now, v_now, torque, dt)
+        q_pred, v_pred = float(q_pred[0]), float(v_pred[0])
+        b = 0.0
+        if observer or timing_uncertain:
+            self._set_mass(q_now)
+            b = float(self._own_inverse_mass[0])  # rad/s² per N·m
+        # The process noise, as :func:`process_noise` and :meth:`update` weigh it.
+        g0, g1 = 0.5 * dt * dt, dt
+        variance_a = sigma_a * sigma_a
+        if observer:
+            qq, qv, vv, qd, vd = dt**5 / 20, dt**4 / 8, dt**3 / 3, dt**3 / 6, dt**2 / 2
+            w = sigma_d * sigma_d
+            wb = w * b
+            wb2 = wb * b
+            Q = [
+                [variance_a * (g0 * g0) + wb2 * qq, variance_a * (g0 * g1) + wb2 * qv, wb * qd],
+                [variance_a * (g0 * g1) + wb2 * qv, variance_a * (g1 * g1) + wb2 * vv, wb * vd],
+                [wb * qd, wb * vd, w * dt],
+            ]
+        else:
+            Q = [[g0 * g0 * variance_a, g0 * g1 * variance_a], [g1 * g0 * variance_a, g1 * g1 * variance_a]]
+        if timing_uncertain:
+            sigma_v = abs(float(torque_change[0])) * config.command_timing_uncertainty_s * b
+            variance_v = sigma_v * sigma_v
+            Q[0][0] += dt * dt * variance_v
+            Q[0][1] += dt * variance_v
+            Q[1][0] += dt * variance_v
+            Q[1][1] += variance_v
+        P_pred = [
+            [p + w for p, w in zip(row, noise, strict=True)]
+            for row, noise in zip(F.dot(self.P[0]).dot(F.T).tolist(), Q, strict=True)
+        ]
+        r_q, r_v = self._r_diagonal
+        surprise_q, surprise_v = z_q - q_pred, z_v - v_pred
+        s00, s01, s10, s11 = P_pred[0][0] + r_q, P_pred[0][1], P_pred[1][0], P_pred[1][1] + r_v
+        unexplainable = False
+        if observer:
+            limit = float(self.disturbance_limit[0])
+            unexplainable = abs(surprise_v) > limit * (b * dt) + innovation.BEYOND_SIGMA * math.sqrt(s11)
+        i00, i01, i10, i11 = _inverse_2x2(s00, s01, s10, s11)
+        distance_sq = _quadratic(surprise_q, surprise_v, i00, i01, i10, i11, surprise_q, surprise_v)
+        average = float(self._distance_sq_average[0])
+        jumped = False
+        if observer and config.jump_detection_sigma > 0:
+            step_q, step_v = 0.5 * b * dt * dt, b * dt
+            along = _quadratic(step_q, step_v, i00, i01, i10, i11, surprise_q, surprise_v)
+            weight = _quadratic(step_q, step_v, i00, i01, i10, i11, step_q, step_v)
+            explained = along**2 / weight
+            jumped = (
+                average < innovation.MISMATCH_FROM
+                and explained > config.jump_detection_sigma**2
+                and distance_sq - explained < innovation.JUMP_RESIDUAL_MAX
+            )
+            if jumped:
+                G = (step_q, step_v, 1.0)
+                jump_std = DISTURBANCE_PRIOR_STD_NM * (1.0 if self._torque_scale is None else self._torque_scale[0])
+                jump_variance = float(jump_std**2)
+                for i in range(3):
+                    for j in range(3):
+                        P_pred[i][j] += jump_variance * (G[i] * G[j])
+                self.jump_count[0] += 1
+                s00, s01, s10, s11 = P_pred[0][0] + r_q, P_pred[0][1], P_pred[1][0], P_pred[1][1] + r_v
+                i00, i01, i10, i11 = _inverse_2x2(s00, s01, s10, s11)
+        if not jumped:
+            average += min(1.0, dt / innovation.CONSISTENCY_TIME_S) * (distance_sq - average)
+            self._distance_sq_average = np.array([average])
+        # The gain K = (S⁻¹·P_read)ᵀ, P_read the rows of the readings (q and v).
+        read_q, read_v = P_pred[0], P_pred[1]
+        # K's two columns: per state, the gain on the position reading and on the velocity reading
+        gain_q = [i00 * a + i01 * b for a, b in zip(read_q, read_v, strict=True)]
+        gain_v = [i10 * a + i11 * b for a, b in zip(read_q, read_v, strict=True)]
+        x_pred = [q_pred, v_pred, *state[2:]]
+        x_new = [x + (kq * surprise_q + kv * surprise_v) for x, kq, kv in zip(x_pred, gain_q, gain_v, strict=True)]
+        P_new = [
+            [p - (kq * a + kv * b) for p, a, b in zip(row, read_q, read_v, strict=True)]
+            for row, kq, kv in zip(P_pred, gain_q, gain_v, strict=True)
+        ]
+        for i in range(m):  # symmetric: (P + Pᵀ)/2, each pair once
+            for j in range(i, m):
+                P_new[i][j] = P_new[j][i] = 0.5 * (P_new[i][j] + P_new[j][i])
+        if observer:
+            x_new[2] = min(max(x_new[2], -limit), limit)
+        self.x = np.array([x_new])
+        self.P = np.array([P_new])
+        if unexplainable:
+            self._start(np.ones(1, dtype=bool), np.array([[z_q, z_v]]))
+            self.restart_count += 1
+        return self.x[:, 0].copy(), self.x[:, 1].copy()
+
+    def _one_joint_transition(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> np.ndarray:
+        """:meth:`_transition` of a one-joint filter (m × m), without the index arrays."""
+        steps = step_count(dt, self.config.model_step_s)
+        F = np.zeros((self.size, self.size))
+        F[:2, :2] = matrix_power(self._step_slopes(q, v, torque, dt / steps), steps)
+        if self.estimates_disturbance:
+            b = 0.0 if self._own_inverse_mass is None else self._own_inverse_mass.item()
+            F[0, 2], F[1, 2], F[2, 2] = 0.5 * b * dt * dt, b * dt, 1.0
+        return F
+
+    def _one_joint_noise_in_force(self) -> tuple[float, float]:
+        """:meth:`_noise_in_force` of a one-joint filter, as floats."""
+        average = float(self._distance_sq_average[0])
+        near_d, near_a = self._agreeing_std_floats
+        if average <= innovation.MISMATCH_FROM:
+            sigma_d, sigma_a = near_d, near_a
+        else:
+            far_d, far_a = self._mismatch_std_floats
+            w = min(max((average - innovation.MISMATCH_FROM) / innovation.MISMATCH_SPAN, 0.0), 1.0)
+            sigma_d = math.sqrt(near_d * near_d + w * (far_d * far_d - near_d * near_d))
+            sigma_a = math.sqrt(near_a * near_a + w * (far_a * far_a - near_a * near_a))
+        if self._torque_scale is not None:
+            sigma_d *= float(self._torque_scale[0])
+        return sigma_d, sigma_a
 
     def _joint_blocks(self, P: np.ndarray) -> np.ndarray:
         """Each joint's reading covariance (n, 2, 2): its own block of ``P`` plus the sensor's."""

@@ -105,12 +105,21 @@ def check_health(readings: Readings, now_s: float, halted: bool, braked: bool, c
     tick, but whatever is commanded while they hold does not move the arm,
     so the reference starts again from the measurement (``restart``)."""
     if readings.latest is None:
-        return Health(Status.NO_MEASUREMENT, restart=False)
+        return _NO_MEASUREMENT
     if halted:
-        return Health(Status.STOPPED, restart=False)
+        return _STOPPED
     silent_s = readings.silent_s(now_s)
     if silent_s > config.sensor_timeout_s:
-        return Health(Status.SENSOR_LOST, restart=True)
+        return _SENSOR_LOST
     if silent_s > config.watchdog_s:
-        return Health(Status.WATCHDOG, restart=True)
-    return Health(Status.OK, restart=braked)
+        return _WATCHDOG
+    return _BRAKED if braked else _OK
+
+
+# Every verdict there is, made once (they are frozen): one is asked for every tick.
+_NO_MEASUREMENT = Health(Status.NO_MEASUREMENT, restart=False)
+_STOPPED = Health(Status.STOPPED, restart=False)
+_SENSOR_LOST = Health(Status.SENSOR_LOST, restart=True)
+_WATCHDOG = Health(Status.WATCHDOG, restart=True)
+_BRAKED = Health(Status.OK, restart=True)
+_OK = Health(Status.OK, restart=False)

@@ -11,6 +11,7 @@ the error, so that changing ``ki`` while running does not kick the output
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from enum import Enum
 
@@ -122,6 +123,7 @@ class Pid:
 
     def __init__(self, config: PidConfig) -> None:
         self.config = config
+        self._one_joint = _one_joint(config)
         self.reset()
 
     def reset(self) -> None:
@@ -139,6 +141,7 @@ class Pid:
         grows from here on.
         """
         self.config = config
+        self._one_joint = _one_joint(config)
         self._i_term = np.broadcast_to(self._i_term, np.broadcast_shapes(self._i_term.shape, config.kp.shape)).copy()
 
     @property
@@ -161,6 +164,24 @@ class Pid:
         ``feedback_map`` (n × n): the feedback torques (P + I + D, each joint's
         own) pass through it before the feedforward is added and the command
         limited; the terms reported are the joints' own."""
+        if (
+            self._one_joint
+            and feedback_map is None
+            and _is_one_value(reference_position)
+            and _is_one_value(reference_velocity)
+            and _is_one_value(measured_position)
+            and _is_one_value(measured_velocity)
+            and (_is_one_value(feedforward) or isinstance(feedforward, (float, int)))
+            and self._i_term.shape == (1,)
+        ):
+            return self._step_one_joint(
+                float(dt),
+                reference_position.item(),
+                reference_velocity.item(),
+                measured_position.item(),
+                measured_velocity.item(),
+                feedforward.item() if isinstance(feedforward, np.ndarray) else float(feedforward),
+            )
         c = self.config
         zeros = np.zeros(np.broadcast_shapes(np.shape(reference_position), c.kp.shape))
         inputs = (reference_position, reference_velocity, measured_position, measured_velocity, feedforward)
@@ -211,6 +232,78 @@ class Pid:
         self._prev_command = command
         return PidTerms(command, p_term, self._i_term.copy(), d_term, feedforward, saturated)
 
+    def _step_one_joint(
+        self,
+        dt: float,
+        reference_position: float,
+        reference_velocity: float,
+        measured_position: float,
+        measured_velocity: float,
+        feedforward: float,
+    ) -> PidTerms:
+        """:meth:`step` for one joint on Python floats, the same arithmetic in the same
+        order: on arrays of one value NumPy's per-call cost is most of the work. The
+        state stays in arrays, as :meth:`step` keeps it."""
+        c = self.config
+        inputs = (dt, reference_position, reference_velocity, measured_position, measured_velocity, feedforward)
+        if not (dt > 0 and all(map(math.isfinite, inputs))):
+            zero = np.zeros(1)
+            return PidTerms(zero, zero, zero, zero, zero, np.zeros(1, dtype=bool))
+        kp, ki, kd = c.kp.item(), c.ki.item(), c.kd.item()
+        error = reference_position - measured_position
+        p_term = kp * error
+        source = c.derivative_source
+        if source is DerivativeSource.MEASURED_VELOCITY:
+            d_signal = -measured_velocity
+        elif source is DerivativeSource.VELOCITY_ERROR:
+            d_signal = reference_velocity - measured_velocity
+        elif source is DerivativeSource.ERROR:
+            d_signal = 0.0 if self._prev_error is None else (error - self._prev_error.item()) / dt
+        else:  # MEASUREMENT
+            d_signal = 0.0 if self._prev_position is None else -(measured_position - self._prev_position.item()) / dt
+        self._prev_error = np.array([error])
+        self._prev_position = np.array([measured_position])
+        if c.derivative_filter_time_s > 0:
+            if self._d_filtered is None:
+                self._d_filtered = np.array([d_signal])
+            else:
+                alpha = dt / (c.derivative_filter_time_s + dt)
+                filtered = self._d_filtered.item()
+                self._d_filtered = np.array([filtered + alpha * (d_signal - filtered)])
+            d_signal = self._d_filtered.item()
+        d_term = kd * d_signal
+
+        i_term = self._i_term.item()
+        i_candidate = i_term + ki * error * dt
+        if c.anti_windup is AntiWindup.CLAMP:
+            i_limit = ki * c.integral_limit.item()
+            i_candidate = min(max(i_candidate, -i_limit), i_limit)
+        unsaturated = feedforward + (p_term + i_candidate + d_term)
+        limited = self._limit_one_joint(unsaturated, dt)
+        saturated = abs(limited - unsaturated) > 1e-12
+        if c.anti_windup is AntiWindup.BACK_CALCULATION:
+            i_candidate = i_candidate + (limited - unsaturated) * dt / c.back_calculation_time_s
+        elif c.anti_windup is AntiWindup.CONDITIONAL_INTEGRATION and saturated and _sign(error) == _sign(unsaturated):
+            i_candidate = i_term  # integrate only where it would pull the output back inside the limit
+        self._i_term = np.array([i_candidate])
+
+        command = self._limit_one_joint(feedforward + (p_term + i_candidate + d_term), dt)
+        if not math.isfinite(command):
+            command = 0.0
+        terms = np.array([command, p_term, i_candidate, d_term, feedforward])
+        self._prev_command = terms[0:1]
+        return PidTerms(terms[0:1], terms[1:2], terms[2:3], terms[3:4], terms[4:5], np.array([saturated]))
+
+    def _limit_one_joint(self, command: float, dt: float) -> float:
+        """:meth:`_limit` on a float."""
+        limit = self.config.output_limit.item()
+        out = min(max(command, -limit), limit)
+        if self.config.slew_rate_limit > 0 and self._prev_command is not None:
+            max_step = self.config.slew_rate_limit * dt
+            previous = self._prev_command.item()
+            out = min(max(out, previous - max_step), previous + max_step)
+        return out
+
     def _limit(self, command: np.ndarray, dt: float) -> np.ndarray:
         limit = self.config.output_limit
         out = within(command, limit)
@@ -223,3 +316,19 @@ class Pid:
 def _mapped(feedback_map: np.ndarray | None, feedback: np.ndarray) -> np.ndarray:
     """The feedback torques through ``feedback_map`` (as they are without one)."""
     return feedback if feedback_map is None else feedback_map @ feedback
+
+
+def _one_joint(config: PidConfig) -> bool:
+    """Whether ``config`` is one joint's (every per-joint value a single one)."""
+    return all(getattr(config, name).shape == (1,) for name in ("kp", "ki", "kd", "output_limit", "integral_limit"))
+
+
+def _is_one_value(value: object) -> bool:
+    return type(value) is np.ndarray and value.shape == (1,)
+
+
+def _sign(value: float) -> float:
+    """``np.sign`` of a float (NaN for NaN)."""
+    if value != value:
+        return value
+    return float((value > 0) - (value < 0))

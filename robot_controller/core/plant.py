@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 
 from robot_controller.core.arm_model import step_count
-from robot_controller.core.arrays import within
+from robot_controller.core.arrays import clip
 from robot_controller.core.errors import ConfigError, TimingError
 from robot_controller.core.payload import Payload, carrying_link
 from robot_controller.core.payload import add_to as add_payload
@@ -146,8 +146,11 @@ class MujocoPlant:
         self._free_frictionloss = self.model.dof_frictionloss[dofs].copy()
         self._free_solref = self.model.dof_solref[dofs].copy()
         self._braked = np.zeros(self.joint_count, dtype=bool)
+        self._any_braked = False  #: whether any joint's brake is engaged (``_braked.any()``, kept per change)
         self._locked_at = np.full(self.joint_count, np.nan)  #: where each braked joint came to rest, rad
         self.effort_limit = effort_limits(self.model)
+        self._effort_low = -self.effort_limit
+        self._qfrc_applied = self.data.qfrc_applied  # a view into MjData, kept: one attribute lookup less per step
         self._actuator = np.zeros(self.joint_count)  #: the actuator's torque in the last step, N·m
         self._disturbance = np.zeros(self.joint_count)  #: the external torque being applied, N·m
         self._disturbance_steps = 0  #: physics steps it still lasts
@@ -176,24 +179,24 @@ class MujocoPlant:
         Whatever it is sent, a joint gets no more than its URDF ``effort`` limit
         (``effort_limit``), as a real drive limits its current.
         """
-        torque = within(torque, self.effort_limit)
-        self._actuator = np.where(self._braked, 0.0, torque)
+        torque = clip(torque, self._effort_low, self.effort_limit)  # a new array: the caller's is not kept
+        self._actuator = np.where(self._braked, 0.0, torque) if self._any_braked else torque
         # The disturbance, if one is on, for as many of these steps as it still lasts.
         disturbed = min(n_steps, self._disturbance_steps)
         if disturbed > 0:
-            self.data.qfrc_applied[:] = self._actuator + self._disturbance
+            self._qfrc_applied[:] = self._actuator + self._disturbance
             self._run(disturbed)
             self._disturbance_last = self._disturbance.copy()
             self._disturbance_steps -= disturbed
             if self._disturbance_steps == 0:
                 self._disturbance = np.zeros(self.joint_count)
         if n_steps > disturbed:
-            self.data.qfrc_applied[:] = self._actuator
+            self._qfrc_applied[:] = self._actuator
             self._run(n_steps - disturbed)
             self._disturbance_last = self._no_disturbance
 
     def _run(self, n_steps: int) -> None:
-        if not self._braked.any():
+        if not self._any_braked:
             mujoco.mj_step(self.model, self.data, n_steps)  # MuJoCo's own loop: the same steps
             return
         for _ in range(n_steps):
@@ -250,6 +253,7 @@ class MujocoPlant:
         self.model.dof_solref[dofs] = np.where(engaged[:, None], [2 * self.physics_dt, 1.0], self._free_solref)
         self._locked_at = np.where(engaged & self._braked, self._locked_at, np.nan)
         self._braked = engaged
+        self._any_braked = bool(engaged.any())
 
     @property
     def applied_torque(self) -> np.ndarray:
@@ -283,14 +287,24 @@ class ArmDynamics:
         self._data = mujoco.MjData(self.model)
         self.joint_names = joint_names(self.model)
         self.effort_limit = effort_limits(self.model)
+        self._effort_low = -self.effort_limit
+        #: (low, high) N·m of the one joint's effort limit, as floats; None for more joints
+        self._one_joint_limit = (
+            (self._effort_low.item(), self.effort_limit.item()) if self.effort_limit.shape == (1,) else None
+        )
+        # Views into the private MjData and the model's options, kept: the controller asks several
+        # times a tick, and each lookup through the bindings costs as much as a small array operation.
+        d = self._data
+        self._qpos, self._qvel, self._qacc = d.qpos, d.qvel, d.qacc
+        self._qfrc_applied, self._qfrc_inverse = d.qfrc_applied, d.qfrc_inverse
+        self._option = self.model.opt
 
     def torque(self, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
-        d = self._data
-        d.qpos[:] = position
-        d.qvel[:] = velocity
-        d.qacc[:] = acceleration
-        mujoco.mj_inverse(self.model, d)
-        return d.qfrc_inverse.copy()
+        self._qpos[:] = position
+        self._qvel[:] = velocity
+        self._qacc[:] = acceleration
+        mujoco.mj_inverse(self.model, self._data)
+        return self._qfrc_inverse.copy()
 
     def gravity(self, position: np.ndarray) -> np.ndarray:
         zero = np.zeros(self.model.nv)
@@ -311,12 +325,21 @@ class ArmDynamics:
         self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, external_nm: np.ndarray | None
     ) -> None:
         """The private state at ``(q, v)`` with ``torque`` (within the effort limit) and ``external_nm`` applied."""
-        d = self._data
-        d.qpos[:] = position
-        d.qvel[:] = velocity
-        within(torque, self.effort_limit, out=d.qfrc_applied)
-        if external_nm is not None:
-            d.qfrc_applied += external_nm
+        self._qpos[:] = position
+        self._qvel[:] = velocity
+        if (
+            self._one_joint_limit is not None
+            and _is_one_value(torque)
+            and (external_nm is None or _is_one_value(external_nm))
+        ):
+            # One joint: the same clip and sum on floats (each NumPy call costs more than its arithmetic).
+            low, high = self._one_joint_limit
+            applied = min(max(torque.item(), low), high)
+            self._qfrc_applied[0] = applied if external_nm is None else applied + external_nm.item()
+            return
+        applied = clip(torque, self._effort_low, self.effort_limit)
+        # (Summed here, then written: a ufunc writing into MuJoCo's array costs more than the copy.)
+        self._qfrc_applied[:] = applied if external_nm is None else applied + external_nm
 
     def predict(
         self,
@@ -335,12 +358,11 @@ class ArmDynamics:
         comes out h·D/M too large, a bias a filter that trusts its model turns
         into 0.3 mrad of tracking error)."""
         steps = step_count(horizon_s, max_step_s)
-        self.model.opt.timestep = horizon_s / steps
+        self._option.timestep = horizon_s / steps
         self._load(position, velocity, torque, external_nm)
-        d = self._data
-        mujoco.mj_step(self.model, d, steps)
-        d.qfrc_applied[:] = 0.0
-        return d.qpos.copy(), d.qvel.copy()
+        mujoco.mj_step(self.model, self._data, steps)
+        self._qfrc_applied.fill(0.0)
+        return self._qpos.copy(), self._qvel.copy()
 
     def step_jacobian(
         self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, step_s: float
@@ -350,11 +372,11 @@ class ArmDynamics:
         stiffness, damping, Coriolis and the coupling between joints), by
         MuJoCo's finite differences in C."""
         n = self.model.nv
-        self.model.opt.timestep = step_s
+        self._option.timestep = step_s
         self._load(position, velocity, torque, None)
         jacobian = np.zeros((2 * n, 2 * n))
         mujoco.mjd_transitionFD(self.model, self._data, 1e-6, 0, jacobian, None, None, None)
-        self._data.qfrc_applied[:] = 0.0
+        self._qfrc_applied.fill(0.0)
         return jacobian
 
     def mass_matrix(self, position: np.ndarray) -> np.ndarray:
@@ -362,7 +384,7 @@ class ArmDynamics:
         (kinematics, the bodies' inertias, composite rigid bodies), not the whole
         forward pass, which gives the same matrix."""
         d = self._data
-        d.qpos[:] = position
+        self._qpos[:] = position
         mujoco.mj_kinematics(self.model, d)
         mujoco.mj_comPos(self.model, d)
         mujoco.mj_crb(self.model, d)
@@ -374,3 +396,7 @@ class ArmDynamics:
     def damping(self) -> np.ndarray:
         """Viscous joint damping, N·m·s/rad."""
         return self.model.dof_damping.copy()
+
+
+def _is_one_value(value: object) -> bool:
+    return type(value) is np.ndarray and value.shape == (1,)

@@ -25,7 +25,19 @@ REFERENCE_TIMEOUT_PERIODS = 5
 def _minmod(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Per element, the smaller in magnitude of ``a`` and ``b`` where they agree
     in sign, else 0 (the slope limiter of numerical schemes)."""
-    return np.where(np.sign(a) == np.sign(b), np.sign(a) * np.minimum(np.abs(a), np.abs(b)), 0.0)
+    if a.shape == (1,) and b.shape == (1,):  # one joint: on floats (NumPy's per-call cost is the work)
+        x, y = a.item(), b.item()
+        sign = _sign(x)
+        return np.array([sign * min(abs(x), abs(y)) if sign == _sign(y) else 0.0])
+    sign = np.sign(a)
+    return np.where(sign == np.sign(b), sign * np.minimum(np.abs(a), np.abs(b)), 0.0)
+
+
+def _sign(value: float) -> float:
+    """``np.sign`` of a float (NaN for NaN)."""
+    if value != value:
+        return value
+    return float((value > 0) - (value < 0))
 
 
 @dataclass(frozen=True)
@@ -128,6 +140,11 @@ class PlannerReference:
         if not extrapolate:
             return position, velocity, acceleration
         s = clip_scalar(float(now_s + 0.5 * period_s - self.time_s), 0.0, MAX_EXTRAPOLATION_S)
+        if np.shape(position) == (1,):  # one joint: the same sums on floats, in one array
+            p, v, a = position.item(), velocity.item(), acceleration.item()
+            j = 0.0 if self.jerk is None else self.jerk.item()
+            ahead = np.array([p + v * s + a * (s * s / 2) + j * (s**3 / 6), v + a * s + j * (s * s / 2), a + j * s])
+            return ahead[0:1], ahead[1:2], ahead[2:3]
         jerk = np.zeros(np.shape(acceleration)) if self.jerk is None else self.jerk
         return (
             position + velocity * s + acceleration * (s * s / 2) + jerk * (s**3 / 6),

@@ -7,6 +7,7 @@ started) and returns three arrays of shape ``(n,)``: rad, rad/s, rad/s².
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Protocol
 
 import numpy as np
@@ -35,7 +36,14 @@ class Sine:
     def sample(self, t: float) -> Sample:
         w = 2.0 * np.pi * self.frequency_hz
         s, c = np.sin(w * t), np.cos(w * t)
-        return self.offset + self.amplitude * s, self.amplitude * w * c, -self.amplitude * w * w * s
+        velocity_scale, acceleration_scale = self._scales
+        return self.offset + self.amplitude * s, velocity_scale * c, acceleration_scale * s
+
+    @cached_property
+    def _scales(self) -> tuple[np.ndarray, np.ndarray]:
+        """``amplitude·w`` and ``−amplitude·w·w``, as :meth:`sample` multiplies them out (made once)."""
+        w = 2.0 * np.pi * self.frequency_hz
+        return self.amplitude * w, -self.amplitude * w * w
 
 
 @dataclass(frozen=True)
