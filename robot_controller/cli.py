@@ -62,6 +62,29 @@ def port(text: str) -> int:
     return value
 
 
+def controller_spec(text: str) -> str:
+    """A law as ``controller_type`` names it, loaded now: a bad one is argparse's one line."""
+    from robot_controller.experiments import laws
+
+    try:
+        laws.controller_type(text)
+    except ConfigError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("--controller: ")) from None
+    return text.strip()
+
+
+def compare_entries(text: str) -> list[str]:
+    """``compare --controllers``: configurations and laws, comma-separated, each checked now."""
+    from robot_controller.experiments.compare import contenders
+
+    names = [name.strip() for name in text.split(",")]
+    try:
+        contenders(names)
+    except ConfigError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("--controllers: ")) from None
+    return names
+
+
 Handler = Callable[[argparse.Namespace], int]
 
 
@@ -79,6 +102,16 @@ def _robot_option(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_ROBOT,
         choices=sorted(ROBOTS),
         help=f"the arm: its URDF, limits, home pose and default trajectory (default {DEFAULT_ROBOT})",
+    )
+
+
+def _controller_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--controller",
+        type=controller_spec,
+        metavar="SPEC",
+        help="the control law (pid_controller's controller_type): pid, lqr, an installed law, "
+        "module:Class or path/to/file.py:Class",
     )
 
 
@@ -173,6 +206,7 @@ def _experiment_verbs(sub) -> None:
             seed=a.seed,
             config=a.config,
             sim_time=a.sim_time,
+            controller=a.controller,
         ),
     )
     p.add_argument("--amplitude", type=float, default=0.5, help="step size, rad (default 0.5)")
@@ -184,6 +218,7 @@ def _experiment_verbs(sub) -> None:
     )
     p.add_argument("--out", type=Path)
     _stack_options(p)
+    _controller_option(p)
     p.add_argument("--sim-time", action="store_true", help="deterministic lockstep")
     p = _verb(
         sub,
@@ -195,9 +230,19 @@ def _experiment_verbs(sub) -> None:
             duration_s=a.duration,
             amplitude=a.amplitude,
             robot=a.robot,
+            controllers=a.controllers,
+            in_process=a.in_process,
         ),
     )
     _robot_option(p)
+    p.add_argument(
+        "--controllers",
+        type=compare_entries,
+        metavar="A,B,...",
+        help="the entries compared: configurations (default, tutorial, pid, pid_ff, pid_ff_kf, lqr) or laws "
+        "(module:Class, path/to/file.py:Class, an installed law) with the default stack (default: the configurations)",
+    )
+    p.add_argument("--in-process", action="store_true", help="on the in-process loop (no ROS): seconds, not minutes")
     p.add_argument("--out", type=Path, help="output directory (default runs/compare)")
     p.add_argument("--seeds", type=positive_int, default=5)
     p.add_argument("--duration", type=positive_seconds, default=10.0, help="sine duration, sim s (default 10)")
@@ -206,9 +251,12 @@ def _experiment_verbs(sub) -> None:
         sub,
         "exercise",
         "one of the tutorial's exercises as a reproducible experiment",
-        lambda a: verbs.exercise(a.name, output_dir(a.out, Path("runs") / f"exercise-{a.name}"), quick=a.quick),
+        lambda a: verbs.exercise(
+            a.name, output_dir(a.out, Path("runs") / f"exercise-{a.name}"), quick=a.quick, controller=a.controller
+        ),
     )
     p.add_argument("name", choices=verbs.EXERCISE_NAMES)
+    _controller_option(p)  # exercise disturbance: the law runs beside the others
     p.add_argument("--out", type=Path, help="output directory (default runs/exercise-NAME)")
     p.add_argument("--quick", action="store_true", help="a short form (the test suite's)")
     p = _verb(
@@ -216,11 +264,17 @@ def _experiment_verbs(sub) -> None:
         "tune",
         "automatic gain design with robustness margins; writes tuned.yaml",
         lambda a: verbs.tune(
-            output_dir(a.out, Path("runs/tune")), preset=a.preset, config=a.config, quick=a.quick, robot=a.robot
+            output_dir(a.out, Path("runs/tune")),
+            preset=a.preset,
+            config=a.config,
+            quick=a.quick,
+            robot=a.robot,
+            controller=a.controller,
         ),
     )
     p.add_argument("--out", type=Path, help="output directory (default runs/tune)")
     _stack_options(p, seed=False)
+    _controller_option(p)  # a law of one's own: its gain=True parameters, searched on the in-process loop
     p.add_argument("--quick", action="store_true", help="a short search and short checks")
     p = _verb(
         sub,
@@ -253,9 +307,12 @@ def _experiment_verbs(sub) -> None:
         sub,
         "faults",
         "freeze each node mid-motion (SIGSTOP) and measure what the arm did",
-        lambda a: verbs.faults(output_dir(a.out, Path("runs/faults")), quick=a.quick, robot=a.robot),
+        lambda a: verbs.faults(
+            output_dir(a.out, Path("runs/faults")), quick=a.quick, robot=a.robot, controller=a.controller
+        ),
     )
     _robot_option(p)
+    _controller_option(p)
     p.add_argument("--out", type=Path, help="output directory (default runs/faults)")
     p.add_argument("--quick", action="store_true", help="two cases: sensor and controller frozen 0.5 s")
 

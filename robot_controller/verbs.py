@@ -177,10 +177,12 @@ def step(
     config: list[Path] | None,
     sim_time: bool,
     robot: str = "one_dof",
+    controller: str | None = None,
 ) -> int:
     from robot_controller.experiments import step as experiments
+    from robot_controller.experiments.laws import with_controller
 
-    params = cfg.load_stack(preset, config, robot)
+    params = with_controller(cfg.load_stack(preset, config, robot), controller)
     config_check.check_stack(experiments.step_params(params, amplitude, shaping))
     out = output_dir(out, Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S")))
     try:
@@ -196,13 +198,29 @@ def step(
     return 0
 
 
-def compare(*, out: Path, seeds: int, duration_s: float, amplitude: float, robot: str = "one_dof") -> int:
+def compare(
+    *,
+    out: Path,
+    seeds: int,
+    duration_s: float,
+    amplitude: float,
+    robot: str = "one_dof",
+    controllers: list[str] | None = None,
+    in_process: bool = False,
+) -> int:
     from robot_controller.experiments import compare as experiments
 
     try:
-        with StepProgress("compare", len(experiments.CONTENDERS) * seeds) as progress:
+        with StepProgress("compare", len(experiments.contenders(controllers)) * seeds) as progress:
             experiments.compare(
-                out, seeds=seeds, sine_duration_s=duration_s, amplitude=amplitude, progress=progress, robot=robot
+                out,
+                seeds=seeds,
+                sine_duration_s=duration_s,
+                amplitude=amplitude,
+                progress=progress,
+                robot=robot,
+                controllers=controllers,
+                in_process=in_process,
             )
     except (RuntimeError, ValueError, FileExistsError) as exc:
         print(f"robot-controller: {exc}", file=sys.stderr)
@@ -214,12 +232,12 @@ def compare(*, out: Path, seeds: int, duration_s: float, amplitude: float, robot
     return 0
 
 
-def faults(out: Path, *, quick: bool, robot: str = "one_dof") -> int:
+def faults(out: Path, *, quick: bool, robot: str = "one_dof", controller: str | None = None) -> int:
     from robot_controller.experiments import faults as faults_module
 
     try:
         with StepProgress("faults", len(faults_module.cases(quick))) as progress:
-            faults_module.faults(out, quick=quick, progress=progress, robot=robot)
+            faults_module.faults(out, quick=quick, progress=progress, robot=robot, controller=controller)
     except (RuntimeError, ValueError, FileExistsError) as exc:
         print(f"robot-controller: {exc}", file=sys.stderr)
         return 1
@@ -278,21 +296,49 @@ def print_table(values: dict, title: str, headline: tuple[str, ...] = HEADLINE) 
 EXERCISE_NAMES = ("tune", "disturbance", "windup", "lqr")
 
 
-def exercise(name: str, out: Path, *, quick: bool) -> int:
+#: The exercises that take ``--controller`` (the law runs beside their own contenders).
+EXERCISES_WITH_CONTROLLER = ("disturbance",)
+
+
+def exercise(name: str, out: Path, *, quick: bool, controller: str | None = None) -> int:
     from robot_controller.experiments.exercises import EXERCISES
 
+    if controller is not None and name not in EXERCISES_WITH_CONTROLLER:
+        raise UsageError(f"--controller: exercise {name} compares its own controllers; it applies to disturbance")
     chosen = EXERCISES[name]
-    with StepProgress(f"exercise {name}", chosen.steps(quick)) as progress:
-        chosen.run(out, quick=quick, progress=progress)
+    extra = {} if controller is None else {"controller": controller}
+    with StepProgress(f"exercise {name}", chosen.steps(quick) + len(extra)) as progress:
+        chosen.run(out, quick=quick, progress=progress, **extra)
     print((out / "report.md").read_text())
     return 0
 
 
-def tune(out: Path, *, preset: str, config: list[Path] | None, quick: bool, robot: str = "one_dof") -> int:
+def tune(
+    out: Path,
+    *,
+    preset: str,
+    config: list[Path] | None,
+    quick: bool,
+    robot: str = "one_dof",
+    controller: str | None = None,
+) -> int:
+    from robot_controller.experiments import laws
     from robot_controller.experiments import tune as tune_module
 
-    params = cfg.load_stack(preset, config, robot)
+    params = laws.with_controller(cfg.load_stack(preset, config, robot), controller)
     config_check.check_stack(params)
+    if laws.is_plugin(params["pid_controller"]["controller_type"]):  # a law of one's own: on the in-process loop
+        from robot_controller.experiments.tune import law as law_tune
+
+        try:
+            with StepProgress("tune", law_tune.steps(quick)) as progress:
+                law_tune.tune_law(params, out, quick=quick, progress=progress)
+        except RuntimeError as exc:  # nothing in the search met the margins
+            print(f"robot-controller: {exc}", file=sys.stderr)
+            return 1
+        print((out / "report.md").read_text())
+        print(f"robot-controller: use it with --config {out / 'tuned.yaml'}")
+        return 0
     if params["trajectory_planner"]["joint_count"] > 1:
         raise UsageError(
             f"--robot {robot}: tune designs one joint's gains; on a chain of joints the LQR's weights serve "

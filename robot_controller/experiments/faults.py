@@ -177,10 +177,19 @@ def cases(quick: bool) -> list[Case]:
 
 
 def faults(
-    out: Path, *, quick: bool = False, progress: Callable[[str], None] = print, robot: str = "one_dof"
+    out: Path,
+    *,
+    quick: bool = False,
+    progress: Callable[[str], None] = print,
+    robot: str = "one_dof",
+    controller: str | None = None,
 ) -> list[dict[str, Any]]:
+    """Every case (:func:`cases`) on the default stack; ``controller``: with that law
+    (pid_controller's ``controller_type``, as ``--controller`` names it)."""
+    from robot_controller.experiments.laws import with_controller
+
+    params = with_controller(cfg.load_stack(robot=robot), controller)
     out.mkdir(parents=True, exist_ok=True)
-    params = cfg.load_stack(robot=robot)
     entries = []
     for case in cases(quick):
         progress(
@@ -189,7 +198,8 @@ def faults(
             + f" at t = {fault_time_s(params):g} s"
         )
         entries.append(run_case(case, out / case.name, params))
-    report.write_metrics(out / "faults.json", {"robot": robot, "cases": entries, **headline(entries)})
+    summary = {"robot": robot, "controller_type": params["pid_controller"]["controller_type"]}
+    report.write_metrics(out / "faults.json", summary | {"cases": entries, **headline(entries)})
     (out / "faults.md").write_text(render(entries, robot, params))
     return entries
 
@@ -214,7 +224,8 @@ def render(entries: list[dict[str, Any]], robot: str = "one_dof", params: cfg.Pa
     lines = [
         "# Faults: each node frozen mid-motion",
         "",
-        f"Robot {robot}, default preset, wall clock, sine of {planner['amplitude']} rad at "
+        f"Robot {robot}, default preset (controller_type {params['pid_controller']['controller_type']}), "
+        f"wall clock, sine of {planner['amplitude']} rad at "
         f"{planner['frequency_hz']:g} Hz. At {fault_time_s(params):g} s (peak speed) one node gets "
         "SIGSTOP, then SIGCONT after the duration; or SIGKILL, and the launcher respawns it "
         "(`run --respawn`). Deviation: how far the TRUE angle left the band the "

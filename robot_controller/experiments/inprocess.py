@@ -29,6 +29,7 @@ def simulate(
     delay_unstamped: bool = False,
     disturbance: Disturbance | None = None,
     on_warning: Callable[[str], None] | None = None,
+    actuator_gain: float = 1.0,
 ) -> LoopResult:
     """``duration_s`` seconds of the loop from ``params`` (see :func:`run_loop`):
     :func:`prepare`'s loop, run (the same arguments)."""
@@ -40,6 +41,7 @@ def simulate(
         delay_unstamped=delay_unstamped,
         disturbance=disturbance,
         on_warning=on_warning,
+        actuator_gain=actuator_gain,
     )()
 
 
@@ -52,6 +54,7 @@ def prepare(
     delay_unstamped: bool = False,
     disturbance: Disturbance | None = None,
     on_warning: Callable[[str], None] | None = None,
+    actuator_gain: float = 1.0,
 ) -> Callable[[], LoopResult]:
     """The loop from ``params``, built and ready to run: call it for
     ``duration_s`` seconds of :func:`run_loop`. Everything set up once (the
@@ -65,6 +68,11 @@ def prepare(
     ``feasibility`` says (:func:`~robot_controller.parameters.consistency.trajectory_plan`,
     on the controller's arm model). ``on_warning`` receives the planner's
     one-line warning when there is one (slowed, or run as it is).
+
+    ``actuator_gain``: the drive applies this many times the command (before its
+    torque limit), so the loop's gain is that much off what the controller
+    expects; 1 is the real drive. ``tune --controller`` checks a law's gain
+    margins with it.
 
     :raises ConfigError: the planner's one line, when it refuses the trajectory
     """
@@ -85,7 +93,9 @@ def prepare(
         dict(ctrl, lockstep=True), n
     )  # each command acts from its tick, as in lockstep
     controller = JointController(controller_config, n, dynamics)
-    actuator = Actuator(torque_limit(motor, n), motor["lag_time_constant_s"])
+    actuator = (Actuator if actuator_gain == 1.0 else partial(ScaledActuator, actuator_gain))(
+        torque_limit(motor, n), motor["lag_time_constant_s"]
+    )
     return partial(
         run_loop,
         plant=plant,
@@ -102,3 +112,14 @@ def prepare(
         disturbance=disturbance,
         brake_torque_nm=sim["brake_torque_nm"],
     )
+
+
+class ScaledActuator(Actuator):
+    """An actuator that applies ``gain`` times the command, within the same torque limit."""
+
+    def __init__(self, gain: float, torque_max: np.ndarray, lag_time_constant_s: float = 0.0) -> None:
+        super().__init__(torque_max, lag_time_constant_s)
+        self.gain = float(gain)
+
+    def apply(self, command: np.ndarray, dt: float) -> np.ndarray:
+        return super().apply(self.gain * np.asarray(command, dtype=float), dt)

@@ -58,8 +58,25 @@ def steps(quick: bool = False) -> int:
     return len(_plan(quick)["contenders"])
 
 
-def contender_params(name: str, seed: int, duration_s: float, torque_nm: float = TORQUE_NM) -> cfg.Params:
-    preset, overrides, _ = CONTENDERS[name]
+def law_contender(spec: str) -> tuple[str, tuple[str, dict[str, Any], str]]:
+    """``--controller SPEC``'s contender: that law with the default stack, named by its class."""
+    from robot_controller.experiments import laws
+
+    chosen = laws.controller_type(spec)
+    name = laws.label(spec)
+    if name in CONTENDERS:
+        name = f"law_{name}"
+    return name, ("default", {"pid_controller": {"controller_type": chosen}}, f"{spec} with the default stack")
+
+
+def contender_params(
+    name: str,
+    seed: int,
+    duration_s: float,
+    torque_nm: float = TORQUE_NM,
+    contenders: dict[str, tuple[str, dict[str, Any], str]] = CONTENDERS,
+) -> cfg.Params:
+    preset, overrides, _ = contenders[name]
     return cfg.merge(
         cfg.load_stack(preset),
         overrides,
@@ -130,9 +147,17 @@ def push_effect(
     return common * 1e-6, e_pushed[i_pushed] - e_plain[i_plain]
 
 
-def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int = SEED) -> dict[str, Any]:
-    out.mkdir(parents=True, exist_ok=True)
+def run(
+    out: Path, *, quick: bool = False, progress: Progress = print, seed: int = SEED, controller: str | None = None
+) -> dict[str, Any]:
+    """``controller`` (``--controller SPEC``): that law runs too, after the others, with the default stack."""
+    contenders = dict(CONTENDERS)
     plan = _plan(quick)
+    if controller is not None:
+        name, contender = law_contender(controller)
+        contenders[name] = contender
+        plan = plan | {"contenders": (*plan["contenders"], name), "descriptions": contenders}
+    out.mkdir(parents=True, exist_ok=True)
     duration_s = START_S + plan["after_s"]
     results: dict[str, Any] = {"quick": int(quick), "seed": seed, "torque_nm": TORQUE_NM, "start_s": START_S}
     traces = {}
@@ -142,7 +167,7 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
             label = "pushed" if torque_nm else "undisturbed"
             progress(f"{name}, {label}: {torque_nm:g} N·m from t = {START_S:g} s")
             _, recording = run_and_score(
-                contender_params(name, seed, duration_s, torque_nm),
+                contender_params(name, seed, duration_s, torque_nm, contenders),
                 out / name / label,
                 duration_s=duration_s,
                 sim_time=True,
@@ -193,7 +218,7 @@ def _report(results: dict[str, Any], plan: dict[str, Any], quick: bool) -> str:
     for name in plan["contenders"]:
         rows.append(
             [
-                f"**{name}**: {CONTENDERS[name][2]}",
+                f"**{name}**: {plan.get('descriptions', CONTENDERS)[name][2]}",
                 fmt(results[f"{name}_peak_deviation_rad"] * 1e3, "{:.1f}"),
                 fmt(results[f"{name}_recovery_s"], "{:.2f}", never),
                 fmt(results[f"{name}_before_max_rad"] * 1e3, "{:.1f}"),

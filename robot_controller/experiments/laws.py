@@ -1,0 +1,52 @@
+"""``--controller SPEC`` for the experiments: the law an experiment runs, as
+pid_controller's ``controller_type`` names it (``pid``, ``lqr``, an installed
+law's name, ``package.module:Class`` or ``path/to/file.py:Class``).
+
+The spec is resolved at once, so a bad one is the one line of its
+``ConfigError`` before anything runs; a file's path is made absolute, so the
+nodes and worker processes find it whatever their directory.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from robot_controller import parameters as cfg
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.laws import registry
+
+
+def controller_type(spec: str) -> str:
+    """``spec`` checked (its class loads) and as the nodes get it: a file's path absolute."""
+    spec = spec.strip()
+    try:
+        registry.resolve(spec)
+    except ConfigError as exc:
+        raise ConfigError("--controller: " + str(exc).removeprefix("controller_type: ")) from None
+    where, colon, name = spec.rpartition(":")
+    if colon and (where.endswith(".py") or "/" in where):
+        return f"{Path(where).expanduser().resolve()}:{name}"
+    return spec
+
+
+def with_controller(params: cfg.Params, spec: str | None) -> cfg.Params:
+    """``params`` with pid_controller's ``controller_type`` set to ``spec`` (unchanged for None)."""
+    if spec is None:
+        return params
+    return cfg.merge(params, {"pid_controller": {"controller_type": controller_type(spec)}})
+
+
+def is_law(name: str) -> bool:
+    """Whether ``name`` names a law rather than a configuration: ``module:Class``,
+    ``file.py:Class``, or an installed law's name."""
+    return ":" in name or name in registry.installed_laws()
+
+
+def is_plugin(spec: str) -> bool:
+    """A law of one's own, not the built-in ``pid`` or ``lqr``."""
+    return not registry.is_builtin(spec.strip())
+
+
+def label(spec: str) -> str:
+    """A short name for ``spec``: the class name of ``…:Class``, else the spec."""
+    return spec.strip().rpartition(":")[2]
