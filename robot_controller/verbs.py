@@ -112,8 +112,9 @@ def run(
     except ValueError as exc:
         launcher.say(f"cannot score the recording: {exc}")
         return result.exit_code or 1
-    ended_early = result.interrupted or result.failure is not None
-    recorded_s = result.control_seconds if ended_early or not sim_time else duration_s
+    recorded_s = result.control_seconds if result.interrupted or not sim_time else duration_s
+    if sim_time and result.failure is not None and values.get("recorded_duration_s") is not None:
+        recorded_s = min(recorded_s, values["recorded_duration_s"])  # ended early: the ticks' own span (seeded)
     values.update(
         {
             "duration_s": round(recorded_s, 3),
