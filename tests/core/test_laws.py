@@ -89,6 +89,7 @@ def test_declared_parameters_take_their_defaults_and_the_values_given():
         ({"natural_frequency_hz": 100.0}, "law.natural_frequency_hz: must be <= 30"),
         ({"natural_frequency_hz": "fast"}, "law.natural_frequency_hz: expected a number"),
         ({"stiffness": 1.0}, "law.stiffness: PDWithGravity declares no such parameter"),
+        ({"damping_ratio": [1.0, 2.0]}, "law.damping_ratio: expected one number"),
     ],
 )
 def test_a_bad_parameter_value_is_refused_naming_it(values, says):

@@ -60,6 +60,8 @@ def check(parameter: Parameter, value: Any) -> Any:
             raise ConfigError(f"{name}: expected a string, got {value!r}")
         return value
     if isinstance(value, (list, tuple, np.ndarray)) or (hasattr(value, "typecode") and hasattr(value, "tolist")):
+        if not parameter.per_joint and not isinstance(default, (list, tuple)):
+            raise ConfigError(f"{name}: expected one number, got {list(value)!r}")
         numbers = [_number(name, parameter, v) for v in list(value)]
         if not numbers:
             raise ConfigError(f"{name}: expected a number or a non-empty list of numbers")
