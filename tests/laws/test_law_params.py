@@ -98,7 +98,7 @@ def test_params_lists_the_laws_parameters_with_default_range_and_description(tmp
     lines = {line.split(" = ")[0].strip(): line for line in capsys.readouterr().out.splitlines() if " = " in line}
     frequency = lines["law.natural_frequency_hz"]
     assert "= 5.0" in frequency and "closed-loop bandwidth" in frequency and "[>= 0.5; <= 30]" in frequency
-    assert "default 8.0" in frequency and "PDWithGravity" in frequency
+    assert "default 4.0" in frequency and "PDWithGravity" in frequency
     assert "law.damping_ratio" in lines
     assert cli.main(["params"]) == 0  # a built-in law: no law.* at all
     assert "law.natural_frequency_hz" not in capsys.readouterr().out
