@@ -7,8 +7,9 @@ joint, or takes longer than its budget on OVERRUN_TICKS ticks running
 time is not checked, as in the deterministic in-process loop). One long call
 alone is not a fault: on a busy machine the process can lose the CPU for
 several milliseconds in the middle of a call that itself takes microseconds,
-while a law that is really too slow (or blocks) is slow on every tick. The controller answers a fault with a controlled stop on
-its built-in law; the law is never called again.
+while a law that is really too slow (or blocks) is slow on every tick.
+The controller answers a fault with a controlled stop on its built-in law;
+the law is never called again.
 """
 
 from __future__ import annotations
