@@ -33,3 +33,8 @@ clean:
 .PHONY: chromium
 chromium:
 	command -v chromium >/dev/null || (apt-get update && apt-get install -y --no-install-recommends chromium)
+
+# nftables, for the network bench's packet loss (robot-controller network; tests/network).
+.PHONY: nftables
+nftables:
+	command -v nft >/dev/null || (apt-get update && apt-get install -y --no-install-recommends nftables)

@@ -315,6 +315,20 @@ def _experiment_verbs(sub) -> None:
     _controller_option(p)
     p.add_argument("--out", type=Path, help="output directory (default runs/faults)")
     p.add_argument("--quick", action="store_true", help="two cases: sensor and controller frozen 0.5 s")
+    p = _verb(
+        sub,
+        "network",
+        "the loop split over two network namespaces: loss, a bandwidth cap, a cut link (needs root)",
+        lambda a: _network(a.out, a.quick),
+    )
+    p.add_argument("--out", type=Path, help="output directory (default runs/network)")
+    p.add_argument("--quick", action="store_true", help="a short subset (the test suite's)")
+
+
+def _network(out: Path | None, quick: bool) -> int:
+    from robot_controller.network import bench
+
+    return bench.main(output_dir(out, Path("runs/network")), quick=quick)
 
 
 def _graph_verbs(sub) -> None:

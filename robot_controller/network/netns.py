@@ -1,0 +1,342 @@
+"""Two hosts on one machine: network namespaces joined by a veth pair, the
+commands run inside them, and the impairments of the link.
+
+The "robot host" (10.203.0.1/24) and the "control host" (10.203.0.2/24) are
+two network namespaces, each with its loopback up and one end of a veth
+pair; nothing else is routed, so whatever runs inside them can reach only
+the other one. Impairments act on both ends (each direction alike):
+
+- packet loss: an nftables table of the bench's own in each namespace,
+  ``numgen random mod 100 < N drop`` on what arrives from the veth (this kernel has no
+  ``netem`` qdisc: checked);
+- a bandwidth cap: the ``tbf`` qdisc on each end;
+- a cut: the robot end set down, then up.
+
+Everything is created under names carrying this process's id and removed on
+exit, on Ctrl-C or SIGTERM and on an error (``Link`` is a context manager;
+the processes started in the namespaces are stopped first, since a process
+keeps its namespace alive). A namespace left by an earlier run that was
+killed (its process id no longer alive) is removed before anything is made.
+
+The command builders are plain functions of their arguments; ``Link`` runs them.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import shutil
+import signal
+import subprocess
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from robot_controller.runner.forking import die_with_parent
+
+PREFIX_LENGTH = 24
+NAME_PREFIX = "rcnet"
+TABLE = "robot_controller_bench"  #: the nftables table the bench creates in each namespace
+_LEFTOVER = re.compile(rf"^{NAME_PREFIX}-(\d+)-(robot|control)$")
+CAP_NET_ADMIN = 12
+STOP_GRACE_S = 15.0  #: a launcher stops its nodes and scores its run: give it time before SIGKILL
+
+
+class NetworkBenchUnavailable(RuntimeError):
+    """The machine cannot host the bench (privilege, a missing tool): one line for the user, exit 2."""
+
+
+@dataclass(frozen=True)
+class Host:
+    role: str  #: "robot" or "control"
+    namespace: str
+    device: str  #: its end of the veth pair
+    address: str  #: without the prefix length
+
+
+def hosts(pid: int | None = None) -> tuple[Host, Host]:
+    """The robot host and the control host of the bench run by process ``pid`` (default: this one)."""
+    pid = os.getpid() if pid is None else pid
+    return (
+        Host("robot", f"{NAME_PREFIX}-{pid}-robot", "rc-robot", "10.203.0.1"),
+        Host("control", f"{NAME_PREFIX}-{pid}-control", "rc-control", "10.203.0.2"),
+    )
+
+
+# -- the commands (functional core) ------------------------------------------------
+
+
+def setup_commands(robot: Host, control: Host) -> list[list[str]]:
+    """Create both namespaces and the veth pair straight inside them (it never exists outside), address and raise it."""
+    commands = [["ip", "netns", "add", robot.namespace], ["ip", "netns", "add", control.namespace]]
+    commands.append(
+        ["ip", "link", "add", robot.device, "netns", robot.namespace, "type", "veth"]
+        + ["peer", "name", control.device, "netns", control.namespace]
+    )
+    for host in (robot, control):
+        commands += [
+            ["ip", "-n", host.namespace, "link", "set", "lo", "up"],
+            ["ip", "-n", host.namespace, "addr", "add", f"{host.address}/{PREFIX_LENGTH}", "dev", host.device],
+            ["ip", "-n", host.namespace, "link", "set", host.device, "up"],
+        ]
+    return commands
+
+
+def teardown_commands(robot: Host, control: Host) -> list[list[str]]:
+    """Remove what ``setup_commands`` and the impairments made; each may fail harmlessly (already gone)."""
+    commands = []
+    for host in (robot, control):
+        commands += clear_commands(host)
+    commands.append(["ip", "-n", robot.namespace, "link", "del", robot.device])  # both ends go
+    commands += [["ip", "netns", "del", robot.namespace], ["ip", "netns", "del", control.namespace]]
+    return commands
+
+
+def in_namespace(host: Host, argv: list[str]) -> list[str]:
+    return ["ip", "netns", "exec", host.namespace, *argv]
+
+
+def loss_ruleset(device: str, percent: int) -> str:
+    """An nftables script: the bench's table, dropping ``percent`` % of the packets arriving on ``device`` at
+    random. On arrival, not on departure: a packet dropped on its way out fails the sender's ``sendto`` (EPERM),
+    which a lost packet on a real link does not."""
+    if not 0 <= percent <= 100 or int(percent) != percent:
+        raise ValueError(f"packet loss must be a whole percentage 0..100, got {percent}")
+    return (
+        f"table inet {TABLE} {{\n"
+        "  chain loss {\n"
+        "    type filter hook input priority 0; policy accept;\n"
+        f'    iifname "{device}" numgen random mod 100 < {int(percent)} counter drop\n'
+        "  }\n"
+        "}\n"
+    )
+
+
+def loss_commands(host: Host, percent: int) -> tuple[list[str], str]:
+    """The command and the script (its standard input) that install the loss in ``host``."""
+    return in_namespace(host, ["nft", "-f", "-"]), loss_ruleset(host.device, percent)
+
+
+def rate_command(host: Host, rate_kbit: int, burst_bytes: int, latency_ms: float) -> list[str]:
+    """A token bucket on ``host``'s end of the link: ``rate_kbit`` kbit/s, a burst, and a queue of ``latency_ms``."""
+    return ["ip", "netns", "exec", host.namespace, "tc", "qdisc", "replace", "dev", host.device, "root", "tbf"] + [
+        "rate",
+        f"{int(rate_kbit)}kbit",
+        "burst",
+        str(int(burst_bytes)),
+        "latency",
+        f"{latency_ms:g}ms",
+    ]
+
+
+def clear_commands(host: Host) -> list[list[str]]:
+    """Remove the bench's loss table and any qdisc from ``host``'s end of the link."""
+    return [
+        in_namespace(host, ["nft", "delete", "table", "inet", TABLE]),
+        ["ip", "netns", "exec", host.namespace, "tc", "qdisc", "del", "dev", host.device, "root"],
+    ]
+
+
+def link_command(host: Host, up: bool) -> list[str]:
+    return ["ip", "-n", host.namespace, "link", "set", host.device, "up" if up else "down"]
+
+
+def leftover_namespaces(listing: str, alive: set[int] | None = None) -> list[str]:
+    """The bench's namespaces in ``ip netns list``'s output whose creator is no longer alive."""
+    names = []
+    for line in listing.splitlines():
+        name = line.split(" ", 1)[0].strip()
+        match = _LEFTOVER.match(name)
+        if not match:
+            continue
+        pid = int(match.group(1))
+        running = pid in alive if alive is not None else Path(f"/proc/{pid}").exists()
+        if not running:
+            names.append(name)
+    return names
+
+
+def has_net_admin(status_text: str) -> bool:
+    """Whether ``/proc/self/status`` grants CAP_NET_ADMIN in the effective set."""
+    for line in status_text.splitlines():
+        if line.startswith("CapEff:"):
+            return bool(int(line.split()[1], 16) >> CAP_NET_ADMIN & 1)
+    return False
+
+
+# -- running them (imperative shell) -----------------------------------------------
+
+
+def check_machine(*, need_nft: bool = True) -> None:
+    """Raise ``NetworkBenchUnavailable`` with one line if the bench cannot run here."""
+    if not has_net_admin(Path("/proc/self/status").read_text()):
+        raise NetworkBenchUnavailable(
+            "needs root (CAP_NET_ADMIN) to create network namespaces and links: run it with sudo"
+        )
+    for tool in ("ip", "tc"):
+        if shutil.which(tool) is None:
+            raise NetworkBenchUnavailable(f"`{tool}` (iproute2) is not installed: apt-get install iproute2")
+    if need_nft and shutil.which("nft") is None:
+        raise NetworkBenchUnavailable("`nft` is not installed (packet loss uses nftables): run `make nftables`")
+
+
+def _run(argv: list[str], *, stdin: str | None = None, check: bool = True) -> subprocess.CompletedProcess:
+    done = subprocess.run(argv, input=stdin, capture_output=True, text=True, timeout=30)
+    if check and done.returncode != 0:
+        raise RuntimeError(f"{' '.join(argv)}: {done.stderr.strip() or f'exit {done.returncode}'}")
+    return done
+
+
+def remove_leftovers() -> list[str]:
+    """Delete namespaces left by a bench that was killed (SIGKILL leaves no time to clean); their names."""
+    listing = _run(["ip", "netns", "list"], check=False).stdout
+    names = leftover_namespaces(listing)
+    for name in names:
+        _run(["ip", "netns", "del", name], check=False)
+    return names
+
+
+def _raise_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+class Link:
+    """The two hosts and their link, for the length of a ``with`` block.
+
+    Inside it SIGTERM and SIGHUP end the block as Ctrl-C does (``KeyboardInterrupt``),
+    so the cleanup runs whatever ends it; on leaving, the processes started with
+    ``spawn`` are stopped (SIGINT, then SIGKILL after ``STOP_GRACE_S``), then
+    every table, qdisc, link and namespace is removed, with further signals held off.
+    """
+
+    def __init__(self) -> None:
+        self.robot, self.control = hosts()
+        self.processes: list[subprocess.Popen] = []
+        self.removed_leftovers: list[str] = []
+        self._previous: dict[int, object] = {}
+        self._up = True
+
+    # -- lifetime
+    def __enter__(self) -> Link:
+        for signum in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT):
+            self._previous[signum] = signal.signal(signum, _raise_interrupt)
+        try:
+            self.removed_leftovers = remove_leftovers()
+            for argv in setup_commands(self.robot, self.control):
+                _run(argv)
+        except BaseException:
+            self._teardown()
+            raise
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self._teardown()
+
+    def _teardown(self) -> None:
+        held = {signum: signal.signal(signum, signal.SIG_IGN) for signum in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            self.stop_processes()
+            for argv in teardown_commands(self.robot, self.control):
+                _run(argv, check=False)
+        finally:
+            for signum, previous in self._previous.items():
+                signal.signal(signum, previous)
+            for signum in held:
+                if signum not in self._previous:
+                    signal.signal(signum, held[signum])
+            self._previous.clear()
+
+    # -- processes
+    def spawn(self, host: Host, argv: list[str], *, env: dict[str, str] | None = None, log: Path | None = None):
+        """Start ``argv`` inside ``host``'s namespace, in a session of its own (a Ctrl-C reaches it
+        once, from here), dying with this process; output to ``log`` (or discarded)."""
+        out = open(log, "w") if log is not None else subprocess.DEVNULL  # noqa: SIM115 - closed with the process
+        try:
+            process = subprocess.Popen(
+                in_namespace(host, argv),
+                env=env,
+                stdin=subprocess.DEVNULL,
+                stdout=out,
+                stderr=subprocess.STDOUT,
+                start_new_session=True,
+                preexec_fn=die_with_parent,
+            )
+        finally:
+            if log is not None:
+                out.close()
+        self.processes.append(process)
+        return process
+
+    def stop_processes(self, grace_s: float = STOP_GRACE_S) -> None:
+        running = [p for p in self.processes if p.poll() is None]
+        for process in running:
+            with contextlib.suppress(ProcessLookupError):
+                process.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + grace_s
+        for process in running:
+            try:
+                process.wait(timeout=max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(process.pid, signal.SIGKILL)
+                process.wait()
+        self.processes = []
+
+    # -- impairments
+    def set_loss(self, percent: int) -> None:
+        """``percent`` % of the packets lost in each direction (0: none)."""
+        for host in (self.robot, self.control):
+            _run(in_namespace(host, ["nft", "delete", "table", "inet", TABLE]), check=False)
+            if percent:
+                argv, script = loss_commands(host, percent)
+                _run(argv, stdin=script)
+
+    def set_rate(self, rate_kbit: int, burst_bytes: int = 4096, latency_ms: float = 50.0) -> None:
+        for host in (self.robot, self.control):
+            _run(rate_command(host, rate_kbit, burst_bytes, latency_ms))
+
+    def clear(self) -> None:
+        for host in (self.robot, self.control):
+            for argv in clear_commands(host):
+                _run(argv, check=False)
+        self.set_up(True)
+
+    def set_up(self, up: bool) -> None:
+        _run(link_command(self.robot, up))
+        self._up = up
+
+    def cut(self, seconds: float) -> tuple[float, float]:
+        """The link down for ``seconds``; returns when it went down and came back (system time)."""
+        self.set_up(False)
+        down_at = time.time()
+        try:
+            time.sleep(seconds)
+        finally:
+            self.set_up(True)
+        return down_at, time.time()
+
+    def dropped(self) -> int:
+        """Packets the loss rules have dropped, both ends together (their counters)."""
+        total = 0
+        for host in (self.robot, self.control):
+            done = _run(in_namespace(host, ["nft", "list", "table", "inet", TABLE]), check=False)
+            total += sum(int(n) for n in re.findall(r"counter packets (\d+)", done.stdout))
+        return total
+
+    def counters(self) -> dict[str, int]:
+        """Bytes and packets the robot end has sent and received (``/sys/class/net`` inside its namespace)."""
+        out = {}
+        for name in ("tx_bytes", "rx_bytes", "tx_packets", "rx_packets", "tx_dropped"):
+            done = _run(in_namespace(self.robot, ["cat", f"/sys/class/net/{self.robot.device}/statistics/{name}"]))
+            out[name] = int(done.stdout.strip())
+        return out
+
+
+@contextlib.contextmanager
+def link() -> Iterator[Link]:
+    """``with link() as net:`` the two hosts, checked for privilege and tools first."""
+    check_machine()
+    with Link() as made:
+        yield made
