@@ -128,6 +128,58 @@ def _stack_options(parser: argparse.ArgumentParser, *, seed: bool = True) -> Non
         parser.add_argument("--seed", type=int, default=0, help="sensor noise seed (default 0)")
 
 
+def node_list(text: str) -> tuple[str, ...]:
+    from robot_controller.runner.plan import check_nodes
+
+    try:
+        return check_nodes(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def peer_list(text: str) -> list[str]:
+    from robot_controller.ros.partition import check_peers
+
+    try:
+        return check_peers(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def run_name(text: str) -> str:
+    from robot_controller.ros.partition import check_run_id
+
+    try:
+        return check_run_id(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _split_options(parser: argparse.ArgumentParser) -> None:
+    """``run``'s options for part of the graph, across hosts (docs/design.md §6, "Across hosts")."""
+    parser.add_argument(
+        "--nodes",
+        type=node_list,
+        metavar="A,B,...",
+        help="start only these of simulator, motor_node, sensor_node, pid_controller, trajectory_planner "
+        "(default all); the launcher with the simulator records and scores",
+    )
+    parser.add_argument(
+        "--peers",
+        type=peer_list,
+        metavar="ADDR[,ADDR]",
+        help="the other hosts' IPv4 addresses: discovery by unicast to them, UDPv4 only (no shared memory)",
+    )
+    parser.add_argument("--run-id", type=run_name, metavar="NAME", help="the run's name, the same on every launcher")
+    parser.add_argument(
+        "--wait",
+        type=positive_seconds,
+        default=60.0,
+        metavar="S",
+        help="give up if the whole graph is not there within S seconds (default 60)",
+    )
+
+
 def _loop_verbs(sub) -> None:
     p = _verb(
         sub,
@@ -145,6 +197,10 @@ def _loop_verbs(sub) -> None:
             sim_time=a.sim_time,
             respawn=a.respawn,
             view_port=a.view_port if a.view else None,
+            nodes=a.nodes,
+            peers=a.peers,
+            run_id=a.run_id,
+            wait_s=a.wait,
         ),
     )
     p.add_argument("--duration", type=positive_seconds, default=20.0, help="seconds of control to record (default 20)")
@@ -168,6 +224,7 @@ def _loop_verbs(sub) -> None:
     )
     p.add_argument("--view", action="store_true", help="live 3D view and plots in the browser (rerun)")
     p.add_argument("--view-port", type=port, default=9090, help="port of the live view (default 9090)")
+    _split_options(p)
     p = _verb(sub, "score", "re-score a run directory from its bag", lambda a: verbs.score(a.run_dir, as_json=a.json))
     p.add_argument("run_dir", type=Path)
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")

@@ -80,8 +80,15 @@ def run(
     sim_time: bool = False,
     respawn: bool = False,
     view_port: int | None = None,
+    nodes: tuple[str, ...] | None = None,
+    peers: list[str] | None = None,
+    run_id: str | None = None,
+    wait_s: float | None = None,
 ) -> int:
-    from robot_controller.runner import launcher
+    """``nodes``/``peers``/``run_id``/``wait_s``: part of the graph, across hosts
+    (docs/design.md §6): the launcher with the simulator records and scores as
+    always; one without it records nothing and says what it ran."""
+    from robot_controller.runner import launcher, supervise
     from robot_controller.scoring import plots, report
 
     params = cfg.load_stack(preset, config, robot)
@@ -97,7 +104,18 @@ def run(
         sim_time=sim_time,
         respawn=respawn,
         view_port=view_port,
+        nodes=nodes,
+        peers=peers,
+        run_id=run_id,
+        wait_s=supervise.GRAPH_WAIT_S if wait_s is None else wait_s,
     )
+    if not result.recorded:  # the other launcher records and scores the loop
+        if result.end_reason is not None:
+            launcher.say(
+                f"ran {', '.join(result.local_nodes)} for {result.wall_seconds:.1f} s; {result.end_reason} "
+                "(the launcher with the simulator recorded and scored it)"
+            )
+        return result.exit_code
     if result.interrupted:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # scoring takes a second: let it finish
     if result.exit_code != 0 and not any(result.message_counts.values()):
@@ -126,6 +144,8 @@ def run(
             "clock": "sim_lockstep" if sim_time else "wall",
         }
     )
+    if nodes is not None and len(result.local_nodes) < 5:  # a split run: what ran here (the rest elsewhere)
+        values["nodes_here"] = ",".join(result.local_nodes)
     # Wall-clock figures of a lockstep run differ run to run: keep them out of metrics.json.
     wall = {"real_time_factor": result.real_time_factor, "wall_duration_s": result.wall_seconds}
     # How many messages the bag misses depends on when the nodes stopped, not on the seed.

@@ -24,11 +24,35 @@ DDS-Security, which the PyPI Fast DDS is built without.
 An observer that should hear every run (the tests' probe, a viewer) uses
 ``write_observer_profile``: it reads from and writes into the default
 partition and every named one.
+
+**Across hosts** (``run --peers``, docs/design.md §6 "Across hosts"): each
+launcher of a split run derives the partition from the run's name
+(:func:`run_partition`), so both sides meet in one partition without
+exchanging anything, and the profile (:func:`write_run_profile` with
+``peers``) makes the participants speak UDPv4 only, and discover by unicast:
+
+- the builtin transports are disabled (``<useBuiltinTransports>false``) and
+  one UDPv4 transport is declared (``<transport_descriptors>`` and
+  ``<userTransports>``): Fast DDS would otherwise use shared memory between
+  participants it believes share a host, and two network namespaces of one
+  machine do share ``/dev/shm``, so a "remote" link would silently bypass
+  the network under test. Data-sharing delivery is switched off on every
+  loop topic's reader and writer for the same reason;
+- the peers' addresses are the participant's ``initialPeersList`` (without a
+  port: Fast DDS tries the discovery ports of participant ids 0 to
+  ``maxInitialPeersRange`` − 1, raised to cover every process of two
+  launchers and the tools on one host). With ``ROS_AUTOMATIC_DISCOVERY_RANGE=
+  LOCALHOST`` (the launcher sets it) rmw_fastrtps clears the multicast
+  locators and adds 127.0.0.1 to the peers: no multicast at all, discovery
+  goes only to this host and the named peers.
 """
 
 from __future__ import annotations
 
 import copy
+import hashlib
+import ipaddress
+import re
 import secrets
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -66,13 +90,54 @@ _EVERY_PARTITION_READER = ";*"
 _EVERY_PARTITION_WRITER = ";*"
 
 
+# Participant ids whose discovery ports an initial peer is sent to: two launchers' processes
+# (recorder, five nodes, a watcher, a viewer) and a few tools on one host, with room to spare.
+MAX_INITIAL_PEERS_RANGE = 32
+UDP_TRANSPORT_ID = "robot_controller_udpv4"
+LOCALHOST = "127.0.0.1"
+#: With ``--peers`` the profile says how discovery goes; rmw_fastrtps must leave it alone (with
+#: ``LOCALHOST`` it would add its own shared-memory transport, SUBNET would multicast).
+PEERS_DISCOVERY_RANGE = "SYSTEM_DEFAULT"
+_RUN_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+
+
 def new_partition() -> str:
     return f"robot_controller_{secrets.token_hex(6)}"
 
 
-def write_run_profile(path: Path, partition: str, base: Path | None = None) -> Path:
-    """The stack's Fast DDS profile (``config/fastdds.xml``) with every loop topic in ``partition``."""
-    return _write(path, base, writer_partitions=partition, reader_partitions=partition)
+def check_run_id(run_id: str) -> str:
+    """``run_id`` as given, or ValueError: 1-64 letters, digits, ``_.-``, starting with a letter or digit."""
+    if not _RUN_ID.fullmatch(run_id):
+        raise ValueError(f"run id {run_id!r}: 1-64 letters, digits, '_', '.', '-', starting with a letter or digit")
+    return run_id
+
+
+def run_partition(run_id: str) -> str:
+    """The partition of the run named ``run_id``: the same on every host that names it, a
+    different one for every other name (and never one of :func:`new_partition`'s, hex of
+    a hash, not of chance, though of the same form)."""
+    return f"robot_controller_{hashlib.sha256(check_run_id(run_id).encode()).hexdigest()[:12]}"
+
+
+def check_peers(text: str) -> list[str]:
+    """``"10.203.0.2,10.203.0.3"`` → the addresses, or ValueError naming the bad one (IPv4 only, unicast)."""
+    peers = [part.strip() for part in text.split(",")]
+    for peer in peers:
+        try:
+            address = ipaddress.IPv4Address(peer)
+        except ValueError:
+            raise ValueError(f"peer {peer!r} is not an IPv4 address") from None
+        if address.is_multicast or address.is_unspecified or peer == "255.255.255.255":
+            raise ValueError(f"peer {peer}: a host's unicast address is needed")
+    if len(set(peers)) != len(peers):
+        raise ValueError(f"peers repeat an address: {text}")
+    return peers
+
+
+def write_run_profile(path: Path, partition: str, base: Path | None = None, peers: list[str] | None = None) -> Path:
+    """The stack's Fast DDS profile (``config/fastdds.xml``) with every loop topic in ``partition``.
+    ``peers``: a run across hosts: UDPv4 only, those addresses as initial peers (module docstring)."""
+    return _write(path, base, writer_partitions=partition, reader_partitions=partition, peers=peers)
 
 
 def write_observer_profile(path: Path, base: Path | None = None) -> Path:
@@ -80,10 +145,14 @@ def write_observer_profile(path: Path, base: Path | None = None) -> Path:
     return _write(path, base, writer_partitions=_EVERY_PARTITION_WRITER, reader_partitions=_EVERY_PARTITION_READER)
 
 
-def _write(path: Path, base: Path | None, *, writer_partitions: str, reader_partitions: str) -> Path:
+def _write(
+    path: Path, base: Path | None, *, writer_partitions: str, reader_partitions: str, peers: list[str] | None = None
+) -> Path:
     ET.register_namespace("", _NS)
     tree = ET.parse(base or resources.fastdds_profiles())
     root = tree.getroot()
+    if peers:
+        _udp_only(root, peers)
     # A profile named for a topic replaces the default profile for that topic
     # (unset fields take Fast DDS's defaults, not the default profile's), so
     # each starts as a copy of the default one.
@@ -93,10 +162,61 @@ def _write(path: Path, base: Path | None, *, writer_partitions: str, reader_part
             profile = copy.deepcopy(default) if default is not None else ET.Element(f"{{{_NS}}}{kind}")
             profile.attrib = {"profile_name": topic}
             _set_property(profile, "partitions", partitions)
+            if peers:
+                _no_data_sharing(profile)
             root.append(profile)
     path.parent.mkdir(parents=True, exist_ok=True)
     tree.write(path, encoding="UTF-8", xml_declaration=True)
     return path
+
+
+def _child(parent: ET.Element, tag: str) -> ET.Element:
+    """``parent``'s ``tag`` element, made if missing."""
+    found = parent.find(f"{{{_NS}}}{tag}")
+    return found if found is not None else ET.SubElement(parent, f"{{{_NS}}}{tag}")
+
+
+def _udp_only(root: ET.Element, peers: list[str]) -> None:
+    """One UDPv4 transport and no builtin ones (so no shared memory) on the default
+    participant profile, with ``peers`` as its initial peers."""
+    descriptors = root.find(f"{{{_NS}}}transport_descriptors")
+    if descriptors is None:
+        descriptors = ET.Element(f"{{{_NS}}}transport_descriptors")
+        root.insert(0, descriptors)  # the schema wants the descriptors before the profiles that name them
+    descriptor = ET.SubElement(descriptors, f"{{{_NS}}}transport_descriptor")
+    ET.SubElement(descriptor, f"{{{_NS}}}transport_id").text = UDP_TRANSPORT_ID
+    ET.SubElement(descriptor, f"{{{_NS}}}type").text = "UDPv4"
+    ET.SubElement(descriptor, f"{{{_NS}}}maxInitialPeersRange").text = str(MAX_INITIAL_PEERS_RANGE)
+    participant = next(
+        (e for e in root.findall(f"{{{_NS}}}participant") if e.get("is_default_profile") == "true"), None
+    )
+    if participant is None:
+        participant = ET.SubElement(root, f"{{{_NS}}}participant", {"profile_name": "robot_controller_participant"})
+        participant.set("is_default_profile", "true")
+    rtps = _child(participant, "rtps")
+    # The schema's order inside <rtps>: the transports before <builtin>.
+    transports = ET.Element(f"{{{_NS}}}userTransports")
+    ET.SubElement(transports, f"{{{_NS}}}transport_id").text = UDP_TRANSPORT_ID
+    builtin_off = ET.Element(f"{{{_NS}}}useBuiltinTransports")
+    builtin_off.text = "false"
+    rtps.insert(0, builtin_off)
+    rtps.insert(0, transports)
+    builtin = _child(rtps, "builtin")
+    # Discovery by unicast only: a unicast metatraffic locator of any address and port (what
+    # Fast DDS fills in itself) keeps it from making its default multicast one (as rmw_fastrtps
+    # does for LOCALHOST); announcements go to the initial peers.
+    unicast = _child(builtin, "metatrafficUnicastLocatorList")
+    ET.SubElement(ET.SubElement(unicast, f"{{{_NS}}}locator"), f"{{{_NS}}}udpv4")
+    initial = _child(builtin, "initialPeersList")
+    for peer in [LOCALHOST, *(p for p in peers if p != LOCALHOST)]:
+        locator = ET.SubElement(initial, f"{{{_NS}}}locator")
+        ET.SubElement(ET.SubElement(locator, f"{{{_NS}}}udpv4"), f"{{{_NS}}}address").text = peer
+
+
+def _no_data_sharing(profile: ET.Element) -> None:
+    """Data-sharing delivery off: like shared memory, it would bypass the network between namespaces."""
+    kind = _child(_child(_child(profile, "qos"), "data_sharing"), "kind")
+    kind.text = "OFF"
 
 
 def _set_property(profile: ET.Element, name: str, value: str) -> None:

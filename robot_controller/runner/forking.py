@@ -33,6 +33,7 @@ NODE_MODULES = (
     "trajectory_planner",
     "all_in_one",
     "recorder",
+    "graph_watch",
 )
 
 

@@ -14,6 +14,13 @@ With ``view_port`` a viewer (``nodes.viewer``) also runs beside the
 recorder: an observer that serves the live view in a browser and saves
 ``view.rrd``. Nothing waits for it, and its death does not end the run.
 
+Part of the graph (``nodes``; docs/design.md §6 "Across hosts"): a
+``graph_watch`` observer reports the graph's nodes; the launcher waits (at
+most ``wait_s``) until all five are there, naming the missing ones. The
+launcher with the simulator records, then runs for ``duration_s`` as always;
+one without it records nothing and runs until every node of the other side
+has left the graph (the loop it serves has ended), which is a success.
+
 Longer than our ~250-line guideline: launch() and the run loop it supervises.
 """
 
@@ -32,7 +39,7 @@ from pathlib import Path
 from robot_controller import parameters as cfg
 from robot_controller.nodes import recorder as rec
 from robot_controller.runner import forking, supervise
-from robot_controller.runner.plan import RunPlan, plan
+from robot_controller.runner.plan import NODE_ORDER, RunPlan, plan
 from robot_controller.runner.processes import Child, ProcessGroup, say
 
 __all__ = ["RunResult", "launch", "say"]
@@ -49,6 +56,9 @@ class RunResult:
     published_counts: dict[str, int] = field(default_factory=dict)  #: what the nodes say they sent
     usage: dict[str, float] = field(default_factory=dict)  #: cpu_pct_*, rss_* over the run (proc_stats)
     interrupted: bool = False  #: Ctrl-C or SIGTERM ended it early (what was recorded is still scored)
+    recorded: bool = True  #: False: part of the graph without the simulator (nothing to score)
+    local_nodes: tuple[str, ...] = ()  #: the nodes this launcher ran
+    end_reason: str | None = None  #: why a launcher without the recorder ended
 
     def raise_if_interrupted(self) -> None:
         """For a series of runs (faults, compare, bench): Ctrl-C ends the whole series, not just this run."""
@@ -81,6 +91,10 @@ def launch(
     watcher: Callable[[float, dict[str, int]], None] | None = None,
     respawn: bool = False,
     view_port: int | None = None,
+    nodes: tuple[str, ...] | None = None,
+    peers: list[str] | None = None,
+    run_id: str | None = None,
+    wait_s: float = supervise.GRAPH_WAIT_S,
 ) -> RunResult:
     """Run the graph for ``duration_s`` seconds of control (sim seconds with
     ``sim_time``), recording into ``out_dir/bag``. ``realtime``: the
@@ -93,7 +107,10 @@ def launch(
     loop runs (wall clock) is started again, as ``ros2 launch``'s
     ``respawn=True`` does, instead of ending the run. ``view_port``: serve
     the live view at ``http://127.0.0.1:<view_port>`` (and save
-    ``out_dir/view.rrd``) from a viewer process beside the recorder."""
+    ``out_dir/view.rrd``) from a viewer process beside the recorder.
+    ``nodes``, ``peers``, ``run_id``: start only part of the graph, with the other
+    hosts' addresses, in the run named so (``plan``); ``wait_s``: how long to wait
+    for the whole graph before giving up."""
     run = plan(
         params,
         out_dir=out_dir,
@@ -103,6 +120,9 @@ def launch(
         domain_id=domain_id,
         respawn=respawn,
         view_port=view_port,
+        nodes=nodes,
+        peers=peers,
+        run_id=run_id,
     )
     for note in run.notes:
         say(note)
@@ -114,14 +134,35 @@ def launch(
     # `kill -USR1 <launcher>` prints where every thread of a launcher that seems stuck is.
     faulthandler.register(signal.SIGUSR1, all_threads=True)
     link = supervise.RecorderLink(list(rec.topics_for(sim_time)))
+    graph = supervise.GraphLink() if run.watcher is not None else None
     outcome = _Outcome()
     replaced: set[str] = set()  # nodes killed and respawned
     try:
         # The viewer is kept out of the group's children: a dead viewer must not end the run.
-        with ProcessGroup(run.recorder.env) as group, ProcessGroup(run.recorder.env) as viewers:
-            recorder = group.start(
-                "recorder", run.recorder.module, run.recorder.args, on_line=link.on_line, wall_clock=not sim_time
-            )
+        with ProcessGroup(run.nodes[0].env) as group, ProcessGroup(run.nodes[0].env) as viewers:
+            observers = []
+            if run.recorder is not None:
+                observers.append(
+                    group.start(
+                        "recorder",
+                        run.recorder.module,
+                        run.recorder.args,
+                        env=run.recorder.env,
+                        on_line=link.on_line,
+                        wall_clock=not sim_time,
+                    )
+                )
+            if graph is not None:
+                observers.append(
+                    group.start(
+                        run.watcher.name,
+                        run.watcher.module,
+                        run.watcher.args,
+                        env=run.watcher.env,
+                        on_line=graph.on_line,
+                        wall_clock=not sim_time,
+                    )
+                )
             # All at once: the nodes' publishers wait for the recorder themselves.
             nodes = [group.start(p.name, p.module, p.args, env=p.env, wall_clock=not sim_time) for p in run.nodes]
             if run.viewer is not None:
@@ -144,6 +185,8 @@ def launch(
                     watcher,
                     replaced if respawn else None,
                     viewers.children,
+                    graph,
+                    wait_s,
                 )
             except KeyboardInterrupt:
                 outcome.interrupted = True
@@ -152,13 +195,16 @@ def launch(
                 signal.signal(signal.SIGINT, patient)
                 signal.signal(signal.SIGTERM, patient)
                 say("interrupted: stopping the nodes (the recording is kept and scored)")
-                outcome.failure = None if link.counts.get("/controller/state") else "interrupted before the loop ran"
+                ran = link.counts.get("/controller/state") if run.records else outcome.started is not None
+                outcome.failure = None if ran else "interrupted before the loop ran"
                 if outcome.started is not None:
                     outcome.wall_seconds = time.monotonic() - outcome.started
-                    outcome.control_seconds = link.clock_s - outcome.sim_start if sim_time else outcome.wall_seconds
+                    outcome.control_seconds = (
+                        link.clock_s - outcome.sim_start if sim_time and run.records else outcome.wall_seconds
+                    )
             # The nodes first, then the recorder, which takes what is still in flight (and the viewer).
             codes = group.stop(nodes)
-            codes.update(group.stop([recorder, *viewers.children]))
+            codes.update(group.stop([*observers, *viewers.children]))
             _report_viewer(viewers.children, codes)
         published = supervise.read_published_counts(run.counts_dir, replaced)
         if law_fault := supervise.read_law_fault(run.counts_dir):
@@ -174,17 +220,21 @@ def launch(
         signal.signal(signal.SIGINT, previous_sigint if previous_sigint is not None else signal.SIG_DFL)
         shutil.rmtree(run.counts_dir, ignore_errors=True)
     # What each topic's publishers in the stack say they sent: the bag must hold as many.
-    (out_dir / "published.json").write_text(json.dumps(published, indent=2, sort_keys=True) + "\n")
+    if run.records:
+        (out_dir / "published.json").write_text(json.dumps(published, indent=2, sort_keys=True) + "\n")
     result = RunResult(
         1 if outcome.failure else 0,
         run.bag_dir,
         outcome.control_seconds,
         outcome.wall_seconds,
-        dict(link.counts),
+        dict(link.counts) if run.records else {},  # nothing recorded here: nothing to compare with
         outcome.failure,
         published,
         outcome.usage,
         outcome.interrupted,
+        run.records,
+        run.local_nodes,
+        outcome.end_reason,
     )
     if link.oversize:
         say(
@@ -210,6 +260,7 @@ class _Outcome:
     wall_seconds: float = 0.0
     usage: dict[str, float] = field(default_factory=dict)
     interrupted: bool = False
+    end_reason: str | None = None
 
 
 def _run_loop(
@@ -222,14 +273,27 @@ def _run_loop(
     watcher: Callable[[float, dict[str, int]], None] | None,
     replaced: set[str] | None,
     viewers: list[Child] = (),
+    graph: supervise.GraphLink | None = None,
+    wait_s: float = supervise.GRAPH_WAIT_S,
 ) -> None:
     """Wait for the recorder and the first tick, then for ``duration_s`` of control; fills ``outcome``.
     ``replaced``: respawn dead nodes, noting their names there. ``viewers``: observers measured
-    apart (their ``cpu_pct_``/``rss_`` figures, outside ``cpu_pct_total``) and never respawned."""
-    outcome.failure = supervise.wait_recorder(link, group) or supervise.wait_first_tick(link, group)
+    apart (their ``cpu_pct_``/``rss_`` figures, outside ``cpu_pct_total``) and never respawned.
+    ``graph``: part of the graph runs here; wait (``wait_s``) for the other side's nodes first."""
+    if run.records:
+        outcome.failure = supervise.wait_recorder(link, group)
+    if outcome.failure is None and graph is not None:
+        outcome.failure = supervise.wait_graph(graph, group, NODE_ORDER, run.remote_nodes, wait_s)
+        if outcome.failure is None:
+            say(f"graph complete: {', '.join(NODE_ORDER)} (here: {', '.join(run.local_nodes)})")
+    if outcome.failure is None and run.records:
+        outcome.failure = supervise.wait_first_tick(link, group)
     if outcome.failure is not None:
         return
     started = outcome.started = time.monotonic()
+    if not run.records:
+        _serve_until_the_loop_ends(run, group, nodes, graph, outcome, replaced)
+        return
     say(f"control loop running; recording {duration_s:g} {'sim ' if run.sim_time else ''}s into {run.bag_dir}")
     meter = supervise.UsageMeter(group.children, started + min(supervise.USAGE_WARMUP_S, duration_s / 4))
     if viewers:
@@ -256,6 +320,42 @@ def _run_loop(
         outcome.control_seconds = time.monotonic() - started
     outcome.wall_seconds = time.monotonic() - started
     outcome.usage = meter.finish()
+
+
+def _serve_until_the_loop_ends(
+    run: RunPlan,
+    group: ProcessGroup,
+    nodes: list[Child],
+    graph: supervise.GraphLink,
+    outcome: _Outcome,
+    replaced: set[str] | None,
+) -> None:
+    """A launcher without the simulator: its nodes serve the loop until every node of the
+    other side has left the graph (at once when that launcher stops them; after the DDS lease,
+    20 s, if the link is cut for that long), which ends this run too, as a success."""
+    started = outcome.started
+    say(f"serving the loop with {', '.join(run.local_nodes)} until {', '.join(run.remote_nodes)} leave(s) the graph")
+    meter = supervise.UsageMeter(group.children, started + supervise.USAGE_WARMUP_S)
+
+    def respawn(dead: Child) -> Child:
+        replaced.add(dead.name)
+        process = next(p for p in run.nodes if p.name == dead.name)
+        child = group.restart(dead, env=process.env)
+        nodes[nodes.index(dead)] = child
+        return child
+
+    outcome.failure = supervise.wait_wall(
+        group,
+        float("inf"),
+        meter,
+        None,
+        respawn if replaced is not None else None,
+        ended=lambda: graph.all_gone(run.remote_nodes),
+    )
+    outcome.control_seconds = outcome.wall_seconds = time.monotonic() - started
+    outcome.usage = meter.finish()
+    if outcome.failure is None:
+        outcome.end_reason = f"{', '.join(run.remote_nodes)} left the graph: the loop has ended"
 
 
 class _WithViewers:

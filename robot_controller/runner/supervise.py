@@ -12,6 +12,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from robot_controller.nodes import graph_watch
 from robot_controller.nodes import recorder as rec
 from robot_controller.ros.process import LAW_FAULT_FILE, LAW_STOPPED_EXIT_CODE
 from robot_controller.runner import proc_stats
@@ -42,6 +43,74 @@ class RecorderLink:
             self.ready.set()
             return True
         return False
+
+
+class GraphLink:
+    """What the ``graph_watch`` process reports: the nodes in the graph (a split run)."""
+
+    #: a node of the other side counts as gone once missing from the graph this long (s)
+    GONE_AFTER_S = 1.0
+
+    def __init__(self) -> None:
+        self.nodes: frozenset[str] = frozenset()
+        self.reported = threading.Event()  #: the watcher has reported at least once
+        self.seen: set[str] = set()  #: every node ever seen
+        self.missing_since: dict[str, float] = {}
+
+    def on_line(self, line: str) -> bool:
+        nodes = graph_watch.parse_line(line)
+        if nodes is None:
+            return False
+        now = time.monotonic()
+        self.nodes = frozenset(nodes)
+        self.seen.update(nodes)
+        for name in self.seen:
+            if name in self.nodes:
+                self.missing_since.pop(name, None)
+            else:
+                self.missing_since.setdefault(name, now)
+        self.reported.set()
+        return True
+
+    def missing(self, names: tuple[str, ...]) -> list[str]:
+        return [n for n in names if n not in self.nodes]
+
+    def all_gone(self, names: tuple[str, ...]) -> bool:
+        """Every one of ``names`` was seen and has been missing for ``GONE_AFTER_S`` (a node respawned
+        meanwhile, or one of several, does not count: the loop they serve goes on)."""
+        now = time.monotonic()
+        return bool(names) and all(
+            n in self.seen and now - self.missing_since.get(n, now) >= self.GONE_AFTER_S for n in names
+        )
+
+
+GRAPH_WAIT_S = 60.0  #: default of ``run --wait``
+GRAPH_SAY_EVERY_S = 5.0  #: how often the launcher names the nodes it is still waiting for
+
+
+def wait_graph(
+    graph: GraphLink, group: ProcessGroup, expected: tuple[str, ...], remote: tuple[str, ...], timeout_s: float
+) -> str | None:
+    """Wait until every node of ``expected`` is in the graph, naming the missing ones every
+    ``GRAPH_SAY_EVERY_S`` (those of ``remote`` as the other launcher's); a failure line after
+    ``timeout_s``."""
+    start = time.monotonic()
+    next_say = start + 1.0
+    while missing := graph.missing(expected):
+        if dead := group.dead():
+            return died(dead)
+        now = time.monotonic()
+        where = [f"{n} (other launcher)" if n in remote else n for n in missing]
+        if now - start > timeout_s:
+            return (
+                f"the graph was not complete within {timeout_s:g} s (--wait): missing {', '.join(where)}; "
+                "check the other launcher's --run-id, --peers and ROS_DOMAIN_ID"
+            )
+        if now >= next_say:
+            say(f"waiting for {', '.join(where)} ({now - start:.0f} s of {timeout_s:g})")
+            next_say = now + GRAPH_SAY_EVERY_S
+        time.sleep(0.05)
+    return None
 
 
 RECORDER_READY_TIMEOUT_S = 30.0
@@ -152,9 +221,11 @@ def wait_wall(
     meter: UsageMeter,
     poll: Callable[[], None] | None = None,
     restart: Callable[[Child], Child] | None = None,
+    ended: Callable[[], bool] | None = None,
 ) -> str | None:
+    """Watch the nodes until ``until`` (monotonic s), or until ``ended()`` says the run is over."""
     respawned: dict[str, int] = {}
-    while (remaining := until - time.monotonic()) > 0:
+    while (remaining := until - time.monotonic()) > 0 and not (ended is not None and ended()):
         if dead := group.dead():
             children = [c for c in group.children if c.process.returncode is not None]
             if restart is None or any(
