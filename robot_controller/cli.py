@@ -220,7 +220,7 @@ def _loop_verbs(sub) -> None:
     p.add_argument(
         "--realtime",
         action="store_true",
-        help="run the simulator's pacing thread SCHED_FIFO, with a CPU budget (see README)",
+        help="run the simulator's pacing thread SCHED_FIFO, with a CPU budget (docs/controller.md)",
     )
     p.add_argument("--view", action="store_true", help="live 3D view and plots in the browser (rerun)")
     p.add_argument("--view-port", type=port, default=9090, help="port of the live view (default 9090)")
@@ -241,12 +241,48 @@ def _loop_verbs(sub) -> None:
         sub,
         "params",
         "list every node parameter with its default and meaning",
-        lambda a: verbs.list_params(preset=a.preset, config=a.config, as_yaml=a.yaml, robot=a.robot),
+        _params,
     )
     p.add_argument(
         "--yaml", action="store_true", help="print the values as a ROS 2 parameter file (for --config or --params-file)"
     )
+    p.add_argument(
+        "--markdown",
+        nargs="?",
+        const="-",
+        metavar="PATH",
+        help="write the reference of every parameter (the schema's, the presets' and robots' changes) as Markdown, "
+        "to PATH or stdout (docs/parameters.md)",
+    )
     _stack_options(p, seed=False)
+    p = _verb(sub, "help", "every verb's options and help", lambda a: _help(a.markdown))
+    p.add_argument(
+        "--markdown", nargs="?", const="-", metavar="PATH", help="as Markdown, to PATH or stdout (docs/cli.md)"
+    )
+
+
+def _params(a: argparse.Namespace) -> int:
+    from robot_controller.robots import DEFAULT_ROBOT
+
+    if a.markdown is None:
+        return verbs.list_params(preset=a.preset, config=a.config, as_yaml=a.yaml, robot=a.robot)
+    if a.yaml or a.config or a.preset != "default" or a.robot != DEFAULT_ROBOT:
+        raise UsageError("--markdown documents the schema: it takes no --yaml, --preset, --robot or --config")
+    from robot_controller import reference
+
+    return reference.write(reference.parameters_markdown(), a.markdown, "params")
+
+
+def _help(markdown: str | None) -> int:
+    from robot_controller import reference
+
+    parser = build_parser()
+    if markdown is not None:
+        return reference.write(reference.cli_markdown(parser), markdown, "help")
+    print(parser.format_help())
+    for name, _, sub in reference.subcommands(parser):
+        print(f"--- {name} ---\n{sub.format_help()}")
+    return 0
 
 
 def _experiment_verbs(sub) -> None:
@@ -460,7 +496,10 @@ def _graph_verbs(sub) -> None:
 
 
 def build_parser() -> Parser:
-    parser = Parser(prog="robot-controller", description=__doc__.splitlines()[0])
+    parser = Parser(
+        prog="robot-controller",
+        description="run the loop, score a recording, experiment, and talk to a running graph",
+    )
     sub = parser.add_subparsers(dest="verb", required=True, parser_class=Parser)
     _loop_verbs(sub)
     _experiment_verbs(sub)

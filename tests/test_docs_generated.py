@@ -1,0 +1,51 @@
+"""The reference pages in docs/ are what the code writes: a parameter or an
+option changed without regenerating its page fails here, naming the command
+that regenerates it. Fast, no ROS."""
+
+from pathlib import Path
+
+import pytest
+
+from robot_controller import cli, reference
+
+DOCS = Path(__file__).resolve().parent.parent / "docs"
+
+
+@pytest.mark.parametrize(
+    "page, args, command",
+    [
+        ("parameters.md", ["params", "--markdown"], reference.PARAMS_COMMAND),
+        ("cli.md", ["help", "--markdown"], reference.CLI_COMMAND),
+    ],
+)
+def test_the_committed_reference_page_is_what_the_command_writes(tmp_path, page, args, command):
+    written = tmp_path / page
+    assert cli.main([*args, str(written)]) == 0
+    committed = DOCS / page
+    assert committed.is_file(), f"docs/{page} is missing; write it with: {command}"
+    assert (
+        committed.read_text() == written.read_text()
+    ), f"docs/{page} differs from what the code writes; regenerate it with: {command}"
+
+
+def test_the_markdown_goes_to_stdout_without_a_path(capsys):
+    assert cli.main(["params", "--markdown"]) == 0
+    assert capsys.readouterr().out == reference.parameters_markdown()
+
+
+def test_the_parameter_reference_refuses_options_it_would_ignore(capsys):
+    assert cli.main(["params", "--markdown", "--preset", "tutorial"]) == 2
+    assert "--markdown documents the schema" in capsys.readouterr().err
+
+
+def test_every_parameter_and_every_verb_is_in_its_page():
+    from robot_controller import parameters as cfg
+
+    params = reference.parameters_markdown()
+    for node in cfg.NODES:
+        assert f"## {node}" in params
+        for spec in cfg.SCHEMA[node]:
+            assert f"| `{spec.name}` |" in params, (node, spec.name)
+    text = reference.cli_markdown(cli.build_parser())
+    for name, _, _ in reference.subcommands(cli.build_parser()):
+        assert f"\n## {name}\n" in text, name
