@@ -28,6 +28,8 @@ class Status(str, Enum):
     STOPPED = "stopped"  #: e-stop or brake: no command until it lifts
     LAW_FAULT = "law_fault"  #: the plugin law failed: controlled stop on the built-in law (category 2)
     LAW_STOPPED = "law_stopped"  #: after LAW_FAULT's stop and hold: no command, the brake holds (category 1)
+    LATE = "late"  #: readings or commands later than the delay margin: controlled stop on the model (category 2)
+    LATE_STOPPED = "late_stopped"  #: after LATE's stop and hold: no command, the brake holds (category 1)
 
     @property
     def commanding(self) -> bool:
@@ -36,7 +38,9 @@ class Status(str, Enum):
 
 
 # (A set made once: asked every tick, the members looked up each time cost more than the test.)
-_NOT_COMMANDING = frozenset((Status.NO_MEASUREMENT, Status.SENSOR_LOST, Status.STOPPED, Status.LAW_STOPPED))
+_NOT_COMMANDING = frozenset(
+    (Status.NO_MEASUREMENT, Status.SENSOR_LOST, Status.STOPPED, Status.LAW_STOPPED, Status.LATE_STOPPED)
+)
 
 
 class ReferenceSource(str, Enum):
@@ -49,6 +53,7 @@ class ReferenceSource(str, Enum):
     REFERENCE_STOP = "reference_stop"  #: the planner went quiet: its last reference brought to rest
     SENSOR_STOP = "sensor_stop"  #: readings missing: the reference brought to rest, the arm on the model
     LAW_STOP = "law_stop"  #: the plugin law failed: the reference brought to rest for the built-in law
+    LATE_STOP = "late_stop"  #: the loop's delay is past its margin: the reference brought to rest, held
     NONE = "none"  #: no command this tick: ``reference`` only repeats the arm's position
 
     @property

@@ -24,6 +24,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimator import JointKalmanFilter
 from robot_controller.core.feedforward import FeedforwardMode
 from robot_controller.core.health import REACQUIRE_GAP_PERIODS, Health, Readings, Tick, TickClock, check_health
+from robot_controller.core.latency import LatencyGuard, LatencyState
 from robot_controller.core.law import (
     delay_margin_periods,
     describe_law,
@@ -39,7 +40,7 @@ from robot_controller.core.pid import Pid, PidConfig, PidTerms
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.reference import REFERENCE_TIMEOUT_PERIODS
 from robot_controller.core.reference_at_tick import Reference, ReferenceAtTick
-from robot_controller.core.tick_state import StateAtTick
+from robot_controller.core.tick_state import MAX_EXTRAPOLATION_S, StateAtTick
 
 __all__ = [
     "REACQUIRE_GAP_PERIODS",
@@ -56,11 +57,18 @@ __all__ = [
 # After a plugin law fails, the arm is held at rest on the built-in law this long before the
 # torque goes off and the brakes hold (category 2, then 1).
 LAW_FAULT_HOLD_S = 0.5
+# After the latency stop comes to rest, the arm is held on the model this long (short: open loop, it
+# drifts under a late command path) before the torque goes off and the brakes hold (category 2, then 1),
+# until the loop is on time again.
+LATE_HOLD_S = 0.1
 
 
 class JointController:
     """``law_clock``: a function giving seconds of wall time, to hold a plugin law to
-    its ``law_budget_s`` (None: its time is not checked, as in the in-process loops)."""
+    its ``law_budget_s`` (None: its time is not checked, as in the in-process loops).
+    ``latency_guard``: stop the motion while the readings' and commands' delay is
+    past the delay margin (:mod:`~robot_controller.core.latency`; the node's wall
+    clock: in lockstep and the in-process loops nothing is late)."""
 
     def __init__(
         self,
@@ -68,6 +76,7 @@ class JointController:
         joint_count: int,
         dynamics: ArmDynamics | None = None,
         law_clock: Callable[[], float] | None = None,
+        latency_guard: bool = False,
     ) -> None:
         if config.feedforward is not FeedforwardMode.NONE and dynamics is None:
             raise ConfigError("feedforward: needs the arm model (urdf_path)")
@@ -86,6 +95,21 @@ class JointController:
         self._clock = TickClock()
         self._halted = False
         self._braked = False
+        self._latency_guard = latency_guard
+        self._latency: LatencyGuard | None = self._make_latency_guard(config) if latency_guard else None
+        self._was_late = False
+        self._late_rest_s: float | None = None  # when the latency stop came to rest
+        #: the latency guard's latest verdict (None without a guard, or before its first tick)
+        self.latency: LatencyState | None = None
+
+    def _make_latency_guard(self, config: ControllerConfig) -> LatencyGuard | None:
+        """The guard for the gains in ``config`` (None when their delay margin is not known: a law of
+        one's own, no arm model)."""
+        margin = self.delay_margin_periods()
+        if margin is None:
+            return None
+        compensated_s = MAX_EXTRAPOLATION_S if config.latency_compensation else 0.0
+        return LatencyGuard(margin * config.control_period_s, compensated_s)
 
     def _make_estimator(self, config: ControllerConfig) -> JointKalmanFilter | None:
         if config.estimator is None:
@@ -190,6 +214,12 @@ class JointController:
             self.builtin = BuiltinLaw.of_kind(config.builtin_law, config, self.dynamics, self.joint_count)
         else:
             self.builtin.set_config(config)
+        if self._latency_guard:  # the margin of the new gains
+            guard = self._make_latency_guard(config)
+            if guard is not None and self._latency is not None:
+                self._latency.tolerated_s, self._latency.compensated_s = guard.tolerated_s, guard.compensated_s
+            else:
+                self._latency = guard
 
     # --- inputs -----------------------------------------------------------------------
 
@@ -226,7 +256,16 @@ class JointController:
         Returns why it was refused (it is then not a sign of life for the
         watchdog either), or None.
         """
-        return self._readings.accept(stamp_s, received_s, position, velocity, self.config.max_reading_age_s)
+        refused = self._readings.accept(stamp_s, received_s, position, velocity, self.config.max_reading_age_s)
+        if refused is None and self._latency is not None:
+            self._latency.reading(received_s - stamp_s)
+        return refused
+
+    def command_delay(self, receipt_s: float, delay_s: float) -> None:
+        """A command of this controller's reached the drive ``delay_s`` seconds after its
+        tick (the drive's receipt at ``receipt_s``): the latency guard weighs it."""
+        if self._latency is not None:
+            self._latency.command(receipt_s, delay_s)
 
     @property
     def has_measurement(self) -> bool:
@@ -264,6 +303,8 @@ class JointController:
             return self._stop_after_law_fault(now_s, tick.dt_s, health.status)
         if health.status is Status.WATCHDOG:
             return self._stop_on_model(now_s, tick.dt_s)
+        if self._latency is not None and self._late(now_s):
+            return self._stop_when_late(now_s, tick.dt_s)
         if self._reference.reacquire_pending:
             self._restart_from_measurement(now_s)
         position, velocity = self._estimate_at_tick(now_s)
@@ -312,6 +353,33 @@ class JointController:
         extrapolated), a hold, a controlled stop if the planner went quiet, or
         the blend back onto the trajectory after a fault."""
         return self._reference.at_tick(now_s, position, self.config)
+
+    def _late(self, now_s: float) -> bool:
+        """The latency guard's verdict; when it clears, the arm is led back onto the trajectory."""
+        self.latency = self._latency.update(now_s)
+        if self.latency.late:
+            self._was_late = True
+        elif self._was_late:
+            self._was_late, self._late_rest_s = False, None
+            self._reference.request_reacquire()
+        return self.latency.late
+
+    def _stop_when_late(self, now_s: float, dt_s: float) -> ControlOutput:
+        """While the loop is later than its gains survive, feedback through that delay
+        oscillates (a hold on the late readings swung the arm ±0.3 rad at the torque limit
+        with commands 4 periods late, twice the margin). So, as when readings are missing:
+        category 2, the reference brought to rest within the torque limit with the law on
+        the arm model's prediction under its own torques (open loop: a delay cannot make it
+        oscillate), held LATE_HOLD_S at rest, then no commands (category 1: the drive's
+        timeout brakes the arm) until the loop is on time again. (Holding on the model for
+        longer let the arm drift 0.2 rad in 0.5 s under commands 40 ms late.)"""
+        if self._late_rest_s is not None and now_s - self._late_rest_s >= LATE_HOLD_S:
+            return self._no_command(now_s, Status.LATE_STOPPED)
+        position, velocity = self._state.coast(now_s, self._readings)
+        reference = self._reference.late_stop(now_s, position, self.config)
+        if self._late_rest_s is None and self._reference.late_stop_at_rest(now_s):
+            self._late_rest_s = now_s
+        return self._apply_law(now_s, dt_s, position, velocity, reference)
 
     def _stop_on_model(self, now_s: float, dt_s: float) -> ControlOutput:
         """Category 2 while readings are missing: bring the reference to rest

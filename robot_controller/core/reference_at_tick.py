@@ -52,6 +52,7 @@ class ReferenceAtTick:
         self._sensor_stop: ControlledStop | None = None
         self._reference_stop: ControlledStop | None = None
         self._law_stop: ControlledStop | None = None
+        self._late_stop: ControlledStop | None = None
         self._blend: Blend | None = None
 
     # --- re-acquisition -------------------------------------------------------------
@@ -73,6 +74,7 @@ class ReferenceAtTick:
         ``reacquire_acceleration``). False while there is no fresh trajectory to
         lead the arm onto: :meth:`at_tick` holds it meanwhile."""
         self._sensor_stop = None
+        self._late_stop = None
         planner = self.planner
         if (
             planner.sample is None
@@ -170,6 +172,15 @@ class ReferenceAtTick:
             self._sensor_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
         return self._used(now_s, Reference(*self._sensor_stop.at(now_s), Status.WATCHDOG, ReferenceSource.SENSOR_STOP))
 
+    def late_stop(self, now_s: float, arm_position: np.ndarray, config: ControllerConfig) -> Reference:
+        """The loop's delay is past what the gains survive: from where the reference
+        is at the first such tick, decelerate to rest at ``stop_deceleration`` and
+        hold there until the delay is back within the margin (then re-acquisition)."""
+        if self._late_stop is None:
+            start = self.from_trajectory(now_s, arm_position, config)
+            self._late_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
+        return self._used(now_s, Reference(*self._late_stop.at(now_s), Status.LATE, ReferenceSource.LATE_STOP))
+
     def law_stop(self, now_s: float, start: Reference | None, config: ControllerConfig) -> Reference:
         """The plugin law failed: from ``start`` (the reference of the tick it failed
         on; later ticks pass None), decelerate to rest at ``stop_deceleration`` and
@@ -180,6 +191,9 @@ class ReferenceAtTick:
                 start = Reference(*last, Status.LAW_FAULT, ReferenceSource.LAW_STOP)
             self._law_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
         return self._used(now_s, Reference(*self._law_stop.at(now_s), Status.LAW_FAULT, ReferenceSource.LAW_STOP))
+
+    def late_stop_at_rest(self, now_s: float) -> bool:
+        return self._late_stop is not None and self._late_stop.at_rest(now_s)
 
     def law_stop_at_rest(self, now_s: float) -> bool:
         return self._law_stop is not None and self._law_stop.at_rest(now_s)

@@ -31,6 +31,8 @@ STATUS_CODES = {
     "stopped": 7,
     "law_fault": 8,
     "law_stopped": 9,
+    "late": 10,
+    "late_stopped": 11,
 }
 
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
+from collections import deque
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +49,12 @@ from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS
 from robot_controller.ros.stack_node import StackNode
 from robot_controller.ros.stamps import stamp_to_s
 
+# While the loop is late, its one line comes at most this often (s).
+LATE_LINE_PERIOD_S = 2.0
+# Commands remembered with their tick time, to pair with the drive's receipts (a second's worth and more).
+ISSUED_KEPT = 400
+# The receipts come once a second, each message a second's rows: keep a few, never a backlog.
+COMMAND_RECEIPTS_QOS = 5
 # Readings naming other joints for this long, none usable yet: a configuration mismatch.
 CONFIG_MISMATCH_S = 2.0
 # Lockstep: how long (wall) a tick waits for a reference sample before using the latest.
@@ -60,12 +67,14 @@ LAW_STOPPED_LINGER_S = 0.5
 class PidControllerNode(StackNode):
     def __init__(self) -> None:
         super().__init__("pid_controller")
-        # A law of one's own is held to its law_budget_s in wall time, in lockstep too.
+        # A law of one's own is held to its law_budget_s in wall time, in lockstep too. On the
+        # wall clock the loop's delay is watched against the gains' delay margin (core.latency).
         self.controller = JointController(
             cfg.controller_config(self.params, self.joint_count),
             self.joint_count,
             self.dynamics,
             law_clock=time.perf_counter,
+            latency_guard=not self.params["lockstep"],
         )
         plugin = self.controller.plugin
         # The law's extra terms on /controller/state, after the standard blocks (state_layout).
@@ -88,6 +97,11 @@ class PidControllerNode(StackNode):
             # The drive's status word: its brakes (a real controller reads its drives' state
             # too). Not in lockstep, where its arrival against the ticks would be a race.
             self.create_subscription(Float64MultiArray, "/sim/brakes", self.brakes_callback, LATEST_QOS)
+            # When each command reached the drive: the command path's delay, for the latency guard.
+            self.create_subscription(
+                Float64MultiArray, "/motor/command_receipts", self.receipts_callback, COMMAND_RECEIPTS_QOS
+            )
+        self.issued: deque[tuple[float, tuple[float, ...]]] = deque(maxlen=ISSUED_KEPT)  # (tick s, command)
         self.last_status: Status | None = None
         self.mismatch_since: float | None = None
         self.timer = None
@@ -115,6 +129,7 @@ class PidControllerNode(StackNode):
             for name in (*state_layout.FIELDS, *self.extra_terms)
         ]
         self.next_log_s = -np.inf
+        self.next_late_line = -np.inf  # monotonic s: the latency stop's line, rate-limited
         self.log_gains()
 
     def log_gains(self) -> None:
@@ -304,6 +319,22 @@ class PidControllerNode(StackNode):
             self.set_timer_period(period_s)
         self.tick(now_s)
 
+    def receipts_callback(self, msg: Float64MultiArray) -> None:
+        """The drive's receipts, rows ``[receipt_time_s, command…]``: each paired with the latest
+        tick that issued the same command before it, their difference is the command path's delay."""
+        row = 1 + self.joint_count
+        data = list(msg.data)
+        if not data or len(data) % row:
+            return
+        ticks: dict[tuple[float, ...], list[float]] = {}
+        for tick_s, command in self.issued:
+            ticks.setdefault(command, []).append(tick_s)
+        for start in range(0, len(data), row):
+            receipt_s, command = data[start], tuple(data[start + 1 : start + row])
+            earlier = [t for t in ticks.get(command, ()) if t <= receipt_s]
+            if earlier:
+                self.controller.command_delay(receipt_s, receipt_s - earlier[-1])
+
     def brakes_callback(self, msg: Float64MultiArray) -> None:
         values = np.asarray(msg.data, dtype=float)
         if values.size == self.joint_count and np.all(np.isfinite(values)):
@@ -322,9 +353,13 @@ class PidControllerNode(StackNode):
             return
         if out.status is not self.last_status:
             self.report_status(out.status)
+        if out.status is Status.LATE:
+            self.report_late()
         if out.status.commanding:
             self.command_msg.data = out.command.tolist()
             self.command_pub.publish(self.command_msg)
+            if not self.lockstep:
+                self.issued.append((now_s, tuple(self.command_msg.data)))
         self.window_ticks.append(now_s)
         if not self.lockstep:  # in lockstep a tick takes no sim time
             self.window_latency.append(self.now_s() - self.controller.measurement_stamp_s)
@@ -383,6 +418,20 @@ class PidControllerNode(StackNode):
                 self.get_logger().info(text)
         elif status is Status.OK and before not in (None, Status.HOLDING, Status.OK):
             self.get_logger().info("tracking the trajectory again")
+
+    def report_late(self) -> None:
+        """One line (at most every LATE_LINE_PERIOD_S) while the loop is later than its gains survive."""
+        now = time.monotonic()
+        if now < self.next_late_line:
+            return
+        self.next_late_line = now + LATE_LINE_PERIOD_S
+        late = self.controller.latency
+        margin = self.controller.delay_margin_periods()
+        self.get_logger().warning(
+            f"readings/commands {late.delay_s * 1e3:.0f} ms late beyond what the stamps account for; the gains "
+            f"survive {late.tolerated_s * 1e3:.0f} ms (delay margin {margin} periods): controlled stop, holding "
+            f"until it is back within {late.tolerated_s * 0.5e3:.0f} ms for 1 s (category 2)"
+        )
 
     def report_law_fault(self) -> None:
         """Once, when the law first fails: one error line (what it did, what happens next), the

@@ -66,7 +66,8 @@ def score(
     out["watchdog_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES["watchdog"]))
     # Ticks spent handling a fault (controlled stops, torque off, re-acquiring, e-stop): not
     # scored as tracking, so each is counted.
-    for name in ("sensor_lost", "reacquiring", "reference_lost", "stopped", "law_fault", "law_stopped"):
+    faults = ("sensor_lost", "reacquiring", "reference_lost", "stopped", "law_fault", "law_stopped")
+    for name in (*faults, "late", "late_stopped"):
         out[f"{name}_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES[name]))
     out["saturated_ticks"] = int(np.count_nonzero(np.any(s["saturated"] > 0.5, axis=1)))
     out.update(metrics.peak_torque(s["command"]))
@@ -158,7 +159,7 @@ GAP_PERIODS = 5
 # How long a drive goes on acting on the last command it got (motor command_timeout_s).
 CARRY_S = 0.05
 # Controller states that command no torque (core.controller.Status.commanding is False).
-IDLE_STATUSES = ("no_measurement", "sensor_lost", "stopped", "law_stopped")
+IDLE_STATUSES = ("no_measurement", "sensor_lost", "stopped", "law_stopped", "late_stopped")
 
 
 def json_safe(value: Any) -> Any:

@@ -1,0 +1,97 @@
+"""Whether the loop's signals come later than its feedback survives: the
+decision behind the controller's latency stop (docs/design.md §4).
+
+The gains in force survive ``delay_margin_periods`` whole control periods of
+delay nobody accounts for (:meth:`JointController.delay_margin_periods`).
+Two delays are seen here:
+
+- a reading's **age** on arrival (arrival − stamp). With
+  ``latency_compensation`` the controller brings each reading from its stamp
+  to the tick on the arm model (up to ``compensated_s``), so only age beyond
+  that is unaccounted; without it, all of it is;
+- a command's **delay** to the drive (the motor's receipt time − the tick that
+  issued it, from ``/motor/command_receipts``): never compensated.
+
+Their recent medians (the last :data:`WINDOW` of each, a command delay
+counting for :data:`COMMAND_MEMORY_S`; at least :data:`MIN_SAMPLES` of each) add up to the loop's unaccounted delay.
+Above the margin the loop is **late**; it is on time again once that delay
+has stayed within half the margin for :data:`CLEAR_AFTER_S` (hysteresis: a
+delay hovering at the margin does not make the arm stop and start). A single
+late message moves a median of ten by at most one place: jitter and one-off
+stalls are not latency.
+
+Times in seconds on the controller's clock (a command's receipt on the
+drive's: across hosts the clocks must agree, as the readings' stamps already
+need); no ROS here.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+from statistics import median
+
+#: How many recent readings (and command receipts) the medians cover.
+WINDOW = 10
+#: A median of fewer is no evidence (the first reading alone, one stray receipt).
+MIN_SAMPLES = WINDOW // 2
+#: A command delay older than this (s) is forgotten: receipts come once a second.
+COMMAND_MEMORY_S = 2.5
+#: The delay must stay within half the margin this long (s) before the loop is on time again.
+CLEAR_AFTER_S = 1.0
+
+
+@dataclass(frozen=True)
+class LatencyState:
+    late: bool
+    delay_s: float  #: the loop's unaccounted delay now (s): readings' part + commands' part
+    tolerated_s: float  #: what the gains survive (s)
+
+
+class LatencyGuard:
+    """``tolerated_s``: the delay margin in seconds (margin periods × control period);
+    ``compensated_s``: how much of a reading's age the controller accounts for (0 without
+    latency compensation)."""
+
+    def __init__(self, tolerated_s: float, compensated_s: float) -> None:
+        self.tolerated_s = tolerated_s
+        self.compensated_s = compensated_s
+        self._readings: deque[float] = deque(maxlen=WINDOW)
+        self._commands: deque[tuple[float, float]] = deque(maxlen=WINDOW)  # (receipt s, delay s)
+        self._late = False
+        self._within_since: float | None = None  # when the delay last came within half the margin
+
+    def reading(self, age_s: float) -> None:
+        """A reading arrived ``age_s`` seconds after its stamp."""
+        self._readings.append(max(0.0, age_s - self.compensated_s))
+
+    def command(self, receipt_s: float, delay_s: float) -> None:
+        """A command reached the drive ``delay_s`` seconds after the tick that issued it."""
+        self._commands.append((receipt_s, max(0.0, delay_s)))
+
+    def delay_s(self, now_s: float) -> float:
+        """The loop's unaccounted delay at ``now_s`` (s)."""
+        readings = median(self._readings) if len(self._readings) >= MIN_SAMPLES else 0.0
+        recent = [delay for receipt, delay in self._commands if now_s - receipt <= COMMAND_MEMORY_S]
+        return readings + (median(recent) if len(recent) >= MIN_SAMPLES else 0.0)
+
+    def update(self, now_s: float) -> LatencyState:
+        """The verdict at ``now_s``: late above the margin, on time again after
+        ``CLEAR_AFTER_S`` within half of it."""
+        delay = self.delay_s(now_s)
+        if delay > self.tolerated_s:
+            self._late, self._within_since = True, None
+        elif self._late:
+            if delay > 0.5 * self.tolerated_s:
+                self._within_since = None
+            elif self._within_since is None:
+                self._within_since = now_s
+            elif now_s - self._within_since >= CLEAR_AFTER_S:
+                self._late, self._within_since = False, None
+        return LatencyState(self._late, delay, self.tolerated_s)
+
+    def forget(self) -> None:
+        """Start afresh (the readings stopped: their ages say nothing about the ones to come)."""
+        self._readings.clear()
+        self._commands.clear()
+        self._late, self._within_since = False, None
