@@ -1,0 +1,69 @@
+"""The simulator's lockstep mode (``lockstep: true``, sim time): the sim owns time.
+
+It publishes ``/clock`` and the state for tick k, then waits; the effort for
+tick k advances exactly one control period. No effort, no time: a run is
+deterministic and as fast as the graph can go.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from rclpy.clock import Clock, ClockType
+from rosgraph_msgs.msg import Clock as ClockMsg
+
+from robot_controller.core.plant import steps_per_period
+from robot_controller.ros.publishing import GatedPublisher
+from robot_controller.ros.qos import CLOCK_QOS
+
+
+class SimulatorLockstep:
+    """The ticks of the :class:`~robot_controller.nodes.simulator.node.Simulator` in lockstep."""
+
+    def init_lockstep(self) -> None:
+        self.efforts_applied = 0
+        self.ticks_published = 0
+
+    def start_lockstep_clock(self) -> None:
+        self.steps_per_tick = steps_per_period(self.plant.physics_dt, 1.0 / self.params["control_rate_hz"])
+        self.clock_pub = GatedPublisher(self, ClockMsg, "/clock", consumer=False, qos=CLOCK_QOS)
+        self.clock_msg = ClockMsg()
+        self.waiting_for_effort = False
+        self.start_poll = self.create_timer(0.05, self.start_lockstep, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def start_lockstep(self) -> None:
+        """Publish tick 0 once the sensor (and recorder) listen and the motor talks (nothing is ever re-sent)."""
+        # The motor matched (not only named in the graph: a motor of an earlier run can linger there).
+        if not (self.state_pub.open and self.clock_pub.open and self.effort_sub.get_publisher_count()):
+            return
+        self.destroy_timer(self.start_poll)
+        self.get_logger().info("lockstep: sensor and motor matched, starting at t = 0")
+        self.publish_tick()
+
+    def lockstep_effort(self, effort: np.ndarray) -> None:
+        if not self.waiting_for_effort:
+            self.warn_throttled("extra_effort", "lockstep: effort with no tick waiting for it, ignored")
+            return
+        self.waiting_for_effort = False
+        self.set_brake("start", False)
+        self.set_brake("drive_timeout", False)
+        self.effort = np.zeros(self.joint_count) if self.brake_reasons else effort
+        self.efforts_applied += 1
+        self.start_scheduled_disturbance()
+        self.plant.step(self.effort, self.steps_per_tick)
+        self.steps_done += self.steps_per_tick
+        self.note_disturbance_end()
+        self.publish_tick()
+
+    def publish_tick(self) -> None:
+        stamp_ns = self.steps_done * self.physics_dt_ns
+        self.clock_msg.clock.sec, self.clock_msg.clock.nanosec = divmod(stamp_ns, 1_000_000_000)
+        self.clock_pub.publish(self.clock_msg)
+        self.waiting_for_effort = True
+        self.ticks_published += 1
+        self.publish_state(stamp_ns)
+
+    def report_lockstep(self) -> None:
+        self.get_logger().info(
+            f"lockstep: {self.ticks_published} ticks published, {self.efforts_applied} "
+            f"efforts applied, t = {self.steps_done * self.plant.physics_dt:.3f} s"
+        )
