@@ -1,0 +1,101 @@
+"""The simulator's parameters: the arm and its physics, the wall clock or lockstep, the brakes,
+the scheduled disturbance."""
+
+from __future__ import annotations
+
+from robot_controller.parameters.schema.shared import URDF
+from robot_controller.parameters.spec import ParamSpec
+
+SIMULATOR_PARAMS: tuple[ParamSpec, ...] = (
+    URDF,
+    ParamSpec(
+        "payload",
+        float,
+        [],
+        "a load the arm carries that its URDF lacks: [mass_kg, x_m, y_m, z_m], a point mass at that point "
+        "of the last joint's link's frame (empty: none)",
+        length=4,
+        allow_empty=True,
+        read_only=True,
+    ),
+    ParamSpec("physics_rate_hz", float, 1000.0, "physics steps per second (MuJoCo)", minimum=100.0, maximum=10000.0),
+    ParamSpec(
+        "publish_rate_hz",
+        float,
+        100.0,
+        "rate of /sim/joint_states (true state), Hz; a whole divisor of physics_rate_hz",
+        minimum=10.0,
+        maximum=1000.0,
+    ),
+    ParamSpec(
+        "initial_position",
+        float,
+        [0.0],
+        "initial joint position, rad (one per joint, or one for all)",
+        per_joint=True,
+    ),
+    ParamSpec(
+        "wait_for_first_command",
+        bool,
+        True,
+        "keep the arm still (brakes on) until the first effort arrives, so start-up order does not matter",
+    ),
+    ParamSpec(
+        "lockstep",
+        bool,
+        False,
+        "sim-time lockstep: publish /clock and advance one control period per effort",
+        read_only=True,
+    ),
+    ParamSpec(
+        "control_rate_hz",
+        float,
+        100.0,
+        "control rate the lockstep advances by (one period per effort), Hz",
+        minimum=10.0,
+        maximum=1000.0,
+    ),
+    ParamSpec(
+        "drive_timeout_s",
+        float,
+        0.05,
+        "efforts missing this long (wall clock) engage the holding brakes and cut the torque (category 0), s",
+        minimum=0.0,
+        exclusive_minimum=True,
+    ),
+    ParamSpec(
+        "brake_torque_nm",
+        float,
+        50.0,
+        "holding torque of each joint's brake, N·m (stops the reference arm from 3 rad/s in about 5 ms)",
+        minimum=0.0,
+        exclusive_minimum=True,
+    ),
+    # A disturbance at a set physics time (the tutorial's exercise 2), the same input as /sim/disturbance:
+    # a lockstep run reproduces it exactly.
+    ParamSpec(
+        "disturbance_torque_nm",
+        float,
+        [0.0],
+        "external torque on each joint from disturbance_start_s, N·m (0: none)",
+        per_joint=True,
+        minimum=-100.0,
+        maximum=100.0,
+    ),
+    ParamSpec(
+        "disturbance_start_s",
+        float,
+        0.0,
+        "physics time the disturbance starts at, s (the physics starts with the first command)",
+        minimum=0.0,
+    ),
+    ParamSpec(
+        "disturbance_duration_s",
+        float,
+        1.0,
+        "how long the disturbance acts, s",
+        minimum=0.0,
+        exclusive_minimum=True,
+        maximum=60.0,
+    ),
+)
