@@ -343,13 +343,13 @@ def tune(
     robot: str = "one_dof",
     controller: str | None = None,
 ) -> int:
+    from robot_controller.experiments import autotune as tune_module
     from robot_controller.experiments import laws
-    from robot_controller.experiments import tune as tune_module
 
     params = laws.with_controller(cfg.load_stack(preset, config, robot), controller)
     config_check.check_stack(params)
     if laws.is_plugin(params["pid_controller"]["controller_type"]):  # a law of one's own: on the in-process loop
-        from robot_controller.experiments.tune import law as law_tune
+        from robot_controller.experiments.autotune import law as law_tune
 
         try:
             with StepProgress("tune", law_tune.steps(quick)) as progress:

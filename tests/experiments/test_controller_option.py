@@ -15,7 +15,7 @@ import yaml
 from robot_controller import cli
 from robot_controller import parameters as cfg
 from robot_controller.experiments import compare, inprocess, laws
-from robot_controller.experiments.tune import law as law_tune
+from robot_controller.experiments.autotune import law as law_tune
 
 ROOT = Path(__file__).resolve().parents[2]
 PD = str(ROOT / "examples" / "own_controller.py") + ":PDWithGravity"

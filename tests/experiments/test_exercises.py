@@ -1,5 +1,5 @@
 """The tutorial's exercises (robot_controller.experiments.exercises) and the automatic
-gain design (robot_controller.experiments.tune): the quick forms over the real graph
+gain design (robot_controller.experiments.autotune): the quick forms over the real graph
 in lockstep, and their no-ROS parts."""
 
 import json
@@ -10,10 +10,10 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller.core.batch import run_batch
-from robot_controller.experiments import tune as tune_module
+from robot_controller.experiments import autotune as tune_module
 from robot_controller.experiments.exercises import EXERCISES, steps
 from robot_controller.experiments.exercises.common import Response, law_gains
-from robot_controller.experiments.exercises.tune import oscillation
+from robot_controller.experiments.exercises.ziegler_nichols import oscillation
 
 ros = pytest.mark.ros
 

@@ -13,11 +13,13 @@ To add one: a module beside these with an
 
 from __future__ import annotations
 
-from robot_controller.experiments.exercises import disturbance, lqr, tune, windup
+from robot_controller.experiments.exercises import disturbance, lqr, windup, ziegler_nichols
 from robot_controller.experiments.exercises.common import Exercise
 
 #: Every exercise by name, in the tutorial's order.
-EXERCISES: dict[str, Exercise] = {module.EXERCISE.name: module.EXERCISE for module in (tune, disturbance, windup, lqr)}
+EXERCISES: dict[str, Exercise] = {
+    module.EXERCISE.name: module.EXERCISE for module in (ziegler_nichols, disturbance, windup, lqr)
+}
 
 
 def steps(name: str, quick: bool = False) -> int:

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from robot_controller.experiments.tune.margins import (
+from robot_controller.experiments.autotune.margins import (
     MAX_TIME_CONSTANT_S,
     MIN_DELAY_PERIODS,
     MIN_GAIN_MARGIN_DB,
@@ -18,8 +18,8 @@ from robot_controller.experiments.tune.margins import (
 )
 
 if TYPE_CHECKING:
-    from robot_controller.experiments.tune.problem import Problem
-    from robot_controller.experiments.tune.search import SearchResult
+    from robot_controller.experiments.autotune.problem import Problem
+    from robot_controller.experiments.autotune.search import SearchResult
 
 
 def yaml_header(problem: Problem, result: SearchResult) -> str:

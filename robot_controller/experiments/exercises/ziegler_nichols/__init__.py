@@ -44,9 +44,9 @@ from robot_controller.experiments.exercises.common import (
     write_report,
     write_results,
 )
-from robot_controller.experiments.exercises.tune.plots import plot_sine, plot_stages
-from robot_controller.experiments.exercises.tune.report import report_text
-from robot_controller.experiments.exercises.tune.settings import (
+from robot_controller.experiments.exercises.ziegler_nichols.plots import plot_sine, plot_stages
+from robot_controller.experiments.exercises.ziegler_nichols.report import report_text
+from robot_controller.experiments.exercises.ziegler_nichols.settings import (
     OVERSHOOT_MAX_PCT,
     PRESET,
     SSE_MAX_FRACTION,
@@ -57,7 +57,7 @@ from robot_controller.experiments.exercises.tune.settings import (
     steps,
     with_gains,
 )
-from robot_controller.experiments.exercises.tune.ultimate import kp_search, model_ultimate, oscillation
+from robot_controller.experiments.exercises.ziegler_nichols.ultimate import kp_search, model_ultimate, oscillation
 
 __all__ = ["EXERCISE", "choose_ki", "model_ultimate", "oscillation", "run", "steps"]
 

@@ -13,13 +13,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.experiments.tune.margins import (
+from robot_controller.experiments.autotune.margins import (
     MIN_DELAY_PERIODS,
     MIN_GAIN_MARGIN_DB,
     MIN_PHASE_MARGIN_DEG,
     screen,
 )
-from robot_controller.experiments.tune.problem import SEED, Problem
+from robot_controller.experiments.autotune.problem import SEED, Problem
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller.core import robustness
 from robot_controller.experiments.exercises.common import Progress, Response, plant_loop, step_run
-from robot_controller.experiments.exercises.tune.settings import (
+from robot_controller.experiments.exercises.ziegler_nichols.settings import (
     KP_START,
     KU_STEP_RAD,
     NOISE_FLOOR_RAD,

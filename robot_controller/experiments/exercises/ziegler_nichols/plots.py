@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from robot_controller.experiments.exercises.common import Response, plot_steps, pyplot
-from robot_controller.experiments.exercises.tune.settings import STAGE_STEP_RAD
+from robot_controller.experiments.exercises.ziegler_nichols.settings import STAGE_STEP_RAD
 
 
 def plot_stages(

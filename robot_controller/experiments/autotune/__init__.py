@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.experiments.tune.margins import (
+from robot_controller.experiments.autotune.margins import (
     MAX_TIME_CONSTANT_S,
     MIN_DELAY_PERIODS,
     MIN_GAIN_MARGIN_DB,
@@ -59,9 +59,9 @@ from robot_controller.experiments.tune.margins import (
     UNCONDITIONALLY_STABLE,
     describe_margins,
 )
-from robot_controller.experiments.tune.problem import LQR_BOX, PID_BOX, SEED, Problem, batch_tracking_rms
-from robot_controller.experiments.tune.report import plot, report_text, yaml_header
-from robot_controller.experiments.tune.search import (
+from robot_controller.experiments.autotune.problem import LQR_BOX, PID_BOX, SEED, Problem, batch_tracking_rms
+from robot_controller.experiments.autotune.report import plot, report_text, yaml_header
+from robot_controller.experiments.autotune.search import (
     Candidates,
     Plan,
     SearchResult,
@@ -70,7 +70,7 @@ from robot_controller.experiments.tune.search import (
     search,
     steps,
 )
-from robot_controller.experiments.tune.verify import real_graph
+from robot_controller.experiments.autotune.verify import real_graph
 from robot_controller.scoring import report
 
 __all__ = [

@@ -13,7 +13,7 @@ import numpy as np
 from robot_controller.core import lqr, robustness
 
 if TYPE_CHECKING:
-    from robot_controller.experiments.tune.problem import Problem
+    from robot_controller.experiments.autotune.problem import Problem
 
 #: The robustness every tuned loop keeps (docs: issue 12).
 MIN_GAIN_MARGIN_DB = 6.0

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller.experiments.exercises.common import Response, fmt, table
-from robot_controller.experiments.exercises.tune.settings import (
+from robot_controller.experiments.exercises.ziegler_nichols.settings import (
     KP_START,
     KU_STEP_RAD,
     OVERSHOOT_MAX_PCT,
