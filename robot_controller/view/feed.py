@@ -2,15 +2,13 @@
 
 ``ViewFeed`` collects raw samples (from live topics or from a bag's arrays),
 and ``flush`` turns what has come in since into rerun columns, held by an
-``Outlet`` per recording stream until it sends them: each series
+``Outlet`` (``outlet``) per recording stream until it sends them: each series
 at most ``SERIES_HZ`` and each pose at most ``POSE_HZ`` (per time bucket,
 the first sample; for errors and timing, the one of largest magnitude, so a
 spike is never thinned away). Everything held is bounded: the live inputs
 keep at most ``MAX_PENDING`` samples each between flushes (the oldest go
 first if a flush is late), and only a short tail of controller ticks is kept
 for pairing with later samples.
-
-Longer than our ~250-line guideline: thinning each series without losing spikes, with bounded buffers.
 """
 
 from __future__ import annotations
@@ -24,6 +22,8 @@ from robot_controller.core import state_layout
 from robot_controller.scoring import report
 from robot_controller.view import arm as arm_view
 from robot_controller.view import layout
+from robot_controller.view.outlet import Outlet
+from robot_controller.view.thinning import Decimator
 
 SERIES_HZ = 50.0
 POSE_HZ = 20.0
@@ -31,41 +31,6 @@ MAX_PENDING = 5000  # per input: 50 s of a 100 Hz topic
 TICK_TAIL = 400  # controller ticks kept to pair true samples and motor receipts with (4 s at 100 Hz)
 OTHER_CLOCK_S = 60.0  # a /diagnostics stamp this far outside the ticks' span is on another clock
 STATUS_NAMES = {code: name for name, code in state_layout.STATUS_CODES.items()}
-
-
-class Decimator:
-    """At most ``rate_hz`` samples a second of one series, by time buckets.
-
-    The newest bucket may still fill: it is held back until a later sample
-    starts the next one (or ``final``), so each bucket yields exactly one sample.
-    """
-
-    def __init__(self, rate_hz: float, *, extreme: bool = False) -> None:
-        self.period = 1.0 / rate_hz
-        self.extreme = extreme
-        self.t = np.zeros(0)
-        self.v: np.ndarray | None = None
-
-    def take(self, t: np.ndarray, v: np.ndarray, *, final: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        t = np.concatenate([self.t, np.asarray(t, dtype=float)])
-        v = np.asarray(v, dtype=float) if self.v is None else np.concatenate([self.v, np.asarray(v, dtype=float)])
-        if len(t) == 0:
-            self.t, self.v = t, v
-            return t, v
-        bucket = np.floor(t / self.period)
-        done = np.ones(len(t), bool) if final else bucket < bucket[-1]
-        self.t, self.v = t[~done], v[~done]
-        t, v, bucket = t[done], v[done], bucket[done]
-        if len(t) == 0:
-            return t, v
-        starts = np.flatnonzero(np.r_[True, bucket[1:] != bucket[:-1]])
-        if not self.extreme:
-            return t[starts], v[starts]
-        magnitude = np.abs(v) if v.ndim == 1 else np.max(np.abs(v), axis=1)
-        magnitude = np.where(np.isfinite(magnitude), magnitude, -1.0)
-        ends = np.r_[starts[1:], len(t)]
-        pick = np.array([s + int(np.argmax(magnitude[s:e])) for s, e in zip(starts, ends, strict=False)])
-        return t[pick], v[pick]
 
 
 def reference_in_force(
@@ -76,55 +41,6 @@ def reference_in_force(
     in_force, valid = report.reference_in_force_at(ticks, reference, status, t, nominal_period_s)
     in_force[~valid] = np.nan
     return in_force
-
-
-class Outlet:
-    """Columns for one recording stream, held per entity and sent every
-    ``period_s`` (one chunk per entity each time: few, larger chunks keep a
-    file small, a browser quick and the sender's CPU low; ``0`` sends at every
-    flush). The arm's poses go every ``pose_period_s`` (default: the same)."""
-
-    def __init__(self, rec, period_s: float = 0.0, pose_period_s: float | None = None) -> None:
-        self.rec = rec
-        self.period_s = period_s
-        self.pose_period_s = period_s if pose_period_s is None else pose_period_s
-        self.next_send = self.next_pose_send = 0.0
-        self.scalars: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
-        self.arm: arm_view.ArmModel | None = None
-        self.poses: list[tuple[np.ndarray, np.ndarray]] = []  #: (t (m,), q (m, poses, joints))
-
-    def add_scalars(self, path: str, t: np.ndarray, v: np.ndarray) -> None:
-        self.scalars.setdefault(path, []).append((t, v))
-
-    def add_poses(self, arm: arm_view.ArmModel, t: np.ndarray, q: np.ndarray) -> None:
-        self.arm = arm
-        self.poses.append((t, q))
-
-    def text(self, path: str, t: float, text: str, level: str) -> None:
-        import rerun as rr
-
-        self.rec.set_time(layout.TIMELINE, duration=t)
-        self.rec.log(path, rr.TextLog(text, level=level))
-
-    def pump(self, now: float, *, force: bool = False) -> None:
-        """Send what is held if its period has passed since the last send (or ``force``)."""
-        import rerun as rr
-
-        if force or now >= self.next_send:
-            self.next_send = now + self.period_s
-            for path, parts in self.scalars.items():
-                t, v = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
-                self.rec.send_columns(
-                    path, indexes=[rr.TimeColumn(layout.TIMELINE, duration=t)], columns=rr.Scalars.columns(scalars=v)
-                )
-            self.scalars.clear()
-        if (force or now >= self.next_pose_send) and self.poses:
-            self.next_pose_send = now + self.pose_period_s
-            t, q = np.concatenate([p[0] for p in self.poses]), np.concatenate([p[1] for p in self.poses])
-            time = [rr.TimeColumn(layout.TIMELINE, duration=t)]
-            for path, columns in arm_view.pose_columns(self.arm, layout.ARM, q):
-                self.rec.send_columns(path, indexes=time, columns=columns)
-            self.poses.clear()
 
 
 class ViewFeed:

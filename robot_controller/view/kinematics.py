@@ -1,0 +1,99 @@
+"""Forward kinematics of an arm read from its URDF (``urdf_arm``): each link's frame for many
+joint vectors at once, the rotations the URDF and the view need, and the sphere the camera keeps
+in view."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from robot_controller.view.urdf_arm import MOVING, ArmModel, visual_extent
+
+
+def rpy_matrix(rpy: tuple[float, float, float]) -> np.ndarray:
+    """URDF's fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+def z_to(axis: tuple[float, float, float]) -> np.ndarray:
+    """The ``xyzw`` quaternion turning +z onto ``axis`` (a cylinder drawn along a joint axis)."""
+    a = np.asarray(axis, dtype=float)
+    v = np.cross([0.0, 0.0, 1.0], a)
+    w = 1.0 + a[2]
+    if w < 1e-9:  # opposite: half a turn about x
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    q = np.array([v[0], v[1], v[2], w])
+    return q / np.linalg.norm(q)
+
+
+def axis_matrices(axis: tuple[float, float, float], angles: np.ndarray) -> np.ndarray:
+    """Rotations by ``angles`` about the unit ``axis`` (Rodrigues), shape ``(m, 3, 3)``."""
+    x, y, z = axis
+    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    angles = np.asarray(angles, dtype=float)[:, None, None]
+    return np.eye(3) + np.sin(angles) * k + (1.0 - np.cos(angles)) * (k @ k)
+
+
+def link_frames(arm: ArmModel, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Forward kinematics: each link's frame in the world, ``(R (m, 3, 3), p (m, 3))``, for
+    ``m`` joint vectors ``q`` (``(m, n)``, the stack's joint order). Also ``"<joint>@"``: a
+    moving joint's frame before its motion (where its axis sits)."""
+    q = np.asarray(q, dtype=float)
+    m = len(q)
+    index = {name: k for k, name in enumerate(arm.joint_names)}
+    frames = {arm.root.name: (np.broadcast_to(np.eye(3), (m, 3, 3)), np.zeros((m, 3)))}
+    for parent, joint in arm.joints():
+        rotation, position = frames[parent.name]
+        at_joint = (rotation @ rpy_matrix(joint.rpy), position + rotation @ np.asarray(joint.xyz))
+        value = q[:, index[joint.name]] if joint.name in index else np.zeros(m)
+        if joint.kind in ("revolute", "continuous"):
+            frames[joint.child.name] = (at_joint[0] @ axis_matrices(joint.axis, value), at_joint[1])
+        elif joint.kind == "prismatic":
+            frames[joint.child.name] = (
+                at_joint[0],
+                at_joint[1] + at_joint[0] @ np.asarray(joint.axis) * value[:, None],
+            )
+        else:
+            frames[joint.child.name] = at_joint
+        if joint.kind in MOVING:
+            frames[f"{joint.name}@"] = at_joint
+    return frames
+
+
+def view_sphere(arm: ArmModel) -> tuple[np.ndarray, float]:
+    """Where the camera looks (the first joint) and how large a sphere about it must stay in
+    view (m): one joint, its reach; more, how far the arm reaches from the first joint at its
+    zero pose (the links' origins and visuals; the summed lengths of a folding chain overstate it)."""
+    base = np.asarray(arm.base_xyz, dtype=float)
+    if len(arm.joint_names) <= 1:
+        return base, arm.reach_m
+    frames = link_frames(arm, np.zeros((1, len(arm.joint_names))))
+    radius = 0.0
+    for link in arm.links():
+        rotation, position = frames[link.name]
+        radius = max(radius, float(np.linalg.norm(position[0] - base)))
+        for v in link.visuals:
+            centre = position[0] + rotation[0] @ np.asarray(v.xyz)
+            radius = max(radius, float(np.linalg.norm(centre - base)) + visual_extent(v) - float(np.linalg.norm(v.xyz)))
+    return base, radius
+
+
+def z_to_matrix(axis: tuple[float, float, float]) -> np.ndarray:
+    """The rotation matrix turning +z onto ``axis``."""
+    x, y, z, w = z_to(axis)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
