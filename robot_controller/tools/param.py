@@ -70,6 +70,8 @@ def parse_value(text: str, current: int | None = None) -> tuple[int, Any]:
             value = float(value)  # YAML 1.1 reads 1e3 as a string; a number is meant here
         except ValueError:
             pass
+    if isinstance(value, list) and (floating or any(_is_number(v) for v in value)):
+        value = [_as_float(v) for v in value]  # [1e4, 1e4, 1]: YAML 1.1 reads the 1e4s as strings
     if isinstance(value, bool):
         return BOOL, value
     if isinstance(value, int | float):
@@ -94,6 +96,20 @@ def parse_value(text: str, current: int | None = None) -> tuple[int, Any]:
     if isinstance(value, str):
         return STRING, value
     return STRING, text  # empty, a mapping, a date...: the text as typed
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _as_float(value: Any) -> Any:
+    """A string that reads as a number, as that number; anything else as it is."""
+    if isinstance(value, str):
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    return value
 
 
 def to_message(kind: int, value: Any) -> Any:

@@ -78,6 +78,8 @@ def test_a_message_prints_as_one_csv_line_of_its_values_in_field_order():
         ("[60.0]", None, (DOUBLE_ARRAY, [60.0])),
         ("[1, 2]", None, (INTEGER_ARRAY, [1, 2])),
         ("[1, 2.5]", None, (DOUBLE_ARRAY, [1.0, 2.5])),
+        ("[1e4, 1e4, 1]", None, (DOUBLE_ARRAY, [1e4, 1e4, 1.0])),  # the 1e4s are numbers among numbers
+        ("[1e4, 1e4, 1e0]", DOUBLE_ARRAY, (DOUBLE_ARRAY, [1e4, 1e4, 1.0])),
         ("[true, false]", None, (BOOL_ARRAY, [True, False])),
         ("[a, b]", None, (STRING_ARRAY, ["a", "b"])),
         ("true", None, (BOOL, True)),
