@@ -57,6 +57,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from functools import lru_cache
+from typing import Protocol
 
 import numpy as np
 
@@ -256,6 +257,72 @@ def _inverse_2x2(a: float, b: float, c: float, d: float) -> tuple[float, float, 
     return d / det, -b / det, -c / det, a / det
 
 
+def _power_2x2(a: list[float], k: int) -> tuple[float, float, float, float]:
+    """:func:`~robot_controller.core.arrays.matrix_power` of a 2 × 2 matrix given row by
+    row (``[a00, a01, a10, a11]``), ``k >= 1``, on floats: the same products in the same
+    order (binary powering)."""
+
+    def product(x: tuple[float, ...], y: tuple[float, ...]) -> tuple[float, float, float, float]:
+        return (
+            x[0] * y[0] + x[1] * y[2],
+            x[0] * y[1] + x[1] * y[3],
+            x[2] * y[0] + x[3] * y[2],
+            x[2] * y[1] + x[3] * y[3],
+        )
+
+    a = tuple(a)
+    if k <= 3:
+        return a if k == 1 else product(a, a) if k == 2 else product(product(a, a), a)
+    power = result = None
+    while k > 0:
+        power = a if power is None else product(power, power)
+        k, bit = divmod(k, 2)
+        if bit:
+            result = power if result is None else product(result, power)
+    return result
+
+
+class OneJointModel(Protocol):
+    """The arm model of one joint on Python floats (as
+    :class:`~robot_controller.core.plant.OneJointDynamics` answers it)."""
+
+    mass: float  #: kg·m², the joint's inertia (constant: one joint turns the whole arm rigidly)
+
+    def predict(
+        self, position: float, velocity: float, torque: float, horizon_s: float, max_step_s: float, external_nm=None
+    ) -> tuple[float, float]: ...
+
+    def step_slopes(self, position: float, velocity: float, torque: float, step_s: float) -> list[float]: ...
+
+
+class _ArrayCalls:
+    """A one-joint filter's arm model through its array callables (the predictor, the step
+    Jacobian or finite differences, the mass matrix), floats in and out: for a model
+    without a :class:`OneJointModel`."""
+
+    mass = None  #: M(q) is asked at each q
+
+    def __init__(self, kalman: JointKalmanFilter) -> None:
+        self._kalman = kalman
+
+    def predict(
+        self, position: float, velocity: float, torque: float, horizon_s: float, max_step_s: float, external_nm=None
+    ) -> tuple[float, float]:
+        q, v = self._kalman.predictor(
+            np.array([position]),
+            np.array([velocity]),
+            np.array([torque]),
+            horizon_s,
+            max_step_s=max_step_s,
+            external_nm=None if external_nm is None else np.array([external_nm]),
+        )
+        return float(q[0]), float(v[0])
+
+    def step_slopes(self, position: float, velocity: float, torque: float, step_s: float) -> list[float]:
+        slopes = self._kalman._step_slopes(np.array([position]), np.array([velocity]), np.array([torque]), step_s)
+        return np.asarray(slopes, dtype=float).ravel().tolist()
+
+
 def _quadratic(u0: float, u1: float, a: float, b: float, c: float, d: float, w0: float, w1: float) -> float:
     """``uᵀ·[[a, b], [c, d]]·w`` for 2-vectors, on floats."""
     return u0 * (a * w0 + b * w1) + u1 * (c * w0 + d * w1)
@@ -308,6 +375,9 @@ class JointKalmanFilter:
         jump's and start's prior): the joint's inertia over the one they were chosen for, so that
         a wrist and a shoulder get the same observer in acceleration (None: 1 on every joint)
     :param independent_joints: the joints do not act on one another (separate one-joint arms)
+    :param one_joint: for one joint, the same arm model on floats (``ArmDynamics.one_joint``):
+        the running filter's update asks it instead of ``predictor``, ``jacobian`` and
+        ``mass_matrix`` (the same numbers, to rounding)
     """
 
     def __init__(
@@ -322,6 +392,7 @@ class JointKalmanFilter:
         disturbance_limit: np.ndarray | None = None,
         torque_scale: np.ndarray | None = None,
         independent_joints: bool = False,
+        one_joint: OneJointModel | None = None,
     ) -> None:
         if estimate_disturbance and mass_matrix is None:
             raise ConfigError("disturbance_observer: needs the arm model's mass matrix")
@@ -372,6 +443,10 @@ class JointKalmanFilter:
         self.restart_count = np.zeros(joint_count, dtype=int)
         #: per joint, the innovation's squared Mahalanobis distance, averaged (2 while readings agree)
         self._distance_sq_average = np.full(joint_count, innovation.UNPROVEN_DISTANCE_SQ)
+        #: one joint: the arm model on floats (its own, or the callables above through arrays)
+        self._one_joint_calls: OneJointModel | _ArrayCalls | None = None
+        if joint_count == 1:
+            self._one_joint_calls = _ArrayCalls(self) if one_joint is None else one_joint
 
     def reset(self) -> None:
         """Forget the state: the next reading starts the filter again (and the disturbance from 0)."""
@@ -413,7 +488,13 @@ class JointKalmanFilter:
 
     def _set_mass(self, position: np.ndarray) -> None:
         """The mass matrix and its inverse at ``position``, for the next prediction and the estimate's torque."""
-        self._mass = np.asarray(self.mass_matrix(np.asarray(position, float)), dtype=float)
+        calls = self._one_joint_calls
+        if calls is not None and calls.mass is not None:  # one joint's constant M
+            if self._mass is not None:
+                return
+            self._mass = np.array([[calls.mass]])
+        else:
+            self._mass = np.asarray(self.mass_matrix(np.asarray(position, float)), dtype=float)
         # One joint: 1/M is what LAPACK's inverse of a 1 × 1 comes to, without its call.
         self._inverse_mass = 1.0 / self._mass if self.joint_count == 1 else np.linalg.inv(self._mass)
         self._own_inverse_mass = self._inverse_mass.diagonal().copy()
@@ -527,25 +608,33 @@ class JointKalmanFilter:
     ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`update` of a running one-joint filter, the same arithmetic on Python
         floats: on arrays of one to three values NumPy's per-call cost is most of the
-        work. The matrices' products are in the order :meth:`update` takes them."""
-        m, config = self.size, self.config
+        work. The arm model is asked through :attr:`_one_joint_calls` (floats in and
+        out). The matrices' products are in the order :meth:`update` takes them, with
+        the transition's known zeros and ones left out (exact)."""
+        m, config, calls = self.size, self.config, self._one_joint_calls
         observer = self.estimates_disturbance
         dt = time_s - self.time_s
         self.time_s = time_s
         z_q, z_v = float(position[0]), float(velocity[0])
+        tau = float(torque[0])
         state = self.x[0].tolist()
-        q_now, v_now = self.x[:, 0], self.x[:, 1]
-        F = self._one_joint_transition(q_now, v_now, torque, dt)
+        q_now, v_now = state[0], state[1]
+        # The transition F over the period: one model step's slopes, carried over the period's steps.
+        steps = step_count(dt, config.model_step_s)
+        f00, f01, f10, f11 = _power_2x2(calls.step_slopes(q_now, v_now, tau, dt / steps), steps)
         sigma_d, sigma_a = self._one_joint_noise_in_force()
         timing_uncertain = (
             torque_change is not None and config.command_timing_uncertainty_s > 0 and self.mass_matrix is not None
         )
-        q_pred, v_pred = self._step_model(q_now, v_now, torque, dt)
-        q_pred, v_pred = float(q_pred[0]), float(v_pred[0])
+        if observer:
+            b_before = 0.0 if self._own_inverse_mass is None else self._own_inverse_mass.item()
+            f02, f12 = 0.5 * b_before * dt * dt, b_before * dt  # d moves the arm as a torque there would
+        external = self._one_joint_disturbance_torque()
+        q_pred, v_pred = calls.predict(q_now, v_now, tau, dt, config.model_step_s, external)
         b = 0.0
         if observer or timing_uncertain:
             self._set_mass(q_now)
-            b = float(self._own_inverse_mass[0])  # rad/s² per N·m
+            b = self._own_inverse_mass.item()  # rad/s² per N·m
         # The process noise, as :func:`process_noise` and :meth:`update` weigh it.
         g0, g1 = 0.5 * dt * dt, dt
         variance_a = sigma_a * sigma_a
@@ -568,10 +657,24 @@ class JointKalmanFilter:
             Q[0][1] += dt * variance_v
             Q[1][0] += dt * variance_v
             Q[1][1] += variance_v
-        P_pred = [
-            [p + w for p, w in zip(row, noise, strict=True)]
-            for row, noise in zip(F.dot(self.P[0]).dot(F.T).tolist(), Q, strict=True)
-        ]
+        # P_pred = F·P·Fᵀ + Q; F's last row (with the observer) is [0, 0, 1].
+        P = self.P[0].tolist()
+        if observer:
+            p0, p1, p2 = P
+            r0 = [f00 * a + f01 * c + f02 * e for a, c, e in zip(p0, p1, p2, strict=True)]  # (F·P)'s rows
+            r1 = [f10 * a + f11 * c + f12 * e for a, c, e in zip(p0, p1, p2, strict=True)]
+            P_pred = [
+                [r[0] * f00 + r[1] * f01 + r[2] * f02 + n0, r[0] * f10 + r[1] * f11 + r[2] * f12 + n1, r[2] + n2]
+                for r, (n0, n1, n2) in zip((r0, r1, p2), Q, strict=True)
+            ]
+        else:
+            p0, p1 = P
+            r0 = [f00 * a + f01 * c for a, c in zip(p0, p1, strict=True)]
+            r1 = [f10 * a + f11 * c for a, c in zip(p0, p1, strict=True)]
+            P_pred = [
+                [r[0] * f00 + r[1] * f01 + n0, r[0] * f10 + r[1] * f11 + n1]
+                for r, (n0, n1) in zip((r0, r1), Q, strict=True)
+            ]
         r_q, r_v = self._r_diagonal
         surprise_q, surprise_v = z_q - q_pred, z_v - v_pred
         s00, s01, s10, s11 = P_pred[0][0] + r_q, P_pred[0][1], P_pred[1][0], P_pred[1][1] + r_v
@@ -581,7 +684,7 @@ class JointKalmanFilter:
             unexplainable = abs(surprise_v) > limit * (b * dt) + innovation.BEYOND_SIGMA * math.sqrt(s11)
         i00, i01, i10, i11 = _inverse_2x2(s00, s01, s10, s11)
         distance_sq = _quadratic(surprise_q, surprise_v, i00, i01, i10, i11, surprise_q, surprise_v)
-        average = float(self._distance_sq_average[0])
+        average = self._distance_sq_average.item()
         jumped = False
         if observer and config.jump_detection_sigma > 0:
             step_q, step_v = 0.5 * b * dt * dt, b * dt
@@ -627,17 +730,14 @@ class JointKalmanFilter:
         if unexplainable:
             self._start(np.ones(1, dtype=bool), np.array([[z_q, z_v]]))
             self.restart_count += 1
-        return self.x[:, 0].copy(), self.x[:, 1].copy()
+            return self.x[:, 0].copy(), self.x[:, 1].copy()
+        return np.array(x_new[0:1]), np.array(x_new[1:2])
 
-    def _one_joint_transition(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> np.ndarray:
-        """:meth:`_transition` of a one-joint filter (m × m), without the index arrays."""
-        steps = step_count(dt, self.config.model_step_s)
-        F = np.zeros((self.size, self.size))
-        F[:2, :2] = matrix_power(self._step_slopes(q, v, torque, dt / steps), steps)
-        if self.estimates_disturbance:
-            b = 0.0 if self._own_inverse_mass is None else self._own_inverse_mass.item()
-            F[0, 2], F[1, 2], F[2, 2] = 0.5 * b * dt * dt, b * dt, 1.0
-        return F
+    def _one_joint_disturbance_torque(self) -> float | None:
+        """:meth:`_disturbance_torque` of a one-joint filter, as a float."""
+        if not self.estimates_disturbance or self.x is None or self._mass is None:
+            return None
+        return self._mass.item() * (self._own_inverse_mass.item() * self.x.item(0, 2))
 
     def _one_joint_noise_in_force(self) -> tuple[float, float]:
         """:meth:`_noise_in_force` of a one-joint filter, as floats."""
@@ -791,5 +891,10 @@ class JointKalmanFilter:
         acceleration × model_step_s / 2, which the law's D term turns into a
         systematic torque (0.3 mrad of tracking error on the reference sine)."""
         h = self.config.model_step_s
+        calls = self._one_joint_calls
+        if calls is not None and calls.mass is not None:  # one joint, on floats
+            v, external = float(velocity[0]), self._one_joint_disturbance_torque()
+            _, ahead = calls.predict(float(position[0]), v, float(torque[0]), h, h, external)
+            return np.array([0.5 * (v + ahead)])
         _, ahead = self.predictor(position, velocity, torque, h, max_step_s=h, external_nm=self._disturbance_torque())
         return 0.5 * (velocity + ahead)

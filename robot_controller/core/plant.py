@@ -298,6 +298,8 @@ class ArmDynamics:
         self._qpos, self._qvel, self._qacc = d.qpos, d.qvel, d.qacc
         self._qfrc_applied, self._qfrc_inverse = d.qfrc_applied, d.qfrc_inverse
         self._option = self.model.opt
+        #: a one-joint arm's calls on Python floats (None for more joints)
+        self.one_joint = OneJointDynamics(self) if self.model.nv == 1 else None
 
     def torque(self, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         self._qpos[:] = position
@@ -396,6 +398,67 @@ class ArmDynamics:
     def damping(self) -> np.ndarray:
         """Viscous joint damping, N·m·s/rad."""
         return self.model.dof_damping.copy()
+
+
+class OneJointDynamics:
+    """:class:`ArmDynamics` of a one-joint arm on Python floats: the same MuJoCo calls
+    on the same private ``MjData``, so the same numbers, without the arrays in and out
+    (on one joint, NumPy's per-call cost is most of the work of a call).
+
+    The mass matrix is made once: with one joint the whole arm turns rigidly about its
+    axis, so M(q) is a constant (MuJoCo's varies with q by rounding only, ~1e-15). It
+    assumes the model's bodies are not changed after loading (nothing here does).
+    """
+
+    def __init__(self, dynamics: ArmDynamics) -> None:
+        self.model = dynamics.model
+        self._data = dynamics._data
+        self._qpos, self._qvel, self._qacc = dynamics._qpos, dynamics._qvel, dynamics._qacc
+        self._qfrc_applied, self._qfrc_inverse = dynamics._qfrc_applied, dynamics._qfrc_inverse
+        self._option = dynamics._option
+        self._low, self._high = dynamics._effort_low.item(), dynamics.effort_limit.item()
+        self._slopes = np.zeros((2, 2))
+        self.mass = float(dynamics.mass_matrix(np.zeros(1))[0, 0])  #: kg·m², M(q) for every q
+
+    def _load(self, position: float, velocity: float, torque: float, external_nm: float | None) -> None:
+        """:meth:`ArmDynamics._load` on floats."""
+        self._qpos[0] = position
+        self._qvel[0] = velocity
+        applied = min(max(torque, self._low), self._high)
+        self._qfrc_applied[0] = applied if external_nm is None else applied + external_nm
+
+    def predict(
+        self,
+        position: float,
+        velocity: float,
+        torque: float,
+        horizon_s: float,
+        max_step_s: float,
+        external_nm: float | None = None,
+    ) -> tuple[float, float]:
+        """:meth:`ArmDynamics.predict`: ``(position, velocity)`` ``horizon_s`` ahead."""
+        steps = step_count(horizon_s, max_step_s)
+        self._option.timestep = horizon_s / steps
+        self._load(position, velocity, torque, external_nm)
+        mujoco.mj_step(self.model, self._data, steps)
+        self._qfrc_applied[0] = 0.0
+        return self._qpos.item(0), self._qvel.item(0)
+
+    def step_slopes(self, position: float, velocity: float, torque: float, step_s: float) -> list[float]:
+        """:meth:`ArmDynamics.step_jacobian`, row by row: ``[∂q'/∂q, ∂q'/∂v, ∂v'/∂q, ∂v'/∂v]``."""
+        self._option.timestep = step_s
+        self._load(position, velocity, torque, None)
+        mujoco.mjd_transitionFD(self.model, self._data, 1e-6, 0, self._slopes, None, None, None)
+        self._qfrc_applied[0] = 0.0
+        return self._slopes.ravel().tolist()
+
+    def torque(self, position: float, velocity: float, acceleration: float) -> float:
+        """:meth:`ArmDynamics.torque`: inverse dynamics, N·m."""
+        self._qpos[0] = position
+        self._qvel[0] = velocity
+        self._qacc[0] = acceleration
+        mujoco.mj_inverse(self.model, self._data)
+        return self._qfrc_inverse.item(0)
 
 
 def _is_one_value(value: object) -> bool:

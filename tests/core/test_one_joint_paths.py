@@ -43,12 +43,28 @@ def dynamics() -> ArmDynamics:
     return ArmDynamics(resources.default_urdf())
 
 
+def test_one_joint_dynamics_is_the_arm_model(dynamics):
+    """The arm model's float calls give its array calls' numbers (the mass matrix: to rounding, at any q)."""
+    one = dynamics.one_joint
+    for q, v, tau, ext in [(0.3, -1.2, 2.5, None), (-2.0, 4.0, 30.0, 1.5), (1.0, 0.0, -12.0, -0.2)]:
+        array = dynamics.predict(
+            np.array([q]), np.array([v]), np.array([tau]), 0.01, 0.001, None if ext is None else np.array([ext])
+        )
+        assert one.predict(q, v, tau, 0.01, 0.001, ext) == (array[0].item(), array[1].item())
+        slopes = dynamics.step_jacobian(np.array([q]), np.array([v]), np.array([tau]), 0.001)
+        assert one.step_slopes(q, v, tau, 0.001) == slopes.ravel().tolist()
+        assert one.torque(q, v, 3.0) == dynamics.torque(np.array([q]), np.array([v]), np.array([3.0])).item()
+        assert one.mass == pytest.approx(dynamics.mass_matrix(np.array([q]))[0, 0], rel=1e-13)
+
+
 @pytest.mark.parametrize("observer", [False, True])
 @pytest.mark.parametrize("timing_s", [0.0, 0.01])
-def test_one_joint_filter_is_the_array_filter(dynamics, observer, timing_s):
-    """Through agreement, a push (a jump), disagreement and a reading beyond any torque (a restart)."""
+@pytest.mark.parametrize("model_on_floats", [False, True])
+def test_one_joint_filter_is_the_array_filter(dynamics, observer, timing_s, model_on_floats):
+    """Through agreement, a push (a jump), disagreement and a reading beyond any torque (a restart);
+    the arm model asked through its array calls or its float ones (``ArmDynamics.one_joint``)."""
 
-    def make():
+    def make(one_joint=None):
         return JointKalmanFilter(
             KalmanConfig(command_timing_uncertainty_s=timing_s),
             1,
@@ -58,9 +74,10 @@ def test_one_joint_filter_is_the_array_filter(dynamics, observer, timing_s):
             mass_matrix=dynamics.mass_matrix,
             disturbance_limit=np.array([10.0]),
             torque_scale=np.array([1.5]),
+            one_joint=one_joint,
         )
 
-    floats, arrays = make(), make()
+    floats, arrays = make(dynamics.one_joint if model_on_floats else None), make()
     rng = np.random.default_rng(5)
     q, v, torque = np.zeros(1), np.zeros(1), np.zeros(1)
     for k in range(400):
@@ -80,6 +97,8 @@ def test_one_joint_filter_is_the_array_filter(dynamics, observer, timing_s):
         np.testing.assert_allclose(floats.x, arrays.x, rtol=1e-6, atol=1e-7)
         np.testing.assert_allclose(floats.P, arrays.P, rtol=1e-6, atol=1e-10)
         np.testing.assert_allclose(floats._distance_sq_average, arrays._distance_sq_average, rtol=1e-6)
+        at_instant = (floats.velocity_at_instant(*a, torque), arrays.velocity_at_instant(*a, torque))
+        np.testing.assert_allclose(*at_instant, rtol=1e-6, atol=1e-7)
         torque = np.array([2.0 * np.sin(0.02 * k)])
     assert floats.jump_count[0] == arrays.jump_count[0] and floats.restart_count[0] == arrays.restart_count[0]
     if observer:
