@@ -610,8 +610,10 @@ class JointKalmanFilter:
         floats: on arrays of one to three values NumPy's per-call cost is most of the
         work. The arm model is asked through :attr:`_one_joint_calls` (floats in and
         out). The matrices' products are in the order :meth:`update` takes them, with
-        the transition's known zeros and ones left out (exact)."""
-        m, config, calls = self.size, self.config, self._one_joint_calls
+        the transition's known zeros and ones left out (exact); the covariances, symmetric,
+        are worked out entry by entry on their upper triangle (to rounding, what the
+        full products and the symmetrisation give)."""
+        config, calls = self.config, self._one_joint_calls
         observer = self.estimates_disturbance
         dt = time_s - self.time_s
         self.time_s = time_s
@@ -635,7 +637,8 @@ class JointKalmanFilter:
         if observer or timing_uncertain:
             self._set_mass(q_now)
             b = self._own_inverse_mass.item()  # rad/s² per N·m
-        # The process noise, as :func:`process_noise` and :meth:`update` weigh it.
+        # The process noise, as :func:`process_noise` and :meth:`update` weigh it (its upper
+        # triangle, q00 = Q[0][0], q01 = Q[0][1], ...; without the observer, zero where d would be).
         g0, g1 = 0.5 * dt * dt, dt
         variance_a = sigma_a * sigma_a
         if observer:
@@ -643,46 +646,48 @@ class JointKalmanFilter:
             w = sigma_d * sigma_d
             wb = w * b
             wb2 = wb * b
-            Q = [
-                [variance_a * (g0 * g0) + wb2 * qq, variance_a * (g0 * g1) + wb2 * qv, wb * qd],
-                [variance_a * (g0 * g1) + wb2 * qv, variance_a * (g1 * g1) + wb2 * vv, wb * vd],
-                [wb * qd, wb * vd, w * dt],
-            ]
+            q00, q01, q02 = variance_a * (g0 * g0) + wb2 * qq, variance_a * (g0 * g1) + wb2 * qv, wb * qd
+            q11, q12, q22 = variance_a * (g1 * g1) + wb2 * vv, wb * vd, w * dt
         else:
-            Q = [[g0 * g0 * variance_a, g0 * g1 * variance_a], [g1 * g0 * variance_a, g1 * g1 * variance_a]]
+            q00, q01, q11 = g0 * g0 * variance_a, g0 * g1 * variance_a, g1 * g1 * variance_a
+            q02 = q12 = q22 = 0.0
         if timing_uncertain:
             sigma_v = abs(float(torque_change[0])) * config.command_timing_uncertainty_s * b
             variance_v = sigma_v * sigma_v
-            Q[0][0] += dt * dt * variance_v
-            Q[0][1] += dt * variance_v
-            Q[1][0] += dt * variance_v
-            Q[1][1] += variance_v
-        # P_pred = F·P·Fᵀ + Q; F's last row (with the observer) is [0, 0, 1].
-        P = self.P[0].tolist()
+            q00 += dt * dt * variance_v
+            q01 += dt * variance_v
+            q11 += variance_v
+        # P_pred = F·P·Fᵀ + Q, symmetric (its upper triangle); F's last row is [0, 0, 1] (without
+        # the observer, P is padded with zeros to 3 × 3: the same sums, exactly).
         if observer:
-            p0, p1, p2 = P
-            r0 = [f00 * a + f01 * c + f02 * e for a, c, e in zip(p0, p1, p2, strict=True)]  # (F·P)'s rows
-            r1 = [f10 * a + f11 * c + f12 * e for a, c, e in zip(p0, p1, p2, strict=True)]
-            P_pred = [
-                [r[0] * f00 + r[1] * f01 + r[2] * f02 + n0, r[0] * f10 + r[1] * f11 + r[2] * f12 + n1, r[2] + n2]
-                for r, (n0, n1, n2) in zip((r0, r1, p2), Q, strict=True)
-            ]
+            (p00, p01, p02), (_, p11, p12), (_, _, p22) = self.P[0].tolist()
         else:
-            p0, p1 = P
-            r0 = [f00 * a + f01 * c for a, c in zip(p0, p1, strict=True)]
-            r1 = [f10 * a + f11 * c for a, c in zip(p0, p1, strict=True)]
-            P_pred = [
-                [r[0] * f00 + r[1] * f01 + n0, r[0] * f10 + r[1] * f11 + n1]
-                for r, (n0, n1) in zip((r0, r1), Q, strict=True)
-            ]
+            (p00, p01), (_, p11) = self.P[0].tolist()
+            f02 = f12 = p02 = p12 = p22 = 0.0
+        r00, r01, r02 = (
+            f00 * p00 + f01 * p01 + f02 * p02,
+            f00 * p01 + f01 * p11 + f02 * p12,
+            f00 * p02 + f01 * p12 + f02 * p22,
+        )
+        r10, r11, r12 = (
+            f10 * p00 + f11 * p01 + f12 * p02,
+            f10 * p01 + f11 * p11 + f12 * p12,
+            f10 * p02 + f11 * p12 + f12 * p22,
+        )
+        a00 = r00 * f00 + r01 * f01 + r02 * f02 + q00
+        a01 = r00 * f10 + r01 * f11 + r02 * f12 + q01
+        a02 = r02 + q02
+        a11 = r10 * f10 + r11 * f11 + r12 * f12 + q11
+        a12 = r12 + q12
+        a22 = p22 + q22
         r_q, r_v = self._r_diagonal
         surprise_q, surprise_v = z_q - q_pred, z_v - v_pred
-        s00, s01, s10, s11 = P_pred[0][0] + r_q, P_pred[0][1], P_pred[1][0], P_pred[1][1] + r_v
+        s00, s01, s11 = a00 + r_q, a01, a11 + r_v
         unexplainable = False
         if observer:
             limit = float(self.disturbance_limit[0])
             unexplainable = abs(surprise_v) > limit * (b * dt) + innovation.BEYOND_SIGMA * math.sqrt(s11)
-        i00, i01, i10, i11 = _inverse_2x2(s00, s01, s10, s11)
+        i00, i01, i10, i11 = _inverse_2x2(s00, s01, s01, s11)
         distance_sq = _quadratic(surprise_q, surprise_v, i00, i01, i10, i11, surprise_q, surprise_v)
         average = self._distance_sq_average.item()
         jumped = False
@@ -696,42 +701,43 @@ class JointKalmanFilter:
                 and explained > config.jump_detection_sigma**2
                 and distance_sq - explained < innovation.JUMP_RESIDUAL_MAX
             )
-            if jumped:
-                G = (step_q, step_v, 1.0)
+            if jumped:  # the covariance of a jump of d at the start of the period, G·Gᵀ·σ², G = [step_q, step_v, 1]
                 jump_std = DISTURBANCE_PRIOR_STD_NM * (1.0 if self._torque_scale is None else self._torque_scale[0])
                 jump_variance = float(jump_std**2)
-                for i in range(3):
-                    for j in range(3):
-                        P_pred[i][j] += jump_variance * (G[i] * G[j])
+                a00 += jump_variance * (step_q * step_q)
+                a01 += jump_variance * (step_q * step_v)
+                a02 += jump_variance * step_q
+                a11 += jump_variance * (step_v * step_v)
+                a12 += jump_variance * step_v
+                a22 += jump_variance
                 self.jump_count[0] += 1
-                s00, s01, s10, s11 = P_pred[0][0] + r_q, P_pred[0][1], P_pred[1][0], P_pred[1][1] + r_v
-                i00, i01, i10, i11 = _inverse_2x2(s00, s01, s10, s11)
+                s00, s01, s11 = a00 + r_q, a01, a11 + r_v
+                i00, i01, i10, i11 = _inverse_2x2(s00, s01, s01, s11)
         if not jumped:
             average += min(1.0, dt / innovation.CONSISTENCY_TIME_S) * (distance_sq - average)
             self._distance_sq_average = np.array([average])
-        # The gain K = (S⁻¹·P_read)ᵀ, P_read the rows of the readings (q and v).
-        read_q, read_v = P_pred[0], P_pred[1]
-        # K's two columns: per state, the gain on the position reading and on the velocity reading
-        gain_q = [i00 * a + i01 * b for a, b in zip(read_q, read_v, strict=True)]
-        gain_v = [i10 * a + i11 * b for a, b in zip(read_q, read_v, strict=True)]
-        x_pred = [q_pred, v_pred, *state[2:]]
-        x_new = [x + (kq * surprise_q + kv * surprise_v) for x, kq, kv in zip(x_pred, gain_q, gain_v, strict=True)]
-        P_new = [
-            [p - (kq * a + kv * b) for p, a, b in zip(row, read_q, read_v, strict=True)]
-            for row, kq, kv in zip(P_pred, gain_q, gain_v, strict=True)
-        ]
-        for i in range(m):  # symmetric: (P + Pᵀ)/2, each pair once
-            for j in range(i, m):
-                P_new[i][j] = P_new[j][i] = 0.5 * (P_new[i][j] + P_new[j][i])
+        # The gain K = (S⁻¹·P_read)ᵀ, P_read the rows of the readings (q and v): per state, the gain
+        # on the position reading (k_q) and on the velocity reading (k_v).
+        kq0, kq1, kq2 = i00 * a00 + i01 * a01, i00 * a01 + i01 * a11, i00 * a02 + i01 * a12
+        kv0, kv1, kv2 = i10 * a00 + i11 * a01, i10 * a01 + i11 * a11, i10 * a02 + i11 * a12
+        q_new = q_pred + (kq0 * surprise_q + kv0 * surprise_v)
+        v_new = v_pred + (kq1 * surprise_q + kv1 * surprise_v)
+        # P − K·P_read, symmetric (its upper triangle).
+        n00, n01, n11 = a00 - (kq0 * a00 + kv0 * a01), a01 - (kq0 * a01 + kv0 * a11), a11 - (kq1 * a01 + kv1 * a11)
         if observer:
-            x_new[2] = min(max(x_new[2], -limit), limit)
-        self.x = np.array([x_new])
-        self.P = np.array([P_new])
+            d_new = min(max(state[2] + (kq2 * surprise_q + kv2 * surprise_v), -limit), limit)
+            n02, n12 = a02 - (kq0 * a02 + kv0 * a12), a12 - (kq1 * a02 + kv1 * a12)
+            n22 = a22 - (kq2 * a02 + kv2 * a12)
+            self.x = np.array([[q_new, v_new, d_new]])
+            self.P = np.array([[[n00, n01, n02], [n01, n11, n12], [n02, n12, n22]]])
+        else:
+            self.x = np.array([[q_new, v_new]])
+            self.P = np.array([[[n00, n01], [n01, n11]]])
         if unexplainable:
             self._start(np.ones(1, dtype=bool), np.array([[z_q, z_v]]))
             self.restart_count += 1
             return self.x[:, 0].copy(), self.x[:, 1].copy()
-        return np.array(x_new[0:1]), np.array(x_new[1:2])
+        return np.array([q_new]), np.array([v_new])
 
     def _one_joint_disturbance_torque(self) -> float | None:
         """:meth:`_disturbance_torque` of a one-joint filter, as a float."""
