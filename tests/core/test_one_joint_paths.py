@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 
 from robot_controller import resources
+from robot_controller.core.actuator import Actuator
 from robot_controller.core.estimator import JointKalmanFilter, KalmanConfig
 from robot_controller.core.pid import AntiWindup, DerivativeSource, Pid, PidConfig
-from robot_controller.core.plant import ArmDynamics
+from robot_controller.core.plant import ArmDynamics, MujocoPlant
 
 
 @pytest.mark.parametrize("anti_windup", list(AntiWindup))
@@ -103,3 +104,25 @@ def test_one_joint_filter_is_the_array_filter(dynamics, observer, timing_s, mode
     assert floats.jump_count[0] == arrays.jump_count[0] and floats.restart_count[0] == arrays.restart_count[0]
     if observer:
         assert floats.jump_count[0] >= 1 and floats.restart_count[0] >= 1
+
+
+@pytest.mark.parametrize("lag_s", [0.0, 0.05])
+def test_one_joint_actuator_is_the_array_actuator(lag_s):
+    """Saturation, a non-finite command and the lag, on floats as on arrays."""
+    one, batch = Actuator(np.array([4.0]), lag_s), Actuator(np.array([4.0]), lag_s)
+    for command in (1.5, -7.0, np.nan, np.inf, 3.9, 12.0):
+        a = one.apply(np.array([command]), 0.01)
+        b = batch.apply(np.array([[command]]), 0.01)  # (1, 1): the array path
+        assert a.shape == (1,) and a.tolist() == b.reshape(1).tolist()
+        assert one.applied.tolist() == batch.applied.reshape(1).tolist()
+
+
+def test_one_joint_plant_step_is_the_array_step():
+    """The free, undisturbed one-joint step on floats moves the arm as the array step does."""
+    urdf = resources.default_urdf()
+    one, other = MujocoPlant(urdf), MujocoPlant(urdf)
+    for torque in (3.0, -25.0, 0.5):
+        one.step(np.array([torque]), 10)
+        other.step(np.array([[torque]]).reshape(1).tolist(), 10)  # a list: the array path
+        assert [x.tolist() for x in one.state()] == [x.tolist() for x in other.state()]
+        assert one.applied_torque.tolist() == other.applied_torque.tolist()
