@@ -9,6 +9,8 @@ from robot_controller.core.actuator import Actuator
 from robot_controller.core.estimator import JointKalmanFilter, KalmanConfig
 from robot_controller.core.pid import AntiWindup, DerivativeSource, Pid, PidConfig
 from robot_controller.core.plant import ArmDynamics, MujocoPlant
+from robot_controller.core.sensor_model import SensorConfig, measure
+from robot_controller.core.trajectory import Sine
 
 
 @pytest.mark.parametrize("anti_windup", list(AntiWindup))
@@ -126,3 +128,21 @@ def test_one_joint_plant_step_is_the_array_step():
         other.step(np.array([[torque]]).reshape(1).tolist(), 10)  # a list: the array path
         assert [x.tolist() for x in one.state()] == [x.tolist() for x in other.state()]
         assert one.applied_torque.tolist() == other.applied_torque.tolist()
+
+
+@pytest.mark.parametrize("config", [SensorConfig(), SensorConfig(position_bias=0.01, quantization=0.001)])
+def test_one_joint_reading_is_the_array_reading(config):
+    """The same draws and sums on floats: the same readings."""
+    one, other = np.random.default_rng(3), np.random.default_rng(3)
+    for k in range(200):
+        q, v = np.array([np.sin(0.1 * k)]), np.array([np.cos(0.3 * k)])
+        a = measure(config, q, v, one)
+        b = measure(config, q.reshape(1, 1), v.reshape(1, 1), other)  # (1, 1): the array path
+        assert [x.tolist() for x in a] == [x.reshape(1).tolist() for x in b]
+
+
+def test_one_joint_sine_is_the_array_sine():
+    one = Sine(np.array([0.7]), 0.5, np.array([0.2]))
+    other = Sine(np.array([[0.7]]), 0.5, np.array([[0.2]]))  # (1, 1): the array path
+    for t in np.arange(0.0, 3.0, 0.013).tolist():
+        assert [x.tolist() for x in one.sample(t)] == [x.reshape(1).tolist() for x in other.sample(t)]
