@@ -260,26 +260,33 @@ def _inverse_2x2(a: float, b: float, c: float, d: float) -> tuple[float, float, 
 def _power_2x2(a: list[float], k: int) -> tuple[float, float, float, float]:
     """:func:`~robot_controller.core.arrays.matrix_power` of a 2 × 2 matrix given row by
     row (``[a00, a01, a10, a11]``), ``k >= 1``, on floats: the same products in the same
-    order (binary powering)."""
-
-    def product(x: tuple[float, ...], y: tuple[float, ...]) -> tuple[float, float, float, float]:
-        return (
-            x[0] * y[0] + x[1] * y[2],
-            x[0] * y[1] + x[1] * y[3],
-            x[2] * y[0] + x[3] * y[2],
-            x[2] * y[1] + x[3] * y[3],
-        )
-
-    a = tuple(a)
+    order (binary powering; up to the cube, as it takes them)."""
+    a00, a01, a10, a11 = a
     if k <= 3:
-        return a if k == 1 else product(a, a) if k == 2 else product(product(a, a), a)
-    power = result = None
-    while k > 0:
-        power = a if power is None else product(power, power)
+        if k == 1:
+            return a00, a01, a10, a11
+        s00, s01, s10, s11 = a00 * a00 + a01 * a10, a00 * a01 + a01 * a11, a10 * a00 + a11 * a10, a10 * a01 + a11 * a11
+        if k == 2:
+            return s00, s01, s10, s11
+        return s00 * a00 + s01 * a10, s00 * a01 + s01 * a11, s10 * a00 + s11 * a10, s10 * a01 + s11 * a11
+    p00, p01, p10, p11 = a00, a01, a10, a11  # the power a^(2^i)
+    result = None
+    while True:
         k, bit = divmod(k, 2)
         if bit:
-            result = power if result is None else product(result, power)
-    return result
+            if result is None:
+                result = (p00, p01, p10, p11)
+            else:
+                r00, r01, r10, r11 = result
+                result = (
+                    r00 * p00 + r01 * p10,
+                    r00 * p01 + r01 * p11,
+                    r10 * p00 + r11 * p10,
+                    r10 * p01 + r11 * p11,
+                )
+        if k == 0:
+            return result
+        p00, p01, p10, p11 = p00 * p00 + p01 * p10, p00 * p01 + p01 * p11, p10 * p00 + p11 * p10, p10 * p01 + p11 * p11
 
 
 class OneJointModel(Protocol):

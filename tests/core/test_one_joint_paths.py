@@ -6,7 +6,8 @@ import pytest
 
 from robot_controller import resources
 from robot_controller.core.actuator import Actuator
-from robot_controller.core.estimator import JointKalmanFilter, KalmanConfig
+from robot_controller.core.arrays import matrix_power
+from robot_controller.core.estimator import JointKalmanFilter, KalmanConfig, _power_2x2
 from robot_controller.core.pid import AntiWindup, DerivativeSource, Pid, PidConfig
 from robot_controller.core.plant import ArmDynamics, MujocoPlant
 from robot_controller.core.sensor_model import SensorConfig, measure
@@ -146,3 +147,10 @@ def test_one_joint_sine_is_the_array_sine():
     other = Sine(np.array([[0.7]]), 0.5, np.array([[0.2]]))  # (1, 1): the array path
     for t in np.arange(0.0, 3.0, 0.013).tolist():
         assert [x.tolist() for x in one.sample(t)] == [x.reshape(1).tolist() for x in other.sample(t)]
+
+
+def test_power_of_a_2x2_on_floats_is_matrix_power():
+    rng = np.random.default_rng(0)
+    for k in range(1, 25):
+        a = rng.normal(size=(2, 2))
+        np.testing.assert_allclose(_power_2x2(a.ravel().tolist(), k), matrix_power(a, k).ravel(), rtol=1e-12)
