@@ -457,10 +457,14 @@ class OneJointDynamics:
         """:meth:`ArmDynamics.predict`: ``(position, velocity)`` ``horizon_s`` ahead."""
         steps = step_count(horizon_s, max_step_s)
         self._option.timestep = horizon_s / steps
-        self._load(position, velocity, torque, external_nm)
+        qpos, qvel, qfrc_applied = self._qpos, self._qvel, self._qfrc_applied
+        qpos[0] = position  # (:meth:`_load`, written out: called three times a tick)
+        qvel[0] = velocity
+        applied = min(max(torque, self._low), self._high)
+        qfrc_applied[0] = applied if external_nm is None else applied + external_nm
         mujoco.mj_step(self.model, self._data, steps)
-        self._qfrc_applied[0] = 0.0
-        return self._qpos.item(0), self._qvel.item(0)
+        qfrc_applied[0] = 0.0
+        return qpos.item(0), qvel.item(0)
 
     def step_slopes(self, position: float, velocity: float, torque: float, step_s: float) -> list[float]:
         """:meth:`ArmDynamics.step_jacobian`, row by row: ``[∂q'/∂q, ∂q'/∂v, ∂v'/∂q, ∂v'/∂v]``."""
