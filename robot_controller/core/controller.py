@@ -123,6 +123,7 @@ class JointController:
             jacobian=getattr(self.dynamics, "step_jacobian", None),
             estimate_disturbance=config.observes_disturbance,
             mass_matrix=self.dynamics.mass_matrix,
+            one_joint=getattr(self.dynamics, "one_joint", None),
             disturbance_limit=config.pid.output_limit,
             torque_scale=observer_torque_scale(
                 design_inertia(self.dynamics, self.joint_count, config.design_position), config.reference_inertia

@@ -17,7 +17,7 @@ from robot_controller.core import lqr
 from robot_controller.core.controller_config import ControllerConfig
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimator import KalmanConfig, steady_state_gain
-from robot_controller.core.feedforward import feedforward_torque
+from robot_controller.core.feedforward import FeedforwardMode, feedforward_torque
 from robot_controller.core.pid import DerivativeSource, Pid, PidConfig, PidTerms
 from robot_controller.core.plant import ArmDynamics
 from robot_controller.core.reference_at_tick import Reference
@@ -240,6 +240,16 @@ def law_step(
         if reference.feedforward is not None
         else (reference.position, reference.velocity, reference.acceleration)
     )
+    one_joint = getattr(dynamics, "one_joint", None)
+    if one_joint is not None and config.feedforward is not FeedforwardMode.NONE and np.shape(ahead[0]) == (1,):
+        # One joint: the same inverse dynamics and difference on floats.
+        p, v, a = ahead[0].item(), ahead[1].item(), ahead[2].item()
+        if config.feedforward is FeedforwardMode.GRAVITY:
+            v = a = 0.0
+        feedforward = one_joint.torque(p, v, a)
+        if disturbance is not None:
+            feedforward = feedforward - disturbance.item()
+        return pid.step(dt_s, reference.position, reference.velocity, position, velocity, feedforward)
     feedforward = feedforward_torque(config.feedforward, dynamics, *ahead)
     if disturbance is not None:
         feedforward = feedforward - disturbance

@@ -107,6 +107,9 @@ def run_loop(
     }
     times = np.arange(ticks) * control_period_s
     braked = False
+    # (The record's rows by name, bound once: six dict lookups a tick less.)
+    reference_rows, measured_rows, true_position_rows = record["reference"], record["measured"], record["true_position"]
+    true_velocity_rows, command_rows, applied_rows = record["true_velocity"], record["command"], record["applied"]
     for k, t in enumerate(times.tolist()):  # Python floats: the controller's scalar time arithmetic is cheaper
         if k % planner_every == 0:
             controller.set_reference(t, *trajectory.sample(t))
@@ -120,10 +123,11 @@ def run_loop(
         position, velocity = measure(sensor, seen_q, seen_v, rng)
         controller.set_measurement(t if delay_unstamped else stamp, t, position, velocity)
         out = controller.update(t)
-        if brake_torque_nm is not None and out.status in BRAKING_STATUSES and not braked:
+        command = out.command
+        if not braked and brake_torque_nm is not None and out.status in BRAKING_STATUSES:
             plant.set_brakes(np.ones(n, dtype=bool), brake_torque_nm)
             braked = True
-        applied = actuator.apply(out.command, control_period_s)
+        applied = actuator.apply(command, control_period_s)
         if disturbance is not None and plant.time_s + 1e-9 >= disturbance.start_s:
             plant.set_disturbance(np.asarray(disturbance.torque_nm, dtype=float), disturbance.duration_s)
             disturbance = None
@@ -134,12 +138,12 @@ def run_loop(
                     history.append((t + step * plant.physics_dt, *plant.state()))
         else:
             plant.step(applied, n_steps)
-        record["reference"][k] = out.reference
-        record["measured"][k] = position
-        record["true_position"][k] = true_position
-        record["true_velocity"][k] = true_velocity
-        record["command"][k] = out.command
-        record["applied"][k] = applied
+        reference_rows[k] = out.reference
+        measured_rows[k] = position
+        true_position_rows[k] = true_position
+        true_velocity_rows[k] = true_velocity
+        command_rows[k] = command
+        applied_rows[k] = applied
     fault = controller.law_fault
     return LoopResult(
         tick_time_s=times,

@@ -62,7 +62,20 @@ def load_model(
         model.opt.timestep = physics_dt
     if model.nq != model.nv or model.njnt != model.nv:
         raise ConfigError("urdf_path: only chains of revolute/prismatic joints are supported (no floating base)")
+    if not can_collide(model):
+        # Nothing could touch anything: MuJoCo's collision pass would find nothing, every step.
+        model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
     return model
+
+
+def can_collide(model: mujoco.MjModel) -> bool:
+    """Whether any contact is possible in ``model``: an explicit contact pair, a flex, or
+    two geoms (or one with itself) whose type and affinity bits meet. Without one (the
+    reference arm's only geom is visual), disabling contacts changes no number: it skips
+    a collision pass that finds nothing (about 10 % of a one-joint step)."""
+    if model.npair > 0 or model.nflex > 0:
+        return True
+    return bool(np.any(np.bitwise_and.outer(model.geom_contype, model.geom_conaffinity)))
 
 
 def joint_names(model: mujoco.MjModel) -> list[str]:
@@ -150,6 +163,10 @@ class MujocoPlant:
         self._locked_at = np.full(self.joint_count, np.nan)  #: where each braked joint came to rest, rad
         self.effort_limit = effort_limits(self.model)
         self._effort_low = -self.effort_limit
+        #: (low, high) N·m of the one joint's effort limit, as floats; None for more joints
+        self._one_joint_limit = (
+            (self._effort_low.item(), self.effort_limit.item()) if self.effort_limit.shape == (1,) else None
+        )
         self._qfrc_applied = self.data.qfrc_applied  # a view into MjData, kept: one attribute lookup less per step
         self._actuator = np.zeros(self.joint_count)  #: the actuator's torque in the last step, N·m
         self._disturbance = np.zeros(self.joint_count)  #: the external torque being applied, N·m
@@ -179,6 +196,20 @@ class MujocoPlant:
         Whatever it is sent, a joint gets no more than its URDF ``effort`` limit
         (``effort_limit``), as a real drive limits its current.
         """
+        if (
+            self._one_joint_limit is not None
+            and not self._any_braked
+            and self._disturbance_steps == 0 < n_steps
+            and type(torque) is np.ndarray
+            and torque.shape == (1,)
+        ):  # one joint, free, undisturbed: the same on floats
+            low, high = self._one_joint_limit
+            applied = min(max(float(torque.item()), low), high)
+            self._actuator = np.array([applied])
+            self._qfrc_applied[0] = applied
+            mujoco.mj_step(self.model, self.data, n_steps)
+            self._disturbance_last = self._no_disturbance
+            return
         torque = clip(torque, self._effort_low, self.effort_limit)  # a new array: the caller's is not kept
         self._actuator = np.where(self._braked, 0.0, torque) if self._any_braked else torque
         # The disturbance, if one is on, for as many of these steps as it still lasts.
@@ -298,6 +329,8 @@ class ArmDynamics:
         self._qpos, self._qvel, self._qacc = d.qpos, d.qvel, d.qacc
         self._qfrc_applied, self._qfrc_inverse = d.qfrc_applied, d.qfrc_inverse
         self._option = self.model.opt
+        #: a one-joint arm's calls on Python floats (None for more joints)
+        self.one_joint = OneJointDynamics(self) if self.model.nv == 1 else None
 
     def torque(self, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         self._qpos[:] = position
@@ -396,6 +429,71 @@ class ArmDynamics:
     def damping(self) -> np.ndarray:
         """Viscous joint damping, N·m·s/rad."""
         return self.model.dof_damping.copy()
+
+
+class OneJointDynamics:
+    """:class:`ArmDynamics` of a one-joint arm on Python floats: the same MuJoCo calls
+    on the same private ``MjData``, so the same numbers, without the arrays in and out
+    (on one joint, NumPy's per-call cost is most of the work of a call).
+
+    The mass matrix is made once: with one joint the whole arm turns rigidly about its
+    axis, so M(q) is a constant (MuJoCo's varies with q by rounding only, ~1e-15). It
+    assumes the model's bodies are not changed after loading (nothing here does).
+    """
+
+    def __init__(self, dynamics: ArmDynamics) -> None:
+        self.model = dynamics.model
+        self._data = dynamics._data
+        self._qpos, self._qvel, self._qacc = dynamics._qpos, dynamics._qvel, dynamics._qacc
+        self._qfrc_applied, self._qfrc_inverse = dynamics._qfrc_applied, dynamics._qfrc_inverse
+        self._option = dynamics._option
+        self._low, self._high = dynamics._effort_low.item(), dynamics.effort_limit.item()
+        self._slopes = np.zeros((2, 2))
+        self.mass = float(dynamics.mass_matrix(np.zeros(1))[0, 0])  #: kg·m², M(q) for every q
+
+    def _load(self, position: float, velocity: float, torque: float, external_nm: float | None) -> None:
+        """:meth:`ArmDynamics._load` on floats."""
+        self._qpos[0] = position
+        self._qvel[0] = velocity
+        applied = min(max(torque, self._low), self._high)
+        self._qfrc_applied[0] = applied if external_nm is None else applied + external_nm
+
+    def predict(
+        self,
+        position: float,
+        velocity: float,
+        torque: float,
+        horizon_s: float,
+        max_step_s: float,
+        external_nm: float | None = None,
+    ) -> tuple[float, float]:
+        """:meth:`ArmDynamics.predict`: ``(position, velocity)`` ``horizon_s`` ahead."""
+        steps = step_count(horizon_s, max_step_s)
+        self._option.timestep = horizon_s / steps
+        qpos, qvel, qfrc_applied = self._qpos, self._qvel, self._qfrc_applied
+        qpos[0] = position  # (:meth:`_load`, written out: called three times a tick)
+        qvel[0] = velocity
+        applied = min(max(torque, self._low), self._high)
+        qfrc_applied[0] = applied if external_nm is None else applied + external_nm
+        mujoco.mj_step(self.model, self._data, steps)
+        qfrc_applied[0] = 0.0
+        return qpos.item(0), qvel.item(0)
+
+    def step_slopes(self, position: float, velocity: float, torque: float, step_s: float) -> list[float]:
+        """:meth:`ArmDynamics.step_jacobian`, row by row: ``[∂q'/∂q, ∂q'/∂v, ∂v'/∂q, ∂v'/∂v]``."""
+        self._option.timestep = step_s
+        self._load(position, velocity, torque, None)
+        mujoco.mjd_transitionFD(self.model, self._data, 1e-6, 0, self._slopes, None, None, None)
+        self._qfrc_applied[0] = 0.0
+        return self._slopes.ravel().tolist()
+
+    def torque(self, position: float, velocity: float, acceleration: float) -> float:
+        """:meth:`ArmDynamics.torque`: inverse dynamics, N·m."""
+        self._qpos[0] = position
+        self._qvel[0] = velocity
+        self._qacc[0] = acceleration
+        mujoco.mj_inverse(self.model, self._data)
+        return self._qfrc_inverse.item(0)
 
 
 def _is_one_value(value: object) -> bool:

@@ -33,6 +33,10 @@ def _minmod(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(sign == np.sign(b), sign * np.minimum(np.abs(a), np.abs(b)), 0.0)
 
 
+def _is_one_value(value: object) -> bool:
+    return type(value) is np.ndarray and value.shape == (1,)
+
+
 def _sign(value: float) -> float:
     """``np.sign`` of a float (NaN for NaN)."""
     if value != value:
@@ -78,7 +82,13 @@ class PlannerReference:
         if self.sample is not None and time_s > self.time_s:
             self.period_s = time_s - self.time_s
             # The jerk, from the planner's own samples only (not a hold written in before it spoke).
-            slope = (np.asarray(acceleration, dtype=float) - self.sample[2]) / self.period_s if self.spoke else None
+            previous = self.sample[2]
+            if not self.spoke:
+                slope = None
+            elif _is_one_value(acceleration) and _is_one_value(previous):  # one joint: on floats
+                slope = np.array([(float(acceleration.item()) - float(previous.item())) / self.period_s])
+            else:
+                slope = (np.asarray(acceleration, dtype=float) - previous) / self.period_s
             self.jerk = (
                 None if slope is None or self._acceleration_slope is None else _minmod(slope, self._acceleration_slope)
             )

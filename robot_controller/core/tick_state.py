@@ -11,6 +11,7 @@ Positions rad, velocities rad/s, torques N·m, times s. No ROS, no clocks.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 
 import numpy as np
@@ -153,6 +154,8 @@ class StateAtTick:
         """How much the command changed (N·m per joint, root of the sum of
         squares of each change) with the commands issued in ``[from_s, to_s)``,
         against the one in force before."""
+        if self.joint_count == 1:  # the same sums on floats
+            return np.array([math.sqrt(self._one_joint_change(from_s, to_s))])
         squared = np.zeros(self.joint_count)
         before: np.ndarray | None = None
         for issued_s, command in self._commands:
@@ -163,6 +166,22 @@ class StateAtTick:
                     squared += (command - before) ** 2
                 before = command
         return np.sqrt(squared)
+
+    def _one_joint_change(self, from_s: float, to_s: float) -> float:
+        """:meth:`command_change` of one joint, squared, on floats."""
+        squared = 0.0
+        before: float | None = None
+        from_s, to_s = from_s - TIME_EPS_S, to_s - TIME_EPS_S
+        for issued_s, command in self._commands:
+            if issued_s < from_s:
+                before = command.item()
+            elif issued_s < to_s:
+                now = command.item()
+                if before is not None:
+                    change = now - before
+                    squared += change * change  # (NumPy's ** 2 is this product)
+                before = now
+        return squared
 
     def predict(
         self, position: np.ndarray, velocity: np.ndarray, from_s: float, to_s: float

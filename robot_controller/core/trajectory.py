@@ -36,6 +36,15 @@ class Sine:
     def sample(self, t: float) -> Sample:
         w = 2.0 * np.pi * self.frequency_hz
         s, c = np.sin(w * t), np.cos(w * t)
+        one_joint = self._one_joint
+        if one_joint is not None:  # the same products on floats
+            offset, amplitude, velocity_scale, acceleration_scale = one_joint
+            s, c = float(s), float(c)
+            return (
+                np.array([offset + amplitude * s]),
+                np.array([velocity_scale * c]),
+                np.array([acceleration_scale * s]),
+            )
         velocity_scale, acceleration_scale = self._scales
         return self.offset + self.amplitude * s, velocity_scale * c, acceleration_scale * s
 
@@ -44,6 +53,14 @@ class Sine:
         """``amplitude·w`` and ``−amplitude·w·w``, as :meth:`sample` multiplies them out (made once)."""
         w = 2.0 * np.pi * self.frequency_hz
         return self.amplitude * w, -self.amplitude * w * w
+
+    @cached_property
+    def _one_joint(self) -> tuple[float, float, float, float] | None:
+        """One joint (float64 arrays of one value): ``offset``, ``amplitude`` and :attr:`_scales` as floats."""
+        values = (self.offset, self.amplitude, *self._scales)
+        if all(isinstance(v, np.ndarray) and v.shape == (1,) and v.dtype == np.float64 for v in values):
+            return tuple(v.item() for v in values)
+        return None
 
 
 @dataclass(frozen=True)
