@@ -19,7 +19,6 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.ros.publishing import write_publish_counts
 from robot_controller.ros.stack_node import StackNode
 
 # The controller ended itself after its control law failed and the arm was stopped and braked.
@@ -78,9 +77,9 @@ def shutting_down(within_s: float = 0.5) -> bool:
 
 def make_executor(context: rclpy.Context | None = None) -> Executor:
     """rclpy's EventsExecutor: it waits on events instead of rebuilding a wait
-    set for every callback, which more than doubled the lockstep speed when it
-    was introduced. ``ROBOT_CONTROLLER_EXECUTOR=single``
-    picks the SingleThreadedExecutor instead."""
+    set for every callback, which more than doubles the lockstep speed against
+    the SingleThreadedExecutor. ``ROBOT_CONTROLLER_EXECUTOR=single`` picks the
+    SingleThreadedExecutor instead."""
     if os.environ.get("ROBOT_CONTROLLER_EXECUTOR", "events") == "events":
         from rclpy.experimental import EventsExecutor
 
@@ -150,7 +149,9 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
         for node in nodes:
             if isinstance(node, StackNode):
                 node.finish()
-        write_publish_counts([n for n in nodes if isinstance(n, StackNode)])  # final: nothing publishes now
+        for node in nodes:
+            if isinstance(node, StackNode):
+                node.write_publish_counts()  # final: nothing publishes now
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()

@@ -1,6 +1,11 @@
 """Publishing that waits for its audience: a gate holds what a node publishes
 until its consumer (and, when the run is recorded, the recorder) has matched,
-so nothing the loop sends is lost to discovery; each gate counts what it sent."""
+so nothing the loop sends is lost to discovery; each gate counts what it sent.
+
+A gate needs three things of the node that owns it (:class:`GateOwner`): the
+rclpy calls that make its publisher and its poll timer, whether the node runs
+in lockstep, and a place to keep it. ``StackNode`` is such an owner, and
+writes its gates' counts (:func:`write_publish_counts`) when it stops."""
 
 from __future__ import annotations
 
@@ -9,16 +14,13 @@ import json
 import os
 import time
 from collections import deque
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 
 from robot_controller.ros.qos import CONTROL_QOS
-
-if TYPE_CHECKING:
-    from robot_controller.ros.stack_node import StackNode
 
 # Nodes that only watch (the recorder, a viewer) do not count as consumers.
 RECORDER_NODE = "recorder"
@@ -90,6 +92,26 @@ class ConsumerWatch:
 MAX_HELD = 1000  # messages a gate holds at most (10 s of a 100 Hz topic)
 
 
+class GateOwner(Protocol):
+    """What a :class:`GatedPublisher` needs of the node it belongs to."""
+
+    #: The node runs in sim-time lockstep: every message is a tick, and a gate holds them all.
+    lockstep: bool
+
+    def create_publisher(self, msg_type: Any, topic: str, qos_profile: QoSProfile) -> Any: ...
+
+    def create_timer(self, timer_period_sec: float, callback: Any, *, clock: Clock) -> Any: ...
+
+    def destroy_timer(self, timer: Any) -> bool: ...
+
+    def get_logger(self) -> Any: ...
+
+    def get_subscriptions_info_by_topic(self, topic_name: str) -> list[Any]: ...
+
+    def keep_gated_publisher(self, gated: GatedPublisher) -> None:
+        """Keep ``gated`` among the node's gates (their counts are written when it stops)."""
+
+
 class GatedPublisher:
     """Holds what is published until its audience (a consumer and, when the run
     is recorded, the recorder) has matched, then publishes; counts what it published.
@@ -101,7 +123,7 @@ class GatedPublisher:
     """
 
     def __init__(
-        self, node: StackNode, msg_type: Any, topic: str, *, consumer: bool = True, qos: QoSProfile = None
+        self, node: GateOwner, msg_type: Any, topic: str, *, consumer: bool = True, qos: QoSProfile = None
     ) -> None:
         self.node, self.topic = node, topic
         self.publisher = node.create_publisher(msg_type, topic, qos or CONTROL_QOS)
@@ -110,13 +132,13 @@ class GatedPublisher:
         # Held until open: every message for telemetry and in lockstep (each is a
         # tick, and the bag must hold them all), only the newest for a wall-clock
         # consumer (an old reading or torque is worth nothing).
-        self.hold_all = not consumer or bool(node.params.get("lockstep", False))
+        self.hold_all = not consumer or node.lockstep
         self.count = 0
         self.pending: deque[Any] = deque(maxlen=MAX_HELD if self.hold_all else 1)
         self._poll = None
         if not self.open:
             self._poll = node.create_timer(0.05, self._check, clock=Clock(clock_type=ClockType.STEADY_TIME))
-        node.gated_publishers.append(self)
+        node.keep_gated_publisher(self)
 
     def publish(self, msg: Any) -> None:
         if self.open:
@@ -138,17 +160,21 @@ class GatedPublisher:
             self.count += 1
 
 
-def write_publish_counts(nodes: list[StackNode]) -> None:
-    """Each node's published-message counts, for the launcher to check the bag against."""
+def publish_counts(gates: list[GatedPublisher]) -> dict[str, int]:
+    """How many messages ``gates`` published, per topic."""
+    counts: dict[str, int] = {}
+    for gated in gates:
+        counts[gated.topic] = counts.get(gated.topic, 0) + gated.count
+    return counts
+
+
+def write_publish_counts(node_name: str, counts: dict[str, int]) -> None:
+    """A node's published-message counts, for the launcher to check the bag against."""
     counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
     if not counts_dir:
         return
-    for node in nodes:
-        counts: dict[str, int] = {}
-        for gated in node.gated_publishers:
-            counts[gated.topic] = counts.get(gated.topic, 0) + gated.count
-        try:
-            with open(os.path.join(counts_dir, f"{node.schema_name}.json"), "w") as f:
-                json.dump(counts, f)
-        except OSError:
-            pass
+    try:
+        with open(os.path.join(counts_dir, f"{node_name}.json"), "w") as f:
+            json.dump(counts, f)
+    except OSError:
+        pass

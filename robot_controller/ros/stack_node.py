@@ -1,13 +1,14 @@
 """The node every stack node is: its parameters declared from the schema (with
 descriptions and limits), each change validated as a whole before it is
 accepted (whatever the check raises becomes a refusal with its reason),
-rate-limited warnings, and a watch on who else publishes its inputs."""
+rate-limited warnings, a watch on who else publishes its inputs, and the
+gated publishers it owns (``publishing``)."""
 
 from __future__ import annotations
 
 import os
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.clock import Clock, ClockType
@@ -17,9 +18,7 @@ from rclpy.parameter import Parameter
 from robot_controller import parameters as cfg
 from robot_controller.core.errors import ConfigError
 from robot_controller.ros.partition import PARTITION_ENV
-
-if TYPE_CHECKING:
-    from robot_controller.ros.publishing import GatedPublisher
+from robot_controller.ros.publishing import GatedPublisher, publish_counts, write_publish_counts
 
 WARN_PERIOD_S = 2.0
 PUBLISHER_CHECK_PERIOD_S = 1.0
@@ -48,11 +47,13 @@ class StackNode(Node):
         values.update({spec.name: spec.validate(self.get_parameter(spec.name).value) for spec in more})
         self.setup(values)
         self.params = self._validated(values)
+        # Read-only: fixed for the node's life, as its gates need it.
+        self.lockstep = bool(self.params.get("lockstep", False))
         self._reports: dict[str, str] = {}  # name → description of what the node reports there
         self._reporting = False
         self._pending: dict[str, Any] | None = None  # validated by the on-set callback, applied after it
         self._warned_at: dict[str, tuple[float, int]] = {}
-        self.gated_publishers: list[GatedPublisher] = []
+        self._gated_publishers: list[GatedPublisher] = []
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._post_set_parameters)
 
@@ -141,6 +142,16 @@ class StackNode(Node):
                 self.declare_parameter(name, value, ParameterDescriptor(description=description))
         finally:
             self._reporting = False
+
+    # --- gated publishers ---------------------------------------------------
+
+    def keep_gated_publisher(self, gated: GatedPublisher) -> None:
+        """Keep a gate this node owns (``GatedPublisher`` calls it), for its count."""
+        self._gated_publishers.append(gated)
+
+    def write_publish_counts(self) -> None:
+        """Write how many messages the node's gates published, per topic, for the launcher."""
+        write_publish_counts(self.schema_name, publish_counts(self._gated_publishers))
 
     # --- helpers ------------------------------------------------------------
 

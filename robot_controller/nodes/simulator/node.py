@@ -51,7 +51,6 @@ class Simulator(SimulatorPacing, SimulatorLockstep, SimulatorBrakes, SimulatorDi
         self.effort = np.zeros(self.joint_count)
         self.steps_done = 0
         self.physics_dt_ns = round(self.plant.physics_dt * 1e9)
-        self.lockstep = p["lockstep"]
         self.init_pacing()
         self.init_lockstep()
 
