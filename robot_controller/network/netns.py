@@ -226,6 +226,7 @@ class Link:
             self.removed_leftovers = remove_leftovers()
             for argv in setup_commands(self.robot, self.control):
                 _run(argv)
+            self.wait_carrier()
         except BaseException:
             self._teardown()
             raise
@@ -247,6 +248,21 @@ class Link:
                 if signum not in self._previous:
                     signal.signal(signum, held[signum])
             self._previous.clear()
+
+    def wait_carrier(self, timeout_s: float = 5.0) -> None:
+        """Until both ends have carrier (LOWER_UP). A participant created before that finds no running
+        interface: Fast DDS then announces only its loopback addresses (and a host id that is a constant),
+        so the other host never reaches it; it never looks again."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            states = [
+                _run(["ip", "-n", h.namespace, "link", "show", h.device]).stdout for h in (self.robot, self.control)
+            ]
+            if all("LOWER_UP" in state and "NO-CARRIER" not in state for state in states):
+                return
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"the veth pair has no carrier after {timeout_s:g} s")
+            time.sleep(0.02)
 
     # -- processes
     def spawn(self, host: Host, argv: list[str], *, env: dict[str, str] | None = None, log: Path | None = None):
@@ -306,6 +322,8 @@ class Link:
     def set_up(self, up: bool) -> None:
         _run(link_command(self.robot, up))
         self._up = up
+        if up:
+            self.wait_carrier()
 
     def cut(self, seconds: float) -> tuple[float, float]:
         """The link down for ``seconds``; returns when it went down and came back (system time)."""
