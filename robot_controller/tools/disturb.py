@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from robot_controller.ros import partition
-from robot_controller.tools.graph import wait_until_heard
+from robot_controller.tools.hearing import wait_until_heard
 
 TOPIC = "/sim/disturbance"
 PROG = "robot-controller disturb"

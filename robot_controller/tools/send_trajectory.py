@@ -31,7 +31,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from robot_controller.tools import graph
+from robot_controller.tools import graph, hearing
 from robot_controller.tools.graph import ToolError
 from robot_controller.tools.trajectory_file import (
     GOTO_UNKNOWN_S,
@@ -112,7 +112,7 @@ def _send(g: graph.Graph, spec: TrajectorySpec, prog: str, what: str, wait_s: fl
     )
     g.node.create_subscription(Log, "/rosout", on_log, reliable)  # volatile: no earlier lines
     publisher = g.node.create_publisher(JointTrajectory, TOPIC, reliable)
-    if not graph.wait_until_heard(g.node, publisher, TOPIC, PLANNER_NODE, since=time.monotonic(), wait_s=wait_s):
+    if not hearing.wait_until_heard(g.node, publisher, TOPIC, PLANNER_NODE, since=time.monotonic(), wait_s=wait_s):
         raise ToolError(f"no trajectory planner is listening on {TOPIC} (domain {g.domain})")
     publisher.publish(to_message(spec))
     delivered = publisher.wait_for_all_acked(Duration(seconds=DELIVERY_TIMEOUT_S))
