@@ -7,9 +7,8 @@ no feedforward, no Kalman filter, the same planner), and in the full form the
 default stack's LQR (with model feedforward and the Kalman filter) beside
 them. For each: the gains (an LQR's are designed: ``core.law.law_config``),
 the closed-loop poles of the sampled arm model under them, their margins, and
-the figures on the sine and on a step.
-
-Longer than our ~250-line guideline: the loop analysis, its table and plots.
+the figures on the sine and on a step. The figure and the report are
+``lqr_report``'s.
 """
 
 from __future__ import annotations
@@ -28,18 +27,15 @@ from robot_controller.experiments.exercises.common import (
     Exercise,
     Progress,
     Response,
-    fmt,
     law_gains,
     plant_loop,
-    plot_steps,
-    pyplot,
     sine_params,
     sine_run,
     step_run,
-    table,
     write_report,
     write_results,
 )
+from robot_controller.experiments.exercises.lqr_report import plot, report_text
 
 STEP_RAD = 0.5
 
@@ -139,177 +135,9 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
         ):
             results[f"{name}_step_{key}"] = step.figures[key]
     results = write_results(out, results)
-    _plot(out / "lqr.png", steps_run, sines, analyses)
-    write_report(out, _report(results, plan, analyses, quick))
+    plot(out / "lqr.png", steps_run, sines, analyses, STEP_RAD)
+    write_report(out, report_text(results, plan, analyses, quick))
     return results
-
-
-def _plot(path: Path, steps_run: list[Response], sines: list[Response], analyses: dict[str, dict[str, Any]]) -> None:
-    plt = pyplot()
-    fig = plt.figure(figsize=(14, 8.5), constrained_layout=True)
-    grid = fig.add_gridspec(2, 2, width_ratios=(1.6, 1))
-    ax_step, ax_sine, ax_poles = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[:, 1])
-    plot_steps(ax_step, steps_run, band=(STEP_RAD * 0.98, STEP_RAD * 1.02), title=f"{STEP_RAD:g} rad step (a jump)")
-    for sine in sines:
-        ax_sine.plot(sine.time_s, sine.reference - sine.position, lw=1.0, label=sine.label)
-    ax_sine.set_xlabel("time [s]")
-    ax_sine.set_ylabel("sine: reference − true [rad]")
-    ax_sine.grid(alpha=0.3)
-    ax_sine.legend(fontsize=8)
-    theta = np.linspace(0, 2 * np.pi, 400)
-    ax_poles.plot(np.cos(theta), np.sin(theta), "k-", lw=0.7)
-    for (name, analysis), marker in zip(analyses.items(), "ox+", strict=False):
-        poles = analysis["poles"]
-        ax_poles.plot(poles.real, poles.imag, marker, ms=9, mfc="none", mew=1.5, label=name)
-    ax_poles.set_xlim(0.4, 1.05)
-    ax_poles.set_ylim(-0.3, 0.3)
-    ax_poles.set_aspect("equal")
-    ax_poles.grid(alpha=0.3)
-    ax_poles.legend(fontsize=8)
-    ax_poles.set_title("closed-loop poles, z-plane (zoomed; the unit circle in black)", fontsize=10)
-    fig.suptitle("Exercise 4: PID against LQR (real graph, lockstep)")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def _report(results: dict[str, Any], plan: dict[str, Any], analyses: dict[str, dict[str, Any]], quick: bool) -> str:
-    contenders = plan["contenders"]
-    lines = [
-        "# Exercise 4: switch to LQR",
-        "",
-        "*The tutorial: replace the PID with an LQR gain (from Day 3). Compare tracking accuracy.*",
-        "",
-        "The LQR here is designed at the control rate on each joint's `[∫e, e, ė]` (the arm `J ë + b ė = u` "
-        "sampled with a zero-order hold, weights `lqr_q` on the state and `lqr_r` on the torque). The "
-        "design's feedback `u = −K x` *is* a PID (`K = [Ki, Kp, Kd]`, derivative on the velocity error), so "
-        "both laws can be put side by side gain by gain. Every run is the whole graph in sim-time lockstep "
-        f"(sensor seed {results['seed']}); figures on the TRUE angle." + (" **Quick form**." if quick else ""),
-        "",
-        "## The gains and the closed loop",
-        "",
-    ]
-    cells = []
-    for contender in contenders:
-        n, a = contender.name, analyses[contender.name]
-        poles = ", ".join(_pole_text(p) for p in a["poles"])
-        cells.append(
-            [
-                f"**{n}**: {contender.description}",
-                fmt(a["kp"], "{:.3g}"),
-                fmt(a["ki"], "{:.3g}"),
-                fmt(a["kd"], "{:.3g}"),
-                poles,
-                fmt(float(np.max(np.abs(a["poles"]))), "{:.4f}"),
-                fmt(a["margins"].gain_margin_db, "{:.1f}"),
-                fmt(a["margins"].phase_margin_deg, "{:.0f}"),
-                str(a["delay_margin_periods"]),
-            ]
-        )
-    lines += [
-        table(
-            [
-                "controller",
-                "Kp [N·m/rad]",
-                "Ki [N·m/(rad·s)]",
-                "Kd [N·m·s/rad]",
-                "closed-loop poles z (time constant or ωn, ζ)",
-                "largest |z|",
-                "gain margin [dB]",
-                "phase margin [°]",
-                "delay margin [periods]",
-            ],
-            cells,
-        ),
-        "",
-    ]
-    lines += [
-        "Poles: the eigenvalues of `A − B K` for the arm sampled every 10 ms. Inside the unit circle means "
-        "stable; the closer to 1, the slower that part of the response dies away (a real pole z lasts "
-        "about 10 ms / (1 − z)).",
-        "",
-        "## The figures",
-        "",
-    ]
-    cells = []
-    for contender in contenders:
-        n = contender.name
-        cells.append(
-            [
-                f"**{n}**",
-                fmt(results[f"{n}_sine_tracking_rms_rad"], "{:.4f}"),
-                fmt(results[f"{n}_sine_tracking_max_rad"], "{:.4f}"),
-                fmt(results[f"{n}_step_overshoot_pct"], "{:.1f}"),
-                fmt(results[f"{n}_step_settling_time_s"], "{:.2f}", f"not in {plan['after_s']:g} s"),
-                fmt(results[f"{n}_step_rise_time_s"], "{:.3f}"),
-                fmt(results[f"{n}_step_steady_state_error_rad"], "{:.4f}"),
-                fmt(results[f"{n}_step_peak_torque_nm"], "{:.1f}"),
-            ]
-        )
-    lines += [
-        table(
-            [
-                "controller",
-                "sine RMS error [rad]",
-                "sine max error [rad]",
-                "step overshoot [%]",
-                "settling 2 % [s]",
-                "rise 10–90 % [s]",
-                "steady-state error [rad]",
-                "peak torque [N·m]",
-            ],
-            cells,
-        ),
-        "",
-        f"Sine: 1 rad, 0.5 Hz, {plan['sine_s']:g} s, RMS after a 2 s warm-up. Step: {STEP_RAD:g} rad, a jump, "
-        f"figures over the {plan['after_s']:g} s after it. The error is against the reference the controller "
-        "used: "
-        "the tutorial's planner publishes at 20 Hz and its controller holds each sample, hence the saw-tooth "
-        "in the plot.",
-        "",
-        _verdict(results, analyses, contenders),
-        "",
-        "Plot: `lqr.png` (the steps, the sine's tracking error, the poles). Each run's bag and metrics are in "
-        "the folders named after the controller.",
-        "",
-    ]
-    return "\n".join(lines)
-
-
-def _pole_text(z: complex, dt: float = 0.01) -> str:
-    wn, zeta = robustness.pole_summary(z, dt)
-    if abs(z.imag) < 1e-9:
-        tau = 1.0 / wn if wn > 0 else float("inf")
-        return f"{z.real:.4f} (τ {tau:.3g} s)"
-    return f"{z.real:.4f}{z.imag:+.4f}j (ωn {wn:.3g} rad/s, ζ {zeta:.2f})"
-
-
-def _verdict(results: dict[str, Any], analyses: dict[str, dict[str, Any]], contenders) -> str:
-    pid, lqr = results["pid_sine_tracking_rms_rad"], results["lqr_sine_tracking_rms_rad"]
-    slow_pid = max(abs(p) for p in analyses["pid"]["poles"])
-    words = [
-        f"What it shows: in the same plumbing the LQR tracks the sine with {lqr * 1e3:.1f} mrad RMS, the "
-        f"tutorial's PID with {pid * 1e3:.1f} mrad ({'better' if lqr < pid else 'worse'} by a factor "
-        f"{max(pid, lqr) / min(pid, lqr):.2g})."
-    ]
-    words.append(
-        f"The PID's slowest pole sits at z = {slow_pid:.4f}: its integral (Ki = "
-        f"{analyses['pid']['ki']:g} against Kp = {analyses['pid']['kp']:g}) removes an error over "
-        f"about {0.01 / max(1 - slow_pid, 1e-9):.1f} s, while the LQR's weights place every pole "
-        f"at |z| ≤ {max(abs(p) for p in analyses['lqr']['poles']):.4f}."
-    )
-    if "lqr_default_sine_tracking_rms_rad" in results:
-        default = results["lqr_default_sine_tracking_rms_rad"]
-        words.append(
-            f"The same LQR gains with model feedforward and the Kalman filter (the default stack) track "
-            f"with {default * 1e3:.2f} mrad"
-            + (
-                ": most of the error left was the feedback having to produce, from an error, the torque "
-                "the motion needs, which the arm model supplies in advance."
-                if default < lqr
-                else "."
-            )
-        )
-    return " ".join(words)
 
 
 EXERCISE = Exercise("lqr", "PID against LQR: gains, closed-loop poles and margins, sine and step", run, steps)

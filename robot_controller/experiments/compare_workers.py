@@ -1,0 +1,120 @@
+"""Running ``compare``'s (contender, seed) pairs side by side: spawned worker processes, each on a
+ROS domain of its own (:func:`worker_domain`), never more pairs at once than workers, and Ctrl-C or
+the caller's death ending each worker's run cleanly."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+from concurrent import futures
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from robot_controller.experiments.compare_pairs import run_pair
+
+if TYPE_CHECKING:
+    from robot_controller.experiments.compare import Contender
+
+
+def worker_domain(base: int, slot: int) -> int:
+    """The ROS domain of worker ``slot``: the caller's own (``base``, its
+    ROS_DOMAIN_ID) for slot 0, the next ones for the others, wrapped into
+    1..101 (all distinct for up to 101 slots; an unset or 0 ``base`` gives 101, 1, 2…)."""
+    return (base - 1 + slot) % 101 + 1
+
+
+def run_side_by_side(
+    pairs, out: Path, sine_duration_s: float, amplitude: float, progress, workers: int
+) -> dict[tuple[str, int], dict[str, float]]:
+    """Run the pairs on ``workers`` spawned processes, never more at once than
+    there are workers (so each progress line is printed as its pair starts).
+
+    Processes, not threads: the launcher forks the nodes from the process
+    that calls it, which must then be single-threaded. A spawned worker is a
+    fresh interpreter whose only thread runs the task.
+    """
+    context = multiprocessing.get_context("spawn")
+    slots = context.Value("i", 0)
+    try:
+        base = int(os.environ.get("ROS_DOMAIN_ID", "0"))
+    except ValueError:
+        base = 0
+    figures: dict[tuple[str, int], dict[str, float]] = {}
+    todo = iter(pairs)
+    running: dict[futures.Future, tuple[str, int]] = {}
+    pool = futures.ProcessPoolExecutor(
+        max_workers=min(workers, len(pairs)) or 1, mp_context=context, initializer=_init_worker, initargs=(slots, base)
+    )
+    try:
+
+        def start_next() -> None:
+            for contender, seed in todo:
+                progress(f"{contender.name}: seed {seed}")
+                running[pool.submit(_compare_pair_in_worker, contender, seed, out, sine_duration_s, amplitude)] = (
+                    contender.name,
+                    seed,
+                )
+                return
+
+        for _ in range(workers):
+            start_next()
+        while running:
+            done, _ = futures.wait(running, return_when=futures.FIRST_COMPLETED)
+            for future in done:
+                key = running.pop(future)
+                figures[key] = future.result()  # a failed run raises here: RuntimeError naming its directory
+                start_next()
+    finally:
+        # On a failure (or Ctrl-C) the pairs under way end first, their nodes stopped cleanly.
+        pool.shutdown(wait=True, cancel_futures=True)
+    return figures
+
+
+# In a worker process: its ROS domain, and whether Ctrl-C arrived during a task.
+_domain_id: int | None = None
+_interrupted = False
+_parent_pid: int | None = None
+
+
+def _init_worker(slots, base: int) -> None:
+    global _domain_id, _parent_pid
+    with slots.get_lock():
+        slot = slots.value
+        slots.value += 1
+    _domain_id = worker_domain(base, slot)
+    _parent_pid = os.getppid()
+    # Ctrl-C reaches the whole process group: idle workers leave it to the
+    # caller; a task stops after the run it interrupted (see below).
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # If the caller dies, SIGTERM: the launcher stops the current run's nodes as for Ctrl-C.
+    from robot_controller.runner import forking
+
+    forking.die_with_parent()
+
+
+def _on_sigint(signum, frame) -> None:
+    global _interrupted
+    _interrupted = True
+    raise KeyboardInterrupt
+
+
+def stop_if_asked() -> None:
+    """The launcher ends a run cleanly on Ctrl-C or SIGTERM and returns: in a
+    worker, do not go on to the next run then."""
+    if _interrupted or (_parent_pid is not None and os.getppid() != _parent_pid):
+        raise KeyboardInterrupt
+
+
+def _compare_pair_in_worker(
+    contender: Contender, seed: int, out: Path, sine_duration_s: float, amplitude: float
+) -> dict[str, float]:
+    global _interrupted
+    _interrupted = False
+    signal.signal(signal.SIGINT, _on_sigint)
+    try:
+        return run_pair(
+            contender, seed, out, sine_duration_s, amplitude, domain_id=_domain_id, between_runs=stop_if_asked
+        )
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
