@@ -1,7 +1,7 @@
 """A foreign publisher (a process the run did not start, so outside its DDS
 partition: see ``ros.partition``) floods one loop topic at 5 kHz for 5 s in
 the middle of a wall-clock run of the default stack: how far does the arm get
-from the reference in force during the flood? (Issue 9's goal: within 0.02 rad.)
+from the reference in force during the flood? (The goal: within 0.02 rad.)
 
     python -m robot_controller.experiments.flood_bench --out DIR
 

@@ -18,8 +18,6 @@ tracks (or has ticked for ``LOOP_TOPICS_AFTER_S``): by then every gate it
 could open early is open. Listed there, it subscribes to everything at once.
 
     python -m robot_controller.nodes.viewer --rrd DIR/view.rrd --port 9090 [--urdf FILE] [--control-rate HZ]
-
-Longer than our ~250-line guideline: one node, one file (the ros2/examples habit): its subscriptions and their decoding.
 """
 
 from __future__ import annotations

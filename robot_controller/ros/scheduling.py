@@ -2,9 +2,9 @@
 
 The kernel throttles real-time (SCHED_FIFO) tasks that use more than
 ``sched_rt_runtime_us`` (95 %) of a CPU in a second: it then freezes ALL of
-them for the rest of that second. With every node SCHED_FIFO, that froze the
-whole loop for 50–70 ms a few times a minute (issue 7). So by default no
-process is real-time:
+them for the rest of that second. With every node SCHED_FIFO, that freezes the
+whole loop for 50–70 ms a few times a minute. So by default no process is
+real-time:
 
 - the loop's nodes run at normal policy with a raised priority (nice −10),
   the planner a little lower, and observers (recorder) at nice +10, so on a

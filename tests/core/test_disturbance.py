@@ -1,4 +1,4 @@
-"""External disturbances on the MuJoCo plant (issue 11): an external torque on
+"""External disturbances on the MuJoCo plant: an external torque on
 the joint, beside the actuator's, for a given physics time (no ROS)."""
 
 import numpy as np

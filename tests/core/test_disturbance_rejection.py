@@ -1,4 +1,4 @@
-"""The disturbance observer (issue 12, exercise 2's goal; no ROS): the Kalman
+"""The disturbance observer (exercise 2's goal; no ROS): the Kalman
 filter also estimates an external torque d on each joint, and the law
 subtracts it from the command.
 

@@ -1,35 +1,19 @@
-"""The last millimetre-radians (issue 12, item 5): with perfect sensing, the
-default controller's error on the reference sine was systematic, not noise.
+"""With perfect sensing the default controller tracks the reference sine to
+under a tenth of a milliradian, and with the reference noise to the sensor's
+floor (about 1.1 mrad RMS, the filter's position estimate: √(σq·σv·T)).
 
-What was measured (in-process loop, 20 s, seed 1, both sensor σ 0, RMS of
-reference − true angle after the 2 s warm-up):
+Guarded here, each a source of systematic error on the sine if it breaks:
 
-- before: 0.510 mrad (0.504 without the Kalman filter). Feedforward none or
-  gravity only: 26.7 / 21.8 mrad. Latency compensation and reference
-  extrapolation change nothing here (to the last digit): in-process and in
-  lockstep every reading and reference sample is stamped at the tick.
-  The error is a 1st and a 2nd harmonic of the 0.5 Hz sine (0.48 and 0.53 mrad).
-- cause 1, the feedforward held over the 10 ms period: the torque at the
-  tick lags the motion by half a period. On a plant integrated accurately
-  (RK4) and without the filter: 0.554 mrad with the feedforward at the tick,
-  0.301 at the middle of the period on the sample's v and a, 0.028 with the
-  jerk as well. Fixed: ``PlannerReference.over_period``, ``Reference.feedforward``.
-- cause 2, the Kalman filter's model integrated in 2 ms steps against a
-  plant integrated in 1 ms steps: its predicted position is off by about
-  a·T·1 ms/2 per period, and the filter follows its model. 0.590 mrad with
-  the feedforward fixed; 0.290 (as without the filter) with the model
-  stepped like the plant. Fixed: ``KalmanConfig.model_step_s``.
-- cause 3, the plant's semi-implicit Euler: its velocity is the one over the
-  last physics step, half a step before its position's instant, so an arm
-  exactly on the reference shows a velocity error a·h/2 that the D term turns
-  into torque: 0.29 mrad. Fixed: ``JointKalmanFilter.velocity_at_instant`` → 0.088 mrad.
-- what is left (0.088 mrad, mostly a 2nd harmonic of 0.10 mrad): the same
-  half physics step in the position; the feedforward at T/2 − h/2 instead of
-  T/2 gives 0.031 mrad (not done: the feedforward does not know the plant's step).
+- the feedforward is for the middle of the period the command is held over
+  (``PlannerReference.over_period``, ``Reference.feedforward``), not the tick;
+- the Kalman filter's model steps like the plant (``KalmanConfig.model_step_s``);
+- the filter's velocity is the one at the position's instant
+  (``JointKalmanFilter.velocity_at_instant``), not the plant's over its last
+  physics step, half a step behind;
+- the tutorial preset, which uses none of these, tracks as it always has.
 
-With the reference noise (σ 5 mrad, 0.02 rad/s) the error is the filter's
-position estimate (about 1 mrad RMS ≈ √(σq·σv·T)), which no gain or filter
-setting tried takes below 0.93 mrad; the defaults give 1.10–1.17 mrad (was 1.19–1.26).
+Figures: in-process loop, 20 s, seed 1, RMS of reference − true angle after
+the 2 s warm-up.
 """
 
 import numpy as np
@@ -63,31 +47,31 @@ def simulate(seed: int, *, noise: bool = True, **controller) -> inprocess.LoopRe
 def test_noise_free_tracking_of_the_reference_sine_is_under_a_tenth_of_a_milliradian():
     run = simulate(1, noise=False)
     metrics = run.tracking_metrics()
-    assert metrics["tracking_rms_rad"] <= 1.0e-4  # 0.088 mrad (was 0.51)
-    assert metrics["tracking_max_rad"] <= 2.5e-4  # 0.16 mrad (was 1.03)
+    assert metrics["tracking_rms_rad"] <= 1.0e-4  # 0.088 mrad
+    assert metrics["tracking_max_rad"] <= 2.5e-4  # 0.16 mrad
     assert np.all(np.isfinite(run.command)) and np.max(np.abs(run.command)) <= 10.0
 
 
 def test_with_the_reference_noise_the_error_is_the_sensors_floor():
     rms = [simulate(seed).tracking_metrics()["tracking_rms_rad"] for seed in range(5)]
-    assert max(rms) <= 1.2e-3  # 1.14–1.18 mrad with the disturbance observer (1.10–1.17 without; was 1.19–1.26)
-    assert np.mean(rms) <= 1.17e-3  # 1.15 mrad (1.12 without the observer; was 1.23)
+    assert max(rms) <= 1.2e-3  # 1.14–1.18 mrad with the disturbance observer (1.10–1.17 without)
+    assert np.mean(rms) <= 1.17e-3  # 1.15 mrad (1.12 without the observer)
 
 
-def test_the_tutorial_preset_is_untouched():
-    # No feedforward, no Kalman filter: none of the fixes applies to it.
+def test_the_tutorial_preset_tracks_to_its_recorded_figure():
+    # No feedforward, no Kalman filter: none of the corrections above applies to it.
     rms = inprocess.simulate(cfg.load_stack("tutorial"), duration_s=8.0, seed=3).tracking_metrics()["tracking_rms_rad"]
     assert rms == pytest.approx(0.22597554936024128, rel=1e-9)
 
 
 def test_a_filter_that_trusts_the_model_keeps_the_arm():
-    # Its covariance now follows gravity's slope; with only the double integrator
-    # this run lost the arm (292 mrad RMS, noise-free).
+    # Its covariance follows gravity's slope: a double integrator alone loses the arm
+    # in this run (292 mrad RMS, noise-free).
     run = simulate(1, noise=False, kalman_acceleration_noise_std=0.002)
     assert run.tracking_metrics()["tracking_rms_rad"] < 1e-3
 
 
-# --- cause 1: the feedforward over the held period ------------------------------------
+# --- the feedforward over the held period ----------------------------------------------
 
 
 def planner_on_the_sine(until_s: float, period_s: float) -> PlannerReference:
@@ -144,7 +128,7 @@ def test_the_controller_feeds_forward_the_reference_over_the_period():
     assert out.reference[0] == pytest.approx(SINE.sample(t)[0][0])  # the reference itself is the tick's
 
 
-# --- causes 2 and 3: the filter's model and the plant's velocity ----------------------
+# --- the filter's model and the plant's velocity ---------------------------------------
 
 
 def test_the_filters_model_steps_like_the_plant():
@@ -160,7 +144,7 @@ def test_the_filters_model_steps_like_the_plant():
         if k > 50:
             worst = max(worst, abs(estimate[0] - q[0]))
         plant.step(torque, 10)
-    assert worst < 1e-5  # exact readings agree with the model: the filter adds no error (2.8e-4 rad in 2 ms steps)
+    assert worst < 1e-5  # exact readings agree with the model: the filter adds no error (2 ms steps: 2.8e-4 rad)
 
 
 def test_the_velocity_at_the_instant_is_the_one_the_position_moves_at():

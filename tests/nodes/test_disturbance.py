@@ -1,4 +1,4 @@
-"""Live disturbances (issue 11): a push on the arm of a running graph, sent by
+"""Live disturbances: a push on the arm of a running graph, sent by
 ``robot_controller.tools.disturb`` from a process of its own, applied by the
 simulator, recorded, and rejected by the default controller. Real nodes, real
 DDS, each test on its own ROS_DOMAIN_ID."""

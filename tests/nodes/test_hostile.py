@@ -1,4 +1,4 @@
-"""Hostile peers and careless users (issue 9): a single message, parameter or
+"""Hostile peers and careless users: a single message, parameter or
 signal must not break the loop or lose the run. Real nodes, real DDS, each
 test on its own ROS_DOMAIN_ID; the test speaks to the graph like any peer."""
 

@@ -1,4 +1,4 @@
-"""The tools against a real graph (issue 11): one `robot-controller run` shared by
+"""The tools against a real graph: one `robot-controller run` shared by
 the module, each tool in a process of its own, as a user would run it.
 
 Fast DDS reads its XML profile once per process, so the tools cannot run in

@@ -15,7 +15,7 @@ from robot_controller.core import lqr, robustness
 if TYPE_CHECKING:
     from robot_controller.experiments.autotune.problem import Problem
 
-#: The robustness every tuned loop keeps (docs: issue 12).
+#: The robustness every tuned loop keeps.
 MIN_GAIN_MARGIN_DB = 6.0
 MIN_PHASE_MARGIN_DEG = 45.0
 MIN_DELAY_PERIODS = 2

@@ -1,8 +1,6 @@
 """What the exercises share: seeded lockstep runs of the real graph and what
 they show (a step's figures, a sine's tracking), the files every exercise
 writes (``report.md``, ``results.json``, plots) and its registry entry.
-
-Longer than our ~250-line guideline: the runs, figures, files and plots every exercise shares.
 """
 
 from __future__ import annotations

@@ -36,7 +36,7 @@ TORQUE_NM = 2.0
 START_S = 5.0  #: physics time of the disturbance (the physics starts with the first command)
 #: "Back" means within this of the reference again, and staying there.
 RECOVERED_RAD = 0.002
-#: The default controller's goal (issue 12): pushed at most this far, back within this long.
+#: The default controller's goal (exercise 2): pushed at most this far, back within this long.
 GOAL_PEAK_RAD, GOAL_RECOVERY_S = 0.010, 0.3
 
 CONTENDERS = {

@@ -5,8 +5,6 @@ Automated on the real graph: the tutorial's controller (PID 50, 10, 5, no
 feedforward) with the torque limited to 2 N·m in the controller and in the
 motor, a 1 rad step (a jump) the arm cannot follow at once, and every
 anti-windup mode of the controller side by side, one seeded lockstep run each.
-
-Longer than our ~250-line guideline: its report text and plot.
 """
 
 from __future__ import annotations
