@@ -4,7 +4,9 @@ Every scenario is a real run (five processes over DDS, or one), scored from
 its recording like any other; the core figures time the in-process loop and
 a vectorised batch. Writes ``bench.json`` (flat keys) and ``bench.md``.
 
-Longer than our ~250-line guideline: the scenarios as data and how each is measured.
+The scenarios are data here (:data:`SCENARIOS`); the runs and timings they
+measure with are ``bench_runs``'s, the targets and the markdown
+``bench_targets``'s.
 """
 
 from __future__ import annotations
@@ -12,125 +14,16 @@ from __future__ import annotations
 import json
 import os
 import platform
-import subprocess
-import sys
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from robot_controller import parameters as cfg
-from robot_controller import resources
-from robot_controller.core.batch import ArmConstants, run_batch
-from robot_controller.core.pid import PidConfig
-from robot_controller.core.plant import ArmDynamics
-from robot_controller.core.trajectory import make_trajectory
-from robot_controller.experiments import hop_bench, inprocess
+from robot_controller.experiments import hop_bench
+from robot_controller.experiments.bench_runs import BusyCore, batch_sim_s_per_s, core_steps_per_s, kilohertz, wall_run
 from robot_controller.experiments.bench_targets import TARGETS, render_markdown
-from robot_controller.runner import forking, launcher
 from robot_controller.scoring import report
-
-
-def _wall_run(
-    params: cfg.Params, out: Path, duration_s: float, *, single_process: bool = False, sim_time: bool = False
-) -> dict[str, Any]:
-    result = launcher.launch(
-        params, out_dir=out, duration_s=duration_s, single_process=single_process, sim_time=sim_time
-    )
-    result.raise_if_interrupted()
-    if result.exit_code != 0 and not result.message_counts.get("/controller/state"):
-        return {"failure": result.failure}
-    values = report.score(
-        report.read_recording(result.bag_dir),
-        nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
-        window_s=duration_s if sim_time else None,
-    )
-    values["real_time_factor"] = result.real_time_factor
-    if result.failure:
-        values["failure"] = result.failure  # scored as far as it ran, and said so
-    values.update(result.usage)
-    values["unrecorded_messages"] = sum(result.unrecorded.values())
-    report.write_metrics(out / "metrics.json", values)
-    return values
-
-
-def _kilohertz(params: cfg.Params) -> cfg.Params:
-    """The reference scenario with the control loop, sensor and true state at 1 kHz."""
-    return cfg.merge(
-        params,
-        {
-            "pid_controller": {"control_rate_hz": 1000.0},
-            "sensor_node": {"rate_hz": 1000.0},
-            "simulator": {"publish_rate_hz": 1000.0},
-            "trajectory_planner": {"publish_rate_hz": 1000.0},
-        },
-    )
-
-
-def _ordinary_child() -> None:
-    """Normal scheduling, and gone when the bench is (even if it is killed)."""
-    os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-    forking.die_with_parent()
-
-
-class BusyCore:
-    """A process that keeps one core busy for as long as the context lasts."""
-
-    def __enter__(self) -> BusyCore:
-        # Ordinary scheduling, whatever this process runs at: it is the machine's
-        # other work, not a real-time task.
-        self.process = subprocess.Popen([sys.executable, "-c", "while True: pass"], preexec_fn=_ordinary_child)
-        return self
-
-    def __exit__(self, *exc_info) -> None:
-        self.process.kill()
-        self.process.wait()
-
-
-def core_steps_per_s(duration_s: float, robot: str = "one_dof") -> float:
-    """Control ticks per wall-clock second of the in-process loop on ``robot``'s
-    parameters (:func:`inprocess.simulate`, seed 0), timing the loop alone:
-    ``duration_s`` seconds of :func:`~robot_controller.core.loop.run_loop` (planner,
-    sensor, controller, actuator and the plant's physics steps, 10 per tick in the
-    reference scenario). Not timed: the set-up (:func:`inprocess.prepare`: the URDF
-    compiled, the trajectory planned, the gains designed) and a short warm-up run
-    before it (imports, first calls)."""
-    params = cfg.load_stack(robot=robot)
-    inprocess.prepare(params, duration_s=min(duration_s, 0.5), seed=0)()  # the warm-up
-    run = inprocess.prepare(params, duration_s=duration_s, seed=0)
-    start = time.perf_counter()
-    result = run()
-    return len(result.tick_time_s) / (time.perf_counter() - start)
-
-
-def batch_sim_s_per_s(batch: int, duration_s: float) -> tuple[float, float]:
-    """Simulated seconds per wall second of ``batch`` gain sets at once; also the best RMS found."""
-    rng = np.random.default_rng(0)
-    pid = PidConfig(
-        kp=rng.uniform(10, 100, (batch, 1)),
-        ki=rng.uniform(0, 20, (batch, 1)),
-        kd=rng.uniform(1, 8, (batch, 1)),
-        output_limit=[10.0],
-        integral_limit=[10.0],
-        anti_windup="conditional_integration",
-        derivative_source="velocity_error",
-    )
-    params = cfg.load_stack()
-    start = time.perf_counter()
-    rms = run_batch(
-        constants=ArmConstants.from_dynamics(ArmDynamics(resources.default_urdf())),
-        pid_config=pid,
-        trajectory=make_trajectory("sine", joint_count=1),
-        sensor=cfg.sensor_config(params["sensor_node"]),
-        rng=rng,
-        duration_s=duration_s,
-        warmup_s=min(2.0, duration_s / 2),  # a short (--quick) run must still score something
-    )
-    return batch * duration_s / (time.perf_counter() - start), float(np.min(rms))
-
 
 SOAK_S, QUICK_SOAK_S = 600.0, 20.0
 NODE_NAMES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
@@ -183,7 +76,7 @@ def _soak(run: Run) -> dict[str, Any]:
     tracking, memory growth and every process's CPU share. Short runs hide
     stalls: the kernel's throttling and the machine's other work come by
     every few tens of seconds."""
-    values = _wall_run(run.params, run.out, run.duration_s)
+    values = wall_run(run.params, run.out, run.duration_s)
     figures = _figures(
         "soak",
         values,
@@ -204,9 +97,9 @@ def _soak(run: Run) -> dict[str, Any]:
 def _wall100(loaded: bool) -> Callable[[Run], dict[str, Any]]:
     def measure(run: Run) -> dict[str, Any]:
         if not loaded:
-            return _figures("wall100", _wall_run(run.params, run.out, run.duration_s), TIMING)
+            return _figures("wall100", wall_run(run.params, run.out, run.duration_s), TIMING)
         with BusyCore():
-            return _figures("wall100_loaded", _wall_run(run.params, run.out, run.duration_s), TIMING)
+            return _figures("wall100_loaded", wall_run(run.params, run.out, run.duration_s), TIMING)
 
     return measure
 
@@ -215,7 +108,7 @@ def _wall1k(single: bool) -> Callable[[Run], dict[str, Any]]:
     mode = "single" if single else "multi"
 
     def measure(run: Run) -> dict[str, Any]:
-        values = _wall_run(_kilohertz(run.params), run.out, run.duration_s, single_process=single)
+        values = wall_run(kilohertz(run.params), run.out, run.duration_s, single_process=single)
         figures = _figures(
             f"wall1k_{mode}",
             values,
@@ -235,7 +128,7 @@ def _lockstep(single: bool) -> Callable[[Run], dict[str, Any]]:
     mode = "single" if single else "multi"
 
     def measure(run: Run) -> dict[str, Any]:
-        values = _wall_run(run.params, run.out, run.duration_s, single_process=single, sim_time=True)
+        values = wall_run(run.params, run.out, run.duration_s, single_process=single, sim_time=True)
         return {
             **_figures(f"lockstep_{mode}", values, {"tracking_rms_rad": "tracking_rms_rad"}),
             f"lockstep_rtf_{mode}": values.get("real_time_factor"),
