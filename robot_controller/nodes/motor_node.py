@@ -27,7 +27,7 @@ from robot_controller.core.validation import check_effort
 from robot_controller.parameters.limits import torque_limit
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher
-from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS
+from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, loop_qos
 from robot_controller.ros.stack_node import StackNode
 
 RECEIPTS_PERIOD_S = 1.0
@@ -44,7 +44,7 @@ class MotorNode(StackNode):
         self.actuator = self._make_actuator(self.params)
         self.last_command_s: float | None = None
         self.effort_pub = GatedPublisher(self, Float64MultiArray, "/sim/effort")
-        self.create_subscription(Float64MultiArray, "/joint_commands", self.command_callback, LATEST_QOS)
+        self.create_subscription(Float64MultiArray, "/joint_commands", self.command_callback, loop_qos(self.lockstep))
         self.watch_single_publisher("/joint_commands", "pid_controller")
         # Category 0 on lost commands or e-stop: zero torque and the simulator's brakes.
         self.brake_pub = GatedPublisher(self, Bool, "/sim/brake", qos=LATCHED_QOS)

@@ -45,7 +45,7 @@ from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model, model_overridden
 from robot_controller.ros.process import LAW_FAULT_FILE, LAW_STOPPED_EXIT_CODE, request_exit, run
 from robot_controller.ros.publishing import COUNTS_DIR_ENV, GatedPublisher
-from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS
+from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS, loop_qos
 from robot_controller.ros.stack_node import StackNode
 from robot_controller.ros.stamps import stamp_to_s
 
@@ -88,9 +88,9 @@ class PidControllerNode(StackNode):
         self.command_pub = GatedPublisher(self, Float64MultiArray, "/joint_commands")
         self.state_pub = GatedPublisher(self, Float64MultiArray, "/controller/state", consumer=False)
         self.diagnostics_pub = GatedPublisher(self, DiagnosticArray, "/diagnostics", consumer=False)
-        self.create_subscription(JointState, "/joint_states", self.joint_state_callback, LATEST_QOS)
+        self.create_subscription(JointState, "/joint_states", self.joint_state_callback, loop_qos(self.lockstep))
         self.watch_single_publisher("/joint_states", "sensor_node")
-        self.create_subscription(Float64MultiArray, "/trajectory", self.trajectory_callback, LATEST_QOS)
+        self.create_subscription(Float64MultiArray, "/trajectory", self.trajectory_callback, loop_qos(self.lockstep))
         self.watch_single_publisher("/trajectory", "trajectory_planner")
         self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
         if not self.lockstep:

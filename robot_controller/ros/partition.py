@@ -98,6 +98,8 @@ LOCALHOST = "127.0.0.1"
 #: With ``--peers`` the profile says how discovery goes; rmw_fastrtps must leave it alone (with
 #: ``LOCALHOST`` it would add its own shared-memory transport, SUBNET would multicast).
 PEERS_DISCOVERY_RANGE = "SYSTEM_DEFAULT"
+#: Set in every node's environment when the loop is split across hosts: its readers are best effort (ros.qos).
+LOOP_QOS_ENV = "ROBOT_CONTROLLER_LOOP_QOS"
 _RUN_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 
 

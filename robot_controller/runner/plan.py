@@ -207,6 +207,7 @@ def plan(
         env[partition.PARTITION_ENV] = name
         if peers:  # the profile alone says how discovery goes (rmw_fastrtps's LOCALHOST would add shared memory)
             env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = partition.PEERS_DISCOVERY_RANGE
+            env[partition.LOOP_QOS_ENV] = "best_effort"  # the loop's readers across a link that loses packets
     node_env = dict(env)
     if realtime:
         node_env[scheduling.PACING_RT_ENV] = str(scheduling.PACING_RT_PRIORITY)

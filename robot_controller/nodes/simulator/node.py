@@ -26,7 +26,7 @@ from robot_controller.nodes.simulator.pacing import SimulatorPacing
 from robot_controller.nodes.world_state import WORLD_STATE_ENV, WorldState
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher
-from robot_controller.ros.qos import LATEST_QOS
+from robot_controller.ros.qos import loop_qos
 from robot_controller.ros.stack_node import StackNode
 
 
@@ -56,7 +56,9 @@ class Simulator(SimulatorPacing, SimulatorLockstep, SimulatorBrakes, SimulatorDi
 
         self.state_pub = GatedPublisher(self, JointState, "/sim/joint_states")
         # Only the newest effort matters to a drive (lockstep sends one at a time anyway).
-        self.effort_sub = self.create_subscription(Float64MultiArray, "/sim/effort", self.effort_callback, LATEST_QOS)
+        self.effort_sub = self.create_subscription(
+            Float64MultiArray, "/sim/effort", self.effort_callback, loop_qos(self.lockstep)
+        )
         self.watch_single_publisher("/sim/effort", "motor_node")
         self.init_brakes()
         self.state_msg = JointState()
