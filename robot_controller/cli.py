@@ -1,7 +1,7 @@
 """``robot-controller``: run the loop, score a recording, experiment, and talk
 to a running graph.
 
-Each verb is a plain function (in ``verbs``, or a tool in ``tools``) returning
+Each verb is a plain function (in ``verbs``, ``verbs_experiments`` or ``verbs_graph``) returning
 an exit code; here each subcommand only parses its arguments and names the
 function it calls. A user's mistake is one line, exit 2, never a traceback.
 
@@ -17,7 +17,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from robot_controller import parameters as cfg
-from robot_controller import verbs
+from robot_controller import verbs, verbs_experiments, verbs_graph
 from robot_controller.core.errors import ConfigError
 from robot_controller.verbs import UsageError, output_dir
 
@@ -290,7 +290,7 @@ def _experiment_verbs(sub) -> None:
         sub,
         "step",
         "a step response: overshoot, rise, settling, steady-state error, torque",
-        lambda a: verbs.step(
+        lambda a: verbs_experiments.step(
             amplitude=a.amplitude,
             shaping=a.shaping,
             out=a.out,
@@ -317,7 +317,7 @@ def _experiment_verbs(sub) -> None:
         sub,
         "compare",
         "the tutorial preset, PID, PID+FF, PID+FF+Kalman, LQR on sine and step",
-        lambda a: verbs.compare(
+        lambda a: verbs_experiments.compare(
             out=output_dir(a.out, Path("runs/compare")),
             seeds=a.seeds,
             duration_s=a.duration,
@@ -344,11 +344,11 @@ def _experiment_verbs(sub) -> None:
         sub,
         "exercise",
         "one of the tutorial's exercises as a reproducible experiment",
-        lambda a: verbs.exercise(
+        lambda a: verbs_experiments.exercise(
             a.name, output_dir(a.out, Path("runs") / f"exercise-{a.name}"), quick=a.quick, controller=a.controller
         ),
     )
-    p.add_argument("name", choices=verbs.EXERCISE_NAMES)
+    p.add_argument("name", choices=verbs_experiments.EXERCISE_NAMES)
     _controller_option(p)  # exercise disturbance: the law runs beside the others
     p.add_argument("--out", type=Path, help="output directory (default runs/exercise-NAME)")
     p.add_argument("--quick", action="store_true", help="a short form (the test suite's)")
@@ -356,7 +356,7 @@ def _experiment_verbs(sub) -> None:
         sub,
         "tune",
         "automatic gain design with robustness margins; writes tuned.yaml",
-        lambda a: verbs.tune(
+        lambda a: verbs_experiments.tune(
             output_dir(a.out, Path("runs/tune")),
             preset=a.preset,
             config=a.config,
@@ -373,7 +373,7 @@ def _experiment_verbs(sub) -> None:
         sub,
         "identify",
         "identify the arm's inertia, damping, friction and gravity; writes identified.yaml",
-        lambda a: verbs.identify(
+        lambda a: verbs_experiments.identify(
             output_dir(a.out, Path("runs/identify")),
             preset=a.preset,
             robot=a.robot,
@@ -389,7 +389,7 @@ def _experiment_verbs(sub) -> None:
         sub,
         "bench",
         "timing benchmark: jitter, latency, lockstep speed, core speed",
-        lambda a: verbs.bench(output_dir(a.out, Path("runs/bench")), quick=a.quick, soak_s=a.soak_s),
+        lambda a: verbs_experiments.bench(output_dir(a.out, Path("runs/bench")), quick=a.quick, soak_s=a.soak_s),
     )
     p.add_argument("--out", type=Path, help="output directory (default runs/bench)")
     p.add_argument("--quick", action="store_true", help="a few seconds per scenario")
@@ -400,7 +400,7 @@ def _experiment_verbs(sub) -> None:
         sub,
         "faults",
         "freeze each node mid-motion (SIGSTOP) and measure what the arm did",
-        lambda a: verbs.faults(
+        lambda a: verbs_experiments.faults(
             output_dir(a.out, Path("runs/faults")), quick=a.quick, robot=a.robot, controller=a.controller
         ),
     )
@@ -429,14 +429,14 @@ def _graph_verbs(sub) -> None:
         sub,
         "estop",
         "emergency stop of the running graph: torque off, brakes on, latched",
-        lambda a: verbs.estop(release=a.release),
+        lambda a: verbs_graph.estop(release=a.release),
     )
     p.add_argument("--release", action="store_true", help="release the e-stop; the loop re-acquires")
     p = _verb(
         sub,
         "disturb",
         "push the running arm: an external torque for a while (/sim/disturbance)",
-        lambda a: verbs.disturb(a.torque, a.duration, a.joint),
+        lambda a: verbs_graph.disturb(a.torque, a.duration, a.joint),
     )
     p.add_argument("--torque", type=float, required=True, help="N·m")
     p.add_argument("--duration", type=positive_seconds, default=0.5, help="s (default 0.5)")
@@ -445,7 +445,7 @@ def _graph_verbs(sub) -> None:
         sub,
         "goto",
         "move the running arm to joint positions, at rest after --time (a JointTrajectory to the planner)",
-        lambda a: verbs.goto(a.positions, a.time, a.joints),
+        lambda a: verbs_graph.goto(a.positions, a.time, a.joints),
     )
     p.add_argument("positions", type=float, nargs="+", metavar="Q", help="rad, one per joint")
     p.add_argument("--time", type=positive_seconds, help="s to get there (default: from the distance, at least 1)")
@@ -456,42 +456,50 @@ def _graph_verbs(sub) -> None:
         sub,
         "trajectory",
         "send a joint trajectory from a YAML file to the running planner (joint_names, points)",
-        lambda a: verbs.send_trajectory(a.file),
+        lambda a: verbs_graph.send_trajectory(a.file),
     )
     p.add_argument("file", type=Path, help="YAML: joint_names: [...], points: [{time_from_start, positions}, ...]")
     topic = sub.add_parser("topic", help="ros2 topic's habits: list, echo, hz")
     topics = topic.add_subparsers(dest="topic_verb", required=True, parser_class=Parser)
-    p = _verb(topics, "list", "the graph's topics", lambda a: verbs.topic("list", show_types=a.show_types))
+    p = _verb(topics, "list", "the graph's topics", lambda a: verbs_graph.topic("list", show_types=a.show_types))
     p.add_argument("-t", "--show-types", action="store_true")
     p = _verb(
-        topics, "echo", "print a topic's messages", lambda a: verbs.topic("echo", a.topic, count=a.count, csv=a.csv)
+        topics,
+        "echo",
+        "print a topic's messages",
+        lambda a: verbs_graph.topic("echo", a.topic, count=a.count, csv=a.csv),
     )
     p.add_argument("topic")
     p.add_argument("--count", type=positive_int, help="stop after this many messages")
     p.add_argument("--csv", action="store_true", help="one line of comma-separated values per message")
     p = _verb(
-        topics, "hz", "a topic's rate", lambda a: verbs.topic("hz", a.topic, window=a.window, duration_s=a.duration)
+        topics,
+        "hz",
+        "a topic's rate",
+        lambda a: verbs_graph.topic("hz", a.topic, window=a.window, duration_s=a.duration),
     )
     p.add_argument("topic")
     p.add_argument("--window", "-w", type=positive_int, default=10_000, help="messages the statistics cover")
     p.add_argument("--duration", type=positive_seconds, help="stop after this long, s (default: Ctrl-C)")
     param = sub.add_parser("param", help="ros2 param's habits: list, get, set, dump")
     params = param.add_subparsers(dest="param_verb", required=True, parser_class=Parser)
-    p = _verb(params, "list", "a node's parameters", lambda a: verbs.param("list", a.node))
+    p = _verb(params, "list", "a node's parameters", lambda a: verbs_graph.param("list", a.node))
     p.add_argument("node")
-    p = _verb(params, "get", "one parameter's value", lambda a: verbs.param("get", a.node, a.name))
+    p = _verb(params, "get", "one parameter's value", lambda a: verbs_graph.param("get", a.node, a.name))
     p.add_argument("node")
     p.add_argument("name")
     p = _verb(
         params,
         "set",
         "set one parameter (the node refuses a bad value with its reason)",
-        lambda a: verbs.param("set", a.node, a.name, a.value),
+        lambda a: verbs_graph.param("set", a.node, a.name, a.value),
     )
     p.add_argument("node")
     p.add_argument("name")
     p.add_argument("value")
-    p = _verb(params, "dump", "a node's parameters as a ROS 2 parameter file", lambda a: verbs.param("dump", a.node))
+    p = _verb(
+        params, "dump", "a node's parameters as a ROS 2 parameter file", lambda a: verbs_graph.param("dump", a.node)
+    )
     p.add_argument("node")
 
 
