@@ -1,16 +1,11 @@
-"""Two hosts on one machine: network namespaces joined by a veth pair, the
-commands run inside them, and the impairments of the link.
+"""Two hosts on one machine: network namespaces joined by a veth pair, their
+lifetime, and the commands run inside them.
 
 The "robot host" (10.203.0.1/24) and the "control host" (10.203.0.2/24) are
 two network namespaces, each with its loopback up and one end of a veth
 pair; nothing else is routed, so whatever runs inside them can reach only
-the other one. Impairments act on both ends (each direction alike):
-
-- packet loss: an nftables table of the bench's own in each namespace,
-  ``numgen random mod 100 < N drop`` on what arrives from the veth (this kernel has no
-  ``netem`` qdisc: checked);
-- a bandwidth cap: the ``tbf`` qdisc on each end;
-- a cut: the robot end set down, then up.
+the other one. The link's loss, bandwidth cap and cuts are ``impairments``;
+the hosts' names and addresses are ``hosts``.
 
 Everything is created under names carrying this process's id and removed on
 exit, on Ctrl-C or SIGTERM and on an error (``Link`` is a context manager;
@@ -31,14 +26,42 @@ import signal
 import subprocess
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
 
+from robot_controller.network.hosts import NAME_PREFIX, PREFIX_LENGTH, Host, hosts, in_namespace
+from robot_controller.network.hosts import run as _run
+from robot_controller.network.impairments import (
+    TABLE,
+    Impairments,
+    clear_commands,
+    link_command,
+    loss_commands,
+    loss_ruleset,
+    rate_command,
+)
 from robot_controller.runner.forking import die_with_parent
 
-PREFIX_LENGTH = 24
-NAME_PREFIX = "rcnet"
-TABLE = "robot_controller_bench"  #: the nftables table the bench creates in each namespace
+__all__ = [
+    "TABLE",
+    "Host",
+    "Link",
+    "NetworkBenchUnavailable",
+    "check_machine",
+    "clear_commands",
+    "has_net_admin",
+    "hosts",
+    "in_namespace",
+    "leftover_namespaces",
+    "link",
+    "link_command",
+    "loss_commands",
+    "loss_ruleset",
+    "rate_command",
+    "remove_leftovers",
+    "setup_commands",
+    "teardown_commands",
+]
+
 _LEFTOVER = re.compile(rf"^{NAME_PREFIX}-(\d+)-(robot|control)$")
 CAP_NET_ADMIN = 12
 STOP_GRACE_S = 15.0  #: a launcher stops its nodes and scores its run: give it time before SIGKILL
@@ -46,23 +69,6 @@ STOP_GRACE_S = 15.0  #: a launcher stops its nodes and scores its run: give it t
 
 class NetworkBenchUnavailable(RuntimeError):
     """The machine cannot host the bench (privilege, a missing tool): one line for the user, exit 2."""
-
-
-@dataclass(frozen=True)
-class Host:
-    role: str  #: "robot" or "control"
-    namespace: str
-    device: str  #: its end of the veth pair
-    address: str  #: without the prefix length
-
-
-def hosts(pid: int | None = None) -> tuple[Host, Host]:
-    """The robot host and the control host of the bench run by process ``pid`` (default: this one)."""
-    pid = os.getpid() if pid is None else pid
-    return (
-        Host("robot", f"{NAME_PREFIX}-{pid}-robot", "rc-robot", "10.203.0.1"),
-        Host("control", f"{NAME_PREFIX}-{pid}-control", "rc-control", "10.203.0.2"),
-    )
 
 
 # -- the commands (functional core) ------------------------------------------------
@@ -92,55 +98,6 @@ def teardown_commands(robot: Host, control: Host) -> list[list[str]]:
     commands.append(["ip", "-n", robot.namespace, "link", "del", robot.device])  # both ends go
     commands += [["ip", "netns", "del", robot.namespace], ["ip", "netns", "del", control.namespace]]
     return commands
-
-
-def in_namespace(host: Host, argv: list[str]) -> list[str]:
-    return ["ip", "netns", "exec", host.namespace, *argv]
-
-
-def loss_ruleset(device: str, percent: int) -> str:
-    """An nftables script: the bench's table, dropping ``percent`` % of the packets arriving on ``device`` at
-    random. On arrival, not on departure: a packet dropped on its way out fails the sender's ``sendto`` (EPERM),
-    which a lost packet on a real link does not."""
-    if not 0 <= percent <= 100 or int(percent) != percent:
-        raise ValueError(f"packet loss must be a whole percentage 0..100, got {percent}")
-    return (
-        f"table inet {TABLE} {{\n"
-        "  chain loss {\n"
-        "    type filter hook input priority 0; policy accept;\n"
-        f'    iifname "{device}" numgen random mod 100 < {int(percent)} counter drop\n'
-        "  }\n"
-        "}\n"
-    )
-
-
-def loss_commands(host: Host, percent: int) -> tuple[list[str], str]:
-    """The command and the script (its standard input) that install the loss in ``host``."""
-    return in_namespace(host, ["nft", "-f", "-"]), loss_ruleset(host.device, percent)
-
-
-def rate_command(host: Host, rate_kbit: int, burst_bytes: int, latency_ms: float) -> list[str]:
-    """A token bucket on ``host``'s end of the link: ``rate_kbit`` kbit/s, a burst, and a queue of ``latency_ms``."""
-    return ["ip", "netns", "exec", host.namespace, "tc", "qdisc", "replace", "dev", host.device, "root", "tbf"] + [
-        "rate",
-        f"{int(rate_kbit)}kbit",
-        "burst",
-        str(int(burst_bytes)),
-        "latency",
-        f"{latency_ms:g}ms",
-    ]
-
-
-def clear_commands(host: Host) -> list[list[str]]:
-    """Remove the bench's loss table and any qdisc from ``host``'s end of the link."""
-    return [
-        in_namespace(host, ["nft", "delete", "table", "inet", TABLE]),
-        ["ip", "netns", "exec", host.namespace, "tc", "qdisc", "del", "dev", host.device, "root"],
-    ]
-
-
-def link_command(host: Host, up: bool) -> list[str]:
-    return ["ip", "-n", host.namespace, "link", "set", host.device, "up" if up else "down"]
 
 
 def leftover_namespaces(listing: str, alive: set[int] | None = None) -> list[str]:
@@ -182,13 +139,6 @@ def check_machine(*, need_nft: bool = True) -> None:
         raise NetworkBenchUnavailable("`nft` is not installed (packet loss uses nftables): run `make nftables`")
 
 
-def _run(argv: list[str], *, stdin: str | None = None, check: bool = True) -> subprocess.CompletedProcess:
-    done = subprocess.run(argv, input=stdin, capture_output=True, text=True, timeout=30)
-    if check and done.returncode != 0:
-        raise RuntimeError(f"{' '.join(argv)}: {done.stderr.strip() or f'exit {done.returncode}'}")
-    return done
-
-
 def remove_leftovers() -> list[str]:
     """Delete namespaces left by a bench that was killed (SIGKILL leaves no time to clean); their names."""
     listing = _run(["ip", "netns", "list"], check=False).stdout
@@ -202,7 +152,7 @@ def _raise_interrupt(signum, frame) -> None:
     raise KeyboardInterrupt
 
 
-class Link:
+class Link(Impairments):
     """The two hosts and their link, for the length of a ``with`` block.
 
     Inside it SIGTERM and SIGHUP end the block as Ctrl-C does (``KeyboardInterrupt``),
@@ -299,57 +249,6 @@ class Link:
                     os.killpg(process.pid, signal.SIGKILL)
                 process.wait()
         self.processes = []
-
-    # -- impairments
-    def set_loss(self, percent: int) -> None:
-        """``percent`` % of the packets lost in each direction (0: none)."""
-        for host in (self.robot, self.control):
-            _run(in_namespace(host, ["nft", "delete", "table", "inet", TABLE]), check=False)
-            if percent:
-                argv, script = loss_commands(host, percent)
-                _run(argv, stdin=script)
-
-    def set_rate(self, rate_kbit: int, burst_bytes: int = 4096, latency_ms: float = 50.0) -> None:
-        for host in (self.robot, self.control):
-            _run(rate_command(host, rate_kbit, burst_bytes, latency_ms))
-
-    def clear(self) -> None:
-        for host in (self.robot, self.control):
-            for argv in clear_commands(host):
-                _run(argv, check=False)
-        self.set_up(True)
-
-    def set_up(self, up: bool) -> None:
-        _run(link_command(self.robot, up))
-        self._up = up
-        if up:
-            self.wait_carrier()
-
-    def cut(self, seconds: float) -> tuple[float, float]:
-        """The link down for ``seconds``; returns when it went down and came back (system time)."""
-        self.set_up(False)
-        down_at = time.time()
-        try:
-            time.sleep(seconds)
-        finally:
-            self.set_up(True)
-        return down_at, time.time()
-
-    def dropped(self) -> int:
-        """Packets the loss rules have dropped, both ends together (their counters)."""
-        total = 0
-        for host in (self.robot, self.control):
-            done = _run(in_namespace(host, ["nft", "list", "table", "inet", TABLE]), check=False)
-            total += sum(int(n) for n in re.findall(r"counter packets (\d+)", done.stdout))
-        return total
-
-    def counters(self) -> dict[str, int]:
-        """Bytes and packets the robot end has sent and received (``/sys/class/net`` inside its namespace)."""
-        out = {}
-        for name in ("tx_bytes", "rx_bytes", "tx_packets", "rx_packets", "tx_dropped"):
-            done = _run(in_namespace(self.robot, ["cat", f"/sys/class/net/{self.robot.device}/statistics/{name}"]))
-            out[name] = int(done.stdout.strip())
-        return out
 
 
 @contextlib.contextmanager
