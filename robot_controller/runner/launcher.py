@@ -21,7 +21,8 @@ launcher with the simulator records, then runs for ``duration_s`` as always;
 one without it records nothing and runs until every node of the other side
 has left the graph (the loop it serves has ended), which is a success.
 
-Longer than our ~250-line guideline: launch() and the run loop it supervises.
+The run loop it supervises, and a split run's serving until the other side
+leaves, are in ``run_loop``.
 """
 
 from __future__ import annotations
@@ -39,8 +40,9 @@ from pathlib import Path
 from robot_controller import parameters as cfg
 from robot_controller.nodes import recorder as rec
 from robot_controller.runner import forking, supervise
-from robot_controller.runner.plan import NODE_ORDER, RunPlan, plan
+from robot_controller.runner.plan import plan
 from robot_controller.runner.processes import Child, ProcessGroup, say
+from robot_controller.runner.run_loop import Outcome, run_loop
 
 __all__ = ["RunResult", "launch", "say"]
 
@@ -135,7 +137,7 @@ def launch(
     faulthandler.register(signal.SIGUSR1, all_threads=True)
     link = supervise.RecorderLink(list(rec.topics_for(sim_time)))
     graph = supervise.GraphLink() if run.watcher is not None else None
-    outcome = _Outcome()
+    outcome = Outcome()
     replaced: set[str] = set()  # nodes killed and respawned
     try:
         # The viewer is kept out of the group's children: a dead viewer must not end the run.
@@ -175,7 +177,7 @@ def launch(
                 viewers.relay()
                 # What scores and plots the run, imported while the nodes find each other.
                 threading.Thread(target=_preload_reporting, daemon=True).start()
-                _run_loop(
+                run_loop(
                     run,
                     group,
                     nodes,
@@ -249,141 +251,6 @@ def launch(
     if outcome.failure:
         say(f"FAILED: {outcome.failure}")
     return result
-
-
-@dataclass
-class _Outcome:
-    failure: str | None = None
-    started: float | None = None  #: monotonic time the loop closed
-    sim_start: float = 0.0
-    control_seconds: float = 0.0
-    wall_seconds: float = 0.0
-    usage: dict[str, float] = field(default_factory=dict)
-    interrupted: bool = False
-    end_reason: str | None = None
-
-
-def _run_loop(
-    run: RunPlan,
-    group: ProcessGroup,
-    nodes: list[Child],
-    link: supervise.RecorderLink,
-    outcome: _Outcome,
-    duration_s: float,
-    watcher: Callable[[float, dict[str, int]], None] | None,
-    replaced: set[str] | None,
-    viewers: list[Child] = (),
-    graph: supervise.GraphLink | None = None,
-    wait_s: float = supervise.GRAPH_WAIT_S,
-) -> None:
-    """Wait for the recorder and the first tick, then for ``duration_s`` of control; fills ``outcome``.
-    ``replaced``: respawn dead nodes, noting their names there. ``viewers``: observers measured
-    apart (their ``cpu_pct_``/``rss_`` figures, outside ``cpu_pct_total``) and never respawned.
-    ``graph``: part of the graph runs here; wait (``wait_s``) for the other side's nodes first."""
-    if run.records:
-        outcome.failure = supervise.wait_recorder(link, group)
-    if outcome.failure is None and graph is not None:
-        outcome.failure = supervise.wait_graph(graph, group, NODE_ORDER, run.remote_nodes, wait_s)
-        if outcome.failure is None:
-            say(f"graph complete: {', '.join(NODE_ORDER)} (here: {', '.join(run.local_nodes)})")
-    if outcome.failure is None and run.records:
-        outcome.failure = supervise.wait_first_tick(link, group)
-    if outcome.failure is not None:
-        return
-    started = outcome.started = time.monotonic()
-    if not run.records:
-        _serve_until_the_loop_ends(run, group, nodes, graph, outcome, replaced)
-        return
-    say(f"control loop running; recording {duration_s:g} {'sim ' if run.sim_time else ''}s into {run.bag_dir}")
-    meter = supervise.UsageMeter(group.children, started + min(supervise.USAGE_WARMUP_S, duration_s / 4))
-    if viewers:
-        meter = _WithViewers(meter, viewers)
-    if run.sim_time:
-        outcome.sim_start = link.clock_s
-        outcome.failure = supervise.wait_sim(group, link, outcome.sim_start + duration_s, meter)
-        outcome.control_seconds = link.clock_s - outcome.sim_start
-    else:
-        pids = {c.name: c.process.pid for c in nodes}
-        poll = (lambda: watcher(time.monotonic() - started, pids)) if watcher else None
-
-        def respawn(dead: Child) -> Child:
-            replaced.add(dead.name)
-            process = next(p for p in run.nodes if p.name == dead.name)
-            child = group.restart(dead, env=process.env)
-            nodes[nodes.index(dead)] = child
-            pids[child.name] = child.process.pid
-            return child
-
-        outcome.failure = supervise.wait_wall(
-            group, started + duration_s, meter, poll, respawn if replaced is not None else None
-        )
-        outcome.control_seconds = time.monotonic() - started
-    outcome.wall_seconds = time.monotonic() - started
-    outcome.usage = meter.finish()
-
-
-def _serve_until_the_loop_ends(
-    run: RunPlan,
-    group: ProcessGroup,
-    nodes: list[Child],
-    graph: supervise.GraphLink,
-    outcome: _Outcome,
-    replaced: set[str] | None,
-) -> None:
-    """A launcher without the simulator: its nodes serve the loop until every node of the
-    other side has left the graph (at once when that launcher stops them; after the DDS lease,
-    20 s, if the link is cut for that long), which ends this run too, as a success."""
-    started = outcome.started
-    say(f"serving the loop with {', '.join(run.local_nodes)} until {', '.join(run.remote_nodes)} leave(s) the graph")
-    meter = supervise.UsageMeter(group.children, started + supervise.USAGE_WARMUP_S)
-
-    def respawn(dead: Child) -> Child:
-        replaced.add(dead.name)
-        process = next(p for p in run.nodes if p.name == dead.name)
-        child = group.restart(dead, env=process.env)
-        nodes[nodes.index(dead)] = child
-        return child
-
-    outcome.failure = supervise.wait_wall(
-        group,
-        float("inf"),
-        meter,
-        None,
-        respawn if replaced is not None else None,
-        ended=lambda: graph.all_gone(run.remote_nodes),
-    )
-    outcome.control_seconds = outcome.wall_seconds = time.monotonic() - started
-    outcome.usage = meter.finish()
-    if outcome.failure is None:
-        outcome.end_reason = f"{', '.join(run.remote_nodes)} left the graph: the loop has ended"
-
-
-class _WithViewers:
-    """The run's usage meter, plus the viewers measured on their own (so
-    ``cpu_pct_total`` stays the stack's), and a word if a viewer dies."""
-
-    def __init__(self, meter: supervise.UsageMeter, viewers: list[Child]) -> None:
-        self.meter = meter
-        self.viewers = viewers
-        self.viewer_meter = supervise.UsageMeter(viewers, meter.start_at)
-        self.said: set[str] = set()
-
-    def poll(self) -> None:
-        self.meter.poll()
-        self.viewer_meter.poll()
-        for child in self.viewers:
-            if child.name not in self.said and child.process.poll() is not None:
-                self.said.add(child.name)
-                say(f"{child.name} exited (code {child.process.returncode}): no live view; the run goes on")
-
-    def forget(self, name: str) -> None:
-        self.meter.forget(name)
-
-    def finish(self) -> dict[str, float]:
-        usage = self.meter.finish()
-        names = {c.name for c in self.viewers}
-        usage.update({k: v for k, v in self.viewer_meter.finish().items() if k.rsplit("_", 1)[-1] in names})
-        return usage
 
 
 def _report_viewer(viewers: list[Child], codes: dict[str, int]) -> None:
