@@ -13,58 +13,50 @@ new reading does (``trigger: measurement``, with the timer left to run the
 watchdog when readings stop). Lockstep: each measurement is a tick, computed
 once the reference sample due by then has arrived.
 
-Longer than our ~250-line guideline: one node, one file (the ros2/examples
-habit), with its two triggers, the lockstep pairing of readings with ticks
-and its loop-health report; every decision about torque is in the core.
+The node is assembled from one module per concern: ``lockstep`` (readings
+paired with ticks), ``health`` (the command path's delay, lateness,
+``/diagnostics``) and ``status`` (the law in force, state changes, a failed
+law, ``/controller/state``); every decision about torque is in the core.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import os
 import time
 from collections import deque
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rclpy.clock import Clock, ClockType
-from rosgraph_msgs.msg import Clock as ClockMsg
+from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
 from robot_controller import parameters as cfg
-from robot_controller.core import metrics, state_layout
-from robot_controller.core.controller import ControlOutput, JointController, Status, law_config
+from robot_controller.core import state_layout
+from robot_controller.core.controller import JointController, Status, law_config
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters as law_parameters
 from robot_controller.core.laws import registry
 from robot_controller.core.validation import check_joint_state, check_trajectory
+from robot_controller.nodes.pid_controller.health import LoopHealth
+from robot_controller.nodes.pid_controller.lockstep import LockstepPairing
+from robot_controller.nodes.pid_controller.status import StatusReports
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model, model_overridden
-from robot_controller.ros.process import LAW_FAULT_FILE, LAW_STOPPED_EXIT_CODE, request_exit, run
-from robot_controller.ros.publishing import COUNTS_DIR_ENV, GatedPublisher
-from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS, loop_qos
+from robot_controller.ros.process import run
+from robot_controller.ros.publishing import GatedPublisher
+from robot_controller.ros.qos import ESTOP_QOS, LATEST_QOS, loop_qos
 from robot_controller.ros.stack_node import StackNode
 from robot_controller.ros.stamps import stamp_to_s
 
-# While the loop is late, its one line comes at most this often (s).
-LATE_LINE_PERIOD_S = 2.0
 # Commands remembered with their tick time, to pair with the drive's receipts (a second's worth and more).
 ISSUED_KEPT = 400
 # The receipts come once a second, each message a second's rows: keep a few, never a backlog.
 COMMAND_RECEIPTS_QOS = 5
 # Readings naming other joints for this long, none usable yet: a configuration mismatch.
 CONFIG_MISMATCH_S = 2.0
-# Lockstep: how long (wall) a tick waits for a reference sample before using the latest.
-REFERENCE_WAIT_S = 0.3
-# Wall clock: after a failed law's stop, state is still published this long (the brakes engaging
-# are recorded), then the node ends. In lockstep it ends at once: without commands sim time stops.
-LAW_STOPPED_LINGER_S = 0.5
 
 
-class PidControllerNode(StackNode):
+class PidControllerNode(LockstepPairing, LoopHealth, StatusReports, StackNode):
     def __init__(self) -> None:
         super().__init__("pid_controller")
         # A law of one's own is held to its law_budget_s in wall time, in lockstep too. On the
@@ -109,13 +101,7 @@ class PidControllerNode(StackNode):
         if not self.lockstep:
             self.set_timer_period(self.timer_period_s(self.params))
         self.create_timer(self.params["diagnostics_period_s"], self.diagnostics_callback)
-        self.pending_tick_s: float | None = None  # lockstep: measurement waiting for its reference
-        self.pending_since = 0.0  # wall time (monotonic) the pending tick began waiting
-        self.pending_reading: tuple[float, tuple[np.ndarray, np.ndarray]] | None = None  # lockstep
-        self.sim_clock_s = -np.inf  # lockstep: the latest /clock
-        if self.lockstep:
-            self.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
-            self.create_subscription(ClockMsg, "/clock", self.clock_callback, LATCHED_QOS)
+        self.init_lockstep()
         self.last_tick_s = -np.inf
         self.first_tick_s: float | None = None
         self.window_ticks: list[float] = []
@@ -131,21 +117,6 @@ class PidControllerNode(StackNode):
         self.next_log_s = -np.inf
         self.next_late_line = -np.inf  # monotonic s: the latency stop's line, rate-limited
         self.log_gains()
-
-    def log_gains(self) -> None:
-        """The law and gains in force (LQR's are designed, not the kp/ki/kd parameters)
-        and how much unaccounted delay they survive: in the log and as ``law_in_force``."""
-        margin = self.controller.delay_margin_periods()
-        rate_hz = self.params["control_rate_hz"]
-        in_force = self.controller.law_in_force()
-        if margin is not None:  # None: a law of one's own, whose feedback is not known here
-            in_force += (
-                f"; delay margin {margin} control periods ({margin * 1e3 / rate_hz:g} ms) beyond what the stamps show"
-            )
-        self.report("law_in_force", in_force, "the control law and its gains in force, as designed")
-        self.get_logger().info(
-            f"{in_force}; at {rate_hz:g} Hz on {self.joint_names}" + (", lockstep" if self.lockstep else "")
-        )
 
     def setup(self, params: dict[str, Any]) -> None:
         # The arm model: the URDF's, or the model_* values over it (read-only: fixed at start).
@@ -261,54 +232,6 @@ class PidControllerNode(StackNode):
 
     # --- ticks ----------------------------------------------------------------------
 
-    def clock_callback(self, msg: ClockMsg) -> None:
-        self.sim_clock_s = max(self.sim_clock_s, stamp_to_s(msg.clock))
-        self.pair_lockstep_reading()
-
-    def pair_lockstep_reading(self) -> None:
-        """Lockstep: a tick is due once the sim's /clock for it and its reading are
-        both in, whichever came first (the sim publishes the next /clock only
-        after this tick's command, so they pair one to one)."""
-        if self.pending_reading is None or self.pending_tick_s is not None or self.sim_clock_s <= self.last_tick_s:
-            return
-        stamp_s, (position, velocity) = self.pending_reading
-        if stamp_s > self.sim_clock_s + 1e-9:
-            return  # the reading is for a tick whose /clock has not arrived yet
-        self.pending_reading = None
-        refused = self.controller.set_measurement(stamp_s, self.sim_clock_s, position, velocity)
-        if refused:
-            self.warn_throttled("joint_states_age", f"/joint_states dropped: {refused}")
-        self.pending_tick_s = self.sim_clock_s
-        self.pending_since = time.monotonic()
-        self.try_lockstep_tick()
-
-    def try_lockstep_tick(self) -> None:
-        tick_s = self.pending_tick_s
-        if tick_s is None or not self.controller.reference_ready(tick_s):
-            return
-        self.pending_tick_s = None
-        self.tick(tick_s)
-        self.pair_lockstep_reading()
-
-    def reference_wait_check(self) -> None:
-        """A planner slower than the control rate leaves ticks with no sample due;
-        until its period is learned from two samples, do not wait forever."""
-        if self.pending_tick_s is None:
-            return
-        if not self.controller.has_reference():
-            # Before the planner's first sample, nothing to fall back on: wait (the
-            # launcher ends a run whose lockstep stalls).
-            self.warn_throttled("first_reference", "lockstep: waiting for the first /trajectory sample")
-            return
-        if time.monotonic() - self.pending_since > REFERENCE_WAIT_S:
-            self.warn_throttled(
-                "reference_wait",
-                f"lockstep: no reference sample for t={self.pending_tick_s:.3f} s "
-                f"after {REFERENCE_WAIT_S:g} s; using the latest",
-            )
-            tick_s, self.pending_tick_s = self.pending_tick_s, None
-            self.tick(tick_s)
-
     def control_callback(self) -> None:
         now_s = self.now_s()
         period_s = self.controller.config.control_period_s
@@ -318,22 +241,6 @@ class PidControllerNode(StackNode):
                 return  # readings are driving the loop; this timer only covers for their absence
             self.set_timer_period(period_s)
         self.tick(now_s)
-
-    def receipts_callback(self, msg: Float64MultiArray) -> None:
-        """The drive's receipts, rows ``[receipt_time_s, command…]``: each paired with the latest
-        tick that issued the same command before it, their difference is the command path's delay."""
-        row = 1 + self.joint_count
-        data = list(msg.data)
-        if not data or len(data) % row:
-            return
-        ticks: dict[tuple[float, ...], list[float]] = {}
-        for tick_s, command in self.issued:
-            ticks.setdefault(command, []).append(tick_s)
-        for start in range(0, len(data), row):
-            receipt_s, command = data[start], tuple(data[start + 1 : start + row])
-            earlier = [t for t in ticks.get(command, ()) if t <= receipt_s]
-            if earlier:
-                self.controller.command_delay(receipt_s, receipt_s - earlier[-1])
 
     def brakes_callback(self, msg: Float64MultiArray) -> None:
         values = np.asarray(msg.data, dtype=float)
@@ -373,146 +280,6 @@ class PidControllerNode(StackNode):
         if out.status is Status.LAW_STOPPED:
             self.end_after_law_stop()
 
-    def report_status(self, status: Status) -> None:
-        """One log line when the loop's state changes (faults, stops, recovery)."""
-        config = self.controller.config
-        before, self.last_status = self.last_status, status
-        lines = {
-            Status.WATCHDOG: (
-                "warning",
-                f"no valid /joint_states for over {config.watchdog_periods} periods: "
-                "controlled stop on the arm model's estimate (category 2)",
-            ),
-            Status.SENSOR_LOST: (
-                "warning",
-                f"no valid /joint_states for {config.sensor_timeout_s:g} s: no more "
-                "commands, torque off, the brake holds (category 1)",
-            ),
-            Status.REFERENCE_LOST: ("warning", "no /trajectory sample for too long: controlled stop, holding"),
-            Status.STOPPED: ("warning", "e-stop: not commanding until it is released"),
-            Status.REACQUIRING: (
-                "info",
-                "fault cleared: re-acquiring from the measurement, blending back onto " "the trajectory",
-            ),
-        }
-        if status is Status.LAW_FAULT and before is not Status.LAW_FAULT and self.controller.law_fault is not None:
-            self.report_law_fault()
-            return
-        if status is Status.LAW_STOPPED:
-            self.get_logger().warning(
-                "the arm is at rest after the control law's failure: no more commands, torque off, "
-                f"the brakes hold (category 1); pid_controller ends (exit code {LAW_STOPPED_EXIT_CODE})"
-            )
-            return
-        if status in (Status.REACQUIRING, Status.OK) and before in (None, Status.HOLDING):
-            self.get_logger().info(
-                "first reading and reference: leading the arm from where it is onto the " "trajectory"
-            )
-            return
-        if status in lines:
-            # One call site per severity: rclpy's logger refuses two at one site.
-            level, text = lines[status]
-            if level == "warning":
-                self.get_logger().warning(text)
-            else:
-                self.get_logger().info(text)
-        elif status is Status.OK and before not in (None, Status.HOLDING, Status.OK):
-            self.get_logger().info("tracking the trajectory again")
-
-    def report_late(self) -> None:
-        """One line (at most every LATE_LINE_PERIOD_S) while the loop is later than its gains survive."""
-        now = time.monotonic()
-        if now < self.next_late_line:
-            return
-        self.next_late_line = now + LATE_LINE_PERIOD_S
-        late = self.controller.latency
-        margin = self.controller.delay_margin_periods()
-        self.get_logger().warning(
-            f"readings/commands {late.delay_s * 1e3:.0f} ms late beyond what the stamps account for; the gains "
-            f"survive {late.tolerated_s * 1e3:.0f} ms (delay margin {margin} periods): controlled stop, holding "
-            f"until it is back within {late.tolerated_s * 0.5e3:.0f} ms for 1 s (category 2)"
-        )
-
-    def report_law_fault(self) -> None:
-        """Once, when the law first fails: one error line (what it did, what happens next), the
-        law's traceback after it, and the line in the run's folder for the launcher to name."""
-        fault = self.controller.law_fault
-        if not self.lockstep:  # the wall clock's tick times are the system's: count from the first tick
-            fault = dataclasses.replace(fault, time_s=fault.time_s - self.first_tick_s)
-        line = (
-            f"{fault.line()}: controlled stop on the built-in {self.controller.config.stop_law}, "
-            "then torque off and the brakes"
-        )
-        self.get_logger().error(line)
-        if fault.traceback:
-            self.get_logger().info("the control law's traceback:\n" + fault.traceback.rstrip())
-        counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
-        if counts_dir:
-            try:
-                (Path(counts_dir) / LAW_FAULT_FILE).write_text(line + "\n")
-            except OSError:
-                pass  # the launcher then only knows the node's exit code
-
-    def end_after_law_stop(self) -> None:
-        """The failed law's stop is over and the brakes hold: end the node (its exit code says
-        why), at once in lockstep, after LAW_STOPPED_LINGER_S of state on the wall clock."""
-        now = time.monotonic()
-        if self.law_stopped_since is None:
-            self.law_stopped_since = now
-        if self.lockstep or now - self.law_stopped_since >= LAW_STOPPED_LINGER_S:
-            request_exit(LAW_STOPPED_EXIT_CODE)
-
-    def publish_state(self, out: ControlOutput) -> None:
-        terms = out.terms
-        self.state_msg.data = state_layout.encode(
-            out.time_s,
-            out.status.value,
-            self.controller.measurement_stamp_s,
-            self.joint_count,
-            {
-                "reference": out.reference,
-                "measured": out.measured,
-                "error": out.error,
-                "p": terms.p,
-                "i": terms.i,
-                "d": terms.d,
-                "feedforward": terms.feedforward,
-                "command": terms.command,
-                "saturated": terms.saturated,
-            },
-            self.law_term_blocks(out),
-        )
-        self.state_pub.publish(self.state_msg)
-
-    def law_term_blocks(self, out: ControlOutput) -> tuple[np.ndarray, ...]:
-        """The law's extra terms in the layout's order; zeros on a tick the law did not run."""
-        if not self.extra_terms:
-            return ()
-        reported = out.law_terms or {}
-        zeros = np.zeros(self.joint_count)
-        return tuple(reported.get(name, zeros) for name in self.extra_terms)
-
-    # --- loop health ------------------------------------------------------------------
-
-    def diagnostics_callback(self) -> None:
-        ticks, latency = self.window_ticks, self.window_latency
-        self.window_ticks, self.window_latency = ticks[-1:], []
-        status = DiagnosticStatus(name="pid_controller: control loop", hardware_id="robot_controller")
-        values: dict[str, float] = {"ticks": float(max(len(ticks) - 1, 0))}
-        if len(ticks) >= 2:
-            values.update(metrics.rate_metrics(np.asarray(ticks), self.controller.config.control_period_s))
-        values.update(metrics.latency_metrics(np.asarray(latency)))
-        if len(ticks) < 2:
-            status.level, status.message = DiagnosticStatus.WARN, "not commanding"
-        elif values.get("missed_cycles", 0) > 0:
-            status.level, status.message = DiagnosticStatus.WARN, f"{int(values['missed_cycles'])} missed cycle(s)"
-        else:
-            status.level, status.message = DiagnosticStatus.OK, "running"
-        status.values = [KeyValue(key=k, value=f"{v:.6g}") for k, v in values.items()]
-        report = DiagnosticArray(status=[status])
-        report.header.stamp = self.get_clock().now().to_msg()
-        self.diagnostics_pub.publish(report)
-
 
 def _fmt(values: Any) -> str:
     return ",".join(f"{v:.3f}" for v in values)
@@ -520,7 +287,3 @@ def _fmt(values: Any) -> str:
 
 def main(args: list[str] | None = None) -> int:
     return run(PidControllerNode, args)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

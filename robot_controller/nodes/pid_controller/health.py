@@ -1,0 +1,71 @@
+"""pid_controller's loop health: the command path's delay from the drive's
+receipts (for the latency guard), the line while the loop is later than its
+gains survive, and the period jitter, missed cycles and latency on
+``/diagnostics``.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from std_msgs.msg import Float64MultiArray
+
+from robot_controller.core import metrics
+
+# While the loop is late, its one line comes at most this often (s).
+LATE_LINE_PERIOD_S = 2.0
+
+
+class LoopHealth:
+    """The loop-health reports of the :class:`~robot_controller.nodes.pid_controller.node.PidControllerNode`."""
+
+    def receipts_callback(self, msg: Float64MultiArray) -> None:
+        """The drive's receipts, rows ``[receipt_time_s, command…]``: each paired with the latest
+        tick that issued the same command before it, their difference is the command path's delay."""
+        row = 1 + self.joint_count
+        data = list(msg.data)
+        if not data or len(data) % row:
+            return
+        ticks: dict[tuple[float, ...], list[float]] = {}
+        for tick_s, command in self.issued:
+            ticks.setdefault(command, []).append(tick_s)
+        for start in range(0, len(data), row):
+            receipt_s, command = data[start], tuple(data[start + 1 : start + row])
+            earlier = [t for t in ticks.get(command, ()) if t <= receipt_s]
+            if earlier:
+                self.controller.command_delay(receipt_s, receipt_s - earlier[-1])
+
+    def report_late(self) -> None:
+        """One line (at most every LATE_LINE_PERIOD_S) while the loop is later than its gains survive."""
+        now = time.monotonic()
+        if now < self.next_late_line:
+            return
+        self.next_late_line = now + LATE_LINE_PERIOD_S
+        late = self.controller.latency
+        margin = self.controller.delay_margin_periods()
+        self.get_logger().warning(
+            f"readings/commands {late.delay_s * 1e3:.0f} ms late beyond what the stamps account for; the gains "
+            f"survive {late.tolerated_s * 1e3:.0f} ms (delay margin {margin} periods): controlled stop, holding "
+            f"until it is back within {late.tolerated_s * 0.5e3:.0f} ms for 1 s (category 2)"
+        )
+
+    def diagnostics_callback(self) -> None:
+        ticks, latency = self.window_ticks, self.window_latency
+        self.window_ticks, self.window_latency = ticks[-1:], []
+        status = DiagnosticStatus(name="pid_controller: control loop", hardware_id="robot_controller")
+        values: dict[str, float] = {"ticks": float(max(len(ticks) - 1, 0))}
+        if len(ticks) >= 2:
+            values.update(metrics.rate_metrics(np.asarray(ticks), self.controller.config.control_period_s))
+        values.update(metrics.latency_metrics(np.asarray(latency)))
+        if len(ticks) < 2:
+            status.level, status.message = DiagnosticStatus.WARN, "not commanding"
+        elif values.get("missed_cycles", 0) > 0:
+            status.level, status.message = DiagnosticStatus.WARN, f"{int(values['missed_cycles'])} missed cycle(s)"
+        else:
+            status.level, status.message = DiagnosticStatus.OK, "running"
+        status.values = [KeyValue(key=k, value=f"{v:.6g}") for k, v in values.items()]
+        report = DiagnosticArray(status=[status])
+        report.header.stamp = self.get_clock().now().to_msg()
+        self.diagnostics_pub.publish(report)
