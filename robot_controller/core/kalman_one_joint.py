@@ -59,7 +59,7 @@ def _power_2x2(a: list[float], k: int) -> tuple[float, float, float, float]:
 
 class OneJointModel(Protocol):
     """The arm model of one joint on Python floats (as
-    :class:`~robot_controller.core.plant.OneJointDynamics` answers it)."""
+    :class:`~robot_controller.core.arm_dynamics.OneJointDynamics` answers it)."""
 
     mass: float  #: kg·m², the joint's inertia (constant: one joint turns the whole arm rigidly)
 
