@@ -40,8 +40,10 @@ exchanging anything, and the profile (:func:`write_run_profile` with
   loop topic's reader and writer for the same reason;
 - the peers' addresses are the participant's ``initialPeersList`` (without a
   port: Fast DDS tries the discovery ports of participant ids 0 to
-  ``maxInitialPeersRange`` − 1, raised to cover every process of two
-  launchers and the tools on one host). With ``ROS_AUTOMATIC_DISCOVERY_RANGE=
+  ``maxInitialPeersRange`` − 1, 12: one launcher's processes and a few tools),
+  and the participants announce themselves every 3 s once started, not every
+  0.5 s: each announcement goes to all those ports of every peer, and at 32
+  ports and 0.5 s discovery was most of what crossed the link. With ``ROS_AUTOMATIC_DISCOVERY_RANGE=
   LOCALHOST`` (the launcher sets it) rmw_fastrtps clears the multicast
   locators and adds 127.0.0.1 to the peers: no multicast at all, discovery
   goes only to this host and the named peers.
@@ -90,9 +92,14 @@ _EVERY_PARTITION_READER = ";*"
 _EVERY_PARTITION_WRITER = ";*"
 
 
-# Participant ids whose discovery ports an initial peer is sent to: two launchers' processes
-# (recorder, five nodes, a watcher, a viewer) and a few tools on one host, with room to spare.
-MAX_INITIAL_PEERS_RANGE = 32
+# Participant ids whose discovery ports an initial peer is sent to, on every announcement, found or not.
+# Two participants meet when either one's id is below it (the other hears it and answers at once), so it
+# need only cover one side: a launcher's own processes (the recorder, its nodes, a watcher: 6 at most) and
+# a few tools. Each port costs: at 32, one participant's announcement was a 14 KB burst of 32 datagrams,
+# more than a 2 Mbit/s link queues in 50 ms (docs/network.md, "What crosses the link").
+MAX_INITIAL_PEERS_RANGE = 12
+#: With ``--peers``: the participants' periodic announcement (Fast DDS's default; the lease is 20 s).
+SPLIT_ANNOUNCEMENT_PERIOD_S = 3.0
 UDP_TRANSPORT_ID = "robot_controller_udpv4"
 LOCALHOST = "127.0.0.1"
 #: With ``--peers`` the profile says how discovery goes; rmw_fastrtps must leave it alone (with
@@ -204,6 +211,7 @@ def _udp_only(root: ET.Element, peers: list[str]) -> None:
     rtps.insert(0, builtin_off)
     rtps.insert(0, transports)
     builtin = _child(rtps, "builtin")
+    _slow_announcements(builtin)
     # Discovery by unicast only: a unicast metatraffic locator of any address and port (what
     # Fast DDS fills in itself) keeps it from making its default multicast one (as rmw_fastrtps
     # does for LOCALHOST); announcements go to the initial peers.
@@ -213,6 +221,27 @@ def _udp_only(root: ET.Element, peers: list[str]) -> None:
     for peer in [LOCALHOST, *(p for p in peers if p != LOCALHOST)]:
         locator = ET.SubElement(initial, f"{{{_NS}}}locator")
         ET.SubElement(ET.SubElement(locator, f"{{{_NS}}}udpv4"), f"{{{_NS}}}address").text = peer
+
+
+def _slow_announcements(builtin: ET.Element) -> None:
+    """Periodic participant announcements every :data:`SPLIT_ANNOUNCEMENT_PERIOD_S` instead of the base's 0.5 s.
+
+    Each announcement goes to every initial peer's ``maxInitialPeersRange`` discovery ports, discovered or not:
+    at 0.5 s the robot host's six participants sent 6 × 2/s × 32 ports of ~400 B, 1.2 Mbit/s of discovery
+    across the link, two thirds of what it carried (docs/network.md, "What crosses the link"). The fast
+    initial announcements stay; a participant that discovers a new one answers it at once (Fast DDS sends
+    its announcement to a newly matched participant), so a late launcher is still seen in under a second."""
+    discovery = builtin.find(f"{{{_NS}}}discovery_config")
+    if discovery is None:
+        discovery = ET.Element(f"{{{_NS}}}discovery_config")
+        builtin.insert(0, discovery)  # the schema's order: <discovery_config> first in <builtin>
+    period = discovery.find(f"{{{_NS}}}leaseAnnouncement")
+    if period is None:
+        period = ET.SubElement(discovery, f"{{{_NS}}}leaseAnnouncement")
+    for child in list(period):
+        period.remove(child)
+    ET.SubElement(period, f"{{{_NS}}}sec").text = str(int(SPLIT_ANNOUNCEMENT_PERIOD_S))
+    ET.SubElement(period, f"{{{_NS}}}nanosec").text = str(round(SPLIT_ANNOUNCEMENT_PERIOD_S % 1 * 1e9))
 
 
 def _no_data_sharing(profile: ET.Element) -> None:
