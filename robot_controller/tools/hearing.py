@@ -24,6 +24,8 @@ def matching(node: Any, publisher: Any, topic: str, listener: str) -> tuple[int,
     if not any(info.node_name == listener for info in readers):
         return None
     observers = sum(info.node_name in TOOL_OBSERVERS for info in readers)
+    if observers == 0 and TOOL_OBSERVERS & set(node.get_node_names()):
+        return None  # a recorder is in the graph but its reader not yet listed: it would miss the message
     matched = publisher.get_subscription_count()
     return (len(readers), matched) if matched > observers else None
 
