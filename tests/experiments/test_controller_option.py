@@ -110,6 +110,7 @@ def test_robustness_cases_see_a_pd_too_fast_for_two_periods_of_delay():
     assert problem.push_decay(np.array([3.0, 1.0]), delay)["ok"]
 
 
+@pytest.mark.slow
 def test_tune_of_a_plugin_law_writes_its_gains(tmp_path, capsys):
     out = tmp_path / "tune"
     assert cli.main(["tune", "--controller", PD, "--quick", "--out", str(out)]) == 0

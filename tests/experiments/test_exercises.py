@@ -38,6 +38,7 @@ def test_every_exercise_is_registered_with_its_steps():
 
 
 @ros
+@pytest.mark.slow
 def test_tune_finds_the_ultimate_gain_then_kd_then_ki(tmp_path, ros_domain):
     results = run_quick("tune", tmp_path / "tune")
     for key in (
@@ -65,6 +66,7 @@ def test_tune_finds_the_ultimate_gain_then_kd_then_ki(tmp_path, ros_domain):
 
 
 @ros
+@pytest.mark.slow
 def test_windup_without_anti_windup_overshoots_most(tmp_path, ros_domain):
     results = run_quick("windup", tmp_path / "windup")
     for mode in ("none", "clamp", "back_calculation", "conditional_integration"):
@@ -76,6 +78,7 @@ def test_windup_without_anti_windup_overshoots_most(tmp_path, ros_domain):
 
 
 @ros
+@pytest.mark.slow
 def test_lqr_against_pid_gains_poles_and_figures(tmp_path, ros_domain):
     results = run_quick("lqr", tmp_path / "lqr")
     for name in ("pid", "lqr"):
@@ -98,6 +101,7 @@ def test_lqr_against_pid_gains_poles_and_figures(tmp_path, ros_domain):
 
 
 @ros
+@pytest.mark.slow
 def test_tune_writes_a_robust_parameter_file(tmp_path, ros_domain):
     out = tmp_path / "tuned"
     calls = []

@@ -26,6 +26,7 @@ def test_step_response_meets_the_targets(tmp_path, ros_domain):
     assert (out / "step.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_compare_lists_every_controller(tmp_path, ros_domain):
     out = tmp_path / "compare"
     proc = subprocess.run(

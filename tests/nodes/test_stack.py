@@ -184,6 +184,7 @@ def _descendants(pid: int) -> list[int]:
     return found
 
 
+@pytest.mark.slow
 def test_bench_quick_writes_every_key(tmp_path, ros_domain):
     out = tmp_path / "bench"
     proc = subprocess.run(
