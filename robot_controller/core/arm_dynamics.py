@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 
 from robot_controller.core.arm_model import step_count
-from robot_controller.core.arrays import clip
+from robot_controller.core.arrays import clip, is_one_value
 from robot_controller.core.mujoco_model import effort_limits, joint_names, load_model
 from robot_controller.core.payload import Payload
 
@@ -77,8 +77,8 @@ class ArmDynamics:
         self._qvel[:] = velocity
         if (
             self._one_joint_limit is not None
-            and _is_one_value(torque)
-            and (external_nm is None or _is_one_value(external_nm))
+            and is_one_value(torque)
+            and (external_nm is None or is_one_value(external_nm))
         ):
             # One joint: the same clip and sum on floats (each NumPy call costs more than its arithmetic).
             low, high = self._one_joint_limit
@@ -209,7 +209,3 @@ class OneJointDynamics:
         self._qacc[0] = acceleration
         mujoco.mj_inverse(self.model, self._data)
         return self._qfrc_inverse.item(0)
-
-
-def _is_one_value(value: object) -> bool:
-    return type(value) is np.ndarray and value.shape == (1,)

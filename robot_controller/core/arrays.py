@@ -58,3 +58,16 @@ def clip_scalar(value: float, low: float, high: float) -> float:
     if value != value:  # NaN
         return value
     return min(max(value, low), high)
+
+
+def is_one_value(value: object) -> bool:
+    """Whether ``value`` is an array of exactly one float: one joint's value, which the per-tick
+    paths take on Python floats."""
+    return type(value) is np.ndarray and value.shape == (1,)
+
+
+def sign_scalar(value: float) -> float:
+    """``np.sign`` of a Python float (NaN for NaN)."""
+    if value != value:
+        return value
+    return float((value > 0) - (value < 0))

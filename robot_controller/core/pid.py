@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from robot_controller.core.arrays import all_finite, as_shape, clip, within
+from robot_controller.core.arrays import all_finite, as_shape, clip, is_one_value, sign_scalar, within
 from robot_controller.core.pid_config import AntiWindup, DerivativeSource, PidConfig, PidTerms
 
 __all__ = ["AntiWindup", "DerivativeSource", "Pid", "PidConfig", "PidTerms"]
@@ -79,11 +79,11 @@ class Pid:
         if (
             self._one_joint
             and feedback_map is None
-            and _is_one_value(reference_position)
-            and _is_one_value(reference_velocity)
-            and _is_one_value(measured_position)
-            and _is_one_value(measured_velocity)
-            and (_is_one_value(feedforward) or isinstance(feedforward, (float, int)))
+            and is_one_value(reference_position)
+            and is_one_value(reference_velocity)
+            and is_one_value(measured_position)
+            and is_one_value(measured_velocity)
+            and (is_one_value(feedforward) or isinstance(feedforward, (float, int)))
             and self._i_term.shape == (1,)
         ):
             return self._step_one_joint(
@@ -195,7 +195,11 @@ class Pid:
         saturated = abs(limited - unsaturated) > 1e-12
         if c.anti_windup is AntiWindup.BACK_CALCULATION:
             i_candidate = i_candidate + (limited - unsaturated) * dt / c.back_calculation_time_s
-        elif c.anti_windup is AntiWindup.CONDITIONAL_INTEGRATION and saturated and _sign(error) == _sign(unsaturated):
+        elif (
+            c.anti_windup is AntiWindup.CONDITIONAL_INTEGRATION
+            and saturated
+            and sign_scalar(error) == sign_scalar(unsaturated)
+        ):
             i_candidate = i_term  # integrate only where it would pull the output back inside the limit
         self._i_term = np.array([i_candidate])
 
@@ -233,14 +237,3 @@ def _mapped(feedback_map: np.ndarray | None, feedback: np.ndarray) -> np.ndarray
 def _one_joint(config: PidConfig) -> bool:
     """Whether ``config`` is one joint's (every per-joint value a single one)."""
     return all(getattr(config, name).shape == (1,) for name in ("kp", "ki", "kd", "output_limit", "integral_limit"))
-
-
-def _is_one_value(value: object) -> bool:
-    return type(value) is np.ndarray and value.shape == (1,)
-
-
-def _sign(value: float) -> float:
-    """``np.sign`` of a float (NaN for NaN)."""
-    if value != value:
-        return value
-    return float((value > 0) - (value < 0))

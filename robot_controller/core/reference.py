@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_controller.core.arrays import clip_scalar
+from robot_controller.core.arrays import clip_scalar, is_one_value, sign_scalar
 from robot_controller.core.control_output import ReferenceSource
 from robot_controller.core.tick_state import MAX_EXTRAPOLATION_S, TIME_EPS_S, clipped_age_s
 
@@ -27,21 +27,10 @@ def _minmod(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     in sign, else 0 (the slope limiter of numerical schemes)."""
     if a.shape == (1,) and b.shape == (1,):  # one joint: on floats (NumPy's per-call cost is the work)
         x, y = a.item(), b.item()
-        sign = _sign(x)
-        return np.array([sign * min(abs(x), abs(y)) if sign == _sign(y) else 0.0])
+        sign = sign_scalar(x)
+        return np.array([sign * min(abs(x), abs(y)) if sign == sign_scalar(y) else 0.0])
     sign = np.sign(a)
     return np.where(sign == np.sign(b), sign * np.minimum(np.abs(a), np.abs(b)), 0.0)
-
-
-def _is_one_value(value: object) -> bool:
-    return type(value) is np.ndarray and value.shape == (1,)
-
-
-def _sign(value: float) -> float:
-    """``np.sign`` of a float (NaN for NaN)."""
-    if value != value:
-        return value
-    return float((value > 0) - (value < 0))
 
 
 @dataclass(frozen=True)
@@ -85,7 +74,7 @@ class PlannerReference:
             previous = self.sample[2]
             if not self.spoke:
                 slope = None
-            elif _is_one_value(acceleration) and _is_one_value(previous):  # one joint: on floats
+            elif is_one_value(acceleration) and is_one_value(previous):  # one joint: on floats
                 slope = np.array([(float(acceleration.item()) - float(previous.item())) / self.period_s])
             else:
                 slope = (np.asarray(acceleration, dtype=float) - previous) / self.period_s
