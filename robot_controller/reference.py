@@ -44,13 +44,7 @@ def _kind(spec) -> str:
 
 
 def _accepted(spec) -> str:
-    rules = []
-    if spec.minimum is not None:
-        rules.append(f"{'>' if spec.exclusive_minimum else '≥'} {spec.minimum:g}")
-    if spec.maximum is not None:
-        rules.append(f"≤ {spec.maximum:g}")
-    if spec.choices:
-        rules.append(", ".join(f"`{choice}`" for choice in spec.choices))
+    rules = spec.value_rules(markdown=True)
     if spec.allow_empty:
         rules.append("or empty")
     return "; ".join(rules)

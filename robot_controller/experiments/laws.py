@@ -9,8 +9,6 @@ nodes and worker processes find it whatever their directory.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from robot_controller import parameters as cfg
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import registry
@@ -23,10 +21,7 @@ def controller_type(spec: str) -> str:
         registry.resolve(spec)
     except ConfigError as exc:
         raise ConfigError("--controller: " + str(exc).removeprefix("controller_type: ")) from None
-    where, colon, name = spec.rpartition(":")
-    if colon and (where.endswith(".py") or "/" in where):
-        return f"{Path(where).expanduser().resolve()}:{name}"
-    return spec
+    return registry.with_absolute_path(spec)
 
 
 def with_controller(params: cfg.Params, spec: str | None) -> cfg.Params:

@@ -93,20 +93,6 @@ def node_specs(node: str, values: dict[str, Any]) -> tuple[ParamSpec, ...]:
     return (*SCHEMA[node], *law_specs(values["controller_type"]))
 
 
-def absolute_controller_type(spec: str, base: Path | None = None) -> str:
-    """``path/to/file.py:Class`` with the path made absolute (from ``base``, default the current
-    directory), so that a process started elsewhere finds the same file; anything else as it is."""
-    if not isinstance(spec, str) or ":" not in spec:
-        return spec
-    where, _, class_name = spec.strip().rpartition(":")
-    if not (where.endswith(".py") or "/" in where):
-        return spec  # module:Class
-    path = Path(where).expanduser()
-    if not path.is_absolute():
-        path = (base or Path.cwd()) / path
-    return f"{path.resolve()}:{class_name}"
-
-
 def check_values(values: dict[str, Any], where: str = NODE) -> None:
     """The ``law.*`` values of a controller's parameters against the law ``controller_type`` names:
     one it does not declare, or a value its declaration refuses, is a ``ConfigError`` naming ``where``."""
@@ -146,7 +132,7 @@ def settle(params: dict[str, dict[str, Any]], sources: list[tuple[Path, dict[str
     ctrl = params.get(NODE)
     if ctrl is None or "controller_type" not in ctrl:
         return
-    ctrl["controller_type"] = absolute_controller_type(ctrl["controller_type"])
+    ctrl["controller_type"] = registry.with_absolute_path(ctrl["controller_type"])
     for path, layer in sources:
         given = {k: v for k, v in layer.get(NODE, {}).items() if is_law_key(k)}
         if given:

@@ -52,14 +52,20 @@ class ParamSpec:
     def default_value(self) -> Any:
         return copy.copy(self.default)
 
-    def describe(self) -> str:
+    def value_rules(self, markdown: bool = False) -> list[str]:
+        """The range and the choices a value must keep to, as text (``markdown``: ≥, ≤ and quoted choices)."""
+        at_least, at_most = ("≥", "≤") if markdown else (">=", "<=")
         rules = []
         if self.minimum is not None:
-            rules.append(f"{'>' if self.exclusive_minimum else '>='} {self.minimum:g}")
+            rules.append(f"{'>' if self.exclusive_minimum else at_least} {self.minimum:g}")
         if self.maximum is not None:
-            rules.append(f"<= {self.maximum:g}")
+            rules.append(f"{at_most} {self.maximum:g}")
         if self.choices:
-            rules.append("one of " + ", ".join(self.choices))
+            rules.append(", ".join(f"`{c}`" for c in self.choices) if markdown else "one of " + ", ".join(self.choices))
+        return rules
+
+    def describe(self) -> str:
+        rules = self.value_rules()
         if self.per_joint:
             rules.append("per joint: one value, or one per joint")
         if self.length is not None:

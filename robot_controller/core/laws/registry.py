@@ -46,7 +46,7 @@ def resolve(spec: str) -> type:
     where, _, class_name = spec.rpartition(":")
     if not class_name.isidentifier():
         raise ConfigError(f"controller_type: {spec!r}: {class_name!r} after the ':' is not a class name")
-    if where.endswith(".py") or "/" in where:
+    if _names_a_file(where):
         module = _load(spec, lambda: _import_file(Path(where).expanduser()))
     else:
         module = _load(spec, lambda: importlib.import_module(where))
@@ -54,6 +54,25 @@ def resolve(spec: str) -> type:
     if law is None:
         raise ConfigError(f"controller_type: {spec!r}: {where} has no {class_name!r}")
     return _checked(spec, law)
+
+
+def _names_a_file(where: str) -> bool:
+    """Whether the part before a spec's ':' is a file's path (else a module's dotted name)."""
+    return where.endswith(".py") or "/" in where
+
+
+def with_absolute_path(spec: str, base: Path | None = None) -> str:
+    """``path/to/file.py:Class`` with the path made absolute (from ``base``, default the current
+    directory), so that a process started elsewhere finds the same file; any other spec as it is."""
+    if not isinstance(spec, str) or ":" not in spec:
+        return spec
+    where, _, class_name = spec.strip().rpartition(":")
+    if not _names_a_file(where):
+        return spec
+    path = Path(where).expanduser()
+    if not path.is_absolute():
+        path = (base or Path.cwd()) / path
+    return f"{path.resolve()}:{class_name}"
 
 
 def _load(spec: str, load):
