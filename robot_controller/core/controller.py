@@ -279,6 +279,7 @@ class JointController(TickSteps):
     def update(self, now_s: float) -> ControlOutput:
         """Compute the command for the tick at ``now_s`` seconds."""
         tick = self._advance_clock(now_s)
+        self._reference.planner.advance_to(now_s)  # the samples that were sent ahead of their time
         health = self._check_health(now_s)
         if not health.status.commanding:
             return self._no_command(now_s, health.status)

@@ -1,5 +1,6 @@
-"""The planner's reference as the controller receives it: the latest sample
-and its time base, whether the samples due by a tick are in (lockstep), and
+"""The planner's reference as the controller receives it: the latest sample due
+and its time base (a sample stamped ahead of the receiver's clock waits for
+its time), whether the samples due by a tick are in (lockstep), and
 the trajectory at a tick time — the sample held, or extrapolated on its own
 velocity and acceleration — with whether it is still fresh; and the
 trajectory over the control period that starts at the tick, which the
@@ -10,6 +11,7 @@ Positions rad, velocities rad/s, accelerations rad/s², jerks rad/s³, times s.
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,6 +22,12 @@ from robot_controller.core.tick_state import MAX_EXTRAPOLATION_S, TIME_EPS_S, cl
 
 # The planner counts as silent after this many of its periods without a sample.
 REFERENCE_TIMEOUT_PERIODS = 5
+# A sample stamped up to this far ahead of the receiver's clock waits for its time (our planner
+# sends each lockstep sample one tick early, so the controller never waits for it); one stamped
+# further ahead is taken at once, as if stamped now: a clock that far off is wrong, not early.
+MAX_AHEAD_S = 1.0
+# Samples waiting for their time, at most (one planner period ahead is the normal case).
+MAX_UPCOMING = 100
 
 
 def _minmod(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -45,7 +53,7 @@ class TrajectoryPoint:
 
 
 class PlannerReference:
-    """The latest reference sample from the planner."""
+    """The latest reference sample due from the planner, and those not due yet."""
 
     def __init__(self) -> None:
         self.sample: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  #: (position, velocity, acceleration)
@@ -56,6 +64,8 @@ class PlannerReference:
         #: they do not: an acceleration that jumps, as a shaped step's does on a sample, has none)
         self.jerk: np.ndarray | None = None
         self._acceleration_slope: np.ndarray | None = None  #: rad/s³, between the last two samples
+        #: samples stamped ahead of their receipt, oldest first: (time_s, position, velocity, acceleration)
+        self._upcoming: deque[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = deque(maxlen=MAX_UPCOMING)
 
     def receive(
         self,
@@ -66,8 +76,21 @@ class PlannerReference:
         sample_time_s: float | None = None,
     ) -> None:
         """A new sample. Its time base is ``sample_time_s`` when the planner sent
-        one, otherwise the time it arrived."""
+        one, otherwise the time it arrived; one stamped ahead of ``received_s``
+        (by at most MAX_AHEAD_S) waits for :meth:`advance_to` its time."""
         time_s = received_s if sample_time_s is None else sample_time_s
+        if TIME_EPS_S < time_s - received_s <= MAX_AHEAD_S:
+            self._upcoming.append((time_s, position, velocity, acceleration))
+            return
+        self._take(time_s, position, velocity, acceleration)
+
+    def advance_to(self, now_s: float) -> None:
+        """Take every waiting sample due by ``now_s``, in order."""
+        upcoming = self._upcoming
+        while upcoming and upcoming[0][0] <= now_s + TIME_EPS_S:
+            self._take(*upcoming.popleft())
+
+    def _take(self, time_s: float, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> None:
         if self.sample is not None and time_s > self.time_s:
             self.period_s = time_s - self.time_s
             # The jerk, from the planner's own samples only (not a hold written in before it spoke).
@@ -96,7 +119,10 @@ class PlannerReference:
 
     def ready(self, tick_s: float) -> bool:
         """Whether every sample due by ``tick_s`` is in (lockstep): the latest is
-        at least as new as the tick, or the next is not due yet."""
+        at least as new as the tick, a later one is waiting, or the next is not due yet."""
+        self.advance_to(tick_s)
+        if self._upcoming:
+            return True
         if self.sample is None:
             return False
         if self.time_s >= tick_s - TIME_EPS_S:

@@ -5,8 +5,9 @@ planner's reference at a tick (no ROS, no sleeping)."""
 import pytest
 
 from robot_controller.core.control_output import ReferenceSource, Status
+from robot_controller.core.controller import JointController
 from robot_controller.core.health import Readings, TickClock, check_health
-from robot_controller.core.reference import PlannerReference
+from robot_controller.core.reference import MAX_AHEAD_S, PlannerReference
 from robot_controller.core.tick_state import StateAtTick
 from tests.core.joint_rig import PERIOD, arm, config, one
 
@@ -80,3 +81,28 @@ def test_reference_extrapolation_on_the_samples_velocity_and_acceleration():
     assert held.position[0] == 1.0 and held.velocity[0] == 2.0 and held.source is ReferenceSource.TRAJECTORY
     late = planner.at(1.5, extrapolate=True, control_period_s=PERIOD)
     assert late.position[0] == pytest.approx(1.0 + 0.2 + 0.02) and not late.fresh  # at most 0.1 s ahead
+
+
+def test_a_sample_sent_ahead_of_its_time_waits_for_it():
+    # The lockstep planner sends the next tick's sample while this tick's is in force.
+    planner = PlannerReference()
+    planner.receive(0.0, one(0.0), one(0.0), one(0.0), sample_time_s=0.0)
+    planner.receive(0.0, one(1.0), one(0.0), one(0.0), sample_time_s=PERIOD)
+    assert planner.time_s == 0.0 and planner.sample[0][0] == 0.0
+    assert planner.ready(0.0)  # and a tick at 0 does not wait for more
+    assert planner.ready(PERIOD)  # the tick's own sample, taken when asked
+    assert planner.time_s == PERIOD and planner.sample[0][0] == 1.0
+    assert not planner.ready(2 * PERIOD)  # the next one is due and not in
+    # Stamped further ahead than MAX_AHEAD_S: a clock that is wrong, taken as it comes.
+    planner.receive(PERIOD, one(2.0), one(0.0), one(0.0), sample_time_s=PERIOD + MAX_AHEAD_S + 1.0)
+    assert planner.sample[0][0] == 2.0
+
+
+def test_the_controller_uses_each_sample_at_its_own_tick():
+    c = JointController(config(), 1)
+    c.set_measurement(0.0, 0.0, one(0.0), one(0.0))
+    c.set_reference(0.0, one(0.0), one(0.0), one(0.0), sample_time_s=0.0)
+    c.set_reference(0.0, one(0.1), one(0.0), one(0.0), sample_time_s=PERIOD)
+    assert c.update(0.0).reference[0] == 0.0
+    c.set_measurement(PERIOD, PERIOD, one(0.0), one(0.0))
+    assert c.update(PERIOD).reference[0] == 0.1
