@@ -7,8 +7,10 @@ tutorial's controller reads only the first two values and is unaffected).
 
 Time starts when the first consumer is matched, so the controller sees the
 trajectory from its beginning. Wall clock: a timer at ``publish_rate_hz``.
-Lockstep: a sample whenever ``/clock`` reaches the next ``1/publish_rate_hz``
-grid point. Shape changes apply live.
+Lockstep: the sample of each ``1/publish_rate_hz`` grid point is sent one
+tick early, when ``/clock`` shows that the next tick reaches it (the
+controller holds it until its time, so a tick never waits for the planner).
+Shape changes apply live.
 
 Before it publishes, the planner checks that the arm can follow the
 trajectory (``core.feasibility``: the arm model's inverse dynamics along the
@@ -167,9 +169,15 @@ class TrajectoryPlanner(StackNode):
             self.timer = self.create_timer(1.0 / params["publish_rate_hz"], lambda: self.sample_at(self.now_s()))
 
     def clock_callback(self, msg: ClockMsg) -> None:
-        self.clock_s = stamp_to_s(msg.clock)
-        if self.start_s is not None:
-            self.sample_at(self.clock_s)
+        previous_s, self.clock_s = self.clock_s, stamp_to_s(msg.clock)
+        if self.start_s is None:
+            return
+        self.sample_at(self.clock_s)
+        # The sample due at the next tick goes out now, a tick early: the controller holds it
+        # until its time, and its tick never waits for this process (the sim's step is the tick).
+        step_s = self.clock_s - previous_s
+        if step_s > 0:
+            self.sample_at(self.clock_s + step_s)
 
     def sample_at(self, now_s: float) -> None:
         if self.start_s is None:

@@ -39,11 +39,25 @@ LATEST_BEST_EFFORT_QOS = QoSProfile(
 )
 
 
+# Lockstep: every message is a tick's and is taken in order, none is stale. The planner sends
+# each sample a tick early, so two can be in flight to the controller: a history of one would
+# let the later replace the earlier before the controller took it (a run then differs from the next).
+LOCKSTEP_QOS = QoSProfile(
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+    history=HistoryPolicy.KEEP_LAST,
+    depth=100,
+)
+
+
 def loop_qos(lockstep: bool) -> QoSProfile:
     """The QoS of a periodic loop topic's reader (readings, references, commands, efforts):
-    reliable on one host and in lockstep (one message in flight: a lost one would stall the
-    run), best effort on the wall clock when the launcher split the loop across hosts."""
-    if not lockstep and os.environ.get(LOOP_QOS_ENV) == "best_effort":
+    reliable on one host and in lockstep (a lost message would stall the run), keeping
+    every message in lockstep, and best effort on the wall clock when the launcher split
+    the loop across hosts."""
+    if lockstep:
+        return LOCKSTEP_QOS
+    if os.environ.get(LOOP_QOS_ENV) == "best_effort":
         return LATEST_BEST_EFFORT_QOS
     return LATEST_QOS
 

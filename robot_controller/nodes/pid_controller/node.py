@@ -226,7 +226,9 @@ class PidControllerNode(LockstepPairing, LoopHealth, StatusReports, StackNode):
             self.warn_throttled("trajectory", f"/trajectory dropped: {checked}")
             return
         position, velocity, acceleration, sample_time_s = checked
-        self.controller.set_reference(self.now_s(), position, velocity, acceleration, sample_time_s)
+        # Received at the tick in force (lockstep: the latest /clock, so a sample sent a tick early waits for it).
+        received_s = max(self.sim_clock_s, 0.0) if self.lockstep else self.now_s()
+        self.controller.set_reference(received_s, position, velocity, acceleration, sample_time_s)
         if self.lockstep:
             self.try_lockstep_tick()
 

@@ -55,12 +55,14 @@ class SimulatorLockstep:
         self.publish_tick()
 
     def publish_tick(self) -> None:
+        """The true state first: the tick's longest path starts there (sensor → controller →
+        motor → here); of the /clock readers (controller, planner, motor, recorder) none is on it."""
         stamp_ns = self.steps_done * self.physics_dt_ns
-        self.clock_msg.clock.sec, self.clock_msg.clock.nanosec = divmod(stamp_ns, 1_000_000_000)
-        self.clock_pub.publish(self.clock_msg)
         self.waiting_for_effort = True
         self.ticks_published += 1
         self.publish_state(stamp_ns)
+        self.clock_msg.clock.sec, self.clock_msg.clock.nanosec = divmod(stamp_ns, 1_000_000_000)
+        self.clock_pub.publish(self.clock_msg)
 
     def report_lockstep(self) -> None:
         self.get_logger().info(
