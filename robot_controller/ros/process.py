@@ -151,6 +151,7 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
                 node.finish()
         for node in nodes:
             if isinstance(node, StackNode):
+                node.wait_until_acknowledged()
                 node.write_publish_counts()  # final: nothing publishes now
         for node in nodes:
             node.destroy_node()

@@ -12,6 +12,7 @@ from typing import Any
 
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.clock import Clock, ClockType
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -21,6 +22,9 @@ from robot_controller.ros.partition import PARTITION_ENV
 from robot_controller.ros.publishing import GatedPublisher, publish_counts, write_publish_counts
 
 WARN_PERIOD_S = 2.0
+# At the end, how long a node waits for its last messages to be acknowledged (within the
+# cleanup's own limit, ros.process.CLEANUP_TIMEOUT_S): a heartbeat period or two, normally.
+ACK_WAIT_S = 0.5
 PUBLISHER_CHECK_PERIOD_S = 1.0
 UNKNOWN_NODE_NAME = "_NODE_NAME_UNKNOWN_"  # what rmw reports for a writer of no known node
 
@@ -148,6 +152,16 @@ class StackNode(Node):
     def keep_gated_publisher(self, gated: GatedPublisher) -> None:
         """Keep a gate this node owns (``GatedPublisher`` calls it), for its count."""
         self._gated_publishers.append(gated)
+
+    def wait_until_acknowledged(self, timeout_s: float = ACK_WAIT_S) -> None:
+        """Wait (at most ``timeout_s`` in all) until the readers, the recorder's above all,
+        have acknowledged every message this node's gates published: a writer that goes
+        before its last samples are taken can take them along, and the bag misses them."""
+        deadline = time.monotonic() + timeout_s
+        for gated in self._gated_publishers:
+            left_s = deadline - time.monotonic()
+            if left_s <= 0 or not gated.publisher.wait_for_all_acked(Duration(nanoseconds=int(left_s * 1e9))):
+                return
 
     def write_publish_counts(self) -> None:
         """Write how many messages the node's gates published, per topic, for the launcher."""
