@@ -1,5 +1,5 @@
 """The one-joint float paths (PID, Kalman filter, arm model, actuator, plant, sensor,
-sine) give what their array paths give, to rounding, in every mode; and the collision
+sine, re-acquisition blend) give what their array paths give, to rounding, in every mode; and the collision
 pass skipped where no contact can happen changes nothing (no ROS)."""
 
 import mujoco
@@ -12,6 +12,7 @@ from robot_controller.core.arrays import matrix_power
 from robot_controller.core.estimator import JointKalmanFilter, KalmanConfig, _power_2x2
 from robot_controller.core.pid import AntiWindup, DerivativeSource, Pid, PidConfig
 from robot_controller.core.plant import ArmDynamics, MujocoPlant, can_collide, load_model
+from robot_controller.core.safe_motion import _quintic
 from robot_controller.core.sensor_model import SensorConfig, measure
 from robot_controller.core.trajectory import Sine
 from robot_controller.robots import urdf_of
@@ -150,6 +151,14 @@ def test_one_joint_sine_is_the_array_sine():
     other = Sine(np.array([[0.7]]), 0.5, np.array([[0.2]]))  # (1, 1): the array path
     for t in np.arange(0.0, 3.0, 0.013).tolist():
         assert [x.tolist() for x in one.sample(t)] == [x.reshape(1).tolist() for x in other.sample(t)]
+
+
+def test_one_joint_blend_is_the_array_blend():
+    p0, v0 = np.array([0.3]), np.array([-1.2])
+    for tau in np.arange(-0.05, 0.5, 0.0107).tolist():  # before, during and after the 0.4 s blend
+        column = np.array([[tau]])  # a column of times: the array path
+        for one, array in zip(_quintic(p0, v0, 0.4, tau), _quintic(p0, v0, 0.4, column), strict=True):
+            np.testing.assert_allclose(one, array.reshape(1), rtol=1e-13, atol=1e-15)
 
 
 def test_power_of_a_2x2_on_floats_is_matrix_power():
