@@ -9,7 +9,7 @@ holds every message they sent) but it never competes with the loop.
 
 Talks to the launcher on stdout: ``@ready`` once subscribed, then every
 ``PROGRESS_PERIOD_S`` a line ``@progress {json}`` with the counts per topic
-and, in lockstep, the latest ``/clock``. It wakes every ``BATCH_PERIOD_S``
+and, in lockstep, the latest ``/clock`` and when (monotonic) it was taken. It wakes every ``BATCH_PERIOD_S``
 and takes what arrived meanwhile, rather than waking for each message: a
 wake-up costs the machine tens of µs, which the loop needs more than the bag
 needs promptness. On SIGINT/SIGTERM it keeps
@@ -112,6 +112,7 @@ class Recorder:
         #: lockstep: the bag's time base there, the sim's latest tick: its /clock, or its true state's
         #: stamp, which it publishes just before the /clock of the same tick
         self.clock_ns = 0
+        self.clock_taken_s = 0.0  #: when (monotonic s) the latest tick of the time base was taken
         self.writer = Writer(bag_dir, version=9, storage_plugin=StoragePlugin.MCAP)
         self.writer.open()
         self.counts = {topic: 0 for topic in topics_for(sim_time)}
@@ -134,7 +135,9 @@ class Recorder:
                 self.oversize[topic] = self.oversize.get(topic, 0) + 1
                 return
             if is_clock:
-                self.clock_ns = max(self.clock_ns, clock_ns_of(data))
+                stamp_ns = clock_ns_of(data)
+                if stamp_ns > self.clock_ns or not self.clock_taken_s:  # a new tick (the first is at 0)
+                    self.clock_ns, self.clock_taken_s = max(stamp_ns, self.clock_ns), time.monotonic()
             write(connection, self.clock_ns if self.sim_time else time.time_ns(), data)
             counts[topic] += 1
             self.last_message = time.monotonic()
@@ -164,7 +167,12 @@ class Recorder:
 
     def progress(self) -> str:
         return PROGRESS_PREFIX + json.dumps(
-            {"counts": self.counts, "clock_s": self.clock_ns * 1e-9, "oversize": self.oversize}
+            {
+                "counts": self.counts,
+                "clock_s": self.clock_ns * 1e-9,
+                "clock_taken_s": self.clock_taken_s,
+                "oversize": self.oversize,
+            }
         )
 
     def close(self) -> None:

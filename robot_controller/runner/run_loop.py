@@ -67,9 +67,12 @@ def run_loop(
     if viewers:
         meter = WithViewers(meter, viewers)
     if run.sim_time:
-        outcome.sim_start = link.clock_s
+        outcome.sim_start, sim_start_taken_s = link.clock_s, link.clock_taken_s
         outcome.failure = supervise.wait_sim(group, link, outcome.sim_start + duration_s, meter)
         outcome.control_seconds = link.clock_s - outcome.sim_start
+        # The wall time those control seconds took: between the recorder's receipts of the
+        # two ticks (its reports, which the wait above polls, come only every 0.1 s).
+        outcome.wall_seconds = link.clock_taken_s - sim_start_taken_s
     else:
         pids = {c.name: c.process.pid for c in nodes}
         poll = (lambda: watcher(time.monotonic() - started, pids)) if watcher else None
@@ -85,8 +88,7 @@ def run_loop(
         outcome.failure = supervise.wait_wall(
             group, started + duration_s, meter, poll, respawn if replaced is not None else None
         )
-        outcome.control_seconds = time.monotonic() - started
-    outcome.wall_seconds = time.monotonic() - started
+        outcome.control_seconds = outcome.wall_seconds = time.monotonic() - started
     outcome.usage = meter.finish()
 
 

@@ -32,11 +32,15 @@ class RecorderLink:
         self.counts = {topic: 0 for topic in topics}
         self.oversize: dict[str, int] = {}  #: messages the recorder dropped as too large, per topic
         self.clock_s = 0.0
+        #: when (CLOCK_MONOTONIC s, the same in every process) the recorder took ``clock_s``: the
+        #: lockstep real-time factor is timed on these, not on when its report came (every 0.1 s)
+        self.clock_taken_s = 0.0
 
     def on_line(self, line: str) -> bool:
         if line.startswith(rec.PROGRESS_PREFIX):
             progress = json.loads(line[len(rec.PROGRESS_PREFIX) :])
             self.counts, self.clock_s = progress["counts"], progress["clock_s"]
+            self.clock_taken_s = progress.get("clock_taken_s", 0.0)
             self.oversize = progress.get("oversize", {})
             return True
         if line.strip() == rec.READY_LINE:
