@@ -47,8 +47,17 @@ def _quintic(
     (s, or a column of times: a row per time)."""
     T = duration_s
     if isinstance(tau, float) and np.shape(p0) == (1,) and np.shape(v0) == (1,):
-        return _quintic_one_joint(float(p0[0]), float(v0[0]), T, tau)
-    s = np.clip(tau / T, 0.0, 1.0)
+        # One joint at one time: on floats (NumPy's per-call cost is the work there).
+        p, v = float(p0[0]), float(v0[0])
+        a, da, dda, b, db, ddb = _quintic_weights(min(max(tau / T, 0.0), 1.0), T)
+        return np.array([p * a + v * b]), np.array([p * da + v * db]), np.array([p * dda + v * ddb])
+    a, da, dda, b, db, ddb = _quintic_weights(np.clip(tau / T, 0.0, 1.0), T)
+    return p0 * a + v0 * b, p0 * da + v0 * db, p0 * dda + v0 * ddb
+
+
+def _quintic_weights(s, T: float) -> tuple:
+    """The quintic's weights of ``p0`` and ``v0`` in position, velocity and acceleration
+    at the fraction ``s`` of ``T`` (a float or an array of them)."""
     # p(s) = p0·(1 − 10s³ + 15s⁴ − 6s⁵) + v0·T·(s − 6s³ + 8s⁴ − 3s⁵)
     a = 1 - 10 * s**3 + 15 * s**4 - 6 * s**5
     da = (-30 * s**2 + 60 * s**3 - 30 * s**4) / T
@@ -56,20 +65,7 @@ def _quintic(
     b = T * (s - 6 * s**3 + 8 * s**4 - 3 * s**5)
     db = 1 - 18 * s**2 + 32 * s**3 - 15 * s**4
     ddb = (-36 * s + 96 * s**2 - 60 * s**3) / T
-    return p0 * a + v0 * b, p0 * da + v0 * db, p0 * dda + v0 * ddb
-
-
-def _quintic_one_joint(p0: float, v0: float, T: float, tau: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_quintic` for one joint at one time, on floats (the same operations in the
-    same order: the same values to rounding), since NumPy's per-call cost is the work there."""
-    s = min(max(tau / T, 0.0), 1.0)
-    a = 1 - 10 * s**3 + 15 * s**4 - 6 * s**5
-    da = (-30 * s**2 + 60 * s**3 - 30 * s**4) / T
-    dda = (-60 * s + 180 * s**2 - 120 * s**3) / T**2
-    b = T * (s - 6 * s**3 + 8 * s**4 - 3 * s**5)
-    db = 1 - 18 * s**2 + 32 * s**3 - 15 * s**4
-    ddb = (-36 * s + 96 * s**2 - 60 * s**3) / T
-    return np.array([p0 * a + v0 * b]), np.array([p0 * da + v0 * db]), np.array([p0 * dda + v0 * ddb])
+    return a, da, dda, b, db, ddb
 
 
 MIN_BLEND_S = 0.2
