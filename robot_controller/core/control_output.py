@@ -22,7 +22,9 @@ class Status(str, Enum):
     HOLDING = "holding"  #: no reference yet: holding the first measured position
     NO_MEASUREMENT = "no_measurement"  #: no valid sensor message yet: no command
     WATCHDOG = "watchdog"  #: readings missing: controlled stop on the model's estimate (category 2)
-    SENSOR_LOST = "sensor_lost"  #: readings missing past sensor_timeout_s: no command, the brake holds (category 1)
+    #: readings missing, the stop on the model over (at rest, held briefly) or past sensor_timeout_s:
+    #: no command, the brake holds (category 1)
+    SENSOR_LOST = "sensor_lost"
     REACQUIRING = "reacquiring"  #: a fault cleared: led from where the arm is back onto the trajectory
     REFERENCE_LOST = "reference_lost"  #: the planner went quiet: controlled stop of the reference, holding
     STOPPED = "stopped"  #: e-stop or brake: no command until it lifts

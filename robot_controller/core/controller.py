@@ -90,6 +90,7 @@ class JointController(TickSteps):
         self._latency: LatencyGuard | None = self._make_latency_guard(config) if latency_guard else None
         self._was_late = False
         self._late_rest_s: float | None = None  # when the latency stop came to rest
+        self._sensor_rest_s: float | None = None  # when the stop for missing readings came to rest
         #: the latency guard's latest verdict (None without a guard, or before its first tick)
         self.latency: LatencyState | None = None
 
@@ -287,6 +288,7 @@ class JointController(TickSteps):
             return self._stop_after_law_fault(now_s, tick.dt_s, health.status)
         if health.status is Status.WATCHDOG:
             return self._stop_on_model(now_s, tick.dt_s)
+        self._sensor_rest_s = None
         if self._latency is not None and self._late(now_s):
             return self._stop_when_late(now_s, tick.dt_s)
         if self._reference.reacquire_pending:

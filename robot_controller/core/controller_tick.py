@@ -25,6 +25,11 @@ LAW_FAULT_HOLD_S = 0.5
 # drifts under a late command path) before the torque goes off and the brakes hold (category 2, then 1),
 # until the loop is on time again.
 LATE_HOLD_S = 0.1
+# After the stop for missing readings comes to rest, the same, for the same reason: held open loop
+# until the sensor timeout (1 s), an arm above the horizontal (where gravity's torque falls as it
+# rises: an unstable hold) drifted away from a hold 0.02 N·m off and swung 0.3-0.9 rad out of its
+# band in 4 of 9 runs of a 1 s sensor freeze at the top of the sine.
+SENSOR_STOP_HOLD_S = 0.1
 
 
 class TickSteps:
@@ -112,10 +117,15 @@ class TickSteps:
 
     def _stop_on_model(self, now_s: float, dt_s: float) -> ControlOutput:
         """Category 2 while readings are missing: bring the reference to rest
-        within the torque limit and hold, acting on the arm model's prediction
-        under the torques this controller issued."""
+        within the torque limit, acting on the arm model's prediction under the
+        torques this controller issued, hold it SENSOR_STOP_HOLD_S, then command
+        nothing (category 1: the drive's timeout brakes the arm) until readings return."""
+        if self._sensor_rest_s is not None and now_s - self._sensor_rest_s >= SENSOR_STOP_HOLD_S:
+            return self._no_command(now_s, Status.SENSOR_LOST)
         position, velocity = self._state.coast(now_s, self._readings)
         reference = self._reference.sensor_stop(now_s, position, self.config)
+        if self._sensor_rest_s is None and self._reference.sensor_stop_at_rest(now_s):
+            self._sensor_rest_s = now_s
         return self._apply_law(now_s, dt_s, position, velocity, reference)
 
     def _apply_law(

@@ -205,6 +205,18 @@ class JointKalmanFilter(OneJointPath, ArrayPath, Linearisation):
         return self.P[(slice(None), *self._index.blocks)].reshape(n, m, m)
 
     @property
+    def disturbance_state(self) -> list[float] | None:
+        """The observer's own state per joint (what :attr:`disturbance` is made of), or None."""
+        if not self.estimates_disturbance or self.x is None:
+            return None
+        return self.x[:, 2].tolist()
+
+    def set_disturbance_state(self, state: list[float]) -> None:
+        """Put ``state`` (a :attr:`disturbance_state`) in the observer's place, e.g. a held average."""
+        if self.estimates_disturbance and self.x is not None:
+            self.x[:, 2] = state
+
+    @property
     def disturbance(self) -> np.ndarray:
         """The estimated external torque on each joint, N·m: the one that gives the
         unexplained accelerations, ``M(q)·α`` (0 without the observer or a state)."""

@@ -192,6 +192,9 @@ class ReferenceAtTick:
             self._law_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
         return self._used(now_s, Reference(*self._law_stop.at(now_s), Status.LAW_FAULT, ReferenceSource.LAW_STOP))
 
+    def sensor_stop_at_rest(self, now_s: float) -> bool:
+        return self._sensor_stop is not None and self._sensor_stop.at_rest(now_s)
+
     def late_stop_at_rest(self, now_s: float) -> bool:
         return self._late_stop is not None and self._late_stop.at_rest(now_s)
 

@@ -216,11 +216,23 @@ def test_the_estimate_is_held_through_a_controlled_stop_and_reset_when_the_torqu
     learnt = pushed.estimate
     stop = pushed.run(0.5, readings=False)  # watchdog: a controlled stop on the model
     watchdog = [out for out in stop if out.status is Status.WATCHDOG]
-    assert watchdog and all(out.disturbance[0] == learnt for out in watchdog)  # frozen: no wind-up
+    held = watchdog[0].disturbance[0]
+    assert held == pytest.approx(learnt, abs=0.1)  # its recent average: the push (on for 1 s)
+    assert all(out.disturbance[0] == held for out in watchdog)  # frozen: no wind-up
     lost = pushed.run(0.6, readings=False)  # past sensor_timeout_s: no command, the brake's job
     assert lost[-1].status is Status.SENSOR_LOST and pushed.estimate == 0.0
     back = pushed.run(0.5)
     assert back[0].status is Status.REACQUIRING and back[0].disturbance[0] == 0.0
+
+
+def test_a_controlled_stop_holds_the_estimates_average_not_its_latest_transient(pushed):
+    # The observer's estimate jumps just before the readings stop (on the wall clock it moves
+    # fast): open loop, held as it is, that jump would push the arm for the whole stop.
+    learnt = pushed.estimate
+    pushed.controller.estimator.set_disturbance_state([learnt + 1.0])
+    stop = pushed.run(0.3, readings=False)
+    watchdog = [out for out in stop if out.status is Status.WATCHDOG]
+    assert watchdog and all(out.disturbance[0] == pytest.approx(learnt, abs=0.1) for out in watchdog)
 
 
 def test_a_braked_arm_winds_nothing_up():

@@ -99,7 +99,8 @@ def test_a_stale_reading_after_a_sensor_pause_is_refused_not_acted_on():
     loop.run(0.5, readings=False)
     reason = loop.controller.set_measurement(stale_stamp, loop.t, stale_q, stale_v)
     assert reason is not None and "old" in reason
-    assert loop.controller.update(loop.t).status is Status.WATCHDOG  # still no sign of life
+    # Still no sign of life: the stop on the model has come to rest, the brake holds.
+    assert loop.controller.update(loop.t).status is Status.SENSOR_LOST
     resumed_at = loop.t
     loop.run(3.0)
     after = [row for row in loop.log if row[0] >= resumed_at]
