@@ -62,11 +62,8 @@ class StateAtTick:
 
     def reset(self) -> None:
         """Start again from the next reading: filter re-initialised, no estimate carried over."""
-        if self.kalman is not None:
-            self.kalman.reset()
-        self._filtered_stamp_s = -np.inf
+        self.reset_filter()
         self.latest = None
-        self._disturbance_average, self._coasting = None, False
 
     def reset_filter(self) -> None:
         """Re-initialise the filter only (its disturbance estimate back to 0); the

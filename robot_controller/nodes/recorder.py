@@ -127,14 +127,14 @@ class Recorder:
     def _callback(self, topic: str, connection):
         write = self.writer.write
         counts = self.counts
-        is_clock = topic in ("/clock", "/sim/joint_states") and self.sim_time
+        sets_time_base = topic in ("/clock", "/sim/joint_states") and self.sim_time
 
         def record(data: bytes) -> None:
             self.taken += 1
             if len(data) > MAX_MESSAGE_BYTES:  # no message of the loop is near this: a hostile peer's
                 self.oversize[topic] = self.oversize.get(topic, 0) + 1
                 return
-            if is_clock:
+            if sets_time_base:
                 stamp_ns = clock_ns_of(data)
                 if stamp_ns > self.clock_ns or not self.clock_taken_s:  # a new tick (the first is at 0)
                     self.clock_ns, self.clock_taken_s = max(stamp_ns, self.clock_ns), time.monotonic()

@@ -6,26 +6,26 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from robot_controller.ros.partition import LOOP_QOS_ENV
 
+
+def _reliable_keep_last(depth: int) -> QoSProfile:
+    return QoSProfile(
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.VOLATILE,
+        history=HistoryPolicy.KEEP_LAST,
+        depth=depth,
+    )
+
+
 # Reliable, volatile, keep-last: compatible with the tutorial's default-QoS
 # publishers and subscribers, so its nodes talk to ours unchanged. Depth 1000
 # (10 s of a 100 Hz topic, a few hundred kB) lets a reader that falls behind
 # (the recorder, below the loop) catch up without losing samples.
-CONTROL_QOS = QoSProfile(
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1000,
-)
+CONTROL_QOS = _reliable_keep_last(1000)
 
 # What a controller, a drive or an encoder acts on: the newest message only.
 # A node that was paused must not work through a backlog of stale readings or
-# torques when it resumes (and in lockstep there is one message in flight).
-LATEST_QOS = QoSProfile(
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1,
-)
+# torques when it resumes (lockstep readers use LOCKSTEP_QOS below).
+LATEST_QOS = _reliable_keep_last(1)
 
 # The same, best effort: a lost sample is not repaired. Across a lossy link (docs/network.md)
 # a reliable keep-last-1 reader waits for the repair of a sample the next one has already
@@ -42,12 +42,7 @@ LATEST_BEST_EFFORT_QOS = QoSProfile(
 # Lockstep: every message is a tick's and is taken in order, none is stale. The planner sends
 # each sample a tick early, so two can be in flight to the controller: a history of one would
 # let the later replace the earlier before the controller took it (a run then differs from the next).
-LOCKSTEP_QOS = QoSProfile(
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-    history=HistoryPolicy.KEEP_LAST,
-    depth=100,
-)
+LOCKSTEP_QOS = _reliable_keep_last(100)
 
 
 def loop_qos(lockstep: bool) -> QoSProfile:
