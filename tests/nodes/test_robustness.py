@@ -95,11 +95,13 @@ def test_malformed_messages_are_dropped_and_the_watchdog_zeroes_torque(tmp_path,
         assert all(len(u) == 1 and math.isfinite(u[0]) and abs(u[0]) <= 10.0 for u in received)
         assert any(abs(u[0]) > 1.0 for u in received[-50:]), "valid reference should drive a real torque"
 
-        # Sensor stops: a controlled stop on the model (finite, bounded commands), then after
-        # sensor_timeout_s (1 s) no more commands: the motor's timeout brings the brake.
+        # Sensor stops: a controlled stop on the model (finite, bounded commands), then, 0.1 s
+        # after it is at rest (at most sensor_timeout_s, 1 s), no more commands: the motor's
+        # timeout brings the brake.
+        sensor_stopped = time.monotonic()
         time.sleep(0.5)
         with probe.lock:
-            stopping = [m.data.tolist()[0] for t, m in commands if t > time.monotonic() - 0.3]
+            stopping = [m.data.tolist()[0] for t, m in commands if t > sensor_stopped]
         assert stopping and all(math.isfinite(u) and abs(u) <= 10.0 for u in stopping)
         time.sleep(1.0)
         with probe.lock:
