@@ -7,6 +7,10 @@ rosbags, the way ``ros2 bag record`` would, so Foxglove, PlotJuggler and
 normal policy and nice +10, and the nodes' publishers wait for it (so the bag
 holds every message they sent) but it never competes with the loop.
 
+In lockstep it publishes the tick it has taken on ``/recorder/clock``: the
+simulator holds the next tick while the recorder is a few sim seconds behind,
+so on a loaded machine the bag lags but never loses a message to a full queue.
+
 Talks to the launcher on stdout: ``@ready`` once subscribed, then every
 ``PROGRESS_PERIOD_S`` a line ``@progress {json}`` with the counts per topic
 and, in lockstep, the latest ``/clock`` and when (monotonic) it was taken. It wakes every ``BATCH_PERIOD_S``
@@ -41,7 +45,8 @@ from std_msgs.msg import Bool, Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
 from robot_controller.ros.process import make_executor
-from robot_controller.ros.publishing import RECORDER_NODE
+from robot_controller.ros.publishing import RECORDER_CLOCK_TOPIC, RECORDER_NODE
+from robot_controller.ros.qos import CLOCK_QOS
 
 # Reliable with a deep queue: the recorder runs below the loop and may be
 # late for a moment, but must not lose what it is late for.
@@ -75,6 +80,7 @@ CLOCK_TOPIC = {"/clock": (Clock, "rosgraph_msgs/msg/Clock")}
 
 PROGRESS_PERIOD_S = 0.1
 BATCH_PERIOD_S = 0.005
+TAKE_BUDGET_S = 0.05  #: the longest one batch takes before the progress and checkpoint get their turn
 CHECKPOINT_PERIOD_S = 1.0
 # A recorded message larger than this is dropped and counted: the loop's are
 # under a kilobyte, and a peer publishing million-element arrays must not fill the disk.
@@ -119,6 +125,7 @@ class Recorder:
         self.taken = 0  #: messages taken from DDS, recorded or not: how a batch knows it took them all
         self.oversize: dict[str, int] = {}  #: messages over MAX_MESSAGE_BYTES, dropped, per topic
         self.last_message = time.monotonic()
+        self.clock_pub = self.node.create_publisher(Clock, RECORDER_CLOCK_TOPIC, CLOCK_QOS) if sim_time else None
         typestore = get_typestore(Stores.ROS2_JAZZY)
         for topic, (msg_class, type_name) in topics_for(sim_time).items():
             connection = self.writer.add_connection(topic, type_name, typestore=typestore)
@@ -144,14 +151,27 @@ class Recorder:
 
         return record
 
-    def take_waiting(self, executor) -> None:
-        """Every message waiting now: one per ``spin_once``, until one takes none."""
+    def take_waiting(self, executor, budget_s: float = TAKE_BUDGET_S) -> None:
+        """The messages waiting now: one per ``spin_once``, until one takes none or ``budget_s``
+        has passed. The budget matters when the machine is loaded and the loop publishes faster
+        than this process (nice +10) takes: without it the batch never ends, the progress
+        lines stop and the launcher takes the lagging bag for a stalled lockstep."""
         spin_once = executor.spin_once
+        give_up = time.monotonic() + budget_s
         while True:
             before = self.taken
             spin_once(timeout_sec=0.0)
-            if self.taken == before:
+            if self.taken == before or time.monotonic() > give_up:
                 return
+
+    def say_clock(self) -> None:
+        """Lockstep: publish the tick taken last (every progress period, new or not: a message per
+        batch would cost the loop a wake-up of the simulator every few ticks)."""
+        if self.clock_pub is None:
+            return
+        msg = Clock()
+        msg.clock.sec, msg.clock.nanosec = divmod(self.clock_ns, 1_000_000_000)
+        self.clock_pub.publish(msg)
 
     def checkpoint(self) -> None:
         """Close the chunk being written and push it to the file: if this process
@@ -201,6 +221,7 @@ def main(argv: list[str] | None = None) -> int:
             now = time.monotonic()
             if now >= next_progress:
                 next_progress += PROGRESS_PERIOD_S
+                recorder.say_clock()
                 print(recorder.progress(), flush=True)
             if now >= next_checkpoint:
                 next_checkpoint = now + CHECKPOINT_PERIOD_S

@@ -26,6 +26,9 @@ from robot_controller.ros.qos import CONTROL_QOS
 RECORDER_NODE = "recorder"
 VIEWER_NODE = "viewer"
 OBSERVER_NODES = frozenset({RECORDER_NODE, VIEWER_NODE})
+# In lockstep the recorder says here (rosgraph_msgs/Clock) which tick it has taken,
+# so the simulator never runs further ahead of it than its queues hold.
+RECORDER_CLOCK_TOPIC = "/recorder/clock"
 
 # Set by the launcher when a recorder runs: every publisher then also waits
 # for the recorder, so the bag holds every message the loop ever sent.

@@ -147,3 +147,36 @@ def test_readings_40_ms_late_stay_stable_and_deterministic(tmp_path, ros_domain)
     assert late["saturated_ticks"] == 0 and late["tracking_max_rad"] < 0.01
     again = lockstep_run(tmp_path / "again", "--config", str(config))
     assert again["tracking_rms_rad"] == late["tracking_rms_rad"]
+
+
+def test_a_recorder_that_falls_behind_holds_the_sim_and_loses_nothing(tmp_path, ros_domain):
+    # Frozen for 4 s the recorder falls 20-40 sim s behind a free-running lockstep, more than
+    # the publishers' queues hold (1000 messages, 10 sim s): the sim must wait for it.
+    launcher = subprocess.Popen(
+        [sys.executable, "-m", "robot_controller.cli", "run", "--sim-time", "--duration", "12"]
+        + ["--out", str(tmp_path / "run")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        for line in launcher.stdout:
+            if "control loop running" in line:
+                break
+        recorder = next(
+            int(p)
+            for p in subprocess.run(["pgrep", "-P", str(launcher.pid)], capture_output=True, text=True).stdout.split()
+            if b"nodes.recorder" in Path(f"/proc/{p}/cmdline").read_bytes()
+        )
+        os.kill(recorder, signal.SIGSTOP)
+        time.sleep(4.0)
+        os.kill(recorder, signal.SIGCONT)
+        output = line + launcher.communicate(timeout=120)[0]
+    finally:
+        if launcher.poll() is None:
+            launcher.kill()
+    assert launcher.returncode == 0, output[-3000:]
+    assert "times for the recorder" in output
+    assert "the bag misses messages" not in output, output[-3000:]
+    metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    assert metrics["control_ticks"] == 1200 and metrics["missed_cycles"] == 0

@@ -3,6 +3,12 @@
 It publishes ``/clock`` and the state for tick k, then waits; the effort for
 tick k advances exactly one control period. No effort, no time: a run is
 deterministic and as fast as the graph can go.
+
+When the run is recorded, as fast as the recorder too: it publishes the tick it
+has taken (``/recorder/clock``) and the sim holds the next tick while it is
+``RECORDER_LAG_MAX_S`` behind. The recorder runs below the loop (nice +10); on a
+loaded machine the graph would otherwise outrun it until the publishers' queues
+(``CONTROL_QOS``, 1000 messages, 10 sim s) overflowed and the bag lost messages.
 """
 
 from __future__ import annotations
@@ -12,8 +18,12 @@ from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 
 from robot_controller.core.plant import steps_per_period
-from robot_controller.ros.publishing import GatedPublisher
+from robot_controller.ros.publishing import RECORDER_CLOCK_TOPIC, GatedPublisher, recorded
 from robot_controller.ros.qos import CLOCK_QOS
+
+#: Sim seconds the recorder may be behind: under a third of what the queues hold, and over what
+#: the loop runs between its reports (0.1 s wall, 1-2 sim s) so a recorder keeping up never holds it.
+RECORDER_LAG_MAX_S = 3.0
 
 
 class SimulatorLockstep:
@@ -22,12 +32,18 @@ class SimulatorLockstep:
     def init_lockstep(self) -> None:
         self.efforts_applied = 0
         self.ticks_published = 0
+        self.recorder_clock_ns: int | None = None  #: the tick the recorder has taken; None: no recorder
+        self.held_for_recorder = False
+        self.holds_for_recorder = 0
 
     def start_lockstep_clock(self) -> None:
         self.steps_per_tick = steps_per_period(self.plant.physics_dt, 1.0 / self.params["control_rate_hz"])
         self.clock_pub = GatedPublisher(self, ClockMsg, "/clock", consumer=False, qos=CLOCK_QOS)
         self.clock_msg = ClockMsg()
         self.waiting_for_effort = False
+        if recorded():
+            self.recorder_clock_ns = 0
+            self.create_subscription(ClockMsg, RECORDER_CLOCK_TOPIC, self.recorder_clock, CLOCK_QOS)
         self.start_poll = self.create_timer(0.05, self.start_lockstep, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def start_lockstep(self) -> None:
@@ -52,7 +68,21 @@ class SimulatorLockstep:
         self.plant.step(self.effort, self.steps_per_tick)
         self.steps_done += self.steps_per_tick
         self.note_disturbance_end()
+        if self.recorder_behind():
+            self.held_for_recorder = True
+            self.holds_for_recorder += 1
+            return
         self.publish_tick()
+
+    def recorder_behind(self) -> bool:
+        next_tick_ns = self.steps_done * self.physics_dt_ns
+        return self.recorder_clock_ns is not None and next_tick_ns - self.recorder_clock_ns > RECORDER_LAG_MAX_S * 1e9
+
+    def recorder_clock(self, msg: ClockMsg) -> None:
+        self.recorder_clock_ns = max(self.recorder_clock_ns, msg.clock.sec * 1_000_000_000 + msg.clock.nanosec)
+        if self.held_for_recorder and not self.recorder_behind():
+            self.held_for_recorder = False
+            self.publish_tick()
 
     def publish_tick(self) -> None:
         """The true state first: the tick's longest path starts there (sensor → controller →
@@ -68,4 +98,5 @@ class SimulatorLockstep:
         self.get_logger().info(
             f"lockstep: {self.ticks_published} ticks published, {self.efforts_applied} "
             f"efforts applied, t = {self.steps_done * self.plant.physics_dt:.3f} s"
+            + (f"; held {self.holds_for_recorder} times for the recorder" if self.holds_for_recorder else "")
         )
