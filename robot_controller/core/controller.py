@@ -241,8 +241,12 @@ class JointController(TickSteps):
         watchdog either), or None.
         """
         refused = self._readings.accept(stamp_s, received_s, position, velocity, self.config.max_reading_age_s)
-        if refused is None and self._latency is not None:
-            self._latency.reading(received_s - stamp_s)
+        age_s = received_s - stamp_s
+        if self._latency is not None and (refused is None or age_s > 0):
+            # One refused as too old is the plainest sign of a late loop: weighed too. (Left out,
+            # the readings' part of the delay could never pass the margin: those kept are at most
+            # max_reading_age_s old, all of which the latency compensation accounts for.)
+            self._latency.reading(age_s)
         return refused
 
     def command_delay(self, receipt_s: float, delay_s: float) -> None:
@@ -286,11 +290,14 @@ class JointController(TickSteps):
             return self._no_command(now_s, health.status)
         if self.law_fault is not None:
             return self._stop_after_law_fault(now_s, tick.dt_s, health.status)
+        # Late first: its stop runs open loop on the model, readings or not, and a late link
+        # delivers readings in gaps; left to the watchdog, each gap began another stop on the
+        # model whose commands released the brakes the late stop had left holding.
+        if self._latency is not None and self._late(now_s):
+            return self._stop_when_late(now_s, tick.dt_s)
         if health.status is Status.WATCHDOG:
             return self._stop_on_model(now_s, tick.dt_s)
         self._sensor_rest_s = None
-        if self._latency is not None and self._late(now_s):
-            return self._stop_when_late(now_s, tick.dt_s)
         if self._reference.reacquire_pending:
             self._restart_from_measurement(now_s)
         position, velocity = self._estimate_at_tick(now_s)

@@ -122,6 +122,9 @@ class TickSteps:
         nothing (category 1: the drive's timeout brakes the arm) until readings return."""
         if self._sensor_rest_s is not None and now_s - self._sensor_rest_s >= SENSOR_STOP_HOLD_S:
             return self._no_command(now_s, Status.SENSOR_LOST)
+        if self._braked:
+            # The brakes hold the arm already: nothing to stop, and a command would release them.
+            return self._no_command(now_s, Status.SENSOR_LOST)
         position, velocity = self._state.coast(now_s, self._readings)
         reference = self._reference.sensor_stop(now_s, position, self.config)
         if self._sensor_rest_s is None and self._reference.sensor_stop_at_rest(now_s):

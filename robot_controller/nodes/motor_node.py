@@ -1,6 +1,11 @@
 """motor_node: the actuator. Each ``/joint_commands`` torque is saturated to
 ``±torque_max`` (and lagged, if set) and passed on as ``/sim/effort`` at once.
 
+A command stamped with its tick (``ros.command_stamp``; ours are) that arrives
+more than ``max_command_age_s`` after it is dropped: over a congested link
+commands come late and in bursts, and applying them closes the loop through a
+delay that swings the arm.
+
 Like a drive, it stops on its own when commands stop: no valid command for
 ``command_timeout_s`` → zero torque and a brake request to the simulator
 (``/sim/brake``, category 0), until commands return. ``/estop`` (latched
@@ -25,6 +30,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.plant import effort_limits, joint_names, load_model
 from robot_controller.core.validation import check_effort
 from robot_controller.parameters.limits import torque_limit
+from robot_controller.ros.command_stamp import command_tick_s
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, loop_qos
@@ -93,12 +99,20 @@ class MotorNode(StackNode):
         if self.estop:
             return
         now_s = self.now_s()
+        self.receipts.append(now_s)  # a late command too: its delay is what the controller must learn
+        self.receipts.extend(msg.data)
+        tick_s = None if self.lockstep else command_tick_s(msg)
+        if tick_s is not None and now_s - tick_s > self.params["max_command_age_s"]:
+            self.warn_throttled(
+                "late_command",
+                f"/joint_commands dropped: issued {(now_s - tick_s) * 1e3:.0f} ms ago "
+                f"(max_command_age_s {self.params['max_command_age_s']:g}): a late command is no command",
+            )
+            return
         if self.stopped_for == "timeout":
             self.get_logger().info("commands back: brake request released")
             self.request_brake(False)
             self.stopped_for = None
-        self.receipts.append(now_s)
-        self.receipts.extend(msg.data)
         dt = 0.0 if self.last_command_s is None else now_s - self.last_command_s
         self.last_command_s = now_s
         self.excused_s = 0.0

@@ -118,3 +118,44 @@ def test_within_the_margin_nothing_changes():
     c, log = run_loop(1, 100, 300, 400)  # 10 ms: within the 20 ms margin
     assert all(status is not Status.LATE for _, status, _, _ in log)
     assert c.latency is not None and not c.latency.late
+
+
+def timely_controller() -> JointController:
+    params = cfg.load_stack()["pid_controller"]
+    return JointController(
+        cfg.controller_config(params, 1), 1, ArmDynamics(resources.default_urdf()), latency_guard=True
+    )
+
+
+def test_readings_refused_as_too_old_make_the_loop_late():
+    # Each reading 0.15 s old: every one is refused (max_reading_age_s 0.1), and it is those
+    # that show the loop late; kept ones are at most as old as the latency compensation covers.
+    c = timely_controller()
+    c.set_reference(0.0, np.zeros(1), np.zeros(1), np.zeros(1), sample_time_s=0.0)
+    c.set_measurement(0.0, 0.0, np.zeros(1), np.zeros(1))
+    assert c.update(0.0).status.commanding
+    for k in range(1, 30):
+        t = k * PERIOD
+        c.set_reference(t, np.zeros(1), np.zeros(1), np.zeros(1), sample_time_s=t)
+        assert c.set_measurement(t - 0.15, t, np.zeros(1), np.zeros(1)) is not None  # refused
+        out = c.update(t)
+    assert c.latency.late and c.latency.delay_s == pytest.approx(0.05)
+    assert out.status in (Status.LATE, Status.LATE_STOPPED)
+
+
+def test_readings_missing_while_the_brakes_hold_command_nothing():
+    # A stop on the model would command torques, and the first one releases the brakes.
+    c = timely_controller()
+    c.set_reference(0.0, np.zeros(1), np.zeros(1), np.zeros(1), sample_time_s=0.0)
+    c.set_measurement(0.0, 0.0, np.zeros(1), np.zeros(1))
+    c.brakes(True)
+    assert c.update(0.0).status.commanding  # readings fresh: the loop starts, and its torques release them
+    statuses = [c.update(k * PERIOD).status for k in range(1, 20)]  # no reading after the first
+    assert Status.WATCHDOG not in statuses
+    assert statuses[-1] is Status.SENSOR_LOST and not statuses[-1].commanding
+    c.brakes(False)
+    c2 = timely_controller()  # the same silence with the brakes off: the controlled stop on the model
+    c2.set_reference(0.0, np.zeros(1), np.zeros(1), np.zeros(1), sample_time_s=0.0)
+    c2.set_measurement(0.0, 0.0, np.zeros(1), np.zeros(1))
+    c2.update(0.0)
+    assert Status.WATCHDOG in [c2.update(k * PERIOD).status for k in range(1, 20)]

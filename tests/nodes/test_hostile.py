@@ -16,6 +16,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from robot_controller import parameters as cfg
+from robot_controller.ros.command_stamp import stamp_command
 from robot_controller.scoring import report
 from tests import rostools
 from tests.rostools import RosProbe, get_parameter, set_parameter, wait_for
@@ -65,6 +66,31 @@ def test_one_future_stamp_one_empty_reading_one_huge_effort_leave_the_run_whole(
     recording = report.read_recording(out / "bag")
     assert np.max(np.abs(recording.true_effort)) <= 10.0
     assert np.all(np.abs(recording.true_position) <= 1.1)
+
+
+def test_a_command_stamped_long_ago_is_dropped_by_the_drive(tmp_path, ros_domain):
+    # What a congested link delivers: a command 0.2 s after its tick, here a full-torque one.
+    out = tmp_path / "run"
+    run = start_run(out, duration="6")
+    probe = RosProbe(ros_domain, "late_link")
+    try:
+        commands = probe.node.create_publisher(Float64MultiArray, "/joint_commands", 10)
+        wait_for(lambda: commands.get_subscription_count() > 1, 20, "the motor to hear the peer")
+        time.sleep(1.0)
+        for _ in range(20):
+            stale = Float64MultiArray(data=[10.0])
+            stamp_command(stale, time.time() - 0.2)
+            commands.publish(stale)
+            time.sleep(0.01)
+        output = run.communicate(timeout=90)[0]
+    finally:
+        probe.close()
+        if run.poll() is None:
+            run.kill()
+    assert run.returncode == 0, output[-3000:]
+    assert "a late command is no command" in output and "issued 2" in output  # ~200 ms ago
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["tracking_max_rad"] <= 0.01, metrics["tracking_max_rad"]
 
 
 def test_a_foreign_publisher_flooding_wrong_readings_is_named_and_never_heard(tmp_path, ros_domain):

@@ -171,8 +171,8 @@ def test_echo_csv_prints_one_line_of_numbers_per_message(running_graph):
     assert len(lines) == 3, done.stdout
     for line in lines:
         cells = line.split(",")
-        assert cells[0] == ""  # layout.dim: an empty sequence, an empty cell (as ros2 topic echo --csv)
-        assert [float(cell) for cell in cells[1:]]  # data_offset, then the torque
+        assert cells[0].startswith("tick_ns:")  # layout.dim[0]: the label carries the command's tick
+        assert [float(cell) for cell in cells[1:]]  # its size and stride, data_offset, then the torque
 
 
 def test_hz_reports_the_sensor_rate_every_second_in_ros2_s_format(running_graph):

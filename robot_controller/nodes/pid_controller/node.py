@@ -42,6 +42,7 @@ from robot_controller.nodes.pid_controller.lockstep import LockstepPairing
 from robot_controller.nodes.pid_controller.status import StatusReports
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model, model_overridden
+from robot_controller.ros.command_stamp import stamp_command
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import ESTOP_QOS, LATEST_QOS, loop_qos
@@ -266,6 +267,7 @@ class PidControllerNode(LockstepPairing, LoopHealth, StatusReports, StackNode):
             self.report_late()
         if out.status.commanding:
             self.command_msg.data = out.command.tolist()
+            stamp_command(self.command_msg, now_s)
             self.command_pub.publish(self.command_msg)
             if not self.lockstep:
                 self.issued.append((now_s, tuple(self.command_msg.data)))

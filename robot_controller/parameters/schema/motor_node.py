@@ -1,4 +1,5 @@
-"""The motor node's parameters: the actuator's torque limit, its lag and its command timeout."""
+"""The motor node's parameters: the actuator's torque limit, its lag, its command timeout and the
+oldest command it applies."""
 
 from __future__ import annotations
 
@@ -14,6 +15,16 @@ MOTOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
         float,
         0.05,
         "no valid /joint_commands for this long: zero torque and brake request (category 0) until commands return, s",
+        minimum=0.0,
+        exclusive_minimum=True,
+    ),
+    ParamSpec(
+        "max_command_age_s",
+        float,
+        0.03,
+        "a /joint_commands stamped with its tick (ours are) that arrives more than this after the tick is "
+        "dropped, as no command: the controller's gains survive 2 periods (20 ms) of delay it does not know of, "
+        "and feedback later than that swings the arm (wall clock only: in lockstep no time passes), s",
         minimum=0.0,
         exclusive_minimum=True,
     ),
