@@ -101,9 +101,17 @@ def duration_s(condition: Condition, quick: bool) -> float:
 def band_figures(recording, from_s: float, cut_end_s: float | None) -> dict[str, Any]:
     """From ``from_s`` on (the run's clock, s): how far the TRUE angle went outside the band the reference
     sweeps, the largest error from the plan, and (after a cut ending at ``cut_end_s``) when every joint was
-    back within 2 mrad of the plan for 0.1 s; whether the brakes engaged."""
+    back within 2 mrad of the plan for 0.1 s; whether the brakes engaged. With no plan: how far the arm moved."""
     planned_t, planned_q = recording.planned_time_s, recording.planned_position
     true_t, true_q = recording.true_time_s, recording.true_position
+    if not len(planned_t) or not len(true_t):  # no plan arrived (a link too slow for it): no band to keep
+        moved = float(np.max(np.abs(true_q - true_q[0]))) if len(true_t) else None
+        return {
+            "band_deviation_rad": moved,
+            "max_error_from_plan_rad": None,
+            "reacquire_s": None,
+            "brakes_engaged": None,
+        }
     low, high = np.min(planned_q, axis=0), np.max(planned_q, axis=0)
     after = true_t >= from_s
     outside = np.max(np.maximum(0.0, np.maximum(true_q - high, low - true_q)), axis=1)

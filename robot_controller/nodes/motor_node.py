@@ -8,7 +8,8 @@ delay that swings the arm.
 
 Like a drive, it stops on its own when commands stop: no valid command for
 ``command_timeout_s`` → zero torque and a brake request to the simulator
-(``/sim/brake``, category 0), until commands return. ``/estop`` (latched
+(``/sim/brake``, category 0), until commands return: ``TIMELY_COMMANDS_TO_START``
+timely ones in a row (as before the first). ``/estop`` (latched
 until released) does the same.
 
 It also notes when each command reached it, so the loop's end-to-end latency
@@ -42,6 +43,9 @@ RECEIPTS_PERIOD_S = 1.0
 # The motor's own pause up to this long (a machine-wide stall) is not counted as
 # silence of the controller; a longer one is (by then the controller has stopped too).
 MAX_EXCUSED_GAP_S = 0.2
+# Stopped for a timeout (or before the first command), the drive moves the arm again only after
+# this many timely commands in a row (wall clock: 50 ms at 100 Hz; lockstep has no timeouts).
+TIMELY_COMMANDS_TO_START = 5
 
 
 class MotorNode(StackNode):
@@ -59,6 +63,7 @@ class MotorNode(StackNode):
         self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
         self.create_timer(self.params["command_timeout_s"] / 2, self.timeout_check)
         self.last_check_s = self.now_s()
+        self.timely_run = 0  #: timely commands in a row while stopped for a timeout or before the first
         self.excused_s = 0.0  #: of the silence since the last command, time this process itself was not running
         self.request_brake(False)  # the request's state is latched: a (re)started simulator learns it
         self.effort_msg = Float64MultiArray()
@@ -108,7 +113,17 @@ class MotorNode(StackNode):
                 f"/joint_commands dropped: issued {(now_s - tick_s) * 1e3:.0f} ms ago "
                 f"(max_command_age_s {self.params['max_command_age_s']:g}): a late command is no command",
             )
+            self.timely_run = 0
             return
+        if not self.lockstep and (self.stopped_for == "timeout" or self.last_command_s is None):
+            # Stopped (or not started): only a steady stream of timely commands moves the arm. Over a
+            # congested link the odd one comes in time among late ones, from a controller whose
+            # reference had run on while the arm stood braked; one alone released the brakes and the
+            # arm leapt 1 rad toward that reference in 0.15 s.
+            self.timely_run += 1
+            if self.timely_run < TIMELY_COMMANDS_TO_START:
+                return
+        self.timely_run = 0
         if self.stopped_for == "timeout":
             self.get_logger().info("commands back: brake request released")
             self.request_brake(False)
