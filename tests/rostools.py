@@ -135,3 +135,33 @@ def start_run(out, duration: str = "10") -> subprocess.Popen:
             return run
         assert time.monotonic() < deadline, "the loop did not start"
     raise AssertionError("the run ended before its loop started")
+
+
+def run_while(out, action, *extra, duration="20"):
+    """A wall-clock run into ``out``; ``action(launcher_process)`` once its loop
+    is running. Returns (exit code, everything the run printed)."""
+    run = subprocess.Popen(
+        [sys.executable, "-m", "robot_controller.cli", "run", *extra, "--duration", duration, "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        for line in run.stdout:
+            if "control loop running" in line:
+                break
+        action(run)
+        output = run.communicate(timeout=120)[0]
+    finally:
+        if run.poll() is None:
+            run.kill()
+    return run.returncode, output
+
+
+def child_pid(launcher: subprocess.Popen, module: str) -> int:
+    """The pid of the launcher's child running ``robot_controller.nodes.<module>``."""
+    return next(
+        int(pid)
+        for pid in subprocess.run(["pgrep", "-P", str(launcher.pid)], capture_output=True, text=True).stdout.split()
+        if f"nodes.{module}".encode() in Path(f"/proc/{pid}/cmdline").read_bytes()
+    )

@@ -63,6 +63,9 @@ class MotorNode(StackNode):
         self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
         self.create_timer(self.params["command_timeout_s"] / 2, self.timeout_check)
         self.last_check_s = self.now_s()
+        # Lockstep (the launcher gives the motor sim time, not the lockstep parameter): no time passes
+        # between a tick and its command, and the sim waits for each one.
+        self.sim_time = bool(self.get_parameter("use_sim_time").value)
         self.timely_run = 0  #: timely commands in a row while stopped for a timeout or before the first
         self.excused_s = 0.0  #: of the silence since the last command, time this process itself was not running
         self.request_brake(False)  # the request's state is latched: a (re)started simulator learns it
@@ -106,7 +109,7 @@ class MotorNode(StackNode):
         now_s = self.now_s()
         self.receipts.append(now_s)  # a late command too: its delay is what the controller must learn
         self.receipts.extend(msg.data)
-        tick_s = None if self.lockstep else command_tick_s(msg)
+        tick_s = None if self.sim_time else command_tick_s(msg)
         if tick_s is not None and now_s - tick_s > self.params["max_command_age_s"]:
             self.warn_throttled(
                 "late_command",
@@ -115,7 +118,7 @@ class MotorNode(StackNode):
             )
             self.timely_run = 0
             return
-        if not self.lockstep and (self.stopped_for == "timeout" or self.last_command_s is None):
+        if not self.sim_time and (self.stopped_for == "timeout" or self.last_command_s is None):
             # Stopped (or not started): only a steady stream of timely commands moves the arm. Over a
             # congested link the odd one comes in time among late ones, from a controller whose
             # reference had run on while the arm stood braked; one alone released the brakes and the

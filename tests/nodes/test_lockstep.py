@@ -7,7 +7,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,6 +14,7 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
 from robot_controller.core import state_layout
+from tests.rostools import child_pid, run_while
 
 pytestmark = pytest.mark.ros
 
@@ -120,11 +120,7 @@ def test_a_dying_node_ends_a_lockstep_run_with_an_error(tmp_path, ros_domain):
         for line in launcher.stdout:
             if "control loop running" in line:
                 break
-        sensor = next(
-            int(p)
-            for p in subprocess.run(["pgrep", "-P", str(launcher.pid)], capture_output=True, text=True).stdout.split()
-            if b"nodes.sensor_node" in Path(f"/proc/{p}/cmdline").read_bytes()
-        )
+        sensor = child_pid(launcher, "sensor_node")
         killed_at = time.monotonic()
         os.kill(sensor, signal.SIGKILL)
         output = launcher.communicate(timeout=30)[0]
@@ -152,30 +148,14 @@ def test_readings_40_ms_late_stay_stable_and_deterministic(tmp_path, ros_domain)
 def test_a_recorder_that_falls_behind_holds_the_sim_and_loses_nothing(tmp_path, ros_domain):
     # Frozen for 4 s the recorder falls 20-40 sim s behind a free-running lockstep, more than
     # the publishers' queues hold (1000 messages, 10 sim s): the sim must wait for it.
-    launcher = subprocess.Popen(
-        [sys.executable, "-m", "robot_controller.cli", "run", "--sim-time", "--duration", "12"]
-        + ["--out", str(tmp_path / "run")],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    try:
-        for line in launcher.stdout:
-            if "control loop running" in line:
-                break
-        recorder = next(
-            int(p)
-            for p in subprocess.run(["pgrep", "-P", str(launcher.pid)], capture_output=True, text=True).stdout.split()
-            if b"nodes.recorder" in Path(f"/proc/{p}/cmdline").read_bytes()
-        )
+    def freeze_the_recorder(launcher):
+        recorder = child_pid(launcher, "recorder")
         os.kill(recorder, signal.SIGSTOP)
         time.sleep(4.0)
         os.kill(recorder, signal.SIGCONT)
-        output = line + launcher.communicate(timeout=120)[0]
-    finally:
-        if launcher.poll() is None:
-            launcher.kill()
-    assert launcher.returncode == 0, output[-3000:]
+
+    code, output = run_while(tmp_path / "run", freeze_the_recorder, "--sim-time", duration="12")
+    assert code == 0, output[-3000:]
     assert "times for the recorder" in output
     assert "the bag misses messages" not in output, output[-3000:]
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())

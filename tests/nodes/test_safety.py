@@ -13,6 +13,7 @@ import pytest
 from robot_controller import resources
 from robot_controller.core import state_layout
 from robot_controller.scoring import report
+from tests.rostools import run_while
 
 pytestmark = pytest.mark.ros
 
@@ -41,27 +42,6 @@ def test_frozen_sensor_and_frozen_controller_leave_the_arm_held(tmp_path, ros_do
     sensor_run = report.read_recording(tmp_path / "faults" / "sensor_node_stop_0.5s" / "bag")
     statuses = set(sensor_run.state["status"].astype(int).tolist())
     assert state_layout.STATUS_CODES["watchdog"] in statuses and state_layout.STATUS_CODES["reacquiring"] in statuses
-
-
-def run_while(out, action, *extra, duration="20"):
-    """A wall-clock run into ``out``; ``action(launcher_process)`` once its loop
-    is running. Returns (exit code, everything the run printed)."""
-    run = subprocess.Popen(
-        [sys.executable, "-m", "robot_controller.cli", "run", *extra, "--duration", duration, "--out", str(out)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    try:
-        for line in run.stdout:
-            if "control loop running" in line:
-                break
-        action(run)
-        output = run.communicate(timeout=120)[0]
-    finally:
-        if run.poll() is None:
-            run.kill()
-    return run.returncode, output
 
 
 def test_estop_latches_until_released_and_the_loop_recovers(tmp_path, ros_domain):
