@@ -100,36 +100,16 @@ def test_every_command_is_applied_to_exactly_one_tick(tmp_path, ros_domain):
 
 
 def test_a_dying_node_ends_a_lockstep_run_with_an_error(tmp_path, ros_domain):
-    launcher = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "robot_controller.cli",
-            "run",
-            "--sim-time",
-            "--duration",
-            "100000",
-            "--out",
-            str(tmp_path / "run"),
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    try:
-        for line in launcher.stdout:
-            if "control loop running" in line:
-                break
-        sensor = child_pid(launcher, "sensor_node")
-        killed_at = time.monotonic()
-        os.kill(sensor, signal.SIGKILL)
-        output = launcher.communicate(timeout=30)[0]
-    finally:
-        if launcher.poll() is None:
-            launcher.kill()
-    assert launcher.returncode != 0
+    killed_at = []
+
+    def kill_the_sensor(launcher):
+        os.kill(child_pid(launcher, "sensor_node"), signal.SIGKILL)
+        killed_at.append(time.monotonic())
+
+    code, output = run_while(tmp_path / "run", kill_the_sensor, "--sim-time", duration="100000")
+    assert code != 0
     assert "node died: sensor_node" in output
-    assert time.monotonic() - killed_at < 20
+    assert time.monotonic() - killed_at[0] < 20
 
 
 def test_readings_40_ms_late_stay_stable_and_deterministic(tmp_path, ros_domain):
