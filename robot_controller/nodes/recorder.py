@@ -151,13 +151,13 @@ class Recorder:
 
         return record
 
-    def take_waiting(self, executor, budget_s: float = TAKE_BUDGET_S) -> None:
-        """The messages waiting now: one per ``spin_once``, until one takes none or ``budget_s``
+    def take_waiting(self, executor) -> None:
+        """The messages waiting now: one per ``spin_once``, until one takes none or ``TAKE_BUDGET_S``
         has passed. The budget matters when the machine is loaded and the loop publishes faster
         than this process (nice +10) takes: without it the batch never ends, the progress
         lines stop and the launcher takes the lagging bag for a stalled lockstep."""
         spin_once = executor.spin_once
-        give_up = time.monotonic() + budget_s
+        give_up = time.monotonic() + TAKE_BUDGET_S
         while True:
             before = self.taken
             spin_once(timeout_sec=0.0)
