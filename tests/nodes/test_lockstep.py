@@ -41,7 +41,8 @@ def lockstep_run(out, *extra):
         text=True,
         timeout=180,
     )
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    said = [line for line in proc.stdout.splitlines() if "FAILED" in line or "WARN" in line]
+    assert proc.returncode == 0, "\n".join(said[-20:]) + proc.stdout[-2000:] + proc.stderr[-2000:]
     return json.loads((out / "metrics.json").read_text())
 
 
