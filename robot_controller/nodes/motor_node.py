@@ -6,6 +6,10 @@ more than ``max_command_age_s`` after it is dropped: over a congested link
 commands come late and in bursts, and applying them closes the loop through a
 delay that swings the arm.
 
+In sim-time lockstep (``lockstep: true``) a command's time is the tick it is
+stamped with: no clock of its own, so the lag integrates over exact periods and
+the motor needs no ``/clock``.
+
 Like a drive, it stops on its own when commands stop: no valid command for
 ``command_timeout_s`` → zero torque and a brake request to the simulator
 (``/sim/brake``, category 0), until commands return: ``TIMELY_COMMANDS_TO_START``
@@ -61,11 +65,9 @@ class MotorNode(StackNode):
         self.stopped_for: str | None = None  # "timeout" or "estop" while stopped
         self.estop = False
         self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
-        self.create_timer(self.params["command_timeout_s"] / 2, self.timeout_check)
+        if not self.lockstep:  # in lockstep no time passes between ticks: the sim waits for each command
+            self.create_timer(self.params["command_timeout_s"] / 2, self.timeout_check)
         self.last_check_s = self.now_s()
-        # Lockstep (the launcher gives the motor sim time, not the lockstep parameter): no time passes
-        # between a tick and its command, and the sim waits for each one.
-        self.sim_time = bool(self.get_parameter("use_sim_time").value)
         self.timely_run = 0  #: timely commands in a row while stopped for a timeout or before the first
         self.excused_s = 0.0  #: of the silence since the last command, time this process itself was not running
         self.request_brake(False)  # the request's state is latched: a (re)started simulator learns it
@@ -106,11 +108,16 @@ class MotorNode(StackNode):
             return
         if self.estop:
             return
-        now_s = self.now_s()
+        tick_s = command_tick_s(msg)
+        if self.lockstep and tick_s is None:
+            self.warn_throttled(
+                "unstamped_command", "/joint_commands dropped: lockstep needs each command stamped with its tick"
+            )
+            return
+        now_s = tick_s if self.lockstep else self.now_s()
         self.receipts.append(now_s)  # a late command too: its delay is what the controller must learn
         self.receipts.extend(msg.data)
-        tick_s = None if self.sim_time else command_tick_s(msg)
-        if tick_s is not None and now_s - tick_s > self.params["max_command_age_s"]:
+        if not self.lockstep and tick_s is not None and now_s - tick_s > self.params["max_command_age_s"]:
             self.warn_throttled(
                 "late_command",
                 f"/joint_commands dropped: issued {(now_s - tick_s) * 1e3:.0f} ms ago "
@@ -118,7 +125,7 @@ class MotorNode(StackNode):
             )
             self.timely_run = 0
             return
-        if not self.sim_time and (self.stopped_for == "timeout" or self.last_command_s is None):
+        if not self.lockstep and (self.stopped_for == "timeout" or self.last_command_s is None):
             # Stopped (or not started): only a steady stream of timely commands moves the arm. Over a
             # congested link the odd one comes in time among late ones, from a controller whose
             # reference had run on while the arm stood braked; one alone released the brakes and the

@@ -39,12 +39,6 @@ RECORDING_NODE = "simulator"
 # a sender thread: when it was introduced, the lockstep ran 1.6× faster with it.
 FASTDDS_PUBLICATION_MODE = ("RMW_FASTRTPS_PUBLICATION_MODE", "SYNCHRONOUS")
 
-# In lockstep the sensor steps on the stamps of what it receives and the
-# controller and planner on /clock messages they read themselves, so they need no
-# ROS sim time (and each such node would pay a /clock callback every tick).
-# The motor's lag integrates over its clock, so it follows /clock.
-SIM_TIME_NODES = ("motor_node",)
-
 
 @dataclass(frozen=True)
 class Process:
@@ -111,9 +105,12 @@ def lockstep_params(params: cfg.Params) -> cfg.Params:
     """The same parameters in sim-time lockstep: the simulator owns /clock and
     the simulator, controller and planner step on messages instead of timers."""
     out = cfg.merge(params, {})
+    # No node needs ROS sim time: the sensor steps on the stamps of what it receives, the
+    # controller and planner on /clock messages they read themselves, the motor on each
+    # command's tick stamp. A node on sim time pays a /clock delivery and callback every tick.
     for node in cfg.NODES:
-        out[node]["use_sim_time"] = node in SIM_TIME_NODES
-    for node in ("simulator", "pid_controller", "trajectory_planner"):
+        out[node]["use_sim_time"] = False
+    for node in ("simulator", "pid_controller", "trajectory_planner", "motor_node"):
         out[node]["lockstep"] = True
     return out
 

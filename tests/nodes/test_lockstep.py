@@ -141,3 +141,23 @@ def test_a_recorder_that_falls_behind_holds_the_sim_and_loses_nothing(tmp_path, 
     assert "the bag misses messages" not in output, output[-3000:]
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
     assert metrics["control_ticks"] == 1200 and metrics["missed_cycles"] == 0
+
+
+def test_the_motor_lag_runs_on_the_commands_ticks(tmp_path, ros_domain):
+    # In lockstep the motor's time is each command's tick stamp: its lag integrates over exact
+    # periods (deterministic) and every receipt is a tick of the 10 ms grid, one per tick.
+    config = tmp_path / "lag.yaml"
+    config.write_text("motor_node:\n  ros__parameters:\n    lag_time_constant_s: 0.02\n")
+    lagged = lockstep_run(tmp_path / "lag", "--config", str(config))
+    assert lagged["control_ticks"] == 300 and lagged["tracking_max_rad"] < 0.02
+    assert lockstep_run(tmp_path / "again", "--config", str(config)) == lagged
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    receipts_ms = []
+    with Reader(tmp_path / "lag" / "bag") as reader:
+        for connection, _, raw in reader.messages():
+            if connection.topic == "/motor/command_receipts":
+                rows = np.asarray(typestore.deserialize_cdr(raw, connection.msgtype).data).reshape(-1, 2)
+                receipts_ms.extend(rows[:, 0] * 1000)
+    assert len(receipts_ms) >= 299
+    assert np.allclose(receipts_ms, np.round(receipts_ms / np.float64(10)) * 10, atol=1e-6)
+    assert np.all(np.diff(receipts_ms) == pytest.approx(10.0, abs=1e-6))

@@ -28,4 +28,11 @@ MOTOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
         minimum=0.0,
         exclusive_minimum=True,
     ),
+    ParamSpec(
+        "lockstep",
+        bool,
+        False,
+        "sim-time lockstep: each command's time is the tick it is stamped with (no timeout, no age check)",
+        read_only=True,
+    ),
 )
