@@ -103,7 +103,7 @@ def child_env(single_process: bool) -> dict[str, str]:
 
 def lockstep_params(params: cfg.Params) -> cfg.Params:
     """The same parameters in sim-time lockstep: the simulator owns /clock and
-    the simulator, controller and planner step on messages instead of timers."""
+    the simulator, controller, planner and motor step on messages instead of timers."""
     out = cfg.merge(params, {})
     # No node needs ROS sim time: the sensor steps on the stamps of what it receives, the
     # controller and planner on /clock messages they read themselves, the motor on each
