@@ -19,6 +19,11 @@ URDF with the payload welded on. Intervals with a brake on, the torque off
 or at the effort limit are left out. Standard errors from the fit's
 Jacobian, σ²·(JᵀJ)⁻¹.
 
+A coordinate of the centre that moves no joint's torque cannot be
+identified: on a planar arm (``planar2``) the one along the parallel joint
+axes. It is set to 0 (the link's plane), its standard error is NaN, and the
+fit names it; the rest are identified as usual.
+
 No ROS here.
 """
 
@@ -38,15 +43,19 @@ from robot_controller.core.plant import load_model
 # Where the search starts: a light load near the link's origin (a zero mass would leave its place undefined).
 START = Payload(0.5, (0.0, 0.0, 0.05))
 MIN_SAMPLES = 50
+PARAMETER_NAMES = ("mass_kg", "x_m", "y_m", "z_m")
+# A parameter whose column of the fit's Jacobian is this small against the largest moves no torque.
+UNSEEN_RELATIVE = 1e-6
 
 
 @dataclass(frozen=True)
 class PayloadFit:
     payload: Payload
-    stderr: tuple[float, float, float, float]  #: of mass_kg, x_m, y_m, z_m
+    stderr: tuple[float, float, float, float]  #: of mass_kg, x_m, y_m, z_m (NaN: not identifiable)
     residual_rms_nm: float  #: torque the fitted model leaves unexplained, RMS over joints and samples
     residual_rms_without_nm: float  #: the same for the URDF alone (no payload)
     samples: int  #: intervals used
+    unidentifiable: tuple[str, ...] = ()  #: names (``PARAMETER_NAMES``) the motion's torques do not depend on, set to 0
 
 
 def fit_payload(
@@ -109,17 +118,26 @@ def fit_payload(
         x_scale=[1.0, 0.1, 0.1, 0.1],
     )
     jacobian = result.jac
-    dof = max(1, jacobian.shape[0] - 4)
+    column_norm = np.linalg.norm(jacobian, axis=0)
+    seen = column_norm > UNSEEN_RELATIVE * column_norm.max()
+    if not seen[0]:
+        raise IdentificationError("the motion does not pin the payload down (its mass moves no torque)")
+    theta = result.x.copy()
+    theta[~seen] = 0.0  # an offset no torque depends on: the link's plane
+    seen_jacobian = jacobian[:, seen]
+    dof = max(1, jacobian.shape[0] - int(seen.sum()))
     sigma2 = float(result.fun @ result.fun) / dof
     try:
-        covariance = sigma2 * np.linalg.inv(jacobian.T @ jacobian)
+        covariance = sigma2 * np.linalg.inv(seen_jacobian.T @ seen_jacobian)
     except np.linalg.LinAlgError:
         raise IdentificationError("the motion does not pin the payload down (singular fit)") from None
-    theta = result.x
+    stderr = np.full(4, np.nan)
+    stderr[seen] = np.sqrt(np.maximum(np.diag(covariance), 0.0))
     return PayloadFit(
         payload=Payload(float(theta[0]), (float(theta[1]), float(theta[2]), float(theta[3]))),
-        stderr=tuple(float(s) for s in np.sqrt(np.maximum(np.diag(covariance), 0.0))),
+        stderr=tuple(float(s) for s in stderr),
         residual_rms_nm=float(np.sqrt(np.mean(result.fun**2))),
         residual_rms_without_nm=float(np.sqrt(np.mean(without**2))),
         samples=int(len(tau)),
+        unidentifiable=tuple(name for name, known in zip(PARAMETER_NAMES, seen, strict=True) if not known),
     )

@@ -9,6 +9,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.experiments.identify import held_or_pushed, torque_limit
@@ -49,6 +51,7 @@ def identify_payload(
             f"payload_{name}_stderr": float(err)
             for name, err in zip(("mass_kg", "x_m", "y_m", "z_m"), fit.stderr, strict=True)
         },
+        "payload_unidentifiable": list(fit.unidentifiable),
         "residual_rms_nm": fit.residual_rms_nm,
         "residual_rms_urdf_alone_nm": fit.residual_rms_without_nm,
         "samples": fit.samples,
@@ -79,6 +82,8 @@ def identify_payload(
                 "|---|---|---|",
                 *(
                     f"| {name} | {value:.4g} | {err:.2g} |"
+                    if np.isfinite(err)
+                    else f"| {name} | {value:.4g} (not identifiable: no joint's torque depends on it) | — |"
                     for name, value, err in zip(
                         ("mass [kg]", "x [m]", "y [m]", "z [m]"), fit.payload.as_values(), fit.stderr, strict=True
                     )
@@ -97,6 +102,11 @@ def identify_payload(
     progress(
         f"identify: payload {mass:.3f} kg at ({x:.3f}, {y:.3f}, {z:.3f}) m on the last link; torque unexplained "
         f"{fit.residual_rms_nm:.3g} N·m RMS (the URDF alone: {fit.residual_rms_without_nm:.3g})"
+        + (
+            f"; {', '.join(fit.unidentifiable)} not identifiable (no joint's torque depends on it): set to 0"
+            if fit.unidentifiable
+            else ""
+        )
     )
     progress(f"identify: wrote {out / 'identified.yaml'}, identification.json, identification.md")
     return results

@@ -6,34 +6,50 @@ import pytest
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.payload import Payload
 from robot_controller.core.payload_identification import fit_payload
-from robot_controller.core.plant import MujocoPlant
+from robot_controller.core.plant import ArmDynamics, MujocoPlant
 from robot_controller.robots import ROBOTS, urdf_of
 
 
-def test_the_fit_finds_the_mass_and_centre_of_a_payload():
-    urdf = urdf_of("panda")
-    truth = Payload(1.2, (0.03, -0.02, 0.12))
+def wobble(robot: str, truth: Payload, torque_noise_nm: list[float]):
+    """4 s of gravity compensation plus a random wobble about the home pose, 10 ms a sample."""
+    urdf = urdf_of(robot)
     plant = MujocoPlant(urdf, payload=truth)
-    home = np.array(ROBOTS["panda"].home_position)
+    home = np.array(ROBOTS[robot].home_position)
+    n = len(home)
     plant.reset(home)
     rng = np.random.default_rng(0)
-    times, positions, velocities, torques = [0.0], [home], [np.zeros(7)], [np.zeros(7)]
-    from robot_controller.core.plant import ArmDynamics
-
+    times, positions, velocities, torques = [0.0], [home], [np.zeros(n)], [np.zeros(n)]
     hold = ArmDynamics(urdf, truth)
-    for k in range(1, 400):  # 4 s of gravity compensation plus a random wobble, 10 ms a sample
+    for k in range(1, 400):
         q, v = plant.state()
-        torque = hold.gravity(q) - 2.0 * (q - home) - 0.5 * v + rng.normal(0, [3, 3, 3, 3, 0.5, 0.5, 0.2])
+        torque = hold.gravity(q) - 2.0 * (q - home) - 0.5 * v + rng.normal(0, torque_noise_nm)
         plant.step(torque, 10)
         q, v = plant.state()
         times.append(0.01 * k)
         positions.append(q)
         velocities.append(v)
         torques.append(torque)
-    fit = fit_payload(urdf, np.array(times), np.array(positions), np.array(velocities), np.array(torques))
+    return urdf, np.array(times), np.array(positions), np.array(velocities), np.array(torques)
+
+
+def test_the_fit_finds_the_mass_and_centre_of_a_payload():
+    truth = Payload(1.2, (0.03, -0.02, 0.12))
+    fit = fit_payload(*wobble("panda", truth, [3, 3, 3, 3, 0.5, 0.5, 0.2]))
     assert fit.payload.mass_kg == pytest.approx(1.2, rel=0.02)
     np.testing.assert_allclose(fit.payload.com_m, truth.com_m, atol=0.01)
     assert fit.residual_rms_nm < 0.2 * fit.residual_rms_without_nm
+    assert fit.unidentifiable == () and np.all(np.isfinite(fit.stderr))
+
+
+def test_on_a_planar_arm_the_offset_along_its_axes_is_named_not_identifiable():
+    # Both planar2 joints turn about the link's y axis: no torque depends on the payload's y.
+    truth = Payload(0.8, (0.05, 0.03, 0.1))
+    fit = fit_payload(*wobble("planar2", truth, [2, 1]))
+    assert fit.unidentifiable == ("y_m",)
+    assert fit.payload.mass_kg == pytest.approx(0.8, rel=0.02)
+    np.testing.assert_allclose(np.array(fit.payload.com_m)[[0, 2]], [0.05, 0.1], atol=0.01)
+    assert fit.payload.com_m[1] == 0.0 and np.isnan(fit.stderr[2])
+    assert np.all(np.isfinite(np.delete(fit.stderr, 2)))
 
 
 @pytest.mark.parametrize(
