@@ -46,6 +46,9 @@ MIN_SAMPLES = 50
 PARAMETER_NAMES = ("mass_kg", "x_m", "y_m", "z_m")
 # A parameter whose column of the fit's Jacobian is this small against the largest moves no torque.
 UNSEEN_RELATIVE = 1e-6
+# kg: a fitted mass below this is the fit soaking up the model's rounding (a tenth of a gram on a
+# motion recorded without noise), not a load: nothing the controller's model would notice.
+FOUND_MIN_KG = 0.01
 
 
 @dataclass(frozen=True)
@@ -56,6 +59,12 @@ class PayloadFit:
     residual_rms_without_nm: float  #: the same for the URDF alone (no payload)
     samples: int  #: intervals used
     unidentifiable: tuple[str, ...] = ()  #: names (``PARAMETER_NAMES``) the motion's torques do not depend on, set to 0
+
+    @property
+    def found(self) -> bool:
+        """A mass above its noise (3 standard errors) and above ``FOUND_MIN_KG``: with none, the
+        centre means nothing."""
+        return self.payload.mass_kg > max(3.0 * self.stderr[0], FOUND_MIN_KG)
 
 
 def fit_payload(

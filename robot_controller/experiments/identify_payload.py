@@ -41,8 +41,11 @@ def identify_payload(
         braked=held_or_pushed(recording),
     )
     mass, (x, y, z) = fit.payload.mass_kg, fit.payload.com_m
+    # No mass above its noise: the arm carries nothing the URDF lacks, and the overlay says so.
+    overlay = fit.payload.as_values() if fit.found else [0.0, 0.0, 0.0, 0.0]
     results = {
         "fitted": "payload",
+        "payload_found": fit.found,
         "payload_mass_kg": mass,
         "payload_x_m": x,
         "payload_y_m": y,
@@ -63,7 +66,7 @@ def identify_payload(
         "controller_urdf": params["pid_controller"]["urdf_path"],
     }
     cfg.write_params_file(
-        {"pid_controller": {"model_payload": [float(f"{v:.6g}") for v in fit.payload.as_values()]}},
+        {"pid_controller": {"model_payload": [float(f"{v:.6g}") for v in overlay]}},
         out / "identified.yaml",
     )
     report.write_metrics(out / "identification.json", results)
@@ -89,6 +92,15 @@ def identify_payload(
                     )
                 ),
                 "",
+                *(
+                    []
+                    if fit.found
+                    else [
+                        "No payload found: the mass is not above three standard errors. The overlay sets "
+                        "`model_payload` to no load ([0, 0, 0, 0]).",
+                        "",
+                    ]
+                ),
                 f"Torque left unexplained: {fit.residual_rms_nm:.3g} N·m RMS with the payload, "
                 f"{fit.residual_rms_without_nm:.3g} N·m with the URDF alone, over {fit.samples} intervals "
                 "(every joint).",
@@ -99,14 +111,19 @@ def identify_payload(
             ]
         )
     )
-    progress(
-        f"identify: payload {mass:.3f} kg at ({x:.3f}, {y:.3f}, {z:.3f}) m on the last link; torque unexplained "
-        f"{fit.residual_rms_nm:.3g} N·m RMS (the URDF alone: {fit.residual_rms_without_nm:.3g})"
-        + (
-            f"; {', '.join(fit.unidentifiable)} not identifiable (no joint's torque depends on it): set to 0"
-            if fit.unidentifiable
-            else ""
-        )
+    unexplained = (
+        f"torque unexplained {fit.residual_rms_nm:.3g} N·m RMS (the URDF alone: {fit.residual_rms_without_nm:.3g})"
     )
+    if not fit.found:
+        progress(f"identify: no payload found on the last link ({mass:.2g} ± {fit.stderr[0]:.2g} kg); {unexplained}")
+    else:
+        progress(
+            f"identify: payload {mass:.3f} kg at ({x:.3f}, {y:.3f}, {z:.3f}) m on the last link; {unexplained}"
+            + (
+                f"; {', '.join(fit.unidentifiable)} not identifiable (no joint's torque depends on it): set to 0"
+                if fit.unidentifiable
+                else ""
+            )
+        )
     progress(f"identify: wrote {out / 'identified.yaml'}, identification.json, identification.md")
     return results

@@ -10,7 +10,7 @@ from robot_controller.core.plant import ArmDynamics, MujocoPlant
 from robot_controller.robots import ROBOTS, urdf_of
 
 
-def wobble(robot: str, truth: Payload, torque_noise_nm: list[float]):
+def wobble(robot: str, truth: Payload | None, torque_noise_nm: list[float]):
     """4 s of gravity compensation plus a random wobble about the home pose, 10 ms a sample."""
     urdf = urdf_of(robot)
     plant = MujocoPlant(urdf, payload=truth)
@@ -38,7 +38,7 @@ def test_the_fit_finds_the_mass_and_centre_of_a_payload():
     assert fit.payload.mass_kg == pytest.approx(1.2, rel=0.02)
     np.testing.assert_allclose(fit.payload.com_m, truth.com_m, atol=0.01)
     assert fit.residual_rms_nm < 0.2 * fit.residual_rms_without_nm
-    assert fit.unidentifiable == () and np.all(np.isfinite(fit.stderr))
+    assert fit.unidentifiable == () and np.all(np.isfinite(fit.stderr)) and fit.found
 
 
 def test_on_a_planar_arm_the_offset_along_its_axes_is_named_not_identifiable():
@@ -63,3 +63,8 @@ def test_on_a_planar_arm_the_offset_along_its_axes_is_named_not_identifiable():
 def test_a_bad_payload_is_refused_with_its_reason(values, message):
     with pytest.raises(ConfigError, match=message):
         Payload.from_values("payload", values)
+
+
+def test_an_arm_carrying_nothing_is_found_to_carry_nothing():
+    fit = fit_payload(*wobble("planar2", None, [2, 1]))
+    assert not fit.found and fit.payload.mass_kg < 0.01
