@@ -44,6 +44,8 @@ class ControllerConfig:
     law_parameters: dict[str, Any] = field(default_factory=dict)
     #: s of wall time a plugin law's update may take (checked only where the controller is given a clock)
     law_budget_s: float = 0.005
+    #: rad a plugin law may let the arm (its estimate) leave the reference on a joint; further: a fault (0: no check)
+    law_error_max_rad: float = 0.5
     #: the built-in law ("pid" or "lqr", with this config's gains) that brings the arm to rest when a plugin law fails
     stop_law: str = "lqr"
     lqr_q: tuple[float, float, float] = (1e4, 1e4, 1.0)  #: weights on ∫e, e, ė
@@ -92,6 +94,8 @@ class ControllerConfig:
             raise ConfigError(f"stop_law: {self.stop_law!r} is not one of {list(BUILTIN_LAWS)}")
         if not np.isfinite(self.law_budget_s) or self.law_budget_s <= 0:
             raise ConfigError(f"law_budget_s: must be a finite number > 0, got {self.law_budget_s}")
+        if not np.isfinite(self.law_error_max_rad) or self.law_error_max_rad < 0:
+            raise ConfigError(f"law_error_max_rad: must be a finite number >= 0, got {self.law_error_max_rad}")
 
     @property
     def plugin_law(self) -> bool:

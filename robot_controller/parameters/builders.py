@@ -86,6 +86,7 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         controller_type=values["controller_type"],
         law_parameters={key[len(LAW_PREFIX) :]: value for key, value in values.items() if key.startswith(LAW_PREFIX)},
         law_budget_s=values["law_budget_s"],
+        law_error_max_rad=values["law_error_max_rad"],
         stop_law=values["stop_law"],
         lqr_q=tuple(q.tolist()),
         lqr_r=values["lqr_r"],

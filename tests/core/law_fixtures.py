@@ -50,3 +50,14 @@ class Counting(PDWithGravity):
 
     def terms(self):
         return {"gravity": np.ones(self.arm.joint_count), "p": np.full(self.arm.joint_count, 2.0)}
+
+
+class PushesAwayAfter(RaisesAfter):
+    """Turns its feedback's sign after ``fail_after_s``: finite, in shape, in time, and unstable."""
+
+    def update(self, time_s, state, reference):
+        torque = PDWithGravity.update(self, time_s, state, reference)
+        if time_s < self.params["fail_after_s"]:
+            return torque
+        gravity = self.arm.gravity(state.position)
+        return gravity - (torque - gravity)

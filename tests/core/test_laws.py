@@ -189,6 +189,27 @@ def test_a_failing_law_is_stopped_on_the_builtin_law_and_the_arm_stays_in_its_ba
     assert np.ptp(result.true_position[-50:]) < 1e-3
 
 
+def test_a_law_that_pushes_the_arm_away_is_stopped_before_it_leaves_its_band():
+    # Finite torques, in shape and in time, that swing the arm: only the error from the reference shows it.
+    law = "tests.core.law_fixtures:PushesAwayAfter"
+    params = stack(law, fail_after_s=3.0)
+    params["pid_controller"]["law_error_max_rad"] = 0.0
+    unchecked = simulate(params, duration_s=6.0)
+    assert unchecked.law_fault is None and unchecked.true_position.max() > 2.0  # swung far out of ±1 rad
+    result = simulate(stack(law, fail_after_s=3.0), duration_s=6.0)
+    assert "let the arm leave its reference" in result.law_fault and "law_error_max_rad 0.5" in result.law_fault
+    assert np.all(np.abs(result.true_position) <= 1.1)
+    assert np.all(result.command[-50:] == 0.0) and np.ptp(result.true_position[-50:]) < 1e-3
+
+
+def test_the_laws_budget_and_error_limit_change_while_it_runs():
+    from dataclasses import replace
+
+    c = controller(stack(EXAMPLE))
+    c.set_config(replace(c.config, law_budget_s=0.02, law_error_max_rad=0.2))
+    assert (c.plugin.contained.budget_s, c.plugin.contained.error_max_rad) == (0.02, 0.2)
+
+
 def test_a_law_over_its_budget_tick_after_tick_is_a_fault_one_long_call_is_not():
     import itertools
 

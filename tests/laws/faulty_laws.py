@@ -56,3 +56,14 @@ class SlowAfter(RaisesAfter):
         if self.failing():
             time.sleep(0.02)
         return PDWithGravity.update(self, time_s, state, reference)
+
+
+class PushesAwayAfter(RaisesAfter):
+    """Turns its feedback's sign after ``fail_after_ticks`` updates: finite, in time, and unstable."""
+
+    def update(self, time_s, state, reference):
+        torque = PDWithGravity.update(self, time_s, state, reference)
+        if not self.failing():
+            return torque
+        gravity = self.arm.gravity(state.position)
+        return gravity - (torque - gravity)

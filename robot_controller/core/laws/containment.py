@@ -44,12 +44,21 @@ class ContainedLaw:
     """Calls a law's methods and checks what comes back."""
 
     def __init__(
-        self, law: Any, name: str, joint_count: int, budget_s: float, clock: Callable[[], float] | None = None
+        self,
+        law: Any,
+        name: str,
+        joint_count: int,
+        budget_s: float,
+        clock: Callable[[], float] | None = None,
+        error_max_rad: float = 0.0,
+        stop_deceleration_rad_s2: float = 20.0,
     ) -> None:
         self.law = law
         self.name = name
         self.joint_count = joint_count
         self.budget_s = budget_s
+        self.error_max_rad = error_max_rad  #: how far the arm may be from the reference (0: no check)
+        self.stop_deceleration_rad_s2 = stop_deceleration_rad_s2  #: the controlled stop's, for the way still to go
         self.clock = clock
         self.fault: LawFault | None = None
         self.overruns_s: list[float] = []  #: the durations of the updates over budget in a row, s
@@ -71,6 +80,10 @@ class ContainedLaw:
         """The law's torque per joint (float64, finite), or the fault it made."""
         if self.fault is not None:
             return self.fault
+        if self.error_max_rad > 0 and state is not None and reference is not None:
+            fault = self._check_error(time_s, state, reference)
+            if fault is not None:
+                return fault
         returned = self._call(time_s, "update", lambda: self.law.update(time_s, state, reference))
         if isinstance(returned, LawFault):
             return returned
@@ -87,6 +100,24 @@ class ContainedLaw:
         if not np.all(np.isfinite(torque)):
             return self._faulted(time_s, f"returned a non-finite torque {torque.tolist()}")
         return torque
+
+    def _check_error(self, time_s: float, state: State, reference: Reference) -> LawFault | None:
+        """Finite torques in time can still swing the arm (a law whose feedback pushes away): a fault
+        once the arm is further from the reference than ``error_max_rad``, counting the way it would
+        still go, moving away, before a stop at ``stop_deceleration_rad_s2`` could turn it."""
+        error = np.asarray(state.position, dtype=float) - np.asarray(reference.position, dtype=float)
+        error_rate = np.asarray(state.velocity, dtype=float) - np.asarray(reference.velocity, dtype=float)
+        away = np.where(error * error_rate > 0, np.abs(error_rate), 0.0)
+        projected = np.abs(error) + away**2 / (2 * self.stop_deceleration_rad_s2)
+        joint = int(np.argmax(projected))
+        if projected[joint] <= self.error_max_rad:
+            return None
+        return self._faulted(
+            time_s,
+            f"let the arm leave its reference: {error[joint]:+.3f} rad on joint {joint + 1} of {self.joint_count}, "
+            f"{away[joint]:.2f} rad/s away (law_error_max_rad {self.error_max_rad:g}, the stop's "
+            f"{self.stop_deceleration_rad_s2:g} rad/s² counted)",
+        )
 
     def terms(self) -> Mapping[str, np.ndarray]:
         """The law's reported terms, or none if reporting them fails (never a reason to stop)."""

@@ -58,7 +58,15 @@ class PluginLaw:
             raise ConfigError(
                 f"controller_type: {config.controller_type} failed to start: {type(exc).__name__}: {exc}"
             ) from exc
-        contained = ContainedLaw(law, config.controller_type, joint_count, config.law_budget_s, clock)
+        contained = ContainedLaw(
+            law,
+            config.controller_type,
+            joint_count,
+            config.law_budget_s,
+            clock,
+            config.law_error_max_rad,
+            config.stop_deceleration,
+        )
         return cls(contained, config, law_class, joint_count)
 
     @property
@@ -75,6 +83,8 @@ class PluginLaw:
         if config.law_parameters != self.config.law_parameters:
             values = parameters.values(self.law_class, config.law_parameters, self.joint_count)
             self.contained.set_params(0.0, values)
+        self.contained.budget_s, self.contained.error_max_rad = config.law_budget_s, config.law_error_max_rad
+        self.contained.stop_deceleration_rad_s2 = config.stop_deceleration
         self.config = config
 
     def reset(
