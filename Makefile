@@ -20,8 +20,9 @@ run: $(STAMP)
 	$(BIN)/robot-controller run $(ARGS)
 
 # Every test but the long experiments (marked slow), which `make test-slow` runs; CI runs both.
+# The 15 slowest are listed at the end: the suite is meant to stay within a few minutes.
 test: $(STAMP) lint
-	$(BIN)/python -m pytest -q -m "not slow" $(ARGS)
+	$(BIN)/python -m pytest -q -m "not slow" --durations=15 $(ARGS)
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow $(ARGS)
