@@ -44,7 +44,7 @@ class ControllerConfig:
     law_parameters: dict[str, Any] = field(default_factory=dict)
     #: s of wall time a plugin law's update may take (checked only where the controller is given a clock)
     law_budget_s: float = 0.005
-    #: rad a plugin law may let the arm (its estimate) leave the reference on a joint; further: a fault (0: no check)
+    #: rad a plugin law may let the arm run away from the reference on a joint (ContainedLaw.check_runaway; 0: off)
     law_error_max_rad: float = 0.5
     #: the built-in law ("pid" or "lqr", with this config's gains) that brings the arm to rest when a plugin law fails
     stop_law: str = "lqr"

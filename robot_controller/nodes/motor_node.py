@@ -8,7 +8,8 @@ delay that swings the arm.
 
 In sim-time lockstep (``lockstep: true``) a command's time is the tick it is
 stamped with: no clock of its own, so the lag integrates over exact periods and
-the motor needs no ``/clock``.
+the motor needs no ``/clock`` (an unstamped command, from a controller not ours,
+is applied on the wall clock, with a warning).
 
 Like a drive, it stops on its own when commands stop: no valid command for
 ``command_timeout_s`` → zero torque and a brake request to the simulator
@@ -109,12 +110,12 @@ class MotorNode(StackNode):
         if self.estop:
             return
         tick_s = command_tick_s(msg)
-        if self.lockstep and tick_s is None:
+        if self.lockstep and tick_s is None:  # a controller not ours: applied, its time the wall clock's
             self.warn_throttled(
-                "unstamped_command", "/joint_commands dropped: lockstep needs each command stamped with its tick"
+                "unstamped_command",
+                "lockstep: /joint_commands carry no tick stamp: the lag and the receipts run on the wall clock",
             )
-            return
-        now_s = tick_s if self.lockstep else self.now_s()
+        now_s = tick_s if self.lockstep and tick_s is not None else self.now_s()
         self.receipts.append(now_s)  # a late command too: its delay is what the controller must learn
         self.receipts.extend(msg.data)
         if not self.lockstep and tick_s is not None and now_s - tick_s > self.params["max_command_age_s"]:

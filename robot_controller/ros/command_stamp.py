@@ -4,8 +4,9 @@
 unchanged, so the stamp rides in the one free-text field it has: the first
 dimension's label, ``tick_ns:<ROS time in ns>``. A drive that knows it (our
 ``motor_node``) drops a command that reaches it too late to be of use, the way a
-fieldbus drive's watchdog refuses a stale set-point; one that does not (the
-tutorial's) ignores the layout. A command without it is taken as it comes.
+fieldbus drive's watchdog refuses a stale set-point, and in lockstep takes it
+for the command's time; one that does not (the tutorial's) ignores the layout.
+A command without it is taken as it comes.
 """
 
 from __future__ import annotations

@@ -197,9 +197,18 @@ def test_a_law_that_pushes_the_arm_away_is_stopped_before_it_leaves_its_band():
     unchecked = simulate(params, duration_s=6.0)
     assert unchecked.law_fault is None and unchecked.true_position.max() > 2.0  # swung far out of ±1 rad
     result = simulate(stack(law, fail_after_s=3.0), duration_s=6.0)
-    assert "let the arm leave its reference" in result.law_fault and "law_error_max_rad 0.5" in result.law_fault
+    assert "let the arm run away from its reference" in result.law_fault and "law_error_max_rad 0.5" in result.law_fault
     assert np.all(np.abs(result.true_position) <= 1.1)
     assert np.all(result.command[-50:] == 0.0) and np.ptp(result.true_position[-50:]) < 1e-3
+
+
+def test_a_reference_that_jumps_is_no_runaway():
+    # A square wave's 1 rad jumps leave the arm far from the reference, at rest: the law brings it back.
+    params = stack(EXAMPLE)
+    params["trajectory_planner"].update({"mode": "square", "amplitude": [0.5]})
+    result = simulate(params, duration_s=4.0)
+    assert result.law_fault is None
+    assert np.max(np.abs(result.reference - result.true_position[:, 0])) > 0.9  # the jumps were there
 
 
 def test_the_laws_budget_and_error_limit_change_while_it_runs():

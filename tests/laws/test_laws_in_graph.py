@@ -62,7 +62,7 @@ def test_the_example_law_tracks_the_sine_through_the_graph(tmp_path, ros_domain)
         # Its feedback turned at the sine's peak: 60 ms later the arm is 0.09 rad out and 4 rad/s away,
         # which the default law_error_max_rad (0.5 rad with the stop's way counted) takes for a fault;
         # the stop turns it 0.13 rad past the band (without the check: to 3.3 rad, and the run ended 0).
-        ("PushesAwayAfter", "let the arm leave its reference", 0.2),
+        ("PushesAwayAfter", "let the arm run away from its reference", 0.2),
     ],
 )
 def test_a_failing_law_is_stopped_braked_named_in_one_line_and_still_scored(

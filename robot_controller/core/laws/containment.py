@@ -2,9 +2,11 @@
 first thing it gets wrong becomes a :class:`LawFault` instead of a torque.
 
 A law faults when it raises, returns anything but one finite number per
-joint, or takes longer than its budget on OVERRUN_TICKS ticks running
+joint, takes longer than its budget on OVERRUN_TICKS ticks running
 (measured on ``clock``, a function giving seconds of wall time; without one,
-time is not checked, as in the deterministic in-process loop). One long call
+time is not checked, as in the deterministic in-process loop), or lets the arm
+run away from the reference (``error_max_rad``: finite torques in time that
+swing the arm, an unstable law). One long call
 alone is not a fault: on a busy machine the process can lose the CPU for
 several milliseconds in the middle of a call that itself takes microseconds,
 while a law that is really too slow (or blocks) is slow on every tick.
@@ -25,6 +27,11 @@ from robot_controller.core.laws.interface import Reference, State
 
 # Consecutive updates over the budget that make a fault.
 OVERRUN_TICKS = 3
+
+
+# rad/s: slower than this the arm is not running away, whatever its distance (a law holding the arm
+# off a reference that jumped sees its estimate's velocity wander by less).
+RUNAWAY_MIN_SPEED_RAD_S = 0.1
 
 
 @dataclass(frozen=True)
@@ -52,6 +59,7 @@ class ContainedLaw:
         clock: Callable[[], float] | None = None,
         error_max_rad: float = 0.0,
         stop_deceleration_rad_s2: float = 20.0,
+        joint_names: tuple[str, ...] = (),
     ) -> None:
         self.law = law
         self.name = name
@@ -59,6 +67,7 @@ class ContainedLaw:
         self.budget_s = budget_s
         self.error_max_rad = error_max_rad  #: how far the arm may be from the reference (0: no check)
         self.stop_deceleration_rad_s2 = stop_deceleration_rad_s2  #: the controlled stop's, for the way still to go
+        self.joint_names = joint_names  #: for the fault's line (none: numbered)
         self.clock = clock
         self.fault: LawFault | None = None
         self.overruns_s: list[float] = []  #: the durations of the updates over budget in a row, s
@@ -80,10 +89,6 @@ class ContainedLaw:
         """The law's torque per joint (float64, finite), or the fault it made."""
         if self.fault is not None:
             return self.fault
-        if self.error_max_rad > 0 and state is not None and reference is not None:
-            fault = self._check_error(time_s, state, reference)
-            if fault is not None:
-                return fault
         returned = self._call(time_s, "update", lambda: self.law.update(time_s, state, reference))
         if isinstance(returned, LawFault):
             return returned
@@ -101,22 +106,33 @@ class ContainedLaw:
             return self._faulted(time_s, f"returned a non-finite torque {torque.tolist()}")
         return torque
 
-    def _check_error(self, time_s: float, state: State, reference: Reference) -> LawFault | None:
+    def check_runaway(
+        self, time_s: float, state: State, reference: Reference, net_torque: np.ndarray
+    ) -> LawFault | None:
         """Finite torques in time can still swing the arm (a law whose feedback pushes away): a fault
-        once the arm is further from the reference than ``error_max_rad``, counting the way it would
-        still go, moving away, before a stop at ``stop_deceleration_rad_s2`` could turn it."""
+        once the arm moves away from the reference, further from it than ``error_max_rad`` counting
+        the way it would still go before a stop at ``stop_deceleration_rad_s2`` turned it, while the
+        law's ``net_torque`` (its command less what holds the arm against gravity, N·m) pushes it on.
+        A law braking an overshoot, or holding the arm off a reference that jumped (a raw step, a
+        square wave) while it brings it back, is doing its work."""
+        if self.error_max_rad <= 0 or self.fault is not None:
+            return self.fault
         error = np.asarray(state.position, dtype=float) - np.asarray(reference.position, dtype=float)
         error_rate = np.asarray(state.velocity, dtype=float) - np.asarray(reference.velocity, dtype=float)
-        away = np.where(error * error_rate > 0, np.abs(error_rate), 0.0)
-        projected = np.abs(error) + away**2 / (2 * self.stop_deceleration_rad_s2)
+        if not (np.all(np.isfinite(error)) and np.all(np.isfinite(error_rate)) and np.all(np.isfinite(net_torque))):
+            return None  # not the law's doing: the readings and the reference have guards of their own
+        running = (error * error_rate > 0) & (np.abs(error_rate) > RUNAWAY_MIN_SPEED_RAD_S) & (net_torque * error > 0)
+        projected = np.where(running, np.abs(error) + error_rate**2 / (2 * self.stop_deceleration_rad_s2), 0.0)
         joint = int(np.argmax(projected))
         if projected[joint] <= self.error_max_rad:
             return None
+        name = self.joint_names[joint] if joint < len(self.joint_names) else f"joint {joint + 1}"
         return self._faulted(
             time_s,
-            f"let the arm leave its reference: {error[joint]:+.3f} rad on joint {joint + 1} of {self.joint_count}, "
-            f"{away[joint]:.2f} rad/s away (law_error_max_rad {self.error_max_rad:g}, the stop's "
-            f"{self.stop_deceleration_rad_s2:g} rad/s² counted)",
+            f"let the arm run away from its reference on {name}: {error[joint]:+.3f} rad off and "
+            f"{abs(error_rate[joint]):.2f} rad/s away, pushed on ({net_torque[joint]:+.2f} N·m beyond gravity), "
+            f"{projected[joint]:.3f} rad with a stop at {self.stop_deceleration_rad_s2:g} rad/s² "
+            f"(law_error_max_rad {self.error_max_rad:g})",
         )
 
     def terms(self) -> Mapping[str, np.ndarray]:

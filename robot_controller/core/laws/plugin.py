@@ -34,8 +34,11 @@ def arm_for(dynamics, joint_count: int, torque_limit: np.ndarray) -> Arm:
 
 
 class PluginLaw:
-    def __init__(self, contained: ContainedLaw, config: ControllerConfig, law_class: type, joint_count: int) -> None:
+    def __init__(
+        self, contained: ContainedLaw, config: ControllerConfig, law_class: type, joint_count: int, arm: Arm
+    ) -> None:
         self.contained = contained
+        self.arm = arm  #: the arm the law was given: its gravity, for the runaway check
         self.config = config
         self.law_class = law_class
         self.joint_count = joint_count
@@ -66,8 +69,9 @@ class PluginLaw:
             clock,
             config.law_error_max_rad,
             config.stop_deceleration,
+            tuple(getattr(dynamics, "joint_names", ()) or ()),
         )
-        return cls(contained, config, law_class, joint_count)
+        return cls(contained, config, law_class, joint_count, arm)
 
     @property
     def fault(self) -> LawFault | None:
@@ -123,6 +127,9 @@ class PluginLaw:
             step = slew * dt_s
             command = clip(command, self._previous_command - step, self._previous_command + step)
         self._previous_command = command
+        runaway = self.contained.check_runaway(now_s, state, reference, command - self.arm.gravity(position))
+        if runaway is not None:
+            return runaway
         reported = self._terms()
         terms = PidTerms(
             command,

@@ -86,7 +86,7 @@ class SimulatorLockstep:
 
     def publish_tick(self) -> None:
         """The true state first: the tick's longest path starts there (sensor → controller →
-        motor → here); of the /clock readers (controller, planner, motor, recorder) none is on it."""
+        motor → here); of the /clock readers (controller, planner, recorder) none is on it."""
         stamp_ns = self.steps_done * self.physics_dt_ns
         self.waiting_for_effort = True
         self.ticks_published += 1

@@ -23,8 +23,8 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
         str,
         "lqr",
         "under a law of your own: the built-in law (with the gains here) that brings the arm to rest if it "
-        "raises, returns a non-finite torque or the wrong shape, overruns law_budget_s or lets the arm leave its "
-        "reference by more than law_error_max_rad",
+        "raises, returns a non-finite torque or the wrong shape, overruns law_budget_s or lets the arm run away "
+        "from its reference (law_error_max_rad)",
         choices=("pid", "lqr"),
     ),
     ParamSpec(
@@ -40,9 +40,10 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
         "law_error_max_rad",
         float,
         0.5,
-        "under a law of your own: how far the arm (the state estimate) may be from the reference on any joint, "
-        "rad; further is a fault (controlled stop): an unstable law swings the arm while it returns finite "
-        "torques in time; 0: no check",
+        "under a law of your own: how far the arm may run away from the reference on any joint (moving away, "
+        "pushed on by the law's torque beyond gravity; the way a stop at stop_deceleration would still go "
+        "counted), rad; further is a fault (controlled stop): an unstable law swings the arm while it returns "
+        "finite torques in time; 0: no check",
         minimum=0.0,
     ),
     ParamSpec(
