@@ -47,14 +47,15 @@ def identify_payload(
         "fitted": "payload",
         "payload_found": fit.found,
         "payload_mass_kg": mass,
-        "payload_x_m": x,
-        "payload_y_m": y,
-        "payload_z_m": z,
+        # With no payload found its centre means nothing: null.
+        "payload_x_m": x if fit.found else None,
+        "payload_y_m": y if fit.found else None,
+        "payload_z_m": z if fit.found else None,
         **{
             f"payload_{name}_stderr": float(err)
             for name, err in zip(("mass_kg", "x_m", "y_m", "z_m"), fit.stderr, strict=True)
         },
-        "payload_unidentifiable": list(fit.unidentifiable),
+        "payload_unidentifiable": list(fit.unidentifiable) if fit.found else [],
         "residual_rms_nm": fit.residual_rms_nm,
         "residual_rms_urdf_alone_nm": fit.residual_rms_without_nm,
         "samples": fit.samples,
@@ -85,7 +86,9 @@ def identify_payload(
                 "|---|---|---|",
                 *(
                     f"| {name} | {value:.4g} | {err:.2g} |"
-                    if np.isfinite(err)
+                    if np.isfinite(err) and (fit.found or name.startswith("mass"))
+                    else f"| {name} | — (no payload) | — |"
+                    if not fit.found
                     else f"| {name} | {value:.4g} (not identifiable: no joint's torque depends on it) | — |"
                     for name, value, err in zip(
                         ("mass [kg]", "x [m]", "y [m]", "z [m]"), fit.payload.as_values(), fit.stderr, strict=True
@@ -96,8 +99,8 @@ def identify_payload(
                     []
                     if fit.found
                     else [
-                        "No payload found: the mass is not above three standard errors. The overlay sets "
-                        "`model_payload` to no load ([0, 0, 0, 0]).",
+                        "No payload found: the mass is not above three standard errors, or under 10 g. The "
+                        "overlay sets `model_payload` to no load ([0, 0, 0, 0]).",
                         "",
                     ]
                 ),
