@@ -3,7 +3,7 @@ oldest command it applies."""
 
 from __future__ import annotations
 
-from robot_controller.parameters.schema.shared import URDF, torque_max_spec
+from robot_controller.parameters.schema.shared import URDF, lockstep_spec, torque_max_spec
 from robot_controller.parameters.spec import ParamSpec
 
 MOTOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
@@ -28,11 +28,5 @@ MOTOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
         minimum=0.0,
         exclusive_minimum=True,
     ),
-    ParamSpec(
-        "lockstep",
-        bool,
-        False,
-        "sim-time lockstep: each command's time is the tick it is stamped with (no timeout, no age check)",
-        read_only=True,
-    ),
+    lockstep_spec("sim-time lockstep: each command's time is the tick it is stamped with (no timeout, no age check)"),
 )

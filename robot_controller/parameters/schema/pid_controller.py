@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from robot_controller.core.feedforward import FeedforwardMode
 from robot_controller.core.pid import AntiWindup, DerivativeSource
-from robot_controller.parameters.schema.shared import URDF, arm_model_specs, enum_values, torque_max_spec
+from robot_controller.parameters.schema.shared import URDF, arm_model_specs, enum_values, lockstep_spec, torque_max_spec
 from robot_controller.parameters.spec import ParamSpec
 
 PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
@@ -276,11 +276,5 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
         minimum=0.0,
         exclusive_minimum=True,
     ),
-    ParamSpec(
-        "lockstep",
-        bool,
-        False,
-        "compute on each measurement once the due reference is in (sim-time lockstep), not on a timer",
-        read_only=True,
-    ),
+    lockstep_spec("compute on each measurement once the due reference is in (sim-time lockstep), not on a timer"),
 )

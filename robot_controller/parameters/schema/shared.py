@@ -72,6 +72,11 @@ def arm_model_specs(lead: str = "arm model: ") -> tuple[ParamSpec, ...]:
     )
 
 
+def lockstep_spec(description: str) -> ParamSpec:
+    """The read-only switch to sim-time lockstep (``run --sim-time`` sets it); ``description``: what it changes."""
+    return ParamSpec("lockstep", bool, False, description, read_only=True)
+
+
 def torque_max_spec(description: str) -> ParamSpec:
     """A node's torque limit per joint; empty (the default): each joint's URDF effort limit."""
     return ParamSpec(

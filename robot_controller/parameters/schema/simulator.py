@@ -3,7 +3,7 @@ the scheduled disturbance."""
 
 from __future__ import annotations
 
-from robot_controller.parameters.schema.shared import URDF
+from robot_controller.parameters.schema.shared import URDF, lockstep_spec
 from robot_controller.parameters.spec import ParamSpec
 
 SIMULATOR_PARAMS: tuple[ParamSpec, ...] = (
@@ -40,13 +40,7 @@ SIMULATOR_PARAMS: tuple[ParamSpec, ...] = (
         True,
         "keep the arm still (brakes on) until the first effort arrives, so start-up order does not matter",
     ),
-    ParamSpec(
-        "lockstep",
-        bool,
-        False,
-        "sim-time lockstep: publish /clock and advance one control period per effort",
-        read_only=True,
-    ),
+    lockstep_spec("sim-time lockstep: publish /clock and advance one control period per effort"),
     ParamSpec(
         "control_rate_hz",
         float,

@@ -4,7 +4,7 @@ against the arm model."""
 from __future__ import annotations
 
 from robot_controller.core.trajectory import MODES
-from robot_controller.parameters.schema.shared import URDF, arm_model_specs, torque_max_spec
+from robot_controller.parameters.schema.shared import URDF, arm_model_specs, lockstep_spec, torque_max_spec
 from robot_controller.parameters.spec import ParamSpec
 
 TRAJECTORY_PLANNER_PARAMS: tuple[ParamSpec, ...] = (
@@ -34,7 +34,7 @@ TRAJECTORY_PLANNER_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("end_frequency_hz", float, 2.0, "end frequency of the chirp, Hz", minimum=0.0),
     ParamSpec("sweep_time_s", float, 10.0, "duration of one chirp sweep, s", minimum=0.0, exclusive_minimum=True),
     ParamSpec("publish_rate_hz", float, 100.0, "rate of /trajectory, Hz", minimum=1.0, maximum=1000.0),
-    ParamSpec("lockstep", bool, False, "sample on /clock ticks (sim-time lockstep) instead of a timer", read_only=True),
+    lockstep_spec("sample on /clock ticks (sim-time lockstep) instead of a timer"),
     URDF,
     # The arm model the trajectory is checked against: the controller's (`run` passes pid_controller's
     # model_* values on to these when they are empty; set, they must equal the controller's).
