@@ -85,11 +85,7 @@ def identify_payload(
                 "| parameter | identified | ± standard error |",
                 "|---|---|---|",
                 *(
-                    f"| {name} | {value:.4g} | {err:.2g} |"
-                    if np.isfinite(err) and (fit.found or name.startswith("mass"))
-                    else f"| {name} | — (no payload) | — |"
-                    if not fit.found
-                    else f"| {name} | {value:.4g} (not identifiable: no joint's torque depends on it) | — |"
+                    _row(name, value, err, shown=fit.found or name.startswith("mass"))
                     for name, value, err in zip(
                         ("mass [kg]", "x [m]", "y [m]", "z [m]"), fit.payload.as_values(), fit.stderr, strict=True
                     )
@@ -130,3 +126,12 @@ def identify_payload(
         )
     progress(f"identify: wrote {out / 'identified.yaml'}, identification.json, identification.md")
     return results
+
+
+def _row(name: str, value: float, stderr: float, *, shown: bool) -> str:
+    """One parameter's row of the report; ``shown`` False: no payload was found, so it has no value."""
+    if not shown:
+        return f"| {name} | — (no payload) | — |"
+    if not np.isfinite(stderr):
+        return f"| {name} | {value:.4g} (not identifiable: no joint's torque depends on it) | — |"
+    return f"| {name} | {value:.4g} | {stderr:.2g} |"
