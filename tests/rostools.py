@@ -165,3 +165,14 @@ def child_pid(launcher: subprocess.Popen, module: str) -> int:
         for pid in subprocess.run(["pgrep", "-P", str(launcher.pid)], capture_output=True, text=True).stdout.split()
         if f"nodes.{module}".encode() in Path(f"/proc/{pid}/cmdline").read_bytes()
     )
+
+
+# Lines of the metrics table rich draws at the end of a run.
+_TABLE_EDGES = ("│", "┃", "┏", "┡", "└", "┌", "├", "╞", "━", "─")
+
+
+def run_said(output: str, limit: int = 6000) -> str:
+    """What a run's processes said (the metrics table left out), for an assertion's message:
+    a node's traceback or hang report comes before the table and would be cut off."""
+    lines = [line for line in output.splitlines() if not line.lstrip().startswith(_TABLE_EDGES)]
+    return "\n".join(lines)[-limit:]

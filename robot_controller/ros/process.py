@@ -50,6 +50,9 @@ def request_exit(code: int) -> None:
 # Cleanup that takes longer than this is stuck (rclpy's destroy_node can wait
 # forever on a handle after an external shutdown): exit anyway.
 CLEANUP_TIMEOUT_S = 3.0
+# A process whose teardown hung after its work was done ends by this signal (the
+# launcher warns, and does not fail the run).
+TEARDOWN_HUNG_SIGNAL = signal.SIGALRM
 
 
 def exit_after_cleanup_timeout(code_ref: list[int]) -> threading.Timer:
@@ -57,11 +60,22 @@ def exit_after_cleanup_timeout(code_ref: list[int]) -> threading.Timer:
     timer = threading.Timer(CLEANUP_TIMEOUT_S, lambda: os._exit(code_ref[0]))
     timer.daemon = True
     timer.start()
-    # The timer needs the GIL; a call stuck in C that holds it (seen once in a
-    # DDS teardown) would stop it. faulthandler's watchdog is a C thread: it
-    # prints where every thread is stuck, then exits (code 1).
+    # The timer needs the GIL; a call stuck in C that holds it (seen in a DDS
+    # teardown) would stop it. faulthandler's watchdog is a C thread: it
+    # prints where every thread is stuck, then exits (code 1): the node's
+    # last words (gates, acknowledgements, counts) never came.
     faulthandler.dump_traceback_later(CLEANUP_TIMEOUT_S + 1.0, exit=True)
     return timer
+
+
+def work_done_teardown_left() -> None:
+    """The node's last words are out: a hang from here on (the DDS teardown, holding the
+    GIL) is no error of the node's. Print where it is stuck, then end by
+    ``TEARDOWN_HUNG_SIGNAL``: the kernel delivers it whoever holds the GIL."""
+    faulthandler.cancel_dump_traceback_later()
+    faulthandler.dump_traceback_later(CLEANUP_TIMEOUT_S + 1.0, exit=False)
+    signal.signal(TEARDOWN_HUNG_SIGNAL, signal.SIG_DFL)
+    signal.setitimer(signal.ITIMER_REAL, CLEANUP_TIMEOUT_S + 1.5)
 
 
 def shutting_down(within_s: float = 0.5) -> bool:
@@ -153,9 +167,11 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
             if isinstance(node, StackNode):
                 node.wait_until_acknowledged()
                 node.write_publish_counts()  # final: nothing publishes now
+        work_done_teardown_left()
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
         guard.cancel()
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
         faulthandler.cancel_dump_traceback_later()
     return code[0]

@@ -16,6 +16,7 @@ from robot_controller import cli
 from robot_controller import parameters as cfg
 from robot_controller.experiments import compare, inprocess, laws
 from robot_controller.experiments.autotune import law as law_tune
+from tests.rostools import run_said
 
 ROOT = Path(__file__).resolve().parents[2]
 PD = str(ROOT / "examples" / "own_controller.py") + ":PDWithGravity"
@@ -134,7 +135,7 @@ def test_step_runs_a_plugin_law_on_the_real_graph(tmp_path, ros_domain):
         text=True,
         timeout=180,
     )
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
     figures = json.loads((out / "metrics.json").read_text())
     assert figures["law_fault_ticks"] == 0
     assert figures["peak_torque_nm"] <= 10.0

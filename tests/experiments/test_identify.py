@@ -15,6 +15,7 @@ from robot_controller.core.plant import ArmDynamics
 from robot_controller.experiments import inprocess
 from robot_controller.parameters import consistency
 from robot_controller.parameters.builders import MODEL_KEYS, arm_model
+from tests.rostools import run_said
 
 pytestmark = pytest.mark.ros
 
@@ -35,7 +36,7 @@ def test_identify_recovers_the_heavy_arm_through_the_graph(tmp_path, ros_domain)
         f"duration_s={DURATION_S}, seed=1)"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=180)
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
 
     # The overlay holds the controller's model values and nothing else.
     overlay = out / "identified.yaml"

@@ -6,6 +6,8 @@ import sys
 
 import pytest
 
+from tests.rostools import run_said
+
 pytestmark = pytest.mark.ros
 
 
@@ -17,7 +19,7 @@ def test_step_response_meets_the_targets(tmp_path, ros_domain):
         text=True,
         timeout=180,
     )
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
     figures = json.loads((out / "metrics.json").read_text())
     assert figures["overshoot_pct"] <= 2.0
     assert figures["settling_time_s"] <= 0.25
@@ -35,7 +37,7 @@ def test_compare_lists_every_controller(tmp_path, ros_domain):
         text=True,
         timeout=400,
     )
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
     table = (out / "compare.md").read_text()
     for name in ("tutorial", "pid", "pid_ff", "pid_ff_kf", "lqr"):
         assert f"| **{name}**" in table, name

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from robot_controller.scoring.bag_reader import read_recording
+from tests.rostools import run_said
 
 pytestmark = pytest.mark.ros
 
@@ -44,7 +45,7 @@ def test_the_example_law_tracks_the_sine_through_the_graph(tmp_path, ros_domain)
     proc, out, metrics = lockstep_run(
         tmp_path, "examples/own_controller.py:PDWithGravity", "law.natural_frequency_hz: 8.0", duration="4"
     )
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
     assert metrics["tracking_rms_rad"] <= 0.020, metrics
     assert metrics["law_fault_ticks"] == 0 and metrics["law_stopped_ticks"] == 0
     # The nodes were given the law's file by its absolute path (a child may run elsewhere).

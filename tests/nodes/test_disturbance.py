@@ -14,7 +14,7 @@ from std_msgs.msg import Float64MultiArray
 
 from robot_controller.scoring import report
 from tests import rostools
-from tests.rostools import RosProbe, wait_for
+from tests.rostools import RosProbe, run_said, wait_for
 
 pytestmark = pytest.mark.ros
 
@@ -62,7 +62,7 @@ def test_a_push_is_applied_recorded_and_rejected(tmp_path, ros_domain):
             run.kill()
     assert sent.returncode == 0, sent.stderr
     assert "sent 3 N·m on joint1 for 0.3 s on /sim/disturbance" in sent.stdout
-    assert run.returncode == 0, output[-3000:]
+    assert run.returncode == 0, run_said(output)
     assert "/sim/disturbance dropped: expected 2 values" in output  # the first bad one (then rate-limited)
     assert output.count("disturbance started") == 1
     assert "disturbance started: joint1 3 N·m for 0.3 s" in output

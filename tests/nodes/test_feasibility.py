@@ -14,6 +14,7 @@ import pytest
 from robot_controller.core.trajectory import Chirp
 from robot_controller.parameters.builders import arm_model
 from robot_controller.scoring import report
+from tests.rostools import run_said
 
 pytestmark = pytest.mark.ros
 
@@ -57,7 +58,7 @@ def cli_run(tmp_path, policy, name):
 
 def test_an_infeasible_chirp_is_slowed_to_fit_and_tracked(tmp_path, ros_domain):
     scaled = cli_run(tmp_path, "scale", "scaled")
-    assert scaled.returncode == 0, scaled.stdout[-3000:] + scaled.stderr[-2000:]
+    assert scaled.returncode == 0, run_said(scaled.stdout) + scaled.stderr[-2000:]
     warnings = [line for line in scaled.stdout.splitlines() if line.startswith("[trajectory_planner] [WARN]")]
     assert len(warnings) == 1, scaled.stdout[-3000:]
     assert (
@@ -75,7 +76,7 @@ def test_an_infeasible_chirp_is_slowed_to_fit_and_tracked(tmp_path, ros_domain):
 
     # The same chirp run as it is: saturated for long stretches, far off the reference.
     unscaled = cli_run(tmp_path, "ignore", "unscaled")
-    assert unscaled.returncode == 0, unscaled.stdout[-3000:] + unscaled.stderr[-2000:]
+    assert unscaled.returncode == 0, run_said(unscaled.stdout) + unscaled.stderr[-2000:]
     assert "running it as it is (feasibility: ignore)" in unscaled.stdout
     unscaled_metrics = json.loads((tmp_path / "unscaled" / "metrics.json").read_text())
     assert unscaled_metrics["saturated_ticks"] > 50

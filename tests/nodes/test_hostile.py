@@ -19,7 +19,7 @@ from robot_controller import parameters as cfg
 from robot_controller.ros.command_stamp import stamp_command
 from robot_controller.scoring import report
 from tests import rostools
-from tests.rostools import RosProbe, get_parameter, set_parameter, wait_for
+from tests.rostools import RosProbe, get_parameter, run_said, set_parameter, wait_for
 
 pytestmark = pytest.mark.ros
 
@@ -122,7 +122,7 @@ def test_a_foreign_publisher_flooding_wrong_readings_is_named_and_never_heard(tm
     finally:
         if run.poll() is None:
             run.kill()
-    assert run.returncode == 0, output[-3000:]
+    assert run.returncode == 0, run_said(output)
     assert flood["sent"] > 1000
     assert "/joint_states has publishers other than sensor_node: ['flooder']" in output
     assert "not heard" in output

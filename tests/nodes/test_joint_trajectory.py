@@ -13,6 +13,7 @@ import pytest
 
 from robot_controller.scoring import report
 from tests import rostools
+from tests.rostools import run_said
 
 pytestmark = pytest.mark.ros
 
@@ -46,7 +47,7 @@ def test_goto_is_blended_tracked_and_held_and_a_bad_trajectory_is_refused(tmp_pa
     assert sent.returncode == 0, sent.stdout + sent.stderr
     assert f"sent joint1 {TARGET_RAD:g} rad in {MOVE_S:g} s on {TOPIC}" in sent.stdout
     assert "the planner took it: 1 point(s), reaching [0.5] rad 1.5 s from now" in sent.stdout
-    assert run.returncode == 0, output[-3000:]
+    assert run.returncode == 0, run_said(output)
     assert "[trajectory_planner] [WARN]" in output and "joint trajectory refused: unknown joint(s)" in output
     assert output.count("joint trajectory taken") == 1
 

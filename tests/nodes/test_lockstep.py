@@ -14,7 +14,7 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
 from robot_controller.core import state_layout
-from tests.rostools import child_pid, run_while
+from tests.rostools import child_pid, run_said, run_while
 
 pytestmark = pytest.mark.ros
 
@@ -41,8 +41,7 @@ def lockstep_run(out, *extra):
         text=True,
         timeout=180,
     )
-    said = [line for line in proc.stdout.splitlines() if "FAILED" in line or "WARN" in line]
-    assert proc.returncode == 0, "\n".join(said[-20:]) + proc.stdout[-2000:] + proc.stderr[-2000:]
+    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
     return json.loads((out / "metrics.json").read_text())
 
 

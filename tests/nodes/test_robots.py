@@ -7,6 +7,8 @@ import sys
 
 import pytest
 
+from tests.rostools import run_said
+
 pytestmark = pytest.mark.ros
 
 
@@ -30,7 +32,7 @@ def lockstep_run(out, robot: str, duration: str, *extra: str) -> dict:
         text=True,
         timeout=240,
     )
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
     return json.loads((out / "metrics.json").read_text())
 
 

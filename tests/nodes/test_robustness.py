@@ -19,7 +19,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from robot_controller import parameters as cfg
-from tests.rostools import RosProbe, set_parameter, wait_for
+from tests.rostools import RosProbe, run_said, set_parameter, wait_for
 
 pytestmark = pytest.mark.ros
 
@@ -118,7 +118,7 @@ def test_malformed_messages_are_dropped_and_the_watchdog_zeroes_torque(tmp_path,
     finally:
         probe.close()
         output = stop_node(controller)
-    assert controller.returncode == 0, output[-2000:]
+    assert controller.returncode == 0, run_said(output)
     assert "/joint_states dropped: " in output and "/trajectory dropped: " in output
     assert "controlled stop" in output and "no more commands" in output
 
@@ -224,6 +224,6 @@ def test_ctrl_c_stops_everything_cleanly_and_still_scores(tmp_path, ros_domain):
     time.sleep(3.0)
     launcher.send_signal(signal.SIGINT)
     output = _finish(launcher)
-    assert launcher.returncode == 0, output[-2000:]
+    assert launcher.returncode == 0, run_said(output)
     assert not any(_alive(p) for p in children)
     assert json.loads((tmp_path / "run" / "metrics.json").read_text())["control_ticks"] > 100

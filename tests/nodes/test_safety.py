@@ -13,7 +13,7 @@ import pytest
 from robot_controller import resources
 from robot_controller.core import state_layout
 from robot_controller.scoring import report
-from tests.rostools import run_while
+from tests.rostools import run_said, run_while
 
 pytestmark = pytest.mark.ros
 
@@ -26,7 +26,7 @@ def cli(*args, timeout=240, **kwargs):
 
 def test_frozen_sensor_and_frozen_controller_leave_the_arm_held(tmp_path, ros_domain):
     proc = cli("faults", "--quick", "--out", str(tmp_path / "faults"))
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
     cases = {c["node"]: c for c in json.loads((tmp_path / "faults" / "faults.json").read_text())["cases"]}
     assert set(cases) == {"sensor_node", "pid_controller"}
     for case in cases.values():

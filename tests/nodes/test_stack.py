@@ -13,6 +13,8 @@ import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
+from tests.rostools import run_said
+
 pytestmark = pytest.mark.ros
 
 EXPECTED_TOPICS = {
@@ -43,7 +45,7 @@ def run_cli(out, *extra, duration=6.0):
 def test_stack_runs_records_and_tracks(tmp_path, ros_domain, mode):
     out = tmp_path / "run"
     proc = run_cli(out, *(["--single-process"] if mode == "single_process" else []))
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["mode"] == mode
     assert 90 < metrics["control_rate_hz"] < 110
@@ -91,7 +93,7 @@ def test_stack_runs_records_and_tracks(tmp_path, ros_domain, mode):
 def test_tutorial_preset_runs_and_lags(tmp_path, ros_domain):
     out = tmp_path / "tutorial"
     proc = run_cli(out, "--preset", "tutorial", duration=5.0)
-    assert proc.returncode == 0, proc.stdout[-3000:]
+    assert proc.returncode == 0, run_said(proc.stdout)
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["preset"] == "tutorial"
     assert 0.1 < metrics["tracking_rms_rad"] < 0.4
@@ -116,7 +118,7 @@ def test_rescoring_a_saved_run_gives_the_same_figures(tmp_path, ros_domain):
 def test_the_bag_holds_every_message_the_nodes_published(tmp_path, ros_domain):
     out = tmp_path / "run"
     proc = run_cli(out, duration=5.0)
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
     published = json.loads((out / "published.json").read_text())
     with Reader(out / "bag") as reader:
         recorded = {c.topic: c.msgcount for c in reader.connections}
@@ -193,7 +195,7 @@ def test_bench_quick_writes_every_key(tmp_path, ros_domain):
         text=True,
         timeout=400,
     )
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
     figures = json.loads((out / "bench.json").read_text(), parse_constant=lambda c: pytest.fail(f"{c} in JSON"))
     for key in (
         "wall100_jitter_p99_ms",

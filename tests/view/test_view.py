@@ -27,6 +27,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.view import arm as arm_view
 from robot_controller.view import cdr, feed, layout
 from robot_controller.view import serve as serving
+from tests.rostools import run_said
 
 REPO = Path(__file__).resolve().parents[2]
 # Where the screenshot of the live run is also copied, if set (how docs/view.png was made).
@@ -304,7 +305,7 @@ def test_live_view_of_a_real_run_in_headless_chromium(tmp_path, ros_domain):
             run.wait(timeout=30)
         reader.join(timeout=10)
     output = "".join(lines)
-    assert run.returncode == 0, output[-3000:]
+    assert run.returncode == 0, run_said(output)
     assert f"[launcher] live view: {url}" in output
     usage = json.loads(output.split("@usage ", 1)[1].splitlines()[0])
     assert "cpu_pct_viewer" in usage and usage["cpu_pct_viewer"] < 50
