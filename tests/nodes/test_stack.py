@@ -159,7 +159,7 @@ def _realtime_threads(tmp_path, *extra) -> dict[int, list[int]]:
                         pass
             break
     output = proc.stdout.read()
-    assert proc.wait(timeout=120) == 0, output[-3000:]
+    assert proc.wait(timeout=120) == 0, run_said(output)
     return found
 
 
