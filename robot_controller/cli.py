@@ -37,7 +37,11 @@ def build_parser() -> Parser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # said by the verb, as its other mistakes are
+        print(f"robot-controller {args.verb}: unrecognized arguments: {' '.join(unknown)}", file=sys.stderr)
+        return 2
     try:
         return args.handler(args)
     except (UsageError, ConfigError) as exc:

@@ -13,6 +13,7 @@ from robot_controller.cli_options import (
     positive_seconds,
     robot_option,
     stack_options,
+    step_size_rad,
     verb,
 )
 from robot_controller.verbs import output_dir
@@ -35,7 +36,7 @@ def experiment_verbs(sub) -> None:
             controller=a.controller,
         ),
     )
-    p.add_argument("--amplitude", type=float, default=0.5, help="step size, rad (default 0.5)")
+    p.add_argument("--amplitude", type=step_size_rad, default=0.5, help="step size, rad (default 0.5)")
     p.add_argument(
         "--shaping",
         default="min_time",
@@ -72,7 +73,7 @@ def experiment_verbs(sub) -> None:
     p.add_argument("--out", type=Path, help="output directory (default runs/compare)")
     p.add_argument("--seeds", type=positive_int, default=5)
     p.add_argument("--duration", type=positive_seconds, default=10.0, help="sine duration, sim s (default 10)")
-    p.add_argument("--amplitude", type=float, default=0.5, help="step size, rad")
+    p.add_argument("--amplitude", type=step_size_rad, default=0.5, help="step size, rad")
     p = verb(
         sub,
         "exercise",

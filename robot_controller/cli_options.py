@@ -16,6 +16,11 @@ from robot_controller.core.errors import ConfigError
 
 
 class Parser(argparse.ArgumentParser):
+    def __init__(self, *args, **kwargs) -> None:
+        # No abbreviations: `--sim` must not quietly mean `--sim-time` (nor a later option's prefix).
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
+
     def error(self, message: str) -> None:  # argparse's own: usage, then the error; here one line
         print(f"{self.prog}: {message}", file=sys.stderr)
         raise SystemExit(2)
@@ -28,6 +33,17 @@ def positive_seconds(text: str) -> float:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
     if not (value > 0 and value < float("inf")):
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+def step_size_rad(text: str) -> float:
+    """A step's size: finite and not zero (a step of nothing has no response to measure)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (abs(value) > 0 and abs(value) < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number other than 0, got {text}")
     return value
 
 

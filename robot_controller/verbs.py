@@ -168,7 +168,7 @@ def score(run_dir: Path, *, as_json: bool = False) -> int:
 
     try:
         recording = report.read_recording(run_dir / "bag")
-        values = report.score(recording)
+        values = report.score(recording, window_s=_scored_window_s(run_dir))
     except (FileNotFoundError, ValueError) as exc:
         print(f"robot-controller: cannot score {run_dir}: {exc}", file=sys.stderr)
         return 2
@@ -177,6 +177,18 @@ def score(run_dir: Path, *, as_json: bool = False) -> int:
     else:
         print_table(values, title=f"re-scored {run_dir / 'bag'}")
     return 0
+
+
+def _scored_window_s(run_dir: Path) -> float | None:
+    """A lockstep run was scored over its ``--duration`` from its first tick (the simulator
+    runs on a little past it): the same window, from the run's ``metrics.json``, if there is one."""
+    try:
+        saved = json.loads((run_dir / "metrics.json").read_text())
+    except (OSError, ValueError):
+        return None
+    duration_s = saved.get("duration_s") if isinstance(saved, dict) else None
+    lockstep = saved.get("clock") == "sim_lockstep" if isinstance(saved, dict) else False
+    return float(duration_s) if lockstep and isinstance(duration_s, int | float) and duration_s > 0 else None
 
 
 def list_params(*, preset: str, config: list[Path] | None, as_yaml: bool, robot: str = "one_dof") -> int:

@@ -115,13 +115,15 @@ EXERCISES_WITH_CONTROLLER = ("disturbance",)
 
 
 def exercise(name: str, out: Path, *, quick: bool, controller: str | None = None) -> int:
-    from robot_controller.experiments.exercises import EXERCISES
+    from robot_controller.experiments.exercises import EXERCISES, disturbance
 
     if controller is not None and name not in EXERCISES_WITH_CONTROLLER:
         raise UsageError(f"--controller: exercise {name} compares its own controllers; it applies to disturbance")
     chosen = EXERCISES[name]
     extra = {} if controller is None else {"controller": controller}
-    with StepProgress(f"exercise {name}", chosen.steps(quick) + len(extra)) as progress:
+    # A law of one's own is one more contender of the disturbance exercise (the only one that takes it).
+    extra_steps = disturbance.RUNS_PER_CONTENDER if controller is not None else 0
+    with StepProgress(f"exercise {name}", chosen.steps(quick) + extra_steps) as progress:
         chosen.run(out, quick=quick, progress=progress, **extra)
     print((out / "report.md").read_text())
     return 0

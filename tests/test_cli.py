@@ -45,6 +45,8 @@ def test_an_out_dir_holding_a_run_is_refused_and_left_as_it_was(tmp_path):
         (["score", "/nonexistent/run"], "cannot score"),
         (["run", "--config", "/nonexistent/params.yaml"], "/nonexistent/params.yaml"),
         (["run", "--preset", "fastest"], "invalid choice"),
+        (["run", "--sim"], "robot-controller run: unrecognized arguments: --sim"),  # no abbreviations
+        (["step", "--amplitude", "0", "--sim-time"], "must be a finite number other than 0"),
     ],
 )
 def test_user_errors_are_one_line(args, expected):

@@ -86,7 +86,10 @@ CHECKPOINT_PERIOD_S = 1.0
 # under a kilobyte, and a peer publishing million-element arrays must not fill the disk.
 MAX_MESSAGE_BYTES = 64 * 1024
 DRAIN_QUIET_S = 0.15
-DRAIN_MAX_S = 3.0
+# What the nodes sent before they stopped is in the readers' queues already; on a loaded machine
+# this process (nice +10) may need seconds to take it (a lockstep sim runs up to 3 sim s, some 2,500
+# messages, ahead of it): it keeps taking while there is any, this long at most.
+DRAIN_MAX_S = 15.0
 READY_LINE = "@ready"
 PROGRESS_PREFIX = "@progress "
 

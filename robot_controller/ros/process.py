@@ -49,7 +49,9 @@ def request_exit(code: int) -> None:
 
 # Cleanup that takes longer than this is stuck (rclpy's destroy_node can wait
 # forever on a handle after an external shutdown): exit anyway.
-CLEANUP_TIMEOUT_S = 3.0
+CLEANUP_TIMEOUT_S = 5.0
+# The DDS teardown, once the node's work is done, takes well under this.
+TEARDOWN_TIMEOUT_S = 2.0
 # A process whose teardown hung after its work was done ends by this signal (the
 # launcher warns, and does not fail the run).
 TEARDOWN_HUNG_SIGNAL = signal.SIGALRM
@@ -73,9 +75,9 @@ def work_done_teardown_left() -> None:
     GIL) is no error of the node's. Print where it is stuck, then end by
     ``TEARDOWN_HUNG_SIGNAL``: the kernel delivers it whoever holds the GIL."""
     faulthandler.cancel_dump_traceback_later()
-    faulthandler.dump_traceback_later(CLEANUP_TIMEOUT_S + 1.0, exit=False)
+    faulthandler.dump_traceback_later(TEARDOWN_TIMEOUT_S, exit=False)
     signal.signal(TEARDOWN_HUNG_SIGNAL, signal.SIG_DFL)
-    signal.setitimer(signal.ITIMER_REAL, CLEANUP_TIMEOUT_S + 1.5)
+    signal.setitimer(signal.ITIMER_REAL, TEARDOWN_TIMEOUT_S + 0.5)
 
 
 def shutting_down(within_s: float = 0.5) -> bool:

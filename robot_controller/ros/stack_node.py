@@ -23,8 +23,9 @@ from robot_controller.ros.publishing import GatedPublisher, publish_counts, writ
 
 WARN_PERIOD_S = 2.0
 # At the end, how long a node waits for its last messages to be acknowledged (within the
-# cleanup's own limit, ros.process.CLEANUP_TIMEOUT_S): a heartbeat period or two, normally.
-ACK_WAIT_S = 0.5
+# cleanup's own limit, ros.process.CLEANUP_TIMEOUT_S): a heartbeat period or two, normally; seconds
+# when the recorder (nice +10) is starved on a loaded machine (0.5 s lost the bags' last second then).
+ACK_WAIT_S = 3.0
 PUBLISHER_CHECK_PERIOD_S = 1.0
 UNKNOWN_NODE_NAME = "_NODE_NAME_UNKNOWN_"  # what rmw reports for a writer of no known node
 
@@ -161,6 +162,11 @@ class StackNode(Node):
         for gated in self._gated_publishers:
             left_s = deadline - time.monotonic()
             if left_s <= 0 or not gated.publisher.wait_for_all_acked(Duration(nanoseconds=int(left_s * 1e9))):
+                # Said, so that a bag that misses the last messages has its reason in the log.
+                self.get_logger().warning(
+                    f"{gated.publisher.topic_name}: not every reader acknowledged the last messages "
+                    f"within {timeout_s:g} s of the stop"
+                )
                 return
 
     def write_publish_counts(self) -> None:

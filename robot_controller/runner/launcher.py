@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import faulthandler
 import json
+import math
 import shutil
 import signal
 import threading
@@ -42,10 +43,13 @@ from robot_controller.nodes import recorder as rec
 from robot_controller.ros.process import TEARDOWN_HUNG_SIGNAL
 from robot_controller.runner import forking, supervise
 from robot_controller.runner.plan import plan
-from robot_controller.runner.processes import Child, ProcessGroup, say
+from robot_controller.runner.processes import STOP_TIMEOUT_S, Child, ProcessGroup, say
 from robot_controller.runner.run_loop import Outcome, run_loop
 
 __all__ = ["RunResult", "launch", "say"]
+
+#: Sim seconds the simulator runs past a lockstep run's --duration (its end: lockstep_end_s).
+LOCKSTEP_END_MARGIN_S = 0.5
 
 
 @dataclass
@@ -114,6 +118,10 @@ def launch(
     ``nodes``, ``peers``, ``run_id``: start only part of the graph, with the other
     hosts' addresses, in the run named so (``plan``); ``wait_s``: how long to wait
     for the whole graph before giving up."""
+    if sim_time and math.isfinite(duration_s):
+        # The simulator stops a little past the end (the loop's first tick comes a moment after
+        # t = 0): the graph falls quiet and the recorder takes every message before the nodes stop.
+        params = cfg.merge(params, {"simulator": {"lockstep_end_s": duration_s + LOCKSTEP_END_MARGIN_S}})
     run = plan(
         params,
         out_dir=out_dir,
@@ -207,7 +215,8 @@ def launch(
                     )
             # The nodes first, then the recorder, which takes what is still in flight (and the viewer).
             codes = group.stop(nodes)
-            codes.update(group.stop([*observers, *viewers.children]))
+            # The recorder drains what is still queued (rec.DRAIN_MAX_S at most) before it closes the bag.
+            codes.update(group.stop([*observers, *viewers.children], timeout_s=rec.DRAIN_MAX_S + STOP_TIMEOUT_S))
             _report_viewer(viewers.children, codes)
         published = supervise.read_published_counts(run.counts_dir, replaced)
         if law_fault := supervise.read_law_fault(run.counts_dir):

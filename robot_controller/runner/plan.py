@@ -61,6 +61,7 @@ class RunPlan:
     view_url: str | None = None  #: where the live view is served
     local_nodes: tuple[str, ...] = NODE_ORDER  #: the nodes this launcher starts
     watcher: Process | None = None  #: ``graph_watch``, when the other nodes are another launcher's
+    lockstep_end_s: float | None = None  #: lockstep: the simulator publishes no tick after this sim time
 
     @property
     def remote_nodes(self) -> tuple[str, ...]:
@@ -238,4 +239,7 @@ def plan(
             dict(env),
         )
         view_url = view_serve.page_url(view_port)
-    return RunPlan(out_dir, bag_dir, counts_dir, recorder, processes, sim_time, notes, viewer, view_url, local, watcher)
+    end_s = params["simulator"].get("lockstep_end_s", 0.0) if sim_time else 0.0
+    run = RunPlan(out_dir, bag_dir, counts_dir, recorder, processes, sim_time, notes, viewer, view_url, local, watcher)
+    run.lockstep_end_s = end_s or None
+    return run

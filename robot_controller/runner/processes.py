@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 from robot_controller.ros import scheduling
 from robot_controller.runner import forking
 
-STOP_TIMEOUT_S = 5.0
+# Over a node's own cleanup limit (ros.process.CLEANUP_TIMEOUT_S, then faulthandler's second).
+STOP_TIMEOUT_S = 8.0
 
 
 # Re-entrant: a signal handler that prints must not deadlock on a print it interrupted.
@@ -104,8 +105,8 @@ class ProcessGroup:
     def dead(self) -> list[tuple[str, int]]:
         return [(c.name, c.process.returncode) for c in self.children if c.process.poll() is not None]
 
-    def stop(self, children: list[Child] | None = None) -> dict[str, int]:
-        """SIGINT ``children`` (default all), wait, then SIGKILL stragglers. Returns each one's exit code."""
+    def stop(self, children: list[Child] | None = None, timeout_s: float = STOP_TIMEOUT_S) -> dict[str, int]:
+        """SIGINT ``children`` (default all), wait ``timeout_s``, then SIGKILL stragglers; each one's exit code."""
         children = self.children if children is None else children
         for child in children:
             if child.process.poll() is None:
@@ -113,12 +114,12 @@ class ProcessGroup:
                     os.killpg(child.process.pid, signal.SIGINT)
                 except ProcessLookupError:
                     pass
-        deadline = time.monotonic() + STOP_TIMEOUT_S
+        deadline = time.monotonic() + timeout_s
         for child in children:
             try:
                 child.process.wait(timeout=max(0.0, deadline - time.monotonic()))
             except subprocess.TimeoutExpired:
-                say(f"{child.name} ignored SIGINT for {STOP_TIMEOUT_S:g} s: killing it")
+                say(f"{child.name} ignored SIGINT for {timeout_s:g} s: killing it")
                 os.killpg(child.process.pid, signal.SIGKILL)
                 child.process.wait()
         for child in children:

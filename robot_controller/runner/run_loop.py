@@ -16,6 +16,9 @@ from robot_controller.runner import supervise
 from robot_controller.runner.plan import NODE_ORDER, RunPlan
 from robot_controller.runner.processes import Child, ProcessGroup, say
 
+#: The longest control period (10 Hz, the lowest control_rate_hz): a lockstep run's last tick is within it of its end.
+LONGEST_PERIOD_S = 0.1
+
 
 @dataclass
 class Outcome:
@@ -68,11 +71,16 @@ def run_loop(
         meter = WithViewers(meter, viewers)
     if run.sim_time:
         outcome.sim_start, sim_start_taken_s = link.clock_s, link.clock_taken_s
-        outcome.failure = supervise.wait_sim(group, link, outcome.sim_start + duration_s, meter)
+        # The simulator's last tick is within a control period (0.1 s at most) of its end.
+        last_tick_s = run.lockstep_end_s - LONGEST_PERIOD_S if run.lockstep_end_s else float("inf")
+        outcome.failure = supervise.wait_sim(group, link, min(outcome.sim_start + duration_s, last_tick_s), meter)
         outcome.control_seconds = link.clock_s - outcome.sim_start
         # The wall time those control seconds took: between the recorder's receipts of the
         # two ticks (its reports, which the wait above polls, come only every 0.1 s).
         outcome.wall_seconds = link.clock_taken_s - sim_start_taken_s
+        if outcome.failure is None and run.lockstep_end_s:
+            # The simulator holds at the end: the recorder takes every tick before the nodes stop.
+            outcome.failure = supervise.wait_sim(group, link, last_tick_s, meter)
     else:
         pids = {c.name: c.process.pid for c in nodes}
         poll = (lambda: watcher(time.monotonic() - started, pids)) if watcher else None

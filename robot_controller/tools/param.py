@@ -14,6 +14,7 @@ parameter. Where the node's value is a double (or a double array), a number
 
 from __future__ import annotations
 
+import difflib
 import sys
 from typing import Any
 
@@ -191,13 +192,18 @@ def param_get(node: str, name: str) -> int:
 def param_set(node: str, name: str, value_text: str) -> int:
     """``ros2 param set /node name value``: ``Set parameter successful``, or
     ``Setting parameter failed: <the node's reason>`` on stderr and exit 1."""
-    from rcl_interfaces.msg import Parameter
+    from rcl_interfaces.msg import Parameter, ParameterType
     from rcl_interfaces.srv import GetParameters, SetParameters
 
     node = graph.absolute(node)
     with graph.open_graph("param set") as g:
         current = g.call(GetParameters, f"{node}/get_parameters", GetParameters.Request(names=[name]), what=node)
-        current_type = current.values[0].type if current.values else None  # undeclared: the node will say
+        current_type = current.values[0].type if current.values else None
+        if current_type == ParameterType.PARAMETER_NOT_SET:  # undeclared (rclpy's own reason names none)
+            close = difflib.get_close_matches(name, _names(g, node), n=3)
+            hint = f" (did you mean {', '.join(close)}?)" if close else f" (`param list {node}` lists them)"
+            print(f"Setting parameter failed: {node} has no parameter {name}{hint}", file=sys.stderr, flush=True)
+            return 1
         kind, value = parse_value(value_text, current_type)
         request = SetParameters.Request(parameters=[Parameter(name=name, value=to_message(kind, value))])
         (result,) = g.call(SetParameters, f"{node}/set_parameters", request, what=node).results

@@ -160,3 +160,18 @@ def test_the_motor_lag_runs_on_the_commands_ticks(tmp_path, ros_domain):
     assert len(receipts_ms) >= 299
     assert np.allclose(receipts_ms, np.round(receipts_ms / np.float64(10)) * 10, atol=1e-6)
     assert np.all(np.diff(receipts_ms) == pytest.approx(10.0, abs=1e-6))
+
+
+def test_rescoring_a_lockstep_run_gives_its_own_figures(tmp_path, ros_domain):
+    # The simulator runs on a little past --duration; score rescores the run's window, not the bag's tail.
+    saved = lockstep_run(tmp_path / "run")
+    proc = subprocess.run(
+        [sys.executable, "-m", "robot_controller.cli", "score", str(tmp_path / "run"), "--json"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 0, proc.stderr
+    rescored = json.loads(proc.stdout)
+    for key in ("tracking_rms_rad", "tracking_max_rad", "scored_samples", "recorded_duration_s"):
+        assert rescored[key] == saved[key], key

@@ -202,6 +202,14 @@ def test_param_set_of_a_value_the_node_refuses_prints_its_reason_and_exits_1(run
     assert done.stdout == ""
 
 
+def test_param_set_of_a_parameter_the_node_lacks_names_it_and_the_close_ones(running_graph):
+    alive(running_graph)
+    done = tool("sys.exit(param.param_set('pid_controller', 'kpp', '60'))")
+    assert done.returncode == 1, done.stdout + done.stderr
+    (line,) = done.stderr.strip().splitlines()
+    assert line.startswith("Setting parameter failed: /pid_controller has no parameter kpp (did you mean kp"), line
+
+
 def test_param_get_labels_each_type_as_ros2_does_several_calls_in_one_process(running_graph):
     alive(running_graph)
     done = tool(

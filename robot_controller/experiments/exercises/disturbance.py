@@ -54,8 +54,12 @@ def _plan(quick: bool) -> dict[str, Any]:
     return {"after_s": 1.5 if quick else 3.0, "contenders": ("tutorial", "default") if quick else tuple(CONTENDERS)}
 
 
+#: Each contender runs twice: pushed and undisturbed (a progress step each).
+RUNS_PER_CONTENDER = 2
+
+
 def steps(quick: bool = False) -> int:
-    return len(_plan(quick)["contenders"])
+    return RUNS_PER_CONTENDER * len(_plan(quick)["contenders"])
 
 
 def law_contender(spec: str) -> tuple[str, tuple[str, dict[str, Any], str]]:

@@ -35,6 +35,9 @@ class SimulatorLockstep:
         self.recorder_clock_ns: int | None = None  #: the tick the recorder has taken; None: no recorder
         self.held_for_recorder = False
         self.holds_for_recorder = 0
+        end_s = self.params["lockstep_end_s"]
+        self.end_ns = round(end_s * 1e9) if end_s > 0 else None  #: no tick after this (the run's end)
+        self.ended = False
 
     def start_lockstep_clock(self) -> None:
         self.steps_per_tick = steps_per_period(self.plant.physics_dt, 1.0 / self.params["control_rate_hz"])
@@ -68,6 +71,12 @@ class SimulatorLockstep:
         self.plant.step(self.effort, self.steps_per_tick)
         self.steps_done += self.steps_per_tick
         self.note_disturbance_end()
+        if self.end_ns is not None and self.steps_done * self.physics_dt_ns > self.end_ns:
+            # The run's end: no more ticks, so the graph falls quiet and the recorder catches up.
+            if not self.ended:
+                self.ended = True
+                self.get_logger().info(f"lockstep: the run's end, t = {self.end_ns * 1e-9:g} s: no more ticks")
+            return
         if self.recorder_behind():
             self.held_for_recorder = True
             self.holds_for_recorder += 1

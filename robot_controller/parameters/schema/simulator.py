@@ -42,6 +42,15 @@ SIMULATOR_PARAMS: tuple[ParamSpec, ...] = (
     ),
     lockstep_spec("sim-time lockstep: publish /clock and advance one control period per effort"),
     ParamSpec(
+        "lockstep_end_s",
+        float,
+        0.0,
+        "lockstep: publish no tick after this sim time, s (0: none); the launcher sets it a little past "
+        "--duration, so that the recorder takes every message before the nodes stop",
+        minimum=0.0,
+        read_only=True,
+    ),
+    ParamSpec(
         "control_rate_hz",
         float,
         100.0,
