@@ -198,7 +198,7 @@ def param_set(node: str, name: str, value_text: str) -> int:
     node = graph.absolute(node)
     with graph.open_graph("param set") as g:
         current = g.call(GetParameters, f"{node}/get_parameters", GetParameters.Request(names=[name]), what=node)
-        current_type = current.values[0].type if current.values else None
+        current_type = current.values[0].type if current.values else ParameterType.PARAMETER_NOT_SET
         if current_type == ParameterType.PARAMETER_NOT_SET:  # undeclared (rclpy's own reason names none)
             close = difflib.get_close_matches(name, _names(g, node), n=3)
             hint = f" (did you mean {', '.join(close)}?)" if close else f" (`param list {node}` lists them)"
