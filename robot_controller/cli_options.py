@@ -26,11 +26,15 @@ class Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
-def positive_seconds(text: str) -> float:
+def _number(text: str) -> float:
     try:
-        value = float(text)
+        return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+
+
+def positive_seconds(text: str) -> float:
+    value = _number(text)
     if not (value > 0 and value < float("inf")):
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
     return value
@@ -38,10 +42,7 @@ def positive_seconds(text: str) -> float:
 
 def step_size_rad(text: str) -> float:
     """A step's size: finite and not zero (a step of nothing has no response to measure)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    value = _number(text)
     if not (abs(value) > 0 and abs(value) < float("inf")):
         raise argparse.ArgumentTypeError(f"must be a finite number other than 0, got {text}")
     return value

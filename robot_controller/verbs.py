@@ -184,11 +184,11 @@ def _scored_window_s(run_dir: Path) -> float | None:
     runs on a little past it): the same window, from the run's ``metrics.json``, if there is one."""
     try:
         saved = json.loads((run_dir / "metrics.json").read_text())
-    except (OSError, ValueError):
-        return None
-    duration_s = saved.get("duration_s") if isinstance(saved, dict) else None
-    lockstep = saved.get("clock") == "sim_lockstep" if isinstance(saved, dict) else False
-    return float(duration_s) if lockstep and isinstance(duration_s, int | float) and duration_s > 0 else None
+        if saved["clock"] == "sim_lockstep" and saved["duration_s"] > 0:
+            return float(saved["duration_s"])
+    except (OSError, ValueError, TypeError, KeyError):
+        pass  # none, or not one of ours: the whole recording
+    return None
 
 
 def list_params(*, preset: str, config: list[Path] | None, as_yaml: bool, robot: str = "one_dof") -> int:

@@ -87,8 +87,9 @@ CHECKPOINT_PERIOD_S = 1.0
 MAX_MESSAGE_BYTES = 64 * 1024
 DRAIN_QUIET_S = 0.15
 # What the nodes sent before they stopped is in the readers' queues already; on a loaded machine
-# this process (nice +10) may need seconds to take it (a lockstep sim runs up to 3 sim s, some 2,500
-# messages, ahead of it): it keeps taking while there is any, this long at most.
+# this process (nice +10) may need seconds to take it (a lockstep run stopped by Ctrl-C: the sim up
+# to 3 sim s, some 2,500 messages, ahead; at a run's end it holds for us): it keeps taking while
+# there is any, this long at most.
 DRAIN_MAX_S = 15.0
 READY_LINE = "@ready"
 PROGRESS_PREFIX = "@progress "

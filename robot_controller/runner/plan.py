@@ -240,6 +240,17 @@ def plan(
         )
         view_url = view_serve.page_url(view_port)
     end_s = params["simulator"].get("lockstep_end_s", 0.0) if sim_time else 0.0
-    run = RunPlan(out_dir, bag_dir, counts_dir, recorder, processes, sim_time, notes, viewer, view_url, local, watcher)
-    run.lockstep_end_s = end_s or None
-    return run
+    return RunPlan(
+        out_dir,
+        bag_dir,
+        counts_dir,
+        recorder,
+        processes,
+        sim_time,
+        notes,
+        viewer,
+        view_url,
+        local,
+        watcher,
+        lockstep_end_s=end_s or None,
+    )
