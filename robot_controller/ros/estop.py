@@ -13,6 +13,7 @@ from __future__ import annotations
 import time
 
 import rclpy
+from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -29,6 +30,7 @@ PUBLISH_QOS = QoSProfile(
 )
 DISCOVERY_TIMEOUT_S = 5.0
 SETTLE_S = 0.5
+ACK_WAIT_S = 3.0
 
 
 def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, str]:
@@ -67,7 +69,9 @@ def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, st
             executor.remove_node(node)
             if future.done() and future.result() is not None:
                 service_note = f"simulator: {future.result().message}"
-        time.sleep(0.2)  # let the reliable writer deliver before the node goes
+        # Deliver before the node goes: every matched reader acknowledges (a fixed 0.2 s was too
+        # short on a loaded machine: a release went unheard and the stack stayed stopped).
+        publisher.wait_for_all_acked(Duration(seconds=ACK_WAIT_S))
         what = "e-stop ENGAGED" if engage else "e-stop released"
         if not listeners and service_note.startswith("the simulator's service did not"):
             return False, f"{what}, but no node is listening on /estop (is the stack running on this ROS_DOMAIN_ID?)"
