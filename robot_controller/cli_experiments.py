@@ -153,6 +153,6 @@ def experiment_verbs(sub) -> None:
 
 
 def _network(out: Path | None, quick: bool) -> int:
-    from robot_controller.network import bench
+    from robot_controller_lab.network import bench
 
     return bench.main(output_dir(out, Path("runs/network")), quick=quick)

@@ -20,7 +20,7 @@ STEP_HEADLINE = ("overshoot_pct", "rise_time_s", "settling_time_s", "steady_stat
 
 
 def bench(out: Path, *, quick: bool, soak_s: float | None = None) -> int:
-    from robot_controller.experiments import bench as bench_module
+    from robot_controller_lab import bench as bench_module
 
     with StepProgress("bench", len(bench_module.SCENARIOS)) as progress:
         bench_module.bench(out, quick=quick, soak_s=soak_s, progress=progress)

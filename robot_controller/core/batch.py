@@ -1,5 +1,5 @@
 """Many controllers at once: an analytic model of the one-joint arm,
-vectorised over a batch, closed by the same :class:`~robot_controller.core.pid.Pid`
+vectorised over a batch, closed by the same :class:`~robot_controller.core.laws.pid.Pid`
 law the nodes run (its arrays broadcast over the batch).
 
 For sweeps and tuning: thousands of gain sets simulated together, far faster
@@ -13,12 +13,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from robot_controller.core.arm_model import step_count
-from robot_controller.core.estimator import JointKalmanFilter, KalmanConfig
-from robot_controller.core.pid import Pid, PidConfig
-from robot_controller.core.plant import ArmDynamics
-from robot_controller.core.sensor_model import SensorConfig, measure
-from robot_controller.core.trajectory import Trajectory
+from robot_controller.core.estimation.estimator import JointKalmanFilter, KalmanConfig
+from robot_controller.core.laws.pid import Pid, PidConfig
+from robot_controller.core.model.arm_model import step_count
+from robot_controller.core.model.plant import ArmDynamics
+from robot_controller.core.model.sensor_model import SensorConfig, measure
+from robot_controller.core.reference.trajectory import Trajectory
 
 
 @dataclass(frozen=True)

@@ -2,9 +2,9 @@
 through the whole stack with an excitation it can follow, fit the model to
 what the simulator recorded, and write the result as a parameter file the
 controller reads over its URDF. On one joint the fit is each joint's four
-numbers (:mod:`robot_controller.core.identification`); on a chain of joints,
+numbers (:mod:`robot_controller.core.model.identification`); on a chain of joints,
 where those would fold the coupling between joints into wrong numbers, it is
-a payload on the last link (:mod:`robot_controller.core.payload_identification`,
+a payload on the last link (:mod:`robot_controller.core.model.payload_identification`,
 fitted and written by ``identify_payload``).
 
 One lockstep (``--sim-time``) run of the graph as configured (so the
@@ -12,7 +12,7 @@ controller in charge is the one with the possibly wrong model), the planner
 in ``chirp`` mode: a sine sweeping from ``start_hz`` to ``end_hz`` over the
 whole run at ``amplitude_rad`` around the planner's ``offset`` (slow at
 first, where gravity and friction dominate, faster later, where inertia
-does). Then :func:`robot_controller.core.identification.identify` on the
+does). Then :func:`robot_controller.core.model.identification.identify` on the
 TRUE joint state and the applied torque (``/sim/joint_states``), leaving
 out what the brakes held, what saturated, and reversals.
 
@@ -36,8 +36,8 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core import identification
-from robot_controller.core.arm_model import PARAMETERS, JointArmModel
+from robot_controller.core.model import identification
+from robot_controller.core.model.arm_model import PARAMETERS, JointArmModel
 from robot_controller.parameters.builders import MODEL_KEYS
 from robot_controller.parameters.limits import torque_limit as node_torque_limit
 
@@ -104,7 +104,7 @@ def held_or_pushed(recording: Any) -> np.ndarray:
 def torque_limit(params: cfg.Params, joint_count: int) -> np.ndarray:
     """The torque beyond which a recorded effort is saturated: the smallest of
     the controller's and the motor's ``torque_max`` and the simulated arm's effort limit."""
-    from robot_controller.core.plant import effort_limits, load_model
+    from robot_controller.core.model.plant import effort_limits, load_model
 
     limit = effort_limits(load_model(resources.resolve_urdf(params["simulator"]["urdf_path"])))
     for node in ("motor_node", "pid_controller"):
@@ -114,7 +114,7 @@ def torque_limit(params: cfg.Params, joint_count: int) -> np.ndarray:
 
 def urdf_model(params: cfg.Params) -> JointArmModel:
     """The controller's URDF as the same four numbers per joint (what identification corrects)."""
-    from robot_controller.core.plant import ArmDynamics
+    from robot_controller.core.model.plant import ArmDynamics
 
     return JointArmModel.over_urdf(ArmDynamics(resources.resolve_urdf(params["pid_controller"]["urdf_path"])))
 
@@ -280,6 +280,6 @@ def identify(
 
 
 def _joint_names(params: cfg.Params) -> list[str]:
-    from robot_controller.core.plant import joint_names, load_model
+    from robot_controller.core.model.plant import joint_names, load_model
 
     return joint_names(load_model(resources.resolve_urdf(params["simulator"]["urdf_path"])))

@@ -1,6 +1,6 @@
 """Identification on a chain of joints (``robot-controller identify`` on an arm of more than one
 joint): four numbers per joint would fold the coupling between joints into wrong values, so the fit
-is a payload on the last link (:mod:`robot_controller.core.payload_identification`), written as the
+is a payload on the last link (:mod:`robot_controller.core.model.payload_identification`), written as the
 controller's ``model_payload`` overlay with its report."""
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ def identify_payload(
     progress: Callable[[str], None],
 ) -> dict[str, Any]:
     """A chain of joints: fit a payload on the last link to the recording, write the overlay and reports."""
-    from robot_controller.core.payload_identification import fit_payload
+    from robot_controller.core.model.payload_identification import fit_payload
     from robot_controller.scoring import report
 
     joint_count = recording.joint_count

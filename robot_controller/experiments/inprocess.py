@@ -10,11 +10,11 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.actuator import Actuator
-from robot_controller.core.controller import JointController
+from robot_controller.core.controller.controller import JointController
 from robot_controller.core.loop import Disturbance, LoopResult, run_loop
-from robot_controller.core.payload import Payload
-from robot_controller.core.plant import MujocoPlant
+from robot_controller.core.model.actuator import Actuator
+from robot_controller.core.model.payload import Payload
+from robot_controller.core.model.plant import MujocoPlant
 from robot_controller.parameters.builders import arm_model
 from robot_controller.parameters.consistency import trajectory_plan
 from robot_controller.parameters.limits import torque_limit

@@ -54,10 +54,10 @@ from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core import feasibility, joint_trajectory
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.joint_limits import joint_limits, urdf_velocity_limits
-from robot_controller.core.trajectory import Trajectory, make_trajectory
+from robot_controller.core.model.joint_limits import joint_limits, urdf_velocity_limits
+from robot_controller.core.reference import feasibility, joint_trajectory
+from robot_controller.core.reference.trajectory import Trajectory, make_trajectory
 from robot_controller.parameters.builders import TRAJECTORY_SHAPE_KEYS, arm_model, model_overridden
 from robot_controller.parameters.limits import torque_limit
 from robot_controller.ros.process import run

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robot_controller.core import state_layout
+from robot_controller.core.controller import state_layout
 from robot_controller.ros import scheduling
 from robot_controller.ros.publishing import OBSERVER_NODES
 from robot_controller.view import cdr

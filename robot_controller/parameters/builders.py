@@ -8,16 +8,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from robot_controller.core.laws.parameters import PREFIX as LAW_PREFIX
-from robot_controller.core.pid import PidConfig
-from robot_controller.core.sensor_model import SensorConfig
+from robot_controller.core.laws.pid import PidConfig
+from robot_controller.core.model.sensor_model import SensorConfig
 from robot_controller.parameters.limits import torque_limit
 from robot_controller.parameters.spec import per_joint
 
 if TYPE_CHECKING:  # the controller pulls in scipy and MuJoCo: only the nodes that run one import it
-    from robot_controller.core.arm_model import JointArmModel
-    from robot_controller.core.controller import ControllerConfig
-    from robot_controller.core.estimator import KalmanConfig
-    from robot_controller.core.plant import ArmDynamics
+    from robot_controller.core.controller.controller import ControllerConfig
+    from robot_controller.core.estimation.estimator import KalmanConfig
+    from robot_controller.core.model.arm_model import JointArmModel
+    from robot_controller.core.model.plant import ArmDynamics
 
 # The controller's arm-model parameters, in the order of core.arm_model.PARAMETERS; empty = the URDF's.
 MODEL_KEYS = ("model_inertia", "model_damping", "model_coulomb_friction", "model_gravity_torque")
@@ -40,9 +40,9 @@ def arm_model(values: Mapping[str, Any]) -> ArmDynamics | JointArmModel:
     run without them is the same to the bit; otherwise a ``JointArmModel`` with
     the values given and the URDF's for the rest."""
     from robot_controller import resources
-    from robot_controller.core.arm_model import JointArmModel
-    from robot_controller.core.payload import Payload
-    from robot_controller.core.plant import ArmDynamics
+    from robot_controller.core.model.arm_model import JointArmModel
+    from robot_controller.core.model.payload import Payload
+    from robot_controller.core.model.plant import ArmDynamics
 
     payload = Payload.from_values("model_payload", values.get("model_payload"))
     dynamics = ArmDynamics(resources.resolve_urdf(values["urdf_path"]), payload)
@@ -60,7 +60,7 @@ def arm_model(values: Mapping[str, Any]) -> ArmDynamics | JointArmModel:
 
 
 def controller_config(values: Mapping[str, Any], joint_count: int) -> ControllerConfig:
-    from robot_controller.core.controller import ControllerConfig
+    from robot_controller.core.controller.controller import ControllerConfig
 
     def joints(name: str) -> np.ndarray:
         return per_joint(name, values[name], joint_count)
@@ -150,7 +150,7 @@ def kalman_config(values: Mapping[str, Any]) -> KalmanConfig:
     arm up to 175 mrad off where these settings keep it within 11)."""
     from dataclasses import replace
 
-    from robot_controller.core.estimator import KalmanConfig
+    from robot_controller.core.estimation.estimator import KalmanConfig
 
     config = KalmanConfig(
         values["kalman_position_noise_std"],

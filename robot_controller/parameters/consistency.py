@@ -17,13 +17,13 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.joint_limits import urdf_velocity_limits
+from robot_controller.core.model.joint_limits import urdf_velocity_limits
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import ARM_MODEL_KEYS
 from robot_controller.parameters.limits import torque_limit
 
 if TYPE_CHECKING:  # MuJoCo and the trajectories: imported when used
-    from robot_controller.core.feasibility import Plan
+    from robot_controller.core.reference.feasibility import Plan
 
 # The watchdog must outlast this many reading periods: a window shorter than
 # the gap between two readings trips on every tick (control_rate_hz 1000 with
@@ -58,7 +58,7 @@ def check_stack(params: cfg.Params) -> None:
 
 def _arm(node: str, urdf_path: str) -> tuple[list[str], np.ndarray, np.ndarray]:
     """Joint names, effort limits and position ranges of a node's URDF."""
-    from robot_controller.core.plant import effort_limits, joint_names, load_model
+    from robot_controller.core.model.plant import effort_limits, joint_names, load_model
 
     try:
         model = load_model(resources.resolve_urdf(urdf_path))
@@ -87,7 +87,7 @@ def _check_per_joint(params: cfg.Params, joint_count: int) -> None:
 
 
 def _check_rates(params: cfg.Params) -> None:
-    from robot_controller.core.plant import steps_per_period
+    from robot_controller.core.model.plant import steps_per_period
 
     sim, sensor = params["simulator"], params["sensor_node"]
     ctrl, motor = params["pid_controller"], params["motor_node"]
@@ -159,7 +159,7 @@ def _check_limits(params: cfg.Params, arm: tuple[list[str], np.ndarray, np.ndarr
 def _check_controller(params: cfg.Params, joint_count: int) -> None:
     """The controller builds: its arm model (the URDF's, or its ``model_*`` values) and its law
     designs (an LQR that does not stabilise is refused here)."""
-    from robot_controller.core.controller import JointController
+    from robot_controller.core.controller.controller import JointController
     from robot_controller.parameters.builders import arm_model
 
     ctrl = params["pid_controller"]
@@ -214,7 +214,7 @@ def _check_planner_matches(params: cfg.Params, joint_count: int) -> None:
 def trajectory_plan(params: cfg.Params) -> Plan:
     """The trajectory the run follows: the planner's, checked against the
     controller's arm model and slowed, refused or left as the planner's
-    ``feasibility`` says (:func:`robot_controller.core.feasibility.plan`).
+    ``feasibility`` says (:func:`robot_controller.core.reference.feasibility.plan`).
 
     The arm model is the one the controller uses (``builders.arm_model``): the
     URDF's (the planner's too: ``urdf_path`` must match), or the controller's
@@ -227,8 +227,8 @@ def trajectory_plan(params: cfg.Params) -> Plan:
 
     :raises ConfigError: ``trajectory_planner: …``, one line, when it is refused
     """
-    from robot_controller.core import feasibility
-    from robot_controller.core.trajectory import make_trajectory
+    from robot_controller.core.reference import feasibility
+    from robot_controller.core.reference.trajectory import make_trajectory
     from robot_controller.parameters.builders import arm_model
 
     planner = params["trajectory_planner"]

@@ -19,7 +19,7 @@ TORQUE_LIMITED = ("motor_node", "pid_controller", "trajectory_planner")
 @lru_cache(maxsize=8)
 def _urdf_effort_limits(urdf_path: str) -> tuple[tuple[str, ...], tuple[float, ...]]:
     from robot_controller import resources
-    from robot_controller.core.plant import effort_limits, joint_names, load_model
+    from robot_controller.core.model.plant import effort_limits, joint_names, load_model
 
     model = load_model(resources.resolve_urdf(urdf_path))
     return tuple(joint_names(model)), tuple(float(x) for x in effort_limits(model))

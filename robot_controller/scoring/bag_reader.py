@@ -14,7 +14,7 @@ import numpy as np
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
-from robot_controller.core import state_layout
+from robot_controller.core.controller import state_layout
 from robot_controller.scoring import bag_recovery
 
 

@@ -10,7 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from robot_controller.core import metrics, state_layout
+from robot_controller.core import metrics
+from robot_controller.core.controller import state_layout
 
 # What scores a run reads first; importable from here too.
 from robot_controller.scoring.bag_reader import Recording, motor_latency_s, read_recording

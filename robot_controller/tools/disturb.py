@@ -86,7 +86,7 @@ def disturb(torque_nm: float, duration_s: float, joint: str | None, *, wait_s: f
     the simulator's time. Returns 0 once sent, 1 if no simulator is listening,
     2 for a request the simulator would drop (unknown joint, bad numbers).
     ``wait_s``: how long to wait for the simulator to match."""
-    from robot_controller.core.plant import MAX_DISTURBANCE_NM, check_disturbance
+    from robot_controller.core.model.plant import MAX_DISTURBANCE_NM, check_disturbance
 
     if not (np.isfinite(torque_nm) and np.isfinite(duration_s)):
         return _fail(f"torque and duration must be finite numbers, got {torque_nm} N·m and {duration_s} s", 2)
@@ -134,7 +134,7 @@ def disturb(torque_nm: float, duration_s: float, joint: str | None, *, wait_s: f
             names, source = list(heard), "the running simulator's"
         else:
             from robot_controller import resources
-            from robot_controller.core.plant import joint_names, load_model
+            from robot_controller.core.model.plant import joint_names, load_model
 
             names, source = joint_names(load_model(resources.default_urdf())), "the reference arm's"
         torque = torques_for(names, torque_nm, joint)

@@ -150,7 +150,7 @@ def goto(
             names = list(state.name)
         else:
             from robot_controller import resources
-            from robot_controller.core.plant import joint_names, load_model
+            from robot_controller.core.model.plant import joint_names, load_model
 
             names = joint_names(load_model(resources.default_urdf()))  # the reference arm's, as disturb
         if time_s is None:

@@ -18,7 +18,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from robot_controller.core import state_layout
+from robot_controller.core.controller import state_layout
 from robot_controller.scoring import report
 from robot_controller.view import arm as arm_view
 from robot_controller.view import layout

@@ -36,7 +36,7 @@ def run_setup(run_dir: Path) -> tuple[Path, float]:
 
 def stack_joint_order(urdf: Path) -> list[str]:
     """The joints in the order of every array of the stack (MuJoCo's)."""
-    from robot_controller.core import plant
+    from robot_controller.core.model import plant
 
     return plant.joint_names(plant.load_model(urdf))
 
@@ -95,7 +95,7 @@ def load_run(run_dir: Path) -> SavedRun:
 
 def log_run(rec, run: SavedRun) -> None:
     """Log a saved run to ``rec``: the scene, the styles, every series."""
-    from robot_controller.core import state_layout
+    from robot_controller.core.controller import state_layout
 
     arm, recording = run.arm, run.recording
     layout.log_styles(rec, arm.joint_names)

@@ -7,9 +7,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from robot_controller.core import arrays, innovation
-from robot_controller.core.estimator import KalmanConfig, _solve_symmetric, inverse_2x2, process_noise
-from robot_controller.core.safe_motion import Blend, _quintic
+from robot_controller.core import arrays
+from robot_controller.core.controller.safe_motion import Blend, _quintic
+from robot_controller.core.estimation import innovation
+from robot_controller.core.estimation.estimator import KalmanConfig, _solve_symmetric, inverse_2x2, process_noise
 
 values = st.floats(allow_nan=True, allow_infinity=True, width=64)
 finite = st.floats(min_value=-1e6, max_value=1e6)

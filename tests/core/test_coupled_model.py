@@ -5,10 +5,10 @@ simulated plant, coupling and payload included."""
 import numpy as np
 import pytest
 
-from robot_controller.core.controller_config import ControllerConfig
-from robot_controller.core.law import decoupling_map
-from robot_controller.core.payload import Payload
-from robot_controller.core.plant import ArmDynamics, MujocoPlant
+from robot_controller.core.controller.config import ControllerConfig
+from robot_controller.core.laws.gains import decoupling_map
+from robot_controller.core.model.payload import Payload
+from robot_controller.core.model.plant import ArmDynamics, MujocoPlant
 from robot_controller.robots import ROBOTS, urdf_of
 
 

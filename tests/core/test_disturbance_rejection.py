@@ -23,11 +23,11 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.controller import ControlOutput, JointController, Status
-from robot_controller.core.estimator import KalmanConfig
+from robot_controller.core.controller.controller import ControlOutput, JointController, Status
+from robot_controller.core.estimation.estimator import KalmanConfig
 from robot_controller.core.loop import Disturbance
-from robot_controller.core.plant import MujocoPlant
-from robot_controller.core.trajectory import make_trajectory
+from robot_controller.core.model.plant import MujocoPlant
+from robot_controller.core.reference.trajectory import make_trajectory
 from robot_controller.experiments import inprocess
 from robot_controller.experiments.exercises.disturbance import (
     GOAL_PEAK_RAD,

@@ -11,11 +11,11 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core import feasibility
-from robot_controller.core.arm_model import JointArmModel
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.plant import ArmDynamics
-from robot_controller.core.trajectory import Chirp, MinTimeStep, Sine, make_trajectory, time_scaled
+from robot_controller.core.model.arm_model import JointArmModel
+from robot_controller.core.model.plant import ArmDynamics
+from robot_controller.core.reference import feasibility
+from robot_controller.core.reference.trajectory import Chirp, MinTimeStep, Sine, make_trajectory, time_scaled
 from robot_controller.parameters import consistency
 from robot_controller.parameters.builders import arm_model
 

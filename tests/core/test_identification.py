@@ -6,11 +6,11 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core import identification as ident
-from robot_controller.core.arm_model import PARAMETERS, JointArmModel
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.plant import ArmDynamics, MujocoPlant
-from robot_controller.core.trajectory import Chirp
+from robot_controller.core.model import identification as ident
+from robot_controller.core.model.arm_model import PARAMETERS, JointArmModel
+from robot_controller.core.model.plant import ArmDynamics, MujocoPlant
+from robot_controller.core.reference.trajectory import Chirp
 from robot_controller.parameters import consistency
 from robot_controller.parameters.builders import arm_model
 

@@ -6,15 +6,15 @@ import numpy as np
 import pytest
 
 from robot_controller import resources
-from robot_controller.core.joint_limits import JointLimits, joint_limits, urdf_velocity_limits
-from robot_controller.core.joint_trajectory import (
+from robot_controller.core.model.joint_limits import JointLimits, joint_limits, urdf_velocity_limits
+from robot_controller.core.model.plant import ArmDynamics
+from robot_controller.core.reference.joint_trajectory import (
     MAX_START_DELAY_S,
     START_TOLERANCE_RAD,
     Accepted,
     accept,
     start_delay,
 )
-from robot_controller.core.plant import ArmDynamics
 
 AT_REST = (np.zeros(1), np.zeros(1), np.zeros(1))
 MOVING = (np.array([0.3]), np.array([1.5]), np.array([-4.0]))  # the reference in force, mid-sine

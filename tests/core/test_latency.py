@@ -9,10 +9,10 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.controller import JointController, Status
-from robot_controller.core.latency import CLEAR_AFTER_S, COMMAND_MEMORY_S, WINDOW, LatencyGuard
-from robot_controller.core.plant import ArmDynamics, MujocoPlant
-from robot_controller.core.trajectory import make_trajectory
+from robot_controller.core.controller.controller import JointController, Status
+from robot_controller.core.controller.latency import CLEAR_AFTER_S, COMMAND_MEMORY_S, WINDOW, LatencyGuard
+from robot_controller.core.model.plant import ArmDynamics, MujocoPlant
+from robot_controller.core.reference.trajectory import make_trajectory
 
 PERIOD = 0.01
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from robot_controller import parameters as cfg
-from robot_controller.core.control_output import Status
-from robot_controller.core.controller import JointController
+from robot_controller.core.controller.controller import JointController
+from robot_controller.core.controller.output import Status
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import ControlLaw, Parameter, registry
 from robot_controller.core.laws.builtin import LqrLaw, PidLaw

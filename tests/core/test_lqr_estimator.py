@@ -5,12 +5,12 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core import lqr
-from robot_controller.core.controller import ControllerConfig, law_config
+from robot_controller.core.controller.controller import ControllerConfig, law_config
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.estimator import JointKalmanFilter, KalmanConfig
-from robot_controller.core.plant import ArmDynamics, MujocoPlant
-from robot_controller.core.sensor_model import SensorConfig, measure
+from robot_controller.core.estimation.estimator import JointKalmanFilter, KalmanConfig
+from robot_controller.core.laws import lqr
+from robot_controller.core.model.plant import ArmDynamics, MujocoPlant
+from robot_controller.core.model.sensor_model import SensorConfig, measure
 
 INERTIA, DAMPING, DT = 1.0 / 12.0, 0.1, 0.01
 
@@ -99,7 +99,7 @@ def test_kalman_settings_are_checked():
 
 
 def test_delay_margin_counts_the_periods_of_delay_the_loop_survives():
-    from robot_controller.core.lqr import delay_margin_periods
+    from robot_controller.core.laws.lqr import delay_margin_periods
 
     one = np.array([[1.0]])
     # x[k+1] = x[k] − k·x[k−d]: k = 1.5 is stable undelayed but not one period late; k = 0.5 is.

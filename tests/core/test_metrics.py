@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from robot_controller.core import metrics, state_layout
+from robot_controller.core import metrics
+from robot_controller.core.controller import state_layout
 
 
 def test_tracking_metrics_known_offset_and_warmup():

@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 from robot_controller import resources
-from robot_controller.core.actuator import Actuator
 from robot_controller.core.arrays import matrix_power
-from robot_controller.core.estimator import JointKalmanFilter, KalmanConfig, _power_2x2
-from robot_controller.core.pid import AntiWindup, DerivativeSource, Pid, PidConfig
-from robot_controller.core.plant import ArmDynamics, MujocoPlant, can_collide, load_model
-from robot_controller.core.safe_motion import _quintic
-from robot_controller.core.sensor_model import SensorConfig, measure
-from robot_controller.core.trajectory import Sine
+from robot_controller.core.controller.safe_motion import _quintic
+from robot_controller.core.estimation.estimator import JointKalmanFilter, KalmanConfig, _power_2x2
+from robot_controller.core.laws.pid import AntiWindup, DerivativeSource, Pid, PidConfig
+from robot_controller.core.model.actuator import Actuator
+from robot_controller.core.model.plant import ArmDynamics, MujocoPlant, can_collide, load_model
+from robot_controller.core.model.sensor_model import SensorConfig, measure
+from robot_controller.core.reference.trajectory import Sine
 from robot_controller.robots import urdf_of
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.pid import AntiWindup, DerivativeSource, Pid, PidConfig
+from robot_controller.core.laws.pid import AntiWindup, DerivativeSource, Pid, PidConfig
 
 DT = 0.01
 

@@ -5,7 +5,7 @@ import pytest
 from scipy.linalg import expm
 from scipy.optimize import brentq
 
-from robot_controller.core import lqr, robustness
+from robot_controller.core.laws import lqr, robustness
 
 INERTIA, DAMPING, DT = 1.0 / 12.0, 0.1, 0.01
 

@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from robot_controller.experiments.hop_bench import round_trips_per_s
+from robot_controller_lab.hop_bench import round_trips_per_s
 
 pytestmark = pytest.mark.ros
 

@@ -6,10 +6,10 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core import feasibility
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.plant import ArmDynamics
-from robot_controller.core.trajectory import Chirp, Sine, make_trajectory
+from robot_controller.core.model.plant import ArmDynamics
+from robot_controller.core.reference import feasibility
+from robot_controller.core.reference.trajectory import Chirp, Sine, make_trajectory
 from robot_controller.experiments import inprocess
 from robot_controller.parameters import consistency
 
@@ -61,8 +61,8 @@ def test_the_default_survives_its_delay_margin_of_delay_nobody_accounts_for():
     # loop's own margin (2 periods for the default LQR design with its disturbance
     # observer, 3 without it) keeps the loop stable.
     from robot_controller import resources
-    from robot_controller.core.controller import JointController
-    from robot_controller.core.plant import ArmDynamics
+    from robot_controller.core.controller.controller import JointController
+    from robot_controller.core.model.plant import ArmDynamics
 
     params = cfg.load_stack("default")
     controller = JointController(

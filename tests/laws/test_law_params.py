@@ -10,7 +10,7 @@ import pytest
 
 from robot_controller import cli
 from robot_controller import parameters as cfg
-from robot_controller.core import state_layout
+from robot_controller.core.controller import state_layout
 from robot_controller.core.errors import ConfigError
 from robot_controller.parameters import consistency
 

@@ -1,7 +1,7 @@
 """The network bench's functional core, without namespaces or privilege: the
 commands it would run, the loss rule, leftovers, the capability check, the report."""
 
-from robot_controller.network import conditions, netns, report
+from robot_controller_lab.network import conditions, netns, report
 
 
 def test_setup_makes_both_namespaces_and_a_veth_that_never_exists_outside_them():

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from robot_controller.network import bench, conditions, netns
+from robot_controller_lab.network import bench, conditions, netns
 
 pytestmark = pytest.mark.ros
 

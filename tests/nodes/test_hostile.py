@@ -111,7 +111,7 @@ def test_a_foreign_publisher_flooding_wrong_readings_is_named_and_never_heard(tm
     run = start_run(out, duration="12")
     try:
         flooder = subprocess.run(
-            [sys.executable, "-m", "robot_controller.experiments.flood_bench", "--publish", "joint_states_wrong"],
+            [sys.executable, "-m", "robot_controller_lab.flood_bench", "--publish", "joint_states_wrong"],
             capture_output=True,
             text=True,
             timeout=60,

@@ -13,7 +13,7 @@ import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
-from robot_controller.core import state_layout
+from robot_controller.core.controller import state_layout
 from tests.rostools import child_pid, run_said, run_while
 
 pytestmark = pytest.mark.ros

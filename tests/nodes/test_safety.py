@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from robot_controller import resources
-from robot_controller.core import state_layout
+from robot_controller.core.controller import state_layout
 from robot_controller.scoring import report
 from tests.rostools import run_said, run_while
 

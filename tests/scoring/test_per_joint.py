@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robot_controller.core import state_layout
+from robot_controller.core.controller import state_layout
 from robot_controller.scoring import plots, report
 from robot_controller.scoring.bag_reader import Recording
 

@@ -8,7 +8,7 @@ import importlib.metadata
 import numpy as np
 import pytest
 
-from robot_controller.core import state_layout
+from robot_controller.core.controller import state_layout
 from robot_controller.view import arm as arm_view
 from robot_controller.view import feed, layout
 from tests.view.test_view import FakeRecording
@@ -55,7 +55,7 @@ def test_the_panda_is_a_chain_of_seven_revolute_joints_drawn_with_meshes(panda_a
 def test_forward_kinematics_agree_with_mujoco_on_the_panda(panda_urdf, panda_arm):
     import mujoco
 
-    from robot_controller.core import plant
+    from robot_controller.core.model import plant
 
     model = plant.load_model(panda_urdf)
     data = mujoco.MjData(model)

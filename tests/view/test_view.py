@@ -22,7 +22,7 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core import state_layout
+from robot_controller.core.controller import state_layout
 from robot_controller.core.errors import ConfigError
 from robot_controller.view import arm as arm_view
 from robot_controller.view import cdr, feed, layout

@@ -1,7 +1,7 @@
 """The built-in laws, ``pid`` and ``lqr``, as the entry-point group registers
-them: one PID implementation (:mod:`~robot_controller.core.pid`) with model
+them: one PID implementation (:mod:`~robot_controller.core.laws.pid`) with model
 feedforward, the observer's estimate subtracted and, on a chain, decoupled
-feedback (:func:`~robot_controller.core.law.law_step`); for ``lqr`` its gains
+feedback (:func:`~robot_controller.core.laws.gains.law_step`); for ``lqr`` its gains
 come from a Riccati design. Unlike a plugin, they take the node's own
 parameters (kp, ki, kd, lqr_q, ...), so they are built from the whole
 :class:`ControllerConfig`. The controller also keeps one as the law that
@@ -14,13 +14,13 @@ from typing import ClassVar
 
 import numpy as np
 
-from robot_controller.core.control_output import ReferenceSource, Status
-from robot_controller.core.controller_config import ControllerConfig
-from robot_controller.core.law import law_config, law_step
+from robot_controller.core.controller.config import ControllerConfig
+from robot_controller.core.controller.output import ReferenceSource, Status
+from robot_controller.core.controller.reference_at_tick import Reference as TickReference
+from robot_controller.core.laws.gains import law_config, law_step
 from robot_controller.core.laws.interface import ControlLaw, Reference, State
-from robot_controller.core.pid import Pid, PidTerms
-from robot_controller.core.plant import ArmDynamics
-from robot_controller.core.reference_at_tick import Reference as TickReference
+from robot_controller.core.laws.pid import Pid, PidTerms
+from robot_controller.core.model.plant import ArmDynamics
 
 
 class BuiltinLaw(ControlLaw):

@@ -10,13 +10,13 @@ from collections.abc import Callable
 import numpy as np
 
 from robot_controller.core.arrays import clip, within
-from robot_controller.core.controller_config import ControllerConfig
+from robot_controller.core.controller.config import ControllerConfig
+from robot_controller.core.controller.reference_at_tick import Reference as TickReference
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters, registry
 from robot_controller.core.laws.containment import ContainedLaw, LawFault
 from robot_controller.core.laws.interface import Arm, Reference, State
-from robot_controller.core.pid import PidTerms
-from robot_controller.core.reference_at_tick import Reference as TickReference
+from robot_controller.core.laws.pid import PidTerms
 
 STANDARD_TERMS = ("p", "i", "d", "feedforward")
 

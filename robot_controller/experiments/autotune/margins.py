@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from robot_controller.core import lqr, robustness
+from robot_controller.core.laws import lqr, robustness
 
 if TYPE_CHECKING:
     from robot_controller.experiments.autotune.problem import Problem

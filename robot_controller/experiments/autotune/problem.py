@@ -14,13 +14,13 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core import lqr
 from robot_controller.core.batch import ArmConstants, run_batch
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.pid import PidConfig
-from robot_controller.core.plant import ArmDynamics
-from robot_controller.core.sensor_model import SensorConfig
-from robot_controller.core.trajectory import Trajectory, make_trajectory
+from robot_controller.core.laws import lqr
+from robot_controller.core.laws.pid import PidConfig
+from robot_controller.core.model.plant import ArmDynamics
+from robot_controller.core.model.sensor_model import SensorConfig
+from robot_controller.core.reference.trajectory import Trajectory, make_trajectory
 
 SEED = 0
 

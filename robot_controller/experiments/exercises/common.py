@@ -54,8 +54,8 @@ def plant_loop(params: cfg.Params) -> tuple[np.ndarray, np.ndarray, float]:
     """The simulated arm's joint linearised at rest and sampled at the control period
     (``core.lqr.discretise``: state ``[∫e, e, ė]``): ``A``, ``B`` and the period ``dt``."""
     from robot_controller import resources
-    from robot_controller.core import lqr
-    from robot_controller.core.plant import ArmDynamics
+    from robot_controller.core.laws import lqr
+    from robot_controller.core.model.plant import ArmDynamics
 
     dynamics = ArmDynamics(resources.resolve_urdf(params["simulator"]["urdf_path"]))
     dt = 1.0 / params["pid_controller"]["control_rate_hz"]
@@ -73,7 +73,7 @@ def controller_model(params: cfg.Params):
     if make_model is not None:
         return make_model(ctrl)
     from robot_controller import resources
-    from robot_controller.core.plant import ArmDynamics
+    from robot_controller.core.model.plant import ArmDynamics
 
     return ArmDynamics(resources.resolve_urdf(ctrl["urdf_path"]))
 
@@ -81,7 +81,7 @@ def controller_model(params: cfg.Params):
 def law_gains(params: cfg.Params):
     """The PID settings the controller runs with (for an LQR, its designed gains:
     ``core.law.law_config`` on the controller's own arm model)."""
-    from robot_controller.core.law import law_config
+    from robot_controller.core.laws.gains import law_config
 
     return law_config(cfg.controller_config(params["pid_controller"], 1), controller_model(params), 1)
 

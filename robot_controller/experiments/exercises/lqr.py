@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.core import lqr as lqr_design
-from robot_controller.core import robustness
+from robot_controller.core.laws import lqr as lqr_design
+from robot_controller.core.laws import robustness
 from robot_controller.experiments.compare import Contender
 from robot_controller.experiments.exercises.common import (
     SEED,

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from robot_controller.core import robustness
+from robot_controller.core.laws import robustness
 from robot_controller.experiments.exercises.common import (
     Response,
     fmt,

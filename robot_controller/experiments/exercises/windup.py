@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.core.pid import AntiWindup
+from robot_controller.core.laws.pid import AntiWindup
 from robot_controller.experiments.exercises.common import (
     SEED,
     Exercise,

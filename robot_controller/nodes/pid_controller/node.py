@@ -31,8 +31,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
 from robot_controller import parameters as cfg
-from robot_controller.core import state_layout
-from robot_controller.core.controller import JointController, Status, law_config
+from robot_controller.core.controller import state_layout
+from robot_controller.core.controller.controller import JointController, Status, law_config
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters as law_parameters
 from robot_controller.core.laws import registry

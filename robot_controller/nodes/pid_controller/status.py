@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from robot_controller.core import state_layout
-from robot_controller.core.controller import ControlOutput, Status
+from robot_controller.core.controller import state_layout
+from robot_controller.core.controller.controller import ControlOutput, Status
 from robot_controller.ros.process import LAW_FAULT_FILE, LAW_STOPPED_EXIT_CODE, request_exit
 from robot_controller.ros.publishing import COUNTS_DIR_ENV
 

@@ -3,8 +3,8 @@ the arm model, the limits and the clock."""
 
 from __future__ import annotations
 
-from robot_controller.core.feedforward import FeedforwardMode
-from robot_controller.core.pid import AntiWindup, DerivativeSource
+from robot_controller.core.laws.feedforward import FeedforwardMode
+from robot_controller.core.laws.pid import AntiWindup, DerivativeSource
 from robot_controller.parameters.schema.shared import URDF, arm_model_specs, enum_values, lockstep_spec, torque_max_spec
 from robot_controller.parameters.spec import ParamSpec
 

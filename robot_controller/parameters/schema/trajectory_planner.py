@@ -3,7 +3,7 @@ against the arm model."""
 
 from __future__ import annotations
 
-from robot_controller.core.trajectory import MODES
+from robot_controller.core.reference.trajectory import MODES
 from robot_controller.parameters.schema.shared import URDF, arm_model_specs, lockstep_spec, torque_max_spec
 from robot_controller.parameters.spec import ParamSpec
 

@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from robot_controller import parameters as cfg
-from robot_controller.core import lqr, robustness
+from robot_controller.core.laws import lqr, robustness
 from robot_controller.experiments.exercises.common import (
     SEED,
     Exercise,

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.core import robustness
+from robot_controller.core.laws import robustness
 from robot_controller.experiments.exercises.common import Progress, Response, plant_loop, step_run
 from robot_controller.experiments.exercises.ziegler_nichols.settings import (
     KP_START,

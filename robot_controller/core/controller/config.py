@@ -1,0 +1,118 @@
+"""The joint controller's options (:class:`ControllerConfig`), checked when built.
+
+Units: seconds, radians, N·m. The control law's own gains and limits are a
+:class:`~robot_controller.core.laws.pid.PidConfig` inside it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.estimation.estimator import KalmanConfig
+from robot_controller.core.laws.feedforward import FeedforwardMode
+from robot_controller.core.laws.pid import PidConfig
+from robot_controller.core.laws.registry import BUILTIN_LAWS
+
+
+@dataclass
+class ControllerConfig:
+    """Options around the control law.
+
+    :param pid: gains and limits of the law
+    :param feedforward: a :class:`FeedforwardMode`
+    :param control_period_s: nominal period, s
+    :param reference_extrapolation: evaluate the latest reference sample at
+        the tick time using its velocity and acceleration, instead of holding it
+    :param latency_compensation: advance the measurement from its stamp to the
+        tick time through the arm model (or its own velocity without a model)
+    :param watchdog_periods: control periods without a valid measurement
+        before the command drops to zero
+    :param disturbance_observer: with the Kalman filter (``estimator``), also
+        estimate an external torque on each joint and subtract it from the
+        command (within the torque limit); no effect without the filter
+    """
+
+    pid: PidConfig = field(default_factory=PidConfig)
+    #: "pid"; "lqr" (the PID's gains replaced by a discrete LQR design); or a law of one's own: an
+    #: installed plugin's name, ``module:Class`` or ``path/to/file.py:Class`` (core.laws)
+    controller_type: str = "pid"
+    #: a plugin law's parameter values, by the names it declares (checked against them when it is built)
+    law_parameters: dict[str, Any] = field(default_factory=dict)
+    #: s of wall time a plugin law's update may take (checked only where the controller is given a clock)
+    law_budget_s: float = 0.005
+    #: rad a plugin law may let the arm run away from the reference on a joint (ContainedLaw.check_runaway; 0: off)
+    law_error_max_rad: float = 0.5
+    #: the built-in law ("pid" or "lqr", with this config's gains) that brings the arm to rest when a plugin law fails
+    stop_law: str = "lqr"
+    lqr_q: tuple[float, float, float] = (1e4, 1e4, 1.0)  #: weights on ∫e, e, ė
+    lqr_r: float = 1e-2  #: weight on the feedback torque
+    #: kg·m², the joint inertia lqr_r and the filter's torque σs are for; each joint's LQR weight is
+    #: lqr_r·(this/its inertia)², its observer's σs ×(its inertia/this): the same closed loop on every
+    #: joint; 0: the values as they are on every joint
+    reference_inertia: float = 0.0
+    estimator: KalmanConfig | None = None  #: a Kalman filter on the reading, or none
+    disturbance_observer: bool = False  #: the filter estimates an external torque, the law subtracts it
+    feedforward: FeedforwardMode = FeedforwardMode.NONE
+    #: on a chain of joints, the feedback torques through M(q)·diag(M(q))⁻¹ (computed-torque feedback)
+    feedback_decoupling: bool = False
+    control_period_s: float = 0.01
+    reference_extrapolation: bool = False
+    latency_compensation: bool = False
+    watchdog_periods: int = 5
+    sensor_timeout_s: float = 1.0  #: readings missing this long end the controlled stop: torque off, brake
+    #: s; a reading older than this when it arrives (or stamped this far ahead) is refused: after a
+    #: pause, a sensor's first sample can be from before it, and acting on it swings the arm
+    max_reading_age_s: float = 0.1
+    stop_deceleration: float = 20.0  #: rad/s², controlled stops (sensor or planner lost)
+    reacquire_acceleration: float = 20.0  #: rad/s², the blend back onto the trajectory after a fault
+    #: rad per joint, the pose the LQR gains and the delay margin are designed at (each joint's inertia
+    #: there: a wrist has a hundredth of a shoulder's); None: every joint at 0
+    design_position: tuple[float, ...] | None = None
+
+    def __post_init__(self) -> None:
+        try:
+            self.feedforward = FeedforwardMode(self.feedforward)
+        except ValueError:
+            raise ConfigError(
+                f"feedforward: {self.feedforward!r} is not one of {[m.value for m in FeedforwardMode]}"
+            ) from None
+        if not np.isfinite(self.control_period_s) or self.control_period_s <= 0:
+            raise ConfigError(f"control_rate_hz: must be > 0, got period {self.control_period_s}")
+        if int(self.watchdog_periods) < 1:
+            raise ConfigError(f"watchdog_periods: must be >= 1, got {self.watchdog_periods}")
+        for name in ("sensor_timeout_s", "max_reading_age_s", "stop_deceleration", "reacquire_acceleration"):
+            value = getattr(self, name)
+            if not np.isfinite(value) or value <= 0:
+                raise ConfigError(f"{name}: must be a finite number > 0, got {value}")
+        if not isinstance(self.controller_type, str) or not self.controller_type.strip():
+            raise ConfigError("controller_type: give pid, lqr, an installed law, module:Class or file.py:Class")
+        if self.stop_law not in BUILTIN_LAWS:
+            raise ConfigError(f"stop_law: {self.stop_law!r} is not one of {list(BUILTIN_LAWS)}")
+        if not np.isfinite(self.law_budget_s) or self.law_budget_s <= 0:
+            raise ConfigError(f"law_budget_s: must be a finite number > 0, got {self.law_budget_s}")
+        if not np.isfinite(self.law_error_max_rad) or self.law_error_max_rad < 0:
+            raise ConfigError(f"law_error_max_rad: must be a finite number >= 0, got {self.law_error_max_rad}")
+
+    @property
+    def plugin_law(self) -> bool:
+        """Whether the law is one of the user's (not a built-in)."""
+        return self.controller_type not in BUILTIN_LAWS
+
+    @property
+    def builtin_law(self) -> str:
+        """The built-in law this config runs: ``controller_type``, or for a plugin law ``stop_law``."""
+        return self.stop_law if self.plugin_law else self.controller_type
+
+    @property
+    def observes_disturbance(self) -> bool:
+        """Whether the disturbance observer runs: asked for, and there is a Kalman filter to carry it."""
+        return bool(self.disturbance_observer) and self.estimator is not None
+
+    @property
+    def watchdog_s(self) -> float:
+        """Silence of the sensor (s) after which the watchdog's controlled stop starts."""
+        return self.watchdog_periods * self.control_period_s

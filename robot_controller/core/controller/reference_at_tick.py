@@ -1,0 +1,207 @@
+"""The reference the law tracks at a tick, and every way it departs from the
+planner's trajectory: holding the arm where it is (before the first sample,
+or after a fault until a fresh sample comes), a controlled stop when the
+planner goes quiet or the readings go missing (IEC 60204-1 category 2), and
+a blend from where the arm is back onto the trajectory when a fault clears.
+
+Each :class:`Reference` names its source, so a held or rewritten reference
+is never passed off as the planner's. Positions rad, velocities rad/s,
+accelerations rad/s², times s.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robot_controller.core.controller.config import ControllerConfig
+from robot_controller.core.controller.output import ReferenceSource, Status
+from robot_controller.core.controller.safe_motion import Blend, ControlledStop
+from robot_controller.core.controller.setpoint import PlannerReference, TrajectoryPoint
+from robot_controller.core.controller.tick_state import MAX_EXTRAPOLATION_S
+
+
+@dataclass(frozen=True)
+class Reference:
+    """The reference for one tick and what it is."""
+
+    position: np.ndarray  #: rad
+    velocity: np.ndarray  #: rad/s
+    acceleration: np.ndarray  #: rad/s²
+    status: Status  #: OK, HOLDING, REACQUIRING, REFERENCE_LOST or WATCHDOG
+    source: ReferenceSource
+    #: ``(position, velocity, acceleration)`` the feedforward is computed for: the reference at the
+    #: middle of the control period the command is held over (see
+    #: :meth:`~robot_controller.core.controller.setpoint.PlannerReference.over_period`); None: the reference itself
+    feedforward: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+
+class ReferenceAtTick:
+    """The planner's samples and the hold, stops and blend around faults."""
+
+    def __init__(self, joint_count: int) -> None:
+        self.joint_count = joint_count
+        self.planner = PlannerReference()
+        # Start as after a fault: lead the arm from where it is onto the trajectory.
+        self._needs_reacquire = True
+        self._hold_position: np.ndarray | None = None
+        # The reference last used (position, velocity, acceleration) and when: a stop starts from it.
+        self._last: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._last_s = 0.0
+        self._sensor_stop: ControlledStop | None = None
+        self._reference_stop: ControlledStop | None = None
+        self._law_stop: ControlledStop | None = None
+        self._late_stop: ControlledStop | None = None
+        self._blend: Blend | None = None
+
+    # --- re-acquisition -------------------------------------------------------------
+
+    def request_reacquire(self) -> None:
+        """The arm moved (or may have) without this controller: once it is
+        tracking again, lead it from where it is then, not where it was."""
+        self._needs_reacquire = True
+
+    @property
+    def reacquire_pending(self) -> bool:
+        return self._needs_reacquire
+
+    def try_reacquire(
+        self, now_s: float, arm_position: np.ndarray, arm_velocity: np.ndarray, config: ControllerConfig
+    ) -> bool:
+        """Leave the sensor-loss stop and, if the planner's trajectory is fresh,
+        start a blend from the arm's ``(position, velocity)`` onto it (within
+        ``reacquire_acceleration``). False while there is no fresh trajectory to
+        lead the arm onto: :meth:`at_tick` holds it meanwhile."""
+        self._sensor_stop = None
+        self._late_stop = None
+        planner = self.planner
+        if (
+            planner.sample is None
+            or not planner.spoke
+            or not planner.at(now_s, config.reference_extrapolation, config.control_period_s).fresh
+        ):
+            return False
+        self._needs_reacquire = False
+        self._hold_position = None
+        point = planner.at(now_s, config.reference_extrapolation, config.control_period_s)
+        self._reference_stop = None
+        self._blend = Blend.starting(
+            now_s, arm_position - point.position, arm_velocity - point.velocity, config.reacquire_acceleration
+        )
+        return True
+
+    # --- the reference at the tick ------------------------------------------------------
+
+    def at_tick(self, now_s: float, arm_position: np.ndarray, config: ControllerConfig) -> Reference:
+        """The reference while the readings are healthy: a hold while a
+        re-acquisition waits for a fresh trajectory, otherwise
+        :meth:`from_trajectory`."""
+        if self._needs_reacquire:
+            return self._hold(arm_position)
+        self._hold_position = None  # a later hold starts where the arm is then
+        return self.from_trajectory(now_s, arm_position, config)
+
+    def _hold(self, arm_position: np.ndarray) -> Reference:
+        """Hold the arm where it was when the hold began, at rest. HOLDING before
+        the planner's first sample, REACQUIRING (waiting for a fresh one) after."""
+        if self._hold_position is None:
+            self._hold_position = arm_position
+        zeros = np.zeros(self.joint_count)
+        status = Status.HOLDING if not self.planner.spoke else Status.REACQUIRING
+        return Reference(self._hold_position, zeros, zeros, status, ReferenceSource.HOLD_POSITION)
+
+    def from_trajectory(self, now_s: float, arm_position: np.ndarray, config: ControllerConfig) -> Reference:
+        """The trajectory at ``now_s`` (held or extrapolated); while re-acquiring,
+        plus the blend's fading offset; a controlled stop of the last reference
+        used if the planner went quiet, and a blend from that stop when it
+        returns. Before the planner's first sample: a hold at ``arm_position``."""
+        planner = self.planner
+        if planner.sample is None:
+            planner.hold_here(arm_position, now_s)
+        if not planner.spoke:
+            return Reference(*planner.sample, Status.HOLDING, ReferenceSource.HOLD_POSITION)
+        point = planner.at(now_s, config.reference_extrapolation, config.control_period_s)
+        if not point.fresh:
+            return self._planner_lost(now_s, point, config)
+        if self._reference_stop is not None:
+            # The planner is back: lead from the stop onto its trajectory.
+            held = self._reference_stop.at(now_s)
+            self._blend = Blend.starting(
+                now_s, held[0] - point.position, held[1] - point.velocity, config.reacquire_acceleration
+            )
+            self._reference_stop = None
+        # The command is held over the period: its feedforward is for the reference over it.
+        mid_s = now_s + 0.5 * config.control_period_s
+        ahead = planner.over_period(now_s, config.control_period_s, config.reference_extrapolation)
+        reference = Reference(point.position, point.velocity, point.acceleration, Status.OK, point.source, ahead)
+        if self._blend is not None:
+            if self._blend.done(now_s):
+                self._blend = None
+            else:
+                offset, offset_ahead = self._blend.offset_at(now_s), self._blend.offset_at(mid_s)
+                reference = Reference(
+                    point.position + offset[0],
+                    point.velocity + offset[1],
+                    point.acceleration + offset[2],
+                    Status.REACQUIRING,
+                    ReferenceSource.REACQUIRE_BLEND,
+                    tuple(x + dx for x, dx in zip(ahead, offset_ahead, strict=True)),
+                )
+        return self._used(now_s, reference)
+
+    def _planner_lost(self, now_s: float, point: TrajectoryPoint, config: ControllerConfig) -> Reference:
+        """The planner went quiet: bring the reference to rest at
+        ``stop_deceleration`` from the last one used, carried on to now at its
+        velocity (no jump), and hold there."""
+        if self._reference_stop is None:
+            last = self._last or (point.position, point.velocity, point.acceleration)
+            carried = np.clip(now_s - self._last_s, 0.0, MAX_EXTRAPOLATION_S)
+            self._reference_stop = ControlledStop(now_s, last[0] + last[1] * carried, last[1], config.stop_deceleration)
+            self._blend = None
+        return self._used(
+            now_s, Reference(*self._reference_stop.at(now_s), Status.REFERENCE_LOST, ReferenceSource.REFERENCE_STOP)
+        )
+
+    def sensor_stop(self, now_s: float, arm_position: np.ndarray, config: ControllerConfig) -> Reference:
+        """Readings are missing (watchdog): from where the reference is at the
+        first such tick (no jump in it), decelerate to rest at
+        ``stop_deceleration`` and hold there until re-acquisition."""
+        if self._sensor_stop is None:
+            start = self.from_trajectory(now_s, arm_position, config)
+            self._sensor_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
+        return self._used(now_s, Reference(*self._sensor_stop.at(now_s), Status.WATCHDOG, ReferenceSource.SENSOR_STOP))
+
+    def late_stop(self, now_s: float, arm_position: np.ndarray, config: ControllerConfig) -> Reference:
+        """The loop's delay is past what the gains survive: from where the reference
+        is at the first such tick, decelerate to rest at ``stop_deceleration`` and
+        hold there until the delay is back within the margin (then re-acquisition)."""
+        if self._late_stop is None:
+            start = self.from_trajectory(now_s, arm_position, config)
+            self._late_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
+        return self._used(now_s, Reference(*self._late_stop.at(now_s), Status.LATE, ReferenceSource.LATE_STOP))
+
+    def law_stop(self, now_s: float, start: Reference | None, config: ControllerConfig) -> Reference:
+        """The plugin law failed: from ``start`` (the reference of the tick it failed
+        on; later ticks pass None), decelerate to rest at ``stop_deceleration`` and
+        hold there for good."""
+        if self._law_stop is None:
+            if start is None:
+                last = self._last or (np.zeros(self.joint_count),) * 3
+                start = Reference(*last, Status.LAW_FAULT, ReferenceSource.LAW_STOP)
+            self._law_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
+        return self._used(now_s, Reference(*self._law_stop.at(now_s), Status.LAW_FAULT, ReferenceSource.LAW_STOP))
+
+    def sensor_stop_at_rest(self, now_s: float) -> bool:
+        return self._sensor_stop is not None and self._sensor_stop.at_rest(now_s)
+
+    def late_stop_at_rest(self, now_s: float) -> bool:
+        return self._late_stop is not None and self._late_stop.at_rest(now_s)
+
+    def law_stop_at_rest(self, now_s: float) -> bool:
+        return self._law_stop is not None and self._law_stop.at_rest(now_s)
+
+    def _used(self, now_s: float, reference: Reference) -> Reference:
+        """Remember ``reference`` as the last one used (a later stop starts from it)."""
+        self._last, self._last_s = (reference.position, reference.velocity, reference.acceleration), now_s
+        return reference

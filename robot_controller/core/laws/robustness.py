@@ -1,0 +1,230 @@
+"""Stability margins of the discrete control loop: gain, phase and delay.
+
+The loop is the one :mod:`robot_controller.core.laws.lqr` designs on: each joint's
+arm linearised as ``J ë + b ė = u``, discretised with a zero-order hold at
+the control period over the state ``x = [∫e dt, e, ė]``, and the feedback
+``u = −K x`` with ``K = [Ki, Kp, Kd]`` (a PID and an LQR alike). Broken at
+the plant input, the loop transfer function is
+
+    L(z) = K (z I − A)⁻¹ B,
+
+and the closed loop's characteristic equation is ``1 + L(z) = 0``. Its
+margins are read on the unit circle ``z = e^{jθ}``, ``θ = ω·dt`` in (0, π]:
+
+- gain margin: the loop gain may grow by the factor ``1/a`` before the
+  Nyquist curve, crossing the negative real axis at ``−a`` (``a < 1``), passes
+  through −1; where it crosses beyond −1 (``a > 1``), the gain may shrink by
+  ``a`` (a *lower* gain margin, which loops with an integrator can have);
+- phase margin: ``180° + arg L`` where ``|L| = 1`` (the gain crossover);
+- delay margin: the phase margin divided by the crossover frequency, in
+  seconds (a delay ``τ`` adds the phase ``−ω τ`` and leaves ``|L|`` alone).
+
+The margins say something only of a loop that is stable to begin with:
+:func:`margins` checks the closed loop's spectral radius first. Pure maths:
+numpy only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Frequencies the unit circle is sampled at, per loop: log-spaced from
+#: θ = 1e-5 rad (the loop has poles at z = 1) up to π, the Nyquist frequency.
+GRID_POINTS = 2048
+
+
+@dataclass(frozen=True)
+class Margins:
+    """The margins of one loop. A margin the loop does not have is ``inf``
+    (its frequency NaN); all are NaN if the closed loop is unstable."""
+
+    stable: bool  #: closed-loop spectral radius below 1
+    spectral_radius: float
+    gain_margin_db: float  #: how much the loop gain may GROW, dB
+    gain_margin_low_db: float  #: how much it may SHRINK, dB (inf: any reduction is stable)
+    phase_margin_deg: float  #: the smallest over the gain crossovers
+    delay_margin_s: float  #: the smallest phase margin / crossover frequency over the crossovers
+    crossover_rad_s: float  #: the gain crossover of the smallest phase margin, rad/s
+    phase_crossover_rad_s: float  #: where the upper gain margin is read, rad/s
+
+    @property
+    def gain_margin_both_db(self) -> float:
+        """The smaller of the two gain margins (up and down), dB."""
+        return float(min(self.gain_margin_db, self.gain_margin_low_db))
+
+    def delay_margin_periods(self, dt: float) -> float:
+        """The delay margin in control periods (a real number, not whole periods)."""
+        return self.delay_margin_s / dt
+
+    def as_dict(self, prefix: str = "") -> dict[str, float]:
+        return {
+            f"{prefix}stable": int(self.stable),
+            f"{prefix}spectral_radius": self.spectral_radius,
+            f"{prefix}gain_margin_db": self.gain_margin_db,
+            f"{prefix}gain_margin_low_db": self.gain_margin_low_db,
+            f"{prefix}phase_margin_deg": self.phase_margin_deg,
+            f"{prefix}delay_margin_s": self.delay_margin_s,
+            f"{prefix}crossover_rad_s": self.crossover_rad_s,
+            f"{prefix}phase_crossover_rad_s": self.phase_crossover_rad_s,
+        }
+
+
+def frequency_grid(points: int = GRID_POINTS) -> np.ndarray:
+    """θ = ω·dt from 1e-5 rad to π (included), log-spaced."""
+    return np.geomspace(1e-5, np.pi, points)
+
+
+def loop_response(A: np.ndarray, B: np.ndarray, K: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """``L(e^{jθ}) = K (e^{jθ} I − A)⁻¹ B`` for each θ. ``K`` may be one gain
+    row ``(1, n)`` or a batch ``(m, n)``: returns shape ``(m, len(theta))``."""
+    A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float).reshape(-1, 1)
+    K = np.atleast_2d(np.asarray(K, dtype=float))
+    n = A.shape[0]
+    z = np.exp(1j * np.asarray(theta, dtype=float))
+    # (z I − A)⁻¹ B for every z at once: shape (len(theta), n)
+    resolvent = np.linalg.solve(z[:, None, None] * np.eye(n) - A, np.broadcast_to(B, (len(z), n, 1)))[:, :, 0]
+    return K @ resolvent.T
+
+
+def spectral_radius(A: np.ndarray, B: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """The closed loop's spectral radius ``max |eig(A − B K)|`` per gain row of ``K``."""
+    K = np.atleast_2d(np.asarray(K, dtype=float))
+    closed = np.asarray(A, dtype=float)[None] - np.asarray(B, dtype=float).reshape(1, -1, 1) * K[:, None, :]
+    return np.max(np.abs(np.linalg.eigvals(closed)), axis=1)
+
+
+def stable_with_delay(A: np.ndarray, B: np.ndarray, K: np.ndarray, delay: int) -> np.ndarray:
+    """Whether ``x[k+1] = A x[k] − B K x[k−delay]`` is stable, per gain row of ``K``
+    (the system of :func:`robot_controller.core.laws.lqr.delay_margin_periods`, vectorised)."""
+    A = np.asarray(A, dtype=float)
+    B = np.asarray(B, dtype=float).reshape(-1, 1)
+    K = np.atleast_2d(np.asarray(K, dtype=float))
+    n, size = A.shape[0], A.shape[0] * (delay + 1)
+    M = np.zeros((len(K), size, size))
+    M[:, :n, :n] = A
+    M[:, :n, n * delay :] -= B[None] * K[:, None, :]
+    M[:, n:, :-n] = np.eye(n * delay)
+    return np.max(np.abs(np.linalg.eigvals(M)), axis=1) < 1.0
+
+
+def _sign_changes(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rows, columns and the interpolation fraction of every sign change
+    between consecutive columns (value k to k+1; zero-crossings included once)."""
+    a, b = values[:, :-1], values[:, 1:]
+    rows, cols = np.nonzero(((a < 0) & (b >= 0)) | ((a > 0) & (b <= 0)))
+    va, vb = a[rows, cols], b[rows, cols]
+    fraction = va / (va - vb)
+    return rows, cols, fraction
+
+
+def margins_batch(
+    A: np.ndarray, B: np.ndarray, K: np.ndarray, dt: float, theta: np.ndarray | None = None
+) -> dict[str, np.ndarray]:
+    """The margins of many gain rows of ``K`` at once, for searches: arrays
+    ``stable``, ``spectral_radius``, ``gain_margin_db``, ``gain_margin_low_db``,
+    ``phase_margin_deg``, ``delay_margin_s``, ``crossover_rad_s``,
+    ``phase_crossover_rad_s``, one entry per row (crossings interpolated
+    linearly between grid points; :func:`margins` for one loop)."""
+    K = np.atleast_2d(np.asarray(K, dtype=float))
+    theta = frequency_grid() if theta is None else np.asarray(theta, dtype=float)
+    m = len(K)
+    radius = spectral_radius(A, B, K)
+    stable = radius < 1.0
+    L = loop_response(A, B, K, theta)
+    inf = np.full(m, np.inf)
+    gain_up, gain_low, phase_x = inf.copy(), inf.copy(), np.full(m, np.nan)
+
+    def negative_crossing(row: int, a: float, w: float) -> None:
+        if a < 1.0:
+            margin = -20.0 * np.log10(a) if a > 0 else np.inf
+            if margin < gain_up[row]:
+                gain_up[row], phase_x[row] = margin, w
+        else:
+            gain_low[row] = min(gain_low[row], 20.0 * np.log10(a))
+
+    # Crossings of the real axis (Im L = 0) on its negative side.
+    rows, cols, frac = _sign_changes(L.imag)
+    re = L.real[rows, cols] + frac * (L.real[rows, cols + 1] - L.real[rows, cols])
+    w = (theta[cols] + frac * (theta[cols + 1] - theta[cols])) / dt
+    for row, value, omega in zip(rows, re, w, strict=True):
+        if value < 0:
+            negative_crossing(int(row), float(-value), float(omega))
+    # At θ = π, L is real: a point of the negative real axis if L(−1) < 0.
+    if np.isclose(theta[-1], np.pi):
+        for row in np.flatnonzero(L[:, -1].real < 0):
+            negative_crossing(int(row), float(-L[row, -1].real), float(np.pi / dt))
+    # Gain crossovers (|L| = 1) and the phase there.
+    rows, cols, frac = _sign_changes(np.log(np.abs(L)))
+    at = L[rows, cols] + frac * (L[rows, cols + 1] - L[rows, cols])
+    w = (theta[cols] + frac * (theta[cols + 1] - theta[cols])) / dt
+    pm = _wrap_deg(180.0 + np.degrees(np.angle(at)))
+    phase_margin, crossover, delay = inf.copy(), np.full(m, np.nan), inf.copy()
+    for row, margin, omega in zip(rows, pm, w, strict=True):
+        if margin < phase_margin[row]:
+            phase_margin[row], crossover[row] = margin, omega
+        delay[row] = min(delay[row], np.radians(margin) / omega if margin > 0 else 0.0)
+    out = {
+        "stable": stable,
+        "spectral_radius": radius,
+        "gain_margin_db": gain_up,
+        "gain_margin_low_db": gain_low,
+        "phase_margin_deg": phase_margin,
+        "delay_margin_s": delay,
+        "crossover_rad_s": crossover,
+        "phase_crossover_rad_s": phase_x,
+    }
+    for key in out:
+        if key not in ("stable", "spectral_radius"):
+            out[key] = np.where(stable, out[key], np.nan)
+    return out
+
+
+def _wrap_deg(angle: np.ndarray) -> np.ndarray:
+    """Into (−180°, 180°]."""
+    return 180.0 - np.mod(180.0 - np.asarray(angle, dtype=float), 360.0)
+
+
+def margins(A: np.ndarray, B: np.ndarray, K: np.ndarray, dt: float, points: int = 16384) -> Margins:
+    """The margins of the loop ``u = −K x`` on ``x[k+1] = A x[k] + B u[k]``
+    at the control period ``dt`` (s), on a fine grid of the unit circle."""
+    values = margins_batch(A, B, np.atleast_2d(K)[:1], dt, frequency_grid(points))
+    return Margins(
+        bool(values["stable"][0]),
+        *(
+            float(values[key][0])
+            for key in (
+                "spectral_radius",
+                "gain_margin_db",
+                "gain_margin_low_db",
+                "phase_margin_deg",
+                "delay_margin_s",
+                "crossover_rad_s",
+                "phase_crossover_rad_s",
+            )
+        ),
+    )
+
+
+def pid_gain_row(kp: float, ki: float, kd: float) -> np.ndarray:
+    """The feedback row on ``[∫e, e, ė]`` of a PID (and of an LQR's designed gains)."""
+    return np.array([[ki, kp, kd]], dtype=float)
+
+
+def poles(A: np.ndarray, B: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """The closed loop's poles (eigenvalues of ``A − B K``), sorted by magnitude, largest first."""
+    closed = np.asarray(A, dtype=float) - np.asarray(B, dtype=float).reshape(-1, 1) @ np.atleast_2d(K)
+    values = np.linalg.eigvals(closed)
+    return values[np.argsort(-np.abs(values), kind="stable")]
+
+
+def pole_summary(z: complex, dt: float) -> tuple[float, float]:
+    """A discrete pole as the continuous one it samples (``s = ln z / dt``):
+    natural frequency (rad/s) and damping ratio. A pole on the negative real
+    axis has no continuous equivalent: NaN, NaN."""
+    if abs(z) == 0 or (abs(z.imag) < 1e-12 and z.real < 0):
+        return float("nan"), float("nan")
+    s = np.log(complex(z)) / dt
+    wn = abs(s)
+    return float(wn), float(-s.real / wn) if wn > 0 else float("nan")

@@ -1,0 +1,78 @@
+"""Each joint's position and velocity limits, from the URDF.
+
+Position limits come through MuJoCo (``jnt_range`` of the model compiled from
+the URDF, so they are the ones the simulator enforces). MuJoCo keeps no
+velocity limit, so ``<limit velocity=…>`` is read from the URDF's XML itself.
+A limit the URDF leaves out is infinite (a ``continuous`` joint, a missing
+``velocity`` attribute).
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from robot_controller.core.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    """Per joint, in the arm's order: position range (rad, or m for a slide) and speed limit (rad/s, m/s)."""
+
+    joint_names: tuple[str, ...]
+    lower: np.ndarray
+    upper: np.ndarray
+    velocity: np.ndarray
+
+    @classmethod
+    def unlimited(cls, joint_names: Sequence[str]) -> JointLimits:
+        n = len(joint_names)
+        return cls(tuple(joint_names), np.full(n, -np.inf), np.full(n, np.inf), np.full(n, np.inf))
+
+
+def urdf_velocity_limits(urdf_path: str | Path, joint_names: Sequence[str]) -> np.ndarray:
+    """Each named joint's ``<limit velocity=…>`` in the URDF at ``urdf_path``, in the
+    order of ``joint_names``; ``inf`` where the joint has none (or no ``<limit>``).
+
+    :raises ConfigError: a file that is not XML, or a velocity that is not a number ≥ 0
+    """
+    try:
+        root = ET.parse(urdf_path).getroot()
+    except (ET.ParseError, OSError) as exc:
+        raise ConfigError(f"urdf_path: cannot read velocity limits from {str(urdf_path)!r}: {exc}") from None
+    found: dict[str, float] = {}
+    for joint in root.iter("joint"):
+        limit = joint.find("limit")
+        text = None if limit is None else limit.get("velocity")
+        if text is None:
+            continue
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not value >= 0:  # NaN too
+            raise ConfigError(f"urdf_path: joint {joint.get('name')!r} has velocity limit {text!r}")
+        found[joint.get("name", "")] = value if value > 0 else math.inf  # 0 is urdfdom's "not given"
+    return np.array([found.get(name, math.inf) for name in joint_names])
+
+
+def joint_limits(urdf_path: str | Path) -> JointLimits:
+    """The arm's joints and their limits, from the URDF at ``urdf_path`` (MuJoCo for the
+    positions, the XML for the speeds).
+
+    :raises ConfigError: a URDF MuJoCo cannot load
+    """
+    from robot_controller.core.model.plant import joint_names, load_model
+
+    model = load_model(urdf_path)
+    names = joint_names(model)
+    n = len(names)
+    limited = model.jnt_limited[:n].astype(bool)
+    lower = np.where(limited, model.jnt_range[:n, 0], -np.inf)
+    upper = np.where(limited, model.jnt_range[:n, 1], np.inf)
+    return JointLimits(tuple(names), lower, upper, urdf_velocity_limits(urdf_path, names))

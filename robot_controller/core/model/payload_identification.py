@@ -1,0 +1,157 @@
+"""Identification of a payload on a chain of joints: the mass and centre of a
+load on the last joint's link (:mod:`robot_controller.core.model.payload`) that
+make the arm model's inverse dynamics explain a recorded motion.
+
+On one joint a per-joint model (:mod:`robot_controller.core.model.identification`)
+is the whole truth; on a chain, gravity, inertia and Coriolis couple the
+joints and a per-joint fit would fold one joint's load into another's
+numbers. What a URDF most often misses on a real arm is what it carries (a
+tool, a part, a camera), and that is four numbers: ``[mass_kg, x_m, y_m,
+z_m]``. They are fitted by nonlinear least squares
+(``scipy.optimize.least_squares``) of
+
+    tau_k = ID(q_k, v_k, a_k; payload)
+
+over every joint and every interval between two recorded samples (the
+interval's mean acceleration, and position and velocity at its middle, as
+the per-joint fit takes them), ``ID`` being MuJoCo's ``mj_inverse`` of the
+URDF with the payload welded on. Intervals with a brake on, the torque off
+or at the effort limit are left out. Standard errors from the fit's
+Jacobian, σ²·(JᵀJ)⁻¹.
+
+A coordinate of the centre that moves no joint's torque cannot be
+identified: on a planar arm (``planar2``) the one along the parallel joint
+axes. It is set to 0 (the link's plane), its standard error is NaN, and the
+fit names it; the rest are identified as usual.
+
+No ROS here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from scipy.optimize import least_squares
+
+from robot_controller.core.model.identification import (
+    MAX_GAP_RATIO,
+    SATURATION_FRACTION,
+    IdentificationError,
+    intervals,
+)
+from robot_controller.core.model.payload import MAX_MASS_KG, MAX_OFFSET_M, Payload, set_payload
+from robot_controller.core.model.plant import load_model
+
+# Where the search starts: a light load near the link's origin (a zero mass would leave its place undefined).
+START = Payload(0.5, (0.0, 0.0, 0.05))
+MIN_SAMPLES = 50
+PARAMETER_NAMES = ("mass_kg", "x_m", "y_m", "z_m")
+# A parameter whose column of the fit's Jacobian is this small against the largest moves no torque.
+UNSEEN_RELATIVE = 1e-6
+# kg: a fitted mass below this is the fit soaking up the model's rounding (a tenth of a gram on a
+# motion recorded without noise), not a load: nothing the controller's model would notice.
+FOUND_MIN_KG = 0.01
+
+
+@dataclass(frozen=True)
+class PayloadFit:
+    payload: Payload
+    stderr: tuple[float, float, float, float]  #: of mass_kg, x_m, y_m, z_m (NaN: not identifiable)
+    residual_rms_nm: float  #: torque the fitted model leaves unexplained, RMS over joints and samples
+    residual_rms_without_nm: float  #: the same for the URDF alone (no payload)
+    samples: int  #: intervals used
+    unidentifiable: tuple[str, ...] = ()  #: names (``PARAMETER_NAMES``) the motion's torques do not depend on, set to 0
+
+    @property
+    def found(self) -> bool:
+        """A mass above its noise (3 standard errors) and above ``FOUND_MIN_KG``: with none, the
+        centre means nothing."""
+        return self.payload.mass_kg > max(3.0 * self.stderr[0], FOUND_MIN_KG)
+
+
+def fit_payload(
+    urdf_path: str | Path,
+    time_s: np.ndarray,
+    position: np.ndarray,
+    velocity: np.ndarray,
+    torque: np.ndarray,
+    *,
+    effort_limit: np.ndarray | float | None = None,
+    braked: np.ndarray | None = None,
+) -> PayloadFit:
+    """Fit a payload to a recorded motion (arrays as
+    :func:`robot_controller.core.model.identification.identify` takes them: the
+    TRUE state, and the torque that acted over the interval each row ends).
+
+    :raises IdentificationError: too few usable samples, or a fit the motion does not pin down
+    """
+    time_s = np.asarray(time_s, dtype=float).reshape(-1)
+    position, velocity, torque = (
+        np.asarray(x, dtype=float).reshape(len(time_s), -1) for x in (position, velocity, torque)
+    )
+    n = position.shape[1]
+    dt, q, v, a, _ = intervals(time_s, position, velocity)
+    tau = torque[1:]
+    limit = np.full(n, np.inf) if effort_limit is None else np.broadcast_to(np.asarray(effort_limit, float), (n,))
+    held = np.zeros((len(time_s), n), dtype=bool)
+    if braked is not None:
+        held = np.broadcast_to(np.asarray(braked, dtype=bool).reshape(len(time_s), -1), (len(time_s), n))
+    use = (
+        (dt > 0)
+        & (dt < MAX_GAP_RATIO * np.median(dt))
+        & ~np.any(held[1:] | held[:-1], axis=1)
+        & ~np.any(tau == 0.0, axis=1)
+        & ~np.any(np.abs(tau) >= SATURATION_FRACTION * limit, axis=1)
+        & np.all(np.isfinite(a), axis=1)
+        & np.all(np.isfinite(tau), axis=1)
+    )
+    if use.sum() < MIN_SAMPLES:
+        raise IdentificationError(f"{int(use.sum())} usable samples, at least {MIN_SAMPLES} needed")
+    q, v, a, tau = q[use], v[use], a[use], tau[use]
+    model = load_model(urdf_path, payload=START)
+    data = mujoco.MjData(model)
+
+    def residual(theta: np.ndarray) -> np.ndarray:
+        set_payload(model, Payload(float(theta[0]), (float(theta[1]), float(theta[2]), float(theta[3]))))
+        out = np.empty_like(tau)
+        for k in range(len(tau)):
+            data.qpos[:], data.qvel[:], data.qacc[:] = q[k], v[k], a[k]
+            mujoco.mj_inverse(model, data)
+            out[k] = data.qfrc_inverse
+        return (out - tau).reshape(-1)
+
+    without = residual(np.array([0.0, 0.0, 0.0, 0.0]))
+    bound = MAX_OFFSET_M / np.sqrt(3.0)
+    result = least_squares(
+        residual,
+        np.array(START.as_values()),
+        bounds=([0.0, -bound, -bound, -bound], [MAX_MASS_KG, bound, bound, bound]),
+        x_scale=[1.0, 0.1, 0.1, 0.1],
+    )
+    jacobian = result.jac
+    column_norm = np.linalg.norm(jacobian, axis=0)
+    seen = column_norm > UNSEEN_RELATIVE * column_norm.max()
+    if not seen[0]:
+        raise IdentificationError("the motion does not pin the payload down (its mass moves no torque)")
+    theta = result.x.copy()
+    theta[~seen] = 0.0  # an offset no torque depends on: the link's plane
+    seen_jacobian = jacobian[:, seen]
+    dof = max(1, jacobian.shape[0] - int(seen.sum()))
+    sigma2 = float(result.fun @ result.fun) / dof
+    try:
+        covariance = sigma2 * np.linalg.inv(seen_jacobian.T @ seen_jacobian)
+    except np.linalg.LinAlgError:
+        raise IdentificationError("the motion does not pin the payload down (singular fit)") from None
+    stderr = np.full(4, np.nan)
+    stderr[seen] = np.sqrt(np.maximum(np.diag(covariance), 0.0))
+    return PayloadFit(
+        payload=Payload(float(theta[0]), (float(theta[1]), float(theta[2]), float(theta[3]))),
+        stderr=tuple(float(s) for s in stderr),
+        residual_rms_nm=float(np.sqrt(np.mean(result.fun**2))),
+        residual_rms_without_nm=float(np.sqrt(np.mean(without**2))),
+        samples=int(len(tau)),
+        unidentifiable=tuple(name for name, known in zip(PARAMETER_NAMES, seen, strict=True) if not known),
+    )

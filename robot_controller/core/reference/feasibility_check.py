@@ -1,0 +1,237 @@
+"""Whether the arm can follow a trajectory inside its torque limit (:func:`check`): each
+trajectory shape's span sampled, the inverse dynamics along it, and the bisection for the
+smallest slowing that fits. What :mod:`robot_controller.core.reference.feasibility` describes; the
+plan that acts on the result is :mod:`robot_controller.core.reference.feasibility_plan`."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.reference.trajectory import (
+    Chirp,
+    Hold,
+    MinTimeStep,
+    Sine,
+    Square,
+    Step,
+    Trajectory,
+    time_scaled,
+)
+
+POLICIES = ("scale", "refuse", "ignore")
+DEFAULT_MARGIN = 0.2
+# Samples over the window checked: at least this many, and this many per cycle of the fastest frequency.
+MIN_SAMPLES = 1000
+SAMPLES_PER_CYCLE = 100
+# Bisection stops when the bracket is this narrow, relative to k.
+RELATIVE_TOLERANCE = 1e-3
+# Slowing by more than this is not a fix (gravity then takes nearly all of the usable torque).
+MAX_SCALE = 1000.0
+_FIT_EPS_NM = 1e-9
+
+
+class InverseDynamics(Protocol):
+    def torque(self, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
+        """Joint torque that gives ``acceleration`` at state ``(position, velocity)``."""
+        ...
+
+
+@dataclass(frozen=True)
+class Feasibility:
+    """What a trajectory needs against what the actuator can give, per joint.
+
+    ``peak_torque_nm``: largest |torque| along the path as given.
+    ``gravity_nm``: largest |torque| to hold the path's positions still: what
+    no slowing removes. ``scale``: the time factor k ≥ 1 that makes the path
+    fit (1 when it fits already, ``inf`` when slowing cannot make it fit).
+    ``scaled_peak_torque_nm``: the peak once slowed by ``scale`` (the gravity
+    peak when no scale fits).
+    """
+
+    peak_torque_nm: np.ndarray
+    limit_nm: np.ndarray
+    margin: float
+    gravity_nm: np.ndarray
+    scale: float
+    scaled_peak_torque_nm: np.ndarray
+    joint_names: tuple[str, ...]
+
+    @property
+    def usable_nm(self) -> np.ndarray:
+        """The torque the path may use: the limit less the margin kept for feedback."""
+        return self.limit_nm * (1.0 - self.margin)
+
+    @property
+    def feasible(self) -> bool:
+        return bool(np.all(self.peak_torque_nm <= self.usable_nm + _FIT_EPS_NM))
+
+    @property
+    def fixable(self) -> bool:
+        """Slowing the path in time makes it fit (true when it fits already)."""
+        return bool(np.isfinite(self.scale))
+
+    @property
+    def worst_joint(self) -> int:
+        """The joint whose need is largest against its usable torque."""
+        return int(np.argmax(self.peak_torque_nm / self.usable_nm))
+
+    def shortfall(self, what: str) -> str:
+        """``the chirp needs 31.8 N·m on joint1 against 8.0 N·m usable (10.0 N·m limit, 20 % kept for feedback)``."""
+        j = self.worst_joint
+        return (
+            f"the {what} needs {_nm(self.peak_torque_nm[j])} N·m on {self.joint_names[j]} against "
+            f"{_nm(self.usable_nm[j])} N·m usable ({_nm(self.limit_nm[j])} N·m limit, "
+            f"{self.margin * 100:.0f} % kept for feedback)"
+        )
+
+    def gravity_shortfall(self) -> str:
+        """Why slowing cannot help, naming the joint where gravity alone is too much."""
+        over = self.gravity_nm / self.usable_nm
+        j = int(np.argmax(over))
+        if over[j] <= 1.0:  # fits, but with so little to spare that no reasonable slowing gets there
+            return (
+                f"holding its positions alone takes {_nm(self.gravity_nm[j])} N·m on {self.joint_names[j]} "
+                f"(gravity), so it would have to go more than {MAX_SCALE:g} times slower"
+            )
+        return (
+            f"holding its positions alone needs {_nm(self.gravity_nm[j])} N·m on {self.joint_names[j]} "
+            f"(gravity), which no slowing reduces"
+        )
+
+
+def _nm(value: float) -> str:
+    return f"{value:.1f}" if abs(value) >= 0.995 else f"{value:.2f}"
+
+
+def sample_times(trajectory: Trajectory) -> np.ndarray:
+    """Times (s since the trajectory started) that cover everything it does once:
+    one period of a sine or square, one chirp sweep, a step's move and the
+    rest either side of it, a hold's one position. Time-scaling the trajectory
+    by k gives k times these times (the same count).
+
+    A chirp's window is its sweep up and its sweep back down: the acceleration
+    term of the sweep rate changes sign between them, so both signs are seen
+    at every frequency (and either side of each turn)."""
+    if isinstance(trajectory, Sine | Square):
+        if trajectory.frequency_hz <= 0:
+            return np.zeros(1)
+        return np.linspace(0.0, 1.0 / trajectory.frequency_hz, MIN_SAMPLES, endpoint=False)
+    if isinstance(trajectory, Chirp):
+        window_s = 2.0 * trajectory.sweep_time_s
+        cycles = window_s * max(trajectory.frequency_hz, trajectory.end_frequency_hz)
+        count = max(MIN_SAMPLES, int(np.ceil(cycles * SAMPLES_PER_CYCLE)))
+        return np.linspace(0.0, window_s, count, endpoint=False)
+    if isinstance(trajectory, MinTimeStep):
+        start = trajectory.step_time_s
+        move = np.linspace(start, start + _move_time_s(trajectory), MIN_SAMPLES + 1)
+        return np.concatenate(([0.0], move))
+    if isinstance(trajectory, Step):
+        return np.array([0.0, trajectory.step_time_s])
+    if isinstance(trajectory, Hold):
+        return np.zeros(1)
+    raise TypeError(f"no feasibility check for a {type(trajectory).__name__}")
+
+
+def _move_time_s(step: MinTimeStep) -> float:
+    """How long the slowest joint's move takes (as :class:`MinTimeStep` shapes it)."""
+    half = np.sqrt(np.abs(step.amplitude) / step.max_acceleration)
+    if step.grid_s > 0:
+        half = np.ceil(half / step.grid_s - 1e-9) * step.grid_s
+    return float(2.0 * np.max(half))
+
+
+def _scalable(trajectory: Trajectory) -> bool:
+    """Slowing it changes the torque it needs (a jump, a square or a hold has no motion to slow)."""
+    return isinstance(trajectory, Sine | Chirp | MinTimeStep)
+
+
+def _path(trajectory: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    samples = [trajectory.sample(float(t)) for t in sample_times(trajectory)]
+    return tuple(np.array([s[i] for s in samples]) for i in range(3))  # type: ignore[return-value]
+
+
+def _peak(dynamics: InverseDynamics, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """Largest |torque| per joint over the sampled states."""
+    peak = np.zeros(q.shape[1])
+    for qi, vi, ai in zip(q, v, a, strict=True):
+        np.maximum(peak, np.abs(dynamics.torque(qi, vi, ai)), out=peak)
+    return peak
+
+
+def peak_torque(trajectory: Trajectory, dynamics: InverseDynamics) -> np.ndarray:
+    """Largest |torque| per joint the arm needs to follow ``trajectory`` exactly, N·m."""
+    return _peak(dynamics, *_path(trajectory))
+
+
+def check(
+    trajectory: Trajectory,
+    dynamics: InverseDynamics,
+    limit_nm: float | Sequence[float] | np.ndarray,
+    margin: float = DEFAULT_MARGIN,
+    joint_names: Sequence[str] | None = None,
+) -> Feasibility:
+    """The torque ``trajectory`` needs against ``limit_nm`` less ``margin``, and the time scale that fits.
+
+    :param limit_nm: actuator torque limit, one per joint (or one for all)
+    :param margin: fraction of the limit kept free for feedback, 0 ≤ margin < 1
+    :param joint_names: for messages (default ``dynamics.joint_names``, else joint1, joint2…)
+    :raises ConfigError: a margin or limit out of range
+    """
+    if not np.isfinite(margin) or not 0.0 <= margin < 1.0:
+        raise ConfigError(f"feasibility_margin: must be in [0, 1), got {margin}")
+    q, v, a = _path(trajectory)
+    n = q.shape[1]
+    limit = np.atleast_1d(np.asarray(limit_nm, dtype=float))
+    if limit.size == 1:
+        limit = np.full(n, float(limit[0]))
+    if limit.shape != (n,) or not np.all(np.isfinite(limit)) or np.any(limit <= 0):
+        raise ConfigError(f"torque_max: expected {n} finite value(s) > 0, got {limit.tolist()}")
+    names = tuple(
+        joint_names
+        if joint_names is not None
+        else getattr(dynamics, "joint_names", None) or [f"joint{i + 1}" for i in range(n)]
+    )
+    usable = limit * (1.0 - margin)
+    zero = np.zeros_like(v)
+    peak = _peak(dynamics, q, v, a)
+    gravity = _peak(dynamics, q, zero, zero)
+
+    def fits(peak_nm: np.ndarray) -> bool:
+        return bool(np.all(peak_nm <= usable + _FIT_EPS_NM))
+
+    def result(scale: float, scaled_peak: np.ndarray) -> Feasibility:
+        return Feasibility(peak, limit, float(margin), gravity, scale, scaled_peak, names)
+
+    if fits(peak):
+        return result(1.0, peak)
+    if not _scalable(trajectory) or not fits(gravity):
+        return result(float("inf"), gravity)
+
+    def scaled_peak(k: float) -> np.ndarray:  # the same states passed through k times slower
+        return _peak(dynamics, q, v / k, a / (k * k))
+
+    low, high = 1.0, 2.0
+    while not fits(scaled_peak(high)):
+        low, high = high, 2.0 * high
+        if high > MAX_SCALE:
+            return result(float("inf"), gravity)
+    while high - low > RELATIVE_TOLERANCE * high:
+        middle = 0.5 * (low + high)
+        if fits(scaled_peak(middle)):
+            high = middle
+        else:
+            low = middle
+    # Checked on the trajectory slowed as it will run: a shaped step's half-moves are whole planner
+    # periods, so its acceleration falls in steps rather than as 1/k² (on the planar arm's 0.1 rad
+    # step, k = 1.6 left it 20 % over), and k grows until it fits.
+    while high <= MAX_SCALE:
+        final = peak_torque(time_scaled(trajectory, high), dynamics)
+        if fits(final):
+            return result(high, final)
+        high *= 1.0 + max(RELATIVE_TOLERANCE, 0.01)
+    return result(float("inf"), gravity)

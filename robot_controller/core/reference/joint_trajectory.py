@@ -1,0 +1,265 @@
+"""Joint trajectories as ros2_controllers' JointTrajectoryController takes them:
+checked, then joined smoothly onto the reference in force.
+
+A trajectory is what a ``trajectory_msgs/JointTrajectory`` carries: joint
+names (exactly the arm's, in any order), and points each with a time from
+the start (s, strictly increasing; 0 only for the first), positions, and
+optionally velocities and accelerations (every point or none, field by
+field). :func:`check_waypoints` turns that into arrays in the arm's order,
+or a one-line reason: an unknown, missing or repeated joint, times out of
+order, wrong lengths, a non-finite value, a position outside the joint's
+URDF limits, a velocity beyond its URDF velocity limit, or a last point that
+is not at rest (the arm holds it, as JTC requires by default).
+
+:func:`blend` makes the motion: the first segment starts at the reference in
+force when the trajectory is taken (position, velocity and acceleration, so
+nothing jumps) and reaches the first point at its time; the rest is
+:class:`~robot_controller.core.reference.quintic_path.QuinticPath` through the points;
+after the last, it holds. A first point at time 0 (with no start delay) is
+the current state, as a motion planner sends it: it must be within
+``START_TOLERANCE_RAD`` of the reference in force and is then taken as that
+reference.
+
+:func:`accept` does both, then checks what the interpolation does between
+the points (:mod:`~robot_controller.core.reference.joint_trajectory_checks`): the
+path within the position and velocity limits, and the torque it needs by
+the arm model within the limit less the feedback margin (the check of
+``core.feasibility``, without its time scaling: a user's timing is theirs).
+
+No rclpy here: the planner node and the tests call the same functions.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from robot_controller.core.model.joint_limits import JointLimits
+from robot_controller.core.reference.joint_trajectory_checks import (
+    path_outside_limits,
+    points_outside_limits,
+    torque_shortfall,
+)
+from robot_controller.core.reference.quintic_path import QuinticPath, knot_accelerations, knot_velocities
+from robot_controller.core.reference.trajectory import Sample
+
+# A first point at time 0 must be this close to the reference in force (MoveIt's
+# allowed_start_tolerance): it is taken as "where the arm is", not as a jump.
+START_TOLERANCE_RAD = 0.01
+# The last point's velocity and acceleration must be 0 to within this.
+AT_REST_TOLERANCE = 1e-6
+# Each point costs the check time in the planner's executor (inverse dynamics along the path).
+MAX_POINTS = 500
+
+Values = Sequence[Sequence[float]]
+
+
+@dataclass(frozen=True)
+class Waypoints:
+    """A checked trajectory in the arm's joint order (``joint_names``): ``(N,)`` times (s
+    from its start), ``(N, joints)`` positions, and velocities and accelerations or None
+    where not given."""
+
+    joint_names: tuple[str, ...]
+    times_s: np.ndarray
+    positions: np.ndarray
+    velocities: np.ndarray | None
+    accelerations: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class JointTrajectory:
+    """The motion: the blend from the reference in force, then through the points, then
+    held. Time 0 is when it was taken; the points are ``start_delay_s`` later than their
+    ``time_from_start``. Implements ``Trajectory``."""
+
+    path: QuinticPath
+    waypoints: Waypoints
+    start_delay_s: float
+
+    def sample(self, t: float) -> Sample:
+        return self.path.sample(t)
+
+    @property
+    def duration_s(self) -> float:
+        return self.path.duration_s
+
+    @property
+    def final_position(self) -> np.ndarray:
+        return self.path.final_position
+
+
+@dataclass(frozen=True)
+class Accepted:
+    """A trajectory that passed every check, its peak torque per joint (N·m) and, under
+    ``torque_policy="warn"``, the shortfall it runs with (None if it fits)."""
+
+    trajectory: JointTrajectory
+    peak_torque_nm: np.ndarray
+    warning: str | None = None
+
+
+def _field(name: str, rows: Values, joints: int, points: int) -> np.ndarray | None | str:
+    """One per-point field as an ``(N, joints)`` array, None if no point gives it, or a reason."""
+    given = [k for k, row in enumerate(rows) if len(row) > 0]
+    if not given:
+        return None
+    if len(given) != points:
+        missing = next(k for k in range(points) if k not in given)
+        return f"points[{missing}] has no {name} but other points do (give them for every point or none)"
+    for k, row in enumerate(rows):
+        if len(row) != joints:
+            return f"points[{k}]: {len(row)} {name} for {joints} joint(s)"
+    return np.array(rows, dtype=float).reshape(points, joints)
+
+
+def check_waypoints(
+    joint_names: Sequence[str],
+    times_s: Sequence[float],
+    positions: Values,
+    velocities: Values,
+    accelerations: Values,
+    limits: JointLimits,
+) -> Waypoints | str:
+    """The points of a trajectory checked against the arm and reordered to its joints,
+    or a one-line reason. ``velocities`` and ``accelerations`` hold one (possibly empty)
+    row per point, as the message does."""
+    arm = list(limits.joint_names)
+    names = list(joint_names)
+    repeated = sorted(name for name, count in Counter(names).items() if count > 1)
+    if repeated:
+        return f"joint {repeated[0]!r} is named more than once"
+    unknown = [name for name in names if name not in arm]
+    if unknown:
+        return f"unknown joint(s) {unknown}: the arm's joints are {arm}"
+    missing = [name for name in arm if name not in names]
+    if missing:
+        return f"missing joint(s) {missing}: a trajectory gives every joint of the arm {arm}"
+    points = len(times_s)
+    if points == 0:
+        return "no points"
+    if points > MAX_POINTS:
+        return f"{points} points, more than the {MAX_POINTS} taken"
+    if not len(positions) == len(velocities) == len(accelerations) == points:
+        return "the points' fields differ in number"
+    times = np.asarray(times_s, dtype=float)
+    for k, t in enumerate(times):
+        if not np.isfinite(t):
+            return f"points[{k}]: time_from_start is not finite"
+        if k == 0 and t < 0:
+            return f"points[0]: time_from_start {t:g} s is negative"
+        if k > 0 and t <= times[k - 1]:
+            return f"points[{k}]: time_from_start {t:g} s is not after points[{k - 1}]'s {times[k - 1]:g} s"
+    n = len(arm)
+    fields = {}
+    for name, rows in (("positions", positions), ("velocities", velocities), ("accelerations", accelerations)):
+        value = _field(name, rows, n, points)
+        if name == "positions" and value is None:
+            return "points[0] has no positions"
+        if isinstance(value, str):
+            return value
+        if value is not None:
+            bad = np.argwhere(~np.isfinite(value))
+            if bad.size:
+                k, j = bad[0]
+                return f"points[{k}]: {name} of {names[j]} is not finite"
+            value = value[:, [names.index(joint) for joint in arm]]  # the arm's order
+        fields[name] = value
+    p, v, a = fields["positions"], fields["velocities"], fields["accelerations"]
+    reason = points_outside_limits(p, v, limits)
+    if reason is not None:
+        return reason
+    last = points - 1
+    for name, value, unit in (("velocity", v, "rad/s"), ("acceleration", a, "rad/s²")):
+        if value is not None and np.any(np.abs(value[last]) > AT_REST_TOLERANCE):
+            j = int(np.argmax(np.abs(value[last])))
+            return (
+                f"points[{last}] (the last): {arm[j]} {name} {value[last, j]:g} {unit} must be 0 "
+                "(the arm holds the last point)"
+            )
+    return Waypoints(tuple(arm), times, p, v, a)
+
+
+def blend(waypoints: Waypoints, start: Sample, start_delay_s: float = 0.0) -> JointTrajectory | str:
+    """The motion from ``start`` (the reference in force: position, velocity, acceleration)
+    through the points, the first reached ``start_delay_s + times_s[0]`` from now; or why not."""
+    p0, v0, a0 = (np.asarray(x, dtype=float) for x in start)
+    times = start_delay_s + waypoints.times_s
+    p, v, a = waypoints.positions, waypoints.velocities, waypoints.accelerations
+    if times[0] <= 0.0:  # the first point is now: it must be where the reference is, and is taken as it
+        off = np.abs(p[0] - p0)
+        j = int(np.argmax(off))
+        if off[j] > START_TOLERANCE_RAD:
+            return (
+                f"points[0] is at time 0 but {off[j]:.3g} rad from the reference in force on "
+                f"{waypoints.joint_names[j]} "
+                f"(more than {START_TOLERANCE_RAD:g}): give it a time_from_start > 0"
+            )
+        times, p = times[1:], p[1:]
+        v = None if v is None else v[1:]
+        a = None if a is None else a[1:]
+        if len(times) == 0 and (np.any(np.abs(v0) > AT_REST_TOLERANCE) or np.any(np.abs(a0) > AT_REST_TOLERANCE)):
+            return "its only point is at time 0 while the reference moves: give it a time_from_start > 0"
+    knot_times = np.concatenate(([0.0], times))
+    knot_p = np.vstack((p0, p))
+    knot_v = knot_velocities(knot_times, knot_p, v0) if v is None else np.vstack((v0, v))
+    knot_a = knot_accelerations(knot_times, knot_v, a0) if a is None else np.vstack((a0, a))
+    return JointTrajectory(QuinticPath.through(knot_times, knot_p, knot_v, knot_a), waypoints, float(start_delay_s))
+
+
+def accept(
+    joint_names: Sequence[str],
+    times_s: Sequence[float],
+    positions: Values,
+    velocities: Values,
+    accelerations: Values,
+    *,
+    start: Sample,
+    limits: JointLimits,
+    dynamics,
+    torque_limit_nm: np.ndarray,
+    margin: float,
+    start_delay_s: float = 0.0,
+    torque_policy: str = "refuse",
+) -> Accepted | str:
+    """Check a trajectory, blend it from ``start`` and check the motion: an :class:`Accepted`,
+    or a one-line reason.
+
+    :param dynamics: the arm model (anything with ``torque(q, v, a)``)
+    :param torque_limit_nm: per joint; the path may use ``(1 - margin)`` of it
+    :param torque_policy: ``refuse`` a path that needs more, or ``warn`` and take it
+    """
+    waypoints = check_waypoints(joint_names, times_s, positions, velocities, accelerations, limits)
+    if isinstance(waypoints, str):
+        return waypoints
+    trajectory = blend(waypoints, start, start_delay_s)
+    if isinstance(trajectory, str):
+        return trajectory
+    reason = path_outside_limits(trajectory.path, limits)
+    if reason is not None:
+        return reason
+    peak, shortfall = torque_shortfall(trajectory.path, dynamics, torque_limit_nm, margin, limits.joint_names)
+    if shortfall is not None and torque_policy != "warn":
+        return f"{shortfall}: give its points more time"
+    return Accepted(trajectory, peak, shortfall)
+
+
+# A start this far ahead is a stamp on another clock (wall time sent to a planner on sim time), not a plan.
+MAX_START_DELAY_S = 60.0
+
+
+def start_delay(stamp_s: float, now_s: float) -> float | str:
+    """How long after ``now_s`` the trajectory's time 0 is, as JTC reads ``header.stamp``:
+    at the stamp if it is set (non-zero) and not in the past, else now (0); or why not."""
+    if stamp_s == 0.0 or stamp_s <= now_s:
+        return 0.0
+    delay = stamp_s - now_s
+    if delay > MAX_START_DELAY_S:
+        return (
+            f"header.stamp is {delay:.4g} s ahead of the planner's clock (at most {MAX_START_DELAY_S:g}): "
+            "leave it 0 to start on receipt"
+        )
+    return delay
