@@ -1,1 +1,2 @@
-"""The project's own measurements, beside the product: the timing bench, the hop and flood benches, and the network bench on namespaces."""
+"""The project's own measurements, beside the product: the timing bench, the hop and
+flood benches, and the network bench on namespaces."""

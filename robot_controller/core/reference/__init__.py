@@ -1,1 +1,2 @@
-"""What the arm is asked to do: trajectories, waypoint trajectories and their quintic paths, and whether the arm can follow them."""
+"""What the arm is asked to do: trajectories, waypoint trajectories and their quintic
+paths, and whether the arm can follow them."""
