@@ -1,16 +1,12 @@
-"""What every tool shares: one short-lived, hidden rclpy node on the current
-ROS_DOMAIN_ID, spinning in a thread, that hears every run on the domain.
+"""What every tool shares: one short-lived, hidden rclpy node on the current ROS_DOMAIN_ID,
+spinning in a thread, that hears every run on the domain.
 
-Each run's loop topics live in a DDS partition of their own
-(``ros.partition``); a tool would hear none of them with Fast DDS's defaults.
-So before the process makes its first participant, unless the user chose a
-profile (``FASTRTPS_DEFAULT_PROFILES_FILE``), an observer profile is written
-to a temporary file and named in this process's environment only: the tool
-then reads every run's partition and the default one alike (the tutorial's
-nodes). Discovery stays on this host unless ``ROS_AUTOMATIC_DISCOVERY_RANGE``
-says otherwise.
-
-Nothing here imports rclpy at module import: ``robot-controller`` stays fast.
+Each run's loop topics live in a DDS partition of their own (``ros.partition``). Before the
+process makes its first participant, unless the user chose a profile
+(``FASTRTPS_DEFAULT_PROFILES_FILE``), an observer profile is written to a temporary file and named
+in this process's environment only: the tool then reads every run's partition and the default one.
+Discovery stays on this host unless ``ROS_AUTOMATIC_DISCOVERY_RANGE`` says otherwise. No rclpy is
+imported at module import: ``robot-controller`` stays fast.
 """
 
 from __future__ import annotations
@@ -19,6 +15,7 @@ import contextlib
 import functools
 import importlib
 import os
+import queue
 import shutil
 import signal
 import sys
@@ -35,12 +32,18 @@ DISCOVERY_TIMEOUT_S = 5.0
 CALL_ATTEMPT_S = 2.5
 CALL_ATTEMPTS = 4
 POLL_S = 0.02
+#: How long a sent message may take to be acknowledged by every reader.
+DELIVERY_TIMEOUT_S = 2.0
 
 DISCOVERY_RANGE_ENV = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 
 
 class ToolError(Exception):
-    """Something the user should read: one line on stderr, exit code 1."""
+    """Something the user should read: one line on stderr, and the exit code (1 unless given)."""
+
+    def __init__(self, message: str, code: int = 1) -> None:
+        super().__init__(message)
+        self.code = code
 
 
 # Fast DDS reads its XML profiles once per process, at the first participant:
@@ -61,16 +64,20 @@ def _prepare_environment() -> Path | None:
     return directory
 
 
-def _forget_profile(directory: Path | None) -> None:
-    """Read by now: remove it, and the variable, so no child process inherits a path that is gone."""
-    global _participant_made
-    _participant_made = True
-    if directory is None:
-        return
+def _remove_profile(directory: Path) -> None:
+    """Remove the profile and its variable, so no child process inherits a path that is gone."""
     from robot_controller.ros import partition
 
     os.environ.pop(partition.PROFILES_ENV, None)
     shutil.rmtree(directory, ignore_errors=True)
+
+
+def _forget_profile(directory: Path | None) -> None:
+    """The first participant has read the profile: remove it."""
+    global _participant_made
+    _participant_made = True
+    if directory is not None:
+        _remove_profile(directory)
 
 
 def absolute(name: str) -> str:
@@ -136,13 +143,8 @@ class Graph:
             time.sleep(0.05)
 
     def call(self, srv_type: type, service: str, request: Any, *, what: str, wait_s: float | None = None) -> Any:
-        """One service call with a timeout; a lost first response is retried.
-
-        DDS may match the request path before the response path
-        (``service_is_ready`` can be true early), so an unanswered request is
-        withdrawn and sent again, as a person would. ``what`` names the server
-        in the messages (``/pid_controller``).
-        """
+        """One service call with a timeout; an unanswered request is withdrawn and sent again (DDS may
+        match the request path before the response path). ``what`` names the server in messages."""
         client = self.node.create_client(srv_type, service)
         try:
             deadline = time.monotonic() + (DISCOVERY_TIMEOUT_S if wait_s is None else wait_s)
@@ -165,6 +167,54 @@ class Graph:
         finally:
             self.node.destroy_client(client)
 
+    def first_joint_state(self, topic: str, timeout_s: float) -> Any | None:
+        """The first ``JointState`` on ``topic`` that names its joints within ``timeout_s``, or None."""
+        from rclpy.qos import qos_profile_sensor_data
+        from sensor_msgs.msg import JointState
+
+        heard: queue.SimpleQueue = queue.SimpleQueue()
+        subscription = self.node.create_subscription(
+            JointState, topic, lambda msg: heard.put(msg) if msg.name else None, qos_profile_sensor_data
+        )
+        try:
+            return heard.get(timeout=timeout_s)
+        except queue.Empty:
+            return None
+        finally:
+            self.node.destroy_subscription(subscription)
+
+    def send(self, publisher: Any, topic: str, msg: Any, listener: str, *, wait_s: float) -> bool:
+        """Publish ``msg`` once the node ``listener`` hears ``publisher`` (``hearing``); whether every
+        reader acknowledged it within ``DELIVERY_TIMEOUT_S``. ``ToolError`` if it is not heard in ``wait_s``."""
+        from rclpy.duration import Duration
+
+        from robot_controller.tools import hearing
+
+        if not hearing.wait_until_heard(self.node, publisher, topic, listener, since=time.monotonic(), wait_s=wait_s):
+            raise ToolError(f"no {listener.replace('_', ' ')} is listening on {topic} (domain {self.domain})")
+        publisher.publish(msg)
+        return publisher.wait_for_all_acked(Duration(seconds=DELIVERY_TIMEOUT_S))
+
+
+def reliable_qos(depth: int) -> Any:
+    """Reliable, volatile, the last ``depth`` messages kept."""
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    return QoSProfile(
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.VOLATILE,
+        history=HistoryPolicy.KEEP_LAST,
+        depth=depth,
+    )
+
+
+def reference_arm_joints() -> list[str]:
+    """The joint names of the package's reference arm (when the running arm's are not heard)."""
+    from robot_controller import resources
+    from robot_controller.core.model.plant import joint_names, load_model
+
+    return joint_names(load_model(resources.default_urdf()))
+
 
 def _tool_node_name(tool: str) -> str:
     # Hidden (leading underscore), as ros2cli's own nodes: graph listings leave it out.
@@ -175,9 +225,8 @@ def _tool_node_name(tool: str) -> str:
 def open_graph(tool: str) -> Iterator[Graph]:
     """A hidden node on the current ROS_DOMAIN_ID spinning in a thread, torn down on the way out.
 
-    rclpy installs no signal handler here: Ctrl-C is Python's own
-    ``KeyboardInterrupt`` in the main thread (``command`` turns it into an exit
-    code), and a second Ctrl-C during teardown is ignored.
+    rclpy installs no signal handler: Ctrl-C is ``KeyboardInterrupt`` in the main thread (``command``
+    turns it into an exit code); a second Ctrl-C during teardown is ignored.
     """
     profile_dir = _prepare_environment()
     context = node = executor = spinner = None
@@ -217,10 +266,7 @@ def open_graph(tool: str) -> Iterator[Graph]:
             if context is not None:
                 context.try_shutdown()
             if profile_dir is not None and profile_dir.exists():  # no node was made: the next attempt writes anew
-                from robot_controller.ros import partition
-
-                os.environ.pop(partition.PROFILES_ENV, None)
-                shutil.rmtree(profile_dir, ignore_errors=True)
+                _remove_profile(profile_dir)
 
 
 @contextlib.contextmanager
@@ -236,7 +282,7 @@ def _sigint_ignored() -> Iterator[None]:
 
 
 def command(name: str, *, interrupted: int = 0) -> Callable[[Callable[..., int]], Callable[..., int]]:
-    """A tool's function as a command: ``ToolError`` → one line on stderr, exit 1;
+    """A tool's function as a command: ``ToolError`` → one line on stderr, its exit code;
     Ctrl-C → ``interrupted`` (0: the way ``echo`` and ``hz`` are meant to end),
     no traceback; a closed pipe (``| head``) → 0, quietly."""
 
@@ -247,7 +293,7 @@ def command(name: str, *, interrupted: int = 0) -> Callable[[Callable[..., int]]
                 return function(*args, **kwargs)
             except ToolError as exc:
                 print(f"robot-controller {name}: {exc}", file=sys.stderr, flush=True)
-                return 1
+                return exc.code
             except KeyboardInterrupt:
                 return interrupted
             except BrokenPipeError:

@@ -6,12 +6,10 @@ from __future__ import annotations
 import time
 from typing import Any
 
-# Discovery is two-sided and staggered: a reader seen by this writer may not know the writer yet
-# (a volatile reader that matches after the sample was written never gets it), and the run's
-# recorder may be found a few hundred ms after the node a tool talks to. A tool sends once the
-# readers found have all matched and nothing has changed for MATCH_SETTLE_S (at 0.5 s a fresh
-# clone's suite once lost a push from the bag that the simulator had applied); or for
-# UNMATCHED_SETTLE_S if some never match (readers in a partition this process does not write to).
+# Discovery is two-sided and staggered: a reader seen by this writer may not know the writer yet,
+# and the run's recorder may be found after the node a tool talks to. A tool sends once the readers
+# found have all matched and nothing has changed for MATCH_SETTLE_S, or for UNMATCHED_SETTLE_S if
+# some never match (readers in a partition this process does not write to).
 MATCH_SETTLE_S = 1.0
 UNMATCHED_SETTLE_S = 1.5
 #: the readers that record or draw a topic: heard by them alone, a message reached no node

@@ -1,15 +1,9 @@
-"""``param list | get | set | dump``: ros2cli's ``ros2 param`` verbs against any node
-on the domain, through the standard ``/<node>/list_parameters``,
-``get_parameters`` and ``set_parameters`` services (rcl_interfaces), with a
-timeout and a retry of a lost first response.
+"""``param list | get | set | dump``: ros2cli's ``ros2 param`` verbs against any node on the domain,
+through the standard rcl_interfaces parameter services.
 
-``set`` reads the value as YAML, as ``ros2 param set`` does (``60`` an integer,
-``60.0`` a double, ``[60.0]`` a double array, ``true`` a bool, anything else a
-string), with one difference: the stack's nodes declare their numbers with
-dynamic typing, so a typed ``60`` would silently turn a double into an integer
-parameter. Where the node's value is a double (or a double array), a number
-(or a list of numbers) is sent as a double (or a double array: ``kp 60`` sends
-``[60.0]``, one gain for every joint), and the parameter keeps its type.
+``set`` reads the value as YAML, as ``ros2 param set`` does, except that where the node's value is
+a double (or double array) a number (or list) is sent as one: the stack's nodes declare dynamic
+types, so ``kp 60`` sends ``[60.0]`` and the parameter keeps its type.
 """
 
 from __future__ import annotations
@@ -23,33 +17,16 @@ from robot_controller.tools.graph import ToolError
 
 INTERRUPTED = 130  # Ctrl-C before the node answered: the change may or may not have been made
 
-# ParameterType's constants (rcl_interfaces/msg/ParameterType), here so that
-# parsing needs no ROS import.
+# rcl_interfaces/msg/ParameterType's constants: parsing needs no ROS import.
 NOT_SET, BOOL, INTEGER, DOUBLE, STRING = 0, 1, 2, 3, 4
 BYTE_ARRAY, BOOL_ARRAY, INTEGER_ARRAY, DOUBLE_ARRAY, STRING_ARRAY = 5, 6, 7, 8, 9
 
-_FIELDS = {
-    BOOL: "bool_value",
-    INTEGER: "integer_value",
-    DOUBLE: "double_value",
-    STRING: "string_value",
-    BYTE_ARRAY: "byte_array_value",
-    BOOL_ARRAY: "bool_array_value",
-    INTEGER_ARRAY: "integer_array_value",
-    DOUBLE_ARRAY: "double_array_value",
-    STRING_ARRAY: "string_array_value",
-}
-# What `ros2 param get` says before the value.
+_KINDS = "bool integer double string byte_array bool_array integer_array double_array string_array".split()
+_FIELDS = {kind: f"{name}_value" for kind, name in enumerate(_KINDS, start=BOOL)}
+# What `ros2 param get` says before the value: "Boolean array value is:".
 _LABELS = {
-    BOOL: "Boolean value is:",
-    INTEGER: "Integer value is:",
-    DOUBLE: "Double value is:",
-    STRING: "String value is:",
-    BYTE_ARRAY: "Byte array value is:",
-    BOOL_ARRAY: "Boolean array value is:",
-    INTEGER_ARRAY: "Integer array value is:",
-    DOUBLE_ARRAY: "Double array value is:",
-    STRING_ARRAY: "String array value is:",
+    kind: name.replace("bool", "boolean").replace("_", " ").capitalize() + " value is:"
+    for kind, name in enumerate(_KINDS, start=BOOL)
 }
 
 

@@ -1,9 +1,5 @@
-"""``topic list | echo | hz``: ros2cli's ``ros2 topic`` verbs against any graph on
-the domain, printing what ros2cli prints.
-
-The type of a topic is the graph's (``get_topic_names_and_types``), imported
-from its name; messages are formatted field by field from
-``get_fields_and_field_types`` (there is no rosidl_runtime_py here).
+"""``topic list | echo | hz``: ros2cli's ``ros2 topic`` verbs against any graph on the domain,
+printing what ros2cli prints; a topic's type is the graph's, messages formatted field by field.
 """
 
 from __future__ import annotations
