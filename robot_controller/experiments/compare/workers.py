@@ -9,12 +9,9 @@ import os
 import signal
 from concurrent import futures
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-from robot_controller.experiments.compare_pairs import run_pair
-
-if TYPE_CHECKING:
-    from robot_controller.experiments.compare import Contender
+from robot_controller.experiments.compare.contenders import Contender
+from robot_controller.experiments.compare.pairs import run_pair
 
 
 def worker_domain(base: int, slot: int) -> int:

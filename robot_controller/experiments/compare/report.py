@@ -4,15 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from robot_controller.experiments.compare_pairs import IN_PROCESS_STEP_LEAD_S
+from robot_controller.experiments.compare.contenders import CONTENDERS, Contender
+from robot_controller.experiments.compare.pairs import IN_PROCESS_STEP_LEAD_S
 from robot_controller.experiments.step import STEP_AFTER_S
-
-if TYPE_CHECKING:
-    from robot_controller.experiments.compare import Contender
 
 
 def render_compare(
@@ -24,9 +21,7 @@ def render_compare(
     chosen: Sequence[Contender] | None = None,
     in_process: bool = False,
 ) -> str:
-    if chosen is None:  # every named configuration
-        from robot_controller.experiments.compare import CONTENDERS as chosen
-    names = {c.name: c.description for c in chosen}
+    names = {c.name: c.description for c in (chosen or CONTENDERS)}
     how = (
         f"the in-process loop (no ROS; the lockstep graph's computation; the step after {IN_PROCESS_STEP_LEAD_S:g} s)"
         if in_process

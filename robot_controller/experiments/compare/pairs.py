@@ -5,16 +5,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.core import metrics
+from robot_controller.experiments.compare.contenders import Contender
 from robot_controller.experiments.step import STEP_AFTER_S, run_and_score, step_params, step_response
-
-if TYPE_CHECKING:
-    from robot_controller.experiments.compare import Contender
 
 COMPARED = {
     "sine": ("tracking_rms_rad", "tracking_max_rad"),
@@ -53,8 +50,7 @@ def run_pair(
 
 
 #: In process the step comes after 1.5 s at rest, not ``step.STEP_LEAD_S`` (0.5 s): the loop starts with
-#: its first tick there, and the default's filter and observer are still settling 0.5 s in (3.8 % overshoot
-#: then, 0.5 % after 1.5 s; the real graph's lockstep runs: 0.46 %, docs/compare.md).
+#: its first tick there, and the default's filter and observer settle within 1.5 s, not within 0.5 s.
 IN_PROCESS_STEP_LEAD_S = 1.5
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.experiments.identify import held_or_pushed, torque_limit
+from robot_controller.experiments.identify.excitation import held_or_pushed, torque_limit
 
 
 def identify_payload(

@@ -1,0 +1,76 @@
+"""The controller comparison (``robot-controller compare``): each contender on the sine and on a
+step, over several seeds, in lockstep, several at once on ROS domains of their own; or, with
+``in_process``, the same runs on the in-process loop (no ROS)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from robot_controller.experiments.compare.contenders import contenders
+from robot_controller.experiments.compare.pairs import run_pair, run_pair_in_process
+from robot_controller.experiments.compare.report import plot_compare, render_compare
+from robot_controller.experiments.compare.workers import run_side_by_side
+from robot_controller.scoring import report
+
+#: (contender, seed) pairs run side by side by ``compare``: three keep two cores busy.
+COMPARE_WORKERS = 3
+
+
+def compare(
+    out: Path,
+    *,
+    seeds: int,
+    sine_duration_s: float,
+    amplitude: float,
+    progress=print,
+    workers: int = COMPARE_WORKERS,
+    robot: str = "one_dof",
+    controllers: Sequence[str] | None = None,
+    in_process: bool = False,
+) -> dict[str, dict[str, dict[str, float]]]:
+    """Every contender (``controllers``: :func:`contenders`) on the sine and on the step, ``seeds``
+    seeds each, in sim-time lockstep; with ``in_process``, on the in-process loop, one after the other.
+
+    ``workers`` (contender, seed) pairs run at once, each in a worker process
+    of its own with a ROS domain of its own (:func:`worker_domain`);
+    ``workers=1`` runs them one after the other in this process, in the
+    caller's domain. A lockstep run's figures depend only on its seed, so
+    both give the same table. The progress line of a pair is printed as it
+    starts. A failed run raises RuntimeError naming its directory, once the
+    pairs under way have ended.
+    """
+    chosen = contenders(controllers)
+    out.mkdir(parents=True, exist_ok=True)
+    pairs = [(replace(contender, robot=robot), seed) for contender in chosen for seed in range(seeds)]
+    if in_process:
+        figures = {}
+        for contender, seed in pairs:
+            progress(f"{contender.name}: seed {seed}")
+            figures[contender.name, seed] = run_pair_in_process(contender, seed, sine_duration_s, amplitude)
+    elif workers <= 1:
+        figures = {}
+        for contender, seed in pairs:
+            progress(f"{contender.name}: seed {seed}")
+            figures[contender.name, seed] = run_pair(contender, seed, out, sine_duration_s, amplitude)
+    else:
+        figures = run_side_by_side(pairs, out, sine_duration_s, amplitude, progress, workers)
+    table: dict[str, dict[str, dict[str, float]]] = {}
+    for contender in chosen:
+        rows: dict[str, list[float]] = {}
+        for seed in range(seeds):
+            for key, value in figures[contender.name, seed].items():
+                rows.setdefault(key, []).append(value)
+        table[contender.name] = {
+            key: {"mean": float(np.mean(v)), "std": float(np.std(v)), "min": float(np.min(v)), "max": float(np.max(v))}
+            for key, v in rows.items()
+        }
+    report.write_metrics(out / "compare.json", table)
+    (out / "compare.md").write_text(
+        render_compare(table, seeds, sine_duration_s, amplitude, robot, chosen, in_process=in_process)
+    )
+    plot_compare(table, out / "compare.png")
+    return table

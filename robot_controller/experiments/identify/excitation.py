@@ -1,0 +1,88 @@
+"""The run ``robot-controller identify`` fits to: the planner's chirp (a sine sweeping from
+``start_hz`` to ``end_hz`` over the whole run, slow first where gravity and friction dominate,
+faster later where inertia does), and which recorded samples the fit leaves out (brakes held,
+a disturbance acting, the torque saturated)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from robot_controller import parameters as cfg
+from robot_controller import resources
+from robot_controller.parameters.limits import torque_limit as node_torque_limit
+
+# The excitation: a chirp within the reference sine's range and speed, which an
+# arm about four times the reference arm's inertia still follows inside 10 N·m.
+AMPLITUDE_RAD = 0.8
+START_HZ = 0.1
+END_HZ = 0.5
+
+
+def excitation_params(
+    params: cfg.Params,
+    duration_s: float,
+    *,
+    amplitude_rad: float = AMPLITUDE_RAD,
+    start_hz: float = START_HZ,
+    end_hz: float = END_HZ,
+) -> cfg.Params:
+    """``params`` with the planner in chirp mode, one sweep over ``duration_s``;
+    on a chain of joints at the planner's own amplitudes (each within its
+    joint's range about the robot's home pose), on one joint ``amplitude_rad``."""
+    planner = params["trajectory_planner"]
+    amplitude = [float(amplitude_rad)] if planner["joint_count"] == 1 else list(planner["amplitude"])
+    return cfg.merge(
+        params,
+        {
+            "trajectory_planner": {
+                "mode": "chirp",
+                "amplitude": amplitude,
+                "frequency_hz": float(start_hz),
+                "end_frequency_hz": float(end_hz),
+                "sweep_time_s": float(duration_s),
+            }
+        },
+    )
+
+
+def _step_at(times_s: np.ndarray, event_times_s: np.ndarray, values: np.ndarray, joint_count: int) -> np.ndarray:
+    """The latest of ``values`` (one row per event, one column per joint) at each
+    of ``times_s`` (a step function; zero before the first event), as booleans."""
+    out = np.zeros((len(times_s), joint_count), dtype=bool)
+    if len(event_times_s) == 0:
+        return out
+    order = np.argsort(event_times_s, kind="stable")
+    index = np.searchsorted(event_times_s[order], times_s, side="right") - 1
+    known = index >= 0
+    out[known] = np.asarray(values)[order][index[known]] != 0
+    return out
+
+
+def held_or_pushed(recording: Any) -> np.ndarray:
+    """Per true-state sample and joint: a brake engaged, or an external
+    disturbance acting (neither is in the model): left out of the fit."""
+    t, n = recording.true_time_s, recording.joint_count
+    mask = _step_at(t, recording.brakes_time_s, recording.brakes, n)
+    if len(getattr(recording, "disturbance_time_s", ())):
+        mask |= _step_at(t, recording.disturbance_time_s, recording.disturbance, n)
+    return mask
+
+
+def torque_limit(params: cfg.Params, joint_count: int) -> np.ndarray:
+    """The torque beyond which a recorded effort is saturated: the smallest of
+    the controller's and the motor's ``torque_max`` and the simulated arm's effort limit."""
+    from robot_controller.core.model.plant import effort_limits, load_model
+
+    limit = effort_limits(load_model(resources.resolve_urdf(params["simulator"]["urdf_path"])))
+    for node in ("motor_node", "pid_controller"):
+        limit = np.minimum(limit, node_torque_limit(params[node], joint_count))
+    return limit
+
+
+def joint_names(params: cfg.Params) -> list[str]:
+    """The simulated arm's joints, in the URDF's order."""
+    from robot_controller.core.model.plant import joint_names, load_model
+
+    return joint_names(load_model(resources.resolve_urdf(params["simulator"]["urdf_path"])))

@@ -1,0 +1,70 @@
+"""Identification of the real arm (``robot-controller identify``): drive it through the whole
+stack (one lockstep run of the graph as configured, the planner in ``chirp`` mode), fit the model
+to the TRUE joint state and the applied torque, and write the result as a parameter overlay.
+On one joint the fit is each joint's four numbers (``joints``); on a chain of joints, where those
+would fold the coupling into wrong values, a payload on the last link (``payload``).
+
+``out`` receives ``identified.yaml`` (the overlay alone, to layer last), ``identification.json``
+(flat, units in the names), ``identification.md`` and ``run/`` (the run itself)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from robot_controller import parameters as cfg
+from robot_controller.experiments.identify.excitation import (
+    AMPLITUDE_RAD,
+    END_HZ,
+    START_HZ,
+    excitation_params,
+    joint_names,
+)
+from robot_controller.experiments.identify.joints import identify_joints
+from robot_controller.experiments.identify.payload import identify_payload
+from robot_controller.experiments.step import run_and_score
+
+
+def identify(
+    params: cfg.Params,
+    out: Path,
+    *,
+    duration_s: float = 20.0,
+    seed: int = 0,
+    progress: Callable[[str], None] = print,
+    amplitude_rad: float = AMPLITUDE_RAD,
+    start_hz: float = START_HZ,
+    end_hz: float = END_HZ,
+    domain_id: int | None = None,
+) -> dict[str, Any]:
+    """Excite the arm through the whole stack, fit its model, write the results into ``out``.
+
+    :returns: what ``identification.json`` holds
+    """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    run_params = excitation_params(params, duration_s, amplitude_rad=amplitude_rad, start_hz=start_hz, end_hz=end_hz)
+    run_params["sensor_node"]["seed"] = seed
+    progress(
+        f"identify: {duration_s:g} sim s of a chirp, {amplitude_rad:g} rad, {start_hz:g} → {end_hz:g} Hz "
+        f"(lockstep, run in {out / 'run'})"
+    )
+    scored, recording = run_and_score(
+        run_params, out / "run", duration_s=duration_s, sim_time=True, domain_id=domain_id
+    )
+    names = joint_names(run_params)
+    progress(f"identify: fitting {len(recording.true_time_s)} samples of {', '.join(names)}")
+    if len(names) > 1:
+        return identify_payload(run_params, out, recording, scored, duration_s, seed, progress)
+    facts = {
+        "duration_s": float(duration_s),
+        "seed": int(seed),
+        "amplitude_rad": float(amplitude_rad),
+        "start_hz": float(start_hz),
+        "end_hz": float(end_hz),
+        "tracking_rms_rad": scored.get("tracking_rms_rad"),
+        "peak_torque_nm": scored.get("peak_torque_nm"),
+        "saturated_ticks": scored.get("saturated_ticks"),
+    }
+    return identify_joints(run_params, out, recording, names, facts, progress)
