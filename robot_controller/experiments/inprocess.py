@@ -17,7 +17,7 @@ from robot_controller.core.model.payload import Payload
 from robot_controller.core.model.plant import MujocoPlant
 from robot_controller.parameters.builders import arm_model
 from robot_controller.parameters.consistency import trajectory_plan
-from robot_controller.parameters.limits import torque_limit
+from robot_controller.parameters.torque_limits import torque_limit
 
 
 def simulate(

@@ -35,7 +35,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.model.actuator import Actuator
 from robot_controller.core.model.plant import effort_limits, joint_names, load_model
 from robot_controller.core.validation import check_effort
-from robot_controller.parameters.limits import torque_limit
+from robot_controller.parameters.torque_limits import torque_limit
 from robot_controller.ros.command_stamp import command_tick_s
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher

@@ -59,7 +59,7 @@ from robot_controller.core.model.joint_limits import joint_limits, urdf_velocity
 from robot_controller.core.reference import feasibility, joint_trajectory
 from robot_controller.core.reference.trajectory import Trajectory, make_trajectory
 from robot_controller.parameters.builders import TRAJECTORY_SHAPE_KEYS, arm_model, model_overridden
-from robot_controller.parameters.limits import torque_limit
+from robot_controller.parameters.torque_limits import torque_limit
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import CONTROL_QOS, LATEST_QOS

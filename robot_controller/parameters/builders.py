@@ -10,8 +10,8 @@ import numpy as np
 from robot_controller.core.laws.parameters import PREFIX as LAW_PREFIX
 from robot_controller.core.laws.pid import PidConfig
 from robot_controller.core.model.sensor_model import SensorConfig
-from robot_controller.parameters.limits import torque_limit
 from robot_controller.parameters.spec import per_joint
+from robot_controller.parameters.torque_limits import torque_limit
 
 if TYPE_CHECKING:  # the controller pulls in scipy and MuJoCo: only the nodes that run one import it
     from robot_controller.core.controller.controller import ControllerConfig

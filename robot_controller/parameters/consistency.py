@@ -20,7 +20,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.model.joint_limits import urdf_velocity_limits
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import ARM_MODEL_KEYS
-from robot_controller.parameters.limits import torque_limit
+from robot_controller.parameters.torque_limits import torque_limit
 
 if TYPE_CHECKING:  # MuJoCo and the trajectories: imported when used
     from robot_controller.core.reference.feasibility import Plan

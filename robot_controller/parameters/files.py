@@ -123,7 +123,7 @@ def load_stack(
     trajectory), the preset's overlay and the user's file(s), later over
     earlier. An empty ``torque_max`` is then written out as its node's URDF
     effort limits, so every check and the run's ``params.yaml`` see the numbers."""
-    from robot_controller.parameters.limits import fill_torque_limits
+    from robot_controller.parameters.torque_limits import fill_torque_limits
     from robot_controller.robots import robot_layer
 
     layers = [defaults(), robot_layer(robot)]

@@ -19,7 +19,7 @@ from robot_controller.core.loop import Disturbance, LoopResult
 from robot_controller.core.metrics import WARMUP_S
 from robot_controller.experiments.autotune.margins import MAX_TIME_CONSTANT_S, MIN_DELAY_PERIODS, MIN_GAIN_MARGIN_DB
 from robot_controller.experiments.autotune.problem import SEED
-from robot_controller.parameters.limits import torque_limit
+from robot_controller.parameters.torque_limits import torque_limit
 
 PUSH_AT_S = 2.0  #: the push, s of the run (after the warm-up; the default sine's peak speed)
 PUSH_FRACTION = 0.1  #: of each joint's torque limit

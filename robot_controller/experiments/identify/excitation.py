@@ -11,7 +11,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.parameters.limits import torque_limit as node_torque_limit
+from robot_controller.parameters.torque_limits import torque_limit as node_torque_limit
 
 # The excitation: a chirp within the reference sine's range and speed, which an
 # arm about four times the reference arm's inertia still follows inside 10 N·m.
