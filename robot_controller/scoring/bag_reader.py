@@ -249,22 +249,28 @@ def _joint_names_of(true: list[tuple[int, Any]], joint_count: int) -> list[str]:
 
 
 def motor_latency_s(state: dict[str, np.ndarray], receipts: np.ndarray) -> np.ndarray:
-    """Sensor stamp → command at the motor, per command the motor received.
+    """Sensor stamp → command at the motor (s), per command the motor received (:func:`motor_latency`)."""
+    return motor_latency(state["command"], state["measurement_stamp_s"], receipts)[1]
 
-    ``receipts`` rows are ``[receipt_time_s, command…]`` (the motor's); each is
-    paired with the controller tick that issued the same command, the latest
-    whose reading was taken before the receipt.
+
+def motor_latency(commands: np.ndarray, stamps_s: np.ndarray, receipts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each receipt's time and its latency from the reading to the motor (s).
+
+    :param commands: each controller tick's command (N·m per joint), in tick order
+    :param stamps_s: each tick's measurement stamp, s
+    :param receipts: rows ``[receipt_time_s, command…]`` (the motor's), each paired with the latest
+        tick that issued the same command from a reading taken before the receipt
     """
     stamps_by_command: dict[tuple[float, ...], list[float]] = {}
-    commands = map(tuple, state["command"].tolist())
-    for command, stamp in zip(commands, state["measurement_stamp_s"].tolist(), strict=True):
+    for command, stamp in zip(map(tuple, np.asarray(commands).tolist()), np.asarray(stamps_s).tolist(), strict=True):
         stamps_by_command.setdefault(command, []).append(stamp)
-    out = []
-    for row in receipts.tolist():
+    times, latency = [], []
+    for row in np.asarray(receipts).tolist():
         stamps = stamps_by_command.get(tuple(row[1:]))
         if not stamps:
             continue  # a command from another publisher, or its tick not recorded
         index = bisect.bisect_right(stamps, row[0]) - 1  # stamps are in tick order
         if index >= 0:
-            out.append(row[0] - stamps[index])
-    return np.asarray(out)
+            times.append(row[0])
+            latency.append(row[0] - stamps[index])
+    return np.asarray(times), np.asarray(latency)

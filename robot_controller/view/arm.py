@@ -1,17 +1,11 @@
-"""The arm in 3-D, from its URDF: each link's visual geometry (box, cylinder,
-sphere, or a mesh file rerun can read), placed by forward kinematics.
+"""The arm in 3-D, from its URDF (``urdf_arm``), posed by ``kinematics``: drawn three times at once,
+posed by the TRUE angles, and by the measured and the reference angles as translucent ghosts.
 
-The URDF is read by ``urdf_arm`` and posed by ``kinematics``, so the arm can
-be drawn three times at once: posed by the TRUE angles, and by the measured
-and the reference angles as translucent ghosts. Each primitive (box, cylinder, sphere) is one entity with three
-instances (true, measured, reference), so one row moves all three arms
-together: a browser never shows one arm at a newer instant than another. A
-mesh takes one colour for all its instances, so each ghost of a mesh is an
-entity of its own (``…/visual_k/ghost_1``, ``…/ghost_2``), posed by the same
-send, translucent and a little smaller (``MESH_GHOST_SCALE``): a shell
-around a mesh would tint the whole arm, a ghost inside it shows only where
-its pose leaves the true arm's. The joint order is MuJoCo's
-(``core.plant.joint_names``), the stack's order for every array.
+Each primitive (box, cylinder, sphere) is one entity with three instances (true, measured,
+reference), so one row moves all three arms together. A mesh takes one colour for all its
+instances, so each ghost of a mesh is an entity of its own (``…/visual_k/ghost_1``, ``…/ghost_2``),
+a little smaller (``MESH_GHOST_SCALE``): a ghost inside the true mesh shows only where its pose
+leaves the true arm's. The joint order is the stack's (MuJoCo's).
 """
 
 from __future__ import annotations
@@ -19,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from robot_controller.view.kinematics import link_frames, rpy_matrix, view_sphere, z_to_matrix
-from robot_controller.view.urdf_arm import MESH_FORMATS, MOVING, ArmModel, Joint, Link, entity_part, load_arm
+from robot_controller.view.urdf_arm import MESH_FORMATS, MOVING, ArmModel, Joint, Link, Visual, entity_part, load_arm
 
 
 def _quaternions(rotations: np.ndarray) -> np.ndarray:
@@ -44,45 +38,36 @@ def _hub_path(root: str, joint: Joint) -> str:
 MESH_GHOST_SCALE = 0.97  # a mesh's ghosts, about the visual's origin: inside the true arm where they agree
 HUB_COLOR = [70, 70, 78]
 HUB_LENGTH_M, HUB_RADIUS_M = 0.06, 0.035
+PRIMITIVES = ("box", "cylinder", "sphere")
+
+
+def _shape(kind: str):
+    """The rerun archetype drawing a primitive URDF shape."""
+    import rerun as rr
+
+    return {"box": rr.Boxes3D, "cylinder": rr.Cylinders3D, "sphere": rr.Ellipsoids3D}[kind]
+
+
+def _primitive(v: Visual, poses: list[tuple[list[int], float]]) -> dict:
+    """A primitive's size for each pose (radius factor ``f``: a ghost drawn a little wider shows around the arm)."""
+    if v.kind == "box":
+        return {"half_sizes": [[0.5 * s * f for s in v.size] for _, f in poses]}
+    if v.kind == "cylinder":
+        return {"lengths": [v.size[1]] * len(poses), "radii": [v.size[0] * f for _, f in poses]}
+    return {"half_sizes": [[v.size[0] * f] * 3 for _, f in poses]}
 
 
 def log_static(rec, arm: ArmModel, root: str, poses: list[tuple[list[int], float]]) -> None:
-    """What does not move: each visual's shape, one instance per pose (colour RGBA,
-    radius factor: a ghost drawn a little wider shows around the solid arm), and the
-    joint hubs of the first pose. Poses are logged with :func:`pose_columns`."""
+    """What does not move: each visual's shape, one instance per pose (colour RGBA, radius factor),
+    and the joint hubs of the first pose. Poses are logged with :func:`pose_columns`."""
     import rerun as rr
 
     colors = [colour for colour, _ in poses]
     for link in arm.links():
         for k, v in enumerate(link.visuals):
             path = _visual_path(root, link, k)
-            if v.kind == "box":
-                rec.log(
-                    path,
-                    rr.Boxes3D(
-                        half_sizes=[[0.5 * s * f for s in v.size] for _, f in poses], colors=colors, fill_mode="solid"
-                    ),
-                    static=True,
-                )
-            elif v.kind == "cylinder":
-                rec.log(
-                    path,
-                    rr.Cylinders3D(
-                        lengths=[v.size[1]] * len(poses),
-                        radii=[v.size[0] * f for _, f in poses],
-                        colors=colors,
-                        fill_mode="solid",
-                    ),
-                    static=True,
-                )
-            elif v.kind == "sphere":
-                rec.log(
-                    path,
-                    rr.Ellipsoids3D(
-                        half_sizes=[[v.size[0] * f] * 3 for _, f in poses], colors=colors, fill_mode="solid"
-                    ),
-                    static=True,
-                )
+            if v.kind in PRIMITIVES:
+                rec.log(path, _shape(v.kind)(**_primitive(v, poses), colors=colors, fill_mode="solid"), static=True)
             elif v.kind == "mesh" and v.mesh is not None:  # one colour a mesh: an entity per pose
                 for k_pose, colour in enumerate(colors):
                     rec.log(_mesh_path(path, k_pose), rr.Asset3D(path=v.mesh, albedo_factor=colour), static=True)
@@ -110,12 +95,9 @@ def pose_columns(arm: ArmModel, root: str, q: np.ndarray) -> list[tuple[str, obj
             visual_rotation = rotation @ rpy_matrix(v.rpy)
             centers = position + rotation @ np.asarray(v.xyz)
             quaternions = _quaternions(visual_rotation)
-            if v.kind == "box":
-                columns = rr.Boxes3D.columns(centers=centers, quaternions=quaternions)
-            elif v.kind == "cylinder":
-                columns = rr.Cylinders3D.columns(centers=centers, quaternions=quaternions)
-            elif v.kind == "sphere":
-                columns = rr.Ellipsoids3D.columns(centers=centers, quaternions=quaternions)
+            if v.kind in PRIMITIVES:
+                columns = _shape(v.kind).columns(centers=centers, quaternions=quaternions)
+                out.append((_visual_path(root, link, k), columns.partition([count] * m)))
             elif v.kind == "mesh" and v.mesh is not None:
                 for pose in range(count):  # rows are sample-major: every count-th row is this pose's
                     shrink = 1.0 if pose == 0 else MESH_GHOST_SCALE
@@ -127,10 +109,6 @@ def pose_columns(arm: ArmModel, root: str, q: np.ndarray) -> list[tuple[str, obj
                         scales=np.broadcast_to(np.asarray(v.size) * shrink, (m, 3)),
                     )
                     out.append((_mesh_path(_visual_path(root, link, k), pose), columns))
-                continue
-            else:
-                continue
-            out.append((_visual_path(root, link, k), columns.partition([count] * m)))
     for _, joint in arm.joints():  # the hubs follow the first (true) pose
         if joint.kind in MOVING:
             rotation, position = frames[f"{joint.name}@"]

@@ -19,7 +19,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from robot_controller.core.controller import state_layout
-from robot_controller.scoring import report
+from robot_controller.scoring import bag_reader, report
 from robot_controller.view import arm as arm_view
 from robot_controller.view import layout
 from robot_controller.view.outlet import Outlet
@@ -244,17 +244,7 @@ class ViewFeed:
 
     def _latency(self, receipts: np.ndarray, final: bool) -> None:
         """Reading stamp → command at the motor, per receipt matched to the tick that issued its command."""
-        stamps: dict[tuple[float, ...], list[float]] = {}
-        for command, stamp in zip(map(tuple, self.tick_command.tolist()), self.tick_stamp.tolist(), strict=False):
-            stamps.setdefault(command, []).append(stamp)
-        t, latency = [], []
-        for row in receipts.tolist():
-            candidates = [s for s in stamps.get(tuple(row[1:]), []) if s <= row[0]]
-            if candidates:
-                t.append(row[0])
-                latency.append(1e3 * (row[0] - candidates[-1]))
-        if t:
+        t, latency = bag_reader.motor_latency(self.tick_command, self.tick_stamp, receipts)
+        if len(t):
             order = np.argsort(t)
-            self._series(
-                "latency", self.joints[0], np.asarray(t)[order], np.asarray(latency)[order], extreme=True, final=final
-            )
+            self._series("latency", self.joints[0], t[order], 1e3 * latency[order], extreme=True, final=final)

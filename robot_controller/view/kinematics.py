@@ -4,43 +4,28 @@ in view."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from robot_controller.view.urdf_arm import MOVING, ArmModel, visual_extent
 
 
 def rpy_matrix(rpy: tuple[float, float, float]) -> np.ndarray:
     """URDF's fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
-
-
-def z_to(axis: tuple[float, float, float]) -> np.ndarray:
-    """The ``xyzw`` quaternion turning +z onto ``axis`` (a cylinder drawn along a joint axis)."""
-    a = np.asarray(axis, dtype=float)
-    v = np.cross([0.0, 0.0, 1.0], a)
-    w = 1.0 + a[2]
-    if w < 1e-9:  # opposite: half a turn about x
-        return np.array([1.0, 0.0, 0.0, 0.0])
-    q = np.array([v[0], v[1], v[2], w])
-    return q / np.linalg.norm(q)
+    return Rotation.from_euler("xyz", rpy).as_matrix()
 
 
 def axis_matrices(axis: tuple[float, float, float], angles: np.ndarray) -> np.ndarray:
-    """Rotations by ``angles`` about the unit ``axis`` (Rodrigues), shape ``(m, 3, 3)``."""
-    x, y, z = axis
-    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-    angles = np.asarray(angles, dtype=float)[:, None, None]
-    return np.eye(3) + np.sin(angles) * k + (1.0 - np.cos(angles)) * (k @ k)
+    """Rotations by ``angles`` (rad) about the unit ``axis``, shape ``(m, 3, 3)``."""
+    return Rotation.from_rotvec(np.outer(np.asarray(angles, dtype=float), axis)).as_matrix()
+
+
+def z_to_matrix(axis: tuple[float, float, float]) -> np.ndarray:
+    """The rotation turning +z onto the unit ``axis`` (a cylinder drawn along a joint axis)."""
+    a = np.asarray(axis, dtype=float)
+    if a[2] < -1.0 + 1e-9:  # opposite: half a turn about x
+        return np.diag([1.0, -1.0, -1.0])
+    return Rotation.from_quat([*np.cross([0.0, 0.0, 1.0], a), 1.0 + a[2]]).as_matrix()
 
 
 def link_frames(arm: ArmModel, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -85,15 +70,3 @@ def view_sphere(arm: ArmModel) -> tuple[np.ndarray, float]:
             centre = position[0] + rotation[0] @ np.asarray(v.xyz)
             radius = max(radius, float(np.linalg.norm(centre - base)) + visual_extent(v) - float(np.linalg.norm(v.xyz)))
     return base, radius
-
-
-def z_to_matrix(axis: tuple[float, float, float]) -> np.ndarray:
-    """The rotation matrix turning +z onto ``axis``."""
-    x, y, z, w = z_to(axis)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )

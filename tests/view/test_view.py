@@ -315,7 +315,7 @@ def test_live_view_of_a_real_run_in_headless_chromium(tmp_path, ros_domain):
     # The view of the same run, rebuilt from its bag.
     from rerun.chunk import RrdReader
 
-    from robot_controller.view import build_view_from_bag
+    from robot_controller.view.from_bag import build_view_from_bag
 
     rrd.rename(out / "live.rrd")
     built = build_view_from_bag(out, serving.free_port(), serve=False)
