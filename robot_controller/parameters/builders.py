@@ -9,15 +9,14 @@ import numpy as np
 
 from robot_controller.core.laws.parameters import PREFIX as LAW_PREFIX
 from robot_controller.core.laws.pid import PidConfig
-from robot_controller.core.model.sensor_model import SensorConfig
+from robot_controller.core.model import SensorConfig
 from robot_controller.parameters.spec import per_joint
 from robot_controller.parameters.torque_limits import torque_limit
 
 if TYPE_CHECKING:  # the controller pulls in scipy and MuJoCo: only the nodes that run one import it
     from robot_controller.core.controller.controller import ControllerConfig
     from robot_controller.core.estimation.estimator import KalmanConfig
-    from robot_controller.core.model.arm_model import JointArmModel
-    from robot_controller.core.model.plant import ArmDynamics
+    from robot_controller.core.model import ArmDynamics, JointArmModel
 
 # The controller's arm-model parameters, in the order of core.arm_model.PARAMETERS; empty = the URDF's.
 MODEL_KEYS = ("model_inertia", "model_damping", "model_coulomb_friction", "model_gravity_torque")
@@ -25,31 +24,28 @@ MODEL_KEYS = ("model_inertia", "model_damping", "model_coulomb_friction", "model
 ARM_MODEL_KEYS = (*MODEL_KEYS, "model_payload")
 
 
-def _given(value: Any) -> bool:
+def given(value: Any) -> bool:
+    """Whether a list parameter holds a value (empty or None: not set)."""
     return value is not None and np.size(value) > 0
 
 
 def model_overridden(values: Mapping[str, Any]) -> bool:
     """Whether any of the controller's ``model_*`` parameters is set."""
-    return any(_given(values.get(key)) for key in MODEL_KEYS)
+    return any(given(values.get(key)) for key in MODEL_KEYS)
 
 
 def arm_model(values: Mapping[str, Any]) -> ArmDynamics | JointArmModel:
-    """The arm model the controller's model-based parts use, from its parameters:
-    the URDF's (``ArmDynamics``, MuJoCo) while every ``model_*`` is empty, so a
-    run without them is the same to the bit; otherwise a ``JointArmModel`` with
-    the values given and the URDF's for the rest."""
+    """The arm model the controller's model-based parts use: the URDF's (``ArmDynamics``) while every
+    ``model_*`` is empty; otherwise a ``JointArmModel`` with the values given, the URDF's for the rest."""
     from robot_controller import resources
-    from robot_controller.core.model.arm_model import JointArmModel
-    from robot_controller.core.model.payload import Payload
-    from robot_controller.core.model.plant import ArmDynamics
+    from robot_controller.core.model import ArmDynamics, JointArmModel, Payload
 
     payload = Payload.from_values("model_payload", values.get("model_payload"))
     dynamics = ArmDynamics(resources.resolve_urdf(values["urdf_path"]), payload)
     if not model_overridden(values):
         return dynamics
     n = len(dynamics.joint_names)
-    given = {key: per_joint(key, values[key], n) if _given(values.get(key)) else None for key in MODEL_KEYS}
+    given = {key: per_joint(key, values[key], n) if given(values.get(key)) else None for key in MODEL_KEYS}
     return JointArmModel.over_urdf(
         dynamics,
         inertia=given["model_inertia"],
@@ -103,7 +99,7 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         max_reading_age_s=values["max_reading_age_s"],
         stop_deceleration=values["stop_deceleration"],
         reacquire_acceleration=values["reacquire_acceleration"],
-        design_position=tuple(joints("design_position").tolist()) if _given(values.get("design_position")) else None,
+        design_position=tuple(joints("design_position").tolist()) if given(values.get("design_position")) else None,
     )
 
 
@@ -140,14 +136,10 @@ def trajectory_kwargs(values: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def kalman_config(values: Mapping[str, Any]) -> KalmanConfig:
-    """The controller's Kalman filter from its parameters. In lockstep (and the
-    in-process loop) each command acts from its tick exactly, and the filter
-    trusts its model as configured. On the wall clock a command reaches the
-    drive a few ms after it is issued and a push begins anywhere inside a
-    period, which a filter that trusts its model cannot place: there it runs
-    at its mismatch settings throughout, following its readings, and takes no
-    jumps (one hostile 10 N·m effort for a period, taken as a jump, drove the
-    arm up to 175 mrad off where these settings keep it within 11)."""
+    """The controller's Kalman filter from its parameters. In lockstep each command acts from its tick
+    exactly, and the filter trusts its model as configured. On the wall clock a command reaches the
+    drive a few ms late and a push begins anywhere inside a period, which a filter that trusts its
+    model cannot place: there it runs at its mismatch settings throughout and takes no jumps."""
     from dataclasses import replace
 
     from robot_controller.core.estimation.estimator import KalmanConfig

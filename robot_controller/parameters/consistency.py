@@ -1,11 +1,8 @@
-"""The whole configuration checked before anything starts: each value on its
-own (the schema), then the five nodes' values against each other and
-against the arm the URDFs describe.
+"""The whole configuration checked before anything starts: each value on its own (the schema),
+then the five nodes' values against each other and against the arm the URDFs describe.
 
-``run --config`` and the other verbs call :func:`check_stack`; a problem is a
-``ConfigError`` naming the node, the key and what is wrong. The nodes check
-their own values again on every parameter change (a node alone cannot see
-the others' values: these cross-node rules are enforced here, at start).
+A problem is a ``ConfigError`` naming the node, the key and what is wrong. The nodes check their
+own values again on every parameter change; these cross-node rules are enforced here, at start.
 """
 
 from __future__ import annotations
@@ -17,17 +14,15 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.model.joint_limits import urdf_velocity_limits
+from robot_controller.core.model import urdf_velocity_limits
 from robot_controller.parameters import law_params
-from robot_controller.parameters.builders import ARM_MODEL_KEYS
+from robot_controller.parameters.builders import ARM_MODEL_KEYS, arm_model, given
 from robot_controller.parameters.torque_limits import torque_limit
 
 if TYPE_CHECKING:  # MuJoCo and the trajectories: imported when used
-    from robot_controller.core.reference.feasibility import Plan
+    from robot_controller.core.reference import Plan
 
-# The watchdog must outlast this many reading periods: a window shorter than
-# the gap between two readings trips on every tick (control_rate_hz 1000 with
-# readings at 100 Hz did).
+# The watchdog must outlast this many reading periods: a shorter window trips between two readings.
 WATCHDOG_MIN_READINGS = 2
 # Drive and motor timeouts must outlast this many control periods.
 TIMEOUT_MIN_PERIODS = 2
@@ -58,7 +53,7 @@ def check_stack(params: cfg.Params) -> None:
 
 def _arm(node: str, urdf_path: str) -> tuple[list[str], np.ndarray, np.ndarray]:
     """Joint names, effort limits and position ranges of a node's URDF."""
-    from robot_controller.core.model.plant import effort_limits, joint_names, load_model
+    from robot_controller.core.model import effort_limits, joint_names, load_model
 
     try:
         model = load_model(resources.resolve_urdf(urdf_path))
@@ -87,7 +82,7 @@ def _check_per_joint(params: cfg.Params, joint_count: int) -> None:
 
 
 def _check_rates(params: cfg.Params) -> None:
-    from robot_controller.core.model.plant import steps_per_period
+    from robot_controller.core.model import steps_per_period
 
     sim, sensor = params["simulator"], params["sensor_node"]
     ctrl, motor = params["pid_controller"], params["motor_node"]
@@ -138,12 +133,11 @@ def _check_limits(params: cfg.Params, arm: tuple[list[str], np.ndarray, np.ndarr
                 f"{effort_limit.tolist()} N·m (it may lower the limit, never raise it)"
             )
     planner = params["trajectory_planner"]
-    amplitude = np.abs(cfg.per_joint("amplitude", planner["amplitude"], n))
+    amplitude = cfg.per_joint("amplitude", planner["amplitude"], n)
     offset = cfg.per_joint("offset", planner["offset"], n)
-    low, high = offset - amplitude, offset + amplitude
+    low, high = offset - np.abs(amplitude), offset + np.abs(amplitude)
     if planner["mode"] == "step":  # from the offset to offset + amplitude
-        signed = cfg.per_joint("amplitude", planner["amplitude"], n)
-        low, high = np.minimum(offset, offset + signed), np.maximum(offset, offset + signed)
+        low, high = np.minimum(offset, offset + amplitude), np.maximum(offset, offset + amplitude)
     outside = (low < ranges[:, 0] - 1e-9) | (high > ranges[:, 1] + 1e-9)
     if np.any(outside):
         j = int(np.flatnonzero(outside)[0])
@@ -160,7 +154,6 @@ def _check_controller(params: cfg.Params, joint_count: int) -> None:
     """The controller builds: its arm model (the URDF's, or its ``model_*`` values) and its law
     designs (an LQR that does not stabilise is refused here)."""
     from robot_controller.core.controller.controller import JointController
-    from robot_controller.parameters.builders import arm_model
 
     ctrl = params["pid_controller"]
     try:
@@ -190,9 +183,6 @@ def _check_planner_matches(params: cfg.Params, joint_count: int) -> None:
             f"pid_controller's {ctrl['urdf_path'] or '(reference arm)'!r}"
         )
 
-    def given(value: object) -> bool:
-        return value is not None and np.size(value) > 0
-
     for key in ARM_MODEL_KEYS:  # empty: the controller's (``run`` passes it on); set: the controller's too
         if not given(planner[key]):
             continue
@@ -212,30 +202,21 @@ def _check_planner_matches(params: cfg.Params, joint_count: int) -> None:
 
 
 def trajectory_plan(params: cfg.Params) -> Plan:
-    """The trajectory the run follows: the planner's, checked against the
-    controller's arm model and slowed, refused or left as the planner's
-    ``feasibility`` says (:func:`robot_controller.core.reference.feasibility.plan`).
+    """The trajectory the run follows: the planner's, checked against the controller's arm model
+    (``builders.arm_model``) and slowed, refused or left as the planner's ``feasibility`` says.
 
-    The arm model is the one the controller uses (``builders.arm_model``): the
-    URDF's (the planner's too: ``urdf_path`` must match), or the controller's
-    ``model_*`` values over it when it has any, e.g. from ``robot-controller
-    identify``: the better-known arm. The in-process loop runs the plan this
-    returns; the ROS planner builds the same model from its own ``urdf_path``
-    and ``model_*``, which ``run`` fills with the controller's
-    (``runner.plan.with_controller_model``) and :func:`check_stack` refuses
-    when they differ from the controller's.
+    The ROS planner builds the same model from its own ``urdf_path`` and ``model_*``, which ``run``
+    fills with the controller's and :func:`check_stack` refuses when they differ.
 
     :raises ConfigError: ``trajectory_planner: …``, one line, when it is refused
     """
-    from robot_controller.core.reference import feasibility
-    from robot_controller.core.reference.trajectory import make_trajectory
-    from robot_controller.parameters.builders import arm_model
+    from robot_controller.core.reference import make_trajectory, plan_trajectory
 
     planner = params["trajectory_planner"]
     dynamics = arm_model(params["pid_controller"])
     try:
         trajectory = make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner))
-        return feasibility.plan(
+        return plan_trajectory(
             trajectory,
             dynamics,
             torque_limit(planner, len(dynamics.joint_names)),

@@ -18,16 +18,12 @@ TORQUE_LIMITED = ("motor_node", "pid_controller", "trajectory_planner")
 
 @lru_cache(maxsize=8)
 def _urdf_effort_limits(urdf_path: str) -> tuple[tuple[str, ...], tuple[float, ...]]:
+    """Each joint's name and ``<limit effort=…>`` (N·m) in the URDF at ``urdf_path`` ("": the reference arm)."""
     from robot_controller import resources
-    from robot_controller.core.model.plant import effort_limits, joint_names, load_model
+    from robot_controller.core.model import effort_limits, joint_names, load_model
 
     model = load_model(resources.resolve_urdf(urdf_path))
     return tuple(joint_names(model)), tuple(float(x) for x in effort_limits(model))
-
-
-def urdf_effort_limits(urdf_path: str) -> np.ndarray:
-    """Each joint's ``<limit effort=…>`` in the URDF at ``urdf_path`` ("" the reference arm), N·m."""
-    return np.array(_urdf_effort_limits(urdf_path)[1])
 
 
 def torque_limit(values: Mapping[str, Any], joint_count: int) -> np.ndarray:

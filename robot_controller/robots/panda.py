@@ -1,17 +1,8 @@
-"""The Franka Emika Panda from the ``example-robot-data`` package, made
-loadable by MuJoCo and drawable by the view.
-
-The package's URDF names its meshes ``package://example-robot-data/...``
-and draws them with COLLADA (.dae) files, which neither MuJoCo nor rerun
-reads. At run time (nothing is copied into this repository) we write a copy
-next to the user's cache with:
-
-- every ``package://`` path resolved to the installed package;
-- the .stl collision meshes as the visual ones too;
-- the gripper's two prismatic fingers made fixed joints: the loop drives the
-  7 revolute arm joints and holds the fingers still (their 15 g each stay
-  in the arm's inertia);
-- MuJoCo's compiler told to keep the mesh paths (``strippath`` off).
+"""The Franka Emika Panda from the ``example-robot-data`` package, made loadable by MuJoCo and
+drawable by the view: a copy of its URDF written beside the user's cache (nothing is copied into
+this repository) with every ``package://`` path resolved, the .stl collision meshes drawn as the
+visual ones (neither MuJoCo nor rerun reads its COLLADA), the two prismatic fingers fixed (the loop
+drives the 7 arm joints; the fingers' mass stays in the arm) and MuJoCo told to keep mesh paths.
 """
 
 from __future__ import annotations

@@ -38,9 +38,8 @@ def score(
 ) -> dict[str, Any]:
     """The run's metrics: tracking on the TRUE position, rates, latency, message counts.
 
-    ``window_s`` keeps only the first ``window_s`` seconds of control ticks
-    and leaves out what depends on when the recorder heard a message: with
-    lockstep sim time, the same seed then gives the same figures, exactly.
+    :param window_s: keep only the first ``window_s`` s of ticks and leave out what depends on when
+        the recorder heard a message: in lockstep, the same seed then gives the same figures exactly
     """
     s = recording.state
     if window_s is not None:
@@ -98,18 +97,14 @@ def reference_in_force(recording: Recording, nominal_period_s: float = 0.01) -> 
 def reference_in_force_at(
     ticks: np.ndarray, reference: np.ndarray, status: np.ndarray, t: np.ndarray, nominal_period_s: float = 0.01
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The controller's reference in force at each time ``t`` (rad, one column
-    per joint), and whether one was in force there at all; ``ticks``,
-    ``reference`` and ``status`` are ``/controller/state``'s.
+    """The controller's reference in force at each time ``t`` (rad per joint), and whether one is.
 
-    The reference in force is the controller's: between two ticks a normal
-    period apart, interpolated (it moves with the trajectory); across a longer
-    gap (a controller that stalled or was frozen), the last one it issued,
-    carried on at its speed for as long as a drive acts on a last command
-    (``CARRY_S``, the motor's command timeout), then held. So a stalled
-    controller cannot hide: its ticks are missing, the arm's samples are not.
-    None is in force before the first tick, or where the controller commands
-    nothing (no reading yet, sensor lost, e-stop: the brake holds).
+    Between two ticks a normal period apart it is interpolated; across a longer gap (a stalled or
+    frozen controller) the last one issued is carried on at its speed for ``CARRY_S`` (the motor's
+    command timeout), then held: a stalled controller cannot hide. None is in force before the first
+    tick or where the controller commands nothing (``IDLE_STATUSES``).
+
+    :param ticks: ``/controller/state``'s tick times, s; ``reference`` and ``status`` are its too
     """
     index = np.clip(np.searchsorted(ticks, t, side="right") - 1, 0, len(ticks) - 1)
     following = np.clip(index + 1, 0, len(ticks) - 1)

@@ -1,10 +1,7 @@
-"""Just the numbers the viewer needs, read straight from a message's CDR bytes.
-
-The viewer subscribes raw (as the recorder does): building a Python message
-object for each of some 400 messages a second (a labelled
-``Float64MultiArray`` carries a string per block) cost more than all the
-rest of its work. Plain CDR (XCDR1), either byte order; alignment counts from
-the end of the 4-byte encapsulation header.
+"""Just the numbers the viewer needs, read straight from a message's CDR bytes: the viewer
+subscribes raw, since a Python message object for each of some 400 messages a second cost more than
+the rest of its work. Plain CDR (XCDR1), either byte order; alignment counts from the end of the
+4-byte encapsulation header.
 """
 
 from __future__ import annotations
@@ -25,15 +22,10 @@ class _Reader:
     def align(self, n: int) -> None:
         self.pos += (-(self.pos - 4)) % n
 
-    def u32(self) -> int:
+    def u32(self, code: str = "I") -> int:
+        """A 4-byte integer (``code`` ``I`` unsigned, ``i`` signed)."""
         self.align(4)
-        (value,) = struct.unpack_from(self.e + "I", self.data, self.pos)
-        self.pos += 4
-        return value
-
-    def i32(self) -> int:
-        self.align(4)
-        (value,) = struct.unpack_from(self.e + "i", self.data, self.pos)
+        (value,) = struct.unpack_from(self.e + code, self.data, self.pos)
         self.pos += 4
         return value
 
@@ -64,7 +56,7 @@ def joint_state(data: bytes) -> tuple[float, list[str], np.ndarray, np.ndarray]:
     :raises ValueError, struct.error: not a JointState's bytes
     """
     r = _Reader(data)
-    sec, nanosec = r.i32(), r.u32()
+    sec, nanosec = r.u32("i"), r.u32()
     r.skip_string()  # frame_id
     names = [r.string() for _ in range(r.u32())]
     position = r.doubles()

@@ -1,14 +1,9 @@
 """The loop's signals turned into what the view logs, at a rate a browser takes.
 
-``ViewFeed`` collects raw samples (from live topics or from a bag's arrays),
-and ``flush`` turns what has come in since into rerun columns, held by an
-``Outlet`` (``outlet``) per recording stream until it sends them: each series
-at most ``SERIES_HZ`` and each pose at most ``POSE_HZ`` (per time bucket,
-the first sample; for errors and timing, the one of largest magnitude, so a
-spike is never thinned away). Everything held is bounded: the live inputs
-keep at most ``MAX_PENDING`` samples each between flushes (the oldest go
-first if a flush is late), and only a short tail of controller ticks is kept
-for pairing with later samples.
+``ViewFeed`` collects raw samples (live topics or a bag's arrays); ``flush`` thins what came since
+(``thinning``: each series at most ``SERIES_HZ``, each pose at most ``POSE_HZ``; errors and timing
+keep each bucket's largest) into rerun columns held by an ``Outlet`` per recording stream. Live,
+each input holds at most ``MAX_PENDING`` samples between flushes and a short tail of ticks is kept.
 """
 
 from __future__ import annotations

@@ -36,9 +36,9 @@ def run_setup(run_dir: Path) -> tuple[Path, float]:
 
 def stack_joint_order(urdf: Path) -> list[str]:
     """The joints in the order of every array of the stack (MuJoCo's)."""
-    from robot_controller.core.model import plant
+    from robot_controller.core.model import joint_names, load_model
 
-    return plant.joint_names(plant.load_model(urdf))
+    return joint_names(load_model(urdf))
 
 
 def _telemetry(bag_dir: Path) -> tuple[list[tuple[float, float]], list[np.ndarray]]:

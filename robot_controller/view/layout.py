@@ -51,18 +51,9 @@ OVERVIEW = (
     (TORQUE, "commanded", "torque, commanded [N·m] (colours as above)"),
 )
 # A colour per joint in the "all joints" tab (matplotlib's tab10), repeated past ten joints.
-JOINT_COLOURS = (
-    [31, 119, 180],
-    [255, 127, 14],
-    [44, 160, 44],
-    [214, 39, 40],
-    [148, 103, 189],
-    [140, 86, 75],
-    [227, 119, 194],
-    [127, 127, 127],
-    [188, 189, 34],
-    [23, 190, 207],
-)
+JOINT_COLOURS = [
+    list(bytes.fromhex(h)) for h in "1f77b4 ff7f0e 2ca02c d62728 9467bd 8c564b e377c2 7f7f7f bcbd22 17becf".split()
+]
 
 
 def series_path(series: str, joint: str, joint_count: int) -> str:

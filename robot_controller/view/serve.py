@@ -1,19 +1,9 @@
-"""Serving a view to a browser from this machine, with no network access.
-
-rerun's wheel carries its web viewer (HTML, JS, WebAssembly). Three local
-servers, all in the process that logs:
-
-- rerun's gRPC server holds the recording (up to ``SERVER_MEMORY_LIMIT``; past
-  it the oldest data goes, static data stays) and streams it to each browser;
-- rerun's web server serves the viewer's files;
-- a small HTTP server on the port the user asked for (127.0.0.1 only)
-  redirects ``/`` to the viewer with the gRPC address in its ``?url=``, so
-  ``http://127.0.0.1:PORT`` opens straight onto the recording (the viewer's
-  own page shows its welcome screen without that parameter).
-
-The gRPC and web ports are free ones picked at start, so runs side by side do
-not collide. rerun binds its web server on every interface (it has no option
-for that); it only serves the viewer's files, and the data stays on 127.0.0.1.
+"""Serving a view to a browser from this machine, with no network access, from three local servers
+in the process that logs: rerun's gRPC server, which holds the recording (up to
+``SERVER_MEMORY_LIMIT``; past it the oldest data goes) and streams it to each browser; rerun's web
+server with the viewer's files (it binds every interface, and serves only those files); and on the
+user's port (127.0.0.1) a redirect to the viewer with the gRPC address in its ``?url=``. The gRPC
+and web ports are free ones picked at start, so runs side by side do not collide.
 """
 
 from __future__ import annotations

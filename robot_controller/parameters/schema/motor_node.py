@@ -3,7 +3,7 @@ oldest command it applies."""
 
 from __future__ import annotations
 
-from robot_controller.parameters.schema.shared import URDF, lockstep_spec, torque_max_spec
+from robot_controller.parameters.schema.shared import POSITIVE, URDF, lockstep_spec, torque_max_spec
 from robot_controller.parameters.spec import ParamSpec
 
 MOTOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
@@ -15,8 +15,7 @@ MOTOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
         float,
         0.05,
         "no valid /joint_commands for this long: zero torque and brake request (category 0) until commands return, s",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
     ParamSpec(
         "max_command_age_s",
@@ -25,8 +24,7 @@ MOTOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
         "a /joint_commands stamped with its tick (ours are) that arrives more than this after the tick is "
         "dropped, as no command: the controller's gains survive 2 periods (20 ms) of delay it does not know of, "
         "and feedback later than that swings the arm (wall clock only: in lockstep no time passes), s",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
     lockstep_spec("sim-time lockstep: each command's time is the tick it is stamped with (no timeout, no age check)"),
 )

@@ -5,7 +5,14 @@ from __future__ import annotations
 
 from robot_controller.core.laws.feedforward import FeedforwardMode
 from robot_controller.core.laws.pid import AntiWindup, DerivativeSource
-from robot_controller.parameters.schema.shared import URDF, arm_model_specs, enum_values, lockstep_spec, torque_max_spec
+from robot_controller.parameters.schema.shared import (
+    POSITIVE,
+    URDF,
+    arm_model_specs,
+    enum_values,
+    lockstep_spec,
+    torque_max_spec,
+)
 from robot_controller.parameters.spec import ParamSpec
 
 PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
@@ -33,8 +40,7 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
         0.005,
         "under a law of your own: the wall time its update may take per tick, s; longer is a fault "
         "(controlled stop); lockstep and wall clock alike",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
     ParamSpec(
         "law_error_max_rad",
@@ -54,7 +60,7 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
         length=3,
         minimum=0.0,
     ),
-    ParamSpec("lqr_r", float, 10.0, "LQR weight on the feedback torque", minimum=0.0, exclusive_minimum=True),
+    ParamSpec("lqr_r", float, 10.0, "LQR weight on the feedback torque", **POSITIVE),
     ParamSpec(
         "reference_inertia",
         float,
@@ -73,29 +79,14 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
         "state estimate the law acts on: the raw reading, or a Kalman filter on position and velocity with the applied torque as input",
         choices=("none", "kalman"),
     ),
-    ParamSpec(
-        "kalman_position_noise_std",
-        float,
-        0.005,
-        "Kalman filter: encoder position noise σ, rad",
-        minimum=0.0,
-        exclusive_minimum=True,
-    ),
-    ParamSpec(
-        "kalman_velocity_noise_std",
-        float,
-        0.02,
-        "Kalman filter: encoder velocity noise σ, rad/s",
-        minimum=0.0,
-        exclusive_minimum=True,
-    ),
+    ParamSpec("kalman_position_noise_std", float, 0.005, "Kalman filter: encoder position noise σ, rad", **POSITIVE),
+    ParamSpec("kalman_velocity_noise_std", float, 0.02, "Kalman filter: encoder velocity noise σ, rad/s", **POSITIVE),
     ParamSpec(
         "kalman_acceleration_noise_std",
         float,
         0.005,
         "Kalman filter: unmodelled acceleration σ, rad/s², while the readings agree with the filter: small, so that it trusts the arm model and averages the sensor noise away over about a second. Lockstep only: on the wall clock the filter runs at its mismatch settings and takes no jumps",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
     ParamSpec(
         "disturbance_observer",
@@ -108,8 +99,7 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
         float,
         0.0001,
         "disturbance observer: how fast the external torque may change between jumps (σ of its random walk), N·m/√s, while the readings agree with the filter; a push is followed as a jump (kalman_disturbance_jump_sigma)",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
     ParamSpec(
         "kalman_disturbance_jump_sigma",
@@ -123,8 +113,7 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
         float,
         2.0,
         "Kalman filter: unmodelled acceleration σ, rad/s², it moves to while its readings disagree with it (an arm unlike its model, readings later than their stamps), to follow the readings rather than the model",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
     ParamSpec(
         "kalman_command_timing_uncertainty_s",
@@ -139,8 +128,7 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
         float,
         0.3,
         "disturbance observer: the external torque's σ, N·m/√s, it moves to while the readings disagree with the filter",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
     ParamSpec("control_rate_hz", float, 100.0, "control loop rate, Hz", minimum=10.0, maximum=1000.0),
     ParamSpec(
@@ -163,12 +151,7 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec("anti_windup", str, "conditional_integration", "anti-windup mode", choices=enum_values(AntiWindup)),
     ParamSpec(
-        "back_calculation_time_s",
-        float,
-        0.1,
-        "tracking time constant of back-calculation anti-windup, s",
-        minimum=0.0,
-        exclusive_minimum=True,
+        "back_calculation_time_s", float, 0.1, "tracking time constant of back-calculation anti-windup, s", **POSITIVE
     ),
     ParamSpec(
         "derivative_source",
@@ -216,10 +199,7 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
         "evaluate the latest reference at the tick time with its velocity and acceleration",
     ),
     ParamSpec(
-        "latency_compensation",
-        bool,
-        True,
-        "advance the measurement from its stamp to the tick time with its velocity",
+        "latency_compensation", bool, True, "advance the measurement from its stamp to the tick time with its velocity"
     ),
     ParamSpec(
         "watchdog_periods",
@@ -233,48 +213,30 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
         float,
         1.0,
         "readings missing this long end the controlled stop: no command, the drive's brake holds (category 1), s",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
     ParamSpec(
         "max_reading_age_s",
         float,
         0.1,
         "a reading older than this when it arrives (or stamped this far in the future) is dropped and does not count as a sign of life, s",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
     ParamSpec(
         "stop_deceleration",
         float,
         20.0,
         "deceleration of a controlled stop (sensor or planner lost), rad/s²",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
     ParamSpec(
         "reacquire_acceleration",
         float,
         20.0,
         "acceleration limit of the blend from where the arm is back onto the trajectory after a fault, rad/s²",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
-    ParamSpec(
-        "log_period_s",
-        float,
-        1.0,
-        "period of the target/actual/error/torque log line, s",
-        minimum=0.0,
-        exclusive_minimum=True,
-    ),
-    ParamSpec(
-        "diagnostics_period_s",
-        float,
-        1.0,
-        "period of the loop-health report on /diagnostics, s",
-        minimum=0.0,
-        exclusive_minimum=True,
-    ),
+    ParamSpec("log_period_s", float, 1.0, "period of the target/actual/error/torque log line, s", **POSITIVE),
+    ParamSpec("diagnostics_period_s", float, 1.0, "period of the loop-health report on /diagnostics, s", **POSITIVE),
     lockstep_spec("compute on each measurement once the due reference is in (sim-time lockstep), not on a timer"),
 )

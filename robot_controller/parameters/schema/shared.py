@@ -6,6 +6,9 @@ from enum import Enum
 
 from robot_controller.parameters.spec import ParamSpec
 
+#: the range of a parameter that must be above zero: ``**POSITIVE``
+POSITIVE = {"minimum": 0.0, "exclusive_minimum": True}
+
 
 def enum_values(enum: type[Enum]) -> tuple[str, ...]:
     """The choices of a string parameter that names one of ``enum``'s members."""
@@ -31,8 +34,7 @@ def arm_model_specs(lead: str = "arm model: ") -> tuple[ParamSpec, ...]:
             float,
             [],
             lead + "each joint's inertia about its axis, kg·m² (empty: the URDF's)",
-            minimum=0.0,
-            exclusive_minimum=True,
+            **POSITIVE,
             **common,
         ),
         ParamSpec(
@@ -86,6 +88,5 @@ def torque_max_spec(description: str) -> ParamSpec:
         description + ", N·m (one per joint, or one for all; empty: each joint's URDF effort limit)",
         per_joint=True,
         allow_empty=True,
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     )

@@ -3,7 +3,7 @@ the scheduled disturbance."""
 
 from __future__ import annotations
 
-from robot_controller.parameters.schema.shared import URDF, lockstep_spec
+from robot_controller.parameters.schema.shared import POSITIVE, URDF, lockstep_spec
 from robot_controller.parameters.spec import ParamSpec
 
 SIMULATOR_PARAMS: tuple[ParamSpec, ...] = (
@@ -28,11 +28,7 @@ SIMULATOR_PARAMS: tuple[ParamSpec, ...] = (
         maximum=1000.0,
     ),
     ParamSpec(
-        "initial_position",
-        float,
-        [0.0],
-        "initial joint position, rad (one per joint, or one for all)",
-        per_joint=True,
+        "initial_position", float, [0.0], "initial joint position, rad (one per joint, or one for all)", per_joint=True
     ),
     ParamSpec(
         "wait_for_first_command",
@@ -63,16 +59,14 @@ SIMULATOR_PARAMS: tuple[ParamSpec, ...] = (
         float,
         0.05,
         "efforts missing this long (wall clock) engage the holding brakes and cut the torque (category 0), s",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
     ParamSpec(
         "brake_torque_nm",
         float,
         50.0,
         "holding torque of each joint's brake, N·m (stops the reference arm from 3 rad/s in about 5 ms)",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
     # A disturbance at a set physics time (the tutorial's exercise 2), the same input as /sim/disturbance:
     # a lockstep run reproduces it exactly.
@@ -92,13 +86,5 @@ SIMULATOR_PARAMS: tuple[ParamSpec, ...] = (
         "physics time the disturbance starts at, s (the physics starts with the first command)",
         minimum=0.0,
     ),
-    ParamSpec(
-        "disturbance_duration_s",
-        float,
-        1.0,
-        "how long the disturbance acts, s",
-        minimum=0.0,
-        exclusive_minimum=True,
-        maximum=60.0,
-    ),
+    ParamSpec("disturbance_duration_s", float, 1.0, "how long the disturbance acts, s", **POSITIVE, maximum=60.0),
 )

@@ -3,8 +3,8 @@ against the arm model."""
 
 from __future__ import annotations
 
-from robot_controller.core.reference.trajectory import MODES
-from robot_controller.parameters.schema.shared import URDF, arm_model_specs, lockstep_spec, torque_max_spec
+from robot_controller.core.reference import MODES
+from robot_controller.parameters.schema.shared import POSITIVE, URDF, arm_model_specs, lockstep_spec, torque_max_spec
 from robot_controller.parameters.spec import ParamSpec
 
 TRAJECTORY_PLANNER_PARAMS: tuple[ParamSpec, ...] = (
@@ -28,11 +28,10 @@ TRAJECTORY_PLANNER_PARAMS: tuple[ParamSpec, ...] = (
         float,
         60.0,
         "acceleration limit of a shaped step, rad/s² (the reference arm: (10 − 2.45) N·m / 0.0833 kg·m² ≈ 90 at most; 60 leaves the feedback room)",
-        minimum=0.0,
-        exclusive_minimum=True,
+        **POSITIVE,
     ),
     ParamSpec("end_frequency_hz", float, 2.0, "end frequency of the chirp, Hz", minimum=0.0),
-    ParamSpec("sweep_time_s", float, 10.0, "duration of one chirp sweep, s", minimum=0.0, exclusive_minimum=True),
+    ParamSpec("sweep_time_s", float, 10.0, "duration of one chirp sweep, s", **POSITIVE),
     ParamSpec("publish_rate_hz", float, 100.0, "rate of /trajectory, Hz", minimum=1.0, maximum=1000.0),
     lockstep_spec("sample on /clock ticks (sim-time lockstep) instead of a timer"),
     URDF,
