@@ -46,7 +46,7 @@ def disturb(torque_nm: float, duration_s: float, joint: str | None, *, wait_s: f
     :param duration_s: s of the simulator's time
     :param wait_s: s to wait for the simulator to match
     """
-    from robot_controller.core.model.plant import MAX_DISTURBANCE_NM, check_disturbance
+    from robot_controller.core.model import MAX_DISTURBANCE_NM, check_disturbance
 
     if not (np.isfinite(torque_nm) and np.isfinite(duration_s)):
         raise ToolError(f"torque and duration must be finite numbers, got {torque_nm} N·m and {duration_s} s", 2)

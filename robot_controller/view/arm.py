@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_controller.view.kinematics import link_frames, rpy_matrix, view_sphere, z_to_matrix
-from robot_controller.view.urdf_arm import MESH_FORMATS, MOVING, ArmModel, Joint, Link, Visual, entity_part, load_arm
+from robot_controller.view.kinematics import link_frames, rpy_matrix, z_to_matrix
+from robot_controller.view.urdf_arm import MOVING, ArmModel, Joint, Link, Visual, entity_part
 
 
 def _quaternions(rotations: np.ndarray) -> np.ndarray:
@@ -120,17 +120,3 @@ def pose_columns(arm: ArmModel, root: str, q: np.ndarray) -> list[tuple[str, obj
                 )
             )
     return out
-
-
-__all__ = [
-    "MESH_FORMATS",
-    "MOVING",
-    "ArmModel",
-    "link_frames",
-    "load_arm",
-    "log_static",
-    "pose_columns",
-    "rpy_matrix",
-    "view_sphere",
-    "z_to_matrix",
-]

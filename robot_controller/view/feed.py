@@ -15,10 +15,10 @@ import numpy as np
 
 from robot_controller.core.controller import state_layout
 from robot_controller.scoring import bag_reader, report
-from robot_controller.view import arm as arm_view
 from robot_controller.view import layout
 from robot_controller.view.outlet import Outlet
 from robot_controller.view.thinning import Decimator
+from robot_controller.view.urdf_arm import ArmModel
 
 SERIES_HZ = 50.0
 POSE_HZ = 20.0
@@ -41,9 +41,7 @@ def reference_in_force(
 class ViewFeed:
     """Collects the loop's samples and hands them, thinned, to its outlets on ``flush``."""
 
-    def __init__(
-        self, outlets: list[Outlet], arm: arm_view.ArmModel, *, nominal_period_s: float, live: bool = True
-    ) -> None:
+    def __init__(self, outlets: list[Outlet], arm: ArmModel, *, nominal_period_s: float, live: bool = True) -> None:
         self.outlets = outlets
         self.arm = arm
         self.joints = arm.joint_names
@@ -116,6 +114,11 @@ class ViewFeed:
             for outlet in self.outlets:
                 outlet.add_scalars(path, t[keep] - self.t0, v[keep])
 
+    def _per_joint(self, series: str, t: np.ndarray, values: np.ndarray, **options: bool) -> None:
+        """One series per joint: ``values`` has a column per joint."""
+        for k, joint in enumerate(self.joints):
+            self._series(series, joint, t, values[:, k], **options)
+
     def _poses(self, t: np.ndarray, q: np.ndarray, final: bool) -> None:
         """The three arms at the same instants (the true samples', at most ``POSE_HZ``): the
         measured one as the latest reading then, the reference as the controller's, interpolated
@@ -156,8 +159,7 @@ class ViewFeed:
             self._controller(states, final)
         measured = self._drain(self.measured_in, 1 + n)
         if measured is not None:
-            for k, joint in enumerate(self.joints):
-                self._series("measured", joint, measured[:, 0], measured[:, 1 + k], final=final)
+            self._per_joint("measured", measured[:, 0], measured[:, 1:], final=final)
             keep = slice(-TICK_TAIL if self.live else None, None)
             self.readings_t = np.concatenate([self.readings_t, measured[:, 0]])[keep]
             self.readings_q = np.vstack([self.readings_q, measured[:, 1:]])[keep]
@@ -165,16 +167,14 @@ class ViewFeed:
         if true is not None:
             t, q, effort = true[:, 0], true[:, 1 : 1 + n], true[:, 1 + n :]
             self._poses(t, q, final)
-            for k, joint in enumerate(self.joints):
-                self._series("true", joint, t, q[:, k], final=final)
-                self._series("applied", joint, t, effort[:, k], final=final)
+            self._per_joint("true", t, q, final=final)
+            self._per_joint("applied", t, effort, final=final)
             self.unpaired_t = np.concatenate([self.unpaired_t, t])
             self.unpaired_q = np.vstack([self.unpaired_q, q])
         self._tracking_error(final)
         planned = self._drain(self.planned_in, 1 + n)
         if planned is not None:
-            for k, joint in enumerate(self.joints):
-                self._series("planned", joint, planned[:, 0], planned[:, 1 + k], final=final)
+            self._per_joint("planned", planned[:, 0], planned[:, 1:], final=final)
         receipts = self._drain(self.receipts_in, 1 + n)
         if receipts is not None and len(self.ticks):
             self._latency(receipts, final)
@@ -190,10 +190,9 @@ class ViewFeed:
     def _controller(self, states: np.ndarray, final: bool) -> None:
         s = state_layout.decode(states, self.n)
         t = s["time_s"]
-        for k, joint in enumerate(self.joints):
-            self._series("reference", joint, t, s["reference"][:, k], final=final)
-            self._series("error_controller", joint, t, 1e3 * s["error"][:, k], extreme=True, final=final)
-            self._series("commanded", joint, t, s["command"][:, k], final=final)
+        self._per_joint("reference", t, s["reference"], final=final)
+        self._per_joint("error_controller", t, 1e3 * s["error"], extreme=True, final=final)
+        self._per_joint("commanded", t, s["command"], final=final)
         # Each tick's period against the nominal one, from the previous tick (kept from the last flush).
         all_t = np.concatenate([self.ticks[-1:], t])
         jitter = 1e3 * np.abs(np.diff(all_t) - self.nominal_period_s)
@@ -234,8 +233,7 @@ class ViewFeed:
         error = 1e3 * (
             reference_in_force(self.ticks, self.tick_reference, self.tick_status, t, self.nominal_period_s) - q
         )
-        for k, joint in enumerate(self.joints):
-            self._series("error_true", joint, t, error[:, k], extreme=True, final=final)
+        self._per_joint("error_true", t, error, extreme=True, final=final)
 
     def _latency(self, receipts: np.ndarray, final: bool) -> None:
         """Reading stamp → command at the motor, per receipt matched to the tick that issued its command."""

@@ -13,10 +13,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robot_controller import resources
-from robot_controller.view import arm as arm_view
 from robot_controller.view import layout
 from robot_controller.view import serve as serving
 from robot_controller.view.feed import Outlet, ViewFeed
+from robot_controller.view.urdf_arm import ArmModel, load_arm
 
 if TYPE_CHECKING:
     from robot_controller.scoring.bag_reader import Recording
@@ -70,7 +70,7 @@ def _telemetry(bag_dir: Path) -> tuple[list[tuple[float, float]], list[np.ndarra
 
 @dataclass
 class SavedRun:
-    arm: arm_view.ArmModel
+    arm: ArmModel
     period_s: float
     recording: Recording
     diagnostics: list[tuple[float, float]]
@@ -86,7 +86,7 @@ def load_run(run_dir: Path) -> SavedRun:
 
     urdf, period = run_setup(run_dir)
     recording = read_recording(run_dir / "bag")
-    arm = arm_view.load_arm(urdf, stack_joint_order(urdf))
+    arm = load_arm(urdf, stack_joint_order(urdf))
     if len(arm.joint_names) != recording.joint_count:
         raise ValueError(f"{run_dir}: the bag has {recording.joint_count} joint(s), {urdf} {len(arm.joint_names)}")
     diagnostics, receipts = _telemetry(run_dir / "bag")

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_controller.view.arm import ArmModel, entity_part, log_static, view_sphere
+from robot_controller.view.arm import log_static
+from robot_controller.view.kinematics import view_sphere
+from robot_controller.view.urdf_arm import ArmModel, entity_part
 
 APPLICATION_ID = "robot_controller"
 TIMELINE = "time"  #: seconds since the controller's first tick

@@ -10,7 +10,7 @@ import pytest
 
 from robot_controller.core.controller import state_layout
 from robot_controller.view import arm as arm_view
-from robot_controller.view import feed, layout
+from robot_controller.view import feed, kinematics, layout, urdf_arm
 from tests.view.test_view import FakeRecording
 
 PANDA_JOINTS = [f"panda_joint{k}" for k in range(1, 8)]
@@ -32,12 +32,12 @@ def panda_urdf():
 def panda_arm(panda_urdf):
     from robot_controller.view.from_bag import stack_joint_order
 
-    return arm_view.load_arm(panda_urdf, stack_joint_order(panda_urdf))
+    return urdf_arm.load_arm(panda_urdf, stack_joint_order(panda_urdf))
 
 
 def test_the_panda_is_a_chain_of_seven_revolute_joints_drawn_with_meshes(panda_arm):
     assert panda_arm.joint_names == PANDA_JOINTS
-    moving = [(parent, joint) for parent, joint in panda_arm.joints() if joint.kind in arm_view.MOVING]
+    moving = [(parent, joint) for parent, joint in panda_arm.joints() if joint.kind in urdf_arm.MOVING]
     assert [joint.name for _, joint in moving] == PANDA_JOINTS
     assert all(joint.kind == "revolute" for _, joint in moving)
     for (_, before), (parent, _) in zip(moving, moving[1:], strict=False):
@@ -48,22 +48,22 @@ def test_the_panda_is_a_chain_of_seven_revolute_joints_drawn_with_meshes(panda_a
     for visual in meshes.values():
         assert visual.mesh.is_file() and visual.mesh.suffix == ".stl"
         assert 0.0 < np.linalg.norm(visual.centre) < 0.2  # read from the file: the link's bulk, near its frame
-    target, radius = arm_view.view_sphere(panda_arm)
+    target, radius = kinematics.view_sphere(panda_arm)
     assert np.allclose(target, [0.0, 0.0, 0.333]) and 0.7 < radius < 1.1
 
 
 def test_forward_kinematics_agree_with_mujoco_on_the_panda(panda_urdf, panda_arm):
     import mujoco
 
-    from robot_controller.core.model import plant
+    from robot_controller.core.model import joint_names, load_model
 
-    model = plant.load_model(panda_urdf)
+    model = load_model(panda_urdf)
     data = mujoco.MjData(model)
     rng = np.random.default_rng(3)
     q = np.vstack([READY, rng.uniform(-1.5, 1.5, (4, 7))])
-    frames = arm_view.link_frames(panda_arm, q)
+    frames = kinematics.link_frames(panda_arm, q)
     for row, values in enumerate(q):
-        for name, value in zip(plant.joint_names(model), values, strict=True):
+        for name, value in zip(joint_names(model), values, strict=True):
             data.qpos[model.jnt_qposadr[model.joint(name).id]] = value
         mujoco.mj_kinematics(model, data)
         for link in ("panda_link1", "panda_link4", "panda_link7", "panda_hand"):

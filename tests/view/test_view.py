@@ -25,7 +25,7 @@ from robot_controller import resources
 from robot_controller.core.controller import state_layout
 from robot_controller.core.errors import ConfigError
 from robot_controller.view import arm as arm_view
-from robot_controller.view import cdr, feed, layout
+from robot_controller.view import cdr, feed, kinematics, layout, urdf_arm
 from robot_controller.view import serve as serving
 from tests.rostools import run_said
 
@@ -89,7 +89,7 @@ def test_reference_in_force_interpolates_and_skips_idle_ticks():
 
 
 def test_feed_thins_the_loop_to_browser_rates_and_stays_bounded():
-    arm = arm_view.load_arm(resources.default_urdf())
+    arm = urdf_arm.load_arm(resources.default_urdf())
     live, saved = FakeRecording(), FakeRecording()
     view = feed.ViewFeed([feed.Outlet(live, 0.2, 0.1), feed.Outlet(saved, 2.0)], arm, nominal_period_s=0.01)
     width = state_layout.width(1)
@@ -146,40 +146,41 @@ def test_cdr_reader_matches_rclpy():
 
 
 def test_arm_from_the_reference_urdf_posed_by_forward_kinematics():
-    arm = arm_view.load_arm(resources.default_urdf(), ["joint1"])
+    arm = urdf_arm.load_arm(resources.default_urdf(), ["joint1"])
     assert arm.joint_names == ["joint1"]
     assert arm.base_xyz == (0.0, 0.0, 1.0)
     assert 0.45 < arm.reach_m < 0.6
     ((parent, joint),) = arm.joints()
     assert (parent.name, joint.name, joint.kind, joint.axis) == ("base_link", "joint1", "revolute", (0.0, -1.0, 0.0))
     # q = 0: the link lies along +x from the joint; q = π/2 about −y raises it straight up.
-    frames = arm_view.link_frames(arm, np.array([[0.0], [np.pi / 2]]))
+    frames = kinematics.link_frames(arm, np.array([[0.0], [np.pi / 2]]))
     rotation, position = frames["link1"]
     visual = arm.links()[1].visuals[0]
     centers = position + rotation @ np.asarray(visual.xyz)
     assert np.allclose(centers, [[0.25, 0.0, 1.0], [0.0, 0.0, 1.25]], atol=1e-9)
     # The cylinder (along its own z) lies along the link: +x at q = 0.
-    axis = (rotation @ arm_view.rpy_matrix(visual.rpy))[0] @ [0.0, 0.0, 1.0]
+    axis = (rotation @ kinematics.rpy_matrix(visual.rpy))[0] @ [0.0, 0.0, 1.0]
     assert np.allclose(np.abs(axis), [1.0, 0.0, 0.0], atol=1e-6)
     for rpy in [(0.0, 1.5707963, 0.0), (0.3, -0.7, 1.2)]:
-        assert np.allclose(arm_view.rpy_matrix(rpy) @ arm_view.rpy_matrix(rpy).T, np.eye(3))
-    hub = arm_view.z_to_matrix(joint.axis) @ [0.0, 0.0, 1.0]
+        assert np.allclose(kinematics.rpy_matrix(rpy) @ kinematics.rpy_matrix(rpy).T, np.eye(3))
+    hub = kinematics.z_to_matrix(joint.axis) @ [0.0, 0.0, 1.0]
     assert np.allclose(hub, joint.axis)
     paths = [path for path, _ in arm_view.pose_columns(arm, "world/arm", np.zeros((4, 3, 1)))]
     assert paths == ["world/arm/link1/visual_0", "world/arm/hubs/joint1"]
     with pytest.raises(ValueError, match="no moving joint"):
-        arm_view.load_arm(resources.default_urdf(), ["elbow"])
+        urdf_arm.load_arm(resources.default_urdf(), ["elbow"])
 
 
 def test_a_busy_port_is_refused_before_anything_is_written(tmp_path):
     from robot_controller.runner import plan
+    from robot_controller.runner.options import RunOptions
 
     with socket.socket() as busy:
         busy.bind((serving.HOST, 0))
         busy.listen()
         port = busy.getsockname()[1]
         with pytest.raises(ConfigError, match=f"view port {port}"):
-            plan.plan(cfg.load_stack("default"), out_dir=tmp_path / "run", view_port=port)
+            plan.plan(plan.check(cfg.load_stack("default"), RunOptions(view_port=port)), tmp_path / "run")
     assert not (tmp_path / "run").exists()
     with pytest.raises(ConfigError):
         serving.check_port(70000)
@@ -187,9 +188,11 @@ def test_a_busy_port_is_refused_before_anything_is_written(tmp_path):
 
 def test_plan_adds_the_viewer_as_an_observer(tmp_path):
     from robot_controller.runner import plan
+    from robot_controller.runner.options import RunOptions
 
-    run = plan.plan(cfg.load_stack("default"), out_dir=tmp_path / "run", view_port=serving.free_port())
-    without = plan.plan(cfg.load_stack("default"), out_dir=tmp_path / "other")
+    options = RunOptions(view_port=serving.free_port())
+    run = plan.plan(plan.check(cfg.load_stack("default"), options), tmp_path / "run")
+    without = plan.plan(plan.check(cfg.load_stack("default"), RunOptions()), tmp_path / "other")
     for planned in (run, without):
         shutil.rmtree(planned.counts_dir, ignore_errors=True)
     assert run.viewer is not None and run.viewer.module == "viewer"
@@ -252,9 +255,10 @@ LAUNCH = textwrap.dedent("""
     import sys
     from pathlib import Path
     from robot_controller import parameters as cfg
-    from robot_controller.runner import launcher
-    result = launcher.launch(cfg.load_stack("default"), out_dir=Path(sys.argv[1]), duration_s=float(sys.argv[2]),
-                             view_port=int(sys.argv[3]))
+    from robot_controller.runner import launcher, plan
+    from robot_controller.runner.options import RunOptions
+    options = RunOptions(float(sys.argv[2]), view_port=int(sys.argv[3]))
+    result = launcher.launch(plan.check(cfg.load_stack("default"), options), Path(sys.argv[1]))
     print("@usage", __import__("json").dumps(result.usage), flush=True)
     sys.exit(result.exit_code)
 """)
