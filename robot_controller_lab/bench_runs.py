@@ -17,8 +17,8 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.batch import ArmConstants, run_batch
 from robot_controller.core.laws.pid import PidConfig
-from robot_controller.core.model.plant import ArmDynamics
-from robot_controller.core.reference.trajectory import make_trajectory
+from robot_controller.core.model import ArmDynamics
+from robot_controller.core.reference import make_trajectory
 from robot_controller.experiments import inprocess
 from robot_controller.runner import forking, launcher
 from robot_controller.scoring import report

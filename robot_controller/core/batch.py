@@ -15,10 +15,8 @@ import numpy as np
 
 from robot_controller.core.estimation.estimator import JointKalmanFilter, KalmanConfig
 from robot_controller.core.laws.pid import Pid, PidConfig
-from robot_controller.core.model.arm_model import step_count
-from robot_controller.core.model.plant import ArmDynamics
-from robot_controller.core.model.sensor_model import SensorConfig, measure
-from robot_controller.core.reference.trajectory import Trajectory
+from robot_controller.core.model import ArmDynamics, SensorConfig, measure, step_count
+from robot_controller.core.reference import Trajectory
 
 
 @dataclass(frozen=True)

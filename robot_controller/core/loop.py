@@ -14,10 +14,8 @@ import numpy as np
 from robot_controller.core import metrics
 from robot_controller.core.controller.controller import JointController
 from robot_controller.core.controller.output import Status
-from robot_controller.core.model.actuator import Actuator
-from robot_controller.core.model.plant import Plant, steps_per_period
-from robot_controller.core.model.sensor_model import SensorConfig, measure
-from robot_controller.core.reference.trajectory import Trajectory
+from robot_controller.core.model import Actuator, Plant, SensorConfig, measure, steps_per_period
+from robot_controller.core.reference import Trajectory
 
 # Ticks that command nothing once a controlled stop is over: the drive brakes the arm.
 BRAKING_STATUSES = (Status.SENSOR_LOST, Status.LAW_STOPPED)
@@ -89,7 +87,7 @@ def run_loop(
     the delay margin is about.
 
     ``disturbance``: an external torque on the plant (it needs ``set_disturbance``,
-    as :class:`~robot_controller.core.model.plant.MujocoPlant` has), on a schedule.
+    as :class:`~robot_controller.core.model.MujocoPlant` has), on a schedule.
 
     ``brake_torque_nm``: once the controller commands nothing after a controlled
     stop (sensor lost, a plugin law failed), the brakes engage with this holding

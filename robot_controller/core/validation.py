@@ -8,8 +8,6 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from robot_controller.core.arrays import all_finite
-
 Checked = tuple[np.ndarray, np.ndarray] | str
 
 
@@ -29,7 +27,7 @@ def check_joint_state(
         return "empty position array"
     if len(names) == n and position.size == n and velocity.size == n and list(names) == list(expected_names):
         # Every reading of a well-configured graph: already in the arm's order (copies, as the reorder gives).
-        if not all_finite(position, velocity):
+        if not (np.isfinite(position).all() and np.isfinite(velocity).all()):
             return "non-finite position or velocity"
         return position.copy(), velocity.copy()
     if len(names) == 0:
@@ -48,7 +46,7 @@ def check_joint_state(
             return f"missing joint(s) {missing}"
         order = np.array([index[name] for name in expected_names])
     position, velocity = position[order], velocity[order]
-    if not all_finite(position, velocity):
+    if not (np.isfinite(position).all() and np.isfinite(velocity).all()):
         return "non-finite position or velocity"
     return position, velocity
 
@@ -80,7 +78,7 @@ def check_trajectory(data: Sequence[float], joint_count: int) -> TrajectorySampl
             f"expected {3 * n} values ([position, velocity, acceleration] per joint) "
             f"or {3 * n + 1} (with the sample time), got {np.asarray(data).size + (sample_time is not None)}"
         )
-    if not all_finite(data) or (sample_time is not None and not math.isfinite(sample_time)):
+    if not np.isfinite(data).all() or (sample_time is not None and not math.isfinite(sample_time)):
         return "non-finite value in trajectory"
     return p, v, a, sample_time
 
@@ -89,6 +87,6 @@ def check_effort(data: Sequence[float], joint_count: int) -> np.ndarray | str:
     data = np.asarray(data, dtype=float)
     if data.size != joint_count:
         return f"expected {joint_count} torque value(s), got {data.size}"
-    if not all_finite(data):
+    if not np.isfinite(data).all():
         return "non-finite torque"
     return data

@@ -12,9 +12,7 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.controller.controller import JointController
 from robot_controller.core.loop import Disturbance, LoopResult, run_loop
-from robot_controller.core.model.actuator import Actuator
-from robot_controller.core.model.payload import Payload
-from robot_controller.core.model.plant import MujocoPlant
+from robot_controller.core.model import Actuator, MujocoPlant, Payload
 from robot_controller.parameters.builders import arm_model
 from robot_controller.parameters.consistency import trajectory_plan
 from robot_controller.parameters.torque_limits import torque_limit

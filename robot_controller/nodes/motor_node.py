@@ -32,8 +32,7 @@ from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.model.actuator import Actuator
-from robot_controller.core.model.plant import effort_limits, joint_names, load_model
+from robot_controller.core.model import Actuator, effort_limits, joint_names, load_model
 from robot_controller.core.validation import check_effort
 from robot_controller.parameters.torque_limits import torque_limit
 from robot_controller.ros.command_stamp import command_tick_s

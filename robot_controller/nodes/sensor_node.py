@@ -15,7 +15,7 @@ import numpy as np
 from sensor_msgs.msg import JointState
 
 from robot_controller import parameters as cfg
-from robot_controller.core.model.sensor_model import DelayLine, measure
+from robot_controller.core.model import DelayLine, measure
 from robot_controller.core.validation import check_joint_state
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import GatedPublisher

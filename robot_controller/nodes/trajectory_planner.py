@@ -55,9 +55,17 @@ from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.model.joint_limits import joint_limits, urdf_velocity_limits
-from robot_controller.core.reference import feasibility, joint_trajectory
-from robot_controller.core.reference.trajectory import Trajectory, make_trajectory
+from robot_controller.core.model import joint_limits, urdf_velocity_limits
+from robot_controller.core.reference import (
+    Accepted,
+    JointTrajectory,
+    Plan,
+    Trajectory,
+    accept_joint_trajectory,
+    make_trajectory,
+    plan_trajectory,
+    start_delay,
+)
 from robot_controller.parameters.builders import TRAJECTORY_SHAPE_KEYS, arm_model, model_overridden
 from robot_controller.parameters.torque_limits import torque_limit
 from robot_controller.ros.process import run
@@ -75,7 +83,7 @@ SHAPE_KEYS = frozenset(("mode", *TRAJECTORY_SHAPE_KEYS))
 class TrajectoryPlanner(StackNode):
     def __init__(self) -> None:
         self._plan_key: tuple | None = None
-        self._plan: feasibility.Plan | None = None
+        self._plan: Plan | None = None
         self._warned: str | None = None
         super().__init__("trajectory_planner")
         p = self.params
@@ -83,7 +91,7 @@ class TrajectoryPlanner(StackNode):
         self.pub = GatedPublisher(self, Float64MultiArray, "/trajectory")
         self.start_s: float | None = None
         self.next_sample_s = 0.0
-        self.waypoints: joint_trajectory.JointTrajectory | None = None  # a joint trajectory in force, if any
+        self.waypoints: JointTrajectory | None = None  # a joint trajectory in force, if any
         self.origin_s = 0.0  # when the motion in force has its time 0 (the start, or a joint trajectory's receipt)
         self.clock_s = 0.0  # lockstep: the latest /clock (time is 0 until the first)
         self.msg = Float64MultiArray()
@@ -121,12 +129,12 @@ class TrajectoryPlanner(StackNode):
         # Position and velocity limits, for joint trajectories (read-only URDF: fixed at start).
         self.limits = joint_limits(resources.resolve_urdf(params["urdf_path"]))
 
-    def _planned(self, params: dict[str, Any]) -> feasibility.Plan:
+    def _planned(self, params: dict[str, Any]) -> Plan:
         """The trajectory the values describe, slowed if it must be (``ConfigError`` if it is refused)."""
         key = tuple(sorted((name, repr(value)) for name, value in params.items()))  # checked once per change
         if key != self._plan_key:
             trajectory = make_trajectory(params["mode"], **cfg.trajectory_kwargs(params))
-            self._plan = feasibility.plan(
+            self._plan = plan_trajectory(
                 trajectory,
                 self.dynamics,
                 torque_limit(params, len(self.dynamics.joint_names)),
@@ -222,14 +230,14 @@ class TrajectoryPlanner(StackNode):
         if taken.warning is not None:
             self.get_logger().warning(f"{taken.warning}; running it as it is (feasibility: ignore)")
 
-    def _joint_trajectory(self, msg: JointTrajectoryMsg, now_s: float) -> joint_trajectory.Accepted | str:
+    def _joint_trajectory(self, msg: JointTrajectoryMsg, now_s: float) -> Accepted | str:
         if self.start_s is None:
             return "the planner is not publishing yet (its consumers are not matched)"
-        delay = joint_trajectory.start_delay(stamp_to_s(msg.header.stamp), now_s)
+        delay = start_delay(stamp_to_s(msg.header.stamp), now_s)
         if isinstance(delay, str):
             return delay
         points = msg.points
-        return joint_trajectory.accept(
+        return accept_joint_trajectory(
             list(msg.joint_names),
             [point.time_from_start.sec + point.time_from_start.nanosec * 1e-9 for point in points],
             [list(point.positions) for point in points],

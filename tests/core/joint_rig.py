@@ -8,7 +8,7 @@ import numpy as np
 from robot_controller import resources
 from robot_controller.core.controller.controller import ControllerConfig, ControlOutput, JointController, Status
 from robot_controller.core.laws.pid import PidConfig
-from robot_controller.core.model.plant import ArmDynamics
+from robot_controller.core.model import ArmDynamics
 
 PERIOD = 1 / 64  #: s: tick times k·PERIOD, and the watchdog's threshold, are exact in binary
 TORQUE_MAX = 10.0

@@ -11,8 +11,7 @@ from robot_controller import resources
 from robot_controller.core.controller.tick_state import StateAtTick
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation.estimator import JointKalmanFilter, KalmanConfig
-from robot_controller.core.model.plant import ArmDynamics, MujocoPlant
-from robot_controller.core.model.sensor_model import SensorConfig, measure
+from robot_controller.core.model import ArmDynamics, MujocoPlant, SensorConfig, measure
 
 DT = 0.01
 SENSOR = SensorConfig(position_noise_std=0.005, velocity_noise_std=0.02)

@@ -7,8 +7,7 @@ import pytest
 
 from robot_controller.core.controller.config import ControllerConfig
 from robot_controller.core.laws.gains import decoupling_map
-from robot_controller.core.model.payload import Payload
-from robot_controller.core.model.plant import ArmDynamics, MujocoPlant
+from robot_controller.core.model import ArmDynamics, MujocoPlant, Payload
 from robot_controller.robots import ROBOTS, urdf_of
 
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from robot_controller import resources
-from robot_controller.core.model.plant import MAX_DISTURBANCE_NM, MujocoPlant, check_disturbance
+from robot_controller.core.model import MAX_DISTURBANCE_NM, MujocoPlant, check_disturbance
 
 HANGING = np.array([-np.pi / 2])  # the reference arm at rest under gravity
 BRAKE_NM = 50.0

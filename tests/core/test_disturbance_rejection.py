@@ -26,8 +26,8 @@ from robot_controller import resources
 from robot_controller.core.controller.controller import ControlOutput, JointController, Status
 from robot_controller.core.estimation.estimator import KalmanConfig
 from robot_controller.core.loop import Disturbance
-from robot_controller.core.model.plant import MujocoPlant
-from robot_controller.core.reference.trajectory import make_trajectory
+from robot_controller.core.model import MujocoPlant
+from robot_controller.core.reference import make_trajectory
 from robot_controller.experiments import inprocess
 from robot_controller.experiments.exercises.disturbance import (
     GOAL_PEAK_RAD,

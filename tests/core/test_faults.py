@@ -9,8 +9,8 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.controller.controller import JointController, Status
 from robot_controller.core.controller.safe_motion import Blend, ControlledStop
-from robot_controller.core.model.plant import ArmDynamics, MujocoPlant
-from robot_controller.core.reference.trajectory import make_trajectory
+from robot_controller.core.model import ArmDynamics, MujocoPlant
+from robot_controller.core.reference import make_trajectory
 
 PERIOD = 0.01
 

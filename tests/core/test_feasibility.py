@@ -12,10 +12,17 @@ import pytest
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.model.arm_model import JointArmModel
-from robot_controller.core.model.plant import ArmDynamics
-from robot_controller.core.reference import feasibility
-from robot_controller.core.reference.trajectory import Chirp, MinTimeStep, Sine, make_trajectory, time_scaled
+from robot_controller.core.model import ArmDynamics, JointArmModel
+from robot_controller.core.reference import (
+    Chirp,
+    MinTimeStep,
+    Sine,
+    check_feasibility,
+    make_trajectory,
+    peak_torque,
+    plan_trajectory,
+    time_scaled,
+)
 from robot_controller.parameters import consistency
 from robot_controller.parameters.builders import arm_model
 
@@ -35,7 +42,7 @@ def fast_chirp():
 def test_the_default_sine_is_feasible_and_left_as_it_is(arm):
     planner = cfg.load_stack()["trajectory_planner"]
     sine = make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner))
-    plan = feasibility.plan(
+    plan = plan_trajectory(
         sine,
         arm,
         planner["torque_max"],
@@ -53,7 +60,7 @@ def test_the_default_sine_is_feasible_and_left_as_it_is(arm):
 
 def test_a_fast_chirp_is_infeasible_and_its_scale_factor_brings_it_within_the_usable_torque(arm):
     chirp = fast_chirp()
-    result = feasibility.check(chirp, arm, 10.0, 0.2)
+    result = check_feasibility(chirp, arm, 10.0, 0.2)
     assert not result.feasible and result.fixable
     assert result.peak_torque_nm[0] > 25.0  # inertia 0.0833 kg·m² × (2π·3 Hz)² × 1 rad alone is 29.6 N·m
     k = result.scale
@@ -64,12 +71,12 @@ def test_a_fast_chirp_is_infeasible_and_its_scale_factor_brings_it_within_the_us
         (0.5 / k, 3.0 / k, 10.0 * k)
     )
     # Recomputed on the slowed trajectory itself: within the usable 8 N·m, and not by much.
-    peak = feasibility.peak_torque(slowed, arm)
+    peak = peak_torque(slowed, arm)
     assert peak[0] <= 8.0 + 1e-9
     assert peak[0] > 7.8
     assert result.scaled_peak_torque_nm[0] == pytest.approx(peak[0])
     # The smallest factor, to the bisection's tolerance: a little less does not fit.
-    assert feasibility.peak_torque(time_scaled(chirp, k / 1.01), arm)[0] > 8.0
+    assert peak_torque(time_scaled(chirp, k / 1.01), arm)[0] > 8.0
 
 
 def test_slowing_divides_velocity_by_k_and_acceleration_by_k_squared():
@@ -99,11 +106,11 @@ def test_a_shaped_step_too_fast_for_the_arm_gets_a_lower_max_acceleration(arm):
         max_acceleration=90.0,
         sample_period_s=0.01,
     )
-    plan = feasibility.plan(step, arm, 10.0, what="step")
+    plan = plan_trajectory(step, arm, 10.0, what="step")
     assert not plan.result.feasible and plan.result.scale > 1.0
     assert isinstance(plan.trajectory, MinTimeStep)
     assert plan.trajectory.max_acceleration == pytest.approx(90.0 / plan.result.scale**2)
-    assert feasibility.peak_torque(plan.trajectory, arm)[0] <= 8.0 + 1e-9
+    assert peak_torque(plan.trajectory, arm)[0] <= 8.0 + 1e-9
     assert "max_acceleration 90→" in plan.warning
 
 
@@ -118,33 +125,33 @@ def test_the_default_step_experiment_fits_as_it_is(arm):
             max_acceleration=60.0,
             sample_period_s=0.01,
         )
-        assert feasibility.check(step, arm, 10.0).feasible
+        assert check_feasibility(step, arm, 10.0).feasible
 
 
 def test_gravity_alone_beyond_the_usable_torque_cannot_be_fixed_by_slowing(arm):
     # q = 0 holds the reference arm horizontal: 2.45 N·m of gravity against 0.8 usable.
     hold = make_trajectory("hold", joint_count=1, offset=0.0)
-    result = feasibility.check(hold, arm, 1.0)
+    result = check_feasibility(hold, arm, 1.0)
     assert not result.feasible and not result.fixable and result.scale == float("inf")
     assert result.gravity_nm[0] == pytest.approx(2.4525, abs=1e-3)
     for policy in ("scale", "refuse"):
         with pytest.raises(ConfigError, match="no slowing reduces"):
-            feasibility.plan(hold, arm, 1.0, policy=policy, what="hold")
-    assert "no slowing reduces" in feasibility.plan(hold, arm, 1.0, policy="ignore", what="hold").warning
+            plan_trajectory(hold, arm, 1.0, policy=policy, what="hold")
+    assert "no slowing reduces" in plan_trajectory(hold, arm, 1.0, policy="ignore", what="hold").warning
     # Near vertical (1.5 rad) the same arm needs 0.17 N·m: it fits.
-    assert feasibility.check(make_trajectory("hold", joint_count=1, offset=1.5), arm, 1.0).feasible
+    assert check_feasibility(make_trajectory("hold", joint_count=1, offset=1.5), arm, 1.0).feasible
     # A sine whose positions need more than the limit in gravity alone: slowing is no fix either.
-    assert not feasibility.check(make_trajectory("sine", joint_count=1), arm, 1.0).fixable
+    assert not check_feasibility(make_trajectory("sine", joint_count=1), arm, 1.0).fixable
 
 
 def test_ignore_keeps_the_trajectory_and_warns(arm):
     chirp = fast_chirp()
-    plan = feasibility.plan(chirp, arm, 10.0, policy="ignore", what="chirp")
+    plan = plan_trajectory(chirp, arm, 10.0, policy="ignore", what="chirp")
     assert plan.trajectory is chirp and "feasibility: ignore" in plan.warning
 
 
 def test_scale_warns_once_with_the_numbers_and_the_factor(arm):
-    plan = feasibility.plan(fast_chirp(), arm, 10.0, policy="scale", what="chirp")
+    plan = plan_trajectory(fast_chirp(), arm, 10.0, policy="scale", what="chirp")
     assert "\n" not in plan.warning
     assert re.search(
         r"^the chirp needs \d+\.\d N·m on joint1 against 8\.0 N·m usable \(10\.0 N·m limit, "
@@ -256,7 +263,7 @@ def test_the_check_covers_the_chirp_where_its_sweeps_turn(arm):
     chirp = make_trajectory(
         "chirp", joint_count=1, amplitude=1.0, frequency_hz=0.5, end_frequency_hz=3.0, sweep_time_s=4.5
     )
-    plan = feasibility.plan(chirp, arm, 10.0, what="chirp")
+    plan = plan_trajectory(chirp, arm, 10.0, what="chirp")
     slowed = plan.trajectory
     assert isinstance(slowed, Chirp) and plan.result.scale > 1.5
     h = 1e-3
@@ -290,7 +297,7 @@ def test_the_check_before_start_uses_the_controllers_arm_model_when_it_has_one()
     model = arm_model(params["pid_controller"])
     assert isinstance(model, JointArmModel) and plan.result.scale > 1.2
     assert isinstance(plan.trajectory, Sine) and plan.trajectory.frequency_hz < 0.45
-    assert 7.8 < feasibility.peak_torque(plan.trajectory, model)[0] <= 8.0 + 1e-9
+    assert 7.8 < peak_torque(plan.trajectory, model)[0] <= 8.0 + 1e-9
     # Gravity from the model that no slowing removes: refused under scale too.
     params["pid_controller"]["model_gravity_torque"] = [9.0]
     with pytest.raises(ConfigError, match=r"holding its positions alone needs 9\.0 N·m on joint1 \(gravity\)"):

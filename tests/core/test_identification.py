@@ -7,10 +7,15 @@ import pytest
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.model import identification as ident
-from robot_controller.core.model.arm_model import PARAMETERS, JointArmModel
-from robot_controller.core.model.plant import ArmDynamics, MujocoPlant
-from robot_controller.core.reference.trajectory import Chirp
+from robot_controller.core.model import (
+    PARAMETERS,
+    ArmDynamics,
+    IdentificationError,
+    JointArmModel,
+    MujocoPlant,
+    identify,
+)
+from robot_controller.core.reference import Chirp
 from robot_controller.parameters import consistency
 from robot_controller.parameters.builders import arm_model
 
@@ -65,7 +70,7 @@ def test_heavy_arm_is_four_times_the_inertia_and_three_times_the_gravity_of_the_
 def test_recovers_a_known_arm_within_5_percent(heavy_recording):
     time_s, q, v, tau = heavy_recording
     assert np.any(np.abs(tau) >= 10.0)  # some saturated: they must be left out
-    fit = ident.identify(time_s, q, v, tau, effort_limit=10.0)[0]
+    fit = identify(time_s, q, v, tau, effort_limit=10.0)[0]
     for name, value in truth(HEAVY_URDF).items():
         assert getattr(fit, name) == pytest.approx(value, rel=0.05), name
         assert 0 < getattr(fit, f"{name}_stderr") < 0.05 * value, name
@@ -78,7 +83,7 @@ def test_recovers_it_from_noisy_readings_with_more_smoothing(heavy_recording):
     time_s, q, v, tau = heavy_recording
     rng = np.random.default_rng(0)
     noisy_q, noisy_v = q + rng.normal(0, 0.005, q.shape), v + rng.normal(0, 0.02, v.shape)
-    fit = ident.identify(time_s, noisy_q, noisy_v, tau, effort_limit=10.0, window=15)[0]
+    fit = identify(time_s, noisy_q, noisy_v, tau, effort_limit=10.0, window=15)[0]
     for name, value in truth(HEAVY_URDF).items():
         assert getattr(fit, name) == pytest.approx(value, rel=0.05), name
 
@@ -90,7 +95,7 @@ def test_braked_and_torque_off_samples_are_left_out(heavy_recording):
     braked[300:400] = True
     tau[300:400] = 50.0  # what a brake does is not in the model
     tau[600:620] = 0.0  # torque off
-    fit = ident.identify(time_s, q, v, tau, effort_limit=10.0, braked=braked)[0]
+    fit = identify(time_s, q, v, tau, effort_limit=10.0, braked=braked)[0]
     assert fit.excluded_braked >= 120
     for name, value in truth(HEAVY_URDF).items():
         assert getattr(fit, name) == pytest.approx(value, rel=0.05), name
@@ -98,11 +103,11 @@ def test_braked_and_torque_off_samples_are_left_out(heavy_recording):
 
 def test_a_motion_that_does_not_excite_the_model_is_refused():
     time_s = np.arange(200) * 0.01
-    with pytest.raises(ident.IdentificationError):  # at rest: nothing usable
-        ident.identify(time_s, np.zeros(200), np.zeros(200), np.full(200, 2.0))
+    with pytest.raises(IdentificationError):  # at rest: nothing usable
+        identify(time_s, np.zeros(200), np.zeros(200), np.full(200, 2.0))
     v = np.full(200, 0.5)  # constant speed, no acceleration: inertia cannot be told
-    with pytest.raises(ident.IdentificationError, match="rank-deficient"):
-        ident.identify(time_s, np.full(200, 0.3), v, np.full(200, 2.0), window=1)
+    with pytest.raises(IdentificationError, match="rank-deficient"):
+        identify(time_s, np.full(200, 0.3), v, np.full(200, 2.0), window=1)
 
 
 # --- the arm model ------------------------------------------------------------------

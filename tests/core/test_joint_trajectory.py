@@ -6,13 +6,12 @@ import numpy as np
 import pytest
 
 from robot_controller import resources
-from robot_controller.core.model.joint_limits import JointLimits, joint_limits, urdf_velocity_limits
-from robot_controller.core.model.plant import ArmDynamics
-from robot_controller.core.reference.joint_trajectory import (
+from robot_controller.core.model import ArmDynamics, JointLimits, joint_limits, urdf_velocity_limits
+from robot_controller.core.reference import (
     MAX_START_DELAY_S,
     START_TOLERANCE_RAD,
     Accepted,
-    accept,
+    accept_joint_trajectory,
     start_delay,
 )
 
@@ -29,7 +28,7 @@ def arm():
 def take(arm, names, times, positions, velocities=None, accelerations=None, *, start=AT_REST, **kwargs):
     limits, dynamics = arm
     kwargs.setdefault("limits", limits)
-    result = accept(
+    result = accept_joint_trajectory(
         names,
         times,
         positions,
@@ -109,7 +108,7 @@ def test_positions_only_points_in_one_direction_give_a_monotone_path(arm):
 
 def test_joints_in_any_order_are_put_in_the_arms_order():
     limits = JointLimits.unlimited(["shoulder", "elbow"])
-    result = accept(
+    result = accept_joint_trajectory(
         ["elbow", "shoulder"],
         [1.0],
         [[0.2, -0.4]],

@@ -9,8 +9,7 @@ from robot_controller.core.controller.controller import ControllerConfig, law_co
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation.estimator import JointKalmanFilter, KalmanConfig
 from robot_controller.core.laws import lqr
-from robot_controller.core.model.plant import ArmDynamics, MujocoPlant
-from robot_controller.core.model.sensor_model import SensorConfig, measure
+from robot_controller.core.model import ArmDynamics, MujocoPlant, SensorConfig, measure
 
 INERTIA, DAMPING, DT = 1.0 / 12.0, 0.1, 0.01
 

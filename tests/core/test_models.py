@@ -6,10 +6,8 @@ import pytest
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError, TimingError
 from robot_controller.core.laws.feedforward import FeedforwardMode, feedforward_torque
-from robot_controller.core.model.actuator import Actuator
-from robot_controller.core.model.plant import ArmDynamics, MujocoPlant, steps_per_period
-from robot_controller.core.model.sensor_model import SensorConfig, measure
-from robot_controller.core.reference.trajectory import MODES, make_trajectory
+from robot_controller.core.model import Actuator, ArmDynamics, MujocoPlant, SensorConfig, measure, steps_per_period
+from robot_controller.core.reference import MODES, make_trajectory
 from robot_controller.core.validation import check_effort, check_joint_state, check_trajectory
 
 URDF = resources.default_urdf()

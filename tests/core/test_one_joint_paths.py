@@ -1,6 +1,5 @@
-"""The one-joint float paths (PID, Kalman filter, arm model, actuator, plant, sensor,
-sine, re-acquisition blend) give what their array paths give, to rounding, in every mode; and the collision
-pass skipped where no contact can happen changes nothing (no ROS)."""
+"""The one-joint float paths (PID, Kalman filter) give what their array paths give, to rounding, in every
+mode; and the collision pass skipped where no contact can happen changes nothing (no ROS)."""
 
 import mujoco
 import numpy as np
@@ -8,13 +7,14 @@ import pytest
 
 from robot_controller import resources
 from robot_controller.core.arrays import matrix_power
-from robot_controller.core.controller.safe_motion import _quintic
 from robot_controller.core.estimation.estimator import JointKalmanFilter, KalmanConfig, _power_2x2
 from robot_controller.core.laws.pid import AntiWindup, DerivativeSource, Pid, PidConfig
-from robot_controller.core.model.actuator import Actuator
-from robot_controller.core.model.plant import ArmDynamics, MujocoPlant, can_collide, load_model
-from robot_controller.core.model.sensor_model import SensorConfig, measure
-from robot_controller.core.reference.trajectory import Sine
+from robot_controller.core.model import (
+    ArmDynamics,
+    MujocoPlant,
+    can_collide,
+    load_model,
+)
 from robot_controller.robots import urdf_of
 
 
@@ -51,26 +51,11 @@ def dynamics() -> ArmDynamics:
     return ArmDynamics(resources.default_urdf())
 
 
-def test_one_joint_dynamics_is_the_arm_model(dynamics):
-    """The arm model's float calls give its array calls' numbers (the mass matrix: to rounding, at any q)."""
-    one = dynamics.one_joint
-    for q, v, tau, ext in [(0.3, -1.2, 2.5, None), (-2.0, 4.0, 30.0, 1.5), (1.0, 0.0, -12.0, -0.2)]:
-        array = dynamics.predict(
-            np.array([q]), np.array([v]), np.array([tau]), 0.01, 0.001, None if ext is None else np.array([ext])
-        )
-        assert one.predict(q, v, tau, 0.01, 0.001, ext) == (array[0].item(), array[1].item())
-        slopes = dynamics.step_jacobian(np.array([q]), np.array([v]), np.array([tau]), 0.001)
-        assert one.step_slopes(q, v, tau, 0.001) == slopes.ravel().tolist()
-        assert one.torque(q, v, 3.0) == dynamics.torque(np.array([q]), np.array([v]), np.array([3.0])).item()
-        assert one.mass == pytest.approx(dynamics.mass_matrix(np.array([q]))[0, 0], rel=1e-13)
-
-
 @pytest.mark.parametrize("observer", [False, True])
 @pytest.mark.parametrize("timing_s", [0.0, 0.01])
-@pytest.mark.parametrize("model_on_floats", [False, True])
-def test_one_joint_filter_is_the_array_filter(dynamics, observer, timing_s, model_on_floats):
+def test_one_joint_filter_is_the_array_filter(dynamics, observer, timing_s):
     """Through agreement, a push (a jump), disagreement and a reading beyond any torque (a restart);
-    the arm model asked through its array calls or its float ones (``ArmDynamics.one_joint``)."""
+    the arm model asked through its array calls."""
 
     def make(one_joint=None):
         return JointKalmanFilter(
@@ -85,7 +70,7 @@ def test_one_joint_filter_is_the_array_filter(dynamics, observer, timing_s, mode
             one_joint=one_joint,
         )
 
-    floats, arrays = make(dynamics.one_joint if model_on_floats else None), make()
+    floats, arrays = make(), make()
     rng = np.random.default_rng(5)
     q, v, torque = np.zeros(1), np.zeros(1), np.zeros(1)
     for k in range(400):
@@ -111,54 +96,6 @@ def test_one_joint_filter_is_the_array_filter(dynamics, observer, timing_s, mode
     assert floats.jump_count[0] == arrays.jump_count[0] and floats.restart_count[0] == arrays.restart_count[0]
     if observer:
         assert floats.jump_count[0] >= 1 and floats.restart_count[0] >= 1
-
-
-@pytest.mark.parametrize("lag_s", [0.0, 0.05])
-def test_one_joint_actuator_is_the_array_actuator(lag_s):
-    """Saturation, a non-finite command and the lag, on floats as on arrays."""
-    one, batch = Actuator(np.array([4.0]), lag_s), Actuator(np.array([4.0]), lag_s)
-    for command in (1.5, -7.0, np.nan, np.inf, 3.9, 12.0):
-        a = one.apply(np.array([command]), 0.01)
-        b = batch.apply(np.array([[command]]), 0.01)  # (1, 1): the array path
-        assert a.shape == (1,) and a.tolist() == b.reshape(1).tolist()
-        assert one.applied.tolist() == batch.applied.reshape(1).tolist()
-
-
-def test_one_joint_plant_step_is_the_array_step():
-    """The free, undisturbed one-joint step on floats moves the arm as the array step does."""
-    urdf = resources.default_urdf()
-    one, other = MujocoPlant(urdf), MujocoPlant(urdf)
-    for torque in (3.0, -25.0, 0.5):
-        one.step(np.array([torque]), 10)
-        other.step(np.array([[torque]]).reshape(1).tolist(), 10)  # a list: the array path
-        assert [x.tolist() for x in one.state()] == [x.tolist() for x in other.state()]
-        assert one.applied_torque.tolist() == other.applied_torque.tolist()
-
-
-@pytest.mark.parametrize("config", [SensorConfig(), SensorConfig(position_bias=0.01, quantization=0.001)])
-def test_one_joint_reading_is_the_array_reading(config):
-    """The same draws and sums on floats: the same readings."""
-    one, other = np.random.default_rng(3), np.random.default_rng(3)
-    for k in range(200):
-        q, v = np.array([np.sin(0.1 * k)]), np.array([np.cos(0.3 * k)])
-        a = measure(config, q, v, one)
-        b = measure(config, q.reshape(1, 1), v.reshape(1, 1), other)  # (1, 1): the array path
-        assert [x.tolist() for x in a] == [x.reshape(1).tolist() for x in b]
-
-
-def test_one_joint_sine_is_the_array_sine():
-    one = Sine(np.array([0.7]), 0.5, np.array([0.2]))
-    other = Sine(np.array([[0.7]]), 0.5, np.array([[0.2]]))  # (1, 1): the array path
-    for t in np.arange(0.0, 3.0, 0.013).tolist():
-        assert [x.tolist() for x in one.sample(t)] == [x.reshape(1).tolist() for x in other.sample(t)]
-
-
-def test_one_joint_blend_is_the_array_blend():
-    p0, v0 = np.array([0.3]), np.array([-1.2])
-    for tau in np.arange(-0.05, 0.5, 0.0107).tolist():  # before, during and after the 0.4 s blend
-        column = np.array([[tau]])  # a column of times: the array path
-        for one, array in zip(_quintic(p0, v0, 0.4, tau), _quintic(p0, v0, 0.4, column), strict=True):
-            np.testing.assert_allclose(one, array.reshape(1), rtol=1e-13, atol=1e-15)
 
 
 def test_power_of_a_2x2_on_floats_is_matrix_power():

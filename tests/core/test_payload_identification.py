@@ -4,9 +4,7 @@ import numpy as np
 import pytest
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.model.payload import Payload
-from robot_controller.core.model.payload_identification import fit_payload
-from robot_controller.core.model.plant import ArmDynamics, MujocoPlant
+from robot_controller.core.model import ArmDynamics, MujocoPlant, Payload, fit_payload
 from robot_controller.robots import ROBOTS, urdf_of
 
 

@@ -24,8 +24,8 @@ from robot_controller import resources
 from robot_controller.core.controller.controller import JointController, Status
 from robot_controller.core.controller.setpoint import PlannerReference
 from robot_controller.core.estimation.estimator import JointKalmanFilter, KalmanConfig
-from robot_controller.core.model.plant import ArmDynamics, MujocoPlant
-from robot_controller.core.reference.trajectory import make_trajectory
+from robot_controller.core.model import ArmDynamics, MujocoPlant
+from robot_controller.core.reference import make_trajectory
 from robot_controller.experiments import inprocess
 from tests.core.joint_rig import PERIOD, arm, config, one
 

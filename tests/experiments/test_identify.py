@@ -10,8 +10,7 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.model.arm_model import PARAMETERS, JointArmModel
-from robot_controller.core.model.plant import ArmDynamics
+from robot_controller.core.model import PARAMETERS, ArmDynamics, JointArmModel
 from robot_controller.experiments import inprocess
 from robot_controller.parameters import consistency
 from robot_controller.parameters.builders import MODEL_KEYS, arm_model

@@ -7,9 +7,8 @@ import pytest
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.model.plant import ArmDynamics
-from robot_controller.core.reference import feasibility
-from robot_controller.core.reference.trajectory import Chirp, Sine, make_trajectory
+from robot_controller.core.model import ArmDynamics
+from robot_controller.core.reference import Chirp, Plan, Sine, make_trajectory, plan_trajectory
 from robot_controller.experiments import inprocess
 from robot_controller.parameters import consistency
 
@@ -62,7 +61,7 @@ def test_the_default_survives_its_delay_margin_of_delay_nobody_accounts_for():
     # observer, 3 without it) keeps the loop stable.
     from robot_controller import resources
     from robot_controller.core.controller.controller import JointController
-    from robot_controller.core.model.plant import ArmDynamics
+    from robot_controller.core.model import ArmDynamics
 
     params = cfg.load_stack("default")
     controller = JointController(
@@ -93,10 +92,10 @@ def chirp_params(policy: str) -> cfg.Params:
     return params
 
 
-def planner_plan(params: cfg.Params) -> feasibility.Plan:
+def planner_plan(params: cfg.Params) -> Plan:
     """What the ROS planner does with these values (trajectory_planner._planned): its URDF's arm."""
     planner = params["trajectory_planner"]
-    return feasibility.plan(
+    return plan_trajectory(
         make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner)),
         ArmDynamics(resources.resolve_urdf(planner["urdf_path"])),
         planner["torque_max"],

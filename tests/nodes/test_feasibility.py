@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from robot_controller.core.reference.trajectory import Chirp
+from robot_controller.core.reference import Chirp
 from robot_controller.parameters.builders import arm_model
 from robot_controller.scoring import report
 from tests.rostools import run_said
@@ -135,7 +135,7 @@ def test_the_planner_node_plans_on_the_controllers_arm_model_from_the_run_plan(t
     import rclpy
 
     from robot_controller import parameters as cfg
-    from robot_controller.core.reference.trajectory import Sine
+    from robot_controller.core.reference import Sine
     from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
     from robot_controller.parameters import consistency
     from robot_controller.runner import plan

@@ -8,7 +8,7 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from robot_controller import parameters as cfg
-from robot_controller.core.model.plant import effort_limits, joint_names, load_model
+from robot_controller.core.model import effort_limits, joint_names, load_model
 from robot_controller.parameters import consistency
 from robot_controller.robots import ROBOTS, panda, urdf_of
 

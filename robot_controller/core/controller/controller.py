@@ -40,7 +40,7 @@ from robot_controller.core.laws.gains import (
 )
 from robot_controller.core.laws.pid import Pid, PidConfig
 from robot_controller.core.laws.plugin import PluginLaw
-from robot_controller.core.model.plant import ArmDynamics
+from robot_controller.core.model import ArmDynamics
 
 __all__ = [
     "REACQUIRE_GAP_PERIODS",

@@ -46,11 +46,6 @@ def _quintic(
     """The quintic from ``(p0, v0, 0)`` at 0 to ``(0, 0, 0)`` at ``duration_s``, at ``tau``
     (s, or a column of times: a row per time)."""
     T = duration_s
-    if isinstance(tau, float) and np.shape(p0) == (1,) and np.shape(v0) == (1,):
-        # One joint at one time: on floats (NumPy's per-call cost is the work there).
-        p, v = float(p0[0]), float(v0[0])
-        a, da, dda, b, db, ddb = _quintic_weights(min(max(tau / T, 0.0), 1.0), T)
-        return np.array([p * a + v * b]), np.array([p * da + v * db]), np.array([p * dda + v * ddb])
     a, da, dda, b, db, ddb = _quintic_weights(np.clip(tau / T, 0.0, 1.0), T)
     return p0 * a + v0 * b, p0 * da + v0 * db, p0 * dda + v0 * ddb
 

@@ -13,15 +13,13 @@ Positions rad, velocities rad/s, torques N·m, times s. No ROS, no clocks.
 
 from __future__ import annotations
 
-import math
 from collections import deque
 
 import numpy as np
 
-from robot_controller.core.arrays import clip_scalar
 from robot_controller.core.controller.health import Readings
 from robot_controller.core.estimation.estimator import JointKalmanFilter
-from robot_controller.core.model.plant import ArmDynamics
+from robot_controller.core.model import ArmDynamics
 
 # Extrapolating further than this (s) is guessing, not compensating.
 MAX_EXTRAPOLATION_S = 0.1
@@ -38,7 +36,7 @@ DISTURBANCE_HOLD_AVERAGE_S = 0.25
 
 def clipped_age_s(now_s: float, sample_s: float) -> float:
     """How old (s) a sample taken at ``sample_s`` is at ``now_s``, within [0, MAX_EXTRAPOLATION_S]."""
-    return clip_scalar(float(now_s - sample_s), 0.0, MAX_EXTRAPOLATION_S)
+    return min(max(float(now_s - sample_s), 0.0), MAX_EXTRAPOLATION_S)  # (NaN stays NaN)
 
 
 class StateAtTick:
@@ -183,8 +181,6 @@ class StateAtTick:
         """How much the command changed (N·m per joint, root of the sum of
         squares of each change) with the commands issued in ``[from_s, to_s)``,
         against the one in force before."""
-        if self.joint_count == 1:  # the same sums on floats
-            return np.array([math.sqrt(self._one_joint_change(from_s, to_s))])
         squared = np.zeros(self.joint_count)
         before: np.ndarray | None = None
         for issued_s, command in self._commands:
@@ -195,22 +191,6 @@ class StateAtTick:
                     squared += (command - before) ** 2
                 before = command
         return np.sqrt(squared)
-
-    def _one_joint_change(self, from_s: float, to_s: float) -> float:
-        """:meth:`command_change` of one joint, squared, on floats."""
-        squared = 0.0
-        before: float | None = None
-        from_s, to_s = from_s - TIME_EPS_S, to_s - TIME_EPS_S
-        for issued_s, command in self._commands:
-            if issued_s < from_s:
-                before = command.item()
-            elif issued_s < to_s:
-                now = command.item()
-                if before is not None:
-                    change = now - before
-                    squared += change * change  # (NumPy's ** 2 is this product)
-                before = now
-        return squared
 
     def predict(
         self, position: np.ndarray, velocity: np.ndarray, from_s: float, to_s: float

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from robot_controller.core.model.plant import ArmDynamics
+    from robot_controller.core.model import ArmDynamics
 
 
 class FeedforwardMode(str, Enum):

@@ -1,2 +1,57 @@
 """The arm: its URDF model and coupled dynamics, the MuJoCo plant, payloads,
 identification, and the simulated drive and encoder."""
+
+from robot_controller.core.model.actuator import Actuator
+from robot_controller.core.model.arm_dynamics import ArmDynamics
+from robot_controller.core.model.arm_model import PARAMETERS, JointArmModel, step_count
+from robot_controller.core.model.identification import IdentificationError, JointFit, identify
+from robot_controller.core.model.joint_limits import JointLimits, joint_limits, urdf_velocity_limits
+from robot_controller.core.model.mujoco_model import (
+    can_collide,
+    effort_limits,
+    joint_names,
+    load_model,
+    steps_per_period,
+)
+from robot_controller.core.model.mujoco_plant import (
+    BRAKE_LOCK_SPEED,
+    MAX_DISTURBANCE_NM,
+    MAX_DISTURBANCE_S,
+    MujocoPlant,
+    check_disturbance,
+)
+from robot_controller.core.model.payload import Payload
+from robot_controller.core.model.payload_identification import PayloadFit, fit_payload
+from robot_controller.core.model.plant import Plant
+from robot_controller.core.model.sensor_model import DelayLine, SensorConfig, measure
+
+__all__ = [
+    "BRAKE_LOCK_SPEED",
+    "MAX_DISTURBANCE_NM",
+    "MAX_DISTURBANCE_S",
+    "PARAMETERS",
+    "Actuator",
+    "ArmDynamics",
+    "DelayLine",
+    "IdentificationError",
+    "JointArmModel",
+    "JointFit",
+    "JointLimits",
+    "MujocoPlant",
+    "Payload",
+    "PayloadFit",
+    "Plant",
+    "SensorConfig",
+    "can_collide",
+    "check_disturbance",
+    "effort_limits",
+    "fit_payload",
+    "identify",
+    "joint_limits",
+    "joint_names",
+    "load_model",
+    "measure",
+    "step_count",
+    "steps_per_period",
+    "urdf_velocity_limits",
+]

@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 
-from robot_controller.core.arrays import clip
 from robot_controller.core.errors import ConfigError
 
 
@@ -27,9 +26,6 @@ class Actuator:
         self._low = -torque_max
         self.lag_time_constant_s = float(lag_time_constant_s)
         self._applied = np.zeros_like(torque_max)
-        self._one_joint = torque_max.shape == (1,)  #: one joint: :meth:`apply` on floats
-        if self._one_joint:
-            self._low_float, self._high_float = self._low.item(), torque_max.item()
 
     @property
     def applied(self) -> np.ndarray:
@@ -45,25 +41,11 @@ class Actuator:
 
         Non-finite entries count as zero; the result is always within ``±torque_max``.
         """
-        if self._one_joint and type(command) is np.ndarray and command.shape == (1,):
-            return self._apply_one_joint(float(command.item()), dt)
         command = np.where(np.isfinite(command), command, 0.0)
-        target = clip(command, self._low, self.torque_max)
-        if self.lag_time_constant_s > 0 and np.isfinite(dt) and dt >= 0:
+        target = command.clip(self._low, self.torque_max)
+        if self.lag_time_constant_s > 0 and math.isfinite(dt) and dt >= 0:
             alpha = dt / (self.lag_time_constant_s + dt) if dt > 0 else 0.0
             self._applied = self._applied + alpha * (target - self._applied)
         else:
             self._applied = target
         return self._applied.copy()
-
-    def _apply_one_joint(self, command: float, dt: float) -> np.ndarray:
-        """:meth:`apply` of one joint, the same arithmetic on floats."""
-        if not math.isfinite(command):
-            command = 0.0
-        target = min(max(command, self._low_float), self._high_float)
-        if self.lag_time_constant_s > 0 and math.isfinite(dt) and dt >= 0:
-            alpha = dt / (self.lag_time_constant_s + dt) if dt > 0 else 0.0
-            applied = self._applied.item()
-            target = applied + alpha * (target - applied)
-        self._applied = np.array([target])
-        return np.array([target])

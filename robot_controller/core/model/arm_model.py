@@ -5,7 +5,7 @@ prediction, the LQR design and delay margin, latency compensation, the
 controlled stop on the model) asks its arm model the same few things:
 ``torque(q, v, a)``, ``gravity(q)``, ``acceleration(q, v, tau)``,
 ``predict(q, v, tau, horizon_s)``, ``mass_matrix(q)``, ``damping``,
-``joint_names`` and ``effort_limit``. :class:`~robot_controller.core.model.plant.ArmDynamics`
+``joint_names`` and ``effort_limit``. :class:`~robot_controller.core.model.ArmDynamics`
 answers them from the URDF through MuJoCo; :class:`JointArmModel` answers them
 for a chain of independent revolute joints, each
 
@@ -48,7 +48,7 @@ PARAMETERS = ("inertia", "damping", "coulomb_friction", "gravity_torque")
 class JointArmModel:
     """Independent revolute joints with identified (or given) inertia, damping,
     Coulomb friction and gravity torque; the same interface the controller
-    uses from :class:`~robot_controller.core.model.plant.ArmDynamics`.
+    uses from :class:`~robot_controller.core.model.ArmDynamics`.
 
     :param joint_names: the joints, in order (the URDF's)
     :param inertia: per joint, kg·m² (> 0)
@@ -107,7 +107,7 @@ class JointArmModel:
         gravity_torque: np.ndarray | None = None,
     ) -> JointArmModel:
         """The model with the given values, and the URDF's (``dynamics``, an
-        :class:`~robot_controller.core.model.plant.ArmDynamics`) for those left None:
+        :class:`~robot_controller.core.model.ArmDynamics`) for those left None:
         the inertia and gravity torque with every joint at 0 (the diagonal of
         the mass matrix; gravity's torque there, the link horizontal), the
         joint's damping and friction (``<dynamics damping friction>``).

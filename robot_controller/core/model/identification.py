@@ -35,7 +35,6 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from robot_controller.core.model.arm_model import PARAMETERS
 
@@ -177,6 +176,8 @@ def identify(
         other = gap | ~np.isfinite(a[:, j]) | ~np.isfinite(tau[:, j])
         columns = [a[:, j], v[:, j], np.sign(v[:, j]), np.cos(q[:, j]), tau[:, j]]
         if smooth:
+            from scipy.signal import savgol_filter  # (here: scipy is the identification's alone)
+
             filled = [np.where(other, 0.0, c) for c in columns]
             columns = [savgol_filter(c, window, min(order, window - 1), mode="interp") for c in filled]
             edge = np.zeros(len(dt), dtype=bool)

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.model.mujoco_model import joint_names, load_model
 
 
 @dataclass(frozen=True)
@@ -67,8 +68,6 @@ def joint_limits(urdf_path: str | Path) -> JointLimits:
 
     :raises ConfigError: a URDF MuJoCo cannot load
     """
-    from robot_controller.core.model.plant import joint_names, load_model
-
     model = load_model(urdf_path)
     names = joint_names(model)
     n = len(names)

@@ -9,7 +9,6 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from robot_controller.core.arrays import clip
 from robot_controller.core.model.mujoco_model import effort_limits, joint_names, load_model
 from robot_controller.core.model.payload import Payload
 
@@ -74,10 +73,6 @@ class MujocoPlant:
         self._locked_at = np.full(self.joint_count, np.nan)  #: where each braked joint came to rest, rad
         self.effort_limit = effort_limits(self.model)
         self._effort_low = -self.effort_limit
-        #: (low, high) N·m of the one joint's effort limit, as floats; None for more joints
-        self._one_joint_limit = (
-            (self._effort_low.item(), self.effort_limit.item()) if self.effort_limit.shape == (1,) else None
-        )
         self._qfrc_applied = self.data.qfrc_applied  # a view into MjData, kept: one attribute lookup less per step
         self._actuator = np.zeros(self.joint_count)  #: the actuator's torque in the last step, N·m
         self._disturbance = np.zeros(self.joint_count)  #: the external torque being applied, N·m
@@ -107,21 +102,7 @@ class MujocoPlant:
         Whatever it is sent, a joint gets no more than its URDF ``effort`` limit
         (``effort_limit``), as a real drive limits its current.
         """
-        if (
-            self._one_joint_limit is not None
-            and not self._any_braked
-            and self._disturbance_steps == 0 < n_steps
-            and type(torque) is np.ndarray
-            and torque.shape == (1,)
-        ):  # one joint, free, undisturbed: the same on floats
-            low, high = self._one_joint_limit
-            applied = min(max(float(torque.item()), low), high)
-            self._actuator = np.array([applied])
-            self._qfrc_applied[0] = applied
-            mujoco.mj_step(self.model, self.data, n_steps)
-            self._disturbance_last = self._no_disturbance
-            return
-        torque = clip(torque, self._effort_low, self.effort_limit)  # a new array: the caller's is not kept
+        torque = np.asarray(torque, dtype=float).clip(self._effort_low, self.effort_limit)  # a new array
         self._actuator = np.where(self._braked, 0.0, torque) if self._any_braked else torque
         # The disturbance, if one is on, for as many of these steps as it still lasts.
         disturbed = min(n_steps, self._disturbance_steps)

@@ -34,7 +34,6 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-from scipy.optimize import least_squares
 
 from robot_controller.core.model.identification import (
     MAX_GAP_RATIO,
@@ -42,8 +41,8 @@ from robot_controller.core.model.identification import (
     IdentificationError,
     intervals,
 )
+from robot_controller.core.model.mujoco_model import load_model
 from robot_controller.core.model.payload import MAX_MASS_KG, MAX_OFFSET_M, Payload, set_payload
-from robot_controller.core.model.plant import load_model
 
 # Where the search starts: a light load near the link's origin (a zero mass would leave its place undefined).
 START = Payload(0.5, (0.0, 0.0, 0.05))
@@ -122,6 +121,8 @@ def fit_payload(
             mujoco.mj_inverse(model, data)
             out[k] = data.qfrc_inverse
         return (out - tau).reshape(-1)
+
+    from scipy.optimize import least_squares  # (here: scipy is the identification's alone)
 
     without = residual(np.array([0.0, 0.0, 0.0, 0.0]))
     bound = MAX_OFFSET_M / np.sqrt(3.0)

@@ -44,20 +44,6 @@ def measure(
 
     ``rng`` is a seeded generator so a run can be repeated exactly.
     """
-    if (
-        type(rng) is np.random.Generator  # (not the batch's common noise: its normal() takes a shape)
-        and type(position) is np.ndarray
-        and position.shape == (1,)
-        and type(velocity) is np.ndarray
-        and velocity.shape == (1,)
-    ):
-        # One joint: the same draws (one each: a Generator's scalar normal() is its one-value
-        # array's) and sums on floats.
-        q = position.item() + config.position_bias + rng.normal(0.0, config.position_noise_std)
-        v = velocity.item() + rng.normal(0.0, config.velocity_noise_std)
-        if config.quantization > 0:
-            q = float(np.round(q / config.quantization) * config.quantization)
-        return np.array([q]), np.array([v])
     noisy_position = position + config.position_bias + rng.normal(0.0, config.position_noise_std, np.shape(position))
     noisy_velocity = velocity + rng.normal(0.0, config.velocity_noise_std, np.shape(velocity))
     if config.quantization > 0:

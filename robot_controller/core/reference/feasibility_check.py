@@ -1,7 +1,20 @@
-"""Whether the arm can follow a trajectory inside its torque limit (:func:`check`): each
-trajectory shape's span sampled, the inverse dynamics along it, and the bisection for the
-smallest slowing that fits. What :mod:`robot_controller.core.reference.feasibility` describes; the
-plan that acts on the result is :mod:`robot_controller.core.reference.feasibility_plan`."""
+"""Whether the arm can follow a trajectory inside its torque limit (:func:`check_feasibility`),
+and how much slower it must go if it cannot.
+
+The torque a path needs is the arm's inverse dynamics along it (``dynamics.torque(q, v, a)``:
+:class:`~robot_controller.core.model.ArmDynamics` or
+:class:`~robot_controller.core.model.JointArmModel`), sampled densely over what repeats or
+happens once: one period of a sine or square, a chirp's sweep up and back down, the move of a
+step, the position of a hold. A fraction ``margin`` of the limit is kept free for the feedback
+law (0.2: the path may use 80 %).
+
+Slowing a path in time by ``k`` (:func:`~robot_controller.core.reference.trajectory.time_scaled`)
+divides its velocities by ``k`` and its accelerations by ``k²``; the positions, and so gravity,
+stay. The smallest ``k`` that fits is found by bisection on the inverse dynamics itself, then
+checked on the scaled trajectory. If gravity alone along the path exceeds the usable torque, no
+``k`` helps, and the result says so. A jump (an unshaped step, a square wave) has no finite
+acceleration to check: only holding its levels is.
+"""
 
 from __future__ import annotations
 
@@ -168,7 +181,7 @@ def peak_torque(trajectory: Trajectory, dynamics: InverseDynamics) -> np.ndarray
     return _peak(dynamics, *_path(trajectory))
 
 
-def check(
+def check_feasibility(
     trajectory: Trajectory,
     dynamics: InverseDynamics,
     limit_nm: float | Sequence[float] | np.ndarray,
@@ -227,8 +240,7 @@ def check(
         else:
             low = middle
     # Checked on the trajectory slowed as it will run: a shaped step's half-moves are whole planner
-    # periods, so its acceleration falls in steps rather than as 1/k² (on the planar arm's 0.1 rad
-    # step, k = 1.6 left it 20 % over), and k grows until it fits.
+    # periods, so its acceleration falls in steps rather than as 1/k², and k grows until it fits.
     while high <= MAX_SCALE:
         final = peak_torque(time_scaled(trajectory, high), dynamics)
         if fits(final):

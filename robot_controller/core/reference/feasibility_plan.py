@@ -1,6 +1,7 @@
-"""What to do with a trajectory the arm cannot follow (:func:`plan`): slow it in time, refuse
-it, or run it with a warning, as the ``feasibility`` policy says; first for the torque
-(:func:`~robot_controller.core.reference.feasibility_check.check`), then for the URDF's velocity limits."""
+"""What to do with a trajectory the arm cannot follow (:func:`plan_trajectory`): slow it in
+time, refuse it, or run it with a warning, as the ``feasibility`` policy says; first for the torque
+(:func:`~robot_controller.core.reference.feasibility_check.check_feasibility`), then for the
+URDF's velocity limits."""
 
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ from robot_controller.core.reference.feasibility_check import (
     _nm,
     _path,
     _scalable,
-    check,
+    check_feasibility,
 )
 from robot_controller.core.reference.trajectory import Chirp, MinTimeStep, Sine, Square, Trajectory, time_scaled
 
@@ -52,7 +53,7 @@ def describe_scaling(original: Trajectory, scaled: Trajectory) -> str:
     return "unchanged"
 
 
-def plan(
+def plan_trajectory(
     trajectory: Trajectory,
     dynamics: InverseDynamics,
     limit_nm: float | Sequence[float] | np.ndarray,
@@ -127,10 +128,10 @@ def _torque_plan(
     what: str,
     joint_names: Sequence[str] | None,
 ) -> Plan:
-    """:func:`plan` on the torque alone."""
+    """:func:`plan_trajectory` on the torque alone."""
     if policy not in POLICIES:
         raise ConfigError(f"feasibility: {policy!r} is not one of {list(POLICIES)}")
-    result = check(trajectory, dynamics, limit_nm, margin, joint_names)
+    result = check_feasibility(trajectory, dynamics, limit_nm, margin, joint_names)
     if result.feasible:
         return Plan(trajectory, result)
     need = result.shortfall(what)

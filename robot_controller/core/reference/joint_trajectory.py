@@ -20,11 +20,11 @@ the current state, as a motion planner sends it: it must be within
 ``START_TOLERANCE_RAD`` of the reference in force and is then taken as that
 reference.
 
-:func:`accept` does both, then checks what the interpolation does between
+:func:`accept_joint_trajectory` does both, then checks what the interpolation does between
 the points (:mod:`~robot_controller.core.reference.joint_trajectory_checks`): the
 path within the position and velocity limits, and the torque it needs by
 the arm model within the limit less the feedback margin (the check of
-``core.feasibility``, without its time scaling: a user's timing is theirs).
+``feasibility_check``, without its time scaling: a user's timing is theirs).
 
 No rclpy here: the planner node and the tests call the same functions.
 """
@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_controller.core.model.joint_limits import JointLimits
+from robot_controller.core.model import JointLimits
 from robot_controller.core.reference.joint_trajectory_checks import (
     path_outside_limits,
     points_outside_limits,
@@ -210,7 +210,7 @@ def blend(waypoints: Waypoints, start: Sample, start_delay_s: float = 0.0) -> Jo
     return JointTrajectory(QuinticPath.through(knot_times, knot_p, knot_v, knot_a), waypoints, float(start_delay_s))
 
 
-def accept(
+def accept_joint_trajectory(
     joint_names: Sequence[str],
     times_s: Sequence[float],
     positions: Values,

@@ -22,7 +22,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from robot_controller.core.model.joint_limits import JointLimits
+from robot_controller.core.model import JointLimits
 from robot_controller.core.reference.quintic_path import QuinticPath
 
 LIMIT_PER_SEGMENT = 256

@@ -36,15 +36,6 @@ class Sine:
     def sample(self, t: float) -> Sample:
         w = 2.0 * np.pi * self.frequency_hz
         s, c = np.sin(w * t), np.cos(w * t)
-        one_joint = self._one_joint
-        if one_joint is not None:  # the same products on floats
-            offset, amplitude, velocity_scale, acceleration_scale = one_joint
-            s, c = float(s), float(c)
-            return (
-                np.array([offset + amplitude * s]),
-                np.array([velocity_scale * c]),
-                np.array([acceleration_scale * s]),
-            )
         velocity_scale, acceleration_scale = self._scales
         return self.offset + self.amplitude * s, velocity_scale * c, acceleration_scale * s
 
@@ -53,14 +44,6 @@ class Sine:
         """``amplitude·w`` and ``−amplitude·w·w``, as :meth:`sample` multiplies them out (made once)."""
         w = 2.0 * np.pi * self.frequency_hz
         return self.amplitude * w, -self.amplitude * w * w
-
-    @cached_property
-    def _one_joint(self) -> tuple[float, float, float, float] | None:
-        """One joint (float64 arrays of one value): ``offset``, ``amplitude`` and :attr:`_scales` as floats."""
-        values = (self.offset, self.amplitude, *self._scales)
-        if all(isinstance(v, np.ndarray) and v.shape == (1,) and v.dtype == np.float64 for v in values):
-            return tuple(v.item() for v in values)
-        return None
 
 
 @dataclass(frozen=True)
@@ -137,11 +120,8 @@ class Chirp:
     Every sweep covers the same band at the same rate, and the first is the
     chirp as it always was. At each turn the position and the velocity are
     continuous; only the acceleration's sweep-rate term ``A·2π·df/dt·cos(phase)``
-    changes sign (a finite step, like a shaped step's). Before, each sweep
-    started again at ``frequency_hz`` and phase 0: a jump in velocity at every
-    wrap (and in position unless ``sweep_time_s·(frequency_hz + end_frequency_hz)``
-    is a whole number), which no torque follows. A sweep after a turn starts at
-    another phase than the first (the phase the sweeps before it ran through).
+    changes sign (a finite step, like a shaped step's). A sweep after a turn starts
+    at the phase the sweeps before it ran through.
     """
 
     amplitude: np.ndarray

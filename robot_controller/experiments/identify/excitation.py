@@ -73,7 +73,7 @@ def held_or_pushed(recording: Any) -> np.ndarray:
 def torque_limit(params: cfg.Params, joint_count: int) -> np.ndarray:
     """The torque beyond which a recorded effort is saturated: the smallest of
     the controller's and the motor's ``torque_max`` and the simulated arm's effort limit."""
-    from robot_controller.core.model.plant import effort_limits, load_model
+    from robot_controller.core.model import effort_limits, load_model
 
     limit = effort_limits(load_model(resources.resolve_urdf(params["simulator"]["urdf_path"])))
     for node in ("motor_node", "pid_controller"):
@@ -83,6 +83,6 @@ def torque_limit(params: cfg.Params, joint_count: int) -> np.ndarray:
 
 def joint_names(params: cfg.Params) -> list[str]:
     """The simulated arm's joints, in the URDF's order."""
-    from robot_controller.core.model.plant import joint_names, load_model
+    from robot_controller.core.model import joint_names, load_model
 
     return joint_names(load_model(resources.resolve_urdf(params["simulator"]["urdf_path"])))

@@ -10,8 +10,7 @@ from typing import Any
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.model import identification
-from robot_controller.core.model.arm_model import PARAMETERS, JointArmModel
+from robot_controller.core.model import PARAMETERS, JointArmModel, JointFit, identify
 from robot_controller.experiments.identify.excitation import held_or_pushed, torque_limit
 from robot_controller.parameters.builders import MODEL_KEYS
 from robot_controller.scoring import report
@@ -22,12 +21,12 @@ READABLE_UNITS = {"inertia": "kg·m²", "damping": "N·m·s/rad", "coulomb_frict
 
 def urdf_model(params: cfg.Params) -> JointArmModel:
     """The controller's URDF as the same four numbers per joint (what identification corrects)."""
-    from robot_controller.core.model.plant import ArmDynamics
+    from robot_controller.core.model import ArmDynamics
 
     return JointArmModel.over_urdf(ArmDynamics(resources.resolve_urdf(params["pid_controller"]["urdf_path"])))
 
 
-def overlay(fits: list[identification.JointFit]) -> cfg.Params:
+def overlay(fits: list[JointFit]) -> cfg.Params:
     """The parameter overlay: the controller's ``model_*`` values, one per joint."""
     return {
         "pid_controller": {
@@ -37,7 +36,7 @@ def overlay(fits: list[identification.JointFit]) -> cfg.Params:
     }
 
 
-def flat_results(joint_names: list[str], fits: list[identification.JointFit]) -> dict[str, Any]:
+def flat_results(joint_names: list[str], fits: list[JointFit]) -> dict[str, Any]:
     """Per joint: value, standard error, residual RMS, samples (flat keys, units in the names)."""
     out: dict[str, Any] = {}
     for name, fit in zip(joint_names, fits, strict=True):
@@ -54,7 +53,7 @@ def flat_results(joint_names: list[str], fits: list[identification.JointFit]) ->
 
 
 def markdown(
-    joint_names: list[str], fits: list[identification.JointFit], urdf: JointArmModel, facts: dict[str, Any]
+    joint_names: list[str], fits: list[JointFit], urdf: JointArmModel, facts: dict[str, Any]
 ) -> str:
     lines = [
         "# Identification",
@@ -114,7 +113,7 @@ def identify_joints(
     progress: Callable[[str], None],
 ) -> dict[str, Any]:
     """Fit each joint's four numbers to the recording; write the overlay and the reports."""
-    fits = identification.identify(
+    fits = identify(
         recording.true_time_s,
         recording.true_position,
         recording.true_velocity,

@@ -26,7 +26,7 @@ def identify_payload(
     progress: Callable[[str], None],
 ) -> dict[str, Any]:
     """A chain of joints: fit a payload on the last link to the recording, write the overlay and reports."""
-    from robot_controller.core.model.payload_identification import fit_payload
+    from robot_controller.core.model import fit_payload
     from robot_controller.scoring import report
 
     joint_count = recording.joint_count

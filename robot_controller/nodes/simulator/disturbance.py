@@ -19,7 +19,7 @@ import numpy as np
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller import parameters as cfg
-from robot_controller.core.model.plant import MAX_DISTURBANCE_NM, check_disturbance
+from robot_controller.core.model import MAX_DISTURBANCE_NM, check_disturbance
 from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import LATEST_QOS
 

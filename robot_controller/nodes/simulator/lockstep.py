@@ -17,7 +17,7 @@ import numpy as np
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 
-from robot_controller.core.model.plant import steps_per_period
+from robot_controller.core.model import steps_per_period
 from robot_controller.ros.publishing import RECORDER_CLOCK_TOPIC, GatedPublisher, recorded
 from robot_controller.ros.qos import CLOCK_QOS
 

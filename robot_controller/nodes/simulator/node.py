@@ -16,8 +16,7 @@ from std_msgs.msg import Float64MultiArray
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.model.payload import Payload
-from robot_controller.core.model.plant import MujocoPlant, steps_per_period
+from robot_controller.core.model import MujocoPlant, Payload, steps_per_period
 from robot_controller.core.validation import check_effort
 from robot_controller.nodes.simulator.brakes import SimulatorBrakes
 from robot_controller.nodes.simulator.disturbance import SimulatorDisturbance
