@@ -9,7 +9,7 @@ import numpy as np
 
 from robot_controller.core.arrays import matrix_power
 from robot_controller.core.estimation.kalman_config import KalmanConfig, process_noise
-from robot_controller.core.model.arm_model import step_count
+from robot_controller.core.model import step_count
 
 # Finite-difference steps for the model's slopes, rad and rad/s.
 _BUMP_Q, _BUMP_V = 1e-6, 1e-5

@@ -13,7 +13,7 @@ import numpy as np
 
 from robot_controller.core.estimation import innovation
 from robot_controller.core.estimation.kalman_config import DISTURBANCE_PRIOR_STD_NM
-from robot_controller.core.model.arm_model import step_count
+from robot_controller.core.model import step_count
 
 if TYPE_CHECKING:
     from robot_controller.core.estimation.estimator import JointKalmanFilter

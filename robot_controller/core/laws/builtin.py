@@ -20,7 +20,7 @@ from robot_controller.core.controller.reference_at_tick import Reference as Tick
 from robot_controller.core.laws.gains import law_config, law_step
 from robot_controller.core.laws.interface import ControlLaw, Reference, State
 from robot_controller.core.laws.pid import Pid, PidTerms
-from robot_controller.core.model.plant import ArmDynamics
+from robot_controller.core.model import ArmDynamics
 
 
 class BuiltinLaw(ControlLaw):

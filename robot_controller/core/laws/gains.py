@@ -20,7 +20,7 @@ from robot_controller.core.estimation.estimator import KalmanConfig, steady_stat
 from robot_controller.core.laws import lqr
 from robot_controller.core.laws.feedforward import FeedforwardMode, feedforward_torque
 from robot_controller.core.laws.pid import DerivativeSource, Pid, PidConfig, PidTerms
-from robot_controller.core.model.plant import ArmDynamics
+from robot_controller.core.model import ArmDynamics
 
 
 def law_config(

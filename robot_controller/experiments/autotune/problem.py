@@ -18,9 +18,8 @@ from robot_controller.core.batch import ArmConstants, run_batch
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import lqr
 from robot_controller.core.laws.pid import PidConfig
-from robot_controller.core.model.plant import ArmDynamics
-from robot_controller.core.model.sensor_model import SensorConfig
-from robot_controller.core.reference.trajectory import Trajectory, make_trajectory
+from robot_controller.core.model import ArmDynamics, SensorConfig
+from robot_controller.core.reference import Trajectory, make_trajectory
 
 SEED = 0
 

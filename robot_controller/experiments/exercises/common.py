@@ -55,7 +55,7 @@ def plant_loop(params: cfg.Params) -> tuple[np.ndarray, np.ndarray, float]:
     (``core.lqr.discretise``: state ``[∫e, e, ė]``): ``A``, ``B`` and the period ``dt``."""
     from robot_controller import resources
     from robot_controller.core.laws import lqr
-    from robot_controller.core.model.plant import ArmDynamics
+    from robot_controller.core.model import ArmDynamics
 
     dynamics = ArmDynamics(resources.resolve_urdf(params["simulator"]["urdf_path"]))
     dt = 1.0 / params["pid_controller"]["control_rate_hz"]
@@ -73,7 +73,7 @@ def controller_model(params: cfg.Params):
     if make_model is not None:
         return make_model(ctrl)
     from robot_controller import resources
-    from robot_controller.core.model.plant import ArmDynamics
+    from robot_controller.core.model import ArmDynamics
 
     return ArmDynamics(resources.resolve_urdf(ctrl["urdf_path"]))
 
