@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import partial
+from typing import Any
 
 import numpy as np
 
@@ -18,29 +19,9 @@ from robot_controller.parameters.consistency import trajectory_plan
 from robot_controller.parameters.torque_limits import torque_limit
 
 
-def simulate(
-    params: cfg.Params,
-    *,
-    duration_s: float,
-    seed: int = 0,
-    measurement_delay_s: float = 0.0,
-    delay_unstamped: bool = False,
-    disturbance: Disturbance | None = None,
-    on_warning: Callable[[str], None] | None = None,
-    actuator_gain: float = 1.0,
-) -> LoopResult:
-    """``duration_s`` seconds of the loop from ``params`` (see :func:`run_loop`):
-    :func:`prepare`'s loop, run (the same arguments)."""
-    return prepare(
-        params,
-        duration_s=duration_s,
-        seed=seed,
-        measurement_delay_s=measurement_delay_s,
-        delay_unstamped=delay_unstamped,
-        disturbance=disturbance,
-        on_warning=on_warning,
-        actuator_gain=actuator_gain,
-    )()
+def simulate(params: cfg.Params, *, duration_s: float, **options: Any) -> LoopResult:
+    """``duration_s`` seconds of the loop from ``params``: :func:`prepare`'s loop (the same options), run."""
+    return prepare(params, duration_s=duration_s, **options)()
 
 
 def prepare(
@@ -54,24 +35,13 @@ def prepare(
     on_warning: Callable[[str], None] | None = None,
     actuator_gain: float = 1.0,
 ) -> Callable[[], LoopResult]:
-    """The loop from ``params``, built and ready to run: call it for
-    ``duration_s`` seconds of :func:`run_loop`. Everything set up once (the
-    URDF compiled, the trajectory planned, the gains designed) is done here,
-    so that the call is the loop alone (what the bench times).
-    ``disturbance``: an external torque on the arm on a schedule (the
-    simulator's ``disturbance_*`` parameters are not read: pass one).
+    """The loop from ``params``, built (URDF compiled, trajectory planned as the planner would run it,
+    gains designed) and ready to run for ``duration_s`` seconds of :func:`run_loop`: the call is the loop
+    alone (what the bench times).
 
-    The trajectory is the planner's as the planner would run it: checked
-    against the torque limit and slowed, refused or left as its
-    ``feasibility`` says (:func:`~robot_controller.parameters.consistency.trajectory_plan`,
-    on the controller's arm model). ``on_warning`` receives the planner's
-    one-line warning when there is one (slowed, or run as it is).
-
-    ``actuator_gain``: the drive applies this many times the command (before its
-    torque limit), so the loop's gain is that much off what the controller
-    expects; 1 is the real drive. ``tune --controller`` checks a law's gain
-    margins with it.
-
+    :param disturbance: an external torque on a schedule (the simulator's ``disturbance_*`` are not read)
+    :param on_warning: receives the planner's one-line warning (a trajectory slowed, or run as it is)
+    :param actuator_gain: the drive applies this many times the command (before its torque limit)
     :raises ConfigError: the planner's one line, when it refuses the trajectory
     """
     sim, motor, sensor = params["simulator"], params["motor_node"], params["sensor_node"]

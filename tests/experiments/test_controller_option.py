@@ -14,8 +14,7 @@ import yaml
 
 from robot_controller import cli
 from robot_controller import parameters as cfg
-from robot_controller.experiments import compare, inprocess, laws
-from robot_controller.experiments.autotune import law as law_tune
+from robot_controller.experiments import autotune, compare, inprocess, laws
 from tests.rostools import run_said
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -104,8 +103,8 @@ def test_compare_in_process_writes_a_row_per_entry(tmp_path):
 def test_robustness_cases_see_a_pd_too_fast_for_two_periods_of_delay():
     """PDWithGravity on the 1-joint arm: a discrete PD with two periods of delay is unstable above about
     4.5 Hz (ζ 0.88; the sampled loop's poles), so the delay case rejects 8 Hz and passes 3 Hz."""
-    problem = law_tune.LawProblem(laws.with_controller(cfg.load_stack(), PD))
-    delay = law_tune.CASES[0]
+    problem = autotune.BlackBoxProblem(laws.with_controller(cfg.load_stack(), PD))
+    delay = autotune.CASES[0]
     assert delay.name == "delay"
     assert not problem.push_decay(np.array([8.0, 1.0]), delay)["ok"]
     assert problem.push_decay(np.array([3.0, 1.0]), delay)["ok"]

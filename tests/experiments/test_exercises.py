@@ -12,7 +12,8 @@ from robot_controller import parameters as cfg
 from robot_controller.core.batch import run_batch
 from robot_controller.experiments import autotune as tune_module
 from robot_controller.experiments.exercises import EXERCISES, steps
-from robot_controller.experiments.exercises.common import Response, law_gains
+from robot_controller.experiments.loop_model import law_gains
+from robot_controller.experiments.runs import Response
 from robot_controller.experiments.exercises.ziegler_nichols import oscillation
 
 ros = pytest.mark.ros
@@ -119,18 +120,20 @@ def test_tune_writes_a_robust_parameter_file(tmp_path, ros_domain):
 
 
 def test_the_lqr_weights_tuned_keep_the_margins_and_design_what_was_checked():
-    result = tune_module.search(cfg.load_stack("default"), quick=True)
-    margins = tune_module.describe_margins(result.problem, result.best_gains)
+    problem = tune_module.AnalyticProblem(cfg.load_stack("default"))
+    result = tune_module.search(problem, problem.plan(quick=True))
+    best_gains = problem.gains_of_values(result.best_values)[0]
+    margins = tune_module.describe_margins(problem, best_gains)
     assert margins["meets_constraints"] == 1
     overlay = result.problem.overlay(result.best_values)
     designed = law_gains(cfg.merge(cfg.load_stack("default"), {"pid_controller": overlay}))
     assert (float(designed.kp[0]), float(designed.ki[0]), float(designed.kd[0])) == pytest.approx(
-        tuple(result.best_gains), rel=1e-9
+        tuple(best_gains), rel=1e-9
     )
 
 
 def test_the_tuning_harness_is_the_batch_harness():
-    problem = tune_module.Problem(cfg.load_stack("default"))
+    problem = tune_module.AnalyticProblem(cfg.load_stack("default"))
     gains = np.array([[30.0, 27.0, 2.1], [15.0, 0.4, 3.4], [50.0, 10.0, 5.0]])
     pid = replace(problem.law, kp=gains[:, 0:1], ki=gains[:, 1:2], kd=gains[:, 2:3])
     kwargs = {"trajectory": problem.sine, "sensor": problem.sensor, "duration_s": 3.0}

@@ -1,33 +1,35 @@
-"""The robustness every tuned loop keeps: the margins a gain set must meet on the
-sampled loop (``core.lqr.discretise``, the feedback on ``[∫e, e, ė]``), the
-screen the search applies to thousands of gain sets at once, and every margin
-of one gain set for the report."""
+"""The robustness every tuned loop keeps: the margins a gain set must meet on the sampled loop
+(``core.laws.lqr.discretise``, the feedback on ``[∫e, e, ė]``), the screen the search applies to
+thousands of gain sets at once, and every margin of one gain set for the report."""
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
-from robot_controller.core.laws import lqr, robustness
+from robot_controller.core.laws import robustness
 
-if TYPE_CHECKING:
-    from robot_controller.experiments.autotune.problem import Problem
+
+class Problem(Protocol):
+    """The sampled loop: ``x[k+1] = A x[k] + B u[k]`` on ``[∫e, e, ė]``, period ``dt`` (s)."""
+
+    A: np.ndarray
+    B: np.ndarray
+    dt: float
+
 
 #: The robustness every tuned loop keeps.
 MIN_GAIN_MARGIN_DB = 6.0
 MIN_PHASE_MARGIN_DEG = 45.0
 MIN_DELAY_PERIODS = 2
 #: And no lower gain limit: the loop stays stable however much its gain drops. The torque limit is such a
-#: drop (a saturated command is a smaller gain); a conditionally stable loop can then swing into a limit
-#: cycle. (Without this, the tutorial's controller was once tuned to Kp 61, Ki 1368, Kd 3.9: 6.1 dB of
-#: lower gain margin, better on the sine, and on a 0.5 rad jump it saturated and swung the arm around.)
+#: drop (a saturated command is a smaller gain); a conditionally stable loop can then swing into a limit cycle.
 UNCONDITIONALLY_STABLE = True
 #: And integral action that works: the slowest closed-loop pole dies away within this time constant, so a
 #: steady load the feedforward does not cancel (a payload, a push) is removed within seconds. The sine alone
-#: rewards dropping the integral (with exact feedforward it has little to do there): without this, the default
-#: LQR was once tuned to Ki 0.03 N·m/(rad·s), a time constant of 2000 s, for 4 % less sine error.
+#: rewards dropping the integral (with exact feedforward it has little to do there).
 MAX_TIME_CONSTANT_S = 1.0
 
 
@@ -47,10 +49,10 @@ def screen(problem: Problem, gains: np.ndarray) -> tuple[dict[str, np.ndarray], 
         )
         ok &= margins["phase_margin_deg"] >= MIN_PHASE_MARGIN_DEG
     ok &= margins["spectral_radius"] <= math.exp(-problem.dt / MAX_TIME_CONSTANT_S)
-    for delay in range(1, MIN_DELAY_PERIODS + 1):
-        idx = np.flatnonzero(ok)
-        if idx.size:
-            ok[idx] = robustness.stable_with_delay(problem.A, problem.B, rows[idx], delay)
+    idx = np.flatnonzero(ok)
+    if idx.size:
+        delay = robustness.delay_margin_periods(problem.A, problem.B, rows[idx], max_periods=MIN_DELAY_PERIODS)
+        ok[idx] = delay >= MIN_DELAY_PERIODS
     return margins, ok
 
 
@@ -58,7 +60,7 @@ def describe_margins(problem: Problem, gains: np.ndarray) -> dict[str, float]:
     """Every margin of the loop with gains (Kp, Ki, Kd), and whether it meets the constraints."""
     row = robustness.pid_gain_row(*gains)
     m = robustness.margins(problem.A, problem.B, row, problem.dt)
-    delay = lqr.delay_margin_periods(problem.A, problem.B, row)
+    delay = int(robustness.delay_margin_periods(problem.A, problem.B, row)[0])
     slowest = float(np.max(np.abs(robustness.poles(problem.A, problem.B, row))))
     tau = -problem.dt / math.log(slowest) if 0 < slowest < 1 else math.inf
     low_ok = m.gain_margin_low_db == math.inf if UNCONDITIONALLY_STABLE else m.gain_margin_low_db >= MIN_GAIN_MARGIN_DB

@@ -1,137 +1,130 @@
-"""The search on the batch harness alone (no ROS): Latin-hypercube samples of the
-searched parameters over a wide log-scaled box, then rounds of samples around
-the best so far, each round narrower; a gain set is simulated only if it passes
-the robustness screen (``margins.screen``). Also the plan of the whole verb:
-how many samples, how long each simulation and each real run."""
+"""The search ``tune`` runs on any problem (:mod:`.analytic` for the built-in laws,
+:mod:`.blackbox` for a law of one's own): a Latin hypercube over the problem's box, then rounds
+of samples around the best robust candidates so far, narrower each round. The problem says
+which candidates are robust and how well each tracks (:meth:`evaluate`)."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
 
-from robot_controller import parameters as cfg
-from robot_controller.experiments.autotune.margins import (
-    MIN_DELAY_PERIODS,
-    MIN_GAIN_MARGIN_DB,
-    MIN_PHASE_MARGIN_DEG,
-    screen,
-)
-from robot_controller.experiments.autotune.problem import SEED, Problem
+SEED = 0
+ROBUST, FAILED, UNCHECKED = 1, 0, -1  #: a candidate's verdict
 
 
 @dataclass(frozen=True)
 class Plan:
     first: int  #: Latin-hypercube samples of the first round
-    rounds: tuple[tuple[int, float], ...]  #: refinement rounds: (samples, σ of the spread around the best, decades)
-    duration_s: float  #: simulated per gain set (2 s warm-up included)
-    real_s: float  #: each real lockstep sine run, sim seconds
+    rounds: tuple[tuple[int, float], ...]  #: refinement rounds: (samples, σ of the spread around the best)
+    duration_s: float  #: each candidate's sine run (2 s warm-up included)
+    check_s: float  #: each before/after check run, s
+    max_checks: int = 0  #: robustness checks per round at most, once one is robust (a black box's)
 
 
-def plan(quick: bool) -> Plan:
-    if quick:
-        return Plan(first=2048, rounds=((256, 0.25), (256, 0.1)), duration_s=4.0, real_s=3.0)
-    return Plan(
-        first=8192, rounds=((1024, 0.3), (1024, 0.15), (1024, 0.07), (1024, 0.03)), duration_s=10.0, real_s=10.0
-    )
+class Problem(Protocol):
+    low: np.ndarray  #: the first round's box, in search coordinates
+    high: np.ndarray
+    clip_low: np.ndarray  #: the refinement rounds' bounds
+    clip_high: np.ndarray
+    centres: int  #: the refinement rounds spread around this many best robust candidates
 
-
-def steps(quick: bool = False) -> int:
-    """How many times ``tune()`` calls ``progress``: each search round, then the two real runs."""
-    return 1 + len(plan(quick).rounds) + 2
+    def start(self) -> np.ndarray: ...
+    def values(self, points: np.ndarray) -> np.ndarray: ...
+    def round_text(self, samples: int, spread: float | None) -> str: ...
+    def evaluate(
+        self, values: np.ndarray, plan: Plan, seed: int, best_rms: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+    def passes(self, values: np.ndarray, seed: int) -> bool: ...
+    def nothing_robust(self) -> str: ...
 
 
 @dataclass
 class Candidates:
-    """Gain sets that met every margin: the searched parameters (log10), their gains, their batch RMS."""
+    """Every candidate run: search coordinates, searched values, what the problem kept of each
+    (the gains, for the built-in laws), tracking RMS (rad) and verdict (:data:`ROBUST`, :data:`FAILED`
+    or :data:`UNCHECKED`)."""
 
-    log_params: np.ndarray  #: (m, 3)
-    gains: np.ndarray  #: (m, 3): Kp, Ki, Kd
-    rms: np.ndarray  #: (m,), rad
+    points: np.ndarray
+    values: np.ndarray
+    detail: np.ndarray
+    rms: np.ndarray
+    verdict: np.ndarray
 
 
-def latin_hypercube(rng: np.random.Generator, samples: int, box: dict[str, tuple[float, float]]) -> np.ndarray:
+@dataclass
+class SearchResult:
+    problem: Any
+    best_values: np.ndarray  #: the searched parameters chosen, as written (4 significant figures)
+    best_rms: float  #: rad, on the search's runs
+    evaluated: int  #: candidates evaluated
+    checked: int  #: … whose robustness was checked
+    robust: int  #: … of which were robust
+    rounds: list[dict[str, float]]
+    history: Candidates
+
+
+def latin_hypercube(rng: np.random.Generator, samples: int, low: np.ndarray, high: np.ndarray) -> np.ndarray:
     """``samples`` points of the box, one in each of ``samples`` equal slices of every axis."""
-    low = np.array([b[0] for b in box.values()])
-    high = np.array([b[1] for b in box.values()])
-    dims = len(box)
+    dims = len(low)
     cells = np.column_stack([rng.permutation(samples) for _ in range(dims)])
     unit = (cells + rng.random((samples, dims))) / samples
     return low + unit * (high - low)
 
 
-@dataclass
-class SearchResult:
-    problem: Problem
-    best_values: np.ndarray  #: the searched parameters chosen (Kp, Ki, Kd; or lqr_q), as written
-    best_gains: np.ndarray  #: Kp, Ki, Kd
-    best_rms: float
-    evaluated: int  #: gain sets whose margins were computed
-    robust: int  #: … of which met every margin (and were simulated)
-    rounds: list[dict[str, float]]
-    history: Candidates  #: every robust set simulated (for the plot)
-
-
 def search(
-    params: cfg.Params, *, quick: bool = False, progress: Callable[[str], None] | None = None, seed: int = SEED
+    problem: Problem, plan: Plan, *, progress: Callable[[str], None] | None = None, seed: int = SEED
 ) -> SearchResult:
-    """The search on the batch harness alone (no ROS): the most accurate robust gains found."""
-    problem = Problem(params)
-    settings = plan(quick)
+    """The best-tracking robust candidate, rounded as the parameter file gets it.
+
+    :raises RuntimeError: no candidate was robust
+    """
     rng = np.random.default_rng(seed)
-    low = np.array([b[0] for b in problem.box.values()])
-    high = np.array([b[1] for b in problem.box.values()])
-    best_log, best_rms = None, math.inf
-    evaluated = robust_count = 0
+    best_point, best_rms = None, math.inf
+    history: list[tuple[np.ndarray, ...]] = []
     rounds: list[dict[str, float]] = []
-    kept = Candidates(np.zeros((0, 3)), np.zeros((0, 3)), rms=np.zeros(0))
-    top: np.ndarray = np.zeros((0, 3))
-    schedule = [(settings.first, None)] + list(settings.rounds)
+    top = np.zeros((0, len(problem.low)))
+    kept_points, kept_rms = top, np.zeros(0)
+    schedule = [(plan.first, None), *plan.rounds]
     for index, (samples, spread) in enumerate(schedule):
         if progress is not None:
-            progress(
-                f"search round {index + 1} of {len(schedule)}: {samples} gain sets"
-                + ("" if spread is None else f" within ±{spread:g} decades of the best")
-            )
+            progress(f"search round {index + 1} of {len(schedule)}: " + problem.round_text(samples, spread))
         if spread is None or len(top) == 0:
-            log_params = latin_hypercube(rng, samples, problem.box)
-            if index == 0:  # the configured gains compete too
-                log_params[0] = problem.current_log_params()
+            points = latin_hypercube(rng, samples, problem.low, problem.high)
+            if index == 0:  # the configured values compete too
+                points[0] = problem.start()
         else:
             centres = top[rng.integers(0, len(top), samples)]
-            log_params = np.clip(centres + rng.normal(0.0, spread, centres.shape), low - 1.0, high + 1.0)
-        gains = problem.gains_of(log_params)
-        margins, ok = screen(problem, gains)
-        evaluated += samples
-        robust_count += int(np.count_nonzero(ok))
-        rms = np.full(samples, np.inf)
-        if np.any(ok):
-            rms[ok] = problem.tracking_rms(gains[ok], settings.duration_s, seed)
-        kept = Candidates(
-            np.vstack([kept.log_params, log_params[ok]]),
-            np.vstack([kept.gains, gains[ok]]),
-            rms=np.concatenate([kept.rms, rms[ok]]),
-        )
-        finite = np.isfinite(kept.rms)
+            points = np.clip(centres + rng.normal(0.0, spread, centres.shape), problem.clip_low, problem.clip_high)
+        values = problem.values(points)
+        rms, verdict, detail = problem.evaluate(values, plan, seed, best_rms)
+        history.append((points, values, detail, rms, verdict))
+        robust = verdict == ROBUST
+        kept_points, kept_rms = np.vstack([kept_points, points[robust]]), np.concatenate([kept_rms, rms[robust]])
+        finite = np.isfinite(kept_rms)
         if np.any(finite):
-            order = np.argsort(np.where(finite, kept.rms, np.inf))
-            top = kept.log_params[order[:8]]
-            if kept.rms[order[0]] < best_rms:
-                best_rms, best_log = float(kept.rms[order[0]]), kept.log_params[order[0]]
-        rounds.append({"samples": samples, "robust": int(np.count_nonzero(ok)), "best_rms_rad": best_rms})
-    if best_log is None:
-        raise RuntimeError(
-            "tune: no gain set in the search met the margins "
-            f"(gain ≥ {MIN_GAIN_MARGIN_DB:g} dB, phase ≥ {MIN_PHASE_MARGIN_DEG:g}°, delay ≥ "
-            f"{MIN_DELAY_PERIODS} periods)"
-        )
-    # The overlay is rounded: the result is what the rounded values give.
-    best_values = problem.rounded(best_log)
-    best_gains = problem.gains_of_values(best_values)[0]
-    _, ok = screen(problem, best_gains[None])
-    if not ok[0]:  # rounding to 4 digits moved it across a margin: keep the exact values
-        best_values = 10.0**best_log
-        best_gains = problem.gains_of_values(best_values)[0]
-    return SearchResult(problem, best_values, best_gains, best_rms, evaluated, robust_count, rounds, kept)
+            order = np.argsort(np.where(finite, kept_rms, np.inf))
+            top = kept_points[order[: problem.centres]]
+            if kept_rms[order[0]] < best_rms:
+                best_rms, best_point = float(kept_rms[order[0]]), kept_points[order[0]]
+        rounds.append({"samples": samples, "robust": int(np.count_nonzero(robust)), "best_rms_rad": best_rms})
+    if best_point is None:
+        raise RuntimeError(problem.nothing_robust())
+    exact = problem.values(best_point[None])[0]
+    best_values = np.array([round_figures(v) for v in exact])
+    if not problem.passes(best_values, seed):  # rounding moved it across a margin: keep the exact values
+        best_values = exact
+    every = Candidates(*(np.concatenate([round_[i] for round_ in history]) for i in range(5)))
+    checked = int(np.count_nonzero(every.verdict != UNCHECKED))
+    robust_count = int(np.count_nonzero(every.verdict == ROBUST))
+    return SearchResult(problem, best_values, best_rms, len(every.rms), checked, robust_count, rounds, every)
+
+
+def round_figures(value: float, digits: int = 4) -> float:
+    """``value`` to ``digits`` significant figures."""
+    if value == 0 or not math.isfinite(value):
+        return float(value)
+    return float(round(value, digits - 1 - int(math.floor(math.log10(abs(value))))))

@@ -9,6 +9,7 @@ import numpy as np
 
 from robot_controller.experiments.compare.contenders import CONTENDERS, Contender
 from robot_controller.experiments.compare.pairs import IN_PROCESS_STEP_LEAD_S
+from robot_controller.experiments.reporting import pyplot
 from robot_controller.experiments.step import STEP_AFTER_S
 
 
@@ -65,11 +66,7 @@ def render_compare(
 
 
 def plot_compare(table, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     names = list(table)
     fig, axes = plt.subplots(1, 3, figsize=(13, 4), constrained_layout=True)
     for ax, key, label, log in (

@@ -19,16 +19,8 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.experiments.exercises.common import (
-    SEED,
-    Exercise,
-    Progress,
-    fmt,
-    pyplot,
-    table,
-    write_report,
-    write_results,
-)
+from robot_controller.experiments.reporting import Progress, fmt, pyplot, table, write_report, write_results
+from robot_controller.experiments.runs import SEED
 from robot_controller.experiments.step import run_and_score
 from robot_controller.scoring import report
 
@@ -285,6 +277,3 @@ def _report(results: dict[str, Any], plan: dict[str, Any], quick: bool) -> str:
             "![error](disturbance.png)",
         ]
     )
-
-
-EXERCISE = Exercise("disturbance", "a 2 N·m step disturbance at t = 5 s: how far and how long", run, steps)

@@ -19,23 +19,12 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.core.laws import lqr as lqr_design
 from robot_controller.core.laws import robustness
 from robot_controller.experiments.compare import Contender
-from robot_controller.experiments.exercises.common import (
-    SEED,
-    Exercise,
-    Progress,
-    Response,
-    law_gains,
-    plant_loop,
-    sine_params,
-    sine_run,
-    step_run,
-    write_report,
-    write_results,
-)
 from robot_controller.experiments.exercises.lqr_report import plot, report_text
+from robot_controller.experiments.loop_model import law_gains, plant_loop
+from robot_controller.experiments.reporting import Progress, write_report, write_results
+from robot_controller.experiments.runs import SEED, Response, sine_params, sine_run, step_run
 
 STEP_RAD = 0.5
 
@@ -85,7 +74,7 @@ def loop_analysis(params: cfg.Params) -> dict[str, Any]:
         "dt": dt,
         "poles": robustness.poles(A, B, K),
         "margins": robustness.margins(A, B, K, dt),
-        "delay_margin_periods": lqr_design.delay_margin_periods(A, B, K),
+        "delay_margin_periods": int(robustness.delay_margin_periods(A, B, K)[0]),
     }
 
 
@@ -138,6 +127,3 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
     plot(out / "lqr.png", steps_run, sines, analyses, STEP_RAD)
     write_report(out, report_text(results, plan, analyses, quick))
     return results
-
-
-EXERCISE = Exercise("lqr", "PID against LQR: gains, closed-loop poles and margins, sine and step", run, steps)

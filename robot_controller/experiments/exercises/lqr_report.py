@@ -9,13 +9,8 @@ from typing import Any
 import numpy as np
 
 from robot_controller.core.laws import robustness
-from robot_controller.experiments.exercises.common import (
-    Response,
-    fmt,
-    plot_steps,
-    pyplot,
-    table,
-)
+from robot_controller.experiments.reporting import fmt, pyplot, table
+from robot_controller.experiments.runs import Response, plot_steps
 
 
 def plot(

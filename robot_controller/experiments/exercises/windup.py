@@ -16,19 +16,8 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.core.laws.pid import AntiWindup
-from robot_controller.experiments.exercises.common import (
-    SEED,
-    Exercise,
-    Progress,
-    Response,
-    fmt,
-    plot_steps,
-    pyplot,
-    step_run,
-    table,
-    write_report,
-    write_results,
-)
+from robot_controller.experiments.reporting import Progress, fmt, pyplot, table, write_report, write_results
+from robot_controller.experiments.runs import SEED, Response, plot_steps, step_run
 
 PRESET = "tutorial"
 TORQUE_MAX_NM = 2.0
@@ -251,6 +240,3 @@ def _verdict(results: dict[str, Any], responses: list[Response]) -> str:
             "min_time`)."
         )
     return " ".join(words)
-
-
-EXERCISE = Exercise("windup", "saturation at 2 N·m: every anti-windup mode side by side on a 1 rad step", run, steps)

@@ -31,19 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from robot_controller import parameters as cfg
-from robot_controller.core.laws import lqr, robustness
-from robot_controller.experiments.exercises.common import (
-    SEED,
-    Exercise,
-    Progress,
-    Response,
-    plant_loop,
-    sine_params,
-    sine_run,
-    step_run,
-    write_report,
-    write_results,
-)
+from robot_controller.core.laws import robustness
 from robot_controller.experiments.exercises.ziegler_nichols.plots import plot_sine, plot_stages
 from robot_controller.experiments.exercises.ziegler_nichols.report import report_text
 from robot_controller.experiments.exercises.ziegler_nichols.settings import (
@@ -58,8 +46,11 @@ from robot_controller.experiments.exercises.ziegler_nichols.settings import (
     with_gains,
 )
 from robot_controller.experiments.exercises.ziegler_nichols.ultimate import kp_search, model_ultimate, oscillation
+from robot_controller.experiments.loop_model import plant_loop
+from robot_controller.experiments.reporting import Progress, write_report, write_results
+from robot_controller.experiments.runs import SEED, Response, sine_params, sine_run, step_run
 
-__all__ = ["EXERCISE", "choose_ki", "model_ultimate", "oscillation", "run", "steps"]
+__all__ = ["choose_ki", "model_ultimate", "oscillation", "run", "steps"]
 
 
 def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int = SEED) -> dict[str, Any]:
@@ -164,9 +155,10 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
         )
         results["tutorial_sine_tracking_rms_rad"] = tutorial_sine.figures["tracking_rms_rad"]
 
-    margins = _margins(base, kp, ki, kd)
-    results.update(margins.as_dict("margin_"))
-    results["margin_delay_periods"] = _delay_periods(base, kp, ki, kd)
+    A, B, dt = plant_loop(base)
+    row = robustness.pid_gain_row(kp, ki, kd)
+    results.update(robustness.margins(A, B, row, dt).as_dict("margin_"))
+    results["margin_delay_periods"] = int(robustness.delay_margin_periods(A, B, row)[0])
     results = write_results(out, results)
     plot_stages(out / "tune.png", search, zn_response, kd_runs, ki_runs, chosen, tutorial_step, ku, kp, kd)
     plot_sine(out / "tune_sine.png", sine, tutorial_sine)
@@ -203,16 +195,3 @@ def _store(results: dict[str, Any], prefix: str, figures: dict[str, Any]) -> Non
 
 def _row(label: str, gains: tuple[float, float, float], response: Response) -> dict[str, Any]:
     return {"label": label, "kp": gains[0], "ki": gains[1], "kd": gains[2], **response.figures}
-
-
-def _margins(params: cfg.Params, kp: float, ki: float, kd: float) -> robustness.Margins:
-    A, B, dt = plant_loop(params)
-    return robustness.margins(A, B, robustness.pid_gain_row(kp, ki, kd), dt)
-
-
-def _delay_periods(params: cfg.Params, kp: float, ki: float, kd: float) -> int:
-    A, B, _ = plant_loop(params)
-    return lqr.delay_margin_periods(A, B, robustness.pid_gain_row(kp, ki, kd))
-
-
-EXERCISE = Exercise("tune", "tune the PID: Kp until it oscillates (Ku, Tu), then Kd, then Ki", run, steps)

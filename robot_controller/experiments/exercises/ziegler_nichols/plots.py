@@ -5,8 +5,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from robot_controller.experiments.exercises.common import Response, plot_steps, pyplot
 from robot_controller.experiments.exercises.ziegler_nichols.settings import STAGE_STEP_RAD
+from robot_controller.experiments.reporting import pyplot
+from robot_controller.experiments.runs import Response, plot_steps
 
 
 def plot_stages(

@@ -7,7 +7,6 @@ from typing import Any
 
 import numpy as np
 
-from robot_controller.experiments.exercises.common import Response, fmt, table
 from robot_controller.experiments.exercises.ziegler_nichols.settings import (
     KP_START,
     KU_STEP_RAD,
@@ -17,6 +16,8 @@ from robot_controller.experiments.exercises.ziegler_nichols.settings import (
     STAGE_STEP_RAD,
     SUSTAINED_GROWTH_PER_S,
 )
+from robot_controller.experiments.reporting import fmt, table
+from robot_controller.experiments.runs import Response
 
 
 def report_text(

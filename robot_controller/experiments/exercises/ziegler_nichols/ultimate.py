@@ -12,7 +12,6 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.core.laws import robustness
-from robot_controller.experiments.exercises.common import Progress, Response, plant_loop, step_run
 from robot_controller.experiments.exercises.ziegler_nichols.settings import (
     KP_START,
     KU_STEP_RAD,
@@ -20,6 +19,9 @@ from robot_controller.experiments.exercises.ziegler_nichols.settings import (
     SUSTAINED_GROWTH_PER_S,
     with_gains,
 )
+from robot_controller.experiments.loop_model import plant_loop
+from robot_controller.experiments.reporting import Progress
+from robot_controller.experiments.runs import Response, step_run
 
 
 def oscillation(response: Response, *, settle_s: float = 0.3, window_s: float = 1.0) -> dict[str, float]:

@@ -1,25 +1,23 @@
-"""What ``robot-controller tune`` writes for people: the header of ``tuned.yaml``
-(what it was tuned for, under which margins), ``tune.png`` (every gain set that
-met the margins, coloured by its tracking error) and ``report.md``."""
+"""What ``tune`` of a built-in law writes for people: ``tuned.yaml``'s header, ``tune.png`` (every gain
+set that met the margins, coloured by its tracking error) and ``report.md``."""
 
 from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
+from robot_controller.experiments.autotune.analytic import AnalyticProblem as Problem
 from robot_controller.experiments.autotune.margins import (
     MAX_TIME_CONSTANT_S,
     MIN_DELAY_PERIODS,
     MIN_GAIN_MARGIN_DB,
     MIN_PHASE_MARGIN_DEG,
 )
-
-if TYPE_CHECKING:
-    from robot_controller.experiments.autotune.problem import Problem
-    from robot_controller.experiments.autotune.search import SearchResult
+from robot_controller.experiments.autotune.search import ROBUST, SearchResult
+from robot_controller.experiments.reporting import fmt, pyplot, table
 
 
 def yaml_header(problem: Problem, result: SearchResult) -> str:
@@ -35,12 +33,14 @@ def yaml_header(problem: Problem, result: SearchResult) -> str:
     )
 
 
-def plot(path: Path, result: SearchResult, before: np.ndarray) -> None:
-    from robot_controller.experiments.exercises.common import pyplot
-
+def plot(path: Path, result: SearchResult) -> None:
     plt = pyplot()
-    history = result.history
-    finite = np.isfinite(history.rms)
+    problem = result.problem
+    before = np.array([problem.law.kp[0], problem.law.ki[0], problem.law.kd[0]], dtype=float)
+    best_gains = problem.gains_of_values(result.best_values)[0]
+    robust = result.history.verdict == ROBUST
+    gains, rms = result.history.detail[robust], result.history.rms[robust]
+    finite = np.isfinite(rms)
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.5), constrained_layout=True)
     pairs = (
         (0, 2, "Kp [N·m/rad]", "Kd [N·m·s/rad]"),
@@ -48,11 +48,9 @@ def plot(path: Path, result: SearchResult, before: np.ndarray) -> None:
         (2, 1, "Kd [N·m·s/rad]", "Ki [N·m/(rad·s)]"),
     )
     for ax, (x, y, xlabel, ylabel) in zip(axes, pairs, strict=True):
-        points = ax.scatter(
-            history.gains[finite, x], history.gains[finite, y], c=np.log10(history.rms[finite]), s=6, cmap="viridis_r"
-        )
+        points = ax.scatter(gains[finite, x], gains[finite, y], c=np.log10(rms[finite]), s=6, cmap="viridis_r")
         ax.plot(before[x], before[y], "rs", ms=9, mfc="none", mew=2, label="before")
-        ax.plot(result.best_gains[x], result.best_gains[y], "r*", ms=14, label="after")
+        ax.plot(best_gains[x], best_gains[y], "r*", ms=14, label="after")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(xlabel)
@@ -67,9 +65,7 @@ def plot(path: Path, result: SearchResult, before: np.ndarray) -> None:
 
 def report_text(values: dict[str, Any], problem: Problem, result: SearchResult, quick: bool) -> str:
     def f(value: Any, spec: str = "{:.3g}") -> str:
-        if value is None or (isinstance(value, float) and not math.isfinite(value)):
-            return "∞" if value == math.inf else "—"
-        return spec.format(value)
+        return "∞" if value == math.inf else fmt(value, spec)
 
     lqr_mode = problem.controller_type == "lqr"
     searched = "the LQR weights lqr_q (lqr_r kept: only their ratio matters)" if lqr_mode else "Kp, Ki, Kd"
@@ -115,8 +111,6 @@ def report_text(values: dict[str, Any], problem: Problem, result: SearchResult, 
         "sine RMS, batch [mrad]",
         "sine RMS, real graph [mrad]",
     ]
-    table = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
-    table += ["| " + " | ".join(row) + " |" for row in rows]
     real_before, real_after = values["real_rms_before_rad"], values["real_rms_after_rad"]
     ratio = max(real_before, real_after) / max(min(real_before, real_after), 1e-12)
     change = (
@@ -145,7 +139,7 @@ def report_text(values: dict[str, Any], problem: Problem, result: SearchResult, 
         f"closed-loop pole's time constant at most {MAX_TIME_CONSTANT_S:g} s (integral action that removes a "
         "steady load within seconds, which the sine alone does not reward).",
         "",
-        *table,
+        table(headers, rows),
         "",
         f"Real graph: one seeded lockstep sine run each, {values['real_duration_s']:g} sim s (2 s warm-up), RMS "
         f"of (reference − true angle): {change}.",

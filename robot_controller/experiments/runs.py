@@ -1,12 +1,8 @@
-"""What the exercises share: seeded lockstep runs of the real graph and what
-they show (a step's figures, a sine's tracking), the files every exercise
-writes (``report.md``, ``results.json``, plots) and its registry entry.
-"""
+"""Seeded lockstep runs of the real graph and what they show, as the exercises and ``tune`` use them:
+a step's figures, a sine's tracking, one joint's trace (:class:`Response`)."""
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,21 +14,8 @@ from robot_controller.core import metrics
 from robot_controller.experiments.step import run_and_score, step_figures
 from robot_controller.scoring import report
 
-Progress = Callable[[str], None]
-
 #: The sensor's noise seed of every run: the same seed, the same figures.
 SEED = 0
-
-
-@dataclass(frozen=True)
-class Exercise:
-    """One exercise of the tutorial, as the CLI runs it
-    (``robot-controller exercise NAME --out DIR [--quick]``)."""
-
-    name: str
-    title: str  #: one line: what it does
-    run: Callable[..., dict[str, Any]]  #: ``run(out, *, quick=False, progress=print) -> results``
-    steps: Callable[[bool], int]  #: ``steps(quick)``: how many times ``run`` calls ``progress``
 
 
 @dataclass
@@ -48,42 +31,6 @@ class Response:
     saturated: np.ndarray  #: bool per tick: the torque limit cut the command
     figures: dict[str, Any] = field(default_factory=dict)
     out: Path | None = None
-
-
-def plant_loop(params: cfg.Params) -> tuple[np.ndarray, np.ndarray, float]:
-    """The simulated arm's joint linearised at rest and sampled at the control period
-    (``core.lqr.discretise``: state ``[∫e, e, ė]``): ``A``, ``B`` and the period ``dt``."""
-    from robot_controller import resources
-    from robot_controller.core.laws import lqr
-    from robot_controller.core.model import ArmDynamics
-
-    dynamics = ArmDynamics(resources.resolve_urdf(params["simulator"]["urdf_path"]))
-    dt = 1.0 / params["pid_controller"]["control_rate_hz"]
-    A, B = lqr.discretise(float(dynamics.mass_matrix(np.zeros(1))[0, 0]), float(dynamics.damping[0]), dt)
-    return A, B, dt
-
-
-def controller_model(params: cfg.Params):
-    """The arm model the controller designs and predicts with: the URDF's, or its
-    ``model_*`` parameters over it where the parameter set has them."""
-    from robot_controller.parameters import builders
-
-    ctrl = params["pid_controller"]
-    make_model = getattr(builders, "arm_model", None)
-    if make_model is not None:
-        return make_model(ctrl)
-    from robot_controller import resources
-    from robot_controller.core.model import ArmDynamics
-
-    return ArmDynamics(resources.resolve_urdf(ctrl["urdf_path"]))
-
-
-def law_gains(params: cfg.Params):
-    """The PID settings the controller runs with (for an LQR, its designed gains:
-    ``core.law.law_config`` on the controller's own arm model)."""
-    from robot_controller.core.laws.gains import law_config
-
-    return law_config(cfg.controller_config(params["pid_controller"], 1), controller_model(params), 1)
 
 
 def run_lockstep(params: cfg.Params, out: Path, duration_s: float) -> tuple[dict[str, Any], report.Recording]:
@@ -204,54 +151,6 @@ def sine_params(params: cfg.Params) -> cfg.Params:
     return cfg.merge(
         params, {"trajectory_planner": {key: defaults[key] for key in ("mode", "amplitude", "frequency_hz", "offset")}}
     )
-
-
-# ---- the files -----------------------------------------------------------------------------------------------
-
-
-def write_results(out: Path, values: dict[str, Any]) -> dict[str, Any]:
-    """``results.json``: flat keys, numbers (NaN, a figure that could not be measured, as null).
-    Returns what it wrote."""
-    flat: dict[str, Any] = {}
-    for key, value in values.items():
-        if isinstance(value, bool | np.bool_ | int | np.integer):
-            value = int(value)
-        elif isinstance(value, float | np.floating):
-            value = float(value)
-        elif value is not None:
-            raise TypeError(f"results.json: {key} is {type(value).__name__}, not a number")
-        flat[key] = value
-    report.write_metrics(out / "results.json", flat)
-    return report.json_safe(flat)
-
-
-def fmt(value: Any, spec: str = "{:.3g}", missing: str = "—") -> str:
-    """A number for a table; NaN or None as ``missing``."""
-    if value is None or (isinstance(value, float) and not math.isfinite(value)):
-        return missing
-    return spec.format(value)
-
-
-def table(headers: list[str], rows: list[list[str]]) -> str:
-    lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
-    lines += ["| " + " | ".join(row) + " |" for row in rows]
-    return "\n".join(lines)
-
-
-def write_report(out: Path, text: str) -> Path:
-    path = out / "report.md"
-    path.write_text(text.rstrip() + "\n")
-    return path
-
-
-def pyplot():
-    """matplotlib's pyplot on the Agg backend (files only, no display)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def plot_steps(

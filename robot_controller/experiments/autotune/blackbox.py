@@ -1,12 +1,22 @@
-"""The problem ``tune --controller`` solves for a law of one's own: the parameters it searches
-(:class:`Knob`, from the law's ``gain=True`` declarations), the robustness cases a candidate must pass
-(:data:`CASES`), and :class:`LawProblem`, which runs the in-process loop to measure a candidate's
-tracking and whether a push dies away in each case. The procedure is described in ``law``."""
+"""``tune`` of a law of one's own: a black box (no transfer function to take margins of, and the batch
+harness runs the built-in PID only), so every candidate runs the in-process loop, and the built-in
+margins are measured there as pushes that must die away. Searched: the law's parameters declared
+``gain=True``, within their ``minimum`` and ``maximum`` (:class:`Knob`).
+
+A short push (:data:`PUSH_FRACTION` of each joint's torque limit for :data:`PUSH_PERIODS` control
+periods at :data:`PUSH_AT_S`) is given to the loop, and the same run unpushed (the same sensor noise)
+is subtracted: a case (:data:`CASES`) passes if that effect dies down to :data:`DECAY_FRACTION` of
+its peak (or :data:`DECAY_FLOOR_RAD`) within :data:`SETTLE_S`, neither run's torque reaches the limit
+after the warm-up (an unstable loop swings into the limit, and then both runs swing alike), and the
+law does not fault. A candidate is checked only if it tracks better than the best robust one so far.
+"""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -18,7 +28,7 @@ from robot_controller.core.laws import registry
 from robot_controller.core.loop import Disturbance, LoopResult
 from robot_controller.core.metrics import WARMUP_S
 from robot_controller.experiments.autotune.margins import MAX_TIME_CONSTANT_S, MIN_DELAY_PERIODS, MIN_GAIN_MARGIN_DB
-from robot_controller.experiments.autotune.problem import SEED
+from robot_controller.experiments.autotune.search import FAILED, ROBUST, SEED, UNCHECKED, Plan, SearchResult
 from robot_controller.parameters.torque_limits import torque_limit
 
 PUSH_AT_S = 2.0  #: the push, s of the run (after the warm-up; the default sine's peak speed)
@@ -36,13 +46,8 @@ CHECK_SEED = SEED + 1  #: the before/after check's noise, not the search's
 #: values span decades: a linear spread would put nearly every sample among the largest).
 FROM_ZERO = 1e-4
 #: The robustness cases run the configured loop without the Kalman filter's disturbance observer: the law
-#: gets the filter's estimate as in the stack (on the raw readings, examples/simple_pid_law.py's derivative of
-#: their 5 mrad noise saturates the torque with the drive's gain doubled), but a delay or a gain nothing
-#: accounts for is a model mismatch the observer reads as a push and fights. With it, the default LQR's push
-#: is 22 % left 3 s after it at two periods late, and with the drive's gain doubled its torque hits the
-#: limit; without it, a push dies away at two periods (1 % left) and not at three (15 %), and in both gain
-#: cases: the default meets every case, with the 2 periods its analytic margin gives.
-#: (The built-in margins are the law's and the arm's alone: neither filter nor observer.)
+#: gets the filter's estimate as in the stack, but a delay or a gain nothing accounts for is a model mismatch
+#: the observer reads as a push and fights. (The built-in margins are the law's and the arm's alone.)
 WITHOUT_OBSERVER = {"disturbance_observer": False}
 
 
@@ -119,8 +124,12 @@ CASES = (
 )
 
 
-class LawProblem:
-    """The configured stack with the law ``controller_type`` names, as the search sees it."""
+class BlackBoxProblem:
+    """The configured stack with the law ``controller_type`` names, as the search sees it (search
+    coordinates: each knob's range mapped to [0, 1])."""
+
+    centres = 3
+    check_steps = 1  #: progress steps after the search: the check before and after
 
     def __init__(self, params: cfg.Params) -> None:
         ctrl = params["pid_controller"]
@@ -131,6 +140,50 @@ class LawProblem:
         self.dt = 1.0 / ctrl["control_rate_hz"]
         self.joint_count = int(params["trajectory_planner"]["joint_count"])
         self.torque_limit = torque_limit(params["motor_node"], self.joint_count)
+        self.low = self.clip_low = np.zeros(len(self.knobs))
+        self.high = self.clip_high = np.ones(len(self.knobs))
+
+    @staticmethod
+    def plan(quick: bool) -> Plan:
+        if quick:
+            return Plan(first=16, rounds=((8, 0.12), (8, 0.05)), duration_s=4.0, check_s=10.0, max_checks=3)
+        return Plan(first=48, rounds=((16, 0.15), (16, 0.07), (16, 0.03)), duration_s=10.0, check_s=20.0, max_checks=6)
+
+    def round_text(self, samples: int, spread: float | None) -> str:
+        return f"{samples} candidates on the in-process loop" + (
+            "" if spread is None else f" around the best robust (σ {spread:g} of each range)"
+        )
+
+    def start(self) -> np.ndarray:
+        return np.array([k.unit(v) for k, v in zip(self.knobs, self.current(), strict=True)])
+
+    def values(self, points: np.ndarray) -> np.ndarray:
+        points = np.atleast_2d(points)
+        return np.column_stack([k.value(points[:, j]) for j, k in enumerate(self.knobs)])
+
+    def evaluate(
+        self, values: np.ndarray, plan: Plan, seed: int, best_rms: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Run every candidate; check the best-tracking ones, in order, until one is robust."""
+        rms = np.array([self.tracking_rms(v, plan.duration_s, seed) for v in values])
+        verdict = np.full(len(values), UNCHECKED)
+        cap = plan.max_checks if math.isfinite(best_rms) else len(values)  # none robust yet: the whole round
+        for i in np.argsort(rms)[:cap]:
+            if not rms[i] < best_rms:
+                break  # no better than the best robust: not worth its checks
+            verdict[i] = ROBUST if self.robust(values[i], seed) else FAILED
+            if verdict[i] == ROBUST:
+                break  # the round's best robust one: the others track worse
+        return rms, verdict, values
+
+    def passes(self, values: np.ndarray, seed: int) -> bool:
+        return self.robust(values, seed)
+
+    def nothing_robust(self) -> str:
+        return (
+            f"tune: no candidate for {self.spec} let a push die away in every case "
+            f"({', '.join(c.name for c in CASES)}); see the law's ranges"
+        )
 
     def current(self) -> np.ndarray:
         """The searched parameters' values in the stack (a per-joint list: its first value)."""
@@ -145,6 +198,10 @@ class LawProblem:
     def overlay(self, values: np.ndarray) -> dict[str, Any]:
         """The ``pid_controller`` parameters that set these values (one for every joint)."""
         return {law_parameters.PREFIX + k.name: float(v) for k, v in zip(self.knobs, values, strict=True)}
+
+    def tuned_overlay(self, values: np.ndarray) -> dict[str, Any]:
+        """``tuned.yaml``'s ``pid_controller`` parameters: the law and these values."""
+        return {"controller_type": self.spec} | self.overlay(values)
 
     def with_values(self, values: np.ndarray, without_observer: bool = False) -> cfg.Params:
         """The stack with these values; ``without_observer``: no disturbance observer (:data:`WITHOUT_OBSERVER`)."""
@@ -216,3 +273,51 @@ class LawProblem:
             if not self.push_decay(values, Case("delay", "", delay_periods=periods), seed)["ok"]:
                 return periods - 1
         return up_to
+
+
+def describe(problem: BlackBoxProblem, values: np.ndarray, plan: Plan) -> dict[str, Any]:
+    """Everything the report says of one set of values: each case, the delay margin, the RMS."""
+    out: dict[str, Any] = {k.name: float(v) for k, v in zip(problem.knobs, values, strict=True)}
+    meets = True
+    for case in CASES:
+        decay = problem.push_decay(values, case)
+        out.update({f"{case.name}_{key}": value for key, value in decay.items() if key != "ok"})
+        out[f"{case.name}_ok"] = int(decay["ok"])
+        meets &= decay["ok"]
+    out["meets_constraints"] = int(meets)
+    out["delay_margin_periods"] = problem.delay_margin(values)
+    out["search_rms_rad"] = problem.tracking_rms(values, plan.duration_s, SEED)
+    out["check_rms_rad"] = problem.tracking_rms(values, plan.check_s, CHECK_SEED)
+    return out
+
+
+def before_after(
+    problem: BlackBoxProblem,
+    result: SearchResult,
+    plan: Plan,
+    *,
+    seed: int,
+    search_s: float,
+    out: Path,
+    progress: Callable[[str], None],
+) -> dict[str, Any]:
+    """``tune.json``'s figures: the search, and each case, the delay margin and the RMS before and after
+    (the check on another noise seed and a longer run)."""
+    progress(f"check: before and after, {plan.check_s:g} s on noise seed {CHECK_SEED}, and the delay margins")
+    before = describe(problem, problem.current(), plan)
+    after = describe(problem, result.best_values, plan)
+    values: dict[str, Any] = {
+        "check_seed": CHECK_SEED,
+        "controller_type": problem.spec,
+        "searched": ",".join(k.name for k in problem.knobs),
+        "search_wall_s": search_s,
+        "candidates_evaluated": result.evaluated,
+        "candidates_checked": result.checked,
+        "candidates_robust": result.robust,
+        "search_duration_s": plan.duration_s,
+        "check_duration_s": plan.check_s,
+        "min_delay_margin_periods": MIN_DELAY_PERIODS,
+        "gain_factor": GAIN_FACTOR,
+        "max_time_constant_s": MAX_TIME_CONSTANT_S,
+    }
+    return values | {f"before_{k}": v for k, v in before.items()} | {f"after_{k}": v for k, v in after.items()}

@@ -1,5 +1,5 @@
-"""What ``tune --controller`` writes besides the values: ``tuned.yaml``'s header, ``tune.png``
-(every candidate's tracking error, by parameter) and ``report.md``."""
+"""What ``tune`` of a law of one's own writes for people: ``tuned.yaml``'s header, ``tune.png`` (every
+candidate's tracking error, by parameter) and ``report.md``."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from robot_controller.experiments.autotune.law_problem import (
+from robot_controller.experiments.autotune.blackbox import (
     CASES,
     DECAY_FLOOR_RAD,
     DECAY_FRACTION,
@@ -19,14 +19,15 @@ from robot_controller.experiments.autotune.law_problem import (
     PUSH_PERIODS,
     SETTLE_S,
     TAIL_S,
+    BlackBoxProblem,
     Case,
-    LawProblem,
 )
-from robot_controller.experiments.autotune.law_search import LawSearch
 from robot_controller.experiments.autotune.margins import MAX_TIME_CONSTANT_S, MIN_DELAY_PERIODS, MIN_GAIN_MARGIN_DB
+from robot_controller.experiments.autotune.search import FAILED, ROBUST, UNCHECKED, SearchResult
+from robot_controller.experiments.reporting import fmt, pyplot, table
 
 
-def yaml_header(problem: LawProblem, result: LawSearch) -> str:
+def yaml_header(problem: BlackBoxProblem, result: SearchResult) -> str:
     return (
         f"# robot-controller tune --controller: {', '.join(k.name for k in problem.knobs)} of {problem.spec}, "
         f"chosen on the in-process loop (sine RMS {result.best_rms:.3g} rad) where a push still dies away "
@@ -37,24 +38,21 @@ def yaml_header(problem: LawProblem, result: LawSearch) -> str:
     )
 
 
-def plot_candidates(path: Path, result: LawSearch, before: np.ndarray) -> None:
-    from robot_controller.experiments.exercises.common import pyplot
-
+def plot(path: Path, result: SearchResult) -> None:
     plt = pyplot()
+    before = result.problem.current()
     knob_list = result.problem.knobs
     fig, axes = plt.subplots(1, len(knob_list), figsize=(4.5 * len(knob_list), 4), constrained_layout=True)
     axes = np.atleast_1d(axes)
-    values = np.array([v for v, _, _ in result.history])
-    rms = np.array([r for _, r, _ in result.history])
-    verdict = [ok for _, _, ok in result.history]
+    values, rms, verdict = result.history.values, result.history.rms, result.history.verdict
     finite = np.isfinite(rms)
     for j, (ax, knob) in enumerate(zip(axes, knob_list, strict=True)):
         for label, mask, style in (
-            ("not checked", [ok is None for ok in verdict], dict(c="0.6", s=8)),
-            ("failed a case", [ok is False for ok in verdict], dict(c="tab:red", marker="x", s=30)),
-            ("passed every case", [ok is True for ok in verdict], dict(c="tab:green", s=30)),
+            ("not checked", verdict == UNCHECKED, dict(c="0.6", s=8)),
+            ("failed a case", verdict == FAILED, dict(c="tab:red", marker="x", s=30)),
+            ("passed every case", verdict == ROBUST, dict(c="tab:green", s=30)),
         ):
-            mask = np.array(mask) & finite
+            mask = mask & finite
             if np.any(mask):
                 ax.scatter(values[mask, j], rms[mask] * 1e3, label=label, **style)
         ax.axvline(before[j], color="k", ls="--", lw=0.8, label="before")
@@ -70,11 +68,8 @@ def plot_candidates(path: Path, result: LawSearch, before: np.ndarray) -> None:
     plt.close(fig)
 
 
-def report_markdown(values: dict[str, Any], problem: LawProblem, result: LawSearch, quick: bool) -> str:
-    def f(value: Any, spec: str = "{:.3g}") -> str:
-        if value is None or (isinstance(value, float) and not math.isfinite(value)):
-            return "—"
-        return spec.format(value)
+def report_text(values: dict[str, Any], problem: BlackBoxProblem, result: SearchResult, quick: bool) -> str:
+    f = fmt
 
     def cell(name: str, case: Case) -> str:
         ok = values[f"{name}_{case.name}_ok"]
@@ -106,8 +101,6 @@ def report_markdown(values: dict[str, Any], problem: LawProblem, result: LawSear
                 f(values[f"{name}_check_rms_rad"] * 1e3, "{:.3f}"),
             ]
         )
-    table = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
-    table += ["| " + " | ".join(row) + " |" for row in rows]
     ranges = ", ".join(f"{k.name} {k.low:g}…{k.high:g}" + (" (log)" if k.log else "") for k in problem.knobs)
     before, after = values["before_check_rms_rad"], values["after_check_rms_rad"]
     change = (
@@ -139,7 +132,7 @@ def report_markdown(values: dict[str, Any], problem: LawProblem, result: LawSear
         "checked: the phase margin (no crossover to measure on a black box; the delay case bounds the phase "
         "lost to delay) and gains beyond ±6 dB.",
         "",
-        *table,
+        table(headers, rows),
         "",
         f"*Left*: the push's own effect over the last {TAIL_S:g} s, as a share of its peak; *saturated*: the "
         "torque reached its limit after the warm-up (an unstable loop's swing; both runs would then swing alike)."

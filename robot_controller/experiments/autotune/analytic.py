@@ -1,0 +1,237 @@
+"""``tune`` of a built-in law (``pid``, ``lqr``): its feedback on ``[∫e, e, ė]`` is known, so the
+search runs on the batch harness (``core.batch``: the arm's analytic model under the controller's
+own PID code, thousands of gain sets at once, common random numbers) and screens every gain set
+by the sampled loop's margins first (``margins``). Searched: Kp, Ki, Kd for ``pid``; the state
+weights ``lqr_q`` for ``lqr`` (only their ratio to ``lqr_r`` matters, so ``lqr_r`` keeps its value).
+Then one seeded lockstep sine run before and one after on the real graph, to show what the batch
+does not model (the planner's rate and the reference hold, latency compensation, MuJoCo's arm)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robot_controller import parameters as cfg
+from robot_controller import resources
+from robot_controller.core.batch import ArmConstants, run_batch
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.laws import lqr
+from robot_controller.core.laws.pid import PidConfig
+from robot_controller.core.model import ArmDynamics, SensorConfig
+from robot_controller.core.reference import Trajectory, make_trajectory
+from robot_controller.experiments.autotune.margins import (
+    MIN_DELAY_PERIODS,
+    MIN_GAIN_MARGIN_DB,
+    MIN_PHASE_MARGIN_DEG,
+    describe_margins,
+    screen,
+)
+from robot_controller.experiments.autotune.search import FAILED, ROBUST, SEED, Plan, SearchResult
+from robot_controller.experiments.loop_model import controller_model, law_gains, plant_loop
+from robot_controller.experiments.runs import run_lockstep
+
+#: The search box, log10 of each parameter. PID: Kp N·m/rad, Ki N·m/(rad·s), Kd N·m·s/rad.
+PID_BOX = {"kp": (0.0, 3.5), "ki": (-1.0, 3.5), "kd": (-2.0, 1.7)}
+#: LQR: the weights on ∫e, e and ė (lqr_r fixed).
+LQR_BOX = {"q_integral": (-1.0, 8.0), "q_position": (0.0, 8.0), "q_velocity": (-4.0, 5.0)}
+
+
+class AnalyticProblem:
+    """The configured arm and built-in law, as the search sees them (search coordinates: log10 of
+    the searched parameters)."""
+
+    centres = 8
+    check_steps = 2  #: progress steps after the search: the real runs before and after
+
+    def __init__(self, params: cfg.Params) -> None:
+        self.params = params
+        ctrl, motor = params["pid_controller"], params["motor_node"]
+        self.controller_type = ctrl["controller_type"]
+        self.dt = 1.0 / ctrl["control_rate_hz"]
+        self.A, self.B, _ = plant_loop(params)
+        self.law = law_gains(params)  # the PID settings in force (for an LQR: with its designed gains)
+        plant = ArmDynamics(resources.resolve_urdf(params["simulator"]["urdf_path"]))
+        self.constants = ArmConstants.from_dynamics(plant)
+        model = controller_model(params)  # what the controller designs an LQR with
+        self.model_inertia = float(model.mass_matrix(np.zeros(1))[0, 0])
+        self.model_damping = float(model.damping[0])
+        self.torque_max = float(min(np.min(ctrl["torque_max"]), np.min(motor["torque_max"])))
+        self.feedforward = ctrl["feedforward"]
+        self.kalman = cfg.controller_config(ctrl, 1).estimator  # None without the filter
+        self.lqr_r = float(ctrl["lqr_r"])
+        planner = params["trajectory_planner"]
+        self.sine = make_trajectory(
+            "sine",
+            joint_count=1,
+            amplitude=planner["amplitude"],
+            frequency_hz=planner["frequency_hz"],
+            offset=planner["offset"],
+        )
+        self.sensor = cfg.sensor_config(params["sensor_node"])
+        self.box = PID_BOX if self.controller_type == "pid" else LQR_BOX
+        self.low = np.array([b[0] for b in self.box.values()])
+        self.high = np.array([b[1] for b in self.box.values()])
+        self.clip_low, self.clip_high = self.low - 1.0, self.high + 1.0
+
+    @staticmethod
+    def plan(quick: bool) -> Plan:
+        if quick:
+            return Plan(first=2048, rounds=((256, 0.25), (256, 0.1)), duration_s=4.0, check_s=3.0)
+        return Plan(
+            first=8192, rounds=((1024, 0.3), (1024, 0.15), (1024, 0.07), (1024, 0.03)), duration_s=10.0, check_s=10.0
+        )
+
+    def round_text(self, samples: int, spread: float | None) -> str:
+        return f"{samples} gain sets" + ("" if spread is None else f" within ±{spread:g} decades of the best")
+
+    def start(self) -> np.ndarray:
+        return self.current_log_params()
+
+    @staticmethod
+    def values(points: np.ndarray) -> np.ndarray:
+        return 10.0 ** np.atleast_2d(points)
+
+    def evaluate(
+        self, values: np.ndarray, plan: Plan, seed: int, best_rms: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Screen every gain set by its margins; simulate those that meet them."""
+        gains = self.gains_of_values(values)
+        _, ok = screen(self, gains)
+        rms = np.full(len(values), np.inf)
+        if np.any(ok):
+            rms[ok] = self.tracking_rms(gains[ok], plan.duration_s, seed)
+        return rms, np.where(ok, ROBUST, FAILED), gains
+
+    def passes(self, values: np.ndarray, seed: int) -> bool:
+        return bool(screen(self, self.gains_of_values(values))[1][0])
+
+    def nothing_robust(self) -> str:
+        return (
+            "tune: no gain set in the search met the margins "
+            f"(gain ≥ {MIN_GAIN_MARGIN_DB:g} dB, phase ≥ {MIN_PHASE_MARGIN_DEG:g}°, delay ≥ "
+            f"{MIN_DELAY_PERIODS} periods)"
+        )
+
+    # -- what is searched -> the gains
+    def gains_of_values(self, values: np.ndarray) -> np.ndarray:
+        """Kp, Ki, Kd of each row of searched parameters (NaN where an LQR design fails)."""
+        values = np.atleast_2d(np.asarray(values, dtype=float))
+        if self.controller_type == "pid":
+            return values[:, [0, 1, 2]].copy()
+        out = np.full((len(values), 3), np.nan)
+        for row, q in enumerate(values):
+            try:
+                K = lqr.design(self.model_inertia, self.model_damping, self.dt, q, self.lqr_r).K[0]
+            except (ConfigError, ValueError, np.linalg.LinAlgError):
+                continue
+            out[row] = (K[1], K[0], K[2])
+        return out
+
+    def current_log_params(self) -> np.ndarray:
+        ctrl = self.params["pid_controller"]
+        if self.controller_type == "pid":
+            values = [ctrl["kp"][0], ctrl["ki"][0], ctrl["kd"][0]]
+        else:
+            values = list(ctrl["lqr_q"])
+        return np.log10(np.maximum(np.asarray(values, dtype=float), 1e-12))
+
+    def overlay(self, values: np.ndarray) -> dict[str, Any]:
+        """The ``pid_controller`` parameters that set these searched parameters."""
+        values = [float(v) for v in values]
+        if self.controller_type == "pid":
+            return {"kp": [values[0]], "ki": [values[1]], "kd": [values[2]]}
+        return {"lqr_q": values, "lqr_r": self.lqr_r}
+
+    tuned_overlay = overlay
+
+    # -- the objective
+    def tracking_rms(self, gains: np.ndarray, duration_s: float, seed: int = SEED) -> np.ndarray:
+        """The sine's tracking RMS (true angle, after the 2 s warm-up) of each gain set (rows Kp, Ki, Kd), rad."""
+        pid = replace(self.law, kp=gains[:, 0:1], ki=gains[:, 1:2], kd=gains[:, 2:3])
+        return batch_tracking_rms(
+            self.constants,
+            pid,
+            self.sine,
+            self.sensor,
+            np.random.default_rng(seed),
+            duration_s=duration_s,
+            control_period_s=self.dt,
+            torque_max=self.torque_max,
+            feedforward=self.feedforward,
+            kalman=self.kalman,
+        )
+
+
+def batch_tracking_rms(
+    constants: ArmConstants,
+    pid_config: PidConfig,
+    trajectory: Trajectory,
+    sensor: SensorConfig,
+    rng: np.random.Generator,
+    *,
+    common_noise: bool = True,
+    **options: Any,
+) -> np.ndarray:
+    """The search's harness: ``core.batch.run_batch`` with common random numbers by default."""
+    return run_batch(
+        constants=constants,
+        pid_config=pid_config,
+        trajectory=trajectory,
+        sensor=sensor,
+        rng=rng,
+        common_noise=common_noise,
+        **options,
+    )
+
+
+def before_after(
+    problem: AnalyticProblem,
+    result: SearchResult,
+    plan: Plan,
+    *,
+    seed: int,
+    search_s: float,
+    out: Path,
+    progress: Callable[[str], None],
+) -> dict[str, Any]:
+    """``tune.json``'s figures: the search, each margin and the batch RMS before and after, and one
+    seeded lockstep sine run each on the real graph (in ``out/real_before``, ``out/real_after``)."""
+    before_gains = np.array([problem.law.kp[0], problem.law.ki[0], problem.law.kd[0]], dtype=float)
+    after_gains = problem.gains_of_values(result.best_values)[0]
+    batch = problem.tracking_rms(np.vstack([before_gains, after_gains]), plan.duration_s, seed)
+    values: dict[str, Any] = {
+        "controller_type_lqr": int(problem.controller_type == "lqr"),
+        "search_wall_s": search_s,
+        "candidates_evaluated": result.evaluated,
+        "candidates_robust": result.robust,
+        "batch_duration_s": plan.duration_s,
+        "min_gain_margin_db": MIN_GAIN_MARGIN_DB,
+        "min_phase_margin_deg": MIN_PHASE_MARGIN_DEG,
+        "min_delay_margin_periods": MIN_DELAY_PERIODS,
+    }
+    for name, gains, searched in (
+        ("before", before_gains, 10.0 ** problem.current_log_params()),
+        ("after", after_gains, result.best_values),
+    ):
+        values.update({f"{name}_kp": gains[0], f"{name}_ki": gains[1], f"{name}_kd": gains[2]})
+        if problem.controller_type == "lqr":
+            for key, value in zip(("q_integral", "q_position", "q_velocity"), searched, strict=True):
+                values[f"{name}_lqr_{key}"] = float(value)
+            values[f"{name}_lqr_r"] = problem.lqr_r
+        for key, value in describe_margins(problem, gains).items():
+            values[f"{name}_{key}"] = value
+    values["batch_rms_before_rad"], values["batch_rms_after_rad"] = (float(v) for v in batch)
+    tuned = cfg.merge(problem.params, {"pid_controller": problem.overlay(result.best_values)})
+    for name, run_params in (("before", problem.params), ("after", tuned)):
+        progress(f"real graph, {name}: {plan.check_s:g} s sine in lockstep")
+        seeded = cfg.merge(run_params, {"sensor_node": {"seed": seed}})
+        figures, _ = run_lockstep(seeded, out / f"real_{name}", plan.check_s)
+        values[f"real_rms_{name}_rad"] = figures["tracking_rms_rad"]
+        values[f"real_max_{name}_rad"] = figures["tracking_max_rad"]
+        values[f"real_peak_torque_{name}_nm"] = figures["peak_torque_nm"]
+    values["real_duration_s"] = plan.check_s
+    return values

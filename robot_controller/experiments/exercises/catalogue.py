@@ -1,0 +1,49 @@
+"""Every exercise by name, in the tutorial's order, as the CLI runs it
+(``robot-controller exercise NAME --out DIR [--quick]``)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from robot_controller.experiments.exercises import disturbance, lqr, windup, ziegler_nichols
+
+
+@dataclass(frozen=True)
+class Exercise:
+    name: str
+    title: str  #: one line: what it does
+    run: Callable[..., dict[str, Any]]  #: ``run(out, *, quick=False, progress=print) -> results``
+    steps: Callable[[bool], int]  #: ``steps(quick)``: how many times ``run`` calls ``progress``
+
+
+EXERCISES: dict[str, Exercise] = {
+    e.name: e
+    for e in (
+        Exercise(
+            "tune",
+            "tune the PID: Kp until it oscillates (Ku, Tu), then Kd, then Ki",
+            ziegler_nichols.run,
+            ziegler_nichols.steps,
+        ),
+        Exercise(
+            "disturbance",
+            "a 2 N·m step disturbance at t = 5 s: how far and how long",
+            disturbance.run,
+            disturbance.steps,
+        ),
+        Exercise(
+            "windup",
+            "saturation at 2 N·m: every anti-windup mode side by side on a 1 rad step",
+            windup.run,
+            windup.steps,
+        ),
+        Exercise("lqr", "PID against LQR: gains, closed-loop poles and margins, sine and step", lqr.run, lqr.steps),
+    )
+}
+
+
+def steps(name: str, quick: bool = False) -> int:
+    """How many progress steps ``EXERCISES[name].run`` takes (``quick`` or full)."""
+    return EXERCISES[name].steps(quick)

@@ -1,0 +1,60 @@
+"""What the experiments write for people and files: ``results.json`` (flat numbers), tables, numbers
+in them, ``report.md``, and plots (matplotlib on the Agg backend)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robot_controller.scoring import report
+
+Progress = Callable[[str], None]
+
+
+def write_results(out: Path, values: dict[str, Any]) -> dict[str, Any]:
+    """``results.json``: flat keys, numbers (NaN, a figure that could not be measured, as null).
+    Returns what it wrote."""
+    flat: dict[str, Any] = {}
+    for key, value in values.items():
+        if isinstance(value, bool | np.bool_ | int | np.integer):
+            value = int(value)
+        elif isinstance(value, float | np.floating):
+            value = float(value)
+        elif value is not None:
+            raise TypeError(f"results.json: {key} is {type(value).__name__}, not a number")
+        flat[key] = value
+    report.write_metrics(out / "results.json", flat)
+    return report.json_safe(flat)
+
+
+def fmt(value: Any, spec: str = "{:.3g}", missing: str = "—") -> str:
+    """A number for a table; NaN or None as ``missing``."""
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return missing
+    return spec.format(value)
+
+
+def table(headers: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def write_report(out: Path, text: str) -> Path:
+    path = out / "report.md"
+    path.write_text(text.rstrip() + "\n")
+    return path
+
+
+def pyplot():
+    """matplotlib's pyplot on the Agg backend (files only, no display)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
