@@ -5,8 +5,7 @@ simulated plant, coupling and payload included."""
 import numpy as np
 import pytest
 
-from robot_controller.core.controller.config import ControllerConfig
-from robot_controller.core.laws.gains import decoupling_map
+from robot_controller.core.laws import decoupling_map
 from robot_controller.core.model import ArmDynamics, MujocoPlant, Payload
 from robot_controller.robots import ROBOTS, urdf_of
 
@@ -81,10 +80,10 @@ def test_a_payload_adds_its_weight_on_the_last_link():
 def test_decoupled_feedback_gives_each_joint_the_acceleration_its_gains_ask_for():
     model = ArmDynamics(urdf_of("panda"))
     q = np.array(ROBOTS["panda"].home_position)
-    mapping = decoupling_map(ControllerConfig(feedback_decoupling=True), model, q)
+    mapping = decoupling_map(True, model, q)
     mass = model.mass_matrix(q)
     feedback = np.array([1.0, 0, 0, 0, 0, 0, 0.01])
     asked = feedback / np.diag(mass)  # what each joint's gains are for
     np.testing.assert_allclose(np.linalg.solve(mass, mapping @ feedback), asked, atol=1e-12)
-    assert decoupling_map(ControllerConfig(feedback_decoupling=False), model, q) is None
-    assert decoupling_map(ControllerConfig(feedback_decoupling=True), model, q[:1]) is None  # one joint: none
+    assert decoupling_map(False, model, q) is None
+    assert decoupling_map(True, model, q[:1]) is None  # one joint: none

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from robot_controller.core.controller.controller import ControlOutput, JointController, Status
 from robot_controller.core.controller.output import ReferenceSource
-from robot_controller.core.controller.reference_at_tick import Reference
+from robot_controller.core.laws import Reference
 from robot_controller.core.laws.pid import PidTerms
 from tests.core.joint_rig import PERIOD, TORQUE_MAX, arm, config, one, run, tracking
 
@@ -211,14 +211,14 @@ def test_law_in_force_for_lqr_gives_the_designed_gains_and_says_kp_ki_kd_are_unu
 def test_the_law_is_feedback_plus_the_models_feedforward_within_the_limit():
     c = JointController(config(feedforward="full"), 1, arm())
     c.set_measurement(0.0, 0.0, one(0.1), one(0.0))
-    reference = Reference(one(0.12), one(0.5), one(2.0), Status.OK, ReferenceSource.TRAJECTORY)
-    out = c._apply_law(0.0, PERIOD, one(0.1), one(0.0), reference)
+    reference = Reference(one(0.12), one(0.5), one(2.0))
+    out = c._apply_law(0.0, one(0.1), one(0.0), reference)
     assert out.terms.feedforward[0] == pytest.approx(arm().torque(one(0.12), one(0.5), one(2.0))[0])
     assert out.terms.p[0] == pytest.approx(50 * 0.02)
     expected = out.terms.feedforward + out.terms.p + out.terms.i + out.terms.d
     assert out.command[0] == pytest.approx(np.clip(expected, -TORQUE_MAX, TORQUE_MAX)[0])
-    far = Reference(one(5.0), one(0.0), one(0.0), Status.OK, ReferenceSource.TRAJECTORY)
-    assert c._apply_law(PERIOD, PERIOD, one(0.1), one(0.0), far).command[0] == TORQUE_MAX
+    far = Reference(one(5.0), one(0.0), one(0.0))
+    assert c._apply_law(PERIOD, one(0.1), one(0.0), far).command[0] == TORQUE_MAX
 
 
 def test_control_output_keeps_its_five_field_constructor():

@@ -8,7 +8,7 @@ from robot_controller import resources
 from robot_controller.core.controller.controller import ControllerConfig, law_config
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation.estimator import JointKalmanFilter, KalmanConfig
-from robot_controller.core.laws import lqr
+from robot_controller.core.laws import lqr, robustness
 from robot_controller.core.model import ArmDynamics, MujocoPlant, SensorConfig, measure
 
 INERTIA, DAMPING, DT = 1.0 / 12.0, 0.1, 0.01
@@ -98,10 +98,12 @@ def test_kalman_settings_are_checked():
 
 
 def test_delay_margin_counts_the_periods_of_delay_the_loop_survives():
-    from robot_controller.core.laws.lqr import delay_margin_periods
-
     one = np.array([[1.0]])
     # x[k+1] = x[k] − k·x[k−d]: k = 1.5 is stable undelayed but not one period late; k = 0.5 is.
-    assert delay_margin_periods(one, one, np.array([[1.5]])) == 0
-    assert delay_margin_periods(one, one, np.array([[0.5]])) >= 1
-    assert delay_margin_periods(one, one, np.array([[0.05]])) > delay_margin_periods(one, one, np.array([[0.5]]))
+    margin = robustness.delay_margin_periods
+    assert margin(one, one, np.array([[1.5]]))[0] == 0
+    assert margin(one, one, np.array([[0.5]]))[0] >= 1
+    assert margin(one, one, np.array([[0.05]]))[0] > margin(one, one, np.array([[0.5]]))[0]
+    assert margin(one, one, np.array([[1.5], [0.5], [0.05]])).tolist() == [
+        margin(one, one, k)[0] for k in (1.5, 0.5, 0.05)
+    ]

@@ -7,15 +7,19 @@ Units: seconds, radians, N·m. The control law's own gains and limits are a
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.estimation.estimator import KalmanConfig
+from robot_controller.core.estimation import KalmanConfig
+from robot_controller.core.laws import lqr
 from robot_controller.core.laws.feedforward import FeedforwardMode
 from robot_controller.core.laws.pid import PidConfig
 from robot_controller.core.laws.registry import BUILTIN_LAWS
+
+if TYPE_CHECKING:
+    from robot_controller.core.model import ArmDynamics
 
 
 @dataclass
@@ -116,3 +120,41 @@ class ControllerConfig:
     def watchdog_s(self) -> float:
         """Silence of the sensor (s) after which the watchdog's controlled stop starts."""
         return self.watchdog_periods * self.control_period_s
+
+    def law_params(self) -> dict[str, Any]:
+        """The built-in law's parameters (:class:`~robot_controller.core.laws.builtin.BuiltinLaw`)."""
+        return {
+            "pid": self.pid,
+            "feedforward": self.feedforward,
+            "feedback_decoupling": self.feedback_decoupling,
+            "lqr_q": self.lqr_q,
+            "lqr_r": self.lqr_r,
+            "reference_inertia": self.reference_inertia,
+            "design_position": self.design_position,
+        }
+
+    def observer_torque_scale(self, dynamics: ArmDynamics, joint_count: int) -> np.ndarray | None:
+        """Per joint, the factor on the disturbance observer's torque σs: the joint's inertia over
+        ``reference_inertia`` (None when that is 0: the σs as they are)."""
+        if self.reference_inertia <= 0:
+            return None
+        return lqr.design_inertia(dynamics, joint_count, self.design_position) / self.reference_inertia
+
+
+def law_config(
+    config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int, kind: str | None = None
+) -> PidConfig:
+    """The PID settings the built-in law ``kind`` ("pid" or "lqr"; None: :attr:`ControllerConfig.builtin_law`)
+    runs with: for LQR, the designed gains (``ConfigError`` if there is no design)."""
+    if (kind or config.builtin_law) == "pid":
+        return config.pid
+    return lqr.designed_gains(
+        config.pid,
+        dynamics,
+        joint_count,
+        config.control_period_s,
+        config.lqr_q,
+        config.lqr_r,
+        config.reference_inertia,
+        config.design_position,
+    )

@@ -1,14 +1,12 @@
 """The joint controller the ``pid_controller`` node runs, called once per tick.
 
-It keeps the latest reference and reading with the times they arrived and,
-on :meth:`JointController.update`, turns them into one torque command in a
-fixed sequence of named steps: advance the tick clock, check the inputs'
-health, estimate the arm's state at the tick, take the reference at the
-tick, run the law. The steps' workings live in their own modules:
-:mod:`~robot_controller.core.controller.health`, :mod:`~robot_controller.core.controller.tick_state`,
-:mod:`~robot_controller.core.controller.reference_at_tick`, :mod:`~robot_controller.core.laws.gains`;
-the steps themselves and the stops that answer a fault, in
-:mod:`~robot_controller.core.controller.tick`.
+It keeps the latest reference and reading with the times they arrived and, on
+:meth:`JointController.update`, turns them into one torque command in a fixed
+sequence of steps: advance the tick clock, check the inputs' health
+(:mod:`~robot_controller.core.controller.supervision`), estimate the arm's state at
+the tick (:mod:`~robot_controller.core.controller.tick_state`), take the reference
+at the tick (:mod:`~robot_controller.core.controller.reference_at_tick`), run the law
+(:mod:`~robot_controller.core.laws.in_loop`); or one of the stops that answer a fault.
 """
 
 from __future__ import annotations
@@ -17,29 +15,21 @@ from collections.abc import Callable
 
 import numpy as np
 
-from robot_controller.core.controller.config import ControllerConfig
-from robot_controller.core.controller.health import REACQUIRE_GAP_PERIODS, Readings, TickClock
-from robot_controller.core.controller.latency import LatencyGuard, LatencyState
+from robot_controller.core.controller.config import ControllerConfig, law_config
+from robot_controller.core.controller.latency import LatencyGuard, LatencyState, delay_margin_periods
 from robot_controller.core.controller.output import ControlOutput, ReferenceSource, Status
 from robot_controller.core.controller.reference_at_tick import ReferenceAtTick
 from robot_controller.core.controller.setpoint import REFERENCE_TIMEOUT_PERIODS
-from robot_controller.core.controller.tick import TickSteps
-from robot_controller.core.controller.tick_state import StateAtTick
+from robot_controller.core.controller.supervision import REACQUIRE_GAP_PERIODS, Readings, TickClock, check_health
+from robot_controller.core.controller.tick_state import StateAtTick, make_estimator
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.estimation.estimator import JointKalmanFilter
-from robot_controller.core.laws import registry
+from robot_controller.core.estimation import JointKalmanFilter
+from robot_controller.core.laws import Reference, State, registry
 from robot_controller.core.laws.builtin import BuiltinLaw
 from robot_controller.core.laws.containment import LawFault
 from robot_controller.core.laws.feedforward import FeedforwardMode
-from robot_controller.core.laws.gains import (
-    delay_margin_periods,
-    describe_law,
-    design_inertia,
-    law_config,
-    observer_torque_scale,
-)
-from robot_controller.core.laws.pid import Pid, PidConfig
-from robot_controller.core.laws.plugin import PluginLaw
+from robot_controller.core.laws.in_loop import LawInLoop, arm_for
+from robot_controller.core.laws.pid import Pid, PidConfig, PidTerms
 from robot_controller.core.model import ArmDynamics
 
 __all__ = [
@@ -53,13 +43,22 @@ __all__ = [
     "law_config",
 ]
 
+# After a plugin law fails, the arm is held at rest on the built-in law this long before the
+# torque goes off and the brakes hold (category 2, then 1).
+LAW_FAULT_HOLD_S = 0.5
+# After the latency stop comes to rest, the arm is held on the model this long (open loop it drifts
+# under a late command path) before the torque goes off and the brakes hold, until the loop is on time.
+LATE_HOLD_S = 0.1
+# After the stop for missing readings comes to rest, the same, for the same reason (open loop, an arm
+# above the horizontal drifts from its hold).
+SENSOR_STOP_HOLD_S = 0.1
 
-class JointController(TickSteps):
-    """``law_clock``: a function giving seconds of wall time, to hold a plugin law to
-    its ``law_budget_s`` (None: its time is not checked, as in the in-process loops).
-    ``latency_guard``: stop the motion while the readings' and commands' delay is
-    past the delay margin (:mod:`~robot_controller.core.controller.latency`; the node's wall
-    clock: in lockstep and the in-process loops nothing is late)."""
+
+class JointController:
+    """``law_clock``: a function giving seconds of wall time, to hold a plugin law to its
+    ``law_budget_s`` (None: its time is not checked, as in the in-process loops).
+    ``latency_guard``: stop the motion while the readings' and commands' delay is past the
+    delay margin (:mod:`~robot_controller.core.controller.latency`)."""
 
     def __init__(
         self,
@@ -74,54 +73,60 @@ class JointController(TickSteps):
         self.config = config
         self.joint_count = joint_count
         self.dynamics = dynamics
-        # The built-in law: the law itself, or under a plugin law the one that stops the arm if it fails.
-        self.builtin = BuiltinLaw.of_kind(config.builtin_law, config, dynamics, joint_count)
         if not config.plugin_law and not issubclass(registry.resolve(config.controller_type), BuiltinLaw):
             raise ConfigError(f"controller_type: {config.controller_type!r} is registered to a law not built in")
-        self.plugin = PluginLaw.build(config, dynamics, joint_count, law_clock) if config.plugin_law else None
+        #: the built-in law: the law in force, or under a plugin law the one that stops the arm if it fails
+        self.stop_law = self._builtin(config)
+        self.law = self._plugin(config, law_clock) if config.plugin_law else self.stop_law  #: the law in force
         self._law_fault_rest_s: float | None = None  # when the stop after a law fault came to rest
-        self._state = StateAtTick(joint_count, dynamics, self._make_estimator(config))
+        self._state = StateAtTick(joint_count, dynamics, make_estimator(config, dynamics, joint_count))
         self._reference = ReferenceAtTick(joint_count)
         self._readings = Readings()
         self._clock = TickClock()
         self._halted = False
         self._braked = False
         self._latency_guard = latency_guard
-        self._latency: LatencyGuard | None = self._make_latency_guard(config) if latency_guard else None
-        self._was_late = False
+        self._latency = LatencyGuard.for_margin(self.delay_margin_periods(), config) if latency_guard else None
         self._late_rest_s: float | None = None  # when the latency stop came to rest
         self._sensor_rest_s: float | None = None  # when the stop for missing readings came to rest
         #: the latency guard's latest verdict (None without a guard, or before its first tick)
         self.latency: LatencyState | None = None
 
-    def _make_estimator(self, config: ControllerConfig) -> JointKalmanFilter | None:
-        if config.estimator is None:
-            return None
-        if self.dynamics is None:
-            raise ConfigError("estimator kalman: needs the arm model (urdf_path)")
-        return JointKalmanFilter(
-            config.estimator,
-            self.joint_count,
-            self.dynamics.predict,
-            jacobian=getattr(self.dynamics, "step_jacobian", None),
-            estimate_disturbance=config.observes_disturbance,
-            mass_matrix=self.dynamics.mass_matrix,
-            one_joint=getattr(self.dynamics, "one_joint", None),
-            disturbance_limit=config.pid.output_limit,
-            torque_scale=observer_torque_scale(
-                design_inertia(self.dynamics, self.joint_count, config.design_position), config.reference_inertia
-            ),
-        )
+    def _builtin(self, config: ControllerConfig) -> LawInLoop:
+        arm = arm_for(self.dynamics, self.joint_count, config.pid.output_limit)
+        return LawInLoop.builtin(config.builtin_law, arm, config.control_period_s, config.law_params())
+
+    def _plugin(self, config: ControllerConfig, clock: Callable[[], float] | None) -> LawInLoop:
+        arm = arm_for(self.dynamics, self.joint_count, config.pid.output_limit)
+        law = LawInLoop.plugin(config.controller_type, arm, config.control_period_s, config.law_parameters, clock)
+        self._hold_to_limits(law, config)
+        return law
+
+    @staticmethod
+    def _hold_to_limits(law: LawInLoop, config: ControllerConfig) -> None:
+        pid = config.pid
+        budget, error_max, deceleration = config.law_budget_s, config.law_error_max_rad, config.stop_deceleration
+        law.set_limits(pid.output_limit, pid.slew_rate_limit, budget, error_max, deceleration)
+
+    @property
+    def plugin(self) -> LawInLoop | None:
+        """The user's law in force, or None under a built-in law."""
+        return self.law if self.law is not self.stop_law else None
+
+    @property
+    def builtin(self) -> BuiltinLaw:
+        """The built-in law (the law in force, or the one a plugin law's stops run on)."""
+        return self.stop_law.law
 
     @property
     def pid(self) -> Pid:
-        """The built-in law's PID (for a plugin law, the one its stops run on)."""
+        """The built-in law's PID."""
         return self.builtin.pid
 
     @property
     def law_fault(self) -> LawFault | None:
         """What the plugin law did wrong, once it has (it is then never called again)."""
-        return None if self.plugin is None else self.plugin.fault
+        return self.law.fault
 
     @property
     def estimator(self) -> JointKalmanFilter | None:
@@ -133,48 +138,28 @@ class JointController(TickSteps):
         """The planner's period (s), learned from consecutive sample times."""
         return self._reference.planner.period_s
 
-    # --- the law in force -------------------------------------------------------------
-
     @property
     def gains(self) -> PidConfig:
-        """The gains in force (for LQR, the designed ones)."""
+        """The built-in law's gains in force (for LQR, the designed ones)."""
         return self.pid.config
 
     def law_in_force(self) -> str:
-        """One line saying which law runs and with which gains, e.g. ``"LQR (q=[...],
-        r=10, ...): Kp=[29.7] N·m/rad, ...; the kp/ki/kd parameters are unused"``
-        or ``"PID: Kp=[50] N·m/rad, ..."``: in LQR mode the design replaces
-        kp/ki/kd, which would otherwise be silently ignored. For a plugin law: its
-        name and parameters, and the built-in law its stops run on."""
-        if self.plugin is not None:
-            return f"{self.plugin.describe()}; stops on the built-in {describe_law(self.config, self.gains)}"
-        return describe_law(self.config, self.gains)
+        """One line saying which law runs and with which gains; in LQR mode, that the design
+        replaces kp/ki/kd. For a plugin law: its name and parameters, and the built-in law its stops run on."""
+        observer = ""
+        if self.config.observes_disturbance:
+            sigma = self.config.estimator.disturbance_noise_std
+            observer = f", disturbance observer (σ {sigma:g} N·m/√s, estimate subtracted)"
+        builtin = self.builtin.describe(observer)
+        return builtin if self.plugin is None else f"{self.plugin.describe()}; stops on the built-in {builtin}"
 
     def delay_margin_periods(self) -> int | None:
-        """Whole control periods of delay nobody accounts for (a late command, a
-        reading stamped on arrival) the feedback survives, on the worst joint:
-        the gains in force on the arm linearised at rest, as
-        :func:`lqr.delay_margin_periods` reckons it. None without the arm model.
-
-        Delay the stamps show is compensated on the model (``latency_compensation``);
-        this is the margin for the rest, e.g. the controller → motor → simulator path.
-        With the disturbance observer, the loop through the filter and the
-        observer (:func:`law.observer_delay_margin_periods`): a fast observer
-        takes a late reading for a push and spends the margin. None for a plugin
-        law: its feedback is not known here.
-        """
+        """Whole control periods of unaccounted delay the built-in law's feedback survives on the
+        worst joint (:func:`~robot_controller.core.controller.latency.delay_margin_periods`); None
+        without the arm model, and for a plugin law (its feedback is not known here)."""
         if self.plugin is not None:
             return None
-        return delay_margin_periods(
-            self.gains,
-            self.dynamics,
-            self.joint_count,
-            self.config.control_period_s,
-            self.config.estimator,
-            self.config.observes_disturbance,
-            self.config.design_position,
-            self.config.reference_inertia,
-        )
+        return delay_margin_periods(self.gains, self.dynamics, self.joint_count, self.config)
 
     def set_config(self, config: ControllerConfig) -> None:
         """New gains and options, applied bumplessly from the next tick."""
@@ -184,22 +169,27 @@ class JointController(TickSteps):
             raise ConfigError(
                 "controller_type: a law of one's own is chosen when the controller starts; restart it to change"
             )
-        law_config(config, self.dynamics, self.joint_count, config.builtin_law)  # refuses a bad design first
+        law_config(config, self.dynamics, self.joint_count)  # refuses a bad design first
         if self.plugin is not None:
-            self.plugin.set_params(config)
+            if config.law_parameters != self.config.law_parameters:
+                self.plugin.set_params(config.law_parameters)
+            self._hold_to_limits(self.plugin, config)
         if config.estimator != self.config.estimator or config.observes_disturbance != self.config.observes_disturbance:
-            self._state.kalman = self._make_estimator(config)
+            self._state.kalman = make_estimator(config, self.dynamics, self.joint_count)
         elif self._state.kalman is not None:
             self._state.kalman.disturbance_limit = np.broadcast_to(
                 np.asarray(config.pid.output_limit, float), (self.joint_count,)
             ).copy()
+        builtin_in_force = self.law is self.stop_law
         self.config = config
         if config.builtin_law != self.builtin.kind:
-            self.builtin = BuiltinLaw.of_kind(config.builtin_law, config, self.dynamics, self.joint_count)
+            self.stop_law = self._builtin(config)
         else:
-            self.builtin.set_config(config)
+            self.stop_law.set_params(config.law_params())
+        if builtin_in_force:
+            self.law = self.stop_law
         if self._latency_guard:  # the margin of the new gains
-            guard = self._make_latency_guard(config)
+            guard = LatencyGuard.for_margin(self.delay_margin_periods(), config)
             if guard is not None and self._latency is not None:
                 self._latency.tolerated_s, self._latency.compensated_s = guard.tolerated_s, guard.compensated_s
             else:
@@ -215,8 +205,7 @@ class JointController(TickSteps):
         acceleration: np.ndarray,
         sample_time_s: float | None = None,
     ) -> None:
-        """A new reference sample. Its time base is ``sample_time_s`` when the
-        planner sent one, otherwise the time it arrived."""
+        """A new reference sample; its time base is ``sample_time_s`` when the planner sent one, else its arrival."""
         self._reference.planner.receive(received_s, position, velocity, acceleration, sample_time_s)
 
     def has_reference(self) -> bool:
@@ -224,8 +213,7 @@ class JointController(TickSteps):
         return self._reference.planner.spoke
 
     def reference_ready(self, tick_s: float) -> bool:
-        """Whether every reference sample due by ``tick_s`` is in (lockstep):
-        the latest is at least as new as the tick, or the next is not due yet."""
+        """Whether every reference sample due by ``tick_s`` is in (lockstep)."""
         return self._reference.planner.ready(tick_s)
 
     @property
@@ -235,23 +223,18 @@ class JointController(TickSteps):
     def set_measurement(
         self, stamp_s: float, received_s: float, position: np.ndarray, velocity: np.ndarray
     ) -> str | None:
-        """Take a reading stamped ``stamp_s`` that arrived at ``received_s``.
-
-        Returns why it was refused (it is then not a sign of life for the
-        watchdog either), or None.
-        """
+        """Take a reading stamped ``stamp_s`` that arrived at ``received_s``; returns why it was
+        refused (it is then no sign of life for the watchdog either), or None."""
         refused = self._readings.accept(stamp_s, received_s, position, velocity, self.config.max_reading_age_s)
         age_s = received_s - stamp_s
         if self._latency is not None and (refused is None or age_s > 0):
-            # One refused as too old is the plainest sign of a late loop: weighed too. (Left out,
-            # the readings' part of the delay could never pass the margin: those kept are at most
-            # max_reading_age_s old, all of which the latency compensation accounts for.)
+            # A reading refused as too old is weighed too: those kept are at most max_reading_age_s
+            # old, all of which the latency compensation accounts for.
             self._latency.reading(age_s)
         return refused
 
     def command_delay(self, receipt_s: float, delay_s: float) -> None:
-        """A command of this controller's reached the drive ``delay_s`` seconds after its
-        tick (the drive's receipt at ``receipt_s``): the latency guard weighs it."""
+        """A command reached the drive ``delay_s`` after its tick (the drive's receipt at ``receipt_s``)."""
         if self._latency is not None:
             self._latency.command(receipt_s, delay_s)
 
@@ -260,21 +243,15 @@ class JointController(TickSteps):
         return self._readings.latest is not None
 
     def halt(self, halted: bool) -> None:
-        """An e-stop holds the drive: command nothing; when it is released,
-        re-acquire from the measurement."""
+        """An e-stop holds the drive: command nothing; when it is released, re-acquire from the measurement."""
         if halted and not self._halted:
             self._reference.request_reacquire()
         self._halted = halted
 
     def brakes(self, engaged: bool) -> None:
-        """The drive reports its brakes. While they hold, whatever this
-        controller commands does not move the arm: start again from the
-        measurement every tick (no integral winds up), so the release finds a
-        reference that begins where the arm is. Their release asks for one more
-        start: a reading taken while they held, or across the moment they let
-        go, shows the brake's work, which the filter's model knows nothing of
-        (a one-tick brake took 3 rad/s off the arm, and the filter read it as
-        a 10 N·m external torque)."""
+        """The drive reports its brakes. While they hold, start again from the measurement every
+        tick (no integral winds up); their release asks for one more start, since a reading taken
+        while they held shows the brake's work, which the filter's model knows nothing of."""
         if self._braked and not engaged:
             self._reference.request_reacquire()
         self._braked = engaged
@@ -283,23 +260,140 @@ class JointController(TickSteps):
 
     def update(self, now_s: float) -> ControlOutput:
         """Compute the command for the tick at ``now_s`` seconds."""
-        tick = self._advance_clock(now_s)
+        config = self.config
+        tick = self._clock.advance(now_s, config.control_period_s)
+        if tick.paused:  # this controller was not running: the world moved on
+            self._reference.request_reacquire()
+            self._readings.excuse_pause(tick.gap_s, config.control_period_s, config.max_reading_age_s)
         self._reference.planner.advance_to(now_s)  # the samples that were sent ahead of their time
-        health = self._check_health(now_s)
+        health = check_health(self._readings, now_s, self._halted, self._braked, config)
+        if health.restart:
+            self._reference.request_reacquire()
         if not health.status.commanding:
             return self._no_command(now_s, health.status)
         if self.law_fault is not None:
-            return self._stop_after_law_fault(now_s, tick.dt_s, health.status)
-        # Late first: its stop runs open loop on the model, readings or not, and a late link
-        # delivers readings in gaps; left to the watchdog, each gap began another stop on the
-        # model whose commands released the brakes the late stop had left holding.
-        if self._latency is not None and self._late(now_s):
-            return self._stop_when_late(now_s, tick.dt_s)
+            return self._stop_after_law_fault(now_s, health.status)
+        # Late first: its stop runs open loop on the model, readings or not (a late link delivers
+        # readings in gaps, and each gap would begin another stop on the model).
+        if self._latency is not None:
+            self.latency = self._latency.update(now_s)
+            if self.latency.cleared:  # on time again: lead the arm back onto the trajectory
+                self._late_rest_s = None
+                self._reference.request_reacquire()
+            if self.latency.late:
+                return self._stop_when_late(now_s)
         if health.status is Status.WATCHDOG:
-            return self._stop_on_model(now_s, tick.dt_s)
+            return self._stop_on_model(now_s)
         self._sensor_rest_s = None
         if self._reference.reacquire_pending:
             self._restart_from_measurement(now_s)
         position, velocity = self._estimate_at_tick(now_s)
-        reference = self._reference_at_tick(now_s, position)
-        return self._apply_law(now_s, tick.dt_s, position, velocity, reference)
+        reference = self._reference.at_tick(now_s, position, config)
+        return self._apply_law(now_s, position, velocity, reference)
+
+    def _estimate_at_tick(self, now_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """The arm's ``(position rad, velocity rad/s)`` at ``now_s``: the reading, filtered, advanced to the tick."""
+        return self._state.at_tick(now_s, self._readings, self.config.latency_compensation)
+
+    def _restart_from_measurement(self, now_s: float) -> None:
+        """A fault has cleared (or the loop is starting): forget the law's and the filter's state,
+        and lead the arm from where the reading says it is onto the trajectory, if there is a fresh
+        one (otherwise the reference holds the arm, and this is tried again next tick)."""
+        self._state.reset()
+        position, velocity = StateAtTick.reading_alone(now_s, self._readings, self.config.latency_compensation)
+        state = self._law_state(position, velocity, None)
+        self.law.reset(now_s, state)
+        if self.law is not self.stop_law:
+            self.stop_law.reset(now_s, state)
+        self._reference.try_reacquire(now_s, position, velocity, self.config)
+
+    def _stop_when_late(self, now_s: float) -> ControlOutput:
+        """The loop is later than its gains survive (feedback through that delay oscillates):
+        category 2, the reference brought to rest with the law on the model's prediction (open
+        loop), held LATE_HOLD_S, then no commands (category 1) until the loop is on time again."""
+        if self._late_rest_s is not None and now_s - self._late_rest_s >= LATE_HOLD_S:
+            return self._no_command(now_s, Status.LATE_STOPPED)
+        position, velocity = self._state.coast(now_s, self._readings)
+        reference = self._reference.late_stop(now_s, position, self.config)
+        if self._late_rest_s is None and self._reference.late_stop_at_rest(now_s):
+            self._late_rest_s = now_s
+        return self._apply_law(now_s, position, velocity, reference)
+
+    def _stop_on_model(self, now_s: float) -> ControlOutput:
+        """Readings are missing: category 2 on the model's prediction, held SENSOR_STOP_HOLD_S at
+        rest, then no commands (category 1) until readings return."""
+        if self._sensor_rest_s is not None and now_s - self._sensor_rest_s >= SENSOR_STOP_HOLD_S:
+            return self._no_command(now_s, Status.SENSOR_LOST)
+        if self._braked:  # the brakes hold the arm already; a command would release them
+            return self._no_command(now_s, Status.SENSOR_LOST)
+        position, velocity = self._state.coast(now_s, self._readings)
+        reference = self._reference.sensor_stop(now_s, position, self.config)
+        if self._sensor_rest_s is None and self._reference.sensor_stop_at_rest(now_s):
+            self._sensor_rest_s = now_s
+        return self._apply_law(now_s, position, velocity, reference)
+
+    def _stop_after_law_fault(self, now_s: float, status: Status) -> ControlOutput:
+        """The plugin law failed: the built-in law brings the reference to rest (category 2, on the
+        model's estimate while readings are missing), holds it LAW_FAULT_HOLD_S, then commands
+        nothing: the drive's command timeout takes the torque off and the brakes hold (category 1)."""
+        if self._law_fault_rest_s is not None and now_s - self._law_fault_rest_s >= LAW_FAULT_HOLD_S:
+            return self._no_command(now_s, Status.LAW_STOPPED)
+        if status is Status.WATCHDOG:
+            position, velocity = self._state.coast(now_s, self._readings)
+        else:
+            position, velocity = self._estimate_at_tick(now_s)
+        reference = self._reference.law_stop(now_s, None, self.config)
+        if self._law_fault_rest_s is None and self._reference.law_stop_at_rest(now_s):
+            self._law_fault_rest_s = now_s
+        return self._apply_law(now_s, position, velocity, reference)
+
+    def _apply_law(
+        self, now_s: float, position: np.ndarray, velocity: np.ndarray, reference: Reference
+    ) -> ControlOutput:
+        """The law in force's torque within the torque limit; remembered for the estimator and the
+        model's predictions. A plugin law that fails is answered at once: this tick starts the stop
+        on the built-in law."""
+        disturbance = self._state.disturbance()
+        state = self._law_state(position, velocity, disturbance)
+        law = self.stop_law if self.law.fault is not None else self.law
+        outcome = law.update(now_s, state, reference)
+        if isinstance(outcome, LawFault):
+            law = self.stop_law
+            law.reset(now_s, state)
+            reference = self._reference.law_stop(now_s, reference, self.config)
+            outcome = law.update(now_s, state, reference)
+        terms, law_terms = outcome
+        self._state.remember_command(now_s, terms.command)
+        return ControlOutput(
+            now_s,
+            self._reference.status,
+            reference.position,
+            position,
+            terms,
+            self._reference.source,
+            disturbance,
+            law_terms if law.contained is not None else None,
+        )
+
+    def _law_state(self, position: np.ndarray, velocity: np.ndarray, disturbance: np.ndarray | None) -> State:
+        """What a law is told of the arm: the estimate, the latest reading and the observer's torque."""
+        measured = self._readings.latest if self._readings.latest is not None else (position, velocity)
+        return State(position, velocity, *measured, np.zeros(self.joint_count) if disturbance is None else disturbance)
+
+    def _no_command(self, now_s: float, status: Status) -> ControlOutput:
+        """A tick that commands nothing: zero torque, remembered as issued; the reported reference
+        and measurement are the arm's last known position (zero before any)."""
+        if status is Status.NO_MEASUREMENT:
+            position = np.zeros(self.joint_count)
+        elif status is Status.STOPPED:
+            position = self._readings.latest[0]
+        else:  # SENSOR_LOST, LAW_STOPPED, LATE_STOPPED: the stop is over; torque off, the brake holds
+            position = self._state.last_position(self._readings)
+        zeros = np.zeros(self.joint_count)
+        self._state.remember_command(now_s, zeros)
+        # Nothing commanded, nothing to learn from: the filter starts afresh (d̂ = 0) with the
+        # re-acquisition that every way back to commanding goes through.
+        self._state.reset_filter()
+        terms = PidTerms(zeros, zeros, zeros, zeros, zeros, np.zeros(self.joint_count, dtype=bool))
+        position = np.asarray(position, float)
+        return ControlOutput(now_s, status, position, position, terms, ReferenceSource.NONE)

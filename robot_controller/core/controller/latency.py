@@ -30,6 +30,16 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass
 from statistics import median
+from typing import TYPE_CHECKING
+
+from robot_controller.core.controller.tick_state import MAX_EXTRAPOLATION_S
+from robot_controller.core.estimation import steady_state_gain
+from robot_controller.core.laws import lqr, robustness
+from robot_controller.core.laws.pid import PidConfig
+
+if TYPE_CHECKING:
+    from robot_controller.core.controller.config import ControllerConfig
+    from robot_controller.core.model import ArmDynamics
 
 #: How many recent readings (and command receipts) the medians cover.
 WINDOW = 10
@@ -46,6 +56,7 @@ class LatencyState:
     late: bool
     delay_s: float  #: the loop's unaccounted delay now (s): readings' part + commands' part
     tolerated_s: float  #: what the gains survive (s)
+    cleared: bool = False  #: on time again at this verdict, after being late
 
 
 class LatencyGuard:
@@ -60,6 +71,14 @@ class LatencyGuard:
         self._commands: deque[tuple[float, float]] = deque(maxlen=WINDOW)  # (receipt s, delay s)
         self._late = False
         self._within_since: float | None = None  # when the delay last came within half the margin
+
+    @classmethod
+    def for_margin(cls, margin_periods: int | None, config: ControllerConfig) -> LatencyGuard | None:
+        """The guard for a delay margin of ``margin_periods`` (None when it is not known: no guard)."""
+        if margin_periods is None:
+            return None
+        compensated_s = MAX_EXTRAPOLATION_S if config.latency_compensation else 0.0
+        return cls(margin_periods * config.control_period_s, compensated_s)
 
     def reading(self, age_s: float) -> None:
         """A reading arrived ``age_s`` seconds after its stamp."""
@@ -79,6 +98,7 @@ class LatencyGuard:
         """The verdict at ``now_s``: late above the margin, on time again after
         ``CLEAR_AFTER_S`` within half of it."""
         delay = self.delay_s(now_s)
+        was_late = self._late
         if delay > self.tolerated_s:
             self._late, self._within_since = True, None
         elif self._late:
@@ -88,10 +108,33 @@ class LatencyGuard:
                 self._within_since = now_s
             elif now_s - self._within_since >= CLEAR_AFTER_S:
                 self._late, self._within_since = False, None
-        return LatencyState(self._late, delay, self.tolerated_s)
+        return LatencyState(self._late, delay, self.tolerated_s, was_late and not self._late)
 
-    def forget(self) -> None:
-        """Start afresh (the readings stopped: their ages say nothing about the ones to come)."""
-        self._readings.clear()
-        self._commands.clear()
-        self._late, self._within_since = False, None
+
+def delay_margin_periods(
+    gains: PidConfig, dynamics: ArmDynamics | None, joint_count: int, config: ControllerConfig
+) -> int | None:
+    """Whole control periods of delay nobody accounts for (a late command, a reading stamped on
+    arrival) the feedback with ``gains`` survives on the worst joint, the arm linearised at rest at
+    the design pose (:func:`robustness.delay_margin_periods`). With the disturbance observer, the
+    loop through the filter and the observer (:func:`robustness.observer_delay_margin_periods`),
+    for the filter as it is while the readings agree with it and as it becomes when they do not
+    (``KalmanConfig.at_mismatch``: late readings disagree), the worse. None without the arm model."""
+    if dynamics is None:
+        return None
+    period_s = config.control_period_s
+    inertia = lqr.design_inertia(dynamics, joint_count, config.design_position)
+    scale = config.observer_torque_scale(dynamics, joint_count)
+    margins = []
+    for j in range(joint_count):
+        ki, kp, kd = float(gains.ki[j]), float(gains.kp[j]), float(gains.kd[j])
+        joint_inertia, damping = float(inertia[j]), float(dynamics.damping[j])
+        if config.observes_disturbance:
+            joint_filter = config.estimator if scale is None else config.estimator.for_inertia(float(scale[j]))
+            for filter_ in (joint_filter, joint_filter.at_mismatch()):
+                filter_gains = steady_state_gain(filter_, joint_inertia, damping, period_s, estimate_disturbance=True)
+                margins.append(robustness.observer_delay_margin_periods((ki, kp, kd), filter_gains, period_s))
+        else:
+            A, B = lqr.discretise(joint_inertia, damping, period_s)
+            margins.append(int(robustness.delay_margin_periods(A, B, robustness.pid_gain_row(kp, ki, kd))[0]))
+    return min(margins)

@@ -10,14 +10,14 @@ never passed off as the planner's.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 import numpy as np
 
-from robot_controller.core.laws.pid import PidTerms
+from robot_controller.core.laws import PidTerms
 
 
-class Status(str, Enum):
+class Status(StrEnum):
     OK = "ok"
     HOLDING = "holding"  #: no reference yet: holding the first measured position
     NO_MEASUREMENT = "no_measurement"  #: no valid sensor message yet: no command
@@ -39,13 +39,13 @@ class Status(str, Enum):
         return self not in _NOT_COMMANDING
 
 
-# (A set made once: asked every tick, the members looked up each time cost more than the test.)
+# Made once: asked every tick.
 _NOT_COMMANDING = frozenset(
     (Status.NO_MEASUREMENT, Status.SENSOR_LOST, Status.STOPPED, Status.LAW_STOPPED, Status.LATE_STOPPED)
 )
 
 
-class ReferenceSource(str, Enum):
+class ReferenceSource(StrEnum):
     """Where the tick's reference (rad, rad/s, rad/s²) came from."""
 
     TRAJECTORY = "trajectory"  #: the planner's latest sample as it is (held between samples)

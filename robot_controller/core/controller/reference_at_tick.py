@@ -4,14 +4,12 @@ or after a fault until a fresh sample comes), a controlled stop when the
 planner goes quiet or the readings go missing (IEC 60204-1 category 2), and
 a blend from where the arm is back onto the trajectory when a fault clears.
 
-Each :class:`Reference` names its source, so a held or rewritten reference
-is never passed off as the planner's. Positions rad, velocities rad/s,
-accelerations rad/s², times s.
+Each reference made is named with its :attr:`ReferenceAtTick.status` and
+:attr:`ReferenceAtTick.source`, so a held or rewritten reference is never passed
+off as the planner's. Positions rad, velocities rad/s, accelerations rad/s², times s.
 """
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -20,21 +18,7 @@ from robot_controller.core.controller.output import ReferenceSource, Status
 from robot_controller.core.controller.safe_motion import Blend, ControlledStop
 from robot_controller.core.controller.setpoint import PlannerReference, TrajectoryPoint
 from robot_controller.core.controller.tick_state import MAX_EXTRAPOLATION_S
-
-
-@dataclass(frozen=True)
-class Reference:
-    """The reference for one tick and what it is."""
-
-    position: np.ndarray  #: rad
-    velocity: np.ndarray  #: rad/s
-    acceleration: np.ndarray  #: rad/s²
-    status: Status  #: OK, HOLDING, REACQUIRING, REFERENCE_LOST or WATCHDOG
-    source: ReferenceSource
-    #: ``(position, velocity, acceleration)`` the feedforward is computed for: the reference at the
-    #: middle of the control period the command is held over (see
-    #: :meth:`~robot_controller.core.controller.setpoint.PlannerReference.over_period`); None: the reference itself
-    feedforward: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+from robot_controller.core.laws import Reference
 
 
 class ReferenceAtTick:
@@ -54,6 +38,8 @@ class ReferenceAtTick:
         self._law_stop: ControlledStop | None = None
         self._late_stop: ControlledStop | None = None
         self._blend: Blend | None = None
+        self.status = Status.HOLDING  #: the latest reference's: OK, HOLDING, REACQUIRING, a stop's
+        self.source = ReferenceSource.HOLD_POSITION  #: where the latest reference came from
 
     # --- re-acquisition -------------------------------------------------------------
 
@@ -109,7 +95,7 @@ class ReferenceAtTick:
             self._hold_position = arm_position
         zeros = np.zeros(self.joint_count)
         status = Status.HOLDING if not self.planner.spoke else Status.REACQUIRING
-        return Reference(self._hold_position, zeros, zeros, status, ReferenceSource.HOLD_POSITION)
+        return self._named(Reference(self._hold_position, zeros, zeros), status, ReferenceSource.HOLD_POSITION)
 
     def from_trajectory(self, now_s: float, arm_position: np.ndarray, config: ControllerConfig) -> Reference:
         """The trajectory at ``now_s`` (held or extrapolated); while re-acquiring,
@@ -120,7 +106,7 @@ class ReferenceAtTick:
         if planner.sample is None:
             planner.hold_here(arm_position, now_s)
         if not planner.spoke:
-            return Reference(*planner.sample, Status.HOLDING, ReferenceSource.HOLD_POSITION)
+            return self._named(Reference(*planner.sample), Status.HOLDING, ReferenceSource.HOLD_POSITION)
         point = planner.at(now_s, config.reference_extrapolation, config.control_period_s)
         if not point.fresh:
             return self._planner_lost(now_s, point, config)
@@ -134,7 +120,8 @@ class ReferenceAtTick:
         # The command is held over the period: its feedforward is for the reference over it.
         mid_s = now_s + 0.5 * config.control_period_s
         ahead = planner.over_period(now_s, config.control_period_s, config.reference_extrapolation)
-        reference = Reference(point.position, point.velocity, point.acceleration, Status.OK, point.source, ahead)
+        reference = Reference(point.position, point.velocity, point.acceleration, ahead)
+        status, source = Status.OK, point.source
         if self._blend is not None:
             if self._blend.done(now_s):
                 self._blend = None
@@ -144,11 +131,10 @@ class ReferenceAtTick:
                     point.position + offset[0],
                     point.velocity + offset[1],
                     point.acceleration + offset[2],
-                    Status.REACQUIRING,
-                    ReferenceSource.REACQUIRE_BLEND,
                     tuple(x + dx for x, dx in zip(ahead, offset_ahead, strict=True)),
                 )
-        return self._used(now_s, reference)
+                status, source = Status.REACQUIRING, ReferenceSource.REACQUIRE_BLEND
+        return self._used(now_s, reference, status, source)
 
     def _planner_lost(self, now_s: float, point: TrajectoryPoint, config: ControllerConfig) -> Reference:
         """The planner went quiet: bring the reference to rest at
@@ -160,7 +146,7 @@ class ReferenceAtTick:
             self._reference_stop = ControlledStop(now_s, last[0] + last[1] * carried, last[1], config.stop_deceleration)
             self._blend = None
         return self._used(
-            now_s, Reference(*self._reference_stop.at(now_s), Status.REFERENCE_LOST, ReferenceSource.REFERENCE_STOP)
+            now_s, Reference(*self._reference_stop.at(now_s)), Status.REFERENCE_LOST, ReferenceSource.REFERENCE_STOP
         )
 
     def sensor_stop(self, now_s: float, arm_position: np.ndarray, config: ControllerConfig) -> Reference:
@@ -170,7 +156,7 @@ class ReferenceAtTick:
         if self._sensor_stop is None:
             start = self.from_trajectory(now_s, arm_position, config)
             self._sensor_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
-        return self._used(now_s, Reference(*self._sensor_stop.at(now_s), Status.WATCHDOG, ReferenceSource.SENSOR_STOP))
+        return self._used(now_s, Reference(*self._sensor_stop.at(now_s)), Status.WATCHDOG, ReferenceSource.SENSOR_STOP)
 
     def late_stop(self, now_s: float, arm_position: np.ndarray, config: ControllerConfig) -> Reference:
         """The loop's delay is past what the gains survive: from where the reference
@@ -179,7 +165,7 @@ class ReferenceAtTick:
         if self._late_stop is None:
             start = self.from_trajectory(now_s, arm_position, config)
             self._late_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
-        return self._used(now_s, Reference(*self._late_stop.at(now_s), Status.LATE, ReferenceSource.LATE_STOP))
+        return self._used(now_s, Reference(*self._late_stop.at(now_s)), Status.LATE, ReferenceSource.LATE_STOP)
 
     def law_stop(self, now_s: float, start: Reference | None, config: ControllerConfig) -> Reference:
         """The plugin law failed: from ``start`` (the reference of the tick it failed
@@ -188,9 +174,9 @@ class ReferenceAtTick:
         if self._law_stop is None:
             if start is None:
                 last = self._last or (np.zeros(self.joint_count),) * 3
-                start = Reference(*last, Status.LAW_FAULT, ReferenceSource.LAW_STOP)
+                start = Reference(*last)
             self._law_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
-        return self._used(now_s, Reference(*self._law_stop.at(now_s), Status.LAW_FAULT, ReferenceSource.LAW_STOP))
+        return self._used(now_s, Reference(*self._law_stop.at(now_s)), Status.LAW_FAULT, ReferenceSource.LAW_STOP)
 
     def sensor_stop_at_rest(self, now_s: float) -> bool:
         return self._sensor_stop is not None and self._sensor_stop.at_rest(now_s)
@@ -201,7 +187,11 @@ class ReferenceAtTick:
     def law_stop_at_rest(self, now_s: float) -> bool:
         return self._law_stop is not None and self._law_stop.at_rest(now_s)
 
-    def _used(self, now_s: float, reference: Reference) -> Reference:
-        """Remember ``reference`` as the last one used (a later stop starts from it)."""
+    def _used(self, now_s: float, reference: Reference, status: Status, source: ReferenceSource) -> Reference:
+        """Remember ``reference`` as the last one used (a later stop starts from it), named."""
         self._last, self._last_s = (reference.position, reference.velocity, reference.acceleration), now_s
+        return self._named(reference, status, source)
+
+    def _named(self, reference: Reference, status: Status, source: ReferenceSource) -> Reference:
+        self.status, self.source = status, source
         return reference

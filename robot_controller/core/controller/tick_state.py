@@ -17,8 +17,10 @@ from collections import deque
 
 import numpy as np
 
-from robot_controller.core.controller.health import Readings
-from robot_controller.core.estimation.estimator import JointKalmanFilter
+from robot_controller.core.controller.config import ControllerConfig
+from robot_controller.core.controller.supervision import Readings
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.estimation import JointKalmanFilter
 from robot_controller.core.model import ArmDynamics
 
 # Extrapolating further than this (s) is guessing, not compensating.
@@ -37,6 +39,26 @@ DISTURBANCE_HOLD_AVERAGE_S = 0.25
 def clipped_age_s(now_s: float, sample_s: float) -> float:
     """How old (s) a sample taken at ``sample_s`` is at ``now_s``, within [0, MAX_EXTRAPOLATION_S]."""
     return min(max(float(now_s - sample_s), 0.0), MAX_EXTRAPOLATION_S)  # (NaN stays NaN)
+
+
+def make_estimator(
+    config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int
+) -> JointKalmanFilter | None:
+    """The Kalman filter ``config.estimator`` asks for on the arm model (None: none asked for)."""
+    if config.estimator is None:
+        return None
+    if dynamics is None:
+        raise ConfigError("estimator kalman: needs the arm model (urdf_path)")
+    return JointKalmanFilter(
+        config.estimator,
+        joint_count,
+        dynamics.predict,
+        jacobian=getattr(dynamics, "step_jacobian", None),
+        estimate_disturbance=config.observes_disturbance,
+        mass_matrix=dynamics.mass_matrix,
+        disturbance_limit=config.pid.output_limit,
+        torque_scale=config.observer_torque_scale(dynamics, joint_count),
+    )
 
 
 class StateAtTick:

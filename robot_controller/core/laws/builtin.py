@@ -1,72 +1,119 @@
-"""The built-in laws, ``pid`` and ``lqr``, as the entry-point group registers
-them: one PID implementation (:mod:`~robot_controller.core.laws.pid`) with model
-feedforward, the observer's estimate subtracted and, on a chain, decoupled
-feedback (:func:`~robot_controller.core.laws.gains.law_step`); for ``lqr`` its gains
-come from a Riccati design. Unlike a plugin, they take the node's own
-parameters (kp, ki, kd, lqr_q, ...), so they are built from the whole
-:class:`ControllerConfig`. The controller also keeps one as the law that
-stops the arm when a plugin law fails.
+"""The built-in laws, ``pid`` and ``lqr``: :class:`ControlLaw`\\ s like a user's, built with the
+arm, the period and their parameters (the node's kp, ki, kd, lqr_q, ... as
+:meth:`~robot_controller.core.controller.config.ControllerConfig.law_params` gives them).
+One :class:`~robot_controller.core.laws.pid.Pid` runs both: model feedforward for the
+reference over the period, less the observer's estimate of an external torque, plus
+feedback (decoupled on a chain); for ``lqr`` the gains come from a Riccati design.
+
+Gains: Kp N·m/rad, Ki N·m/(rad·s), Kd N·m·s/rad; torques N·m; times s.
 """
 
 from __future__ import annotations
 
-from typing import ClassVar
+from collections.abc import Mapping
+from typing import Any, ClassVar
 
 import numpy as np
 
-from robot_controller.core.controller.config import ControllerConfig
-from robot_controller.core.controller.output import ReferenceSource, Status
-from robot_controller.core.controller.reference_at_tick import Reference as TickReference
-from robot_controller.core.laws.gains import law_config, law_step
-from robot_controller.core.laws.interface import ControlLaw, Reference, State
-from robot_controller.core.laws.pid import Pid, PidTerms
-from robot_controller.core.model import ArmDynamics
+from robot_controller.core.laws import lqr
+from robot_controller.core.laws.feedforward import decoupling_map, feedforward_torque
+from robot_controller.core.laws.interface import Arm, ControlLaw, Reference, State
+from robot_controller.core.laws.pid import Pid, PidConfig, PidTerms
+
+# A tick later than this many periods after the last one is integrated over this many.
+MAX_STEP_PERIODS = 5
 
 
 class BuiltinLaw(ControlLaw):
+    """Params: ``pid`` (a :class:`PidConfig`), ``feedforward`` (a FeedforwardMode),
+    ``feedback_decoupling``, ``lqr_q``, ``lqr_r``, ``reference_inertia``, ``design_position``."""
+
     kind: ClassVar[str] = ""
 
-    def __init__(self, config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int) -> None:
-        self.config = config
-        self.dynamics = dynamics
-        self.joint_count = joint_count
-        self.period_s = config.control_period_s
-        self.pid = Pid(law_config(config, dynamics, joint_count, self.kind))
+    def __init__(self, arm: Arm, period_s: float, params: Mapping[str, Any]) -> None:
+        super().__init__(arm, period_s, params)
+        self.pid = Pid(self.gains())
         self._terms: PidTerms | None = None
+        self._last_s: float | None = None
 
     @staticmethod
-    def of_kind(kind: str, config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int) -> BuiltinLaw:
-        return {"pid": PidLaw, "lqr": LqrLaw}[kind](config, dynamics, joint_count)
+    def of_kind(kind: str, arm: Arm, period_s: float, params: Mapping[str, Any]) -> BuiltinLaw:
+        return {"pid": PidLaw, "lqr": LqrLaw}[kind](arm, period_s, params)
 
-    def set_config(self, config: ControllerConfig) -> None:
+    def gains(self) -> PidConfig:
+        """The PID settings this law runs with (for LQR, the designed gains); ``ConfigError`` if none."""
+        p = self.params
+        if self.kind == "pid":
+            return p["pid"]
+        return lqr.designed_gains(
+            p["pid"],
+            self.arm.model,
+            self.arm.joint_count,
+            self.period_s,
+            p["lqr_q"],
+            p["lqr_r"],
+            p["reference_inertia"],
+            p["design_position"],
+        )
+
+    def set_params(self, params: Mapping[str, Any]) -> None:
         """New gains and options, bumpless (the PID keeps its I term in N·m)."""
-        self.config = config
-        self.pid.set_config(law_config(config, self.dynamics, self.joint_count, self.kind))
+        self.params = dict(params)
+        self.pid.set_config(self.gains())
 
     def reset(self, state: State | None = None) -> None:
         self.pid.reset()
-
-    def step(
-        self,
-        dt_s: float,
-        position: np.ndarray,
-        velocity: np.ndarray,
-        reference: TickReference,
-        disturbance: np.ndarray | None,
-    ) -> PidTerms:
-        """The law over ``dt_s`` with the controller's own reference (its feedforward window included)."""
-        self._terms = law_step(self.pid, self.config, self.dynamics, dt_s, position, velocity, reference, disturbance)
-        return self._terms
+        self._last_s = None
 
     def update(self, time_s: float, state: State, reference: Reference) -> np.ndarray:
-        tick_reference = TickReference(
-            reference.position, reference.velocity, reference.acceleration, Status.OK, ReferenceSource.TRAJECTORY
+        """Feedforward for ``reference.ahead`` less ``state.disturbance``, plus the PID's feedback over
+        the time since the last update (the period on the first, at most MAX_STEP_PERIODS)."""
+        dt_s = self.period_s
+        if self._last_s is not None and time_s > self._last_s:
+            dt_s = min(time_s - self._last_s, MAX_STEP_PERIODS * self.period_s)
+        self._last_s = time_s
+        model = self.arm.model
+        feedforward = feedforward_torque(self.params["feedforward"], model, *reference.ahead) - state.disturbance
+        self._terms = self.pid.step(
+            dt_s,
+            reference.position,
+            reference.velocity,
+            state.position,
+            state.velocity,
+            feedforward,
+            decoupling_map(self.params["feedback_decoupling"], model, state.position),
         )
-        return self.step(self.period_s, state.position, state.velocity, tick_reference, state.disturbance).command
+        return self._terms.command
 
     def terms(self) -> dict[str, np.ndarray]:
         t = self._terms
-        return {} if t is None else {"p": t.p, "i": t.i, "d": t.d, "feedforward": t.feedforward}
+        if t is None:
+            return {}
+        return {
+            "command": t.command,
+            "p": t.p,
+            "i": t.i,
+            "d": t.d,
+            "feedforward": t.feedforward,
+            "saturated": t.saturated,
+        }
+
+    def describe(self, observer: str = "") -> str:
+        """One line for a log or a status topic: the law, the gains in force with their units, the
+        torque limit, the feedforward and ``observer`` (a clause on the disturbance observer). In LQR
+        mode it says so, and that the kp/ki/kd parameters are unused (the design replaced them)."""
+        gains, p = self.pid.config, self.params
+        in_force = (
+            f"Kp={_values(gains.kp)} N·m/rad, Ki={_values(gains.ki)} N·m/(rad·s), "
+            f"Kd={_values(gains.kd)} N·m·s/rad, D on {gains.derivative_source.value}, "
+            f"|torque| <= {_values(gains.output_limit)} N·m, feedforward {p['feedforward'].value}{observer}"
+        )
+        if self.kind == "lqr":
+            return (
+                f"LQR (q={_values(p['lqr_q'])}, r={p['lqr_r']:g}, designed at "
+                f"{1.0 / self.period_s:g} Hz): {in_force}; the kp/ki/kd parameters are unused"
+            )
+        return f"PID: {in_force}"
 
 
 class PidLaw(BuiltinLaw):
@@ -79,3 +126,7 @@ class LqrLaw(BuiltinLaw):
     """The same PID, its gains from a discrete LQR design with lqr_q and lqr_r."""
 
     kind = "lqr"
+
+
+def _values(values: np.ndarray | tuple[float, ...]) -> str:
+    return "[" + ", ".join(f"{float(v):.3g}" for v in np.atleast_1d(values)) + "]"

@@ -106,6 +106,14 @@ class Reference:
     position: np.ndarray  #: rad
     velocity: np.ndarray  #: rad/s
     acceleration: np.ndarray  #: rad/s²
+    #: ``(position, velocity, acceleration)`` at the middle of the control period the command is held
+    #: over, where a model's torque equals its average over the period; None: the reference itself
+    feedforward: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    @property
+    def ahead(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The reference a feedforward torque is for: :attr:`feedforward`, or the reference itself."""
+        return self.feedforward if self.feedforward is not None else (self.position, self.velocity, self.acceleration)
 
 
 class ControlLaw:

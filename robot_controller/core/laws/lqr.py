@@ -4,17 +4,23 @@ Feedforward (inverse dynamics) carries the reference motion and gravity, so
 the feedback acts on the tracking error of the arm linearised about the
 reference: ``J ë + b ė = u_fb`` per joint. The design state is
 ``[∫e dt, e, ė]`` with ``e = q − r``, discretised exactly (zero-order hold)
-at the control period; ``u_fb = −K x``. The gain is checked: the closed
-loop's spectral radius must be below 1.
+at the control period; ``u_fb = −K x``, checked to stabilise the loop. With
+feedforward carrying the motion, that feedback is a PID on the velocity error
+with the designed gains (:func:`designed_gains`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.laws.pid import DerivativeSource, PidConfig
+
+if TYPE_CHECKING:
+    from robot_controller.core.model import ArmDynamics
 
 
 @dataclass(frozen=True)
@@ -57,21 +63,63 @@ def design(inertia: float, damping: float, dt: float, q_weights: np.ndarray, r_w
     return LqrDesign(A, B, K, P, radius)
 
 
-def delay_margin_periods(A: np.ndarray, B: np.ndarray, K: np.ndarray, max_periods: int = 50) -> int:
-    """How many whole control periods of delay the loop ``u = −K x`` survives.
+def design_inertia(
+    dynamics: ArmDynamics, joint_count: int, design_position: tuple[float, ...] | None = None
+) -> np.ndarray:
+    """Each joint's own inertia (the mass matrix's diagonal, kg·m²) at the design pose (rad per
+    joint; None: every joint at 0, or the nearest end of its range where 0 is outside it). Each
+    joint's gains are designed for it, so one set of weights serves a shoulder and a light wrist."""
+    if design_position is not None:
+        pose = np.asarray(design_position, dtype=float)
+    else:
+        pose = np.zeros(joint_count)
+        model = getattr(dynamics, "model", None)  # a MuJoCo model knows the joints' ranges
+        if model is not None:
+            limited = model.jnt_limited[:joint_count].astype(bool)
+            low, high = model.jnt_range[:joint_count, 0], model.jnt_range[:joint_count, 1]
+            pose = np.where(limited, np.clip(pose, low, high), pose)
+    return np.diag(dynamics.mass_matrix(pose)).copy()
 
-    With the feedback acting ``d`` periods late, ``x[k+1] = A x[k] − B K x[k−d]``:
-    the loop is stable while the spectral radius of that system, written over
-    the state and the last ``d`` states, is below 1. Returns the largest such
-    ``d`` (0: not even one period; ``max_periods``: at least that many).
+
+def torque_weight(lqr_r: float, reference_inertia_kgm2: float, inertia_kgm2: float) -> float:
+    """A joint's torque weight: ``lqr_r`` scaled so that an acceleration costs the same on every
+    joint (``lqr_r`` as it is for a joint of the reference inertia, or everywhere when that is 0):
+    the gains come out in proportion to each joint's inertia and every joint's error dies away alike."""
+    if reference_inertia_kgm2 <= 0:
+        return lqr_r
+    return lqr_r * (reference_inertia_kgm2 / inertia_kgm2) ** 2
+
+
+def designed_gains(
+    pid: PidConfig,
+    dynamics: ArmDynamics | None,
+    joint_count: int,
+    period_s: float,
+    lqr_q: tuple[float, float, float],
+    lqr_r: float,
+    reference_inertia: float = 0.0,
+    design_position: tuple[float, ...] | None = None,
+) -> PidConfig:
+    """``pid`` with its gains replaced by each joint's LQR design at ``period_s`` (D on the velocity error).
+
+    :param reference_inertia: kg·m², the joint inertia ``lqr_r`` is for (0: ``lqr_r`` on every joint)
+    :param design_position: rad per joint, the pose the inertias are taken at
     """
-    n = A.shape[0]
-    for delay in range(1, max_periods + 1):
-        size = n * (delay + 1)
-        M = np.zeros((size, size))
-        M[:n, :n] = A
-        M[:n, n * delay :] = -B @ K  # the feedback of the oldest stored state
-        M[n:, :-n] = np.eye(n * delay)  # shift: x[k] becomes x[k−1], …
-        if np.max(np.abs(np.linalg.eigvals(M))) >= 1.0:
-            return delay - 1
-    return max_periods
+    if dynamics is None:
+        raise ConfigError("controller_type lqr: needs the arm model (urdf_path)")
+    inertia = design_inertia(dynamics, joint_count, design_position)
+    gains = np.array(
+        [
+            design(
+                inertia[j],
+                dynamics.damping[j],
+                period_s,
+                np.array(lqr_q),
+                torque_weight(lqr_r, reference_inertia, inertia[j]),
+            ).K[0]
+            for j in range(joint_count)
+        ]
+    )
+    return replace(
+        pid, ki=gains[:, 0], kp=gains[:, 1], kd=gains[:, 2], derivative_source=DerivativeSource.VELOCITY_ERROR
+    )

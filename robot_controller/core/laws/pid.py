@@ -1,24 +1,103 @@
-"""PID joint controller with anti-windup, derivative options and limits.
+"""The PID law: its settings (:class:`PidConfig`, checked when built), one step
+(:class:`Pid`) and what a step reports (:class:`PidTerms`).
 
 All quantities are arrays with one entry per joint (shape ``(n,)``) and
 broadcast, so a batch of gain sets (shape ``(batch, n)``) runs through the
 same code. Units: positions rad, velocities rad/s, torques N·m, time s.
-
-The integral is stored as the I term itself (N·m), not as the integral of
-the error, so that changing ``ki`` while running does not kick the output
-(bumpless gain change).
+The integral is stored as the I term itself (N·m), so a new ``ki`` while
+running does not kick the output (bumpless gain change).
 """
 
 from __future__ import annotations
 
-import math
+from dataclasses import dataclass, field
+from enum import StrEnum
 
 import numpy as np
 
-from robot_controller.core.arrays import all_finite, as_shape, clip, is_one_value, sign_scalar, within
-from robot_controller.core.laws.pid_config import AntiWindup, DerivativeSource, PidConfig, PidTerms
+from robot_controller.core.arrays import all_finite, as_shape, clip, within
+from robot_controller.core.errors import ConfigError
 
-__all__ = ["AntiWindup", "DerivativeSource", "Pid", "PidConfig", "PidTerms"]
+
+class AntiWindup(StrEnum):
+    """How the integral is kept from winding up while the output saturates."""
+
+    NONE = "none"
+    CLAMP = "clamp"  #: |∫e dt| ≤ integral_limit (rad·s), the tutorial's clamp
+    BACK_CALCULATION = "back_calculation"  #: bleed (u_sat − u)/Tt into the I term
+    CONDITIONAL_INTEGRATION = "conditional_integration"  #: freeze while saturated and error pushes further out
+
+
+class DerivativeSource(StrEnum):
+    """What the D term differentiates."""
+
+    MEASURED_VELOCITY = "measured_velocity"  #: −v_measured, the tutorial's choice
+    VELOCITY_ERROR = "velocity_error"  #: v_reference − v_measured
+    ERROR = "error"  #: finite difference of the position error
+    MEASUREMENT = "measurement"  #: −finite difference of the measured position
+
+
+@dataclass
+class PidConfig:
+    """Gains and options of :class:`Pid`.
+
+    :param kp: proportional gain, N·m/rad, per joint
+    :param ki: integral gain, N·m/(rad·s), per joint
+    :param kd: derivative gain, N·m·s/rad, per joint
+    :param output_limit: symmetric torque limit, N·m (> 0), per joint
+    :param integral_limit: clamp on ∫e dt, rad·s (used by ``clamp``)
+    :param anti_windup: an :class:`AntiWindup` mode
+    :param back_calculation_time_s: tracking time constant Tt of back-calculation, s
+    :param derivative_source: a :class:`DerivativeSource`
+    :param derivative_filter_time_s: first-order low-pass time constant on the D signal, s (0 = off)
+    :param slew_rate_limit: max |du/dt|, N·m/s (0 = off)
+    """
+
+    kp: np.ndarray = field(default_factory=lambda: np.array([50.0]))
+    ki: np.ndarray = field(default_factory=lambda: np.array([10.0]))
+    kd: np.ndarray = field(default_factory=lambda: np.array([5.0]))
+    output_limit: np.ndarray = field(default_factory=lambda: np.array([10.0]))
+    integral_limit: np.ndarray = field(default_factory=lambda: np.array([10.0]))
+    anti_windup: AntiWindup = AntiWindup.CLAMP
+    back_calculation_time_s: float = 0.1
+    derivative_source: DerivativeSource = DerivativeSource.MEASURED_VELOCITY
+    derivative_filter_time_s: float = 0.0
+    slew_rate_limit: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("kp", "ki", "kd", "output_limit", "integral_limit"):
+            value = np.atleast_1d(np.asarray(getattr(self, name), dtype=float))
+            if not np.all(np.isfinite(value)):
+                raise ConfigError(f"{name}: must be finite, got {value.tolist()}")
+            if np.any(value < 0):
+                raise ConfigError(f"{name}: must be >= 0, got {value.tolist()}")
+            setattr(self, name, value)
+        if np.any(self.output_limit <= 0):
+            raise ConfigError(f"output_limit: must be > 0, got {self.output_limit.tolist()}")
+        for name, kind in (("anti_windup", AntiWindup), ("derivative_source", DerivativeSource)):
+            try:
+                setattr(self, name, kind(getattr(self, name)))
+            except ValueError:
+                raise ConfigError(f"{name}: {getattr(self, name)!r} is not one of {[m.value for m in kind]}") from None
+        for name in ("back_calculation_time_s", "derivative_filter_time_s", "slew_rate_limit"):
+            value = float(getattr(self, name))
+            if not np.isfinite(value) or value < 0:
+                raise ConfigError(f"{name}: must be a finite number >= 0, got {value}")
+            setattr(self, name, value)
+        if self.anti_windup is AntiWindup.BACK_CALCULATION and self.back_calculation_time_s <= 0:
+            raise ConfigError("back_calculation_time_s: must be > 0 with anti_windup back_calculation")
+
+
+@dataclass
+class PidTerms:
+    """One step's output and its parts, for tuning plots (all N·m except ``saturated``)."""
+
+    command: np.ndarray
+    p: np.ndarray
+    i: np.ndarray
+    d: np.ndarray
+    feedforward: np.ndarray
+    saturated: np.ndarray  #: bool per joint: the limit (output or slew) cut the command
 
 
 class Pid:
@@ -27,15 +106,12 @@ class Pid:
     ``u = ff + kp·e + I + kd·D``, saturated to ``±output_limit`` and, if set,
     slew-rate limited. ``e = r − y``. Non-finite inputs give a zero command
     and leave the state untouched: the arm never gets a non-finite torque.
-
-    It also runs the LQR: state feedback on ``[∫e, e, ė]`` is a PID whose
-    gains come from a Riccati design instead of by hand (``core.law``), so both
-    laws share this one implementation of anti-windup, limits and filtering.
+    The LQR runs on it too: state feedback on ``[∫e, e, ė]`` is a PID whose
+    gains come from a Riccati design (:mod:`~robot_controller.core.laws.lqr`).
     """
 
     def __init__(self, config: PidConfig) -> None:
         self.config = config
-        self._one_joint = _one_joint(config)
         self.reset()
 
     def reset(self) -> None:
@@ -47,13 +123,8 @@ class Pid:
         self._prev_command: np.ndarray | None = None
 
     def set_config(self, config: PidConfig) -> None:
-        """Swap gains and options while running, without a bump in the output.
-
-        The I term is kept in N·m, so a new ``ki`` changes only how fast it
-        grows from here on.
-        """
+        """Swap gains and options while running, bumplessly (the I term is kept in N·m)."""
         self.config = config
-        self._one_joint = _one_joint(config)
         self._i_term = np.broadcast_to(self._i_term, np.broadcast_shapes(self._i_term.shape, config.kp.shape)).copy()
 
     @property
@@ -73,27 +144,9 @@ class Pid:
     ) -> PidTerms:
         """Advance one control period of ``dt`` seconds and return the command and its terms.
 
-        ``feedback_map`` (n × n): the feedback torques (P + I + D, each joint's
-        own) pass through it before the feedforward is added and the command
-        limited; the terms reported are the joints' own."""
-        if (
-            self._one_joint
-            and feedback_map is None
-            and is_one_value(reference_position)
-            and is_one_value(reference_velocity)
-            and is_one_value(measured_position)
-            and is_one_value(measured_velocity)
-            and (is_one_value(feedforward) or isinstance(feedforward, (float, int)))
-            and self._i_term.shape == (1,)
-        ):
-            return self._step_one_joint(
-                float(dt),
-                reference_position.item(),
-                reference_velocity.item(),
-                measured_position.item(),
-                measured_velocity.item(),
-                feedforward.item() if isinstance(feedforward, np.ndarray) else float(feedforward),
-            )
+        :param feedback_map: n × n; the feedback torques (P + I + D, each joint's own) pass through it
+            before the feedforward is added and the command limited; the terms reported are the joints' own
+        """
         c = self.config
         zeros = np.zeros(np.broadcast_shapes(np.shape(reference_position), c.kp.shape))
         inputs = (reference_position, reference_velocity, measured_position, measured_velocity, feedforward)
@@ -102,7 +155,6 @@ class Pid:
 
         error = reference_position - measured_position
         p_term = c.kp * error
-
         if c.derivative_source is DerivativeSource.MEASURED_VELOCITY:
             d_signal = -measured_velocity
         elif c.derivative_source is DerivativeSource.VELOCITY_ERROR:
@@ -126,15 +178,14 @@ class Pid:
         # Integrate, then limit per the anti-windup mode.
         i_candidate = self._i_term + c.ki * error * dt
         if c.anti_windup is AntiWindup.CLAMP:
-            i_limit = c.ki * c.integral_limit
-            i_candidate = within(i_candidate, i_limit)
+            i_candidate = within(i_candidate, c.ki * c.integral_limit)
         unsaturated = feedforward + _mapped(feedback_map, p_term + i_candidate + d_term)
         limited = self._limit(unsaturated, dt)
         saturated = np.abs(limited - unsaturated) > 1e-12
         if c.anti_windup is AntiWindup.BACK_CALCULATION:
             i_candidate = i_candidate + (limited - unsaturated) * dt / c.back_calculation_time_s
         elif c.anti_windup is AntiWindup.CONDITIONAL_INTEGRATION and saturated.any():
-            # Keep integrating only where it would pull the output back inside the limit.
+            # Integrate only where it pulls the output back inside the limit.
             pushing_out = saturated & (np.sign(error) == np.sign(unsaturated))
             i_candidate = np.where(pushing_out, self._i_term, i_candidate)
         self._i_term = np.asarray(i_candidate, dtype=float)
@@ -144,85 +195,8 @@ class Pid:
         self._prev_command = command
         return PidTerms(command, p_term, self._i_term.copy(), d_term, feedforward, saturated)
 
-    def _step_one_joint(
-        self,
-        dt: float,
-        reference_position: float,
-        reference_velocity: float,
-        measured_position: float,
-        measured_velocity: float,
-        feedforward: float,
-    ) -> PidTerms:
-        """:meth:`step` for one joint on Python floats, the same arithmetic in the same
-        order: on arrays of one value NumPy's per-call cost is most of the work. The
-        state stays in arrays, as :meth:`step` keeps it."""
-        c = self.config
-        inputs = (dt, reference_position, reference_velocity, measured_position, measured_velocity, feedforward)
-        if not (dt > 0 and all(map(math.isfinite, inputs))):
-            zero = np.zeros(1)
-            return PidTerms(zero, zero, zero, zero, zero, np.zeros(1, dtype=bool))
-        kp, ki, kd = c.kp.item(), c.ki.item(), c.kd.item()
-        error = reference_position - measured_position
-        p_term = kp * error
-        source = c.derivative_source
-        if source is DerivativeSource.MEASURED_VELOCITY:
-            d_signal = -measured_velocity
-        elif source is DerivativeSource.VELOCITY_ERROR:
-            d_signal = reference_velocity - measured_velocity
-        elif source is DerivativeSource.ERROR:
-            d_signal = 0.0 if self._prev_error is None else (error - self._prev_error.item()) / dt
-        else:  # MEASUREMENT
-            d_signal = 0.0 if self._prev_position is None else -(measured_position - self._prev_position.item()) / dt
-        self._prev_error = np.array([error])
-        self._prev_position = np.array([measured_position])
-        if c.derivative_filter_time_s > 0:
-            if self._d_filtered is None:
-                self._d_filtered = np.array([d_signal])
-            else:
-                alpha = dt / (c.derivative_filter_time_s + dt)
-                filtered = self._d_filtered.item()
-                self._d_filtered = np.array([filtered + alpha * (d_signal - filtered)])
-            d_signal = self._d_filtered.item()
-        d_term = kd * d_signal
-
-        i_term = self._i_term.item()
-        i_candidate = i_term + ki * error * dt
-        if c.anti_windup is AntiWindup.CLAMP:
-            i_limit = ki * c.integral_limit.item()
-            i_candidate = min(max(i_candidate, -i_limit), i_limit)
-        unsaturated = feedforward + (p_term + i_candidate + d_term)
-        limited = self._limit_one_joint(unsaturated, dt)
-        saturated = abs(limited - unsaturated) > 1e-12
-        if c.anti_windup is AntiWindup.BACK_CALCULATION:
-            i_candidate = i_candidate + (limited - unsaturated) * dt / c.back_calculation_time_s
-        elif (
-            c.anti_windup is AntiWindup.CONDITIONAL_INTEGRATION
-            and saturated
-            and sign_scalar(error) == sign_scalar(unsaturated)
-        ):
-            i_candidate = i_term  # integrate only where it would pull the output back inside the limit
-        self._i_term = np.array([i_candidate])
-
-        command = self._limit_one_joint(feedforward + (p_term + i_candidate + d_term), dt)
-        if not math.isfinite(command):
-            command = 0.0
-        terms = np.array([command, p_term, i_candidate, d_term, feedforward])
-        self._prev_command = terms[0:1]
-        return PidTerms(terms[0:1], terms[1:2], terms[2:3], terms[3:4], terms[4:5], np.array([saturated]))
-
-    def _limit_one_joint(self, command: float, dt: float) -> float:
-        """:meth:`_limit` on a float."""
-        limit = self.config.output_limit.item()
-        out = min(max(command, -limit), limit)
-        if self.config.slew_rate_limit > 0 and self._prev_command is not None:
-            max_step = self.config.slew_rate_limit * dt
-            previous = self._prev_command.item()
-            out = min(max(out, previous - max_step), previous + max_step)
-        return out
-
     def _limit(self, command: np.ndarray, dt: float) -> np.ndarray:
-        limit = self.config.output_limit
-        out = within(command, limit)
+        out = within(command, self.config.output_limit)
         if self.config.slew_rate_limit > 0 and self._prev_command is not None:
             max_step = self.config.slew_rate_limit * dt
             out = clip(out, self._prev_command - max_step, self._prev_command + max_step)
@@ -232,8 +206,3 @@ class Pid:
 def _mapped(feedback_map: np.ndarray | None, feedback: np.ndarray) -> np.ndarray:
     """The feedback torques through ``feedback_map`` (as they are without one)."""
     return feedback if feedback_map is None else feedback_map @ feedback
-
-
-def _one_joint(config: PidConfig) -> bool:
-    """Whether ``config`` is one joint's (every per-joint value a single one)."""
-    return all(getattr(config, name).shape == (1,) for name in ("kp", "ki", "kd", "output_limit", "integral_limit"))

@@ -96,8 +96,8 @@ def spectral_radius(A: np.ndarray, B: np.ndarray, K: np.ndarray) -> np.ndarray:
 
 
 def stable_with_delay(A: np.ndarray, B: np.ndarray, K: np.ndarray, delay: int) -> np.ndarray:
-    """Whether ``x[k+1] = A x[k] − B K x[k−delay]`` is stable, per gain row of ``K``
-    (the system of :func:`robot_controller.core.laws.lqr.delay_margin_periods`, vectorised)."""
+    """Whether ``x[k+1] = A x[k] − B K x[k−delay]`` is stable (spectral radius of the system over
+    the state and the last ``delay`` states below 1), per gain row of ``K``."""
     A = np.asarray(A, dtype=float)
     B = np.asarray(B, dtype=float).reshape(-1, 1)
     K = np.atleast_2d(np.asarray(K, dtype=float))
@@ -107,6 +107,72 @@ def stable_with_delay(A: np.ndarray, B: np.ndarray, K: np.ndarray, delay: int) -
     M[:, :n, n * delay :] -= B[None] * K[:, None, :]
     M[:, n:, :-n] = np.eye(n * delay)
     return np.max(np.abs(np.linalg.eigvals(M)), axis=1) < 1.0
+
+
+def delay_margin_periods(A: np.ndarray, B: np.ndarray, K: np.ndarray, max_periods: int = 50) -> np.ndarray:
+    """Whole control periods of delay the loop ``u = −K x`` on ``x[k+1] = A x[k] + B u[k]`` survives,
+    per gain row of ``K``: the largest ``d`` for which every delay up to it is stable
+    (:func:`stable_with_delay`); 0: not even one period; ``max_periods``: at least that many.
+
+    :param K: one gain row ``(1, n)`` or a batch ``(m, n)``
+    :return: int array of shape ``(m,)``
+    """
+    K = np.atleast_2d(np.asarray(K, dtype=float))
+    margin = np.full(len(K), max_periods)
+    alive = np.arange(len(K))
+    for delay in range(1, max_periods + 1):
+        stable = stable_with_delay(A, B, K[alive], delay)
+        margin[alive[~stable]] = delay - 1
+        alive = alive[stable]
+        if not alive.size:
+            break
+    return margin
+
+
+def observer_delay_margin_periods(
+    gains: tuple[float, float, float],
+    filter_gains: tuple[np.ndarray, np.ndarray, np.ndarray],
+    period_s: float,
+    max_periods: int = 50,
+) -> int:
+    """Whole periods of delay one joint's loop survives with a Kalman filter and its disturbance
+    observer in it (the arm at rest; readings ``d`` periods old taken for the present).
+
+    Each tick the filter predicts with the command it issued last and corrects with its
+    steady-state gain; the PID (I term as :class:`~robot_controller.core.laws.pid.Pid` keeps it,
+    D on the velocity error) and the estimate ``−d̂`` make the command, held over the period.
+
+    :param gains: Ki, Kp, Kd of the PID on the filtered state
+    :param filter_gains: ``(F, Bf, L)``, the filter's steady-state model and gain on
+        ``[q, q̇, d]`` (:func:`~robot_controller.core.estimation.steady_state_gain`)
+    :param period_s: control period, s
+    :return: the largest stable delay (0: not even one period, or not stable at all)
+    """
+    ki, kp, kd = gains
+    F, Bf, L = filter_gains
+    Ap, Bp = F[:2, :2], Bf[:2]
+    H = np.eye(2, 3)
+    for delay in range(0, max_periods + 1):
+        # State: the arm now and `delay` periods back (2 each), the filter's last estimate (3),
+        # the I term and the last command.
+        n = 2 * (delay + 1) + 5
+        est, i_term, last = slice(n - 5, n - 2), n - 2, n - 1
+        predicted = np.zeros((3, n))
+        predicted[:, est] = F
+        predicted[:, last] += Bf[:, 0]
+        reading = np.zeros((2, n))
+        reading[:, 2 * delay : 2 * delay + 2] = np.eye(2)
+        estimate = predicted + L @ (reading - H @ predicted)
+        integral = -ki * period_s * estimate[0]
+        integral[i_term] += 1.0
+        command = -kp * estimate[0] - kd * estimate[1] + integral - estimate[2]
+        M = np.zeros((n, n))
+        M[:2] = np.hstack([Ap, np.zeros((2, n - 2))]) + Bp @ command[None, :]
+        M[2 : 2 * (delay + 1), : 2 * delay] = np.eye(2 * delay)  # the arm's history moves back one period
+        M[est], M[i_term], M[last] = estimate, integral, command
+        if np.max(np.abs(np.linalg.eigvals(M))) >= 1.0:
+            return max(delay - 1, 0)
+    return max_periods
 
 
 def _sign_changes(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
