@@ -15,7 +15,7 @@ from robot_controller.parameters.torque_limits import torque_limit
 
 if TYPE_CHECKING:  # the controller pulls in scipy and MuJoCo: only the nodes that run one import it
     from robot_controller.core.controller.controller import ControllerConfig
-    from robot_controller.core.estimation.estimator import KalmanConfig
+    from robot_controller.core.estimation import KalmanConfig
     from robot_controller.core.model import ArmDynamics, JointArmModel
 
 # The controller's arm-model parameters, in the order of core.arm_model.PARAMETERS; empty = the URDF's.
@@ -45,13 +45,13 @@ def arm_model(values: Mapping[str, Any]) -> ArmDynamics | JointArmModel:
     if not model_overridden(values):
         return dynamics
     n = len(dynamics.joint_names)
-    given = {key: per_joint(key, values[key], n) if given(values.get(key)) else None for key in MODEL_KEYS}
+    model = {key: per_joint(key, values[key], n) if given(values.get(key)) else None for key in MODEL_KEYS}
     return JointArmModel.over_urdf(
         dynamics,
-        inertia=given["model_inertia"],
-        damping=given["model_damping"],
-        coulomb_friction=given["model_coulomb_friction"],
-        gravity_torque=given["model_gravity_torque"],
+        inertia=model["model_inertia"],
+        damping=model["model_damping"],
+        coulomb_friction=model["model_coulomb_friction"],
+        gravity_torque=model["model_gravity_torque"],
     )
 
 
@@ -142,7 +142,7 @@ def kalman_config(values: Mapping[str, Any]) -> KalmanConfig:
     model cannot place: there it runs at its mismatch settings throughout and takes no jumps."""
     from dataclasses import replace
 
-    from robot_controller.core.estimation.estimator import KalmanConfig
+    from robot_controller.core.estimation import KalmanConfig
 
     config = KalmanConfig(
         values["kalman_position_noise_std"],

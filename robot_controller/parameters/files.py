@@ -124,9 +124,9 @@ def load_stack(
     earlier. An empty ``torque_max`` is then written out as its node's URDF
     effort limits, so every check and the run's ``params.yaml`` see the numbers."""
     from robot_controller.parameters.torque_limits import fill_torque_limits
-    from robot_controller.robots import robot_layer
+    from robot_controller.robots import robot as named_robot
 
-    layers = [defaults(), robot_layer(robot)]
+    layers = [defaults(), named_robot(robot).layer()]
     files = []
     if preset != "default":
         preset_path = resources.preset_yaml(preset)

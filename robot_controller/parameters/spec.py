@@ -18,15 +18,11 @@ from robot_controller.core.errors import ConfigError
 
 @dataclass(frozen=True)
 class ParamSpec:
-    """One parameter.
+    """One parameter of a node.
 
-    ``kind`` is ``bool``, ``int``, ``float`` or ``str``. A float may be a list:
-    ``per_joint`` (one number for every joint, or one per joint; the joint
-    count is the URDF's, checked with the whole configuration) or ``length``
-    (exactly that many numbers, e.g. three LQR weights). ``allow_empty`` lets a
-    list be empty, meaning "not set" (e.g. a model parameter taken from the URDF
-    unless given); the ROS parameter-file parser reads ``[]`` as no value, so
-    ``None`` is taken as empty too.
+    :param kind: ``bool``, ``int``, ``float`` or ``str``; a float may be a list, ``per_joint`` (one
+        number for every joint, or one per joint of the URDF) or of ``length`` numbers
+    :param allow_empty: a list may be empty, "not set" (``None`` too: rcl reads a file's ``[]`` so)
     """
 
     name: str

@@ -109,10 +109,6 @@ def robot(name: str) -> Robot:
         raise ConfigError(f"--robot: unknown robot {name!r}; robots are {sorted(ROBOTS)}") from None
 
 
-def robot_layer(name: str) -> dict[str, dict[str, Any]]:
-    return robot(name).layer()
-
-
 def urdf_of(name: str) -> Path:
     """The URDF file of robot ``name``."""
     return resources.resolve_urdf(robot(name).urdf())

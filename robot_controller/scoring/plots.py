@@ -57,23 +57,18 @@ def plot_tracking(recording: Recording, path: Path, title: str = "") -> None:
             ax.grid(alpha=0.3)
     last = rows[-1]
     last[-1].set_xlim(t[0], t[-1])
-    if n == 1:
-        position, error, torque = rows[0]
-        position.set_ylabel("position [rad]")
-        error.set_ylabel("error [mrad]")
-        torque.set_ylabel("torque [N·m]")
-        torque.set_xlabel("time since first control tick [s]")
-        for ax in rows[0]:
-            ax.legend(loc="upper right", fontsize=8)
-    else:
-        for ax, heading in zip(rows[0], ("position [rad]", "error [mrad]", "torque [N·m]"), strict=True):
+    headings = ("position [rad]", "error [mrad]", "torque [N·m]")
+    for ax, heading in zip(rows[0], headings, strict=True):  # one joint: stacked, labelled on the left
+        if n == 1:
+            ax.set_ylabel(heading)
+        else:
             ax.set_title(heading, fontsize=10)
-            ax.legend(loc="upper right", fontsize=7)
-        for (position, _, _), name in zip(rows, recording.joint_names, strict=True):
-            position.set_ylabel(name, fontsize=9)
-        for ax in last:
-            ax.set_xlabel("time since first control tick [s]")
-        for row in rows:
+        ax.legend(loc="upper right", fontsize=8 if n == 1 else 7)
+    for ax in last if n > 1 else last[-1:]:
+        ax.set_xlabel("time since first control tick [s]")
+    if n > 1:
+        for row, name in zip(rows, recording.joint_names, strict=True):
+            row[0].set_ylabel(name, fontsize=9)
             for ax in row:
                 ax.tick_params(labelsize=8)
     if title:

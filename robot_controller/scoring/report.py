@@ -144,10 +144,7 @@ def tracking_on_sim_timeline(
             "tracking_max_rad_per_joint": list(unknown),
             "scored_samples": 0,
         }
-    return {
-        **metrics.joint_errors(in_force[window] - q[window]),
-        "scored_samples": int(np.count_nonzero(window)),
-    }
+    return {**metrics.joint_errors(in_force[window] - q[window]), "scored_samples": int(np.count_nonzero(window))}
 
 
 # Ticks further apart than this many control periods: the controller was not running.

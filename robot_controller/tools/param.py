@@ -43,11 +43,8 @@ def parse_value(text: str, current: int | None = None) -> tuple[int, Any]:
     except yaml.YAMLError:
         value = text
     floating = current in (DOUBLE, DOUBLE_ARRAY)
-    if floating and isinstance(value, str):
-        try:
-            value = float(value)  # YAML 1.1 reads 1e3 as a string; a number is meant here
-        except ValueError:
-            pass
+    if floating:
+        value = _as_float(value)  # YAML 1.1 reads 1e3 as a string; a number is meant here
     if isinstance(value, list) and (floating or any(_is_number(v) for v in value)):
         value = [_as_float(v) for v in value]  # [1e4, 1e4, 1]: YAML 1.1 reads the 1e4s as strings
     if isinstance(value, bool):

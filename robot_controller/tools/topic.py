@@ -47,7 +47,7 @@ def topic_echo(topic: str, count: int | None = None, csv: bool = False) -> int:
         raise ToolError(f"count must be at least 1, got {count}")
     topic = graph.absolute(topic)
     with graph.open_graph("topic echo") as g:
-        msg_type = _message_class(topic, _single_type(topic, g.wait_for_topic(topic, TOPIC_WAIT_S)))
+        msg_type = _topic_class(g, topic)
         received: queue.SimpleQueue = queue.SimpleQueue()
         g.node.create_subscription(msg_type, topic, lambda msg: received.put(msg), _echo_qos(g, topic))
         printed = 0
@@ -64,15 +64,13 @@ def topic_echo(topic: str, count: int | None = None, csv: bool = False) -> int:
     return 0
 
 
-def _single_type(topic: str, types: list[str]) -> str:
+def _topic_class(g: graph.Graph, topic: str) -> type:
+    """The message class of ``topic``, once it shows in the graph (within ``TOPIC_WAIT_S``)."""
+    types = g.wait_for_topic(topic, TOPIC_WAIT_S)
     if len(types) > 1:
         raise ToolError(f"{topic}: carries more than one type ({', '.join(types)}); cannot tell which to read")
-    return types[0]
-
-
-def _message_class(topic: str, type_name: str) -> type:
     try:
-        return graph.message_class(type_name)
+        return graph.message_class(types[0])
     except ToolError as exc:
         raise ToolError(f"{topic}: {exc}") from None
 
@@ -183,7 +181,7 @@ def topic_hz(topic: str, window: int = DEFAULT_WINDOW, duration_s: float | None 
         raise ToolError(f"duration must be > 0 s, got {duration_s}")
     topic = graph.absolute(topic)
     with graph.open_graph("topic hz") as g:
-        msg_type = _message_class(topic, _single_type(topic, g.wait_for_topic(topic, TOPIC_WAIT_S)))
+        msg_type = _topic_class(g, topic)
         rate = RateWindow(window)
 
         def heard(_raw: bytes, info: dict) -> None:

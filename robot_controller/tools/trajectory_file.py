@@ -65,6 +65,10 @@ def _unknown(key: Any, known: Sequence[str], where: str) -> str:
     return f"{where}{key!r}: unknown key{hint}"
 
 
+def _is_finite_number(value: Any) -> bool:
+    return not isinstance(value, bool) and isinstance(value, int | float) and math.isfinite(value)
+
+
 def _numbers(value: Any, where: str, count: int) -> list[float]:
     if not isinstance(value, list):
         raise TrajectoryFileError(f"{where}: expected a list of {count} number(s), got {type(value).__name__}")
@@ -72,7 +76,7 @@ def _numbers(value: Any, where: str, count: int) -> list[float]:
         raise TrajectoryFileError(f"{where}: expected {count} number(s) (one per joint name), got {len(value)}")
     numbers = []
     for k, item in enumerate(value):
-        if isinstance(item, bool) or not isinstance(item, int | float) or not math.isfinite(item):
+        if not _is_finite_number(item):
             raise TrajectoryFileError(f"{where}[{k}]: expected a finite number, got {item!r}")
         numbers.append(float(item))
     return numbers
@@ -89,7 +93,7 @@ def _point(raw: Any, k: int, joints: int, previous_s: float | None) -> Point:
         if key not in raw:
             raise TrajectoryFileError(f"{where}.{key}: missing")
     t = raw["time_from_start"]
-    if isinstance(t, bool) or not isinstance(t, int | float) or not math.isfinite(t) or t < 0:
+    if not _is_finite_number(t) or t < 0:
         raise TrajectoryFileError(f"{where}.time_from_start: expected a finite number of seconds >= 0, got {t!r}")
     if previous_s is not None and t <= previous_s:
         raise TrajectoryFileError(f"{where}.time_from_start: {t:g} s is not after points[{k - 1}]'s {previous_s:g} s")

@@ -132,13 +132,9 @@ def blueprint(arm: ArmModel, *, live: bool):
         return rrb.TimeSeriesView(origin=origin, name=name, time_ranges=ranges, **more)
 
     joints = arm.joint_names
+    panels = ((POSITION, "position [rad]"), (ERROR, "tracking error [mrad]"), (TORQUE, "torque [N·m]"))
     if len(joints) == 1:
-        plots = rrb.Vertical(
-            plot(POSITION, "position [rad]"),
-            plot(ERROR, "tracking error [mrad]"),
-            plot(TORQUE, "torque [N·m]"),
-            plot(TIMING, "loop timing [ms]"),
-        )
+        plots = rrb.Vertical(*(plot(view, title) for view, title in panels), plot(TIMING, "loop timing [ms]"))
     else:
         plots = rrb.Vertical(
             rrb.Tabs(
@@ -152,9 +148,7 @@ def blueprint(arm: ArmModel, *, live: bool):
                 ),
                 *(
                     rrb.Vertical(
-                        plot(f"{POSITION}/{entity_part(joint)}", f"{joint}: position [rad]"),
-                        plot(f"{ERROR}/{entity_part(joint)}", f"{joint}: tracking error [mrad]"),
-                        plot(f"{TORQUE}/{entity_part(joint)}", f"{joint}: torque [N·m]"),
+                        *(plot(f"{view}/{entity_part(joint)}", f"{joint}: {title}") for view, title in panels),
                         name=joint,
                     )
                     for joint in joints

@@ -73,6 +73,13 @@ def _floats(text: str | None, default: tuple[float, ...]) -> tuple[float, ...]:
     return tuple(float(v) for v in text.split())
 
 
+def _origin(element: ET.Element) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """An element's ``<origin>``: xyz (m) and rpy (rad), zero if absent."""
+    origin = element.find("origin")
+    attributes = {} if origin is None else origin.attrib
+    return _floats(attributes.get("xyz"), (0.0, 0.0, 0.0)), _floats(attributes.get("rpy"), (0.0, 0.0, 0.0))
+
+
 def entity_part(name: str) -> str:
     """An entity path part for a URDF name."""
     return re.sub(r"[^A-Za-z0-9_\-]", "_", name) or "_"
@@ -89,9 +96,7 @@ def _resolve_mesh(filename: str, urdf_dir: Path) -> Path | None:
 def _visuals(link: ET.Element, urdf_dir: Path) -> list[Visual]:
     out = []
     for visual in link.findall("visual"):
-        origin = visual.find("origin")
-        xyz = _floats(origin.get("xyz") if origin is not None else None, (0.0, 0.0, 0.0))
-        rpy = _floats(origin.get("rpy") if origin is not None else None, (0.0, 0.0, 0.0))
+        xyz, rpy = _origin(visual)
         geometry = visual.find("geometry")
         if geometry is None:
             continue
@@ -138,7 +143,6 @@ def load_arm(urdf: Path, joint_order: list[str] | None = None) -> ArmModel:
     children: set[str] = set()
     joints: list[Joint] = []
     for e in tree.findall("joint"):
-        origin = e.find("origin")
         axis = e.find("axis")
         parent, child = e.find("parent").get("link"), e.find("child").get("link")
         raw_axis = np.array(_floats(axis.get("xyz") if axis is not None else None, (1.0, 0.0, 0.0)))
@@ -146,8 +150,7 @@ def load_arm(urdf: Path, joint_order: list[str] | None = None) -> ArmModel:
         joint = Joint(
             e.get("name"),
             e.get("type", "fixed"),
-            _floats(origin.get("xyz") if origin is not None else None, (0.0, 0.0, 0.0)),
-            _floats(origin.get("rpy") if origin is not None else None, (0.0, 0.0, 0.0)),
+            *_origin(e),
             tuple(float(v) for v in raw_axis / norm),
             links[child],
         )
