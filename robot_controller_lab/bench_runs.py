@@ -20,16 +20,16 @@ from robot_controller.core.laws.pid import PidConfig
 from robot_controller.core.model import ArmDynamics
 from robot_controller.core.reference import make_trajectory
 from robot_controller.experiments import inprocess
-from robot_controller.runner import forking, launcher
+from robot_controller.runner import forking, launcher, plan
+from robot_controller.runner.options import RunOptions
 from robot_controller.scoring import report
 
 
 def wall_run(
     params: cfg.Params, out: Path, duration_s: float, *, single_process: bool = False, sim_time: bool = False
 ) -> dict[str, Any]:
-    result = launcher.launch(
-        params, out_dir=out, duration_s=duration_s, single_process=single_process, sim_time=sim_time
-    )
+    options = RunOptions(duration_s, sim_time=sim_time, single_process=single_process)
+    result = launcher.launch(plan.check(params, options), out)
     result.raise_if_interrupted()
     if result.exit_code != 0 and not result.message_counts.get("/controller/state"):
         return {"failure": result.failure}

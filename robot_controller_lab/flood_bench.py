@@ -27,7 +27,8 @@ from std_msgs.msg import Float64MultiArray
 
 from robot_controller import parameters as cfg
 from robot_controller.ros import partition as dds_partition
-from robot_controller.runner import launcher
+from robot_controller.runner import launcher, plan
+from robot_controller.runner.options import RunOptions
 from robot_controller.scoring import report
 
 FLOOD_AT_S, FLOOD_S, RATE_HZ, RUN_S = 5.0, 5.0, 5000.0, 14.0
@@ -107,7 +108,7 @@ def publish(case: str) -> None:
 
 def run_case(case: str, out: Path) -> dict[str, Any]:
     flood = Flood(case)
-    result = launcher.launch(cfg.load_stack(), out_dir=out, duration_s=RUN_S, watcher=flood)
+    result = launcher.launch(plan.check(cfg.load_stack(), RunOptions(RUN_S)), out, watcher=flood)
     sent = flood.finish()
     result.raise_if_interrupted()
     started_s, ended_s = sent.get("started_s", float("nan")), sent.get("ended_s", float("nan"))

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from robot_controller import cli, reference
+from robot_controller import cli
+from robot_controller.cli import docs
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 
@@ -14,8 +15,8 @@ DOCS = Path(__file__).resolve().parent.parent / "docs"
 @pytest.mark.parametrize(
     "page, args, command",
     [
-        ("parameters.md", ["params", "--markdown"], reference.PARAMS_COMMAND),
-        ("cli.md", ["help", "--markdown"], reference.CLI_COMMAND),
+        ("parameters.md", ["params", "--markdown"], docs.PARAMS_COMMAND),
+        ("cli.md", ["help", "--markdown"], docs.CLI_COMMAND),
     ],
 )
 def test_the_committed_reference_page_is_what_the_command_writes(tmp_path, page, args, command):
@@ -30,7 +31,7 @@ def test_the_committed_reference_page_is_what_the_command_writes(tmp_path, page,
 
 def test_the_markdown_goes_to_stdout_without_a_path(capsys):
     assert cli.main(["params", "--markdown"]) == 0
-    assert capsys.readouterr().out == reference.parameters_markdown()
+    assert capsys.readouterr().out == docs.parameters_markdown()
 
 
 def test_the_parameter_reference_refuses_options_it_would_ignore(capsys):
@@ -41,11 +42,11 @@ def test_the_parameter_reference_refuses_options_it_would_ignore(capsys):
 def test_every_parameter_and_every_verb_is_in_its_page():
     from robot_controller import parameters as cfg
 
-    params = reference.parameters_markdown()
+    params = docs.parameters_markdown()
     for node in cfg.NODES:
         assert f"## {node}" in params
         for spec in cfg.SCHEMA[node]:
             assert f"| `{spec.name}` |" in params, (node, spec.name)
-    text = reference.cli_markdown(cli.build_parser())
-    for name, _, _ in reference.subcommands(cli.build_parser()):
+    text = docs.cli_markdown(cli.build_parser())
+    for name, _, _ in docs.subcommands(cli.build_parser()):
         assert f"\n## {name}\n" in text, name

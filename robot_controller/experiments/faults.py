@@ -26,7 +26,8 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.runner import launcher
+from robot_controller.runner import launcher, plan
+from robot_controller.runner.options import RunOptions
 from robot_controller.scoring import plots, report
 
 NODES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
@@ -140,13 +141,8 @@ def case_figures(recording: report.Recording, fault_start_s: float, fault_end_s:
 def run_case(case: Case, out: Path, params: cfg.Params) -> dict[str, Any]:
     at_s = fault_time_s(params)
     freezer = Freezer(case, at_s)
-    result = launcher.launch(
-        params,
-        out_dir=out,
-        duration_s=at_s + case.duration_s + AFTER_S,
-        watcher=freezer,
-        respawn=case.kind == "SIGKILL",
-    )
+    options = RunOptions(at_s + case.duration_s + AFTER_S, respawn=case.kind == "SIGKILL")
+    result = launcher.launch(plan.check(params, options), out, watcher=freezer)
     result.raise_if_interrupted()
     if freezer.thread is not None:
         freezer.thread.join()

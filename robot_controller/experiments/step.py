@@ -11,7 +11,8 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.core import metrics
-from robot_controller.runner import launcher
+from robot_controller.runner import launcher, plan
+from robot_controller.runner.options import RunOptions
 from robot_controller.scoring import report
 
 STEP_LEAD_S = 0.5  # time at the start position before the step, s
@@ -27,14 +28,8 @@ def run_and_score(
     single_process: bool = False,
     domain_id: int | None = None,
 ) -> tuple[dict[str, Any], report.Recording]:
-    result = launcher.launch(
-        params,
-        out_dir=out,
-        duration_s=duration_s,
-        sim_time=sim_time,
-        single_process=single_process,
-        domain_id=domain_id,
-    )
+    options = RunOptions(duration_s, sim_time=sim_time, single_process=single_process, domain_id=domain_id)
+    result = launcher.launch(plan.check(params, options), out)
     result.raise_if_interrupted()
     if result.exit_code != 0:
         raise RuntimeError(f"run in {out} failed: {result.failure}")

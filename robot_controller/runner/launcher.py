@@ -1,35 +1,15 @@
-"""Run the graph: plan it (``plan``: which processes, which parameters, all
-checked and written before anything starts), start the recorder and the
-nodes (``processes``), watch them until the run's duration is recorded
-(``supervise``), stop them all and report what was recorded against what the
-nodes say they published.
-
-Like ``ros2 launch``: each child's output is prefixed with its name; Ctrl-C
-or the end of ``duration`` stops them all with SIGINT, then SIGKILL for any
-that hang; if a node dies the run ends with a non-zero exit (or, with
-``respawn``, it is started again). The recorder starts first and stops last,
-so the bag holds every message the nodes published.
-
-With ``view_port`` a viewer (``nodes.viewer``) also runs beside the
-recorder: an observer that serves the live view in a browser and saves
-``view.rrd``. Nothing waits for it, and its death does not end the run.
-
-Part of the graph (``nodes``; docs/design.md §6 "Across hosts"): a
-``graph_watch`` observer reports the graph's nodes; the launcher waits (at
-most ``wait_s``) until all five are there, naming the missing ones. The
-launcher with the simulator records, then runs for ``duration_s`` as always;
-one without it records nothing and runs until every node of the other side
-has left the graph (the loop it serves has ended), which is a success.
-
-The run loop it supervises, and a split run's serving until the other side
-leaves, are in ``run_loop``.
+"""Run the graph as ``ros2 launch`` does: start what ``plan`` planned (the recorder first, then the
+nodes, each child's output prefixed with its name), supervise the run (``run_loop``), stop them all
+with SIGINT (Ctrl-C, SIGTERM or the end of the duration; SIGKILL for any that hang), the recorder
+last, and report what was recorded against what the nodes say they published. A node that dies ends
+the run with a non-zero exit, or starts again with ``respawn``. The live viewer is an observer:
+nothing waits for it and its death does not end the run.
 """
 
 from __future__ import annotations
 
 import faulthandler
 import json
-import math
 import shutil
 import signal
 import threading
@@ -38,18 +18,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from robot_controller import parameters as cfg
 from robot_controller.nodes import recorder as rec
 from robot_controller.ros.process import TEARDOWN_HUNG_SIGNAL
 from robot_controller.runner import forking, supervise
-from robot_controller.runner.plan import plan
+from robot_controller.runner.plan import CheckedRun, Process, plan
 from robot_controller.runner.processes import STOP_TIMEOUT_S, Child, ProcessGroup, say
-from robot_controller.runner.run_loop import Outcome, run_loop
+from robot_controller.runner.run_loop import Outcome, Watcher, run_loop
 
 __all__ = ["RunResult", "launch", "say"]
-
-#: Sim seconds the simulator runs past a lockstep run's --duration (its end: lockstep_end_s).
-LOCKSTEP_END_MARGIN_S = 0.5
 
 
 @dataclass
@@ -86,55 +62,14 @@ class RunResult:
         }
 
 
-def launch(
-    params: cfg.Params,
-    *,
-    out_dir: Path,
-    duration_s: float,
-    single_process: bool = False,
-    realtime: bool = False,
-    sim_time: bool = False,
-    domain_id: int | None = None,
-    watcher: Callable[[float, dict[str, int]], None] | None = None,
-    respawn: bool = False,
-    view_port: int | None = None,
-    nodes: tuple[str, ...] | None = None,
-    peers: list[str] | None = None,
-    run_id: str | None = None,
-    wait_s: float = supervise.GRAPH_WAIT_S,
-) -> RunResult:
-    """Run the graph for ``duration_s`` seconds of control (sim seconds with
-    ``sim_time``), recording into ``out_dir/bag``. ``realtime``: the
-    simulator's pacing thread runs SCHED_FIFO (see ``scheduling``).
-    ``domain_id``: the graph's ROS_DOMAIN_ID (default: this process's), so
-    runs side by side do not hear each other. ``watcher(elapsed_s, pids)``
-    is called about every 0.1 s while the loop runs (wall clock), with the
-    seconds since the loop closed and each node's process id: the fault
-    bench injects its faults from it. ``respawn``: a node that dies while the
-    loop runs (wall clock) is started again, as ``ros2 launch``'s
-    ``respawn=True`` does, instead of ending the run. ``view_port``: serve
-    the live view at ``http://127.0.0.1:<view_port>`` (and save
-    ``out_dir/view.rrd``) from a viewer process beside the recorder.
-    ``nodes``, ``peers``, ``run_id``: start only part of the graph, with the other
-    hosts' addresses, in the run named so (``plan``); ``wait_s``: how long to wait
-    for the whole graph before giving up."""
-    if sim_time and math.isfinite(duration_s):
-        # The simulator stops a little past the end (the loop's first tick comes a moment after
-        # t = 0): the graph falls quiet and the recorder takes every message before the nodes stop.
-        params = cfg.merge(params, {"simulator": {"lockstep_end_s": duration_s + LOCKSTEP_END_MARGIN_S}})
-    run = plan(
-        params,
-        out_dir=out_dir,
-        single_process=single_process,
-        realtime=realtime,
-        sim_time=sim_time,
-        domain_id=domain_id,
-        respawn=respawn,
-        view_port=view_port,
-        nodes=nodes,
-        peers=peers,
-        run_id=run_id,
-    )
+def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -> RunResult:
+    """Run the graph for the options' ``duration_s`` of control, recording into ``out_dir/bag``.
+
+    :param watcher: called about every 0.1 s while the loop runs (wall clock) with the seconds since
+        the loop closed and each node's process id (the fault bench injects its faults from it)
+    """
+    run = plan(checked, out_dir)
+    options = run.options
     for note in run.notes:
         say(note)
     forking.preload()  # before any thread of this run: the children are forked from here
@@ -144,43 +79,32 @@ def launch(
     previous_sigint = signal.signal(signal.SIGINT, supervise.raise_interrupt)
     # `kill -USR1 <launcher>` prints where every thread of a launcher that seems stuck is.
     faulthandler.register(signal.SIGUSR1, all_threads=True)
-    link = supervise.RecorderLink(list(rec.topics_for(sim_time)))
+    link = supervise.RecorderLink(list(rec.topics_for(options.sim_time)))
     graph = supervise.GraphLink() if run.watcher is not None else None
     outcome = Outcome()
     replaced: set[str] = set()  # nodes killed and respawned
     try:
         # The viewer is kept out of the group's children: a dead viewer must not end the run.
         with ProcessGroup(run.nodes[0].env) as group, ProcessGroup(run.nodes[0].env) as viewers:
-            observers = []
-            if run.recorder is not None:
-                observers.append(
-                    group.start(
-                        "recorder",
-                        run.recorder.module,
-                        run.recorder.args,
-                        env=run.recorder.env,
-                        on_line=link.on_line,
-                        wall_clock=not sim_time,
-                    )
+
+            def start(into: ProcessGroup, process: Process, on_line: Callable[[str], bool] | None = None) -> Child:
+                return into.start(
+                    process.name,
+                    process.module,
+                    process.args,
+                    env=process.env,
+                    on_line=on_line,
+                    wall_clock=not options.sim_time,
                 )
+
+            observers = [start(group, run.recorder, link.on_line)] if run.recorder is not None else []
             if graph is not None:
-                observers.append(
-                    group.start(
-                        run.watcher.name,
-                        run.watcher.module,
-                        run.watcher.args,
-                        env=run.watcher.env,
-                        on_line=graph.on_line,
-                        wall_clock=not sim_time,
-                    )
-                )
+                observers.append(start(group, run.watcher, graph.on_line))
             # All at once: the nodes' publishers wait for the recorder themselves.
-            nodes = [group.start(p.name, p.module, p.args, env=p.env, wall_clock=not sim_time) for p in run.nodes]
+            nodes = [start(group, process) for process in run.nodes]
             if run.viewer is not None:
                 say(f"live view: {run.view_url}")
-                viewers.start(
-                    run.viewer.name, run.viewer.module, run.viewer.args, env=run.viewer.env, wall_clock=not sim_time
-                )
+                start(viewers, run.viewer)
             try:
                 group.relay()
                 viewers.relay()
@@ -192,12 +116,10 @@ def launch(
                     nodes,
                     link,
                     outcome,
-                    duration_s,
                     watcher,
-                    replaced if respawn else None,
+                    replaced if options.respawn else None,
                     viewers.children,
                     graph,
-                    wait_s,
                 )
             except KeyboardInterrupt:
                 outcome.interrupted = True
@@ -211,7 +133,7 @@ def launch(
                 if outcome.started is not None:
                     outcome.wall_seconds = time.monotonic() - outcome.started
                     outcome.control_seconds = (
-                        link.clock_s - outcome.sim_start if sim_time and run.records else outcome.wall_seconds
+                        link.clock_s - outcome.sim_start if options.sim_time and run.records else outcome.wall_seconds
                     )
             # The nodes first, then the recorder, which takes what is still in flight (and the viewer).
             codes = group.stop(nodes)

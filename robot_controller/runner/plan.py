@@ -1,22 +1,16 @@
-"""What a run starts, before anything starts: the processes (the recorder and
-the five nodes, or all five in one, and with ``view_port`` the live viewer),
-each one's arguments and environment,
-the parameter file and the run's DDS profile, all written into the run's
-output directory. ``launcher`` then supervises what this plans.
-
-Part of the graph (``nodes``, docs/design.md §6 "Across hosts"): only those
-nodes, and a ``graph_watch`` observer that tells the launcher when the other
-side's nodes are there and when they leave; the recorder runs only beside the
-simulator. ``run_id`` names the partition, so launchers that share it meet;
-``peers`` makes the profile UDPv4 only with those addresses as initial peers."""
+"""What a run starts, before anything starts: its parameters checked whole (``check``), then the
+processes (the recorder and the five nodes, or all five in one; the live viewer; ``graph_watch`` when
+part of the graph runs on another launcher, docs/design.md §6 "Across hosts"), each one's arguments
+and environment, the parameter file and the run's DDS profile, written into the run's output
+directory (``plan``). ``launcher`` then supervises what this plans."""
 
 from __future__ import annotations
 
 import copy
+import math
 import os
 import tempfile
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -29,14 +23,16 @@ from robot_controller.parameters import consistency
 from robot_controller.parameters.builders import ARM_MODEL_KEYS
 from robot_controller.ros import partition, scheduling
 from robot_controller.ros.publishing import COUNTS_DIR_ENV, RECORDED_ENV
+from robot_controller.runner.options import RunOptions
 from robot_controller.view import serve as view_serve
 
 NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
 #: The node whose launcher records and scores a split run: the recorder hears the loop where the arm is.
 RECORDING_NODE = "simulator"
 
-# Fast DDS sends from the publishing thread instead of handing each sample to
-# a sender thread: when it was introduced, the lockstep ran 1.6× faster with it.
+#: Sim seconds the simulator runs past a lockstep run's duration (its ``lockstep_end_s``).
+LOCKSTEP_END_MARGIN_S = 0.5
+# Fast DDS sends from the publishing thread, not through a sender thread: the lockstep runs faster so.
 FASTDDS_PUBLICATION_MODE = ("RMW_FASTRTPS_PUBLICATION_MODE", "SYNCHRONOUS")
 
 
@@ -50,18 +46,26 @@ class Process:
 
 @dataclass
 class RunPlan:
+    options: RunOptions
     out_dir: Path
     bag_dir: Path
     counts_dir: Path  #: a scratch folder for the nodes' publish counts and the arm's kept state
     recorder: Process | None  #: None on a launcher of part of the graph without the simulator
     nodes: list[Process]
-    sim_time: bool
-    notes: list[str] = field(default_factory=list)  #: what the launcher should say before starting
-    viewer: Process | None = None  #: the live view (``view_port``): an observer, like the recorder
-    view_url: str | None = None  #: where the live view is served
-    local_nodes: tuple[str, ...] = NODE_ORDER  #: the nodes this launcher starts
-    watcher: Process | None = None  #: ``graph_watch``, when the other nodes are another launcher's
-    lockstep_end_s: float | None = None  #: lockstep: the simulator publishes no tick after this sim time
+    notes: list[str]  #: what the launcher should say before starting
+    viewer: Process | None  #: the live view (``view_port``): an observer, like the recorder
+    view_url: str | None  #: where the live view is served
+    watcher: Process | None  #: ``graph_watch``, when the other nodes are another launcher's
+    lockstep_end_s: float | None  #: lockstep: the simulator publishes no tick after this sim time
+
+    @property
+    def sim_time(self) -> bool:
+        return self.options.sim_time
+
+    @property
+    def local_nodes(self) -> tuple[str, ...]:
+        """The nodes this launcher starts."""
+        return self.options.nodes
 
     @property
     def remote_nodes(self) -> tuple[str, ...]:
@@ -131,54 +135,59 @@ def with_controller_model(params: cfg.Params) -> cfg.Params:
     return out
 
 
-def plan(
-    params: cfg.Params,
-    *,
-    out_dir: Path,
-    single_process: bool = False,
-    realtime: bool = False,
-    sim_time: bool = False,
-    domain_id: int | None = None,
-    respawn: bool = False,
-    view_port: int | None = None,
-    nodes: Sequence[str] | None = None,
-    peers: Sequence[str] | None = None,
-    run_id: str | None = None,
-) -> RunPlan:
-    """Check the whole configuration, then write what the processes read
-    (``params.yaml``, ``fastdds.xml``) and decide how each starts.
-    ``view_port``: also start the live viewer, serving at
-    ``http://127.0.0.1:<view_port>`` and saving ``out_dir/view.rrd``.
-    ``nodes``: start only these (default all five); ``run_id``: the partition is this
-    name's (:func:`partition.run_partition`), so another launcher naming it joins the run;
-    ``peers``: the other hosts' IPv4 addresses, and UDPv4 only (``partition.write_run_profile``).
+@dataclass(frozen=True)
+class CheckedRun:
+    """A run's parameters as its nodes get them, checked whole for its options (made by :func:`check`)."""
 
-    :raises ConfigError: before anything is written (also: ``view_port`` cannot be served on;
-        part of the graph without a run id, or in one process; a run id or peers with a
-        profile of the user's)
-    :raises FileExistsError: ``out_dir`` already holds a recording
+    params: cfg.Params
+    options: RunOptions
+
+
+def check(params: cfg.Params, options: RunOptions) -> CheckedRun:
+    """The parameters the nodes get (the planner on the controller's arm model; lockstep, ending
+    ``LOCKSTEP_END_MARGIN_S`` past the duration), the whole configuration and the options checked,
+    before anything is written or started.
+
+    :raises ConfigError: a parameter, or ``view_port`` cannot be served on; part of the graph
+        without a run id, or in one process; a run id or peers with a profile of the user's
     """
-    local = NODE_ORDER if nodes is None else check_nodes(",".join(nodes))
+    local = NODE_ORDER if options.nodes is None else check_nodes(",".join(options.nodes))
     split = local != NODE_ORDER
-    if split and run_id is None:
+    if split and options.run_id is None:
         raise ConfigError("--nodes: a launcher of part of the graph needs --run-id NAME, the same as the other side's")
-    if split and single_process:
+    if split and options.single_process:
         raise ConfigError("--single-process runs all five nodes in one process: it cannot take --nodes")
-    if (run_id is not None or peers) and partition.PROFILES_ENV in os.environ:
+    if (options.run_id is not None or options.peers) and partition.PROFILES_ENV in os.environ:
         raise ConfigError(
             f"{partition.PROFILES_ENV} is set: --run-id and --peers need the run's own Fast DDS profile; unset it"
         )
-    if run_id is not None:
+    if options.run_id is not None:
         try:
-            partition.check_run_id(run_id)
+            partition.check_run_id(options.run_id)
         except ValueError as exc:
             raise ConfigError(f"--run-id: {exc}") from None
     params = with_controller_model(params)
-    if sim_time:
+    if options.sim_time:
         params = lockstep_params(params)
-    consistency.check_stack(params)  # before anything is written or started
-    if view_port is not None:
-        view_serve.check_port(view_port)
+        if math.isfinite(options.duration_s):
+            # The loop's first tick comes a moment after t = 0: the simulator stops a little past the end,
+            # the graph falls quiet and the recorder takes every message before the nodes stop.
+            params["simulator"]["lockstep_end_s"] = options.duration_s + LOCKSTEP_END_MARGIN_S
+    consistency.check_stack(params)
+    if options.view_port is not None:
+        view_serve.check_port(options.view_port)
+    return CheckedRun(params, replace(options, nodes=local))
+
+
+def plan(run: CheckedRun, out_dir: Path) -> RunPlan:
+    """Write what the processes read (``params.yaml``, ``fastdds.xml``) into ``out_dir`` and decide
+    how each starts: the recorder beside the simulator, ``graph_watch`` when part of the graph runs
+    elsewhere, the live viewer with ``view_port`` (serving ``http://127.0.0.1:<view_port>``).
+
+    :raises FileExistsError: ``out_dir`` already holds a recording
+    """
+    params, options = run.params, run.options
+    local = options.nodes
     bag_dir = out_dir / "bag"
     if bag_dir.exists():
         raise FileExistsError(f"{bag_dir} exists: choose another --out")
@@ -186,71 +195,47 @@ def plan(
     params_file = cfg.write_params_file(params, out_dir / "params.yaml")
     counts_dir = Path(tempfile.mkdtemp(prefix="robot-controller-counts-"))
     notes = []
-    env = child_env(single_process)
+    env = child_env(options.single_process)
     # Recorded on both sides of a split run: every node's gates wait for the recorder, wherever it runs.
     env.update({RECORDED_ENV: "1", COUNTS_DIR_ENV: str(counts_dir)})
-    if respawn:
+    if options.respawn:
         env[WORLD_STATE_ENV] = str(counts_dir / "world_state.bin")
-    if domain_id is not None:
-        env["ROS_DOMAIN_ID"] = str(domain_id)
+    if options.domain_id is not None:
+        env["ROS_DOMAIN_ID"] = str(options.domain_id)
     if partition.PROFILES_ENV in os.environ:
         notes.append(
             f"{partition.PROFILES_ENV} is set: the run uses that Fast DDS profile and is not isolated "
             "from other publishers on its domain"
         )
     else:  # the run's loop topics in a partition of its own (see ros.partition)
-        name = partition.run_partition(run_id) if run_id is not None else partition.new_partition()
-        profile = partition.write_run_profile(out_dir / "fastdds.xml", name, peers=list(peers or ()))
+        name = partition.run_partition(options.run_id) if options.run_id is not None else partition.new_partition()
+        profile = partition.write_run_profile(out_dir / "fastdds.xml", name, peers=list(options.peers))
         env[partition.PROFILES_ENV] = str(profile)
         env[partition.PARTITION_ENV] = name
-        if peers:  # the profile alone says how discovery goes (rmw_fastrtps's LOCALHOST would add shared memory)
+        if options.peers:  # the profile alone says how discovery goes (rmw_fastrtps's LOCALHOST would add shm)
             env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = partition.PEERS_DISCOVERY_RANGE
             env[partition.LOOP_QOS_ENV] = "best_effort"  # the loop's readers across a link that loses packets
     node_env = dict(env)
-    if realtime:
+    if options.realtime:
         node_env[scheduling.PACING_RT_ENV] = str(scheduling.PACING_RT_PRIORITY)
     node_args = ["--ros-args", "--params-file", str(params_file)]
     processes = (
         [Process("stack", "all_in_one", node_args, node_env)]
-        if single_process
+        if options.single_process
         else [Process(name, name, node_args, node_env) for name in local]
     )
-    recorder = (
-        Process("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] if sim_time else []), env)
-        if RECORDING_NODE in local
-        else None
-    )
-    watcher = Process("graph_watch", "graph_watch", [], dict(env)) if split else None
+    recorder = None
+    if RECORDING_NODE in local:
+        recorder = Process("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] * options.sim_time), env)
+    watcher = Process("graph_watch", "graph_watch", [], dict(env)) if local != NODE_ORDER else None
     viewer = view_url = None
-    if view_port is not None:
-        viewer = Process(
-            "viewer",
-            "viewer",
-            [
-                "--rrd",
-                str(out_dir / "view.rrd"),
-                "--port",
-                str(view_port),
-                "--urdf",
-                str(params["simulator"]["urdf_path"]),
-                "--control-rate",
-                repr(float(params["pid_controller"]["control_rate_hz"])),
-            ],
-            dict(env),
-        )
-        view_url = view_serve.page_url(view_port)
-    end_s = params["simulator"].get("lockstep_end_s", 0.0) if sim_time else 0.0
+    if options.view_port is not None:
+        viewer_args = ["--rrd", str(out_dir / "view.rrd"), "--port", str(options.view_port)]
+        viewer_args += ["--urdf", str(params["simulator"]["urdf_path"])]
+        viewer_args += ["--control-rate", repr(float(params["pid_controller"]["control_rate_hz"]))]
+        viewer = Process("viewer", "viewer", viewer_args, dict(env))
+        view_url = view_serve.page_url(options.view_port)
+    end_s = params["simulator"].get("lockstep_end_s", 0.0) if options.sim_time else 0.0
     return RunPlan(
-        out_dir,
-        bag_dir,
-        counts_dir,
-        recorder,
-        processes,
-        sim_time,
-        notes,
-        viewer,
-        view_url,
-        local,
-        watcher,
-        lockstep_end_s=end_s or None,
+        options, out_dir, bag_dir, counts_dir, recorder, processes, notes, viewer, view_url, watcher, end_s or None
     )

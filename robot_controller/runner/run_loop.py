@@ -34,27 +34,31 @@ class Outcome:
     end_reason: str | None = None
 
 
+Watcher = Callable[[float, dict[str, int]], None]
+
+
 def run_loop(
     run: RunPlan,
     group: ProcessGroup,
     nodes: list[Child],
     link: supervise.RecorderLink,
     outcome: Outcome,
-    duration_s: float,
-    watcher: Callable[[float, dict[str, int]], None] | None,
+    watcher: Watcher | None,
     replaced: set[str] | None,
-    viewers: list[Child] = (),
-    graph: supervise.GraphLink | None = None,
-    wait_s: float = supervise.GRAPH_WAIT_S,
+    viewers: list[Child],
+    graph: supervise.GraphLink | None,
 ) -> None:
-    """Wait for the recorder and the first tick, then for ``duration_s`` of control; fills ``outcome``.
-    ``replaced``: respawn dead nodes, noting their names there. ``viewers``: observers measured
-    apart (their ``cpu_pct_``/``rss_`` figures, outside ``cpu_pct_total``) and never respawned.
-    ``graph``: part of the graph runs here; wait (``wait_s``) for the other side's nodes first."""
+    """Wait for the recorder and the first tick, then for the options' ``duration_s`` of control; fills ``outcome``.
+
+    :param replaced: respawn dead nodes, noting their names there (None: a dead node ends the run)
+    :param viewers: observers measured apart (outside ``cpu_pct_total``) and never respawned
+    :param graph: part of the graph runs here: wait (``wait_s``) for the other side's nodes first
+    """
+    duration_s = run.options.duration_s
     if run.records:
         outcome.failure = supervise.wait_recorder(link, group)
     if outcome.failure is None and graph is not None:
-        outcome.failure = supervise.wait_graph(graph, group, NODE_ORDER, run.remote_nodes, wait_s)
+        outcome.failure = supervise.wait_graph(graph, group, NODE_ORDER, run.remote_nodes, run.options.wait_s)
         if outcome.failure is None:
             say(f"graph complete: {', '.join(NODE_ORDER)} (here: {', '.join(run.local_nodes)})")
     if outcome.failure is None and run.records:
@@ -84,18 +88,8 @@ def run_loop(
     else:
         pids = {c.name: c.process.pid for c in nodes}
         poll = (lambda: watcher(time.monotonic() - started, pids)) if watcher else None
-
-        def respawn(dead: Child) -> Child:
-            replaced.add(dead.name)
-            process = next(p for p in run.nodes if p.name == dead.name)
-            child = group.restart(dead, env=process.env)
-            nodes[nodes.index(dead)] = child
-            pids[child.name] = child.process.pid
-            return child
-
-        outcome.failure = supervise.wait_wall(
-            group, started + duration_s, meter, poll, respawn if replaced is not None else None
-        )
+        respawn = _respawner(run, group, nodes, replaced, pids)
+        outcome.failure = supervise.wait_wall(group, started + duration_s, meter, poll, respawn)
         outcome.control_seconds = outcome.wall_seconds = time.monotonic() - started
     outcome.usage = meter.finish()
 
@@ -115,25 +109,31 @@ def serve_until_the_loop_ends(
     say(f"serving the loop with {', '.join(run.local_nodes)} until {', '.join(run.remote_nodes)} leave(s) the graph")
     meter = supervise.UsageMeter(group.children, started + supervise.USAGE_WARMUP_S)
 
+    respawn = _respawner(run, group, nodes, replaced, {})
+    ended = lambda: graph.all_gone(run.remote_nodes)  # noqa: E731
+    outcome.failure = supervise.wait_wall(group, float("inf"), meter, None, respawn, ended=ended)
+    outcome.control_seconds = outcome.wall_seconds = time.monotonic() - started
+    outcome.usage = meter.finish()
+    if outcome.failure is None:
+        outcome.end_reason = f"{', '.join(run.remote_nodes)} left the graph: the loop has ended"
+
+
+def _respawner(
+    run: RunPlan, group: ProcessGroup, nodes: list[Child], replaced: set[str] | None, pids: dict[str, int]
+) -> Callable[[Child], Child] | None:
+    """What starts a dead node again, noting it in ``replaced`` and ``pids``; None without ``replaced``."""
+    if replaced is None:
+        return None
+
     def respawn(dead: Child) -> Child:
         replaced.add(dead.name)
         process = next(p for p in run.nodes if p.name == dead.name)
         child = group.restart(dead, env=process.env)
         nodes[nodes.index(dead)] = child
+        pids[child.name] = child.process.pid
         return child
 
-    outcome.failure = supervise.wait_wall(
-        group,
-        float("inf"),
-        meter,
-        None,
-        respawn if replaced is not None else None,
-        ended=lambda: graph.all_gone(run.remote_nodes),
-    )
-    outcome.control_seconds = outcome.wall_seconds = time.monotonic() - started
-    outcome.usage = meter.finish()
-    if outcome.failure is None:
-        outcome.end_reason = f"{', '.join(run.remote_nodes)} left the graph: the loop has ended"
+    return respawn
 
 
 class WithViewers:

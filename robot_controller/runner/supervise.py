@@ -88,7 +88,6 @@ class GraphLink:
         )
 
 
-GRAPH_WAIT_S = 60.0  #: default of ``run --wait``
 GRAPH_SAY_EVERY_S = 5.0  #: how often the launcher names the nodes it is still waiting for
 
 

@@ -139,13 +139,14 @@ def test_the_planner_node_plans_on_the_controllers_arm_model_from_the_run_plan(t
     from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
     from robot_controller.parameters import consistency
     from robot_controller.runner import plan
+    from robot_controller.runner.options import RunOptions
 
     overlay = tmp_path / "identified.yaml"
     overlay.write_text("pid_controller:\n  ros__parameters:\n    model_inertia: [1.0]\n")
     params = cfg.load_stack("default", [overlay])
     expected = consistency.trajectory_plan(params)
     assert isinstance(expected.trajectory, Sine) and expected.trajectory.frequency_hz < 0.45
-    run = plan.plan(params, out_dir=tmp_path / "run", sim_time=True)
+    run = plan.plan(plan.check(params, RunOptions(sim_time=True)), tmp_path / "run")
     (planner,) = [node for node in run.nodes if node.name == "trajectory_planner"]
     rclpy.init(args=["trajectory_planner", *planner.args], domain_id=ros_domain)
     try:

@@ -146,6 +146,7 @@ def test_a_run_plan_gives_the_planner_the_controllers_arm_model(tmp_path):
     from robot_controller.parameters import consistency
     from robot_controller.parameters.builders import MODEL_KEYS, arm_model
     from robot_controller.runner import plan
+    from robot_controller.runner.options import RunOptions
 
     overlay = tmp_path / "identified.yaml"
     overlay.write_text(
@@ -153,7 +154,7 @@ def test_a_run_plan_gives_the_planner_the_controllers_arm_model(tmp_path):
     )
     params = cfg.load_stack("default", [overlay])
     assert params["trajectory_planner"]["model_inertia"] == []  # nothing set for the planner itself
-    run = plan.plan(params, out_dir=tmp_path / "run", sim_time=True)
+    run = plan.plan(plan.check(params, RunOptions(sim_time=True)), tmp_path / "run")
     written = cfg.read_params_file(tmp_path / "run" / "params.yaml")
     assert "&id" not in (tmp_path / "run" / "params.yaml").read_text()  # no YAML alias: rcl refuses them
     for key in MODEL_KEYS:
@@ -170,6 +171,7 @@ def test_a_run_plan_gives_the_planner_the_controllers_arm_model(tmp_path):
 def test_planner_model_values_that_disagree_with_the_controllers_are_refused(tmp_path):
     from robot_controller.parameters import consistency
     from robot_controller.runner import plan
+    from robot_controller.runner.options import RunOptions
 
     params = cfg.load_stack("default")
     params["pid_controller"]["model_inertia"] = [0.2]
@@ -185,7 +187,7 @@ def test_planner_model_values_that_disagree_with_the_controllers_are_refused(tmp
         "is checked against"
     ), message
     with pytest.raises(ConfigError, match=r"^trajectory_planner: model_inertia \[0\.3\] differs"):
-        plan.plan(params, out_dir=tmp_path / "run")
+        plan.check(params, RunOptions())
     assert not (tmp_path / "run").exists()
     # Set for the planner alone, the controller on its URDF: refused too.
     params["pid_controller"]["model_inertia"] = []

@@ -9,6 +9,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.nodes import graph_watch
 from robot_controller.ros import partition
 from robot_controller.runner import plan as run_plan
+from robot_controller.runner.options import RunOptions
 from robot_controller.runner.supervise import GraphLink
 from tests.test_cli import cli, one_line_error
 
@@ -87,7 +88,7 @@ def test_split_options_refused_in_one_line(tmp_path, args, expected):
 def test_a_profile_of_the_users_cannot_carry_the_run_id(tmp_path, monkeypatch):
     monkeypatch.setenv(partition.PROFILES_ENV, str(tmp_path / "mine.xml"))
     with pytest.raises(ConfigError, match="unset it"):
-        run_plan.plan({}, out_dir=tmp_path / "run", run_id="x")
+        run_plan.check({}, RunOptions(run_id="x"))
 
 
 def test_the_other_side_has_ended_once_all_its_nodes_have_left(monkeypatch):

@@ -1,12 +1,7 @@
-"""The reference pages written from the code: ``docs/parameters.md`` from the
-parameter schema (``robot-controller params --markdown``) and ``docs/cli.md``
-from the command-line parser (``robot-controller help --markdown``). A test
-compares the committed pages with what these functions write.
-
-Both are built from the definitions themselves, never from argparse's
-formatted help, so the text does not depend on the terminal's width or on
-the Python version's help layout. No ROS here.
-"""
+"""The reference pages written from the code, and ``robot-controller help``: ``docs/parameters.md``
+from the parameter schema (``params --markdown``) and ``docs/cli.md`` from the command-line parser
+(``help --markdown``), both from the definitions themselves, never from argparse's formatted help (which
+depends on the terminal's width and the Python version). A test compares the committed pages with these."""
 
 from __future__ import annotations
 
@@ -14,6 +9,8 @@ import argparse
 import sys
 from pathlib import Path
 from typing import Any
+
+from robot_controller.cli.args import verb
 
 PARAMS_COMMAND = "robot-controller params --markdown docs/parameters.md"
 CLI_COMMAND = "robot-controller help --markdown docs/cli.md"
@@ -197,7 +194,7 @@ def cli_markdown(parser: argparse.ArgumentParser) -> str:
     lines = [
         "# Command line",
         "",
-        f"<!-- Written by `{CLI_COMMAND}` from robot_controller/cli.py; do not edit by hand. -->",
+        f"<!-- Written by `{CLI_COMMAND}` from robot_controller/cli/; do not edit by hand. -->",
         "",
         f"`{parser.prog} VERB [options]`: {parser.description}. Every verb also takes `-h`. A mistake on the",
         "command line is one line on stderr and exit code 2.",
@@ -219,4 +216,21 @@ def write(text: str, path: str | None, verb: str) -> int:
     target = Path(path)
     target.write_text(text)
     print(f"robot-controller {verb}: wrote {target}", file=sys.stderr)
+    return 0
+
+
+def register(sub, root: argparse.ArgumentParser) -> None:
+    """``help``: every verb of ``root``, the whole parser."""
+    p = verb(sub, "help", "every verb's options and help", lambda a: _help_verb(root, a.markdown))
+    p.add_argument(
+        "--markdown", nargs="?", const="-", metavar="PATH", help="as Markdown, to PATH or stdout (docs/cli.md)"
+    )
+
+
+def _help_verb(root: argparse.ArgumentParser, markdown: str | None) -> int:
+    if markdown is not None:
+        return write(cli_markdown(root), markdown, "help")
+    print(root.format_help())
+    for name, _, sub in subcommands(root):
+        print(f"--- {name} ---\n{sub.format_help()}")
     return 0

@@ -1,8 +1,5 @@
-"""What every verb of ``robot-controller`` parses with: the parser whose errors
-are one line (exit 2), the argument types that check a value as it is read, and
-the option groups several verbs share (the robot, the stack, the law, part of
-the graph across hosts).
-"""
+"""What every verb of ``robot-controller`` parses with: the parser whose errors are one line (exit 2),
+the argument types that check a value as it is read, and the option groups several verbs share."""
 
 from __future__ import annotations
 
@@ -13,6 +10,10 @@ from pathlib import Path
 
 from robot_controller import parameters as cfg
 from robot_controller.core.errors import ConfigError
+
+
+class UsageError(Exception):
+    """A mistake of the user's: one line on stderr, exit code 2."""
 
 
 class Parser(argparse.ArgumentParser):
@@ -72,28 +73,56 @@ def port(text: str) -> int:
     return value
 
 
-def controller_spec(text: str) -> str:
-    """A law as ``controller_type`` names it, loaded now: a bad one is argparse's one line."""
+def _checked(check: Callable[[str], object], prefix: str = "") -> Callable[[str], object]:
+    """An argument type of ``check``: its ``ValueError`` (or ``ConfigError``) is argparse's one line."""
+
+    def parse(text: str) -> object:
+        try:
+            return check(text)
+        except (ValueError, ConfigError) as exc:
+            raise argparse.ArgumentTypeError(str(exc).removeprefix(prefix)) from None
+
+    return parse
+
+
+def _controller(text: str) -> str:
     from robot_controller.experiments import laws
 
-    try:
-        laws.controller_type(text)
-    except ConfigError as exc:
-        raise argparse.ArgumentTypeError(str(exc).removeprefix("--controller: ")) from None
+    laws.controller_type(text)  # loaded now
     return text.strip()
 
 
-def compare_entries(text: str) -> list[str]:
-    """``compare --controllers``: configurations and laws, comma-separated, each checked now."""
+def _compare_entries(text: str) -> list[str]:
     from robot_controller.experiments.compare import contenders
 
     names = [name.strip() for name in text.split(",")]
-    try:
-        contenders(names)
-    except ConfigError as exc:
-        raise argparse.ArgumentTypeError(str(exc).removeprefix("--controllers: ")) from None
+    contenders(names)  # each checked now
     return names
 
+
+def _nodes(text: str) -> tuple[str, ...]:
+    from robot_controller.runner.plan import check_nodes
+
+    return check_nodes(text)
+
+
+def _peers(text: str) -> list[str]:
+    from robot_controller.ros.partition import check_peers
+
+    return check_peers(text)
+
+
+def _run_id(text: str) -> str:
+    from robot_controller.ros.partition import check_run_id
+
+    return check_run_id(text)
+
+
+controller_spec = _checked(_controller, "--controller: ")  #: a law as ``controller_type`` names it
+compare_entries = _checked(_compare_entries, "--controllers: ")  #: configurations and laws, comma-separated
+node_list = _checked(_nodes)
+peer_list = _checked(_peers)
+run_name = _checked(_run_id)
 
 Handler = Callable[[argparse.Namespace], int]
 
@@ -125,7 +154,12 @@ def controller_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def out_option(parser: argparse.ArgumentParser, default: str | None) -> None:
+    parser.add_argument("--out", type=Path, help=f"output directory (default {default})" if default else None)
+
+
 def stack_options(parser: argparse.ArgumentParser, *, seed: bool = True) -> None:
+    """The stack a verb loads (``RunOptions``' ``robot``, ``preset``, ``config``, ``seed``)."""
     robot_option(parser)
     parser.add_argument("--preset", default="default", choices=cfg.available_presets())
     parser.add_argument(
@@ -136,55 +170,3 @@ def stack_options(parser: argparse.ArgumentParser, *, seed: bool = True) -> None
     )
     if seed:
         parser.add_argument("--seed", type=int, default=0, help="sensor noise seed (default 0)")
-
-
-def node_list(text: str) -> tuple[str, ...]:
-    from robot_controller.runner.plan import check_nodes
-
-    try:
-        return check_nodes(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def peer_list(text: str) -> list[str]:
-    from robot_controller.ros.partition import check_peers
-
-    try:
-        return check_peers(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def run_name(text: str) -> str:
-    from robot_controller.ros.partition import check_run_id
-
-    try:
-        return check_run_id(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def split_options(parser: argparse.ArgumentParser) -> None:
-    """``run``'s options for part of the graph, across hosts (docs/design.md §6, "Across hosts")."""
-    parser.add_argument(
-        "--nodes",
-        type=node_list,
-        metavar="A,B,...",
-        help="start only these of simulator, motor_node, sensor_node, pid_controller, trajectory_planner "
-        "(default all); the launcher with the simulator records and scores",
-    )
-    parser.add_argument(
-        "--peers",
-        type=peer_list,
-        metavar="ADDR[,ADDR]",
-        help="the other hosts' IPv4 addresses: discovery by unicast to them, UDPv4 only (no shared memory)",
-    )
-    parser.add_argument("--run-id", type=run_name, metavar="NAME", help="the run's name, the same on every launcher")
-    parser.add_argument(
-        "--wait",
-        type=positive_seconds,
-        default=60.0,
-        metavar="S",
-        help="give up if the whole graph is not there within S seconds (default 60)",
-    )

@@ -1,27 +1,24 @@
-"""``robot-controller``'s verbs that talk to a running graph: estop, disturb,
-goto, trajectory, and ros2cli's ``topic`` and ``param`` habits."""
+"""The verbs that talk to a running graph (``tools``): the e-stop, a push, a move, a trajectory file,
+and ros2cli's ``topic`` and ``param`` habits."""
 
 from __future__ import annotations
 
+import argparse
+import sys
 from pathlib import Path
 
-from robot_controller import verbs_graph
-from robot_controller.cli_options import Parser, joint_list, positive_int, positive_seconds, verb
+from robot_controller.cli.args import Parser, joint_list, positive_int, positive_seconds, verb
+from robot_controller.tools import param, topic  # no ROS until a verb runs
 
 
-def graph_verbs(sub) -> None:
-    p = verb(
-        sub,
-        "estop",
-        "emergency stop of the running graph: torque off, brakes on, latched",
-        lambda a: verbs_graph.estop(release=a.release),
-    )
+def register(sub) -> None:
+    p = verb(sub, "estop", "emergency stop of the running graph: torque off, brakes on, latched", _estop)
     p.add_argument("--release", action="store_true", help="release the e-stop; the loop re-acquires")
     p = verb(
         sub,
         "disturb",
         "push the running arm: an external torque for a while (/sim/disturbance)",
-        lambda a: verbs_graph.disturb(a.torque, a.duration, a.joint),
+        _disturb,
     )
     p.add_argument("--torque", type=float, required=True, help="N·m")
     p.add_argument("--duration", type=positive_seconds, default=0.5, help="s (default 0.5)")
@@ -30,7 +27,7 @@ def graph_verbs(sub) -> None:
         sub,
         "goto",
         "move the running arm to joint positions, at rest after --time (a JointTrajectory to the planner)",
-        lambda a: verbs_graph.goto(a.positions, a.time, a.joints),
+        _goto,
     )
     p.add_argument("positions", type=float, nargs="+", metavar="Q", help="rad, one per joint")
     p.add_argument("--time", type=positive_seconds, help="s to get there (default: from the distance, at least 1)")
@@ -41,18 +38,19 @@ def graph_verbs(sub) -> None:
         sub,
         "trajectory",
         "send a joint trajectory from a YAML file to the running planner (joint_names, points)",
-        lambda a: verbs_graph.send_trajectory(a.file),
+        _send_file,
     )
     p.add_argument("file", type=Path, help="YAML: joint_names: [...], points: [{time_from_start, positions}, ...]")
-    topic = sub.add_parser("topic", help="ros2 topic's habits: list, echo, hz")
-    topics = topic.add_subparsers(dest="topic_verb", required=True, parser_class=Parser)
-    p = verb(topics, "list", "the graph's topics", lambda a: verbs_graph.topic("list", show_types=a.show_types))
+    topics = sub.add_parser("topic", help="ros2 topic's habits: list, echo, hz").add_subparsers(
+        dest="topic_verb", required=True, parser_class=Parser
+    )
+    p = verb(topics, "list", "the graph's topics", lambda a: topic.topic_list(show_types=a.show_types))
     p.add_argument("-t", "--show-types", action="store_true")
     p = verb(
         topics,
         "echo",
         "print a topic's messages",
-        lambda a: verbs_graph.topic("echo", a.topic, count=a.count, csv=a.csv),
+        lambda a: topic.topic_echo(a.topic, count=a.count, csv=a.csv),
     )
     p.add_argument("topic")
     p.add_argument("--count", type=positive_int, help="stop after this many messages")
@@ -61,28 +59,53 @@ def graph_verbs(sub) -> None:
         topics,
         "hz",
         "a topic's rate",
-        lambda a: verbs_graph.topic("hz", a.topic, window=a.window, duration_s=a.duration),
+        lambda a: topic.topic_hz(a.topic, window=a.window, duration_s=a.duration),
     )
     p.add_argument("topic")
     p.add_argument("--window", "-w", type=positive_int, default=10_000, help="messages the statistics cover")
     p.add_argument("--duration", type=positive_seconds, help="stop after this long, s (default: Ctrl-C)")
-    param = sub.add_parser("param", help="ros2 param's habits: list, get, set, dump")
-    params = param.add_subparsers(dest="param_verb", required=True, parser_class=Parser)
-    p = verb(params, "list", "a node's parameters", lambda a: verbs_graph.param("list", a.node))
+    params = sub.add_parser("param", help="ros2 param's habits: list, get, set, dump").add_subparsers(
+        dest="param_verb", required=True, parser_class=Parser
+    )
+    p = verb(params, "list", "a node's parameters", lambda a: param.param_list(a.node))
     p.add_argument("node")
-    p = verb(params, "get", "one parameter's value", lambda a: verbs_graph.param("get", a.node, a.name))
+    p = verb(params, "get", "one parameter's value", lambda a: param.param_get(a.node, a.name))
     p.add_argument("node")
     p.add_argument("name")
     p = verb(
         params,
         "set",
         "set one parameter (the node refuses a bad value with its reason)",
-        lambda a: verbs_graph.param("set", a.node, a.name, a.value),
+        lambda a: param.param_set(a.node, a.name, a.value),
     )
     p.add_argument("node")
     p.add_argument("name")
     p.add_argument("value")
-    p = verb(
-        params, "dump", "a node's parameters as a ROS 2 parameter file", lambda a: verbs_graph.param("dump", a.node)
-    )
+    p = verb(params, "dump", "a node's parameters as a ROS 2 parameter file", lambda a: param.param_dump(a.node))
     p.add_argument("node")
+
+
+def _disturb(a: argparse.Namespace) -> int:
+    from robot_controller.tools.disturb import disturb
+
+    return disturb(a.torque, a.duration, a.joint)
+
+
+def _goto(a: argparse.Namespace) -> int:
+    from robot_controller.tools.send_trajectory import goto
+
+    return goto(a.positions, a.time, a.joints)
+
+
+def _send_file(a: argparse.Namespace) -> int:
+    from robot_controller.tools.send_trajectory import send_file
+
+    return send_file(a.file)
+
+
+def _estop(a: argparse.Namespace) -> int:
+    from robot_controller.ros import estop
+
+    heard, report = estop.send(engage=not a.release)
+    print(f"robot-controller: {report}", file=sys.stdout if heard else sys.stderr)
+    return 0 if heard else 1

@@ -1,0 +1,5 @@
+"""``python -m robot_controller.cli``: the console script."""
+
+from robot_controller.cli.main import entry
+
+entry()

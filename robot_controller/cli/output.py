@@ -1,0 +1,121 @@
+"""What the verbs write and show: the output directory (never overwriting results), a table of
+figures, and a long verb's progress (a rich bar on a terminal; on a pipe or in CI one plain line
+per step, ``[bench] 3/9 wall clock 1 kHz, ...``)."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+from types import TracebackType
+
+from robot_controller.cli.args import UsageError
+
+# What marks a directory as holding results already.
+RESULT_FILES = ("params.yaml", "bag", "metrics.json", "bench.json", "compare.json", "faults.json", "report.md")
+
+
+def output_dir(out: Path | None, default: Path) -> Path:
+    """Where a verb writes. An ``--out`` that holds results is refused (nothing is
+    overwritten); the default location, if used already, becomes a fresh
+    sibling (``runs/faults-2``), said on screen."""
+    chosen = out if out is not None else default
+    if chosen.exists() and not chosen.is_dir():
+        raise UsageError(f"--out {chosen}: exists and is not a directory")
+    if chosen.is_dir() and any((chosen / name).exists() for name in RESULT_FILES):
+        if out is not None:
+            raise UsageError(f"--out {chosen}: holds an earlier run; choose another directory (nothing was changed)")
+        n = 2
+        while (chosen.parent / f"{chosen.name}-{n}").exists():
+            n += 1
+        chosen = chosen.parent / f"{chosen.name}-{n}"
+        print(f"robot-controller: {default} holds an earlier run: writing to {chosen}", file=sys.stderr)
+    try:
+        chosen.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"--out {chosen}: cannot create it ({exc.strerror})") from None
+    if not os.access(chosen, os.W_OK | os.X_OK):
+        raise UsageError(f"--out {chosen}: not writable")
+    return chosen
+
+
+HEADLINE = (
+    "tracking_rms_rad",
+    "tracking_max_rad",
+    "measured_rms_rad",
+    "control_rate_hz",
+    "jitter_p99_ms",
+    "missed_cycles",
+    "latency_p50_ms",
+    "latency_p99_ms",
+    "peak_torque_nm",
+    "duration_s",
+    "real_time_factor",
+)
+
+
+def print_table(values: dict, title: str, headline: tuple[str, ...] = HEADLINE) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    from robot_controller.scoring.report import joint_table
+
+    table = Table(title=title)
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    for key in headline + tuple(sorted(k for k in values if k not in headline)):
+        if key in values and not isinstance(values[key], list):  # the per-joint lists: in their own table
+            value = values[key]
+            table.add_row(key, f"{value:.6g}" if isinstance(value, float) else str(value))
+    Console().print(table)
+    joints = joint_table(values)
+    if joints is not None:
+        Console().print(joints)
+
+
+def print_report(path: Path, use: str | None = None) -> int:
+    """A report an experiment wrote, then how to use what it wrote (``--config FILE``)."""
+    print(path.read_text())
+    if use is not None:
+        print(f"robot-controller: use it with --config {path.parent / use}")
+    return 0
+
+
+class StepProgress:
+    """``with StepProgress("bench", total=9) as progress: progress("what starts now")``."""
+
+    def __init__(self, verb: str, total: int) -> None:
+        self.verb, self.total, self.done = verb, total, 0
+        self._bar = None
+
+    def __enter__(self) -> StepProgress:
+        if sys.stdout.isatty():
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+            self._bar = Progress(
+                TextColumn(f"[bold]{self.verb}[/bold]"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TimeElapsedColumn(),
+                TextColumn("{task.description}"),
+                redirect_stdout=True,
+            )
+            self._bar.__enter__()
+            self._task = self._bar.add_task("", total=self.total)
+        return self
+
+    def __call__(self, text: str) -> None:
+        """A new step starts: the previous one is done."""
+        if self._bar is not None:
+            self._bar.update(self._task, completed=self.done, description=text)
+        else:
+            print(f"[{self.verb}] {self.done + 1}/{self.total} {text}", flush=True)
+        self.done += 1
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        if self._bar is not None:
+            if exc_type is None:
+                self._bar.update(self._task, completed=self.total, description="done")
+            self._bar.__exit__(exc_type, exc, tb)

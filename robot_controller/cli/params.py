@@ -1,0 +1,52 @@
+"""``robot-controller params``: every node parameter with its value and meaning, as a parameter
+file (``--yaml``), or the reference page of the schema (``--markdown``, docs/parameters.md)."""
+
+from __future__ import annotations
+
+import argparse
+
+from robot_controller.cli.args import UsageError, stack_options, verb
+
+
+def register(sub) -> None:
+    p = verb(sub, "params", "list every node parameter with its default and meaning", _params)
+    p.add_argument(
+        "--yaml", action="store_true", help="print the values as a ROS 2 parameter file (for --config or --params-file)"
+    )
+    p.add_argument(
+        "--markdown",
+        nargs="?",
+        const="-",
+        metavar="PATH",
+        help="write the reference of every parameter (the schema's, the presets' and robots' changes) as Markdown, "
+        "to PATH or stdout (docs/parameters.md)",
+    )
+    stack_options(p, seed=False)
+
+
+def _params(a: argparse.Namespace) -> int:
+    from robot_controller.robots import DEFAULT_ROBOT
+
+    if a.markdown is None:
+        return list_params(preset=a.preset, config=a.config, as_yaml=a.yaml, robot=a.robot)
+    if a.yaml or a.config or a.preset != "default" or a.robot != DEFAULT_ROBOT:
+        raise UsageError("--markdown documents the schema: it takes no --yaml, --preset, --robot or --config")
+    from robot_controller.cli.docs import parameters_markdown, write
+
+    return write(parameters_markdown(), a.markdown, "params")
+
+
+def list_params(*, preset: str, config: list | None, as_yaml: bool, robot: str) -> int:
+    from robot_controller import parameters as cfg
+    from robot_controller.parameters.law_params import node_specs
+
+    values = cfg.load_stack(preset, config, robot)
+    if as_yaml:
+        print(cfg.params_yaml(values), end="")
+        return 0
+    for node in cfg.NODES:
+        print(f"{node}:")
+        for spec in node_specs(node, values[node]):
+            read_only = " (read-only)" if spec.read_only else ""
+            print(f"  {spec.name} = {values[node][spec.name]!r}: {spec.describe()}{read_only}")
+    return 0

@@ -1,0 +1,149 @@
+"""``robot-controller run``: the five-node loop, recorded and scored; part of it across hosts."""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import signal
+from pathlib import Path
+
+from robot_controller.cli.args import (
+    node_list,
+    out_option,
+    peer_list,
+    port,
+    positive_seconds,
+    run_name,
+    stack_options,
+    verb,
+)
+from robot_controller.cli.output import output_dir, print_table
+from robot_controller.runner.options import RunOptions
+
+
+def register(sub) -> None:
+    p = verb(sub, "run", "run the five-node loop, record it and score it", _run)
+    p.add_argument(
+        "--duration",
+        dest="duration_s",
+        metavar="DURATION",
+        type=positive_seconds,
+        default=20.0,
+        help="seconds of control to record (default 20)",
+    )
+    out_option(p, "runs/<timestamp>")
+    stack_options(p)
+    p.add_argument("--single-process", action="store_true", help="all five nodes on one executor")
+    p.add_argument(
+        "--sim-time",
+        action="store_true",
+        help="deterministic lockstep on /clock, as fast as the graph goes (--duration in sim seconds)",
+    )
+    p.add_argument(
+        "--respawn",
+        action="store_true",
+        help="start a node that dies again (wall clock), as ros2 launch's respawn=True",
+    )
+    p.add_argument(
+        "--realtime",
+        action="store_true",
+        help="run the simulator's pacing thread SCHED_FIFO, with a CPU budget (docs/controller.md)",
+    )
+    p.add_argument("--view", action="store_true", help="live 3D view and plots in the browser (rerun)")
+    p.add_argument("--view-port", type=port, default=9090, help="port of the live view (default 9090)")
+    _split_options(p)
+
+
+def _split_options(parser: argparse.ArgumentParser) -> None:
+    """Part of the graph, across hosts (docs/design.md §6, "Across hosts")."""
+    parser.add_argument(
+        "--nodes",
+        type=node_list,
+        metavar="A,B,...",
+        help="start only these of simulator, motor_node, sensor_node, pid_controller, trajectory_planner "
+        "(default all); the launcher with the simulator records and scores",
+    )
+    parser.add_argument(
+        "--peers",
+        type=peer_list,
+        metavar="ADDR[,ADDR]",
+        help="the other hosts' IPv4 addresses: discovery by unicast to them, UDPv4 only (no shared memory)",
+    )
+    parser.add_argument("--run-id", type=run_name, metavar="NAME", help="the run's name, the same on every launcher")
+    parser.add_argument(
+        "--wait",
+        dest="wait_s",
+        type=positive_seconds,
+        default=60.0,
+        metavar="S",
+        help="give up if the whole graph is not there within S seconds (default 60)",
+    )
+
+
+def _run(args: argparse.Namespace) -> int:
+    return run(RunOptions.from_args(args), args.out)
+
+
+def run(options: RunOptions, out: Path | None) -> int:
+    """Run, record and score the loop. A launcher of part of the graph without the simulator
+    records nothing and says what it ran."""
+    from robot_controller.runner import launcher, plan
+    from robot_controller.scoring import plots, report
+
+    checked = plan.check(options.params(), options)  # before the output folder is made
+    out = output_dir(out, Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S"))
+    result = launcher.launch(checked, out)
+    if not result.recorded:  # the other launcher records and scores the loop
+        if result.end_reason is not None:
+            launcher.say(
+                f"ran {', '.join(result.local_nodes)} for {result.wall_seconds:.1f} s; {result.end_reason} "
+                "(the launcher with the simulator recorded and scored it)"
+            )
+        return result.exit_code
+    if result.interrupted:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # scoring takes a second: let it finish
+    if result.exit_code != 0 and not any(result.message_counts.values()):
+        return result.exit_code
+    sim_time, duration_s = options.sim_time, options.duration_s
+    try:
+        recording = report.read_recording(result.bag_dir)
+        values = report.score(
+            recording,
+            nominal_period_s=1.0 / checked.params["pid_controller"]["control_rate_hz"],
+            window_s=duration_s if sim_time else None,
+        )
+    except ValueError as exc:
+        launcher.say(f"cannot score the recording: {exc}")
+        return result.exit_code or 1
+    recorded_s = result.control_seconds if result.interrupted or not sim_time else duration_s
+    if sim_time and result.failure is not None and values.get("recorded_duration_s") is not None:
+        recorded_s = min(recorded_s, values["recorded_duration_s"])  # ended early: the ticks' own span (seeded)
+    robot, preset, seed = options.robot, options.preset, options.seed
+    values.update(
+        {
+            "duration_s": round(recorded_s, 3),
+            "interrupted": result.interrupted,
+            "preset": preset,
+            "robot": robot,
+            "seed": seed,
+            "mode": "single_process" if options.single_process else "multi_process",
+            "clock": "sim_lockstep" if sim_time else "wall",
+        }
+    )
+    if options.nodes is not None and len(result.local_nodes) < 5:  # a split run: what ran here (the rest elsewhere)
+        values["nodes_here"] = ",".join(result.local_nodes)
+    # Wall-clock figures of a lockstep run differ run to run: keep them out of metrics.json.
+    wall = {"real_time_factor": result.real_time_factor, "wall_duration_s": result.wall_seconds}
+    # How many messages the bag misses depends on when the nodes stopped, not on the seed.
+    (wall if sim_time else values)["unrecorded_messages"] = sum(result.unrecorded.values())
+    if sim_time:
+        wall.update(result.usage)
+    else:
+        values["realtime_requested"] = options.realtime
+        values.update(result.usage)
+    report.write_metrics(out / "metrics.json", values)
+    if sim_time:
+        report.write_metrics(out / "timing.json", wall)
+    plots.plot_tracking(recording, out / "tracking.png", title=f"{robot}, preset {preset}, seed {seed}")
+    print_table(values | (wall if sim_time else {}), title=f"run: {robot}, preset {preset}, seed {seed} → {out}")
+    return result.exit_code

@@ -1,0 +1,62 @@
+"""A saved run directory: ``score`` re-scores its bag, ``view`` serves its 3D view and plots."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from robot_controller.cli.args import UsageError, port, verb
+from robot_controller.cli.output import print_table
+
+
+def register(sub) -> None:
+    p = verb(sub, "score", "re-score a run directory from its bag", lambda a: score(a.run_dir, as_json=a.json))
+    p.add_argument("run_dir", type=Path)
+    p.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    p = verb(
+        sub,
+        "view",
+        "the 3D view and plots of a saved run, served in the browser",
+        lambda a: view(a.run_dir, port=a.port, serve=not a.no_serve),
+    )
+    p.add_argument("run_dir", type=Path)
+    p.add_argument("--port", type=port, default=9090, help="port (default 9090)")
+    p.add_argument("--no-serve", action="store_true", help="only write DIR/view.rrd")
+
+
+def score(run_dir: Path, *, as_json: bool = False) -> int:
+    from robot_controller.scoring import report
+
+    try:
+        recording = report.read_recording(run_dir / "bag")
+        values = report.score(recording, window_s=_scored_window_s(run_dir))
+    except (FileNotFoundError, ValueError) as exc:
+        print(f"robot-controller: cannot score {run_dir}: {exc}", file=sys.stderr)
+        return 2
+    if as_json:
+        print(json.dumps(values, indent=2, sort_keys=True))
+    else:
+        print_table(values, title=f"re-scored {run_dir / 'bag'}")
+    return 0
+
+
+def _scored_window_s(run_dir: Path) -> float | None:
+    """A lockstep run is scored over its ``--duration`` from its first tick (the simulator
+    runs on a little past it): that window, from the run's ``metrics.json``, if there is one."""
+    try:
+        saved = json.loads((run_dir / "metrics.json").read_text())
+        if saved["clock"] == "sim_lockstep" and saved["duration_s"] > 0:
+            return float(saved["duration_s"])
+    except (OSError, ValueError, TypeError, KeyError):
+        pass  # none, or not one of ours: the whole recording
+    return None
+
+
+def view(run_dir: Path, *, port: int, serve: bool) -> int:
+    from robot_controller.view import build_view_from_bag
+
+    if not (run_dir / "bag").is_dir():
+        raise UsageError(f"{run_dir}: no bag/ here (not a run directory)")
+    build_view_from_bag(run_dir, port, serve)
+    return 0

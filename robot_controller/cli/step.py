@@ -1,0 +1,56 @@
+"""``robot-controller step``: a step response and its figures (overshoot, rise, settling, steady-state
+error, torque), on the real graph."""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import sys
+from pathlib import Path
+
+from robot_controller.cli.args import controller_option, out_option, stack_options, step_size_rad, verb
+from robot_controller.cli.output import output_dir, print_table
+from robot_controller.core.errors import ConfigError
+from robot_controller.runner.options import RunOptions
+
+STEP_HEADLINE = ("overshoot_pct", "rise_time_s", "settling_time_s", "steady_state_error_rad", "peak_torque_nm")
+
+
+def register(sub) -> None:
+    p = verb(sub, "step", "a step response: overshoot, rise, settling, steady-state error, torque", _step)
+    p.add_argument("--amplitude", type=step_size_rad, default=0.5, help="step size, rad (default 0.5)")
+    p.add_argument(
+        "--shaping",
+        default="min_time",
+        choices=("min_time", "none"),
+        help="shape the step into the fastest move within the acceleration limit (default), or jump",
+    )
+    out_option(p, None)
+    stack_options(p)
+    controller_option(p)
+    p.add_argument("--sim-time", action="store_true", help="deterministic lockstep")
+
+
+def _step(a: argparse.Namespace) -> int:
+    return step(RunOptions.from_args(a), a.out, amplitude=a.amplitude, shaping=a.shaping, controller=a.controller)
+
+
+def step(options: RunOptions, out: Path | None, *, amplitude: float, shaping: str, controller: str | None) -> int:
+    from robot_controller.experiments import step as experiments
+    from robot_controller.experiments.laws import with_controller
+    from robot_controller.parameters import consistency
+
+    params = with_controller(options.params(), controller)
+    consistency.check_stack(experiments.step_params(params, amplitude, shaping))  # before the folder is made
+    out = output_dir(out, Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S")))
+    try:
+        values = experiments.step_response(
+            params, out, amplitude=amplitude, shaping=shaping, sim_time=options.sim_time, seed=options.seed
+        )
+    except ConfigError:
+        raise  # a user error: one line, exit 2
+    except (RuntimeError, ValueError) as exc:
+        print(f"robot-controller: {exc}", file=sys.stderr)
+        return 1
+    print_table(values, title=f"step {amplitude} rad ({shaping}) → {out}", headline=STEP_HEADLINE)
+    return 0
