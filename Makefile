@@ -39,7 +39,7 @@ clean:
 chromium:
 	command -v chromium >/dev/null || (apt-get update && apt-get install -y --no-install-recommends chromium)
 
-# nftables, for the network bench's packet loss (robot-controller network; tests/network).
+# nftables, for the network bench's packet loss (robot-controller network; tests/lab/network).
 .PHONY: nftables
 nftables:
 	command -v nft >/dev/null || (apt-get update && apt-get install -y --no-install-recommends nftables)
