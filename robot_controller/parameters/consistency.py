@@ -14,6 +14,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.laws import parameters as law_parameters
 from robot_controller.core.model import urdf_velocity_limits
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import ARM_MODEL_KEYS, arm_model, given
@@ -36,7 +37,7 @@ def check_stack(params: cfg.Params) -> None:
                 spec.validate(params[node][spec.name])
             except ConfigError as exc:
                 raise ConfigError(f"{node}: {exc}") from None
-    law_params.check_values(params["pid_controller"])  # the law controller_type names, and its law.* values
+    law_parameters.check_values(params["pid_controller"])  # the law controller_type names, and its law.* values
     arms = {node: _arm(node, params[node]["urdf_path"]) for node in ("simulator", "motor_node", "pid_controller")}
     names = arms["simulator"][0]
     for node, (other, _, _) in arms.items():

@@ -11,14 +11,10 @@ import yaml
 
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
-from robot_controller.parameters import law_params
+from robot_controller.core.laws import parameters as law_params
 from robot_controller.parameters.schema import NODES, REPORTED, ROS_BUILTIN, SCHEMA, defaults, has, spec_of
 
 Params = dict[str, dict[str, Any]]
-
-
-def _node_key(key: str) -> str:
-    return key.lstrip("/")
 
 
 def read_params_file(path: str | Path) -> Params:
@@ -41,7 +37,7 @@ def read_params_file(path: str | Path) -> Params:
         raise ConfigError(f"{path}: expected a mapping of node names to 'ros__parameters'")
     out: Params = {}
     for key, body in raw.items():
-        node = _node_key(str(key))
+        node = str(key).lstrip("/")
         if node != "**" and node not in NODES:
             hint = difflib.get_close_matches(node, NODES, n=1)
             raise ConfigError(

@@ -41,9 +41,8 @@ class Recording:
     #: /sim/brakes: when recorded, and 1/0 per joint
     brakes_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     brakes: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
-    #: /sim/disturbance_applied: the external torque acting on each joint (N·m) at each time (the
-    #: simulator's stamp, else when recorded); non-zero while a disturbance is on, then one zero row;
-    #: empty when there was none
+    #: /sim/disturbance_applied: the external torque on each joint (N·m) at each time (the simulator's
+    #: stamp, else when recorded); non-zero while a disturbance is on, then one zero row
     disturbance_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     disturbance: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
     #: the joints' names as /sim/joint_states gives them, in the order of every array's columns
@@ -53,12 +52,8 @@ class Recording:
     law_terms: dict[str, np.ndarray] = field(default_factory=dict)
 
     def raw_reading_at(self, stamps_s: np.ndarray) -> np.ndarray:
-        """The sensor's raw position for each measurement stamp (NaN where not recorded).
-
-        ``/controller/state`` carries what the law acted on, which is the
-        Kalman estimate when the filter is on; ``measured_rms_rad`` is defined
-        on the noisy reading itself.
-        """
+        """The sensor's raw position for each measurement stamp (NaN where not recorded): the noisy
+        reading ``measured_rms_rad`` is defined on (``/controller/state`` carries the estimate)."""
         out = np.full((len(stamps_s), self.true_position.shape[1]), np.nan)
         if len(self.reading_stamp_s) == 0:
             return out
@@ -83,10 +78,8 @@ class Recording:
 
 
 def read_recording(bag_dir: Path) -> Recording:
-    """Read a run's bag. A message that cannot be decoded, or whose sizes do not
-    fit the run (an empty ``JointState``, a short ``/controller/state``: anyone
-    on the domain could have published it), is skipped and counted in
-    ``malformed``; what is left is scored."""
+    """Read a run's bag. A message that cannot be decoded, or whose sizes do not fit the run (anyone on
+    the domain could have published it), is skipped and counted in ``malformed``."""
     bag_dir = Path(bag_dir)
     if bag_recovery.needs_recovery(bag_dir):
         # The recorder was killed: rebuild the bag from its complete chunks first.
@@ -98,12 +91,10 @@ def read_recording(bag_dir: Path) -> Recording:
         )
     typestore = get_typestore(Stores.ROS2_JAZZY)
     decoded: dict[str, list[tuple[int, Any]]] = {topic: [] for topic in WANTED_TOPICS}
-    receipt: dict[str, list[int]] = {}
     malformed: dict[str, int] = {}
     with Reader(bag_dir) as reader:
         counts = {c.topic: c.msgcount for c in reader.connections}
-        for connection in reader.connections:
-            receipt.setdefault(connection.topic, [])
+        receipt: dict[str, list[int]] = {c.topic: [] for c in reader.connections}
         for connection, timestamp, raw in reader.messages():
             receipt[connection.topic].append(timestamp)
             if connection.topic not in decoded:

@@ -60,8 +60,8 @@ def _records(view: memoryview, out: Scan) -> None:
             return  # torn here
         content = view[start:end]
         if opcode == OP_SCHEMA:
-            schema_id, name, _ = _schema(content)
-            out.schemas[schema_id] = name
+            (schema_id,) = struct.unpack_from("<H", content)
+            out.schemas[schema_id] = _string(content, 2)[0]
         elif opcode == OP_CHANNEL:
             (channel_id, schema_id), topic = struct.unpack_from("<HH", content), _string(content, 4)[0]
             out.channels[channel_id] = (topic, schema_id)
@@ -83,12 +83,6 @@ def _records(view: memoryview, out: Scan) -> None:
 def _string(view: memoryview, offset: int) -> tuple[str, int]:
     (length,) = struct.unpack_from("<I", view, offset)
     return bytes(view[offset + 4 : offset + 4 + length]).decode(), offset + 4 + length
-
-
-def _schema(view: memoryview) -> tuple[int, str, int]:
-    (schema_id,) = struct.unpack_from("<H", view)
-    name, position = _string(view, 2)
-    return schema_id, name, position
 
 
 def recover(bag_dir: Path) -> int:

@@ -254,11 +254,6 @@ def reference_arm_joints() -> list[str]:
     return joint_names(load_model(resources.default_urdf()))
 
 
-def _tool_node_name(tool: str) -> str:
-    # Hidden (leading underscore), as ros2cli's own nodes: graph listings leave it out.
-    return f"_robot_controller_{''.join(c if c.isalnum() else '_' for c in tool)}_{os.getpid()}"
-
-
 @contextlib.contextmanager
 def open_graph(tool: str) -> Iterator[Graph]:
     """A hidden node on the current ROS_DOMAIN_ID spinning in a thread, torn down on the way out.
@@ -276,7 +271,9 @@ def open_graph(tool: str) -> Iterator[Graph]:
 
         context = rclpy.Context()
         rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-        node = Node(_tool_node_name(tool), context=context, start_parameter_services=False, enable_rosout=False)
+        # Hidden (a leading underscore), as ros2cli's own nodes: graph listings leave it out.
+        name = f"_robot_controller_{''.join(c if c.isalnum() else '_' for c in tool)}_{os.getpid()}"
+        node = Node(name, context=context, start_parameter_services=False, enable_rosout=False)
         _forget_profile(profile_dir)
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(node)

@@ -60,7 +60,7 @@ def parse_value(text: str, current: int | None = None) -> tuple[int, Any]:
             return current, []
         if all(isinstance(v, bool) for v in value):
             return BOOL_ARRAY, value
-        numbers = all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)
+        numbers = all(_is_number(v) for v in value)
         if numbers and all(isinstance(v, int) for v in value) and not floating:
             return INTEGER_ARRAY, value
         if numbers:
