@@ -1,7 +1,6 @@
 """The one-joint float paths (PID, Kalman filter) give what their array paths give, to rounding, in every
 mode; and the collision pass skipped where no contact can happen changes nothing (no ROS)."""
 
-import mujoco
 import numpy as np
 import pytest
 
@@ -11,11 +10,7 @@ from robot_controller.core.estimation.estimator import JointKalmanFilter, Kalman
 from robot_controller.core.laws.pid import AntiWindup, DerivativeSource, Pid, PidConfig
 from robot_controller.core.model import (
     ArmDynamics,
-    MujocoPlant,
-    can_collide,
-    load_model,
 )
-from robot_controller.robots import urdf_of
 
 
 @pytest.mark.parametrize("anti_windup", list(AntiWindup))
@@ -103,21 +98,3 @@ def test_power_of_a_2x2_on_floats_is_matrix_power():
     for k in range(1, 25):
         a = rng.normal(size=(2, 2))
         np.testing.assert_allclose(_power_2x2(a.ravel().tolist(), k), matrix_power(a, k).ravel(), rtol=1e-12)
-
-
-def test_contacts_are_disabled_only_where_none_can_happen():
-    """The reference arm has no geom that can touch another: its models skip MuJoCo's collision
-    pass, and move exactly as with it, through the joint's limits and a brake."""
-    assert not can_collide(load_model(resources.default_urdf()))
-    assert can_collide(load_model(urdf_of("panda")))  # collision meshes: as MuJoCo has it
-    skipping, colliding = MujocoPlant(resources.default_urdf()), MujocoPlant(resources.default_urdf())
-    assert skipping.model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT
-    colliding.model.opt.disableflags = 0
-    for k in range(600):
-        torque = np.array([10.0 if k < 300 else -10.0])  # into both ends of the joint's range
-        if k == 500:
-            for plant in (skipping, colliding):
-                plant.set_brakes(np.array([True]), 50.0)
-        skipping.step(torque, 10)
-        colliding.step(torque, 10)
-        assert [x.tolist() for x in skipping.state()] == [x.tolist() for x in colliding.state()]

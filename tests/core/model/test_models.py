@@ -1,58 +1,28 @@
-"""Trajectories, sensor, actuator, plant and feedforward (no ROS)."""
+"""Sensor, actuator, the URDF model, plant, prediction and feedforward (no ROS)."""
 
+import mujoco
 import numpy as np
 import pytest
 
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError, TimingError
 from robot_controller.core.laws.feedforward import FeedforwardMode, feedforward_torque
-from robot_controller.core.model import Actuator, ArmDynamics, MujocoPlant, SensorConfig, measure, steps_per_period
-from robot_controller.core.reference import MODES, make_trajectory
-from robot_controller.core.validation import check_effort, check_joint_state, check_trajectory
+from robot_controller.core.model import (
+    Actuator,
+    ArmDynamics,
+    MujocoPlant,
+    SensorConfig,
+    can_collide,
+    load_model,
+    measure,
+    steps_per_period,
+)
+from robot_controller.core.reference import make_trajectory
+from robot_controller.robots import urdf_of
 
 URDF = resources.default_urdf()
 MASS, LENGTH, DAMPING, G = 1.0, 0.5, 0.1, 9.81
 INERTIA = MASS * LENGTH**2 / 3
-
-
-@pytest.mark.parametrize("mode", [m for m in MODES if m in ("sine", "chirp")])
-def test_smooth_trajectories_are_self_consistent(mode):
-    traj = make_trajectory(mode, joint_count=2, amplitude=[1.0, 0.5], frequency_hz=0.5)
-    h = 1e-5
-    for t in (0.3, 1.7, 4.2):
-        p0, v0, a0 = traj.sample(t - h)
-        p1, v1, a1 = traj.sample(t + h)
-        _, v, a = traj.sample(t)
-        np.testing.assert_allclose((p1 - p0) / (2 * h), v, atol=1e-4)
-        np.testing.assert_allclose((v1 - v0) / (2 * h), a, atol=1e-3)
-
-
-def test_sine_reference_values():
-    p, v, a = make_trajectory("sine", joint_count=1, amplitude=1.0, frequency_hz=0.5).sample(0.5)
-    assert p[0] == pytest.approx(1.0) and v[0] == pytest.approx(0.0, abs=1e-12)
-    assert a[0] == pytest.approx(-(np.pi**2))
-
-
-def test_step_square_hold():
-    step = make_trajectory("step", joint_count=1, amplitude=0.5, step_time_s=1.0)
-    assert step.sample(0.99)[0][0] == 0.0 and step.sample(1.0)[0][0] == 0.5
-    square = make_trajectory("square", joint_count=1, amplitude=0.3, frequency_hz=1.0)
-    assert square.sample(0.25)[0][0] == 0.3 and square.sample(0.75)[0][0] == -0.3
-    assert make_trajectory("hold", joint_count=1, offset=0.2).sample(7.0)[0][0] == 0.2
-
-
-@pytest.mark.parametrize(
-    "kwargs, key",
-    [
-        (dict(mode="zigzag"), "mode"),
-        (dict(amplitude=[1, 2, 3]), "amplitude"),
-        (dict(frequency_hz=float("nan")), "frequency_hz"),
-    ],
-)
-def test_bad_trajectory_names_the_key(kwargs, key):
-    args = dict(mode="sine", joint_count=2) | kwargs
-    with pytest.raises(ConfigError, match=key):
-        make_trajectory(args.pop("mode"), **args)
 
 
 def test_sensor_noise_is_seeded_and_has_the_configured_spread():
@@ -130,35 +100,6 @@ def test_prediction_through_the_model_matches_the_plant():
     np.testing.assert_allclose(v, plant.state()[1], atol=1e-2)
 
 
-@pytest.mark.parametrize(
-    "names, pos, vel, ok",
-    [
-        (["joint1"], [0.1], [0.2], True),
-        ([], [0.1], [0.2], True),
-        (["joint1"], [], [], False),
-        (["joint1"], [0.1, 0.2], [0.2], False),
-        (["elbow"], [0.1], [0.2], False),
-        (["joint1"], [float("nan")], [0.0], False),
-        (["joint1"], [0.0], [float("inf")], False),
-    ],
-)
-def test_joint_state_check(names, pos, vel, ok):
-    result = check_joint_state(names, pos, vel, ["joint1"])
-    assert (not isinstance(result, str)) == ok
-
-
-def test_trajectory_and_effort_checks():
-    assert not isinstance(check_trajectory([0.1, 0.2, 0.3], 1), str)
-    p, v, a, sample_time = check_trajectory([0.1, 0.2], 1)  # the tutorial's [position, velocity]
-    assert a[0] == 0.0 and sample_time is None
-    assert check_trajectory([0.1, 0.2, 0.3, 12.5], 1)[3] == 12.5  # ours: with the sample time
-    assert isinstance(check_trajectory([0.1, 0.2, 0.3, float("nan")], 1), str)
-    assert isinstance(check_trajectory([0.1], 1), str)
-    assert isinstance(check_trajectory([0.1, float("nan"), 0.0], 1), str)
-    assert isinstance(check_effort([1.0, 2.0], 1), str)
-    assert isinstance(check_effort([float("inf")], 1), str)
-
-
 def test_analytic_arm_matches_mujoco():
     from robot_controller.core.batch import AnalyticArmBatch, ArmConstants
 
@@ -185,16 +126,19 @@ def test_analytic_arm_matches_mujoco():
     )
 
 
-def test_min_time_step_reaches_the_target_within_the_acceleration_limit():
-    traj = make_trajectory(
-        "step", joint_count=1, amplitude=0.5, step_time_s=1.0, step_shaping="min_time", max_acceleration=50.0
-    )
-    duration = 2 * np.sqrt(0.5 / 50.0)
-    assert traj.sample(0.9)[0][0] == 0.0
-    assert traj.sample(1.0 + duration / 2)[0][0] == pytest.approx(0.25)
-    p, v, a = traj.sample(1.0 + duration + 1e-9)
-    assert p[0] == pytest.approx(0.5) and v[0] == pytest.approx(0.0, abs=1e-6) and a[0] == 0.0
-    times = np.linspace(0.9, 1.5, 6001)
-    samples = np.array([traj.sample(t) for t in times])[:, :, 0]
-    assert np.max(np.abs(samples[:, 2])) <= 50.0 and np.all(np.diff(samples[:, 0]) >= -1e-12)
-    np.testing.assert_allclose(np.gradient(samples[:, 0], times), samples[:, 1], atol=0.05)
+def test_contacts_are_disabled_only_where_none_can_happen():
+    """The reference arm has no geom that can touch another: its models skip MuJoCo's collision
+    pass, and move exactly as with it, through the joint's limits and a brake."""
+    assert not can_collide(load_model(resources.default_urdf()))
+    assert can_collide(load_model(urdf_of("panda")))  # collision meshes: as MuJoCo has it
+    skipping, colliding = MujocoPlant(resources.default_urdf()), MujocoPlant(resources.default_urdf())
+    assert skipping.model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT
+    colliding.model.opt.disableflags = 0
+    for k in range(600):
+        torque = np.array([10.0 if k < 300 else -10.0])  # into both ends of the joint's range
+        if k == 500:
+            for plant in (skipping, colliding):
+                plant.set_brakes(np.array([True]), 50.0)
+        skipping.step(torque, 10)
+        colliding.step(torque, 10)
+        assert [x.tolist() for x in skipping.state()] == [x.tolist() for x in colliding.state()]
