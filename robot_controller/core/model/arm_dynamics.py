@@ -64,7 +64,7 @@ class ArmDynamics:
         """The private state at ``(q, v)`` with ``torque`` (within the effort limit) and ``external_nm`` applied."""
         self._qpos[:] = position
         self._qvel[:] = velocity
-        applied = np.asarray(torque, dtype=float).clip(self._effort_low, self.effort_limit)
+        applied = np.minimum(np.maximum(torque, self._effort_low), self.effort_limit)  # np.clip, without its wrapper
         # (Summed here, then written: a ufunc writing into MuJoCo's array costs more than the copy.)
         self._qfrc_applied[:] = applied if external_nm is None else applied + external_nm
 

@@ -102,7 +102,7 @@ class MujocoPlant:
         Whatever it is sent, a joint gets no more than its URDF ``effort`` limit
         (``effort_limit``), as a real drive limits its current.
         """
-        torque = np.asarray(torque, dtype=float).clip(self._effort_low, self.effort_limit)  # a new array
+        torque = np.minimum(np.maximum(torque, self._effort_low), self.effort_limit)  # np.clip: a new array
         self._actuator = np.where(self._braked, 0.0, torque) if self._any_braked else torque
         # The disturbance, if one is on, for as many of these steps as it still lasts.
         disturbed = min(n_steps, self._disturbance_steps)

@@ -44,8 +44,9 @@ def measure(
 
     ``rng`` is a seeded generator so a run can be repeated exactly.
     """
-    noisy_position = position + config.position_bias + rng.normal(0.0, config.position_noise_std, np.shape(position))
-    noisy_velocity = velocity + rng.normal(0.0, config.velocity_noise_std, np.shape(velocity))
+    position, velocity = np.asarray(position), np.asarray(velocity)
+    noisy_position = position + config.position_bias + rng.normal(0.0, config.position_noise_std, position.shape)
+    noisy_velocity = velocity + rng.normal(0.0, config.velocity_noise_std, velocity.shape)
     if config.quantization > 0:
         noisy_position = np.round(noisy_position / config.quantization) * config.quantization
     return noisy_position, noisy_velocity
