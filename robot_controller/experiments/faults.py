@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
+from robot_controller.experiments.reporting import fmt
 from robot_controller.runner import launcher, plan
 from robot_controller.runner.options import RunOptions
 from robot_controller.scoring import plots, report
@@ -211,8 +212,8 @@ def headline(entries: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def render(entries: list[dict[str, Any]], robot: str = "one_dof", params: cfg.Params | None = None) -> str:
-    def num(value: Any, fmt: str) -> str:
-        return "n/a" if value is None or (isinstance(value, float) and not np.isfinite(value)) else fmt.format(value)
+    def num(value: Any, spec: str) -> str:
+        return fmt(value, spec, "n/a")
 
     top = headline(entries)
     params = params or cfg.load_stack(robot=robot)

@@ -38,7 +38,10 @@ def fmt(value: Any, spec: str = "{:.3g}", missing: str = "—") -> str:
     return spec.format(value)
 
 
-def table(headers: list[str], rows: list[list[str]]) -> str:
+def table(headers: str | list[str], rows: list[list[str]]) -> str:
+    """A markdown table; ``headers`` a list or one string, ``"a | b | c"``."""
+    if isinstance(headers, str):
+        headers = headers.split(" | ")
     lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
     lines += ["| " + " | ".join(row) + " |" for row in rows]
     return "\n".join(lines)

@@ -11,7 +11,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.core import metrics
-from robot_controller.experiments.step import run_and_score, step_figures
+from robot_controller.experiments.step import run_and_score, step_figures, step_params
 from robot_controller.scoring import report
 
 #: The sensor's noise seed of every run: the same seed, the same figures.
@@ -34,10 +34,8 @@ class Response:
 
 
 def run_lockstep(params: cfg.Params, out: Path, duration_s: float) -> tuple[dict[str, Any], report.Recording]:
-    """``step.run_and_score`` in sim-time lockstep. A run that fails (a node exiting with an
-    error, say) is run once more, in ``<out>_retry``, before the failure is raised: a run
-    is deterministic per seed, so the retry's figures are the run's, and one stray failure
-    does not end an exercise of twenty runs."""
+    """``step.run_and_score`` in sim-time lockstep; a run that fails is run once more (in ``<out>_retry``):
+    a run is deterministic per seed, so one stray failure does not end an exercise of twenty runs."""
     try:
         return run_and_score(params, out, duration_s=duration_s, sim_time=True)
     except RuntimeError as exc:
@@ -47,6 +45,11 @@ def run_lockstep(params: cfg.Params, out: Path, duration_s: float) -> tuple[dict
 
 def lockstep_params(params: cfg.Params, seed: int = SEED) -> cfg.Params:
     return cfg.merge(params, {"sensor_node": {"seed": seed}})
+
+
+def store(results: dict[str, Any], prefix: str, figures: dict[str, Any], keys) -> None:
+    """``results[f"{prefix}_{key}"]`` for each of ``keys`` from ``figures``."""
+    results.update({f"{prefix}_{key}": figures[key] for key in keys})
 
 
 def _response(label: str, recording: report.Recording, start_s: float, figures: dict[str, Any], out: Path) -> Response:
@@ -79,25 +82,13 @@ def step_run(
     after_s: float = 2.0,
     seed: int = SEED,
 ) -> Response:
-    """A step from ``offset`` (where the arm starts, at rest) to ``offset + amplitude`` after
-    ``lead_s``, recorded ``after_s`` beyond it: one real five-process run in sim-time lockstep.
-
-    Figures (on the TRUE angle, over the ``after_s`` after the step): those of
-    :func:`robot_controller.experiments.step.step_figures`, ``overshoot_final_pct``
-    (the peak beyond where the response ends, which a loop without integral
-    action never reaches the target to overshoot), ``saturated_s`` (time the
-    torque limit cut the command after the step) and ``peak_torque_nm`` after it.
-    """
+    """A step from ``offset`` (the arm at rest there) to ``offset + amplitude`` after ``lead_s``, recorded
+    ``after_s`` beyond it, in lockstep. Figures on the TRUE angle after the step: ``step.step_figures``',
+    ``overshoot_final_pct`` (beyond where the response ends), ``saturated_s`` and ``peak_torque_nm``."""
     params = cfg.merge(
-        lockstep_params(params, seed),
+        step_params(lockstep_params(params, seed), amplitude, shaping),
         {
-            "trajectory_planner": {
-                "mode": "step",
-                "amplitude": [amplitude],
-                "offset": [offset],
-                "step_time_s": lead_s,
-                "step_shaping": shaping,
-            },
+            "trajectory_planner": {"offset": [offset], "step_time_s": lead_s},
             "simulator": {"initial_position": [offset]},
         },
     )

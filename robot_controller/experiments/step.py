@@ -11,6 +11,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.core import metrics
+from robot_controller.experiments.reporting import pyplot
 from robot_controller.runner import launcher, plan
 from robot_controller.runner.options import RunOptions
 from robot_controller.scoring import report
@@ -110,11 +111,7 @@ def step_figures(
 
 
 def plot_step(recording: report.Recording, path: Path, title: str, limit_nm: np.ndarray | None = None) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     s = recording.state
     t = s["time_s"] - s["time_s"][0]
     true = metrics.true_position_at(

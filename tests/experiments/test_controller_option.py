@@ -8,13 +8,11 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
-import yaml
 
 from robot_controller import cli
 from robot_controller import parameters as cfg
-from robot_controller.experiments import autotune, compare, inprocess, laws
+from robot_controller.experiments import compare, inprocess, laws
 from tests.rostools import run_said
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -98,31 +96,6 @@ def test_compare_in_process_writes_a_row_per_entry(tmp_path):
         assert row["step_peak_torque_nm"]["mean"] <= 10.0
     md = (out / "compare.md").read_text()
     assert "| **default**" in md and "| **PDWithGravity**" in md
-
-
-def test_robustness_cases_see_a_pd_too_fast_for_two_periods_of_delay():
-    """PDWithGravity on the 1-joint arm: a discrete PD with two periods of delay is unstable above about
-    4.5 Hz (ζ 0.88; the sampled loop's poles), so the delay case rejects 8 Hz and passes 3 Hz."""
-    problem = autotune.BlackBoxProblem(laws.with_controller(cfg.load_stack(), PD))
-    delay = autotune.CASES[0]
-    assert delay.name == "delay"
-    assert not problem.push_decay(np.array([8.0, 1.0]), delay)["ok"]
-    assert problem.push_decay(np.array([3.0, 1.0]), delay)["ok"]
-
-
-@pytest.mark.slow
-def test_tune_of_a_plugin_law_writes_its_gains(tmp_path, capsys):
-    out = tmp_path / "tune"
-    assert cli.main(["tune", "--controller", PD, "--quick", "--out", str(out)]) == 0
-    tuned = yaml.safe_load((out / "tuned.yaml").read_text())["pid_controller"]["ros__parameters"]
-    assert set(tuned) == {"controller_type", "law.natural_frequency_hz", "law.damping_ratio"}
-    assert tuned["controller_type"] == PD
-    values = json.loads((out / "tune.json").read_text())
-    assert values["after_meets_constraints"] == 1
-    assert values["after_delay_margin_periods"] >= 2
-    assert 0.5 <= values["after_natural_frequency_hz"] <= 30.0
-    assert values["after_check_rms_rad"] < 0.02
-    assert "# Automatic gain design" in (out / "report.md").read_text()
 
 
 @pytest.mark.ros

@@ -1,15 +1,6 @@
-"""Exercise 2, "Add a disturbance": a step torque disturbance of 2 N·m at
-t = 5 s while the arm tracks the sine; how far is it pushed off, and how fast
-does each controller bring it back?
-
-Automated on the real graph: the simulator's scheduled disturbance (the same
-input as ``/sim/disturbance``, at a physics time a lockstep run reproduces
-exactly), per controller (the tutorial's, a plain PID with the model's
-feedforward, and the default) two seeded lockstep runs, pushed and not: the
-same sensor noise draws in both, so their difference is the push's own
-effect, which the peak deviation and the recovery are measured on; the pushed
-run's own error (noise included) is reported beside them.
-"""
+"""Exercise 2, "Add a disturbance": a 2 N·m step torque at t = 5 s while the arm tracks the sine
+(the simulator's scheduled disturbance). Per controller two seeded lockstep runs, pushed and not,
+with the same sensor noise: their difference is the push's own effect."""
 
 from __future__ import annotations
 
@@ -90,17 +81,9 @@ def contender_params(
 def deviation_figures(
     time_s: np.ndarray, error: np.ndarray, start_s: float, band_from_before: bool = True
 ) -> dict[str, float]:
-    """From the tracking error (reference − true, rad) on a timeline (s): the
-    ``peak_deviation_rad`` after ``start_s``, the error before it
-    (``before_max_rad``, the second before), and ``recovery_s``: from the start
-    until the error is back within ``RECOVERED_RAD`` of zero (with
-    ``band_from_before``: or within 1.2× the largest error of the second
-    before, if that is wider) and stays there until the end.
-
-    On a noisy run's own error the recovery measures the sensor noise as much
-    as the push: the error's slow wander alone leaves 2 mrad now and then. On
-    the push's own effect (:func:`push_effect`) there is nothing before the
-    push, and the band is ``RECOVERED_RAD``."""
+    """From the tracking error (reference − true, rad) on a timeline (s): ``peak_deviation_rad`` after
+    ``start_s``, ``before_max_rad`` (the second before), and ``recovery_s``: until the error is back
+    within ``RECOVERED_RAD`` (with ``band_from_before``: or 1.2× ``before_max_rad``, if wider) for good."""
     before = (time_s >= start_s - 1.0) & (time_s < start_s)
     after = time_s >= start_s
     before_max = float(np.max(np.abs(error[before]))) if np.any(before) else float("nan")
@@ -132,10 +115,8 @@ def _error_on_timeline(recording: Any, duration_s: float) -> tuple[np.ndarray, n
 def push_effect(
     pushed: tuple[np.ndarray, np.ndarray], undisturbed: tuple[np.ndarray, np.ndarray]
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The push's own effect on the tracking error: the pushed run's error minus
-    that of the same seeded run without the push, on the samples both have
-    (lockstep: the same sensor noise draws, so the two agree to the bit until
-    the push, and what differs after it is the push and what it set off)."""
+    """The push's own effect on the tracking error: the pushed run's error minus the unpushed one's,
+    on the samples both have (the same noise draws: they agree to the bit until the push)."""
     t_pushed, e_pushed = pushed
     t_plain, e_plain = undisturbed
     ticks_pushed, ticks_plain = np.round(t_pushed * 1e6).astype(np.int64), np.round(t_plain * 1e6).astype(np.int64)
@@ -248,14 +229,8 @@ def _report(results: dict[str, Any], plan: dict[str, Any], quick: bool) -> str:
             "their difference after it is the push's own effect." + (" **Quick form**." if quick else ""),
             "",
             table(
-                [
-                    "controller",
-                    "the push's own effect: peak [mrad]",
-                    "back within 2 mrad [s]",
-                    "pushed run: error before, max [mrad]",
-                    "peak error [mrad]",
-                    "back [s]",
-                ],
+                "controller | the push's own effect: peak [mrad] | back within 2 mrad [s] | "
+                "pushed run: error before, max [mrad] | peak error [mrad] | back [s]",
                 rows,
             ),
             "",

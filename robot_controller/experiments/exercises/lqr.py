@@ -1,15 +1,5 @@
-"""Exercise 4, "Switch to LQR": replace the PID with an LQR gain and compare
-tracking accuracy.
-
-On the real graph, in seeded lockstep runs: the tutorial's PID against an LQR
-in the same plumbing (the tutorial's preset with ``controller_type: lqr``:
-no feedforward, no Kalman filter, the same planner), and in the full form the
-default stack's LQR (with model feedforward and the Kalman filter) beside
-them. For each: the gains (an LQR's are designed: ``core.law.law_config``),
-the closed-loop poles of the sampled arm model under them, their margins, and
-the figures on the sine and on a step. The figure and the report are
-``lqr_report``'s.
-"""
+"""Exercise 4, "Switch to LQR": the tutorial's PID against an LQR in the same plumbing (and, in the
+full form, the default stack's LQR): gains, closed-loop poles and margins, the sine and a step."""
 
 from __future__ import annotations
 
@@ -24,7 +14,7 @@ from robot_controller.experiments.compare import Contender
 from robot_controller.experiments.exercises.lqr_report import plot, report_text
 from robot_controller.experiments.loop_model import law_gains, plant_loop
 from robot_controller.experiments.reporting import Progress, write_report, write_results
-from robot_controller.experiments.runs import SEED, Response, sine_params, sine_run, step_run
+from robot_controller.experiments.runs import SEED, Response, sine_params, sine_run, step_run, store
 
 STEP_RAD = 0.5
 
@@ -114,15 +104,8 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
         progress(f"{name}: step")
         step = step_run(params, out / name / "step", name, amplitude=STEP_RAD, after_s=plan["after_s"], seed=seed)
         steps_run.append(step)
-        for key in (
-            "overshoot_pct",
-            "settling_time_s",
-            "rise_time_s",
-            "steady_state_error_rad",
-            "peak_torque_nm",
-            "saturated_s",
-        ):
-            results[f"{name}_step_{key}"] = step.figures[key]
+        keys = "overshoot_pct settling_time_s rise_time_s steady_state_error_rad peak_torque_nm saturated_s"
+        store(results, f"{name}_step", step.figures, keys.split())
     results = write_results(out, results)
     plot(out / "lqr.png", steps_run, sines, analyses, STEP_RAD)
     write_report(out, report_text(results, plan, analyses, quick))

@@ -82,17 +82,9 @@ def report_text(results: dict[str, Any], plan: dict[str, Any], analyses: dict[st
         )
     lines += [
         table(
-            [
-                "controller",
-                "Kp [N·m/rad]",
-                "Ki [N·m/(rad·s)]",
-                "Kd [N·m·s/rad]",
-                "closed-loop poles z (time constant or ωn, ζ)",
-                "largest |z|",
-                "gain margin [dB]",
-                "phase margin [°]",
-                "delay margin [periods]",
-            ],
+            "controller | Kp [N·m/rad] | Ki [N·m/(rad·s)] | Kd [N·m·s/rad] | "
+            "closed-loop poles z (time constant or ωn, ζ) | largest |z| | gain margin [dB] | phase margin [°] | "
+            "delay margin [periods]",
             cells,
         ),
         "",
@@ -122,16 +114,8 @@ def report_text(results: dict[str, Any], plan: dict[str, Any], analyses: dict[st
         )
     lines += [
         table(
-            [
-                "controller",
-                "sine RMS error [rad]",
-                "sine max error [rad]",
-                "step overshoot [%]",
-                "settling 2 % [s]",
-                "rise 10–90 % [s]",
-                "steady-state error [rad]",
-                "peak torque [N·m]",
-            ],
+            "controller | sine RMS error [rad] | sine max error [rad] | step overshoot [%] | settling 2 % [s] | "
+            "rise 10–90 % [s] | steady-state error [rad] | peak torque [N·m]",
             cells,
         ),
         "",

@@ -1,11 +1,5 @@
-"""Exercise 3, "Remove anti-windup": saturate the motor at torque_max = 2 N·m,
-take the anti-windup away and watch the system overshoot.
-
-Automated on the real graph: the tutorial's controller (PID 50, 10, 5, no
-feedforward) with the torque limited to 2 N·m in the controller and in the
-motor, a 1 rad step (a jump) the arm cannot follow at once, and every
-anti-windup mode of the controller side by side, one seeded lockstep run each.
-"""
+"""Exercise 3, "Remove anti-windup": the tutorial's controller with the torque limited to 2 N·m, a
+1 rad jump the arm cannot follow at once, and every anti-windup mode side by side."""
 
 from __future__ import annotations
 
@@ -17,7 +11,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller.core.laws.pid import AntiWindup
 from robot_controller.experiments.reporting import Progress, fmt, pyplot, table, write_report, write_results
-from robot_controller.experiments.runs import SEED, Response, plot_steps, step_run
+from robot_controller.experiments.runs import SEED, Response, plot_steps, step_run, store
 
 PRESET = "tutorial"
 TORQUE_MAX_NM = 2.0
@@ -95,17 +89,8 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
         response.figures["integral_max_nm"] = float(np.max(response.integral[after]))
         response.figures["integral_min_nm"] = float(np.min(response.integral[after]))
         responses.append(response)
-        for key in (
-            "overshoot_pct",
-            "settling_time_s",
-            "saturated_s",
-            "rise_time_s",
-            "steady_state_error_rad",
-            "integral_max_nm",
-            "integral_min_nm",
-            "peak_torque_nm",
-        ):
-            results[f"{mode}_{key}"] = response.figures[key]
+        keys = "overshoot_pct settling_time_s saturated_s rise_time_s steady_state_error_rad integral_max_nm"
+        store(results, mode, response.figures, (*keys.split(), "integral_min_nm", "peak_torque_nm"))
     results = write_results(out, results)
     _plot(out / "windup.png", responses)
     write_report(out, _report(results, plan, responses, quick))
@@ -172,14 +157,8 @@ def _report(results: dict[str, Any], plan: dict[str, Any], responses: list[Respo
         )
     lines += [
         table(
-            [
-                "anti-windup",
-                "overshoot [%]",
-                "settling 2 % [s]",
-                "time saturated [s]",
-                "I term, lowest … highest [N·m]",
-                "error at the end [rad]",
-            ],
+            "anti-windup | overshoot [%] | settling 2 % [s] | time saturated [s] | I term, lowest … highest [N·m] | "
+            "error at the end [rad]",
             cells,
         ),
         "",

@@ -52,9 +52,7 @@ def flat_results(joint_names: list[str], fits: list[JointFit]) -> dict[str, Any]
     return out
 
 
-def markdown(
-    joint_names: list[str], fits: list[JointFit], urdf: JointArmModel, facts: dict[str, Any]
-) -> str:
+def markdown(joint_names: list[str], fits: list[JointFit], urdf: JointArmModel, facts: dict[str, Any]) -> str:
     lines = [
         "# Identification",
         "",

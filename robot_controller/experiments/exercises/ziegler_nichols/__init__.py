@@ -1,29 +1,7 @@
-"""Exercise 1, "Tune the PID": start with Kp = 50, Ki = Kd = 0; increase Kp
-until oscillation, then add Kd, then Ki; compare the responses.
-
-Automated on the real graph (every run a seeded five-process lockstep run of
-the tutorial's controller: PID, no feedforward, no Kalman filter):
-
-1. **Kp alone** (Ki = Kd = 0) on a small step: from the tutorial's Kp = 50,
-   halve or double until one run oscillates without end and another does not,
-   then bisect. A run *oscillates without end* when its oscillation's amplitude
-   does not decay from the first second after the step to the last one
-   (:func:`oscillation`). The smallest such Kp is the ultimate gain Ku; the
-   period of that oscillation is Tu.
-2. **Ziegler–Nichols** (the classic PID rule) from Ku and Tu, as the textbook's
-   starting point: Kp = 0.6 Ku, Ki = 1.2 Ku/Tu, Kd = 0.075 Ku Tu.
-3. **Then Kd**: at the rule's Kp, Ki = 0, Kd from the rule's value, doubled
-   until the step's overshoot is gone (≤ 2 % beyond where the response ends).
-4. **Then Ki**: Ki = Kp/Ti with the integral time Ti from 8 Tu down to Tu,
-   until the steady-state error is gone (≤ 1 % of the step), stopping before
-   the overshoot comes back (> 2 %).
-5. The gains chosen on the sine; in the full form the tutorial's own gains
-   (50, 10, 5) beside them.
-
-The parts: its numbers and run plan (``settings``), stage 1 and the ultimate
-gain (``ultimate``), the report (``report``) and the plots (``plots``); this
-module is the procedure itself (:func:`run`) and the exercise's entry.
-"""
+"""Exercise 1, "Tune the PID" (``exercise tune``), by Ziegler and Nichols on the real graph: Kp alone
+until the step oscillates without end (the ultimate gain Ku, period Tu; ``ultimate``); the classic
+rule's PID from them; then Kd raised until the overshoot is gone, then Ki until the steady-state
+error is gone; the gains chosen on the sine."""
 
 from __future__ import annotations
 
@@ -48,7 +26,7 @@ from robot_controller.experiments.exercises.ziegler_nichols.settings import (
 from robot_controller.experiments.exercises.ziegler_nichols.ultimate import kp_search, model_ultimate, oscillation
 from robot_controller.experiments.loop_model import plant_loop
 from robot_controller.experiments.reporting import Progress, write_report, write_results
-from robot_controller.experiments.runs import SEED, Response, sine_params, sine_run, step_run
+from robot_controller.experiments.runs import SEED, Response, sine_params, sine_run, step_run, store
 
 __all__ = ["choose_ki", "model_ultimate", "oscillation", "run", "steps"]
 
@@ -181,16 +159,8 @@ def choose_ki(runs: list[Response], step_rad: float) -> Response:
 
 
 def _store(results: dict[str, Any], prefix: str, figures: dict[str, Any]) -> None:
-    for key in (
-        "overshoot_pct",
-        "overshoot_final_pct",
-        "settling_time_s",
-        "rise_time_s",
-        "steady_state_error_rad",
-        "peak_torque_nm",
-        "saturated_s",
-    ):
-        results[f"{prefix}_{key}"] = figures[key]
+    keys = "overshoot_pct overshoot_final_pct settling_time_s rise_time_s steady_state_error_rad peak_torque_nm"
+    store(results, prefix, figures, (*keys.split(), "saturated_s"))
 
 
 def _row(label: str, gains: tuple[float, float, float], response: Response) -> dict[str, Any]:

@@ -64,15 +64,8 @@ def report_text(
         )
     lines += [
         table(
-            [
-                "run",
-                "Kp [N·m/rad]",
-                "amplitude, first s [rad]",
-                "amplitude, last s [rad]",
-                "growth [1/s]",
-                "period [s]",
-                "verdict",
-            ],
+            "run | Kp [N·m/rad] | amplitude, first s [rad] | amplitude, last s [rad] | growth [1/s] | period [s] | "
+            "verdict",
             cells,
         ),
         "",
@@ -121,17 +114,8 @@ def report_text(
         )
     lines += [
         table(
-            [
-                "run",
-                "Kp",
-                "Ki",
-                "Kd",
-                "overshoot of target [%]",
-                "overshoot of final value [%]",
-                "settling 2 % [s]",
-                "steady-state error [rad]",
-                "peak torque [N·m]",
-            ],
+            "run | Kp | Ki | Kd | overshoot of target [%] | overshoot of final value [%] | settling 2 % [s] | "
+            "steady-state error [rad] | peak torque [N·m]",
             cells,
         ),
         "",

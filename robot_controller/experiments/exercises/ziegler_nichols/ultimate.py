@@ -25,15 +25,9 @@ from robot_controller.experiments.runs import Response, step_run
 
 
 def oscillation(response: Response, *, settle_s: float = 0.3, window_s: float = 1.0) -> dict[str, float]:
-    """How the oscillation after a step evolves, from the TRUE angle.
-
-    The amplitude (half the peak-to-peak about the window's mean) in the
-    first ``window_s`` after ``settle_s`` past the step, and in the last
-    ``window_s`` of the record; ``growth_per_s`` = ln(late / early) / their
-    distance (negative: decaying); ``sustained`` when it does not decay and
-    is larger than the sensor noise at the end; ``period_s``: the mean spacing of upward
-    crossings of the mean after ``settle_s`` (NaN if fewer than two).
-    """
+    """How the oscillation after a step evolves, on the TRUE angle: its amplitude (half the peak-to-peak)
+    in the first and the last ``window_s``, ``growth_per_s`` = ln(late / early) / their distance,
+    ``sustained`` (not decaying, above the noise) and ``period_s`` (mean spacing of upward crossings)."""
     t, q = response.time_s, response.position
     after = (t >= settle_s) & np.isfinite(q)
     t, q = t[after], q[after]
@@ -63,10 +57,8 @@ def oscillation(response: Response, *, settle_s: float = 0.3, window_s: float = 
 
 
 def model_ultimate(params: cfg.Params) -> tuple[float, float]:
-    """Ku and Tu of the sampled arm model (``lqr.discretise``: the arm linearised
-    at rest, zero-order hold at the control period) under P alone: the Kp at
-    which the closed loop's poles reach the unit circle, and the period of the
-    oscillation there."""
+    """Ku and Tu of the sampled arm model under P alone: the Kp at which the closed loop's poles reach
+    the unit circle, and the period of the oscillation there."""
     A, B, dt = plant_loop(params)
     A, B = A[1:, 1:], B[1:]  # P alone: ∫e plays no part
 
@@ -88,10 +80,9 @@ def model_ultimate(params: cfg.Params) -> tuple[float, float]:
 def kp_search(
     base: cfg.Params, out: Path, plan: dict[str, Any], results: dict[str, Any], *, progress: Progress, seed: int
 ) -> tuple[list[Response], float, float]:
-    """Kp alone (Ki = Kd = 0) on a small step, in ``out/kp_search``: from the tutorial's Kp, halve or double
-    until one run oscillates without end and another does not, then bisect, for ``plan["ku_runs"]`` runs.
-    Each run's oscillation figures go into ``results``. Returns the runs, the largest Kp that decayed and the
-    smallest that did not; raises if the runs found no such pair."""
+    """Kp alone on a small step (in ``out/kp_search``): from the tutorial's Kp, halve or double until one run
+    oscillates on and another does not, then bisect. Returns the runs, the largest Kp that decayed and the
+    smallest that did not (each run's figures also into ``results``)."""
     low: float | None = None  # the largest Kp that decayed
     high: float | None = None  # the smallest Kp that did not
     search: list[Response] = []

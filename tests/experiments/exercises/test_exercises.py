@@ -1,20 +1,16 @@
-"""The tutorial's exercises (robot_controller.experiments.exercises) and the automatic
-gain design (robot_controller.experiments.autotune): the quick forms over the real graph
-in lockstep, and their no-ROS parts."""
+"""The tutorial's exercises (robot_controller.experiments.exercises): the quick forms over the real
+graph in lockstep, and their no-ROS parts."""
 
 import json
-from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from robot_controller import parameters as cfg
-from robot_controller.core.batch import run_batch
-from robot_controller.experiments import autotune as tune_module
 from robot_controller.experiments.exercises import EXERCISES, steps
+from robot_controller.experiments.exercises.ziegler_nichols import oscillation
 from robot_controller.experiments.loop_model import law_gains
 from robot_controller.experiments.runs import Response
-from robot_controller.experiments.exercises.ziegler_nichols import oscillation
 
 ros = pytest.mark.ros
 
@@ -99,58 +95,6 @@ def test_lqr_against_pid_gains_poles_and_figures(tmp_path, ros_domain):
     lqr = law_gains(cfg.merge(cfg.load_stack("tutorial"), {"pid_controller": {"controller_type": "lqr"}}))
     assert results["lqr_kp"] == pytest.approx(float(lqr.kp[0]))
     assert results["lqr_sine_tracking_rms_rad"] < results["pid_sine_tracking_rms_rad"]
-
-
-@ros
-@pytest.mark.slow
-def test_tune_writes_a_robust_parameter_file(tmp_path, ros_domain):
-    out = tmp_path / "tuned"
-    calls = []
-    values = tune_module.tune(cfg.load_stack("tutorial"), out, quick=True, progress=calls.append)
-    assert len(calls) == tune_module.steps(quick=True)
-    stored = json.loads((out / "tune.json").read_text())
-    assert stored["after_meets_constraints"] == 1
-    assert stored["after_gain_margin_db"] >= 6.0 and stored["after_phase_margin_deg"] >= 45.0
-    assert stored["after_delay_margin_periods"] >= 2
-    assert stored["batch_rms_after_rad"] <= stored["batch_rms_before_rad"]
-    assert stored["real_rms_after_rad"] > 0 and stored["real_rms_before_rad"] > 0
-    params = cfg.load_stack("default", [out / "tuned.yaml"])
-    assert params["pid_controller"]["kp"] == [values["after_kp"]]
-    assert "| **after**" in (out / "report.md").read_text()
-
-
-def test_the_lqr_weights_tuned_keep_the_margins_and_design_what_was_checked():
-    problem = tune_module.AnalyticProblem(cfg.load_stack("default"))
-    result = tune_module.search(problem, problem.plan(quick=True))
-    best_gains = problem.gains_of_values(result.best_values)[0]
-    margins = tune_module.describe_margins(problem, best_gains)
-    assert margins["meets_constraints"] == 1
-    overlay = result.problem.overlay(result.best_values)
-    designed = law_gains(cfg.merge(cfg.load_stack("default"), {"pid_controller": overlay}))
-    assert (float(designed.kp[0]), float(designed.ki[0]), float(designed.kd[0])) == pytest.approx(
-        tuple(best_gains), rel=1e-9
-    )
-
-
-def test_the_tuning_harness_is_the_batch_harness():
-    problem = tune_module.AnalyticProblem(cfg.load_stack("default"))
-    gains = np.array([[30.0, 27.0, 2.1], [15.0, 0.4, 3.4], [50.0, 10.0, 5.0]])
-    pid = replace(problem.law, kp=gains[:, 0:1], ki=gains[:, 1:2], kd=gains[:, 2:3])
-    kwargs = {"trajectory": problem.sine, "sensor": problem.sensor, "duration_s": 3.0}
-    expected = run_batch(constants=problem.constants, pid_config=pid, rng=np.random.default_rng(4), **kwargs)
-    ours = tune_module.batch_tracking_rms(
-        problem.constants, pid, rng=np.random.default_rng(4), common_noise=False, **kwargs
-    )
-    np.testing.assert_array_equal(ours, expected)
-    # common random numbers: the same gains give the same figure wherever they sit in the batch
-    twice = tune_module.batch_tracking_rms(
-        problem.constants,
-        replace(pid, kp=gains[[0, 0], 0:1], ki=gains[[0, 0], 1:2], kd=gains[[0, 0], 2:3]),
-        rng=np.random.default_rng(4),
-        kalman=problem.kalman,
-        **kwargs,
-    )
-    assert twice[0] == twice[1]
 
 
 def _response(growth_per_s: float) -> Response:
