@@ -121,17 +121,11 @@ def message_to_csv(msg: Any) -> str:
     """The flattened values in field order, comma-separated (an empty sequence leaves an empty cell)."""
 
     def cell(value: Any) -> str:
-        if is_message(value):
-            return ",".join(cell(getattr(value, name)) for name in value.get_fields_and_field_types())
-        if isinstance(value, bytes | bytearray):
-            return "".join(chr(c) for c in value)
-        if isinstance(value, list | tuple) or (hasattr(value, "tolist") and hasattr(value, "__len__")):
-            return ",".join(cell(v) for v in value)
-        if hasattr(value, "tolist"):  # a numpy scalar
-            value = value.tolist()
+        if isinstance(value, dict | list):
+            return ",".join(cell(v) for v in (value.values() if isinstance(value, dict) else value))
         return str(value)
 
-    return cell(msg)
+    return cell(message_to_plain(msg))
 
 
 # --- hz ---------------------------------------------------------------------
