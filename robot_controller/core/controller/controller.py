@@ -43,15 +43,17 @@ __all__ = [
     "law_config",
 ]
 
-# After a plugin law fails, the arm is held at rest on the built-in law this long before the
-# torque goes off and the brakes hold (category 2, then 1).
+# How long the arm is held at rest after a controlled stop before the torque goes off and the brakes
+# hold (category 2, then 1), and the status then: on the built-in law after a plugin law failed; on
+# the model (open loop it drifts: held briefly) while readings are missing or the loop is late.
 LAW_FAULT_HOLD_S = 0.5
-# After the latency stop comes to rest, the arm is held on the model this long (open loop it drifts
-# under a late command path) before the torque goes off and the brakes hold, until the loop is on time.
 LATE_HOLD_S = 0.1
-# After the stop for missing readings comes to rest, the same, for the same reason (open loop, an arm
-# above the horizontal drifts from its hold).
 SENSOR_STOP_HOLD_S = 0.1
+STOPS = {
+    ReferenceSource.LAW_STOP: (LAW_FAULT_HOLD_S, Status.LAW_STOPPED),
+    ReferenceSource.LATE_STOP: (LATE_HOLD_S, Status.LATE_STOPPED),
+    ReferenceSource.SENSOR_STOP: (SENSOR_STOP_HOLD_S, Status.SENSOR_LOST),
+}
 
 
 class JointController:
@@ -78,7 +80,6 @@ class JointController:
         #: the built-in law: the law in force, or under a plugin law the one that stops the arm if it fails
         self.stop_law = self._builtin(config)
         self.law = self._plugin(config, law_clock) if config.plugin_law else self.stop_law  #: the law in force
-        self._law_fault_rest_s: float | None = None  # when the stop after a law fault came to rest
         self._state = StateAtTick(joint_count, dynamics, make_estimator(config, dynamics, joint_count))
         self._reference = ReferenceAtTick(joint_count)
         self._readings = Readings()
@@ -87,8 +88,7 @@ class JointController:
         self._braked = False
         self._latency_guard = latency_guard
         self._latency = LatencyGuard.for_margin(self.delay_margin_periods(), config) if latency_guard else None
-        self._late_rest_s: float | None = None  # when the latency stop came to rest
-        self._sensor_rest_s: float | None = None  # when the stop for missing readings came to rest
+        self._rest_s: dict[ReferenceSource, float] = {}  # when each controlled stop came to rest
         #: the latency guard's latest verdict (None without a guard, or before its first tick)
         self.latency: LatencyState | None = None
 
@@ -272,19 +272,21 @@ class JointController:
         if not health.status.commanding:
             return self._no_command(now_s, health.status)
         if self.law_fault is not None:
-            return self._stop_after_law_fault(now_s, health.status)
+            return self._stop(now_s, ReferenceSource.LAW_STOP, on_model=health.status is Status.WATCHDOG)
         # Late first: its stop runs open loop on the model, readings or not (a late link delivers
         # readings in gaps, and each gap would begin another stop on the model).
         if self._latency is not None:
             self.latency = self._latency.update(now_s)
             if self.latency.cleared:  # on time again: lead the arm back onto the trajectory
-                self._late_rest_s = None
+                self._rest_s.pop(ReferenceSource.LATE_STOP, None)
                 self._reference.request_reacquire()
             if self.latency.late:
-                return self._stop_when_late(now_s)
+                return self._stop(now_s, ReferenceSource.LATE_STOP)
         if health.status is Status.WATCHDOG:
-            return self._stop_on_model(now_s)
-        self._sensor_rest_s = None
+            if self._braked:  # the brakes hold the arm already; a command would release them
+                return self._no_command(now_s, Status.SENSOR_LOST)
+            return self._stop(now_s, ReferenceSource.SENSOR_STOP)
+        self._rest_s.pop(ReferenceSource.SENSOR_STOP, None)
         if self._reference.reacquire_pending:
             self._restart_from_measurement(now_s)
         position, velocity = self._estimate_at_tick(now_s)
@@ -307,44 +309,22 @@ class JointController:
             self.stop_law.reset(now_s, state)
         self._reference.try_reacquire(now_s, position, velocity, self.config)
 
-    def _stop_when_late(self, now_s: float) -> ControlOutput:
-        """The loop is later than its gains survive (feedback through that delay oscillates):
-        category 2, the reference brought to rest with the law on the model's prediction (open
-        loop), held LATE_HOLD_S, then no commands (category 1) until the loop is on time again."""
-        if self._late_rest_s is not None and now_s - self._late_rest_s >= LATE_HOLD_S:
-            return self._no_command(now_s, Status.LATE_STOPPED)
-        position, velocity = self._state.coast(now_s, self._readings)
-        reference = self._reference.late_stop(now_s, position, self.config)
-        if self._late_rest_s is None and self._reference.late_stop_at_rest(now_s):
-            self._late_rest_s = now_s
-        return self._apply_law(now_s, position, velocity, reference)
-
-    def _stop_on_model(self, now_s: float) -> ControlOutput:
-        """Readings are missing: category 2 on the model's prediction, held SENSOR_STOP_HOLD_S at
-        rest, then no commands (category 1) until readings return."""
-        if self._sensor_rest_s is not None and now_s - self._sensor_rest_s >= SENSOR_STOP_HOLD_S:
-            return self._no_command(now_s, Status.SENSOR_LOST)
-        if self._braked:  # the brakes hold the arm already; a command would release them
-            return self._no_command(now_s, Status.SENSOR_LOST)
-        position, velocity = self._state.coast(now_s, self._readings)
-        reference = self._reference.sensor_stop(now_s, position, self.config)
-        if self._sensor_rest_s is None and self._reference.sensor_stop_at_rest(now_s):
-            self._sensor_rest_s = now_s
-        return self._apply_law(now_s, position, velocity, reference)
-
-    def _stop_after_law_fault(self, now_s: float, status: Status) -> ControlOutput:
-        """The plugin law failed: the built-in law brings the reference to rest (category 2, on the
-        model's estimate while readings are missing), holds it LAW_FAULT_HOLD_S, then commands
-        nothing: the drive's command timeout takes the torque off and the brakes hold (category 1)."""
-        if self._law_fault_rest_s is not None and now_s - self._law_fault_rest_s >= LAW_FAULT_HOLD_S:
-            return self._no_command(now_s, Status.LAW_STOPPED)
-        if status is Status.WATCHDOG:
+    def _stop(self, now_s: float, source: ReferenceSource, on_model: bool = True) -> ControlOutput:
+        """The controlled stop from ``source`` (see :data:`STOPS`): the reference brought to rest within
+        the torque limit, with the law on the model's prediction under its own torques (``on_model``:
+        open loop, which a delay cannot make oscillate) or on the estimate, held at rest for the stop's
+        hold, then no commands (category 1: the drive's timeout brakes the arm)."""
+        hold_s, stopped = STOPS[source]
+        rest_s = self._rest_s.get(source)
+        if rest_s is not None and now_s - rest_s >= hold_s:
+            return self._no_command(now_s, stopped)
+        if on_model:
             position, velocity = self._state.coast(now_s, self._readings)
         else:
             position, velocity = self._estimate_at_tick(now_s)
-        reference = self._reference.law_stop(now_s, None, self.config)
-        if self._law_fault_rest_s is None and self._reference.law_stop_at_rest(now_s):
-            self._law_fault_rest_s = now_s
+        reference = self._reference.stop(now_s, source, position, self.config)
+        if rest_s is None and self._reference.stop_at_rest(source, now_s):
+            self._rest_s[source] = now_s
         return self._apply_law(now_s, position, velocity, reference)
 
     def _apply_law(
@@ -360,7 +340,7 @@ class JointController:
         if isinstance(outcome, LawFault):
             law = self.stop_law
             law.reset(now_s, state)
-            reference = self._reference.law_stop(now_s, reference, self.config)
+            reference = self._reference.stop(now_s, ReferenceSource.LAW_STOP, position, self.config, reference)
             outcome = law.update(now_s, state, reference)
         terms, law_terms = outcome
         self._state.remember_command(now_s, terms.command)

@@ -33,10 +33,7 @@ class ReferenceAtTick:
         # The reference last used (position, velocity, acceleration) and when: a stop starts from it.
         self._last: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._last_s = 0.0
-        self._sensor_stop: ControlledStop | None = None
-        self._reference_stop: ControlledStop | None = None
-        self._law_stop: ControlledStop | None = None
-        self._late_stop: ControlledStop | None = None
+        self._stops: dict[ReferenceSource, ControlledStop] = {}  #: the controlled stops under way, by source
         self._blend: Blend | None = None
         self.status = Status.HOLDING  #: the latest reference's: OK, HOLDING, REACQUIRING, a stop's
         self.source = ReferenceSource.HOLD_POSITION  #: where the latest reference came from
@@ -59,8 +56,8 @@ class ReferenceAtTick:
         start a blend from the arm's ``(position, velocity)`` onto it (within
         ``reacquire_acceleration``). False while there is no fresh trajectory to
         lead the arm onto: :meth:`at_tick` holds it meanwhile."""
-        self._sensor_stop = None
-        self._late_stop = None
+        self._stops.pop(ReferenceSource.SENSOR_STOP, None)
+        self._stops.pop(ReferenceSource.LATE_STOP, None)
         planner = self.planner
         if (
             planner.sample is None
@@ -71,7 +68,7 @@ class ReferenceAtTick:
         self._needs_reacquire = False
         self._hold_position = None
         point = planner.at(now_s, config.reference_extrapolation, config.control_period_s)
-        self._reference_stop = None
+        self._stops.pop(ReferenceSource.REFERENCE_STOP, None)
         self._blend = Blend.starting(
             now_s, arm_position - point.position, arm_velocity - point.velocity, config.reacquire_acceleration
         )
@@ -110,13 +107,12 @@ class ReferenceAtTick:
         point = planner.at(now_s, config.reference_extrapolation, config.control_period_s)
         if not point.fresh:
             return self._planner_lost(now_s, point, config)
-        if self._reference_stop is not None:
-            # The planner is back: lead from the stop onto its trajectory.
-            held = self._reference_stop.at(now_s)
+        planner_stop = self._stops.pop(ReferenceSource.REFERENCE_STOP, None)
+        if planner_stop is not None:  # the planner is back: lead from the stop onto its trajectory
+            held = planner_stop.at(now_s)
             self._blend = Blend.starting(
                 now_s, held[0] - point.position, held[1] - point.velocity, config.reacquire_acceleration
             )
-            self._reference_stop = None
         # The command is held over the period: its feedforward is for the reference over it.
         mid_s = now_s + 0.5 * config.control_period_s
         ahead = planner.over_period(now_s, config.control_period_s, config.reference_extrapolation)
@@ -137,55 +133,41 @@ class ReferenceAtTick:
         return self._used(now_s, reference, status, source)
 
     def _planner_lost(self, now_s: float, point: TrajectoryPoint, config: ControllerConfig) -> Reference:
-        """The planner went quiet: bring the reference to rest at
-        ``stop_deceleration`` from the last one used, carried on to now at its
-        velocity (no jump), and hold there."""
-        if self._reference_stop is None:
+        """The planner went quiet: bring the reference to rest at ``stop_deceleration`` from the last
+        one used, carried on to now at its velocity (no jump), and hold there."""
+        source = ReferenceSource.REFERENCE_STOP
+        if source not in self._stops:
             last = self._last or (point.position, point.velocity, point.acceleration)
             carried = np.clip(now_s - self._last_s, 0.0, MAX_EXTRAPOLATION_S)
-            self._reference_stop = ControlledStop(now_s, last[0] + last[1] * carried, last[1], config.stop_deceleration)
+            self._stops[source] = ControlledStop(now_s, last[0] + last[1] * carried, last[1], config.stop_deceleration)
             self._blend = None
-        return self._used(
-            now_s, Reference(*self._reference_stop.at(now_s)), Status.REFERENCE_LOST, ReferenceSource.REFERENCE_STOP
-        )
+        return self._used(now_s, Reference(*self._stops[source].at(now_s)), Status.REFERENCE_LOST, source)
 
-    def sensor_stop(self, now_s: float, arm_position: np.ndarray, config: ControllerConfig) -> Reference:
-        """Readings are missing (watchdog): from where the reference is at the
-        first such tick (no jump in it), decelerate to rest at
-        ``stop_deceleration`` and hold there until re-acquisition."""
-        if self._sensor_stop is None:
-            start = self.from_trajectory(now_s, arm_position, config)
-            self._sensor_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
-        return self._used(now_s, Reference(*self._sensor_stop.at(now_s)), Status.WATCHDOG, ReferenceSource.SENSOR_STOP)
+    def stop(
+        self,
+        now_s: float,
+        source: ReferenceSource,
+        arm_position: np.ndarray,
+        config: ControllerConfig,
+        start: Reference | None = None,
+    ) -> Reference:
+        """A controlled stop (category 2): from ``start`` or, at the first tick of the stop, from where
+        the reference is then (no jump in it), decelerate to rest at ``stop_deceleration`` and hold
+        there. ``source``: SENSOR_STOP (readings missing, until re-acquisition), LATE_STOP (the loop's
+        delay past its margin, likewise) or LAW_STOP (the plugin law failed: for good; it starts from
+        the reference of the tick it failed on, or the last one used)."""
+        if source not in self._stops:
+            if start is None and source is ReferenceSource.LAW_STOP:
+                start = Reference(*(self._last or (np.zeros(self.joint_count),) * 3))
+            elif start is None:
+                start = self.from_trajectory(now_s, arm_position, config)
+            self._stops[source] = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
+        return self._used(now_s, Reference(*self._stops[source].at(now_s)), _STOP_STATUS[source], source)
 
-    def late_stop(self, now_s: float, arm_position: np.ndarray, config: ControllerConfig) -> Reference:
-        """The loop's delay is past what the gains survive: from where the reference
-        is at the first such tick, decelerate to rest at ``stop_deceleration`` and
-        hold there until the delay is back within the margin (then re-acquisition)."""
-        if self._late_stop is None:
-            start = self.from_trajectory(now_s, arm_position, config)
-            self._late_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
-        return self._used(now_s, Reference(*self._late_stop.at(now_s)), Status.LATE, ReferenceSource.LATE_STOP)
-
-    def law_stop(self, now_s: float, start: Reference | None, config: ControllerConfig) -> Reference:
-        """The plugin law failed: from ``start`` (the reference of the tick it failed
-        on; later ticks pass None), decelerate to rest at ``stop_deceleration`` and
-        hold there for good."""
-        if self._law_stop is None:
-            if start is None:
-                last = self._last or (np.zeros(self.joint_count),) * 3
-                start = Reference(*last)
-            self._law_stop = ControlledStop(now_s, start.position, start.velocity, config.stop_deceleration)
-        return self._used(now_s, Reference(*self._law_stop.at(now_s)), Status.LAW_FAULT, ReferenceSource.LAW_STOP)
-
-    def sensor_stop_at_rest(self, now_s: float) -> bool:
-        return self._sensor_stop is not None and self._sensor_stop.at_rest(now_s)
-
-    def late_stop_at_rest(self, now_s: float) -> bool:
-        return self._late_stop is not None and self._late_stop.at_rest(now_s)
-
-    def law_stop_at_rest(self, now_s: float) -> bool:
-        return self._law_stop is not None and self._law_stop.at_rest(now_s)
+    def stop_at_rest(self, source: ReferenceSource, now_s: float) -> bool:
+        """Whether the stop from ``source`` is under way and has come to rest."""
+        stop = self._stops.get(source)
+        return stop is not None and stop.at_rest(now_s)
 
     def _used(self, now_s: float, reference: Reference, status: Status, source: ReferenceSource) -> Reference:
         """Remember ``reference`` as the last one used (a later stop starts from it), named."""
@@ -195,3 +177,10 @@ class ReferenceAtTick:
     def _named(self, reference: Reference, status: Status, source: ReferenceSource) -> Reference:
         self.status, self.source = status, source
         return reference
+
+
+_STOP_STATUS = {
+    ReferenceSource.SENSOR_STOP: Status.WATCHDOG,
+    ReferenceSource.LATE_STOP: Status.LATE,
+    ReferenceSource.LAW_STOP: Status.LAW_FAULT,
+}

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_controller.core.arrays import clip_scalar, is_one_value, sign_scalar
 from robot_controller.core.controller.output import ReferenceSource
 from robot_controller.core.controller.tick_state import MAX_EXTRAPOLATION_S, TIME_EPS_S, clipped_age_s
 
@@ -33,10 +32,6 @@ MAX_UPCOMING = 100
 def _minmod(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Per element, the smaller in magnitude of ``a`` and ``b`` where they agree
     in sign, else 0 (the slope limiter of numerical schemes)."""
-    if a.shape == (1,) and b.shape == (1,):  # one joint: on floats (NumPy's per-call cost is the work)
-        x, y = a.item(), b.item()
-        sign = sign_scalar(x)
-        return np.array([sign * min(abs(x), abs(y)) if sign == sign_scalar(y) else 0.0])
     sign = np.sign(a)
     return np.where(sign == np.sign(b), sign * np.minimum(np.abs(a), np.abs(b)), 0.0)
 
@@ -95,12 +90,7 @@ class PlannerReference:
             self.period_s = time_s - self.time_s
             # The jerk, from the planner's own samples only (not a hold written in before it spoke).
             previous = self.sample[2]
-            if not self.spoke:
-                slope = None
-            elif is_one_value(acceleration) and is_one_value(previous):  # one joint: on floats
-                slope = np.array([(float(acceleration.item()) - float(previous.item())) / self.period_s])
-            else:
-                slope = (np.asarray(acceleration, dtype=float) - previous) / self.period_s
+            slope = (np.asarray(acceleration, dtype=float) - previous) / self.period_s if self.spoke else None
             self.jerk = (
                 None if slope is None or self._acceleration_slope is None else _minmod(slope, self._acceleration_slope)
             )
@@ -164,12 +154,7 @@ class PlannerReference:
         position, velocity, acceleration = self.sample
         if not extrapolate:
             return position, velocity, acceleration
-        s = clip_scalar(float(now_s + 0.5 * period_s - self.time_s), 0.0, MAX_EXTRAPOLATION_S)
-        if np.shape(position) == (1,):  # one joint: the same sums on floats, in one array
-            p, v, a = position.item(), velocity.item(), acceleration.item()
-            j = 0.0 if self.jerk is None else self.jerk.item()
-            ahead = np.array([p + v * s + a * (s * s / 2) + j * (s**3 / 6), v + a * s + j * (s * s / 2), a + j * s])
-            return ahead[0:1], ahead[1:2], ahead[2:3]
+        s = min(max(float(now_s + 0.5 * period_s - self.time_s), 0.0), MAX_EXTRAPOLATION_S)
         jerk = np.zeros(np.shape(acceleration)) if self.jerk is None else self.jerk
         return (
             position + velocity * s + acceleration * (s * s / 2) + jerk * (s**3 / 6),

@@ -10,7 +10,6 @@ from typing import Any
 
 import numpy as np
 
-from robot_controller.core.arrays import clip, within
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters, registry
 from robot_controller.core.laws.builtin import BuiltinLaw
@@ -120,10 +119,10 @@ class LawInLoop:
             return torque
         dt_s = self.law.period_s if self._last_s is None or now_s <= self._last_s else now_s - self._last_s
         self._last_s = now_s
-        command = within(torque, self.output_limit)
+        command = np.minimum(np.maximum(torque, -self.output_limit), self.output_limit)  # np.clip, without its wrapper
         if self.slew_rate_limit > 0 and self._previous_command is not None:
             step = self.slew_rate_limit * dt_s
-            command = clip(command, self._previous_command - step, self._previous_command + step)
+            command = np.minimum(np.maximum(command, self._previous_command - step), self._previous_command + step)
         self._previous_command = command
         runaway = self.contained.check_runaway(now_s, state, reference, command - self.law.arm.gravity(state.position))
         if runaway is not None:

@@ -1,19 +1,25 @@
-"""A plugin law's parameter values: its declared defaults with the values
-given over them, each checked against its declaration (type, range, one per
-joint). Every refusal names the parameter as ROS knows it, ``law.NAME``."""
+"""A law's parameters, as its class declares them and as ``pid_controller``'s parameters
+``law.NAME``: each value checked against its declaration (type, range, one per joint), a
+law's values (its defaults with the values given over them), and what a stack's parameter
+files may give. Every refusal names the parameter as ROS knows it, ``law.NAME``. The node
+parameters' specs for a law are :mod:`robot_controller.parameters.law_params`'s."""
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.laws import registry
 from robot_controller.core.laws.interface import Parameter
 
 PREFIX = "law."
+NODE = "pid_controller"  #: the only node with a control law
 
 
 def declared(law_class: type) -> tuple[Parameter, ...]:
@@ -29,6 +35,14 @@ def declared(law_class: type) -> tuple[Parameter, ...]:
             raise ConfigError(f"{law_class.__name__}.parameters: {parameter.name!r} is not a plain name")
         check(parameter, parameter.default)  # a default that breaks its own range is the law's bug
     return parameters
+
+
+def declared_by(controller_type: str) -> dict[str, Parameter]:
+    """The parameters of the law ``controller_type`` names by ``law.NAME`` (none for a built-in law);
+    ``ConfigError`` naming ``controller_type`` if it names no law."""
+    if registry.is_builtin(controller_type):
+        return {}
+    return {PREFIX + p.name: p for p in declared(registry.resolve(controller_type))}
 
 
 def values(law_class: type, given: Mapping[str, Any], joint_count: int) -> dict[str, Any]:
@@ -89,3 +103,64 @@ def per_joint(parameter: Parameter, value: float | list[float], joint_count: int
     if numbers.size != joint_count:
         raise ConfigError(f"{PREFIX}{parameter.name}: expected 1 value or {joint_count} (one per joint)")
     return numbers
+
+
+def is_law_key(name: str) -> bool:
+    return name.startswith(PREFIX)
+
+
+def plain_value(name: str, value: Any) -> Any:
+    """What a parameter file may give a ``law.*`` key before the law is known: a number, a
+    bool, a string or a list of numbers (checked against the law's declaration later)."""
+    if isinstance(value, (bool, int, float, str)):
+        return value
+    if isinstance(value, (list, tuple)) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+        return list(value)
+    raise ConfigError(f"{name}: expected a number, true or false, a string or a list of numbers, got {value!r}")
+
+
+def check_values(values: dict[str, Any], where: str = NODE) -> None:
+    """The ``law.*`` values of a controller's parameters against the law ``controller_type`` names:
+    one it does not declare, or a value its declaration refuses, is a ``ConfigError`` naming ``where``."""
+    try:
+        parameters = declared_by(values["controller_type"])
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: {exc}") from None
+    for name in filter(is_law_key, values):
+        if name not in parameters:
+            raise ConfigError(f"{where}.{_unknown(name, values['controller_type'], parameters)}")
+        try:
+            check(parameters[name], values[name])
+        except ConfigError as exc:
+            raise ConfigError(f"{where}.{exc}") from None
+
+
+def _unknown(name: str, controller_type: str, parameters: dict[str, Parameter]) -> str:
+    if not parameters and registry.is_builtin(controller_type):
+        return f"{name}: controller_type {controller_type} is built in and takes no law.* parameters"
+    law = registry.resolve(controller_type).__name__
+    hint = difflib.get_close_matches(name, list(parameters), n=1)
+    listed = ", ".join(sorted(parameters)) or "none"
+    return f"{name}: the law {law} declares no such parameter" + (
+        f" (did you mean {hint[0]!r}?)" if hint else f" (it declares {listed})"
+    )
+
+
+def settle(params: dict[str, dict[str, Any]], sources: list[tuple[Path, dict[str, dict[str, Any]]]] = ()) -> None:
+    """In place, on a whole stack's parameters: the controller's ``controller_type`` made absolute
+    if it names a file; each ``law.*`` value in ``sources`` (a file and what it gave) checked against
+    the law, naming that file; then the law's defaults for every ``law.*`` not given.
+
+    :raises ConfigError: one line naming the file (if any), the key and the problem
+    """
+    ctrl = params.get(NODE)
+    if ctrl is None or "controller_type" not in ctrl:
+        return
+    ctrl["controller_type"] = registry.with_absolute_path(ctrl["controller_type"])
+    for path, layer in sources:
+        given = {k: v for k, v in layer.get(NODE, {}).items() if is_law_key(k)}
+        if given:
+            check_values({"controller_type": ctrl["controller_type"], **given}, where=f"{path}: {NODE}")
+    check_values(ctrl)
+    for name, parameter in declared_by(ctrl["controller_type"]).items():
+        ctrl.setdefault(name, check(parameter, parameter.default))

@@ -10,12 +10,13 @@ running does not kick the output (bumpless gain change).
 
 from __future__ import annotations
 
+import operator
 from dataclasses import dataclass, field
 from enum import StrEnum
+from functools import reduce
 
 import numpy as np
 
-from robot_controller.core.arrays import all_finite, as_shape, clip, within
 from robot_controller.core.errors import ConfigError
 
 
@@ -150,7 +151,7 @@ class Pid:
         c = self.config
         zeros = np.zeros(np.broadcast_shapes(np.shape(reference_position), c.kp.shape))
         inputs = (reference_position, reference_velocity, measured_position, measured_velocity, feedforward)
-        if not (np.isfinite(dt) and dt > 0) or not all_finite(*inputs):
+        if not (np.isfinite(dt) and dt > 0) or not reduce(operator.and_, map(np.isfinite, inputs)).all():
             return PidTerms(zeros, zeros, zeros, zeros, zeros, np.zeros(zeros.shape, dtype=bool))
 
         error = reference_position - measured_position
@@ -173,12 +174,13 @@ class Pid:
                 self._d_filtered = self._d_filtered + alpha * (d_signal - self._d_filtered)
             d_signal = self._d_filtered
         d_term = c.kd * d_signal
-        feedforward = as_shape(feedforward, zeros.shape)
+        feedforward = np.broadcast_to(np.asarray(feedforward, dtype=float), zeros.shape)
 
         # Integrate, then limit per the anti-windup mode.
         i_candidate = self._i_term + c.ki * error * dt
         if c.anti_windup is AntiWindup.CLAMP:
-            i_candidate = within(i_candidate, c.ki * c.integral_limit)
+            i_limit = c.ki * c.integral_limit
+            i_candidate = np.minimum(np.maximum(i_candidate, -i_limit), i_limit)  # np.clip, without its wrapper
         unsaturated = feedforward + _mapped(feedback_map, p_term + i_candidate + d_term)
         limited = self._limit(unsaturated, dt)
         saturated = np.abs(limited - unsaturated) > 1e-12
@@ -196,10 +198,11 @@ class Pid:
         return PidTerms(command, p_term, self._i_term.copy(), d_term, feedforward, saturated)
 
     def _limit(self, command: np.ndarray, dt: float) -> np.ndarray:
-        out = within(command, self.config.output_limit)
+        limit = self.config.output_limit
+        out = np.minimum(np.maximum(command, -limit), limit)  # np.clip, without its wrapper
         if self.config.slew_rate_limit > 0 and self._prev_command is not None:
             max_step = self.config.slew_rate_limit * dt
-            out = clip(out, self._prev_command - max_step, self._prev_command + max_step)
+            out = np.minimum(np.maximum(out, self._prev_command - max_step), self._prev_command + max_step)
         return out
 
 
