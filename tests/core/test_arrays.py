@@ -3,11 +3,9 @@ bit where they compute the same thing, to rounding where they compute it
 another way (closed forms, one product for a sum of terms)."""
 
 import numpy as np
-import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from robot_controller.core import arrays
 from robot_controller.core.controller.safe_motion import Blend, _quintic
 from robot_controller.core.estimation import innovation
 from robot_controller.core.estimation.estimator import KalmanConfig, _solve_symmetric, inverse_2x2, process_noise
@@ -18,47 +16,6 @@ finite = st.floats(min_value=-1e6, max_value=1e6)
 
 def vector(elements=values, size=3):
     return st.lists(elements, min_size=size, max_size=size).map(np.array)
-
-
-@given(vector(), vector(finite).map(np.abs))
-def test_within_and_clip_are_np_clip(value, limit):
-    expected = np.clip(value, -limit, limit)
-    np.testing.assert_array_equal(arrays.within(value, limit), expected)
-    np.testing.assert_array_equal(arrays.clip(value, -limit, limit), expected)
-    out = np.empty(3)
-    arrays.within(value, limit, out=out)
-    np.testing.assert_array_equal(out, expected)
-
-
-@given(values, finite, finite)
-def test_clip_scalar_is_np_clip(value, a, b):
-    low, high = min(a, b), max(a, b)
-    np.testing.assert_array_equal(arrays.clip_scalar(value, low, high), float(np.clip(value, low, high)))
-
-
-@given(vector(), vector(), values)
-def test_all_finite_is_every_np_isfinite(a, b, c):
-    assert arrays.all_finite(a, b, c) == all(np.all(np.isfinite(x)) for x in (a, b, c))
-
-
-def test_all_finite_broadcasts_a_batch_against_one_joint():
-    assert arrays.all_finite(np.zeros((4, 1)), np.zeros(1), 0.0)
-    assert not arrays.all_finite(np.zeros((4, 1)), np.array([np.nan]))
-
-
-def test_as_shape_is_the_array_itself_or_a_broadcast():
-    ready = np.array([1.0, 2.0])
-    assert arrays.as_shape(ready, (2,)) is ready
-    np.testing.assert_array_equal(arrays.as_shape(0.5, (2,)), [0.5, 0.5])
-    np.testing.assert_array_equal(arrays.as_shape(np.array([1, 2]), (2,)), [1.0, 2.0])
-    assert arrays.as_shape(np.array([1, 2]), (2,)).dtype == np.float64
-
-
-@pytest.mark.parametrize("size", [1, 2, 7, 14])
-@pytest.mark.parametrize("k", range(13))
-def test_matrix_power_is_numpys_bit_for_bit(size, k):
-    a = np.eye(size) + 0.01 * np.random.default_rng(size + k).standard_normal((size, size))
-    np.testing.assert_array_equal(arrays.matrix_power(a, k), np.linalg.matrix_power(a, k))
 
 
 def test_inverse_2x2_is_the_inverse():
