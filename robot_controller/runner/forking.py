@@ -1,13 +1,8 @@
-"""Start the stack's processes by forking the launcher (a "zygote").
-
-Six Python processes each importing rclpy, numpy, scipy and MuJoCo cost
-about a CPU-second apiece: on two cores that alone took 3 s of every run's
-start. The launcher imports them once (:func:`preload`), before it has any
-thread or any ROS context, and forks each node from itself: the children
-share the imported code and start in milliseconds. Each child then gets its
-own session, scheduling place, environment and output pipe, and runs the
-node's ``main`` as ``python -m robot_controller.nodes.NAME`` would.
-"""
+"""Start the stack's processes by forking the launcher (a "zygote"): it imports rclpy, numpy, scipy
+and MuJoCo once (:func:`preload`), before it has any thread or ROS context, and forks each node from
+itself, so the children share the imported code and start in milliseconds. Each child gets its own
+session, scheduling place, environment and output pipe, and runs the node's ``main`` as
+``python -m robot_controller.nodes.NAME`` would."""
 
 from __future__ import annotations
 
@@ -25,21 +20,12 @@ from collections.abc import Callable
 import setproctitle
 
 # Every module a child runs: imported once in the launcher before forking.
-NODE_MODULES = (
-    "simulator",
-    "motor_node",
-    "sensor_node",
-    "pid_controller",
-    "trajectory_planner",
-    "all_in_one",
-    "recorder",
-    "graph_watch",
-)
+NODE_MODULES = "simulator motor_node sensor_node pid_controller trajectory_planner all_in_one recorder graph_watch"
 
 
 def preload() -> None:
     """Import every node module (and through them rclpy, numpy, scipy, MuJoCo) into this process."""
-    for name in NODE_MODULES:
+    for name in NODE_MODULES.split():
         importlib.import_module(f"robot_controller.nodes.{name}")
 
 
@@ -68,12 +54,9 @@ class ForkedProcess:
 
 
 def dds_started_here() -> bool:
-    """Whether Fast DDS has run in this process (its threads are named ``dds.…``).
-
-    A child forked from such a process inherits its half-state: the XML
-    profiles already loaded (so the child never reads the run's own profile
-    and its partition) and locks held by threads that do not exist in the
-    child. A test process with a probe is one."""
+    """Whether Fast DDS has run in this process (its threads are named ``dds.…``), as in a test with a
+    probe: a child forked from it would inherit its XML profiles (never reading the run's own) and locks
+    held by threads that do not exist in the child."""
     for task in os.listdir("/proc/self/task"):
         try:
             with open(f"/proc/self/task/{task}/comm") as comm:

@@ -24,6 +24,7 @@ from robot_controller.parameters.builders import ARM_MODEL_KEYS
 from robot_controller.ros import partition, scheduling
 from robot_controller.ros.publishing import COUNTS_DIR_ENV, RECORDED_ENV
 from robot_controller.runner.options import RunOptions
+from robot_controller.runner.processes import Process
 from robot_controller.view import serve as view_serve
 
 NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
@@ -34,14 +35,6 @@ RECORDING_NODE = "simulator"
 LOCKSTEP_END_MARGIN_S = 0.5
 # Fast DDS sends from the publishing thread, not through a sender thread: the lockstep runs faster so.
 FASTDDS_PUBLICATION_MODE = ("RMW_FASTRTPS_PUBLICATION_MODE", "SYNCHRONOUS")
-
-
-@dataclass(frozen=True)
-class Process:
-    name: str  #: as the output prefix and in the usage figures
-    module: str  #: ``robot_controller.nodes.<module>``
-    args: list[str]
-    env: dict[str, str]
 
 
 @dataclass
@@ -107,12 +100,10 @@ def child_env(single_process: bool) -> dict[str, str]:
 
 
 def lockstep_params(params: cfg.Params) -> cfg.Params:
-    """The same parameters in sim-time lockstep: the simulator owns /clock and
-    the simulator, controller, planner and motor step on messages instead of timers."""
+    """The same parameters in sim-time lockstep: the simulator owns /clock and the simulator, controller,
+    planner and motor step on messages instead of timers. No node uses ROS sim time (which costs a /clock
+    callback every tick): the sensor steps on its readings' stamps, the motor on each command's tick stamp."""
     out = cfg.merge(params, {})
-    # No node needs ROS sim time: the sensor steps on the stamps of what it receives, the
-    # controller and planner on /clock messages they read themselves, the motor on each
-    # command's tick stamp. A node on sim time pays a /clock delivery and callback every tick.
     for node in cfg.NODES:
         out[node]["use_sim_time"] = False
     for node in ("simulator", "pid_controller", "trajectory_planner", "motor_node"):
@@ -121,12 +112,9 @@ def lockstep_params(params: cfg.Params) -> cfg.Params:
 
 
 def with_controller_model(params: cfg.Params) -> cfg.Params:
-    """The same parameters with the controller's arm model given to the planner
-    too: each ``model_*`` the planner leaves empty takes pid_controller's value
-    (e.g. from an ``identify`` overlay, which sets only the controller's), so that
-    the planner checks its trajectory against the arm the controller models, as
-    ``consistency.trajectory_plan`` and the in-process loop do. One the planner
-    sets must be the controller's: ``consistency.check_stack`` refuses others."""
+    """The same parameters with each ``model_*`` the planner leaves empty taken from pid_controller (e.g.
+    an ``identify`` overlay's), so the planner checks its trajectory against the arm the controller models,
+    as ``consistency.trajectory_plan`` does; one the planner sets must agree (``check_stack``)."""
     out = cfg.merge(params, {})
     planner, ctrl = out["trajectory_planner"], out["pid_controller"]
     for key in ARM_MODEL_KEYS:

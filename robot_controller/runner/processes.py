@@ -38,42 +38,43 @@ def _child_setup(place: scheduling.Placement) -> Callable[[], None]:
     return setup
 
 
+@dataclass(frozen=True)
+class Process:
+    """How a child starts: ``python -m robot_controller.nodes.<module> <args>`` with ``env``."""
+
+    name: str  #: as the output prefix and in the usage figures
+    module: str
+    args: list[str]
+    env: dict[str, str]
+
+
 @dataclass
 class Child:
-    name: str
+    spec: Process
     process: forking.ForkedProcess
     reader: threading.Thread  #: relays its output; started by ``ProcessGroup.relay``
-    module: str = ""
-    args: list[str] = field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
 
 
 @dataclass
 class ProcessGroup:
     """Child processes with prefixed output; a context manager that always stops them."""
 
-    env: dict[str, str]
     children: list[Child] = field(default_factory=list)
 
-    def start(
-        self,
-        name: str,
-        module: str,
-        args: list[str],
-        *,
-        env: dict[str, str] | None = None,
-        on_line: Callable[[str], bool] | None = None,
-        wall_clock: bool = True,
-    ) -> Child:
-        """Fork ``robot_controller.nodes.<module>`` as ``name`` with ``args``; ``on_line``
-        sees each output line first and returns True for lines it consumed (not printed)."""
+    def start(self, spec: Process, *, on_line: Callable[[str], bool] | None = None, wall_clock: bool = True) -> Child:
+        """Fork ``spec``; ``on_line`` sees each output line first and returns True for one it consumed."""
         process = forking.fork(
-            module,
-            [f"robot_controller.nodes.{module}", *args],
-            env or self.env,
-            _child_setup(scheduling.placement(name, wall_clock)),
+            spec.module,
+            [f"robot_controller.nodes.{spec.module}", *spec.args],
+            spec.env,
+            _child_setup(scheduling.placement(spec.name, wall_clock)),
         )
-        reader = threading.Thread(target=self._relay, args=(name, process, on_line), daemon=True)
-        child = Child(name, process, reader, module, args)
+        reader = threading.Thread(target=self._relay, args=(spec.name, process, on_line), daemon=True)
+        child = Child(spec, process, reader)
         self.children.append(child)
         return child
 
@@ -87,11 +88,11 @@ class ProcessGroup:
                 sys.stdout.write(f"[{name}] {line}")
                 sys.stdout.flush()
 
-    def restart(self, child: Child, *, env: dict[str, str]) -> Child:
-        """Start a dead child again, same module and arguments (``--respawn``)."""
+    def restart(self, child: Child) -> Child:
+        """Start a dead child again, as it was started (``--respawn``)."""
         child.reader.join(timeout=1.0)
         self.children.remove(child)
-        again = self.start(child.name, child.module, child.args, env=env)
+        again = self.start(child.spec)
         self.relay()
         return again
 

@@ -1,27 +1,25 @@
-"""Watching a run while it goes: what the recorder reports (ready, counts,
-/clock), the waits for the loop to close and to end (a dead node, a stalled
-lockstep, respawns), CPU and memory over the run, and Ctrl-C handling."""
+"""Watching a run while it goes: what the recorder and ``graph_watch`` report (ready, counts, /clock,
+the graph's nodes) and the waits for the loop to close and to end (a dead node, a stalled lockstep,
+respawns)."""
 
 from __future__ import annotations
 
 import json
-import os
 import threading
 import time
 from collections.abc import Callable
-from pathlib import Path
-from typing import Any
 
 from robot_controller.nodes import graph_watch
 from robot_controller.nodes import recorder as rec
-from robot_controller.ros.process import LAW_FAULT_FILE, LAW_STOPPED_EXIT_CODE
-from robot_controller.runner import proc_stats
+from robot_controller.ros.process import LAW_STOPPED_EXIT_CODE
 from robot_controller.runner.processes import Child, ProcessGroup, say
+from robot_controller.runner.usage import UsageMeter
 
+RECORDER_READY_TIMEOUT_S = 30.0
 FIRST_TICK_TIMEOUT_S = 20.0
-
-# Lockstep: no /clock progress for this long (wall) means the graph is stuck.
-STALL_TIMEOUT_S = 10.0
+STALL_TIMEOUT_S = 10.0  #: lockstep: no /clock progress for this long (wall) means the graph is stuck
+GRAPH_SAY_EVERY_S = 5.0  #: how often the launcher names the nodes it is still waiting for
+MAX_RESPAWNS = 5  #: per node and run: a node that keeps dying ends the run
 
 
 class RecorderLink:
@@ -88,9 +86,6 @@ class GraphLink:
         )
 
 
-GRAPH_SAY_EVERY_S = 5.0  #: how often the launcher names the nodes it is still waiting for
-
-
 def wait_graph(
     graph: GraphLink, group: ProcessGroup, expected: tuple[str, ...], remote: tuple[str, ...], timeout_s: float
 ) -> str | None:
@@ -116,106 +111,26 @@ def wait_graph(
     return None
 
 
-RECORDER_READY_TIMEOUT_S = 30.0
-# CPU and memory are measured from this long after the loop closes (start-up
-# allocations and imports are not the loop's running cost) to its end.
-USAGE_WARMUP_S = 2.0
-
-
-class UsageMeter:
-    """Samples every child (and this launcher) once at ``start_at`` and once at the end."""
-
-    def __init__(self, children: list[Child], start_at: float) -> None:
-        self.pids = {c.name: c.process.pid for c in children}
-        self.start_at = start_at
-        self.first: dict[str, proc_stats.Sample | None] | None = None
-        self.first_time = 0.0
-
-    def _sample(self) -> dict[str, proc_stats.Sample | None]:
-        out = {name: proc_stats.sample(pid) for name, pid in self.pids.items()}
-        out["launcher"] = proc_stats.self_sample()
-        return out
-
-    def forget(self, name: str) -> None:
-        """A process that was replaced (respawned): its share is not measured."""
-        self.pids.pop(name, None)
-        if self.first is not None:
-            self.first.pop(name, None)
-
-    def poll(self) -> None:
-        if self.first is None and time.monotonic() >= self.start_at:
-            self.first, self.first_time = self._sample(), time.monotonic()
-
-    def finish(self) -> dict[str, float]:
-        if self.first is None:
-            return {}
-        return proc_stats.usage(self.first, self._sample(), time.monotonic() - self.first_time)
-
-
-def read_published_counts(counts_dir: Path, replaced: set[str] = frozenset()) -> dict[str, int]:
-    """Per topic, what the nodes say they published. A node that was killed and
-    respawned took its count with it: its topics are left out (unknown)."""
-    total: dict[str, int] = {}
-    unknown: set[str] = set()
-    for path in counts_dir.glob("*.json"):
-        try:
-            counts = {topic: int(count) for topic, count in json.loads(path.read_text()).items()}
-        except (OSError, ValueError):
-            continue
-        if path.stem in replaced:
-            unknown.update(counts)
-        for topic, count in counts.items():
-            total[topic] = total.get(topic, 0) + count
-    return {topic: count for topic, count in total.items() if topic not in unknown}
-
-
-def read_law_fault(counts_dir: Path) -> str | None:
-    """The controller's line on its control law's failure, if it wrote one (``nodes.pid_controller``)."""
-    try:
-        return (counts_dir / LAW_FAULT_FILE).read_text().strip() or None
-    except OSError:
-        return None
-
-
-def raise_interrupt(signum, frame) -> None:
-    raise KeyboardInterrupt
-
-
-def patient_handler() -> Callable[[int, Any], None]:
-    """After the first interrupt: further ones only say that the stop is under way."""
-    said = [False]
-
-    def handler(signum, frame) -> None:
-        if not said[0]:
-            said[0] = True
-            # Straight to the file descriptor: no lock, no buffer the interrupted code may hold.
-            os.write(1, b"[launcher] already stopping: nodes get 5 s to exit, then the recording is scored\n")
-
-    return handler
-
-
 def wait_recorder(link: RecorderLink, group: ProcessGroup) -> str | None:
-    deadline = time.monotonic() + RECORDER_READY_TIMEOUT_S
-    while not link.ready.wait(0.05):
-        if dead := group.dead():
-            return died(dead)
-        if time.monotonic() > deadline:
-            return f"the recorder was not ready within {RECORDER_READY_TIMEOUT_S:g} s"
-    return None
+    failure = f"the recorder was not ready within {RECORDER_READY_TIMEOUT_S:g} s"
+    return _wait_until(link.ready.is_set, group, RECORDER_READY_TIMEOUT_S, failure)
 
 
 def wait_first_tick(link: RecorderLink, group: ProcessGroup) -> str | None:
-    deadline = time.monotonic() + FIRST_TICK_TIMEOUT_S
-    while not link.counts.get("/controller/state"):
+    failure = f"no /controller/state within {FIRST_TICK_TIMEOUT_S:g} s of start"
+    return _wait_until(lambda: link.counts.get("/controller/state"), group, FIRST_TICK_TIMEOUT_S, failure)
+
+
+def _wait_until(done: Callable[[], object], group: ProcessGroup, timeout_s: float, failure: str) -> str | None:
+    """None once ``done()``; a line naming what died, or ``failure`` after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while not done():
         if dead := group.dead():
             return died(dead)
         if time.monotonic() > deadline:
-            return f"no /controller/state within {FIRST_TICK_TIMEOUT_S:g} s of start"
+            return failure
         time.sleep(0.02)
     return None
-
-
-MAX_RESPAWNS = 5  # per node and run: a node that keeps dying ends the run
 
 
 def wait_wall(
