@@ -19,16 +19,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from robot_controller.tools import graph
+from robot_controller.tools import graph, trajectory_file
 from robot_controller.tools.graph import ToolError
-from robot_controller.tools.trajectory_file import (
-    GOTO_UNKNOWN_S,
-    TrajectoryFileError,
-    TrajectorySpec,
-    goto_time_s,
-    load,
-)
-from robot_controller.tools.trajectory_file import goto as goto_spec
+from robot_controller.tools.trajectory_file import TrajectoryFileError, TrajectorySpec
 
 TOPIC = "/trajectory_planner/joint_trajectory"
 PLANNER_NODE = "trajectory_planner"
@@ -101,14 +94,14 @@ def goto(
         else:
             names = list(state.name) if state is not None else graph.reference_arm_joints()
         if time_s is None:
-            time_s = GOTO_UNKNOWN_S
+            time_s = trajectory_file.GOTO_UNKNOWN_S
             at = {} if state is None else dict(zip(state.name, state.position, strict=False))
             speed = {} if state is None else dict(zip(state.name, state.velocity, strict=False))
             if len(positions) == len(names) and all(name in at for name in names):
                 distance = max(abs(q - at[name]) for q, name in zip(positions, names, strict=True))
-                time_s = goto_time_s(distance, max(abs(speed.get(name, 0.0)) for name in names))
+                time_s = trajectory_file.goto_time_s(distance, max(abs(speed.get(name, 0.0)) for name in names))
         try:
-            spec = goto_spec(positions, names, time_s)
+            spec = trajectory_file.goto(positions, names, time_s)
         except TrajectoryFileError as exc:
             raise ToolError(str(exc), 2) from None
         target = ", ".join(f"{name} {q:g}" for name, q in zip(names, spec.points[0].positions, strict=True))
@@ -119,7 +112,7 @@ def goto(
 def send_file(path: Path, *, wait_s: float = MATCH_TIMEOUT_S) -> int:
     """Send the joint trajectory in the YAML file at ``path``."""
     try:
-        spec = load(path)
+        spec = trajectory_file.load(path)
     except TrajectoryFileError as exc:
         raise ToolError(str(exc), 2) from None
     with graph.open_graph("trajectory") as g:

@@ -77,11 +77,11 @@ def set_sinks(
 
 
 class _Redirect(BaseHTTPRequestHandler):
-    target = ""
+    """Every request sent on to the server's ``target``."""
 
     def do_GET(self) -> None:  # noqa: N802 - http.server's name
         self.send_response(302)
-        self.send_header("Location", self.target)
+        self.send_header("Location", self.server.target)
         self.send_header("Cache-Control", "no-store")
         self.end_headers()
 
@@ -92,18 +92,14 @@ class _Redirect(BaseHTTPRequestHandler):
 
 
 def serve_web(grpc_uri: str, port: int) -> ThreadingHTTPServer:
-    """rerun's web viewer on a free port, and on ``port`` a redirect to it with ``grpc_uri`` to connect to.
-
-    Returns the redirecting server (a daemon thread serves it; ``shutdown()`` stops it).
-    """
+    """rerun's web viewer on a free port, and on ``port`` a redirect to it with ``grpc_uri`` to connect to:
+    the redirecting server, served by a daemon thread (``shutdown()`` stops it)."""
     import rerun as rr
 
     web_port = free_port()
     rr.serve_web_viewer(web_port=web_port, open_browser=False, connect_to=grpc_uri)
-    handler = type(
-        "Redirect", (_Redirect,), {"target": f"http://{HOST}:{web_port}/?url={urllib.parse.quote(grpc_uri, safe='')}"}
-    )
-    server = ThreadingHTTPServer((HOST, port), handler)
+    server = ThreadingHTTPServer((HOST, port), _Redirect)
+    server.target = f"http://{HOST}:{web_port}/?url={urllib.parse.quote(grpc_uri, safe='')}"
     server.daemon_threads = True
     threading.Thread(target=server.serve_forever, name="view-redirect", daemon=True).start()
     return server
