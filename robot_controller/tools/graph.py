@@ -219,8 +219,11 @@ def matching(node: Any, publisher: Any, topic: str, listener: str) -> tuple[int,
 
 
 def wait_until_heard(node: Any, publisher: Any, topic: str, listener: str, *, since: float, wait_s: float) -> bool:
-    """Whether ``listener`` came to hear ``publisher`` on ``topic`` (:func:`matching`, settled)
-    within ``wait_s`` seconds of ``since`` (``time.monotonic()``)."""
+    """Whether ``listener`` came to hear ``publisher`` on ``topic`` (:func:`matching`, settled) in time.
+
+    :param since: when the wait began (``time.monotonic()``), s
+    :param wait_s: how long after ``since`` to wait, s
+    """
     seen, seen_since = None, since
     while True:
         now = time.monotonic()

@@ -81,8 +81,10 @@ def log_static(rec, arm: ArmModel, root: str, poses: list[tuple[list[int], float
 
 
 def pose_columns(arm: ArmModel, root: str, q: np.ndarray) -> list[tuple[str, object]]:
-    """Columns placing every visual for ``m`` rows of poses: ``q`` is ``(m, P, n)``, P
-    poses (true first) of n joints. Returns ``(entity path, columns)`` pairs for ``send_columns``."""
+    """``(entity path, columns)`` pairs for ``send_columns`` placing every visual in ``m`` rows of poses.
+
+    :param q: ``(m, P, n)``: P poses (the true one first) of n joints, rad
+    """
     import rerun as rr
 
     q = np.asarray(q, dtype=float)

@@ -29,9 +29,11 @@ def z_to_matrix(axis: tuple[float, float, float]) -> np.ndarray:
 
 
 def link_frames(arm: ArmModel, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Forward kinematics: each link's frame in the world, ``(R (m, 3, 3), p (m, 3))``, for
-    ``m`` joint vectors ``q`` (``(m, n)``, the stack's joint order). Also ``"<joint>@"``: a
-    moving joint's frame before its motion (where its axis sits)."""
+    """Forward kinematics: each link's frame in the world, ``(R (m, 3, 3), p (m, 3) in m)``; also
+    ``"<joint>@"``, a moving joint's frame before its motion (where its axis sits).
+
+    :param q: ``(m, n)`` joint vectors in the stack's joint order, rad (m for a prismatic joint)
+    """
     q = np.asarray(q, dtype=float)
     m = len(q)
     index = {name: k for k, name in enumerate(arm.joint_names)}

@@ -56,10 +56,12 @@ def open_recording(recording_id: str | None = None):
 def set_sinks(
     rec, *, rrd: Path | None, serve: bool, blueprint, write_footer: bool = True, newest_first: bool = False
 ) -> str | None:
-    """Where ``rec`` goes: ``rrd`` (a file) and, if ``serve``, a local gRPC
-    server (``newest_first``: a browser that connects late gets the present
-    first, then the past). Returns the server's ``rerun+http://…/proxy``
-    address (or None)."""
+    """Send ``rec`` to a file and a local gRPC server; the server's ``rerun+http://…/proxy`` address.
+
+    :param rrd: the file (None: none)
+    :param serve: whether to serve it (None is returned if not)
+    :param newest_first: a browser that connects late gets the present first, then the past
+    """
     import rerun as rr
 
     sinks = []
