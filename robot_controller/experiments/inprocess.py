@@ -11,7 +11,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.controller.controller import JointController
+from robot_controller.core.controller import JointController
 from robot_controller.core.loop import Disturbance, LoopResult, run_loop
 from robot_controller.core.model import Actuator, MujocoPlant, Payload
 from robot_controller.parameters.builders import arm_model

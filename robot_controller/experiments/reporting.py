@@ -61,3 +61,10 @@ def pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def save(fig, path: Path, title: str) -> None:
+    """``fig`` with its title, written to ``path`` and closed."""
+    fig.suptitle(title)
+    fig.savefig(path, dpi=110)
+    pyplot().close(fig)

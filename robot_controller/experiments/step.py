@@ -11,7 +11,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.core import metrics
-from robot_controller.experiments.reporting import pyplot
+from robot_controller.experiments.reporting import pyplot, save
 from robot_controller.runner import launcher, plan
 from robot_controller.runner.options import RunOptions
 from robot_controller.scoring import report
@@ -137,9 +137,7 @@ def plot_step(recording: report.Recording, path: Path, title: str, limit_nm: np.
     for ax in (ax_q, ax_u):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    fig.suptitle(title)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, title)
 
 
 def step_response(

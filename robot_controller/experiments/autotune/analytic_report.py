@@ -17,7 +17,7 @@ from robot_controller.experiments.autotune.margins import (
     MIN_PHASE_MARGIN_DEG,
 )
 from robot_controller.experiments.autotune.search import ROBUST, SearchResult
-from robot_controller.experiments.reporting import fmt, pyplot, table
+from robot_controller.experiments.reporting import fmt, pyplot, save, table
 
 
 def yaml_header(problem: Problem, result: SearchResult) -> str:
@@ -58,9 +58,7 @@ def plot(path: Path, result: SearchResult) -> None:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     fig.colorbar(points, ax=axes[-1], label="log10 sine RMS [rad] (batch)")
-    fig.suptitle(f"Gain sets that met every margin ({int(np.count_nonzero(finite))}), coloured by tracking error")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, f"Gain sets that met every margin ({int(np.count_nonzero(finite))}), coloured by tracking error")
 
 
 def report_text(values: dict[str, Any], problem: Problem, result: SearchResult, quick: bool) -> str:

@@ -24,7 +24,7 @@ from robot_controller.experiments.autotune.blackbox import (
 )
 from robot_controller.experiments.autotune.margins import MAX_TIME_CONSTANT_S, MIN_DELAY_PERIODS, MIN_GAIN_MARGIN_DB
 from robot_controller.experiments.autotune.search import FAILED, ROBUST, UNCHECKED, SearchResult
-from robot_controller.experiments.reporting import fmt, pyplot, table
+from robot_controller.experiments.reporting import fmt, pyplot, save, table
 
 
 def yaml_header(problem: BlackBoxProblem, result: SearchResult) -> str:
@@ -63,9 +63,7 @@ def plot(path: Path, result: SearchResult) -> None:
         ax.set_ylabel("sine RMS, in process [mrad]")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
-    fig.suptitle(f"tune --controller {result.problem.spec}: every candidate run")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, f"tune --controller {result.problem.spec}: every candidate run")
 
 
 def report_text(values: dict[str, Any], problem: BlackBoxProblem, result: SearchResult, quick: bool) -> str:

@@ -10,7 +10,9 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.experiments.reporting import Progress, fmt, pyplot, table, write_report, write_results
+from robot_controller.experiments import laws
+from robot_controller.experiments.compare.contenders import Contender
+from robot_controller.experiments.reporting import Progress, fmt, pyplot, save, table, write_report, write_results
 from robot_controller.experiments.runs import SEED
 from robot_controller.experiments.step import run_and_score
 from robot_controller.scoring import report
@@ -22,19 +24,20 @@ RECOVERED_RAD = 0.002
 #: The default controller's goal (exercise 2): pushed at most this far, back within this long.
 GOAL_PEAK_RAD, GOAL_RECOVERY_S = 0.010, 0.3
 
-CONTENDERS = {
-    "tutorial": ("tutorial", {}, "the tutorial's PID as written (Kp 50, Ki 10, Kd 5, no feedforward)"),
-    "pid": (
-        "default",
-        {"pid_controller": {"controller_type": "pid", "estimator": "none"}},
+CONTENDERS = (
+    Contender("tutorial", "the tutorial's PID as written (Kp 50, Ki 10, Kd 5, no feedforward)", "tutorial", {}),
+    Contender(
+        "pid",
         "PID (Kp 50, Ki 10, Kd 5) with the model's feedforward, no filter",
+        "default",
+        {"controller_type": "pid", "estimator": "none"},
     ),
-    "default": ("default", {}, "the default: LQR, Kalman filter, feedforward"),
-}
+    Contender("default", "the default: LQR, Kalman filter, feedforward", "default", {}),
+)
 
 
 def _plan(quick: bool) -> dict[str, Any]:
-    return {"after_s": 1.5 if quick else 3.0, "contenders": ("tutorial", "default") if quick else tuple(CONTENDERS)}
+    return {"after_s": 1.5 if quick else 3.0, "contenders": (CONTENDERS[0], CONTENDERS[2]) if quick else CONTENDERS}
 
 
 #: Each contender runs twice: pushed and undisturbed (a progress step each).
@@ -45,28 +48,17 @@ def steps(quick: bool = False) -> int:
     return RUNS_PER_CONTENDER * len(_plan(quick)["contenders"])
 
 
-def law_contender(spec: str) -> tuple[str, tuple[str, dict[str, Any], str]]:
+def law_contender(spec: str) -> Contender:
     """``--controller SPEC``'s contender: that law with the default stack, named by its class."""
-    from robot_controller.experiments import laws
-
-    chosen = laws.controller_type(spec)
     name = laws.label(spec)
-    if name in CONTENDERS:
-        name = f"law_{name}"
-    return name, ("default", {"pid_controller": {"controller_type": chosen}}, f"{spec} with the default stack")
+    name = f"law_{name}" if name in {c.name for c in CONTENDERS} else name
+    return Contender(name, f"{spec} with the default stack", "default", {"controller_type": laws.controller_type(spec)})
 
 
-def contender_params(
-    name: str,
-    seed: int,
-    duration_s: float,
-    torque_nm: float = TORQUE_NM,
-    contenders: dict[str, tuple[str, dict[str, Any], str]] = CONTENDERS,
-) -> cfg.Params:
-    preset, overrides, _ = contenders[name]
+def contender_params(contender: Contender, seed: int, duration_s: float, torque_nm: float = TORQUE_NM) -> cfg.Params:
     return cfg.merge(
-        cfg.load_stack(preset),
-        overrides,
+        cfg.load_stack(contender.preset),
+        {"pid_controller": contender.overrides},
         {
             "sensor_node": {"seed": seed},
             "simulator": {
@@ -128,23 +120,21 @@ def run(
     out: Path, *, quick: bool = False, progress: Progress = print, seed: int = SEED, controller: str | None = None
 ) -> dict[str, Any]:
     """``controller`` (``--controller SPEC``): that law runs too, after the others, with the default stack."""
-    contenders = dict(CONTENDERS)
     plan = _plan(quick)
     if controller is not None:
-        name, contender = law_contender(controller)
-        contenders[name] = contender
-        plan = plan | {"contenders": (*plan["contenders"], name), "descriptions": contenders}
+        plan["contenders"] = (*plan["contenders"], law_contender(controller))
     out.mkdir(parents=True, exist_ok=True)
     duration_s = START_S + plan["after_s"]
     results: dict[str, Any] = {"quick": int(quick), "seed": seed, "torque_nm": TORQUE_NM, "start_s": START_S}
     traces = {}
-    for name in plan["contenders"]:
+    for contender in plan["contenders"]:
+        name = contender.name
         errors = {}
         for torque_nm in (TORQUE_NM, 0.0):
             label = "pushed" if torque_nm else "undisturbed"
             progress(f"{name}, {label}: {torque_nm:g} N·m from t = {START_S:g} s")
             _, recording = run_and_score(
-                contender_params(name, seed, duration_s, torque_nm, contenders),
+                contender_params(contender, seed, duration_s, torque_nm),
                 out / name / label,
                 duration_s=duration_s,
                 sim_time=True,
@@ -184,18 +174,17 @@ def _plot(path: Path, traces: dict[str, tuple[tuple[np.ndarray, np.ndarray], tup
     ax_zoom.axvline(0.0, color="r", lw=0.7)
     ax_zoom.axhspan(-RECOVERED_RAD * 1e3, RECOVERED_RAD * 1e3, color="0.88", lw=0, zorder=0)
     ax_zoom.set_xlabel("time since the disturbance [s] (pushed run's error − the undisturbed run's, same noise)")
-    fig.suptitle(f"Exercise 2: a {TORQUE_NM:g} N·m step disturbance at t = {START_S:g} s (real graph, lockstep)")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, f"Exercise 2: a {TORQUE_NM:g} N·m step disturbance at t = {START_S:g} s (real graph, lockstep)")
 
 
 def _report(results: dict[str, Any], plan: dict[str, Any], quick: bool) -> str:
     rows = []
     never = f"not in {plan['after_s']:g} s"
-    for name in plan["contenders"]:
+    for contender in plan["contenders"]:
+        name = contender.name
         rows.append(
             [
-                f"**{name}**: {plan.get('descriptions', CONTENDERS)[name][2]}",
+                f"**{name}**: {contender.description}",
                 fmt(results[f"{name}_peak_deviation_rad"] * 1e3, "{:.1f}"),
                 fmt(results[f"{name}_recovery_s"], "{:.2f}", never),
                 fmt(results[f"{name}_before_max_rad"] * 1e3, "{:.1f}"),
@@ -203,7 +192,7 @@ def _report(results: dict[str, Any], plan: dict[str, Any], quick: bool) -> str:
                 fmt(results[f"{name}_error_recovery_s"], "{:.2f}", never),
             ]
         )
-    default = ("default" in plan["contenders"]) and (
+    default = any(c.name == "default" for c in plan["contenders"]) and (
         results["default_peak_deviation_rad"] is not None and results["default_recovery_s"] is not None
     )
     verdict = ""

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller.core.laws import robustness
-from robot_controller.experiments.reporting import fmt, pyplot, table
+from robot_controller.experiments.reporting import fmt, pyplot, save, table
 from robot_controller.experiments.runs import Response, plot_steps
 
 
@@ -42,9 +42,7 @@ def plot(
     ax_poles.grid(alpha=0.3)
     ax_poles.legend(fontsize=8)
     ax_poles.set_title("closed-loop poles, z-plane (zoomed; the unit circle in black)", fontsize=10)
-    fig.suptitle("Exercise 4: PID against LQR (real graph, lockstep)")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, "Exercise 4: PID against LQR (real graph, lockstep)")
 
 
 def report_text(results: dict[str, Any], plan: dict[str, Any], analyses: dict[str, dict[str, Any]], quick: bool) -> str:

@@ -10,7 +10,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.core.laws.pid import AntiWindup
-from robot_controller.experiments.reporting import Progress, fmt, pyplot, table, write_report, write_results
+from robot_controller.experiments.reporting import Progress, fmt, pyplot, save, table, write_report, write_results
 from robot_controller.experiments.runs import SEED, Response, plot_steps, step_run, store
 
 PRESET = "tutorial"
@@ -118,9 +118,7 @@ def _plot(path: Path, responses: list[Response]) -> None:
         ax.legend(fontsize=7)
     ax_u.set_xlabel("time since the step [s]")
     ax_q.set_xlabel("")
-    fig.suptitle("Exercise 3: saturation at 2 N·m, with and without anti-windup (real graph, lockstep)")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, "Exercise 3: saturation at 2 N·m, with and without anti-windup (real graph, lockstep)")
 
 
 def _report(results: dict[str, Any], plan: dict[str, Any], responses: list[Response], quick: bool) -> str:

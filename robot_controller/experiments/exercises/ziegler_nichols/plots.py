@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from robot_controller.experiments.exercises.ziegler_nichols.settings import STAGE_STEP_RAD
-from robot_controller.experiments.reporting import pyplot
+from robot_controller.experiments.reporting import pyplot, save
 from robot_controller.experiments.runs import Response, plot_steps
 
 
@@ -39,9 +39,7 @@ def plot_stages(
         title="the gains chosen",
         band=(STAGE_STEP_RAD * 0.98, STAGE_STEP_RAD * 1.02),
     )
-    fig.suptitle("Exercise 1: tune the PID (the tutorial's controller, real graph, lockstep)")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, "Exercise 1: tune the PID (the tutorial's controller, real graph, lockstep)")
 
 
 def plot_sine(path: Path, sine: Response, tutorial: Response | None) -> None:
@@ -57,6 +55,4 @@ def plot_sine(path: Path, sine: Response, tutorial: Response | None) -> None:
     for ax in (ax_q, ax_e):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    fig.suptitle("The gains chosen on the sine (1 rad, 0.5 Hz)")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, "The gains chosen on the sine (1 rad, 0.5 Hz)")
