@@ -88,9 +88,6 @@ class AnalyticProblem:
     def round_text(self, samples: int, spread: float | None) -> str:
         return f"{samples} gain sets" + ("" if spread is None else f" within ±{spread:g} decades of the best")
 
-    def start(self) -> np.ndarray:
-        return self.current_log_params()
-
     @staticmethod
     def values(points: np.ndarray) -> np.ndarray:
         return 10.0 ** np.atleast_2d(points)
@@ -131,7 +128,8 @@ class AnalyticProblem:
             out[row] = (K[1], K[0], K[2])
         return out
 
-    def current_log_params(self) -> np.ndarray:
+    def start(self) -> np.ndarray:
+        """The configured values' search coordinates."""
         ctrl = self.params["pid_controller"]
         if self.controller_type == "pid":
             values = [ctrl["kp"][0], ctrl["ki"][0], ctrl["kd"][0]]
@@ -214,7 +212,7 @@ def before_after(
         "min_delay_margin_periods": MIN_DELAY_PERIODS,
     }
     for name, gains, searched in (
-        ("before", before_gains, 10.0 ** problem.current_log_params()),
+        ("before", before_gains, 10.0 ** problem.start()),
         ("after", after_gains, result.best_values),
     ):
         values.update({f"{name}_kp": gains[0], f"{name}_ki": gains[1], f"{name}_kd": gains[2]})
