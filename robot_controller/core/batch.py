@@ -43,6 +43,15 @@ class ArmConstants:
         """Inverse dynamics (feedforward)."""
         return self.inertia * a + self.damping * v + self.gravity_torque * np.cos(q)
 
+    def steps(
+        self, q: np.ndarray, v: np.ndarray, force: np.ndarray, h: float, count: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``count`` semi-implicit Euler steps of ``h`` under ``force``, the damping implicit as MuJoCo's are."""
+        for _ in range(count):
+            v = (v * self.inertia + h * (force - self.gravity_torque * np.cos(q))) / (self.inertia + h * self.damping)
+            q = q + h * v
+        return q, v
+
 
 class AnalyticArmBatch:
     """``batch`` copies of the arm stepped together (semi-implicit Euler, like MuJoCo's default)."""
@@ -53,13 +62,7 @@ class AnalyticArmBatch:
         self.v = np.zeros((batch, 1))
 
     def step(self, torque: np.ndarray, n_steps: int = 1) -> None:
-        c, dt = self.constants, self.physics_dt
-        for _ in range(n_steps):
-            # Damping implicit, as MuJoCo's Euler integrator treats it.
-            self.v = (self.v * c.inertia + dt * (torque - c.gravity_torque * np.cos(self.q))) / (
-                c.inertia + dt * c.damping
-            )
-            self.q = self.q + dt * self.v
+        self.q, self.v = self.constants.steps(self.q, self.v, torque, self.physics_dt, n_steps)
 
 
 class CommonNoise:
@@ -113,13 +116,7 @@ def run_batch(
         ) -> tuple[np.ndarray, np.ndarray]:
             force = torque if external_nm is None else torque + external_nm
             steps = step_count(horizon_s, max_step_s)
-            h = horizon_s / steps
-            for _ in range(steps):
-                v = (v * constants.inertia + h * (force - constants.gravity_torque * np.cos(q))) / (
-                    constants.inertia + h * constants.damping
-                )
-                q = q + h * v
-            return q, v
+            return constants.steps(q, v, force, horizon_s / steps, steps)
 
         filter_ = JointKalmanFilter(replace(kalman, model_step_s=physics_dt), batch, predict, independent_joints=True)
     n_steps = int(round(control_period_s / physics_dt))

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller.core import metrics
-from robot_controller.core.controller.controller import JointController
+from robot_controller.core.controller import JointController
 from robot_controller.core.controller.output import Status
 from robot_controller.core.model import Actuator, Plant, SensorConfig, measure, steps_per_period
 from robot_controller.core.reference import Trajectory
@@ -73,25 +73,16 @@ def run_loop(
     disturbance: Disturbance | None = None,
     brake_torque_nm: float | None = None,
 ) -> LoopResult:
-    """Run ``duration_s`` seconds of the loop and return what happened at each tick.
+    """Run ``duration_s`` seconds of the loop and return what happened at each tick: the planner
+    publishes if its period has come round, the sensor samples the true state, the controller
+    computes, and the actuator's torque is held over the next control period of physics steps.
 
-    At each tick ``t_k``: the planner publishes if its period has come round,
-    the sensor samples the true state, the controller computes, and the
-    actuator's torque is held over the next control period of physics steps.
-
-    ``measurement_delay_s`` models what the ROS graph adds between the physics
-    and the controller (publish period, sensor phase, transport): the sensor
-    reads the true state that many seconds old, stamped with its own time.
-    ``delay_unstamped``: stamped when it arrives instead (as a sensor that
-    stamps on publish), so the controller cannot compensate the delay: what
-    the delay margin is about.
-
-    ``disturbance``: an external torque on the plant (it needs ``set_disturbance``,
-    as :class:`~robot_controller.core.model.MujocoPlant` has), on a schedule.
-
-    ``brake_torque_nm``: once the controller commands nothing after a controlled
-    stop (sensor lost, a plugin law failed), the brakes engage with this holding
-    torque, as the drive's command timeout engages them in the graph.
+    :param measurement_delay_s: what the graph adds between physics and controller: the sensor
+        reads the true state that many seconds old, stamped with its own time
+    :param delay_unstamped: stamped when it arrives instead, so the controller cannot compensate
+    :param disturbance: an external torque on the plant (it needs ``set_disturbance``), on a schedule
+    :param brake_torque_nm: once the controller commands nothing after a controlled stop, the
+        brakes engage with this holding torque, as the drive's command timeout engages them
     """
     n_steps = steps_per_period(plant.physics_dt, control_period_s)
     ticks = int(round(duration_s / control_period_s))

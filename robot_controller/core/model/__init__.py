@@ -14,9 +14,7 @@ from robot_controller.core.model.mujoco_model import (
     steps_per_period,
 )
 from robot_controller.core.model.mujoco_plant import (
-    BRAKE_LOCK_SPEED,
     MAX_DISTURBANCE_NM,
-    MAX_DISTURBANCE_S,
     MujocoPlant,
     check_disturbance,
 )
@@ -26,9 +24,7 @@ from robot_controller.core.model.plant import Plant
 from robot_controller.core.model.sensor_model import DelayLine, SensorConfig, measure
 
 __all__ = [
-    "BRAKE_LOCK_SPEED",
     "MAX_DISTURBANCE_NM",
-    "MAX_DISTURBANCE_S",
     "PARAMETERS",
     "Actuator",
     "ArmDynamics",

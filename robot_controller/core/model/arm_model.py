@@ -1,29 +1,16 @@
 """An arm model from per-joint parameters, for when the URDF is not the arm.
 
-Every model-based part of the controller (feedforward, the Kalman filter's
-prediction, the LQR design and delay margin, latency compensation, the
-controlled stop on the model) asks its arm model the same few things:
-``torque(q, v, a)``, ``gravity(q)``, ``acceleration(q, v, tau)``,
-``predict(q, v, tau, horizon_s)``, ``mass_matrix(q)``, ``damping``,
-``joint_names`` and ``effort_limit``. :class:`~robot_controller.core.model.ArmDynamics`
-answers them from the URDF through MuJoCo; :class:`JointArmModel` answers them
-for a chain of independent revolute joints, each
+The controller's model-based parts ask an arm model ``torque(q, v, a)``, ``gravity(q)``,
+``acceleration(q, v, tau)``, ``predict(q, v, tau, horizon_s)``, ``mass_matrix(q)``, ``damping``,
+``joint_names`` and ``effort_limit``: :class:`~robot_controller.core.model.ArmDynamics` answers
+from the URDF through MuJoCo, :class:`JointArmModel` for independent revolute joints, each
 
     tau = I·a + b·v + f_c·sign(v) + G·cos(q)
 
-with its own inertia ``I`` (kg·m²), viscous damping ``b`` (N·m·s/rad),
-Coulomb friction ``f_c`` (N·m) and gravity torque ``G`` (N·m, m·g·l_c: the
-torque gravity exerts with the link horizontal). The cosine is the
-reference arm's convention (``description/one_dof_arm.urdf``): q = 0 holds
-the link horizontal, positive q raises it. For a one-joint arm this model is
-exact; on a longer chain it leaves out the coupling between joints.
-
-The parameters come from identification (``core.identification``, the
-``identify`` experiment) and reach the controller as the ``pid_controller``
-parameters ``model_inertia``, ``model_damping``, ``model_coulomb_friction``
-and ``model_gravity_torque``; any left empty is taken from the URDF.
-
-No ROS here.
+(inertia kg·m², viscous damping N·m·s/rad, Coulomb friction N·m, gravity torque N·m with the
+link horizontal at q = 0). Exact on one joint; on a chain it leaves out the coupling. The values
+come from identification through the ``pid_controller`` parameters ``model_*``; any left empty
+is the URDF's.
 """
 
 from __future__ import annotations

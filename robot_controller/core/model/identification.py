@@ -1,33 +1,16 @@
-"""Identification of the arm from a recorded motion: per joint, a linear least
-squares fit of
+"""Identification of the arm from a recorded motion: per joint, a linear least squares fit of
 
     tau = I·a + b·v + f_c·sign(v) + G·cos(q)
 
-(inertia I kg·m², viscous damping b N·m·s/rad, Coulomb friction f_c N·m,
-gravity torque G N·m with the link horizontal: the model of
-:class:`~robot_controller.core.model.arm_model.JointArmModel`, q = 0 horizontal as in
-the reference arm) to the applied torque, position and velocity.
-
-The torque a drive reports at a sample is the one it held since the sample
-before (the simulator publishes the effort that acted over the last control
-period). So the fit is written per interval between two samples: the mean
-acceleration over it is the change of velocity over its length, exactly,
-and velocity and position are taken at its middle. Before the fit, every
-column and the torque go through the same Savitzky–Golay smoothing
-(``scipy.signal.savgol_filter``): the equation is linear in the parameters,
-so filtering both sides keeps it, and it takes the edge off measurement
-noise (a filtered regression). Left out: intervals with a brake engaged
-or the torque off (zero), the torque at the effort limit (saturated: what
-acted is not known), and a velocity near zero or changing sign (dry
-friction's sign is undefined there, and it sticks), each widened by the
-smoothing window.
-
-Standard errors come from the fit's covariance, σ²·(XᵀX)⁻¹ with σ² the
-residual variance. The residuals of a filtered regression are correlated
-from sample to sample, so these errors are optimistic; they still rank
-which parameter the excitation pinned down and which it did not.
-
-No ROS here.
+(the model of :class:`~robot_controller.core.model.arm_model.JointArmModel`) to the applied
+torque, position and velocity. The fit is written per interval between two samples (the torque a
+drive reports is the one it held since the sample before): the interval's mean acceleration, and
+velocity and position at its middle. Every column and the torque go through the same
+Savitzky–Golay smoothing (a filtered regression: the equation is linear, so filtering both sides
+keeps it). Left out: a brake engaged, the torque off or at the effort limit, a velocity near zero
+or changing sign (dry friction's sign is undefined there), each widened by the smoothing window.
+Standard errors, σ²·(XᵀX)⁻¹, are optimistic (the filtered residuals are correlated) but rank
+which parameter the excitation pinned down.
 """
 
 from __future__ import annotations

@@ -1,16 +1,7 @@
-"""A payload the arm carries: a point mass on the link of its last joint.
-
-Tools, parts in a gripper, a camera: real arms carry loads their URDF does
-not describe. The simulator can be given one (``payload``), the controller
-can model one (``model_payload``, which ``identify`` fits on a chain of
-joints), each as ``[mass_kg, x_m, y_m, z_m]``: the mass and where its
-centre sits in the frame of the last joint's link. MuJoCo carries it as a
-body of its own welded to that link, a small sphere (``RADIUS_M``), so
-every dynamic effect (gravity, inertia, the coupling between joints) comes
-with it.
-
-No ROS here.
-"""
+"""A payload the arm carries and its URDF does not describe: a point mass on the link of its last
+joint, ``[mass_kg, x_m, y_m, z_m]`` in that link's frame (the simulator's ``payload``, the
+controller's ``model_payload``). MuJoCo carries it as a small sphere welded to the link, so
+gravity, inertia and the coupling between joints come with it."""
 
 from __future__ import annotations
 

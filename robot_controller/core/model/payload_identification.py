@@ -1,30 +1,13 @@
-"""Identification of a payload on a chain of joints: the mass and centre of a
-load on the last joint's link (:mod:`robot_controller.core.model.payload`) that
-make the arm model's inverse dynamics explain a recorded motion.
+"""Identification of a payload on a chain of joints: the mass and centre ``[mass_kg, x_m, y_m,
+z_m]`` of a load on the last joint's link (:mod:`robot_controller.core.model.payload`) that make
+the arm model's inverse dynamics explain a recorded motion (on a chain a per-joint fit would fold
+one joint's load into another's numbers).
 
-On one joint a per-joint model (:mod:`robot_controller.core.model.identification`)
-is the whole truth; on a chain, gravity, inertia and Coriolis couple the
-joints and a per-joint fit would fold one joint's load into another's
-numbers. What a URDF most often misses on a real arm is what it carries (a
-tool, a part, a camera), and that is four numbers: ``[mass_kg, x_m, y_m,
-z_m]``. They are fitted by nonlinear least squares
-(``scipy.optimize.least_squares``) of
-
-    tau_k = ID(q_k, v_k, a_k; payload)
-
-over every joint and every interval between two recorded samples (the
-interval's mean acceleration, and position and velocity at its middle, as
-the per-joint fit takes them), ``ID`` being MuJoCo's ``mj_inverse`` of the
-URDF with the payload welded on. Intervals with a brake on, the torque off
-or at the effort limit are left out. Standard errors from the fit's
-Jacobian, σ²·(JᵀJ)⁻¹.
-
-A coordinate of the centre that moves no joint's torque cannot be
-identified: on a planar arm (``planar2``) the one along the parallel joint
-axes. It is set to 0 (the link's plane), its standard error is NaN, and the
-fit names it; the rest are identified as usual.
-
-No ROS here.
+Fitted by nonlinear least squares of ``tau_k = ID(q_k, v_k, a_k; payload)`` over every joint and
+every interval between two samples, as :mod:`~robot_controller.core.model.identification` takes
+them, ``ID`` being MuJoCo's ``mj_inverse`` with the payload welded on. Standard errors from the
+fit's Jacobian, σ²·(JᵀJ)⁻¹. A coordinate of the centre that moves no joint's torque (on
+``planar2``, the one along the parallel axes) is set to 0, its standard error NaN, and named.
 """
 
 from __future__ import annotations

@@ -2,28 +2,20 @@
 paths, and whether the arm can follow them."""
 
 from robot_controller.core.reference.feasibility_check import (
-    DEFAULT_MARGIN,
-    POLICIES,
     Feasibility,
     InverseDynamics,
     check_feasibility,
     peak_torque,
-    sample_times,
 )
-from robot_controller.core.reference.feasibility_plan import Plan, describe_scaling, plan_trajectory
+from robot_controller.core.reference.feasibility_plan import Plan, plan_trajectory
 from robot_controller.core.reference.joint_trajectory import (
-    MAX_POINTS,
     MAX_START_DELAY_S,
     START_TOLERANCE_RAD,
     Accepted,
     JointTrajectory,
-    Waypoints,
     accept_joint_trajectory,
-    blend,
-    check_waypoints,
     start_delay,
 )
-from robot_controller.core.reference.quintic_path import QuinticPath
 from robot_controller.core.reference.trajectory import (
     MODES,
     Chirp,
@@ -35,16 +27,12 @@ from robot_controller.core.reference.trajectory import (
     Step,
     Trajectory,
     make_trajectory,
-    per_joint,
     time_scaled,
 )
 
 __all__ = [
-    "DEFAULT_MARGIN",
-    "MAX_POINTS",
     "MAX_START_DELAY_S",
     "MODES",
-    "POLICIES",
     "START_TOLERANCE_RAD",
     "Accepted",
     "Chirp",
@@ -54,23 +42,16 @@ __all__ = [
     "JointTrajectory",
     "MinTimeStep",
     "Plan",
-    "QuinticPath",
     "Sample",
     "Sine",
     "Square",
     "Step",
     "Trajectory",
-    "Waypoints",
     "accept_joint_trajectory",
-    "blend",
     "check_feasibility",
-    "check_waypoints",
-    "describe_scaling",
     "make_trajectory",
     "peak_torque",
-    "per_joint",
     "plan_trajectory",
-    "sample_times",
     "start_delay",
     "time_scaled",
 ]

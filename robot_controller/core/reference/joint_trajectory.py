@@ -1,32 +1,14 @@
-"""Joint trajectories as ros2_controllers' JointTrajectoryController takes them:
-checked, then joined smoothly onto the reference in force.
+"""Joint trajectories as ros2_controllers' JointTrajectoryController takes them: checked, then
+joined smoothly onto the reference in force.
 
-A trajectory is what a ``trajectory_msgs/JointTrajectory`` carries: joint
-names (exactly the arm's, in any order), and points each with a time from
-the start (s, strictly increasing; 0 only for the first), positions, and
-optionally velocities and accelerations (every point or none, field by
-field). :func:`check_waypoints` turns that into arrays in the arm's order,
-or a one-line reason: an unknown, missing or repeated joint, times out of
-order, wrong lengths, a non-finite value, a position outside the joint's
-URDF limits, a velocity beyond its URDF velocity limit, or a last point that
-is not at rest (the arm holds it, as JTC requires by default).
-
-:func:`blend` makes the motion: the first segment starts at the reference in
-force when the trajectory is taken (position, velocity and acceleration, so
-nothing jumps) and reaches the first point at its time; the rest is
-:class:`~robot_controller.core.reference.quintic_path.QuinticPath` through the points;
-after the last, it holds. A first point at time 0 (with no start delay) is
-the current state, as a motion planner sends it: it must be within
-``START_TOLERANCE_RAD`` of the reference in force and is then taken as that
-reference.
-
-:func:`accept_joint_trajectory` does both, then checks what the interpolation does between
-the points (:mod:`~robot_controller.core.reference.joint_trajectory_checks`): the
-path within the position and velocity limits, and the torque it needs by
-the arm model within the limit less the feedback margin (the check of
-``feasibility_check``, without its time scaling: a user's timing is theirs).
-
-No rclpy here: the planner node and the tests call the same functions.
+:func:`check_waypoints` turns a ``trajectory_msgs/JointTrajectory`` (the arm's joint names in any
+order; points with strictly increasing times, positions, and optionally velocities and
+accelerations) into arrays in the arm's order, or a one-line reason. :func:`blend` starts at the
+reference in force (position, velocity and acceleration, so nothing jumps), runs a
+:class:`~robot_controller.core.reference.quintic_path.QuinticPath` through the points and holds
+the last; a first point at time 0 is the current state and must be within
+``START_TOLERANCE_RAD`` of the reference. :func:`accept_joint_trajectory` does both, then checks
+the path between the points (:mod:`~robot_controller.core.reference.joint_trajectory_checks`).
 """
 
 from __future__ import annotations

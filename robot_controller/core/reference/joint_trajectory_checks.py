@@ -1,19 +1,8 @@
-"""A joint trajectory's points and the motion between them, checked against the
-arm's limits before the planner takes it.
-
-The points must be within each joint's position range and velocity limit,
-but the quintics joining them may still swing past one, and the blend from a
-moving reference may too. So the path is sampled densely and checked against each
-joint's position and velocity limits, and against the torque: the inverse
-dynamics of the arm model along the path (what ``core.feasibility`` computes
-for the planner's own shapes) within the limit less the margin kept for
-feedback. Nothing is slowed: a user's timing is theirs, so a path that needs
-too much is refused with the numbers.
-
-The torque check runs in the planner's executor, between two samples it
-publishes, so its cost is bounded: ``TORQUE_SAMPLES`` inverse-dynamics calls
-at most (at least ``MIN_PER_SEGMENT`` per segment). The limit check is
-vectorised and samples ``LIMIT_PER_SEGMENT`` per segment.
+"""A joint trajectory's points and the path between them against the arm's limits: the quintics
+may swing past a limit the points are within, so the path is sampled (``LIMIT_PER_SEGMENT`` per
+segment) against each joint's position and velocity limits, and the torque the arm model needs
+along it (at most ``TORQUE_SAMPLES`` inverse-dynamics calls, in the planner's executor) against
+the limit less the feedback margin. Nothing is slowed: a user's timing is theirs.
 """
 
 from __future__ import annotations

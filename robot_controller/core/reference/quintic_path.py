@@ -1,22 +1,10 @@
-"""A path through knots: piecewise quintic in time, so position, velocity and
-acceleration are continuous everywhere, and held at the last knot after it.
+"""A path through knots: piecewise quintic in time (position, velocity and acceleration
+continuous), held at the last knot after it. Times in s from the path's start.
 
-Between two knots each joint follows the one quintic that meets the
-position, velocity and acceleration given at both ends (Hermite
-interpolation of order five). Where a trajectory gives only positions, or no
-accelerations, :func:`knot_velocities` and :func:`knot_accelerations` choose
-them:
-
-- velocity: 0 where the motion turns (the slopes either side differ in sign,
-  or one is 0), else the weighted harmonic mean of the two slopes
-  (Fritsch–Butland, as in PCHIP), which never exceeds 3× the smaller slope
-  and keeps the path monotone where the points are (it does not swing past a
-  point the way a cubic spline can); 0 at the last knot, where the arm holds;
-- acceleration: the central difference of the knot velocities either side;
-  0 at the last knot.
-
-The first knot's velocity and acceleration are always given (the reference
-in force when the path starts). No rclpy here; times in s from the path's start.
+Where a trajectory gives only positions, or no accelerations, :func:`knot_velocities` and
+:func:`knot_accelerations` choose them: velocity 0 where the motion turns, else the weighted
+harmonic mean of the two slopes (Fritsch–Butland, as in PCHIP: monotone between the points);
+acceleration the central difference of the knot velocities; both 0 at the last knot.
 """
 
 from __future__ import annotations
