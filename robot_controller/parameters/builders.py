@@ -14,7 +14,7 @@ from robot_controller.parameters.spec import per_joint
 from robot_controller.parameters.torque_limits import torque_limit
 
 if TYPE_CHECKING:  # the controller pulls in scipy and MuJoCo: only the nodes that run one import it
-    from robot_controller.core.controller.controller import ControllerConfig
+    from robot_controller.core.controller import ControllerConfig
     from robot_controller.core.estimation import KalmanConfig
     from robot_controller.core.model import ArmDynamics, JointArmModel
 
@@ -56,7 +56,7 @@ def arm_model(values: Mapping[str, Any]) -> ArmDynamics | JointArmModel:
 
 
 def controller_config(values: Mapping[str, Any], joint_count: int) -> ControllerConfig:
-    from robot_controller.core.controller.controller import ControllerConfig
+    from robot_controller.core.controller import ControllerConfig
 
     def joints(name: str) -> np.ndarray:
         return per_joint(name, values[name], joint_count)

@@ -154,7 +154,7 @@ def _check_limits(params: cfg.Params, arm: tuple[list[str], np.ndarray, np.ndarr
 def _check_controller(params: cfg.Params, joint_count: int) -> None:
     """The controller builds: its arm model (the URDF's, or its ``model_*`` values) and its law
     designs (an LQR that does not stabilise is refused here)."""
-    from robot_controller.core.controller.controller import JointController
+    from robot_controller.core.controller import JointController
 
     ctrl = params["pid_controller"]
     try:

@@ -60,7 +60,7 @@ def test_the_default_survives_its_delay_margin_of_delay_nobody_accounts_for():
     # loop's own margin (2 periods for the default LQR design with its disturbance
     # observer, 3 without it) keeps the loop stable.
     from robot_controller import resources
-    from robot_controller.core.controller.controller import JointController
+    from robot_controller.core.controller import JointController
     from robot_controller.core.model import ArmDynamics
 
     params = cfg.load_stack("default")

@@ -19,8 +19,7 @@ from robot_controller.core.controller.config import ControllerConfig, law_config
 from robot_controller.core.controller.latency import LatencyGuard, LatencyState, delay_margin_periods
 from robot_controller.core.controller.output import ControlOutput, ReferenceSource, Status
 from robot_controller.core.controller.reference_at_tick import ReferenceAtTick
-from robot_controller.core.controller.setpoint import REFERENCE_TIMEOUT_PERIODS
-from robot_controller.core.controller.supervision import REACQUIRE_GAP_PERIODS, Readings, TickClock, check_health
+from robot_controller.core.controller.supervision import Readings, TickClock, check_health
 from robot_controller.core.controller.tick_state import StateAtTick, make_estimator
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation import JointKalmanFilter
@@ -31,17 +30,6 @@ from robot_controller.core.laws.feedforward import FeedforwardMode
 from robot_controller.core.laws.in_loop import LawInLoop, arm_for
 from robot_controller.core.laws.pid import Pid, PidConfig, PidTerms
 from robot_controller.core.model import ArmDynamics
-
-__all__ = [
-    "REACQUIRE_GAP_PERIODS",
-    "REFERENCE_TIMEOUT_PERIODS",
-    "ControlOutput",
-    "ControllerConfig",
-    "JointController",
-    "ReferenceSource",
-    "Status",
-    "law_config",
-]
 
 # How long the arm is held at rest after a controlled stop before the torque goes off and the brakes
 # hold (category 2, then 1), and the status then: on the built-in law after a plugin law failed; on

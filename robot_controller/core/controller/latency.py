@@ -1,28 +1,13 @@
-"""Whether the loop's signals come later than its feedback survives: the
-decision behind the controller's latency stop (docs/design.md §4).
+"""Whether the loop's signals come later than its feedback survives (the controller's latency
+stop, docs/design.md §4), and that survival: the delay margin of the gains in force.
 
-The gains in force survive ``delay_margin_periods`` whole control periods of
-delay nobody accounts for (:meth:`JointController.delay_margin_periods`).
-Two delays are seen here:
-
-- a reading's **age** on arrival (arrival − stamp). With
-  ``latency_compensation`` the controller brings each reading from its stamp
-  to the tick on the arm model (up to ``compensated_s``), so only age beyond
-  that is unaccounted; without it, all of it is;
-- a command's **delay** to the drive (the motor's receipt time − the tick that
-  issued it, from ``/motor/command_receipts``): never compensated.
-
-Their recent medians (the last :data:`WINDOW` of each, a command delay
-counting for :data:`COMMAND_MEMORY_S`; at least :data:`MIN_SAMPLES` of each) add up to the loop's unaccounted delay.
-Above the margin the loop is **late**; it is on time again once that delay
-has stayed within half the margin for :data:`CLEAR_AFTER_S` (hysteresis: a
-delay hovering at the margin does not make the arm stop and start). A single
-late message moves a median of ten by at most one place: jitter and one-off
-stalls are not latency.
-
-Times in seconds on the controller's clock (a command's receipt on the
-drive's: across hosts the clocks must agree, as the readings' stamps already
-need); no ROS here.
+Two delays add up to the loop's unaccounted delay, each as the median of its last
+:data:`WINDOW` (at least :data:`MIN_SAMPLES`; jitter and one-off stalls move a median by one
+place at most): a reading's **age** on arrival beyond what latency compensation accounts for
+(``compensated_s``), and a command's **delay** to the drive (from ``/motor/command_receipts``,
+for :data:`COMMAND_MEMORY_S`). Above the margin the loop is **late**; it is on time again once
+the delay has stayed within half the margin for :data:`CLEAR_AFTER_S` (hysteresis). Times in
+seconds on the controller's clock (a receipt on the drive's: across hosts the clocks agree).
 """
 
 from __future__ import annotations

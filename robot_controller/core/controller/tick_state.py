@@ -1,15 +1,9 @@
-"""The arm's state at the tick time, from a reading taken earlier: filtered
-(optional Kalman filter), then advanced from the reading's stamp to the tick
-through the arm model under the torques this controller issued (latency
-compensation), or coasted on the model alone while readings are missing.
-With the filter's disturbance observer, every such prediction includes the
-external torque it estimates (the command issued subtracts it: a model
-without it would see the arm driven by −d̂ that it never feels). Coasting,
-that estimate is the one the observer held on average over the last
-``DISTURBANCE_HOLD_AVERAGE_S``, not its latest.
-
-Positions rad, velocities rad/s, torques N·m, times s. No ROS, no clocks.
-"""
+"""The arm's state at the tick time, from a reading taken earlier: filtered (optional Kalman
+filter), then advanced from the reading's stamp to the tick through the arm model under the
+torques this controller issued (latency compensation), or coasted on the model alone while
+readings are missing. With the disturbance observer, every such prediction includes the
+external torque it estimates (the command subtracts it). Positions rad, velocities rad/s,
+torques N·m, times s."""
 
 from __future__ import annotations
 
@@ -27,12 +21,9 @@ from robot_controller.core.model import ArmDynamics
 MAX_EXTRAPOLATION_S = 0.1
 TIME_EPS_S = 1e-6
 _COMMAND_HISTORY = 16
-# The observer's estimate moves fast on the wall clock (its mismatch settings: σ 0.3 N·m/√s),
-# and open loop a transient in it is a torque on the arm for as long as readings stay away: a
-# sensor frozen for 1 s just past the top of the sine, with the instant's estimate held (about
-# −0.3 N·m there), let the arm drift 0.36 rad out of its band and swing 0.94 rad on the way
-# back, in 4 runs of 9. Its average over this long keeps a payload's torque (96 % of one that
-# came a second before) and drops transients (a 50 ms one to a fifth).
+# Coasting, the observer's estimate held is its average over this long (s): open loop, a transient
+# in it is a torque on the arm for as long as readings stay away; the average keeps a payload's
+# torque (96 % of one that came a second before) and drops transients (a 50 ms one to a fifth).
 DISTURBANCE_HOLD_AVERAGE_S = 0.25
 
 

@@ -1,18 +1,10 @@
-"""A law the framework does not trust: every call to it is checked, and the
-first thing it gets wrong becomes a :class:`LawFault` instead of a torque.
-
-A law faults when it raises, returns anything but one finite number per
-joint, takes longer than its budget on OVERRUN_TICKS ticks running
-(measured on ``clock``, a function giving seconds of wall time; without one,
-time is not checked, as in the deterministic in-process loop), or lets the arm
-run away from the reference (``error_max_rad``: finite torques in time that
-swing the arm, an unstable law). One long call
-alone is not a fault: on a busy machine the process can lose the CPU for
-several milliseconds in the middle of a call that itself takes microseconds,
-while a law that is really too slow (or blocks) is slow on every tick.
-The controller answers a fault with a controlled stop on its built-in law;
-the law is never called again.
-"""
+"""A law the framework does not trust: every call to it is checked, and the first thing it
+gets wrong becomes a :class:`LawFault` instead of a torque: it raises, returns anything but one
+finite number per joint, takes longer than its budget on OVERRUN_TICKS ticks running (one long
+call alone is the machine's doing, a slow law is slow on every tick; measured on ``clock``,
+seconds of wall time, or not at all without one), or lets the arm run away from the reference
+(``error_max_rad``). The controller answers a fault with a controlled stop on its built-in law;
+the law is never called again."""
 
 from __future__ import annotations
 
@@ -27,10 +19,7 @@ from robot_controller.core.laws.interface import Reference, State
 
 # Consecutive updates over the budget that make a fault.
 OVERRUN_TICKS = 3
-
-
-# rad/s: slower than this the arm is not running away, whatever its distance (a law holding the arm
-# off a reference that jumped sees its estimate's velocity wander by less).
+# rad/s: slower than this the arm is not running away, whatever its distance.
 RUNAWAY_MIN_SPEED_RAD_S = 0.1
 
 
@@ -109,12 +98,10 @@ class ContainedLaw:
     def check_runaway(
         self, time_s: float, state: State, reference: Reference, net_torque: np.ndarray
     ) -> LawFault | None:
-        """Finite torques in time can still swing the arm (a law whose feedback pushes away): a fault
-        once the arm moves away from the reference, further from it than ``error_max_rad`` counting
+        """A fault once the arm moves away from the reference, further than ``error_max_rad`` counting
         the way it would still go before a stop at ``stop_deceleration_rad_s2`` turned it, while the
-        law's ``net_torque`` (its command less what holds the arm against gravity, N·m) pushes it on.
-        A law braking an overshoot, or holding the arm off a reference that jumped (a raw step, a
-        square wave) while it brings it back, is doing its work."""
+        law's ``net_torque`` (its command less gravity's, N·m) pushes it on. A law braking an
+        overshoot, or bringing the arm back to a reference that jumped, is doing its work."""
         if self.error_max_rad <= 0 or self.fault is not None:
             return self.fault
         error = np.asarray(state.position, dtype=float) - np.asarray(reference.position, dtype=float)

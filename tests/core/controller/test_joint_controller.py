@@ -8,11 +8,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from robot_controller.core.controller.controller import ControlOutput, JointController, Status
+from robot_controller.core.controller import ControlOutput, JointController, Status
 from robot_controller.core.controller.output import ReferenceSource
 from robot_controller.core.laws import Reference
 from robot_controller.core.laws.pid import PidTerms
-from tests.core.joint_rig import PERIOD, TORQUE_MAX, arm, config, one, run, tracking
+from tests.core.controller.joint_rig import PERIOD, TORQUE_MAX, arm, config, one, run, tracking
 
 # --- health: watchdog, sensor timeout, stale readings, e-stop, brakes, pauses -------------
 
@@ -247,7 +247,7 @@ def test_output_is_finite_within_torque_max_and_says_when_the_reference_is_not_t
     if law == "pid":
         c = JointController(config(latency_compensation=True, reference_extrapolation=True), 1)
     else:
-        from robot_controller.core.estimation.estimator import KalmanConfig
+        from robot_controller.core.estimation import KalmanConfig
 
         c = JointController(
             config(

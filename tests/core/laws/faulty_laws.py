@@ -1,6 +1,6 @@
 """Laws for the tests of plugin laws through the graph: the example's PD with gravity, each
 failing in one way after ``fail_after_ticks`` updates (counted, so the same on either clock).
-Named in ``controller_type`` as ``tests/laws/faulty_laws.py:Class``."""
+Named in ``controller_type`` as ``tests/core/laws/faulty_laws.py:Class``."""
 
 import time
 from pathlib import Path
@@ -9,7 +9,7 @@ import numpy as np
 
 from robot_controller.core.laws import Parameter, registry
 
-EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "own_controller.py"
+EXAMPLE = Path(__file__).resolve().parents[3] / "examples" / "own_controller.py"
 # By its file, as a user names it: importable from any working directory.
 PDWithGravity = registry.resolve(f"{EXAMPLE}:PDWithGravity")
 

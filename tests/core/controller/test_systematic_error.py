@@ -21,13 +21,13 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.controller.controller import JointController, Status
+from robot_controller.core.controller import JointController, Status
 from robot_controller.core.controller.setpoint import PlannerReference
-from robot_controller.core.estimation.estimator import JointKalmanFilter, KalmanConfig
+from robot_controller.core.estimation import JointKalmanFilter, KalmanConfig
 from robot_controller.core.model import ArmDynamics, MujocoPlant
 from robot_controller.core.reference import make_trajectory
 from robot_controller.experiments import inprocess
-from tests.core.joint_rig import PERIOD, arm, config, one
+from tests.core.controller.joint_rig import PERIOD, arm, config, one
 
 NOISE_FREE = {"position_noise_std": 0.0, "velocity_noise_std": 0.0}
 SINE = make_trajectory("sine", joint_count=1)  # the reference scenario's: 1 rad, 0.5 Hz

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from robot_controller import parameters as cfg
-from robot_controller.core.controller.controller import JointController
+from robot_controller.core.controller import JointController
 from robot_controller.core.controller.output import Status
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import ControlLaw, Parameter, registry
@@ -45,7 +45,7 @@ def test_the_builtin_laws_resolve_through_the_entry_point_group():
 
 def test_a_law_is_named_by_file_or_by_module():
     by_file = registry.resolve(EXAMPLE)
-    by_module = registry.resolve("tests.core.law_fixtures:Counting")
+    by_module = registry.resolve("tests.core.laws.law_fixtures:Counting")
     assert by_file.__name__ == "PDWithGravity" and issubclass(by_file, ControlLaw)
     assert by_module.__name__ == "Counting" and issubclass(by_module, ControlLaw)
 
@@ -143,7 +143,7 @@ def test_the_example_tracks_the_reference_scenario(robot):
 
 
 def test_the_law_is_reset_on_every_start_and_reports_its_terms():
-    c = controller(stack("tests.core.law_fixtures:Counting"))
+    c = controller(stack("tests.core.laws.law_fixtures:Counting"))
     c.set_reference(0.0, np.array([0.1]), np.zeros(1), np.zeros(1), 0.0)
     for k in range(5):
         c.set_measurement(k * 0.01, k * 0.01, np.zeros(1), np.zeros(1))
@@ -178,7 +178,7 @@ def test_the_framework_clips_the_laws_torque_to_the_limit(tmp_path):
     ],
 )
 def test_a_failing_law_is_stopped_on_the_builtin_law_and_the_arm_stays_in_its_band(law, says):
-    params = stack(f"tests.core.law_fixtures:{law}", fail_after_s=3.0)
+    params = stack(f"tests.core.laws.law_fixtures:{law}", fail_after_s=3.0)
     result = simulate(params, duration_s=6.0)
     assert result.law_fault is not None and says in result.law_fault and "at t = 3.000 s" in result.law_fault
     planned = result.reference[result.tick_time_s < 3.0]
@@ -191,7 +191,7 @@ def test_a_failing_law_is_stopped_on_the_builtin_law_and_the_arm_stays_in_its_ba
 
 def test_a_law_that_pushes_the_arm_away_is_stopped_before_it_leaves_its_band():
     # Finite torques, in shape and in time, that swing the arm: only the error from the reference shows it.
-    law = "tests.core.law_fixtures:PushesAwayAfter"
+    law = "tests.core.laws.law_fixtures:PushesAwayAfter"
     params = stack(law, fail_after_s=3.0)
     params["pid_controller"]["law_error_max_rad"] = 0.0
     unchecked = simulate(params, duration_s=6.0)
@@ -243,7 +243,7 @@ def test_a_law_over_its_budget_tick_after_tick_is_a_fault_one_long_call_is_not()
 def test_a_slow_law_is_stopped_in_the_loop_when_the_controller_has_a_clock():
     import time
 
-    params = stack("tests.core.law_fixtures:SlowAfter", fail_after_s=0.5)
+    params = stack("tests.core.laws.law_fixtures:SlowAfter", fail_after_s=0.5)
     c = controller(params, clock=time.perf_counter)
     c.set_reference(0.0, np.zeros(1), np.zeros(1), np.zeros(1), 0.0)
     statuses = []

@@ -14,7 +14,7 @@ from robot_controller.core.controller import state_layout
 from robot_controller.core.errors import ConfigError
 from robot_controller.parameters import consistency
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 EXAMPLE = "examples/own_controller.py:PDWithGravity"
 
 

@@ -5,9 +5,9 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.controller.controller import ControllerConfig, law_config
+from robot_controller.core.controller import ControllerConfig, law_config
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.estimation.estimator import JointKalmanFilter, KalmanConfig
+from robot_controller.core.estimation import JointKalmanFilter, KalmanConfig
 from robot_controller.core.laws import lqr, robustness
 from robot_controller.core.model import ArmDynamics, MujocoPlant, SensorConfig, measure
 

@@ -17,7 +17,7 @@ from tests.rostools import run_said
 
 pytestmark = pytest.mark.ros
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 FAIL_AFTER_TICKS = 250  # 2.5 s at 100 Hz: after the start's blend and the scoring's warm-up
 BAND_MARGIN_RAD = 0.1
 
@@ -70,7 +70,7 @@ def test_a_failing_law_is_stopped_braked_named_in_one_line_and_still_scored(
     tmp_path, ros_domain, law, did, band_margin_rad
 ):
     proc, out, metrics = lockstep_run(
-        tmp_path, f"tests/laws/faulty_laws.py:{law}", f"law.fail_after_ticks: {FAIL_AFTER_TICKS}"
+        tmp_path, f"tests/core/laws/faulty_laws.py:{law}", f"law.fail_after_ticks: {FAIL_AFTER_TICKS}"
     )
     output = proc.stdout + proc.stderr
     assert proc.returncode != 0, output[-3000:]

@@ -7,7 +7,7 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.controller.controller import JointController, Status
+from robot_controller.core.controller import JointController, Status
 from robot_controller.core.controller.safe_motion import Blend, ControlledStop
 from robot_controller.core.model import ArmDynamics, MujocoPlant
 from robot_controller.core.reference import make_trajectory

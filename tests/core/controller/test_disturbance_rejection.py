@@ -23,8 +23,8 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.controller.controller import ControlOutput, JointController, Status
-from robot_controller.core.estimation.estimator import KalmanConfig
+from robot_controller.core.controller import ControlOutput, JointController, Status
+from robot_controller.core.estimation import KalmanConfig
 from robot_controller.core.loop import Disturbance
 from robot_controller.core.model import MujocoPlant
 from robot_controller.core.reference import make_trajectory
@@ -35,8 +35,8 @@ from robot_controller.experiments.exercises.disturbance import (
     deviation_figures,
     push_effect,
 )
-from tests.core.joint_rig import PERIOD as RIG_PERIOD
-from tests.core.joint_rig import TORQUE_MAX, arm, config, one
+from tests.core.controller.joint_rig import PERIOD as RIG_PERIOD
+from tests.core.controller.joint_rig import TORQUE_MAX, arm, config, one
 
 PUSH_NM, PUSH_AT_S, AFTER_S = 2.0, 5.0, 1.5  # the exercise's push (its figures are this loop's)
 FAST = 5.0  #: N·m/√s: an observer whose torque may always change fast (no jumps needed)

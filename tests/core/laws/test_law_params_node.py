@@ -13,7 +13,7 @@ from robot_controller.nodes.pid_controller import PidControllerNode
 
 pytestmark = pytest.mark.ros
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 EXAMPLE = "examples/own_controller.py:PDWithGravity"
 
 

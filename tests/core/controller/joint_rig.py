@@ -6,7 +6,7 @@ from functools import lru_cache
 import numpy as np
 
 from robot_controller import resources
-from robot_controller.core.controller.controller import ControllerConfig, ControlOutput, JointController, Status
+from robot_controller.core.controller import ControllerConfig, ControlOutput, JointController, Status
 from robot_controller.core.laws.pid import PidConfig
 from robot_controller.core.model import ArmDynamics
 
