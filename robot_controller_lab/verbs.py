@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from robot_controller.cli.args import out_option, positive_seconds, verb
-from robot_controller.cli.output import StepProgress, output_dir, print_report
+from robot_controller.cli.output import StepProgress, output_dir, run_experiment
 
 
 def add_verbs(sub) -> None:
@@ -31,9 +31,11 @@ def bench(a: argparse.Namespace) -> int:
     from robot_controller_lab import bench as timing
 
     out = output_dir(a.out, Path("runs/bench"))
-    with StepProgress("bench", len(timing.SCENARIOS)) as progress:
+
+    def body(progress: StepProgress) -> None:
         timing.bench(out, quick=a.quick, soak_s=a.soak_s, progress=progress)
-    return print_report(out / "bench.md")
+
+    return run_experiment("bench", len(timing.SCENARIOS), body, out / "bench.md")
 
 
 def network(a: argparse.Namespace) -> int:

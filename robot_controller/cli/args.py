@@ -10,6 +10,8 @@ from pathlib import Path
 
 from robot_controller import parameters as cfg
 from robot_controller.core.errors import ConfigError
+from robot_controller.ros import partition
+from robot_controller.runner.options import check_nodes
 
 
 class UsageError(Exception):
@@ -35,16 +37,14 @@ def _number(text: str) -> float:
 
 
 def positive_seconds(text: str) -> float:
-    value = _number(text)
-    if not (value > 0 and value < float("inf")):
+    if not 0 < (value := _number(text)) < float("inf"):
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
     return value
 
 
 def step_size_rad(text: str) -> float:
     """A step's size: finite and not zero (a step of nothing has no response to measure)."""
-    value = _number(text)
-    if not (abs(value) > 0 and abs(value) < float("inf")):
+    if not 0 < abs(value := _number(text)) < float("inf"):
         raise argparse.ArgumentTypeError(f"must be a finite number other than 0, got {text}")
     return value
 
@@ -100,29 +100,11 @@ def _compare_entries(text: str) -> list[str]:
     return names
 
 
-def _nodes(text: str) -> tuple[str, ...]:
-    from robot_controller.runner.plan import check_nodes
-
-    return check_nodes(text)
-
-
-def _peers(text: str) -> list[str]:
-    from robot_controller.ros.partition import check_peers
-
-    return check_peers(text)
-
-
-def _run_id(text: str) -> str:
-    from robot_controller.ros.partition import check_run_id
-
-    return check_run_id(text)
-
-
 controller_spec = _checked(_controller, "--controller: ")  #: a law as ``controller_type`` names it
 compare_entries = _checked(_compare_entries, "--controllers: ")  #: configurations and laws, comma-separated
-node_list = _checked(_nodes)
-peer_list = _checked(_peers)
-run_name = _checked(_run_id)
+node_list = _checked(check_nodes)
+peer_list = _checked(partition.check_peers)
+run_name = _checked(partition.check_run_id)
 
 Handler = Callable[[argparse.Namespace], int]
 

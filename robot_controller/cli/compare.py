@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from robot_controller.cli.args import (
@@ -15,7 +14,7 @@ from robot_controller.cli.args import (
     step_size_rad,
     verb,
 )
-from robot_controller.cli.output import StepProgress, output_dir, print_report
+from robot_controller.cli.output import output_dir, run_experiment
 
 
 def register(sub) -> None:
@@ -39,22 +38,9 @@ def compare(a: argparse.Namespace) -> int:
     from robot_controller.experiments import compare as experiments
 
     out = output_dir(a.out, Path("runs/compare"))
-    try:
-        with StepProgress("compare", len(experiments.contenders(a.controllers)) * a.seeds) as progress:
-            experiments.compare(
-                out,
-                seeds=a.seeds,
-                sine_duration_s=a.duration,
-                amplitude=a.amplitude,
-                progress=progress,
-                robot=a.robot,
-                controllers=a.controllers,
-                in_process=a.in_process,
-            )
-    except (RuntimeError, ValueError, FileExistsError) as exc:
-        print(f"robot-controller: {exc}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print("robot-controller: compare interrupted", file=sys.stderr)
-        return 130
-    return print_report(out / "compare.md")
+    steps = len(experiments.contenders(a.controllers)) * a.seeds
+    chosen = dict(seeds=a.seeds, sine_duration_s=a.duration, amplitude=a.amplitude, robot=a.robot)
+    chosen.update(controllers=a.controllers, in_process=a.in_process)
+    return run_experiment(
+        "compare", steps, lambda progress: experiments.compare(out, progress=progress, **chosen), out / "compare.md"
+    )

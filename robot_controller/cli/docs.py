@@ -111,9 +111,7 @@ def parameters_markdown() -> str:
 
 
 def _metavar(action: argparse.Action) -> str:
-    if action.metavar is not None:
-        return str(action.metavar)
-    return action.dest.upper()
+    return str(action.metavar) if action.metavar is not None else action.dest.upper()
 
 
 def _takes_value(action: argparse.Action) -> bool:
@@ -139,18 +137,9 @@ def _usage(parser: argparse.ArgumentParser, prefix: str) -> str:
     return " ".join(words)
 
 
-def _help(action: argparse.Action) -> str:
-    text = action.help or ""
-    if "%(" in text:
-        text = text % {**vars(action), "prog": ""}
-    return text
-
-
 def _default(action: argparse.Action) -> str:
-    default = action.default
-    if not _takes_value(action) or default is None or default is argparse.SUPPRESS:
-        return ""
-    return f"`{default}`"
+    shown = _takes_value(action) and action.default not in (None, argparse.SUPPRESS)
+    return f"`{action.default}`" if shown else ""
 
 
 def subcommands(parser: argparse.ArgumentParser) -> list[tuple[str, str, argparse.ArgumentParser]]:
@@ -177,11 +166,10 @@ def _verb_section(name: str, help_text: str, parser: argparse.ArgumentParser, pr
             shown = ", ".join(action.option_strings) if action.option_strings else _metavar(action)
             if action.option_strings and _takes_value(action):
                 shown += " " + _metavar(action)
+            shown_help = action.help or ""
             if action.choices is not None:
                 choices = ", ".join(f"`{c}`" for c in action.choices)
-                shown_help = _help(action) + ("; " if action.help else "") + f"one of {choices}"
-            else:
-                shown_help = _help(action)
+                shown_help += ("; " if action.help else "") + f"one of {choices}"
             lines.append(f"| `{_cell(shown)}` | {_default(action)} | {_cell(shown_help)} |")
     for sub, text, subparser in subs:
         lines += _verb_section(f"{name} {sub}", text, subparser, f"{prefix} {sub}")

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from robot_controller.cli.args import UsageError, controller_option, out_option, verb
-from robot_controller.cli.output import StepProgress, output_dir, print_report
+from robot_controller.cli.output import StepProgress, output_dir, run_experiment
 
 # The exercises by name, for the parser (importing them would slow every verb's start).
 EXERCISE_NAMES = ("tune", "disturbance", "windup", "lqr")
@@ -31,7 +31,9 @@ def exercise(a: argparse.Namespace) -> int:
     chosen = EXERCISES[a.name]
     extra = {} if a.controller is None else {"controller": a.controller}
     # A law of one's own is one more contender of the disturbance exercise.
-    extra_steps = disturbance.RUNS_PER_CONTENDER if a.controller is not None else 0
-    with StepProgress(f"exercise {a.name}", chosen.steps(a.quick) + extra_steps) as progress:
+    steps = chosen.steps(a.quick) + (disturbance.RUNS_PER_CONTENDER if a.controller is not None else 0)
+
+    def body(progress: StepProgress) -> None:
         chosen.run(out, quick=a.quick, progress=progress, **extra)
-    return print_report(out / "report.md")
+
+    return run_experiment(f"exercise {a.name}", steps, body, out / "report.md")

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from robot_controller.cli.args import controller_option, out_option, robot_option, verb
-from robot_controller.cli.output import StepProgress, output_dir, print_report
+from robot_controller.cli.output import StepProgress, output_dir, run_experiment
 
 
 def register(sub) -> None:
@@ -22,10 +21,9 @@ def faults(a: argparse.Namespace) -> int:
     from robot_controller.experiments import faults as experiments
 
     out = output_dir(a.out, Path("runs/faults"))
-    try:
-        with StepProgress("faults", len(experiments.cases(a.quick))) as progress:
-            experiments.faults(out, quick=a.quick, progress=progress, robot=a.robot, controller=a.controller)
-    except (RuntimeError, ValueError, FileExistsError) as exc:
-        print(f"robot-controller: {exc}", file=sys.stderr)
-        return 1
-    return print_report(out / "faults.md")
+    chosen = dict(quick=a.quick, robot=a.robot, controller=a.controller)
+
+    def body(progress: StepProgress) -> None:
+        experiments.faults(out, progress=progress, **chosen)
+
+    return run_experiment("faults", len(experiments.cases(a.quick)), body, out / "faults.md")

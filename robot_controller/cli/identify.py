@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from robot_controller.cli.args import out_option, positive_seconds, stack_options, verb
-from robot_controller.cli.output import StepProgress, output_dir, print_report
+from robot_controller.cli.output import StepProgress, output_dir, run_experiment
 from robot_controller.runner.options import RunOptions
 
 
@@ -28,8 +28,9 @@ def identify(a: argparse.Namespace) -> int:
     params = options.params()
     consistency.check_stack(params)
     out = output_dir(a.out, Path("runs/identify"))
-    with StepProgress("identify", 4) as progress:
+    hint = f"use it with --config {out / 'identified.yaml'} (after your other --config files)"
+
+    def body(progress: StepProgress) -> None:
         experiments.identify(params, out, duration_s=a.duration, seed=options.seed, progress=progress)
-    print_report(out / "identification.md")
-    print(f"robot-controller: use it with --config {out / 'identified.yaml'} (after your other --config files)")
-    return 0
+
+    return run_experiment("identify", 4, body, out / "identification.md", hint)

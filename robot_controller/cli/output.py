@@ -6,10 +6,12 @@ from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
 
 from robot_controller.cli.args import UsageError
+from robot_controller.core.errors import ConfigError
 
 # What marks a directory as holding results already.
 RESULT_FILES = ("params.yaml", "bag", "metrics.json", "bench.json", "compare.json", "faults.json", "report.md")
@@ -39,18 +41,10 @@ def output_dir(out: Path | None, default: Path) -> Path:
     return chosen
 
 
-HEADLINE = (
-    "tracking_rms_rad",
-    "tracking_max_rad",
-    "measured_rms_rad",
-    "control_rate_hz",
-    "jitter_p99_ms",
-    "missed_cycles",
-    "latency_p50_ms",
-    "latency_p99_ms",
-    "peak_torque_nm",
-    "duration_s",
-    "real_time_factor",
+#: The figures a run's table shows first, in this order.
+HEADLINE = tuple(
+    "tracking_rms_rad tracking_max_rad measured_rms_rad control_rate_hz jitter_p99_ms missed_cycles latency_p50_ms "
+    "latency_p99_ms peak_torque_nm duration_s real_time_factor".split()
 )
 
 
@@ -73,11 +67,25 @@ def print_table(values: dict, title: str, headline: tuple[str, ...] = HEADLINE) 
         Console().print(joints)
 
 
-def print_report(path: Path, use: str | None = None) -> int:
-    """A report an experiment wrote, then how to use what it wrote (``--config FILE``)."""
-    print(path.read_text())
-    if use is not None:
-        print(f"robot-controller: use it with --config {path.parent / use}")
+def run_experiment(
+    verb: str, steps: int, body: Callable[[StepProgress], object], report: Path, hint: str | None = None
+) -> int:
+    """``body(progress)`` with a progress line, then the report it wrote and a ``hint`` on using what it
+    wrote. An experiment that fails is one line, exit 1; Ctrl-C ends it with 130."""
+    try:
+        with StepProgress(verb, steps) as progress:
+            body(progress)
+    except ConfigError:
+        raise  # a user's mistake: exit 2
+    except (RuntimeError, ValueError, FileExistsError) as exc:
+        print(f"robot-controller: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"robot-controller: {verb} interrupted", file=sys.stderr)
+        return 130
+    print(report.read_text())
+    if hint is not None:
+        print(f"robot-controller: {hint}")
     return 0
 
 

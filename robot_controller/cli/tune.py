@@ -4,11 +4,10 @@ one's own searched on the in-process loop."""
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from robot_controller.cli.args import UsageError, controller_option, out_option, stack_options, verb
-from robot_controller.cli.output import StepProgress, output_dir, print_report
+from robot_controller.cli.output import StepProgress, output_dir, run_experiment
 from robot_controller.runner.options import RunOptions
 
 
@@ -33,10 +32,9 @@ def tune(a: argparse.Namespace) -> int:
             "every joint, each scaled by its own inertia (lqr_q, lqr_r, reference_inertia)"
         )
     out = output_dir(a.out, Path("runs/tune"))
-    try:
-        with StepProgress("tune", autotune.steps(a.quick, controller_type)) as progress:
-            autotune.tune(params, out, quick=a.quick, progress=progress)
-    except RuntimeError as exc:  # nothing in the search met the margins
-        print(f"robot-controller: {exc}", file=sys.stderr)
-        return 1
-    return print_report(out / "report.md", "tuned.yaml")
+
+    def body(progress: StepProgress) -> None:
+        autotune.tune(params, out, quick=a.quick, progress=progress)
+
+    hint = f"use it with --config {out / 'tuned.yaml'}"
+    return run_experiment("tune", autotune.steps(a.quick, controller_type), body, out / "report.md", hint)

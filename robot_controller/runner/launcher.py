@@ -46,7 +46,7 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
     faulthandler.register(signal.SIGUSR1, all_threads=True)
     link = supervise.RecorderLink(list(rec.topics_for(options.sim_time)))
     graph = supervise.GraphLink() if run.watcher is not None else None
-    result = RunResult(run.bag_dir, run.records, run.local_nodes)
+    result = RunResult(run.bag_dir, run.records, options.nodes)
     replaced: set[str] = set()  # nodes killed and respawned
     try:
         # The viewer is kept out of the group's children: a dead viewer must not end the run.

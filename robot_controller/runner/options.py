@@ -10,6 +10,8 @@ from typing import Any
 from robot_controller import parameters as cfg
 from robot_controller.robots import DEFAULT_ROBOT
 
+NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
+
 
 @dataclass(frozen=True)
 class RunOptions:
@@ -48,3 +50,14 @@ class RunOptions:
         if self.seed is not None:
             params["sensor_node"]["seed"] = self.seed
         return params
+
+
+def check_nodes(text: str) -> tuple[str, ...]:
+    """``"simulator,motor_node"`` → those names in the graph's order, or ValueError naming the bad one."""
+    names = [part.strip() for part in text.split(",")]
+    unknown = [n for n in names if n not in NODE_ORDER]
+    if unknown or not names:
+        raise ValueError(f"unknown node(s) {', '.join(map(repr, unknown))}: choose from {', '.join(NODE_ORDER)}")
+    if len(set(names)) != len(names):
+        raise ValueError(f"a node is named twice: {text}")
+    return tuple(n for n in NODE_ORDER if n in names)

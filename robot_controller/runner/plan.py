@@ -23,11 +23,10 @@ from robot_controller.parameters import consistency
 from robot_controller.parameters.builders import ARM_MODEL_KEYS
 from robot_controller.ros import partition, scheduling
 from robot_controller.ros.publishing import COUNTS_DIR_ENV, RECORDED_ENV
-from robot_controller.runner.options import RunOptions
+from robot_controller.runner.options import NODE_ORDER, RunOptions, check_nodes
 from robot_controller.runner.processes import Process
 from robot_controller.view import serve as view_serve
 
-NODE_ORDER = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
 #: The node whose launcher records and scores a split run: the recorder hears the loop where the arm is.
 RECORDING_NODE = "simulator"
 
@@ -52,33 +51,13 @@ class RunPlan:
     lockstep_end_s: float | None  #: lockstep: the simulator publishes no tick after this sim time
 
     @property
-    def sim_time(self) -> bool:
-        return self.options.sim_time
-
-    @property
-    def local_nodes(self) -> tuple[str, ...]:
-        """The nodes this launcher starts."""
-        return self.options.nodes
-
-    @property
     def remote_nodes(self) -> tuple[str, ...]:
         """The nodes of the graph another launcher starts."""
-        return tuple(n for n in NODE_ORDER if n not in self.local_nodes)
+        return tuple(n for n in NODE_ORDER if n not in self.options.nodes)
 
     @property
     def records(self) -> bool:
         return self.recorder is not None
-
-
-def check_nodes(text: str) -> tuple[str, ...]:
-    """``"simulator,motor_node"`` → those names in the graph's order, or ValueError naming the bad one."""
-    names = [part.strip() for part in text.split(",")]
-    unknown = [n for n in names if n not in NODE_ORDER]
-    if unknown or not names:
-        raise ValueError(f"unknown node(s) {', '.join(map(repr, unknown))}: choose from {', '.join(NODE_ORDER)}")
-    if len(set(names)) != len(names):
-        raise ValueError(f"a node is named twice: {text}")
-    return tuple(n for n in NODE_ORDER if n in names)
 
 
 def child_env(single_process: bool) -> dict[str, str]:

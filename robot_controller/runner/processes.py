@@ -5,6 +5,7 @@ dying with the launcher even if that is killed (``PR_SET_PDEATHSIG``)."""
 
 from __future__ import annotations
 
+import functools
 import os
 import signal
 import subprocess
@@ -30,12 +31,10 @@ def say(message: str) -> None:
         print(f"[launcher] {message}", flush=True)
 
 
-def _child_setup(place: scheduling.Placement) -> Callable[[], None]:
-    def setup() -> None:  # runs in the child, first thing after the fork
-        forking.die_with_parent()
-        scheduling.apply_in_child(place)
-
-    return setup
+def _child_setup(place: scheduling.Placement) -> None:
+    """In the child, first thing after the fork."""
+    forking.die_with_parent()
+    scheduling.apply_in_child(place)
 
 
 @dataclass(frozen=True)
@@ -71,7 +70,7 @@ class ProcessGroup:
             spec.module,
             [f"robot_controller.nodes.{spec.module}", *spec.args],
             spec.env,
-            _child_setup(scheduling.placement(spec.name, wall_clock)),
+            functools.partial(_child_setup, scheduling.placement(spec.name, wall_clock)),
         )
         reader = threading.Thread(target=self._relay, args=(spec.name, process, on_line), daemon=True)
         child = Child(spec, process, reader)

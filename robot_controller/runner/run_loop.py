@@ -11,7 +11,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from robot_controller.runner import supervise
-from robot_controller.runner.plan import NODE_ORDER, RunPlan
+from robot_controller.runner.options import NODE_ORDER
+from robot_controller.runner.plan import RunPlan
 from robot_controller.runner.processes import Child, ProcessGroup, say
 from robot_controller.runner.usage import USAGE_WARMUP_S, UsageMeter
 
@@ -76,26 +77,25 @@ def run_loop(
     :param viewers: observers measured apart (outside ``cpu_pct_total``) and never respawned
     :param graph: part of the graph runs here: wait (``wait_s``) for the other side's nodes first
     """
-    duration_s, serving = run.options.duration_s, not run.records
+    duration_s, sim_time, serving = run.options.duration_s, run.options.sim_time, not run.records
+    here, there = ", ".join(run.options.nodes), ", ".join(run.remote_nodes)
     if run.records:
         result.failure = supervise.wait_recorder(link, group)
     if result.failure is None and graph is not None:
         result.failure = supervise.wait_graph(graph, group, NODE_ORDER, run.remote_nodes, run.options.wait_s)
         if result.failure is None:
-            say(f"graph complete: {', '.join(NODE_ORDER)} (here: {', '.join(run.local_nodes)})")
+            say(f"graph complete: {', '.join(NODE_ORDER)} (here: {here})")
     if result.failure is None and run.records:
         result.failure = supervise.wait_first_tick(link, group)
     if result.failure is not None:
         return
     started = result.started = time.monotonic()
     if serving:
-        say(
-            f"serving the loop with {', '.join(run.local_nodes)} until {', '.join(run.remote_nodes)} leave(s) the graph"
-        )
+        say(f"serving the loop with {here} until {there} leave(s) the graph")
     else:
-        say(f"control loop running; recording {duration_s:g} {'sim ' if run.sim_time else ''}s into {run.bag_dir}")
+        say(f"control loop running; recording {duration_s:g} {'sim ' if sim_time else ''}s into {run.bag_dir}")
     meter = UsageMeter(group.children, started + min(USAGE_WARMUP_S, duration_s / 4), viewers)
-    if run.sim_time and not serving:
+    if sim_time and not serving:
         result.sim_start, sim_start_taken_s = link.clock_s, link.clock_taken_s
         # The simulator's last tick is within a control period (0.1 s at most) of its end.
         last_tick_s = run.lockstep_end_s - LONGEST_PERIOD_S if run.lockstep_end_s else float("inf")
@@ -129,5 +129,5 @@ def run_loop(
         )
         result.control_seconds = result.wall_seconds = time.monotonic() - started
         if serving and result.failure is None:
-            result.end_reason = f"{', '.join(run.remote_nodes)} left the graph: the loop has ended"
+            result.end_reason = f"{there} left the graph: the loop has ended"
     result.usage = meter.finish()

@@ -55,7 +55,6 @@ class GraphLink:
 
     def __init__(self) -> None:
         self.nodes: frozenset[str] = frozenset()
-        self.reported = threading.Event()  #: the watcher has reported at least once
         self.seen: set[str] = set()  #: every node ever seen
         self.missing_since: dict[str, float] = {}
 
@@ -71,7 +70,6 @@ class GraphLink:
                 self.missing_since.pop(name, None)
             else:
                 self.missing_since.setdefault(name, now)
-        self.reported.set()
         return True
 
     def missing(self, names: tuple[str, ...]) -> list[str]:

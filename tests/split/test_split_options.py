@@ -9,7 +9,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.nodes import graph_watch
 from robot_controller.ros import partition
 from robot_controller.runner import plan as run_plan
-from robot_controller.runner.options import RunOptions
+from robot_controller.runner.options import RunOptions, check_nodes
 from robot_controller.runner.supervise import GraphLink
 from tests.test_cli import cli, one_line_error
 
@@ -66,7 +66,7 @@ def test_bad_peers_are_refused(text):
 
 
 def test_nodes_are_put_in_the_graphs_order():
-    assert run_plan.check_nodes("trajectory_planner, simulator") == ("simulator", "trajectory_planner")
+    assert check_nodes("trajectory_planner, simulator") == ("simulator", "trajectory_planner")
 
 
 @pytest.mark.parametrize(
