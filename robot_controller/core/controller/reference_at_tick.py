@@ -1,13 +1,9 @@
-"""The reference the law tracks at a tick, and every way it departs from the
-planner's trajectory: holding the arm where it is (before the first sample,
-or after a fault until a fresh sample comes), a controlled stop when the
-planner goes quiet or the readings go missing (IEC 60204-1 category 2), and
-a blend from where the arm is back onto the trajectory when a fault clears.
-
-Each reference made is named with its :attr:`ReferenceAtTick.status` and
-:attr:`ReferenceAtTick.source`, so a held or rewritten reference is never passed
-off as the planner's. Positions rad, velocities rad/s, accelerations rad/s², times s.
-"""
+"""The reference the law tracks at a tick, and every way it departs from the planner's
+trajectory: a hold (before the first sample, or after a fault until a fresh one comes), a
+controlled stop (IEC 60204-1 category 2) when the planner goes quiet, the readings go missing,
+the loop is late or a plugin law fails, and a blend from where the arm is back onto the
+trajectory. Each reference is named with its :attr:`ReferenceAtTick.status` and
+:attr:`ReferenceAtTick.source`: a held or rewritten reference is never passed off as the planner's."""
 
 from __future__ import annotations
 

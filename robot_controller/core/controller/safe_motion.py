@@ -1,12 +1,7 @@
-"""References for the moments a loop is not simply tracking: a controlled
-stop when an input is lost, and a blend back onto the trajectory when it
-returns.
-
-Both are per joint, limited in acceleration so the torque they ask for stays
-within the actuator's reach (IEC 60204-1 stop category 2 is "controlled
-stop, keep holding"; re-acquisition must not jump the reference nor chatter
-at the torque limit). Pure functions of time: no ROS, no clocks.
-"""
+"""References for the moments a loop is not simply tracking: a controlled stop when an input is
+lost (IEC 60204-1 category 2: controlled stop, keep holding) and a blend back onto the trajectory
+when it returns, both per joint and limited in acceleration so the torque they ask for stays
+within reach (no jump, no chatter at the torque limit). Pure functions of time."""
 
 from __future__ import annotations
 

@@ -1,13 +1,8 @@
-"""The planner's reference as the controller receives it: the latest sample due
-and its time base (a sample stamped ahead of the receiver's clock waits for
-its time), whether the samples due by a tick are in (lockstep), and
-the trajectory at a tick time — the sample held, or extrapolated on its own
-velocity and acceleration — with whether it is still fresh; and the
-trajectory over the control period that starts at the tick, which the
-feedforward is computed for (:meth:`PlannerReference.over_period`).
-
-Positions rad, velocities rad/s, accelerations rad/s², jerks rad/s³, times s.
-"""
+"""The planner's reference as the controller receives it: the latest sample due and its time
+base (one stamped ahead of the receiver's clock waits for its time), whether the samples due by
+a tick are in (lockstep), the trajectory at a tick (held, or extrapolated on its velocity and
+acceleration) and whether it is fresh, and the trajectory over the period the command is held
+for, which the feedforward is for. Positions rad, velocities rad/s, accelerations rad/s², s."""
 
 from __future__ import annotations
 
@@ -21,8 +16,7 @@ from robot_controller.core.controller.tick_state import MAX_EXTRAPOLATION_S, TIM
 
 # The planner counts as silent after this many of its periods without a sample.
 REFERENCE_TIMEOUT_PERIODS = 5
-# A sample stamped up to this far ahead of the receiver's clock waits for its time (our planner
-# sends each lockstep sample one tick early, so the controller never waits for it); one stamped
+# A sample stamped up to this far ahead of the receiver's clock (s) waits for its time; one stamped
 # further ahead is taken at once, as if stamped now: a clock that far off is wrong, not early.
 MAX_AHEAD_S = 1.0
 # Samples waiting for their time, at most (one planner period ahead is the normal case).

@@ -1,11 +1,7 @@
-"""Supervision of the joint controller's inputs, once per tick: the sensor
-readings (a stale one refused, how long the sensor has been silent), the
-tick clock (the period the law integrates over, pauses of the controller
-itself) and the verdict, :func:`check_health`, that decides whether the tick
-tracks, stops on the model, or commands nothing.
-
-Times are in seconds on the controller's clock; no ROS, no clocks read here.
-"""
+"""Supervision of the controller's inputs, once per tick: the sensor readings (a stale one
+refused, the sensor's silence), the tick clock (the period the law integrates over, pauses of
+the controller itself) and the verdict, :func:`check_health`: track, stop on the model, or
+command nothing. Times in seconds on the controller's clock."""
 
 from __future__ import annotations
 

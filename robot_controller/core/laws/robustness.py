@@ -1,32 +1,23 @@
 """Stability margins of the discrete control loop: gain, phase and delay.
 
-The loop is the one :mod:`robot_controller.core.laws.lqr` designs on: each joint's
-arm linearised as ``J ë + b ė = u``, discretised with a zero-order hold at
-the control period over the state ``x = [∫e dt, e, ė]``, and the feedback
-``u = −K x`` with ``K = [Ki, Kp, Kd]`` (a PID and an LQR alike). Broken at
-the plant input, the loop transfer function is
+The loop is the one :mod:`~robot_controller.core.laws.lqr` designs on: each joint linearised as
+``J ë + b ė = u``, discretised with a zero-order hold over ``x = [∫e dt, e, ė]``, with the
+feedback ``u = −K x``, ``K = [Ki, Kp, Kd]`` (a PID and an LQR alike). Broken at the plant input,
+``L(z) = K (z I − A)⁻¹ B``; the margins are read on the unit circle ``z = e^{jθ}``, ``θ = ω·dt``:
 
-    L(z) = K (z I − A)⁻¹ B,
-
-and the closed loop's characteristic equation is ``1 + L(z) = 0``. Its
-margins are read on the unit circle ``z = e^{jθ}``, ``θ = ω·dt`` in (0, π]:
-
-- gain margin: the loop gain may grow by the factor ``1/a`` before the
-  Nyquist curve, crossing the negative real axis at ``−a`` (``a < 1``), passes
-  through −1; where it crosses beyond −1 (``a > 1``), the gain may shrink by
-  ``a`` (a *lower* gain margin, which loops with an integrator can have);
+- gain margin: how far the loop gain may grow before the Nyquist curve, crossing the negative real
+  axis at ``−a`` (``a < 1``), passes through −1; beyond −1 (``a > 1``), how far it may shrink
+  (a *lower* gain margin, which loops with an integrator can have);
 - phase margin: ``180° + arg L`` where ``|L| = 1`` (the gain crossover);
-- delay margin: the phase margin divided by the crossover frequency, in
-  seconds (a delay ``τ`` adds the phase ``−ω τ`` and leaves ``|L|`` alone).
+- delay margin: the phase margin over the crossover frequency, s (a delay adds phase only);
+  in whole periods, :func:`delay_margin_periods` counts them on the delayed loop itself.
 
-The margins say something only of a loop that is stable to begin with:
-:func:`margins` checks the closed loop's spectral radius first. Pure maths:
-numpy only.
+The margins say something only of a loop stable to begin with: the spectral radius comes first.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
@@ -59,16 +50,7 @@ class Margins:
         return self.delay_margin_s / dt
 
     def as_dict(self, prefix: str = "") -> dict[str, float]:
-        return {
-            f"{prefix}stable": int(self.stable),
-            f"{prefix}spectral_radius": self.spectral_radius,
-            f"{prefix}gain_margin_db": self.gain_margin_db,
-            f"{prefix}gain_margin_low_db": self.gain_margin_low_db,
-            f"{prefix}phase_margin_deg": self.phase_margin_deg,
-            f"{prefix}delay_margin_s": self.delay_margin_s,
-            f"{prefix}crossover_rad_s": self.crossover_rad_s,
-            f"{prefix}phase_crossover_rad_s": self.phase_crossover_rad_s,
-        }
+        return {f"{prefix}{k}": int(v) if k == "stable" else v for k, v in asdict(self).items()}
 
 
 def frequency_grid(points: int = GRID_POINTS) -> np.ndarray:
@@ -231,19 +213,10 @@ def margins_batch(
         if margin < phase_margin[row]:
             phase_margin[row], crossover[row] = margin, omega
         delay[row] = min(delay[row], np.radians(margin) / omega if margin > 0 else 0.0)
-    out = {
-        "stable": stable,
-        "spectral_radius": radius,
-        "gain_margin_db": gain_up,
-        "gain_margin_low_db": gain_low,
-        "phase_margin_deg": phase_margin,
-        "delay_margin_s": delay,
-        "crossover_rad_s": crossover,
-        "phase_crossover_rad_s": phase_x,
-    }
-    for key in out:
-        if key not in ("stable", "spectral_radius"):
-            out[key] = np.where(stable, out[key], np.nan)
+    out = {"stable": stable, "spectral_radius": radius}
+    found = (gain_up, gain_low, phase_margin, delay, crossover, phase_x)
+    for field, value in zip(fields(Margins)[2:], found, strict=True):
+        out[field.name] = np.where(stable, value, np.nan)
     return out
 
 
@@ -256,21 +229,7 @@ def margins(A: np.ndarray, B: np.ndarray, K: np.ndarray, dt: float, points: int 
     """The margins of the loop ``u = −K x`` on ``x[k+1] = A x[k] + B u[k]``
     at the control period ``dt`` (s), on a fine grid of the unit circle."""
     values = margins_batch(A, B, np.atleast_2d(K)[:1], dt, frequency_grid(points))
-    return Margins(
-        bool(values["stable"][0]),
-        *(
-            float(values[key][0])
-            for key in (
-                "spectral_radius",
-                "gain_margin_db",
-                "gain_margin_low_db",
-                "phase_margin_deg",
-                "delay_margin_s",
-                "crossover_rad_s",
-                "phase_crossover_rad_s",
-            )
-        ),
-    )
+    return Margins(bool(values["stable"][0]), *(float(values[f.name][0]) for f in fields(Margins)[1:]))
 
 
 def pid_gain_row(kp: float, ki: float, kd: float) -> np.ndarray:
