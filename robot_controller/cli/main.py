@@ -39,7 +39,10 @@ def build_parser() -> Parser:
     for module in (step, compare, exercise, tune, identify, faults, graph):
         module.register(sub)
     for entry in sorted(entry_points(group=VERB_ENTRY_POINTS), key=lambda e: e.name):
-        entry.load()(sub)
+        try:
+            entry.load()(sub)
+        except Exception as exc:  # noqa: BLE001 - another package's verbs must not break the CLI
+            print(f"robot-controller: the verbs of {entry.value} were not added: {exc}", file=sys.stderr)
     return parser
 
 

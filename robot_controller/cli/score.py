@@ -54,7 +54,7 @@ def _scored_window_s(run_dir: Path) -> float | None:
 
 
 def view(run_dir: Path, *, port: int, serve: bool) -> int:
-    from robot_controller.view import build_view_from_bag
+    from robot_controller.view.from_bag import build_view_from_bag
 
     if not (run_dir / "bag").is_dir():
         raise UsageError(f"{run_dir}: no bag/ here (not a run directory)")
