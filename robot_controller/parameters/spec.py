@@ -120,12 +120,10 @@ class ParamSpec:
         return value
 
     def _check_range(self, value: float) -> None:
-        below = self.minimum is not None and (
-            value < self.minimum or (self.exclusive_minimum and value == self.minimum)
-        )
-        if below:
-            op = ">" if self.exclusive_minimum else ">="
-            raise ConfigError(f"{self.name}: must be {op} {self.minimum:g}, got {value:g}")
+        if self.minimum is not None and (value < self.minimum or (self.exclusive_minimum and value == self.minimum)):
+            raise ConfigError(
+                f"{self.name}: must be {'>' if self.exclusive_minimum else '>='} {self.minimum:g}, got {value:g}"
+            )
         if self.maximum is not None and value > self.maximum:
             raise ConfigError(f"{self.name}: must be <= {self.maximum:g}, got {value:g}")
 
