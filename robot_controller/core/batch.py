@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from robot_controller.core.estimation.estimator import JointKalmanFilter, KalmanConfig
+from robot_controller.core.estimation import JointKalmanFilter, KalmanConfig
 from robot_controller.core.laws.pid import Pid, PidConfig
 from robot_controller.core.model import ArmDynamics, SensorConfig, measure, step_count
 from robot_controller.core.reference import Trajectory

@@ -1,7 +1,5 @@
 """The Kalman filter's tuning (:class:`KalmanConfig`) and its process noise: what the
-filter assumes of the arm's unmodelled acceleration and of the external torque, apart
-from the filter's arithmetic so that the controller's configuration and the gain design
-(:mod:`robot_controller.core.estimation.kalman_linear`) read them without the filter."""
+filter assumes of the arm's unmodelled acceleration and of the external torque."""
 
 from __future__ import annotations
 
@@ -12,14 +10,15 @@ import numpy as np
 
 from robot_controller.core.errors import ConfigError
 
-# N·m, σ of the disturbance estimate when the filter (re)starts: nothing is known
-# of it yet, so the first readings set it (a couple of periods).
+# N·m, σ of the disturbance estimate when the filter (re)starts: the first readings set it.
 DISTURBANCE_PRIOR_STD_NM = 2.0
 
 
 @dataclass(frozen=True)
 class KalmanConfig:
-    """:param position_noise_std: measurement σ on position, rad
+    """The filter's tuning.
+
+    :param position_noise_std: measurement σ on position, rad
     :param velocity_noise_std: measurement σ on velocity, rad/s
     :param acceleration_noise_std: σ of the unmodelled acceleration, rad/s²
     :param disturbance_noise_std: how fast the external torque may change, N·m/√s
@@ -30,48 +29,31 @@ class KalmanConfig:
     velocity_noise_std: float = 0.02
     acceleration_noise_std: float = 0.005
     #: s, the longest step the arm model is integrated in between two readings: the plant's own
-    #: (the simulator's physics step, 1 ms in the reference scenario), so that the prediction and
-    #: the readings agree (a coarser step puts the predicted position off by about a·T·step/2)
+    #: (a coarser step puts the predicted position off by about a·T·step/2)
     model_step_s: float = 0.001
     disturbance_noise_std: float = 0.0001
-    #: a reading this many σ (Mahalanobis distance of its innovation) from the prediction, among
-    #: readings that otherwise agree with the filter, is taken as a sudden external torque (a push, a
-    #: collision, a load let go): the observer allows its torque a jump (σ DISTURBANCE_PRIOR_STD_NM)
-    #: that period and follows it within a period or two, while between jumps the torque may change
-    #: only slowly (disturbance_noise_std). 0: never.
+    #: a reading this many σ from the prediction, among readings that agree with the filter, is a
+    #: sudden external torque: the observer allows its torque a jump (σ DISTURBANCE_PRIOR_STD_NM)
+    #: that period; between jumps it changes only slowly (disturbance_noise_std). 0: never.
     jump_detection_sigma: float = 5.0
     #: the σ the filter moves to while its readings disagree with it (an arm unlike its model,
     #: readings later than their stamps): it then follows the readings rather than its model
     mismatch_acceleration_noise_std: float = 2.0
     mismatch_disturbance_noise_std: float = 0.3
-    #: s, how uncertain the instant is from which a new command acts on the arm: 0 where commands take
-    #: effect on a known schedule (lockstep, the in-process loop); on the wall clock, the command path's
-    #: latency and its jitter. A change of command Δτ then leaves the velocity uncertain by Δτ·this/inertia.
+    #: s, how uncertain the instant is from which a new command acts: 0 on a known schedule (lockstep);
+    #: on the wall clock, the command path's jitter. A change Δτ leaves the velocity uncertain by Δτ·this/I.
     command_timing_uncertainty_s: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in (
-            "position_noise_std",
-            "velocity_noise_std",
-            "acceleration_noise_std",
-            "model_step_s",
-            "disturbance_noise_std",
-            "mismatch_acceleration_noise_std",
-            "mismatch_disturbance_noise_std",
-        ):
-            value = getattr(self, name)
-            if not np.isfinite(value) or value <= 0:
-                raise ConfigError(f"{name}: must be a finite number > 0, got {value}")
-        if not np.isfinite(self.command_timing_uncertainty_s) or self.command_timing_uncertainty_s < 0:
-            raise ConfigError(
-                f"command_timing_uncertainty_s: must be a finite number ≥ 0, got {self.command_timing_uncertainty_s}"
-            )
-        if not np.isfinite(self.jump_detection_sigma) or self.jump_detection_sigma < 0:
-            raise ConfigError(f"jump_detection_sigma: must be a finite number ≥ 0, got {self.jump_detection_sigma}")
+        positive = ("position_noise_std", "velocity_noise_std", "acceleration_noise_std", "model_step_s")
+        positive += ("disturbance_noise_std", "mismatch_acceleration_noise_std", "mismatch_disturbance_noise_std")
+        for name in (*positive, "command_timing_uncertainty_s", "jump_detection_sigma"):
+            value, strict = getattr(self, name), name in positive
+            if not np.isfinite(value) or value < 0 or (strict and value == 0):
+                raise ConfigError(f"{name}: must be a finite number {'>' if strict else '≥'} 0, got {value}")
 
     def for_inertia(self, torque_scale: float) -> KalmanConfig:
-        """The filter with its torque figures (the observer's σs) ``torque_scale`` times larger: for a
-        joint that much heavier than the one they were chosen for, the same in acceleration."""
+        """The observer's σs ``torque_scale`` times larger: a joint that much heavier, the same in acceleration."""
         return replace(
             self,
             disturbance_noise_std=self.disturbance_noise_std * torque_scale,
@@ -94,11 +76,13 @@ def process_noise(
     disturbance_noise_std: np.ndarray | None = None,
     acceleration_noise_std: np.ndarray | None = None,
 ) -> np.ndarray:
-    """The filter's process noise over ``dt`` s: ``(2, 2)`` on ``[q, v]`` from
-    the white unmodelled acceleration; with ``acceleration_per_nm`` (rad/s² per
-    N·m on each joint, shape ``(n,)``: the disturbance observer) ``(n, 3, 3)``
-    on ``[q, v, d]``, adding the random walk of ``d`` carried through the double
-    integrator over ``dt`` (the continuous model's, exactly)."""
+    """The process noise over ``dt`` s: ``(2, 2)`` on ``[q, v]`` from the white unmodelled acceleration;
+    with ``acceleration_per_nm`` (the observer) ``(n, 3, 3)`` on ``[q, v, d]``, adding ``d``'s random walk.
+
+    :param acceleration_per_nm: rad/s² per N·m on each joint's own axis, (n,)
+    :param disturbance_noise_std: per joint, N·m/√s (None: the config's)
+    :param acceleration_noise_std: per joint, rad/s² (None: the config's)
+    """
     G = (0.5 * dt * dt, dt)
     if acceleration_per_nm is None:
         return np.outer(G, G) * config.acceleration_noise_std**2
@@ -116,11 +100,8 @@ def process_noise(
 
 @lru_cache(maxsize=64)  # a filter's periods are a handful of roundings of one period
 def _noise_templates(dt: float) -> np.ndarray:
-    """The four parts of the process noise on ``[q, v, d]`` over ``dt`` s, flattened (4, 9):
-    ``A``, the white acceleration through the double integrator (``G·Gᵀ``, G = [dt²/2, dt]);
-    ``B``, ``C``, ``D``, the random walk of ``d`` carried through it, in ``[q, v]``, between
-    ``[q, v]`` and ``d``, and in ``d`` itself (:func:`process_noise` weighs them). Shared
-    between calls (cached): read only."""
+    """The process noise's four parts over ``dt`` s, (4, 9), read only: the white acceleration (``G·Gᵀ``,
+    G = [dt²/2, dt]), and ``d``'s random walk in ``[q, v]``, between ``[q, v]`` and ``d``, and in ``d``."""
     g0, g1 = 0.5 * dt * dt, dt
     qq, qv, vv = dt**5 / 20, dt**4 / 8, dt**3 / 3
     qd, vd = dt**3 / 6, dt**2 / 2

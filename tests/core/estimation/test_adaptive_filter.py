@@ -10,7 +10,7 @@ import pytest
 from robot_controller import resources
 from robot_controller.core.controller.tick_state import StateAtTick
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.estimation.estimator import JointKalmanFilter, KalmanConfig
+from robot_controller.core.estimation import JointKalmanFilter, KalmanConfig
 from robot_controller.core.model import ArmDynamics, MujocoPlant, SensorConfig, measure
 
 DT = 0.01

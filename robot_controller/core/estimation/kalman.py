@@ -1,0 +1,360 @@
+"""The Kalman filter on each joint's position and velocity, with the applied torque as input,
+and optionally the disturbance observer (:class:`JointKalmanFilter`).
+
+Per joint the state is ``x = [q, v]``. The prediction steps the arm model over the period under
+the torque commanded last, in steps of at most ``model_step_s``; its covariance uses the model
+linearised about the filtered state (gravity's stiffness, the damping, the coupling) with white
+acceleration noise. The model steps semi-implicitly, as the plant does: a velocity state is the
+arm's velocity half a model step before its position's instant (:meth:`~JointKalmanFilter.velocity_at_instant`
+gives the one at the instant).
+
+The observer (``estimate_disturbance``) adds ``d``, an external torque (N·m: a push, a load,
+whatever the model gets wrong) as a random walk of ``disturbance_noise_std`` N·m/√s, acting beside
+the actuator's (which is limited to the effort limit; ``d`` is not). Each joint's ``d_j`` is the
+acceleration its own readings show beyond the model's, ``α_j``, in torque units on its own axis
+(``α_j / (M⁻¹)_jj``), so no joint's estimate moves another's prediction; ``M(q)·α``
+(:attr:`~JointKalmanFilter.disturbance`) is the external torque, coupling included. ``d`` stays
+within ``±disturbance_limit`` and starts from 0 whenever the filter starts. What the filter makes
+of each reading's surprise (trust, jumps, restarts) is in :mod:`.innovation`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+import robot_controller.core.estimation.innovation as innovation
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.estimation.config import DISTURBANCE_PRIOR_STD_NM, KalmanConfig, process_noise
+from robot_controller.core.estimation.linear import Predictor, own_step_slopes, step_slopes
+from robot_controller.core.model import step_count
+
+# (q, v, torque, step_s) → one model step's ∂[q'; v']/∂[q; v], (2n, 2n)
+StepJacobian = Callable[[np.ndarray, np.ndarray, np.ndarray, float], np.ndarray]
+# q → the arm's mass matrix M(q), (n, n), kg·m²
+MassMatrix = Callable[[np.ndarray], np.ndarray]
+
+
+def inverse_2x2(A: np.ndarray) -> np.ndarray:
+    """The inverses of a stack of 2 × 2 matrices ``(..., 2, 2)``: adjugate over determinant."""
+    a, b, c, d = A[..., 0, 0], A[..., 0, 1], A[..., 1, 0], A[..., 1, 1]
+    det = a * d - b * c
+    inverse = np.empty_like(A)
+    inverse[..., 0, 0], inverse[..., 0, 1] = d / det, -b / det
+    inverse[..., 1, 0], inverse[..., 1, 1] = -c / det, a / det
+    return inverse
+
+
+def matrix_power(a: np.ndarray, k: int) -> np.ndarray:
+    """``np.linalg.matrix_power(a, k)`` for a square ``a`` and ``k >= 1``: the same products in the
+    same order (binary powering), by ``ndarray.dot``, without its checks and dispatch."""
+    if k == 3:
+        return a.dot(a).dot(a)
+    power = result = None
+    while k > 0:
+        power = a if power is None else power.dot(power)
+        k, bit = divmod(k, 2)
+        if bit:
+            result = power if result is None else result.dot(power)
+    return result
+
+
+class _StateIndex:
+    """Where each joint's quantities sit in a group's state ``[q1, v1, (d1), q2, v2, ...]`` (``m`` per
+    joint) and its covariance, made once per filter (slices where each group is one joint)."""
+
+    def __init__(self, k: int, m: int) -> None:
+        first = np.arange(k) * m
+        self.q, self.v, self.d = first, first + 1, first + 2  #: each joint's q, v and (m = 3) d
+        rows = first[:, None, None] + np.arange(m)[:, None]
+        #: each joint's own (m, m) block of the covariance, ``P[:, blocks]`` (g, *block_shape)
+        self.blocks, self.block_shape = (rows, rows.transpose(0, 2, 1)), (k, m, m)
+        #: each joint's own reading block (q and v), ``P[:, own_readings]`` (g, k, 2, 2)
+        self.own_readings = (rows[:, :2, :2], rows[:, :2, :2].transpose(0, 2, 1))
+        self.read = np.stack([self.q, self.v], axis=-1).reshape(-1)  #: the readings' places, q1, v1, q2...
+        self.readings = np.ix_(self.read, self.read)  #: every reading by every reading (2k, 2k)
+        qv = np.concatenate([self.q, self.v])
+        self.model_slopes = np.ix_(qv, qv)  #: where the model's slopes ([q1..qk, v1..vk] by the same) go
+        if k == 1:
+            self.blocks, self.block_shape = (slice(None), slice(None)), (m, m)
+            self.own_readings = self.model_slopes = (slice(0, 2), slice(0, 2))
+            self.read = slice(0, 2)
+
+
+class JointKalmanFilter:
+    """Predict with the arm model, correct with each reading.
+
+    The state is ``x`` (n, m): per joint ``q, v`` (and ``d``). Its covariance is one matrix over
+    every joint's state (``P[0]``, nm × nm, joint by joint), as each joint's prediction leans on the
+    others' states; with ``independent_joints``, one m × m per joint (``P``, n × m × m).
+
+    :param predictor: the arm model's ``predict`` (q, v, torque, horizon_s, max_step_s, external_nm)
+    :param jacobian: one model step's slopes ``(q, v, torque, step_s) → ∂[q'; v']/∂[q; v]`` (2n × 2n);
+        None: by finite differences of ``predictor``
+    :param estimate_disturbance: add the external torque ``d`` to the state (the disturbance
+        observer); needs ``mass_matrix``
+    :param mass_matrix: the arm's M(q) (what ``d`` accelerates)
+    :param disturbance_limit: N·m per joint, the bound on ``|d|`` (none if None)
+    :param torque_scale: per joint, the factor on the observer's torque σs (its noise, the jump's
+        and the start's): the joint's inertia over the one they were chosen for (None: 1)
+    :param independent_joints: the joints do not act on one another (separate one-joint arms)
+    """
+
+    def __init__(
+        self,
+        config: KalmanConfig,
+        joint_count: int,
+        predictor: Predictor,
+        *,
+        jacobian: StepJacobian | None = None,
+        estimate_disturbance: bool = False,
+        mass_matrix: MassMatrix | None = None,
+        disturbance_limit: np.ndarray | None = None,
+        torque_scale: np.ndarray | None = None,
+        independent_joints: bool = False,
+    ) -> None:
+        if estimate_disturbance and mass_matrix is None:
+            raise ConfigError("disturbance_observer: needs the arm model's mass matrix")
+        self.config = config
+        self.predictor = predictor
+        self.jacobian = jacobian
+        self.joint_count = n = joint_count
+        self.estimates_disturbance = bool(estimate_disturbance)
+        self.mass_matrix = mass_matrix
+        limit = np.inf if disturbance_limit is None else np.asarray(disturbance_limit, float)
+        self.disturbance_limit = np.broadcast_to(limit, (n,)).copy()
+        self.size = m = 3 if self.estimates_disturbance else 2
+        mismatch = config.at_mismatch()
+        #: per joint, how much heavier than the joint the torque σs were chosen for
+        self._torque_scale = np.ones(n) if torque_scale is None else np.asarray(torque_scale, dtype=float).reshape(n)
+        #: σ (disturbance N·m/√s, acceleration rad/s²) while the readings agree, and at the mismatch
+        self._agreeing_std = np.array([config.disturbance_noise_std, config.acceleration_noise_std])
+        self._mismatch_std = np.array([mismatch.disturbance_noise_std, mismatch.acceleration_noise_std])
+        self.x: np.ndarray | None = None  # (n, 2): q, v per joint; (n, 3): q, v, d
+        #: groups of joints that act on one another: one (the arm), or each joint its own
+        self._groups, self._per_group = g, k = (n, 1) if independent_joints else (1, n)
+        self.P = np.zeros((g, k * m, k * m))  #: per group, joint by joint: [q1, v1, (d1), q2, v2, ...]
+        self.R = np.diag([config.position_noise_std**2, config.velocity_noise_std**2])
+        self._R_all = np.kron(np.eye(k), self.R)
+        self._index = at = _StateIndex(k, m)
+        self._F = np.zeros((g, k * m, k * m))  #: the transition, rewritten in place each period
+        if self.estimates_disturbance:
+            self._F[:, at.d, at.d] = 1.0
+        self.time_s: float | None = None
+        self._mass: np.ndarray | None = None  #: M(q) at the last estimate, kg·m²
+        self._own_inverse_mass: np.ndarray | None = None  #: (M⁻¹)_jj there: d_j's acceleration per N·m
+        #: per joint, how many readings were taken as a jump of the external torque
+        self.jump_count = np.zeros(n, dtype=int)
+        #: per joint, how many readings no external torque within the limit could explain (restarts)
+        self.restart_count = np.zeros(n, dtype=int)
+        #: per joint, the innovation's squared Mahalanobis distance, averaged (2 while readings agree)
+        self._distance_sq_average = np.full(n, innovation.UNPROVEN_DISTANCE_SQ)
+
+    def reset(self) -> None:
+        """Forget the state: the next reading starts the filter again (and the disturbance from 0)."""
+        self.x = None
+        self.time_s = None
+        self._mass = None
+        self._own_inverse_mass = None
+
+    @property
+    def joint_covariance(self) -> np.ndarray:
+        """Each joint's own covariance (n, m, m): the diagonal blocks of ``P``."""
+        n, m = self.joint_count, self.size
+        return self.P[(slice(None), *self._index.blocks)].reshape(n, m, m)
+
+    @property
+    def disturbance_state(self) -> list[float] | None:
+        """The observer's own state per joint (what :attr:`disturbance` is made of), or None."""
+        if not self.estimates_disturbance or self.x is None:
+            return None
+        return self.x[:, 2].tolist()
+
+    def set_disturbance_state(self, state: list[float]) -> None:
+        """Put ``state`` (a :attr:`disturbance_state`) in the observer's place, e.g. a held average."""
+        if self.estimates_disturbance and self.x is not None:
+            self.x[:, 2] = state
+
+    @property
+    def disturbance(self) -> np.ndarray:
+        """The estimated external torque on each joint, N·m: the one that gives the unexplained
+        accelerations, ``M(q)·α`` (0 without the observer or a state)."""
+        torque = self._disturbance_torque()
+        return np.zeros(self.joint_count) if torque is None else torque
+
+    def _disturbance_torque(self) -> np.ndarray | None:
+        """``M(q)·α``, ``α_j = d_j·(M⁻¹)_jj``, N·m (None without the observer or a state)."""
+        if not self.estimates_disturbance or self.x is None or self._mass is None:
+            return None
+        return self._mass @ (self._own_inverse_mass * self.x[:, 2])
+
+    def _set_mass(self, position: np.ndarray) -> None:
+        """The mass matrix and its inverse's diagonal at ``position``."""
+        self._mass = M = np.asarray(self.mass_matrix(np.asarray(position, float)), dtype=float)
+        self._own_inverse_mass = (1.0 / M if M.shape == (1, 1) else np.linalg.inv(M)).diagonal().copy()
+
+    def update(
+        self,
+        time_s: float,
+        position: np.ndarray,
+        velocity: np.ndarray,
+        torque: np.ndarray,
+        torque_change: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Take a reading; returns the filtered ``(position, velocity)``.
+
+        :param time_s: the reading's stamp, s
+        :param torque: N·m per joint, what acted since the last reading
+        :param torque_change: N·m per joint, how much the command changed about the start of
+            that span, when the instant it took effect is uncertain (``command_timing_uncertainty_s``)
+        """
+        n, m = self.joint_count, self.size
+        g, k = self._groups, self._per_group
+        observer = self.estimates_disturbance
+        z = np.empty((n, 2))  # the reading, per joint
+        z[:, 0], z[:, 1] = position, velocity
+        if self.x is None or self.time_s is None or not (0 < time_s - self.time_s < 1.0):
+            self.x = np.zeros((n, m))
+            self.P = np.zeros((g, k * m, k * m))
+            if observer:
+                self._set_mass(position)
+            self._start(np.ones(n, dtype=bool), z)
+            self.time_s = time_s
+            return position.copy(), velocity.copy()
+        dt = time_s - self.time_s
+        self.time_s = time_s
+        q, v = self.x[:, 0], self.x[:, 1]
+        F = self._transition(q, v, torque, dt)
+        sigma_d, sigma_a = self._noise_in_force()
+        config = self.config
+        timing_uncertain = (
+            torque_change is not None and config.command_timing_uncertainty_s > 0 and self.mass_matrix is not None
+        )
+        external = self._disturbance_torque()  # of the last estimate
+        q_pred, v_pred = self.predictor(q, v, torque, dt, max_step_s=config.model_step_s, external_nm=external)
+        if observer or timing_uncertain:
+            self._set_mass(q)
+            b = self._own_inverse_mass  # rad/s² per N·m on each joint's own axis
+        if observer:
+            Q = process_noise(config, dt, b, sigma_d, sigma_a)
+        else:
+            G = np.array([0.5 * dt * dt, dt])
+            Q = np.outer(G, G) * (sigma_a**2)[:, None, None]
+        if timing_uncertain:  # a velocity step of unknown size (the change acting sooner or later)
+            sigma_v = np.abs(torque_change) * config.command_timing_uncertainty_s * b
+            G = np.array([dt, 1.0])
+            Q[:, :2, :2] += np.outer(G, G) * (sigma_v**2)[:, None, None]
+        x_pred = self.x.copy()
+        x_pred[:, 0], x_pred[:, 1] = q_pred, v_pred
+        P_pred = np.matmul(np.matmul(F, self.P), F.transpose(0, 2, 1))
+        at = self._index
+        P_pred[(slice(None), *at.blocks)] += Q.reshape(g, *at.block_shape)  # each joint's own process noise
+        surprise = z - x_pred[:, :2]  # the innovation, per joint
+        S_joint = P_pred[(slice(None), *at.own_readings)].reshape(n, 2, 2) + self.R
+        S_inv = inverse_2x2(S_joint)
+        distance_sq = innovation.quadratic(surprise, S_inv, surprise)
+        jumped = np.zeros(n, dtype=bool)
+        if observer and config.jump_detection_sigma > 0:
+            step = np.empty((n, 2))  # the reading's change per N·m of a step
+            step[:, 0], step[:, 1] = 0.5 * b * dt * dt, b * dt
+            jumped = (self._distance_sq_average < innovation.MISMATCH_FROM) & innovation.looks_like_a_jump(
+                surprise, S_inv, distance_sq, step, config.jump_detection_sigma
+            )
+            if jumped.any():
+                self._allow_jumps(P_pred, jumped, b, dt)
+        self._distance_sq_average = innovation.updated_average(self._distance_sq_average, distance_sq, jumped, dt)
+        P_read = P_pred[:, at.read, :]  # (g, 2k, km)
+        if k == 1 and not jumped.any():  # S is each joint's own block, inverted above
+            K = np.matmul(S_inv, P_read).transpose(0, 2, 1)  # (g, m, 2)
+        else:
+            S = P_pred[(slice(None), *at.readings)] + self._R_all
+            K = (inverse_2x2(S) @ P_read if k == 1 else np.linalg.solve(S, P_read)).transpose(0, 2, 1)
+        gain = np.matmul(K, surprise.reshape(g, 2 * k, 1))[:, :, 0]
+        self.x = (x_pred.reshape(g, k * m) + gain).reshape(n, m)
+        P = P_pred - np.matmul(K, P_read)
+        self.P = 0.5 * (P + P.transpose(0, 2, 1))
+        if observer:
+            d, limit = self.x[:, 2], self.disturbance_limit
+            np.minimum(np.maximum(d, -limit), limit, out=d)
+            unexplainable = innovation.beyond_any_disturbance(surprise, S_joint, b * dt, self.disturbance_limit)
+            if unexplainable.any():
+                self._start(unexplainable, z)
+                self.restart_count += unexplainable
+        return self.x[:, 0].copy(), self.x[:, 1].copy()
+
+    def _transition(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> np.ndarray:
+        """The model linearised at ``(q, v)`` over ``dt`` (per group, km × km): one model step's slopes
+        (gravity's stiffness, the damping, the coupling) carried over the period's steps; ``d`` moves
+        its own joint as a torque there would."""
+        steps = step_count(dt, self.config.model_step_s)
+        h = dt / steps
+        F, at = self._F, self._index
+        if self._groups == 1:
+            slopes = self.jacobian(q, v, torque, h) if self.jacobian else step_slopes(self.predictor, q, v, torque, h)
+            F[0][at.model_slopes] = matrix_power(slopes, steps)  # [q; v] by [q; v]
+        else:
+            F[:, :2, :2] = np.linalg.matrix_power(own_step_slopes(self.predictor, q, v, torque, h), steps)
+        if self.estimates_disturbance:
+            b = np.zeros(self.joint_count) if self._own_inverse_mass is None else self._own_inverse_mass
+            g, k = self._groups, self._per_group
+            F[:, at.q, at.d] = (0.5 * b * dt * dt).reshape(g, k)
+            F[:, at.v, at.d] = (b * dt).reshape(g, k)
+        return F
+
+    def _start(self, joints: np.ndarray, z: np.ndarray) -> None:
+        """Start ``joints`` (bool per joint) afresh from the reading ``z`` (n, 2): ``d`` 0, no correlation
+        with the other joints, and no jump taken until the readings have agreed with the filter a while
+        (after a fault the first readings can be far from any model)."""
+        m, k = self.size, self._per_group
+        self.x[joints] = 0.0
+        self.x[joints, :2] = z[joints]
+        prior = np.zeros((m, m))
+        prior[:2, :2] = self.R
+        if self.estimates_disturbance:
+            prior[2, 2] = DISTURBANCE_PRIOR_STD_NM**2
+        for j in np.flatnonzero(joints):
+            group, first = divmod(j, k)
+            own = slice(first * m, (first + 1) * m)
+            self.P[group, own, :] = 0.0
+            self.P[group, :, own] = 0.0
+            self.P[group, own, own] = prior
+            if self.estimates_disturbance:
+                self.P[group, first * m + 2, first * m + 2] *= self._torque_scale[j] ** 2
+        self._distance_sq_average[joints] = innovation.UNPROVEN_DISTANCE_SQ
+
+    def _noise_in_force(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per joint, the σ in force this period (disturbance N·m/√s, acceleration rad/s²)."""
+        sigma_d, sigma_a = innovation.noise_in_force(self._distance_sq_average, self._agreeing_std, self._mismatch_std)
+        return sigma_d * self._torque_scale, sigma_a
+
+    def _allow_jumps(self, P_pred: np.ndarray, jumped: np.ndarray, b: np.ndarray, dt: float) -> None:
+        """Add to each ``jumped`` joint's predicted covariance that of a jump of its ``d`` at the start of
+        the period (σ DISTURBANCE_PRIOR_STD_NM): the surprise goes to the torque, not to noise."""
+        m, k = self.size, self._per_group
+        for j in np.flatnonzero(jumped):
+            G = np.array([0.5 * b[j] * dt * dt, b[j] * dt, 1.0])
+            jump_std = DISTURBANCE_PRIOR_STD_NM * self._torque_scale[j]
+            group, first = divmod(j, k)
+            P_pred[group, first * m : (first + 1) * m, first * m : (first + 1) * m] += jump_std**2 * np.outer(G, G)
+        self.jump_count += jumped
+
+    def predict(
+        self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The state ``horizon_s`` seconds ahead under the actuator's ``torque`` (N·m) and the
+        external torque as estimated now (a latency compensation, or a coast on the model)."""
+        q, v = np.array(position, dtype=float), np.array(velocity, dtype=float)
+        if horizon_s <= 0:
+            return q, v
+        step, external = self.config.model_step_s, self._disturbance_torque()
+        return self.predictor(q, v, torque, horizon_s, max_step_s=step, external_nm=external)
+
+    def velocity_at_instant(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        """The velocity (rad/s) at the instant of the state ``(position, velocity)`` under ``torque``
+        (N·m) and the estimated external torque: the mean of the velocity over the model step that
+        ended there (the state's own) and over the one that starts there (what a reference's
+        velocity at that instant compares with)."""
+        h = self.config.model_step_s
+        _, ahead = self.predictor(position, velocity, torque, h, max_step_s=h, external_nm=self._disturbance_torque())
+        return 0.5 * (velocity + ahead)

@@ -1,0 +1,92 @@
+"""The filter's arithmetic: its closed forms and process noise against the formulas they stand
+for, and one joint through agreement, a push, disagreement and a reading beyond any torque
+(no ROS)."""
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from robot_controller import resources
+from robot_controller.core.estimation import JointKalmanFilter, KalmanConfig, innovation, inverse_2x2, process_noise
+from robot_controller.core.estimation.kalman import matrix_power
+from robot_controller.core.model import ArmDynamics
+
+
+@pytest.mark.parametrize("size", [2, 4, 14])
+@pytest.mark.parametrize("k", range(1, 13))
+def test_matrix_power_is_numpys_bit_for_bit(size, k):
+    a = np.eye(size) + 0.01 * np.random.default_rng(size + k).standard_normal((size, size))
+    np.testing.assert_array_equal(matrix_power(a, k), np.linalg.matrix_power(a, k))
+
+
+def test_inverse_2x2_is_the_inverse():
+    rng = np.random.default_rng(0)
+    root = rng.standard_normal((50, 2, 2))
+    S = root @ root.transpose(0, 2, 1) + 1e-3 * np.eye(2)  # covariances, some badly conditioned
+    np.testing.assert_allclose(inverse_2x2(S), np.linalg.inv(S), rtol=1e-9, atol=0)
+    np.testing.assert_allclose(inverse_2x2(S[0]), np.linalg.inv(S[0]), rtol=1e-12)
+
+
+def test_process_noise_is_the_double_integrator_entry_by_entry():
+    """The templates' product against the formula written out for each entry."""
+    dt, b = 0.01, np.array([2.0, 30.0])
+    sigma_d, sigma_a = np.array([1e-4, 0.3]), np.array([5e-3, 2.0])
+    Q = process_noise(KalmanConfig(), dt, b, sigma_d, sigma_a)
+    a2, w = sigma_a**2, sigma_d**2
+    expected = np.zeros((2, 3, 3))
+    expected[:, 0, 0] = dt**4 / 4 * a2 + w * b * b * dt**5 / 20
+    expected[:, 0, 1] = expected[:, 1, 0] = dt**3 / 2 * a2 + w * b * b * dt**4 / 8
+    expected[:, 1, 1] = dt**2 * a2 + w * b * b * dt**3 / 3
+    expected[:, 0, 2] = expected[:, 2, 0] = w * b * dt**3 / 6
+    expected[:, 1, 2] = expected[:, 2, 1] = w * b * dt**2 / 2
+    expected[:, 2, 2] = w * dt
+    np.testing.assert_allclose(Q, expected, rtol=1e-13, atol=0)
+
+
+@given(st.lists(st.floats(min_value=0.0, max_value=10.0), min_size=3, max_size=3).map(np.array))
+def test_noise_in_force_while_agreeing_is_the_general_formula(average):
+    near, far = (1e-4, 5e-3), (0.3, 2.0)
+    w = np.clip((average - innovation.MISMATCH_FROM) / innovation.MISMATCH_SPAN, 0.0, 1.0)
+    variance = np.square(near) + w[:, None] * (np.square(far) - np.square(near))
+    for got, expected in zip(innovation.noise_in_force(average, near, far), variance.T, strict=True):
+        np.testing.assert_array_equal(got, np.sqrt(expected))
+
+
+@pytest.mark.parametrize("observer", [False, True])
+@pytest.mark.parametrize("timing_s", [0.0, 0.01])
+def test_one_joint_through_a_push_disagreement_and_a_restart(observer, timing_s):
+    """The estimate stays near the arm while it agrees with the model; with the observer a push
+    is taken as a jump and a reading beyond any torque restarts the filter."""
+    dynamics = ArmDynamics(resources.default_urdf())
+    kf = JointKalmanFilter(
+        KalmanConfig(command_timing_uncertainty_s=timing_s),
+        1,
+        dynamics.predict,
+        jacobian=dynamics.step_jacobian,
+        estimate_disturbance=observer,
+        mass_matrix=dynamics.mass_matrix,
+        disturbance_limit=np.array([10.0]),
+        torque_scale=np.array([1.5]),
+    )
+    rng = np.random.default_rng(5)
+    q, v, torque = np.zeros(1), np.zeros(1), np.zeros(1)
+    errors = []
+    for k in range(400):
+        push = 3.0 if 150 <= k < 250 else 0.0
+        q, v = dynamics.predict(q, v, torque, 0.01, 0.001, external_nm=np.array([push]))
+        if k == 320:
+            v = v + 40.0  # beyond any torque within the limit
+        reading = (q + rng.normal(0.0, 0.005, 1), v + rng.normal(0.0, 0.02, 1))
+        if 260 <= k < 300:
+            reading = (reading[0] + 0.05 * (k - 260) / 40, reading[1])  # readings the model does not explain
+        q_f, v_f = kf.update(0.01 * k, *reading, torque, np.abs(rng.normal(0.0, 1.0, 1)))
+        assert np.all(np.isfinite(q_f)) and np.all(np.isfinite(kf.velocity_at_instant(q_f, v_f, torque)))
+        if k < 150:
+            errors.append(q_f[0] - q[0])
+        torque = np.array([2.0 * np.sin(0.02 * k)])
+    assert np.sqrt(np.mean(np.square(errors[50:]))) < 0.005  # better than the readings' σ
+    if observer:
+        assert kf.jump_count[0] >= 1 and kf.restart_count[0] >= 1
+    else:
+        assert kf.jump_count[0] == 0 and kf.restart_count[0] == 0
