@@ -1,29 +1,21 @@
-"""graph_watch: an observer the launcher starts when it runs only part of the
-graph (``run --nodes``): it reports, on its standard output, which nodes the
-ROS graph shows, so the launcher can wait for the other side's nodes and
-notice when they leave.
-
-It creates no publisher or subscription of its own (it is nobody's audience:
-the publication gates never wait for it) and only reads the graph, which
-discovery fills in whatever the partition: the nodes of another run with the
-same names, on the same domain, would be taken for this run's (a split run
-wants a domain of its own, or at least no second split run beside it).
-
-Output: ``@graph {"nodes": [...]}`` with the root namespace's node names,
-sorted, whenever they change and at least every ``REPORT_PERIOD_S``.
+"""graph_watch: the observer the launcher starts when it runs part of the graph
+(``run --nodes``). It prints the root namespace's node names, sorted, as
+``@graph {"nodes": [...]}`` whenever they change and at least every
+``REPORT_PERIOD_S``, so the launcher can wait for the other side's nodes and
+notice when they leave. It has no publisher or subscription (no gate waits for
+it); the graph is not partitioned, so a split run wants a domain of its own.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import signal
-import threading
 import time
 
 import rclpy
 from rclpy.node import Node
-from rclpy.signals import SignalHandlerOptions
+
+from robot_controller.ros.process import own_context
 
 GRAPH_PREFIX = "@graph "
 NODE_NAME = "graph_watch"
@@ -47,11 +39,7 @@ def parse_line(line: str) -> list[str] | None:
 
 def main(argv: list[str] | None = None) -> int:
     argparse.ArgumentParser(prog=NODE_NAME).parse_args(None if argv is None else argv[1:])
-    stop = threading.Event()
-    context = rclpy.Context()
-    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+    context, stop = own_context()
     node = Node(NODE_NAME, context=context)
     last: list[str] | None = None
     next_report = 0.0

@@ -1,28 +1,16 @@
 """motor_node: the actuator. Each ``/joint_commands`` torque is saturated to
 ``±torque_max`` (and lagged, if set) and passed on as ``/sim/effort`` at once.
 
-A command stamped with its tick (``ros.command_stamp``; ours are) that arrives
-more than ``max_command_age_s`` after it is dropped: over a congested link
-commands come late and in bursts, and applying them closes the loop through a
-delay that swings the arm.
+A command stamped with its tick (``ros.stamps``) that arrives more than
+``max_command_age_s`` after it is dropped: a late command is no command. In
+lockstep a command's time is its tick (an unstamped one, from a controller not
+ours, runs on the wall clock, with a warning).
 
-In sim-time lockstep (``lockstep: true``) a command's time is the tick it is
-stamped with: no clock of its own, so the lag integrates over exact periods and
-the motor needs no ``/clock`` (an unstamped command, from a controller not ours,
-is applied on the wall clock, with a warning).
-
-Like a drive, it stops on its own when commands stop: no valid command for
-``command_timeout_s`` → zero torque and a brake request to the simulator
-(``/sim/brake``, category 0), until commands return: ``TIMELY_COMMANDS_TO_START``
-timely ones in a row (as before the first). ``/estop`` (latched
-until released) does the same.
-
-It also notes when each command reached it, so the loop's end-to-end latency
-(the stamp of the reading a command was computed from, on
-``/controller/state`` beside the same command, to the command's arrival
-here) can be scored from the recording. The receipts go out once a second as
-one ``/motor/command_receipts`` message, rows of ``[receipt_time_s,
-command…]``: a summary instead of a message per tick on the loop's path.
+Like a drive, it stops on its own: no valid command for ``command_timeout_s``, or
+``/estop``, gives zero torque and a brake request (``/sim/brake``, category 0),
+until ``TIMELY_COMMANDS_TO_START`` timely commands in a row (or the release). When
+each command arrived goes out once a second on ``/motor/command_receipts``, rows of
+``[receipt_time_s, command…]``, for the controller's latency guard and the scores.
 """
 
 from __future__ import annotations
@@ -35,15 +23,12 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.model import Actuator, effort_limits, joint_names, load_model
 from robot_controller.core.validation import check_effort
 from robot_controller.parameters.torque_limits import torque_limit
-from robot_controller.ros.command_stamp import command_tick_s
 from robot_controller.ros.process import run
-from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, loop_qos
 from robot_controller.ros.stack_node import StackNode
+from robot_controller.ros.stamps import command_tick_s
 
 RECEIPTS_PERIOD_S = 1.0
-
-
 # The motor's own pause up to this long (a machine-wide stall) is not counted as
 # silence of the controller; a longer one is (by then the controller has stopped too).
 MAX_EXCUSED_GAP_S = 0.2
@@ -57,11 +42,11 @@ class MotorNode(StackNode):
         super().__init__("motor_node")
         self.actuator = self._make_actuator(self.params)
         self.last_command_s: float | None = None
-        self.effort_pub = GatedPublisher(self, Float64MultiArray, "/sim/effort")
+        self.effort_pub = self.gated_publisher(Float64MultiArray, "/sim/effort")
         self.create_subscription(Float64MultiArray, "/joint_commands", self.command_callback, loop_qos(self.lockstep))
         self.watch_single_publisher("/joint_commands", "pid_controller")
         # Category 0 on lost commands or e-stop: zero torque and the simulator's brakes.
-        self.brake_pub = GatedPublisher(self, Bool, "/sim/brake", qos=LATCHED_QOS)
+        self.brake_pub = self.gated_publisher(Bool, "/sim/brake", qos=LATCHED_QOS)
         self.stopped_for: str | None = None  # "timeout" or "estop" while stopped
         self.estop = False
         self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
@@ -73,7 +58,7 @@ class MotorNode(StackNode):
         self.request_brake(False)  # the request's state is latched: a (re)started simulator learns it
         self.effort_msg = Float64MultiArray()
         self.receipts: list[float] = []  # flat rows of [receipt_time_s, command…]
-        self.receipts_pub = GatedPublisher(self, Float64MultiArray, "/motor/command_receipts", consumer=False)
+        self.receipts_pub = self.gated_publisher(Float64MultiArray, "/motor/command_receipts", consumer=False)
         self.create_timer(RECEIPTS_PERIOD_S, self.publish_receipts)
         self.get_logger().info(
             f"motor: torque limit ±{self.actuator.torque_max.tolist()} N·m, "
@@ -126,10 +111,7 @@ class MotorNode(StackNode):
             self.timely_run = 0
             return
         if not self.lockstep and (self.stopped_for == "timeout" or self.last_command_s is None):
-            # Stopped (or not started): only a steady stream of timely commands moves the arm. Over a
-            # congested link the odd one comes in time among late ones, from a controller whose
-            # reference had run on while the arm stood braked; one alone released the brakes and the
-            # arm leapt 1 rad toward that reference in 0.15 s.
+            # Stopped (or not started): only a steady stream of timely commands moves the arm.
             self.timely_run += 1
             if self.timely_run < TIMELY_COMMANDS_TO_START:
                 return

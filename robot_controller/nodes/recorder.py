@@ -1,24 +1,16 @@
-"""recorder: a rosbag2 recorder in a process of its own, below the loop.
+"""recorder: a rosbag2 recorder in a process of its own, below the loop (nice +10).
 
-Subscribes to the loop's topics without deserialising (rclpy ``raw=True``
-gives the CDR bytes) and writes them as they arrive to an MCAP bag with
-rosbags, the way ``ros2 bag record`` would, so Foxglove, PlotJuggler and
-``ros2 bag`` open it. It is an observer: the launcher starts it first, at
-normal policy and nice +10, and the nodes' publishers wait for it (so the bag
-holds every message they sent) but it never competes with the loop.
-
-In lockstep it publishes the tick it has taken on ``/recorder/clock``: the
-simulator holds the next tick while the recorder is a few sim seconds behind,
-so on a loaded machine the bag lags but never loses a message to a full queue.
+Subscribes to the loop's topics raw (CDR bytes) and writes them as they arrive to
+an MCAP bag with rosbags, as ``ros2 bag record`` would. The nodes' publishers wait
+for it, so the bag holds every message they sent. In lockstep it publishes the
+tick it has taken on ``/recorder/clock``, and the simulator holds while it lags.
 
 Talks to the launcher on stdout: ``@ready`` once subscribed, then every
-``PROGRESS_PERIOD_S`` a line ``@progress {json}`` with the counts per topic
-and, in lockstep, the latest ``/clock`` and when (monotonic) it was taken. It wakes every ``BATCH_PERIOD_S``
-and takes what arrived meanwhile, rather than waking for each message: a
-wake-up costs the machine tens of µs, which the loop needs more than the bag
-needs promptness. On SIGINT/SIGTERM it keeps
-recording until the topics have been quiet for ``DRAIN_QUIET_S`` (the
-nodes stop first), closes the bag and prints the final counts.
+``PROGRESS_PERIOD_S`` ``@progress {json}`` (counts per topic; in lockstep the
+latest ``/clock`` and when it was taken). It takes what arrived every
+``BATCH_PERIOD_S`` rather than waking per message. On SIGINT/SIGTERM it records
+until the topics are quiet for ``DRAIN_QUIET_S``, closes the bag and prints the
+final counts.
 
     python -m robot_controller.nodes.recorder BAG_DIR [--sim-time]
 """
@@ -27,10 +19,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import signal
 import struct
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -38,13 +28,12 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
-from robot_controller.ros.process import make_executor
+from robot_controller.ros.process import make_executor, own_context
 from robot_controller.ros.publishing import RECORDER_CLOCK_TOPIC, RECORDER_NODE
 from robot_controller.ros.qos import CLOCK_QOS
 
@@ -86,10 +75,8 @@ CHECKPOINT_PERIOD_S = 1.0
 # under a kilobyte, and a peer publishing million-element arrays must not fill the disk.
 MAX_MESSAGE_BYTES = 64 * 1024
 DRAIN_QUIET_S = 0.15
-# What the nodes sent before they stopped is in the readers' queues already; on a loaded machine
-# this process (nice +10) may need seconds to take it (a lockstep run stopped by Ctrl-C: the sim up
-# to 3 sim s, some 2,500 messages, ahead; at a run's end it holds for us): it keeps taking while
-# there is any, this long at most.
+# What the nodes sent before they stopped is in the readers' queues; on a loaded machine this process
+# may need seconds to take it: it keeps taking while there is any, this long at most.
 DRAIN_MAX_S = 15.0
 READY_LINE = "@ready"
 PROGRESS_PREFIX = "@progress "
@@ -209,11 +196,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("bag_dir", type=Path)
     parser.add_argument("--sim-time", action="store_true")
     args = parser.parse_args(None if argv is None else argv[1:])  # argv[0] is the program, as for rclpy
-    stop = threading.Event()
-    context = rclpy.Context()
-    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+    context, stop = own_context()
     recorder = Recorder(context, args.bag_dir, sim_time=args.sim_time)
     executor = make_executor(context)
     executor.add_node(recorder.node)

@@ -18,7 +18,6 @@ from robot_controller import parameters as cfg
 from robot_controller.core.model import DelayLine, measure
 from robot_controller.core.validation import check_joint_state
 from robot_controller.ros.process import run
-from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import loop_qos
 from robot_controller.ros.stack_node import StackNode
 from robot_controller.ros.stamps import s_to_stamp, stamp_to_s
@@ -40,7 +39,7 @@ class SensorNode(StackNode):
         self.period_s = 1.0 / self.params["rate_hz"]
         self.next_sample_s: float | None = None
         self.joint_names: list[str] | None = None
-        self.pub = GatedPublisher(self, JointState, "/joint_states")
+        self.pub = self.gated_publisher(JointState, "/joint_states")
         self.create_subscription(JointState, "/sim/joint_states", self.true_state_callback, loop_qos(self.lockstep))
         self.watch_single_publisher("/sim/joint_states", "simulator")
         self.out = JointState()

@@ -1,45 +1,23 @@
 """trajectory_planner: publishes the reference on ``/trajectory``.
 
-Each message is ``[positions…, velocities…, accelerations…, time_s]``, the
-layout labelled; ``time_s`` is when the sample was taken, so the controller
-evaluates it at its own tick without guessing the transport delay (the
-tutorial's controller reads only the first two values and is unaffected).
+Each message is ``[positions…, velocities…, accelerations…, time_s]``, labelled;
+``time_s`` is when the sample was taken, so the controller evaluates it at its own
+tick (the tutorial's controller reads only the first two values). Time starts when
+the first consumer is matched. Wall clock: a timer at ``publish_rate_hz``. Lockstep:
+the sample of each grid point is sent one tick early, when ``/clock`` shows that the
+next tick reaches it, so a tick never waits for the planner.
 
-Time starts when the first consumer is matched, so the controller sees the
-trajectory from its beginning. Wall clock: a timer at ``publish_rate_hz``.
-Lockstep: the sample of each ``1/publish_rate_hz`` grid point is sent one
-tick early, when ``/clock`` shows that the next tick reaches it (the
-controller holds it until its time, so a tick never waits for the planner).
-Shape changes apply live.
+Every trajectory, at start and on each parameter change, is checked against the
+arm model (the controller's: ``parameters.builders.arm_model``) and ``torque_max``
+less ``feasibility_margin`` (``core.reference``): ``feasibility: scale`` slows it
+until it fits, ``refuse`` refuses it, ``ignore`` only warns.
 
-Before it publishes, the planner checks that the arm can follow the
-trajectory (``core.feasibility``: the arm model's inverse dynamics along the
-path against ``torque_max`` less ``feasibility_margin``). ``feasibility:
-scale`` slows a path that does not fit in time until it does, with one
-warning naming the numbers and the factor; ``refuse`` refuses it (at start,
-or as a parameter change); ``ignore`` only warns. The same applies to every
-parameter change.
-
-The arm model is the controller's (``parameters.builders.arm_model``): the
-URDF's, or the ``model_*`` values over it. This node builds it from its own
-``urdf_path`` and ``model_*``, which ``run`` fills with the controller's
-(``runner.plan.with_controller_model``, e.g. from an ``identify`` overlay)
-and the check before start requires to be the controller's; that check
-(``parameters.consistency.trajectory_plan``, which the in-process loop runs
-too) plans on the same model, so every path slows a trajectory alike.
-
-Joint trajectories: a ``trajectory_msgs/JointTrajectory`` on
-``/trajectory_planner/joint_trajectory`` (as ros2_controllers'
-JointTrajectoryController takes it) replaces the motion. It is checked
-(``core.joint_trajectory``: the arm's joints, times, lengths, the URDF's
-position and velocity limits, the path between the points, the torque by the
-arm model, not slowed) and blended from the reference being published at
-that instant; its ``time_from_start`` counts from ``header.stamp`` if that is
-set and not past, else from receipt. One info line when it is taken, one
-warning with the reason when it is refused (the motion then goes on as it
-was). After its last point the planner holds it, until the next trajectory
-or a change of the shape parameters (``mode``, ``amplitude``…), which brings
-the parameters' motion back.
+A ``trajectory_msgs/JointTrajectory`` on ``/trajectory_planner/joint_trajectory``
+(as ros2_controllers' JointTrajectoryController takes it) is checked against the
+URDF's limits and the arm model, and blended from the reference in force; its
+``time_from_start`` counts from ``header.stamp`` if set and not past, else from
+receipt. After its last point it holds, until the next one or a change of the
+shape parameters brings the parameters' motion back.
 """
 
 from __future__ import annotations
@@ -69,7 +47,6 @@ from robot_controller.core.reference import (
 from robot_controller.parameters.builders import TRAJECTORY_SHAPE_KEYS, arm_model, model_overridden
 from robot_controller.parameters.torque_limits import torque_limit
 from robot_controller.ros.process import run
-from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import CONTROL_QOS, LATEST_QOS
 from robot_controller.ros.stack_node import StackNode
 from robot_controller.ros.stamps import stamp_to_s
@@ -88,7 +65,7 @@ class TrajectoryPlanner(StackNode):
         super().__init__("trajectory_planner")
         p = self.params
         self.trajectory = self._make(p)
-        self.pub = GatedPublisher(self, Float64MultiArray, "/trajectory")
+        self.pub = self.gated_publisher(Float64MultiArray, "/trajectory")
         self.start_s: float | None = None
         self.next_sample_s = 0.0
         self.waypoints: JointTrajectory | None = None  # a joint trajectory in force, if any

@@ -1,21 +1,12 @@
 """viewer: the live view of a run, in a browser, from a process of its own.
 
-An observer like the recorder: the launcher forks it (``run --view``), it
-runs at the observers' nice value on the CPUs the loop does not use, and no
-publisher waits for it. It listens best-effort with short queues, so a slow
-viewer loses samples instead of holding anyone up, and logs what it hears to
-rerun (``robot_controller.view``): the arm in 3-D posed by the TRUE angle,
-with the measured and reference angles as ghosts, and time series of
-position, tracking error, torque and loop timing, thinned to at most 50 Hz a
-series and 20 Hz a pose. The same data goes to ``--rrd`` (``DIR/view.rrd``)
-for replay.
-
-The publishers' gates treat any subscriber whose node is not in
-``publishing.OBSERVER_NODES`` as a consumer. Unless ``"viewer"`` is listed
-there, the viewer first listens only to telemetry (whose gates wait for the
-recorder alone), and subscribes to the loop's topics once the controller
-tracks (or has ticked for ``LOOP_TOPICS_AFTER_S``): by then every gate it
-could open early is open. Listed there, it subscribes to everything at once.
+An observer like the recorder (``run --view``): it runs at the observers' nice
+value, no publisher waits for it (``publishing.OBSERVER_NODES``), and it listens
+best effort with short queues, so a slow viewer loses samples instead of holding
+anyone up. It logs what it hears to rerun (``robot_controller.view``): the arm in
+3-D posed by the true angle, the measured and reference angles as ghosts, and
+time series of position, tracking error, torque and loop timing; the same data
+goes to ``--rrd`` for replay.
 
     python -m robot_controller.nodes.viewer --rrd DIR/view.rrd --port 9090 [--urdf FILE] [--control-rate HZ]
 """
@@ -36,17 +27,15 @@ import numpy as np
 
 from robot_controller.core.controller import state_layout
 from robot_controller.ros import scheduling
-from robot_controller.ros.publishing import OBSERVER_NODES
+from robot_controller.ros.publishing import VIEWER_NODE
+from robot_controller.ros.stamps import stamp_to_s
 from robot_controller.view import cdr
 
-VIEWER_NODE = "viewer"
 FLUSH_PERIOD_S = 0.1  # the browser's arm moves 10 times a second...
 SERIES_PERIOD_S = 0.2  # ...and its plots 5 times (each send costs CPU, per entity)
 FILE_PERIOD_S = 2.0  # view.rrd is written in chunks of 2 s
-LOOP_TOPICS_AFTER_S = 3.0  # subscribe to the loop's topics this long after the first tick, tracking or not
 QUEUE_DEPTH = 50
 READY_PREFIX = "live view at "
-SUBSCRIBE_STATUSES = {state_layout.STATUS_CODES["ok"], state_layout.STATUS_CODES["reacquiring"]}
 
 
 def _lower_priority() -> None:
@@ -75,6 +64,7 @@ class Viewer:
     def __init__(self, context, joint_names: list[str]) -> None:
         from diagnostic_msgs.msg import DiagnosticArray
         from rclpy.node import Node
+        from sensor_msgs.msg import JointState
         from std_msgs.msg import Float64MultiArray
 
         self.feed = None  #: set before the first spin
@@ -82,30 +72,13 @@ class Viewer:
         self.n = len(self.joints)
         self.node = Node(VIEWER_NODE, context=context, start_parameter_services=False)
         self.qos = _observer_qos()
-        self.first_tick: float | None = None
-        self.tracking = False
-        self.loop_subscribed = False
         self.order: list[int] | None = None  #: indices of the stack's joints in the JointState names
         self.node.create_subscription(Float64MultiArray, "/controller/state", self._state, self.qos, raw=True)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._diagnostics, self.qos)
         self.node.create_subscription(Float64MultiArray, "/motor/command_receipts", self._receipts, self.qos, raw=True)
-        if VIEWER_NODE in OBSERVER_NODES:  # no gate takes the viewer for a consumer: listen to all at once
-            self.subscribe_loop()
-
-    def subscribe_loop_when_due(self) -> None:
-        if self.loop_subscribed or self.first_tick is None:
-            return
-        if self.tracking or time.monotonic() - self.first_tick >= LOOP_TOPICS_AFTER_S:
-            self.subscribe_loop()
-
-    def subscribe_loop(self) -> None:
-        from sensor_msgs.msg import JointState
-        from std_msgs.msg import Float64MultiArray
-
         self.node.create_subscription(JointState, "/sim/joint_states", self._true, self.qos, raw=True)
         self.node.create_subscription(JointState, "/joint_states", self._measured, self.qos, raw=True)
         self.node.create_subscription(Float64MultiArray, "/trajectory", self._planned, self.qos, raw=True)
-        self.loop_subscribed = True
 
     # -- callbacks: each only reads the numbers out; the feed does the work at each flush --
     # (raw CDR, read by ``view.cdr``: a message the parser cannot read is dropped)
@@ -148,13 +121,8 @@ class Viewer:
     def _state(self, data: bytes) -> None:
         values = self._array(data)
         values = None if values is None else state_layout.standard(values, self.n)  # a law's extra terms: not drawn
-        if values is None:
-            return
-        if self.first_tick is None:
-            self.first_tick = time.monotonic()
-        if int(values[1]) in SUBSCRIBE_STATUSES:
-            self.tracking = True
-        self.feed.controller_state(values)
+        if values is not None:
+            self.feed.controller_state(values)
 
     def _planned(self, data: bytes) -> None:
         values, n = self._array(data), self.n
@@ -170,16 +138,12 @@ class Viewer:
         if values is not None:
             self.feed.receipts(values)
 
-    @staticmethod
-    def _stamp(msg) -> float:
-        return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-
     def _diagnostics(self, msg) -> None:
         for status in msg.status:
             for kv in status.values:
                 if kv.key == "jitter_p99_ms":
                     try:
-                        self.feed.diagnostics(self._stamp(msg), float(kv.value))
+                        self.feed.diagnostics(stamp_to_s(msg.header.stamp), float(kv.value))
                     except ValueError:
                         pass
 
@@ -213,14 +177,14 @@ def main(argv: list[str] | None = None) -> int:
 
     from robot_controller import resources
     from robot_controller.ros.process import make_executor
-    from robot_controller.view import arm as arm_view
     from robot_controller.view import layout
     from robot_controller.view import serve as serving
     from robot_controller.view.feed import Outlet, ViewFeed
     from robot_controller.view.from_bag import stack_joint_order
+    from robot_controller.view.urdf_arm import load_arm
 
     urdf = resources.resolve_urdf(args.urdf)
-    arm = arm_view.load_arm(urdf, stack_joint_order(urdf))
+    arm = load_arm(urdf, stack_joint_order(urdf))
     # Listening first (what arrives waits in the readers' short queues), then rerun and its servers.
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
@@ -253,7 +217,6 @@ def main(argv: list[str] | None = None) -> int:
             now = time.monotonic()
             if now >= next_flush:
                 next_flush = max(next_flush + FLUSH_PERIOD_S, now)
-                viewer.subscribe_loop_when_due()
                 feed.flush(now)
     finally:
         executor.shutdown(timeout_sec=1.0)

@@ -1,52 +1,19 @@
 """Who may speak on the loop's topics: each run talks in a DDS partition of its own.
 
-A ROS 2 subscriber takes messages from any publisher on its topic, and rclpy
-(Jazzy) says nothing of who sent a message, so a stray or hostile peer on the
-same domain (a second stack, a test publisher, a 5 kHz flood) used to be
-obeyed. Fast DDS can put each reader and writer in named partitions (the
-``partitions`` endpoint property, set per topic through an XML profile whose
-name is the topic's): a writer and a reader match only when they share one.
-The launcher writes a profile that puts every loop topic of its run in a
-partition named for that run and hands it to every process it starts, so:
+rclpy says nothing of who sent a message, so the launcher writes a Fast DDS XML
+profile that puts every loop topic of its run in a partition named for the run
+(a writer and a reader match only when they share one) and hands it to every
+process it starts. A foreign publisher is never matched (the graph still lists
+it, and the consumer names it in a warning); ``/estop``, ``/rosout`` and the
+parameter services stay open. This is isolation, not security: partition names
+travel in clear in discovery. An observer that hears every run uses
+``write_observer_profile``.
 
-- the run's processes hear each other as before, and nothing else: a foreign
-  publisher is never matched, so its messages never reach the loop (nor its
-  CPU: a flood is not even sent to the run's readers);
-- the graph still lists the foreign publisher (discovery is not partitioned),
-  and the consumer names it in a warning;
-- ``/estop``, ``/rosout``, parameter services stay open: anyone may stop the
-  arm or change a parameter (which is checked as a whole configuration).
-
-This is isolation, not security: partition names travel in clear in
-discovery, and a peer that copies one is heard. Authentication needs
-DDS-Security, which the PyPI Fast DDS is built without.
-
-An observer that should hear every run (the tests' probe, a viewer) uses
-``write_observer_profile``: it reads from and writes into the default
-partition and every named one.
-
-**Across hosts** (``run --peers``, docs/design.md §6 "Across hosts"): each
-launcher of a split run derives the partition from the run's name
-(:func:`run_partition`), so both sides meet in one partition without
-exchanging anything, and the profile (:func:`write_run_profile` with
-``peers``) makes the participants speak UDPv4 only, and discover by unicast:
-
-- the builtin transports are disabled (``<useBuiltinTransports>false``) and
-  one UDPv4 transport is declared (``<transport_descriptors>`` and
-  ``<userTransports>``): Fast DDS would otherwise use shared memory between
-  participants it believes share a host, and two network namespaces of one
-  machine do share ``/dev/shm``, so a "remote" link would silently bypass
-  the network under test. Data-sharing delivery is switched off on every
-  loop topic's reader and writer for the same reason;
-- the peers' addresses are the participant's ``initialPeersList`` (without a
-  port: Fast DDS tries the discovery ports of participant ids 0 to
-  ``maxInitialPeersRange`` − 1, 12: one launcher's processes and a few tools),
-  and the participants announce themselves every 3 s once started, not every
-  0.5 s: each announcement goes to all those ports of every peer, and at 32
-  ports and 0.5 s discovery was most of what crossed the link. With ``ROS_AUTOMATIC_DISCOVERY_RANGE=
-  LOCALHOST`` (the launcher sets it) rmw_fastrtps clears the multicast
-  locators and adds 127.0.0.1 to the peers: no multicast at all, discovery
-  goes only to this host and the named peers.
+Across hosts (``run --peers``, docs/design.md §6) each launcher derives the
+partition from the run's name (:func:`run_partition`), and the profile makes the
+participants speak UDPv4 only (no shared memory, no data sharing: two network
+namespaces of one machine share ``/dev/shm``) and discover by unicast from their
+``initialPeersList``, announcing every ``SPLIT_ANNOUNCEMENT_PERIOD_S``.
 """
 
 from __future__ import annotations
@@ -92,11 +59,9 @@ _EVERY_PARTITION_READER = ";*"
 _EVERY_PARTITION_WRITER = ";*"
 
 
-# Participant ids whose discovery ports an initial peer is sent to, on every announcement, found or not.
-# Two participants meet when either one's id is below it (the other hears it and answers at once), so it
-# need only cover one side: a launcher's own processes (the recorder, its nodes, a watcher: 6 at most) and
-# a few tools. Each port costs: at 32, one participant's announcement was a 14 KB burst of 32 datagrams,
-# more than a 2 Mbit/s link queues in 50 ms (docs/network.md, "What crosses the link").
+# Participant ids whose discovery ports an initial peer is sent to, on every announcement. Two participants
+# meet when either one's id is below it, so it covers one side: a launcher's processes and a few tools.
+# Each port costs a datagram per announcement (docs/network.md, "What crosses the link").
 MAX_INITIAL_PEERS_RANGE = 12
 #: With ``--peers``: the participants' periodic announcement (Fast DDS's default; the lease is 20 s).
 SPLIT_ANNOUNCEMENT_PERIOD_S = 3.0
@@ -179,19 +144,22 @@ def _write(
     return path
 
 
-def _child(parent: ET.Element, tag: str) -> ET.Element:
-    """``parent``'s ``tag`` element, made if missing."""
+def _child(parent: ET.Element, tag: str, *, first: bool = False) -> ET.Element:
+    """``parent``'s ``tag`` element, made if missing (``first``: made as its first child, as the schema orders it)."""
     found = parent.find(f"{{{_NS}}}{tag}")
-    return found if found is not None else ET.SubElement(parent, f"{{{_NS}}}{tag}")
+    if found is not None:
+        return found
+    if not first:
+        return ET.SubElement(parent, f"{{{_NS}}}{tag}")
+    made = ET.Element(f"{{{_NS}}}{tag}")
+    parent.insert(0, made)
+    return made
 
 
 def _udp_only(root: ET.Element, peers: list[str]) -> None:
     """One UDPv4 transport and no builtin ones (so no shared memory) on the default
     participant profile, with ``peers`` as its initial peers."""
-    descriptors = root.find(f"{{{_NS}}}transport_descriptors")
-    if descriptors is None:
-        descriptors = ET.Element(f"{{{_NS}}}transport_descriptors")
-        root.insert(0, descriptors)  # the schema wants the descriptors before the profiles that name them
+    descriptors = _child(root, "transport_descriptors", first=True)
     descriptor = ET.SubElement(descriptors, f"{{{_NS}}}transport_descriptor")
     ET.SubElement(descriptor, f"{{{_NS}}}transport_id").text = UDP_TRANSPORT_ID
     ET.SubElement(descriptor, f"{{{_NS}}}type").text = "UDPv4"
@@ -224,20 +192,10 @@ def _udp_only(root: ET.Element, peers: list[str]) -> None:
 
 
 def _slow_announcements(builtin: ET.Element) -> None:
-    """Periodic participant announcements every :data:`SPLIT_ANNOUNCEMENT_PERIOD_S` instead of the base's 0.5 s.
-
-    Each announcement goes to every initial peer's ``maxInitialPeersRange`` discovery ports, discovered or not:
-    at 0.5 s the robot host's six participants sent 6 × 2/s × 32 ports of ~400 B, 1.2 Mbit/s of discovery
-    across the link, two thirds of what it carried (docs/network.md, "What crosses the link"). The fast
-    initial announcements stay; a participant that discovers a new one answers it at once (Fast DDS sends
-    its announcement to a newly matched participant), so a late launcher is still seen in under a second."""
-    discovery = builtin.find(f"{{{_NS}}}discovery_config")
-    if discovery is None:
-        discovery = ET.Element(f"{{{_NS}}}discovery_config")
-        builtin.insert(0, discovery)  # the schema's order: <discovery_config> first in <builtin>
-    period = discovery.find(f"{{{_NS}}}leaseAnnouncement")
-    if period is None:
-        period = ET.SubElement(discovery, f"{{{_NS}}}leaseAnnouncement")
+    """Periodic participant announcements every :data:`SPLIT_ANNOUNCEMENT_PERIOD_S` instead of the base's 0.5 s:
+    each goes to every initial peer's discovery ports. The fast initial announcements stay, and a participant
+    answers a newly discovered one at once, so a late launcher is still seen in under a second."""
+    period = _child(_child(builtin, "discovery_config", first=True), "leaseAnnouncement")
     for child in list(period):
         period.remove(child)
     ET.SubElement(period, f"{{{_NS}}}sec").text = str(int(SPLIT_ANNOUNCEMENT_PERIOD_S))
@@ -246,17 +204,10 @@ def _slow_announcements(builtin: ET.Element) -> None:
 
 def _no_data_sharing(profile: ET.Element) -> None:
     """Data-sharing delivery off: like shared memory, it would bypass the network between namespaces."""
-    kind = _child(_child(_child(profile, "qos"), "data_sharing"), "kind")
-    kind.text = "OFF"
+    _child(_child(_child(profile, "qos"), "data_sharing"), "kind").text = "OFF"
 
 
 def _set_property(profile: ET.Element, name: str, value: str) -> None:
-    policy = profile.find(f"{{{_NS}}}propertiesPolicy")
-    if policy is None:
-        policy = ET.SubElement(profile, f"{{{_NS}}}propertiesPolicy")
-    properties = policy.find(f"{{{_NS}}}properties")
-    if properties is None:
-        properties = ET.SubElement(policy, f"{{{_NS}}}properties")
-    prop = ET.SubElement(properties, f"{{{_NS}}}property")
+    prop = ET.SubElement(_child(_child(profile, "propertiesPolicy"), "properties"), f"{{{_NS}}}property")
     ET.SubElement(prop, f"{{{_NS}}}name").text = name
     ET.SubElement(prop, f"{{{_NS}}}value").text = value

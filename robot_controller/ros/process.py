@@ -62,10 +62,8 @@ def exit_after_cleanup_timeout(code_ref: list[int]) -> threading.Timer:
     timer = threading.Timer(CLEANUP_TIMEOUT_S, lambda: os._exit(code_ref[0]))
     timer.daemon = True
     timer.start()
-    # The timer needs the GIL; a call stuck in C that holds it (seen in a DDS
-    # teardown) would stop it. faulthandler's watchdog is a C thread: it
-    # prints where every thread is stuck, then exits (code 1): the node's
-    # last words (gates, acknowledgements, counts) never came.
+    # The timer needs the GIL; faulthandler's watchdog, a C thread, does not: it prints where
+    # every thread is stuck, then exits (code 1): the node's last words never came.
     faulthandler.dump_traceback_later(CLEANUP_TIMEOUT_S + 1.0, exit=True)
     return timer
 
@@ -92,10 +90,8 @@ def shutting_down(within_s: float = 0.5) -> bool:
 
 
 def make_executor(context: rclpy.Context | None = None) -> Executor:
-    """rclpy's EventsExecutor: it waits on events instead of rebuilding a wait
-    set for every callback, which more than doubles the lockstep speed against
-    the SingleThreadedExecutor. ``ROBOT_CONTROLLER_EXECUTOR=single`` picks the
-    SingleThreadedExecutor instead."""
+    """rclpy's EventsExecutor (it waits on events instead of rebuilding a wait set for every
+    callback); ``ROBOT_CONTROLLER_EXECUTOR=single`` picks the SingleThreadedExecutor."""
     if os.environ.get("ROBOT_CONTROLLER_EXECUTOR", "events") == "events":
         from rclpy.experimental import EventsExecutor
 
@@ -107,15 +103,21 @@ _stop_requested = threading.Event()
 
 
 def init_with_own_signals(args: list[str] | None) -> None:
-    """rclpy.init, with SIGINT/SIGTERM only asking the spin loop to stop.
-
-    rclpy's own handling raises KeyboardInterrupt wherever Python happens to
-    be, inside a callback as often as not; here a signal ends the loop
-    between callbacks and cleanup runs in order.
-    """
+    """rclpy.init, with SIGINT/SIGTERM only asking the spin loop to stop (between callbacks,
+    not as a KeyboardInterrupt inside one), so that cleanup runs in order."""
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: _stop_requested.set())
+
+
+def own_context() -> tuple[rclpy.Context, threading.Event]:
+    """An observer's (recorder, graph watch) own context, its SIGINT and SIGTERM setting the event returned."""
+    stop = threading.Event()
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    return context, stop
 
 
 def spin(executor: Executor) -> None:

@@ -27,10 +27,8 @@ CONTROL_QOS = _reliable_keep_last(1000)
 # torques when it resumes (lockstep readers use LOCKSTEP_QOS below).
 LATEST_QOS = _reliable_keep_last(1)
 
-# The same, best effort: a lost sample is not repaired. Across a lossy link (docs/network.md)
-# a reliable keep-last-1 reader waits for the repair of a sample the next one has already
-# made stale: at 5 % loss each way it delivered 79 % of a 100 Hz topic with gaps up to 218 ms,
-# best effort 90 % with gaps up to 71 ms. A reliable writer serves a best-effort reader.
+# The same, best effort: across a lossy link a lost sample is not waited for (the next one
+# has already made it stale). A reliable writer serves a best-effort reader.
 LATEST_BEST_EFFORT_QOS = QoSProfile(
     reliability=ReliabilityPolicy.BEST_EFFORT,
     durability=DurabilityPolicy.VOLATILE,
@@ -40,8 +38,7 @@ LATEST_BEST_EFFORT_QOS = QoSProfile(
 
 
 # Lockstep: every message is a tick's and is taken in order, none is stale. The planner sends
-# each sample a tick early, so two can be in flight to the controller: a history of one would
-# let the later replace the earlier before the controller took it (a run then differs from the next).
+# each sample a tick early, so two can be in flight to the controller: all are kept.
 LOCKSTEP_QOS = _reliable_keep_last(100)
 
 

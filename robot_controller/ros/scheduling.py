@@ -1,22 +1,11 @@
 """Where and how urgently each process of the loop runs.
 
-The kernel throttles real-time (SCHED_FIFO) tasks that use more than
-``sched_rt_runtime_us`` (95 %) of a CPU in a second: it then freezes ALL of
-them for the rest of that second. With every node SCHED_FIFO, that freezes the
-whole loop for 50–70 ms a few times a minute. So by default no process is
-real-time:
-
-- the loop's nodes run at normal policy with a raised priority (nice −10),
-  the planner a little lower, and observers (recorder) at nice +10, so on a
-  busy machine the loop wins without being able to freeze it;
-- one thread alone, the simulator's pacing thread (it is the loop's
-  hardware clock, docs/design.md §5), may run SCHED_FIFO, and only with a budget:
-  ``RLIMIT_RTTIME`` makes the kernel signal it after ``RT_BUDGET_US`` of CPU
-  without sleeping, and the handler drops it back to normal policy. It sleeps
-  between deadlines and uses about 3 % of a core, far from the throttling
-  limit.
-
-``--realtime`` asks for that FIFO thread; nothing else is ever real-time.
+No process is real-time (the kernel freezes every SCHED_FIFO task for the rest of
+a second once they use ``sched_rt_runtime_us`` of it): the loop's nodes run at
+nice −10, the planner a little lower, observers at +10. With ``--realtime`` one
+thread alone, the simulator's pacing thread (docs/design.md §5), runs SCHED_FIFO
+with a budget: ``RLIMIT_RTTIME`` signals it after ``RT_BUDGET_US`` of CPU without
+sleeping, and the handler drops it back to normal policy.
 """
 
 from __future__ import annotations
@@ -42,19 +31,14 @@ NICE = {
     "recorder": OBSERVER_NICE,
 }
 
-# Sim-time lockstep: nothing is urgent, but a tick is a chain (simulator → sensor →
-# controller → motor → simulator) and any process that wakes beside it on two cores
-# slows it. The planner sends each sample a tick ahead and the recorder takes its
-# messages in batches, so neither is on the chain: both yield to it (by their
-# scheduling group's nice, see apply_in_child). Measured on 2 cores: about 20 % more ticks a second.
+# Sim-time lockstep: a tick is a chain (simulator → sensor → controller → motor → simulator);
+# the planner and recorder are off it and yield to it (by their scheduling group's nice).
 LOCKSTEP_NICE = {"trajectory_planner": 5, "recorder": 10}
 
 #: SCHED_FIFO priority of the simulator's pacing thread under ``--realtime``.
 PACING_RT_PRIORITY = 30
-#: CPU time (µs) the FIFO thread may use without blocking before it is demoted.
-#: The kernel counts it in scheduler ticks (4 ms here); measured, a 20 ms
-#: budget tripped within seconds of normal pacing, 200 ms never in minutes.
-#: Still far below the 950 ms a second after which the kernel throttles.
+#: CPU time (µs) the FIFO thread may use without blocking before it is demoted: far over
+#: a pacing period (the kernel counts in scheduler ticks), far below the kernel's throttle.
 RT_BUDGET_US = 200_000
 #: Environment variable the launcher sets to ask for the FIFO pacing thread.
 PACING_RT_ENV = "ROBOT_CONTROLLER_PACING_RT_PRIORITY"
@@ -94,18 +78,11 @@ def placement(process_name: str, wall_clock: bool = True) -> Placement:
 
 
 def apply_in_child(place: Placement) -> None:
-    """Runs in a child between fork and exec: set its nice value (best effort;
-    an unprivileged user cannot go below 0 and keeps the default).
+    """Runs in a child between fork and exec: set its nice value, best effort.
 
-    Each child starts a session of its own (``setsid``), and with the kernel's
-    autogroup scheduling on, a session is a scheduling group whose members'
-    nice values rank them only against each other: the group's own nice
-    (``/proc/self/autogroup``) is what ranks it against the other processes'
-    groups. The loop's nodes (negative nice) raise their group's the same
-    way. On the wall clock the recorder's group stays at 0: lowered to +10
-    across groups, it fell behind at the end of a run and lost the last
-    message in half the runs tried (it took each message as it came then;
-    in lockstep, lowered, it takes them in batches and has kept up)."""
+    Each child is a session of its own, and with autogroup scheduling a session's
+    group nice (``/proc/self/autogroup``) ranks it against the other groups: set
+    too, except for a wall-clock recorder, whose group stays at 0."""
     try:
         os.setpriority(os.PRIO_PROCESS, 0, place.nice)
     except OSError:

@@ -1,8 +1,6 @@
-"""The node every stack node is: its parameters declared from the schema (with
-descriptions and limits), each change validated as a whole before it is
-accepted (whatever the check raises becomes a refusal with its reason),
-rate-limited warnings, a watch on who else publishes its inputs, and the
-gated publishers it owns (``publishing``)."""
+"""The node every stack node is: its parameters declared from the schema, each change
+validated as a whole before it is accepted, rate-limited warnings, a watch on who
+else publishes its inputs, and the gated publishers it owns (``publishing``)."""
 
 from __future__ import annotations
 
@@ -19,12 +17,11 @@ from rclpy.parameter import Parameter
 from robot_controller import parameters as cfg
 from robot_controller.core.errors import ConfigError
 from robot_controller.ros.partition import PARTITION_ENV
-from robot_controller.ros.publishing import GatedPublisher, publish_counts, write_publish_counts
+from robot_controller.ros.publishing import GatedPublisher, write_publish_counts
 
 WARN_PERIOD_S = 2.0
-# At the end, how long a node waits for its last messages to be acknowledged (within the
-# cleanup's own limit, ros.process.CLEANUP_TIMEOUT_S): a heartbeat period or two, normally; seconds
-# when the recorder (nice +10) is starved on a loaded machine (0.5 s lost the bags' last second then).
+# At the end, how long a node waits for its last messages to be acknowledged (within the cleanup's
+# own limit, ros.process.CLEANUP_TIMEOUT_S): seconds, for a recorder starved on a loaded machine.
 ACK_WAIT_S = 3.0
 PUBLISHER_CHECK_PERIOD_S = 1.0
 UNKNOWN_NODE_NAME = "_NODE_NAME_UNKNOWN_"  # what rmw reports for a writer of no known node
@@ -32,12 +29,8 @@ UNKNOWN_NODE_NAME = "_NODE_NAME_UNKNOWN_"  # what rmw reports for a writer of no
 
 class StackNode(Node):
     """A node whose parameters are those of ``parameters.SCHEMA[schema_name]`` (and
-    :meth:`more_specs`'s).
-
-    Subclasses implement :meth:`setup` (what the checks need to know, from the
-    read-only parameters), :meth:`check_params` (refuse a combination, raising
-    ``ConfigError``) and :meth:`apply_params` (take new values while running).
-    """
+    :meth:`more_specs`'s); subclasses implement :meth:`setup`, :meth:`check_params`
+    and :meth:`apply_params`."""
 
     def __init__(self, schema_name: str, **kwargs: Any) -> None:
         super().__init__(schema_name, **kwargs)
@@ -150,9 +143,12 @@ class StackNode(Node):
 
     # --- gated publishers ---------------------------------------------------
 
-    def keep_gated_publisher(self, gated: GatedPublisher) -> None:
-        """Keep a gate this node owns (``GatedPublisher`` calls it), for its count."""
+    def gated_publisher(self, msg_type: Any, topic: str, *, consumer: bool = True, qos: Any = None) -> GatedPublisher:
+        """A publisher that holds its messages until its audience has matched (``ros.publishing``);
+        the node counts what it publishes."""
+        gated = GatedPublisher(self, msg_type, topic, lockstep=self.lockstep, consumer=consumer, qos=qos)
         self._gated_publishers.append(gated)
+        return gated
 
     def wait_until_acknowledged(self, timeout_s: float = ACK_WAIT_S) -> None:
         """Wait (at most ``timeout_s`` in all) until the readers, the recorder's above all,
@@ -171,7 +167,7 @@ class StackNode(Node):
 
     def write_publish_counts(self) -> None:
         """Write how many messages the node's gates published, per topic, for the launcher."""
-        write_publish_counts(self.schema_name, publish_counts(self._gated_publishers))
+        write_publish_counts(self.schema_name, self._gated_publishers)
 
     # --- helpers ------------------------------------------------------------
 
@@ -183,17 +179,9 @@ class StackNode(Node):
             return handle.get_now().nanoseconds * 1e-9
 
     def watch_single_publisher(self, topic: str, expected: str) -> None:
-        """Warn, naming them, whenever ``topic`` has publishers besides the node ``expected``.
-
-        rclpy (Jazzy) gives no publisher identity with a message, so a node
-        cannot drop another publisher's messages itself. When the launcher
-        started it, the run's loop topics are in a DDS partition of their own
-        (``ros.partition``) and a publisher from outside the run is never
-        heard; the warning says so. A node started by hand is in the default
-        partition: there it hears every publisher, and the warning says that.
-        Plausibility checks (stamps, sizes, finiteness, effort limits) apply to
-        every message either way.
-        """
+        """Warn, naming them, whenever ``topic`` has publishers besides the node ``expected``
+        (rclpy gives no publisher identity with a message: the run's partition, ``ros.partition``,
+        keeps outsiders out; a node started by hand hears every publisher)."""
         if not hasattr(self, "_watched_topics"):
             self._watched_topics: dict[str, str] = {}
             self.create_timer(
@@ -217,7 +205,7 @@ class StackNode(Node):
             others = [f"{name} (a second one)" if name == expected else name for name in others]
             if partition:
                 consequence = (
-                    f"not heard if started outside this run (its loop topics are in DDS partition " f"{partition})"
+                    f"not heard if started outside this run (its loop topics are in DDS partition {partition})"
                 )
             else:
                 consequence = "obeyed like it: this node is not in a run's partition, so it hears every publisher"

@@ -1,63 +1,43 @@
-"""pid_controller: the control law at ``control_rate_hz``.
+"""The controller node: the inputs, the two triggers, the tick and its published torque.
 
-Reads ``/joint_states`` (noisy) and ``/trajectory``, publishes one torque
-per joint on ``/joint_commands``, every term on ``/controller/state`` and its
-own loop health (period jitter, missed cycles, sensor-stamp-to-command
-latency) on ``/diagnostics``. The maths is ``core.controller.JointController``;
-this node only converts messages and parameters. The name stays
-``pid_controller`` for the tutorial's sake whatever law ``controller_type``
-selects.
-
-Wall clock: a timer ticks at the control rate (``trigger: timer``), or each
-new reading does (``trigger: measurement``, with the timer left to run the
-watchdog when readings stop). Lockstep: each measurement is a tick, computed
-once the reference sample due by then has arrived.
-
-The node is assembled from one module per concern: ``lockstep`` (readings
-paired with ticks), ``health`` (the command path's delay, lateness,
-``/diagnostics``) and ``status`` (the law in force, state changes, a failed
-law, ``/controller/state``); every decision about torque is in the core.
+Wall clock: a timer ticks at the control rate (``trigger: timer``), or each new reading
+does (``trigger: measurement``, the timer left to run the watchdog when readings stop).
+Lockstep: each reading is a tick, paired with its ``/clock`` (``lockstep``). Its parts:
+``lockstep`` (pairing), ``timing`` (delay, lateness, ``/diagnostics``) and ``status``
+(the law in force, state changes, ``/controller/state``); every decision about torque
+is in the core.
 """
 
 from __future__ import annotations
 
 import time
-from collections import deque
 from typing import Any
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
+from std_msgs.msg import Bool, Float64MultiArray
 
 from robot_controller import parameters as cfg
-from robot_controller.core.controller import state_layout
-from robot_controller.core.controller.controller import JointController, Status, law_config
+from robot_controller.core.controller import JointController, Status, law_config
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters as law_parameters
 from robot_controller.core.laws import registry
 from robot_controller.core.validation import check_joint_state, check_trajectory
-from robot_controller.nodes.pid_controller.health import LoopHealth
 from robot_controller.nodes.pid_controller.lockstep import LockstepPairing
 from robot_controller.nodes.pid_controller.status import StatusReports
+from robot_controller.nodes.pid_controller.timing import LoopTiming
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model, model_overridden
-from robot_controller.ros.command_stamp import stamp_command
 from robot_controller.ros.process import run
-from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import ESTOP_QOS, LATEST_QOS, loop_qos
 from robot_controller.ros.stack_node import StackNode
-from robot_controller.ros.stamps import stamp_to_s
+from robot_controller.ros.stamps import stamp_command, stamp_to_s
 
-# Commands remembered with their tick time, to pair with the drive's receipts (a second's worth and more).
-ISSUED_KEPT = 400
-# The receipts come once a second, each message a second's rows: keep a few, never a backlog.
-COMMAND_RECEIPTS_QOS = 5
 # Readings naming other joints for this long, none usable yet: a configuration mismatch.
 CONFIG_MISMATCH_S = 2.0
 
 
-class PidControllerNode(LockstepPairing, LoopHealth, StatusReports, StackNode):
+class PidControllerNode(StackNode):
     def __init__(self) -> None:
         super().__init__("pid_controller")
         # A law of one's own is held to its law_budget_s in wall time, in lockstep too. On the
@@ -67,57 +47,31 @@ class PidControllerNode(LockstepPairing, LoopHealth, StatusReports, StackNode):
             self.joint_count,
             self.dynamics,
             law_clock=time.perf_counter,
-            latency_guard=not self.params["lockstep"],
+            latency_guard=not self.lockstep,
         )
-        plugin = self.controller.plugin
-        # The law's extra terms on /controller/state, after the standard blocks (state_layout).
-        self.extra_terms = tuple(
-            name
-            for name in (plugin.extra_terms if plugin is not None else ())
-            if name not in state_layout.FIELDS and name not in state_layout.HEADER
-        )
-        self.law_stopped_since: float | None = None  # monotonic time LAW_STOPPED was first reached
-        self.lockstep = self.params["lockstep"]
-        self.command_pub = GatedPublisher(self, Float64MultiArray, "/joint_commands")
-        self.state_pub = GatedPublisher(self, Float64MultiArray, "/controller/state", consumer=False)
-        self.diagnostics_pub = GatedPublisher(self, DiagnosticArray, "/diagnostics", consumer=False)
+        self.last_tick_s = -np.inf
+        self.first_tick_s: float | None = None
+        self.next_log_s = -np.inf
+        self.mismatch_since: float | None = None
+        self.command_pub = self.gated_publisher(Float64MultiArray, "/joint_commands")
+        self.command_msg = Float64MultiArray()
+        self.status = StatusReports(self)
+        self.timing = LoopTiming(self)
         self.create_subscription(JointState, "/joint_states", self.joint_state_callback, loop_qos(self.lockstep))
         self.watch_single_publisher("/joint_states", "sensor_node")
         self.create_subscription(Float64MultiArray, "/trajectory", self.trajectory_callback, loop_qos(self.lockstep))
         self.watch_single_publisher("/trajectory", "trajectory_planner")
-        self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
-        if not self.lockstep:
-            # The drive's status word: its brakes (a real controller reads its drives' state
-            # too). Not in lockstep, where its arrival against the ticks would be a race.
-            self.create_subscription(Float64MultiArray, "/sim/brakes", self.brakes_callback, LATEST_QOS)
-            # When each command reached the drive: the command path's delay, for the latency guard.
-            self.create_subscription(
-                Float64MultiArray, "/motor/command_receipts", self.receipts_callback, COMMAND_RECEIPTS_QOS
-            )
-        self.issued: deque[tuple[float, tuple[float, ...]]] = deque(maxlen=ISSUED_KEPT)  # (tick s, command)
-        self.last_status: Status | None = None
-        self.mismatch_since: float | None = None
+        self.create_subscription(Bool, "/estop", lambda msg: self.controller.halt(bool(msg.data)), ESTOP_QOS)
         self.timer = None
         self.timer_period = 0.0
-        if not self.lockstep:
+        if self.lockstep:
+            self.pairing = LockstepPairing(self)
+        else:
+            self.pairing = None
+            # The drive's status word: its brakes. Not in lockstep, where its arrival against the ticks is a race.
+            self.create_subscription(Float64MultiArray, "/sim/brakes", self.brakes_callback, LATEST_QOS)
             self.set_timer_period(self.timer_period_s(self.params))
-        self.create_timer(self.params["diagnostics_period_s"], self.diagnostics_callback)
-        self.init_lockstep()
-        self.last_tick_s = -np.inf
-        self.first_tick_s: float | None = None
-        self.window_ticks: list[float] = []
-        self.window_latency: list[float] = []
-        self.command_msg = Float64MultiArray()
-        self.state_msg = Float64MultiArray()
-        self.state_msg.layout.dim = [
-            MultiArrayDimension(label=name, size=1, stride=1) for name in state_layout.HEADER
-        ] + [
-            MultiArrayDimension(label=name, size=self.joint_count, stride=self.joint_count)
-            for name in (*state_layout.FIELDS, *self.extra_terms)
-        ]
-        self.next_log_s = -np.inf
-        self.next_late_line = -np.inf  # monotonic s: the latency stop's line, rate-limited
-        self.log_gains()
+        self.status.log_gains()
 
     def setup(self, params: dict[str, Any]) -> None:
         # The arm model: the URDF's, or the model_* values over it (read-only: fixed at start).
@@ -134,8 +88,8 @@ class PidControllerNode(LockstepPairing, LoopHealth, StatusReports, StackNode):
         declared = {spec.name for spec in specs}
         overrides = getattr(self, "_parameter_overrides", {})  # --params-file and -p values
         for name in sorted(overrides):
-            if law_params.is_law_key(name) and name not in declared:
-                law_params.check_values({"controller_type": values["controller_type"], name: None}, self.get_name())
+            if law_parameters.is_law_key(name) and name not in declared:
+                law_parameters.check_values({"controller_type": values["controller_type"], name: None}, self.get_name())
         return specs
 
     def check_params(self, params: dict[str, Any]) -> None:
@@ -155,9 +109,9 @@ class PidControllerNode(LockstepPairing, LoopHealth, StatusReports, StackNode):
     def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
         self.controller.set_config(cfg.controller_config(params, self.joint_count))
         if changed & {"controller_type", "lqr_q", "lqr_r", "kp", "ki", "kd", "control_rate_hz"} or any(
-            law_params.is_law_key(name) for name in changed
+            law_parameters.is_law_key(name) for name in changed
         ):
-            self.log_gains()
+            self.status.log_gains()
         if changed & {"control_rate_hz", "trigger", "watchdog_periods"} and self.timer is not None:
             self.set_timer_period(self.timer_period_s(params))
 
@@ -189,11 +143,8 @@ class PidControllerNode(LockstepPairing, LoopHealth, StatusReports, StackNode):
             self.check_configuration(list(msg.name))
             return
         stamp_s = stamp_to_s(msg.header.stamp)
-        if self.lockstep:
-            # One reading per sim tick; the tick's time is the /clock it pairs with
-            # (a delayed sensor's stamp is older than the tick).
-            self.pending_reading = (stamp_s, checked)
-            self.pair_lockstep_reading()
+        if self.pairing is not None:
+            self.pairing.take_reading(stamp_s, *checked)
         else:
             now_s = self.now_s()
             refused = self.controller.set_measurement(stamp_s, now_s, *checked)
@@ -228,10 +179,10 @@ class PidControllerNode(LockstepPairing, LoopHealth, StatusReports, StackNode):
             return
         position, velocity, acceleration, sample_time_s = checked
         # Received at the tick in force (lockstep: the latest /clock, so a sample sent a tick early waits for it).
-        received_s = max(self.sim_clock_s, 0.0) if self.lockstep else self.now_s()
+        received_s = max(self.pairing.clock_s, 0.0) if self.pairing is not None else self.now_s()
         self.controller.set_reference(received_s, position, velocity, acceleration, sample_time_s)
-        if self.lockstep:
-            self.try_lockstep_tick()
+        if self.pairing is not None:
+            self.pairing.try_tick()
 
     # --- ticks ----------------------------------------------------------------------
 
@@ -250,9 +201,6 @@ class PidControllerNode(LockstepPairing, LoopHealth, StatusReports, StackNode):
         if values.size == self.joint_count and np.all(np.isfinite(values)):
             self.controller.brakes(bool(np.any(values > 0.5)))
 
-    def estop_callback(self, msg: Bool) -> None:
-        self.controller.halt(bool(msg.data))
-
     def tick(self, now_s: float) -> None:
         out = self.controller.update(now_s)
         self.last_tick_s = now_s
@@ -261,20 +209,18 @@ class PidControllerNode(LockstepPairing, LoopHealth, StatusReports, StackNode):
         if out.status is Status.NO_MEASUREMENT:
             self.warn_throttled("no_measurement", "no valid /joint_states yet: not commanding")
             return
-        if out.status is not self.last_status:
-            self.report_status(out.status)
+        if out.status is not self.status.last_status:
+            self.status.status_changed(out.status)
         if out.status is Status.LATE:
-            self.report_late()
+            self.timing.report_late()
+        command = None
         if out.status.commanding:
             self.command_msg.data = out.command.tolist()
             stamp_command(self.command_msg, now_s)
             self.command_pub.publish(self.command_msg)
-            if not self.lockstep:
-                self.issued.append((now_s, tuple(self.command_msg.data)))
-        self.window_ticks.append(now_s)
-        if not self.lockstep:  # in lockstep a tick takes no sim time
-            self.window_latency.append(self.now_s() - self.controller.measurement_stamp_s)
-        self.publish_state(out)
+            command = tuple(self.command_msg.data)
+        self.timing.note_tick(now_s, command)
+        self.status.publish_state(out)
         if now_s >= self.next_log_s:
             self.next_log_s = now_s + self.params["log_period_s"]
             self.get_logger().info(
@@ -282,7 +228,7 @@ class PidControllerNode(LockstepPairing, LoopHealth, StatusReports, StackNode):
                 f"torque={_fmt(out.command)}"
             )
         if out.status is Status.LAW_STOPPED:
-            self.end_after_law_stop()
+            self.status.end_after_law_stop()
 
 
 def _fmt(values: Any) -> str:

@@ -1,6 +1,6 @@
-"""pid_controller's reports of what it does: the law and gains in force, one
-log line per change of the loop's state, a failed law's line and the node's
-end after its stop, and every term of each tick on ``/controller/state``.
+"""pid_controller's reports of what it does: the law and gains in force, one log line per
+change of the loop's state, a failed law's line and the node's end after its stop, and
+every term of each tick on ``/controller/state``.
 """
 
 from __future__ import annotations
@@ -11,11 +11,12 @@ import time
 from pathlib import Path
 
 import numpy as np
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from robot_controller.core.controller import state_layout
-from robot_controller.core.controller.controller import ControlOutput, Status
+from robot_controller.core.controller import ControlOutput, Status, state_layout
 from robot_controller.ros.process import LAW_FAULT_FILE, LAW_STOPPED_EXIT_CODE, request_exit
 from robot_controller.ros.publishing import COUNTS_DIR_ENV
+from robot_controller.ros.stack_node import StackNode
 
 # Wall clock: after a failed law's stop, state is still published this long (the brakes engaging
 # are recorded), then the node ends. In lockstep it ends at once: without commands sim time stops.
@@ -23,24 +24,46 @@ LAW_STOPPED_LINGER_S = 0.5
 
 
 class StatusReports:
-    """The status reports of the :class:`~robot_controller.nodes.pid_controller.node.PidControllerNode`."""
+    """What the controller node says: in its log, as parameters and on ``/controller/state``."""
+
+    def __init__(self, node: StackNode) -> None:
+        """:param node: the controller."""
+        self.node = node
+        self.controller = node.controller
+        self.log = node.get_logger()
+        self.last_status: Status | None = None
+        self.law_stopped_since: float | None = None  # monotonic s LAW_STOPPED was first reached
+        plugin = self.controller.plugin
+        # The law's extra terms on /controller/state, after the standard blocks (state_layout).
+        self.extra_terms = tuple(
+            name
+            for name in (plugin.extra_terms if plugin is not None else ())
+            if name not in state_layout.FIELDS and name not in state_layout.HEADER
+        )
+        self.state_pub = node.gated_publisher(Float64MultiArray, "/controller/state", consumer=False)
+        self.state_msg = Float64MultiArray()
+        n = node.joint_count
+        self.state_msg.layout.dim = [MultiArrayDimension(label=name, size=1, stride=1) for name in state_layout.HEADER]
+        self.state_msg.layout.dim += [
+            MultiArrayDimension(label=name, size=n, stride=n) for name in (*state_layout.FIELDS, *self.extra_terms)
+        ]
 
     def log_gains(self) -> None:
         """The law and gains in force (LQR's are designed, not the kp/ki/kd parameters)
         and how much unaccounted delay they survive: in the log and as ``law_in_force``."""
         margin = self.controller.delay_margin_periods()
-        rate_hz = self.params["control_rate_hz"]
+        rate_hz = self.node.params["control_rate_hz"]
         in_force = self.controller.law_in_force()
         if margin is not None:  # None: a law of one's own, whose feedback is not known here
             in_force += (
                 f"; delay margin {margin} control periods ({margin * 1e3 / rate_hz:g} ms) beyond what the stamps show"
             )
-        self.report("law_in_force", in_force, "the control law and its gains in force, as designed")
-        self.get_logger().info(
-            f"{in_force}; at {rate_hz:g} Hz on {self.joint_names}" + (", lockstep" if self.lockstep else "")
+        self.node.report("law_in_force", in_force, "the control law and its gains in force, as designed")
+        self.log.info(
+            f"{in_force}; at {rate_hz:g} Hz on {self.node.joint_names}" + (", lockstep" if self.node.lockstep else "")
         )
 
-    def report_status(self, status: Status) -> None:
+    def status_changed(self, status: Status) -> None:
         """One log line when the loop's state changes (faults, stops, recovery)."""
         config = self.controller.config
         before, self.last_status = self.last_status, status
@@ -59,46 +82,44 @@ class StatusReports:
             Status.STOPPED: ("warning", "e-stop: not commanding until it is released"),
             Status.REACQUIRING: (
                 "info",
-                "fault cleared: re-acquiring from the measurement, blending back onto " "the trajectory",
+                "fault cleared: re-acquiring from the measurement, blending back onto the trajectory",
             ),
         }
         if status is Status.LAW_FAULT and before is not Status.LAW_FAULT and self.controller.law_fault is not None:
             self.report_law_fault()
             return
         if status is Status.LAW_STOPPED:
-            self.get_logger().warning(
+            self.log.warning(
                 "the arm is at rest after the control law's failure: no more commands, torque off, "
                 f"the brakes hold (category 1); pid_controller ends (exit code {LAW_STOPPED_EXIT_CODE})"
             )
             return
         if status in (Status.REACQUIRING, Status.OK) and before in (None, Status.HOLDING):
-            self.get_logger().info(
-                "first reading and reference: leading the arm from where it is onto the " "trajectory"
-            )
+            self.log.info("first reading and reference: leading the arm from where it is onto the trajectory")
             return
         if status in lines:
             # One call site per severity: rclpy's logger refuses two at one site.
             level, text = lines[status]
             if level == "warning":
-                self.get_logger().warning(text)
+                self.log.warning(text)
             else:
-                self.get_logger().info(text)
+                self.log.info(text)
         elif status is Status.OK and before not in (None, Status.HOLDING, Status.OK):
-            self.get_logger().info("tracking the trajectory again")
+            self.log.info("tracking the trajectory again")
 
     def report_law_fault(self) -> None:
         """Once, when the law first fails: one error line (what it did, what happens next), the
         law's traceback after it, and the line in the run's folder for the launcher to name."""
         fault = self.controller.law_fault
-        if not self.lockstep:  # the wall clock's tick times are the system's: count from the first tick
-            fault = dataclasses.replace(fault, time_s=fault.time_s - self.first_tick_s)
+        if not self.node.lockstep:  # the wall clock's tick times are the system's: count from the first tick
+            fault = dataclasses.replace(fault, time_s=fault.time_s - self.node.first_tick_s)
         line = (
             f"{fault.line()}: controlled stop on the built-in {self.controller.config.stop_law}, "
             "then torque off and the brakes"
         )
-        self.get_logger().error(line)
+        self.log.error(line)
         if fault.traceback:
-            self.get_logger().info("the control law's traceback:\n" + fault.traceback.rstrip())
+            self.log.info("the control law's traceback:\n" + fault.traceback.rstrip())
         counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
         if counts_dir:
             try:
@@ -112,7 +133,7 @@ class StatusReports:
         now = time.monotonic()
         if self.law_stopped_since is None:
             self.law_stopped_since = now
-        if self.lockstep or now - self.law_stopped_since >= LAW_STOPPED_LINGER_S:
+        if self.node.lockstep or now - self.law_stopped_since >= LAW_STOPPED_LINGER_S:
             request_exit(LAW_STOPPED_EXIT_CODE)
 
     def publish_state(self, out: ControlOutput) -> None:
@@ -121,7 +142,7 @@ class StatusReports:
             out.time_s,
             out.status.value,
             self.controller.measurement_stamp_s,
-            self.joint_count,
+            self.node.joint_count,
             {
                 "reference": out.reference,
                 "measured": out.measured,
@@ -142,5 +163,5 @@ class StatusReports:
         if not self.extra_terms:
             return ()
         reported = out.law_terms or {}
-        zeros = np.zeros(self.joint_count)
+        zeros = np.zeros(self.node.joint_count)
         return tuple(reported.get(name, zeros) for name in self.extra_terms)

@@ -1,88 +1,80 @@
-"""The simulator's drive protections (docs/design.md §4), as real hardware has them.
+"""The simulator's holding brakes (docs/design.md §4), as a real drive has them.
 
-Each joint has a holding brake, engaged before the first effort, on e-stop
-(``/estop``, ``std_msgs/Bool``, latched; or the ``/simulator/estop``
-``std_srvs/SetBool`` service), when the motor asks (``/sim/brake``), and
-when efforts stop arriving for ``drive_timeout_s``; a braked joint gets no
-torque. The brakes' state goes out on ``/sim/brakes`` (one value per joint,
-1 = engaged) whenever it changes and twice a second.
+Each joint's brake holds before the first effort, on e-stop (``/estop`` or the
+``/simulator/estop`` service), when the motor asks (``/sim/brake``) and when
+efforts stop for ``drive_timeout_s``; a braked joint gets no torque. Their state
+goes out on ``/sim/brakes`` (1 = engaged) on every change and twice a second.
 """
 
 from __future__ import annotations
-
-import time
 
 import numpy as np
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import SetBool
 
-from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS
+from robot_controller.ros.stack_node import StackNode
 
-BRAKES_REPORT_PERIOD_NS = 500_000_000
-# The simulator's own pause (frozen, starved) up to this long does not count
-# against the drive's timeout; after a longer one it resumes braked (by then
-# the controller has given up: sensor_timeout_s, 1 s by default).
+REPORT_PERIOD_NS = 500_000_000
+# The simulator's own pause up to this long does not count against the drive's timeout;
+# after a longer one it resumes braked.
 MAX_EXCUSED_GAP_NS = 1_000_000_000
 
 
-class SimulatorBrakes:
-    """The brakes of the :class:`~robot_controller.nodes.simulator.node.Simulator`: why each
-    is on (any reason holds it), who may ask, and the drive timeout that engages them."""
+class Brakes:
+    """Why each brake is on (any reason holds it), who may ask, and the drive timeout."""
 
-    def init_brakes(self) -> None:
-        self.brake_reasons: set[str] = {"start"}
-        self.plant.set_brakes(np.ones(self.joint_count, dtype=bool), self.params["brake_torque_nm"])
+    def __init__(self, node: StackNode) -> None:
+        """:param node: the simulator."""
+        self.node = node
+        self.reasons: set[str] = {"start"}
+        node.plant.set_brakes(np.ones(node.joint_count, dtype=bool), node.params["brake_torque_nm"])
         self.last_effort_mono_ns = 0
-        self.brakes_pub = GatedPublisher(self, Float64MultiArray, "/sim/brakes", consumer=False)
-        self.brakes_msg = Float64MultiArray()
-        self.brakes_msg.layout.dim = [
-            MultiArrayDimension(label="engaged", size=self.joint_count, stride=self.joint_count)
-        ]
-        self.next_brakes_report_ns = 0
-        self.create_subscription(Bool, "/sim/brake", self.brake_request_callback, LATCHED_QOS)
-        self.brake_request_heard = False
-        self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
-        self.create_service(SetBool, "/simulator/estop", self.estop_service)
+        self.timeout_ns = round(1e9 * node.params["drive_timeout_s"])
+        self.pub = node.gated_publisher(Float64MultiArray, "/sim/brakes", consumer=False)
+        self.msg = Float64MultiArray()
+        self.msg.layout.dim = [MultiArrayDimension(label="engaged", size=node.joint_count, stride=node.joint_count)]
+        self.next_report_ns = 0
+        self.request_heard = False
+        node.create_subscription(Bool, "/sim/brake", self.request_callback, LATCHED_QOS)
+        node.create_subscription(Bool, "/estop", lambda msg: self.set_estop(bool(msg.data)), ESTOP_QOS)
+        node.create_service(SetBool, "/simulator/estop", self.estop_service)
 
-    def set_brake(self, reason: str, on: bool) -> None:
-        """Add or remove one reason for the brakes (lock held); the brakes hold
-        while any reason does, and a braked joint gets no torque."""
-        before = bool(self.brake_reasons)
+    def set(self, reason: str, on: bool) -> None:
+        """Add or remove one reason for the brakes (lock held); they hold while any reason does."""
+        before = bool(self.reasons)
         if on:
-            self.brake_reasons.add(reason)
+            self.reasons.add(reason)
         else:
-            self.brake_reasons.discard(reason)
-        engaged = bool(self.brake_reasons)
+            self.reasons.discard(reason)
+        engaged = bool(self.reasons)
         if engaged != before:
-            self.plant.set_brakes(np.full(self.joint_count, engaged), self.params["brake_torque_nm"])
+            node = self.node
+            node.plant.set_brakes(np.full(node.joint_count, engaged), node.params["brake_torque_nm"])
             if engaged:
-                self.effort = np.zeros(self.joint_count)
-            self.report_brakes()
+                node.effort = np.zeros(node.joint_count)
+            self.report()
 
-    def report_brakes(self) -> None:
-        self.brakes_msg.data = [1.0 if self.brake_reasons else 0.0] * self.joint_count
-        self.brakes_pub.publish(self.brakes_msg)
+    def report(self) -> None:
+        self.msg.data = [1.0 if self.reasons else 0.0] * self.node.joint_count
+        self.pub.publish(self.msg)
 
-    def report_brakes_periodically(self, now_ns: int) -> None:
-        """Repeat the brakes' state twice a second (lock held), so a late listener learns it."""
-        if now_ns >= self.next_brakes_report_ns:
-            self.next_brakes_report_ns = now_ns + BRAKES_REPORT_PERIOD_NS
-            self.report_brakes()
+    def report_periodically(self, now_ns: int) -> None:
+        """Repeat the state twice a second (lock held), so a late listener learns it."""
+        if now_ns >= self.next_report_ns:
+            self.next_report_ns = now_ns + REPORT_PERIOD_NS
+            self.report()
 
-    def brake_request_callback(self, msg: Bool) -> None:
-        with self.lock:
-            self.brake_request_heard = True
-            if bool(msg.data) != ("requested" in self.brake_reasons):
-                self.get_logger().warning(
+    def request_callback(self, msg: Bool) -> None:
+        with self.node.lock:
+            self.request_heard = True
+            if bool(msg.data) != ("requested" in self.reasons):
+                self.node.get_logger().warning(
                     "brake requested by the motor: torque off, brakes on"
                     if msg.data
                     else "motor released its brake request"
                 )
-            self.set_brake("requested", bool(msg.data))
-
-    def estop_callback(self, msg: Bool) -> None:
-        self.set_estop(bool(msg.data))
+            self.set("requested", bool(msg.data))
 
     def estop_service(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         self.set_estop(bool(request.data))
@@ -91,47 +83,42 @@ class SimulatorBrakes:
         return response
 
     def set_estop(self, on: bool) -> None:
-        with self.lock:
-            if on == ("estop" in self.brake_reasons):
+        node = self.node
+        with node.lock:
+            if on == ("estop" in self.reasons):
                 return
-            if self.anchor_mono_ns is not None and not self.lockstep:
-                self.advance(time.monotonic_ns())
-            self.set_brake("estop", on)
-        self.get_logger().warning(
+            node.catch_up()
+            self.set("estop", on)
+        node.get_logger().warning(
             "E-STOP: torque off, brakes on (latched until released)"
             if on
             else "e-stop released: brakes release when efforts arrive"
         )
         if not on:
-            with self.lock:
-                # Released, the brakes wait for the drive's next effort.
-                self.set_brake("drive_timeout", True)
-
-    # --- drive timeout (wall clock) ---------------------------------------------
+            with node.lock:
+                self.set("drive_timeout", True)  # released, the brakes wait for the drive's next effort
 
     def excuse_own_gap(self, gap_ns: int, period_ns: int) -> None:
-        """Account for a pause of this process between two wake-ups ``gap_ns`` apart (lock held)."""
-        if gap_ns > 2 * period_ns and self.anchor_mono_ns is not None:
-            if gap_ns <= MAX_EXCUSED_GAP_NS:
-                # This process was not running (frozen, starved) for a moment: that
-                # time does not count against the drive, whose efforts are waiting to be read.
-                self.last_effort_mono_ns += gap_ns - period_ns
-            elif "drive_timeout" not in self.brake_reasons:
-                # Longer, and the efforts waiting are as old: resume braked (the arm
-                # holds from here), until a fresh one arrives.
-                self.set_brake("drive_timeout", True)
-                self.warn_throttled(
-                    "own_gap",
-                    f"this simulator did not run for {gap_ns * 1e-9:.2f} s: " "resuming with the brakes on",
-                )
+        """Account for a pause of this process between two wake-ups ``gap_ns`` apart (lock held, physics running)."""
+        if gap_ns <= 2 * period_ns:
+            return
+        if gap_ns <= MAX_EXCUSED_GAP_NS:
+            # Time this process did not run does not count against the drive, whose efforts are waiting.
+            self.last_effort_mono_ns += gap_ns - period_ns
+        elif "drive_timeout" not in self.reasons:
+            # The efforts waiting are as old as the pause: resume braked until a fresh one arrives.
+            self.set("drive_timeout", True)
+            self.node.warn_throttled(
+                "own_gap", f"this simulator did not run for {gap_ns * 1e-9:.2f} s: resuming with the brakes on"
+            )
 
     def check_drive_timeout(self, now_ns: int) -> None:
         """Brake once no effort has arrived for ``drive_timeout_s`` (lock held, physics running):
         the physics up to now runs on the last torque, then the torque is off (category 0)."""
-        if now_ns - self.last_effort_mono_ns > self.drive_timeout_ns and "drive_timeout" not in self.brake_reasons:
-            self.advance(now_ns)
-            self.set_brake("drive_timeout", True)
-            self.warn_throttled(
+        if now_ns - self.last_effort_mono_ns > self.timeout_ns and "drive_timeout" not in self.reasons:
+            self.node.pacing.advance(now_ns)
+            self.set("drive_timeout", True)
+            self.node.warn_throttled(
                 "drive_timeout",
-                f"no effort for over {self.params['drive_timeout_s']:g} " "s: torque off, brakes on (category 0)",
+                f"no effort for over {self.node.params['drive_timeout_s']:g} s: torque off, brakes on (category 0)",
             )

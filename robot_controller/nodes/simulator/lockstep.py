@@ -1,14 +1,13 @@
-"""The simulator's lockstep mode (``lockstep: true``, sim time): the sim owns time.
+"""The simulator's lockstep ticks (``lockstep: true``, sim time): the sim owns time.
 
-It publishes ``/clock`` and the state for tick k, then waits; the effort for
+It publishes the state and ``/clock`` for tick k, then waits; the effort for
 tick k advances exactly one control period. No effort, no time: a run is
 deterministic and as fast as the graph can go.
 
-When the run is recorded, as fast as the recorder too: it publishes the tick it
-has taken (``/recorder/clock``) and the sim holds the next tick while it is
-``RECORDER_LAG_MAX_S`` behind. The recorder runs below the loop (nice +10); on a
-loaded machine the graph would otherwise outrun it until the publishers' queues
-(``CONTROL_QOS``, 1000 messages, 10 sim s) overflowed and the bag lost messages.
+When the run is recorded, as fast as the recorder too: the recorder publishes
+the tick it has taken (``/recorder/clock``) and the sim holds the next tick while
+the recorder is ``RECORDER_LAG_MAX_S`` behind, so the publishers' queues
+(``CONTROL_QOS``) never overflow.
 """
 
 from __future__ import annotations
@@ -18,94 +17,94 @@ from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 
 from robot_controller.core.model import steps_per_period
-from robot_controller.ros.publishing import RECORDER_CLOCK_TOPIC, GatedPublisher, recorded
+from robot_controller.ros.publishing import RECORDER_CLOCK_TOPIC, recorded
 from robot_controller.ros.qos import CLOCK_QOS
+from robot_controller.ros.stack_node import StackNode
 
 #: Sim seconds the recorder may be behind: under a third of what the queues hold, and over what
 #: the loop runs between its reports (0.1 s wall, 1-2 sim s) so a recorder keeping up never holds it.
 RECORDER_LAG_MAX_S = 3.0
 
 
-class SimulatorLockstep:
-    """The ticks of the :class:`~robot_controller.nodes.simulator.node.Simulator` in lockstep."""
+class LockstepTicks:
+    """The simulator's ticks in lockstep: one control period of physics per effort."""
 
-    def init_lockstep(self) -> None:
+    def __init__(self, node: StackNode) -> None:
+        """:param node: the simulator."""
+        self.node = node
         self.efforts_applied = 0
-        self.ticks_published = 0
+        self.published = 0
         self.recorder_clock_ns: int | None = None  #: the tick the recorder has taken; None: no recorder
         self.held_for_recorder = False
         self.holds_for_recorder = 0
-        end_s = self.params["lockstep_end_s"]
+        end_s = node.params["lockstep_end_s"]
         self.end_ns = round(end_s * 1e9) if end_s > 0 else None  #: no tick after this (the run's end)
         self.ended = False
-
-    def start_lockstep_clock(self) -> None:
-        self.steps_per_tick = steps_per_period(self.plant.physics_dt, 1.0 / self.params["control_rate_hz"])
-        self.clock_pub = GatedPublisher(self, ClockMsg, "/clock", consumer=False, qos=CLOCK_QOS)
+        self.steps_per_tick = steps_per_period(node.plant.physics_dt, 1.0 / node.params["control_rate_hz"])
+        self.clock_pub = node.gated_publisher(ClockMsg, "/clock", consumer=False, qos=CLOCK_QOS)
         self.clock_msg = ClockMsg()
         self.waiting_for_effort = False
         if recorded():
             self.recorder_clock_ns = 0
-            self.create_subscription(ClockMsg, RECORDER_CLOCK_TOPIC, self.recorder_clock, CLOCK_QOS)
-        self.start_poll = self.create_timer(0.05, self.start_lockstep, clock=Clock(clock_type=ClockType.STEADY_TIME))
+            node.create_subscription(ClockMsg, RECORDER_CLOCK_TOPIC, self.recorder_clock, CLOCK_QOS)
+        self.start_poll = node.create_timer(0.05, self.start, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
-    def start_lockstep(self) -> None:
+    def start(self) -> None:
         """Publish tick 0 once the sensor (and recorder) listen and the motor talks (nothing is ever re-sent)."""
+        node = self.node
         # The motor matched (not only named in the graph: a motor of an earlier run can linger there).
-        if not (self.state_pub.open and self.clock_pub.open and self.effort_sub.get_publisher_count()):
+        if not (node.state_pub.open and self.clock_pub.open and node.effort_sub.get_publisher_count()):
             return
-        self.destroy_timer(self.start_poll)
-        self.get_logger().info("lockstep: sensor and motor matched, starting at t = 0")
-        self.publish_tick()
+        node.destroy_timer(self.start_poll)
+        node.get_logger().info("lockstep: sensor and motor matched, starting at t = 0")
+        self.publish()
 
-    def lockstep_effort(self, effort: np.ndarray) -> None:
+    def take_effort(self, effort: np.ndarray) -> None:
+        node = self.node
         if not self.waiting_for_effort:
-            self.warn_throttled("extra_effort", "lockstep: effort with no tick waiting for it, ignored")
+            node.warn_throttled("extra_effort", "lockstep: effort with no tick waiting for it, ignored")
             return
         self.waiting_for_effort = False
-        self.set_brake("start", False)
-        self.set_brake("drive_timeout", False)
-        self.effort = np.zeros(self.joint_count) if self.brake_reasons else effort
+        node.brakes.set("start", False)
+        node.brakes.set("drive_timeout", False)
+        node.effort = np.zeros(node.joint_count) if node.brakes.reasons else effort
         self.efforts_applied += 1
-        self.start_scheduled_disturbance()
-        self.plant.step(self.effort, self.steps_per_tick)
-        self.steps_done += self.steps_per_tick
-        self.note_disturbance_end()
-        if self.end_ns is not None and self.steps_done * self.physics_dt_ns > self.end_ns:
+        node.step(self.steps_per_tick)
+        if self.end_ns is not None and node.steps_done * node.physics_dt_ns > self.end_ns:
             # The run's end: no more ticks, so the graph falls quiet and the recorder catches up.
             if not self.ended:
                 self.ended = True
-                self.get_logger().info(f"lockstep: the run's end, t = {self.end_ns * 1e-9:g} s: no more ticks")
+                node.get_logger().info(f"lockstep: the run's end, t = {self.end_ns * 1e-9:g} s: no more ticks")
             return
         if self.recorder_behind():
             self.held_for_recorder = True
             self.holds_for_recorder += 1
             return
-        self.publish_tick()
+        self.publish()
 
     def recorder_behind(self) -> bool:
-        next_tick_ns = self.steps_done * self.physics_dt_ns
+        next_tick_ns = self.node.steps_done * self.node.physics_dt_ns
         return self.recorder_clock_ns is not None and next_tick_ns - self.recorder_clock_ns > RECORDER_LAG_MAX_S * 1e9
 
     def recorder_clock(self, msg: ClockMsg) -> None:
         self.recorder_clock_ns = max(self.recorder_clock_ns, msg.clock.sec * 1_000_000_000 + msg.clock.nanosec)
         if self.held_for_recorder and not self.recorder_behind():
             self.held_for_recorder = False
-            self.publish_tick()
+            self.publish()
 
-    def publish_tick(self) -> None:
+    def publish(self) -> None:
         """The true state first: the tick's longest path starts there (sensor → controller →
         motor → here); of the /clock readers (controller, planner, recorder) none is on it."""
-        stamp_ns = self.steps_done * self.physics_dt_ns
+        stamp_ns = self.node.steps_done * self.node.physics_dt_ns
         self.waiting_for_effort = True
-        self.ticks_published += 1
-        self.publish_state(stamp_ns)
+        self.published += 1
+        self.node.publish_state(stamp_ns)
         self.clock_msg.clock.sec, self.clock_msg.clock.nanosec = divmod(stamp_ns, 1_000_000_000)
         self.clock_pub.publish(self.clock_msg)
 
-    def report_lockstep(self) -> None:
-        self.get_logger().info(
-            f"lockstep: {self.ticks_published} ticks published, {self.efforts_applied} "
-            f"efforts applied, t = {self.steps_done * self.plant.physics_dt:.3f} s"
+    def report(self) -> None:
+        self.node.get_logger().info(
+            f"lockstep: {self.published} ticks published, {self.efforts_applied} "
+            f"efforts applied, t = {self.node.steps_done * self.node.plant.physics_dt:.3f} s"
             + (f"; held {self.holds_for_recorder} times for the recorder" if self.holds_for_recorder else "")
         )

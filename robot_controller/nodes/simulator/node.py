@@ -1,13 +1,13 @@
-"""The simulator node's shell: its parameters, the effort taken in and the true state sent out.
+"""The simulator node: the plant, the effort taken in and the true state sent out.
 
-The concerns it joins live beside it: the wall clock in ``pacing``, the
-brakes and drive timeout in ``brakes``, sim time in ``lockstep`` and external
-torques in ``disturbance``; they share the node's plant, effort and lock.
+Its parts: ``pacing`` (the wall clock) or ``ticks`` (lockstep), ``brakes`` and
+``disturbance``; they share the node's plant, effort and lock.
 """
 
 from __future__ import annotations
 
 import os
+import threading
 import time
 
 import numpy as np
@@ -18,18 +18,17 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.model import MujocoPlant, Payload, steps_per_period
 from robot_controller.core.validation import check_effort
-from robot_controller.nodes.simulator.brakes import SimulatorBrakes
-from robot_controller.nodes.simulator.disturbance import SimulatorDisturbance
-from robot_controller.nodes.simulator.lockstep import SimulatorLockstep
-from robot_controller.nodes.simulator.pacing import SimulatorPacing
+from robot_controller.nodes.simulator.brakes import Brakes
+from robot_controller.nodes.simulator.disturbance import Disturbance
+from robot_controller.nodes.simulator.lockstep import LockstepTicks
+from robot_controller.nodes.simulator.pacing import Pacing
 from robot_controller.nodes.world_state import WORLD_STATE_ENV, WorldState
 from robot_controller.ros.process import run
-from robot_controller.ros.publishing import GatedPublisher
 from robot_controller.ros.qos import loop_qos
 from robot_controller.ros.stack_node import StackNode
 
 
-class Simulator(SimulatorPacing, SimulatorLockstep, SimulatorBrakes, SimulatorDisturbance, StackNode):
+class Simulator(StackNode):
     def __init__(self) -> None:
         super().__init__("simulator")
         p = self.params
@@ -50,23 +49,20 @@ class Simulator(SimulatorPacing, SimulatorLockstep, SimulatorBrakes, SimulatorDi
         self.effort = np.zeros(self.joint_count)
         self.steps_done = 0
         self.physics_dt_ns = round(self.plant.physics_dt * 1e9)
-        self.init_pacing()
-        self.init_lockstep()
-
-        self.state_pub = GatedPublisher(self, JointState, "/sim/joint_states")
-        # Only the newest effort matters to a drive (lockstep sends one at a time anyway).
+        self.lock = threading.Lock()  # the plant and effort: pacing thread vs the executor's callbacks
+        self.pacing = None if self.lockstep else Pacing(self)
+        self.state_pub = self.gated_publisher(JointState, "/sim/joint_states")
         self.effort_sub = self.create_subscription(
             Float64MultiArray, "/sim/effort", self.effort_callback, loop_qos(self.lockstep)
         )
         self.watch_single_publisher("/sim/effort", "motor_node")
-        self.init_brakes()
+        self.brakes = Brakes(self)
         self.state_msg = JointState()
         self.state_msg.name = list(self.plant.joint_names)
-        self.init_disturbance()
-        if self.lockstep:
-            self.start_lockstep_clock()
-        else:
-            self.start_pacing()
+        self.disturbance = Disturbance(self)
+        self.ticks = LockstepTicks(self) if self.lockstep else None
+        if self.pacing is not None:
+            self.pacing.start()
         self.get_logger().info(
             f"MuJoCo arm {self.plant.joint_names} at {p['physics_rate_hz']:g} Hz physics, "
             + (
@@ -85,6 +81,18 @@ class Simulator(SimulatorPacing, SimulatorLockstep, SimulatorBrakes, SimulatorDi
         if changed & {"physics_rate_hz", "publish_rate_hz", "initial_position", "control_rate_hz"}:
             self.get_logger().warning("physics and publish rates and the initial position apply on restart")
 
+    def step(self, steps: int) -> None:
+        """Step the physics ``steps`` times on the effort in force (lock held)."""
+        self.disturbance.start_scheduled()
+        self.plant.step(self.effort, steps)
+        self.steps_done += steps
+        self.disturbance.note_end()
+
+    def catch_up(self) -> None:
+        """Wall clock, physics running: step what is due by now on the old inputs (lock held)."""
+        if self.pacing is not None and self.pacing.running:
+            self.pacing.advance(time.monotonic_ns())
+
     def effort_callback(self, msg: Float64MultiArray) -> None:
         checked = check_effort(msg.data, self.joint_count)
         if isinstance(checked, str):
@@ -94,33 +102,32 @@ class Simulator(SimulatorPacing, SimulatorLockstep, SimulatorBrakes, SimulatorDi
         if np.any(np.abs(checked) > limit):
             self.warn_throttled(
                 "effort_limit",
-                f"/sim/effort {checked.tolist()} beyond the URDF's effort limit " f"{limit.tolist()}: clamped",
+                f"/sim/effort {checked.tolist()} beyond the URDF's effort limit {limit.tolist()}: clamped",
             )
             checked = np.clip(checked, -limit, limit)
-        if self.lockstep:
-            self.lockstep_effort(checked)
+        if self.ticks is not None:
+            self.ticks.take_effort(checked)
             return
+        brakes = self.brakes
         with self.lock:
-            if "estop" in self.brake_reasons:
+            if "estop" in brakes.reasons:
                 self.warn_throttled("estop_effort", "e-stop: efforts ignored until it is released")
                 return
-            if not self.brake_request_heard and self.count_publishers("/sim/brake"):
-                # A motor is there: learn whether it asks for the brakes (its latched
-                # state) before any effort releases them.
+            if not brakes.request_heard and self.count_publishers("/sim/brake"):
+                # A motor is there: its latched /sim/brake state comes before any effort releases the brakes.
                 self.warn_throttled("brake_state", "efforts ignored until the motor's /sim/brake state arrives")
                 return
-            if self.anchor_mono_ns is None:
-                self.release_brakes()
+            if not self.pacing.running:
+                self.pacing.begin()
                 self.get_logger().info("first command received, physics running")
             else:
-                # Physics up to now ran on the old torque; the new one acts from here.
-                self.advance(time.monotonic_ns())
-            self.last_effort_mono_ns = time.monotonic_ns()
+                self.catch_up()  # the new torque acts from here
+            brakes.last_effort_mono_ns = time.monotonic_ns()
             self.effort = checked
-            self.set_brake("start", False)
-            if "drive_timeout" in self.brake_reasons:
+            brakes.set("start", False)
+            if "drive_timeout" in brakes.reasons:
                 self.get_logger().info("efforts back: brakes released")
-            self.set_brake("drive_timeout", False)
+            brakes.set("drive_timeout", False)
 
     def publish_state(self, stamp_ns: int) -> None:
         position, velocity = self.plant.state()
@@ -128,23 +135,20 @@ class Simulator(SimulatorPacing, SimulatorLockstep, SimulatorBrakes, SimulatorDi
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(stamp_ns), 1_000_000_000)
         msg.position = position.tolist()
         msg.velocity = velocity.tolist()
-        msg.effort = [0.0] * self.joint_count if self.brake_reasons else self.effort.tolist()
+        msg.effort = [0.0] * self.joint_count if self.brakes.reasons else self.effort.tolist()
         self.state_pub.publish(msg)
-        self.publish_disturbance_applied(stamp_ns)
+        self.disturbance.publish_applied(stamp_ns)
 
     def finish(self) -> None:
-        self.stop_pacing_thread()
+        if self.pacing is not None:
+            self.pacing.stop()
 
     def destroy_node(self) -> None:
         self.finish()
-        if self.lockstep:
-            self.report_lockstep()
+        if self.ticks is not None:
+            self.ticks.report()
         super().destroy_node()
 
 
 def main(args: list[str] | None = None) -> int:
     return run(Simulator, args)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -3,7 +3,7 @@
 import pytest
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from robot_controller.ros.command_stamp import command_tick_s, stamp_command
+from robot_controller.ros.stamps import command_tick_s, stamp_command
 
 
 def test_a_stamped_command_says_its_tick_and_keeps_its_data():

@@ -1,30 +1,60 @@
-"""pid_controller's loop health: the command path's delay from the drive's
-receipts (for the latency guard), the line while the loop is later than its
-gains survive, and the period jitter, missed cycles and latency on
-``/diagnostics``.
+"""pid_controller's loop timing: the command path's delay from the drive's receipts (for
+the latency guard), the line while the loop is later than its gains survive, and the
+period jitter, missed cycles and latency on ``/diagnostics``.
 """
 
 from __future__ import annotations
 
 import time
+from collections import deque
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import Float64MultiArray
 
 from robot_controller.core import metrics
+from robot_controller.ros.stack_node import StackNode
 
 # While the loop is late, its one line comes at most this often (s).
 LATE_LINE_PERIOD_S = 2.0
+# Commands remembered with their tick time, to pair with the drive's receipts (a second's worth and more).
+ISSUED_KEPT = 400
+# The receipts come once a second, each message a second's rows: keep a few, never a backlog.
+COMMAND_RECEIPTS_QOS = 5
 
 
-class LoopHealth:
-    """The loop-health reports of the :class:`~robot_controller.nodes.pid_controller.node.PidControllerNode`."""
+class LoopTiming:
+    """How late and how regular the controller's loop is."""
+
+    def __init__(self, node: StackNode) -> None:
+        """:param node: the controller."""
+        self.node = node
+        self.controller = node.controller
+        self.issued: deque[tuple[float, tuple[float, ...]]] = deque(maxlen=ISSUED_KEPT)  # (tick s, command)
+        self.window_ticks: list[float] = []
+        self.window_latency: list[float] = []
+        self.next_late_line = -np.inf  # monotonic s
+        self.pub = node.gated_publisher(DiagnosticArray, "/diagnostics", consumer=False)
+        if not node.lockstep:
+            # When each command reached the drive: the command path's delay, for the latency guard.
+            node.create_subscription(
+                Float64MultiArray, "/motor/command_receipts", self.receipts_callback, COMMAND_RECEIPTS_QOS
+            )
+        node.create_timer(node.params["diagnostics_period_s"], self.publish_diagnostics)
+
+    def note_tick(self, now_s: float, command: tuple[float, ...] | None) -> None:
+        """A tick at ``now_s`` that published ``command`` (None: it commanded nothing)."""
+        lockstep = self.node.lockstep
+        if command is not None and not lockstep:
+            self.issued.append((now_s, command))
+        self.window_ticks.append(now_s)
+        if not lockstep:  # in lockstep a tick takes no sim time
+            self.window_latency.append(self.node.now_s() - self.controller.measurement_stamp_s)
 
     def receipts_callback(self, msg: Float64MultiArray) -> None:
         """The drive's receipts, rows ``[receipt_time_s, command…]``: each paired with the latest
         tick that issued the same command before it, their difference is the command path's delay."""
-        row = 1 + self.joint_count
+        row = 1 + self.node.joint_count
         data = list(msg.data)
         if not data or len(data) % row:
             return
@@ -45,13 +75,13 @@ class LoopHealth:
         self.next_late_line = now + LATE_LINE_PERIOD_S
         late = self.controller.latency
         margin = self.controller.delay_margin_periods()
-        self.get_logger().warning(
+        self.node.get_logger().warning(
             f"readings/commands {late.delay_s * 1e3:.0f} ms late beyond what the stamps account for; the gains "
             f"survive {late.tolerated_s * 1e3:.0f} ms (delay margin {margin} periods): controlled stop, holding "
             f"until it is back within {late.tolerated_s * 0.5e3:.0f} ms for 1 s (category 2)"
         )
 
-    def diagnostics_callback(self) -> None:
+    def publish_diagnostics(self) -> None:
         ticks, latency = self.window_ticks, self.window_latency
         self.window_ticks, self.window_latency = ticks[-1:], []
         status = DiagnosticStatus(name="pid_controller: control loop", hardware_id="robot_controller")
@@ -67,5 +97,5 @@ class LoopHealth:
             status.level, status.message = DiagnosticStatus.OK, "running"
         status.values = [KeyValue(key=k, value=f"{v:.6g}") for k, v in values.items()]
         report = DiagnosticArray(status=[status])
-        report.header.stamp = self.get_clock().now().to_msg()
-        self.diagnostics_pub.publish(report)
+        report.header.stamp = self.node.get_clock().now().to_msg()
+        self.pub.publish(report)
