@@ -88,10 +88,7 @@ class MotorNode(StackNode):
 
     def command_callback(self, msg: Float64MultiArray) -> None:
         checked = check_effort(msg.data, self.joint_count)
-        if isinstance(checked, str):
-            self.warn_throttled("command", f"/joint_commands dropped: {checked}")
-            return
-        if self.estop:
+        if self.dropped("/joint_commands", checked) or self.estop:
             return
         tick_s = command_tick_s(msg)
         if self.lockstep and tick_s is None:  # a controller not ours: applied, its time the wall clock's

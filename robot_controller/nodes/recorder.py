@@ -27,7 +27,6 @@ from pathlib import Path
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray
@@ -35,16 +34,10 @@ from trajectory_msgs.msg import JointTrajectory
 
 from robot_controller.ros.process import make_executor, own_context
 from robot_controller.ros.publishing import RECORDER_CLOCK_TOPIC, RECORDER_NODE
-from robot_controller.ros.qos import CLOCK_QOS
+from robot_controller.ros.qos import CLOCK_QOS, CONTROL_QOS
 
-# Reliable with a deep queue: the recorder runs below the loop and may be
-# late for a moment, but must not lose what it is late for.
-RECORDER_QOS = QoSProfile(
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1000,
-)
+# Reliable with a deep queue: the recorder runs below the loop and may be late, never lossy.
+RECORDER_QOS = CONTROL_QOS
 
 # topic → (ROS message class, rosbag2 type name)
 TOPICS = {
@@ -99,8 +92,7 @@ class Recorder:
     """Writes every message of ``topics`` to ``bag_dir`` as it arrives."""
 
     def __init__(self, context, bag_dir: Path, *, sim_time: bool) -> None:
-        # rosbags is imported here, in the recorder's own process, while the
-        # nodes start beside it (the launcher forks them all from one image).
+        # rosbags is imported here, in the recorder's own process (the launcher forks all from one image).
         from rosbags.rosbag2 import StoragePlugin, Writer
         from rosbags.typesys import Stores, get_typestore
 
@@ -143,10 +135,8 @@ class Recorder:
         return record
 
     def take_waiting(self, executor) -> None:
-        """The messages waiting now: one per ``spin_once``, until one takes none or ``TAKE_BUDGET_S``
-        has passed. The budget matters when the machine is loaded and the loop publishes faster
-        than this process (nice +10) takes: without it the batch never ends, the progress
-        lines stop and the launcher takes the lagging bag for a stalled lockstep."""
+        """The messages waiting now, one per ``spin_once``, until one takes none or ``TAKE_BUDGET_S``
+        has passed (so that the progress lines go on while the loop outpaces this process)."""
         spin_once = executor.spin_once
         give_up = time.monotonic() + TAKE_BUDGET_S
         while True:
@@ -156,8 +146,7 @@ class Recorder:
                 return
 
     def say_clock(self) -> None:
-        """Lockstep: publish the tick taken last (every progress period, new or not: a message per
-        batch would cost the loop a wake-up of the simulator every few ticks)."""
+        """Lockstep: publish the tick taken last (every progress period, not every batch)."""
         if self.clock_pub is None:
             return
         msg = Clock()
@@ -165,10 +154,8 @@ class Recorder:
         self.clock_pub.publish(msg)
 
     def checkpoint(self) -> None:
-        """Close the chunk being written and push it to the file: if this process
-        is killed, all but the last ``CHECKPOINT_PERIOD_S`` can be recovered
-        (``bag_recovery``). rosbags has no public call for it; without one the
-        chunks close at 1 MB (a few seconds) instead."""
+        """Close the chunk being written and push it to the file, so that a killed recorder's bag
+        is recoverable but for the last ``CHECKPOINT_PERIOD_S`` (rosbags has no public call for it)."""
         storage = getattr(self.writer, "storage", None)
         chunk = getattr(storage, "chunk", None)
         if chunk is None or not hasattr(storage, "close_chunk") or not chunk.bio.tell():

@@ -1,12 +1,7 @@
-"""sensor_node: the encoder. Samples the true state from ``/sim/joint_states``
-on a ``rate_hz`` grid of the simulator's stamps (as a hardware-timed encoder
-latches on its own clock), adds seeded noise and publishes ``/joint_states``
-stamped with the time of the sample.
-
-Sampling on the stamps rather than on a timer of its own means no extra
-phase delay in wall-clock mode, and one sample per tick, deterministic, in
-lockstep. With ``delay_s``, each reading is the sample from that long
-before, stamped with its own time (a slow bus, honestly timestamped).
+"""sensor_node: the encoder. Samples the true state from ``/sim/joint_states`` on a
+``rate_hz`` grid of the simulator's stamps (no phase delay of its own; one sample per
+tick in lockstep), adds seeded noise and publishes ``/joint_states`` stamped with the
+sample's time. With ``delay_s``, each reading is the sample from that long before.
 """
 
 from __future__ import annotations

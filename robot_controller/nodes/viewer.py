@@ -14,7 +14,6 @@ goes to ``--rrd`` for replay.
 from __future__ import annotations
 
 import argparse
-import os
 import signal
 import struct
 import sys
@@ -28,34 +27,14 @@ import numpy as np
 from robot_controller.core.controller import state_layout
 from robot_controller.ros import scheduling
 from robot_controller.ros.publishing import VIEWER_NODE
+from robot_controller.ros.qos import OBSERVER_QOS
 from robot_controller.ros.stamps import stamp_to_s
 from robot_controller.view import cdr
 
 FLUSH_PERIOD_S = 0.1  # the browser's arm moves 10 times a second...
 SERIES_PERIOD_S = 0.2  # ...and its plots 5 times (each send costs CPU, per entity)
 FILE_PERIOD_S = 2.0  # view.rrd is written in chunks of 2 s
-QUEUE_DEPTH = 50
 READY_PREFIX = "live view at "
-
-
-def _lower_priority() -> None:
-    """The observers' nice value, before any thread starts (threads inherit it).
-
-    The launcher starts each child in a session of its own, and with the
-    kernel's autogroup scheduling (``/proc/sys/kernel/sched_autogroup_enabled``)
-    each session is a group that competes with the others as a whole, whatever
-    its processes' nice values: the group's own nice is set too."""
-    try:
-        current = os.getpriority(os.PRIO_PROCESS, 0)
-        if current < scheduling.OBSERVER_NICE:
-            os.setpriority(os.PRIO_PROCESS, 0, scheduling.OBSERVER_NICE)
-    except OSError:
-        pass
-    try:
-        with open("/proc/self/autogroup", "w") as f:
-            f.write(str(scheduling.OBSERVER_NICE))
-    except OSError:
-        pass
 
 
 class Viewer:
@@ -71,7 +50,7 @@ class Viewer:
         self.joints = list(joint_names)
         self.n = len(self.joints)
         self.node = Node(VIEWER_NODE, context=context, start_parameter_services=False)
-        self.qos = _observer_qos()
+        self.qos = OBSERVER_QOS
         self.order: list[int] | None = None  #: indices of the stack's joints in the JointState names
         self.node.create_subscription(Float64MultiArray, "/controller/state", self._state, self.qos, raw=True)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._diagnostics, self.qos)
@@ -148,18 +127,6 @@ class Viewer:
                         pass
 
 
-def _observer_qos():
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
-    # Best effort: the writers never wait for, nor resend to, the viewer.
-    return QoSProfile(
-        reliability=ReliabilityPolicy.BEST_EFFORT,
-        durability=DurabilityPolicy.VOLATILE,
-        history=HistoryPolicy.KEEP_LAST,
-        depth=QUEUE_DEPTH,
-    )
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="viewer")
     parser.add_argument("--rrd", type=Path, required=True, help="where the view is saved for replay")
@@ -167,7 +134,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--urdf", default="", help="the arm's URDF (default: the package's reference arm)")
     parser.add_argument("--control-rate", type=float, default=100.0, help="the controller's rate, Hz")
     args = parser.parse_args(None if argv is None else argv[1:])  # argv[0] is the program, as for rclpy
-    _lower_priority()
+    # The observers' nice value (and its scheduling group's), before any thread starts: threads inherit it.
+    scheduling.apply_in_child(scheduling.Placement(nice=scheduling.OBSERVER_NICE))
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())

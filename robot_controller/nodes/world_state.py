@@ -1,10 +1,5 @@
-"""The simulated arm's joint positions, kept in a memory-mapped file so that a
-simulator that dies and is respawned finds the arm where it was (a real
-drive restarting does not teleport the arm).
-
-Written on every pacing tick: a store into shared memory, no system call,
-and what the dead process last wrote is still in the page cache.
-"""
+"""The simulated arm's joint positions in a memory-mapped file (written on every pacing
+tick, no system call), so that a respawned simulator finds the arm where it was."""
 
 from __future__ import annotations
 

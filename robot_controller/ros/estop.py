@@ -1,12 +1,6 @@
-"""``robot-controller estop [--release]``: trigger or release the emergency stop
-of a running graph, the way an operator's button would.
-
-Publishes ``/estop`` (``std_msgs/Bool``: true = stop) and calls the
-simulator's ``/simulator/estop`` service (``std_srvs/SetBool``), so the
-drive stops even if the topic were lost. Latched: the stack stays stopped
-(torque off, brakes on) until released; released, the controller re-acquires
-from where the arm is.
-"""
+"""``robot-controller estop [--release]``: the operator's button. Publishes ``/estop``
+(``std_msgs/Bool``, true = stop) and calls the simulator's ``/simulator/estop``
+service, so the drive stops even if the topic were lost; latched until released."""
 
 from __future__ import annotations
 
@@ -41,9 +35,8 @@ def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, st
     try:
         publisher = node.create_publisher(Bool, "/estop", PUBLISH_QOS)
         client = node.create_client(SetBool, "/simulator/estop")
-        # Every node that listens must have matched this publisher before the one
-        # message goes out (their readers are volatile): wait until as many are
-        # matched as the graph shows, unchanged for a moment, and the service is up.
+        # Every listener must have matched before the one message goes out (their readers are
+        # volatile): as many matched as the graph shows, unchanged for a moment, and the service up.
         deadline = time.monotonic() + timeout_s
         settled_since, last = time.monotonic(), -1
         while time.monotonic() < deadline:
@@ -69,8 +62,7 @@ def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, st
             executor.remove_node(node)
             if future.done() and future.result() is not None:
                 service_note = f"simulator: {future.result().message}"
-        # Deliver before the node goes: every matched reader acknowledges (a fixed 0.2 s was too
-        # short on a loaded machine: a release went unheard and the stack stayed stopped).
+        # Deliver before the node goes: every matched reader acknowledges.
         publisher.wait_for_all_acked(Duration(seconds=ACK_WAIT_S))
         what = "e-stop ENGAGED" if engage else "e-stop released"
         if not listeners and service_note.startswith("the simulator's service did not"):

@@ -27,16 +27,6 @@ LAW_STOPPED_EXIT_CODE = 3
 LAW_FAULT_FILE = "law_fault.txt"
 
 
-class NodeExit(Exception):
-    """A node ends the process on purpose, with ``code`` (its reason already logged). Raised
-    while building a node; from a callback, :func:`request_exit` ends the spin loop without
-    the executor's report of an exception in a callback."""
-
-    def __init__(self, code: int, reason: str = "") -> None:
-        super().__init__(reason)
-        self.code = code
-
-
 _exit_code: list[int] = []
 
 
@@ -102,21 +92,20 @@ def make_executor(context: rclpy.Context | None = None) -> Executor:
 _stop_requested = threading.Event()
 
 
-def init_with_own_signals(args: list[str] | None) -> None:
-    """rclpy.init, with SIGINT/SIGTERM only asking the spin loop to stop (between callbacks,
-    not as a KeyboardInterrupt inside one), so that cleanup runs in order."""
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+def init_with_own_signals(
+    args: list[str] | None = None, context: rclpy.Context | None = None, stop: threading.Event = _stop_requested
+) -> None:
+    """rclpy.init, with SIGINT/SIGTERM only setting ``stop`` (the spin loop ends between callbacks,
+    not by a KeyboardInterrupt inside one), so that cleanup runs in order."""
+    rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
     for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: _stop_requested.set())
+        signal.signal(signum, lambda *_: stop.set())
 
 
 def own_context() -> tuple[rclpy.Context, threading.Event]:
     """An observer's (recorder, graph watch) own context, its SIGINT and SIGTERM setting the event returned."""
-    stop = threading.Event()
-    context = rclpy.Context()
-    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+    context, stop = rclpy.Context(), threading.Event()
+    init_with_own_signals(context=context, stop=stop)
     return context, stop
 
 
@@ -133,7 +122,7 @@ def spin(executor: Executor) -> None:
 
 def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: list[str] | None = None) -> int:
     """Init, build the node(s) on one executor, spin until Ctrl-C or shutdown,
-    clean up; a bad parameter exits 2 with its reason, a node's ``NodeExit`` with its code."""
+    clean up; a bad parameter exits 2 with its reason, a node's :func:`request_exit` with its code."""
     factories = node_factories if isinstance(node_factories, list) else [node_factories]
     init_with_own_signals(args)
     nodes: list[Node] = []
@@ -159,8 +148,6 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
     except ConfigError as exc:
         print(f"error: {exc}", file=sys.stderr, flush=True)
         code[0] = 2
-    except NodeExit as exc:
-        code[0] = exc.code
     finally:
         guard = exit_after_cleanup_timeout(code)
         executor.shutdown(timeout_sec=1.0)

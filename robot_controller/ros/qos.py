@@ -7,39 +7,38 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from robot_controller.ros.partition import LOOP_QOS_ENV
 
 
-def _reliable_keep_last(depth: int) -> QoSProfile:
+def _keep_last(depth: int, *, reliable: bool = True, latched: bool = False) -> QoSProfile:
     return QoSProfile(
-        reliability=ReliabilityPolicy.RELIABLE,
-        durability=DurabilityPolicy.VOLATILE,
+        reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
         history=HistoryPolicy.KEEP_LAST,
         depth=depth,
     )
 
 
-# Reliable, volatile, keep-last: compatible with the tutorial's default-QoS
-# publishers and subscribers, so its nodes talk to ours unchanged. Depth 1000
-# (10 s of a 100 Hz topic, a few hundred kB) lets a reader that falls behind
-# (the recorder, below the loop) catch up without losing samples.
-CONTROL_QOS = _reliable_keep_last(1000)
-
-# What a controller, a drive or an encoder acts on: the newest message only.
-# A node that was paused must not work through a backlog of stale readings or
-# torques when it resumes (lockstep readers use LOCKSTEP_QOS below).
-LATEST_QOS = _reliable_keep_last(1)
-
+# Reliable, volatile, keep-last: compatible with the tutorial's default-QoS publishers and
+# subscribers. Depth 1000 (10 s of a 100 Hz topic) lets a reader that falls behind (the
+# recorder, below the loop) catch up without losing samples.
+CONTROL_QOS = _keep_last(1000)
+# What a controller, a drive or an encoder acts on: the newest message only, never a backlog
+# of stale readings or torques after a pause (lockstep readers use LOCKSTEP_QOS).
+LATEST_QOS = _keep_last(1)
 # The same, best effort: across a lossy link a lost sample is not waited for (the next one
 # has already made it stale). A reliable writer serves a best-effort reader.
-LATEST_BEST_EFFORT_QOS = QoSProfile(
-    reliability=ReliabilityPolicy.BEST_EFFORT,
-    durability=DurabilityPolicy.VOLATILE,
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1,
-)
-
-
+LATEST_BEST_EFFORT_QOS = _keep_last(1, reliable=False)
 # Lockstep: every message is a tick's and is taken in order, none is stale. The planner sends
 # each sample a tick early, so two can be in flight to the controller: all are kept.
-LOCKSTEP_QOS = _reliable_keep_last(100)
+LOCKSTEP_QOS = _keep_last(100)
+# A state, not an event (the motor's brake request): a late reader, such as a respawned
+# simulator, gets the current value at once.
+LATCHED_QOS = _keep_last(1, latched=True)
+# /clock in lockstep: a reader that matches late still gets the latest tick.
+CLOCK_QOS = _keep_last(1000, latched=True)
+# /estop: volatile readers, so a plain `ros2 topic pub /estop` matches too; the e-stop is
+# latched by the nodes that obey it, not by DDS.
+ESTOP_QOS = LATEST_QOS
+# An observer (the viewer): best effort, short queues; no writer waits for it or resends to it.
+OBSERVER_QOS = _keep_last(50, reliable=False)
 
 
 def loop_qos(lockstep: bool) -> QoSProfile:
@@ -52,24 +51,3 @@ def loop_qos(lockstep: bool) -> QoSProfile:
     if os.environ.get(LOOP_QOS_ENV) == "best_effort":
         return LATEST_BEST_EFFORT_QOS
     return LATEST_QOS
-
-
-# A state, not an event (the motor's brake request): a reader that starts late,
-# such as a respawned simulator, gets the current value at once.
-LATCHED_QOS = QoSProfile(
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.TRANSIENT_LOCAL,
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1,
-)
-# /clock in lockstep: a reader that matches late (the controller pairs each
-# reading with its tick's /clock, reading it with LATCHED_QOS) still gets the latest tick.
-CLOCK_QOS = QoSProfile(
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.TRANSIENT_LOCAL,
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1000,
-)
-# /estop: volatile readers, so a plain `ros2 topic pub /estop` (volatile) matches too;
-# the e-stop is latched by the nodes that obey it, not by DDS.
-ESTOP_QOS = LATEST_QOS

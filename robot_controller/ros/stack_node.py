@@ -69,17 +69,14 @@ class StackNode(Node):
             self.specs[spec.name] = spec
 
     def more_specs(self, values: dict[str, Any]) -> tuple[cfg.ParamSpec, ...]:
-        """Parameters the node has besides its schema's, given the schema's values (e.g. the
-        controller's law's ``law.*``); declared with them and checked the same way."""
+        """Parameters the node has besides its schema's, given the schema's values (a law's ``law.*``)."""
         return ()
 
     def finish(self) -> None:
-        """Last words, once the executor has stopped: stop the node's own threads and
-        publish what is pending, so that the publish counts written next are final."""
+        """Last words, once the executor has stopped: stop own threads, publish what is pending."""
 
     def setup(self, params: dict[str, Any]) -> None:
-        """Learn what the checks need from the read-only parameters (the arm from
-        its URDF), before :meth:`check_params` first runs."""
+        """Learn what the checks need from the read-only parameters, before :meth:`check_params` runs."""
 
     def check_params(self, params: dict[str, Any]) -> None:
         """Raise ``ConfigError`` if this combination of values cannot run."""
@@ -88,8 +85,7 @@ class StackNode(Node):
         """Take the new values (already validated) while running."""
 
     def _validated(self, values: dict[str, Any]) -> dict[str, Any]:
-        """The values checked one by one and together; any failure is a ``ConfigError``
-        with its reason (a design that does not solve, a rate the physics cannot keep)."""
+        """The values checked one by one and together; any failure is a ``ConfigError`` with its reason."""
         try:
             out = {name: self.specs[name].validate(value) for name, value in values.items()}
             self.check_params(out)
@@ -103,11 +99,8 @@ class StackNode(Node):
         candidate = dict(self.params)
         for parameter in parameters:
             if parameter.name in self._reports and not self._reporting:
-                return SetParametersResult(
-                    successful=False,
-                    reason=f"{parameter.name}: reported by the node, "
-                    "not settable (" + self._reports[parameter.name] + ")",
-                )
+                reason = f"{parameter.name}: reported by the node, not settable ({self._reports[parameter.name]})"
+                return SetParametersResult(successful=False, reason=reason)
             if parameter.name not in candidate:
                 continue  # use_sim_time and other built-ins
             if parameter.type_ == Parameter.Type.NOT_SET:
@@ -129,8 +122,7 @@ class StackNode(Node):
         self.get_logger().info("parameters changed: " + ", ".join(f"{n}={self.params[n]}" for n in sorted(changed)))
 
     def report(self, name: str, value: str, description: str = "") -> None:
-        """Show ``value`` as the string parameter ``name`` (``param get``): something the
-        node works out, such as the gains in force; a ``param set`` of it is refused."""
+        """Show ``value`` as the read-only string parameter ``name`` (the gains in force, say)."""
         self._reporting = True  # declaring and setting both pass through the on-set callback
         try:
             if name in self._reports:
@@ -151,9 +143,8 @@ class StackNode(Node):
         return gated
 
     def wait_until_acknowledged(self, timeout_s: float = ACK_WAIT_S) -> None:
-        """Wait (at most ``timeout_s`` in all) until the readers, the recorder's above all,
-        have acknowledged every message this node's gates published: a writer that goes
-        before its last samples are taken can take them along, and the bag misses them."""
+        """Wait (at most ``timeout_s`` in all) until the readers, the recorder's above all, have
+        acknowledged every message the gates published (a writer that goes takes them along)."""
         deadline = time.monotonic() + timeout_s
         for gated in self._gated_publishers:
             left_s = deadline - time.monotonic()
@@ -172,8 +163,7 @@ class StackNode(Node):
     # --- helpers ------------------------------------------------------------
 
     def now_s(self) -> float:
-        """The node's clock in seconds: ``get_clock().now()``, read without building
-        the ``Time`` object that its callers (several per tick) would throw away."""
+        """The node's clock in seconds, without building a ``Time`` object."""
         handle = self.get_clock().handle
         with handle:
             return handle.get_now().nanoseconds * 1e-9
@@ -212,6 +202,12 @@ class StackNode(Node):
             self.warn_throttled(
                 f"publishers{topic}", f"{topic} has publishers other than {expected}: {others}; " + consequence
             )
+
+    def dropped(self, topic: str, checked: Any) -> bool:
+        """Whether a message on ``topic`` is dropped: its check's result ``checked`` is a reason (said)."""
+        if isinstance(checked, str):
+            self.warn_throttled(topic, f"{topic} dropped: {checked}")
+        return isinstance(checked, str)
 
     def warn_throttled(self, key: str, message: str) -> None:
         """Warn at most once per ``WARN_PERIOD_S`` per ``key``, counting what was suppressed."""

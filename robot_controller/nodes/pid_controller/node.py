@@ -125,10 +125,8 @@ class PidControllerNode(StackNode):
 
     @staticmethod
     def timer_period_s(params: dict[str, Any]) -> float:
-        """The timer ticks the loop (``trigger: timer``), or with readings driving
-        it only watches for their absence: twice per watchdog window is enough,
-        and a quarter of the callbacks of a 100 Hz timer. (While readings are
-        missing it ticks at the control rate: the controlled stop runs on it.)"""
+        """The timer ticks the loop (``trigger: timer``), or with readings driving it watches for
+        their absence, twice per watchdog window (while they are missing it ticks the loop)."""
         period_s = 1.0 / params["control_rate_hz"]
         if params["trigger"] == "measurement":
             return period_s * max(1.0, params["watchdog_periods"] / 2)
@@ -138,8 +136,7 @@ class PidControllerNode(StackNode):
 
     def joint_state_callback(self, msg: JointState) -> None:
         checked = check_joint_state(msg.name, msg.position, msg.velocity, self.joint_names)
-        if isinstance(checked, str):
-            self.warn_throttled("joint_states", f"/joint_states dropped: {checked}")
+        if self.dropped("/joint_states", checked):
             self.check_configuration(list(msg.name))
             return
         stamp_s = stamp_to_s(msg.header.stamp)
@@ -156,10 +153,8 @@ class PidControllerNode(StackNode):
                 self.tick(now_s)
 
     def check_configuration(self, names: list[str]) -> None:
-        """Readings that name other joints than this controller's URDF, and never a
-        usable one since start: the graph is configured for different arms. End
-        the run with both sides named (a hostile message later cannot do this:
-        it only counts before the first valid reading)."""
+        """Readings naming other joints than this controller's URDF, none usable since start, for
+        ``CONFIG_MISMATCH_S``: the graph is configured for different arms; end with both named."""
         if self.controller.has_measurement or not names or sorted(names) == sorted(self.joint_names):
             self.mismatch_since = None
             return
@@ -174,8 +169,7 @@ class PidControllerNode(StackNode):
 
     def trajectory_callback(self, msg: Float64MultiArray) -> None:
         checked = check_trajectory(msg.data, self.joint_count)
-        if isinstance(checked, str):
-            self.warn_throttled("trajectory", f"/trajectory dropped: {checked}")
+        if self.dropped("/trajectory", checked):
             return
         position, velocity, acceleration, sample_time_s = checked
         # Received at the tick in force (lockstep: the latest /clock, so a sample sent a tick early waits for it).

@@ -67,23 +67,13 @@ class StatusReports:
         """One log line when the loop's state changes (faults, stops, recovery)."""
         config = self.controller.config
         before, self.last_status = self.last_status, status
-        lines = {
-            Status.WATCHDOG: (
-                "warning",
-                f"no valid /joint_states for over {config.watchdog_periods} periods: "
-                "controlled stop on the arm model's estimate (category 2)",
-            ),
-            Status.SENSOR_LOST: (
-                "warning",
-                f"no valid /joint_states for {config.sensor_timeout_s:g} s: no more "
-                "commands, torque off, the brake holds (category 1)",
-            ),
-            Status.REFERENCE_LOST: ("warning", "no /trajectory sample for too long: controlled stop, holding"),
-            Status.STOPPED: ("warning", "e-stop: not commanding until it is released"),
-            Status.REACQUIRING: (
-                "info",
-                "fault cleared: re-acquiring from the measurement, blending back onto the trajectory",
-            ),
+        warnings = {
+            Status.WATCHDOG: f"no valid /joint_states for over {config.watchdog_periods} periods: "
+            "controlled stop on the arm model's estimate (category 2)",
+            Status.SENSOR_LOST: f"no valid /joint_states for {config.sensor_timeout_s:g} s: no more "
+            "commands, torque off, the brake holds (category 1)",
+            Status.REFERENCE_LOST: "no /trajectory sample for too long: controlled stop, holding",
+            Status.STOPPED: "e-stop: not commanding until it is released",
         }
         if status is Status.LAW_FAULT and before is not Status.LAW_FAULT and self.controller.law_fault is not None:
             self.report_law_fault()
@@ -97,13 +87,10 @@ class StatusReports:
         if status in (Status.REACQUIRING, Status.OK) and before in (None, Status.HOLDING):
             self.log.info("first reading and reference: leading the arm from where it is onto the trajectory")
             return
-        if status in lines:
-            # One call site per severity: rclpy's logger refuses two at one site.
-            level, text = lines[status]
-            if level == "warning":
-                self.log.warning(text)
-            else:
-                self.log.info(text)
+        if status in warnings:
+            self.log.warning(warnings[status])  # one call site per severity: rclpy refuses two at one site
+        elif status is Status.REACQUIRING:
+            self.log.info("fault cleared: re-acquiring from the measurement, blending back onto the trajectory")
         elif status is Status.OK and before not in (None, Status.HOLDING, Status.OK):
             self.log.info("tracking the trajectory again")
 

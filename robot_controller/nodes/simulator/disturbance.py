@@ -42,8 +42,7 @@ class Disturbance:
     def callback(self, msg: Float64MultiArray) -> None:
         node = self.node
         checked = check_disturbance(msg.data, node.joint_count)
-        if isinstance(checked, str):
-            node.warn_throttled("disturbance", f"/sim/disturbance dropped: {checked}")
+        if node.dropped("/sim/disturbance", checked):
             return
         torque, duration_s = checked
         if np.any(np.abs(torque) > MAX_DISTURBANCE_NM):

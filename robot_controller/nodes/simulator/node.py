@@ -95,8 +95,7 @@ class Simulator(StackNode):
 
     def effort_callback(self, msg: Float64MultiArray) -> None:
         checked = check_effort(msg.data, self.joint_count)
-        if isinstance(checked, str):
-            self.warn_throttled("effort", f"/sim/effort dropped: {checked}")
+        if self.dropped("/sim/effort", checked):
             return
         limit = self.plant.effort_limit
         if np.any(np.abs(checked) > limit):
