@@ -9,7 +9,7 @@ import pytest
 from robot_controller import cli
 from robot_controller.cli import docs
 
-DOCS = Path(__file__).resolve().parent.parent / "docs"
+DOCS = Path(__file__).resolve().parents[2] / "docs"
 
 
 @pytest.mark.parametrize(

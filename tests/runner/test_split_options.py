@@ -11,7 +11,7 @@ from robot_controller.ros import partition
 from robot_controller.runner import plan as run_plan
 from robot_controller.runner.options import RunOptions, check_nodes
 from robot_controller.runner.supervise import GraphLink
-from tests.test_cli import cli, one_line_error
+from tests.cli.test_errors import cli, one_line_error
 
 NS = {"p": "http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles"}
 
