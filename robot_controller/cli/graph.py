@@ -14,12 +14,7 @@ from robot_controller.tools import param, topic  # no ROS until a verb runs
 def register(sub) -> None:
     p = verb(sub, "estop", "emergency stop of the running graph: torque off, brakes on, latched", _estop)
     p.add_argument("--release", action="store_true", help="release the e-stop; the loop re-acquires")
-    p = verb(
-        sub,
-        "disturb",
-        "push the running arm: an external torque for a while (/sim/disturbance)",
-        _disturb,
-    )
+    p = verb(sub, "disturb", "push the running arm: an external torque for a while (/sim/disturbance)", _disturb)
     p.add_argument("--torque", type=float, required=True, help="N·m")
     p.add_argument("--duration", type=positive_seconds, default=0.5, help="s (default 0.5)")
     p.add_argument("--joint", help="joint name (default: every joint)")
@@ -46,21 +41,11 @@ def register(sub) -> None:
     )
     p = verb(topics, "list", "the graph's topics", lambda a: topic.topic_list(show_types=a.show_types))
     p.add_argument("-t", "--show-types", action="store_true")
-    p = verb(
-        topics,
-        "echo",
-        "print a topic's messages",
-        lambda a: topic.topic_echo(a.topic, count=a.count, csv=a.csv),
-    )
+    p = verb(topics, "echo", "print a topic's messages", lambda a: topic.topic_echo(a.topic, count=a.count, csv=a.csv))
     p.add_argument("topic")
     p.add_argument("--count", type=positive_int, help="stop after this many messages")
     p.add_argument("--csv", action="store_true", help="one line of comma-separated values per message")
-    p = verb(
-        topics,
-        "hz",
-        "a topic's rate",
-        lambda a: topic.topic_hz(a.topic, window=a.window, duration_s=a.duration),
-    )
+    p = verb(topics, "hz", "a topic's rate", lambda a: topic.topic_hz(a.topic, window=a.window, duration_s=a.duration))
     p.add_argument("topic")
     p.add_argument("--window", "-w", type=positive_int, default=10_000, help="messages the statistics cover")
     p.add_argument("--duration", type=positive_seconds, help="stop after this long, s (default: Ctrl-C)")

@@ -28,8 +28,7 @@ VERB_ENTRY_POINTS = "robot_controller.verbs"
 
 def build_parser() -> Parser:
     parser = Parser(
-        prog="robot-controller",
-        description="run the loop, score a recording, experiment, and talk to a running graph",
+        prog="robot-controller", description="run the loop, score a recording, experiment, and talk to a running graph"
     )
     sub = parser.add_subparsers(dest="verb", required=True, parser_class=Parser)
     run.register(sub)

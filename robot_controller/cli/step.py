@@ -17,7 +17,7 @@ STEP_HEADLINE = ("overshoot_pct", "rise_time_s", "settling_time_s", "steady_stat
 
 
 def register(sub) -> None:
-    p = verb(sub, "step", "a step response: overshoot, rise, settling, steady-state error, torque", _step)
+    p = verb(sub, "step", "a step response: overshoot, rise, settling, steady-state error, torque", step)
     p.add_argument("--amplitude", type=step_size_rad, default=0.5, help="step size, rad (default 0.5)")
     p.add_argument(
         "--shaping",
@@ -31,26 +31,23 @@ def register(sub) -> None:
     p.add_argument("--sim-time", action="store_true", help="deterministic lockstep")
 
 
-def _step(a: argparse.Namespace) -> int:
-    return step(RunOptions.from_args(a), a.out, amplitude=a.amplitude, shaping=a.shaping, controller=a.controller)
-
-
-def step(options: RunOptions, out: Path | None, *, amplitude: float, shaping: str, controller: str | None) -> int:
+def step(a: argparse.Namespace) -> int:
     from robot_controller.experiments import step as experiments
     from robot_controller.experiments.laws import with_controller
     from robot_controller.parameters import consistency
 
-    params = with_controller(options.params(), controller)
-    consistency.check_stack(experiments.step_params(params, amplitude, shaping))  # before the folder is made
-    out = output_dir(out, Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S")))
+    options = RunOptions.from_args(a)
+    params = with_controller(options.params(), a.controller)
+    consistency.check_stack(experiments.step_params(params, a.amplitude, a.shaping))  # before the folder is made
+    out = output_dir(a.out, Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S")))
     try:
         values = experiments.step_response(
-            params, out, amplitude=amplitude, shaping=shaping, sim_time=options.sim_time, seed=options.seed
+            params, out, amplitude=a.amplitude, shaping=a.shaping, sim_time=options.sim_time, seed=options.seed
         )
     except ConfigError:
         raise  # a user error: one line, exit 2
     except (RuntimeError, ValueError) as exc:
         print(f"robot-controller: {exc}", file=sys.stderr)
         return 1
-    print_table(values, title=f"step {amplitude} rad ({shaping}) → {out}", headline=STEP_HEADLINE)
+    print_table(values, title=f"step {a.amplitude} rad ({a.shaping}) → {out}", headline=STEP_HEADLINE)
     return 0
