@@ -1,5 +1,5 @@
 """Run the graph as ``ros2 launch`` does: start what ``plan`` planned (the recorder first, then the
-nodes, each child's output prefixed with its name), supervise the run (``run_loop``), stop them all
+nodes, each child's output prefixed with its name), supervise the run (``supervise``), stop them all
 with SIGINT (Ctrl-C, SIGTERM or the end of the duration; SIGKILL for any that hang), the recorder
 last, and report what was recorded against what the nodes say they published. A node that dies ends
 the run with a non-zero exit, or starts again with ``respawn``. The live viewer is an observer:
@@ -22,7 +22,7 @@ from robot_controller.ros.process import LAW_FAULT_FILE, TEARDOWN_HUNG_SIGNAL
 from robot_controller.runner import forking, supervise
 from robot_controller.runner.plan import CheckedRun, plan
 from robot_controller.runner.processes import STOP_TIMEOUT_S, ProcessGroup, say
-from robot_controller.runner.run_loop import RunResult, Watcher, run_loop
+from robot_controller.runner.supervise import RunResult, Watcher, run_loop
 
 __all__ = ["RunResult", "launch", "say"]
 
