@@ -13,8 +13,7 @@ import numpy as np
 
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation import KalmanConfig
-from robot_controller.core.laws import lqr
-from robot_controller.core.laws.feedforward import FeedforwardMode
+from robot_controller.core.laws import FeedforwardMode, lqr
 from robot_controller.core.laws.pid import PidConfig
 from robot_controller.core.laws.registry import BUILTIN_LAWS
 

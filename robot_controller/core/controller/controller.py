@@ -24,9 +24,8 @@ from robot_controller.core.controller.tick_state import StateAtTick, make_estima
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation import JointKalmanFilter
 from robot_controller.core.laws import Reference, State, registry
-from robot_controller.core.laws.builtin import BuiltinLaw
+from robot_controller.core.laws.builtin import BuiltinLaw, FeedforwardMode
 from robot_controller.core.laws.containment import LawFault
-from robot_controller.core.laws.feedforward import FeedforwardMode
 from robot_controller.core.laws.in_loop import LawInLoop, arm_for
 from robot_controller.core.laws.pid import Pid, PidConfig, PidTerms
 from robot_controller.core.model import ArmDynamics

@@ -3,7 +3,8 @@ arm, the period and their parameters (the node's kp, ki, kd, lqr_q, ... as
 :meth:`~robot_controller.core.controller.config.ControllerConfig.law_params` gives them).
 One :class:`~robot_controller.core.laws.pid.Pid` runs both: model feedforward for the
 reference over the period, less the observer's estimate of an external torque, plus
-feedback (decoupled on a chain); for ``lqr`` the gains come from a Riccati design.
+feedback (decoupled on a chain, :func:`decoupling_map`); for ``lqr`` the gains come from a
+Riccati design.
 
 Gains: Kp N·m/rad, Ki N·m/(rad·s), Kd N·m·s/rad; torques N·m; times s.
 """
@@ -11,14 +12,51 @@ Gains: Kp N·m/rad, Ki N·m/(rad·s), Kd N·m·s/rad; torques N·m; times s.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any, ClassVar
+from enum import StrEnum
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from robot_controller.core.laws import lqr
-from robot_controller.core.laws.feedforward import decoupling_map, feedforward_torque
 from robot_controller.core.laws.interface import Arm, ControlLaw, Reference, State
 from robot_controller.core.laws.pid import Pid, PidConfig, PidTerms
+
+if TYPE_CHECKING:
+    from robot_controller.core.model import ArmDynamics
+
+
+class FeedforwardMode(StrEnum):
+    """The model feedforward the built-in law adds for the reference."""
+
+    NONE = "none"
+    GRAVITY = "gravity"  #: gravity at the reference position
+    FULL = "full"  #: inertia·a_ref + damping·v_ref + gravity(q_ref)
+
+
+def feedforward_torque(
+    mode: FeedforwardMode,
+    dynamics: ArmDynamics | None,
+    position: np.ndarray,
+    velocity: np.ndarray,
+    acceleration: np.ndarray,
+) -> np.ndarray:
+    """Feedforward torque (N·m) for the reference ``(position, velocity, acceleration)``."""
+    if mode is FeedforwardMode.NONE or dynamics is None:
+        return np.zeros(np.shape(position))
+    if mode is FeedforwardMode.GRAVITY:
+        return dynamics.gravity(position)
+    return dynamics.torque(position, velocity, acceleration)
+
+
+def decoupling_map(decoupling: bool, dynamics: ArmDynamics | None, position: np.ndarray) -> np.ndarray | None:
+    """``M(q)·diag(M(q))⁻¹`` at ``position``: the torques that give each joint the acceleration its
+    own gains ask for (``τ_j / M_jj``) on a chain whose inertias couple (the feedback half of
+    computed-torque control). None when ``decoupling`` is off, on one joint or without the arm model."""
+    if not decoupling or dynamics is None or np.size(position) < 2:
+        return None
+    mass = dynamics.mass_matrix(position)
+    return mass / np.diag(mass)[None, :]
+
 
 # A tick later than this many periods after the last one is integrated over this many.
 MAX_STEP_PERIODS = 5

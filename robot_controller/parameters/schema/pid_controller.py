@@ -3,7 +3,7 @@ the arm model, the limits and the clock."""
 
 from __future__ import annotations
 
-from robot_controller.core.laws.feedforward import FeedforwardMode
+from robot_controller.core.laws import FeedforwardMode
 from robot_controller.core.laws.pid import AntiWindup, DerivativeSource
 from robot_controller.parameters.schema.shared import (
     POSITIVE,

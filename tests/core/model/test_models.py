@@ -6,7 +6,7 @@ import pytest
 
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError, TimingError
-from robot_controller.core.laws.feedforward import FeedforwardMode, feedforward_torque
+from robot_controller.core.laws import FeedforwardMode, feedforward_torque
 from robot_controller.core.model import (
     Actuator,
     ArmDynamics,
