@@ -12,8 +12,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller.core import metrics
-from robot_controller.core.controller import JointController
-from robot_controller.core.controller.output import Status
+from robot_controller.core.controller import JointController, Status
 from robot_controller.core.model import Actuator, Plant, SensorConfig, measure, steps_per_period
 from robot_controller.core.reference import Trajectory
 

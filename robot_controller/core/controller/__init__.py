@@ -3,10 +3,19 @@ law in force, the controlled stops, and what one tick outputs (:mod:`.controller
 
 from robot_controller.core.controller.config import ControllerConfig, law_config
 from robot_controller.core.controller.controller import STOPS, JointController
-from robot_controller.core.controller.latency import LatencyGuard, LatencyState, delay_margin_periods
-from robot_controller.core.controller.output import ControlOutput, ReferenceSource, Status
 from robot_controller.core.controller.setpoint import REFERENCE_TIMEOUT_PERIODS, PlannerReference
-from robot_controller.core.controller.supervision import REACQUIRE_GAP_PERIODS, Readings, TickClock, check_health
+from robot_controller.core.controller.supervision import (
+    REACQUIRE_GAP_PERIODS,
+    ControlOutput,
+    LatencyGuard,
+    LatencyState,
+    Readings,
+    ReferenceSource,
+    Status,
+    TickClock,
+    check_health,
+    delay_margin_periods,
+)
 
 __all__ = [
     "REACQUIRE_GAP_PERIODS",

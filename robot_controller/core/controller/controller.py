@@ -16,11 +16,19 @@ from collections.abc import Callable
 import numpy as np
 
 from robot_controller.core.controller.config import ControllerConfig, law_config
-from robot_controller.core.controller.latency import LatencyGuard, LatencyState, delay_margin_periods
-from robot_controller.core.controller.output import ControlOutput, ReferenceSource, Status
 from robot_controller.core.controller.reference_at_tick import ReferenceAtTick
-from robot_controller.core.controller.supervision import Readings, TickClock, check_health
-from robot_controller.core.controller.tick_state import StateAtTick, make_estimator
+from robot_controller.core.controller.supervision import (
+    ControlOutput,
+    LatencyGuard,
+    LatencyState,
+    Readings,
+    ReferenceSource,
+    Status,
+    TickClock,
+    check_health,
+    delay_margin_periods,
+)
+from robot_controller.core.controller.tick_state import MAX_EXTRAPOLATION_S, StateAtTick, make_estimator
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation import JointKalmanFilter
 from robot_controller.core.laws import Reference, State, registry
@@ -47,7 +55,7 @@ class JointController:
     """``law_clock``: a function giving seconds of wall time, to hold a plugin law to its
     ``law_budget_s`` (None: its time is not checked, as in the in-process loops).
     ``latency_guard``: stop the motion while the readings' and commands' delay is past the
-    delay margin (:mod:`~robot_controller.core.controller.latency`)."""
+    delay margin (:class:`~robot_controller.core.controller.supervision.LatencyGuard`)."""
 
     def __init__(
         self,
@@ -74,7 +82,7 @@ class JointController:
         self._halted = False
         self._braked = False
         self._latency_guard = latency_guard
-        self._latency = LatencyGuard.for_margin(self.delay_margin_periods(), config) if latency_guard else None
+        self._latency = self._new_latency_guard(config) if latency_guard else None
         self._rest_s: dict[ReferenceSource, float] = {}  # when each controlled stop came to rest
         #: the latency guard's latest verdict (None without a guard, or before its first tick)
         self.latency: LatencyState | None = None
@@ -142,11 +150,17 @@ class JointController:
 
     def delay_margin_periods(self) -> int | None:
         """Whole control periods of unaccounted delay the built-in law's feedback survives on the
-        worst joint (:func:`~robot_controller.core.controller.latency.delay_margin_periods`); None
+        worst joint (:func:`~robot_controller.core.controller.supervision.delay_margin_periods`); None
         without the arm model, and for a plugin law (its feedback is not known here)."""
         if self.plugin is not None:
             return None
         return delay_margin_periods(self.gains, self.dynamics, self.joint_count, self.config)
+
+    def _new_latency_guard(self, config: ControllerConfig) -> LatencyGuard | None:
+        """The guard for the margin of the gains in force; a reading's age up to MAX_EXTRAPOLATION_S is
+        accounted for with latency compensation."""
+        compensated_s = MAX_EXTRAPOLATION_S if config.latency_compensation else 0.0
+        return LatencyGuard.for_margin(self.delay_margin_periods(), config.control_period_s, compensated_s)
 
     def set_config(self, config: ControllerConfig) -> None:
         """New gains and options, applied bumplessly from the next tick."""
@@ -176,7 +190,7 @@ class JointController:
         if builtin_in_force:
             self.law = self.stop_law
         if self._latency_guard:  # the margin of the new gains
-            guard = LatencyGuard.for_margin(self.delay_margin_periods(), config)
+            guard = self._new_latency_guard(config)
             if guard is not None and self._latency is not None:
                 self._latency.tolerated_s, self._latency.compensated_s = guard.tolerated_s, guard.compensated_s
             else:

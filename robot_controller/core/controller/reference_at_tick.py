@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 
 from robot_controller.core.controller.config import ControllerConfig
-from robot_controller.core.controller.output import ReferenceSource, Status
 from robot_controller.core.controller.safe_motion import Blend, ControlledStop
 from robot_controller.core.controller.setpoint import PlannerReference, TrajectoryPoint
+from robot_controller.core.controller.supervision import ReferenceSource, Status
 from robot_controller.core.controller.tick_state import MAX_EXTRAPOLATION_S
 from robot_controller.core.laws import Reference
 

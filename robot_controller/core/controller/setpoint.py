@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_controller.core.controller.output import ReferenceSource
+from robot_controller.core.controller.supervision import ReferenceSource
 from robot_controller.core.controller.tick_state import MAX_EXTRAPOLATION_S, TIME_EPS_S, clipped_age_s
 
 # The planner counts as silent after this many of its periods without a sample.

@@ -1,16 +1,104 @@
-"""Supervision of the controller's inputs, once per tick: the sensor readings (a stale one
-refused, the sensor's silence), the tick clock (the period the law integrates over, pauses of
-the controller itself) and the verdict, :func:`check_health`: track, stop on the model, or
-command nothing. Times in seconds on the controller's clock."""
+"""Whether and how a tick may command, and what it reports. Once per tick the controller
+supervises its inputs: the sensor readings (a stale one refused, the sensor's silence), the tick
+clock (the period the law integrates over, pauses of the controller itself), the verdict on both
+(:func:`check_health`: track, stop on the model, or command nothing) and the latency guard
+(:class:`LatencyGuard`: signals later than the gains' delay margin survive stop the motion). The
+tick reports its :class:`Status`, where its reference came from (:class:`ReferenceSource`; a
+reference the controller made up or rewrote is always named, never passed off as the planner's)
+and the command with its terms (:class:`ControlOutput`). Times in seconds on the controller's clock
+(a command receipt on the drive's: across hosts the clocks agree).
+"""
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
+from enum import StrEnum
+from statistics import median
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robot_controller.core.controller.config import ControllerConfig
-from robot_controller.core.controller.output import Status
+from robot_controller.core.estimation import steady_state_gain
+from robot_controller.core.laws import PidTerms, lqr, robustness
+from robot_controller.core.laws.pid import PidConfig
+
+if TYPE_CHECKING:
+    from robot_controller.core.model import ArmDynamics
+
+
+class Status(StrEnum):
+    OK = "ok"
+    HOLDING = "holding"  #: no reference yet: holding the first measured position
+    NO_MEASUREMENT = "no_measurement"  #: no valid sensor message yet: no command
+    WATCHDOG = "watchdog"  #: readings missing: controlled stop on the model's estimate (category 2)
+    #: readings missing, the stop on the model over (at rest, held briefly) or past sensor_timeout_s:
+    #: no command, the brake holds (category 1)
+    SENSOR_LOST = "sensor_lost"
+    REACQUIRING = "reacquiring"  #: a fault cleared: led from where the arm is back onto the trajectory
+    REFERENCE_LOST = "reference_lost"  #: the planner went quiet: controlled stop of the reference, holding
+    STOPPED = "stopped"  #: e-stop or brake: no command until it lifts
+    LAW_FAULT = "law_fault"  #: the plugin law failed: controlled stop on the built-in law (category 2)
+    LAW_STOPPED = "law_stopped"  #: after LAW_FAULT's stop and hold: no command, the brake holds (category 1)
+    LATE = "late"  #: readings or commands later than the delay margin: controlled stop on the model (category 2)
+    LATE_STOPPED = "late_stopped"  #: after LATE's stop and hold: no command, the brake holds (category 1)
+
+    @property
+    def commanding(self) -> bool:
+        """Whether a tick in this state sends a torque to the motor."""
+        return self not in _NOT_COMMANDING
+
+
+# Made once: asked every tick.
+_NOT_COMMANDING = frozenset(
+    (Status.NO_MEASUREMENT, Status.SENSOR_LOST, Status.STOPPED, Status.LAW_STOPPED, Status.LATE_STOPPED)
+)
+
+
+class ReferenceSource(StrEnum):
+    """Where the tick's reference (rad, rad/s, rad/s²) came from."""
+
+    TRAJECTORY = "trajectory"  #: the planner's latest sample as it is (held between samples)
+    EXTRAPOLATED = "extrapolated"  #: the planner's latest sample advanced to the tick on its v and a
+    HOLD_POSITION = "hold_position"  #: no trajectory to follow (yet, or again): hold where the arm was
+    REACQUIRE_BLEND = "reacquire_blend"  #: the trajectory plus a fading offset from where the arm was
+    REFERENCE_STOP = "reference_stop"  #: the planner went quiet: its last reference brought to rest
+    SENSOR_STOP = "sensor_stop"  #: readings missing: the reference brought to rest, the arm on the model
+    LAW_STOP = "law_stop"  #: the plugin law failed: the reference brought to rest for the built-in law
+    LATE_STOP = "late_stop"  #: the loop's delay is past its margin: the reference brought to rest, held
+    NONE = "none"  #: no command this tick: ``reference`` only repeats the arm's position
+
+    @property
+    def from_planner(self) -> bool:
+        """Whether the reference is the planner's own (not held or rewritten by the controller)."""
+        return self in (ReferenceSource.TRAJECTORY, ReferenceSource.EXTRAPOLATED)
+
+
+@dataclass
+class ControlOutput:
+    """One tick: the command and everything that went into it."""
+
+    time_s: float
+    status: Status
+    reference: np.ndarray  #: rad, the position reference the law tracked
+    measured: np.ndarray  #: rad, the arm's position as estimated at the tick
+    terms: PidTerms
+    reference_source: ReferenceSource = ReferenceSource.TRAJECTORY
+    #: N·m per joint, the external torque the disturbance observer estimates (the command
+    #: subtracts it, inside ``terms.feedforward``); None without an observer or a command
+    disturbance: np.ndarray | None = None
+    #: a plugin law's extra terms for ``/controller/state`` (its ``state_terms``), N·m per joint
+    law_terms: dict[str, np.ndarray] | None = None
+
+    @property
+    def command(self) -> np.ndarray:
+        return self.terms.command
+
+    @property
+    def error(self) -> np.ndarray:
+        return self.reference - self.measured
+
 
 # A gap this many periods long between this controller's own ticks means it
 # was not running (frozen, starved): the arm was stopped without it meanwhile.
@@ -119,3 +207,109 @@ _SENSOR_LOST = Health(Status.SENSOR_LOST, restart=True)
 _WATCHDOG = Health(Status.WATCHDOG, restart=True)
 _BRAKED = Health(Status.OK, restart=True)
 _OK = Health(Status.OK, restart=False)
+
+
+# --- the latency guard (docs/design.md §4) -------------------------------------------------
+# Two delays add up to the loop's unaccounted delay, each the median of its last WINDOW (at least
+# MIN_SAMPLES: jitter and one-off stalls move a median by one place at most): a reading's age on
+# arrival beyond what latency compensation accounts for (compensated_s), and a command's delay to
+# the drive (from /motor/command_receipts, for COMMAND_MEMORY_S). Above the delay margin the loop
+# is late; it is on time again once the delay has stayed within half the margin for CLEAR_AFTER_S.
+
+#: How many recent readings (and command receipts) the medians cover.
+WINDOW = 10
+#: A median of fewer is no evidence (the first reading alone, one stray receipt).
+MIN_SAMPLES = WINDOW // 2
+#: A command delay older than this (s) is forgotten: receipts come once a second.
+COMMAND_MEMORY_S = 2.5
+#: The delay must stay within half the margin this long (s) before the loop is on time again.
+CLEAR_AFTER_S = 1.0
+
+
+@dataclass(frozen=True)
+class LatencyState:
+    late: bool
+    delay_s: float  #: the loop's unaccounted delay now (s): readings' part + commands' part
+    tolerated_s: float  #: what the gains survive (s)
+    cleared: bool = False  #: on time again at this verdict, after being late
+
+
+class LatencyGuard:
+    """``tolerated_s``: the delay margin in seconds (margin periods × control period);
+    ``compensated_s``: how much of a reading's age the controller accounts for (0 without
+    latency compensation)."""
+
+    def __init__(self, tolerated_s: float, compensated_s: float) -> None:
+        self.tolerated_s = tolerated_s
+        self.compensated_s = compensated_s
+        self._readings: deque[float] = deque(maxlen=WINDOW)
+        self._commands: deque[tuple[float, float]] = deque(maxlen=WINDOW)  # (receipt s, delay s)
+        self._late = False
+        self._within_since: float | None = None  # when the delay last came within half the margin
+
+    @classmethod
+    def for_margin(cls, margin_periods: int | None, period_s: float, compensated_s: float) -> LatencyGuard | None:
+        """The guard for a delay margin of ``margin_periods`` control periods of ``period_s`` (None when
+        it is not known: no guard)."""
+        if margin_periods is None:
+            return None
+        return cls(margin_periods * period_s, compensated_s)
+
+    def reading(self, age_s: float) -> None:
+        """A reading arrived ``age_s`` seconds after its stamp."""
+        self._readings.append(max(0.0, age_s - self.compensated_s))
+
+    def command(self, receipt_s: float, delay_s: float) -> None:
+        """A command reached the drive ``delay_s`` seconds after the tick that issued it."""
+        self._commands.append((receipt_s, max(0.0, delay_s)))
+
+    def delay_s(self, now_s: float) -> float:
+        """The loop's unaccounted delay at ``now_s`` (s)."""
+        readings = median(self._readings) if len(self._readings) >= MIN_SAMPLES else 0.0
+        recent = [delay for receipt, delay in self._commands if now_s - receipt <= COMMAND_MEMORY_S]
+        return readings + (median(recent) if len(recent) >= MIN_SAMPLES else 0.0)
+
+    def update(self, now_s: float) -> LatencyState:
+        """The verdict at ``now_s``: late above the margin, on time again after
+        ``CLEAR_AFTER_S`` within half of it."""
+        delay = self.delay_s(now_s)
+        was_late = self._late
+        if delay > self.tolerated_s:
+            self._late, self._within_since = True, None
+        elif self._late:
+            if delay > 0.5 * self.tolerated_s:
+                self._within_since = None
+            elif self._within_since is None:
+                self._within_since = now_s
+            elif now_s - self._within_since >= CLEAR_AFTER_S:
+                self._late, self._within_since = False, None
+        return LatencyState(self._late, delay, self.tolerated_s, was_late and not self._late)
+
+
+def delay_margin_periods(
+    gains: PidConfig, dynamics: ArmDynamics | None, joint_count: int, config: ControllerConfig
+) -> int | None:
+    """Whole control periods of delay nobody accounts for (a late command, a reading stamped on
+    arrival) the feedback with ``gains`` survives on the worst joint, the arm linearised at rest at
+    the design pose (:func:`robustness.delay_margin_periods`). With the disturbance observer, the
+    loop through the filter and the observer (:func:`robustness.observer_delay_margin_periods`),
+    for the filter as it is while the readings agree with it and as it becomes when they do not
+    (``KalmanConfig.at_mismatch``: late readings disagree), the worse. None without the arm model."""
+    if dynamics is None:
+        return None
+    period_s = config.control_period_s
+    inertia = lqr.design_inertia(dynamics, joint_count, config.design_position)
+    scale = config.observer_torque_scale(dynamics, joint_count)
+    margins = []
+    for j in range(joint_count):
+        ki, kp, kd = float(gains.ki[j]), float(gains.kp[j]), float(gains.kd[j])
+        joint_inertia, damping = float(inertia[j]), float(dynamics.damping[j])
+        if config.observes_disturbance:
+            joint_filter = config.estimator if scale is None else config.estimator.for_inertia(float(scale[j]))
+            for filter_ in (joint_filter, joint_filter.at_mismatch()):
+                filter_gains = steady_state_gain(filter_, joint_inertia, damping, period_s, estimate_disturbance=True)
+                margins.append(robustness.observer_delay_margin_periods((ki, kp, kd), filter_gains, period_s))
+        else:
+            A, B = lqr.discretise(joint_inertia, damping, period_s)
+            margins.append(int(robustness.delay_margin_periods(A, B, robustness.pid_gain_row(kp, ki, kd))[0]))
+    return min(margins)

@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from robot_controller.core.controller import ControlOutput, JointController, Status
-from robot_controller.core.controller.output import ReferenceSource
+from robot_controller.core.controller.supervision import ReferenceSource
 from robot_controller.core.laws import Reference
 from robot_controller.core.laws.pid import PidTerms
 from tests.core.controller.joint_rig import PERIOD, TORQUE_MAX, arm, config, one, run, tracking

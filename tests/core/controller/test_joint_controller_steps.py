@@ -5,9 +5,8 @@ planner's reference at a tick (no ROS, no sleeping)."""
 import pytest
 
 from robot_controller.core.controller import JointController
-from robot_controller.core.controller.output import ReferenceSource, Status
 from robot_controller.core.controller.setpoint import MAX_AHEAD_S, PlannerReference
-from robot_controller.core.controller.supervision import Readings, TickClock, check_health
+from robot_controller.core.controller.supervision import Readings, ReferenceSource, Status, TickClock, check_health
 from robot_controller.core.controller.tick_state import StateAtTick
 from tests.core.controller.joint_rig import PERIOD, arm, config, one
 

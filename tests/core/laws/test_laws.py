@@ -8,7 +8,7 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller.core.controller import JointController
-from robot_controller.core.controller.output import Status
+from robot_controller.core.controller.supervision import Status
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import ControlLaw, Parameter, registry
 from robot_controller.core.laws.builtin import LqrLaw, PidLaw

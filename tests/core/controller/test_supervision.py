@@ -10,7 +10,7 @@ import pytest
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.controller import JointController, Status
-from robot_controller.core.controller.latency import CLEAR_AFTER_S, COMMAND_MEMORY_S, WINDOW, LatencyGuard
+from robot_controller.core.controller.supervision import CLEAR_AFTER_S, COMMAND_MEMORY_S, WINDOW, LatencyGuard
 from robot_controller.core.model import ArmDynamics, MujocoPlant
 from robot_controller.core.reference import make_trajectory
 
