@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from robot_controller.parameters.spec import ParamSpec
 
+# One line per parameter: the schema reads as a table.
+# fmt: off
 SENSOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("rate_hz", float, 100.0, "sensor sample rate, Hz", minimum=10.0, maximum=1000.0),
     ParamSpec("position_noise_std", float, 0.005, "Gaussian position noise σ, rad", minimum=0.0),
@@ -11,12 +13,6 @@ SENSOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("position_bias", float, 0.0, "constant position bias, rad"),
     ParamSpec("quantization", float, 0.0, "position quantisation step, rad (0 = none)", minimum=0.0),
     ParamSpec("seed", int, 0, "random seed of the noise; -1 draws one from the OS", minimum=-1),
-    ParamSpec(
-        "delay_s",
-        float,
-        0.0,
-        "each reading is published this late, stamped with its sample time, s (a slow encoder or bus)",
-        minimum=0.0,
-        maximum=1.0,
-    ),
+    ParamSpec("delay_s", float, 0.0, "each reading is published this late, stamped with its sample time, s (a slow encoder or bus)", minimum=0.0, maximum=1.0),
 )
+# fmt: on

@@ -6,85 +6,24 @@ from __future__ import annotations
 from robot_controller.parameters.schema.shared import POSITIVE, URDF, lockstep_spec
 from robot_controller.parameters.spec import ParamSpec
 
+# One line per parameter: the schema reads as a table.
+# fmt: off
 SIMULATOR_PARAMS: tuple[ParamSpec, ...] = (
     URDF,
-    ParamSpec(
-        "payload",
-        float,
-        [],
-        "a load the arm carries that its URDF lacks: [mass_kg, x_m, y_m, z_m], a point mass at that point "
-        "of the last joint's link's frame (empty: none)",
-        length=4,
-        allow_empty=True,
-        read_only=True,
-    ),
+    ParamSpec("payload", float, [], "a load the arm carries that its URDF lacks: [mass_kg, x_m, y_m, z_m], a point mass at that point of the last joint's link's frame (empty: none)", length=4, allow_empty=True, read_only=True),
     ParamSpec("physics_rate_hz", float, 1000.0, "physics steps per second (MuJoCo)", minimum=100.0, maximum=10000.0),
-    ParamSpec(
-        "publish_rate_hz",
-        float,
-        100.0,
-        "rate of /sim/joint_states (true state), Hz; a whole divisor of physics_rate_hz",
-        minimum=10.0,
-        maximum=1000.0,
-    ),
-    ParamSpec(
-        "initial_position", float, [0.0], "initial joint position, rad (one per joint, or one for all)", per_joint=True
-    ),
-    ParamSpec(
-        "wait_for_first_command",
-        bool,
-        True,
-        "keep the arm still (brakes on) until the first effort arrives, so start-up order does not matter",
-    ),
+    ParamSpec("publish_rate_hz", float, 100.0, "rate of /sim/joint_states (true state), Hz; a whole divisor of physics_rate_hz", minimum=10.0, maximum=1000.0),
+    ParamSpec("initial_position", float, [0.0], "initial joint position, rad (one per joint, or one for all)", per_joint=True),
+    ParamSpec("wait_for_first_command", bool, True, "keep the arm still (brakes on) until the first effort arrives, so start-up order does not matter"),
     lockstep_spec("sim-time lockstep: publish /clock and advance one control period per effort"),
-    ParamSpec(
-        "lockstep_end_s",
-        float,
-        0.0,
-        "lockstep: publish no tick after this sim time, s (0: none); the launcher sets it a little past "
-        "--duration, so that the recorder takes every message before the nodes stop",
-        minimum=0.0,
-        read_only=True,
-    ),
-    ParamSpec(
-        "control_rate_hz",
-        float,
-        100.0,
-        "control rate the lockstep advances by (one period per effort), Hz",
-        minimum=10.0,
-        maximum=1000.0,
-    ),
-    ParamSpec(
-        "drive_timeout_s",
-        float,
-        0.05,
-        "efforts missing this long (wall clock) engage the holding brakes and cut the torque (category 0), s",
-        **POSITIVE,
-    ),
-    ParamSpec(
-        "brake_torque_nm",
-        float,
-        50.0,
-        "holding torque of each joint's brake, N·m (stops the reference arm from 3 rad/s in about 5 ms)",
-        **POSITIVE,
-    ),
+    ParamSpec("lockstep_end_s", float, 0.0, "lockstep: publish no tick after this sim time, s (0: none); the launcher sets it a little past --duration, so that the recorder takes every message before the nodes stop", minimum=0.0, read_only=True),
+    ParamSpec("control_rate_hz", float, 100.0, "control rate the lockstep advances by (one period per effort), Hz", minimum=10.0, maximum=1000.0),
+    ParamSpec("drive_timeout_s", float, 0.05, "efforts missing this long (wall clock) engage the holding brakes and cut the torque (category 0), s", **POSITIVE),
+    ParamSpec("brake_torque_nm", float, 50.0, "holding torque of each joint's brake, N·m (stops the reference arm from 3 rad/s in about 5 ms)", **POSITIVE),
     # A disturbance at a set physics time (the tutorial's exercise 2), the same input as /sim/disturbance:
     # a lockstep run reproduces it exactly.
-    ParamSpec(
-        "disturbance_torque_nm",
-        float,
-        [0.0],
-        "external torque on each joint from disturbance_start_s, N·m (0: none)",
-        per_joint=True,
-        minimum=-100.0,
-        maximum=100.0,
-    ),
-    ParamSpec(
-        "disturbance_start_s",
-        float,
-        0.0,
-        "physics time the disturbance starts at, s (the physics starts with the first command)",
-        minimum=0.0,
-    ),
+    ParamSpec("disturbance_torque_nm", float, [0.0], "external torque on each joint from disturbance_start_s, N·m (0: none)", per_joint=True, minimum=-100.0, maximum=100.0),
+    ParamSpec("disturbance_start_s", float, 0.0, "physics time the disturbance starts at, s (the physics starts with the first command)", minimum=0.0),
     ParamSpec("disturbance_duration_s", float, 1.0, "how long the disturbance acts, s", **POSITIVE, maximum=60.0),
 )
+# fmt: on

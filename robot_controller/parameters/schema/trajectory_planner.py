@@ -7,29 +7,17 @@ from robot_controller.core.reference import MODES
 from robot_controller.parameters.schema.shared import POSITIVE, URDF, arm_model_specs, lockstep_spec, torque_max_spec
 from robot_controller.parameters.spec import ParamSpec
 
+# One line per parameter: the schema reads as a table.
+# fmt: off
 TRAJECTORY_PLANNER_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("mode", str, "sine", "reference shape", choices=MODES),
     ParamSpec("joint_count", int, 1, "number of joints to plan for", minimum=1, read_only=True),
     ParamSpec("amplitude", float, [1.0], "amplitude (sine, square, chirp) or step size, rad", per_joint=True),
     ParamSpec("frequency_hz", float, 0.5, "frequency of sine and square, start frequency of chirp, Hz", minimum=0.0),
-    ParamSpec(
-        "offset", float, [0.0], "centre (sine, square, chirp), start (step) or hold position, rad", per_joint=True
-    ),
+    ParamSpec("offset", float, [0.0], "centre (sine, square, chirp), start (step) or hold position, rad", per_joint=True),
     ParamSpec("step_time_s", float, 1.0, "time of the step after the planner starts, s", minimum=0.0),
-    ParamSpec(
-        "step_shaping",
-        str,
-        "min_time",
-        "step as a jump, or shaped into the fastest move within max_acceleration (bang-bang), which the arm can follow inside its torque limit",
-        choices=("none", "min_time"),
-    ),
-    ParamSpec(
-        "max_acceleration",
-        float,
-        60.0,
-        "acceleration limit of a shaped step, rad/s² (the reference arm: (10 − 2.45) N·m / 0.0833 kg·m² ≈ 90 at most; 60 leaves the feedback room)",
-        **POSITIVE,
-    ),
+    ParamSpec("step_shaping", str, "min_time", "step as a jump, or shaped into the fastest move within max_acceleration (bang-bang), which the arm can follow inside its torque limit", choices=("none", "min_time")),
+    ParamSpec("max_acceleration", float, 60.0, "acceleration limit of a shaped step, rad/s² (the reference arm: (10 − 2.45) N·m / 0.0833 kg·m² ≈ 90 at most; 60 leaves the feedback room)", **POSITIVE),
     ParamSpec("end_frequency_hz", float, 2.0, "end frequency of the chirp, Hz", minimum=0.0),
     ParamSpec("sweep_time_s", float, 10.0, "duration of one chirp sweep, s", **POSITIVE),
     ParamSpec("publish_rate_hz", float, 100.0, "rate of /trajectory, Hz", minimum=1.0, maximum=1000.0),
@@ -42,19 +30,7 @@ TRAJECTORY_PLANNER_PARAMS: tuple[ParamSpec, ...] = (
         "here, they must equal it): "
     ),
     torque_max_spec("actuator torque limit the trajectory is checked against; must equal motor_node's"),
-    ParamSpec(
-        "feasibility",
-        str,
-        "scale",
-        "a trajectory that needs more than the usable torque (torque_max less feasibility_margin, from the arm model's inverse dynamics along the path: the URDF's, or the model_* values over it, as the controller's): slow it in time until it fits (frequencies, or a shaped step's max_acceleration), refuse it, or run it anyway with a warning",
-        choices=("scale", "refuse", "ignore"),
-    ),
-    ParamSpec(
-        "feasibility_margin",
-        float,
-        0.2,
-        "fraction of torque_max kept free for the feedback when checking the trajectory (0.2: the path may use 80 %)",
-        minimum=0.0,
-        maximum=0.9,
-    ),
+    ParamSpec("feasibility", str, "scale", "a trajectory that needs more than the usable torque (torque_max less feasibility_margin, from the arm model's inverse dynamics along the path: the URDF's, or the model_* values over it, as the controller's): slow it in time until it fits (frequencies, or a shaped step's max_acceleration), refuse it, or run it anyway with a warning", choices=("scale", "refuse", "ignore")),
+    ParamSpec("feasibility_margin", float, 0.2, "fraction of torque_max kept free for the feedback when checking the trajectory (0.2: the path may use 80 %)", minimum=0.0, maximum=0.9),
 )
+# fmt: on
