@@ -5,8 +5,9 @@ It keeps the latest reference and reading with the times they arrived and, on
 sequence of steps: advance the tick clock, check the inputs' health
 (:mod:`~robot_controller.core.controller.supervision`), estimate the arm's state at
 the tick (:mod:`~robot_controller.core.controller.tick_state`), take the reference
-at the tick (:mod:`~robot_controller.core.controller.reference_at_tick`), run the law
-(:mod:`~robot_controller.core.laws.in_loop`); or one of the stops that answer a fault.
+at the tick (:mod:`~robot_controller.core.controller.reference_at_tick`), run the law in force
+(the built-in one, or a user's :class:`~robot_controller.core.laws.ContainedLaw`, called alike);
+or one of the stops that answer a fault.
 """
 
 from __future__ import annotations
@@ -31,11 +32,19 @@ from robot_controller.core.controller.supervision import (
 from robot_controller.core.controller.tick_state import MAX_EXTRAPOLATION_S, StateAtTick, make_estimator
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation import JointKalmanFilter
-from robot_controller.core.laws import Reference, State, registry
-from robot_controller.core.laws.builtin import BuiltinLaw, FeedforwardMode
-from robot_controller.core.laws.containment import LawFault
-from robot_controller.core.laws.in_loop import LawInLoop, arm_for
-from robot_controller.core.laws.pid import Pid, PidConfig, PidTerms
+from robot_controller.core.laws import (
+    Arm,
+    BuiltinLaw,
+    ContainedLaw,
+    FeedforwardMode,
+    LawFault,
+    Pid,
+    PidConfig,
+    PidTerms,
+    Reference,
+    State,
+    registry,
+)
 from robot_controller.core.model import ArmDynamics
 
 # How long the arm is held at rest after a controlled stop before the torque goes off and the brakes
@@ -87,31 +96,42 @@ class JointController:
         #: the latency guard's latest verdict (None without a guard, or before its first tick)
         self.latency: LatencyState | None = None
 
-    def _builtin(self, config: ControllerConfig) -> LawInLoop:
-        arm = arm_for(self.dynamics, self.joint_count, config.pid.output_limit)
-        return LawInLoop.builtin(config.builtin_law, arm, config.control_period_s, config.law_params())
+    def _arm(self, config: ControllerConfig) -> Arm:
+        """What a law is told about the arm: the controller's model of it (None: no model) and its limits."""
+        dynamics, joint_count = self.dynamics, self.joint_count
+        limits = np.tile([-np.inf, np.inf], (joint_count, 1))
+        model = getattr(dynamics, "model", None)  # a MuJoCo model knows the joints' ranges
+        if model is not None:
+            limited = model.jnt_limited[:joint_count].astype(bool)
+            limits[limited] = model.jnt_range[:joint_count][limited]
+        names = tuple(dynamics.joint_names if dynamics is not None else (f"joint {j + 1}" for j in range(joint_count)))
+        return Arm(dynamics, names, np.array(config.pid.output_limit, dtype=float), limits)
 
-    def _plugin(self, config: ControllerConfig, clock: Callable[[], float] | None) -> LawInLoop:
-        arm = arm_for(self.dynamics, self.joint_count, config.pid.output_limit)
-        law = LawInLoop.plugin(config.controller_type, arm, config.control_period_s, config.law_parameters, clock)
+    def _builtin(self, config: ControllerConfig) -> BuiltinLaw:
+        return BuiltinLaw.of_kind(config.builtin_law, self._arm(config), config.control_period_s, config.law_params())
+
+    def _plugin(self, config: ControllerConfig, clock: Callable[[], float] | None) -> ContainedLaw:
+        law = ContainedLaw.build(
+            config.controller_type, self._arm(config), config.control_period_s, config.law_parameters, clock
+        )
         self._hold_to_limits(law, config)
         return law
 
     @staticmethod
-    def _hold_to_limits(law: LawInLoop, config: ControllerConfig) -> None:
+    def _hold_to_limits(law: ContainedLaw, config: ControllerConfig) -> None:
         pid = config.pid
         budget, error_max, deceleration = config.law_budget_s, config.law_error_max_rad, config.stop_deceleration
         law.set_limits(pid.output_limit, pid.slew_rate_limit, budget, error_max, deceleration)
 
     @property
-    def plugin(self) -> LawInLoop | None:
+    def plugin(self) -> ContainedLaw | None:
         """The user's law in force, or None under a built-in law."""
         return self.law if self.law is not self.stop_law else None
 
     @property
     def builtin(self) -> BuiltinLaw:
         """The built-in law (the law in force, or the one a plugin law's stops run on)."""
-        return self.stop_law.law
+        return self.stop_law
 
     @property
     def pid(self) -> Pid:
@@ -121,7 +141,7 @@ class JointController:
     @property
     def law_fault(self) -> LawFault | None:
         """What the plugin law did wrong, once it has (it is then never called again)."""
-        return self.law.fault
+        return None if self.plugin is None else self.plugin.fault
 
     @property
     def estimator(self) -> JointKalmanFilter | None:
@@ -157,8 +177,7 @@ class JointController:
         return delay_margin_periods(self.gains, self.dynamics, self.joint_count, self.config)
 
     def _new_latency_guard(self, config: ControllerConfig) -> LatencyGuard | None:
-        """The guard for the margin of the gains in force; a reading's age up to MAX_EXTRAPOLATION_S is
-        accounted for with latency compensation."""
+        """The guard for the gains in force; compensation accounts for MAX_EXTRAPOLATION_S of a reading's age."""
         compensated_s = MAX_EXTRAPOLATION_S if config.latency_compensation else 0.0
         return LatencyGuard.for_margin(self.delay_margin_periods(), config.control_period_s, compensated_s)
 
@@ -305,9 +324,9 @@ class JointController:
         self._state.reset()
         position, velocity = StateAtTick.reading_alone(now_s, self._readings, self.config.latency_compensation)
         state = self._law_state(position, velocity, None)
-        self.law.reset(now_s, state)
-        if self.law is not self.stop_law:
-            self.stop_law.reset(now_s, state)
+        if self.plugin is not None:
+            self.plugin.reset(state, now_s)
+        self.stop_law.reset(state)
         self._reference.try_reacquire(now_s, position, velocity, self.config)
 
     def _stop(self, now_s: float, source: ReferenceSource, on_model: bool = True) -> ControlOutput:
@@ -336,14 +355,15 @@ class JointController:
         on the built-in law."""
         disturbance = self._state.disturbance()
         state = self._law_state(position, velocity, disturbance)
-        law = self.stop_law if self.law.fault is not None else self.law
-        outcome = law.update(now_s, state, reference)
-        if isinstance(outcome, LawFault):
+        law = self.stop_law if self.law_fault is not None else self.law
+        law.update(now_s, state, reference)
+        if law is not self.stop_law and self.law_fault is not None:  # the user's law failed on this tick
             law = self.stop_law
-            law.reset(now_s, state)
+            law.reset(state)
             reference = self._reference.stop(now_s, ReferenceSource.LAW_STOP, position, self.config, reference)
-            outcome = law.update(now_s, state, reference)
-        terms, law_terms = outcome
+            law.update(now_s, state, reference)
+        t = law.terms()
+        terms = PidTerms(t["command"], t["p"], t["i"], t["d"], t["feedforward"], t["saturated"])
         self._state.remember_command(now_s, terms.command)
         return ControlOutput(
             now_s,
@@ -353,7 +373,7 @@ class JointController:
             terms,
             self._reference.source,
             disturbance,
-            law_terms if law.contained is not None else None,
+            None if law is self.stop_law else {name: t[name] for name in law.extra_terms},
         )
 
     def _law_state(self, position: np.ndarray, velocity: np.ndarray, disturbance: np.ndarray | None) -> State:

@@ -2,7 +2,7 @@
 (:mod:`.interface`, :mod:`.builtin` with its model feedforward, :mod:`.pid`, :mod:`.lqr`), their
 stability and delay margins (:mod:`.robustness`), how ``controller_type`` names one
 (:mod:`.registry`) and its parameters are checked (:mod:`.parameters`), and how the controller
-runs one and contains one that misbehaves (:mod:`.in_loop`, :mod:`.containment`). A law of
+contains a user's law, a law itself that checks every call (:mod:`.containment`). A law of
 one's own needs only ``from robot_controller.core.laws import ControlLaw, Parameter``."""
 
 from robot_controller.core.laws.builtin import (
@@ -14,7 +14,6 @@ from robot_controller.core.laws.builtin import (
     feedforward_torque,
 )
 from robot_controller.core.laws.containment import ContainedLaw, LawFault
-from robot_controller.core.laws.in_loop import LawInLoop, arm_for
 from robot_controller.core.laws.interface import Arm, ControlLaw, Parameter, Reference, State
 from robot_controller.core.laws.pid import AntiWindup, DerivativeSource, Pid, PidConfig, PidTerms
 
@@ -27,7 +26,6 @@ __all__ = [
     "DerivativeSource",
     "FeedforwardMode",
     "LawFault",
-    "LawInLoop",
     "LqrLaw",
     "Parameter",
     "Pid",
@@ -36,7 +34,6 @@ __all__ = [
     "PidTerms",
     "Reference",
     "State",
-    "arm_for",
     "decoupling_map",
     "feedforward_torque",
 ]

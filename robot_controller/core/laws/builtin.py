@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from robot_controller.core.laws import lqr
 from robot_controller.core.laws.interface import Arm, ControlLaw, Reference, State
+from robot_controller.core.laws.lqr import designed_gains
 from robot_controller.core.laws.pid import Pid, PidConfig, PidTerms
 
 if TYPE_CHECKING:
@@ -83,7 +83,7 @@ class BuiltinLaw(ControlLaw):
         p = self.params
         if self.kind == "pid":
             return p["pid"]
-        return lqr.designed_gains(
+        return designed_gains(
             p["pid"],
             self.arm.model,
             self.arm.joint_count,

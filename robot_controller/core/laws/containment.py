@@ -1,10 +1,12 @@
-"""A law the framework does not trust: every call to it is checked, and the first thing it
-gets wrong becomes a :class:`LawFault` instead of a torque: it raises, returns anything but one
-finite number per joint, takes longer than its budget on OVERRUN_TICKS ticks running (one long
-call alone is the machine's doing, a slow law is slow on every tick; measured on ``clock``,
-seconds of wall time, or not at all without one), or lets the arm run away from the reference
-(``error_max_rad``). The controller answers a fault with a controlled stop on its built-in law;
-the law is never called again."""
+"""A user's law, contained: a :class:`ControlLaw` itself, so the controller runs it as it runs the
+built-in law (``update(time, state, reference)``, ``reset``, ``set_params``, ``terms``), each call
+to the user's law checked. Its torque is held here to the torque limit and the slew rate, and its
+terms are gathered for ``/controller/state``. The first thing it gets wrong becomes its ``fault``
+(a :class:`LawFault`) instead of a torque: it raises, returns anything but one finite number per
+joint, takes longer than its budget on OVERRUN_TICKS ticks running (one long call alone is the
+machine's doing, a slow law is slow on every tick; measured on ``clock``, seconds of wall time, or
+not at all without one), or lets the arm run away from the reference (``error_max_rad``). The
+controller answers a fault with a controlled stop on its built-in law; the law is never called again."""
 
 from __future__ import annotations
 
@@ -15,7 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from robot_controller.core.laws.interface import Reference, State
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.laws.interface import Arm, ControlLaw, Reference, State
+from robot_controller.core.laws.parameters import values as parameter_values
+from robot_controller.core.laws.registry import resolve
 
 # Consecutive updates over the budget that make a fault.
 OVERRUN_TICKS = 3
@@ -36,63 +41,150 @@ class LawFault:
         return f"control law {self.law} {self.what} at t = {self.time_s:.3f} s"
 
 
-class ContainedLaw:
-    """Calls a law's methods and checks what comes back."""
+class ContainedLaw(ControlLaw):
+    """The user's law ``law``, named ``name`` as ``controller_type`` names it, built with ``arm``,
+    ``period_s`` and ``params``; what it is held to: :meth:`set_limits`."""
 
     def __init__(
         self,
         law: Any,
         name: str,
-        joint_count: int,
-        budget_s: float,
+        arm: Arm,
+        period_s: float,
+        params: Mapping[str, Any],
         clock: Callable[[], float] | None = None,
-        error_max_rad: float = 0.0,
-        stop_deceleration_rad_s2: float = 20.0,
-        joint_names: tuple[str, ...] = (),
+        budget_s: float = 0.005,
     ) -> None:
+        super().__init__(arm, period_s, params)
         self.law = law
         self.name = name
-        self.joint_count = joint_count
-        self.budget_s = budget_s
-        self.error_max_rad = error_max_rad  #: how far the arm may be from the reference (0: no check)
-        self.stop_deceleration_rad_s2 = stop_deceleration_rad_s2  #: the controlled stop's, for the way still to go
-        self.joint_names = joint_names  #: for the fault's line (none: numbered)
+        self.joint_count = arm.joint_count
+        self.joint_names = arm.joint_names  #: for the fault's line
         self.clock = clock
+        self.budget_s = budget_s  #: s of wall time per update
+        self.error_max_rad = 0.0  #: how far the arm may be from the reference (0: no check)
+        self.stop_deceleration_rad_s2 = 20.0  #: the controlled stop's, for the way still to go
+        self.output_limit = arm.torque_limit  #: N·m per joint
+        self.slew_rate_limit = 0.0  #: N·m/s (0: none)
+        self.extra_terms = tuple(getattr(type(law), "state_terms", ()) or ())  #: terms beyond the standard blocks
         self.fault: LawFault | None = None
         self.overruns_s: list[float] = []  #: the durations of the updates over budget in a row, s
+        self._previous_command: np.ndarray | None = None
+        self._last_s: float | None = None
+        self._terms: dict[str, np.ndarray] = {}
 
-    def reset(self, time_s: float, state: State) -> LawFault | None:
+    @classmethod
+    def build(
+        cls, spec: str, arm: Arm, period_s: float, given: Mapping[str, Any], clock: Callable[[], float] | None = None
+    ) -> ContainedLaw:
+        """The law ``spec`` names, built with the values ``given`` for its parameters and contained (its
+        time checked on ``clock``, seconds of wall time; None: not checked); ``ConfigError`` in one line
+        if it cannot be built."""
+        if arm.model is None:
+            raise ConfigError("controller_type: a law of one's own needs the arm model (urdf_path)")
+        law_class = resolve(spec)
+        values = parameter_values(law_class, given, arm.joint_count)
+        try:
+            law = law_class(arm, period_s, values)
+        except ConfigError:
+            raise
+        except Exception as exc:
+            raise ConfigError(f"controller_type: {spec} failed to start: {type(exc).__name__}: {exc}") from exc
+        return cls(law, spec, arm, period_s, values, clock)
+
+    def set_limits(
+        self,
+        output_limit: np.ndarray,
+        slew_rate_limit: float,
+        budget_s: float,
+        error_max_rad: float,
+        stop_deceleration_rad_s2: float,
+    ) -> None:
+        """The torque limit (N·m per joint), the slew rate (N·m/s, 0: none), the law's time per update
+        (s), how far it may let the arm run away (rad, 0: no check) and the deceleration of the stop
+        that check counts with (rad/s²)."""
+        self.output_limit, self.slew_rate_limit = np.array(output_limit, dtype=float), slew_rate_limit
+        self.budget_s, self.error_max_rad = budget_s, error_max_rad
+        self.stop_deceleration_rad_s2 = stop_deceleration_rad_s2
+
+    def reset(self, state: State, time_s: float = 0.0) -> None:
+        """The loop starts (again) from ``state`` at ``time_s`` (s: when a fault in the law's reset happened)."""
+        self._previous_command, self._last_s = None, None
         reset = getattr(self.law, "reset", None)
-        if reset is None:
-            return None
-        return self._call(time_s, "reset", lambda: reset(state)) if self.fault is None else self.fault
+        if reset is not None and self.fault is None:
+            self._call(time_s, "reset", lambda: reset(state))
 
-    def set_params(self, time_s: float, params: Mapping[str, Any]) -> LawFault | None:
+    def set_params(self, params: Mapping[str, Any]) -> None:
+        """New parameter values, checked against the law's declarations first."""
+        self.params = parameter_values(type(self.law), params, self.joint_count)
         setter = getattr(self.law, "set_params", None)
         if setter is None:
-            self.law.params = dict(params)
-            return None
-        return self._call(time_s, "set_params", lambda: setter(params))
+            self.law.params = dict(self.params)
+        else:
+            self._call(0.0, "set_params", lambda: setter(self.params))
 
-    def update(self, time_s: float, state: State, reference: Reference) -> np.ndarray | LawFault:
-        """The law's torque per joint (float64, finite), or the fault it made."""
+    def update(self, time_s: float, state: State, reference: Reference) -> np.ndarray:
+        """The law's torque per joint within the torque limit and slew rate; zeros once it has made a
+        fault (``fault`` says which: it is never called again)."""
+        torque = self._checked_torque(time_s, state, reference)
+        if torque is None:
+            return np.zeros(self.joint_count)
+        dt_s = self.period_s if self._last_s is None or time_s <= self._last_s else time_s - self._last_s
+        self._last_s = time_s
+        command = np.minimum(np.maximum(torque, -self.output_limit), self.output_limit)  # np.clip, without its wrapper
+        if self.slew_rate_limit > 0 and self._previous_command is not None:
+            step = self.slew_rate_limit * dt_s
+            command = np.minimum(np.maximum(command, self._previous_command - step), self._previous_command + step)
+        self._previous_command = command
+        if self.error_max_rad > 0 and self.check_runaway(
+            time_s, state, reference, command - self.arm.gravity(state.position)
+        ):
+            return np.zeros(self.joint_count)
+        reported = self._reported_terms()
+        zeros = np.zeros(self.joint_count)
+        self._terms = {name: reported.get(name, zeros) for name in self.extra_terms}
+        self._terms.update(
+            command=command,
+            p=reported.get("p", zeros),
+            i=reported.get("i", zeros),
+            d=reported.get("d", zeros),
+            feedforward=reported.get("feedforward", zeros),
+            saturated=np.abs(command - torque) > 1e-12,
+        )
+        return command
+
+    def terms(self) -> Mapping[str, np.ndarray]:
+        """The last update's ``command``, ``p``, ``i``, ``d``, ``feedforward`` and ``saturated`` (the
+        standard blocks) and the law's :attr:`extra_terms`, per joint."""
+        return self._terms
+
+    def describe(self) -> str:
+        """The law's name and parameter values, e.g. ``own.py:Law (gain=2.5)``."""
+        shown = ", ".join(f"{k}={_show(v)}" for k, v in self.params.items())
+        return f"{self.name}" + (f" ({shown})" if shown else "")
+
+    def _checked_torque(self, time_s: float, state: State, reference: Reference) -> np.ndarray | None:
+        """The law's torque per joint (float64, finite), or None when it made a fault."""
         if self.fault is not None:
-            return self.fault
+            return None
         returned = self._call(time_s, "update", lambda: self.law.update(time_s, state, reference))
         if isinstance(returned, LawFault):
-            return returned
+            return None
         try:
             torque = np.asarray(returned, dtype=float)
         except (TypeError, ValueError):
-            return self._faulted(time_s, f"returned {type(returned).__name__}, not one torque per joint")
+            self._faulted(time_s, f"returned {type(returned).__name__}, not one torque per joint")
+            return None
         if torque.ndim == 0 and self.joint_count == 1:
             torque = torque.reshape(1)
         if torque.shape != (self.joint_count,):
-            return self._faulted(
+            self._faulted(
                 time_s, f"returned a torque of shape {torque.shape}, expected ({self.joint_count},): one per joint"
             )
+            return None
         if not np.all(np.isfinite(torque)):
-            return self._faulted(time_s, f"returned a non-finite torque {torque.tolist()}")
+            self._faulted(time_s, f"returned a non-finite torque {torque.tolist()}")
+            return None
         return torque
 
     def check_runaway(
@@ -122,15 +214,24 @@ class ContainedLaw:
             f"(law_error_max_rad {self.error_max_rad:g})",
         )
 
-    def terms(self) -> Mapping[str, np.ndarray]:
-        """The law's reported terms, or none if reporting them fails (never a reason to stop)."""
+    def _reported_terms(self) -> dict[str, np.ndarray]:
+        """The user's law's terms, each one finite number per joint (others are not reported; none
+        if reporting them fails, never a reason to stop)."""
         terms = getattr(self.law, "terms", None)
-        if terms is None or self.fault is not None:
+        if terms is None:
             return {}
         try:
-            return dict(terms())
+            reported = dict(terms())
         except Exception:
             return {}
+        out = {}
+        for name, value in reported.items():
+            try:
+                array = np.broadcast_to(np.asarray(value, dtype=float), (self.joint_count,))
+            except (TypeError, ValueError):
+                continue
+            out[name] = np.where(np.isfinite(array), array, 0.0)
+        return out
 
     def _call(self, time_s: float, method: str, call: Callable[[], Any]) -> Any:
         timed = self.clock is not None and method == "update"
@@ -158,3 +259,9 @@ class ContainedLaw:
     def _faulted(self, time_s: float, what: str, trace: str = "") -> LawFault:
         self.fault = LawFault(self.name, what, time_s, trace)
         return self.fault
+
+
+def _show(value) -> str:
+    if isinstance(value, np.ndarray):
+        return "[" + ", ".join(f"{v:.3g}" for v in value) + "]"
+    return f"{value:.3g}" if isinstance(value, float) else repr(value)

@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
+import robot_controller.core.laws.registry as registry
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.laws import registry
 from robot_controller.core.laws.interface import Parameter
 
 PREFIX = "law."

@@ -10,7 +10,7 @@ from robot_controller import parameters as cfg
 from robot_controller.core.controller import JointController
 from robot_controller.core.controller.supervision import Status
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.laws import ControlLaw, Parameter, registry
+from robot_controller.core.laws import Arm, ControlLaw, Parameter, registry
 from robot_controller.core.laws.builtin import LqrLaw, PidLaw
 from robot_controller.core.laws.containment import ContainedLaw
 from robot_controller.experiments.inprocess import simulate
@@ -79,7 +79,7 @@ def test_a_law_that_fails_to_import_is_refused_with_its_error(tmp_path):
 
 def test_declared_parameters_take_their_defaults_and_the_values_given():
     c = controller(stack(EXAMPLE, natural_frequency_hz=5.0))
-    assert c.plugin.contained.law.params == {"natural_frequency_hz": 5.0, "damping_ratio": 1.0}
+    assert c.plugin.law.params == {"natural_frequency_hz": 5.0, "damping_ratio": 1.0}
     assert "natural_frequency_hz=5" in c.law_in_force()
 
 
@@ -102,10 +102,10 @@ def test_parameters_change_while_running_and_are_checked_first():
     c = controller(params)
     ctrl = dict(params["pid_controller"], **{"law.damping_ratio": 0.7})
     c.set_config(cfg.controller_config(ctrl, 1))
-    assert c.plugin.contained.law.params["damping_ratio"] == 0.7
+    assert c.plugin.law.params["damping_ratio"] == 0.7
     with pytest.raises(ConfigError, match="law.damping_ratio"):
         c.set_config(cfg.controller_config(dict(ctrl, **{"law.damping_ratio": -1.0}), 1))
-    assert c.plugin.contained.law.params["damping_ratio"] == 0.7
+    assert c.plugin.law.params["damping_ratio"] == 0.7
     with pytest.raises(ConfigError, match="chosen when the controller starts"):
         c.set_config(cfg.controller_config(dict(ctrl, controller_type="lqr"), 1))
 
@@ -148,7 +148,7 @@ def test_the_law_is_reset_on_every_start_and_reports_its_terms():
     for k in range(5):
         c.set_measurement(k * 0.01, k * 0.01, np.zeros(1), np.zeros(1))
         out = c.update(k * 0.01)
-    assert c.plugin.contained.law.resets == 1
+    assert c.plugin.law.resets == 1
     assert out.law_terms == {"gravity": pytest.approx(np.ones(1))}
     assert out.terms.p[0] == 2.0
 
@@ -216,7 +216,7 @@ def test_the_laws_budget_and_error_limit_change_while_it_runs():
 
     c = controller(stack(EXAMPLE))
     c.set_config(replace(c.config, law_budget_s=0.02, law_error_max_rad=0.2))
-    assert (c.plugin.contained.budget_s, c.plugin.contained.error_max_rad) == (0.02, 0.2)
+    assert (c.plugin.budget_s, c.plugin.error_max_rad) == (0.02, 0.2)
 
 
 def test_a_law_over_its_budget_tick_after_tick_is_a_fault_one_long_call_is_not():
@@ -226,18 +226,22 @@ def test_a_law_over_its_budget_tick_after_tick_is_a_fault_one_long_call_is_not()
         def update(self, time_s, state, reference):
             return np.zeros(1)
 
+    arm = Arm(None, ("joint 1",), np.array([np.inf]), np.array([[-np.inf, np.inf]]))
     wall = itertools.count(0.0, 0.001)  # each reading of the clock 1 ms after the last: 1 ms per call
-    law = ContainedLaw(Instant(), "Instant", 1, budget_s=0.0005, clock=lambda: next(wall))
-    assert isinstance(law.update(1.0, None, None), np.ndarray)
-    assert isinstance(law.update(1.01, None, None), np.ndarray)
-    fault = law.update(1.02, None, None)
+    law = ContainedLaw(Instant(), "Instant", arm, 0.01, {}, clock=lambda: next(wall), budget_s=0.0005)
+    assert isinstance(law.update(1.0, None, None), np.ndarray) and law.fault is None
+    assert isinstance(law.update(1.01, None, None), np.ndarray) and law.fault is None
+    law.update(1.02, None, None)
+    fault = law.fault
     assert "took 1.0, 1.0, 1.0 ms in update() on 3 ticks running, over its budget of 0.5 ms" in fault.line()
     assert "at t = 1.020 s" in fault.line()
-    assert law.update(1.03, None, None) is fault  # never called again
+    law.update(1.03, None, None)
+    assert law.fault is fault  # never called again
 
     calls = iter([0.0, 0.002, 0.0, 0.0001, 0.0, 0.002, 0.0, 0.0001])  # long, short, long, short
-    patient = ContainedLaw(Instant(), "Instant", 1, budget_s=0.0005, clock=lambda: next(calls))
+    patient = ContainedLaw(Instant(), "Instant", arm, 0.01, {}, clock=lambda: next(calls), budget_s=0.0005)
     assert all(isinstance(patient.update(t, None, None), np.ndarray) for t in (1.0, 1.01, 1.02, 1.03))
+    assert patient.fault is None
 
 
 def test_a_slow_law_is_stopped_in_the_loop_when_the_controller_has_a_clock():
