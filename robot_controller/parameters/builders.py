@@ -74,9 +74,7 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         slew_rate_limit=values["slew_rate_limit"],
     )
     q = np.asarray(values["lqr_q"], dtype=float)  # three weights: the schema checks the length
-    estimator = None
-    if values["estimator"] == "kalman":
-        estimator = kalman_config(values)
+    estimator = kalman_config(values) if values["estimator"] == "kalman" else None
     return ControllerConfig(
         pid=pid,
         controller_type=values["controller_type"],
@@ -114,25 +112,13 @@ def sensor_config(values: Mapping[str, Any]) -> SensorConfig:
 
 
 # The planner's parameters that shape its trajectory (besides ``mode``).
-TRAJECTORY_SHAPE_KEYS = (
-    "amplitude",
-    "frequency_hz",
-    "offset",
-    "step_time_s",
-    "end_frequency_hz",
-    "sweep_time_s",
-    "step_shaping",
-    "max_acceleration",
-)
+TRAJECTORY_SHAPE_KEYS = ("amplitude", "frequency_hz", "offset", "step_time_s", "end_frequency_hz", "sweep_time_s")
+TRAJECTORY_SHAPE_KEYS += ("step_shaping", "max_acceleration")
 
 
 def trajectory_kwargs(values: Mapping[str, Any]) -> dict[str, Any]:
-    keys = TRAJECTORY_SHAPE_KEYS
-    return {
-        "joint_count": values["joint_count"],
-        "sample_period_s": 1.0 / values["publish_rate_hz"],
-        **{k: values[k] for k in keys},
-    }
+    shape = {key: values[key] for key in TRAJECTORY_SHAPE_KEYS}
+    return {"joint_count": values["joint_count"], "sample_period_s": 1.0 / values["publish_rate_hz"], **shape}
 
 
 def kalman_config(values: Mapping[str, Any]) -> KalmanConfig:

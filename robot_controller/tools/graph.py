@@ -72,14 +72,6 @@ def _remove_profile(directory: Path) -> None:
     shutil.rmtree(directory, ignore_errors=True)
 
 
-def _forget_profile(directory: Path | None) -> None:
-    """The first participant has read the profile: remove it."""
-    global _participant_made
-    _participant_made = True
-    if directory is not None:
-        _remove_profile(directory)
-
-
 def absolute(name: str) -> str:
     """``joint_states`` → ``/joint_states`` (the tools' node lives in the root namespace)."""
     return "/" + name.strip().lstrip("/")
@@ -241,12 +233,8 @@ def reliable_qos(depth: int) -> Any:
     """Reliable, volatile, the last ``depth`` messages kept."""
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    return QoSProfile(
-        reliability=ReliabilityPolicy.RELIABLE,
-        durability=DurabilityPolicy.VOLATILE,
-        history=HistoryPolicy.KEEP_LAST,
-        depth=depth,
-    )
+    reliable, volatile = ReliabilityPolicy.RELIABLE, DurabilityPolicy.VOLATILE
+    return QoSProfile(reliability=reliable, durability=volatile, history=HistoryPolicy.KEEP_LAST, depth=depth)
 
 
 def reference_arm_joints() -> list[str]:
@@ -277,7 +265,10 @@ def open_graph(tool: str) -> Iterator[Graph]:
         # Hidden (a leading underscore), as ros2cli's own nodes: graph listings leave it out.
         name = f"_robot_controller_{''.join(c if c.isalnum() else '_' for c in tool)}_{os.getpid()}"
         node = Node(name, context=context, start_parameter_services=False, enable_rosout=False)
-        _forget_profile(profile_dir)
+        global _participant_made
+        _participant_made = True  # the first participant has read the profile: remove it
+        if profile_dir is not None:
+            _remove_profile(profile_dir)
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(node)
 
@@ -334,20 +325,15 @@ def command(name: str, *, interrupted: int = 0) -> Callable[[Callable[..., int]]
                 return exc.code
             except KeyboardInterrupt:
                 return interrupted
-            except BrokenPipeError:
-                _stdout_to_devnull()
+            except BrokenPipeError:  # the reader went away: the interpreter's last flush must not complain
+                try:
+                    devnull = os.open(os.devnull, os.O_WRONLY)
+                    os.dup2(devnull, sys.stdout.fileno())
+                    os.close(devnull)
+                except (OSError, ValueError):
+                    pass
                 return 0
 
         return run
 
     return decorate
-
-
-def _stdout_to_devnull() -> None:
-    """The reader went away: nothing more reaches it, and the interpreter's last flush must not complain."""
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        os.close(devnull)
-    except (OSError, ValueError):
-        pass
