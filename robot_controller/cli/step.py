@@ -34,16 +34,14 @@ def register(sub) -> None:
 def step(a: argparse.Namespace) -> int:
     from robot_controller.experiments import step as experiments
     from robot_controller.experiments.laws import with_controller
-    from robot_controller.parameters import consistency
 
     options = RunOptions.from_args(a)
     params = with_controller(options.params(), a.controller)
-    consistency.check_stack(experiments.step_params(params, a.amplitude, a.shaping))  # before the folder is made
+    shape = {"amplitude": a.amplitude, "shaping": a.shaping}
+    checked = experiments.check_step(params, **shape, sim_time=options.sim_time, seed=options.seed)  # before the folder
     out = output_dir(a.out, Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S")))
     try:
-        values = experiments.step_response(
-            params, out, amplitude=a.amplitude, shaping=a.shaping, sim_time=options.sim_time, seed=options.seed
-        )
+        values = experiments.step_response(checked, out, **shape)
     except ConfigError:
         raise  # a user error: one line, exit 2
     except (RuntimeError, ValueError) as exc:

@@ -21,24 +21,24 @@ STEP_AFTER_S = 2.0  # recorded after the step, s
 
 
 def run_and_score(
-    params: cfg.Params,
-    out: Path,
-    *,
-    duration_s: float,
-    sim_time: bool,
-    single_process: bool = False,
-    domain_id: int | None = None,
+    params: cfg.Params, out: Path, *, duration_s: float, sim_time: bool, domain_id: int | None = None
 ) -> tuple[dict[str, Any], report.Recording]:
-    options = RunOptions(duration_s, sim_time=sim_time, single_process=single_process, domain_id=domain_id)
-    result = launcher.launch(plan.check(params, options), out)
+    """A run of ``params`` checked whole, then launched, recorded and scored (:func:`run_checked`)."""
+    return run_checked(plan.check(params, RunOptions(duration_s, sim_time=sim_time, domain_id=domain_id)), out)
+
+
+def run_checked(checked: plan.CheckedRun, out: Path) -> tuple[dict[str, Any], report.Recording]:
+    """Launch a checked run into ``out``; its scores (over its duration, in lockstep) and recording."""
+    result = launcher.launch(checked, out)
     result.raise_if_interrupted()
     if result.exit_code != 0:
         raise RuntimeError(f"run in {out} failed: {result.failure}")
     recording = report.read_recording(result.bag_dir)
+    options = checked.options
     values = report.score(
         recording,
-        nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
-        window_s=duration_s if sim_time else None,
+        nominal_period_s=1.0 / checked.params["pid_controller"]["control_rate_hz"],
+        window_s=options.duration_s if options.sim_time else None,
     )
     return values, recording
 
@@ -140,21 +140,20 @@ def plot_step(recording: report.Recording, path: Path, title: str, limit_nm: np.
     save(fig, path, title)
 
 
-def step_response(
-    params: cfg.Params,
-    out: Path,
-    *,
-    amplitude: float,
-    shaping: str,
-    sim_time: bool,
-    seed: int,
-    domain_id: int | None = None,
-) -> dict[str, Any]:
+def check_step(
+    params: cfg.Params, *, amplitude: float, shaping: str, sim_time: bool, seed: int, domain_id: int | None = None
+) -> plan.CheckedRun:
+    """The step run of ``params`` checked whole, before anything is written or started."""
     params = step_params(params, amplitude, shaping)
     params["sensor_node"]["seed"] = seed
-    values, recording = run_and_score(
-        params, out, duration_s=STEP_LEAD_S + STEP_AFTER_S, sim_time=sim_time, domain_id=domain_id
-    )
+    return plan.check(params, RunOptions(STEP_LEAD_S + STEP_AFTER_S, sim_time=sim_time, domain_id=domain_id))
+
+
+def step_response(checked: plan.CheckedRun, out: Path, *, amplitude: float, shaping: str) -> dict[str, Any]:
+    """Run the step :func:`check_step` checked; its figures, also in ``metrics.json`` and ``step.png``."""
+    params, sim_time = checked.params, checked.options.sim_time
+    seed = params["sensor_node"]["seed"]
+    values, recording = run_checked(checked, out)
     values.update(step_figures(recording, amplitude, np.asarray(params["trajectory_planner"]["offset"], float)))
     values.update(
         {

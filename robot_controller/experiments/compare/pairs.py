@@ -11,7 +11,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller.core import metrics
 from robot_controller.experiments.compare.contenders import Contender
-from robot_controller.experiments.step import STEP_AFTER_S, run_and_score, step_params, step_response
+from robot_controller.experiments.step import STEP_AFTER_S, check_step, run_and_score, step_params, step_response
 
 COMPARED = {
     "sine": ("tracking_rms_rad", "tracking_max_rad"),
@@ -38,9 +38,9 @@ def run_pair(
     between_runs()
     step_out = out / contender.name / f"step_{seed}"
     try:
-        figures = step_response(
-            base, step_out, amplitude=amplitude, shaping="min_time", sim_time=True, seed=seed, domain_id=domain_id
-        )
+        shape = {"amplitude": amplitude, "shaping": "min_time"}
+        checked = check_step(base, **shape, sim_time=True, seed=seed, domain_id=domain_id)
+        figures = step_response(checked, step_out, **shape)
     except ValueError as exc:  # no step in the recording
         raise RuntimeError(f"run in {step_out} failed: {exc}") from None
     between_runs()
