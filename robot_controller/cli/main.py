@@ -8,17 +8,12 @@ import os
 import sys
 from importlib.metadata import entry_points
 
-import robot_controller.cli.compare as compare
 import robot_controller.cli.docs as docs
-import robot_controller.cli.exercise as exercise
-import robot_controller.cli.faults as faults
+import robot_controller.cli.experiments as experiments
 import robot_controller.cli.graph as graph
-import robot_controller.cli.identify as identify
 import robot_controller.cli.params as params
 import robot_controller.cli.run as run
 import robot_controller.cli.score as score
-import robot_controller.cli.step as step
-import robot_controller.cli.tune as tune
 from robot_controller.cli.args import Parser, UsageError
 from robot_controller.core.errors import ConfigError
 
@@ -35,8 +30,8 @@ def build_parser() -> Parser:
     score.register(sub)
     params.register(sub)
     docs.register(sub, parser)
-    for module in (step, compare, exercise, tune, identify, faults, graph):
-        module.register(sub)
+    experiments.register(sub)
+    graph.register(sub)
     for entry in sorted(entry_points(group=VERB_ENTRY_POINTS), key=lambda e: e.name):
         try:
             entry.load()(sub)

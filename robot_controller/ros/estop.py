@@ -6,13 +6,12 @@ from __future__ import annotations
 
 import time
 
-import rclpy
 from rclpy.duration import Duration
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Bool
 from std_srvs.srv import SetBool
+
+from robot_controller.tools.graph import open_graph
 
 # Transient local: a node that starts after the stop still hears it (the
 # nodes' own readers are volatile, so any publisher matches them).
@@ -29,10 +28,8 @@ ACK_WAIT_S = 3.0
 
 def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, str]:
     """Engage (or release) the e-stop. Returns (someone obeyed, a one-line report)."""
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    node = Node("estop_button", context=context, start_parameter_services=False)
-    try:
+    with open_graph("estop") as graph:
+        node = graph.node
         publisher = node.create_publisher(Bool, "/estop", PUBLISH_QOS)
         client = node.create_client(SetBool, "/simulator/estop")
         # Every listener must have matched before the one message goes out (their readers are
@@ -41,33 +38,24 @@ def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, st
         settled_since, last = time.monotonic(), -1
         while time.monotonic() < deadline:
             matched = publisher.get_subscription_count()
-            listed = len(node.get_subscriptions_info_by_topic("/estop"))
-            if matched != last or matched < listed:
+            if matched != last or matched < len(node.get_subscriptions_info_by_topic("/estop")):
                 settled_since, last = time.monotonic(), matched
             elif matched > 0 and client.service_is_ready() and time.monotonic() - settled_since >= SETTLE_S:
                 break
             time.sleep(0.05)
         listeners = sorted({info.node_name for info in node.get_subscriptions_info_by_topic("/estop")})
-        msg = Bool()
-        msg.data = engage
-        publisher.publish(msg)
+        publisher.publish(Bool(data=engage))
         service_note = "the simulator's service did not answer"
         if client.service_is_ready():
             future = client.call_async(SetBool.Request(data=engage))
-            executor = SingleThreadedExecutor(context=context)
-            executor.add_node(node)
             end = time.monotonic() + timeout_s
             while not future.done() and time.monotonic() < end:
-                executor.spin_once(timeout_sec=0.05)
-            executor.remove_node(node)
+                time.sleep(0.05)  # the graph's executor spins in its own thread
             if future.done() and future.result() is not None:
                 service_note = f"simulator: {future.result().message}"
         # Deliver before the node goes: every matched reader acknowledges.
         publisher.wait_for_all_acked(Duration(seconds=ACK_WAIT_S))
-        what = "e-stop ENGAGED" if engage else "e-stop released"
-        if not listeners and service_note.startswith("the simulator's service did not"):
-            return False, f"{what}, but no node is listening on /estop (is the stack running on this ROS_DOMAIN_ID?)"
-        return True, f"{what}: heard by {', '.join(listeners) or 'no /estop subscriber'}; {service_note}"
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown(context=context)
+    what = "e-stop ENGAGED" if engage else "e-stop released"
+    if not listeners and service_note.startswith("the simulator's service did not"):
+        return False, f"{what}, but no node is listening on /estop (is the stack running on this ROS_DOMAIN_ID?)"
+    return True, f"{what}: heard by {', '.join(listeners) or 'no /estop subscriber'}; {service_note}"

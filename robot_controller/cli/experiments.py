@@ -1,0 +1,181 @@
+"""The verbs that run an experiment and report on it: ``step`` (a step response on the real graph),
+``compare`` (configurations and laws side by side), ``exercise`` (one of the tutorial's), ``tune``
+(gains for robustness margins, ``tuned.yaml``), ``identify`` (the arm's inertia, damping, friction and
+gravity, ``identified.yaml``) and ``faults`` (each node frozen mid-motion with SIGSTOP)."""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import sys
+from pathlib import Path
+
+from robot_controller.cli.args import (
+    UsageError,
+    compare_entries,
+    controller_option,
+    out_option,
+    positive_int,
+    positive_seconds,
+    robot_option,
+    stack_options,
+    step_size_rad,
+    verb,
+)
+from robot_controller.cli.output import output_dir, print_table, run_experiment
+from robot_controller.core.errors import ConfigError
+from robot_controller.runner.options import RunOptions
+
+STEP_HEADLINE = ("overshoot_pct", "rise_time_s", "settling_time_s", "steady_state_error_rad", "peak_torque_nm")
+# The exercises by name, for the parser (importing them would slow every verb's start).
+EXERCISE_NAMES = ("tune", "disturbance", "windup", "lqr")
+#: The exercises that take ``--controller`` (the law runs beside their own contenders).
+EXERCISES_WITH_CONTROLLER = ("disturbance",)
+
+
+def register(sub) -> None:
+    p = verb(sub, "step", "a step response: overshoot, rise, settling, steady-state error, torque", step)
+    p.add_argument("--amplitude", type=step_size_rad, default=0.5, help="step size, rad (default 0.5)")
+    p.add_argument(
+        "--shaping",
+        default="min_time",
+        choices=("min_time", "none"),
+        help="shape the step into the fastest move within the acceleration limit (default), or jump",
+    )
+    out_option(p, None)
+    stack_options(p)
+    controller_option(p)
+    p.add_argument("--sim-time", action="store_true", help="deterministic lockstep")
+
+    p = verb(sub, "compare", "the tutorial preset, PID, PID+FF, PID+FF+Kalman, LQR on sine and step", compare)
+    robot_option(p)
+    p.add_argument(
+        "--controllers",
+        type=compare_entries,
+        metavar="A,B,...",
+        help="the entries compared: configurations (default, tutorial, pid, pid_ff, pid_ff_kf, lqr) or laws "
+        "(module:Class, path/to/file.py:Class, an installed law) with the default stack (default: the configurations)",
+    )
+    p.add_argument("--in-process", action="store_true", help="on the in-process loop (no ROS): seconds, not minutes")
+    out_option(p, "runs/compare")
+    p.add_argument("--seeds", type=positive_int, default=5)
+    p.add_argument("--duration", type=positive_seconds, default=10.0, help="sine duration, sim s (default 10)")
+    p.add_argument("--amplitude", type=step_size_rad, default=0.5, help="step size, rad")
+
+    p = verb(sub, "exercise", "one of the tutorial's exercises as a reproducible experiment", exercise)
+    p.add_argument("name", choices=EXERCISE_NAMES)
+    controller_option(p)  # exercise disturbance: the law runs beside the others
+    out_option(p, "runs/exercise-NAME")
+    p.add_argument("--quick", action="store_true", help="a short form (the test suite's)")
+
+    p = verb(sub, "tune", "automatic gain design with robustness margins; writes tuned.yaml", tune)
+    out_option(p, "runs/tune")
+    stack_options(p, seed=False)
+    controller_option(p)  # a law of one's own: its gain=True parameters, searched on the in-process loop
+    p.add_argument("--quick", action="store_true", help="a short search and short checks")
+
+    p = verb(
+        sub, "identify", "identify the arm's inertia, damping, friction and gravity; writes identified.yaml", identify
+    )
+    out_option(p, "runs/identify")
+    stack_options(p)
+    p.add_argument("--duration", type=positive_seconds, default=20.0, help="excitation, sim s (default 20)")
+
+    p = verb(sub, "faults", "freeze each node mid-motion (SIGSTOP) and measure what the arm did", faults)
+    robot_option(p)
+    controller_option(p)
+    out_option(p, "runs/faults")
+    p.add_argument("--quick", action="store_true", help="two cases: sensor and controller frozen 0.5 s")
+
+
+def step(a: argparse.Namespace) -> int:
+    from robot_controller.experiments import step as experiments
+    from robot_controller.experiments.laws import with_controller
+
+    options = RunOptions.from_args(a)
+    params = with_controller(options.params(), a.controller)
+    shape = {"amplitude": a.amplitude, "shaping": a.shaping}
+    checked = experiments.check_step(params, **shape, sim_time=options.sim_time, seed=options.seed)  # before the folder
+    out = output_dir(a.out, Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S")))
+    try:
+        values = experiments.step_response(checked, out, **shape)
+    except ConfigError:
+        raise  # a user error: one line, exit 2
+    except (RuntimeError, ValueError) as exc:
+        print(f"robot-controller: {exc}", file=sys.stderr)
+        return 1
+    print_table(values, title=f"step {a.amplitude} rad ({a.shaping}) → {out}", headline=STEP_HEADLINE)
+    return 0
+
+
+def compare(a: argparse.Namespace) -> int:
+    from robot_controller.experiments import compare as experiments
+
+    out = output_dir(a.out, Path("runs/compare"))
+    steps = len(experiments.contenders(a.controllers)) * a.seeds
+    chosen = dict(seeds=a.seeds, sine_duration_s=a.duration, amplitude=a.amplitude, robot=a.robot)
+    chosen.update(controllers=a.controllers, in_process=a.in_process)
+    return run_experiment(
+        "compare", steps, lambda progress: experiments.compare(out, progress=progress, **chosen), out / "compare.md"
+    )
+
+
+def exercise(a: argparse.Namespace) -> int:
+    from robot_controller.experiments.exercises import EXERCISES, disturbance
+
+    if a.controller is not None and a.name not in EXERCISES_WITH_CONTROLLER:
+        raise UsageError(f"--controller: exercise {a.name} compares its own controllers; it applies to disturbance")
+    out = output_dir(a.out, Path("runs") / f"exercise-{a.name}")
+    chosen = EXERCISES[a.name]
+    extra = {} if a.controller is None else {"controller": a.controller}
+    # A law of one's own is one more contender of the disturbance exercise.
+    steps = chosen.steps(a.quick) + (disturbance.RUNS_PER_CONTENDER if a.controller is not None else 0)
+    return run_experiment(
+        f"exercise {a.name}", steps, lambda p: chosen.run(out, quick=a.quick, progress=p, **extra), out / "report.md"
+    )
+
+
+def tune(a: argparse.Namespace) -> int:
+    from robot_controller.experiments import autotune, laws
+    from robot_controller.parameters import consistency
+
+    params = laws.with_controller(RunOptions.from_args(a).params(), a.controller)
+    consistency.check_stack(params)
+    controller_type = params["pid_controller"]["controller_type"]
+    if not laws.is_plugin(controller_type) and params["trajectory_planner"]["joint_count"] > 1:
+        raise UsageError(
+            f"--robot {a.robot}: tune designs one joint's gains; on a chain of joints the LQR's weights serve "
+            "every joint, each scaled by its own inertia (lqr_q, lqr_r, reference_inertia)"
+        )
+    out = output_dir(a.out, Path("runs/tune"))
+    steps, hint = autotune.steps(a.quick, controller_type), f"use it with --config {out / 'tuned.yaml'}"
+    return run_experiment(
+        "tune", steps, lambda p: autotune.tune(params, out, quick=a.quick, progress=p), out / "report.md", hint
+    )
+
+
+def identify(a: argparse.Namespace) -> int:
+    from robot_controller.experiments import identify as experiments
+    from robot_controller.parameters import consistency
+
+    options = RunOptions.from_args(a)
+    params = options.params()
+    consistency.check_stack(params)
+    out = output_dir(a.out, Path("runs/identify"))
+    hint = f"use it with --config {out / 'identified.yaml'} (after your other --config files)"
+    return run_experiment(
+        "identify",
+        4,
+        lambda p: experiments.identify(params, out, duration_s=a.duration, seed=options.seed, progress=p),
+        out / "identification.md",
+        hint,
+    )
+
+
+def faults(a: argparse.Namespace) -> int:
+    from robot_controller.experiments import faults as experiments
+
+    out = output_dir(a.out, Path("runs/faults"))
+    chosen = dict(quick=a.quick, robot=a.robot, controller=a.controller)
+    cases = len(experiments.cases(a.quick))
+    return run_experiment("faults", cases, lambda p: experiments.faults(out, progress=p, **chosen), out / "faults.md")
