@@ -25,28 +25,23 @@ def register(sub) -> None:
 
 
 def _params(a: argparse.Namespace) -> int:
+    from robot_controller import parameters as cfg
+    from robot_controller.parameters.law_params import node_specs
     from robot_controller.robots import DEFAULT_ROBOT
 
     if a.markdown is None:
-        return list_params(preset=a.preset, config=a.config, as_yaml=a.yaml, robot=a.robot)
+        values = cfg.load_stack(a.preset, a.config, a.robot)
+        if a.yaml:
+            print(cfg.params_yaml(values), end="")
+            return 0
+        for node in cfg.NODES:
+            print(f"{node}:")
+            for spec in node_specs(node, values[node]):
+                read_only = " (read-only)" if spec.read_only else ""
+                print(f"  {spec.name} = {values[node][spec.name]!r}: {spec.describe()}{read_only}")
+        return 0
     if a.yaml or a.config or a.preset != "default" or a.robot != DEFAULT_ROBOT:
         raise UsageError("--markdown documents the schema: it takes no --yaml, --preset, --robot or --config")
     from robot_controller.cli.docs import parameters_markdown, write
 
     return write(parameters_markdown(), a.markdown, "params")
-
-
-def list_params(*, preset: str, config: list | None, as_yaml: bool, robot: str) -> int:
-    from robot_controller import parameters as cfg
-    from robot_controller.parameters.law_params import node_specs
-
-    values = cfg.load_stack(preset, config, robot)
-    if as_yaml:
-        print(cfg.params_yaml(values), end="")
-        return 0
-    for node in cfg.NODES:
-        print(f"{node}:")
-        for spec in node_specs(node, values[node]):
-            read_only = " (read-only)" if spec.read_only else ""
-            print(f"  {spec.name} = {values[node][spec.name]!r}: {spec.describe()}{read_only}")
-    return 0

@@ -51,26 +51,22 @@ def register(sub) -> None:
     )
     p.add_argument("--view", action="store_true", help="live 3D view and plots in the browser (rerun)")
     p.add_argument("--view-port", type=port, default=9090, help="port of the live view (default 9090)")
-    _split_options(p)
-
-
-def _split_options(parser: argparse.ArgumentParser) -> None:
-    """Part of the graph, across hosts (docs/design.md §6, "Across hosts")."""
-    parser.add_argument(
+    # Part of the graph, across hosts (docs/design.md §6, "Across hosts").
+    p.add_argument(
         "--nodes",
         type=node_list,
         metavar="A,B,...",
         help="start only these of simulator, motor_node, sensor_node, pid_controller, trajectory_planner "
         "(default all); the launcher with the simulator records and scores",
     )
-    parser.add_argument(
+    p.add_argument(
         "--peers",
         type=peer_list,
         metavar="ADDR[,ADDR]",
         help="the other hosts' IPv4 addresses: discovery by unicast to them, UDPv4 only (no shared memory)",
     )
-    parser.add_argument("--run-id", type=run_name, metavar="NAME", help="the run's name, the same on every launcher")
-    parser.add_argument(
+    p.add_argument("--run-id", type=run_name, metavar="NAME", help="the run's name, the same on every launcher")
+    p.add_argument(
         "--wait",
         dest="wait_s",
         type=positive_seconds,

@@ -149,9 +149,7 @@ class MotorNode(StackNode):
         self.effort_pub.publish(self.effort_msg)
 
     def request_brake(self, on: bool) -> None:
-        msg = Bool()
-        msg.data = on
-        self.brake_pub.publish(msg)
+        self.brake_pub.publish(Bool(data=on))
 
     def estop_callback(self, msg: Bool) -> None:
         if bool(msg.data) == self.estop:

@@ -21,15 +21,8 @@ from dataclasses import dataclass
 LOOP_NICE = -10
 PLANNER_NICE = -5
 OBSERVER_NICE = 10
-NICE = {
-    "simulator": LOOP_NICE,
-    "motor_node": LOOP_NICE,
-    "sensor_node": LOOP_NICE,
-    "pid_controller": LOOP_NICE,
-    "stack": LOOP_NICE,
-    "trajectory_planner": PLANNER_NICE,
-    "recorder": OBSERVER_NICE,
-}
+LOOP_PROCESSES = frozenset({"simulator", "motor_node", "sensor_node", "pid_controller", "stack"})
+NICE = {**dict.fromkeys(LOOP_PROCESSES, LOOP_NICE), "trajectory_planner": PLANNER_NICE, "recorder": OBSERVER_NICE}
 
 # Sim-time lockstep: a tick is a chain (simulator → sensor → controller → motor → simulator);
 # the planner and recorder are off it and yield to it (by their scheduling group's nice).
@@ -43,8 +36,6 @@ RT_BUDGET_US = 200_000
 #: Environment variable the launcher sets to ask for the FIFO pacing thread.
 PACING_RT_ENV = "ROBOT_CONTROLLER_PACING_RT_PRIORITY"
 
-
-LOOP_PROCESSES = frozenset({"simulator", "motor_node", "sensor_node", "pid_controller", "stack"})
 #: ``ROBOT_CONTROLLER_AFFINITY=0`` leaves every process free to run on any CPU.
 AFFINITY_ENV = "ROBOT_CONTROLLER_AFFINITY"
 

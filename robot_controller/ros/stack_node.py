@@ -55,8 +55,6 @@ class StackNode(Node):
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._post_set_parameters)
 
-    # --- parameters ---------------------------------------------------------
-
     def _declare(self, specs: tuple[cfg.ParamSpec, ...]) -> None:
         for spec in specs:
             descriptor = ParameterDescriptor(
@@ -133,8 +131,6 @@ class StackNode(Node):
         finally:
             self._reporting = False
 
-    # --- gated publishers ---------------------------------------------------
-
     def gated_publisher(self, msg_type: Any, topic: str, *, consumer: bool = True, qos: Any = None) -> GatedPublisher:
         """A publisher that holds its messages until its audience has matched (``ros.publishing``);
         the node counts what it publishes."""
@@ -159,8 +155,6 @@ class StackNode(Node):
     def write_publish_counts(self) -> None:
         """Write how many messages the node's gates published, per topic, for the launcher."""
         write_publish_counts(self.schema_name, self._gated_publishers)
-
-    # --- helpers ------------------------------------------------------------
 
     def now_s(self) -> float:
         """The node's clock in seconds, without building a ``Time`` object."""

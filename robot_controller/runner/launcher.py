@@ -78,7 +78,8 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
                 if code not in (None, 0, -signal.SIGINT, 130):
                     say(f"WARNING: {child.name} exited with code {code} (the run itself is unaffected)")
         result.published_counts = _published_counts(run.counts_dir, replaced)
-        if law_fault := _law_fault(run.counts_dir):
+        fault_file = run.counts_dir / LAW_FAULT_FILE  # the controller's line on its law's failure, if any
+        if fault_file.is_file() and (law_fault := fault_file.read_text().strip()):
             # The controller stopped the arm and ended itself (or the run ended first): say why, in one line.
             result.failure = f"the control law failed: {law_fault}"
         if hung := sorted(n for n, c in codes.items() if c == -TEARDOWN_HUNG_SIGNAL):
@@ -149,14 +150,6 @@ def _published_counts(counts_dir: Path, replaced: set[str]) -> dict[str, int]:
         for topic, count in counts.items():
             total[topic] = total.get(topic, 0) + count
     return {topic: count for topic, count in total.items() if topic not in unknown}
-
-
-def _law_fault(counts_dir: Path) -> str | None:
-    """The controller's line on its control law's failure, if it wrote one (``nodes.pid_controller``)."""
-    try:
-        return (counts_dir / LAW_FAULT_FILE).read_text().strip() or None
-    except OSError:
-        return None
 
 
 def _preload_reporting() -> None:

@@ -119,17 +119,7 @@ def wait_graph(
     return None
 
 
-def wait_recorder(link: RecorderLink, group: ProcessGroup) -> str | None:
-    failure = f"the recorder was not ready within {RECORDER_READY_TIMEOUT_S:g} s"
-    return _wait_until(link.ready.is_set, group, RECORDER_READY_TIMEOUT_S, failure)
-
-
-def wait_first_tick(link: RecorderLink, group: ProcessGroup) -> str | None:
-    failure = f"no /controller/state within {FIRST_TICK_TIMEOUT_S:g} s of start"
-    return _wait_until(lambda: link.counts.get("/controller/state"), group, FIRST_TICK_TIMEOUT_S, failure)
-
-
-def _wait_until(done: Callable[[], object], group: ProcessGroup, timeout_s: float, failure: str) -> str | None:
+def wait_until(done: Callable[[], object], group: ProcessGroup, timeout_s: float, failure: str) -> str | None:
     """None once ``done()``; a line naming what died, or ``failure`` after ``timeout_s``."""
     deadline = time.monotonic() + timeout_s
     while not done():
@@ -252,13 +242,15 @@ def run_loop(
     duration_s, sim_time, serving = run.options.duration_s, run.options.sim_time, not run.records
     here, there = ", ".join(run.options.nodes), ", ".join(run.remote_nodes)
     if run.records:
-        result.failure = wait_recorder(link, group)
+        failure = f"the recorder was not ready within {RECORDER_READY_TIMEOUT_S:g} s"
+        result.failure = wait_until(link.ready.is_set, group, RECORDER_READY_TIMEOUT_S, failure)
     if result.failure is None and graph is not None:
         result.failure = wait_graph(graph, group, NODE_ORDER, run.remote_nodes, run.options.wait_s)
         if result.failure is None:
             say(f"graph complete: {', '.join(NODE_ORDER)} (here: {here})")
     if result.failure is None and run.records:
-        result.failure = wait_first_tick(link, group)
+        failure = f"no /controller/state within {FIRST_TICK_TIMEOUT_S:g} s of start"
+        result.failure = wait_until(lambda: link.counts.get("/controller/state"), group, FIRST_TICK_TIMEOUT_S, failure)
     if result.failure is not None:
         return
     started = result.started = time.monotonic()

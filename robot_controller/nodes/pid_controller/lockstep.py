@@ -24,7 +24,6 @@ class LockstepPairing:
     """Pairs each reading with its tick on the sim's ``/clock`` and ticks the controller node."""
 
     def __init__(self, node: StackNode) -> None:
-        """:param node: the controller (its ``controller``, ``tick`` and ``last_tick_s``)."""
         self.node = node
         self.controller = node.controller
         self.clock_s = -np.inf  # the latest /clock

@@ -27,7 +27,6 @@ class StatusReports:
     """What the controller node says: in its log, as parameters and on ``/controller/state``."""
 
     def __init__(self, node: StackNode) -> None:
-        """:param node: the controller."""
         self.node = node
         self.controller = node.controller
         self.log = node.get_logger()

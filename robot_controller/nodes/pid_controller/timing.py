@@ -27,7 +27,6 @@ class LoopTiming:
     """How late and how regular the controller's loop is."""
 
     def __init__(self, node: StackNode) -> None:
-        """:param node: the controller."""
         self.node = node
         self.controller = node.controller
         self.issued: deque[tuple[float, tuple[float, ...]]] = deque(maxlen=ISSUED_KEPT)  # (tick s, command)

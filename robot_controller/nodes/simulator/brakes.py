@@ -25,7 +25,6 @@ class Brakes:
     """Why each brake is on (any reason holds it), who may ask, and the drive timeout."""
 
     def __init__(self, node: StackNode) -> None:
-        """:param node: the simulator."""
         self.node = node
         self.reasons: set[str] = {"start"}
         node.plant.set_brakes(np.ones(node.joint_count, dtype=bool), node.params["brake_torque_nm"])

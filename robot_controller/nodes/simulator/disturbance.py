@@ -23,7 +23,6 @@ class Disturbance:
     """The external torque: taken like an effort, applied in the physics beside it."""
 
     def __init__(self, node: StackNode) -> None:
-        """:param node: the simulator."""
         self.node = node
         self.plant = node.plant
         node.create_subscription(Float64MultiArray, "/sim/disturbance", self.callback, LATEST_QOS)

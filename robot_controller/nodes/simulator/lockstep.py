@@ -30,7 +30,6 @@ class LockstepTicks:
     """The simulator's ticks in lockstep: one control period of physics per effort."""
 
     def __init__(self, node: StackNode) -> None:
-        """:param node: the simulator."""
         self.node = node
         self.efforts_applied = 0
         self.published = 0

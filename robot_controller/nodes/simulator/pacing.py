@@ -21,7 +21,6 @@ class Pacing:
     """The simulator's pacing thread and the physics it steps on the monotonic clock."""
 
     def __init__(self, node: StackNode) -> None:
-        """:param node: the simulator."""
         self.node = node
         # Physics time 0 on the monotonic clock (pacing) and on the ROS clock (stamps);
         # None while the brakes hold, before the first command.
