@@ -1,16 +1,6 @@
-"""``robot-controller faults``: freeze each node in turn mid-motion and measure
-what the arm did.
-
-Each case is a real wall-clock run of the default stack on the sine; at the
-first zero crossing of the sine (its peak speed) from ``FAULT_AT_S`` after
-the loop closes (5 s on the reference arm's 0.5 Hz sine) one node gets
-``SIGSTOP``, then ``SIGCONT`` after the case's duration. From the recording,
-on the worst joint: how far the TRUE angle left the band the reference
-sweeps (``max_deviation_rad``), how long after the fault every joint was
-back within 2 mrad of the planned trajectory (``reacquire_s``), the peak
-torque and whether the brakes engaged. docs/design.md §4 says what each node's
-loss must cause; this is how it is checked.
-"""
+"""``robot-controller faults``: freeze (``SIGSTOP``) or kill each node in turn mid-motion (the sine's
+peak speed) on a wall-clock run and measure what the arm did: deviation from the band the reference
+sweeps, time to re-acquire the plan, peak torque, brakes. docs/design.md §4 says what each loss must cause."""
 
 from __future__ import annotations
 
@@ -53,10 +43,7 @@ class Case:
 
 
 class Freezer:
-    """A launcher watcher: ``SIGSTOP`` the node at ``at_s``, ``SIGCONT`` it ``duration_s`` later.
-
-    Remembers when (system time, the ROS clock of a wall-clock run) it did both.
-    """
+    """A launcher watcher: ``SIGSTOP`` the node at ``at_s``, ``SIGCONT`` it later; when (system time) it did both."""
 
     def __init__(self, case: Case, at_s: float) -> None:
         self.case, self.at_s = case, at_s
@@ -86,8 +73,7 @@ class Freezer:
 
 
 def fault_time_s(params: cfg.Params, earliest_s: float = FAULT_AT_S) -> float:
-    """When to strike: the first zero crossing of the planner's sine (its peak
-    speed) from ``earliest_s`` on, s after the loop closes."""
+    """When to strike, s after the loop closes: the sine's first zero crossing (peak speed) from ``earliest_s``."""
     planner = params["trajectory_planner"]
     if planner["mode"] != "sine":
         return earliest_s
@@ -96,8 +82,7 @@ def fault_time_s(params: cfg.Params, earliest_s: float = FAULT_AT_S) -> float:
 
 
 def case_figures(recording: report.Recording, fault_start_s: float, fault_end_s: float) -> dict[str, Any]:
-    """What the arm did from the fault on (times on the run's clock, s), on its
-    worst joint: each joint's band is the range its reference sweeps."""
+    """What the arm did from the fault on (times on the run's clock, s), on its worst joint."""
     s = recording.state
     planned_t, planned_q = recording.planned_time_s, recording.planned_position
     true_t, true_q = recording.true_time_s, recording.true_position
@@ -111,8 +96,7 @@ def case_figures(recording: report.Recording, fault_start_s: float, fault_end_s:
         ),
         axis=1,
     )
-    # Back: the first moment after the fault from which the error stays within
-    # 2 mrad for REACQUIRED_HOLD_S (a single sample's noise is not "back").
+    # Back: the first moment after the fault from which the error stays within 2 mrad for REACQUIRED_HOLD_S.
     reacquire_s = float("nan")
     within = (true_t >= fault_end_s) & (error < REACQUIRED_RAD)
     for start in np.flatnonzero(within):
@@ -120,8 +104,7 @@ def case_figures(recording: report.Recording, fault_start_s: float, fault_end_s:
         if true_t[-1] >= true_t[start] + REACQUIRED_HOLD_S and np.all(within[window]):
             reacquire_s = float(true_t[start] - fault_end_s)
             break
-    # Up to 0.1 s before the last tick: when the run ends the nodes stop one by one (the
-    # drive brakes, the controller sees its readings stop), which is not the fault's doing.
+    # Up to 0.1 s before the last tick: the nodes stopping one by one at the end is not the fault's doing.
     last_tick_s = s["time_s"][-1] - 0.1
     ticks = (s["time_s"] >= fault_start_s) & (s["time_s"] <= last_tick_s)
     braked = (
@@ -181,8 +164,7 @@ def faults(
     robot: str = "one_dof",
     controller: str | None = None,
 ) -> list[dict[str, Any]]:
-    """Every case (:func:`cases`) on the default stack; ``controller``: with that law
-    (pid_controller's ``controller_type``, as ``--controller`` names it)."""
+    """Every case (:func:`cases`) on the default stack; ``controller``: with that law (``--controller``)."""
     from robot_controller.experiments.laws import with_controller
 
     params = with_controller(cfg.load_stack(robot=robot), controller)

@@ -1,5 +1,4 @@
-"""Build and run the in-process loop (no ROS) from the same parameters the
-ROS graph uses."""
+"""The in-process loop (no ROS), built from the parameters the ROS graph uses."""
 
 from __future__ import annotations
 
@@ -35,9 +34,8 @@ def prepare(
     on_warning: Callable[[str], None] | None = None,
     actuator_gain: float = 1.0,
 ) -> Callable[[], LoopResult]:
-    """The loop from ``params``, built (URDF compiled, trajectory planned as the planner would run it,
-    gains designed) and ready to run for ``duration_s`` seconds of :func:`run_loop`: the call is the loop
-    alone (what the bench times).
+    """The loop from ``params``, built (URDF compiled, trajectory planned, gains designed): calling it runs
+    ``duration_s`` s of :func:`run_loop`, the loop alone (what the bench times).
 
     :param disturbance: an external torque on a schedule (the simulator's ``disturbance_*`` are not read)
     :param on_warning: receives the planner's one-line warning (a trajectory slowed, or run as it is)
@@ -57,9 +55,7 @@ def prepare(
     n = len(plant.joint_names)
     plant.reset(cfg.per_joint("initial_position", sim["initial_position"], n))
     dynamics = arm_model(ctrl)  # the URDF's, or the controller's model_* values over it
-    controller_config = cfg.controller_config(
-        dict(ctrl, lockstep=True), n
-    )  # each command acts from its tick, as in lockstep
+    controller_config = cfg.controller_config(dict(ctrl, lockstep=True), n)  # each command acts from its tick
     controller = JointController(controller_config, n, dynamics)
     actuator = (Actuator if actuator_gain == 1.0 else partial(ScaledActuator, actuator_gain))(
         torque_limit(motor, n), motor["lag_time_constant_s"]

@@ -1,11 +1,5 @@
-"""``--controller SPEC`` for the experiments: the law an experiment runs, as
-pid_controller's ``controller_type`` names it (``pid``, ``lqr``, an installed
-law's name, ``package.module:Class`` or ``path/to/file.py:Class``).
-
-The spec is resolved at once, so a bad one is the one line of its
-``ConfigError`` before anything runs; a file's path is made absolute, so the
-nodes and worker processes find it whatever their directory.
-"""
+"""``--controller SPEC`` for the experiments: the law as pid_controller's ``controller_type`` names it,
+resolved at once (a bad spec is one ``ConfigError`` line before anything runs), a file's path made absolute."""
 
 from __future__ import annotations
 

@@ -38,6 +38,13 @@ def fmt(value: Any, spec: str = "{:.3g}", missing: str = "—") -> str:
     return spec.format(value)
 
 
+def cells(values: dict[str, Any], columns, prefix: str = "", scale: float = 1.0) -> list[str]:
+    """``fmt`` of ``values[prefix + key]`` (times ``scale``) for each ``(key, spec[, missing])`` of ``columns``."""
+    return [
+        fmt(values[prefix + key] * scale if scale != 1.0 else values[prefix + key], *rest) for key, *rest in columns
+    ]
+
+
 def table(headers: str | list[str], rows: list[list[str]]) -> str:
     """A markdown table; ``headers`` a list or one string, ``"a | b | c"``."""
     if isinstance(headers, str):

@@ -1,6 +1,4 @@
-"""The step response experiment (``robot-controller step``): a real run
-(launcher → recording → score) of a step, and its figures: overshoot, rise,
-settling, steady-state error, peak torque."""
+"""The step response experiment (``robot-controller step``): a real run of a step and its figures."""
 
 from __future__ import annotations
 
@@ -63,14 +61,11 @@ def step_figures(
     offset: float | np.ndarray = 0.0,
     after_s: float | None = STEP_AFTER_S,
 ) -> dict[str, Any]:
-    """Step-response figures on the TRUE angle, timed from the tick where the reference starts to move,
-    over the ``after_s`` seconds that follow it (None: to the end of the recording). Every joint steps
-    by ``amplitude`` from its ``offset`` (rad, one or one per joint); on a chain of joints each
-    figure is the worst joint's, and ``<figure>_per_joint`` lists them all.
+    """Step-response figures on the TRUE angle from the tick where the reference starts to move, over the
+    ``after_s`` s after it (None: to the end; a recording runs on while the nodes stop, a different time each
+    run); on a chain, the worst joint's, with ``<figure>_per_joint``.
 
-    The recording runs on past the requested duration for as long as the nodes
-    take to stop, a different time each run: settling, overshoot and the
-    steady-state error (the last 10 % of the record) would depend on it.
+    :param amplitude: rad, every joint's step from its ``offset`` (rad, one or one per joint)
     """
     s = recording.state
     t = s["time_s"]
@@ -151,18 +146,11 @@ def check_step(
 
 def step_response(checked: plan.CheckedRun, out: Path, *, amplitude: float, shaping: str) -> dict[str, Any]:
     """Run the step :func:`check_step` checked; its figures, also in ``metrics.json`` and ``step.png``."""
-    params, sim_time = checked.params, checked.options.sim_time
+    params, clock = checked.params, "sim_lockstep" if checked.options.sim_time else "wall"
     seed = params["sensor_node"]["seed"]
     values, recording = run_checked(checked, out)
     values.update(step_figures(recording, amplitude, np.asarray(params["trajectory_planner"]["offset"], float)))
-    values.update(
-        {
-            "amplitude_rad": amplitude,
-            "step_shaping": shaping,
-            "seed": seed,
-            "clock": "sim_lockstep" if sim_time else "wall",
-        }
-    )
+    values.update(amplitude_rad=amplitude, step_shaping=shaping, seed=seed, clock=clock)
     report.write_metrics(out / "metrics.json", values)
     plot_step(
         recording,

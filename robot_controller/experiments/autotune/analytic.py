@@ -1,10 +1,6 @@
-"""``tune`` of a built-in law (``pid``, ``lqr``): its feedback on ``[∫e, e, ė]`` is known, so the
-search runs on the batch harness (``core.batch``: the arm's analytic model under the controller's
-own PID code, thousands of gain sets at once, common random numbers) and screens every gain set
-by the sampled loop's margins first (``margins``). Searched: Kp, Ki, Kd for ``pid``; the state
-weights ``lqr_q`` for ``lqr`` (only their ratio to ``lqr_r`` matters, so ``lqr_r`` keeps its value).
-Then one seeded lockstep sine run before and one after on the real graph, to show what the batch
-does not model (the planner's rate and the reference hold, latency compensation, MuJoCo's arm)."""
+"""``tune`` of a built-in law (``pid``: Kp, Ki, Kd; ``lqr``: the weights ``lqr_q``, ``lqr_r`` kept): the
+search runs on the batch harness (``core.batch``, common random numbers) after screening every gain set by
+the sampled loop's margins, then one seeded lockstep sine run before and one after on the real graph."""
 
 from __future__ import annotations
 
@@ -21,8 +17,8 @@ from robot_controller.core.batch import ArmConstants, run_batch
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import lqr
 from robot_controller.core.laws.pid import PidConfig
-from robot_controller.core.model import ArmDynamics, SensorConfig
-from robot_controller.core.reference import Trajectory, make_trajectory
+from robot_controller.core.model import ArmDynamics
+from robot_controller.core.reference import make_trajectory
 from robot_controller.experiments.autotune.margins import (
     MIN_DELAY_PERIODS,
     MIN_GAIN_MARGIN_DB,
@@ -153,9 +149,9 @@ class AnalyticProblem:
         return batch_tracking_rms(
             self.constants,
             pid,
-            self.sine,
-            self.sensor,
-            np.random.default_rng(seed),
+            trajectory=self.sine,
+            sensor=self.sensor,
+            rng=np.random.default_rng(seed),
             duration_s=duration_s,
             control_period_s=self.dt,
             torque_max=self.torque_max,
@@ -165,25 +161,10 @@ class AnalyticProblem:
 
 
 def batch_tracking_rms(
-    constants: ArmConstants,
-    pid_config: PidConfig,
-    trajectory: Trajectory,
-    sensor: SensorConfig,
-    rng: np.random.Generator,
-    *,
-    common_noise: bool = True,
-    **options: Any,
+    constants: ArmConstants, pid_config: PidConfig, *, common_noise: bool = True, **options: Any
 ) -> np.ndarray:
     """The search's harness: ``core.batch.run_batch`` with common random numbers by default."""
-    return run_batch(
-        constants=constants,
-        pid_config=pid_config,
-        trajectory=trajectory,
-        sensor=sensor,
-        rng=rng,
-        common_noise=common_noise,
-        **options,
-    )
+    return run_batch(constants=constants, pid_config=pid_config, common_noise=common_noise, **options)
 
 
 def before_after(

@@ -94,21 +94,10 @@ def report_text(values: dict[str, Any], problem: Problem, result: SearchResult, 
                 f(values[f"real_rms_{name}_rad"] * 1e3, "{:.3f}"),
             ]
         )
-    headers = [
-        "",
-        *(["lqr_q, lqr_r"] if lqr_mode else []),
-        "Kp",
-        "Ki",
-        "Kd",
-        "gain margin, up [dB]",
-        "gain margin, down [dB]",
-        "phase margin [°]",
-        "delay margin [periods]",
-        "meets the margins",
-        "slowest pole, τ [s]",
-        "sine RMS, batch [mrad]",
-        "sine RMS, real graph [mrad]",
-    ]
+    headers = (" | lqr_q, lqr_r" if lqr_mode else "") + (
+        " | Kp | Ki | Kd | gain margin, up [dB] | gain margin, down [dB] | phase margin [°] | delay margin [periods] | "
+        "meets the margins | slowest pole, τ [s] | sine RMS, batch [mrad] | sine RMS, real graph [mrad]"
+    )
     real_before, real_after = values["real_rms_before_rad"], values["real_rms_after_rad"]
     ratio = max(real_before, real_after) / max(min(real_before, real_after), 1e-12)
     change = (

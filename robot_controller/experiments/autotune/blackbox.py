@@ -1,15 +1,6 @@
-"""``tune`` of a law of one's own: a black box (no transfer function to take margins of, and the batch
-harness runs the built-in PID only), so every candidate runs the in-process loop, and the built-in
-margins are measured there as pushes that must die away. Searched: the law's parameters declared
-``gain=True``, within their ``minimum`` and ``maximum`` (:class:`Knob`).
-
-A short push (:data:`PUSH_FRACTION` of each joint's torque limit for :data:`PUSH_PERIODS` control
-periods at :data:`PUSH_AT_S`) is given to the loop, and the same run unpushed (the same sensor noise)
-is subtracted: a case (:data:`CASES`) passes if that effect dies down to :data:`DECAY_FRACTION` of
-its peak (or :data:`DECAY_FLOOR_RAD`) within :data:`SETTLE_S`, neither run's torque reaches the limit
-after the warm-up (an unstable loop swings into the limit, and then both runs swing alike), and the
-law does not fault. A candidate is checked only if it tracks better than the best robust one so far.
-"""
+"""``tune`` of a law of one's own: a black box, so each candidate runs the in-process loop and the
+built-in margins are measured there: a push (:data:`PUSH_FRACTION` of the torque limit) must die away
+within :data:`SETTLE_S` in every case (:data:`CASES`). Searched: its ``gain=True`` parameters (:class:`Knob`)."""
 
 from __future__ import annotations
 

@@ -1,8 +1,5 @@
-"""``robot-controller tune``: the gains that track the sine best on the configured arm and law,
-among those that keep the loop robust (``margins``), for any law: a built-in one on the batch
-harness with its margins computed (``analytic``), a law of one's own on the in-process loop with
-its margins measured (``blackbox``). Writes ``tuned.yaml`` (an overlay for ``--config``),
-``tune.json`` (flat), ``report.md`` and ``tune.png``."""
+"""``robot-controller tune``: the best-tracking robust gains for any law (``analytic`` for a built-in
+one, ``blackbox`` for one's own); writes ``tuned.yaml``, ``tune.json``, ``report.md`` and ``tune.png``."""
 
 from __future__ import annotations
 

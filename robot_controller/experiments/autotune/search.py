@@ -1,7 +1,5 @@
-"""The search ``tune`` runs on any problem (:mod:`.analytic` for the built-in laws,
-:mod:`.blackbox` for a law of one's own): a Latin hypercube over the problem's box, then rounds
-of samples around the best robust candidates so far, narrower each round. The problem says
-which candidates are robust and how well each tracks (:meth:`evaluate`)."""
+"""The search ``tune`` runs on any problem: a Latin hypercube over its box, then rounds of samples
+around the best robust candidates, narrower each round (:meth:`Problem.evaluate` judges them)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
-"""The controller comparison (``robot-controller compare``): each contender on the sine and on a
-step, over several seeds, in lockstep, several at once on ROS domains of their own; or, with
-``in_process``, the same runs on the in-process loop (no ROS)."""
+"""The controller comparison (``robot-controller compare``): each contender on the sine and on a step,
+over several seeds, in lockstep side by side, or on the in-process loop."""
 
 from __future__ import annotations
 
@@ -32,30 +31,23 @@ def compare(
     controllers: Sequence[str] | None = None,
     in_process: bool = False,
 ) -> dict[str, dict[str, dict[str, float]]]:
-    """Every contender (``controllers``: :func:`contenders`) on the sine and on the step, ``seeds``
-    seeds each, in sim-time lockstep; with ``in_process``, on the in-process loop, one after the other.
+    """Every contender (``controllers``: :func:`contenders`) on the sine and on the step, ``seeds`` seeds each,
+    in lockstep (``workers`` pairs at once, each on a ROS domain of its own; 1: here, one after the other) or
+    with ``in_process`` on the in-process loop. The same table either way.
 
-    ``workers`` (contender, seed) pairs run at once, each in a worker process
-    of its own with a ROS domain of its own (:func:`worker_domain`);
-    ``workers=1`` runs them one after the other in this process, in the
-    caller's domain. A lockstep run's figures depend only on its seed, so
-    both give the same table. The progress line of a pair is printed as it
-    starts. A failed run raises RuntimeError naming its directory, once the
-    pairs under way have ended.
+    :raises RuntimeError: a failed run, naming its directory, once the pairs under way have ended
     """
     chosen = contenders(controllers)
     out.mkdir(parents=True, exist_ok=True)
     pairs = [(replace(contender, robot=robot), seed) for contender in chosen for seed in range(seeds)]
-    if in_process:
+    if in_process or workers <= 1:
         figures = {}
         for contender, seed in pairs:
             progress(f"{contender.name}: seed {seed}")
-            figures[contender.name, seed] = run_pair_in_process(contender, seed, sine_duration_s, amplitude)
-    elif workers <= 1:
-        figures = {}
-        for contender, seed in pairs:
-            progress(f"{contender.name}: seed {seed}")
-            figures[contender.name, seed] = run_pair(contender, seed, out, sine_duration_s, amplitude)
+            if in_process:
+                figures[contender.name, seed] = run_pair_in_process(contender, seed, sine_duration_s, amplitude)
+            else:
+                figures[contender.name, seed] = run_pair(contender, seed, out, sine_duration_s, amplitude)
     else:
         figures = run_side_by_side(pairs, out, sine_duration_s, amplitude, progress, workers)
     table: dict[str, dict[str, dict[str, float]]] = {}

@@ -1,6 +1,5 @@
-"""Running ``compare``'s (contender, seed) pairs side by side: spawned worker processes, each on a
-ROS domain of its own (:func:`worker_domain`), never more pairs at once than workers, and Ctrl-C or
-the caller's death ending each worker's run cleanly."""
+"""``compare``'s (contender, seed) pairs side by side in spawned workers, each on a ROS domain of its
+own; Ctrl-C or the caller's death ends each worker's run cleanly."""
 
 from __future__ import annotations
 
@@ -15,22 +14,15 @@ from robot_controller.experiments.compare.pairs import run_pair
 
 
 def worker_domain(base: int, slot: int) -> int:
-    """The ROS domain of worker ``slot``: the caller's own (``base``, its
-    ROS_DOMAIN_ID) for slot 0, the next ones for the others, wrapped into
-    1..101 (all distinct for up to 101 slots; an unset or 0 ``base`` gives 101, 1, 2…)."""
+    """The ROS domain of worker ``slot``: the caller's (``base``) for slot 0, the next ones after, within 1..101."""
     return (base - 1 + slot) % 101 + 1
 
 
 def run_side_by_side(
     pairs, out: Path, sine_duration_s: float, amplitude: float, progress, workers: int
 ) -> dict[tuple[str, int], dict[str, float]]:
-    """Run the pairs on ``workers`` spawned processes, never more at once than
-    there are workers (so each progress line is printed as its pair starts).
-
-    Processes, not threads: the launcher forks the nodes from the process
-    that calls it, which must then be single-threaded. A spawned worker is a
-    fresh interpreter whose only thread runs the task.
-    """
+    """Run the pairs on ``workers`` spawned processes (the launcher forks the nodes, so its process must be
+    single-threaded), never more at once than workers: each progress line is printed as its pair starts."""
     context = multiprocessing.get_context("spawn")
     slots = context.Value("i", 0)
     try:
@@ -81,8 +73,7 @@ def _init_worker(slots, base: int) -> None:
         slots.value += 1
     _domain_id = worker_domain(base, slot)
     _parent_pid = os.getppid()
-    # Ctrl-C reaches the whole process group: idle workers leave it to the
-    # caller; a task stops after the run it interrupted (see below).
+    # Ctrl-C reaches the whole process group: idle workers leave it to the caller.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     # If the caller dies, SIGTERM: the launcher stops the current run's nodes as for Ctrl-C.
     from robot_controller.runner import forking
@@ -97,8 +88,7 @@ def _on_sigint(signum, frame) -> None:
 
 
 def stop_if_asked() -> None:
-    """The launcher ends a run cleanly on Ctrl-C or SIGTERM and returns: in a
-    worker, do not go on to the next run then."""
+    """In a worker, after a run the launcher ended on Ctrl-C or SIGTERM: go on to no next run."""
     if _interrupted or (_parent_pid is not None and os.getppid() != _parent_pid):
         raise KeyboardInterrupt
 

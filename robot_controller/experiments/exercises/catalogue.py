@@ -19,27 +19,12 @@ class Exercise:
 
 
 EXERCISES: dict[str, Exercise] = {
-    e.name: e
-    for e in (
-        Exercise(
-            "tune",
-            "tune the PID: Kp until it oscillates (Ku, Tu), then Kd, then Ki",
-            ziegler_nichols.run,
-            ziegler_nichols.steps,
-        ),
-        Exercise(
-            "disturbance",
-            "a 2 N·m step disturbance at t = 5 s: how far and how long",
-            disturbance.run,
-            disturbance.steps,
-        ),
-        Exercise(
-            "windup",
-            "saturation at 2 N·m: every anti-windup mode side by side on a 1 rad step",
-            windup.run,
-            windup.steps,
-        ),
-        Exercise("lqr", "PID against LQR: gains, closed-loop poles and margins, sine and step", lqr.run, lqr.steps),
+    name: Exercise(name, title, module.run, module.steps)
+    for name, title, module in (
+        ("tune", "tune the PID: Kp until it oscillates (Ku, Tu), then Kd, then Ki", ziegler_nichols),
+        ("disturbance", "a 2 N·m step disturbance at t = 5 s: how far and how long", disturbance),
+        ("windup", "saturation at 2 N·m: every anti-windup mode side by side on a 1 rad step", windup),
+        ("lqr", "PID against LQR: gains, closed-loop poles and margins, sine and step", lqr),
     )
 }
 

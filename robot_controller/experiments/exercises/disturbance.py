@@ -12,7 +12,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller.experiments import laws
 from robot_controller.experiments.compare.contenders import Contender
-from robot_controller.experiments.reporting import Progress, fmt, pyplot, save, table, write_report, write_results
+from robot_controller.experiments.reporting import Progress, cells, pyplot, save, table, write_report, write_results
 from robot_controller.experiments.runs import SEED
 from robot_controller.experiments.step import run_and_score
 from robot_controller.scoring import report
@@ -178,20 +178,17 @@ def _plot(path: Path, traces: dict[str, tuple[tuple[np.ndarray, np.ndarray], tup
 
 
 def _report(results: dict[str, Any], plan: dict[str, Any], quick: bool) -> str:
-    rows = []
     never = f"not in {plan['after_s']:g} s"
-    for contender in plan["contenders"]:
-        name = contender.name
-        rows.append(
-            [
-                f"**{name}**: {contender.description}",
-                fmt(results[f"{name}_peak_deviation_rad"] * 1e3, "{:.1f}"),
-                fmt(results[f"{name}_recovery_s"], "{:.2f}", never),
-                fmt(results[f"{name}_before_max_rad"] * 1e3, "{:.1f}"),
-                fmt(results[f"{name}_peak_error_rad"] * 1e3, "{:.1f}"),
-                fmt(results[f"{name}_error_recovery_s"], "{:.2f}", never),
-            ]
-        )
+    rows = [
+        [
+            f"**{c.name}**: {c.description}",
+            *cells(results, (("peak_deviation_rad", "{:.1f}"),), f"{c.name}_", 1e3),
+            *cells(results, (("recovery_s", "{:.2f}", never),), f"{c.name}_"),
+            *cells(results, (("before_max_rad", "{:.1f}"), ("peak_error_rad", "{:.1f}")), f"{c.name}_", 1e3),
+            *cells(results, (("error_recovery_s", "{:.2f}", never),), f"{c.name}_"),
+        ]
+        for c in plan["contenders"]
+    ]
     default = any(c.name == "default" for c in plan["contenders"]) and (
         results["default_peak_deviation_rad"] is not None and results["default_recovery_s"] is not None
     )

@@ -10,7 +10,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.core.laws import robustness
-from robot_controller.experiments.compare import Contender
+from robot_controller.experiments.compare.contenders import Contender
 from robot_controller.experiments.exercises.lqr_report import plot, report_text
 from robot_controller.experiments.loop_model import law_gains, plant_loop
 from robot_controller.experiments.reporting import Progress, write_report, write_results

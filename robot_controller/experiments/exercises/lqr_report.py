@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller.core.laws import robustness
-from robot_controller.experiments.reporting import fmt, pyplot, save, table
+from robot_controller.experiments.reporting import cells, fmt, pyplot, save, table
 from robot_controller.experiments.runs import Response, plot_steps
 
 
@@ -47,7 +47,26 @@ def plot(
 
 def report_text(results: dict[str, Any], plan: dict[str, Any], analyses: dict[str, dict[str, Any]], quick: bool) -> str:
     contenders = plan["contenders"]
-    lines = [
+    gain_rows = []
+    for contender in contenders:
+        a = analyses[contender.name]
+        gain_rows.append(
+            [
+                f"**{contender.name}**: {contender.description}",
+                *cells(a, (("kp", "{:.3g}"), ("ki", "{:.3g}"), ("kd", "{:.3g}"))),
+                ", ".join(_pole_text(p) for p in a["poles"]),
+                fmt(float(np.max(np.abs(a["poles"]))), "{:.4f}"),
+                fmt(a["margins"].gain_margin_db, "{:.1f}"),
+                fmt(a["margins"].phase_margin_deg, "{:.0f}"),
+                str(a["delay_margin_periods"]),
+            ]
+        )
+    never = f"not in {plan['after_s']:g} s"
+    cols = (("sine_tracking_rms_rad", "{:.4f}"), ("sine_tracking_max_rad", "{:.4f}"), ("step_overshoot_pct", "{:.1f}"))
+    cols += (("step_settling_time_s", "{:.2f}", never), ("step_rise_time_s", "{:.3f}"))
+    cols += (("step_steady_state_error_rad", "{:.4f}"), ("step_peak_torque_nm", "{:.1f}"))
+    figure_rows = [[f"**{c.name}**", *cells(results, cols, f"{c.name}_")] for c in contenders]
+    text = [
         "# Exercise 4: switch to LQR",
         "",
         "*The tutorial: replace the PID with an LQR gain (from Day 3). Compare tracking accuracy.*",
@@ -60,61 +79,23 @@ def report_text(results: dict[str, Any], plan: dict[str, Any], analyses: dict[st
         "",
         "## The gains and the closed loop",
         "",
-    ]
-    cells = []
-    for contender in contenders:
-        n, a = contender.name, analyses[contender.name]
-        poles = ", ".join(_pole_text(p) for p in a["poles"])
-        cells.append(
-            [
-                f"**{n}**: {contender.description}",
-                fmt(a["kp"], "{:.3g}"),
-                fmt(a["ki"], "{:.3g}"),
-                fmt(a["kd"], "{:.3g}"),
-                poles,
-                fmt(float(np.max(np.abs(a["poles"]))), "{:.4f}"),
-                fmt(a["margins"].gain_margin_db, "{:.1f}"),
-                fmt(a["margins"].phase_margin_deg, "{:.0f}"),
-                str(a["delay_margin_periods"]),
-            ]
-        )
-    lines += [
         table(
             "controller | Kp [N·m/rad] | Ki [N·m/(rad·s)] | Kd [N·m·s/rad] | "
             "closed-loop poles z (time constant or ωn, ζ) | largest |z| | gain margin [dB] | phase margin [°] | "
             "delay margin [periods]",
-            cells,
+            gain_rows,
         ),
         "",
-    ]
-    lines += [
         "Poles: the eigenvalues of `A − B K` for the arm sampled every 10 ms. Inside the unit circle means "
         "stable; the closer to 1, the slower that part of the response dies away (a real pole z lasts "
         "about 10 ms / (1 − z)).",
         "",
         "## The figures",
         "",
-    ]
-    cells = []
-    for contender in contenders:
-        n = contender.name
-        cells.append(
-            [
-                f"**{n}**",
-                fmt(results[f"{n}_sine_tracking_rms_rad"], "{:.4f}"),
-                fmt(results[f"{n}_sine_tracking_max_rad"], "{:.4f}"),
-                fmt(results[f"{n}_step_overshoot_pct"], "{:.1f}"),
-                fmt(results[f"{n}_step_settling_time_s"], "{:.2f}", f"not in {plan['after_s']:g} s"),
-                fmt(results[f"{n}_step_rise_time_s"], "{:.3f}"),
-                fmt(results[f"{n}_step_steady_state_error_rad"], "{:.4f}"),
-                fmt(results[f"{n}_step_peak_torque_nm"], "{:.1f}"),
-            ]
-        )
-    lines += [
         table(
             "controller | sine RMS error [rad] | sine max error [rad] | step overshoot [%] | settling 2 % [s] | "
             "rise 10–90 % [s] | steady-state error [rad] | peak torque [N·m]",
-            cells,
+            figure_rows,
         ),
         "",
         f"Sine: 1 rad, 0.5 Hz, {plan['sine_s']:g} s, RMS after a 2 s warm-up. "
@@ -129,7 +110,7 @@ def report_text(results: dict[str, Any], plan: dict[str, Any], analyses: dict[st
         "the folders named after the controller.",
         "",
     ]
-    return "\n".join(lines)
+    return "\n".join(text)
 
 
 def _pole_text(z: complex, dt: float = 0.01) -> str:

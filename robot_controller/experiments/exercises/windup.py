@@ -10,7 +10,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.core.laws.pid import AntiWindup
-from robot_controller.experiments.reporting import Progress, fmt, pyplot, save, table, write_report, write_results
+from robot_controller.experiments.reporting import Progress, cells, pyplot, save, table, write_report, write_results
 from robot_controller.experiments.runs import SEED, Response, plot_steps, step_run, store
 
 PRESET = "tutorial"
@@ -123,6 +123,7 @@ def _plot(path: Path, responses: list[Response]) -> None:
 
 def _report(results: dict[str, Any], plan: dict[str, Any], responses: list[Response], quick: bool) -> str:
     after = plan["after_s"]
+    never = f"not in {after:g} s"
     lines = [
         "# Exercise 3: saturation without anti-windup",
         "",
@@ -139,29 +140,20 @@ def _report(results: dict[str, Any], plan: dict[str, Any], responses: list[Respo
         f"angle over the {after:g} s after the step." + (" **Quick form**." if quick else ""),
         "",
     ]
-    cells = []
+    rows = []
     for response in responses:
-        mode = response.label
-        cells.append(
-            [
-                f"**{mode}**: {MEANING[mode]}",
-                fmt(results[f"{mode}_overshoot_pct"], "{:.1f}"),
-                fmt(results[f"{mode}_settling_time_s"], "{:.2f}", f"not in {after:g} s"),
-                fmt(results[f"{mode}_saturated_s"], "{:.2f}"),
-                f"{fmt(results[f'{mode}_integral_min_nm'], '{:.2f}')} … "
-                f"{fmt(results[f'{mode}_integral_max_nm'], '{:.2f}')}",
-                fmt(results[f"{mode}_steady_state_error_rad"], "{:.4f}"),
-            ]
-        )
+        mode, prefix = response.label, f"{response.label}_"
+        low, high = cells(results, (("integral_min_nm", "{:.2f}"), ("integral_max_nm", "{:.2f}")), prefix)
+        figures = (("overshoot_pct", "{:.1f}"), ("settling_time_s", "{:.2f}", never), ("saturated_s", "{:.2f}"))
+        end = cells(results, (("steady_state_error_rad", "{:.4f}"),), prefix)
+        rows.append([f"**{mode}**: {MEANING[mode]}", *cells(results, figures, prefix), f"{low} … {high}", *end])
     lines += [
         table(
             "anti-windup | overshoot [%] | settling 2 % [s] | time saturated [s] | I term, lowest … highest [N·m] | "
             "error at the end [rad]",
-            cells,
+            rows,
         ),
         "",
-    ]
-    lines += [
         "*Time saturated*: control ticks after the step on which the torque limit cut the command (the "
         "controller's `saturated` flag on `/controller/state`), times the 10 ms period. *I term*: "
         "the integral's share of the command after the step; beyond 2 N·m it is torque the motor can never "

@@ -1,7 +1,5 @@
-"""The run ``robot-controller identify`` fits to: the planner's chirp (a sine sweeping from
-``start_hz`` to ``end_hz`` over the whole run, slow first where gravity and friction dominate,
-faster later where inertia does), and which recorded samples the fit leaves out (brakes held,
-a disturbance acting, the torque saturated)."""
+"""The run ``robot-controller identify`` fits to (the planner's chirp, sweeping ``start_hz`` to
+``end_hz`` over the run) and the samples the fit leaves out (brakes held, a push, the torque saturated)."""
 
 from __future__ import annotations
 

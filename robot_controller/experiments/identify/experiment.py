@@ -1,11 +1,7 @@
-"""Identification of the real arm (``robot-controller identify``): drive it through the whole
-stack (one lockstep run of the graph as configured, the planner in ``chirp`` mode), fit the model
-to the TRUE joint state and the applied torque, and write the result as a parameter overlay.
-On one joint the fit is each joint's four numbers (``joints``); on a chain of joints, where those
-would fold the coupling into wrong values, a payload on the last link (``payload``).
-
-``out`` receives ``identified.yaml`` (the overlay alone, to layer last), ``identification.json``
-(flat, units in the names), ``identification.md`` and ``run/`` (the run itself)."""
+"""Identification of the real arm (``robot-controller identify``): one lockstep run of the stack with
+the planner in ``chirp`` mode, the model fitted to the TRUE joint state and the applied torque (each
+joint's four numbers, ``joints``; on a chain, a payload on the last link, ``payload``), written into
+``out`` as ``identified.yaml`` (an overlay), ``identification.json``, ``identification.md`` and ``run/``."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
-"""Exercise 1, "Tune the PID" (``exercise tune``), by Ziegler and Nichols on the real graph: Kp alone
-until the step oscillates without end (the ultimate gain Ku, period Tu; ``ultimate``); the classic
-rule's PID from them; then Kd raised until the overshoot is gone, then Ki until the steady-state
+"""Exercise 1, "Tune the PID" (``exercise tune``), by Ziegler and Nichols on the real graph: Ku and Tu
+(``ultimate``), the classic rule's PID, then Kd until the overshoot is gone, Ki until the steady-state
 error is gone; the gains chosen on the sine."""
 
 from __future__ import annotations
@@ -43,26 +42,24 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
     at_ku = next(r for r in search if r.figures["kp"] == high)
     ku, tu = high, at_ku.figures["period_s"]
     model_ku, model_tu = model_ultimate(base)
-    results.update(
-        {
-            "ultimate_gain": ku,
-            "ultimate_period_s": tu,
-            "ultimate_gain_bracket_low": low,
-            "model_ultimate_gain": model_ku,
-            "model_ultimate_period_s": model_tu,
-        }
-    )
+    results.update(ultimate_gain=ku, ultimate_period_s=tu, ultimate_gain_bracket_low=low)
+    results.update(model_ultimate_gain=model_ku, model_ultimate_period_s=model_tu)
 
     # 2. Ziegler–Nichols' classic PID from Ku, Tu.
     zn = (0.6 * ku, 1.2 * ku / tu, 0.075 * ku * tu)
     results.update({"zn_kp": zn[0], "zn_ki": zn[1], "zn_kd": zn[2]})
     stage_kwargs = {"amplitude": STAGE_STEP_RAD, "lead_s": STAGE_LEAD_S, "after_s": plan["stage_after_s"], "seed": seed}
+
+    def stage(row: str, gains: tuple[float, float, float], folder: Path, label: str) -> Response:
+        response = step_run(with_gains(base, *gains), out / folder, label, **stage_kwargs)
+        rows.append({"label": row, "kp": gains[0], "ki": gains[1], "kd": gains[2], **response.figures})
+        return response
+
     zn_response = None
     if plan["zn_run"]:
         progress(f"Ziegler–Nichols PID: Kp {zn[0]:.3g}, Ki {zn[1]:.3g}, Kd {zn[2]:.3g}")
-        zn_response = step_run(with_gains(base, *zn), out / "ziegler_nichols", "Ziegler–Nichols", **stage_kwargs)
+        zn_response = stage("Ziegler–Nichols PID", zn, Path("ziegler_nichols"), "Ziegler–Nichols")
         _store(results, "zn_step", zn_response.figures)
-        rows.append(_row("Ziegler–Nichols PID", zn, zn_response))
 
     # 3. Then Kd, until the overshoot is gone.
     kp = zn[0]
@@ -71,15 +68,10 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
     for index, factor in enumerate(plan["kd_factors"]):
         candidate = zn[2] * factor
         progress(f"then Kd: Kp {kp:.3g}, Kd {candidate:.3g}, Ki 0")
-        response = step_run(
-            with_gains(base, kp, 0.0, candidate),
-            out / "kd_stage" / f"run_{index + 1}",
-            f"Kd {candidate:.3g}",
-            **stage_kwargs,
-        )
+        gains = (kp, 0.0, candidate)
+        response = stage(f"Kd stage {index + 1}", gains, Path("kd_stage", f"run_{index + 1}"), f"Kd {candidate:.3g}")
         response.figures["kd"] = candidate
         kd_runs.append(response)
-        rows.append(_row(f"Kd stage {index + 1}", (kp, 0.0, candidate), response))
         results[f"kd_stage_{index + 1}_kd"] = candidate
         results[f"kd_stage_{index + 1}_overshoot_final_pct"] = response.figures["overshoot_final_pct"]
         if kd is None and response.figures["overshoot_final_pct"] <= OVERSHOOT_MAX_PCT:
@@ -92,15 +84,10 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
     for index, ti_tu in enumerate(plan["ti_tu"]):
         candidate = kp / (ti_tu * tu)
         progress(f"then Ki: Kp {kp:.3g}, Kd {kd:.3g}, Ki {candidate:.3g} (Ti = {ti_tu:g} Tu)")
-        response = step_run(
-            with_gains(base, kp, candidate, kd),
-            out / "ki_stage" / f"run_{index + 1}",
-            f"Ki {candidate:.3g}",
-            **stage_kwargs,
-        )
+        gains = (kp, candidate, kd)
+        response = stage(f"Ki stage {index + 1}", gains, Path("ki_stage", f"run_{index + 1}"), f"Ki {candidate:.3g}")
         response.figures["ki"] = candidate
         ki_runs.append(response)
-        rows.append(_row(f"Ki stage {index + 1}", (kp, candidate, kd), response))
         results[f"ki_stage_{index + 1}_ki"] = candidate
         results[f"ki_stage_{index + 1}_steady_state_error_rad"] = response.figures["steady_state_error_rad"]
         results[f"ki_stage_{index + 1}_overshoot_pct"] = response.figures["overshoot_pct"]
@@ -140,7 +127,7 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
     results = write_results(out, results)
     plot_stages(out / "tune.png", search, zn_response, kd_runs, ki_runs, chosen, tutorial_step, ku, kp, kd)
     plot_sine(out / "tune_sine.png", sine, tutorial_sine)
-    write_report(out, report_text(results, plan, search, rows, chosen, quick))
+    write_report(out, report_text(results, plan, search, rows, quick))
     return results
 
 
@@ -161,7 +148,3 @@ def choose_ki(runs: list[Response], step_rad: float) -> Response:
 def _store(results: dict[str, Any], prefix: str, figures: dict[str, Any]) -> None:
     keys = "overshoot_pct overshoot_final_pct settling_time_s rise_time_s steady_state_error_rad peak_torque_nm"
     store(results, prefix, figures, (*keys.split(), "saturated_s"))
-
-
-def _row(label: str, gains: tuple[float, float, float], response: Response) -> dict[str, Any]:
-    return {"label": label, "kp": gains[0], "ki": gains[1], "kd": gains[2], **response.figures}

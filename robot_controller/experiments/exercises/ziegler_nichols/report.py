@@ -16,7 +16,7 @@ from robot_controller.experiments.exercises.ziegler_nichols.settings import (
     STAGE_STEP_RAD,
     SUSTAINED_GROWTH_PER_S,
 )
-from robot_controller.experiments.reporting import fmt, table
+from robot_controller.experiments.reporting import cells, fmt, table
 from robot_controller.experiments.runs import Response
 
 
@@ -25,11 +25,24 @@ def report_text(
     plan: dict[str, Any],
     search: list[Response],
     rows: list[dict[str, Any]],
-    chosen: Response,
     quick: bool,
 ) -> str:
     ku, tu = results["ultimate_gain"], results["ultimate_period_s"]
-    lines = [
+    search_cols = (("kp", "{:.4g}"), ("amplitude_early_rad", "{:.3f}"), ("amplitude_late_rad", "{:.3f}"))
+    search_cols += (("growth_per_s", "{:+.3f}"), ("period_s", "{:.3f}"))
+    search_rows = [
+        [str(index + 1), *cells(r.figures, search_cols), "oscillates on" if r.figures["sustained"] else "decays"]
+        for index, r in enumerate(search)
+    ]
+    never = f"not in {plan['stage_after_s']:g} s"
+    gains = (("kp", "{:.3g}"), ("ki", "{:.3g}"), ("kd", "{:.3g}"))
+    stage_cols = (*gains, ("overshoot_pct", "{:.1f}"))
+    stage_cols += (("overshoot_final_pct", "{:.1f}"), ("settling_time_s", "{:.2f}", never))
+    stage_cols += (("steady_state_error_rad", "{:.4f}"), ("peak_torque_nm", "{:.2f}"))
+    stage_rows = [[row["label"], *cells(row, stage_cols)] for row in rows]
+    chosen_cols = (("step_overshoot_pct", "{:.1f}"), ("step_settling_time_s", "{:.2f}", never))
+    chosen_cols += (("step_steady_state_error_rad", "{:.4f}"), ("sine_tracking_rms_rad", "{:.4f}"))
+    text = [
         "# Exercise 1: tune the PID",
         "",
         "*The tutorial: start with Kp = 50, Ki = 0, Kd = 0. Increase Kp until oscillation, then add Kd, "
@@ -47,30 +60,12 @@ def report_text(
         f"step is compared with the last second's: if it shrinks by less than {-SUSTAINED_GROWTH_PER_S:.0%} "
         "a second, the loop oscillates on by itself.",
         "",
-    ]
-    cells = []
-    for index, response in enumerate(search):
-        f = response.figures
-        cells.append(
-            [
-                str(index + 1),
-                fmt(f["kp"], "{:.4g}"),
-                fmt(f["amplitude_early_rad"], "{:.3f}"),
-                fmt(f["amplitude_late_rad"], "{:.3f}"),
-                fmt(f["growth_per_s"], "{:+.3f}"),
-                fmt(f["period_s"], "{:.3f}"),
-                "oscillates on" if f["sustained"] else "decays",
-            ]
-        )
-    lines += [
         table(
             "run | Kp [N·m/rad] | amplitude, first s [rad] | amplitude, last s [rad] | growth [1/s] | period [s] | "
             "verdict",
-            cells,
+            search_rows,
         ),
         "",
-    ]
-    lines += [
         f"**Ultimate gain Ku = {ku:.3g} N·m/rad**, the smallest Kp that oscillated on (at "
         f"{results['ultimate_gain_bracket_low']:.3g} it still decayed), **period Tu = {fmt(tu, '{:.3f}')} s**. "
         "The arm's linear model, sampled at the control rate, puts the "
@@ -84,8 +79,6 @@ def report_text(
         "beyond that limit on this arm"
         + (" (run 1 above)." if search[0].figures["kp"] == KP_START and search[0].figures["sustained"] else "."),
         "",
-    ]
-    lines += [
         "## 2–4. Then Kd, then Ki",
         "",
         f"Ziegler–Nichols' classic rule turns Ku and Tu into a starting point: Kp = 0.6 Ku = "
@@ -96,69 +89,20 @@ def report_text(
         f"(≤ {SSE_MAX_FRACTION:.0%} of the {STAGE_STEP_RAD} rad step), stopping before the overshoot comes "
         f"back. Step {STAGE_STEP_RAD} rad, a jump, after {STAGE_LEAD_S:g} s at rest.",
         "",
-    ]
-    cells = []
-    for row in rows:
-        cells.append(
-            [
-                row["label"],
-                fmt(row["kp"], "{:.3g}"),
-                fmt(row["ki"], "{:.3g}"),
-                fmt(row["kd"], "{:.3g}"),
-                fmt(row["overshoot_pct"], "{:.1f}"),
-                fmt(row["overshoot_final_pct"], "{:.1f}"),
-                fmt(row["settling_time_s"], "{:.2f}", f"not in {plan['stage_after_s']:g} s"),
-                fmt(row["steady_state_error_rad"], "{:.4f}"),
-                fmt(row["peak_torque_nm"], "{:.2f}"),
-            ]
-        )
-    lines += [
         table(
             "run | Kp | Ki | Kd | overshoot of target [%] | overshoot of final value [%] | settling 2 % [s] | "
             "steady-state error [rad] | peak torque [N·m]",
-            cells,
+            stage_rows,
         ),
         "",
-    ]
-    lines += [
         "## The gains chosen",
         "",
         table(
-            [
-                "",
-                "Kp [N·m/rad]",
-                "Ki [N·m/(rad·s)]",
-                "Kd [N·m·s/rad]",
-                "step overshoot [%]",
-                "settling 2 % [s]",
-                "steady-state error [rad]",
-                "sine RMS error [rad]",
-            ],
-            [
-                [
-                    "chosen",
-                    fmt(results["kp"], "{:.3g}"),
-                    fmt(results["ki"], "{:.3g}"),
-                    fmt(results["kd"], "{:.3g}"),
-                    fmt(results["step_overshoot_pct"], "{:.1f}"),
-                    fmt(results["step_settling_time_s"], "{:.2f}", f"not in {plan['stage_after_s']:g} s"),
-                    fmt(results["step_steady_state_error_rad"], "{:.4f}"),
-                    fmt(results["sine_tracking_rms_rad"], "{:.4f}"),
-                ]
-            ]
+            " | Kp [N·m/rad] | Ki [N·m/(rad·s)] | Kd [N·m·s/rad] | step overshoot [%] | settling 2 % [s] | "
+            "steady-state error [rad] | sine RMS error [rad]",
+            [["chosen", *cells(results, gains), *cells(results, chosen_cols)]]
             + (
-                [
-                    [
-                        "the tutorial's",
-                        "50",
-                        "10",
-                        "5",
-                        fmt(results["tutorial_step_overshoot_pct"], "{:.1f}"),
-                        fmt(results["tutorial_step_settling_time_s"], "{:.2f}", f"not in {plan['stage_after_s']:g} s"),
-                        fmt(results["tutorial_step_steady_state_error_rad"], "{:.4f}"),
-                        fmt(results["tutorial_sine_tracking_rms_rad"], "{:.4f}"),
-                    ]
-                ]
+                [["the tutorial's", "50", "10", "5", *cells(results, chosen_cols, "tutorial_")]]
                 if "tutorial_sine_tracking_rms_rad" in results
                 else []
             ),
@@ -176,7 +120,7 @@ def report_text(
         "sine). Each run's bag and metrics are in the folders beside this report.",
         "",
     ]
-    return "\n".join(lines)
+    return "\n".join(text)
 
 
 def _verdict(results: dict[str, Any], plan: dict[str, Any]) -> str:

@@ -1,6 +1,4 @@
-"""Exercise 1's numbers: the tutorial's starting point and gains, the steps it
-uses, what counts as a sustained oscillation, "overshoot gone" and "steady-state
-error gone", and how many runs of what length each form (quick or full) makes."""
+"""Exercise 1's numbers: the tutorial's gains, the steps, the thresholds, and each form's runs."""
 
 from __future__ import annotations
 
@@ -45,15 +43,8 @@ def make_plan(quick: bool) -> dict[str, Any]:
 
 
 def steps(quick: bool = False) -> int:
-    plan = make_plan(quick)
-    return (
-        plan["ku_runs"]
-        + int(plan["zn_run"])
-        + len(plan["kd_factors"])
-        + len(plan["ti_tu"])
-        + 1
-        + 2 * int(plan["tutorial_runs"])
-    )
+    p = make_plan(quick)
+    return p["ku_runs"] + int(p["zn_run"]) + len(p["kd_factors"]) + len(p["ti_tu"]) + 1 + 2 * int(p["tutorial_runs"])
 
 
 def with_gains(params: cfg.Params, kp: float, ki: float, kd: float) -> cfg.Params:

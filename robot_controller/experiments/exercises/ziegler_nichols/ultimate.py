@@ -1,7 +1,5 @@
-"""Stage 1 of exercise 1, Kp alone: the ultimate gain Ku (the smallest Kp whose
-step response oscillates without end) and its period Tu, found on the real
-graph by :func:`kp_search` with :func:`oscillation` as the judge, and the
-sampled arm model's own Ku and Tu (:func:`model_ultimate`) to compare."""
+"""Stage 1 of exercise 1, Kp alone: the ultimate gain Ku and period Tu on the real graph
+(:func:`kp_search`, judged by :func:`oscillation`) and the sampled arm model's own (:func:`model_ultimate`)."""
 
 from __future__ import annotations
 
