@@ -1,19 +1,8 @@
-"""The per-tick shortcuts give what the NumPy calls they stand for give: to the
-bit where they compute the same thing, to rounding where they compute it
-another way (closed forms, one product for a sum of terms)."""
+"""The blend back onto the trajectory: the shortest within the acceleration limit."""
 
 import numpy as np
-from hypothesis import strategies as st
 
 from robot_controller.core.controller.safe_motion import Blend, _quintic
-
-values = st.floats(allow_nan=True, allow_infinity=True, width=64)
-finite = st.floats(min_value=-1e6, max_value=1e6)
-
-
-def vector(elements=values, size=3):
-    return st.lists(elements, min_size=size, max_size=size).map(np.array)
-
 
 def peak_acceleration(p0, v0, duration_s):
     """The blend's largest |acceleration| over 41 instants, taken one at a time."""

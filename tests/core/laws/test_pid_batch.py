@@ -1,5 +1,4 @@
-"""The one-joint float paths (PID) give what their array paths give, to rounding, in every
-mode; and the collision pass skipped where no contact can happen changes nothing (no ROS)."""
+"""One joint's PID gives what the same joint as a batch of one gives, to rounding, in every mode."""
 
 import numpy as np
 import pytest
@@ -10,7 +9,7 @@ from robot_controller.core.laws.pid import AntiWindup, DerivativeSource, Pid, Pi
 @pytest.mark.parametrize("anti_windup", list(AntiWindup))
 @pytest.mark.parametrize("source", list(DerivativeSource))
 @pytest.mark.parametrize("options", [{}, {"derivative_filter_time_s": 0.02, "slew_rate_limit": 200.0}])
-def test_one_joint_pid_is_the_array_pid(anti_windup, source, options):
+def test_one_joint_is_a_batch_of_one(anti_windup, source, options):
     config = PidConfig(
         kp=[40.0],
         ki=[15.0],
