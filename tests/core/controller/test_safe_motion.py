@@ -4,6 +4,7 @@ import numpy as np
 
 from robot_controller.core.controller.safe_motion import Blend, _quintic
 
+
 def peak_acceleration(p0, v0, duration_s):
     """The blend's largest |acceleration| over 41 instants, taken one at a time."""
     return max(float(np.max(np.abs(_quintic(p0, v0, duration_s, s * duration_s)[2]))) for s in np.linspace(0, 1, 41))
@@ -15,4 +16,3 @@ def test_blend_is_the_shortest_within_the_acceleration_one_instant_at_a_time_fin
     assert blend.duration_s > 0.2  # it had to be lengthened
     assert peak_acceleration(p0, v0, blend.duration_s) <= 20.0
     assert peak_acceleration(p0, v0, blend.duration_s / 1.25) > 20.0
-
