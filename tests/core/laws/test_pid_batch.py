@@ -32,4 +32,3 @@ def test_one_joint_is_a_batch_of_one(anti_windup, source, options):
         for name in ("command", "p", "i", "d", "feedforward", "saturated"):
             np.testing.assert_allclose(getattr(a, name), getattr(b, name).reshape(1), rtol=1e-12, atol=1e-15)
         assert a.command.shape == (1,)
-
