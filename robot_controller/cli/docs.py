@@ -1,7 +1,5 @@
-"""The reference pages written from the code, and ``robot-controller help``: ``docs/parameters.md``
-from the parameter schema (``params --markdown``) and ``docs/cli.md`` from the command-line parser
-(``help --markdown``), both from the definitions themselves, never from argparse's formatted help (which
-depends on the terminal's width and the Python version). A test compares the committed pages with these."""
+"""The reference pages ``docs/parameters.md`` and ``docs/cli.md``, written from the definitions themselves
+(never argparse's formatted help, which depends on the terminal), and ``robot-controller help``."""
 
 from __future__ import annotations
 

@@ -1,7 +1,5 @@
-"""The verbs that run an experiment and report on it: ``step`` (a step response on the real graph),
-``compare`` (configurations and laws side by side), ``exercise`` (one of the tutorial's), ``tune``
-(gains for robustness margins, ``tuned.yaml``), ``identify`` (the arm's inertia, damping, friction and
-gravity, ``identified.yaml``) and ``faults`` (each node frozen mid-motion with SIGSTOP)."""
+"""The verbs that run an experiment and report on it: ``step``, ``compare``, ``exercise``, ``tune``,
+``identify`` and ``faults``."""
 
 from __future__ import annotations
 

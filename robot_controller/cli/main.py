@@ -1,6 +1,5 @@
-"""``robot-controller``'s parser and entry point: each verb's module registers its subcommand (and
-the verbs of installed packages through the ``robot_controller.verbs`` entry points); ``main`` runs
-the chosen one. A user's mistake is one line, exit 2, never a traceback."""
+"""``robot-controller``'s parser (each verb's module and the ``robot_controller.verbs`` entry points add
+their verbs) and entry point. A user's mistake is one line, exit 2, never a traceback."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
-"""What the verbs write and show: the output directory (never overwriting results), a table of
-figures, and a long verb's progress (a rich bar on a terminal; on a pipe or in CI one plain line
-per step, ``[bench] 3/9 wall clock 1 kHz, ...``)."""
+"""What the verbs write and show: the output directory (never overwriting results), a table of figures,
+and a long verb's progress (a rich bar on a terminal, else a line per step: ``[bench] 3/9 ...``)."""
 
 from __future__ import annotations
 
@@ -18,9 +17,7 @@ RESULT_FILES = ("params.yaml", "bag", "metrics.json", "bench.json", "compare.jso
 
 
 def output_dir(out: Path | None, default: Path) -> Path:
-    """Where a verb writes. An ``--out`` that holds results is refused (nothing is
-    overwritten); the default location, if used already, becomes a fresh
-    sibling (``runs/faults-2``), said on screen."""
+    """Where a verb writes: an ``--out`` that holds results is refused, a used default becomes ``runs/faults-2``."""
     chosen = out if out is not None else default
     if chosen.exists() and not chosen.is_dir():
         raise UsageError(f"--out {chosen}: exists and is not a directory")

@@ -1,10 +1,6 @@
-"""graph_watch: the observer the launcher starts when it runs part of the graph
-(``run --nodes``). It prints the root namespace's node names, sorted, as
-``@graph {"nodes": [...]}`` whenever they change and at least every
-``REPORT_PERIOD_S``, so the launcher can wait for the other side's nodes and
-notice when they leave. It has no publisher or subscription (no gate waits for
-it); the graph is not partitioned, so a split run wants a domain of its own.
-"""
+"""graph_watch: the observer of a launcher of part of the graph (``run --nodes``). It prints the root
+namespace's node names as ``@graph {"nodes": [...]}`` on every change and every ``REPORT_PERIOD_S``;
+no gate waits for it. The graph is not partitioned: a split run wants a domain of its own."""
 
 from __future__ import annotations
 

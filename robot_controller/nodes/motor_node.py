@@ -1,16 +1,9 @@
-"""motor_node: the actuator. Each ``/joint_commands`` torque is saturated to
-``±torque_max`` (and lagged, if set) and passed on as ``/sim/effort`` at once.
-
-A command stamped with its tick (``ros.stamps``) that arrives more than
-``max_command_age_s`` after it is dropped: a late command is no command. In
-lockstep a command's time is its tick (an unstamped one, from a controller not
-ours, runs on the wall clock, with a warning).
-
-Like a drive, it stops on its own: no valid command for ``command_timeout_s``, or
-``/estop``, gives zero torque and a brake request (``/sim/brake``, category 0),
-until ``TIMELY_COMMANDS_TO_START`` timely commands in a row (or the release). When
-each command arrived goes out once a second on ``/motor/command_receipts``, rows of
-``[receipt_time_s, command…]``, for the controller's latency guard and the scores.
+"""motor_node: the actuator. Each ``/joint_commands`` torque is saturated to ``±torque_max`` (and
+lagged, if set) and passed on as ``/sim/effort`` at once; one older than ``max_command_age_s`` by its
+tick stamp (``ros.stamps``) is dropped. Like a drive, it stops on its own (no valid command for
+``command_timeout_s``, or ``/estop``): zero torque and a brake request (``/sim/brake``, category 0).
+Each command's receipt goes out once a second on ``/motor/command_receipts``, rows of
+``[receipt_time_s, command…]``.
 """
 
 from __future__ import annotations
@@ -29,8 +22,7 @@ from robot_controller.ros.stack_node import StackNode
 from robot_controller.ros.stamps import command_tick_s
 
 RECEIPTS_PERIOD_S = 1.0
-# The motor's own pause up to this long (a machine-wide stall) is not counted as
-# silence of the controller; a longer one is (by then the controller has stopped too).
+# The motor's own pause up to this long (a machine-wide stall) is not counted as the controller's silence.
 MAX_EXCUSED_GAP_S = 0.2
 # Stopped for a timeout (or before the first command), the drive moves the arm again only after
 # this many timely commands in a row (wall clock: 50 ms at 100 Hz; lockstep has no timeouts).
@@ -131,8 +123,7 @@ class MotorNode(StackNode):
             return  # already stopped, or no command yet (the brakes are on from start-up)
         check_period_s = self.params["command_timeout_s"] / 2
         if 2 * check_period_s < own_gap_s <= MAX_EXCUSED_GAP_S:
-            # This process was not running (the whole machine stalls at times): the
-            # commands that the pause held back are on their way; that time is not silence.
+            # This process was not running: the commands the pause held back are on their way, not silent.
             self.excused_s += own_gap_s - check_period_s
         silent_s = now_s - self.last_command_s - self.excused_s
         if silent_s > self.params["command_timeout_s"]:

@@ -1,16 +1,9 @@
-"""recorder: a rosbag2 recorder in a process of its own, below the loop (nice +10).
+"""recorder: the loop's topics, raw (CDR), into an MCAP bag with rosbags, as ``ros2 bag record``
+would, in a process of its own below the loop (nice +10); the nodes' publishers wait for it. In
+lockstep it publishes the tick it has taken on ``/recorder/clock`` and the simulator holds while it lags.
 
-Subscribes to the loop's topics raw (CDR bytes) and writes them as they arrive to
-an MCAP bag with rosbags, as ``ros2 bag record`` would. The nodes' publishers wait
-for it, so the bag holds every message they sent. In lockstep it publishes the
-tick it has taken on ``/recorder/clock``, and the simulator holds while it lags.
-
-Talks to the launcher on stdout: ``@ready`` once subscribed, then every
-``PROGRESS_PERIOD_S`` ``@progress {json}`` (counts per topic; in lockstep the
-latest ``/clock`` and when it was taken). It takes what arrived every
-``BATCH_PERIOD_S`` rather than waking per message. On SIGINT/SIGTERM it records
-until the topics are quiet for ``DRAIN_QUIET_S``, closes the bag and prints the
-final counts.
+On stdout to the launcher: ``@ready``, then ``@progress {json}`` every ``PROGRESS_PERIOD_S``. On
+SIGINT/SIGTERM it records until the topics are quiet for ``DRAIN_QUIET_S``, then closes the bag.
 
     python -m robot_controller.nodes.recorder BAG_DIR [--sim-time]
 """
@@ -64,12 +57,10 @@ PROGRESS_PERIOD_S = 0.1
 BATCH_PERIOD_S = 0.005
 TAKE_BUDGET_S = 0.05  #: the longest one batch takes before the progress and checkpoint get their turn
 CHECKPOINT_PERIOD_S = 1.0
-# A recorded message larger than this is dropped and counted: the loop's are
-# under a kilobyte, and a peer publishing million-element arrays must not fill the disk.
+# A larger message is dropped and counted: the loop's are under a kilobyte; a peer's must not fill the disk.
 MAX_MESSAGE_BYTES = 64 * 1024
 DRAIN_QUIET_S = 0.15
-# What the nodes sent before they stopped is in the readers' queues; on a loaded machine this process
-# may need seconds to take it: it keeps taking while there is any, this long at most.
+# After the stop, the readers' queues are taken while they hold any (seconds on a loaded machine), this long at most.
 DRAIN_MAX_S = 15.0
 READY_LINE = "@ready"
 PROGRESS_PREFIX = "@progress "

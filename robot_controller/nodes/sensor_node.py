@@ -1,7 +1,5 @@
-"""sensor_node: the encoder. Samples the true state from ``/sim/joint_states`` on a
-``rate_hz`` grid of the simulator's stamps (no phase delay of its own; one sample per
-tick in lockstep), adds seeded noise and publishes ``/joint_states`` stamped with the
-sample's time. With ``delay_s``, each reading is the sample from that long before.
+"""sensor_node: the encoder. Samples ``/sim/joint_states`` on a ``rate_hz`` grid of its stamps, adds
+seeded noise (and ``delay_s``) and publishes ``/joint_states`` stamped with the sample's time.
 """
 
 from __future__ import annotations
@@ -19,8 +17,7 @@ from robot_controller.ros.stamps import s_to_stamp, stamp_to_s
 
 # Stamps within this of a grid point count as on it (float ns rounding).
 _GRID_EPS_S = 1e-6
-# A stamp this far before the sampling grid restarts it (a future-stamped message
-# set the grid there: waiting for that time would stop the sensor for good).
+# A stamp this far before the sampling grid restarts it (a future-stamped message may have set the grid).
 RESYNC_S = 1.0
 
 
@@ -57,8 +54,7 @@ class SensorNode(StackNode):
         if self.next_sample_s is not None and stamp_s < self.next_sample_s - _GRID_EPS_S:
             if stamp_s > self.next_sample_s - self.period_s - RESYNC_S:
                 return  # between samples
-            # Far behind the grid: the last sample's stamp was bogus (one from the far
-            # future) or the simulator started again: follow the stamps from here.
+            # Far behind: a bogus (far-future) stamp set the grid, or the simulator restarted: follow the stamps.
             behind_s = self.next_sample_s - stamp_s
             self.warn_throttled(
                 "resync",

@@ -1,23 +1,13 @@
-"""trajectory_planner: publishes the reference on ``/trajectory``.
+"""trajectory_planner: the reference on ``/trajectory``, ``[positions…, velocities…, accelerations…,
+time_s]`` (``time_s``: when the sample was taken, so the controller evaluates it at its own tick).
+Time starts when the first consumer is matched. Lockstep: each grid point's sample goes one tick early.
 
-Each message is ``[positions…, velocities…, accelerations…, time_s]``, labelled;
-``time_s`` is when the sample was taken, so the controller evaluates it at its own
-tick (the tutorial's controller reads only the first two values). Time starts when
-the first consumer is matched. Wall clock: a timer at ``publish_rate_hz``. Lockstep:
-the sample of each grid point is sent one tick early, when ``/clock`` shows that the
-next tick reaches it, so a tick never waits for the planner.
-
-Every trajectory, at start and on each parameter change, is checked against the
-arm model (the controller's: ``parameters.builders.arm_model``) and ``torque_max``
-less ``feasibility_margin`` (``core.reference``): ``feasibility: scale`` slows it
-until it fits, ``refuse`` refuses it, ``ignore`` only warns.
-
-A ``trajectory_msgs/JointTrajectory`` on ``/trajectory_planner/joint_trajectory``
-(as ros2_controllers' JointTrajectoryController takes it) is checked against the
-URDF's limits and the arm model, and blended from the reference in force; its
-``time_from_start`` counts from ``header.stamp`` if set and not past, else from
-receipt. After its last point it holds, until the next one or a change of the
-shape parameters brings the parameters' motion back.
+Every trajectory is checked against the arm model and ``torque_max`` less ``feasibility_margin``
+(``core.reference``; ``feasibility``: scale, refuse or ignore). A ``JointTrajectory`` on
+``/trajectory_planner/joint_trajectory`` (as ros2_controllers' JointTrajectoryController takes it) is
+checked against the URDF's limits too, blended from the reference in force, timed from
+``header.stamp`` if set and not past, and held at its last point until the next one or a change of
+the shape parameters.
 """
 
 from __future__ import annotations

@@ -1,12 +1,8 @@
-"""viewer: the live view of a run, in a browser, from a process of its own.
+"""viewer: the live view of a run (``run --view``) in a browser, from a process of its own.
 
-An observer like the recorder (``run --view``): it runs at the observers' nice
-value, no publisher waits for it (``publishing.OBSERVER_NODES``), and it listens
-best effort with short queues, so a slow viewer loses samples instead of holding
-anyone up. It logs what it hears to rerun (``robot_controller.view``): the arm in
-3-D posed by the true angle, the measured and reference angles as ghosts, and
-time series of position, tracking error, torque and loop timing; the same data
-goes to ``--rrd`` for replay.
+An observer (``publishing.OBSERVER_NODES``) at the observers' nice value, listening best effort with
+short queues: a slow viewer loses samples instead of holding anyone up. What it hears goes to rerun
+(``robot_controller.view``) and to ``--rrd`` for replay.
 
     python -m robot_controller.nodes.viewer --rrd DIR/view.rrd --port 9090 [--urdf FILE] [--control-rate HZ]
 """
@@ -59,8 +55,7 @@ class Viewer:
         self.node.create_subscription(JointState, "/joint_states", self._measured, self.qos, raw=True)
         self.node.create_subscription(Float64MultiArray, "/trajectory", self._planned, self.qos, raw=True)
 
-    # -- callbacks: each only reads the numbers out; the feed does the work at each flush --
-    # (raw CDR, read by ``view.cdr``: a message the parser cannot read is dropped)
+    # The callbacks only read the numbers out of the raw CDR (``view.cdr``; unreadable: dropped).
 
     def _joint_state(self, data: bytes):
         try:

@@ -21,9 +21,7 @@ class WorldState:
 
     @classmethod
     def open(cls, path: str, joint_count: int) -> WorldState | None:
-        """The state file at ``path`` (None when no path is given). A file left by
-        an earlier simulator of this run, with as many joints and finite values,
-        gives ``resumed``."""
+        """The state file at ``path`` (None: no path); one left by an earlier simulator gives ``resumed``."""
         if not path:
             return None
         file = Path(path)

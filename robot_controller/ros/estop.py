@@ -7,20 +7,14 @@ from __future__ import annotations
 import time
 
 from rclpy.duration import Duration
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Bool
 from std_srvs.srv import SetBool
 
+from robot_controller.ros.qos import LATCHED_QOS
 from robot_controller.tools.graph import open_graph
 
-# Transient local: a node that starts after the stop still hears it (the
-# nodes' own readers are volatile, so any publisher matches them).
-PUBLISH_QOS = QoSProfile(
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.TRANSIENT_LOCAL,
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1,
-)
+# Latched: a node that starts after the stop still hears it (the nodes' readers are volatile: any writer matches).
+PUBLISH_QOS = LATCHED_QOS
 DISCOVERY_TIMEOUT_S = 5.0
 SETTLE_S = 0.5
 ACK_WAIT_S = 3.0

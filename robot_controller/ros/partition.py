@@ -1,19 +1,13 @@
 """Who may speak on the loop's topics: each run talks in a DDS partition of its own.
 
-rclpy says nothing of who sent a message, so the launcher writes a Fast DDS XML
-profile that puts every loop topic of its run in a partition named for the run
-(a writer and a reader match only when they share one) and hands it to every
-process it starts. A foreign publisher is never matched (the graph still lists
-it, and the consumer names it in a warning); ``/estop``, ``/rosout`` and the
-parameter services stay open. This is isolation, not security: partition names
-travel in clear in discovery. An observer that hears every run uses
-``write_observer_profile``.
+rclpy says nothing of who sent a message, so the launcher's Fast DDS profile puts every loop topic of
+its run in a partition named for the run: a foreign publisher is never matched (the graph still lists
+it); ``/estop``, ``/rosout`` and the parameter services stay open. Isolation, not security: partition
+names travel in clear. An observer that hears every run uses ``write_observer_profile``.
 
-Across hosts (``run --peers``, docs/design.md §6) each launcher derives the
-partition from the run's name (:func:`run_partition`), and the profile makes the
-participants speak UDPv4 only (no shared memory, no data sharing: two network
-namespaces of one machine share ``/dev/shm``) and discover by unicast from their
-``initialPeersList``, announcing every ``SPLIT_ANNOUNCEMENT_PERIOD_S``.
+Across hosts (``run --peers``, docs/design.md §6) the partition comes from the run's name
+(:func:`run_partition`), and the participants speak UDPv4 only (two network namespaces of one machine
+share ``/dev/shm``) and discover by unicast from their ``initialPeersList``.
 """
 
 from __future__ import annotations

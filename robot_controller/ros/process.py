@@ -1,6 +1,5 @@
-"""The process skeleton every node runs in (as ros2/examples' ``main``): init
-with our own signal handling, one executor for one node or many, spin until
-Ctrl-C or shutdown, then an orderly cleanup that cannot hang."""
+"""The process skeleton every node runs in: init with our own signal handling, one executor for one
+node or many, spin until Ctrl-C or shutdown, then an orderly cleanup that cannot hang."""
 
 from __future__ import annotations
 
@@ -31,19 +30,16 @@ _exit_code: list[int] = []
 
 
 def request_exit(code: int) -> None:
-    """End the process after the current callback, with ``code``: the spin loop stops,
-    cleanup runs as after Ctrl-C (gates flushed, counts written)."""
+    """End the process after the current callback with ``code``, cleaned up as after Ctrl-C."""
     _exit_code.append(code)
     _stop_requested.set()
 
 
-# Cleanup that takes longer than this is stuck (rclpy's destroy_node can wait
-# forever on a handle after an external shutdown): exit anyway.
+# Cleanup that takes longer is stuck (rclpy's destroy_node can wait forever after an external shutdown): exit.
 CLEANUP_TIMEOUT_S = 5.0
 # The DDS teardown, once the node's work is done, takes well under this.
 TEARDOWN_TIMEOUT_S = 2.0
-# A process whose teardown hung after its work was done ends by this signal (the
-# launcher warns, and does not fail the run).
+# A process whose teardown hung after its work was done ends by this signal (a warning, not a failed run).
 TEARDOWN_HUNG_SIGNAL = signal.SIGALRM
 
 
@@ -52,16 +48,14 @@ def exit_after_cleanup_timeout(code_ref: list[int]) -> threading.Timer:
     timer = threading.Timer(CLEANUP_TIMEOUT_S, lambda: os._exit(code_ref[0]))
     timer.daemon = True
     timer.start()
-    # The timer needs the GIL; faulthandler's watchdog, a C thread, does not: it prints where
-    # every thread is stuck, then exits (code 1): the node's last words never came.
+    # The timer needs the GIL; faulthandler's watchdog (a C thread) does not: it prints the stacks, exits 1.
     faulthandler.dump_traceback_later(CLEANUP_TIMEOUT_S + 1.0, exit=True)
     return timer
 
 
 def work_done_teardown_left() -> None:
-    """The node's last words are out: a hang from here on (the DDS teardown, holding the
-    GIL) is no error of the node's. Print where it is stuck, then end by
-    ``TEARDOWN_HUNG_SIGNAL``: the kernel delivers it whoever holds the GIL."""
+    """The node's work is done: a hang from here on (the DDS teardown, holding the GIL) prints where it is
+    stuck, then ends the process by ``TEARDOWN_HUNG_SIGNAL`` (delivered whoever holds the GIL)."""
     faulthandler.cancel_dump_traceback_later()
     faulthandler.dump_traceback_later(TEARDOWN_TIMEOUT_S, exit=False)
     signal.signal(TEARDOWN_HUNG_SIGNAL, signal.SIG_DFL)
@@ -69,8 +63,7 @@ def work_done_teardown_left() -> None:
 
 
 def shutting_down(within_s: float = 0.5) -> bool:
-    """Whether the context is (about to be) shut down: the signal handler's
-    shutdown can lag the error it caused in the executor by a moment."""
+    """Whether the context is shut down within ``within_s`` (the signal's shutdown lags the error it caused)."""
     deadline = time.monotonic() + within_s
     while rclpy.ok():
         if time.monotonic() > deadline:
@@ -110,8 +103,7 @@ def own_context() -> tuple[rclpy.Context, threading.Event]:
 
 
 def spin(executor: Executor) -> None:
-    """Spin until a stop signal or shutdown. A loop of spin_once: the
-    EventsExecutor's own spin() never returns after a shutdown in this rclpy."""
+    """Spin until a stop signal or shutdown (spin_once: the EventsExecutor's spin() never returns after one)."""
     # The executor's context, looked up once: rclpy.ok() finds the default context
     # again on every call, and this loop turns once per message.
     context = executor.context
@@ -121,8 +113,7 @@ def spin(executor: Executor) -> None:
 
 
 def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: list[str] | None = None) -> int:
-    """Init, build the node(s) on one executor, spin until Ctrl-C or shutdown,
-    clean up; a bad parameter exits 2 with its reason, a node's :func:`request_exit` with its code."""
+    """Init, build the node(s) on one executor, spin until Ctrl-C or shutdown, clean up; the exit code."""
     factories = node_factories if isinstance(node_factories, list) else [node_factories]
     init_with_own_signals(args)
     nodes: list[Node] = []
@@ -132,8 +123,7 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
         for factory in factories:
             nodes.append(factory())
             executor.add_node(nodes[-1])
-        # Everything built so far lives as long as the nodes: keep it out of
-        # every later full collection, which would otherwise pause the loop.
+        # Everything built so far lives as long as the nodes: out of every later full collection (a pause).
         gc.freeze()
         spin(executor)
         if _exit_code:
@@ -141,8 +131,7 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except RuntimeError:
-        # A signal can shut the context down while a callback is taking a
-        # message; that is a normal stop, anything else is not.
+        # A signal can shut the context down while a callback takes a message: a normal stop, nothing else is.
         if not shutting_down():
             raise
     except ConfigError as exc:

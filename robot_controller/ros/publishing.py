@@ -21,15 +21,12 @@ from robot_controller.ros.qos import CONTROL_QOS
 RECORDER_NODE = "recorder"
 VIEWER_NODE = "viewer"
 OBSERVER_NODES = frozenset({RECORDER_NODE, VIEWER_NODE})
-# In lockstep the recorder says here (rosgraph_msgs/Clock) which tick it has taken,
-# so the simulator never runs further ahead of it than its queues hold.
+# Lockstep: the tick the recorder has taken (the simulator never runs further ahead than its queues hold).
 RECORDER_CLOCK_TOPIC = "/recorder/clock"
 
-# Set by the launcher when a recorder runs: every publisher then also waits
-# for the recorder, so the bag holds every message the loop ever sent.
+# Set by the launcher when a recorder runs: every publisher then waits for it too (the bag holds every message).
 RECORDED_ENV = "ROBOT_CONTROLLER_RECORDED"
-# Where each node writes how many messages it published, per topic, when it
-# stops (the launcher compares them with the bag).
+# Where each node writes, when it stops, how many messages it published per topic (checked against the bag).
 COUNTS_DIR_ENV = "ROBOT_CONTROLLER_COUNTS_DIR"
 
 
@@ -44,14 +41,8 @@ MAX_HELD = 1000  # messages a gate holds at most (10 s of a 100 Hz topic)
 
 
 class GatedPublisher:
-    """Holds what is published until its audience (a consumer and, when the run
-    is recorded, the recorder) has matched, then publishes; counts what it published.
-
-    In lockstep nothing is ever re-sent (a re-sent effort would double a
-    tick), so the first message must not go out before anyone listens; in
-    wall-clock mode only the newest held message is worth sending.
-    ``consumer=False``: telemetry, whose only audience is the recorder.
-    """
+    """Holds what is published until its audience (a consumer, and the recorder when the run is recorded)
+    has matched, then publishes; counts what it published. ``consumer=False``: telemetry."""
 
     def __init__(
         self, node: Node, msg_type: Any, topic: str, *, lockstep: bool, consumer: bool = True, qos: QoSProfile = None
@@ -75,14 +66,12 @@ class GatedPublisher:
             self.publisher.publish(msg)
             self.count += 1
         else:
-            # Held for the poll timer to flush: publish() may run on a thread of
-            # the node's own (the simulator's pacing), the timer on the executor.
+            # For the poll timer to flush: publish() may run on a thread of the node's own (the simulator's pacing).
             self.pending.append(copy.deepcopy(msg))
 
     def audience_present(self) -> bool:
-        """A consumer (a node other than an observer) unless telemetry, and the recorder if the run is
-        recorded: in the graph by name, and as many readers matched by the publisher (DDS matching
-        honours the run's partition; the graph does not)."""
+        """The audience in the graph by name, and as many readers matched (DDS matching honours the run's
+        partition; the graph does not)."""
         names = [info.node_name for info in self.node.get_subscriptions_info_by_topic(self.topic)]
         if self.consumer and all(name in OBSERVER_NODES for name in names):
             return False

@@ -42,10 +42,8 @@ OBSERVER_QOS = _keep_last(50, reliable=False)
 
 
 def loop_qos(lockstep: bool) -> QoSProfile:
-    """The QoS of a periodic loop topic's reader (readings, references, commands, efforts):
-    reliable on one host and in lockstep (a lost message would stall the run), keeping
-    every message in lockstep, and best effort on the wall clock when the launcher split
-    the loop across hosts."""
+    """A periodic loop topic's reader: reliable (a lost message would stall a lockstep run), keeping every
+    message in lockstep, best effort on the wall clock when the launcher split the loop across hosts."""
     if lockstep:
         return LOCKSTEP_QOS
     if os.environ.get(LOOP_QOS_ENV) == "best_effort":

@@ -1,11 +1,6 @@
-"""Where and how urgently each process of the loop runs.
-
-No process is real-time (the kernel freezes every SCHED_FIFO task for the rest of
-a second once they use ``sched_rt_runtime_us`` of it): the loop's nodes run at
-nice −10, the planner a little lower, observers at +10. With ``--realtime`` one
-thread alone, the simulator's pacing thread (docs/design.md §5), runs SCHED_FIFO
-with a budget: ``RLIMIT_RTTIME`` signals it after ``RT_BUDGET_US`` of CPU without
-sleeping, and the handler drops it back to normal policy.
+"""Where and how urgently each process of the loop runs: by nice value, no process real-time (the
+kernel freezes every SCHED_FIFO task once they use ``sched_rt_runtime_us``). With ``--realtime`` the
+simulator's pacing thread alone runs SCHED_FIFO within an ``RLIMIT_RTTIME`` budget (docs/design.md §5).
 """
 
 from __future__ import annotations
@@ -16,8 +11,7 @@ import signal
 import threading
 from dataclasses import dataclass
 
-# nice values (−20 most urgent … 19): loop nodes first, the planner (which
-# only feeds samples ahead of time) next, observers last.
+# nice values (−20 most urgent … 19): loop nodes, then the planner (it feeds samples ahead), observers last.
 LOOP_NICE = -10
 PLANNER_NICE = -5
 OBSERVER_NICE = 10
@@ -50,13 +44,8 @@ class Placement:
 
 
 def placement(process_name: str, wall_clock: bool = True) -> Placement:
-    """The loop's processes share the last allowed CPU, everything else the
-    others. The loop is a chain (simulator → sensor → controller → motor):
-    only one link runs at a time, so one core serves it, and the recorder,
-    planner and the machine's other work cannot wake up in its way.
-
-    In sim-time lockstep, anywhere: the chain's nodes at nice 0 and the
-    planner and recorder behind them (``LOCKSTEP_NICE``)."""
+    """The loop's processes share the last allowed CPU, everything else the others (the loop is a chain:
+    one link runs at a time). In sim-time lockstep, anywhere, at ``LOCKSTEP_NICE``."""
     if not wall_clock:
         return Placement(nice=LOCKSTEP_NICE.get(process_name, 0))
     cpus = None
@@ -69,11 +58,8 @@ def placement(process_name: str, wall_clock: bool = True) -> Placement:
 
 
 def apply_in_child(place: Placement) -> None:
-    """Runs in a child between fork and exec: set its nice value, best effort.
-
-    Each child is a session of its own, and with autogroup scheduling a session's
-    group nice (``/proc/self/autogroup``) ranks it against the other groups: set
-    too, except for a wall-clock recorder, whose group stays at 0."""
+    """In a child after the fork: its nice value, its session's autogroup nice (which ranks it against the
+    other sessions) unless ``group_nice`` is False, and its CPUs; best effort."""
     try:
         os.setpriority(os.PRIO_PROCESS, 0, place.nice)
     except OSError:
@@ -104,9 +90,7 @@ demoted = threading.Event()
 
 
 def install_rt_budget(budget_us: int = RT_BUDGET_US) -> None:
-    """Arm the kernel's budget for real-time threads: past ``budget_us`` of CPU
-    without blocking, the process gets SIGXCPU and every thread made real-time
-    here goes back to normal policy. Call from the main thread (signals)."""
+    """Past ``budget_us`` of CPU without blocking, SIGXCPU demotes every thread made real-time here (main thread)."""
     # Past the hard limit the kernel kills the process: for a thread that spins
     # holding the GIL, so the handler can never run.
     resource.setrlimit(resource.RLIMIT_RTTIME, (budget_us, budget_us + 500_000))
@@ -114,8 +98,7 @@ def install_rt_budget(budget_us: int = RT_BUDGET_US) -> None:
 
 
 def make_current_thread_realtime(priority: int) -> str:
-    """SCHED_FIFO at ``priority`` for the calling thread only (after
-    :func:`install_rt_budget`). Returns a note for the log."""
+    """SCHED_FIFO at ``priority`` for the calling thread (after :func:`install_rt_budget`); a note for the log."""
     tid = threading.get_native_id()
     try:
         os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(priority))

@@ -28,17 +28,14 @@ UNKNOWN_NODE_NAME = "_NODE_NAME_UNKNOWN_"  # what rmw reports for a writer of no
 
 
 class StackNode(Node):
-    """A node whose parameters are those of ``parameters.SCHEMA[schema_name]`` (and
-    :meth:`more_specs`'s); subclasses implement :meth:`setup`, :meth:`check_params`
-    and :meth:`apply_params`."""
+    """A node with the parameters of ``parameters.SCHEMA[schema_name]`` (and :meth:`more_specs`'s)."""
 
     def __init__(self, schema_name: str, **kwargs: Any) -> None:
         super().__init__(schema_name, **kwargs)
         self.schema_name = schema_name
         self.specs: dict[str, cfg.ParamSpec] = {}
         self._declare(cfg.SCHEMA[schema_name])
-        # Overrides from --params-file / -p bypass callbacks at declaration: check them now,
-        # each on its own first, then together once the node knows its arm.
+        # Overrides (--params-file, -p) bypass callbacks at declaration: checked now, alone, then together.
         values = {name: spec.validate(self.get_parameter(name).value) for name, spec in self.specs.items()}
         more = self.more_specs(values)  # what the values say the node has besides its schema's
         self._declare(more)
@@ -132,15 +129,13 @@ class StackNode(Node):
             self._reporting = False
 
     def gated_publisher(self, msg_type: Any, topic: str, *, consumer: bool = True, qos: Any = None) -> GatedPublisher:
-        """A publisher that holds its messages until its audience has matched (``ros.publishing``);
-        the node counts what it publishes."""
+        """A publisher that holds its messages until its audience has matched (``ros.publishing``)."""
         gated = GatedPublisher(self, msg_type, topic, lockstep=self.lockstep, consumer=consumer, qos=qos)
         self._gated_publishers.append(gated)
         return gated
 
     def wait_until_acknowledged(self, timeout_s: float = ACK_WAIT_S) -> None:
-        """Wait (at most ``timeout_s`` in all) until the readers, the recorder's above all, have
-        acknowledged every message the gates published (a writer that goes takes them along)."""
+        """Wait (at most ``timeout_s`` in all) until the readers have acknowledged what the gates published."""
         deadline = time.monotonic() + timeout_s
         for gated in self._gated_publishers:
             left_s = deadline - time.monotonic()
@@ -163,9 +158,7 @@ class StackNode(Node):
             return handle.get_now().nanoseconds * 1e-9
 
     def watch_single_publisher(self, topic: str, expected: str) -> None:
-        """Warn, naming them, whenever ``topic`` has publishers besides the node ``expected``
-        (rclpy gives no publisher identity with a message: the run's partition, ``ros.partition``,
-        keeps outsiders out; a node started by hand hears every publisher)."""
+        """Warn, naming them, whenever ``topic`` has publishers besides the node ``expected``."""
         if not hasattr(self, "_watched_topics"):
             self._watched_topics: dict[str, str] = {}
             self.create_timer(

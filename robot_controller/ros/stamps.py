@@ -1,11 +1,6 @@
-"""Time in messages: ``builtin_interfaces/Time`` to and from seconds, and the tick a
-``/joint_commands`` message was computed for.
-
-``std_msgs/Float64MultiArray`` has no header, and the tutorial's nodes speak it
-unchanged, so a command's tick rides in its first dimension's label,
-``tick_ns:<ROS time in ns>``. Our ``motor_node`` drops a command that comes too
-late by it, and in lockstep takes it for the command's time; the tutorial's
-ignores the layout. A command without it is taken as it comes.
+"""Time in messages: ``builtin_interfaces/Time`` to and from seconds, and the tick a ``/joint_commands``
+message was computed for, in its first dimension's label ``tick_ns:<ROS time in ns>``
+(``Float64MultiArray`` has no header; the tutorial's nodes ignore the layout).
 """
 
 from __future__ import annotations

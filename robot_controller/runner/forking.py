@@ -1,8 +1,5 @@
-"""Start the stack's processes by forking the launcher (a "zygote"): it imports rclpy, numpy, scipy
-and MuJoCo once (:func:`preload`), before it has any thread or ROS context, and forks each node from
-itself, so the children share the imported code and start in milliseconds. Each child gets its own
-session, scheduling place, environment and output pipe, and runs the node's ``main`` as
-``python -m robot_controller.nodes.NAME`` would."""
+"""Start the stack's processes by forking the launcher (a "zygote"): it imports rclpy, numpy, scipy and
+MuJoCo once (:func:`preload`), before any thread or ROS context, so each child starts in milliseconds."""
 
 from __future__ import annotations
 
@@ -54,9 +51,8 @@ class ForkedProcess:
 
 
 def dds_started_here() -> bool:
-    """Whether Fast DDS has run in this process (its threads are named ``dds.…``), as in a test with a
-    probe: a child forked from it would inherit its XML profiles (never reading the run's own) and locks
-    held by threads that do not exist in the child."""
+    """Whether Fast DDS has run in this process (threads named ``dds.…``): a child forked from it would
+    inherit its XML profiles and locks held by threads that do not exist in the child."""
     for task in os.listdir("/proc/self/task"):
         try:
             with open(f"/proc/self/task/{task}/comm") as comm:
@@ -70,14 +66,9 @@ def dds_started_here() -> bool:
 def fork(
     module: str, argv: list[str], env: dict[str, str], setup: Callable[[], None]
 ) -> ForkedProcess | subprocess.Popen:
-    """Fork a child that runs ``robot_controller.nodes.<module>.main(argv)``.
-
-    ``setup`` runs first in the child (scheduling, parent-death signal). The
-    child's stdout and stderr go to a pipe, returned as the process's
-    ``stdout``; its environment becomes ``env``. Where forking is not safe
-    (:func:`dds_started_here`), a fresh interpreter runs the module instead:
-    the same process, a second slower to start.
-    """
+    """Fork a child that runs ``robot_controller.nodes.<module>.main(argv)`` in its own session with ``env``,
+    ``setup`` first; its stdout and stderr are the returned ``stdout``. Where forking is not safe
+    (:func:`dds_started_here`), a fresh interpreter runs the module instead."""
     if dds_started_here():
         return subprocess.Popen(
             [sys.executable, "-m", *argv],

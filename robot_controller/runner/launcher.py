@@ -1,9 +1,6 @@
-"""Run the graph as ``ros2 launch`` does: start what ``plan`` planned (the recorder first, then the
-nodes, each child's output prefixed with its name), supervise the run (``supervise``), stop them all
-with SIGINT (Ctrl-C, SIGTERM or the end of the duration; SIGKILL for any that hang), the recorder
-last, and report what was recorded against what the nodes say they published. A node that dies ends
-the run with a non-zero exit, or starts again with ``respawn``. The live viewer is an observer:
-nothing waits for it and its death does not end the run.
+"""Run the graph as ``ros2 launch`` does: start what ``plan`` planned, supervise it (``supervise``), stop
+it with SIGINT (SIGKILL for any that hang), the recorder last, and report what was recorded against
+what the nodes say they published. The live viewer is an observer: its death does not end the run.
 """
 
 from __future__ import annotations

@@ -1,8 +1,5 @@
-"""What a run starts, before anything starts: its parameters checked whole (``check``), then the
-processes (the recorder and the five nodes, or all five in one; the live viewer; ``graph_watch`` when
-part of the graph runs on another launcher, docs/design.md §6 "Across hosts"), each one's arguments
-and environment, the parameter file and the run's DDS profile, written into the run's output
-directory (``plan``). ``launcher`` then supervises what this plans."""
+"""What a run starts, before anything starts: its parameters checked whole (``check``), then each
+process's arguments and environment, the parameter file and the run's DDS profile (``plan``)."""
 
 from __future__ import annotations
 
@@ -79,9 +76,8 @@ def child_env(single_process: bool) -> dict[str, str]:
 
 
 def lockstep_params(params: cfg.Params) -> cfg.Params:
-    """The same parameters in sim-time lockstep: the simulator owns /clock and the simulator, controller,
-    planner and motor step on messages instead of timers. No node uses ROS sim time (which costs a /clock
-    callback every tick): the sensor steps on its readings' stamps, the motor on each command's tick stamp."""
+    """The same parameters in sim-time lockstep: the nodes step on messages instead of timers (none uses ROS
+    sim time, which costs a /clock callback every tick)."""
     out = cfg.merge(params, {})
     for node in cfg.NODES:
         out[node]["use_sim_time"] = False
@@ -91,9 +87,8 @@ def lockstep_params(params: cfg.Params) -> cfg.Params:
 
 
 def with_controller_model(params: cfg.Params) -> cfg.Params:
-    """The same parameters with each ``model_*`` the planner leaves empty taken from pid_controller (e.g.
-    an ``identify`` overlay's), so the planner checks its trajectory against the arm the controller models,
-    as ``consistency.trajectory_plan`` does; one the planner sets must agree (``check_stack``)."""
+    """The same parameters with each ``model_*`` the planner leaves empty taken from pid_controller's, so
+    the planner checks its trajectory against the arm the controller models."""
     out = cfg.merge(params, {})
     planner, ctrl = out["trajectory_planner"], out["pid_controller"]
     for key in ARM_MODEL_KEYS:
@@ -111,9 +106,7 @@ class CheckedRun:
 
 
 def check(params: cfg.Params, options: RunOptions) -> CheckedRun:
-    """The parameters the nodes get (the planner on the controller's arm model; lockstep, ending
-    ``LOCKSTEP_END_MARGIN_S`` past the duration), the whole configuration and the options checked,
-    before anything is written or started.
+    """The parameters the nodes get, checked whole with the options before anything is written or started.
 
     :raises ConfigError: a parameter, or ``view_port`` cannot be served on; part of the graph
         without a run id, or in one process; a run id or peers with a profile of the user's
@@ -147,9 +140,7 @@ def check(params: cfg.Params, options: RunOptions) -> CheckedRun:
 
 
 def plan(run: CheckedRun, out_dir: Path) -> RunPlan:
-    """Write what the processes read (``params.yaml``, ``fastdds.xml``) into ``out_dir`` and decide
-    how each starts: the recorder beside the simulator, ``graph_watch`` when part of the graph runs
-    elsewhere, the live viewer with ``view_port`` (serving ``http://127.0.0.1:<view_port>``).
+    """Write what the processes read (``params.yaml``, ``fastdds.xml``) into ``out_dir`` and decide how each starts.
 
     :raises FileExistsError: ``out_dir`` already holds a recording
     """

@@ -1,7 +1,5 @@
-"""Child processes as ``ros2 launch`` runs them: each forked from this image
-(``forking``) with its place on the machine (``scheduling``), its output
-prefixed with its name, stopped with SIGINT then SIGKILL if it hangs, and
-dying with the launcher even if that is killed (``PR_SET_PDEATHSIG``)."""
+"""Child processes as ``ros2 launch`` runs them: forked (``forking``), placed (``scheduling``), output
+prefixed with their name, stopped with SIGINT then SIGKILL, dying with the launcher (``PR_SET_PDEATHSIG``)."""
 
 from __future__ import annotations
 

@@ -1,8 +1,5 @@
-"""The run a launcher supervises once its processes are started (``run_loop``): wait for the recorder,
-for the whole graph when part of it runs elsewhere, and for the first tick; then for ``duration_s`` of
-control (sim seconds in lockstep, wall seconds otherwise, respawning dead nodes if asked), or, on a
-launcher without the simulator, until the other side's nodes have left the graph. What the recorder and
-``graph_watch`` report is read here too; what the run did goes into its ``RunResult``."""
+"""The run a launcher supervises once its processes are started (``run_loop``), what the recorder and
+``graph_watch`` report to it, and what the run did (``RunResult``)."""
 
 from __future__ import annotations
 
@@ -86,8 +83,7 @@ class GraphLink:
         return [n for n in names if n not in self.nodes]
 
     def all_gone(self, names: tuple[str, ...]) -> bool:
-        """Every one of ``names`` was seen and has been missing for ``GONE_AFTER_S`` (a node respawned
-        meanwhile, or one of several, does not count: the loop they serve goes on)."""
+        """Every one of ``names`` was seen and has been missing for ``GONE_AFTER_S``."""
         now = time.monotonic()
         return bool(names) and all(
             n in self.seen and now - self.missing_since.get(n, now) >= self.GONE_AFTER_S for n in names
@@ -97,8 +93,7 @@ class GraphLink:
 def wait_graph(
     graph: GraphLink, group: ProcessGroup, expected: tuple[str, ...], remote: tuple[str, ...], timeout_s: float
 ) -> str | None:
-    """Wait until every node of ``expected`` is in the graph, naming the missing ones every
-    ``GRAPH_SAY_EVERY_S`` (those of ``remote`` as the other launcher's); a failure line after
+    """Wait until every node of ``expected`` is in the graph, naming the missing ones; a failure line after
     ``timeout_s``."""
     start = time.monotonic()
     next_say = start + 1.0

@@ -1,6 +1,5 @@
-"""CPU time and resident memory of a run's processes, read from ``/proc`` (Linux): each sampled once
-after start-up and once at the end, CPU as percent of one core over that window (user + system, all
-threads), memory as resident set size, so a run reports what each node costs and whether it grows."""
+"""CPU time (percent of one core) and resident memory of a run's processes from ``/proc``, sampled once
+after start-up and once at the end."""
 
 from __future__ import annotations
 

@@ -1,8 +1,5 @@
-"""pid_controller: the control law at ``control_rate_hz``, whatever law ``controller_type`` selects.
-
-Reads ``/joint_states`` and ``/trajectory``, publishes one torque per joint on
-``/joint_commands``, every term on ``/controller/state`` and its loop timing on
-``/diagnostics``. The maths is ``core.controller.JointController``."""
+"""pid_controller: the law ``controller_type`` selects at ``control_rate_hz``, from ``/joint_states`` and
+``/trajectory`` to ``/joint_commands``, ``/controller/state`` and ``/diagnostics``."""
 
 from robot_controller.nodes.pid_controller.node import PidControllerNode, main
 

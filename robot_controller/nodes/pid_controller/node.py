@@ -1,11 +1,5 @@
-"""The controller node: the inputs, the two triggers, the tick and its published torque.
-
-Wall clock: a timer ticks at the control rate (``trigger: timer``), or each new reading
-does (``trigger: measurement``, the timer left to run the watchdog when readings stop).
-Lockstep: each reading is a tick, paired with its ``/clock`` (``lockstep``). Its parts:
-``lockstep`` (pairing), ``timing`` (delay, lateness, ``/diagnostics``) and ``status``
-(the law in force, state changes, ``/controller/state``); every decision about torque
-is in the core.
+"""The controller node: the inputs, the triggers (a timer, ``trigger: measurement``, or lockstep
+pairing), the tick and its published torque; every decision about torque is in the core.
 """
 
 from __future__ import annotations
@@ -132,8 +126,6 @@ class PidControllerNode(StackNode):
             return period_s * max(1.0, params["watchdog_periods"] / 2)
         return period_s
 
-    # --- inputs -------------------------------------------------------------------
-
     def joint_state_callback(self, msg: JointState) -> None:
         checked = check_joint_state(msg.name, msg.position, msg.velocity, self.joint_names)
         if self.dropped("/joint_states", checked):
@@ -177,8 +169,6 @@ class PidControllerNode(StackNode):
         self.controller.set_reference(received_s, position, velocity, acceleration, sample_time_s)
         if self.pairing is not None:
             self.pairing.try_tick()
-
-    # --- ticks ----------------------------------------------------------------------
 
     def control_callback(self) -> None:
         now_s = self.now_s()

@@ -1,7 +1,5 @@
-"""pid_controller's reports of what it does: the law and gains in force, one log line per
-change of the loop's state, a failed law's line and the node's end after its stop, and
-every term of each tick on ``/controller/state``.
-"""
+"""pid_controller's reports: the law and gains in force, a log line per change of the loop's state, a
+failed law's line and the node's end, and every term of each tick on ``/controller/state``."""
 
 from __future__ import annotations
 

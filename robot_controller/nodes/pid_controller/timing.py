@@ -1,7 +1,5 @@
-"""pid_controller's loop timing: the command path's delay from the drive's receipts (for
-the latency guard), the line while the loop is later than its gains survive, and the
-period jitter, missed cycles and latency on ``/diagnostics``.
-"""
+"""pid_controller's loop timing: the command path's delay (the drive's receipts), the line while the loop
+is later than its gains survive, and jitter, missed cycles and latency on ``/diagnostics``."""
 
 from __future__ import annotations
 

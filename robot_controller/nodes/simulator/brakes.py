@@ -1,9 +1,6 @@
-"""The simulator's holding brakes (docs/design.md §4), as a real drive has them.
-
-Each joint's brake holds before the first effort, on e-stop (``/estop`` or the
-``/simulator/estop`` service), when the motor asks (``/sim/brake``) and when
-efforts stop for ``drive_timeout_s``; a braked joint gets no torque. Their state
-goes out on ``/sim/brakes`` (1 = engaged) on every change and twice a second.
+"""The simulator's holding brakes (docs/design.md §4): on before the first effort, on e-stop (``/estop``
+or ``/simulator/estop``), on the motor's request (``/sim/brake``) and after ``drive_timeout_s`` without
+efforts. Their state goes out on ``/sim/brakes`` (1 = engaged) on every change and twice a second.
 """
 
 from __future__ import annotations
@@ -16,8 +13,7 @@ from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS
 from robot_controller.ros.stack_node import StackNode
 
 REPORT_PERIOD_NS = 500_000_000
-# The simulator's own pause up to this long does not count against the drive's timeout;
-# after a longer one it resumes braked.
+# The simulator's own pause up to this long does not count against the drive's timeout; a longer one brakes.
 MAX_EXCUSED_GAP_NS = 1_000_000_000
 
 

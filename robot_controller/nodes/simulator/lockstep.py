@@ -1,13 +1,6 @@
-"""The simulator's lockstep ticks (``lockstep: true``, sim time): the sim owns time.
-
-It publishes the state and ``/clock`` for tick k, then waits; the effort for
-tick k advances exactly one control period. No effort, no time: a run is
-deterministic and as fast as the graph can go.
-
-When the run is recorded, as fast as the recorder too: the recorder publishes
-the tick it has taken (``/recorder/clock``) and the sim holds the next tick while
-the recorder is ``RECORDER_LAG_MAX_S`` behind, so the publishers' queues
-(``CONTROL_QOS``) never overflow.
+"""The simulator's lockstep ticks (``lockstep: true``): it publishes the state and ``/clock`` for tick k,
+then waits; the effort for tick k advances exactly one control period. It holds the next tick while
+the recorder (``/recorder/clock``) is ``RECORDER_LAG_MAX_S`` behind, so no queue overflows.
 """
 
 from __future__ import annotations

@@ -1,8 +1,5 @@
-"""The simulator node: the plant, the effort taken in and the true state sent out.
-
-Its parts: ``pacing`` (the wall clock) or ``ticks`` (lockstep), ``brakes`` and
-``disturbance``; they share the node's plant, effort and lock.
-"""
+"""The simulator node: the plant, the effort taken in and the true state sent out; its parts (``pacing``
+or ``ticks``, ``brakes``, ``disturbance``) share its plant, effort and lock."""
 
 from __future__ import annotations
 

@@ -1,7 +1,5 @@
-"""The simulator's wall clock: a pacing thread that sleeps to each absolute deadline
-of a ``publish_rate_hz`` grid (never a drifting timer), steps the physics due by
-then and publishes the state. An effort taken on the executor thread first steps
-the physics up to its arrival on the old torque.
+"""The simulator's wall clock: a pacing thread that sleeps to each absolute deadline of a
+``publish_rate_hz`` grid (never a drifting timer), steps the physics due by then and publishes the state.
 """
 
 from __future__ import annotations
@@ -22,8 +20,7 @@ class Pacing:
 
     def __init__(self, node: StackNode) -> None:
         self.node = node
-        # Physics time 0 on the monotonic clock (pacing) and on the ROS clock (stamps);
-        # None while the brakes hold, before the first command.
+        # Physics time 0 on the monotonic clock (pacing; None before the first command) and the ROS clock.
         self.anchor_mono_ns: int | None = None
         self.anchor_ros_ns = 0
         self.behind_warned = False
@@ -83,8 +80,7 @@ class Pacing:
                     node.publish_state(stamp_ns)
                 node.brakes.report_periodically(now_ns)
                 anchor = self.anchor_mono_ns
-            # Next deadline on the grid of physics time 0 (or of the last one while the brakes hold);
-            # a late wake-up skips the deadlines it missed.
+            # Next deadline on the grid of physics time 0 (or the last one while braked), skipping those missed.
             base = anchor if anchor is not None else deadline_ns
             if now_ns - deadline_ns >= period_ns:
                 self.late_wakeups += 1
