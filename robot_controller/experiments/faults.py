@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.experiments.reporting import fmt
+from robot_controller.experiments.reporting import fmt, table
 from robot_controller.runner import launcher, plan
 from robot_controller.runner.options import RunOptions
 from robot_controller.scoring import plots, report
@@ -214,17 +214,15 @@ def render(entries: list[dict[str, Any]], robot: str = "one_dof", params: cfg.Pa
         f"**Worst deviation: {num(top['worst_max_deviation_rad'], '{:.4f}')} rad** "
         f"(goal ≤ {GOAL_DEVIATION_RAD:g} rad in every case).",
         "",
-        "| node | fault | deviation [rad] | largest error from the plan [rad] | re-acquired after [s] "
-        "| peak torque [N·m] | brakes engaged | exit |",
-        "|---|---|---|---|---|---|---|---|",
     ]
     fault_text = {"SIGSTOP": "frozen {:g} s", "SIGKILL": "killed, respawned"}
-    for e in entries:
-        lines.append(
-            f"| {e['node']} | {fault_text[e['fault']].format(e['duration_s'])} | "
-            f"{num(e.get('max_deviation_rad'), '{:.4f}')} | "
-            f"{num(e.get('max_error_from_plan_rad'), '{:.3f}')} | {num(e.get('reacquire_s'), '{:.2f}')} | "
-            f"{num(e.get('peak_torque_nm'), '{:.1f}')} | {'yes' if e.get('brake_engaged') else 'no'} | "
-            f"{e.get('exit_code')}{' ' + e['failure'] if e.get('failure') else ''} |"
-        )
+    figures = (("max_deviation_rad", "{:.4f}"), ("max_error_from_plan_rad", "{:.3f}"), ("reacquire_s", "{:.2f}"))
+    rows = [
+        [e["node"], fault_text[e["fault"]].format(e["duration_s"]), *(num(e.get(k), spec) for k, spec in figures)]
+        + [num(e.get("peak_torque_nm"), "{:.1f}"), "yes" if e.get("brake_engaged") else "no"]
+        + [f"{e.get('exit_code')}{' ' + e['failure'] if e.get('failure') else ''}"]
+        for e in entries
+    ]
+    headers = "node | fault | deviation [rad] | largest error from the plan [rad] | re-acquired after [s] | "
+    lines.append(table(headers + "peak torque [N·m] | brakes engaged | exit", rows))
     return "\n".join(lines) + "\n"

@@ -43,31 +43,24 @@ def run_lockstep(params: cfg.Params, out: Path, duration_s: float) -> tuple[dict
         return run_and_score(params, out.with_name(out.name + "_retry"), duration_s=duration_s, sim_time=True)
 
 
-def lockstep_params(params: cfg.Params, seed: int = SEED) -> cfg.Params:
-    return cfg.merge(params, {"sensor_node": {"seed": seed}})
-
-
 def store(results: dict[str, Any], prefix: str, figures: dict[str, Any], keys) -> None:
     """``results[f"{prefix}_{key}"]`` for each of ``keys`` from ``figures``."""
     results.update({f"{prefix}_{key}": figures[key] for key in keys})
 
 
-def _response(label: str, recording: report.Recording, start_s: float, figures: dict[str, Any], out: Path) -> Response:
+def _response(
+    label: str, recording: report.Recording, start_s: float, figures: dict[str, Any], out: Path, until_s: float
+) -> Response:
+    """Joint 1's trace from ``start_s`` (s of the recording) until ``until_s`` after it (a recording runs on
+    while the nodes stop)."""
     s = recording.state
+    t = s["time_s"] - start_s
+    keep = t < until_s - 1e-9
     true = metrics.true_position_at(
         s["time_s"], recording.true_time_s, recording.true_position, recording.true_velocity
-    )[:, 0]
-    return Response(
-        label,
-        s["time_s"] - start_s,
-        s["reference"][:, 0],
-        true,
-        s["command"][:, 0],
-        s["i"][:, 0],
-        s["saturated"][:, 0] > 0.5,
-        figures,
-        out,
     )
+    trace = (s["reference"][keep, 0], true[keep, 0], s["command"][keep, 0], s["i"][keep, 0])
+    return Response(label, t[keep], *trace, s["saturated"][keep, 0] > 0.5, figures, out)
 
 
 def step_run(
@@ -86,18 +79,16 @@ def step_run(
     ``after_s`` beyond it, in lockstep. Figures on the TRUE angle after the step: ``step.step_figures``',
     ``overshoot_final_pct`` (beyond where the response ends), ``saturated_s`` and ``peak_torque_nm``."""
     params = cfg.merge(
-        step_params(lockstep_params(params, seed), amplitude, shaping),
+        step_params(params, amplitude, shaping),
         {
             "trajectory_planner": {"offset": [offset], "step_time_s": lead_s},
             "simulator": {"initial_position": [offset]},
+            "sensor_node": {"seed": seed},
         },
     )
     _, recording = run_lockstep(params, out, lead_s + after_s)
     figures = step_figures(recording, amplitude, offset, after_s)
-    t = recording.state["time_s"]
-    step_at = t[0] + figures["step_time_s"]
-    response = _response(label, recording, step_at, figures, out)
-    _keep(response, response.time_s < after_s - 1e-9)
+    response = _response(label, recording, recording.state["time_s"][0] + figures["step_time_s"], figures, out, after_s)
     window = response.time_s >= 0
     period = 1.0 / params["pid_controller"]["control_rate_hz"]
     figures["saturated_s"] = float(np.count_nonzero(response.saturated[window]) * period)
@@ -122,18 +113,8 @@ def sine_run(params: cfg.Params, out: Path, label: str, *, duration_s: float, se
     """The configured planner (the sine, unless the parameters say otherwise) for ``duration_s``
     sim seconds in lockstep; figures are the run's scores (``tracking_rms_rad`` on the TRUE angle after
     the 2 s warm-up, ``tracking_max_rad``, ``peak_torque_nm``, ``saturated_ticks``…)."""
-    params = lockstep_params(params, seed)
-    values, recording = run_lockstep(params, out, duration_s)
-    t = recording.state["time_s"]
-    response = _response(label, recording, t[0], values, out)
-    _keep(response, response.time_s < duration_s - 1e-9)
-    return response
-
-
-def _keep(response: Response, keep: np.ndarray) -> None:
-    """Only the ticks of the requested duration (a recording runs on while the nodes stop)."""
-    for name in ("time_s", "reference", "position", "command", "integral", "saturated"):
-        setattr(response, name, getattr(response, name)[keep])
+    values, recording = run_lockstep(cfg.merge(params, {"sensor_node": {"seed": seed}}), out, duration_s)
+    return _response(label, recording, recording.state["time_s"][0], values, out, duration_s)
 
 
 def sine_params(params: cfg.Params) -> cfg.Params:

@@ -167,9 +167,6 @@ class BlackBoxProblem:
                 break  # the round's best robust one: the others track worse
         return rms, verdict, values
 
-    def passes(self, values: np.ndarray, seed: int) -> bool:
-        return self.robust(values, seed)
-
     def nothing_robust(self) -> str:
         return (
             f"tune: no candidate for {self.spec} let a push die away in every case "
@@ -257,6 +254,8 @@ class BlackBoxProblem:
     def robust(self, values: np.ndarray, seed: int = SEED) -> bool:
         """Every case passes (stops at the first that does not)."""
         return all(self.push_decay(values, case, seed)["ok"] for case in CASES)
+
+    passes = robust
 
     def delay_margin(self, values: np.ndarray, seed: int = SEED, up_to: int = DELAY_REPORTED_UP_TO) -> int:
         """The most whole control periods of unstamped delay after which a push still dies away (0 … ``up_to``)."""

@@ -1,6 +1,5 @@
-"""The robustness every tuned loop keeps: the margins a gain set must meet on the sampled loop
-(``core.laws.lqr.discretise``, the feedback on ``[∫e, e, ė]``), the screen the search applies to
-thousands of gain sets at once, and every margin of one gain set for the report."""
+"""The margins every tuned loop keeps on the sampled loop (the feedback on ``[∫e, e, ė]``): the search's
+screen of many gain sets at once, and every margin of one gain set for the report."""
 
 from __future__ import annotations
 

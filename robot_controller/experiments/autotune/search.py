@@ -42,9 +42,7 @@ class Problem(Protocol):
 
 @dataclass
 class Candidates:
-    """Every candidate run: search coordinates, searched values, what the problem kept of each
-    (the gains, for the built-in laws), tracking RMS (rad) and verdict (:data:`ROBUST`, :data:`FAILED`
-    or :data:`UNCHECKED`)."""
+    """Every candidate run: coordinates, values, what the problem kept (the gains), RMS (rad), verdict."""
 
     points: np.ndarray
     values: np.ndarray

@@ -21,32 +21,16 @@ class Contender:
     robot: str = "one_dof"
 
 
+def _stack(controller_type: str, feedforward: str, estimator: str) -> dict[str, str]:
+    return {"controller_type": controller_type, "feedforward": feedforward, "estimator": estimator}
+
+
 CONTENDERS = (
     Contender("tutorial", "the tutorial's controller as written", "tutorial", {}),
-    Contender(
-        "pid",
-        "PID, derivative on velocity error",
-        "default",
-        {"controller_type": "pid", "feedforward": "none", "estimator": "none"},
-    ),
-    Contender(
-        "pid_ff",
-        "PID + model feedforward",
-        "default",
-        {"controller_type": "pid", "feedforward": "full", "estimator": "none"},
-    ),
-    Contender(
-        "pid_ff_kf",
-        "PID + feedforward + Kalman filter",
-        "default",
-        {"controller_type": "pid", "feedforward": "full", "estimator": "kalman"},
-    ),
-    Contender(
-        "lqr",
-        "LQR + feedforward + Kalman filter (default)",
-        "default",
-        {"controller_type": "lqr", "feedforward": "full", "estimator": "kalman"},
-    ),
+    Contender("pid", "PID, derivative on velocity error", "default", _stack("pid", "none", "none")),
+    Contender("pid_ff", "PID + model feedforward", "default", _stack("pid", "full", "none")),
+    Contender("pid_ff_kf", "PID + feedforward + Kalman filter", "default", _stack("pid", "full", "kalman")),
+    Contender("lqr", "LQR + feedforward + Kalman filter (default)", "default", _stack("lqr", "full", "kalman")),
 )
 #: Configurations by name for ``--controllers``: the contenders, and the default preset as it is.
 NAMED = {c.name: c for c in CONTENDERS} | {"default": Contender("default", "the default preset", "default", {})}

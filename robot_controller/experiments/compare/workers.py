@@ -40,10 +40,8 @@ def run_side_by_side(
         def start_next() -> None:
             for contender, seed in todo:
                 progress(f"{contender.name}: seed {seed}")
-                running[pool.submit(_compare_pair_in_worker, contender, seed, out, sine_duration_s, amplitude)] = (
-                    contender.name,
-                    seed,
-                )
+                future = pool.submit(_compare_pair_in_worker, contender, seed, out, sine_duration_s, amplitude)
+                running[future] = (contender.name, seed)
                 return
 
         for _ in range(workers):

@@ -24,14 +24,10 @@ RECOVERED_RAD = 0.002
 #: The default controller's goal (exercise 2): pushed at most this far, back within this long.
 GOAL_PEAK_RAD, GOAL_RECOVERY_S = 0.010, 0.3
 
+PID_NO_FILTER = {"controller_type": "pid", "estimator": "none"}
 CONTENDERS = (
     Contender("tutorial", "the tutorial's PID as written (Kp 50, Ki 10, Kd 5, no feedforward)", "tutorial", {}),
-    Contender(
-        "pid",
-        "PID (Kp 50, Ki 10, Kd 5) with the model's feedforward, no filter",
-        "default",
-        {"controller_type": "pid", "estimator": "none"},
-    ),
+    Contender("pid", "PID (Kp 50, Ki 10, Kd 5) with the model's feedforward, no filter", "default", PID_NO_FILTER),
     Contender("default", "the default: LQR, Kalman filter, feedforward", "default", {}),
 )
 
@@ -40,8 +36,7 @@ def _plan(quick: bool) -> dict[str, Any]:
     return {"after_s": 1.5 if quick else 3.0, "contenders": (CONTENDERS[0], CONTENDERS[2]) if quick else CONTENDERS}
 
 
-#: Each contender runs twice: pushed and undisturbed (a progress step each).
-RUNS_PER_CONTENDER = 2
+RUNS_PER_CONTENDER = 2  #: pushed and undisturbed, a progress step each
 
 
 def steps(quick: bool = False) -> int:

@@ -51,15 +51,15 @@ def contender_params(contender: Contender) -> cfg.Params:
 
 
 def loop_analysis(params: cfg.Params) -> dict[str, Any]:
-    """The gains in force (designed, for an LQR), the closed-loop poles of the sampled
-    arm under them (the feedback on ``[∫e, e, ė]``, as ``core.lqr`` designs on) and the margins."""
+    """The gains in force (an LQR's designed), the sampled loop's closed-loop poles under them and its margins."""
     gains = law_gains(params)
     A, B, dt = plant_loop(params)
-    K = robustness.pid_gain_row(float(gains.kp[0]), float(gains.ki[0]), float(gains.kd[0]))
+    kp, ki, kd = float(gains.kp[0]), float(gains.ki[0]), float(gains.kd[0])
+    K = robustness.pid_gain_row(kp, ki, kd)
     return {
-        "kp": float(gains.kp[0]),
-        "ki": float(gains.ki[0]),
-        "kd": float(gains.kd[0]),
+        "kp": kp,
+        "ki": ki,
+        "kd": kd,
         "derivative_source": gains.derivative_source.value,
         "dt": dt,
         "poles": robustness.poles(A, B, K),

@@ -1,6 +1,5 @@
-"""Identification on one joint: each joint's four numbers (inertia, damping, Coulomb friction,
-gravity torque; :mod:`robot_controller.core.model.identification`), written as the controller's
-``model_*`` overlay with ``identification.json`` and ``identification.md``."""
+"""Identification on one joint: its four numbers (inertia, damping, Coulomb friction, gravity torque),
+written as the controller's ``model_*`` overlay with ``identification.json`` and ``identification.md``."""
 
 from __future__ import annotations
 
@@ -45,10 +44,8 @@ def flat_results(joint_names: list[str], fits: list[JointFit]) -> dict[str, Any]
             out[f"{name}_{parameter}_stderr_{UNITS[parameter]}"] = float(getattr(fit, f"{parameter}_stderr"))
         out[f"{name}_residual_rms_nm"] = fit.residual_rms_nm
         out[f"{name}_samples"] = fit.samples
-        out[f"{name}_excluded_braked"] = fit.excluded_braked
-        out[f"{name}_excluded_saturated"] = fit.excluded_saturated
-        out[f"{name}_excluded_slow"] = fit.excluded_slow
-        out[f"{name}_excluded_other"] = fit.excluded_other
+        for why in ("braked", "saturated", "slow", "other"):
+            out[f"{name}_excluded_{why}"] = getattr(fit, f"excluded_{why}")
     return out
 
 
@@ -65,12 +62,7 @@ def markdown(joint_names: list[str], fits: list[JointFit], urdf: JointArmModel, 
         "| joint | parameter | identified | ± standard error | controller's URDF | identified / URDF |",
         "|---|---|---|---|---|---|",
     ]
-    urdf_values = {
-        "inertia": urdf.inertia,
-        "damping": urdf.damping,
-        "coulomb_friction": urdf.coulomb_friction,
-        "gravity_torque": urdf.gravity_torque,
-    }
+    urdf_values = {parameter: getattr(urdf, parameter) for parameter in PARAMETERS}
     for j, (name, fit) in enumerate(zip(joint_names, fits, strict=True)):
         for parameter in PARAMETERS:
             value, err, ref = getattr(fit, parameter), getattr(fit, f"{parameter}_stderr"), urdf_values[parameter][j]
@@ -84,13 +76,11 @@ def markdown(joint_names: list[str], fits: list[JointFit], urdf: JointArmModel, 
         "| joint | residual RMS [N·m] | samples used | left out: braked or torque off | saturated "
         "| slow or reversing | other |",
         "|---|---|---|---|---|---|---|",
-    ]
-    for name, fit in zip(joint_names, fits, strict=True):
-        lines.append(
+        *(
             f"| {name} | {fit.residual_rms_nm:.3g} | {fit.samples} | {fit.excluded_braked} "
             f"| {fit.excluded_saturated} | {fit.excluded_slow} | {fit.excluded_other} |"
-        )
-    lines += [
+            for name, fit in zip(joint_names, fits, strict=True)
+        ),
         "",
         "Standard errors are the least-squares fit's (σ²·(XᵀX)⁻¹); the residuals of the "
         "filtered regression are correlated, so they are optimistic.",

@@ -1,7 +1,5 @@
-"""Identification on a chain of joints (``robot-controller identify`` on an arm of more than one
-joint): four numbers per joint would fold the coupling between joints into wrong values, so the fit
-is a payload on the last link (:mod:`robot_controller.core.model.payload_identification`), written as the
-controller's ``model_payload`` overlay with its report."""
+"""Identification on a chain of joints: a payload on the last link (four numbers per joint would fold the
+coupling into wrong values), written as the controller's ``model_payload`` overlay with its report."""
 
 from __future__ import annotations
 
