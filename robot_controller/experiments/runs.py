@@ -98,8 +98,7 @@ def step_run(
 
 
 def overshoot_vs_final_pct(time_s: np.ndarray, position: np.ndarray) -> float:
-    """The peak beyond the response's own final value (the mean of its last 10 %),
-    in % of the distance travelled from the step's start to that value."""
+    """The peak beyond the response's final value (its last 10 %'s mean), in % of the distance travelled."""
     if len(position) < 10:
         return float("nan")
     start, final = float(position[0]), float(np.mean(position[int(0.9 * len(position)) :]))
@@ -110,9 +109,8 @@ def overshoot_vs_final_pct(time_s: np.ndarray, position: np.ndarray) -> float:
 
 
 def sine_run(params: cfg.Params, out: Path, label: str, *, duration_s: float, seed: int = SEED) -> Response:
-    """The configured planner (the sine, unless the parameters say otherwise) for ``duration_s``
-    sim seconds in lockstep; figures are the run's scores (``tracking_rms_rad`` on the TRUE angle after
-    the 2 s warm-up, ``tracking_max_rad``, ``peak_torque_nm``, ``saturated_ticks``…)."""
+    """The configured planner (the sine, unless the parameters say otherwise) for ``duration_s`` sim s in
+    lockstep; figures are the run's scores (``tracking_rms_rad`` on the TRUE angle after the warm-up…)."""
     values, recording = run_lockstep(cfg.merge(params, {"sensor_node": {"seed": seed}}), out, duration_s)
     return _response(label, recording, recording.state["time_s"][0], values, out, duration_s)
 
@@ -128,8 +126,7 @@ def sine_params(params: cfg.Params) -> cfg.Params:
 def plot_steps(
     ax, responses: list[Response], *, band: tuple[float, float] | None = None, reference: bool = True, title: str = ""
 ) -> None:
-    """The true angle of each response against time since the step, on one axis;
-    ``band`` (low, high): the settling band, shaded."""
+    """The true angle of each response against time since the step; ``band`` (low, high) shaded."""
     if reference and responses:
         first = responses[0]
         ax.plot(first.time_s, first.reference, "k--", lw=0.9, label="reference")

@@ -42,17 +42,8 @@ def run_checked(checked: plan.CheckedRun, out: Path) -> tuple[dict[str, Any], re
 
 
 def step_params(params: cfg.Params, amplitude: float, shaping: str) -> cfg.Params:
-    return cfg.merge(
-        params,
-        {
-            "trajectory_planner": {
-                "mode": "step",
-                "amplitude": [amplitude],
-                "step_time_s": STEP_LEAD_S,
-                "step_shaping": shaping,
-            }
-        },
-    )
+    planner = {"mode": "step", "amplitude": [amplitude], "step_time_s": STEP_LEAD_S, "step_shaping": shaping}
+    return cfg.merge(params, {"trajectory_planner": planner})
 
 
 def step_figures(

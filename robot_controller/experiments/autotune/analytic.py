@@ -146,18 +146,9 @@ class AnalyticProblem:
     def tracking_rms(self, gains: np.ndarray, duration_s: float, seed: int = SEED) -> np.ndarray:
         """The sine's tracking RMS (true angle, after the 2 s warm-up) of each gain set (rows Kp, Ki, Kd), rad."""
         pid = replace(self.law, kp=gains[:, 0:1], ki=gains[:, 1:2], kd=gains[:, 2:3])
-        return batch_tracking_rms(
-            self.constants,
-            pid,
-            trajectory=self.sine,
-            sensor=self.sensor,
-            rng=np.random.default_rng(seed),
-            duration_s=duration_s,
-            control_period_s=self.dt,
-            torque_max=self.torque_max,
-            feedforward=self.feedforward,
-            kalman=self.kalman,
-        )
+        harness = {"trajectory": self.sine, "sensor": self.sensor, "duration_s": duration_s, "kalman": self.kalman}
+        harness.update(control_period_s=self.dt, torque_max=self.torque_max, feedforward=self.feedforward)
+        return batch_tracking_rms(self.constants, pid, rng=np.random.default_rng(seed), **harness)
 
 
 def batch_tracking_rms(

@@ -67,26 +67,19 @@ def report_text(values: dict[str, Any], problem: Problem, result: SearchResult, 
 
     lqr_mode = problem.controller_type == "lqr"
     searched = "the LQR weights lqr_q (lqr_r kept: only their ratio matters)" if lqr_mode else "Kp, Ki, Kd"
+    columns = (("kp", "{:.3g}"), ("ki", "{:.3g}"), ("kd", "{:.3g}"), ("gain_margin_db", "{:.1f}"))
+    columns += (("gain_margin_low_db", "{:.1f}"), ("phase_margin_deg", "{:.0f}"))
     rows = []
     for name in ("before", "after"):
-        weights = (
-            [
-                f"[{f(values[f'{name}_lqr_q_integral'])}, {f(values[f'{name}_lqr_q_position'])}, "
-                f"{f(values[f'{name}_lqr_q_velocity'])}], {f(values[f'{name}_lqr_r'])}"
-            ]
-            if lqr_mode
-            else []
-        )
+        weights = []
+        if lqr_mode:
+            q = ", ".join(f(values[f"{name}_lqr_q_{key}"]) for key in ("integral", "position", "velocity"))
+            weights = [f"[{q}], {f(values[f'{name}_lqr_r'])}"]
         rows.append(
             [
                 f"**{name}**",
                 *weights,
-                f(values[f"{name}_kp"]),
-                f(values[f"{name}_ki"]),
-                f(values[f"{name}_kd"]),
-                f(values[f"{name}_gain_margin_db"], "{:.1f}"),
-                f(values[f"{name}_gain_margin_low_db"], "{:.1f}"),
-                f(values[f"{name}_phase_margin_deg"], "{:.0f}"),
+                *(f(values[f"{name}_{key}"], spec) for key, spec in columns),
                 str(values[f"{name}_delay_margin_periods"]),
                 "yes" if values[f"{name}_meets_constraints"] else "**no**",
                 f(values[f"{name}_slowest_time_constant_s"], "{:.2g}"),

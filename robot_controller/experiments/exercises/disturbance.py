@@ -128,12 +128,8 @@ def run(
         for torque_nm in (TORQUE_NM, 0.0):
             label = "pushed" if torque_nm else "undisturbed"
             progress(f"{name}, {label}: {torque_nm:g} N·m from t = {START_S:g} s")
-            _, recording = run_and_score(
-                contender_params(contender, seed, duration_s, torque_nm),
-                out / name / label,
-                duration_s=duration_s,
-                sim_time=True,
-            )
+            params = contender_params(contender, seed, duration_s, torque_nm)
+            _, recording = run_and_score(params, out / name / label, duration_s=duration_s, sim_time=True)
             errors[label] = _error_on_timeline(recording, duration_s)
         effect = push_effect(errors["pushed"], errors["undisturbed"])
         own = deviation_figures(*effect, START_S, band_from_before=False)

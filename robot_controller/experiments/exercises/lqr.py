@@ -80,17 +80,12 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
         analysis = loop_analysis(params)
         analyses[contender.name] = analysis
         name = contender.name
-        results.update(
-            {
-                f"{name}_kp": analysis["kp"],
-                f"{name}_ki": analysis["ki"],
-                f"{name}_kd": analysis["kd"],
-                f"{name}_spectral_radius": float(np.max(np.abs(analysis["poles"]))),
-                f"{name}_gain_margin_db": analysis["margins"].gain_margin_db,
-                f"{name}_phase_margin_deg": analysis["margins"].phase_margin_deg,
-                f"{name}_delay_margin_periods": analysis["delay_margin_periods"],
-            }
-        )
+        margins = analysis["margins"]
+        store(results, name, analysis, ("kp", "ki", "kd"))
+        results[f"{name}_spectral_radius"] = float(np.max(np.abs(analysis["poles"])))
+        results[f"{name}_gain_margin_db"] = margins.gain_margin_db
+        results[f"{name}_phase_margin_deg"] = margins.phase_margin_deg
+        results[f"{name}_delay_margin_periods"] = analysis["delay_margin_periods"]
         for index, pole in enumerate(analysis["poles"]):
             results[f"{name}_pole_{index + 1}_re"] = float(pole.real)
             results[f"{name}_pole_{index + 1}_im"] = float(pole.imag)
@@ -98,9 +93,7 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
         progress(f"{name}: sine")
         sine = sine_run(sine_params(params), out / name / "sine", name, duration_s=plan["sine_s"], seed=seed)
         sines.append(sine)
-        results[f"{name}_sine_tracking_rms_rad"] = sine.figures["tracking_rms_rad"]
-        results[f"{name}_sine_tracking_max_rad"] = sine.figures["tracking_max_rad"]
-        results[f"{name}_sine_peak_torque_nm"] = sine.figures["peak_torque_nm"]
+        store(results, f"{name}_sine", sine.figures, ("tracking_rms_rad", "tracking_max_rad", "peak_torque_nm"))
         progress(f"{name}: step")
         step = step_run(params, out / name / "step", name, amplitude=STEP_RAD, after_s=plan["after_s"], seed=seed)
         steps_run.append(step)

@@ -62,29 +62,14 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
     out.mkdir(parents=True, exist_ok=True)
     plan = _plan(quick)
     base = cfg.load_stack(PRESET)
-    results: dict[str, Any] = {
-        "quick": int(quick),
-        "seed": seed,
-        "torque_max_nm": TORQUE_MAX_NM,
-        "step_rad": STEP_RAD,
-        "offset_rad": OFFSET_RAD,
-        "kp": base["pid_controller"]["kp"][0],
-        "ki": base["pid_controller"]["ki"][0],
-        "kd": base["pid_controller"]["kd"][0],
-    }
+    pid = base["pid_controller"]
+    results: dict[str, Any] = {"quick": int(quick), "seed": seed, "torque_max_nm": TORQUE_MAX_NM, "step_rad": STEP_RAD}
+    results.update(offset_rad=OFFSET_RAD, kp=pid["kp"][0], ki=pid["ki"][0], kd=pid["kd"][0])
+    step = {"amplitude": STEP_RAD, "offset": OFFSET_RAD, "lead_s": LEAD_S, "after_s": plan["after_s"], "seed": seed}
     responses: list[Response] = []
     for mode in plan["modes"]:
         progress(f"anti-windup {mode}")
-        response = step_run(
-            mode_params(base, mode),
-            out / mode,
-            mode,
-            amplitude=STEP_RAD,
-            offset=OFFSET_RAD,
-            lead_s=LEAD_S,
-            after_s=plan["after_s"],
-            seed=seed,
-        )
+        response = step_run(mode_params(base, mode), out / mode, mode, **step)
         after = response.time_s >= 0
         response.figures["integral_max_nm"] = float(np.max(response.integral[after]))
         response.figures["integral_min_nm"] = float(np.min(response.integral[after]))

@@ -31,18 +31,9 @@ def excitation_params(
     joint's range about the robot's home pose), on one joint ``amplitude_rad``."""
     planner = params["trajectory_planner"]
     amplitude = [float(amplitude_rad)] if planner["joint_count"] == 1 else list(planner["amplitude"])
-    return cfg.merge(
-        params,
-        {
-            "trajectory_planner": {
-                "mode": "chirp",
-                "amplitude": amplitude,
-                "frequency_hz": float(start_hz),
-                "end_frequency_hz": float(end_hz),
-                "sweep_time_s": float(duration_s),
-            }
-        },
-    )
+    chirp = {"mode": "chirp", "amplitude": amplitude, "frequency_hz": float(start_hz)}
+    chirp.update(end_frequency_hz=float(end_hz), sweep_time_s=float(duration_s))
+    return cfg.merge(params, {"trajectory_planner": chirp})
 
 
 def _step_at(times_s: np.ndarray, event_times_s: np.ndarray, values: np.ndarray, joint_count: int) -> np.ndarray:

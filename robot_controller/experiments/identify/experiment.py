@@ -53,14 +53,7 @@ def identify(
     progress(f"identify: fitting {len(recording.true_time_s)} samples of {', '.join(names)}")
     if len(names) > 1:
         return identify_payload(run_params, out, recording, scored, duration_s, seed, progress)
-    facts = {
-        "duration_s": float(duration_s),
-        "seed": int(seed),
-        "amplitude_rad": float(amplitude_rad),
-        "start_hz": float(start_hz),
-        "end_hz": float(end_hz),
-        "tracking_rms_rad": scored.get("tracking_rms_rad"),
-        "peak_torque_nm": scored.get("peak_torque_nm"),
-        "saturated_ticks": scored.get("saturated_ticks"),
-    }
+    facts = {"duration_s": float(duration_s), "seed": int(seed), "amplitude_rad": float(amplitude_rad)}
+    facts.update(start_hz=float(start_hz), end_hz=float(end_hz))
+    facts.update({key: scored.get(key) for key in ("tracking_rms_rad", "peak_torque_nm", "saturated_ticks")})
     return identify_joints(run_params, out, recording, names, facts, progress)

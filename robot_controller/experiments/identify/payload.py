@@ -41,33 +41,20 @@ def identify_payload(
     mass, (x, y, z) = fit.payload.mass_kg, fit.payload.com_m
     # No mass above its noise: the arm carries nothing the URDF lacks, and the overlay says so.
     overlay = fit.payload.as_values() if fit.found else [0.0, 0.0, 0.0, 0.0]
-    results = {
-        "fitted": "payload",
-        "payload_found": fit.found,
-        "payload_mass_kg": mass,
-        # With no payload found its centre means nothing: null.
-        "payload_x_m": x if fit.found else None,
-        "payload_y_m": y if fit.found else None,
-        "payload_z_m": z if fit.found else None,
-        **{
-            f"payload_{name}_stderr": float(err)
-            for name, err in zip(("mass_kg", "x_m", "y_m", "z_m"), fit.stderr, strict=True)
-        },
-        "payload_unidentifiable": list(fit.unidentifiable) if fit.found else [],
-        "residual_rms_nm": fit.residual_rms_nm,
-        "residual_rms_urdf_alone_nm": fit.residual_rms_without_nm,
-        "samples": fit.samples,
-        "excitation_duration_s": float(duration_s),
-        "excitation_seed": int(seed),
-        "run_tracking_rms_rad": scored.get("tracking_rms_rad"),
-        "run_peak_torque_nm": scored.get("peak_torque_nm"),
-        "simulator_urdf": params["simulator"]["urdf_path"],
-        "controller_urdf": params["pid_controller"]["urdf_path"],
-    }
-    cfg.write_params_file(
-        {"pid_controller": {"model_payload": [float(f"{v:.6g}") for v in overlay]}},
-        out / "identified.yaml",
+    results: dict[str, Any] = {"fitted": "payload", "payload_found": fit.found, "payload_mass_kg": mass}
+    centre = (x, y, z) if fit.found else (None, None, None)  # with no payload found its centre means nothing
+    results.update(zip(("payload_x_m", "payload_y_m", "payload_z_m"), centre, strict=True))
+    stderr_keys = ("mass_kg", "x_m", "y_m", "z_m")
+    results.update({f"payload_{name}_stderr": float(err) for name, err in zip(stderr_keys, fit.stderr, strict=True)})
+    results.update(payload_unidentifiable=list(fit.unidentifiable) if fit.found else [])
+    results.update(residual_rms_nm=fit.residual_rms_nm, residual_rms_urdf_alone_nm=fit.residual_rms_without_nm)
+    results.update(samples=fit.samples, excitation_duration_s=float(duration_s), excitation_seed=int(seed))
+    results.update(run_tracking_rms_rad=scored.get("tracking_rms_rad"), run_peak_torque_nm=scored.get("peak_torque_nm"))
+    results.update(
+        simulator_urdf=params["simulator"]["urdf_path"], controller_urdf=params["pid_controller"]["urdf_path"]
     )
+    payload = {"model_payload": [float(f"{v:.6g}") for v in overlay]}
+    cfg.write_params_file({"pid_controller": payload}, out / "identified.yaml")
     report.write_metrics(out / "identification.json", results)
     (out / "identification.md").write_text(
         "\n".join(

@@ -55,8 +55,7 @@ def oscillation(response: Response, *, settle_s: float = 0.3, window_s: float = 
 
 
 def model_ultimate(params: cfg.Params) -> tuple[float, float]:
-    """Ku and Tu of the sampled arm model under P alone: the Kp at which the closed loop's poles reach
-    the unit circle, and the period of the oscillation there."""
+    """Ku and Tu of the sampled arm model under P alone: the Kp whose poles reach the unit circle, their period."""
     A, B, dt = plant_loop(params)
     A, B = A[1:, 1:], B[1:]  # P alone: ∫e plays no part
 
@@ -78,9 +77,8 @@ def model_ultimate(params: cfg.Params) -> tuple[float, float]:
 def kp_search(
     base: cfg.Params, out: Path, plan: dict[str, Any], results: dict[str, Any], *, progress: Progress, seed: int
 ) -> tuple[list[Response], float, float]:
-    """Kp alone on a small step (in ``out/kp_search``): from the tutorial's Kp, halve or double until one run
-    oscillates on and another does not, then bisect. Returns the runs, the largest Kp that decayed and the
-    smallest that did not (each run's figures also into ``results``)."""
+    """Kp alone on a small step (in ``out/kp_search``), halved or doubled from the tutorial's until bracketed,
+    then bisected: the runs (their figures also into ``results``), the largest Kp that decayed, the smallest not."""
     low: float | None = None  # the largest Kp that decayed
     high: float | None = None  # the smallest Kp that did not
     search: list[Response] = []
