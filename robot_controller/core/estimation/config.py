@@ -95,11 +95,11 @@ def process_noise(
     weights[:, 3] = w = np.square(sigma_d)
     weights[:, 2] = wb = w * b
     weights[:, 1] = wb * b
-    return weights.dot(_noise_templates(dt)).reshape(b.size, 3, 3)
+    return weights.dot(noise_templates(dt)).reshape(b.size, 3, 3)
 
 
 @lru_cache(maxsize=64)  # a filter's periods are a handful of roundings of one period
-def _noise_templates(dt: float) -> np.ndarray:
+def noise_templates(dt: float) -> np.ndarray:
     """The process noise's four parts over ``dt`` s, (4, 9), read only: the white acceleration (``G·Gᵀ``,
     G = [dt²/2, dt]), and ``d``'s random walk in ``[q, v]``, between ``[q, v]`` and ``d``, and in ``d``."""
     g0, g1 = 0.5 * dt * dt, dt
@@ -115,3 +115,13 @@ def _noise_templates(dt: float) -> np.ndarray:
     )
     templates.flags.writeable = False
     return templates
+
+
+@lru_cache(maxsize=64)
+def timing_noise_template(dt: float) -> np.ndarray:
+    """``G·Gᵀ`` over ``dt`` s, G = [dt, 1] (2, 2), read only: a velocity step of unknown size at the
+    start of the period, in ``[q, v]``."""
+    G = np.array([dt, 1.0])
+    template = np.outer(G, G)
+    template.flags.writeable = False
+    return template

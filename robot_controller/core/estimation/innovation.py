@@ -7,6 +7,7 @@ is taken only below MISMATCH_FROM: a reading that stands out from readings that 
 from __future__ import annotations
 
 import numpy as np
+from numpy._core.multiarray import c_einsum  # np.einsum's own C function, without its Python wrapper
 
 CONSISTENCY_TIME_S = 0.3
 MISMATCH_FROM = 4.0
@@ -22,14 +23,18 @@ BEYOND_SIGMA = 5.0
 
 def quadratic(u: np.ndarray, A: np.ndarray, w: np.ndarray) -> np.ndarray:
     """Per joint, ``uᵀ·A·w`` for 2-vectors ``u``, ``w`` (n, 2) and matrices ``A`` (n, 2, 2)."""
-    return np.einsum("ni,nij,nj->n", u, A, w)
+    return c_einsum("ni,nij,nj->n", u, A, w)
 
 
-def updated_average(average: np.ndarray, distance_sq: np.ndarray, jumped: np.ndarray, dt: float) -> np.ndarray:
+def updated_average(average: np.ndarray, distance_sq: np.ndarray, jumped: np.ndarray | None, dt: float) -> np.ndarray:
     """The running average of the squared distance after a reading ``dt`` s on.
-    A reading taken as a jump is explained by it: it does not count as disagreement."""
+    A reading taken as a jump (``jumped``, per joint; None: none) is explained by it: it does not
+    count as disagreement."""
     alpha = min(1.0, dt / CONSISTENCY_TIME_S)
-    return np.where(jumped, average, average + alpha * (distance_sq - average))
+    updated = average + alpha * (distance_sq - average)
+    if jumped is not None:
+        updated[jumped] = average[jumped]
+    return updated
 
 
 def noise_in_force(

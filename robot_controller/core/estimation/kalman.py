@@ -26,7 +26,12 @@ import numpy as np
 
 import robot_controller.core.estimation.innovation as innovation
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.estimation.config import DISTURBANCE_PRIOR_STD_NM, KalmanConfig, process_noise
+from robot_controller.core.estimation.config import (
+    DISTURBANCE_PRIOR_STD_NM,
+    KalmanConfig,
+    noise_templates,
+    timing_noise_template,
+)
 from robot_controller.core.estimation.linear import Predictor, own_step_slopes, step_slopes
 from robot_controller.core.model import step_count
 
@@ -36,14 +41,15 @@ StepJacobian = Callable[[np.ndarray, np.ndarray, np.ndarray, float], np.ndarray]
 MassMatrix = Callable[[np.ndarray], np.ndarray]
 
 
+_ADJUGATE, _ADJUGATE_SIGN = np.array([3, 1, 2, 0]), np.array([1.0, -1.0, -1.0, 1.0])
+
+
 def inverse_2x2(A: np.ndarray) -> np.ndarray:
-    """The inverses of a stack of 2 × 2 matrices ``(..., 2, 2)``: adjugate over determinant."""
-    a, b, c, d = A[..., 0, 0], A[..., 0, 1], A[..., 1, 0], A[..., 1, 1]
-    det = a * d - b * c
-    inverse = np.empty_like(A)
-    inverse[..., 0, 0], inverse[..., 0, 1] = d / det, -b / det
-    inverse[..., 1, 0], inverse[..., 1, 1] = -c / det, a / det
-    return inverse
+    """The inverses of a stack of 2 × 2 matrices ``(..., 2, 2)``: adjugate over determinant, in C order
+    (a quadratic form by ``einsum`` sums in its operands' memory order)."""
+    flat = A.reshape(-1, 4)  # a, b, c, d
+    det = flat[:, 0] * flat[:, 3] - flat[:, 1] * flat[:, 2]
+    return (flat.take(_ADJUGATE, axis=1) * _ADJUGATE_SIGN / det[:, None]).reshape(A.shape)
 
 
 def matrix_power(a: np.ndarray, k: int) -> np.ndarray:
@@ -76,7 +82,10 @@ class _StateIndex:
         self.readings = np.ix_(self.read, self.read)  #: every reading by every reading (2k, 2k)
         qv = np.concatenate([self.q, self.v])
         self.model_slopes = np.ix_(qv, qv)  #: where the model's slopes ([q1..qk, v1..vk] by the same) go
+        #: where ``d`` moves each joint's q and v in the transition, ``F[at.q_by_d]``, ``F[at.v_by_d]``
+        self.q_by_d, self.v_by_d = (slice(None), self.q, self.d), (slice(None), self.v, self.d)
         if k == 1:
+            self.q_by_d, self.v_by_d = (slice(None), 0, 2), (slice(None), 1, 2)
             self.blocks, self.block_shape = (slice(None), slice(None)), (m, m)
             self.own_readings = self.model_slopes = (slice(0, 2), slice(0, 2))
             self.read = slice(0, 2)
@@ -150,6 +159,14 @@ class JointKalmanFilter:
         self.restart_count = np.zeros(n, dtype=int)
         #: per joint, the innovation's squared Mahalanobis distance, averaged (2 while readings agree)
         self._distance_sq_average = np.full(n, innovation.UNPROVEN_DISTANCE_SQ)
+        #: the σs (disturbance N·m/√s, acceleration rad/s²) while every joint agrees, and their squares
+        self._agreeing_sigmas = (
+            config.disturbance_noise_std * self._torque_scale,
+            np.full(n, config.acceleration_noise_std),
+        )
+        self._agreeing_variances = tuple(np.square(sigma) for sigma in self._agreeing_sigmas)
+        self._reading = np.empty((n, 2))  #: the latest reading, per joint (q, v)
+        self._external: np.ndarray | None = None  #: :meth:`_disturbance_torque` of the state as it is
 
     def reset(self) -> None:
         """Forget the state: the next reading starts the filter again (and the disturbance from 0)."""
@@ -157,6 +174,7 @@ class JointKalmanFilter:
         self.time_s = None
         self._mass = None
         self._own_inverse_mass = None
+        self._external = None
 
     @property
     def joint_covariance(self) -> np.ndarray:
@@ -175,22 +193,27 @@ class JointKalmanFilter:
         """Put ``state`` (a :attr:`disturbance_state`) in the observer's place, e.g. a held average."""
         if self.estimates_disturbance and self.x is not None:
             self.x[:, 2] = state
+            self._external = None
 
     @property
     def disturbance(self) -> np.ndarray:
         """The estimated external torque on each joint, N·m: the one that gives the unexplained
         accelerations, ``M(q)·α`` (0 without the observer or a state)."""
         torque = self._disturbance_torque()
-        return np.zeros(self.joint_count) if torque is None else torque
+        return np.zeros(self.joint_count) if torque is None else torque.copy()
 
     def _disturbance_torque(self) -> np.ndarray | None:
-        """``M(q)·α``, ``α_j = d_j·(M⁻¹)_jj``, N·m (None without the observer or a state)."""
+        """``M(q)·α``, ``α_j = d_j·(M⁻¹)_jj``, N·m (None without the observer or a state); worked out
+        once for each state and mass matrix (not to be written to)."""
         if not self.estimates_disturbance or self.x is None or self._mass is None:
             return None
-        return self._mass @ (self._own_inverse_mass * self.x[:, 2])
+        if self._external is None:
+            self._external = self._mass @ (self._own_inverse_mass * self.x[:, 2])
+        return self._external
 
     def _set_mass(self, position: np.ndarray) -> None:
         """The mass matrix and its inverse's diagonal at ``position``."""
+        self._external = None
         self._mass = M = np.asarray(self.mass_matrix(np.asarray(position, float)), dtype=float)
         self._own_inverse_mass = (1.0 / M if M.shape == (1, 1) else np.linalg.inv(M)).diagonal().copy()
 
@@ -212,7 +235,7 @@ class JointKalmanFilter:
         n, m = self.joint_count, self.size
         g, k = self._groups, self._per_group
         observer = self.estimates_disturbance
-        z = np.empty((n, 2))  # the reading, per joint
+        z = self._reading  # the reading, per joint
         z[:, 0], z[:, 1] = position, velocity
         if self.x is None or self.time_s is None or not (0 < time_s - self.time_s < 1.0):
             self.x = np.zeros((n, m))
@@ -226,7 +249,6 @@ class JointKalmanFilter:
         self.time_s = time_s
         q, v = self.x[:, 0], self.x[:, 1]
         F = self._transition(q, v, torque, dt)
-        sigma_d, sigma_a = self._noise_in_force()
         config = self.config
         timing_uncertain = (
             torque_change is not None and config.command_timing_uncertainty_s > 0 and self.mass_matrix is not None
@@ -236,52 +258,54 @@ class JointKalmanFilter:
         if observer or timing_uncertain:
             self._set_mass(q)
             b = self._own_inverse_mass  # rad/s² per N·m on each joint's own axis
-        if observer:
-            Q = process_noise(config, dt, b, sigma_d, sigma_a)
-        else:
-            G = np.array([0.5 * dt * dt, dt])
-            Q = np.outer(G, G) * (sigma_a**2)[:, None, None]
+        Q = self._process_noise(dt, b if observer else None)
         if timing_uncertain:  # a velocity step of unknown size (the change acting sooner or later)
             sigma_v = np.abs(torque_change) * config.command_timing_uncertainty_s * b
-            G = np.array([dt, 1.0])
-            Q[:, :2, :2] += np.outer(G, G) * (sigma_v**2)[:, None, None]
+            Q[:, :2, :2] += timing_noise_template(dt) * (sigma_v**2)[:, None, None]
         x_pred = self.x.copy()
         x_pred[:, 0], x_pred[:, 1] = q_pred, v_pred
         P_pred = np.matmul(np.matmul(F, self.P), F.transpose(0, 2, 1))
         at = self._index
-        P_pred[(slice(None), *at.blocks)] += Q.reshape(g, *at.block_shape)  # each joint's own process noise
+        if at.block_shape == (m, m):  # each joint its own group: its process noise is the whole block
+            P_pred += Q
+        else:
+            P_pred[(slice(None), *at.blocks)] += Q.reshape(g, *at.block_shape)  # each joint's own process noise
         surprise = z - x_pred[:, :2]  # the innovation, per joint
         S_joint = P_pred[(slice(None), *at.own_readings)].reshape(n, 2, 2) + self.R
         S_inv = inverse_2x2(S_joint)
         distance_sq = innovation.quadratic(surprise, S_inv, surprise)
-        jumped = np.zeros(n, dtype=bool)
-        if observer and config.jump_detection_sigma > 0:
+        jumped = None
+        if observer:
             step = np.empty((n, 2))  # the reading's change per N·m of a step
             step[:, 0], step[:, 1] = 0.5 * b * dt * dt, b * dt
+        if observer and config.jump_detection_sigma > 0:
             jumped = (self._distance_sq_average < innovation.MISMATCH_FROM) & innovation.looks_like_a_jump(
                 surprise, S_inv, distance_sq, step, config.jump_detection_sigma
             )
-            if jumped.any():
+            if not any(jumped.tolist()):
+                jumped = None
+            else:
                 self._allow_jumps(P_pred, jumped, b, dt)
         self._distance_sq_average = innovation.updated_average(self._distance_sq_average, distance_sq, jumped, dt)
         P_read = P_pred[:, at.read, :]  # (g, 2k, km)
-        if k == 1 and not jumped.any():  # S is each joint's own block, inverted above
+        if k == 1 and jumped is None:  # S is each joint's own block, inverted above
             K = np.matmul(S_inv, P_read).transpose(0, 2, 1)  # (g, m, 2)
         else:
             S = P_pred[(slice(None), *at.readings)] + self._R_all
             K = (inverse_2x2(S) @ P_read if k == 1 else np.linalg.solve(S, P_read)).transpose(0, 2, 1)
         gain = np.matmul(K, surprise.reshape(g, 2 * k, 1))[:, :, 0]
-        self.x = (x_pred.reshape(g, k * m) + gain).reshape(n, m)
+        self.x = x = (x_pred.reshape(g, k * m) + gain).reshape(n, m)
         P = P_pred - np.matmul(K, P_read)
         self.P = 0.5 * (P + P.transpose(0, 2, 1))
+        self._external = None
         if observer:
-            d, limit = self.x[:, 2], self.disturbance_limit
-            np.minimum(np.maximum(d, -limit), limit, out=d)
-            unexplainable = innovation.beyond_any_disturbance(surprise, S_joint, b * dt, self.disturbance_limit)
-            if unexplainable.any():
+            limit = self.disturbance_limit
+            x[:, 2] = np.minimum(np.maximum(x[:, 2], -limit), limit)
+            unexplainable = innovation.beyond_any_disturbance(surprise, S_joint, step[:, 1], limit)
+            if any(unexplainable.tolist()):
                 self._start(unexplainable, z)
                 self.restart_count += unexplainable
-        return self.x[:, 0].copy(), self.x[:, 1].copy()
+        return x[:, 0].copy(), x[:, 1].copy()
 
     def _transition(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> np.ndarray:
         """The model linearised at ``(q, v)`` over ``dt`` (per group, km × km): one model step's slopes
@@ -297,9 +321,7 @@ class JointKalmanFilter:
             F[:, :2, :2] = np.linalg.matrix_power(own_step_slopes(self.predictor, q, v, torque, h), steps)
         if self.estimates_disturbance:
             b = np.zeros(self.joint_count) if self._own_inverse_mass is None else self._own_inverse_mass
-            g, k = self._groups, self._per_group
-            F[:, at.q, at.d] = (0.5 * b * dt * dt).reshape(g, k)
-            F[:, at.v, at.d] = (b * dt).reshape(g, k)
+            F[at.q_by_d], F[at.v_by_d] = 0.5 * b * dt * dt, b * dt
         return F
 
     def _start(self, joints: np.ndarray, z: np.ndarray) -> None:
@@ -322,11 +344,32 @@ class JointKalmanFilter:
             if self.estimates_disturbance:
                 self.P[group, first * m + 2, first * m + 2] *= self._torque_scale[j] ** 2
         self._distance_sq_average[joints] = innovation.UNPROVEN_DISTANCE_SQ
+        self._external = None
 
     def _noise_in_force(self) -> tuple[np.ndarray, np.ndarray]:
         """Per joint, the σ in force this period (disturbance N·m/√s, acceleration rad/s²)."""
+        if all((self._distance_sq_average <= innovation.MISMATCH_FROM).tolist()):  # every joint agrees
+            return self._agreeing_sigmas
         sigma_d, sigma_a = innovation.noise_in_force(self._distance_sq_average, self._agreeing_std, self._mismatch_std)
         return sigma_d * self._torque_scale, sigma_a
+
+    def _process_noise(self, dt: float, b: np.ndarray | None) -> np.ndarray:
+        """Per joint, the process noise over ``dt`` s with the σs in force (n, m, m), as
+        :func:`~robot_controller.core.estimation.config.process_noise` weighs it; ``b``: the observer's
+        rad/s² per N·m on each joint's own axis (None without the observer)."""
+        if all((self._distance_sq_average <= innovation.MISMATCH_FROM).tolist()):
+            w, variance_a = self._agreeing_variances
+        else:
+            sigma_d, sigma_a = self._noise_in_force()
+            w, variance_a = np.square(sigma_d), np.square(sigma_a)
+        if b is None:
+            G = np.array([0.5 * dt * dt, dt])
+            return np.outer(G, G) * variance_a[:, None, None]
+        weights = np.empty((self.joint_count, 4))  # Q = σa²·A + w·b²·B + w·b·C + w·D per joint (w = σd²)
+        weights[:, 0], weights[:, 3] = variance_a, w
+        weights[:, 2] = wb = w * b
+        weights[:, 1] = wb * b
+        return weights.dot(noise_templates(dt)).reshape(self.joint_count, 3, 3)
 
     def _allow_jumps(self, P_pred: np.ndarray, jumped: np.ndarray, b: np.ndarray, dt: float) -> None:
         """Add to each ``jumped`` joint's predicted covariance that of a jump of its ``d`` at the start of
