@@ -10,10 +10,8 @@ running does not kick the output (bumpless gain change).
 
 from __future__ import annotations
 
-import operator
 from dataclasses import dataclass, field
 from enum import StrEnum
-from functools import reduce
 
 import numpy as np
 
@@ -149,10 +147,14 @@ class Pid:
             before the feedforward is added and the command limited; the terms reported are the joints' own
         """
         c = self.config
-        zeros = np.zeros(np.broadcast_shapes(np.shape(reference_position), c.kp.shape))
-        inputs = (reference_position, reference_velocity, measured_position, measured_velocity, feedforward)
-        if not (np.isfinite(dt) and dt > 0) or not reduce(operator.and_, map(np.isfinite, inputs)).all():
-            return PidTerms(zeros, zeros, zeros, zeros, zeros, np.zeros(zeros.shape, dtype=bool))
+        shape = np.shape(reference_position)
+        if shape != c.kp.shape:
+            shape = np.broadcast_shapes(shape, c.kp.shape)
+        finite = np.isfinite(reference_position) & np.isfinite(reference_velocity) & np.isfinite(measured_position)
+        finite = finite & np.isfinite(measured_velocity) & np.isfinite(feedforward)
+        if not (np.isfinite(dt) and dt > 0) or np.count_nonzero(finite) != finite.size:
+            zeros = np.zeros(shape)
+            return PidTerms(zeros, zeros, zeros, zeros, zeros, np.zeros(shape, dtype=bool))
 
         error = reference_position - measured_position
         p_term = c.kp * error
@@ -161,9 +163,10 @@ class Pid:
         elif c.derivative_source is DerivativeSource.VELOCITY_ERROR:
             d_signal = reference_velocity - measured_velocity
         elif c.derivative_source is DerivativeSource.ERROR:
-            d_signal = zeros if self._prev_error is None else (error - self._prev_error) / dt
+            d_signal = np.zeros(shape) if self._prev_error is None else (error - self._prev_error) / dt
         else:  # MEASUREMENT
-            d_signal = zeros if self._prev_position is None else -(measured_position - self._prev_position) / dt
+            previous = self._prev_position
+            d_signal = np.zeros(shape) if previous is None else -(measured_position - previous) / dt
         self._prev_error = np.array(error, dtype=float)
         self._prev_position = np.array(measured_position, dtype=float)
         if c.derivative_filter_time_s > 0:
@@ -174,7 +177,9 @@ class Pid:
                 self._d_filtered = self._d_filtered + alpha * (d_signal - self._d_filtered)
             d_signal = self._d_filtered
         d_term = c.kd * d_signal
-        feedforward = np.broadcast_to(np.asarray(feedforward, dtype=float), zeros.shape)
+        feedforward = np.asarray(feedforward, dtype=float)
+        if feedforward.shape != shape:
+            feedforward = np.broadcast_to(feedforward, shape)
 
         # Integrate, then limit per the anti-windup mode.
         i_candidate = self._i_term + c.ki * error * dt
@@ -184,16 +189,21 @@ class Pid:
         unsaturated = feedforward + _mapped(feedback_map, p_term + i_candidate + d_term)
         limited = self._limit(unsaturated, dt)
         saturated = np.abs(limited - unsaturated) > 1e-12
+        command = limited  # the command, unless the anti-windup below changes the I term
         if c.anti_windup is AntiWindup.BACK_CALCULATION:
             i_candidate = i_candidate + (limited - unsaturated) * dt / c.back_calculation_time_s
+            command = None
         elif c.anti_windup is AntiWindup.CONDITIONAL_INTEGRATION and saturated.any():
             # Integrate only where it pulls the output back inside the limit.
             pushing_out = saturated & (np.sign(error) == np.sign(unsaturated))
             i_candidate = np.where(pushing_out, self._i_term, i_candidate)
+            command = None
         self._i_term = np.asarray(i_candidate, dtype=float)
 
-        command = self._limit(feedforward + _mapped(feedback_map, p_term + self._i_term + d_term), dt)
-        command = np.where(np.isfinite(command), command, 0.0)
+        if command is None:
+            command = self._limit(feedforward + _mapped(feedback_map, p_term + self._i_term + d_term), dt)
+        if np.count_nonzero(np.isfinite(command)) != command.size:
+            command = np.where(np.isfinite(command), command, 0.0)
         self._prev_command = command
         return PidTerms(command, p_term, self._i_term.copy(), d_term, feedforward, saturated)
 
