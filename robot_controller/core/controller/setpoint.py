@@ -27,7 +27,9 @@ def _minmod(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Per element, the smaller in magnitude of ``a`` and ``b`` where they agree
     in sign, else 0 (the slope limiter of numerical schemes)."""
     sign = np.sign(a)
-    return np.where(sign == np.sign(b), sign * np.minimum(np.abs(a), np.abs(b)), 0.0)
+    limited = sign * np.minimum(np.abs(a), np.abs(b))
+    limited[sign != np.sign(b)] = 0.0
+    return limited
 
 
 @dataclass(frozen=True)

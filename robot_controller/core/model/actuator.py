@@ -41,7 +41,9 @@ class Actuator:
 
         Non-finite entries count as zero; the result is always within ``±torque_max``.
         """
-        command = np.where(np.isfinite(command), command, 0.0)
+        finite = np.isfinite(command)
+        if np.count_nonzero(finite) != finite.size:
+            command = np.where(finite, command, 0.0)
         target = np.minimum(np.maximum(command, self._low), self.torque_max)  # np.clip, without its wrapper
         if self.lag_time_constant_s > 0 and math.isfinite(dt) and dt >= 0:
             alpha = dt / (self.lag_time_constant_s + dt) if dt > 0 else 0.0
