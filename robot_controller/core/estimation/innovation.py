@@ -19,6 +19,8 @@ JUMP_RESIDUAL_MAX = 9.0
 UNPROVEN_DISTANCE_SQ = MISMATCH_FROM + MISMATCH_SPAN
 #: σ of noise to spare before a reading counts as beyond any external torque.
 BEYOND_SIGMA = 5.0
+#: The share of σ² a squared distance stays below to be clearly within σ (rounding is far smaller).
+CLEAR_SHARE = 0.999
 
 
 def quadratic(u: np.ndarray, A: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -51,6 +53,14 @@ def noise_in_force(
     near, far = np.asarray(agreeing_std, float), np.asarray(mismatch_std, float)
     variance = near**2 + w[:, None] * (far**2 - near**2)
     return np.sqrt(variance[:, 0]), np.sqrt(variance[:, 1])
+
+
+def clearly_within(distance_sq: np.ndarray, sigma: float) -> bool:
+    """Whether every joint's surprise is clearly within ``sigma`` σ (its squared distance below
+    CLEAR_SHARE·σ²): then so is any one part of it, the part a torque step explains
+    (:func:`looks_like_a_jump`) and the velocity's alone (:func:`beyond_any_disturbance`), and
+    neither test can hold."""
+    return all((distance_sq < CLEAR_SHARE * sigma * sigma).tolist())
 
 
 def looks_like_a_jump(

@@ -275,12 +275,16 @@ class JointKalmanFilter:
         S_inv = inverse_2x2(S_joint)
         distance_sq = innovation.quadratic(surprise, S_inv, surprise)
         jumped = None
-        if observer:
+        # Neither a jump nor a reading beyond any external torque while every surprise is small.
+        sigma = config.jump_detection_sigma
+        may_jump = observer and sigma > 0 and not innovation.clearly_within(distance_sq, sigma)
+        may_be_beyond = observer and not innovation.clearly_within(distance_sq, innovation.BEYOND_SIGMA)
+        if may_jump or may_be_beyond:
             step = np.empty((n, 2))  # the reading's change per N·m of a step
             step[:, 0], step[:, 1] = 0.5 * b * dt * dt, b * dt
-        if observer and config.jump_detection_sigma > 0:
+        if may_jump:
             jumped = (self._distance_sq_average < innovation.MISMATCH_FROM) & innovation.looks_like_a_jump(
-                surprise, S_inv, distance_sq, step, config.jump_detection_sigma
+                surprise, S_inv, distance_sq, step, sigma
             )
             if not any(jumped.tolist()):
                 jumped = None
@@ -301,10 +305,11 @@ class JointKalmanFilter:
         if observer:
             limit = self.disturbance_limit
             x[:, 2] = np.minimum(np.maximum(x[:, 2], -limit), limit)
-            unexplainable = innovation.beyond_any_disturbance(surprise, S_joint, step[:, 1], limit)
-            if any(unexplainable.tolist()):
-                self._start(unexplainable, z)
-                self.restart_count += unexplainable
+            if may_be_beyond:
+                unexplainable = innovation.beyond_any_disturbance(surprise, S_joint, step[:, 1], limit)
+                if any(unexplainable.tolist()):
+                    self._start(unexplainable, z)
+                    self.restart_count += unexplainable
         return x[:, 0].copy(), x[:, 1].copy()
 
     def _transition(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> np.ndarray:

@@ -53,6 +53,27 @@ def test_noise_in_force_while_agreeing_is_the_general_formula(average):
         np.testing.assert_array_equal(got, np.sqrt(expected))
 
 
+@pytest.mark.parametrize("sigma", [innovation.BEYOND_SIGMA, 3.0])
+def test_a_surprise_clearly_within_sigma_is_neither_a_jump_nor_beyond_any_torque(sigma):
+    """What :func:`innovation.clearly_within` lets the filter skip: both tests fail on every such reading."""
+    rng = np.random.default_rng(1)
+    root = rng.standard_normal((2000, 2, 2))
+    S = root @ root.transpose(0, 2, 1) + 1e-3 * np.eye(2)
+    S_inv = inverse_2x2(S)
+    surprise = rng.standard_normal((2000, 2)) * rng.uniform(0.1, 10.0, (2000, 1))
+    distance_sq = innovation.quadratic(surprise, S_inv, surprise)
+    step = rng.standard_normal((2000, 2))
+    step[:100] = surprise[:100]  # the surprise all along a step
+    within = distance_sq < innovation.CLEAR_SHARE * sigma**2
+    assert 100 < within.sum() < 1900
+    assert not innovation.looks_like_a_jump(surprise, S_inv, distance_sq, step, sigma)[within].any()
+    velocity_per_nm, limit = np.zeros(2000), np.zeros(2000)  # the tightest reach
+    beyond = np.abs(surprise[:, 1]) > sigma * np.sqrt(S[:, 1, 1])
+    assert not beyond[within].any()
+    if sigma == innovation.BEYOND_SIGMA:
+        assert not innovation.beyond_any_disturbance(surprise, S, velocity_per_nm, limit)[within].any()
+
+
 @pytest.mark.parametrize("observer", [False, True])
 @pytest.mark.parametrize("timing_s", [0.0, 0.01])
 def test_one_joint_through_a_push_disagreement_and_a_restart(observer, timing_s):
