@@ -49,7 +49,7 @@ def inverse_2x2(A: np.ndarray) -> np.ndarray:
     (a quadratic form by ``einsum`` sums in its operands' memory order)."""
     flat = A.reshape(-1, 4)  # a, b, c, d
     det = flat[:, 0] * flat[:, 3] - flat[:, 1] * flat[:, 2]
-    return (flat.take(_ADJUGATE, axis=1) * _ADJUGATE_SIGN / det[:, None]).reshape(A.shape)
+    return (flat.take(_ADJUGATE, axis=1) / (det[:, None] * _ADJUGATE_SIGN)).reshape(A.shape)  # (x/−y = −x/y)
 
 
 def matrix_power(a: np.ndarray, k: int) -> np.ndarray:

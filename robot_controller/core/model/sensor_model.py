@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -36,6 +37,11 @@ class SensorConfig:
         if not np.isfinite(self.position_bias):
             raise ConfigError(f"position_bias: must be finite, got {self.position_bias}")
 
+    @cached_property
+    def noise_std(self) -> np.ndarray:
+        """σ of position (rad) and velocity (rad/s), in that order."""
+        return np.array([self.position_noise_std, self.velocity_noise_std])
+
 
 def measure(
     config: SensorConfig, position: np.ndarray, velocity: np.ndarray, rng: np.random.Generator
@@ -45,8 +51,11 @@ def measure(
     ``rng`` is a seeded generator so a run can be repeated exactly.
     """
     position, velocity = np.asarray(position), np.asarray(velocity)
-    noisy_position = position + config.position_bias + rng.normal(0.0, config.position_noise_std, position.shape)
-    noisy_velocity = velocity + rng.normal(0.0, config.velocity_noise_std, velocity.shape)
+    # One draw for both, position's first: the same numbers as one draw each, in that order.
+    scale = config.noise_std.reshape((2,) + (1,) * position.ndim)
+    noise = rng.normal(0.0, scale, (2, *position.shape))
+    noisy_position = position + config.position_bias + noise[0]
+    noisy_velocity = velocity + noise[1]
     if config.quantization > 0:
         noisy_position = np.round(noisy_position / config.quantization) * config.quantization
     return noisy_position, noisy_velocity
