@@ -41,7 +41,9 @@ def _quintic(
     """The quintic from ``(p0, v0, 0)`` at 0 to ``(0, 0, 0)`` at ``duration_s``, at ``tau``
     (s, or a column of times: a row per time)."""
     T = duration_s
-    a, da, dda, b, db, ddb = _quintic_weights(np.clip(tau / T, 0.0, 1.0), T)
+    s = tau / T
+    s = min(max(s, 0.0), 1.0) if isinstance(s, float) else np.clip(s, 0.0, 1.0)  # (a float's weights: floats)
+    a, da, dda, b, db, ddb = _quintic_weights(s, T)
     return p0 * a + v0 * b, p0 * da + v0 * db, p0 * dda + v0 * ddb
 
 

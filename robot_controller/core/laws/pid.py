@@ -193,7 +193,7 @@ class Pid:
         if c.anti_windup is AntiWindup.BACK_CALCULATION:
             i_candidate = i_candidate + (limited - unsaturated) * dt / c.back_calculation_time_s
             command = None
-        elif c.anti_windup is AntiWindup.CONDITIONAL_INTEGRATION and saturated.any():
+        elif c.anti_windup is AntiWindup.CONDITIONAL_INTEGRATION and np.count_nonzero(saturated):
             # Integrate only where it pulls the output back inside the limit.
             pushing_out = saturated & (np.sign(error) == np.sign(unsaturated))
             i_candidate = np.where(pushing_out, self._i_term, i_candidate)

@@ -51,9 +51,8 @@ def measure(
     ``rng`` is a seeded generator so a run can be repeated exactly.
     """
     position, velocity = np.asarray(position), np.asarray(velocity)
-    # One draw for both, position's first: the same numbers as one draw each, in that order.
-    scale = config.noise_std.reshape((2,) + (1,) * position.ndim)
-    noise = rng.normal(0.0, scale, (2, *position.shape))
+    # One draw for both, position's first, scaled: the numbers ``rng.normal`` gives, in that order.
+    noise = rng.standard_normal((2, *position.shape)) * config.noise_std.reshape((2,) + (1,) * position.ndim)
     noisy_position = position + config.position_bias + noise[0]
     noisy_velocity = velocity + noise[1]
     if config.quantization > 0:
