@@ -321,7 +321,7 @@ class JointKalmanFilter:
         F, at = self._F, self._index
         if self._groups == 1:
             slopes = self.jacobian(q, v, torque, h) if self.jacobian else step_slopes(self.predictor, q, v, torque, h)
-            F[0][at.model_slopes] = matrix_power(slopes, steps)  # [q; v] by [q; v]
+            F[(0, *at.model_slopes)] = matrix_power(slopes, steps)  # [q; v] by [q; v]
         else:
             F[:, :2, :2] = np.linalg.matrix_power(own_step_slopes(self.predictor, q, v, torque, h), steps)
         if self.estimates_disturbance:
