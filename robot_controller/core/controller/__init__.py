@@ -3,7 +3,7 @@ law in force, the controlled stops, and what one tick outputs (:mod:`.controller
 
 from robot_controller.core.controller.config import ControllerConfig, law_config
 from robot_controller.core.controller.controller import STOPS, JointController
-from robot_controller.core.controller.setpoint import REFERENCE_TIMEOUT_PERIODS, PlannerReference
+from robot_controller.core.controller.reference_in_force import REFERENCE_TIMEOUT_PERIODS, PlannerReference
 from robot_controller.core.controller.supervision import (
     REACQUIRE_GAP_PERIODS,
     ControlOutput,

@@ -5,7 +5,7 @@ It keeps the latest reference and reading with the times they arrived and, on
 sequence of steps: advance the tick clock, check the inputs' health
 (:mod:`~robot_controller.core.controller.supervision`), estimate the arm's state at
 the tick (:mod:`~robot_controller.core.controller.tick_state`), take the reference
-at the tick (:mod:`~robot_controller.core.controller.reference_at_tick`), run the law in force
+at the tick (:mod:`~robot_controller.core.controller.reference_in_force`), run the law in force
 (the built-in one, or a user's :class:`~robot_controller.core.laws.ContainedLaw`, called alike);
 or one of the stops that answer a fault.
 """
@@ -17,7 +17,7 @@ from collections.abc import Callable
 import numpy as np
 
 from robot_controller.core.controller.config import ControllerConfig, law_config
-from robot_controller.core.controller.reference_at_tick import ReferenceAtTick
+from robot_controller.core.controller.reference_in_force import ReferenceAtTick
 from robot_controller.core.controller.supervision import (
     ControlOutput,
     LatencyGuard,

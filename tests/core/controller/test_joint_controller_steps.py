@@ -5,7 +5,7 @@ planner's reference at a tick (no ROS, no sleeping)."""
 import pytest
 
 from robot_controller.core.controller import JointController
-from robot_controller.core.controller.setpoint import MAX_AHEAD_S, PlannerReference
+from robot_controller.core.controller.reference_in_force import MAX_AHEAD_S, PlannerReference
 from robot_controller.core.controller.supervision import Readings, ReferenceSource, Status, TickClock, check_health
 from robot_controller.core.controller.tick_state import StateAtTick
 from tests.core.controller.joint_rig import PERIOD, arm, config, one

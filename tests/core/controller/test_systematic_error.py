@@ -22,7 +22,7 @@ import pytest
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.controller import JointController, Status
-from robot_controller.core.controller.setpoint import PlannerReference
+from robot_controller.core.controller.reference_in_force import PlannerReference
 from robot_controller.core.estimation import JointKalmanFilter, KalmanConfig
 from robot_controller.core.model import ArmDynamics, MujocoPlant
 from robot_controller.core.reference import make_trajectory
