@@ -95,11 +95,11 @@ def process_noise(
     weights[:, 3] = w = np.square(sigma_d)
     weights[:, 2] = wb = w * b
     weights[:, 1] = wb * b
-    return weights.dot(noise_templates(dt)).reshape(b.size, 3, 3)
+    return weights.dot(_noise_templates(dt)).reshape(b.size, 3, 3)
 
 
 @lru_cache(maxsize=64)  # a filter's periods are a handful of roundings of one period
-def noise_templates(dt: float) -> np.ndarray:
+def _noise_templates(dt: float) -> np.ndarray:
     """The process noise's four parts over ``dt`` s, (4, 9), read only: the white acceleration (``G·Gᵀ``,
     G = [dt²/2, dt]), and ``d``'s random walk in ``[q, v]``, between ``[q, v]`` and ``d``, and in ``d``."""
     g0, g1 = 0.5 * dt * dt, dt

@@ -29,10 +29,10 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation.config import (
     DISTURBANCE_PRIOR_STD_NM,
     KalmanConfig,
-    noise_templates,
+    process_noise,
     timing_noise_template,
 )
-from robot_controller.core.estimation.linear import Predictor, own_step_slopes, step_slopes
+from robot_controller.core.estimation.linear import Predictor, matrix_power, own_step_slopes, step_slopes
 from robot_controller.core.model import step_count
 
 # (q, v, torque, step_s) → one model step's ∂[q'; v']/∂[q; v], (2n, 2n)
@@ -50,20 +50,6 @@ def inverse_2x2(A: np.ndarray) -> np.ndarray:
     flat = A.reshape(-1, 4)  # a, b, c, d
     det = flat[:, 0] * flat[:, 3] - flat[:, 1] * flat[:, 2]
     return (flat.take(_ADJUGATE, axis=1) / (det[:, None] * _ADJUGATE_SIGN)).reshape(A.shape)  # (x/−y = −x/y)
-
-
-def matrix_power(a: np.ndarray, k: int) -> np.ndarray:
-    """``np.linalg.matrix_power(a, k)`` for a square ``a`` and ``k >= 1``: the same products in the
-    same order (binary powering), by ``ndarray.dot``, without its checks and dispatch."""
-    if k == 3:
-        return a.dot(a).dot(a)
-    power = result = None
-    while k > 0:
-        power = a if power is None else power.dot(power)
-        k, bit = divmod(k, 2)
-        if bit:
-            result = power if result is None else result.dot(power)
-    return result
 
 
 class _StateIndex:
@@ -159,12 +145,11 @@ class JointKalmanFilter:
         self.restart_count = np.zeros(n, dtype=int)
         #: per joint, the innovation's squared Mahalanobis distance, averaged (2 while readings agree)
         self._distance_sq_average = np.full(n, innovation.UNPROVEN_DISTANCE_SQ)
-        #: the σs (disturbance N·m/√s, acceleration rad/s²) while every joint agrees, and their squares
+        #: the σs (disturbance N·m/√s, acceleration rad/s²) while every joint agrees
         self._agreeing_sigmas = (
             config.disturbance_noise_std * self._torque_scale,
             np.full(n, config.acceleration_noise_std),
         )
-        self._agreeing_variances = tuple(np.square(sigma) for sigma in self._agreeing_sigmas)
         self._reading = np.empty((n, 2))  #: the latest reading, per joint (q, v)
         self._external: np.ndarray | None = None  #: :meth:`_disturbance_torque` of the state as it is
 
@@ -258,7 +243,12 @@ class JointKalmanFilter:
         if observer or timing_uncertain:
             self._set_mass(q)
             b = self._own_inverse_mass  # rad/s² per N·m on each joint's own axis
-        Q = self._process_noise(dt, b if observer else None)
+        sigma_d, sigma_a = self._noise_in_force()
+        if observer:
+            Q = process_noise(config, dt, b, sigma_d, sigma_a)
+        else:
+            G = np.array([0.5 * dt * dt, dt])
+            Q = np.outer(G, G) * (sigma_a**2)[:, None, None]
         if timing_uncertain:  # a velocity step of unknown size (the change acting sooner or later)
             sigma_v = np.abs(torque_change) * config.command_timing_uncertainty_s * b
             Q[:, :2, :2] += timing_noise_template(dt) * (sigma_v**2)[:, None, None]
@@ -357,24 +347,6 @@ class JointKalmanFilter:
             return self._agreeing_sigmas
         sigma_d, sigma_a = innovation.noise_in_force(self._distance_sq_average, self._agreeing_std, self._mismatch_std)
         return sigma_d * self._torque_scale, sigma_a
-
-    def _process_noise(self, dt: float, b: np.ndarray | None) -> np.ndarray:
-        """Per joint, the process noise over ``dt`` s with the σs in force (n, m, m), as
-        :func:`~robot_controller.core.estimation.config.process_noise` weighs it; ``b``: the observer's
-        rad/s² per N·m on each joint's own axis (None without the observer)."""
-        if all((self._distance_sq_average <= innovation.MISMATCH_FROM).tolist()):
-            w, variance_a = self._agreeing_variances
-        else:
-            sigma_d, sigma_a = self._noise_in_force()
-            w, variance_a = np.square(sigma_d), np.square(sigma_a)
-        if b is None:
-            G = np.array([0.5 * dt * dt, dt])
-            return np.outer(G, G) * variance_a[:, None, None]
-        weights = np.empty((self.joint_count, 4))  # Q = σa²·A + w·b²·B + w·b·C + w·D per joint (w = σd²)
-        weights[:, 0], weights[:, 3] = variance_a, w
-        weights[:, 2] = wb = w * b
-        weights[:, 1] = wb * b
-        return weights.dot(noise_templates(dt)).reshape(self.joint_count, 3, 3)
 
     def _allow_jumps(self, P_pred: np.ndarray, jumped: np.ndarray, b: np.ndarray, dt: float) -> None:
         """Add to each ``jumped`` joint's predicted covariance that of a jump of its ``d`` at the start of

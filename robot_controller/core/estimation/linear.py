@@ -1,6 +1,6 @@
 """The Kalman filter linearised: the arm model's slopes over one step by finite differences
-(for a model without its own Jacobian), and one joint's steady-state gain on the linear arm
-(for the delay margin of the loop the filter is part of)."""
+(for a model without its own Jacobian) and carried over several (:func:`matrix_power`), and one
+joint's steady-state gain on the linear arm (for the delay margin of the loop the filter is part of)."""
 
 from __future__ import annotations
 
@@ -29,6 +29,20 @@ def step_slopes(predictor: Predictor, q: np.ndarray, v: np.ndarray, torque: np.n
         q2, v2 = predictor(q + dq, v + dv, torque, h, max_step_s=h)
         slopes[:n, k], slopes[n:, k] = (q2 - q1) / bump, (v2 - v1) / bump
     return slopes
+
+
+def matrix_power(a: np.ndarray, k: int) -> np.ndarray:
+    """``np.linalg.matrix_power(a, k)`` for a square ``a`` and ``k >= 1``: the same products in the
+    same order (binary powering), by ``ndarray.dot``, without its checks and dispatch."""
+    if k == 3:
+        return a.dot(a).dot(a)
+    power = result = None
+    while k > 0:
+        power = a if power is None else power.dot(power)
+        k, bit = divmod(k, 2)
+        if bit:
+            result = power if result is None else result.dot(power)
+    return result
 
 
 def own_step_slopes(predictor: Predictor, q: np.ndarray, v: np.ndarray, torque: np.ndarray, h: float) -> np.ndarray:
