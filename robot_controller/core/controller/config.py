@@ -115,11 +115,6 @@ class ControllerConfig:
         """Whether the disturbance observer runs: asked for, and there is a Kalman filter to carry it."""
         return bool(self.disturbance_observer) and self.estimator is not None
 
-    @property
-    def watchdog_s(self) -> float:
-        """Silence of the sensor (s) after which the watchdog's controlled stop starts."""
-        return self.watchdog_periods * self.control_period_s
-
     def law_params(self) -> dict[str, Any]:
         """The built-in law's parameters (:class:`~robot_controller.core.laws.builtin.BuiltinLaw`)."""
         return {

@@ -195,7 +195,7 @@ def check_health(readings: Readings, now_s: float, halted: bool, braked: bool, c
     silent_s = readings.silent_s(now_s)
     if silent_s > config.sensor_timeout_s:
         return _SENSOR_LOST
-    if silent_s > config.watchdog_s:
+    if silent_s > config.watchdog_periods * config.control_period_s:  # the watchdog's window
         return _WATCHDOG
     return _BRAKED if braked else _OK
 

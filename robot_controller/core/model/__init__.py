@@ -2,8 +2,8 @@
 identification, and the simulated drive and encoder."""
 
 from robot_controller.core.model.actuator import Actuator
-from robot_controller.core.model.arm_dynamics import ArmDynamics
-from robot_controller.core.model.arm_model import PARAMETERS, JointArmModel, step_count
+from robot_controller.core.model.arm_dynamics import ArmDynamics, step_count
+from robot_controller.core.model.arm_model import PARAMETERS, JointArmModel
 from robot_controller.core.model.identification import IdentificationError, JointFit, identify
 from robot_controller.core.model.joint_limits import JointLimits, joint_limits, urdf_velocity_limits
 from robot_controller.core.model.mujoco_model import (

@@ -3,14 +3,19 @@ same URDF as the plant on a private ``MjData``."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from robot_controller.core.model.arm_model import step_count
 from robot_controller.core.model.mujoco_model import effort_limits, joint_names, load_model
 from robot_controller.core.model.payload import Payload
+
+
+def step_count(horizon_s: float, max_step_s: float) -> int:
+    """Whole steps of at most ``max_step_s`` in ``horizon_s`` (a rounding error does not add one)."""
+    return max(1, math.ceil(horizon_s / max_step_s - 1e-9))
 
 
 class ArmDynamics:

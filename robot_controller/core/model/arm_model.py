@@ -15,18 +15,12 @@ is the URDF's.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
-
-
-def step_count(horizon_s: float, max_step_s: float) -> int:
-    """Whole steps of at most ``max_step_s`` in ``horizon_s`` (a rounding error does not add one)."""
-    return max(1, math.ceil(horizon_s / max_step_s - 1e-9))
-
+from robot_controller.core.model.arm_dynamics import step_count
 
 # The model parameters, in the order of the regression (identification) and of the parameters.
 PARAMETERS = ("inertia", "damping", "coulomb_friction", "gravity_torque")
