@@ -46,7 +46,9 @@ def _imported(name: str, path: Path) -> set[str]:
                 prefix = ".".join(base + ([node.module] if node.module else []))
             else:
                 prefix = node.module or ""
-            candidates = [f"{prefix}.{alias.name}" for alias in node.names] + [prefix]
+            # ``from package import module`` imports that module; a name that is no module is the package's
+            submodules = [f"{prefix}.{alias.name}" for alias in node.names if f"{prefix}.{alias.name}" in MODULES]
+            candidates = submodules + ([prefix] if len(submodules) < len(node.names) else [])
         else:
             continue
         for candidate in candidates:

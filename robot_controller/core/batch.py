@@ -76,6 +76,11 @@ class CommonNoise:
     def normal(self, loc: float, scale: float, size: tuple[int, ...]) -> np.ndarray:
         return np.broadcast_to(self.rng.normal(loc, scale, (1, *size[1:])), size)
 
+    def standard_normal(self, size: tuple[int, ...]) -> np.ndarray:
+        """``size`` is ``(signals, batch, joints)`` (the sensor's position and velocity noise): one
+        draw per signal and joint, shared by the batch."""
+        return np.broadcast_to(self.rng.standard_normal((size[0], 1, *size[2:])), size)
+
 
 def run_batch(
     *,
