@@ -1,6 +1,6 @@
 """motor_node: the actuator. Each ``/joint_commands`` torque is saturated to ``±torque_max`` (and
 lagged, if set) and passed on as ``/sim/effort`` at once; one older than ``max_command_age_s`` by its
-tick stamp (``ros.stamps``) is dropped. Like a drive, it stops on its own (no valid command for
+tick stamp (``ros.messages``) is dropped. Like a drive, it stops on its own (no valid command for
 ``command_timeout_s``, or ``/estop``): zero torque and a brake request (``/sim/brake``, category 0).
 Each command's receipt goes out once a second on ``/motor/command_receipts``, rows of
 ``[receipt_time_s, command…]``.
@@ -14,12 +14,11 @@ from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.model import Actuator, effort_limits, joint_names, load_model
-from robot_controller.core.validation import check_effort
 from robot_controller.parameters.torque_limits import torque_limit
+from robot_controller.ros.messages import check_effort, clock_s, command_tick_s
 from robot_controller.ros.process import run
 from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, loop_qos
 from robot_controller.ros.stack_node import StackNode
-from robot_controller.ros.stamps import command_tick_s
 
 RECEIPTS_PERIOD_S = 1.0
 # The motor's own pause up to this long (a machine-wide stall) is not counted as the controller's silence.
@@ -44,7 +43,7 @@ class MotorNode(StackNode):
         self.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
         if not self.lockstep:  # in lockstep no time passes between ticks: the sim waits for each command
             self.create_timer(self.params["command_timeout_s"] / 2, self.timeout_check)
-        self.last_check_s = self.now_s()
+        self.last_check_s = clock_s(self)
         self.timely_run = 0  #: timely commands in a row while stopped for a timeout or before the first
         self.excused_s = 0.0  #: of the silence since the last command, time this process itself was not running
         self.request_brake(False)  # the request's state is latched: a (re)started simulator learns it
@@ -80,7 +79,9 @@ class MotorNode(StackNode):
 
     def command_callback(self, msg: Float64MultiArray) -> None:
         checked = check_effort(msg.data, self.joint_count)
-        if self.dropped("/joint_commands", checked) or self.estop:
+        if isinstance(checked, str):
+            return self.drop("/joint_commands", checked)
+        if self.estop:
             return
         tick_s = command_tick_s(msg)
         if self.lockstep and tick_s is None:  # a controller not ours: applied, its time the wall clock's
@@ -88,7 +89,7 @@ class MotorNode(StackNode):
                 "unstamped_command",
                 "lockstep: /joint_commands carry no tick stamp: the lag and the receipts run on the wall clock",
             )
-        now_s = tick_s if self.lockstep and tick_s is not None else self.now_s()
+        now_s = tick_s if self.lockstep and tick_s is not None else clock_s(self)
         self.receipts.append(now_s)  # a late command too: its delay is what the controller must learn
         self.receipts.extend(msg.data)
         if not self.lockstep and tick_s is not None and now_s - tick_s > self.params["max_command_age_s"]:
@@ -117,7 +118,7 @@ class MotorNode(StackNode):
         self.effort_pub.publish(self.effort_msg)
 
     def timeout_check(self) -> None:
-        now_s = self.now_s()
+        now_s = clock_s(self)
         own_gap_s, self.last_check_s = now_s - self.last_check_s, now_s
         if self.stopped_for is not None or self.last_command_s is None:
             return  # already stopped, or no command yet (the brakes are on from start-up)

@@ -9,11 +9,10 @@ from sensor_msgs.msg import JointState
 
 from robot_controller import parameters as cfg
 from robot_controller.core.model import DelayLine, measure
-from robot_controller.core.validation import check_joint_state
+from robot_controller.ros.messages import check_joint_state, s_to_stamp, stamp_to_s
 from robot_controller.ros.process import run
 from robot_controller.ros.qos import loop_qos
 from robot_controller.ros.stack_node import StackNode
-from robot_controller.ros.stamps import s_to_stamp, stamp_to_s
 
 # Stamps within this of a grid point count as on it (float ns rounding).
 _GRID_EPS_S = 1e-6

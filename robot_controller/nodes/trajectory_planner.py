@@ -36,10 +36,10 @@ from robot_controller.core.reference import (
 )
 from robot_controller.parameters.builders import TRAJECTORY_SHAPE_KEYS, arm_model, model_overridden
 from robot_controller.parameters.torque_limits import torque_limit
+from robot_controller.ros.messages import clock_s, stamp_to_s
 from robot_controller.ros.process import run
 from robot_controller.ros.qos import CONTROL_QOS, LATEST_QOS
 from robot_controller.ros.stack_node import StackNode
-from robot_controller.ros.stamps import stamp_to_s
 
 _GRID_EPS_S = 1e-6
 JOINT_TRAJECTORY_TOPIC = "/trajectory_planner/joint_trajectory"
@@ -75,7 +75,7 @@ class TrajectoryPlanner(StackNode):
                 0.05, lambda: self.sample_at(self.clock_s), clock=Clock(clock_type=ClockType.STEADY_TIME)
             )
         else:
-            self.timer = self.create_timer(1.0 / p["publish_rate_hz"], lambda: self.sample_at(self.now_s()))
+            self.timer = self.create_timer(1.0 / p["publish_rate_hz"], lambda: self.sample_at(clock_s(self)))
         self.create_subscription(JointTrajectoryMsg, JOINT_TRAJECTORY_TOPIC, self.joint_trajectory_callback, LATEST_QOS)
         self.get_logger().info(
             f"trajectory: {p['mode']}, amplitude {p['amplitude']} rad, "
@@ -141,7 +141,7 @@ class TrajectoryPlanner(StackNode):
             self.get_logger().info(f"joint trajectory left for the parameters' {params['mode']}")
         if "publish_rate_hz" in changed and self.timer is not None:
             self.destroy_timer(self.timer)
-            self.timer = self.create_timer(1.0 / params["publish_rate_hz"], lambda: self.sample_at(self.now_s()))
+            self.timer = self.create_timer(1.0 / params["publish_rate_hz"], lambda: self.sample_at(clock_s(self)))
 
     def clock_callback(self, msg: ClockMsg) -> None:
         previous_s, self.clock_s = self.clock_s, stamp_to_s(msg.clock)
@@ -178,7 +178,7 @@ class TrajectoryPlanner(StackNode):
         return motion.sample(now_s - self.origin_s)
 
     def joint_trajectory_callback(self, msg: JointTrajectoryMsg) -> None:
-        now_s = self.clock_s if self.params["lockstep"] else self.now_s()
+        now_s = self.clock_s if self.params["lockstep"] else clock_s(self)
         taken = self._joint_trajectory(msg, now_s)
         if isinstance(taken, str):
             self.warn_throttled("joint_trajectory", f"joint trajectory refused: {taken}; the motion goes on as it was")

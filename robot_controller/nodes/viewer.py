@@ -22,9 +22,9 @@ import numpy as np
 
 from robot_controller.core.controller import state_layout
 from robot_controller.ros import scheduling
+from robot_controller.ros.messages import stamp_to_s
 from robot_controller.ros.publishing import VIEWER_NODE
 from robot_controller.ros.qos import OBSERVER_QOS
-from robot_controller.ros.stamps import stamp_to_s
 from robot_controller.view import cdr
 
 FLUSH_PERIOD_S = 0.1  # the browser's arm moves 10 times a second...

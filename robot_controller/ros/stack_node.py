@@ -151,12 +151,6 @@ class StackNode(Node):
         """Write how many messages the node's gates published, per topic, for the launcher."""
         write_publish_counts(self.schema_name, self._gated_publishers)
 
-    def now_s(self) -> float:
-        """The node's clock in seconds, without building a ``Time`` object."""
-        handle = self.get_clock().handle
-        with handle:
-            return handle.get_now().nanoseconds * 1e-9
-
     def watch_single_publisher(self, topic: str, expected: str) -> None:
         """Warn, naming them, whenever ``topic`` has publishers besides the node ``expected``."""
         if not hasattr(self, "_watched_topics"):
@@ -190,11 +184,9 @@ class StackNode(Node):
                 f"publishers{topic}", f"{topic} has publishers other than {expected}: {others}; " + consequence
             )
 
-    def dropped(self, topic: str, checked: Any) -> bool:
-        """Whether a message on ``topic`` is dropped: its check's result ``checked`` is a reason (said)."""
-        if isinstance(checked, str):
-            self.warn_throttled(topic, f"{topic} dropped: {checked}")
-        return isinstance(checked, str)
+    def drop(self, topic: str, reason: str) -> None:
+        """Say (rate-limited) that a message on ``topic`` is dropped, and why (its check's ``reason``)."""
+        self.warn_throttled(topic, f"{topic} dropped: {reason}")
 
     def warn_throttled(self, key: str, message: str) -> None:
         """Warn at most once per ``WARN_PERIOD_S`` per ``key``, counting what was suppressed."""

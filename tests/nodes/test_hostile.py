@@ -16,7 +16,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from robot_controller import parameters as cfg
-from robot_controller.ros.stamps import stamp_command
+from robot_controller.ros.messages import stamp_command
 from robot_controller.scoring import report
 from tests import rostools
 from tests.rostools import RosProbe, get_parameter, run_said, set_parameter, wait_for

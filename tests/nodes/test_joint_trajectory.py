@@ -78,13 +78,13 @@ def test_the_planner_node_blends_takes_a_stamp_and_gives_way_to_a_shape_change(r
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
-    from robot_controller.ros.stamps import s_to_stamp
+    from robot_controller.ros.messages import clock_s, s_to_stamp
 
     rclpy.init(args=[], domain_id=ros_domain)
     try:
         node = TrajectoryPlanner()
         try:
-            now = node.now_s()
+            now = clock_s(node)
             node.start_s = node.origin_s = now - 0.3  # publishing the sine for 0.3 s
             before = node.reference_at(now)
             msg = JointTrajectory(joint_names=["joint1"])

@@ -116,7 +116,7 @@ class ControllerConfig:
         return bool(self.disturbance_observer) and self.estimator is not None
 
     def law_params(self) -> dict[str, Any]:
-        """The built-in law's parameters (:class:`~robot_controller.core.laws.builtin.BuiltinLaw`)."""
+        """The built-in law's parameters (:class:`~robot_controller.core.laws.pid.BuiltinLaw`)."""
         return {
             "pid": self.pid,
             "feedforward": self.feedforward,

@@ -6,8 +6,7 @@ sequence of steps: advance the tick clock, check the inputs' health
 (:mod:`~robot_controller.core.controller.supervision`), estimate the arm's state at
 the tick (:mod:`~robot_controller.core.controller.tick_state`), take the reference
 at the tick (:mod:`~robot_controller.core.controller.reference_in_force`), run the law in force
-(the built-in one, or a user's :class:`~robot_controller.core.laws.ContainedLaw`, called alike);
-or one of the stops that answer a fault.
+(the built-in one, or a user's :class:`~robot_controller.core.laws.ContainedLaw`, called alike), or a stop.
 """
 
 from __future__ import annotations
@@ -108,7 +107,8 @@ class JointController:
         return Arm(dynamics, names, np.array(config.pid.output_limit, dtype=float), limits)
 
     def _builtin(self, config: ControllerConfig) -> BuiltinLaw:
-        return BuiltinLaw.of_kind(config.builtin_law, self._arm(config), config.control_period_s, config.law_params())
+        law_class = registry.resolve(config.builtin_law)  # pid or lqr, by their entry points
+        return law_class(self._arm(config), config.control_period_s, config.law_params())
 
     def _plugin(self, config: ControllerConfig, clock: Callable[[], float] | None) -> ContainedLaw:
         law = ContainedLaw.build(

@@ -1,10 +1,9 @@
-"""The Kalman filter's tuning (:class:`KalmanConfig`) and its process noise: what the
-filter assumes of the arm's unmodelled acceleration and of the external torque."""
+"""The Kalman filter's tuning (:class:`KalmanConfig`: what the filter assumes of the readings' noise,
+the arm's unmodelled acceleration and the external torque) and its state's layout (:class:`StateIndex`)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from functools import lru_cache
 
 import numpy as np
 
@@ -69,59 +68,26 @@ class KalmanConfig:
         )
 
 
-def process_noise(
-    config: KalmanConfig,
-    dt: float,
-    acceleration_per_nm: np.ndarray | None = None,
-    disturbance_noise_std: np.ndarray | None = None,
-    acceleration_noise_std: np.ndarray | None = None,
-) -> np.ndarray:
-    """The process noise over ``dt`` s: ``(2, 2)`` on ``[q, v]`` from the white unmodelled acceleration;
-    with ``acceleration_per_nm`` (the observer) ``(n, 3, 3)`` on ``[q, v, d]``, adding ``d``'s random walk.
+class StateIndex:
+    """Where each joint's quantities sit in a group's state ``[q1, v1, (d1), q2, v2, ...]`` (``m`` per
+    joint) and its covariance, made once per filter (slices where each group is one joint)."""
 
-    :param acceleration_per_nm: rad/s² per N·m on each joint's own axis, (n,)
-    :param disturbance_noise_std: per joint, N·m/√s (None: the config's)
-    :param acceleration_noise_std: per joint, rad/s² (None: the config's)
-    """
-    G = (0.5 * dt * dt, dt)
-    if acceleration_per_nm is None:
-        return np.outer(G, G) * config.acceleration_noise_std**2
-    b = np.asarray(acceleration_per_nm, dtype=float).reshape(-1)
-    sigma_a = config.acceleration_noise_std if acceleration_noise_std is None else acceleration_noise_std
-    sigma_d = config.disturbance_noise_std if disturbance_noise_std is None else disturbance_noise_std
-    # Per joint, Q = σa²·A + w·b²·B + w·b·C + w·D (w = σd²): one product with the templates.
-    weights = np.empty((b.size, 4))
-    weights[:, 0] = np.square(sigma_a)
-    weights[:, 3] = w = np.square(sigma_d)
-    weights[:, 2] = wb = w * b
-    weights[:, 1] = wb * b
-    return weights.dot(_noise_templates(dt)).reshape(b.size, 3, 3)
-
-
-@lru_cache(maxsize=64)  # a filter's periods are a handful of roundings of one period
-def _noise_templates(dt: float) -> np.ndarray:
-    """The process noise's four parts over ``dt`` s, (4, 9), read only: the white acceleration (``G·Gᵀ``,
-    G = [dt²/2, dt]), and ``d``'s random walk in ``[q, v]``, between ``[q, v]`` and ``d``, and in ``d``."""
-    g0, g1 = 0.5 * dt * dt, dt
-    qq, qv, vv = dt**5 / 20, dt**4 / 8, dt**3 / 3
-    qd, vd = dt**3 / 6, dt**2 / 2
-    templates = np.array(
-        [
-            [g0 * g0, g0 * g1, 0.0, g0 * g1, g1 * g1, 0.0, 0.0, 0.0, 0.0],
-            [qq, qv, 0.0, qv, vv, 0.0, 0.0, 0.0, 0.0],
-            [0.0, 0.0, qd, 0.0, 0.0, vd, qd, vd, 0.0],
-            [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt],
-        ]
-    )
-    templates.flags.writeable = False
-    return templates
-
-
-@lru_cache(maxsize=64)
-def timing_noise_template(dt: float) -> np.ndarray:
-    """``G·Gᵀ`` over ``dt`` s, G = [dt, 1] (2, 2), read only: a velocity step of unknown size at the
-    start of the period, in ``[q, v]``."""
-    G = np.array([dt, 1.0])
-    template = np.outer(G, G)
-    template.flags.writeable = False
-    return template
+    def __init__(self, k: int, m: int) -> None:
+        first = np.arange(k) * m
+        self.q, self.v, self.d = first, first + 1, first + 2  #: each joint's q, v and (m = 3) d
+        rows = first[:, None, None] + np.arange(m)[:, None]
+        #: each joint's own (m, m) block of the covariance, ``P[:, blocks]`` (g, *block_shape)
+        self.blocks, self.block_shape = (rows, rows.transpose(0, 2, 1)), (k, m, m)
+        #: each joint's own reading block (q and v), ``P[:, own_readings]`` (g, k, 2, 2)
+        self.own_readings = (rows[:, :2, :2], rows[:, :2, :2].transpose(0, 2, 1))
+        self.read = np.stack([self.q, self.v], axis=-1).reshape(-1)  #: the readings' places, q1, v1, q2...
+        self.readings = np.ix_(self.read, self.read)  #: every reading by every reading (2k, 2k)
+        qv = np.concatenate([self.q, self.v])
+        self.model_slopes = np.ix_(qv, qv)  #: where the model's slopes ([q1..qk, v1..vk] by the same) go
+        #: where ``d`` moves each joint's q and v in the transition, ``F[at.q_by_d]``, ``F[at.v_by_d]``
+        self.q_by_d, self.v_by_d = (slice(None), self.q, self.d), (slice(None), self.v, self.d)
+        if k == 1:
+            self.q_by_d, self.v_by_d = (slice(None), 0, 2), (slice(None), 1, 2)
+            self.blocks, self.block_shape = (slice(None), slice(None)), (m, m)
+            self.own_readings = self.model_slopes = (slice(0, 2), slice(0, 2))
+            self.read = slice(0, 2)

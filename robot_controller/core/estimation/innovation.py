@@ -28,17 +28,6 @@ def quadratic(u: np.ndarray, A: np.ndarray, w: np.ndarray) -> np.ndarray:
     return c_einsum("ni,nij,nj->n", u, A, w)
 
 
-def updated_average(average: np.ndarray, distance_sq: np.ndarray, jumped: np.ndarray | None, dt: float) -> np.ndarray:
-    """The running average of the squared distance after a reading ``dt`` s on.
-    A reading taken as a jump (``jumped``, per joint; None: none) is explained by it: it does not
-    count as disagreement."""
-    alpha = min(1.0, dt / CONSISTENCY_TIME_S)
-    updated = average + alpha * (distance_sq - average)
-    if jumped is not None:
-        updated[jumped] = average[jumped]
-    return updated
-
-
 def noise_in_force(
     average: np.ndarray, agreeing_std: tuple[float, float] | np.ndarray, mismatch_std: tuple[float, float] | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -53,14 +42,6 @@ def noise_in_force(
     near, far = np.asarray(agreeing_std, float), np.asarray(mismatch_std, float)
     variance = near**2 + w[:, None] * (far**2 - near**2)
     return np.sqrt(variance[:, 0]), np.sqrt(variance[:, 1])
-
-
-def clearly_within(distance_sq: np.ndarray, sigma: float) -> bool:
-    """Whether every joint's surprise is clearly within ``sigma`` σ (its squared distance below
-    CLEAR_SHARE·σ²): then so is any one part of it, the part a torque step explains
-    (:func:`looks_like_a_jump`) and the velocity's alone (:func:`beyond_any_disturbance`), and
-    neither test can hold."""
-    return all((distance_sq < CLEAR_SHARE * sigma * sigma).tolist())
 
 
 def looks_like_a_jump(
@@ -92,3 +73,14 @@ def beyond_any_disturbance(surprise: np.ndarray, S: np.ndarray, velocity_per_nm:
     """
     reach = limit * velocity_per_nm + BEYOND_SIGMA * np.sqrt(S[:, 1, 1])
     return np.abs(surprise[:, 1]) > reach
+
+
+def allow_jumps(P_pred: np.ndarray, jumped: np.ndarray, jump_std: np.ndarray, b: np.ndarray, dt: float, k: int) -> None:
+    """Add to each ``jumped`` joint's predicted covariance ``P_pred`` (groups of ``k`` joints, ``[q, v, d]``
+    each) that of a jump of its ``d`` (σ ``jump_std`` N·m) at the start of the period: the surprise goes
+    to the torque, not to noise. ``b``: rad/s² per N·m on each joint's own axis."""
+    for j in np.flatnonzero(jumped):
+        G = np.array([0.5 * b[j] * dt * dt, b[j] * dt, 1.0])
+        group, first = divmod(j, k)
+        own = slice(first * 3, (first + 1) * 3)
+        P_pred[group, own, own] += jump_std[j] ** 2 * np.outer(G, G)

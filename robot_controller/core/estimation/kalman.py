@@ -1,42 +1,31 @@
 """The Kalman filter on each joint's position and velocity, with the applied torque as input,
-and optionally the disturbance observer (:class:`JointKalmanFilter`).
+and optionally the disturbance observer (:class:`JointKalmanFilter`), with its process noise.
 
 Per joint the state is ``x = [q, v]``. The prediction steps the arm model over the period under
-the torque commanded last, in steps of at most ``model_step_s``; its covariance uses the model
-linearised about the filtered state (gravity's stiffness, the damping, the coupling) with white
-acceleration noise. The model steps semi-implicitly, as the plant does: a velocity state is the
-arm's velocity half a model step before its position's instant (:meth:`~JointKalmanFilter.velocity_at_instant`
-gives the one at the instant).
-
-The observer (``estimate_disturbance``) adds ``d``, an external torque (N·m: a push, a load,
-whatever the model gets wrong) as a random walk of ``disturbance_noise_std`` N·m/√s, acting beside
-the actuator's (which is limited to the effort limit; ``d`` is not). Each joint's ``d_j`` is the
-acceleration its own readings show beyond the model's, ``α_j``, in torque units on its own axis
-(``α_j / (M⁻¹)_jj``), so no joint's estimate moves another's prediction; ``M(q)·α``
-(:attr:`~JointKalmanFilter.disturbance`) is the external torque, coupling included. ``d`` stays
-within ``±disturbance_limit`` and starts from 0 whenever the filter starts. What the filter makes
-of each reading's surprise (trust, jumps, restarts) is in :mod:`.innovation`.
+the torque commanded last, in steps of at most ``model_step_s`` (semi-implicitly, as the plant:
+a velocity state is the arm's velocity half a model step before its position's instant); its
+covariance uses the model linearised about the filtered state, with white acceleration noise.
+The observer adds ``d``, an external torque (N·m) as a random walk of ``disturbance_noise_std``
+N·m/√s: each joint's ``d_j`` is the acceleration its readings show beyond the model's, ``α_j``, in
+torque units on its own axis (``α_j / (M⁻¹)_jj``), so no joint's estimate moves another's
+prediction; ``M(q)·α`` (:attr:`~JointKalmanFilter.disturbance`) is the external torque. ``d`` stays
+within ``±disturbance_limit`` and starts from 0. What a surprising reading does (jumps, restarts,
+mismatch) is in :mod:`.innovation`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import lru_cache
 
 import numpy as np
+from numpy._core.multiarray import c_einsum  # np.einsum's own C function, without its Python wrapper
 
 import robot_controller.core.estimation.innovation as innovation
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.estimation.config import (
-    DISTURBANCE_PRIOR_STD_NM,
-    KalmanConfig,
-    process_noise,
-    timing_noise_template,
-)
-from robot_controller.core.estimation.linear import Predictor, matrix_power, own_step_slopes, step_slopes
-from robot_controller.core.model import step_count
+from robot_controller.core.estimation.config import DISTURBANCE_PRIOR_STD_NM, KalmanConfig, StateIndex
+from robot_controller.core.model import Predictor, Transition, transition_by_differences
 
-# (q, v, torque, step_s) → one model step's ∂[q'; v']/∂[q; v], (2n, 2n)
-StepJacobian = Callable[[np.ndarray, np.ndarray, np.ndarray, float], np.ndarray]
 # q → the arm's mass matrix M(q), (n, n), kg·m²
 MassMatrix = Callable[[np.ndarray], np.ndarray]
 
@@ -52,29 +41,73 @@ def inverse_2x2(A: np.ndarray) -> np.ndarray:
     return (flat.take(_ADJUGATE, axis=1) / (det[:, None] * _ADJUGATE_SIGN)).reshape(A.shape)  # (x/−y = −x/y)
 
 
-class _StateIndex:
-    """Where each joint's quantities sit in a group's state ``[q1, v1, (d1), q2, v2, ...]`` (``m`` per
-    joint) and its covariance, made once per filter (slices where each group is one joint)."""
+def process_noise(
+    config: KalmanConfig, dt: float, acceleration_per_nm=None, disturbance_noise_std=None, acceleration_noise_std=None
+) -> np.ndarray:
+    """The process noise over ``dt`` s: ``(2, 2)`` on ``[q, v]`` from the white unmodelled acceleration;
+    with ``acceleration_per_nm`` (the observer) ``(n, 3, 3)`` on ``[q, v, d]``, adding ``d``'s random walk.
+    :param acceleration_per_nm: rad/s² per N·m on each joint's own axis, (n,)
+    :param disturbance_noise_std: per joint, N·m/√s (None: the config's)
+    :param acceleration_noise_std: per joint, rad/s² (None: the config's)
+    """
+    G = (0.5 * dt * dt, dt)
+    if acceleration_per_nm is None:
+        return np.outer(G, G) * config.acceleration_noise_std**2
+    b = np.asarray(acceleration_per_nm, dtype=float).reshape(-1)
+    sigma_a = config.acceleration_noise_std if acceleration_noise_std is None else acceleration_noise_std
+    sigma_d = config.disturbance_noise_std if disturbance_noise_std is None else disturbance_noise_std
+    # Per joint, Q = σa²·A + w·b²·B + w·b·C + w·D (w = σd²): one product with the templates.
+    weights = np.empty((b.size, 4))
+    weights[:, 0] = np.square(sigma_a)
+    weights[:, 3] = w = np.square(sigma_d)
+    weights[:, 2] = wb = w * b
+    weights[:, 1] = wb * b
+    return weights.dot(_noise_templates(dt)).reshape(b.size, 3, 3)
 
-    def __init__(self, k: int, m: int) -> None:
-        first = np.arange(k) * m
-        self.q, self.v, self.d = first, first + 1, first + 2  #: each joint's q, v and (m = 3) d
-        rows = first[:, None, None] + np.arange(m)[:, None]
-        #: each joint's own (m, m) block of the covariance, ``P[:, blocks]`` (g, *block_shape)
-        self.blocks, self.block_shape = (rows, rows.transpose(0, 2, 1)), (k, m, m)
-        #: each joint's own reading block (q and v), ``P[:, own_readings]`` (g, k, 2, 2)
-        self.own_readings = (rows[:, :2, :2], rows[:, :2, :2].transpose(0, 2, 1))
-        self.read = np.stack([self.q, self.v], axis=-1).reshape(-1)  #: the readings' places, q1, v1, q2...
-        self.readings = np.ix_(self.read, self.read)  #: every reading by every reading (2k, 2k)
-        qv = np.concatenate([self.q, self.v])
-        self.model_slopes = np.ix_(qv, qv)  #: where the model's slopes ([q1..qk, v1..vk] by the same) go
-        #: where ``d`` moves each joint's q and v in the transition, ``F[at.q_by_d]``, ``F[at.v_by_d]``
-        self.q_by_d, self.v_by_d = (slice(None), self.q, self.d), (slice(None), self.v, self.d)
-        if k == 1:
-            self.q_by_d, self.v_by_d = (slice(None), 0, 2), (slice(None), 1, 2)
-            self.blocks, self.block_shape = (slice(None), slice(None)), (m, m)
-            self.own_readings = self.model_slopes = (slice(0, 2), slice(0, 2))
-            self.read = slice(0, 2)
+
+@lru_cache(maxsize=64)  # a filter's periods are a handful of roundings of one period
+def _noise_templates(dt: float) -> np.ndarray:
+    """The process noise's four parts over ``dt`` s, (4, 9), read only: the white acceleration (``G·Gᵀ``,
+    G = [dt²/2, dt]), and ``d``'s random walk in ``[q, v]``, between ``[q, v]`` and ``d``, and in ``d``."""
+    g0, g1 = 0.5 * dt * dt, dt
+    qq, qv, vv = dt**5 / 20, dt**4 / 8, dt**3 / 3
+    qd, vd = dt**3 / 6, dt**2 / 2
+    templates = np.array(
+        [
+            [g0 * g0, g0 * g1, 0.0, g0 * g1, g1 * g1, 0.0, 0.0, 0.0, 0.0],
+            [qq, qv, 0.0, qv, vv, 0.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, qd, 0.0, 0.0, vd, qd, vd, 0.0],
+            [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt],
+        ]
+    )
+    templates.flags.writeable = False
+    return templates
+
+
+@lru_cache(maxsize=64)
+def timing_noise_template(dt: float) -> np.ndarray:
+    """``G·Gᵀ`` over ``dt`` s, G = [dt, 1] (2, 2), read only: a velocity step of unknown size at the
+    start of the period, in ``[q, v]``."""
+    G = np.array([dt, 1.0])
+    template = np.outer(G, G)
+    template.flags.writeable = False
+    return template
+
+
+def updated_average(average: np.ndarray, distance_sq: np.ndarray, jumped: np.ndarray | None, dt: float) -> np.ndarray:
+    """The innovation's squared distance per joint averaged over about ``innovation.CONSISTENCY_TIME_S``,
+    a reading ``dt`` s on; one taken as a jump (``jumped``) is explained by it: no disagreement."""
+    alpha = min(1.0, dt / innovation.CONSISTENCY_TIME_S)
+    updated = average + alpha * (distance_sq - average)
+    if jumped is not None:
+        updated[jumped] = average[jumped]
+    return updated
+
+
+def clearly_within(distance_sq: np.ndarray, sigma: float) -> bool:
+    """Whether every joint's surprise is clearly within ``sigma`` σ (squared distance below
+    ``innovation.CLEAR_SHARE``·σ²): then so is any part of it, and neither of innovation's tests can hold."""
+    return all((distance_sq < innovation.CLEAR_SHARE * sigma * sigma).tolist())
 
 
 class JointKalmanFilter:
@@ -85,14 +118,13 @@ class JointKalmanFilter:
     others' states; with ``independent_joints``, one m × m per joint (``P``, n × m × m).
 
     :param predictor: the arm model's ``predict`` (q, v, torque, horizon_s, max_step_s, external_nm)
-    :param jacobian: one model step's slopes ``(q, v, torque, step_s) → ∂[q'; v']/∂[q; v]`` (2n × 2n);
-        None: by finite differences of ``predictor``
-    :param estimate_disturbance: add the external torque ``d`` to the state (the disturbance
-        observer); needs ``mass_matrix``
-    :param mass_matrix: the arm's M(q) (what ``d`` accelerates)
+    :param transition: the model's ``(q, v, torque, horizon_s, max_step_s) → ∂[q(T); v(T)]/∂[q; v]``
+        (2n × 2n; n × 2 × 2 with ``independent_joints``); None: by finite differences of ``predictor``
+    :param estimate_disturbance: add the external torque ``d`` to the state (the observer)
+    :param mass_matrix: the arm's M(q) (what ``d`` accelerates; the observer needs it)
     :param disturbance_limit: N·m per joint, the bound on ``|d|`` (none if None)
-    :param torque_scale: per joint, the factor on the observer's torque σs (its noise, the jump's
-        and the start's): the joint's inertia over the one they were chosen for (None: 1)
+    :param torque_scale: per joint, the factor on the observer's torque σs: the joint's inertia over the
+        one they were chosen for (None: 1)
     :param independent_joints: the joints do not act on one another (separate one-joint arms)
     """
 
@@ -102,7 +134,7 @@ class JointKalmanFilter:
         joint_count: int,
         predictor: Predictor,
         *,
-        jacobian: StepJacobian | None = None,
+        transition: Transition | None = None,
         estimate_disturbance: bool = False,
         mass_matrix: MassMatrix | None = None,
         disturbance_limit: np.ndarray | None = None,
@@ -113,7 +145,7 @@ class JointKalmanFilter:
             raise ConfigError("disturbance_observer: needs the arm model's mass matrix")
         self.config = config
         self.predictor = predictor
-        self.jacobian = jacobian
+        self.transition = transition or transition_by_differences(predictor, independent_joints)
         self.joint_count = n = joint_count
         self.estimates_disturbance = bool(estimate_disturbance)
         self.mass_matrix = mass_matrix
@@ -132,17 +164,15 @@ class JointKalmanFilter:
         self.P = np.zeros((g, k * m, k * m))  #: per group, joint by joint: [q1, v1, (d1), q2, v2, ...]
         self.R = np.diag([config.position_noise_std**2, config.velocity_noise_std**2])
         self._R_all = np.kron(np.eye(k), self.R)
-        self._index = at = _StateIndex(k, m)
+        self._index = at = StateIndex(k, m)
         self._F = np.zeros((g, k * m, k * m))  #: the transition, rewritten in place each period
         if self.estimates_disturbance:
             self._F[:, at.d, at.d] = 1.0
         self.time_s: float | None = None
         self._mass: np.ndarray | None = None  #: M(q) at the last estimate, kg·m²
         self._own_inverse_mass: np.ndarray | None = None  #: (M⁻¹)_jj there: d_j's acceleration per N·m
-        #: per joint, how many readings were taken as a jump of the external torque
-        self.jump_count = np.zeros(n, dtype=int)
-        #: per joint, how many readings no external torque within the limit could explain (restarts)
-        self.restart_count = np.zeros(n, dtype=int)
+        self.jump_count = np.zeros(n, dtype=int)  #: per joint, readings taken as a jump of the external torque
+        self.restart_count = np.zeros(n, dtype=int)  #: per joint, readings no torque within the limit explains
         #: per joint, the innovation's squared Mahalanobis distance, averaged (2 while readings agree)
         self._distance_sq_average = np.full(n, innovation.UNPROVEN_DISTANCE_SQ)
         #: the σs (disturbance N·m/√s, acceleration rad/s²) while every joint agrees
@@ -263,12 +293,12 @@ class JointKalmanFilter:
         surprise = z - x_pred[:, :2]  # the innovation, per joint
         S_joint = P_pred[(slice(None), *at.own_readings)].reshape(n, 2, 2) + self.R
         S_inv = inverse_2x2(S_joint)
-        distance_sq = innovation.quadratic(surprise, S_inv, surprise)
+        distance_sq = c_einsum("ni,nij,nj->n", surprise, S_inv, surprise)  # (innovation.quadratic)
         jumped = None
         # Neither a jump nor a reading beyond any external torque while every surprise is small.
         sigma = config.jump_detection_sigma
-        may_jump = observer and sigma > 0 and not innovation.clearly_within(distance_sq, sigma)
-        may_be_beyond = observer and not innovation.clearly_within(distance_sq, innovation.BEYOND_SIGMA)
+        may_jump = observer and sigma > 0 and not clearly_within(distance_sq, sigma)
+        may_be_beyond = observer and not clearly_within(distance_sq, innovation.BEYOND_SIGMA)
         if may_jump or may_be_beyond:
             step = np.empty((n, 2))  # the reading's change per N·m of a step
             step[:, 0], step[:, 1] = 0.5 * b * dt * dt, b * dt
@@ -279,8 +309,10 @@ class JointKalmanFilter:
             if not any(jumped.tolist()):
                 jumped = None
             else:
-                self._allow_jumps(P_pred, jumped, b, dt)
-        self._distance_sq_average = innovation.updated_average(self._distance_sq_average, distance_sq, jumped, dt)
+                jump_std = DISTURBANCE_PRIOR_STD_NM * self._torque_scale
+                innovation.allow_jumps(P_pred, jumped, jump_std, b, dt, self._per_group)
+                self.jump_count += jumped
+        self._distance_sq_average = updated_average(self._distance_sq_average, distance_sq, jumped, dt)
         P_read = P_pred[:, at.read, :]  # (g, 2k, km)
         if k == 1 and jumped is None:  # S is each joint's own block, inverted above
             K = np.matmul(S_inv, P_read).transpose(0, 2, 1)  # (g, m, 2)
@@ -306,14 +338,12 @@ class JointKalmanFilter:
         """The model linearised at ``(q, v)`` over ``dt`` (per group, km × km): one model step's slopes
         (gravity's stiffness, the damping, the coupling) carried over the period's steps; ``d`` moves
         its own joint as a torque there would."""
-        steps = step_count(dt, self.config.model_step_s)
-        h = dt / steps
         F, at = self._F, self._index
+        slopes = self.transition(q, v, torque, dt, self.config.model_step_s)
         if self._groups == 1:
-            slopes = self.jacobian(q, v, torque, h) if self.jacobian else step_slopes(self.predictor, q, v, torque, h)
-            F[(0, *at.model_slopes)] = matrix_power(slopes, steps)  # [q; v] by [q; v]
+            F[(0, *at.model_slopes)] = slopes  # [q; v] by [q; v]
         else:
-            F[:, :2, :2] = np.linalg.matrix_power(own_step_slopes(self.predictor, q, v, torque, h), steps)
+            F[:, :2, :2] = slopes
         if self.estimates_disturbance:
             b = np.zeros(self.joint_count) if self._own_inverse_mass is None else self._own_inverse_mass
             F[at.q_by_d], F[at.v_by_d] = 0.5 * b * dt * dt, b * dt
@@ -348,17 +378,6 @@ class JointKalmanFilter:
         sigma_d, sigma_a = innovation.noise_in_force(self._distance_sq_average, self._agreeing_std, self._mismatch_std)
         return sigma_d * self._torque_scale, sigma_a
 
-    def _allow_jumps(self, P_pred: np.ndarray, jumped: np.ndarray, b: np.ndarray, dt: float) -> None:
-        """Add to each ``jumped`` joint's predicted covariance that of a jump of its ``d`` at the start of
-        the period (σ DISTURBANCE_PRIOR_STD_NM): the surprise goes to the torque, not to noise."""
-        m, k = self.size, self._per_group
-        for j in np.flatnonzero(jumped):
-            G = np.array([0.5 * b[j] * dt * dt, b[j] * dt, 1.0])
-            jump_std = DISTURBANCE_PRIOR_STD_NM * self._torque_scale[j]
-            group, first = divmod(j, k)
-            P_pred[group, first * m : (first + 1) * m, first * m : (first + 1) * m] += jump_std**2 * np.outer(G, G)
-        self.jump_count += jumped
-
     def predict(
         self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -371,10 +390,9 @@ class JointKalmanFilter:
         return self.predictor(q, v, torque, horizon_s, max_step_s=step, external_nm=external)
 
     def velocity_at_instant(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray) -> np.ndarray:
-        """The velocity (rad/s) at the instant of the state ``(position, velocity)`` under ``torque``
-        (N·m) and the estimated external torque: the mean of the velocity over the model step that
-        ended there (the state's own) and over the one that starts there (what a reference's
-        velocity at that instant compares with)."""
+        """The velocity (rad/s) at the instant of the state ``(position, velocity)`` under ``torque`` (N·m)
+        and the estimated external torque: the mean of the model step's that ended there (the state's
+        own) and the one that starts there (what a reference's velocity at that instant compares with)."""
         h = self.config.model_step_s
         _, ahead = self.predictor(position, velocity, torque, h, max_step_s=h, external_nm=self._disturbance_torque())
         return 0.5 * (velocity + ahead)

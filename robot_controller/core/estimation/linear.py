@@ -1,60 +1,12 @@
-"""The Kalman filter linearised: the arm model's slopes over one step by finite differences
-(for a model without its own Jacobian) and carried over several (:func:`matrix_power`), and one
-joint's steady-state gain on the linear arm (for the delay margin of the loop the filter is part of)."""
+"""One joint's Kalman filter at rest on the linear arm, in steady state (for the delay margin of the
+loop the filter is part of)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
-from robot_controller.core.estimation.config import KalmanConfig, process_noise
-
-# (q, v, torque, horizon_s, max_step_s=, external_nm=) → predicted (q, v): the arm model's ``predict``
-Predictor = Callable[..., tuple[np.ndarray, np.ndarray]]
-
-# Finite-difference steps for the model's slopes, rad and rad/s.
-_BUMP_Q, _BUMP_V = 1e-6, 1e-5
-
-
-def step_slopes(predictor: Predictor, q: np.ndarray, v: np.ndarray, torque: np.ndarray, h: float) -> np.ndarray:
-    """One model step's (``h`` s) ∂[q'; v']/∂[q; v] (2n × 2n), every joint bumped in turn."""
-    n = q.size
-    q1, v1 = predictor(q, v, torque, h, max_step_s=h)
-    slopes = np.zeros((2 * n, 2 * n))
-    for k in range(2 * n):
-        bump = _BUMP_Q if k < n else _BUMP_V
-        dq, dv = np.zeros(n), np.zeros(n)
-        (dq if k < n else dv)[k % n] = bump
-        q2, v2 = predictor(q + dq, v + dv, torque, h, max_step_s=h)
-        slopes[:n, k], slopes[n:, k] = (q2 - q1) / bump, (v2 - v1) / bump
-    return slopes
-
-
-def matrix_power(a: np.ndarray, k: int) -> np.ndarray:
-    """``np.linalg.matrix_power(a, k)`` for a square ``a`` and ``k >= 1``: the same products in the
-    same order (binary powering), by ``ndarray.dot``, without its checks and dispatch."""
-    if k == 3:
-        return a.dot(a).dot(a)
-    power = result = None
-    while k > 0:
-        power = a if power is None else power.dot(power)
-        k, bit = divmod(k, 2)
-        if bit:
-            result = power if result is None else result.dot(power)
-    return result
-
-
-def own_step_slopes(predictor: Predictor, q: np.ndarray, v: np.ndarray, torque: np.ndarray, h: float) -> np.ndarray:
-    """Independent joints: each one's step (``h`` s) slopes ∂[q'; v']/∂[q; v] (n, 2, 2), every
-    joint bumped at once (none moves another)."""
-    q1, v1 = predictor(q, v, torque, h, max_step_s=h)
-    q2, v2 = predictor(q + _BUMP_Q, v, torque, h, max_step_s=h)
-    q3, v3 = predictor(q, v + _BUMP_V, torque, h, max_step_s=h)
-    slopes = np.empty((q.size, 2, 2))
-    slopes[:, 0, 0], slopes[:, 1, 0] = (q2 - q1) / _BUMP_Q, (v2 - v1) / _BUMP_Q
-    slopes[:, 0, 1], slopes[:, 1, 1] = (q3 - q1) / _BUMP_V, (v3 - v1) / _BUMP_V
-    return slopes
+from robot_controller.core.estimation.config import KalmanConfig
+from robot_controller.core.estimation.kalman import process_noise
 
 
 def steady_state_gain(

@@ -12,12 +12,12 @@ with the designed gains (:func:`designed_gains`).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.laws.pid import DerivativeSource, PidConfig
+from robot_controller.core.laws.pid import BuiltinLaw, DerivativeSource, PidConfig
 
 if TYPE_CHECKING:
     from robot_controller.core.model import ArmDynamics
@@ -123,3 +123,22 @@ def designed_gains(
     return replace(
         pid, ki=gains[:, 0], kp=gains[:, 1], kd=gains[:, 2], derivative_source=DerivativeSource.VELOCITY_ERROR
     )
+
+
+class LqrLaw(BuiltinLaw):
+    """The built-in law with its gains from a discrete LQR design with lqr_q and lqr_r."""
+
+    kind: ClassVar[str] = "lqr"
+
+    def gains(self) -> PidConfig:
+        p = self.params
+        return designed_gains(
+            p["pid"],
+            self.arm.model,
+            self.arm.joint_count,
+            self.period_s,
+            p["lqr_q"],
+            p["lqr_r"],
+            p["reference_inertia"],
+            p["design_position"],
+        )

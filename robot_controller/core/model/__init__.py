@@ -2,10 +2,11 @@
 identification, and the simulated drive and encoder."""
 
 from robot_controller.core.model.actuator import Actuator
-from robot_controller.core.model.arm_dynamics import ArmDynamics, step_count
+from robot_controller.core.model.arm_dynamics import ArmDynamics, matrix_power, step_count
 from robot_controller.core.model.arm_model import PARAMETERS, JointArmModel
 from robot_controller.core.model.identification import IdentificationError, JointFit, identify
 from robot_controller.core.model.joint_limits import JointLimits, joint_limits, urdf_velocity_limits
+from robot_controller.core.model.linearisation import Predictor, Transition, transition_by_differences
 from robot_controller.core.model.mujoco_model import (
     can_collide,
     effort_limits,
@@ -37,7 +38,9 @@ __all__ = [
     "Payload",
     "PayloadFit",
     "Plant",
+    "Predictor",
     "SensorConfig",
+    "Transition",
     "can_collide",
     "check_disturbance",
     "effort_limits",
@@ -46,8 +49,10 @@ __all__ = [
     "joint_limits",
     "joint_names",
     "load_model",
+    "matrix_power",
     "measure",
     "step_count",
     "steps_per_period",
+    "transition_by_differences",
     "urdf_velocity_limits",
 ]

@@ -18,6 +18,20 @@ def step_count(horizon_s: float, max_step_s: float) -> int:
     return max(1, math.ceil(horizon_s / max_step_s - 1e-9))
 
 
+def matrix_power(a: np.ndarray, k: int) -> np.ndarray:
+    """``np.linalg.matrix_power(a, k)`` for a square ``a`` and ``k >= 1``: the same products in the
+    same order (binary powering), by ``ndarray.dot``, without its checks and dispatch."""
+    if k == 3:
+        return a.dot(a).dot(a)
+    power = result = None
+    while k > 0:
+        power = a if power is None else power.dot(power)
+        k, bit = divmod(k, 2)
+        if bit:
+            result = power if result is None else result.dot(power)
+    return result
+
+
 class ArmDynamics:
     """The arm's multibody dynamics from the same URDF, on a private ``MjData``:
     what the controller's model-based parts ask of it, coupling between the
@@ -108,6 +122,14 @@ class ArmDynamics:
         mujoco.mjd_transitionFD(self.model, self._data, 1e-6, 0, jacobian, None, None, None)
         self._qfrc_applied.fill(0.0)
         return jacobian
+
+    def transition(
+        self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float, max_step_s: float
+    ) -> np.ndarray:
+        """How ``horizon_s`` of :meth:`predict`'s steps move the state ``[q; v]`` (2n × 2n): one
+        step's slopes at ``(q, v)`` (:meth:`step_jacobian`) carried over the horizon's steps."""
+        steps = step_count(horizon_s, max_step_s)
+        return matrix_power(self.step_jacobian(position, velocity, torque, horizon_s / steps), steps)
 
     def mass_matrix(self, position: np.ndarray) -> np.ndarray:
         """M(q) at ``position`` (kg·m²): MuJoCo's position stages that build it

@@ -27,7 +27,7 @@ def check_disturbance(data, joint_count: int) -> tuple[np.ndarray, float] | str:
     reason to drop it. A torque beyond ``MAX_DISTURBANCE_NM`` is returned as
     sent: the caller caps it (and says so). A duration of 0 ends the current one.
 
-    (Beside the plant rather than in ``core.validation``: the bounds are the plant's.)
+    (Beside the plant rather than in ``ros.messages``: the bounds are the plant's.)
     """
     data = np.asarray(data, dtype=float).ravel()
     if data.size != joint_count + 1:

@@ -11,6 +11,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import Float64MultiArray
 
 from robot_controller.core import metrics
+from robot_controller.ros.messages import clock_s
 from robot_controller.ros.stack_node import StackNode
 
 # While the loop is late, its one line comes at most this often (s).
@@ -46,7 +47,7 @@ class LoopTiming:
             self.issued.append((now_s, command))
         self.window_ticks.append(now_s)
         if not lockstep:  # in lockstep a tick takes no sim time
-            self.window_latency.append(self.node.now_s() - self.controller.measurement_stamp_s)
+            self.window_latency.append(clock_s(self.node) - self.controller.measurement_stamp_s)
 
     def receipts_callback(self, msg: Float64MultiArray) -> None:
         """The drive's receipts, rows ``[receipt_time_s, command…]``: each paired with the latest

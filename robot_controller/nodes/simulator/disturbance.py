@@ -37,8 +37,8 @@ class Disturbance:
     def callback(self, msg: Float64MultiArray) -> None:
         node = self.node
         checked = check_disturbance(msg.data, node.joint_count)
-        if node.dropped("/sim/disturbance", checked):
-            return
+        if isinstance(checked, str):
+            return node.drop("/sim/disturbance", checked)
         torque, duration_s = checked
         if np.any(np.abs(torque) > MAX_DISTURBANCE_NM):
             node.warn_throttled(

@@ -14,12 +14,12 @@ from std_msgs.msg import Float64MultiArray
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.model import MujocoPlant, Payload, steps_per_period
-from robot_controller.core.validation import check_effort
 from robot_controller.nodes.simulator.brakes import Brakes
 from robot_controller.nodes.simulator.disturbance import Disturbance
 from robot_controller.nodes.simulator.lockstep import LockstepTicks
 from robot_controller.nodes.simulator.pacing import Pacing
 from robot_controller.nodes.world_state import WORLD_STATE_ENV, WorldState
+from robot_controller.ros.messages import check_effort
 from robot_controller.ros.process import run
 from robot_controller.ros.qos import loop_qos
 from robot_controller.ros.stack_node import StackNode
@@ -92,8 +92,8 @@ class Simulator(StackNode):
 
     def effort_callback(self, msg: Float64MultiArray) -> None:
         checked = check_effort(msg.data, self.joint_count)
-        if self.dropped("/sim/effort", checked):
-            return
+        if isinstance(checked, str):
+            return self.drop("/sim/effort", checked)
         limit = self.plant.effort_limit
         if np.any(np.abs(checked) > limit):
             self.warn_throttled(

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from robot_controller import resources
 from robot_controller.core.estimation import JointKalmanFilter, KalmanConfig, innovation, inverse_2x2, process_noise
-from robot_controller.core.estimation.linear import matrix_power
+from robot_controller.core.model import matrix_power
 from robot_controller.core.model import ArmDynamics
 
 
@@ -55,7 +55,7 @@ def test_noise_in_force_while_agreeing_is_the_general_formula(average):
 
 @pytest.mark.parametrize("sigma", [innovation.BEYOND_SIGMA, 3.0])
 def test_a_surprise_clearly_within_sigma_is_neither_a_jump_nor_beyond_any_torque(sigma):
-    """What :func:`innovation.clearly_within` lets the filter skip: both tests fail on every such reading."""
+    """What :func:`kalman.clearly_within` lets the filter skip: both tests fail on every such reading."""
     rng = np.random.default_rng(1)
     root = rng.standard_normal((2000, 2, 2))
     S = root @ root.transpose(0, 2, 1) + 1e-3 * np.eye(2)
@@ -84,7 +84,7 @@ def test_one_joint_through_a_push_disagreement_and_a_restart(observer, timing_s)
         KalmanConfig(command_timing_uncertainty_s=timing_s),
         1,
         dynamics.predict,
-        jacobian=dynamics.step_jacobian,
+        transition=dynamics.transition,
         estimate_disturbance=observer,
         mass_matrix=dynamics.mass_matrix,
         disturbance_limit=np.array([10.0]),

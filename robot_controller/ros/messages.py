@@ -1,12 +1,21 @@
-"""Checks on incoming data, before any maths. Each returns the clean arrays
-or a reason (a short sentence for a rate-limited warning)."""
+"""Messages in and out, the shell's translation between ROS messages and arrays: checks on
+incoming data before any maths (each returns the clean arrays or a reason, a short sentence for a
+rate-limited warning), and time: ``builtin_interfaces/Time`` to and from seconds, a node's clock
+in seconds, and the tick a ``/joint_commands`` message was computed for, in its first dimension's
+label ``tick_ns:<ROS time in ns>`` (``Float64MultiArray`` has no header; the tutorial's nodes
+ignore the layout).
+"""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
+from rclpy.node import Node
+from rclpy.time import Time
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 Checked = tuple[np.ndarray, np.ndarray] | str
 
@@ -90,3 +99,48 @@ def check_effort(data: Sequence[float], joint_count: int) -> np.ndarray | str:
     if not np.isfinite(data).all():
         return "non-finite torque"
     return data
+
+
+# --- time ---------------------------------------------------------------------------
+
+LABEL_PREFIX = "tick_ns:"
+
+
+def stamp_to_s(stamp: Any) -> float:
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def s_to_stamp(time_s: float) -> Any:
+    """A ``builtin_interfaces/Time`` for ``time_s`` seconds (to the nearest ns)."""
+    return Time(nanoseconds=round(time_s * 1e9)).to_msg()
+
+
+def stamp_command(msg: Float64MultiArray, tick_s: float) -> None:
+    """Mark ``msg`` (its ``data`` already set) as computed for the tick at ``tick_s`` (ROS time, s)."""
+    size = len(msg.data)
+    label = f"{LABEL_PREFIX}{round(tick_s * 1e9)}"
+    if msg.layout.dim:
+        dim = msg.layout.dim[0]
+        dim.label, dim.size, dim.stride = label, size, size
+    else:
+        msg.layout.dim = [MultiArrayDimension(label=label, size=size, stride=size)]
+
+
+def command_tick_s(msg: Float64MultiArray) -> float | None:
+    """The tick (ROS time, s) ``msg`` says it was computed for, or None if it does not say."""
+    if not msg.layout.dim:
+        return None
+    label = msg.layout.dim[0].label
+    if not label.startswith(LABEL_PREFIX):
+        return None
+    try:
+        return int(label[len(LABEL_PREFIX) :]) * 1e-9
+    except ValueError:
+        return None
+
+
+def clock_s(node: Node) -> float:
+    """``node``'s clock (ROS time: simulated under ``use_sim_time``) in seconds, without building a ``Time``."""
+    handle = node.get_clock().handle
+    with handle:
+        return handle.get_now().nanoseconds * 1e-9

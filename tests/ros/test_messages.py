@@ -1,0 +1,60 @@
+"""Messages in and out: checks on incoming joint states, trajectory samples and efforts, and the
+tick stamp a command carries in its layout (no ROS graph: the message classes alone)."""
+
+import pytest
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+from robot_controller.ros.messages import (
+    check_effort,
+    check_joint_state,
+    check_trajectory,
+    command_tick_s,
+    stamp_command,
+)
+
+
+@pytest.mark.parametrize(
+    "names, pos, vel, ok",
+    [
+        (["joint1"], [0.1], [0.2], True),
+        ([], [0.1], [0.2], True),
+        (["joint1"], [], [], False),
+        (["joint1"], [0.1, 0.2], [0.2], False),
+        (["elbow"], [0.1], [0.2], False),
+        (["joint1"], [float("nan")], [0.0], False),
+        (["joint1"], [0.0], [float("inf")], False),
+    ],
+)
+def test_joint_state_check(names, pos, vel, ok):
+    result = check_joint_state(names, pos, vel, ["joint1"])
+    assert (not isinstance(result, str)) == ok
+
+
+def test_trajectory_and_effort_checks():
+    assert not isinstance(check_trajectory([0.1, 0.2, 0.3], 1), str)
+    p, v, a, sample_time = check_trajectory([0.1, 0.2], 1)  # the tutorial's [position, velocity]
+    assert a[0] == 0.0 and sample_time is None
+    assert check_trajectory([0.1, 0.2, 0.3, 12.5], 1)[3] == 12.5  # ours: with the sample time
+    assert isinstance(check_trajectory([0.1, 0.2, 0.3, float("nan")], 1), str)
+    assert isinstance(check_trajectory([0.1], 1), str)
+    assert isinstance(check_trajectory([0.1, float("nan"), 0.0], 1), str)
+    assert isinstance(check_effort([1.0, 2.0], 1), str)
+    assert isinstance(check_effort([float("inf")], 1), str)
+
+
+def test_a_stamped_command_says_its_tick_and_keeps_its_data():
+    msg = Float64MultiArray(data=[1.5, -2.0])
+    stamp_command(msg, 1_795_756_083.344798)
+    assert command_tick_s(msg) == pytest.approx(1_795_756_083.344798, abs=1e-6)  # a float's resolution there
+    assert list(msg.data) == [1.5, -2.0] and msg.layout.dim[0].size == 2
+    stamp_command(msg, 12.0)  # the message is reused tick after tick
+    assert command_tick_s(msg) == 12.0 and len(msg.layout.dim) == 1
+
+
+def test_a_command_without_the_stamp_says_nothing():
+    assert command_tick_s(Float64MultiArray(data=[1.0])) is None  # the tutorial's controller
+    labelled = Float64MultiArray(data=[1.0])
+    labelled.layout.dim = [MultiArrayDimension(label="joints", size=1, stride=1)]
+    assert command_tick_s(labelled) is None
+    labelled.layout.dim[0].label = "tick_ns:soon"
+    assert command_tick_s(labelled) is None
