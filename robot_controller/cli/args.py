@@ -116,13 +116,14 @@ def verb(subparsers, name: str, help_text: str, handler: Handler) -> argparse.Ar
 
 
 def robot_option(parser: argparse.ArgumentParser) -> None:
-    from robot_controller.robots import DEFAULT_ROBOT, ROBOTS
+    from robot_controller.robots import DEFAULT_ROBOT
 
     parser.add_argument(
         "--robot",
         default=DEFAULT_ROBOT,
-        choices=sorted(ROBOTS),
-        help=f"the arm: its URDF, limits, home pose and default trajectory (default {DEFAULT_ROBOT})",
+        metavar="NAME|PATH",
+        help="the arm: its URDF, limits, home pose and default trajectory; a name of `robot-controller robots`, "
+        f"a URDF or MJCF file or a package:// URI (default {DEFAULT_ROBOT})",
     )
 
 

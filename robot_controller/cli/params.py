@@ -1,5 +1,6 @@
 """``robot-controller params``: every node parameter with its value and meaning, as a parameter
-file (``--yaml``), or the reference page of the schema (``--markdown``, docs/parameters.md)."""
+file (``--yaml``), or the reference page of the schema (``--markdown``, docs/parameters.md);
+``robot-controller robots``: the arms ``--robot`` takes by name, a line each."""
 
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ def register(sub) -> None:
         "to PATH or stdout (docs/parameters.md)",
     )
     stack_options(p, seed=False)
+    verb(sub, "robots", "list the arms --robot takes by name: joints, ranges (rad) and home pose", _robots)
 
 
 def _params(a: argparse.Namespace) -> int:
@@ -45,3 +47,21 @@ def _params(a: argparse.Namespace) -> int:
     from robot_controller.cli.docs import parameters_markdown, write
 
     return write(parameters_markdown(), a.markdown, "params")
+
+
+def _robots(_: argparse.Namespace) -> int:
+    from robot_controller.core.errors import ConfigError
+    from robot_controller.core.model.joint_limits import joint_limits
+    from robot_controller.robots import ROBOTS, robot, urdf_of
+    from robot_controller.robots.description import ARMS
+
+    for name in sorted(set(ROBOTS) | set(ARMS)):
+        try:
+            limits, home = joint_limits(urdf_of(name)), robot(name).home_position
+        except ConfigError as exc:  # example-robot-data missing, or an arm this MuJoCo refuses
+            print(f"{name:<15} cannot run: {exc}")
+            continue
+        ranges = " ".join(f"{lo:.2f}..{hi:.2f}" for lo, hi in zip(limits.lower, limits.upper, strict=True))
+        print(f"{name:<15} {len(home)} joints  range {ranges}  home {' '.join(f'{q:.2f}' for q in home)}")
+    print("also: a URDF or MJCF path, package://pkg/path/arm.urdf, or another example-robot-data URDF's file name")
+    return 0

@@ -83,10 +83,13 @@ def _run(args: argparse.Namespace) -> int:
 def run(options: RunOptions, out: Path | None) -> int:
     """Run, record and score the loop. A launcher of part of the graph without the simulator
     records nothing and says what it ran."""
+    from robot_controller import robots
     from robot_controller.runner import launcher, plan
     from robot_controller.scoring import plots, report
 
     checked = plan.check(options.params(), options)  # before the output folder is made
+    if note := robots.robot(options.robot).note:
+        launcher.say(note)
     out = output_dir(out, Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S"))
     result = launcher.launch(checked, out)
     if not result.recorded:  # the other launcher records and scores the loop
@@ -114,7 +117,8 @@ def run(options: RunOptions, out: Path | None) -> int:
     recorded_s = result.control_seconds if result.interrupted or not sim_time else duration_s
     if sim_time and result.failure is not None and values.get("recorded_duration_s") is not None:
         recorded_s = min(recorded_s, values["recorded_duration_s"])  # ended early: the ticks' own span (seeded)
-    robot, preset, seed = options.robot, options.preset, options.seed
+    robot = robots.arm_name(options.robot, checked.params["simulator"]["urdf_path"])
+    preset, seed = options.preset, options.seed
     values.update(
         {
             "duration_s": round(recorded_s, 3),

@@ -1,5 +1,6 @@
-"""The robots ``--robot NAME`` selects (``catalogue``), and the Panda made loadable (``panda``)."""
+"""The robots ``--robot`` selects (``catalogue``): three built in, or any fixed-base arm's description
+made loadable (``description``): an example-robot-data arm by name, a URDF or MJCF path, a ``package://`` URI."""
 
-from robot_controller.robots.catalogue import DEFAULT_ROBOT, ROBOTS, Robot, robot, urdf_of
+from robot_controller.robots.catalogue import DEFAULT_ROBOT, ROBOTS, Robot, arm_name, robot, urdf_of
 
-__all__ = ["DEFAULT_ROBOT", "ROBOTS", "Robot", "robot", "urdf_of"]
+__all__ = ["DEFAULT_ROBOT", "ROBOTS", "Robot", "arm_name", "robot", "urdf_of"]

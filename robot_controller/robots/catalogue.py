@@ -1,5 +1,5 @@
-"""The robots ``--robot NAME`` selects, each a parameter layer: a URDF, a home pose and a default
-sine about it that the arm follows within its limits.
+"""The robots ``--robot`` selects, each a parameter layer: a URDF, a home pose and a default sine
+about it that the arm follows within its limits; three built in, any other from its description.
 
 The layer goes over the schema's defaults and under the preset and the user's ``--config`` files.
 It sets no torque limit: an empty ``torque_max`` is each joint's URDF effort limit
@@ -10,11 +10,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 from robot_controller import resources
-from robot_controller.core.errors import ConfigError
+from robot_controller.robots.description import describe
 
 
 @dataclass(frozen=True)
@@ -23,6 +24,7 @@ class Robot:
     :param home_position: rad per joint, where the arm starts and the trajectory is centred
     :param amplitude: rad per joint, of the default sine about the home pose
     :param frequency_hz: of the default sine
+    :param note: what was changed to load its description (fingers held still, meshes dropped), or ``""``
     """
 
     name: str
@@ -31,12 +33,12 @@ class Robot:
     home_position: tuple[float, ...]
     amplitude: tuple[float, ...]
     frequency_hz: float
+    note: str = ""
 
     def layer(self) -> dict[str, dict[str, Any]]:
         """The robot's parameters, as a layer of ``{node: {param: value}}``."""
-        if self.name == DEFAULT_ROBOT:
+        if not (urdf := self.urdf()):
             return {}  # the schema's defaults are the reference arm's
-        urdf = self.urdf()
         home = list(self.home_position)
         return {
             "simulator": {"urdf_path": urdf, "initial_position": home},
@@ -59,13 +61,8 @@ def _planar2_urdf() -> str:
     return str(resources.share_dir() / "description" / "planar2_arm.urdf")
 
 
-def _panda_urdf() -> str:
-    from robot_controller.robots.panda import urdf_path
-
-    return str(urdf_path())
-
-
 DEFAULT_ROBOT = "one_dof"
+DESCRIBED_FREQUENCY_HZ = 0.25  #: of the default sine of an arm known by its description
 #: s, how long a chain of joints is stopped on its model alone before the brakes hold it
 CHAIN_SENSOR_TIMEOUT_S = 0.2
 
@@ -91,7 +88,7 @@ ROBOTS: dict[str, Robot] = {
         Robot(
             "panda",
             "the Franka Emika Panda's 7 arm joints (example-robot-data), 87 and 12 N·m; the fingers held still",
-            _panda_urdf,
+            lambda: str(describe("panda").path),
             # The "ready" pose of the Panda's SRDF (example-robot-data's panda.srdf, group state "default").
             (0.0, -0.785398, 0.0, -2.35619, 0.0, 1.5707, 0.785398),
             (0.4, 0.3, 0.4, 0.4, 0.5, 0.4, 0.6),
@@ -102,11 +99,20 @@ ROBOTS: dict[str, Robot] = {
 
 
 def robot(name: str) -> Robot:
-    """The robot called ``name``; a ConfigError naming the choices otherwise."""
-    try:
-        return ROBOTS[name]
-    except KeyError:
-        raise ConfigError(f"--robot: unknown robot {name!r}; robots are {sorted(ROBOTS)}") from None
+    """One of ``ROBOTS``, else the arm ``name`` names by its description; a ConfigError if none can run."""
+    return ROBOTS[name] if name in ROBOTS else _described(name)
+
+
+@lru_cache(maxsize=16)
+def _described(name: str) -> Robot:
+    arm = describe(name, ROBOTS)
+    path = str(arm.path)
+    return Robot(arm.name, path, lambda: path, arm.home, arm.amplitude, DESCRIBED_FREQUENCY_HZ, arm.note)
+
+
+def arm_name(name: str, urdf_path: str) -> str:
+    """The arm a run drives: robot ``name``'s, or the file's stem where a config file gave another URDF."""
+    return robot(name).name if urdf_path == robot(name).urdf() else Path(urdf_path).stem
 
 
 def urdf_of(name: str) -> Path:

@@ -10,7 +10,7 @@ import pytest
 from robot_controller import parameters as cfg
 from robot_controller.core.model import effort_limits, joint_names, load_model
 from robot_controller.parameters import consistency
-from robot_controller.robots import ROBOTS, panda, urdf_of
+from robot_controller.robots import ROBOTS, urdf_of
 
 
 @pytest.mark.parametrize("name", sorted(ROBOTS))
@@ -40,7 +40,7 @@ def test_the_panda_is_its_seven_arm_joints_with_the_urdf_effort_limits():
 
 
 def test_the_panda_urdf_has_no_package_paths_and_draws_its_stl_meshes():
-    root = ET.parse(panda.urdf_path()).getroot()
+    root = ET.parse(urdf_of("panda")).getroot()
     meshes = [mesh.get("filename") for mesh in root.iter("mesh")]
     assert meshes and not any(name.startswith("package://") for name in meshes)
     assert all(name.endswith(".stl") for name in meshes)
@@ -49,8 +49,8 @@ def test_the_panda_urdf_has_no_package_paths_and_draws_its_stl_meshes():
 
 def test_an_unknown_robot_is_one_line_naming_the_choices():
     proc = subprocess.run(
-        [sys.executable, "-m", "robot_controller.cli", "run", "--robot", "ur5"], capture_output=True, text=True
+        [sys.executable, "-m", "robot_controller.cli", "run", "--robot", "ur6"], capture_output=True, text=True
     )
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
-    assert "panda" in proc.stderr and "planar2" in proc.stderr
+    assert "panda" in proc.stderr and "planar2" in proc.stderr and "ur5" in proc.stderr

@@ -23,9 +23,9 @@ def panda_urdf():
         importlib.metadata.distribution("example-robot-data")
     except importlib.metadata.PackageNotFoundError:
         pytest.skip("example-robot-data is not installed")
-    from robot_controller.robots import panda
+    from robot_controller.robots import urdf_of
 
-    return panda.urdf_path()
+    return urdf_of("panda")
 
 
 @pytest.fixture(scope="module")
