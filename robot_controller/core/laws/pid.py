@@ -13,6 +13,7 @@ as the I term itself (N·m), so a new ``ki`` while running does not kick the out
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
@@ -159,9 +160,10 @@ class Pid:
         shape = np.shape(reference_position)
         if shape != c.kp.shape:
             shape = np.broadcast_shapes(shape, c.kp.shape)
-        finite = np.isfinite(reference_position) & np.isfinite(reference_velocity) & np.isfinite(measured_position)
-        finite = finite & np.isfinite(measured_velocity) & np.isfinite(feedforward)
-        if not (np.isfinite(dt) and dt > 0) or np.count_nonzero(finite) != finite.size:
+        # Every input finite: their sum is (inf − inf is NaN; a finite sum past 1e308 is refused too).
+        total = reference_position + reference_velocity + measured_position + measured_velocity + feedforward
+        finite = np.isfinite(total)
+        if not (math.isfinite(dt) and dt > 0) or np.count_nonzero(finite) != finite.size:
             zeros = np.zeros(shape)
             return PidTerms(zeros, zeros, zeros, zeros, zeros, np.zeros(shape, dtype=bool))
 
@@ -176,7 +178,7 @@ class Pid:
         else:  # MEASUREMENT
             previous = self._prev_position
             d_signal = np.zeros(shape) if previous is None else -(measured_position - previous) / dt
-        self._prev_error = np.array(error, dtype=float)
+        self._prev_error = error  # (a new array: never written to)
         self._prev_position = np.array(measured_position, dtype=float)
         if c.derivative_filter_time_s > 0:
             if self._d_filtered is None:
@@ -214,7 +216,7 @@ class Pid:
         if np.count_nonzero(np.isfinite(command)) != command.size:
             command = np.where(np.isfinite(command), command, 0.0)
         self._prev_command = command
-        return PidTerms(command, p_term, self._i_term.copy(), d_term, feedforward, saturated)
+        return PidTerms(command, p_term, self._i_term, d_term, feedforward, saturated)  # (I: replaced, never written)
 
     def _limit(self, command: np.ndarray, dt: float) -> np.ndarray:
         limit = self.config.output_limit
