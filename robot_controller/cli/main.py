@@ -47,8 +47,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         return args.handler(args)
-    except (UsageError, ConfigError) as exc:
-        print(f"robot-controller {args.verb}: {exc}", file=sys.stderr)
+    except (UsageError, ConfigError) as exc:  # one line, where MuJoCo's text spans several too
+        print(f"robot-controller {args.verb}: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # `robot-controller params | head`
         return 0

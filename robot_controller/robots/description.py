@@ -25,6 +25,7 @@ from robot_controller.core.errors import ConfigError
 PACKAGE = "package://"
 #: The arms of example-robot-data that MuJoCo loads once resolved, under its ``robots/`` folder.
 ARMS = {
+    "kinova": "kinova_description/robots/kinova.urdf",  # COLLADA meshes only: it runs, the view draws no shape
     "panda": "panda_description/urdf/panda.urdf",
     "so100": "so_arm_description/urdf/so100.urdf",
     "so101": "so_arm_description/urdf/so101.urdf",
