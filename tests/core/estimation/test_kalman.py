@@ -9,8 +9,7 @@ from hypothesis import strategies as st
 
 from robot_controller import resources
 from robot_controller.core.estimation import JointKalmanFilter, KalmanConfig, innovation, inverse_2x2, process_noise
-from robot_controller.core.model import matrix_power
-from robot_controller.core.model import ArmDynamics
+from robot_controller.core.model import ArmDynamics, matrix_power
 
 
 @pytest.mark.parametrize("size", [2, 4, 14])

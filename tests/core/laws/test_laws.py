@@ -10,8 +10,7 @@ from robot_controller import parameters as cfg
 from robot_controller.core.controller import JointController
 from robot_controller.core.controller.supervision import Status
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.laws import Arm, ControlLaw, Parameter, registry
-from robot_controller.core.laws import LqrLaw, PidLaw
+from robot_controller.core.laws import Arm, ControlLaw, LqrLaw, Parameter, PidLaw, registry
 from robot_controller.core.laws.containment import ContainedLaw
 from robot_controller.experiments.inprocess import simulate
 
