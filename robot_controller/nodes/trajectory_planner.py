@@ -2,8 +2,9 @@
 time_s]`` (``time_s``: when the sample was taken, so the controller evaluates it at its own tick).
 Time starts when the first consumer is matched. Lockstep: each grid point's sample goes one tick early.
 
-Every trajectory is checked against the arm model and ``torque_max`` less ``feasibility_margin``
-(``core.reference``; ``feasibility``: scale, refuse or ignore). A ``JointTrajectory`` on
+Every trajectory is checked against the joints' ranges, the arm model and ``torque_max`` less
+``feasibility_margin`` (``core.reference``; ``feasibility``: scale, refuse or ignore), at start and on
+every live change, which is blended in from the reference in force (``core.reference.crossfade``). A ``JointTrajectory`` on
 ``/trajectory_planner/joint_trajectory`` (as ros2_controllers' JointTrajectoryController takes it) is
 checked against the URDF's limits too, blended from the reference in force, timed from
 ``header.stamp`` if set and not past, and held at its last point until the next one or a change of
@@ -26,14 +27,17 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.model import joint_limits, urdf_velocity_limits
 from robot_controller.core.reference import (
     Accepted,
+    Crossfade,
     JointTrajectory,
     Plan,
     Trajectory,
     accept_joint_trajectory,
+    crossfade,
     make_trajectory,
     plan_trajectory,
     start_delay,
 )
+from robot_controller.core.reference.crossfade import Motion
 from robot_controller.parameters.builders import TRAJECTORY_SHAPE_KEYS, arm_model, model_overridden
 from robot_controller.parameters.torque_limits import torque_limit
 from robot_controller.ros.messages import clock_s, stamp_to_s
@@ -60,6 +64,7 @@ class TrajectoryPlanner(StackNode):
         self.next_sample_s = 0.0
         self.waypoints: JointTrajectory | None = None  # a joint trajectory in force, if any
         self.origin_s = 0.0  # when the motion in force has its time 0 (the start, or a joint trajectory's receipt)
+        self.crossfade: Crossfade | None = None  # a live change being blended in
         self.clock_s = 0.0  # lockstep: the latest /clock (time is 0 until the first)
         self.msg = Float64MultiArray()
         n = p["joint_count"]
@@ -93,7 +98,7 @@ class TrajectoryPlanner(StackNode):
             )
         if model_overridden(params):
             self.get_logger().info(f"trajectory checked against {self.dynamics.describe()}")
-        # Position and velocity limits, for joint trajectories (read-only URDF: fixed at start).
+        # Position and velocity limits (read-only URDF: fixed at start).
         self.limits = joint_limits(resources.resolve_urdf(params["urdf_path"]))
 
     def _planned(self, params: dict[str, Any]) -> Plan:
@@ -112,6 +117,7 @@ class TrajectoryPlanner(StackNode):
                 velocity_limit=urdf_velocity_limits(
                     resources.resolve_urdf(params["urdf_path"]), self.dynamics.joint_names
                 ),
+                position_range=(self.limits.lower, self.limits.upper),
             )
             self._plan_key = key
         assert self._plan is not None
@@ -134,11 +140,15 @@ class TrajectoryPlanner(StackNode):
         self._planned(params)
 
     def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
+        before, previous = self.motion_in_force(), repr(self.trajectory)  # (the dataclass's values)
         self.trajectory = self._make(params)
+        moved = repr(self.trajectory) != previous
         if self.waypoints is not None and changed & SHAPE_KEYS:
-            self.waypoints = None
+            self.waypoints, moved = None, True
             self.origin_s = self.start_s or 0.0
             self.get_logger().info(f"joint trajectory left for the parameters' {params['mode']}")
+        if self.start_s is not None and self.waypoints is None and moved:
+            self.blend_from(before, params)
         if "publish_rate_hz" in changed and self.timer is not None:
             self.destroy_timer(self.timer)
             self.timer = self.create_timer(1.0 / params["publish_rate_hz"], lambda: self.sample_at(clock_s(self)))
@@ -172,10 +182,32 @@ class TrajectoryPlanner(StackNode):
         self.msg.data = np.concatenate((position, velocity, acceleration, [now_s])).tolist()
         self.pub.publish(self.msg)
 
+    def blend_from(self, before: Motion, params: dict[str, Any]) -> None:
+        """A live change starts from the reference in force, blended into the new motion (no jump)."""
+        now_s = self.clock_s if params["lockstep"] else clock_s(self)
+        usable = torque_limit(params, len(self.limits.joint_names)) * (1.0 - params["feasibility_margin"])
+        self.crossfade = None  # (a blend under way is ``before``)
+        self.crossfade = crossfade(before, self.motion_in_force(), now_s, self.dynamics, usable, self.limits.velocity)
+        gap = np.abs(before(now_s)[0] - self.crossfade.new(now_s)[0])
+        self.get_logger().info(
+            f"trajectory: {params['mode']}, amplitude {params['amplitude']} rad, {params['frequency_hz']:g} Hz, "
+            f"blended in over {self.crossfade.duration_s:.2f} s from the reference in force "
+            f"({gap.max():.3g} rad apart now on {self.limits.joint_names[int(np.argmax(gap))]})"
+        )
+
+    def motion_in_force(self) -> Motion:
+        """The reference as a function of the planner's time (s): the blend under way, a joint
+        trajectory's, else the parameters' motion."""
+        if self.crossfade is not None:
+            return self.crossfade.at
+        motion, origin_s = (self.waypoints if self.waypoints is not None else self.trajectory), self.origin_s
+        return lambda time_s: motion.sample(time_s - origin_s)
+
     def reference_at(self, now_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The reference in force at ``now_s``: a joint trajectory's, else the parameters' motion."""
-        motion = self.waypoints if self.waypoints is not None else self.trajectory
-        return motion.sample(now_s - self.origin_s)
+        """The reference in force at ``now_s``."""
+        if self.crossfade is not None and self.crossfade.done(now_s):
+            self.crossfade = None
+        return self.motion_in_force()(now_s)
 
     def joint_trajectory_callback(self, msg: JointTrajectoryMsg) -> None:
         now_s = self.clock_s if self.params["lockstep"] else clock_s(self)
@@ -184,7 +216,7 @@ class TrajectoryPlanner(StackNode):
             self.warn_throttled("joint_trajectory", f"joint trajectory refused: {taken}; the motion goes on as it was")
             return
         trajectory = taken.trajectory
-        self.waypoints, self.origin_s = trajectory, now_s
+        self.waypoints, self.origin_s, self.crossfade = trajectory, now_s, None  # it starts from the blend
         points = len(trajectory.waypoints.times_s)
         target = np.round(trajectory.final_position, 4).tolist()
         delayed = trajectory.start_delay_s

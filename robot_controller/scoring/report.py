@@ -70,6 +70,7 @@ def score(
     for name in (*faults, "late", "late_stopped"):
         out[f"{name}_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES[name]))
     out["saturated_ticks"] = int(np.count_nonzero(np.any(s["saturated"] > 0.5, axis=1)))
+    out["saturated_ticks_per_joint"] = np.count_nonzero(s["saturated"] > 0.5, axis=0).tolist()
     out.update(metrics.peak_torque(s["command"]))
     out["recorded_duration_s"] = float(ticks[-1] - ticks[0])
     ok_ticks = s["status"] != state_layout.STATUS_CODES["no_measurement"]

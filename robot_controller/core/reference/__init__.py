@@ -1,6 +1,7 @@
 """What the arm is asked to do: trajectories, waypoint trajectories and their quintic
 paths, and whether the arm can follow them."""
 
+from robot_controller.core.reference.crossfade import Crossfade, crossfade
 from robot_controller.core.reference.feasibility_check import (
     Feasibility,
     InverseDynamics,
@@ -36,6 +37,7 @@ __all__ = [
     "START_TOLERANCE_RAD",
     "Accepted",
     "Chirp",
+    "Crossfade",
     "Feasibility",
     "Hold",
     "InverseDynamics",
@@ -49,6 +51,7 @@ __all__ = [
     "Trajectory",
     "accept_joint_trajectory",
     "check_feasibility",
+    "crossfade",
     "make_trajectory",
     "peak_torque",
     "plan_trajectory",

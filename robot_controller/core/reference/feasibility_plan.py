@@ -63,8 +63,10 @@ def plan_trajectory(
     what: str = "trajectory",
     joint_names: Sequence[str] | None = None,
     velocity_limit: np.ndarray | None = None,
+    position_range: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> Plan:
-    """Check ``trajectory`` (torque, then each joint's ``velocity_limit``, rad/s,
+    """Check ``trajectory`` (each joint's ``position_range``, lower and upper, if given: a path
+    leaving it is refused under every policy; torque; each joint's ``velocity_limit``, rad/s,
     if given) and act on the result as ``policy`` says.
 
     ``scale``: a path that does not fit is slowed in time until it does (the
@@ -75,10 +77,28 @@ def plan_trajectory(
     :param what: how the messages name the path (the planner's ``mode``)
     :raises ConfigError: one line with the numbers, when the path is refused
     """
+    if position_range is not None:
+        _within_range(trajectory, *position_range, what, joint_names)
     torque_plan = _torque_plan(trajectory, dynamics, limit_nm, margin, policy, what, joint_names)
     if velocity_limit is None:
         return torque_plan
     return _within_velocity_limits(torque_plan, np.asarray(velocity_limit, float), policy, what, joint_names)
+
+
+def _within_range(
+    trajectory: Trajectory, lower: np.ndarray, upper: np.ndarray, what: str, joint_names: Sequence[str] | None
+) -> None:
+    """Refuse a path that leaves a joint's position range (slowing it moves no position)."""
+    q = _path(trajectory)[0]
+    low, high = q.min(axis=0), q.max(axis=0)
+    outside = np.flatnonzero((low < lower - 1e-9) | (high > upper + 1e-9))
+    if outside.size:
+        j = int(outside[0])
+        name = joint_names[j] if joint_names is not None else f"joint{j + 1}"
+        raise ConfigError(
+            f"the {what} reaches [{low[j]:.4g}, {high[j]:.4g}] rad on {name}, beyond its limits "
+            f"[{lower[j]:g}, {upper[j]:g}] rad: lower the amplitude or move the offset"
+        )
 
 
 def _within_velocity_limits(

@@ -205,6 +205,7 @@ class PidControllerNode(StackNode):
             self.command_pub.publish(self.command_msg)
             command = tuple(self.command_msg.data)
         self.timing.note_tick(now_s, command)
+        self.status.say_saturation(out)
         self.status.publish_state(out)
         if now_s >= self.next_log_s:
             self.next_log_s = now_s + self.params["log_period_s"]

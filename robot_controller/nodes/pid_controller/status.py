@@ -19,6 +19,26 @@ from robot_controller.ros.stack_node import StackNode
 # Wall clock: after a failed law's stop, state is still published this long (the brakes engaging
 # are recorded), then the node ends. In lockstep it ends at once: without commands sim time stops.
 LAW_STOPPED_LINGER_S = 0.5
+# A joint whose command the limit cuts this long without a break (s, the tick's clock) is said, once per run.
+SATURATION_SAID_AFTER_S = 0.2
+
+
+class SaturationWatch:
+    """Which joints' commands have been cut by their limit for ``SATURATION_SAID_AFTER_S`` in a row, each once."""
+
+    def __init__(self, joint_count: int) -> None:
+        self.since_s = np.full(joint_count, np.nan)  # when each joint's current run of cut ticks began
+        self.said = np.zeros(joint_count, dtype=bool)
+
+    def newly_long(self, now_s: float, saturated: np.ndarray) -> list[int]:
+        """The joints to say now: saturated for long enough and not said before."""
+        if self.said.all():
+            return []
+        cut = np.asarray(saturated) > 0.5
+        self.since_s = np.where(cut, np.fmin(self.since_s, now_s), np.nan)
+        long = cut & ~self.said & (now_s - self.since_s >= SATURATION_SAID_AFTER_S - 1e-9)
+        self.said |= long
+        return np.flatnonzero(long).tolist()
 
 
 class StatusReports:
@@ -30,6 +50,7 @@ class StatusReports:
         self.log = node.get_logger()
         self.last_status: Status | None = None
         self.law_stopped_since: float | None = None  # monotonic s LAW_STOPPED was first reached
+        self.saturation = SaturationWatch(node.joint_count)
         plugin = self.controller.plugin
         # The law's extra terms on /controller/state, after the standard blocks (state_layout).
         self.extra_terms = tuple(
@@ -119,6 +140,18 @@ class StatusReports:
             self.law_stopped_since = now
         if self.node.lockstep or now - self.law_stopped_since >= LAW_STOPPED_LINGER_S:
             request_exit(LAW_STOPPED_EXIT_CODE)
+
+    def say_saturation(self, out: ControlOutput) -> None:
+        """One warning per joint, the first time its command stays cut by its limit for over
+        ``SATURATION_SAID_AFTER_S``: the law asks for more than the actuator gives."""
+        for j in self.saturation.newly_long(out.time_s, out.terms.saturated):
+            limit = float(np.broadcast_to(self.controller.config.pid.output_limit, (self.node.joint_count,))[j])
+            cut = "its torque limit" if abs(abs(out.terms.command[j]) - limit) < 1e-9 else "its slew-rate limit"
+            self.log.warning(
+                f"{self.node.joint_names[j]}: the law's command has been cut by {cut} (±{limit:g} N·m) for "
+                f"{SATURATION_SAID_AFTER_S:g} s in a row: the law asks for more torque than the joint has "
+                "(said once; saturated_ticks_per_joint in metrics.json counts every tick)"
+            )
 
     def publish_state(self, out: ControlOutput) -> None:
         terms = out.terms

@@ -330,3 +330,12 @@ def test_a_sine_faster_than_a_joints_urdf_velocity_limit_is_slowed_naming_the_jo
     params["trajectory_planner"]["frequency_hz"] = 0.8  # torque fits; the wrist's speed does not
     with pytest.raises(ConfigError, match="panda_joint7 at 3.02 rad/s, beyond its URDF velocity limit"):
         consistency.trajectory_plan(params)
+
+
+def test_a_path_leaving_a_joints_range_is_refused_under_every_policy(arm):
+    sine = make_trajectory("sine", joint_count=1, amplitude=1.0, offset=2.5, frequency_hz=0.1)
+    for policy in ("scale", "refuse", "ignore"):
+        with pytest.raises(ConfigError, match=r"reaches \[1\.5, 3\.5\] rad on joint1, beyond its limits \[-3, 3\]"):
+            plan_trajectory(sine, arm, 1e4, policy=policy, position_range=(np.array([-3.0]), np.array([3.0])))
+    within = plan_trajectory(sine, arm, 1e4, position_range=(np.array([-3.0]), np.array([3.6])))
+    assert within.trajectory is sine

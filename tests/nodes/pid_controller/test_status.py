@@ -1,0 +1,32 @@
+"""The controller's saturation watch (no ROS graph): a joint whose command stays cut by its limit
+for more than SATURATION_SAID_AFTER_S is said once, a brief cut never."""
+
+import numpy as np
+
+from robot_controller.nodes.pid_controller.status import SATURATION_SAID_AFTER_S, SaturationWatch
+
+PERIOD_S = 0.01
+
+
+def said_over(watch, saturated_rows, start_s=0.0):
+    said = []
+    for k, row in enumerate(saturated_rows):
+        said += [(round(start_s + k * PERIOD_S, 6), j) for j in watch.newly_long(start_s + k * PERIOD_S, row)]
+    return said
+
+
+def test_a_joint_saturated_for_longer_than_a_moment_is_said_once_by_name():
+    watch = SaturationWatch(3)
+    ticks = int(round(1.0 / PERIOD_S))  # a second of wrist saturation, as the PD law on the UR5 did
+    said = said_over(watch, [np.array([0.0, 0.0, 1.0])] * ticks)
+    assert said == [(round(SATURATION_SAID_AFTER_S, 6), 2)]
+    assert said_over(watch, [np.array([0.0, 0.0, 1.0])] * ticks, start_s=2.0) == []  # once per run
+
+
+def test_brief_cuts_are_not_said_and_a_break_restarts_the_count():
+    watch = SaturationWatch(2)
+    brief = int(SATURATION_SAID_AFTER_S / PERIOD_S) - 2  # just under the moment, then a tick free, again
+    rows = ([np.array([1.0, 0.0])] * brief + [np.array([0.0, 0.0])]) * 5
+    assert said_over(watch, rows) == []
+    rows = [np.array([1.0, 1.0])] * (brief + 5)
+    assert [j for _, j in said_over(watch, rows, start_s=10.0)] == [0, 1]

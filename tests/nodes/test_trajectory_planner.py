@@ -1,0 +1,54 @@
+"""Live changes of the planner's shape on the node (no graph spun): checked against the joint ranges
+as at start, and blended from the reference in force."""
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.ros
+
+
+@pytest.fixture
+def planner(ros_domain):
+    import rclpy
+
+    from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
+
+    rclpy.init(args=["trajectory_planner", "--ros-args", "-p", "lockstep:=true"], domain_id=ros_domain)
+    node = TrajectoryPlanner()
+    node.start_s = node.origin_s = 0.0  # publishing since t = 0 (lockstep: the planner's time is /clock's)
+    node.clock_s = 3.3
+    try:
+        yield node
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()
+
+
+def test_a_live_change_leaving_a_joints_range_is_refused_with_the_reason(planner):
+    from rclpy.parameter import Parameter
+
+    result = planner.set_parameters_atomically([Parameter("offset", value=[2.5])])  # 1 rad about 2.5: past π
+    assert not result.successful
+    assert "reaches [1.5, 3.5] rad on joint1, beyond its limits [-3.14159, 3.14159] rad" in result.reason
+    assert planner.params["offset"] == [0.0] and planner.crossfade is None
+
+
+def test_a_live_change_blends_from_the_reference_in_force(planner):
+    from rclpy.parameter import Parameter
+
+    before = planner.reference_at(3.3)
+    change = [
+        Parameter("amplitude", value=[0.5]),
+        Parameter("offset", value=[1.0]),
+        Parameter("frequency_hz", value=1.0),
+    ]
+    assert planner.set_parameters_atomically(change).successful
+    blend = planner.crossfade
+    assert blend is not None and blend.start_s == 3.3
+    for got, want in zip(planner.reference_at(3.3), before, strict=True):
+        assert got == pytest.approx(want)  # no jump: position, velocity and acceleration carry on
+    t = np.arange(3.3, 3.3 + blend.duration_s + 0.5, 1e-3)
+    p = np.array([planner.reference_at(s)[0][0] for s in t])
+    assert np.max(np.abs(np.diff(p))) < 5e-3  # 1 ms apart, at most a few rad/s
+    assert p[-1] == pytest.approx(1.0 + 0.5 * np.sin(2 * np.pi * t[-1]))  # on the new sine after the blend
+    assert planner.crossfade is None
