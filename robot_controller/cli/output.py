@@ -38,10 +38,10 @@ def output_dir(out: Path | None, default: Path) -> Path:
     return chosen
 
 
-#: The figures a run's table shows first, in this order.
+#: The figures a run's table shows first, in this order (``_m``, ``_n``: a prismatic joint's, if the arm has one).
 HEADLINE = tuple(
-    "tracking_rms_rad tracking_max_rad measured_rms_rad control_rate_hz jitter_p99_ms missed_cycles latency_p50_ms "
-    "latency_p99_ms peak_torque_nm duration_s real_time_factor".split()
+    "tracking_rms_rad tracking_max_rad tracking_rms_m tracking_max_m measured_rms_rad control_rate_hz jitter_p99_ms "
+    "missed_cycles latency_p50_ms latency_p99_ms peak_torque_nm peak_force_n duration_s real_time_factor".split()
 )
 
 

@@ -23,7 +23,12 @@ def register(sub) -> None:
         "to PATH or stdout (docs/parameters.md)",
     )
     stack_options(p, seed=False)
-    verb(sub, "robots", "list the arms --robot takes by name: joints, ranges (rad) and home pose", _robots)
+    verb(
+        sub,
+        "robots",
+        "list the arms --robot takes by name: joints, ranges (rad, m for a prismatic joint) and home pose",
+        _robots,
+    )
 
 
 def _params(a: argparse.Namespace) -> int:
@@ -52,16 +57,21 @@ def _params(a: argparse.Namespace) -> int:
 def _robots(_: argparse.Namespace) -> int:
     from robot_controller.core.errors import ConfigError
     from robot_controller.core.model.joint_limits import joint_limits
+    from robot_controller.core.model.mujoco_model import joint_units, load_model
     from robot_controller.robots import ROBOTS, robot, urdf_of
     from robot_controller.robots.description import ARMS
 
     for name in sorted(set(ROBOTS) | set(ARMS)):
         try:
             limits, home = joint_limits(urdf_of(name)), robot(name).home_position
+            units = joint_units(load_model(urdf_of(name)))
         except ConfigError as exc:  # example-robot-data missing, or an arm this MuJoCo refuses
             print(f"{name:<15} cannot run: {exc}")
             continue
-        ranges = " ".join(f"{lo:.2f}..{hi:.2f}" for lo, hi in zip(limits.lower, limits.upper, strict=True))
+        ranges = " ".join(
+            f"{lo:.2f}..{hi:.2f}" + " m" * (unit == "m")
+            for lo, hi, unit in zip(limits.lower, limits.upper, units, strict=True)
+        )
         print(f"{name:<15} {len(home)} joints  range {ranges}  home {' '.join(f'{q:.2f}' for q in home)}")
     print("also: a URDF or MJCF path, package://pkg/path/arm.urdf, or another example-robot-data URDF's file name")
     return 0

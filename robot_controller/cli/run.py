@@ -83,7 +83,8 @@ def _run(args: argparse.Namespace) -> int:
 def run(options: RunOptions, out: Path | None) -> int:
     """Run, record and score the loop. A launcher of part of the graph without the simulator
     records nothing and says what it ran."""
-    from robot_controller import robots
+    from robot_controller import resources, robots
+    from robot_controller.core.model.mujoco_model import joint_units, load_model
     from robot_controller.runner import launcher, plan
     from robot_controller.scoring import plots, report
 
@@ -106,10 +107,12 @@ def run(options: RunOptions, out: Path | None) -> int:
     sim_time, duration_s = options.sim_time, options.duration_s
     try:
         recording = report.read_recording(result.bag_dir)
+        units = joint_units(load_model(resources.resolve_urdf(checked.params["simulator"]["urdf_path"])))
         values = report.score(
             recording,
             nominal_period_s=1.0 / checked.params["pid_controller"]["control_rate_hz"],
             window_s=duration_s if sim_time else None,
+            units=units,
         )
     except ValueError as exc:
         launcher.say(f"cannot score the recording: {exc}")
@@ -144,6 +147,6 @@ def run(options: RunOptions, out: Path | None) -> int:
     report.write_metrics(out / "metrics.json", values)
     if sim_time:
         report.write_metrics(out / "timing.json", wall)
-    plots.plot_tracking(recording, out / "tracking.png", title=f"{robot}, preset {preset}, seed {seed}")
+    plots.plot_tracking(recording, out / "tracking.png", title=f"{robot}, preset {preset}, seed {seed}", units=units)
     print_table(values | (wall if sim_time else {}), title=f"run: {robot}, preset {preset}, seed {seed} → {out}")
     return result.exit_code

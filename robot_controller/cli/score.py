@@ -30,7 +30,9 @@ def score(run_dir: Path, *, as_json: bool = False) -> int:
 
     try:
         recording = report.read_recording(run_dir / "bag")
-        values = report.score(recording, window_s=_scored_window_s(run_dir))
+        saved = _saved(run_dir)
+        units = saved.get("joint_units") if len(saved.get("joint_units") or []) == recording.joint_count else None
+        values = report.score(recording, window_s=_scored_window_s(saved), units=units)
     except (FileNotFoundError, ValueError) as exc:
         print(f"robot-controller: cannot score {run_dir}: {exc}", file=sys.stderr)
         return 2
@@ -41,15 +43,23 @@ def score(run_dir: Path, *, as_json: bool = False) -> int:
     return 0
 
 
-def _scored_window_s(run_dir: Path) -> float | None:
+def _saved(run_dir: Path) -> dict:
+    """The run's ``metrics.json``: its joints' units (all rad without them), its clock and duration."""
+    try:
+        saved = json.loads((run_dir / "metrics.json").read_text())
+    except (OSError, ValueError):
+        return {}  # none, or not one of ours: the whole recording, every joint revolute
+    return saved if isinstance(saved, dict) else {}
+
+
+def _scored_window_s(saved: dict) -> float | None:
     """A lockstep run is scored over its ``--duration`` from its first tick (the simulator
     runs on a little past it): that window, from the run's ``metrics.json``, if there is one."""
     try:
-        saved = json.loads((run_dir / "metrics.json").read_text())
         if saved["clock"] == "sim_lockstep" and saved["duration_s"] > 0:
             return float(saved["duration_s"])
-    except (OSError, ValueError, TypeError, KeyError):
-        pass  # none, or not one of ours: the whole recording
+    except (TypeError, KeyError):
+        pass
     return None
 
 

@@ -53,8 +53,9 @@ def tracking_metrics(
     measured_position: np.ndarray,
     *,
     warmup_s: float = WARMUP_S,
+    units: list[str] | None = None,
 ) -> dict[str, Any]:
-    """Tracking errors after ``warmup_s`` from the first tick.
+    """Tracking errors after ``warmup_s`` from the first tick (``units``: as :func:`joint_errors`).
 
     ``tracking_*`` compare the reference with the TRUE position at each
     control tick; ``measured_rms_rad`` compares it with what the sensor said.
@@ -69,23 +70,22 @@ def tracking_metrics(
     window &= np.all(np.isfinite(true), axis=1)
     if not np.any(window):
         raise ValueError(f"no control ticks after the {warmup_s} s warm-up to score")
-    measured = joint_errors(ref[window] - meas[window], "measured")
+    measured = joint_errors(ref[window] - meas[window], "measured", units)
     return {
-        **joint_errors(ref[window] - true[window]),
-        "measured_rms_rad": measured["measured_rms_rad"],
-        "measured_rms_rad_per_joint": measured["measured_rms_rad_per_joint"],
+        **joint_errors(ref[window] - true[window], units=units),
+        **{key: value for key, value in measured.items() if key.startswith("measured_rms")},
         "scored_ticks": int(np.count_nonzero(window)),
     }
 
 
-def joint_errors(error: np.ndarray, prefix: str = "tracking") -> dict[str, Any]:
+def joint_errors(error: np.ndarray, prefix: str = "tracking", units: list[str] | None = None) -> dict[str, Any]:
     """RMS and largest |error| of each joint, and the worst joint's as the headline.
 
-    :param error: rad, one row per sample, one column per joint
-    :returns: ``{prefix}_rms_rad``, ``{prefix}_max_rad`` (the largest over the
-        joints, so one badly tracked joint is never averaged away by good ones),
-        and ``{prefix}_rms_rad_per_joint``, ``{prefix}_max_rad_per_joint``
-        (lists in joint order). With one joint the headline is that joint's.
+    :param error: one row per sample, one column per joint, in each joint's unit
+    :param units: each joint's position unit, ``"rad"`` or ``"m"`` (a prismatic joint); default all ``"rad"``
+    :returns: ``{prefix}_rms_per_joint``, ``{prefix}_max_per_joint`` (lists in joint order, each in its
+        joint's unit) and the worst joint's of each unit (:func:`by_unit`): ``{prefix}_rms_rad``,
+        ``{prefix}_max_rad``, so one badly tracked joint is never averaged away by good ones.
     """
     error = np.asarray(error, dtype=float)
     error = error.reshape(len(error), -1)
@@ -93,19 +93,38 @@ def joint_errors(error: np.ndarray, prefix: str = "tracking") -> dict[str, Any]:
     rms = [float(np.sqrt(np.mean(error[:, j] ** 2))) for j in range(error.shape[1])]
     peak = [float(np.max(np.abs(error[:, j]))) for j in range(error.shape[1])]
     return {
-        f"{prefix}_rms_rad": float(np.max(rms)),
-        f"{prefix}_max_rad": float(np.max(peak)),
-        f"{prefix}_rms_rad_per_joint": rms,
-        f"{prefix}_max_rad_per_joint": peak,
+        f"{prefix}_rms_per_joint": rms,
+        f"{prefix}_max_per_joint": peak,
+        **by_unit(f"{prefix}_rms", rms, units),
+        **by_unit(f"{prefix}_max", peak, units),
     }
 
 
-def peak_torque(command: np.ndarray) -> dict[str, Any]:
-    """Largest |command| of each joint (N·m, ``peak_torque_nm_per_joint``) and over all (``peak_torque_nm``)."""
+#: The effort unit of each joint position unit: a torque on a revolute joint, a force on a prismatic one.
+EFFORT_UNITS = {"rad": "N·m", "m": "N"}
+
+
+def by_unit(name: str, per_joint: list[float], units: list[str] | None, suffixes=("rad", "m")) -> dict[str, Any]:
+    """The largest figure of the revolute joints as ``{name}_{suffixes[0]}`` (NaN with none: always
+    there, for compatibility) and of the prismatic ones as ``{name}_{suffixes[1]}`` (if any); with only
+    revolute joints, ``per_joint`` as ``{name}_{suffixes[0]}_per_joint`` too."""
+    units = units or ["rad"] * len(per_joint)
+    out: dict[str, Any] = {}
+    for unit, suffix in zip(("rad", "m"), suffixes, strict=True):
+        if (mine := [v for v, u in zip(per_joint, units, strict=True) if u == unit]) or unit == "rad":
+            out[f"{name}_{suffix}"] = float(np.max(mine)) if mine else float("nan")
+    if all(unit == "rad" for unit in units):
+        out[f"{name}_{suffixes[0]}_per_joint"] = list(per_joint)
+    return out
+
+
+def peak_torque(command: np.ndarray, units: list[str] | None = None) -> dict[str, Any]:
+    """Largest |command| of each joint (``peak_effort_per_joint``: N·m, or N on a prismatic joint) and
+    the largest torque (``peak_torque_nm``) and force (``peak_force_n``) of all (:func:`by_unit`)."""
     command = np.asarray(command, dtype=float)
     command = command.reshape(len(command), -1)
     per_joint = [float(np.max(np.abs(command[:, j]))) for j in range(command.shape[1])]
-    return {"peak_torque_nm": float(np.max(per_joint)), "peak_torque_nm_per_joint": per_joint}
+    return {"peak_effort_per_joint": per_joint, **by_unit("peak", per_joint, units, ("torque_nm", "force_n"))}
 
 
 STALL_S = 0.030

@@ -98,6 +98,9 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         stop_deceleration=values["stop_deceleration"],
         reacquire_acceleration=values["reacquire_acceleration"],
         design_position=tuple(joints("design_position").tolist()) if given(values.get("design_position")) else None,
+        # One value on a chain is for a joint of reference_inertia; one per joint is taken as given.
+        scaled_gains=tuple(k for k in ("kp", "ki", "kd") if joint_count > 1 and np.size(values[k]) == 1),
+        min_delay_margin_periods=values["min_delay_margin_periods"],
     )
 
 

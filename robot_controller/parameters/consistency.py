@@ -153,12 +153,14 @@ def _check_limits(params: cfg.Params, arm: tuple[list[str], np.ndarray, np.ndarr
 
 def _check_controller(params: cfg.Params, joint_count: int) -> None:
     """The controller builds: its arm model (the URDF's, or its ``model_*`` values) and its law
-    designs (an LQR that does not stabilise is refused here)."""
-    from robot_controller.core.controller import JointController
+    designs (an LQR that does not stabilise is refused here), leaving every joint its delay margin."""
+    from robot_controller.core.controller import JointController, check_delay_margin
 
     ctrl = params["pid_controller"]
     try:
-        JointController(cfg.controller_config(ctrl, joint_count), joint_count, arm_model(ctrl))
+        config, dynamics = cfg.controller_config(ctrl, joint_count), arm_model(ctrl)
+        JointController(config, joint_count, dynamics)
+        check_delay_margin(config, dynamics, joint_count)
     except ConfigError as exc:
         raise ConfigError(f"pid_controller: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - a solver's error is a refusal, not a crash

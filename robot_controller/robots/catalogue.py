@@ -1,5 +1,5 @@
 """The robots ``--robot`` selects, each a parameter layer: a URDF, a home pose and a default sine
-about it that the arm follows within its limits; three built in, any other from its description.
+about it that the arm follows within its limits; four built in, any other from its description.
 
 The layer goes over the schema's defaults and under the preset and the user's ``--config`` files.
 It sets no torque limit: an empty ``torque_max`` is each joint's URDF effort limit
@@ -21,8 +21,8 @@ from robot_controller.robots.description import describe
 @dataclass(frozen=True)
 class Robot:
     """:param urdf: returns the robot's URDF file (empty path: the package's reference arm)
-    :param home_position: rad per joint, where the arm starts and the trajectory is centred
-    :param amplitude: rad per joint, of the default sine about the home pose
+    :param home_position: rad per joint (m for a prismatic one), where the arm starts and the trajectory is centred
+    :param amplitude: rad per joint (m for a prismatic one), of the default sine about the home pose
     :param frequency_hz: of the default sine
     :param note: what was changed to load its description (fingers held still, meshes dropped), or ``""``
     """
@@ -57,8 +57,8 @@ class Robot:
         }
 
 
-def _planar2_urdf() -> str:
-    return str(resources.share_dir() / "description" / "planar2_arm.urdf")
+def _shipped(filename: str) -> Callable[[], str]:
+    return lambda: str(resources.share_dir() / "description" / filename)
 
 
 DEFAULT_ROBOT = "one_dof"
@@ -80,9 +80,18 @@ ROBOTS: dict[str, Robot] = {
         Robot(
             "planar2",
             "a two-link planar arm in a vertical plane (description/planar2_arm.urdf), 30 and 10 N·m",
-            _planar2_urdf,
+            _shipped("planar2_arm.urdf"),
             (0.0, 0.0),
             (0.6, 0.8),
+            0.5,
+        ),
+        Robot(
+            "scara",
+            "a small SCARA (description/scara_arm.urdf): two vertical revolute joints, 30 and 10 N·m, "
+            "and a vertical prismatic quill, 0.2 m, 40 N",
+            _shipped("scara_arm.urdf"),
+            (0.0, 0.6, 0.1),
+            (0.6, 0.8, 0.05),
             0.5,
         ),
         Robot(

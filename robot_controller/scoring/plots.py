@@ -15,8 +15,9 @@ from robot_controller.core import metrics
 from robot_controller.scoring.bag_reader import Recording
 
 
-def plot_tracking(recording: Recording, path: Path, title: str = "") -> None:
-    """Reference, true and measured position; tracking error; commanded and applied torque, for every joint."""
+def plot_tracking(recording: Recording, path: Path, title: str = "", units: list[str] | None = None) -> None:
+    """Reference, true and measured position; tracking error; commanded and applied effort, for every
+    joint; ``units``: each joint's position unit, ``"rad"`` (default) or ``"m"`` (a prismatic joint)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -57,7 +58,15 @@ def plot_tracking(recording: Recording, path: Path, title: str = "") -> None:
             ax.grid(alpha=0.3)
     last = rows[-1]
     last[-1].set_xlim(t[0], t[-1])
-    headings = ("position [rad]", "error [mrad]", "torque [N·m]")
+    units = units or ["rad"] * n
+    shown = " | ".join(dict.fromkeys(units))
+    efforts = " | ".join(dict.fromkeys(metrics.EFFORT_UNITS[u] for u in units))
+    effort = "torque" if efforts == "N·m" else "force" if efforts == "N" else "effort"
+    headings = (
+        f"position [{shown}]",
+        f"error [{' | '.join('m' + u for u in dict.fromkeys(units))}]",
+        f"{effort} [{efforts}]",
+    )
     for ax, heading in zip(rows[0], headings, strict=True):  # one joint: stacked, labelled on the left
         if n == 1:
             ax.set_ylabel(heading)
@@ -67,8 +76,8 @@ def plot_tracking(recording: Recording, path: Path, title: str = "") -> None:
     for ax in last if n > 1 else last[-1:]:
         ax.set_xlabel("time since first control tick [s]")
     if n > 1:
-        for row, name in zip(rows, recording.joint_names, strict=True):
-            row[0].set_ylabel(name, fontsize=9)
+        for row, name, unit in zip(rows, recording.joint_names, units, strict=True):
+            row[0].set_ylabel(name if unit == "rad" else f"{name} [{unit}]", fontsize=9)
             for ax in row:
                 ax.tick_params(labelsize=8)
     if title:

@@ -35,8 +35,12 @@ def score(
     nominal_period_s: float = 0.01,
     warmup_s: float = metrics.WARMUP_S,
     window_s: float | None = None,
+    units: list[str] | None = None,
 ) -> dict[str, Any]:
     """The run's metrics: tracking on the TRUE position, rates, latency, message counts.
+
+    :param units: each joint's position unit, ``"rad"`` or ``"m"`` (default all ``"rad"``): the figures'
+        names and headlines follow them (:func:`robot_controller.core.metrics.joint_errors`)
 
     :param window_s: keep only the first ``window_s`` s of ticks and leave out what depends on when
         the recorder heard a message: in lockstep, the same seed then gives the same figures exactly
@@ -46,20 +50,17 @@ def score(
         keep = s["time_s"] < s["time_s"][0] + window_s - 1e-9
         s = {k: v[keep] for k, v in s.items()}
     ticks = s["time_s"]
-    out: dict[str, Any] = {"joint_names": list(recording.joint_names)}
+    units = list(units or ["rad"] * recording.joint_count)
+    out: dict[str, Any] = {"joint_names": list(recording.joint_names), "joint_units": units}
     end_s = ticks[0] + window_s if window_s is not None else ticks[-1]
-    out.update(tracking_on_sim_timeline(recording, ticks[0] + warmup_s, end_s, nominal_period_s))
+    out.update(tracking_on_sim_timeline(recording, ticks[0] + warmup_s, end_s, nominal_period_s, units))
     # The sensor's own readings against the reference the law used with them (null if not recorded).
     active = s["status"] == state_layout.STATUS_CODES["ok"]
     raw = recording.raw_reading_at(s["measurement_stamp_s"])
     scored = active & (ticks >= ticks[0] + warmup_s) & np.all(np.isfinite(raw), axis=1)
-    if np.any(scored):
-        measured = metrics.joint_errors(s["reference"][scored] - raw[scored], "measured")
-        out["measured_rms_rad"] = measured["measured_rms_rad"]
-        out["measured_rms_rad_per_joint"] = measured["measured_rms_rad_per_joint"]
-    else:
-        out["measured_rms_rad"] = float("nan")
-        out["measured_rms_rad_per_joint"] = [float("nan")] * recording.joint_count
+    error = s["reference"][scored] - raw[scored] if np.any(scored) else np.full((1, len(units)), np.nan)
+    measured = metrics.joint_errors(error, "measured", units)
+    out.update({key: value for key, value in measured.items() if key.startswith("measured_rms")})
     out["malformed_messages"] = int(sum(recording.malformed.values()))
     out.update(metrics.rate_metrics(ticks, nominal_period_s))
     out["control_ticks"] = int(len(ticks))
@@ -71,7 +72,7 @@ def score(
         out[f"{name}_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES[name]))
     out["saturated_ticks"] = int(np.count_nonzero(np.any(s["saturated"] > 0.5, axis=1)))
     out["saturated_ticks_per_joint"] = np.count_nonzero(s["saturated"] > 0.5, axis=0).tolist()
-    out.update(metrics.peak_torque(s["command"]))
+    out.update(metrics.peak_torque(s["command"], units))
     out["recorded_duration_s"] = float(ticks[-1] - ticks[0])
     ok_ticks = s["status"] != state_layout.STATUS_CODES["no_measurement"]
     out.update(
@@ -127,7 +128,7 @@ def reference_in_force_at(
 
 
 def tracking_on_sim_timeline(
-    recording: Recording, start_s: float, end_s: float, nominal_period_s: float = 0.01
+    recording: Recording, start_s: float, end_s: float, nominal_period_s: float = 0.01, units: list[str] | None = None
 ) -> dict[str, Any]:
     """Tracking on the simulator's timeline: every true-state sample from
     ``start_s`` to ``end_s`` against the reference in force at that time
@@ -136,16 +137,8 @@ def tracking_on_sim_timeline(
     t, q = recording.true_time_s, recording.true_position
     in_force, valid = reference_in_force(recording, nominal_period_s)
     window = (t >= start_s - 1e-9) & (t <= end_s + 1e-9) & valid
-    if not np.any(window):
-        unknown = [float("nan")] * recording.joint_count
-        return {
-            "tracking_rms_rad": float("nan"),
-            "tracking_max_rad": float("nan"),
-            "tracking_rms_rad_per_joint": unknown,
-            "tracking_max_rad_per_joint": list(unknown),
-            "scored_samples": 0,
-        }
-    return {**metrics.joint_errors(in_force[window] - q[window]), "scored_samples": int(np.count_nonzero(window))}
+    error = in_force[window] - q[window] if np.any(window) else np.full((1, recording.joint_count), np.nan)
+    return {**metrics.joint_errors(error, units=units), "scored_samples": int(np.count_nonzero(window))}
 
 
 # Ticks further apart than this many control periods: the controller was not running.
@@ -171,40 +164,50 @@ def write_metrics(path: Path, values: dict[str, Any]) -> None:
     path.write_text(json.dumps(json_safe(values), indent=2, sort_keys=True, allow_nan=False) + "\n")
 
 
-# The per-joint lists of metrics.json, in the order the summary shows them, with their column headings.
+# The per-joint lists of metrics.json, in the order the summary shows them: their column headings, and
+# whether their unit is the joint's effort's (else its position's).
 PER_JOINT_KEYS = {
-    "tracking_rms_rad_per_joint": "tracking\nRMS [rad]",
-    "tracking_max_rad_per_joint": "tracking\nmax [rad]",
-    "measured_rms_rad_per_joint": "measured\nRMS [rad]",
-    "peak_torque_nm_per_joint": "peak\ntorque [N·m]",
+    "tracking_rms_per_joint": ("tracking\nRMS", False),
+    "tracking_max_per_joint": ("tracking\nmax", False),
+    "measured_rms_per_joint": ("measured\nRMS", False),
+    "peak_effort_per_joint": ("peak\neffort", True),
 }
 
 
 def joint_table(values: dict[str, Any], title: str = "per joint (worst in bold: the headline figure)"):
-    """A ``rich`` table of the per-joint figures, one row per joint; None for a
-    one-joint arm (its headline figures are the joint's own)."""
+    """A ``rich`` table of the per-joint figures, one row per joint, in each joint's units
+    (``joint_units``); None for a one-joint arm (its headline figures are the joint's own)."""
     names = values.get("joint_names") or []
     if len(names) < 2:
         return None
     from rich.markup import escape
     from rich.table import Table
 
+    from robot_controller.core.metrics import EFFORT_UNITS
+
+    units = values.get("joint_units") or ["rad"] * len(names)
     keys = [key for key in PER_JOINT_KEYS if len(values.get(key) or []) == len(names)]
     table = Table(title=title)
     table.add_column("joint")
     for key in keys:
-        table.add_column(escape(PER_JOINT_KEYS[key]), justify="right")  # "[rad]" is not markup
-    worst = {key: _worst(values[key]) for key in keys}
+        heading, effort = PER_JOINT_KEYS[key]
+        shown = dict.fromkeys(EFFORT_UNITS[u] if effort else u for u in units)
+        table.add_column(escape(f"{heading} [{' | '.join(shown)}]"), justify="right")  # "[rad]" is not markup
+    worst = {key: _worst(values[key], units) for key in keys}
     for j, name in enumerate(names):
         cells = []
         for key in keys:
             value = values[key][j]
             text = "—" if value is None or not np.isfinite(value) else f"{value:.6g}"
-            cells.append(f"[bold]{text}[/bold]" if j == worst[key] else text)
-        table.add_row(name, *cells)
+            cells.append(f"[bold]{text}[/bold]" if j in worst[key] else text)
+        table.add_row(escape(name if units[j] == "rad" else f"{name} [{units[j]}, {EFFORT_UNITS[units[j]]}]"), *cells)
     return table
 
 
-def _worst(figures: list[float | None]) -> int | None:
-    finite = [(v, j) for j, v in enumerate(figures) if v is not None and np.isfinite(v)]
-    return max(finite)[1] if finite else None
+def _worst(figures: list[float | None], units: list[str]) -> set[int]:
+    """The worst joint of each unit: each a headline figure (``metrics.by_unit``)."""
+    worst: dict[str, int] = {}
+    for j, (value, unit) in enumerate(zip(figures, units, strict=True)):
+        if value is not None and np.isfinite(value) and (unit not in worst or value > figures[worst[unit]]):
+            worst[unit] = j
+    return set(worst.values())

@@ -108,3 +108,26 @@ def test_one_joint_figures_are_the_pooled_ones_exactly():
     assert out["tracking_rms_rad_per_joint"] == [out["tracking_rms_rad"]]
     command = rng.normal(0.0, 3.0, (500, 1))
     assert metrics.peak_torque(command)["peak_torque_nm"] == float(np.max(np.abs(command)))
+
+
+def test_a_prismatic_joint_is_scored_in_m_and_the_rad_headline_is_the_revolute_joints():
+    error = np.tile([0.002, -0.001, 0.0005], (100, 1))  # rad, rad, m (a quill 0.5 mm off)
+    out = metrics.joint_errors(error, units=["rad", "rad", "m"])
+    assert out["tracking_rms_per_joint"] == pytest.approx([0.002, 0.001, 0.0005])
+    assert out["tracking_rms_rad"] == pytest.approx(0.002)  # the shoulder's, the quill's metres kept out
+    assert out["tracking_rms_m"] == out["tracking_max_m"] == pytest.approx(0.0005)
+    assert "tracking_rms_rad_per_joint" not in out  # a list named rad would carry metres
+    efforts = metrics.peak_torque(np.tile([3.0, -1.0, 12.0], (10, 1)), ["rad", "rad", "m"])
+    assert efforts["peak_torque_nm"] == 3.0 and efforts["peak_force_n"] == 12.0
+    assert efforts["peak_effort_per_joint"] == [3.0, 1.0, 12.0] and "peak_torque_nm_per_joint" not in efforts
+    only_slides = metrics.joint_errors(error[:, 2:], units=["m"])
+    assert np.isnan(only_slides["tracking_rms_rad"]) and only_slides["tracking_rms_m"] == pytest.approx(0.0005)
+
+
+def test_revolute_joints_keep_their_keys_and_gain_the_unit_free_lists():
+    error = np.random.default_rng(3).normal(0.0, 0.01, (500, 2))
+    out, given = metrics.joint_errors(error), metrics.joint_errors(error, units=["rad", "rad"])
+    assert out == given and "tracking_rms_m" not in out
+    assert out["tracking_rms_rad_per_joint"] == out["tracking_rms_per_joint"]
+    assert out["tracking_rms_rad"] == max(out["tracking_rms_per_joint"])
+    assert "peak_force_n" not in metrics.peak_torque(error)

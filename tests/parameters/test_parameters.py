@@ -200,3 +200,12 @@ def test_planner_model_values_that_disagree_with_the_controllers_are_refused(tmp
     both = cfg.load_stack("default", [everyone])
     assert both["trajectory_planner"]["model_damping"] == both["pid_controller"]["model_damping"] == [0.5]
     consistency.check_stack(both)
+
+
+def test_a_run_whose_gains_leave_a_joint_no_delay_margin_is_refused_at_start(tmp_path):
+    from robot_controller.parameters import consistency
+
+    path = tmp_path / "stiff.yaml"
+    path.write_text("pid_controller:\n  ros__parameters:\n    controller_type: pid\n    kp: [50.0, 2000.0]\n")
+    with pytest.raises(ConfigError, match=r"pid_controller: controller_type pid: .* joint elbow a delay margin of 0"):
+        consistency.check_stack(cfg.load_stack(config=path, robot="planar2"))

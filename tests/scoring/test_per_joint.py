@@ -74,3 +74,29 @@ def test_the_picture_shows_every_joint(tmp_path, joints):
         assert (width, height) == (1100, 880)  # the one-joint figure as it always was
     else:  # a row of three panels per joint
         assert width > 1100 and height > 220 * joints
+
+
+def test_a_prismatic_joint_is_scored_shown_and_drawn_in_metres_and_newtons(tmp_path, monkeypatch):
+    units = ["rad", "rad", "m"]
+    recording = synthetic_recording([0.002, -0.001, 0.0004], ["shoulder", "elbow", "quill"])
+    values = report.score(recording, units=units)
+    assert values["joint_units"] == units
+    assert values["tracking_rms_per_joint"] == pytest.approx([0.002, 0.001, 0.0004])
+    assert values["tracking_rms_rad"] == pytest.approx(0.002) and values["tracking_rms_m"] == pytest.approx(0.0004)
+    assert values["peak_torque_nm"] == pytest.approx(2.0, abs=1e-3)  # the quill's 3 N is a force
+    assert values["peak_force_n"] == pytest.approx(3.0, abs=1e-3)
+    assert not any(key.endswith("_rad_per_joint") or key.endswith("_nm_per_joint") for key in values)
+    table = report.joint_table(values)
+    assert [column.header for column in table.columns][1] == r"tracking\nRMS \[rad | m]".replace(r"\n", "\n")
+    assert list(table.columns[0].cells) == ["shoulder", "elbow", r"quill \[m, N]"]
+    # The worst of each unit in bold: the shoulder's and the quill's RMS, each a headline.
+    assert [cell.startswith("[bold]") for cell in table.columns[1].cells] == [True, False, True]
+
+    import matplotlib.figure
+
+    drawn = []
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", lambda fig, *a, **k: drawn.append(fig))
+    plots.plot_tracking(recording, tmp_path / "tracking.png", units=units)
+    titles = [ax.get_title() for ax in drawn[0].axes[:3]]
+    assert titles == ["position [rad | m]", "error [mrad | mm]", "effort [N·m | N]"]
+    assert [ax.get_ylabel() for ax in drawn[0].axes[::3]] == ["shoulder", "elbow", "quill [m]"]

@@ -13,6 +13,7 @@ from robot_controller.core.controller.supervision import (
     ReferenceSource,
     Status,
     TickClock,
+    check_delay_margin,
     check_health,
     delay_margin_periods,
 )
@@ -31,6 +32,7 @@ __all__ = [
     "Readings",
     "Status",
     "TickClock",
+    "check_delay_margin",
     "check_health",
     "delay_margin_periods",
     "law_config",

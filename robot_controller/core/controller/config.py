@@ -14,7 +14,7 @@ import numpy as np
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation import KalmanConfig
 from robot_controller.core.laws import FeedforwardMode, lqr
-from robot_controller.core.laws.pid import PidConfig
+from robot_controller.core.laws.pid import PidConfig, inertia_scaled
 from robot_controller.core.laws.registry import BUILTIN_LAWS
 
 if TYPE_CHECKING:
@@ -75,6 +75,10 @@ class ControllerConfig:
     #: rad per joint, the pose the LQR gains and the delay margin are designed at (each joint's inertia
     #: there: a wrist has a hundredth of a shoulder's); None: every joint at 0
     design_position: tuple[float, ...] | None = None
+    #: the gains (of kp, ki, kd) given as one value on a chain: for a joint of reference_inertia, scaled per joint
+    scaled_gains: tuple[str, ...] = ()
+    #: control periods of delay margin the built-in law must leave every joint (:func:`check_delay_margin`; 0: no check)
+    min_delay_margin_periods: int = 1
 
     def __post_init__(self) -> None:
         try:
@@ -125,6 +129,7 @@ class ControllerConfig:
             "lqr_r": self.lqr_r,
             "reference_inertia": self.reference_inertia,
             "design_position": self.design_position,
+            "scaled_gains": self.scaled_gains,
         }
 
     def observer_torque_scale(self, dynamics: ArmDynamics, joint_count: int) -> np.ndarray | None:
@@ -139,9 +144,11 @@ def law_config(
     config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int, kind: str | None = None
 ) -> PidConfig:
     """The PID settings the built-in law ``kind`` ("pid" or "lqr"; None: :attr:`ControllerConfig.builtin_law`)
-    runs with: for LQR, the designed gains (``ConfigError`` if there is no design)."""
+    runs with: for LQR, the designed gains (``ConfigError`` if there is no design); for PID, the gains
+    given as one value scaled by each joint's inertia (:func:`~robot_controller.core.laws.pid.inertia_scaled`)."""
     if (kind or config.builtin_law) == "pid":
-        return config.pid
+        position, scaled = config.design_position, config.scaled_gains
+        return inertia_scaled(config.pid, dynamics, joint_count, config.reference_inertia, position, scaled)
     return lqr.designed_gains(
         config.pid,
         dynamics,

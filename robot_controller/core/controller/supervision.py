@@ -19,7 +19,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from robot_controller.core.controller.config import ControllerConfig
+from robot_controller.core.controller.config import ControllerConfig, law_config
+from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation import steady_state_gain
 from robot_controller.core.laws import PidTerms, lqr, robustness
 from robot_controller.core.laws.pid import PidConfig
@@ -289,8 +290,16 @@ class LatencyGuard:
 def delay_margin_periods(
     gains: PidConfig, dynamics: ArmDynamics | None, joint_count: int, config: ControllerConfig
 ) -> int | None:
-    """Whole control periods of delay nobody accounts for (a late command, a reading stamped on
-    arrival) the feedback with ``gains`` survives on the worst joint, the arm linearised at rest at
+    """The smallest of :func:`joint_delay_margins`: the worst joint's (None without the arm model)."""
+    margins = joint_delay_margins(gains, dynamics, joint_count, config)
+    return None if margins is None else min(margins)
+
+
+def joint_delay_margins(
+    gains: PidConfig, dynamics: ArmDynamics | None, joint_count: int, config: ControllerConfig
+) -> list[int] | None:
+    """Per joint, whole control periods of delay nobody accounts for (a late command, a reading
+    stamped on arrival) the feedback with ``gains`` survives, the arm linearised at rest at
     the design pose (:func:`robustness.delay_margin_periods`). With the disturbance observer, the
     loop through the filter and the observer (:func:`robustness.observer_delay_margin_periods`),
     for the filter as it is while the readings agree with it and as it becomes when they do not
@@ -306,10 +315,27 @@ def delay_margin_periods(
         joint_inertia, damping = float(inertia[j]), float(dynamics.damping[j])
         if config.observes_disturbance:
             joint_filter = config.estimator if scale is None else config.estimator.for_inertia(float(scale[j]))
-            for filter_ in (joint_filter, joint_filter.at_mismatch()):
-                filter_gains = steady_state_gain(filter_, joint_inertia, damping, period_s, estimate_disturbance=True)
-                margins.append(robustness.observer_delay_margin_periods((ki, kp, kd), filter_gains, period_s))
+            both = (joint_filter, joint_filter.at_mismatch())
+            filters = [steady_state_gain(f, joint_inertia, damping, period_s, estimate_disturbance=True) for f in both]
+            margins.append(min(robustness.observer_delay_margin_periods((ki, kp, kd), f, period_s) for f in filters))
         else:
             A, B = lqr.discretise(joint_inertia, damping, period_s)
             margins.append(int(robustness.delay_margin_periods(A, B, robustness.pid_gain_row(kp, ki, kd))[0]))
-    return min(margins)
+    return margins
+
+
+def check_delay_margin(config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int) -> None:
+    """Refuse (``ConfigError``, naming the joint) a built-in law whose gains leave a joint fewer than
+    ``min_delay_margin_periods`` control periods of delay margin: unstable, or so with a little delay."""
+    needed = config.min_delay_margin_periods
+    margins = joint_delay_margins(law_config(config, dynamics, joint_count), dynamics, joint_count, config)
+    if needed <= 0 or margins is None or min(margins) >= needed:
+        return
+    j = int(np.argmin(margins))
+    key = "stop_law" if config.plugin_law else "controller_type"
+    hint = "raise lqr_r or lower lqr_q" if config.builtin_law == "lqr" else "lower its kp/ki/kd"
+    raise ConfigError(
+        f"{key} {config.builtin_law}: the gains leave joint {dynamics.joint_names[j]} a delay margin of {margins[j]} "
+        f"control periods, below min_delay_margin_periods {needed} (the loop is unstable with "
+        f"{margins[j] + 1} period(s) of delay): {hint}"
+    )

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.laws.pid import BuiltinLaw, DerivativeSource, PidConfig
+from robot_controller.core.laws.pid import BuiltinLaw, DerivativeSource, PidConfig, design_inertia
 
 if TYPE_CHECKING:
     from robot_controller.core.model import ArmDynamics
@@ -61,24 +61,6 @@ def design(inertia: float, damping: float, dt: float, q_weights: np.ndarray, r_w
     if not radius < 1.0:
         raise ConfigError(f"LQR design does not stabilise the arm (spectral radius {radius:.4f})")
     return LqrDesign(A, B, K, P, radius)
-
-
-def design_inertia(
-    dynamics: ArmDynamics, joint_count: int, design_position: tuple[float, ...] | None = None
-) -> np.ndarray:
-    """Each joint's own inertia (the mass matrix's diagonal, kg·m²) at the design pose (rad per
-    joint; None: every joint at 0, or the nearest end of its range where 0 is outside it). Each
-    joint's gains are designed for it, so one set of weights serves a shoulder and a light wrist."""
-    if design_position is not None:
-        pose = np.asarray(design_position, dtype=float)
-    else:
-        pose = np.zeros(joint_count)
-        model = getattr(dynamics, "model", None)  # a MuJoCo model knows the joints' ranges
-        if model is not None:
-            limited = model.jnt_limited[:joint_count].astype(bool)
-            low, high = model.jnt_range[:joint_count, 0], model.jnt_range[:joint_count, 1]
-            pose = np.where(limited, np.clip(pose, low, high), pose)
-    return np.diag(dynamics.mass_matrix(pose)).copy()
 
 
 def torque_weight(lqr_r: float, reference_inertia_kgm2: float, inertia_kgm2: float) -> float:

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -265,6 +265,41 @@ def decoupling_map(decoupling: bool, dynamics: ArmDynamics | None, position: np.
     return mass / np.diag(mass)[None, :]
 
 
+def design_inertia(
+    dynamics: ArmDynamics, joint_count: int, design_position: tuple[float, ...] | None = None
+) -> np.ndarray:
+    """Each joint's own inertia (the mass matrix's diagonal, kg·m²) at the design pose (rad per
+    joint; None: every joint at 0, or the nearest end of its range where 0 is outside it). Each
+    joint's gains are designed for it, so one set of weights serves a shoulder and a light wrist."""
+    if design_position is not None:
+        pose = np.asarray(design_position, dtype=float)
+    else:
+        pose = np.zeros(joint_count)
+        model = getattr(dynamics, "model", None)  # a MuJoCo model knows the joints' ranges
+        if model is not None:
+            limited = model.jnt_limited[:joint_count].astype(bool)
+            low, high = model.jnt_range[:joint_count, 0], model.jnt_range[:joint_count, 1]
+            pose = np.where(limited, np.clip(pose, low, high), pose)
+    return np.diag(dynamics.mass_matrix(pose)).copy()
+
+
+def inertia_scaled(
+    pid: PidConfig,
+    dynamics: ArmDynamics | None,
+    joint_count: int,
+    reference_inertia: float,
+    design_position: tuple[float, ...] | None,
+    scaled: tuple[str, ...],
+) -> PidConfig:
+    """``pid`` with the gains named in ``scaled`` (each given as one value, for a joint of
+    ``reference_inertia`` kg·m²) times each joint's inertia at the design pose over it: the reference
+    joint's closed loop on every joint, as the LQR's torque weight gives (:func:`design_inertia`)."""
+    if not scaled or reference_inertia <= 0 or dynamics is None:
+        return pid
+    ratio = design_inertia(dynamics, joint_count, design_position) / reference_inertia
+    return replace(pid, **{name: getattr(pid, name) * ratio for name in scaled})
+
+
 # A tick later than this many periods after the last one is integrated over this many.
 MAX_STEP_PERIODS = 5
 
@@ -272,7 +307,7 @@ MAX_STEP_PERIODS = 5
 class BuiltinLaw(ControlLaw):
     """Model feedforward less the observer's torque, plus the PID's feedback. Params: ``pid`` (a
     :class:`PidConfig`), ``feedforward`` (a FeedforwardMode), ``feedback_decoupling``, ``lqr_q``,
-    ``lqr_r``, ``reference_inertia``, ``design_position``."""
+    ``lqr_r``, ``reference_inertia``, ``design_position``, ``scaled_gains``."""
 
     kind: ClassVar[str] = ""
 
@@ -283,8 +318,11 @@ class BuiltinLaw(ControlLaw):
         self._last_s: float | None = None
 
     def gains(self) -> PidConfig:
-        """The PID settings this law runs with (the LQR's: designed); ``ConfigError`` if none."""
-        return self.params["pid"]
+        """The PID settings this law runs with (the LQR's: designed; gains given as one value: scaled
+        per joint, :func:`inertia_scaled`); ``ConfigError`` if none."""
+        p, arm = self.params, self.arm
+        inertia, pose = p.get("reference_inertia", 0.0), p.get("design_position")
+        return inertia_scaled(p["pid"], arm.model, arm.joint_count, inertia, pose, p.get("scaled_gains", ()))
 
     def set_params(self, params: Mapping[str, Any]) -> None:
         """New gains and options, bumpless (the PID keeps its I term in N·m)."""
@@ -344,7 +382,8 @@ class BuiltinLaw(ControlLaw):
                 f"LQR (q={_values(p['lqr_q'])}, r={p['lqr_r']:g}, designed at "
                 f"{1.0 / self.period_s:g} Hz): {in_force}; the kp/ki/kd parameters are unused"
             )
-        return f"PID: {in_force}"
+        scaled = "/".join(p.get("scaled_gains", ()))  # one value each, for reference_inertia
+        return f"PID{f' ({scaled} × each joint inertia / reference_inertia)' if scaled else ''}: {in_force}"
 
 
 class PidLaw(BuiltinLaw):

@@ -61,6 +61,11 @@ def joint_names(model: mujoco.MjModel) -> list[str]:
     return [model.joint(i).name for i in range(model.njnt)]
 
 
+def joint_units(model: mujoco.MjModel) -> list[str]:
+    """Each joint's position unit: ``"m"`` for a slide (a URDF ``prismatic`` joint), else ``"rad"``."""
+    return ["m" if kind == mujoco.mjtJoint.mjJNT_SLIDE else "rad" for kind in model.jnt_type[: model.njnt]]
+
+
 def steps_per_period(physics_dt: float, period_s: float) -> int:
     """Whole number of physics steps in one period; refuse ratios that are not whole."""
     ratio = period_s / physics_dt

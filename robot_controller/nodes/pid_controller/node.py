@@ -14,7 +14,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray
 
 from robot_controller import parameters as cfg
-from robot_controller.core.controller import JointController, Status, law_config
+from robot_controller.core.controller import JointController, Status, check_delay_margin
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters as law_parameters
 from robot_controller.core.laws import registry
@@ -90,7 +90,7 @@ class PidControllerNode(StackNode):
         # The law designs here, before the change is accepted (an LQR that does not
         # stabilise is refused, not found when applying it).
         config = cfg.controller_config(params, self.joint_count)
-        law_config(config, self.dynamics, self.joint_count)
+        check_delay_margin(config, self.dynamics, self.joint_count)  # designs the law (and refuses a bad design)
         running = getattr(self, "controller", None)
         changed = running is not None and config.controller_type != running.config.controller_type
         if changed and (config.plugin_law or running.config.plugin_law):

@@ -159,3 +159,17 @@ def test_readings_missing_while_the_brakes_hold_command_nothing():
     c2.set_measurement(0.0, 0.0, np.zeros(1), np.zeros(1))
     c2.update(0.0)
     assert Status.WATCHDOG in [c2.update(k * PERIOD).status for k in range(1, 20)]
+
+
+def test_gains_leaving_a_joint_less_than_a_period_of_delay_margin_are_refused_naming_it():
+    from robot_controller.core.controller import check_delay_margin
+    from robot_controller.core.errors import ConfigError
+    from robot_controller.parameters.builders import arm_model
+
+    ctrl = dict(cfg.load_stack(robot="planar2")["pid_controller"], controller_type="pid")
+    dynamics = arm_model(ctrl)
+    check_delay_margin(cfg.controller_config(ctrl, 2), dynamics, 2)  # one value each, scaled: kept
+    stiff = dict(ctrl, kp=[50.0, 2000.0])
+    with pytest.raises(ConfigError, match=r"controller_type pid: .* joint elbow a delay margin of 0 control periods"):
+        check_delay_margin(cfg.controller_config(stiff, 2), dynamics, 2)
+    check_delay_margin(cfg.controller_config(dict(stiff, min_delay_margin_periods=0), 2), dynamics, 2)  # no check

@@ -143,3 +143,26 @@ def test_anti_windup_modes_beat_no_protection_clearly():
     assert _saturated_plant_run("back_calculation")[0] < 0.5 * none
     assert _saturated_plant_run("conditional_integration")[0] < 0.5 * none
     assert DerivativeSource("velocity_error")  # the enum round-trips its value
+
+
+def test_gains_given_as_one_value_on_a_chain_are_scaled_by_each_joints_inertia_a_list_per_joint_is_not():
+    from robot_controller import parameters as cfg
+    from robot_controller.core.controller import JointController, law_config
+    from robot_controller.core.laws import lqr
+    from robot_controller.parameters.builders import arm_model
+
+    ctrl = dict(cfg.load_stack(robot="planar2")["pid_controller"], controller_type="pid")
+    dynamics = arm_model(ctrl)
+    config = cfg.controller_config(ctrl, 2)
+    assert config.scaled_gains == ("kp", "ki", "kd")
+    ratio = lqr.design_inertia(dynamics, 2, config.design_position) / ctrl["reference_inertia"]
+    assert ratio[0] > 5 and ratio[1] < 1  # a heavy shoulder, a light elbow
+    gains = law_config(config, dynamics, 2)
+    np.testing.assert_allclose(gains.kp, 50.0 * ratio)
+    np.testing.assert_allclose((gains.ki, gains.kd), (10.0 * ratio, 5.0 * ratio))
+    np.testing.assert_array_equal(JointController(config, 2, dynamics).gains.kp, gains.kp)  # the law runs them
+    own = cfg.controller_config(dict(ctrl, kp=[50.0, 40.0]), 2)  # the user's, joint by joint
+    assert own.scaled_gains == ("ki", "kd")
+    np.testing.assert_array_equal(law_config(own, dynamics, 2).kp, [50.0, 40.0])
+    one = cfg.load_stack()["pid_controller"]  # one joint: its one value is its own, as given to the bit
+    assert cfg.controller_config(one, 1).scaled_gains == ()

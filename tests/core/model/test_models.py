@@ -17,6 +17,7 @@ from robot_controller.core.model import (
     measure,
     steps_per_period,
 )
+from robot_controller.core.model.mujoco_model import joint_units
 from robot_controller.core.reference import make_trajectory
 from robot_controller.robots import urdf_of
 
@@ -142,3 +143,8 @@ def test_contacts_are_disabled_only_where_none_can_happen():
         skipping.step(torque, 10)
         colliding.step(torque, 10)
         assert [x.tolist() for x in skipping.state()] == [x.tolist() for x in colliding.state()]
+
+
+def test_each_joint_has_its_unit_from_its_type():
+    assert joint_units(load_model(urdf_of("planar2"))) == ["rad", "rad"]
+    assert joint_units(load_model(urdf_of("scara"))) == ["rad", "rad", "m"]  # the quill slides
