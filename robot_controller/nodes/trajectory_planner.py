@@ -4,11 +4,10 @@ Time starts when the first consumer is matched. Lockstep: each grid point's samp
 
 Every trajectory is checked against the joints' ranges, the arm model and ``torque_max`` less
 ``feasibility_margin`` (``core.reference``; ``feasibility``: scale, refuse or ignore), at start and on
-every live change, which is blended in from the reference in force (``core.reference.crossfade``). A ``JointTrajectory`` on
-``/trajectory_planner/joint_trajectory`` (as ros2_controllers' JointTrajectoryController takes it) is
-checked against the URDF's limits too, blended from the reference in force, timed from
-``header.stamp`` if set and not past, and held at its last point until the next one or a change of
-the shape parameters.
+every live change, which is blended in from the reference in force (``core.reference.crossfade``). A
+``JointTrajectory`` on ``/trajectory_planner/joint_trajectory`` (as ros2_controllers' JointTrajectoryController
+takes it) is checked against the URDF's limits too, blended from the reference in force, timed from
+``header.stamp`` if set and not past, and held at its last point until the next one or a change of the shape.
 """
 
 from __future__ import annotations
@@ -188,11 +187,9 @@ class TrajectoryPlanner(StackNode):
         usable = torque_limit(params, len(self.limits.joint_names)) * (1.0 - params["feasibility_margin"])
         self.crossfade = None  # (a blend under way is ``before``)
         self.crossfade = crossfade(before, self.motion_in_force(), now_s, self.dynamics, usable, self.limits.velocity)
-        gap = np.abs(before(now_s)[0] - self.crossfade.new(now_s)[0])
+        gap = np.max(np.abs(before(now_s)[0] - self.crossfade.new(now_s)[0]))
         self.get_logger().info(
-            f"trajectory: {params['mode']}, amplitude {params['amplitude']} rad, {params['frequency_hz']:g} Hz, "
-            f"blended in over {self.crossfade.duration_s:.2f} s from the reference in force "
-            f"({gap.max():.3g} rad apart now on {self.limits.joint_names[int(np.argmax(gap))]})"
+            f"new {params['mode']} blended in over {self.crossfade.duration_s:.2f} s ({gap:.3g} rad away)"
         )
 
     def motion_in_force(self) -> Motion:

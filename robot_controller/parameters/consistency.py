@@ -15,7 +15,7 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters as law_parameters
-from robot_controller.core.model import urdf_velocity_limits
+from robot_controller.core.model import joint_limits, urdf_velocity_limits
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import ARM_MODEL_KEYS, arm_model, given
 from robot_controller.parameters.torque_limits import torque_limit
@@ -133,19 +133,6 @@ def _check_limits(params: cfg.Params, arm: tuple[list[str], np.ndarray, np.ndarr
                 f"{node}: torque_max {torque_max.tolist()} N·m exceeds the URDF's effort limit "
                 f"{effort_limit.tolist()} N·m (it may lower the limit, never raise it)"
             )
-    planner = params["trajectory_planner"]
-    amplitude = cfg.per_joint("amplitude", planner["amplitude"], n)
-    offset = cfg.per_joint("offset", planner["offset"], n)
-    low, high = offset - np.abs(amplitude), offset + np.abs(amplitude)
-    if planner["mode"] == "step":  # from the offset to offset + amplitude
-        low, high = np.minimum(offset, offset + amplitude), np.maximum(offset, offset + amplitude)
-    outside = (low < ranges[:, 0] - 1e-9) | (high > ranges[:, 1] + 1e-9)
-    if np.any(outside):
-        j = int(np.flatnonzero(outside)[0])
-        raise ConfigError(
-            f"trajectory_planner: amplitude and offset reach [{low[j]:g}, {high[j]:g}] rad on "
-            f"{names[j]}, beyond its limits [{ranges[j, 0]:g}, {ranges[j, 1]:g}] rad"
-        )
     initial = cfg.per_joint("initial_position", params["simulator"]["initial_position"], n)
     if np.any((initial < ranges[:, 0]) | (initial > ranges[:, 1])):
         raise ConfigError(f"simulator: initial_position {initial.tolist()} rad is outside the joint limits")
@@ -216,7 +203,7 @@ def trajectory_plan(params: cfg.Params) -> Plan:
     from robot_controller.core.reference import make_trajectory, plan_trajectory
 
     planner = params["trajectory_planner"]
-    dynamics = arm_model(params["pid_controller"])
+    dynamics, limits = arm_model(params["pid_controller"]), joint_limits(resources.resolve_urdf(planner["urdf_path"]))
     try:
         trajectory = make_trajectory(planner["mode"], **cfg.trajectory_kwargs(planner))
         return plan_trajectory(
@@ -228,6 +215,7 @@ def trajectory_plan(params: cfg.Params) -> Plan:
             what=planner["mode"],
             joint_names=dynamics.joint_names,
             velocity_limit=urdf_velocity_limits(resources.resolve_urdf(planner["urdf_path"]), dynamics.joint_names),
+            position_range=(limits.lower, limits.upper),  # as the planner checks every live change
         )
     except ConfigError as exc:
         raise ConfigError(f"trajectory_planner: {exc}") from None

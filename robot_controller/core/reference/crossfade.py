@@ -16,7 +16,6 @@ from robot_controller.core.reference.trajectory import Sample
 Motion = Callable[[float], Sample]  #: ``(position, velocity, acceleration)`` at a time on the planner's clock, s
 MIN_CROSSFADE_S = 0.5
 MAX_CROSSFADE_S = 30.0
-PROBES = 50  # samples of a candidate blend checked against the limits
 
 
 @dataclass(frozen=True)
@@ -44,19 +43,13 @@ class Crossfade:
 
 
 def crossfade(
-    old: Motion,
-    new: Motion,
-    start_s: float,
-    dynamics: InverseDynamics,
-    usable_nm: np.ndarray,
-    velocity_limit: np.ndarray,
+    old: Motion, new: Motion, start_s: float, dynamics: InverseDynamics, usable_nm, velocity_limit
 ) -> Crossfade:
-    """The shortest blend (from ``MIN_CROSSFADE_S``, ×1.25, at most ``MAX_CROSSFADE_S``) whose
-    sampled torque and speed stay within ``usable_nm`` and ``velocity_limit`` (or the two
-    motions' own peaks, if higher), per joint."""
+    """The shortest blend (from ``MIN_CROSSFADE_S``, ×1.25, at most ``MAX_CROSSFADE_S``) whose sampled torque and
+    speed stay within ``usable_nm`` and ``velocity_limit`` (arrays; or the two motions' own peaks, if higher)."""
 
     def peaks(at: Motion, duration_s: float) -> tuple[np.ndarray, np.ndarray]:
-        samples = [at(start_s + t) for t in np.linspace(0.0, duration_s, PROBES)]
+        samples = [at(start_s + t) for t in np.linspace(0.0, duration_s, 50)]
         torque = np.max([np.abs(dynamics.torque(*sample)) for sample in samples], axis=0)
         return torque, np.max([np.abs(sample[1]) for sample in samples], axis=0)
 

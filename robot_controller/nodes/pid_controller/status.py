@@ -32,7 +32,8 @@ class SaturationWatch:
 
     def newly_long(self, now_s: float, saturated: np.ndarray) -> list[int]:
         """The joints to say now: saturated for long enough and not said before."""
-        if self.said.all():
+        if not np.count_nonzero(saturated):  # most ticks
+            self.since_s.fill(np.nan)
             return []
         cut = np.asarray(saturated) > 0.5
         self.since_s = np.where(cut, np.fmin(self.since_s, now_s), np.nan)
