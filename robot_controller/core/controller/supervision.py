@@ -333,7 +333,11 @@ def check_delay_margin(config: ControllerConfig, dynamics: ArmDynamics | None, j
         return
     j = int(np.argmin(margins))
     key = "stop_law" if config.plugin_law else "controller_type"
-    hint = "raise lqr_r or lower lqr_q" if config.builtin_law == "lqr" else "lower its kp/ki/kd"
+    hint = (
+        "raise lqr_r or lower lqr_q"
+        if config.builtin_law == "lqr"
+        else "lower that joint's gains (one value each is scaled to each joint's inertia)"
+    )
     raise ConfigError(
         f"{key} {config.builtin_law}: the gains leave joint {dynamics.joint_names[j]} a delay margin of {margins[j]} "
         f"control periods, below min_delay_margin_periods {needed} (the loop is unstable with "
