@@ -64,7 +64,7 @@ def test_step_metrics_on_a_second_order_system():
 def test_controller_state_layout_round_trips():
     values = {name: np.array([k + 0.5, k + 1.5]) for k, name in enumerate(state_layout.FIELDS)}
     data = state_layout.encode(12.5, "watchdog", 12.49, 2, values)
-    assert state_layout.joint_count_of(len(data)) == 2
+    assert len(data) == state_layout.width(2)
     back = state_layout.decode(np.array(data), 2)
     assert back["time_s"] == 12.5 and back["status"] == state_layout.STATUS_CODES["watchdog"]
     assert back["measurement_stamp_s"] == 12.49

@@ -1,7 +1,6 @@
-"""References for the moments a loop is not simply tracking: a controlled stop when an input is
-lost (IEC 60204-1 category 2: controlled stop, keep holding) and a blend back onto the trajectory
-when it returns, both per joint and limited in acceleration so the torque they ask for stays
-within reach (no jump, no chatter at the torque limit). Pure functions of time."""
+"""References for the moments a loop is not simply tracking: a controlled stop when an input is lost (IEC 60204-1
+category 2: stop, keep holding) and a blend back onto the trajectory when it returns, per joint and limited in
+acceleration so the torque they ask for stays within reach. Pure functions of time."""
 
 from __future__ import annotations
 
@@ -12,8 +11,7 @@ import numpy as np
 
 @dataclass(frozen=True)
 class ControlledStop:
-    """Decelerate from ``(position, velocity)`` at ``start_s`` at ``deceleration``
-    (rad/s², per joint) to rest, then hold where the motion ended."""
+    """Decelerate from ``(position, velocity)`` at ``start_s`` at ``deceleration`` (rad/s², per joint) to rest, hold."""
 
     start_s: float
     position: np.ndarray
@@ -38,8 +36,7 @@ class ControlledStop:
 def _quintic(
     p0: np.ndarray, v0: np.ndarray, duration_s: float, tau: float | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The quintic from ``(p0, v0, 0)`` at 0 to ``(0, 0, 0)`` at ``duration_s``, at ``tau``
-    (s, or a column of times: a row per time)."""
+    """The quintic from ``(p0, v0, 0)`` at 0 to ``(0, 0, 0)`` at ``duration_s``, at ``tau`` (s, or a column)."""
     T = duration_s
     s = tau / T
     s = min(max(s, 0.0), 1.0) if isinstance(s, float) else np.clip(s, 0.0, 1.0)  # (a float's weights: floats)
@@ -48,8 +45,7 @@ def _quintic(
 
 
 def _quintic_weights(s, T: float) -> tuple:
-    """The quintic's weights of ``p0`` and ``v0`` in position, velocity and acceleration
-    at the fraction ``s`` of ``T`` (a float or an array of them)."""
+    """The quintic's weights of ``p0`` and ``v0`` in position, velocity, acceleration at the fraction ``s`` of ``T``."""
     # p(s) = p0·(1 − 10s³ + 15s⁴ − 6s⁵) + v0·T·(s − 6s³ + 8s⁴ − 3s⁵)
     a = 1 - 10 * s**3 + 15 * s**4 - 6 * s**5
     da = (-30 * s**2 + 60 * s**3 - 30 * s**4) / T
@@ -65,14 +61,9 @@ MIN_BLEND_S = 0.2
 
 @dataclass(frozen=True)
 class Blend:
-    """An offset from the trajectory that starts where the arm is and fades out.
-
-    ``offset_position``/``offset_velocity``: arm minus trajectory when the
-    blend starts. The reference is trajectory + offset(t), the offset a
-    quintic reaching zero (position, velocity and acceleration) after
-    ``duration_s``, chosen so its own acceleration stays within
-    ``max_acceleration``: the arm is led back, never yanked.
-    """
+    """An offset from the trajectory (``offset_position``/``offset_velocity``: arm minus trajectory at the start) that
+    fades out: a quintic reaching zero (position, velocity and acceleration) after ``duration_s``, chosen so its own
+    acceleration stays within ``max_acceleration``: the arm is led back, never yanked."""
 
     start_s: float
     offset_position: np.ndarray

@@ -1,15 +1,7 @@
-"""Layout of ``/controller/state`` (a labelled ``std_msgs/Float64MultiArray``).
-
-``data`` is ``[time_s, status_code, measurement_stamp_s]`` followed by one block per field, each
-``joint_count`` long, in :data:`FIELDS` order. The message's layout carries
-the same labels (one dimension per block), so ``ros2 topic echo`` shows what
-each number is. This module only builds and reads the flat array.
-
-Under a law of one's own, its extra terms (its ``state_terms``) follow as more
-blocks of ``joint_count``, labelled with their names in the layout, in every
-message of the run. A reader that knows only the standard blocks takes the
-first :func:`width` values (:func:`standard`); :func:`extra` reads the rest.
-"""
+"""Layout of ``/controller/state`` (a labelled ``std_msgs/Float64MultiArray``): ``[time_s, status_code,
+measurement_stamp_s]``, then one block of ``joint_count`` per :data:`FIELDS` entry, then a law's own ``state_terms``
+blocks; the layout's labels name each block, so ``ros2 topic echo`` shows what each number is. A reader that knows only
+the standard blocks takes the first :func:`width` values (:func:`standard`); :func:`extra` reads the rest."""
 
 from __future__ import annotations
 
@@ -44,8 +36,7 @@ def encode(
     values: dict[str, np.ndarray],
     extra: Sequence[np.ndarray] = (),
 ) -> list[float]:
-    """The flat array: the header, the :data:`FIELDS` blocks from ``values``, then the ``extra``
-    blocks in order (a law's terms, one value per joint each)."""
+    """The flat array: the header, the :data:`FIELDS` blocks from ``values``, then the ``extra`` blocks (a law's)."""
     out = [float(time_s), float(STATUS_CODES[status]), float(measurement_stamp_s)]
     shape = (joint_count,)
     for value in chain(map(values.__getitem__, FIELDS), extra):
@@ -80,29 +71,19 @@ def width(joint_count: int) -> int:
 
 
 def fits(size: int, joint_count: int) -> bool:
-    """Whether ``size`` values are a message of this layout: the standard blocks, then
-    any whole extra blocks (a law's terms)."""
+    """Whether ``size`` values are a message of this layout: the standard blocks, then any whole extra blocks."""
     extra = size - width(joint_count)
     return extra >= 0 and extra % joint_count == 0
 
 
 def standard(data: Sequence[float], joint_count: int) -> Sequence[float] | None:
-    """The header and standard blocks of one message (its first :func:`width` values),
-    or None if it does not fit the layout."""
+    """The header and standard blocks of one message (its first :func:`width` values), or None if it does not fit."""
     return data[: width(joint_count)] if fits(len(data), joint_count) else None
 
 
 def extra(data: Sequence[float], joint_count: int, names: Sequence[str]) -> dict[str, np.ndarray]:
-    """A message's extra blocks by name (``names``: the layout's labels after the standard
-    ones); empty if their number does not match the names."""
+    """A message's extra blocks by name (the layout's labels after the standard ones); empty if they do not match."""
     rest = np.asarray(data[width(joint_count) :], dtype=float)
     if not names or rest.size != len(names) * joint_count:
         return {}
     return {name: rest[k * joint_count : (k + 1) * joint_count] for k, name in enumerate(names)}
-
-
-def joint_count_of(size: int) -> int:
-    n, rem = divmod(size - len(HEADER), len(FIELDS))
-    if rem or n < 1:
-        raise ValueError(f"controller state: {size} values is not a valid layout")
-    return n

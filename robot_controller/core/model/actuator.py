@@ -37,10 +37,8 @@ class Actuator:
         self._applied = np.zeros_like(self.torque_max)
 
     def apply(self, command: np.ndarray, dt: float) -> np.ndarray:
-        """Take a new command after ``dt`` seconds at the old one; return the applied torque.
-
-        Non-finite entries count as zero; the result is always within ``±torque_max``.
-        """
+        """Take a new command after ``dt`` seconds at the old one; return the applied torque, within
+        ``±torque_max`` (non-finite entries count as zero)."""
         finite = np.isfinite(command)
         if np.count_nonzero(finite) != finite.size:
             command = np.where(finite, command, 0.0)

@@ -1,17 +1,7 @@
-"""Identification of the arm from a recorded motion: per joint, a linear least squares fit of
-
-    tau = I·a + b·v + f_c·sign(v) + G·cos(q)
-
-(the model of :class:`~robot_controller.core.model.arm_model.JointArmModel`) to the applied
-torque, position and velocity. The fit is written per interval between two samples (the torque a
-drive reports is the one it held since the sample before): the interval's mean acceleration, and
-velocity and position at its middle. Every column and the torque go through the same
-Savitzky–Golay smoothing (a filtered regression: the equation is linear, so filtering both sides
-keeps it). Left out: a brake engaged, the torque off or at the effort limit, a velocity near zero
-or changing sign (dry friction's sign is undefined there), each widened by the smoothing window.
-Standard errors, σ²·(XᵀX)⁻¹, are optimistic (the filtered residuals are correlated) but rank
-which parameter the excitation pinned down.
-"""
+"""Identification of the arm from a recorded motion: per joint, a linear least squares fit of ``tau = I·a + b·v +
+f_c·sign(v) + G·cos(q)`` per interval between two samples (a drive reports the torque it held since the sample before).
+Columns and torque go through the same Savitzky–Golay smoothing (the equation is linear: filtering both sides keeps it).
+Standard errors σ²·(XᵀX)⁻¹ are optimistic (filtered residuals correlate) but rank the parameters."""
 
 from __future__ import annotations
 
@@ -56,9 +46,6 @@ class JointFit:
     def values(self) -> dict[str, float]:
         return {name: getattr(self, name) for name in PARAMETERS}
 
-    def stderrs(self) -> dict[str, float]:
-        return {name: getattr(self, f"{name}_stderr") for name in PARAMETERS}
-
     def as_dict(self) -> dict[str, float | int]:
         return asdict(self)
 
@@ -67,17 +54,11 @@ class IdentificationError(ValueError):
     """The data cannot pin the model down (too few usable samples, no excitation)."""
 
 
-def regressors(position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
-    """The regression matrix ``[a, v, sign(v), cos(q)]`` (one row per sample) of one joint."""
-    return np.column_stack([acceleration, velocity, np.sign(velocity), np.cos(position)])
-
-
 def intervals(
     time_s: np.ndarray, position: np.ndarray, velocity: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Per interval between consecutive samples: ``(duration s, mid position,
-    mid velocity, mean acceleration, velocity changes sign or stops)``; arrays
-    of shape ``(N-1, n)`` (``(N-1,)`` for the duration)."""
+    """Per interval between consecutive samples, arrays ``(N-1, n)``: ``(duration s (N-1,), mid position,
+    mid velocity, mean acceleration, velocity changes sign or stops)``."""
     dt = np.diff(time_s)
     acceleration = np.diff(velocity, axis=0) / np.where(dt > 0, dt, np.nan)[:, None]
     mid_position = 0.5 * (position[1:] + position[:-1])
@@ -113,8 +94,7 @@ def identify(
     :param velocity: rad/s, like ``position``
     :param torque: the applied torque, N·m, like ``position``; row k is the
         torque that acted from sample k-1 to sample k
-    :param effort_limit: per joint (or one for all), N·m: a torque at it is
-        saturated and left out (None: nothing is)
+    :param effort_limit: per joint (or one for all), N·m: a torque at it is saturated and left out (None: nothing is)
     :param braked: per sample and joint (or per sample), True where a brake
         held the joint (those intervals are left out)
     :param min_speed: intervals slower than this (rad/s), or reversing, are left out
@@ -187,14 +167,13 @@ def identify(
 
 
 def _fit(X: np.ndarray, y: np.ndarray, use: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """Least squares of ``y`` on the columns of ``X`` over the rows ``use``:
-    ``(parameters, standard errors, residual RMS)``."""
+    """Least squares of ``y`` on ``X``'s columns over the rows ``use``: ``(parameters, stderrs, residual RMS)``."""
     X, y = X[use], y[use]
     count, p = X.shape
     needed = max(MIN_SAMPLES, 2 * p)
     if count < needed:
         raise IdentificationError(
-            f"{count} usable samples, at least {needed} needed (the motion was too slow, " "saturated or braked)"
+            f"{count} usable samples, at least {needed} needed (the motion was too slow, saturated or braked)"
         )
     theta, _, rank, _ = np.linalg.lstsq(X, y, rcond=None)
     if rank < p:

@@ -1,11 +1,5 @@
-"""Each joint's position and velocity limits, from the URDF.
-
-Position limits come through MuJoCo (``jnt_range`` of the model compiled from
-the URDF, so they are the ones the simulator enforces). MuJoCo keeps no
-velocity limit, so ``<limit velocity=…>`` is read from the URDF's XML itself.
-A limit the URDF leaves out is infinite (a ``continuous`` joint, a missing
-``velocity`` attribute).
-"""
+"""Each joint's position and velocity limits, from the URDF: positions through MuJoCo (the ranges the simulator
+enforces), speeds from the URDF's XML (MuJoCo keeps none). A limit the URDF leaves out is infinite."""
 
 from __future__ import annotations
 
@@ -37,8 +31,7 @@ class JointLimits:
 
 
 def urdf_velocity_limits(urdf_path: str | Path, joint_names: Sequence[str]) -> np.ndarray:
-    """Each named joint's ``<limit velocity=…>`` in the URDF at ``urdf_path``, in the
-    order of ``joint_names``; ``inf`` where the joint has none (or no ``<limit>``).
+    """Each of ``joint_names``' ``<limit velocity=…>`` in the URDF at ``urdf_path``; ``inf`` where it has none.
 
     :raises ConfigError: a file that is not XML, or a velocity that is not a number ≥ 0
     """
@@ -63,8 +56,7 @@ def urdf_velocity_limits(urdf_path: str | Path, joint_names: Sequence[str]) -> n
 
 
 def joint_limits(urdf_path: str | Path) -> JointLimits:
-    """The arm's joints and their limits, from the URDF at ``urdf_path`` (MuJoCo for the
-    positions, the XML for the speeds).
+    """The arm's joints and their limits, from the URDF at ``urdf_path``.
 
     :raises ConfigError: a URDF MuJoCo cannot load
     """

@@ -1,6 +1,5 @@
-"""The arm simulated by MuJoCo (:class:`MujocoPlant`): torque applied as generalised
-force on each joint, holding brakes, and an external disturbance with its bounds
-(:func:`check_disturbance`, beside the plant because the bounds are the plant's)."""
+"""The arm simulated by MuJoCo (:class:`MujocoPlant`): joint torques, holding brakes, and an external
+disturbance with its bounds (:func:`check_disturbance`: the bounds are the plant's)."""
 
 from __future__ import annotations
 
@@ -15,20 +14,15 @@ from robot_controller.core.model.payload import Payload
 # Below this speed (rad/s) a braking joint counts as stopped and is held where it is.
 BRAKE_LOCK_SPEED = 0.05
 
-# An external disturbance is capped at this torque per joint, N·m (ten times the
-# reference arm's effort limit: a shove, not a crash), and at this duration, s.
+# An external disturbance's cap per joint, N·m (a shove, not a crash), and on its duration, s.
 MAX_DISTURBANCE_NM = 100.0
 MAX_DISTURBANCE_S = 60.0
 
 
 def check_disturbance(data, joint_count: int) -> tuple[np.ndarray, float] | str:
-    """Validate a ``/sim/disturbance`` array ``[torque_nm…, duration_s]`` (one
-    torque per joint, then the duration) into ``(torque, duration_s)``, or a
-    reason to drop it. A torque beyond ``MAX_DISTURBANCE_NM`` is returned as
-    sent: the caller caps it (and says so). A duration of 0 ends the current one.
-
-    (Beside the plant rather than in ``ros.messages``: the bounds are the plant's.)
-    """
+    """Validate a ``/sim/disturbance`` array ``[torque_nm…, duration_s]`` (one torque per joint) into
+    ``(torque, duration_s)``, or a reason to drop it. A torque beyond ``MAX_DISTURBANCE_NM`` is returned
+    as sent: the caller caps it (and says so). A duration of 0 ends the current one."""
     data = np.asarray(data, dtype=float).ravel()
     if data.size != joint_count + 1:
         return (
@@ -48,12 +42,10 @@ def check_disturbance(data, joint_count: int) -> tuple[np.ndarray, float] | str:
 class MujocoPlant:
     """The arm simulated by MuJoCo; torque is applied as generalised force on each joint.
 
-    Two torques act on a joint: the actuator's (``step``'s argument, limited to
-    the URDF's effort limit, none on a braked joint) and an external
-    disturbance (``set_disturbance``: a push on the arm, not an actuator, so
-    neither limited by the drive nor cut by a brake). A brake holds against it
-    as against gravity: a joint at rest stays locked; a moving one is slowed
-    by up to the holding torque. The two are summed into MuJoCo's ``qfrc_applied``.
+    Two torques act on a joint, summed into MuJoCo's ``qfrc_applied``: the actuator's (``step``'s argument,
+    limited to the URDF's effort limit, none on a braked joint) and an external disturbance
+    (``set_disturbance``: a push on the arm, neither limited by the drive nor cut by a brake). A brake holds
+    against it as against gravity: a joint at rest stays locked; a moving one is slowed by the holding torque.
 
     :param urdf_path: robot description
     :param physics_dt: physics step, s (1 ms in the reference scenario)
@@ -97,11 +89,8 @@ class MujocoPlant:
         mujoco.mj_forward(self.model, self.data)
 
     def step(self, torque: np.ndarray, n_steps: int = 1) -> None:
-        """Hold ``torque`` (N·m) for ``n_steps`` physics steps; a braked joint gets none.
-
-        Whatever it is sent, a joint gets no more than its URDF ``effort`` limit
-        (``effort_limit``), as a real drive limits its current.
-        """
+        """Hold ``torque`` (N·m) for ``n_steps`` physics steps; a braked joint gets none, the others no more
+        than their URDF ``effort`` limit (``effort_limit``), as a real drive limits its current."""
         torque = np.minimum(np.maximum(torque, self._effort_low), self.effort_limit)  # np.clip: a new array
         self._actuator = np.where(self._braked, 0.0, torque) if self._any_braked else torque
         # The disturbance, if one is on, for as many of these steps as it still lasts.
@@ -127,10 +116,9 @@ class MujocoPlant:
             self._hold_braked_joints()
 
     def set_disturbance(self, torque: np.ndarray, duration_s: float) -> None:
-        """Apply an external ``torque`` (N·m per joint) for the next ``duration_s``
-        of physics time (whole physics steps), replacing any current one; 0 s
-        ends it. Not limited by the effort limit (the caller bounds it), and
-        applied to a braked joint too: the brake holds against it."""
+        """Apply an external ``torque`` (N·m per joint) for the next ``duration_s`` of physics time (whole
+        steps), replacing any current one; 0 s ends it. Not limited by the effort limit (the caller bounds
+        it), and applied to a braked joint too: the brake holds against it."""
         torque = np.asarray(torque, dtype=float).reshape(self.joint_count)
         steps = int(round(max(0.0, float(duration_s)) / self.physics_dt))
         self._disturbance = torque.copy() if steps > 0 else np.zeros(self.joint_count)
@@ -151,8 +139,7 @@ class MujocoPlant:
         return self._disturbance_last.copy()
 
     def _hold_braked_joints(self) -> None:
-        """A braked joint that has come to rest is locked where it stopped: MuJoCo's
-        friction is a soft constraint and would let a loaded joint creep."""
+        """Lock a braked joint where it came to rest (MuJoCo's friction, a soft constraint, would let it creep)."""
         qpos, qvel = self.data.qpos, self.data.qvel
         for j in np.flatnonzero(self._braked):
             dof, adr = self.model.jnt_dofadr[j], self.model.jnt_qposadr[j]
@@ -162,13 +149,9 @@ class MujocoPlant:
                 qpos[adr], qvel[dof] = self._locked_at[j], 0.0
 
     def set_brakes(self, engaged: np.ndarray, holding_torque_nm: float) -> None:
-        """Engage or release each joint's holding brake.
-
-        A brake is dry friction of ``holding_torque_nm`` on the joint (MuJoCo's
-        friction loss, a constraint): it holds the arm against gravity and stops
-        a moving one at (holding torque − load) / inertia, about 570 rad/s² on
-        the reference arm, so from 3 rad/s within about 5 ms.
-        """
+        """Engage or release each joint's holding brake: dry friction of ``holding_torque_nm`` (MuJoCo's
+        friction loss) that holds the arm against gravity and stops a moving one at (holding torque − load)
+        / inertia (about 570 rad/s² on the reference arm)."""
         engaged = np.asarray(engaged, dtype=bool)
         dofs = self.model.jnt_dofadr[: self.joint_count]
         self.model.dof_frictionloss[dofs] = np.where(engaged, holding_torque_nm, self._free_frictionloss)
@@ -180,13 +163,8 @@ class MujocoPlant:
 
     @property
     def applied_torque(self) -> np.ndarray:
-        """The actuator's torque on each joint in the last step, N·m (the
-        disturbance apart: ``disturbance_torque``)."""
+        """The actuator's torque on each joint in the last step, N·m (without ``disturbance_torque``)."""
         return self._actuator.copy()
-
-    @property
-    def brakes_engaged(self) -> np.ndarray:
-        return self._braked.copy()
 
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         return self.data.qpos.copy(), self.data.qvel.copy()

@@ -1,7 +1,6 @@
-"""A payload the arm carries and its URDF does not describe: a point mass on the link of its last
-joint, ``[mass_kg, x_m, y_m, z_m]`` in that link's frame (the simulator's ``payload``, the
-controller's ``model_payload``). MuJoCo carries it as a small sphere welded to the link, so
-gravity, inertia and the coupling between joints come with it."""
+"""A payload the arm carries and its URDF does not describe: a point mass on the link of its last joint, ``[mass_kg,
+x_m, y_m, z_m]`` in that link's frame (the simulator's ``payload``, the controller's ``model_payload``). MuJoCo carries
+it as a small sphere welded to the link, so gravity, inertia and the coupling between joints come with it."""
 
 from __future__ import annotations
 
@@ -71,9 +70,8 @@ def add_to(spec: mujoco.MjSpec, carrier: str, payload: Payload) -> None:
 
 
 def set_payload(model: mujoco.MjModel, payload: Payload) -> None:
-    """Give a compiled model's payload body (see :func:`add_to`) another mass and
-    place: the dynamics (``mj_forward``, ``mj_inverse``) read these each call,
-    so a fit can try payloads without compiling the arm again."""
+    """Give a compiled model's payload body (see :func:`add_to`) another mass and place: the dynamics (``mj_forward``,
+    ``mj_inverse``) read these each call, so a fit can try payloads without compiling the arm again."""
     body = model.body(BODY_NAME)
     body_id = body.id
     model.body_pos[body_id] = payload.com_m

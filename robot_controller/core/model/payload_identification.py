@@ -1,14 +1,7 @@
-"""Identification of a payload on a chain of joints: the mass and centre ``[mass_kg, x_m, y_m,
-z_m]`` of a load on the last joint's link (:mod:`robot_controller.core.model.payload`) that make
-the arm model's inverse dynamics explain a recorded motion (on a chain a per-joint fit would fold
-one joint's load into another's numbers).
-
-Fitted by nonlinear least squares of ``tau_k = ID(q_k, v_k, a_k; payload)`` over every joint and
-every interval between two samples, as :mod:`~robot_controller.core.model.identification` takes
-them, ``ID`` being MuJoCo's ``mj_inverse`` with the payload welded on. Standard errors from the
-fit's Jacobian, σ²·(JᵀJ)⁻¹. A coordinate of the centre that moves no joint's torque (on
-``planar2``, the one along the parallel axes) is set to 0, its standard error NaN, and named.
-"""
+"""Identification of a payload ``[mass_kg, x_m, y_m, z_m]`` on the last joint's link: nonlinear least squares of ``tau =
+ID(q, v, a; payload)`` (MuJoCo's ``mj_inverse``) over every joint at once (a per-joint fit would fold one joint's load
+into another's). Standard errors σ²·(JᵀJ)⁻¹; a centre coordinate that moves no torque (on ``planar2``, along the axes)
+is set to 0 and named."""
 
 from __future__ import annotations
 
@@ -33,8 +26,7 @@ MIN_SAMPLES = 50
 PARAMETER_NAMES = ("mass_kg", "x_m", "y_m", "z_m")
 # A parameter whose column of the fit's Jacobian is this small against the largest moves no torque.
 UNSEEN_RELATIVE = 1e-6
-# kg: a fitted mass below this is the fit soaking up the model's rounding (a tenth of a gram on a
-# motion recorded without noise), not a load: nothing the controller's model would notice.
+# kg: a fitted mass below this is the fit soaking up the model's rounding, not a load.
 FOUND_MIN_KG = 0.01
 
 
@@ -49,8 +41,7 @@ class PayloadFit:
 
     @property
     def found(self) -> bool:
-        """A mass above its noise (3 standard errors) and above ``FOUND_MIN_KG``: with none, the
-        centre means nothing."""
+        """A mass above 3 standard errors and ``FOUND_MIN_KG`` (with none, the centre means nothing)."""
         return self.payload.mass_kg > max(3.0 * self.stderr[0], FOUND_MIN_KG)
 
 
@@ -64,9 +55,8 @@ def fit_payload(
     effort_limit: np.ndarray | float | None = None,
     braked: np.ndarray | None = None,
 ) -> PayloadFit:
-    """Fit a payload to a recorded motion (arrays as
-    :func:`robot_controller.core.model.identification.identify` takes them: the
-    TRUE state, and the torque that acted over the interval each row ends).
+    """Fit a payload to a recorded motion (the TRUE state and the torque that acted over the interval
+    each row ends, as :func:`robot_controller.core.model.identification.identify` takes them).
 
     :raises IdentificationError: too few usable samples, or a fit the motion does not pin down
     """
@@ -78,9 +68,7 @@ def fit_payload(
     dt, q, v, a, _ = intervals(time_s, position, velocity)
     tau = torque[1:]
     limit = np.full(n, np.inf) if effort_limit is None else np.broadcast_to(np.asarray(effort_limit, float), (n,))
-    held = np.zeros((len(time_s), n), dtype=bool)
-    if braked is not None:
-        held = np.broadcast_to(np.asarray(braked, dtype=bool).reshape(len(time_s), -1), (len(time_s), n))
+    held = np.zeros((len(time_s), n), bool) if braked is None else np.asarray(braked, bool).reshape(len(time_s), -1)
     use = (
         (dt > 0)
         & (dt < MAX_GAP_RATIO * np.median(dt))

@@ -46,10 +46,7 @@ class SensorConfig:
 def measure(
     config: SensorConfig, position: np.ndarray, velocity: np.ndarray, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Return a noisy ``(position, velocity)`` reading of the true state.
-
-    ``rng`` is a seeded generator so a run can be repeated exactly.
-    """
+    """A noisy ``(position, velocity)`` reading of the true state (``rng`` seeded: a run repeats exactly)."""
     position, velocity = np.asarray(position), np.asarray(velocity)
     # One draw for both, position's first, scaled: the numbers ``rng.normal`` gives, in that order.
     noise = rng.standard_normal((2, *position.shape)) * config.noise_std.reshape((2,) + (1,) * position.ndim)
@@ -61,11 +58,7 @@ def measure(
 
 
 class DelayLine:
-    """The true states of the last ``delay_s`` seconds, to publish each one late.
-
-    ``push`` a sample as it happens; ``sample_at(t)`` gives the newest sample
-    stamped at or before ``t`` (the oldest held, before there is one that old).
-    """
+    """The true states of the last ``delay_s`` seconds, to publish each one late (``push``)."""
 
     def __init__(self, delay_s: float) -> None:
         self.delay_s = delay_s
@@ -75,7 +68,6 @@ class DelayLine:
         """Add the sample at ``stamp_s`` and return the one ``delay_s`` older (with its stamp)."""
         self._samples.append((stamp_s, position, velocity))
         due_s = stamp_s - self.delay_s + 1e-9
-        # Keep the newest sample that is due, drop those before it.
         while len(self._samples) > 1 and self._samples[1][0] <= due_s:
             self._samples.popleft()
         return self._samples[0]
