@@ -1,6 +1,5 @@
-"""A run's bag read back as arrays (``Recording``): every topic the scoring
-needs, decoded; messages that do not fit the run (malformed, another joint
-count) skipped and counted; a torn bag (its recorder killed) rebuilt first."""
+"""A run's bag read back as arrays (``Recording``): every topic the scoring needs, decoded; messages that do not fit the
+run (malformed, another joint count) skipped and counted; a torn bag (its recorder killed) rebuilt first."""
 
 from __future__ import annotations
 
@@ -14,6 +13,7 @@ import numpy as np
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
+from robot_controller.core import metrics
 from robot_controller.core.controller import state_layout
 from robot_controller.scoring import bag_recovery
 
@@ -41,8 +41,7 @@ class Recording:
     #: /sim/brakes: when recorded, and 1/0 per joint
     brakes_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     brakes: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
-    #: /sim/disturbance_applied: the external torque on each joint (N·m) at each time (the simulator's
-    #: stamp, else when recorded); non-zero while a disturbance is on, then one zero row
+    #: /sim/disturbance_applied: the external torque on each joint (N·m) at each time, one zero row after
     disturbance_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     disturbance: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
     #: the joints' names as /sim/joint_states gives them, in the order of every array's columns
@@ -51,9 +50,12 @@ class Recording:
     #: row of ``state`` (N·m per joint; NaN where a message did not carry the term); empty for a built-in law
     law_terms: dict[str, np.ndarray] = field(default_factory=dict)
 
+    def true_at_ticks(self) -> np.ndarray:
+        """The TRUE position at each controller tick (:func:`robot_controller.core.metrics.true_position_at`)."""
+        return metrics.true_position_at(self.state["time_s"], self.true_time_s, self.true_position, self.true_velocity)
+
     def raw_reading_at(self, stamps_s: np.ndarray) -> np.ndarray:
-        """The sensor's raw position for each measurement stamp (NaN where not recorded): the noisy
-        reading ``measured_rms_rad`` is defined on (``/controller/state`` carries the estimate)."""
+        """The sensor's raw (noisy) position for each measurement stamp, NaN where not recorded."""
         out = np.full((len(stamps_s), self.true_position.shape[1]), np.nan)
         if len(self.reading_stamp_s) == 0:
             return out

@@ -1,12 +1,6 @@
-"""Recover a bag whose recorder was killed: what ``ros2 bag reindex`` does for
-a rosbag2 MCAP that never got its summary, footer or ``metadata.yaml``.
-
-The MCAP data section is a sequence of records (opcode, length, content);
-the recorder closes a chunk every second, so everything up to the last
-complete chunk is there. This scans the records from the start, stops at
-the first incomplete one, and writes a new, complete bag from the messages
-found (the torn file is kept beside it as ``bag.torn``).
-"""
+"""Recover a bag whose recorder was killed, as ``ros2 bag reindex`` does for an MCAP without summary, footer or
+``metadata.yaml``: scan the records (opcode, length, content) up to the first incomplete one (the recorder closes a
+chunk every second) and write a new bag from the messages found (the torn file kept as ``bag.torn``)."""
 
 from __future__ import annotations
 
@@ -86,8 +80,7 @@ def _string(view: memoryview, offset: int) -> tuple[str, int]:
 
 
 def recover(bag_dir: Path) -> int:
-    """Rewrite ``bag_dir`` as a complete bag from what its torn MCAP holds;
-    returns how many messages were recovered."""
+    """Rewrite ``bag_dir`` as a complete bag from what its torn MCAP holds; returns how many messages were recovered."""
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 

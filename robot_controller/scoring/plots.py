@@ -1,9 +1,5 @@
-"""The run's picture: reference, true and measured position; error; torque.
-
-One joint: three panels stacked. More: one row per joint (named on the
-left), with the same three panels side by side, so a seven-joint arm stays
-readable and every joint keeps its own scale.
-"""
+"""The run's picture: reference, true and measured position; error; torque. One joint: three panels stacked; more:
+one row per joint, the three panels side by side, each joint on its own scale."""
 
 from __future__ import annotations
 
@@ -26,9 +22,7 @@ def plot_tracking(recording: Recording, path: Path, title: str = "", units: list
     s = recording.state
     t0 = s["time_s"][0]
     t = s["time_s"] - t0
-    true_at_tick = metrics.true_position_at(
-        s["time_s"], recording.true_time_s, recording.true_position, recording.true_velocity
-    )
+    true_at_tick = recording.true_at_ticks()
     n = recording.joint_count
     if n == 1:
         fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True, constrained_layout=True)

@@ -1,6 +1,5 @@
-"""Score a run from its recording: the metrics of docs/design.md §7, tracking
-on the simulator's timeline, and ``metrics.json``. Works on any saved bag, so
-a run can be re-scored later (``robot-controller score DIR``)."""
+"""Score a run from its recording: the metrics of docs/design.md §7, tracking on the simulator's timeline, and
+``metrics.json``. Works on any saved bag, so a run can be re-scored later (``robot-controller score DIR``)."""
 
 from __future__ import annotations
 
@@ -41,7 +40,6 @@ def score(
 
     :param units: each joint's position unit, ``"rad"`` or ``"m"`` (default all ``"rad"``): the figures'
         names and headlines follow them (:func:`robot_controller.core.metrics.joint_errors`)
-
     :param window_s: keep only the first ``window_s`` s of ticks and leave out what depends on when
         the recorder heard a message: in lockstep, the same seed then gives the same figures exactly
     """
@@ -90,8 +88,7 @@ def score(
 
 
 def reference_in_force(recording: Recording, nominal_period_s: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
-    """The reference in force at every true-state sample of ``recording`` (see
-    :func:`reference_in_force_at`)."""
+    """The reference in force at every true-state sample of ``recording`` (:func:`reference_in_force_at`)."""
     s = recording.state
     return reference_in_force_at(s["time_s"], s["reference"], s["status"], recording.true_time_s, nominal_period_s)
 
@@ -101,10 +98,9 @@ def reference_in_force_at(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The controller's reference in force at each time ``t`` (rad per joint), and whether one is.
 
-    Between two ticks a normal period apart it is interpolated; across a longer gap (a stalled or
-    frozen controller) the last one issued is carried on at its speed for ``CARRY_S`` (the motor's
-    command timeout), then held: a stalled controller cannot hide. None is in force before the first
-    tick or where the controller commands nothing (``IDLE_STATUSES``).
+    Interpolated between ticks a period apart; across a longer gap (a stalled controller) the last one is carried on
+    at its speed for ``CARRY_S``, then held: a stall cannot hide. None before the first tick or where the controller
+    commands nothing (``IDLE_STATUSES``).
 
     :param ticks: ``/controller/state``'s tick times, s; ``reference`` and ``status`` are its too
     """
@@ -130,10 +126,8 @@ def reference_in_force_at(
 def tracking_on_sim_timeline(
     recording: Recording, start_s: float, end_s: float, nominal_period_s: float = 0.01, units: list[str] | None = None
 ) -> dict[str, Any]:
-    """Tracking on the simulator's timeline: every true-state sample from
-    ``start_s`` to ``end_s`` against the reference in force at that time
-    (:func:`reference_in_force`), per joint and the worst joint's
-    (:func:`robot_controller.core.metrics.joint_errors`)."""
+    """Tracking on the simulator's timeline: every true-state sample from ``start_s`` to ``end_s`` against the reference
+    in force at that time (:func:`reference_in_force`), per joint and the worst joint's."""
     t, q = recording.true_time_s, recording.true_position
     in_force, valid = reference_in_force(recording, nominal_period_s)
     window = (t >= start_s - 1e-9) & (t <= end_s + 1e-9) & valid
@@ -164,8 +158,7 @@ def write_metrics(path: Path, values: dict[str, Any]) -> None:
     path.write_text(json.dumps(json_safe(values), indent=2, sort_keys=True, allow_nan=False) + "\n")
 
 
-# The per-joint lists of metrics.json, in the order the summary shows them: their column headings, and
-# whether their unit is the joint's effort's (else its position's).
+# metrics.json's per-joint lists in the summary's order: column heading, whether in effort units (else position's).
 PER_JOINT_KEYS = {
     "tracking_rms_per_joint": ("tracking\nRMS", False),
     "tracking_max_per_joint": ("tracking\nmax", False),
@@ -175,8 +168,7 @@ PER_JOINT_KEYS = {
 
 
 def joint_table(values: dict[str, Any], title: str = "per joint (worst in bold: the headline figure)"):
-    """A ``rich`` table of the per-joint figures, one row per joint, in each joint's units
-    (``joint_units``); None for a one-joint arm (its headline figures are the joint's own)."""
+    """A ``rich`` table of the per-joint figures, a row per joint in its units; None for one joint (the headline's)."""
     names = values.get("joint_names") or []
     if len(names) < 2:
         return None
