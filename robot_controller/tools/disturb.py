@@ -1,12 +1,7 @@
-"""``robot-controller disturb --torque N·m [--duration s] [--joint NAME]``: push the arm of a
-running graph with an external torque, as a hand or a bump would.
-
-Sends one ``/sim/disturbance`` (``std_msgs/Float64MultiArray`` ``[torque_nm…, duration_s]``,
-layout dims ``torque_nm`` and ``duration_s``); the simulator applies it beside the actuator's
-torque for ``duration_s`` of its time and reports it on ``/sim/disturbance_applied``. The joints
-are the running simulator's (``/sim/joint_states``), else the reference arm's. Like every tool it
-speaks through the observer profile (``tools.graph``), into every run's partition.
-"""
+"""``robot-controller disturb --torque N·m [--duration s] [--joint NAME]``: push a running arm with an external torque:
+one ``/sim/disturbance`` (``[torque_nm…, duration_s]``), applied beside the actuator's for ``duration_s`` of sim time
+and reported on ``/sim/disturbance_applied``. Joints: the running simulator's (``/sim/joint_states``), else the
+reference arm's."""
 
 from __future__ import annotations
 

@@ -1,13 +1,7 @@
-"""What every tool shares: one short-lived, hidden rclpy node on the current ROS_DOMAIN_ID,
-spinning in a thread, that hears every run on the domain.
-
-Each run's loop topics live in a DDS partition of their own (``ros.partition``). Before the
-process makes its first participant, unless the user chose a profile
-(``FASTRTPS_DEFAULT_PROFILES_FILE``), an observer profile is written to a temporary file and named
-in this process's environment only: the tool then reads every run's partition and the default one.
-Discovery stays on this host unless ``ROS_AUTOMATIC_DISCOVERY_RANGE`` says otherwise. No rclpy is
-imported at module import: ``robot-controller`` stays fast.
-"""
+"""What every tool shares: one short-lived, hidden rclpy node on the current ROS_DOMAIN_ID, spinning in a thread, that
+hears every run's DDS partition (``ros.partition``) through an observer profile named in this process's environment
+only, unless the user chose one (``FASTRTPS_DEFAULT_PROFILES_FILE``). Discovery stays on this host unless
+``ROS_AUTOMATIC_DISCOVERY_RANGE`` says otherwise. rclpy is imported only when a tool runs."""
 
 from __future__ import annotations
 
@@ -46,14 +40,12 @@ class ToolError(Exception):
         self.code = code
 
 
-# Fast DDS reads its XML profiles once per process, at the first participant:
-# the observer profile is written (and its temporary file removed) only then.
+# Fast DDS reads its XML profiles once per process, at the first participant: the profile is needed until then.
 _participant_made = False
 
 
 def _prepare_environment() -> Path | None:
-    """Name the observer profile in this process's environment; the temporary
-    directory to remove once the first participant has read it (None: nothing to do)."""
+    """Name the observer profile in this process's environment; its directory, to remove later (None: nothing)."""
     from robot_controller.ros import partition
 
     os.environ.setdefault(DISCOVERY_RANGE_ENV, "LOCALHOST")
@@ -135,8 +127,8 @@ class Graph:
             time.sleep(0.05)
 
     def call(self, srv_type: type, service: str, request: Any, *, what: str, wait_s: float | None = None) -> Any:
-        """One service call with a timeout; an unanswered request is withdrawn and sent again (DDS may
-        match the request path before the response path). ``what`` names the server in messages."""
+        """One service call with a timeout; an unanswered request is withdrawn and sent again (DDS may match the
+        request path before the response path). ``what`` names the server in messages."""
         client = self.node.create_client(srv_type, service)
         try:
             deadline = time.monotonic() + (DISCOVERY_TIMEOUT_S if wait_s is None else wait_s)
@@ -186,10 +178,8 @@ class Graph:
         return publisher.wait_for_all_acked(Duration(seconds=DELIVERY_TIMEOUT_S))
 
 
-# Discovery is two-sided and staggered: a reader seen by this writer may not know the writer yet,
-# and the run's recorder may be found after the node a tool talks to. A tool sends once the readers
-# found have all matched and nothing has changed for MATCH_SETTLE_S, or for UNMATCHED_SETTLE_S if
-# some never match (readers in a partition this process does not write to).
+# Discovery is two-sided and staggered: a tool sends once the readers found have all matched and nothing has changed
+# for MATCH_SETTLE_S, or for UNMATCHED_SETTLE_S if some never match (readers in a partition it does not write to).
 MATCH_SETTLE_S = 1.0
 UNMATCHED_SETTLE_S = 1.5
 #: the readers that record or draw a topic: heard by them alone, a message reached no node
@@ -197,9 +187,9 @@ TOOL_OBSERVERS = frozenset({"recorder"})
 
 
 def matching(node: Any, publisher: Any, topic: str, listener: str) -> tuple[int, int] | None:
-    """``(readers listed, readers matched)`` once the node ``listener`` subscribes to ``topic``
-    and a reader besides the observers has matched ``publisher``, else None (the graph lists
-    every partition's readers; matching is per partition)."""
+    """``(readers listed, readers matched)`` once the node ``listener`` subscribes to ``topic`` and a reader besides
+    the observers has matched ``publisher``, else None (the graph lists every partition's readers; matching is per
+    partition)."""
     readers = node.get_subscriptions_info_by_topic(topic)
     if not any(info.node_name == listener for info in readers):
         return None
@@ -247,11 +237,8 @@ def reference_arm_joints() -> list[str]:
 
 @contextlib.contextmanager
 def open_graph(tool: str) -> Iterator[Graph]:
-    """A hidden node on the current ROS_DOMAIN_ID spinning in a thread, torn down on the way out.
-
-    rclpy installs no signal handler: Ctrl-C is ``KeyboardInterrupt`` in the main thread (``command``
-    turns it into an exit code); a second Ctrl-C during teardown is ignored.
-    """
+    """A hidden node on the current ROS_DOMAIN_ID spinning in a thread, torn down on the way out. rclpy installs no
+    signal handler: Ctrl-C is ``KeyboardInterrupt`` in the main thread; a second one during teardown is ignored."""
     profile_dir = _prepare_environment()
     context = node = executor = spinner = None
     try:  # from here on: a Ctrl-C while rclpy loads leaves no temporary profile behind
@@ -284,9 +271,8 @@ def open_graph(tool: str) -> Iterator[Graph]:
     finally:
         with _sigint_ignored():
             if executor is not None:
-                # Jazzy's Executor.shutdown does not wait for spin() to return: the
-                # thread must leave its wait set before the node and context go
-                # (or the process aborts in C++ at exit).
+                # Jazzy's Executor.shutdown does not wait for spin() to return: the thread must leave its wait set
+                # before the node and context go (or the process aborts in C++ at exit).
                 executor.shutdown(timeout_sec=1.0)
                 if spinner is not None:
                     spinner.join(timeout=2.0)
@@ -311,9 +297,8 @@ def _sigint_ignored() -> Iterator[None]:
 
 
 def command(name: str, *, interrupted: int = 0) -> Callable[[Callable[..., int]], Callable[..., int]]:
-    """A tool's function as a command: ``ToolError`` → one line on stderr, its exit code;
-    Ctrl-C → ``interrupted`` (0: the way ``echo`` and ``hz`` are meant to end),
-    no traceback; a closed pipe (``| head``) → 0, quietly."""
+    """A tool's function as a command: ``ToolError`` → one line on stderr, its exit code; Ctrl-C → ``interrupted`` (0:
+    the way ``echo`` and ``hz`` are meant to end), no traceback; a closed pipe (``| head``) → 0, quietly."""
 
     def decorate(function: Callable[..., int]) -> Callable[..., int]:
         @functools.wraps(function)

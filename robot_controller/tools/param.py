@@ -1,10 +1,6 @@
-"""``param list | get | set | dump``: ros2cli's ``ros2 param`` verbs against any node on the domain,
-through the standard rcl_interfaces parameter services.
-
-``set`` reads the value as YAML, as ``ros2 param set`` does, except that where the node's value is
-a double (or double array) a number (or list) is sent as one: the stack's nodes declare dynamic
-types, so ``kp 60`` sends ``[60.0]`` and the parameter keeps its type.
-"""
+"""``param list | get | set | dump``: ros2cli's ``ros2 param`` verbs against any node on the domain, through the
+rcl_interfaces parameter services. ``set`` reads the value as YAML, as ``ros2 param set`` does, but sends a number (or
+list) as a double (array) where the node's value is one: ``kp 60`` sends ``[60.0]`` and the parameter keeps its type."""
 
 from __future__ import annotations
 
@@ -30,12 +26,8 @@ _LABELS = {
 }
 
 
-# --- values -----------------------------------------------------------------
-
-
 def parse_value(text: str, current: int | None = None) -> tuple[int, Any]:
-    """``(ParameterType, value)`` for what the user typed; ``current`` is the type
-    of the node's value (None: unknown), which keeps doubles doubles."""
+    """``(ParameterType, value)`` for what the user typed; ``current`` (the node's type, or None) keeps doubles."""
     import yaml
 
     try:
@@ -117,9 +109,6 @@ def describe(message: Any) -> str:
     return f"{_LABELS[message.type]} {to_python(message)}"
 
 
-# --- services ---------------------------------------------------------------
-
-
 def _names(g: graph.Graph, node: str) -> list[str]:
     from rcl_interfaces.srv import ListParameters
 
@@ -136,9 +125,6 @@ def _values(g: graph.Graph, node: str, names: list[str]) -> list[Any]:
         missing = names[0] if len(names) == 1 else "one of " + ", ".join(names)
         raise ToolError(f"{node}: parameter {missing} not set")
     return list(response.values)
-
-
-# --- verbs ------------------------------------------------------------------
 
 
 @graph.command("param list", interrupted=INTERRUPTED)
@@ -164,8 +150,8 @@ def param_get(node: str, name: str) -> int:
 
 @graph.command("param set", interrupted=INTERRUPTED)
 def param_set(node: str, name: str, value_text: str) -> int:
-    """``ros2 param set /node name value``: ``Set parameter successful``, or
-    ``Setting parameter failed: <the node's reason>`` on stderr and exit 1."""
+    """``ros2 param set /node name value``: ``Set parameter successful``, or ``Setting parameter failed: <the node's
+    reason>`` on stderr and exit 1."""
     from rcl_interfaces.msg import Parameter, ParameterType
     from rcl_interfaces.srv import GetParameters, SetParameters
 
@@ -190,23 +176,16 @@ def param_set(node: str, name: str, value_text: str) -> int:
 
 @graph.command("param dump", interrupted=INTERRUPTED)
 def param_dump(node: str) -> int:
-    """``ros2 param dump /node``: a ROS 2 parameter file (``/node: ros__parameters: ...``)
-    of every parameter, dotted names nested, one that is not set as ``null``, as ros2cli writes it."""
+    """``ros2 param dump /node``: every parameter as a ROS 2 parameter file, as ros2cli writes it."""
     import yaml
 
     node = graph.absolute(node)
     with graph.open_graph("param dump") as g:
         names = _names(g, node)
         values = _values(g, node, names) if names else []
+    document = dump_document(node, {n: to_python(v) for n, v in zip(names, values, strict=True)})
     print(
-        yaml.safe_dump(
-            dump_document(node, {n: to_python(v) for n, v in zip(names, values, strict=True)}),
-            default_flow_style=False,
-            allow_unicode=True,
-            width=float("inf"),
-        ),
-        end="",
-        flush=True,
+        yaml.safe_dump(document, default_flow_style=False, allow_unicode=True, width=float("inf")), end="", flush=True
     )
     return 0
 

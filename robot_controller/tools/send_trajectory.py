@@ -1,16 +1,7 @@
-"""``robot-controller goto Q… [--time S] [--joints NAMES]`` and ``robot-controller trajectory
-FILE.yaml``: send one ``trajectory_msgs/JointTrajectory`` to the running planner
-(``/trajectory_planner/joint_trajectory``, as JointTrajectoryController's topic), which blends it
-from the reference in force, or refuses it and goes on as it was.
-
-``goto`` moves the joints (``--joints``, else the arm's ``/joint_states`` order) to the positions
-given (rad), at rest after ``--time`` s (by default ``trajectory_file.goto_time_s``). The header
-stamp is 0: the planner counts ``time_from_start`` from when it takes the message.
-
-The topic carries no answer, so the tool listens on ``/rosout`` for the planner's line about it
-for ``ANSWER_TIMEOUT_S``: exit 0 once taken, 2 if refused or malformed, 1 if no planner listens or
-no answer came (the planner says why it refuses at most once per 2 s).
-"""
+"""``goto Q… [--time S] [--joints NAMES]`` and ``trajectory FILE.yaml``: send one ``JointTrajectory`` to the planner
+(``/trajectory_planner/joint_trajectory``), which blends it from the reference in force or refuses it. The topic has no
+answer: the tool waits ``ANSWER_TIMEOUT_S`` for the planner's ``/rosout`` line, exit 0 once taken, 2 if refused or
+malformed, 1 if no planner listens or no answer came (a refusal is said at most once per 2 s)."""
 
 from __future__ import annotations
 

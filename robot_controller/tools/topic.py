@@ -1,6 +1,5 @@
-"""``topic list | echo | hz``: ros2cli's ``ros2 topic`` verbs against any graph on the domain,
-printing what ros2cli prints; a topic's type is the graph's, messages formatted field by field.
-"""
+"""``topic list | echo | hz``: ros2cli's ``ros2 topic`` verbs against any graph on the domain, printing what ros2cli
+prints; a topic's type is the graph's, messages formatted field by field."""
 
 from __future__ import annotations
 
@@ -23,9 +22,6 @@ ECHO_DEPTH = 100  # a reader that prints falls behind a 100 Hz topic now and the
 HZ_DEPTH = 100
 
 
-# --- list -------------------------------------------------------------------
-
-
 @graph.command("topic list")
 def topic_list(show_types: bool = False) -> int:
     """``ros2 topic list [-t]``: every topic on the domain, sorted; with its types in brackets."""
@@ -36,13 +32,9 @@ def topic_list(show_types: bool = False) -> int:
     return 0
 
 
-# --- echo -------------------------------------------------------------------
-
-
 @graph.command("topic echo")
 def topic_echo(topic: str, count: int | None = None, csv: bool = False) -> int:
-    """``ros2 topic echo [--csv]``: each message as YAML then ``---`` (or one CSV line),
-    ``count`` of them (None: until Ctrl-C, exit 0)."""
+    """``ros2 topic echo [--csv]``: ``count`` messages (None: until Ctrl-C) as YAML then ``---``, or CSV lines."""
     if count is not None and count < 1:
         raise ToolError(f"count must be at least 1, got {count}")
     topic = graph.absolute(topic)
@@ -76,8 +68,8 @@ def _topic_class(g: graph.Graph, topic: str) -> type:
 
 
 def _echo_qos(g: graph.Graph, topic: str) -> Any:
-    """As ros2 topic echo chooses: reliable and transient-local only if every publisher
-    is, so that the reader matches them all (a reliable reader misses best-effort writers)."""
+    """As ros2 topic echo chooses: reliable and transient-local only if every publisher is, so that the reader
+    matches them all (a reliable reader misses best-effort writers)."""
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
     publishers = g.node.get_publishers_info_by_topic(topic)
@@ -128,9 +120,6 @@ def message_to_csv(msg: Any) -> str:
     return cell(message_to_plain(msg))
 
 
-# --- hz ---------------------------------------------------------------------
-
-
 class RateWindow:
     """Intervals between receptions over the last ``window`` of them: ros2 topic hz's statistics."""
 
@@ -167,8 +156,8 @@ class RateWindow:
 
 @graph.command("topic hz")
 def topic_hz(topic: str, window: int = DEFAULT_WINDOW, duration_s: float | None = None) -> int:
-    """``ros2 topic hz [-w window]``: every second, the receiving rate over the last
-    ``window`` intervals. Until Ctrl-C (exit 0), or for ``duration_s`` (exit 1 if nothing came)."""
+    """``ros2 topic hz [-w window]``: the rate over the last ``window`` intervals, every second, until Ctrl-C (exit
+    0) or for ``duration_s`` (exit 1 if nothing came)."""
     if window < 1:
         raise ToolError(f"window must be at least 1, got {window}")
     if duration_s is not None and not duration_s > 0:
@@ -179,8 +168,7 @@ def topic_hz(topic: str, window: int = DEFAULT_WINDOW, duration_s: float | None 
         rate = RateWindow(window)
 
         def heard(_raw: bytes, info: dict) -> None:
-            # DDS's reception time, when it gives one: what the topic did, not when this
-            # process's executor got round to it.
+            # DDS's reception time, when it gives one: what the topic did, not when the executor got to it.
             rate.heard(info.get("received_timestamp") or time.time_ns())
 
         g.node.create_subscription(msg_type, topic, heard, _hz_qos(), raw=True)
@@ -211,8 +199,7 @@ def _print_report(rate: RateWindow) -> None:
 
 
 def _hz_qos() -> Any:
-    """Best effort, as ros2 topic hz's sensor-data profile: matches every publisher, reliable or not,
-    and never holds a writer back."""
+    """Best effort, as ros2 topic hz's sensor-data profile: matches every publisher and never holds one back."""
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
     return QoSProfile(

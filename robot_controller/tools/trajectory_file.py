@@ -1,5 +1,4 @@
-"""A joint trajectory as the ``trajectory`` and ``goto`` verbs send it, and the
-YAML file ``trajectory`` reads::
+"""A joint trajectory as ``trajectory`` and ``goto`` send it, and the YAML file ``trajectory`` reads::
 
     joint_names: [joint1]
     points:
@@ -7,13 +6,8 @@ YAML file ``trajectory`` reads::
         positions: [0.5]            # rad, one per joint name
         velocities: [0.0]           # optional: rad/s (every point or none)
         accelerations: [0.0]        # optional: rad/s² (every point or none)
-      - time_from_start: 2.5
-        positions: [-0.2]
 
-The file is checked for what it says on its own (keys, numbers, lengths,
-times in order); the arm's joints and limits are the planner's to check
-(``core.joint_trajectory``), as JointTrajectoryController checks its own.
-No rclpy here.
+The file is checked on its own (keys, numbers, lengths, times in order); joints and limits are the planner's to check.
 """
 
 from __future__ import annotations
@@ -151,8 +145,7 @@ def load(path: Path) -> TrajectorySpec:
 
 
 def goto_time_s(distance_rad: float, speed_rad_s: float) -> float:
-    """goto's default duration for the farthest joint ``distance_rad`` away, the fastest
-    moving at ``speed_rad_s``."""
+    """goto's default duration for the farthest joint ``distance_rad`` away, the fastest moving at ``speed_rad_s``."""
     return max(GOTO_MIN_S, distance_rad / GOTO_SPEED, speed_rad_s / GOTO_DECELERATION)
 
 
