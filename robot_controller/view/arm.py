@@ -1,12 +1,7 @@
-"""The arm in 3-D, from its URDF (``urdf_arm``), posed by ``kinematics``: drawn three times at once,
-posed by the TRUE angles, and by the measured and the reference angles as translucent ghosts.
-
-Each primitive (box, cylinder, sphere) is one entity with three instances (true, measured,
-reference), so one row moves all three arms together. A mesh takes one colour for all its
-instances, so each ghost of a mesh is an entity of its own (``…/visual_k/ghost_1``, ``…/ghost_2``),
-a little smaller (``MESH_GHOST_SCALE``): a ghost inside the true mesh shows only where its pose
-leaves the true arm's. The joint order is the stack's (MuJoCo's).
-"""
+"""The arm in 3-D (``urdf_arm``, posed by ``kinematics``), drawn three times: by the TRUE angles, and by the measured
+and reference ones as translucent ghosts. Each primitive is one entity with three instances, so one row moves all three;
+a mesh takes one colour for all instances, so each mesh ghost is its own entity (``…/ghost_1``, ``…/ghost_2``), a little
+smaller (``MESH_GHOST_SCALE``) so it shows only where its pose leaves the true arm's."""
 
 from __future__ import annotations
 
@@ -58,8 +53,8 @@ def _primitive(v: Visual, poses: list[tuple[list[int], float]]) -> dict:
 
 
 def log_static(rec, arm: ArmModel, root: str, poses: list[tuple[list[int], float]]) -> None:
-    """What does not move: each visual's shape, one instance per pose (colour RGBA, radius factor),
-    and the joint hubs of the first pose. Poses are logged with :func:`pose_columns`."""
+    """What does not move: each visual's shape, one instance per pose (colour RGBA, radius factor), and the joint
+    hubs of the first pose (poses: :func:`pose_columns`)."""
     import rerun as rr
 
     colors = [colour for colour, _ in poses]
@@ -71,13 +66,10 @@ def log_static(rec, arm: ArmModel, root: str, poses: list[tuple[list[int], float
             elif v.kind == "mesh" and v.mesh is not None:  # one colour a mesh: an entity per pose
                 for k_pose, colour in enumerate(colors):
                     rec.log(_mesh_path(path, k_pose), rr.Asset3D(path=v.mesh, albedo_factor=colour), static=True)
+    hub = rr.Cylinders3D(lengths=[HUB_LENGTH_M], radii=[HUB_RADIUS_M], colors=[HUB_COLOR], fill_mode="solid")
     for _, joint in arm.joints():
         if joint.kind in MOVING:
-            rec.log(
-                _hub_path(root, joint),
-                rr.Cylinders3D(lengths=[HUB_LENGTH_M], radii=[HUB_RADIUS_M], colors=[HUB_COLOR], fill_mode="solid"),
-                static=True,
-            )
+            rec.log(_hub_path(root, joint), hub, static=True)
 
 
 def pose_columns(arm: ArmModel, root: str, q: np.ndarray) -> list[tuple[str, object]]:
@@ -115,10 +107,6 @@ def pose_columns(arm: ArmModel, root: str, q: np.ndarray) -> list[tuple[str, obj
         if joint.kind in MOVING:
             rotation, position = frames[f"{joint.name}@"]
             hub = rotation[::count] @ z_to_matrix(joint.axis)
-            out.append(
-                (
-                    _hub_path(root, joint),
-                    rr.Cylinders3D.columns(centers=position[::count], quaternions=_quaternions(hub)),
-                )
-            )
+            columns = rr.Cylinders3D.columns(centers=position[::count], quaternions=_quaternions(hub))
+            out.append((_hub_path(root, joint), columns))
     return out

@@ -1,8 +1,6 @@
-"""Just the numbers the viewer needs, read straight from a message's CDR bytes: the viewer
-subscribes raw, since a Python message object for each of some 400 messages a second cost more than
-the rest of its work. Plain CDR (XCDR1), either byte order; alignment counts from the end of the
-4-byte encapsulation header.
-"""
+"""The numbers the viewer needs, read straight from a message's CDR bytes (a Python message per each of ~400 messages a
+second cost more than the rest of its work). Plain CDR (XCDR1), either byte order; alignment counts from the end of
+the 4-byte encapsulation header."""
 
 from __future__ import annotations
 

@@ -1,10 +1,6 @@
-"""The loop's signals turned into what the view logs, at a rate a browser takes.
-
-``ViewFeed`` collects raw samples (live topics or a bag's arrays); ``flush`` thins what came since
-(``thinning``: each series at most ``SERIES_HZ``, each pose at most ``POSE_HZ``; errors and timing
-keep each bucket's largest) into rerun columns held by an ``Outlet`` per recording stream. Live,
-each input holds at most ``MAX_PENDING`` samples between flushes and a short tail of ticks is kept.
-"""
+"""The loop's signals turned into what the view logs, at a rate a browser takes: ``ViewFeed`` collects raw samples
+(live topics or a bag's arrays); ``flush`` thins them (``thinning``: series at most ``SERIES_HZ``, poses ``POSE_HZ``,
+errors and timing keep each bucket's largest) into rerun columns held by an ``Outlet`` per recording stream."""
 
 from __future__ import annotations
 
@@ -31,8 +27,7 @@ STATUS_NAMES = {code: name for name, code in state_layout.STATUS_CODES.items()}
 def reference_in_force(
     ticks: np.ndarray, reference: np.ndarray, status: np.ndarray, t: np.ndarray, nominal_period_s: float
 ) -> np.ndarray:
-    """The controller's reference in force at each time ``t`` (NaN where none is),
-    as scoring defines it (``report.reference_in_force_at``)."""
+    """The controller's reference in force at each time ``t`` (NaN where none is), as scoring defines it."""
     in_force, valid = report.reference_in_force_at(ticks, reference, status, t, nominal_period_s)
     in_force[~valid] = np.nan
     return in_force
@@ -65,8 +60,6 @@ class ViewFeed:
         self.unpaired_q = np.zeros((0, self.n))
         self.last_status: int | None = None
 
-    # -- inputs: one call per message (live) or per array (bag) --------------------
-
     def true_state(self, t: float, q: Iterable[float], effort: Iterable[float]) -> None:
         self.true_in.append((t, *q, *effort))
 
@@ -94,8 +87,6 @@ class ViewFeed:
     def diagnostics(self, t: float, jitter_p99_ms: float) -> None:
         self.diagnostics_in.append((t, jitter_p99_ms))
 
-    # -- output ------------------------------------------------------------------
-
     def _decimate(
         self, key: str, rate_hz: float, t: np.ndarray, v: np.ndarray, *, extreme: bool = False, final: bool = False
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -120,9 +111,8 @@ class ViewFeed:
             self._series(series, joint, t, values[:, k], **options)
 
     def _poses(self, t: np.ndarray, q: np.ndarray, final: bool) -> None:
-        """The three arms at the same instants (the true samples', at most ``POSE_HZ``): the
-        measured one as the latest reading then, the reference as the controller's, interpolated
-        between its ticks (a ghost not known yet sits on the true arm). One row holds all three."""
+        """The three arms, one row at the true samples' instants (at most ``POSE_HZ``): the measured as the latest
+        reading then, the reference interpolated between ticks (a ghost not known yet sits on the true arm)."""
         t, q = self._decimate("poses", POSE_HZ, t, q, final=final)
         if len(t) == 0:
             return
@@ -144,9 +134,8 @@ class ViewFeed:
         return np.array(rows, dtype=float) if rows else None
 
     def flush(self, now: float = 0.0, *, final: bool = False) -> None:
-        """Take what came in since the last flush, and send what each outlet
-        holds if its period is up at ``now`` (monotonic seconds). ``final``:
-        everything, no bucket held back, every outlet sent."""
+        """Take what came in since the last flush, and send what each outlet holds if its period is up at ``now``
+        (monotonic seconds). ``final``: everything, no bucket held back, every outlet sent."""
         if self.t0 is not None:  # else nothing can be placed on the timeline yet
             self._take(final)
         for outlet in self.outlets:
@@ -180,8 +169,7 @@ class ViewFeed:
             self._latency(receipts, final)
         diagnostics = self._drain(self.diagnostics_in, 2)
         if diagnostics is not None and len(self.ticks):
-            # Stamped on another clock than the ticks (the wall clock's, in a lockstep run): not on
-            # this timeline, where it would stretch every plot over years.
+            # Stamped on another clock than the ticks (the wall clock's, in lockstep): left out, or plots span years.
             t = diagnostics[:, 0]
             near = (t >= self.t0 - OTHER_CLOCK_S) & (t <= self.ticks[-1] + OTHER_CLOCK_S)
             if np.any(near):
@@ -202,13 +190,9 @@ class ViewFeed:
         previous = np.concatenate([[self.last_status if self.last_status is not None else -1], codes[:-1]])
         for k in np.flatnonzero(codes != previous):
             name = STATUS_NAMES.get(int(codes[k]), str(codes[k]))
+            level = "INFO" if name in ("ok", "reacquiring") else "WARN"
             for outlet in self.outlets:
-                outlet.text(
-                    layout.STATUS_LOG,
-                    float(t[k] - self.t0),
-                    f"controller: {name}",
-                    "INFO" if name in ("ok", "reacquiring") else "WARN",
-                )
+                outlet.text(layout.STATUS_LOG, float(t[k] - self.t0), f"controller: {name}", level)
         self.last_status = int(codes[-1])
         keep = slice(-TICK_TAIL if self.live else None, None)
         self.ticks = np.concatenate([self.ticks, t])[keep]
@@ -224,16 +208,12 @@ class ViewFeed:
         # A sample is paired once a later tick has come (or the run is over).
         ready = np.ones(len(self.unpaired_t), bool) if final else self.unpaired_t <= self.ticks[-1]
         t, q = self.unpaired_t[ready], self.unpaired_q[ready]
-        self.unpaired_t, self.unpaired_q = (
-            self.unpaired_t[~ready][-MAX_PENDING:],
-            self.unpaired_q[~ready][-MAX_PENDING:],
-        )
+        held = ~ready
+        self.unpaired_t, self.unpaired_q = self.unpaired_t[held][-MAX_PENDING:], self.unpaired_q[held][-MAX_PENDING:]
         if not len(t):
             return
-        error = 1e3 * (
-            reference_in_force(self.ticks, self.tick_reference, self.tick_status, t, self.nominal_period_s) - q
-        )
-        self._per_joint("error_true", t, error, extreme=True, final=final)
+        in_force = reference_in_force(self.ticks, self.tick_reference, self.tick_status, t, self.nominal_period_s)
+        self._per_joint("error_true", t, 1e3 * (in_force - q), extreme=True, final=final)
 
     def _latency(self, receipts: np.ndarray, final: bool) -> None:
         """Reading stamp → command at the motor, per receipt matched to the tick that issued its command."""

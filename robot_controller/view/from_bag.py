@@ -1,6 +1,5 @@
-"""The view of a saved run, built from its bag: the same scene, series and
-layout as the live view (``DIR/view.rrd``), so any run can be looked at again,
-including runs recorded without ``--view``."""
+"""The view of a saved run, built from its bag: the same scene, series and layout as the live view (``DIR/view.rrd``),
+so any run can be looked at again, including runs recorded without ``--view``."""
 
 from __future__ import annotations
 
@@ -102,10 +101,8 @@ def log_run(rec, run: SavedRun) -> None:
     layout.log_scene(rec, arm)
     feed = ViewFeed([Outlet(rec, float("inf"))], arm, nominal_period_s=run.period_s, live=False)
     s = recording.state
-    rows = np.column_stack(
-        [s["time_s"], s["status"], s["measurement_stamp_s"]] + [s[name] for name in state_layout.FIELDS]
-    )
-    for row in rows:
+    header = [s["time_s"], s["status"], s["measurement_stamp_s"]]
+    for row in np.column_stack(header + [s[name] for name in state_layout.FIELDS]):
         feed.controller_state(row)
     for t, q, effort in zip(recording.true_time_s, recording.true_position, recording.true_effort, strict=False):
         feed.true_state(t, q, effort)
@@ -121,8 +118,8 @@ def log_run(rec, run: SavedRun) -> None:
 
 
 def build_view_from_bag(run_dir: Path, port: int = serving.DEFAULT_PORT, serve: bool = False) -> Path:
-    """Write ``run_dir/view.rrd`` from the run's bag; if ``serve``, also serve
-    it at ``http://127.0.0.1:PORT`` until Ctrl-C (or SIGTERM). Returns the file's path.
+    """Write ``run_dir/view.rrd`` from the run's bag and return its path; if ``serve``, serve it at
+    ``http://127.0.0.1:PORT`` until Ctrl-C (or SIGTERM).
 
     :raises ConfigError: ``port`` cannot be served on (checked before anything is written)
     :raises ValueError: the bag holds nothing to show (nothing is written)

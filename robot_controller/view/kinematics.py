@@ -1,6 +1,5 @@
-"""Forward kinematics of an arm read from its URDF (``urdf_arm``): each link's frame for many
-joint vectors at once, the rotations the URDF and the view need, and the sphere the camera keeps
-in view."""
+"""Forward kinematics of an arm read from its URDF (``urdf_arm``): each link's frame for many joint vectors at once, the
+rotations the URDF and the view need, and the sphere the camera keeps in view."""
 
 from __future__ import annotations
 
@@ -57,9 +56,8 @@ def link_frames(arm: ArmModel, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.
 
 
 def view_sphere(arm: ArmModel) -> tuple[np.ndarray, float]:
-    """Where the camera looks (the first joint) and how large a sphere about it must stay in
-    view (m): one joint, its reach; more, how far the arm reaches from the first joint at its
-    zero pose (the links' origins and visuals; the summed lengths of a folding chain overstate it)."""
+    """Where the camera looks (the first joint) and the radius (m) about it to keep in view: one joint, its reach;
+    more, the arm's reach from the first joint at its zero pose (a folding chain's summed lengths overstate it)."""
     base = np.asarray(arm.base_xyz, dtype=float)
     if len(arm.joint_names) <= 1:
         return base, arm.reach_m

@@ -1,12 +1,6 @@
-"""What the view shows and where: entity paths, colours, series styles, and
-the saved blueprint (the arm in 3-D on the left, a column of time series on
-the right), shared by the live view and the view built from a bag.
-
-With several joints the plots are in tabs: "all joints" first (the tracking
-error, position and commanded torque of every joint, a colour and a legend
-entry per joint, by name), then a tab per joint with that joint's series as
-a one-joint arm shows them.
-"""
+"""What the view shows and where: entity paths, colours, series styles, and the blueprint (the arm in 3-D on the left,
+time series on the right), for the live view and the one from a bag. With several joints the plots are in tabs: "all
+joints" (error, position and torque of every joint, a colour per joint), then one per joint."""
 
 from __future__ import annotations
 
@@ -45,8 +39,7 @@ SERIES = {
     "latency": (TIMING, "reading → motor latency", [60, 140, 255], 1.0),
 }
 PER_JOINT = {"reference", "true", "measured", "planned", "error_true", "error_controller", "commanded", "applied"}
-# The "all joints" tab: (view, series, title), each series drawn in its joint's colour; the
-# first plot's legend names the colours.
+# The "all joints" tab: (view, series, title), each in its joint's colour, named in the first plot's legend.
 OVERVIEW = (
     (ERROR, "error_true", "tracking error, reference − true [mrad]"),
     (POSITION, "true", "position, true [rad] (colours as above)"),
@@ -74,43 +67,28 @@ def log_styles(rec, joint_names: list[str]) -> None:
         joints = joint_names if series in PER_JOINT else joint_names[:1]
         for joint in joints:
             name = label if series not in PER_JOINT or n == 1 else f"{label} ({joint})"
-            rec.log(
-                series_path(series, joint, n),
-                rr.SeriesLines(colors=[colour], widths=[width], names=[name]),
-                static=True,
-            )
+            style = rr.SeriesLines(colors=[colour], widths=[width], names=[name])
+            rec.log(series_path(series, joint, n), style, static=True)
 
 
 def log_scene(rec, arm: ArmModel) -> None:
-    """The static part of the 3-D scene: axes convention, a pedestal up to the
-    first joint, and the arm's shapes (one instance per pose)."""
+    """The static 3-D scene: axes convention, a pedestal up to the first joint, the arm's shapes (one per pose)."""
     import rerun as rr
 
     rec.log(WORLD, rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     x, y, z = arm.base_xyz
     if z > 0.05:  # the arm's first joint stands on something: draw it
-        rec.log(
-            f"{WORLD}/pedestal",
-            rr.Cylinders3D(
-                centers=[[x, y, 0.5 * z - 0.02]],
-                lengths=[z - 0.04],
-                radii=[0.03],
-                colors=[[95, 95, 105]],
-                fill_mode="solid",
-            ),
-            static=True,
-        )
+        shape = {"lengths": [z - 0.04], "radii": [0.03], "colors": [[95, 95, 105]], "fill_mode": "solid"}
+        rec.log(f"{WORLD}/pedestal", rr.Cylinders3D(centers=[[x, y, 0.5 * z - 0.02]], **shape), static=True)
     log_static(rec, arm, ARM, list(POSES.values()))
 
 
 def blueprint(arm: ArmModel, *, live: bool):
-    """The saved layout: 3-D view left, time series right (position, tracking
-    error, torque, timing). Live, the plots scroll over the last
-    ``LIVE_WINDOW_S``; built from a bag, they show the whole run."""
+    """The saved layout: 3-D view left, time series right (position, tracking error, torque, timing). Live, the plots
+    scroll over the last ``LIVE_WINDOW_S``; built from a bag, they show the whole run."""
     import rerun.blueprint as rrb
 
-    # Looking at the arm from the front (−y: the reference arm moves in the x-z plane), a little
-    # from above and the side, from where the arm's whole sweep is in view (one joint: about the joint).
+    # From the front (−y: the reference arm moves in the x-z plane), a little above and aside, the whole sweep in view.
     target, radius = view_sphere(arm)
     direction = np.array([0.35, -1.0, 0.3])
     distance = max(0.8, 2.6 * radius)
@@ -159,14 +137,10 @@ def blueprint(arm: ArmModel, *, live: bool):
             plot(TIMING, "loop timing [ms]"),
             row_shares=[4, 1],
         )
+    arm_name = "arm: true (solid), measured (blue), reference (green)"
+    arm_view = rrb.Spatial3DView(origin=WORLD, name=arm_name, eye_controls=eye)
     return rrb.Blueprint(
-        rrb.Horizontal(
-            rrb.Spatial3DView(
-                origin=WORLD, name="arm: true (solid), measured (blue), reference (green)", eye_controls=eye
-            ),
-            plots,
-            column_shares=[2, 3],
-        ),
+        rrb.Horizontal(arm_view, plots, column_shares=[2, 3]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline=TIMELINE),
@@ -174,23 +148,21 @@ def blueprint(arm: ArmModel, *, live: bool):
 
 
 def overview_plot(plot, view: str, series: str, title: str, joints: list[str], *, legend: bool):
-    """One series of every joint in one plot (``plot`` makes the view), each in its joint's
-    colour and named by the joint: the view's overrides, so the series keep their own style
-    in their joint's tab."""
+    """One series of every joint in one plot (``plot`` makes the view), each in its joint's colour and named by the
+    joint: the view's overrides, so the series keep their own style in their joint's tab."""
     import rerun as rr
     import rerun.blueprint as rrb
 
     paths = [series_path(series, joint, len(joints)) for joint in joints]
     width = SERIES[series][3]
+    colours = [JOINT_COLOURS[k % len(JOINT_COLOURS)] for k in range(len(joints))]
     return plot(
         view,
         title,
         plot_legend=rrb.PlotLegend(corner="LeftTop", visible=legend),
         contents=[f"+ {path}" for path in paths],
         overrides={
-            path: rr.SeriesLines(
-                colors=[JOINT_COLOURS[k % len(JOINT_COLOURS)]], widths=[width], names=[joint]
-            ).visualizer()
-            for k, (path, joint) in enumerate(zip(paths, joints, strict=True))
+            path: rr.SeriesLines(colors=[colour], widths=[width], names=[joint]).visualizer()
+            for path, joint, colour in zip(paths, joints, colours, strict=True)
         },
     )

@@ -1,5 +1,4 @@
-"""Where the view's thinned columns go: one ``Outlet`` per rerun recording stream (the live
-browser, the saved file), holding each entity's columns and sending them in few, larger chunks."""
+"""Where the view's thinned columns go: one ``Outlet`` per rerun recording stream (the live browser, the saved file)."""
 
 from __future__ import annotations
 
@@ -11,10 +10,9 @@ from robot_controller.view.urdf_arm import ArmModel
 
 
 class Outlet:
-    """Columns for one recording stream, held per entity and sent every
-    ``period_s`` (one chunk per entity each time: few, larger chunks keep a
-    file small, a browser quick and the sender's CPU low; ``0`` sends at every
-    flush). The arm's poses go every ``pose_period_s`` (default: the same)."""
+    """Columns for one recording stream, held per entity and sent every ``period_s`` (one chunk per entity each time:
+    few, larger chunks keep a file small, a browser quick and the sender's CPU low; ``0`` sends at every flush). The
+    arm's poses go every ``pose_period_s`` (default: the same)."""
 
     def __init__(self, rec, period_s: float = 0.0, pose_period_s: float | None = None) -> None:
         self.rec = rec
@@ -46,9 +44,8 @@ class Outlet:
             self.next_send = now + self.period_s
             for path, parts in self.scalars.items():
                 t, v = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
-                self.rec.send_columns(
-                    path, indexes=[rr.TimeColumn(layout.TIMELINE, duration=t)], columns=rr.Scalars.columns(scalars=v)
-                )
+                time = [rr.TimeColumn(layout.TIMELINE, duration=t)]
+                self.rec.send_columns(path, indexes=time, columns=rr.Scalars.columns(scalars=v))
             self.scalars.clear()
         if (force or now >= self.next_pose_send) and self.poses:
             self.next_pose_send = now + self.pose_period_s

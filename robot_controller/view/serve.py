@@ -1,10 +1,7 @@
-"""Serving a view to a browser from this machine, with no network access, from three local servers
-in the process that logs: rerun's gRPC server, which holds the recording (up to
-``SERVER_MEMORY_LIMIT``; past it the oldest data goes) and streams it to each browser; rerun's web
-server with the viewer's files (it binds every interface, and serves only those files); and on the
-user's port (127.0.0.1) a redirect to the viewer with the gRPC address in its ``?url=``. The gRPC
-and web ports are free ones picked at start, so runs side by side do not collide.
-"""
+"""Serving a view to a browser from this machine, offline, from three local servers: rerun's gRPC server (holds the
+recording up to ``SERVER_MEMORY_LIMIT``, the oldest data going past it), rerun's web server with the viewer's files, and
+on the user's port (127.0.0.1) a redirect to the viewer with the gRPC address in its ``?url=``. The gRPC and web ports
+are free ones picked at start, so runs side by side do not collide."""
 
 from __future__ import annotations
 
@@ -37,7 +34,7 @@ def check_port(port: int) -> None:
             s.bind((HOST, port))
         except OSError as exc:
             raise ConfigError(
-                f"view port {port}: cannot serve on {HOST}:{port} ({exc.strerror}); " "choose another port"
+                f"view port {port}: cannot serve on {HOST}:{port} ({exc.strerror}); choose another port"
             ) from None
 
 
@@ -64,12 +61,10 @@ def set_sinks(
     """
     import rerun as rr
 
-    sinks = []
-    uri = None
+    sinks, uri = [], None
     if serve:
-        server = rr.GrpcServerSink(
-            bind_ip=HOST, port=free_port(), server_memory_limit=SERVER_MEMORY_LIMIT, newest_first=newest_first
-        )
+        limit = SERVER_MEMORY_LIMIT
+        server = rr.GrpcServerSink(bind_ip=HOST, port=free_port(), server_memory_limit=limit, newest_first=newest_first)
         uri = server.uri
         sinks.append(server)
     if rrd is not None:

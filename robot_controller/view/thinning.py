@@ -1,6 +1,5 @@
-"""Thinning a series for a browser: at most so many samples a second, by time buckets, taking
-either each bucket's first sample or, for errors and timing, its sample of largest magnitude
-(so a spike is never thinned away)."""
+"""Thinning a series for a browser: at most so many samples a second, by time buckets, taking either each bucket's first
+sample or, for errors and timing, its sample of largest magnitude (so a spike is never thinned away)."""
 
 from __future__ import annotations
 
@@ -8,11 +7,8 @@ import numpy as np
 
 
 class Decimator:
-    """At most ``rate_hz`` samples a second of one series, by time buckets.
-
-    The newest bucket may still fill: it is held back until a later sample
-    starts the next one (or ``final``), so each bucket yields exactly one sample.
-    """
+    """At most ``rate_hz`` samples a second of one series, by time buckets, one sample each (the newest bucket is
+    held back until a later sample starts the next one, or ``final``)."""
 
     def __init__(self, rate_hz: float, *, extreme: bool = False) -> None:
         self.period = 1.0 / rate_hz

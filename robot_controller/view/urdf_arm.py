@@ -1,7 +1,6 @@
-"""An arm's URDF read with the standard library: its links' visual geometry (box, cylinder,
-sphere, or a mesh file rerun can read) and its joints, in the stack's joint order (MuJoCo's,
-``core.plant.joint_names``). Read here rather than by rerun's URDF loader so the view can pose
-the arm three times at once (``arm``)."""
+"""An arm's URDF read with the standard library: its links' visual geometry (box, cylinder, sphere, or a mesh file rerun
+can read) and its joints, in the stack's joint order (MuJoCo's, ``core.plant.joint_names``). Read here rather than by
+rerun's URDF loader so the view can pose the arm three times at once (``arm``)."""
 
 from __future__ import annotations
 
@@ -104,9 +103,8 @@ def _visuals(link: ET.Element, urdf_dir: Path) -> list[Visual]:
             if shape.tag == "box":
                 out.append(Visual("box", xyz, rpy, _floats(shape.get("size"), (0.1, 0.1, 0.1))))
             elif shape.tag == "cylinder":
-                out.append(
-                    Visual("cylinder", xyz, rpy, (float(shape.get("radius", 0.02)), float(shape.get("length", 0.1))))
-                )
+                size = (float(shape.get("radius", 0.02)), float(shape.get("length", 0.1)))
+                out.append(Visual("cylinder", xyz, rpy, size))
             elif shape.tag == "sphere":
                 out.append(Visual("sphere", xyz, rpy, (float(shape.get("radius", 0.02)),)))
             elif shape.tag == "mesh":
@@ -136,8 +134,7 @@ def _mesh_centre(path: Path) -> tuple[float, float, float]:
 
 
 def load_arm(urdf: Path, joint_order: list[str] | None = None) -> ArmModel:
-    """The URDF's link tree. ``joint_order``: the stack's joint names (default:
-    the moving joints as the tree lists them)."""
+    """The URDF's link tree; ``joint_order``: the stack's joint names (default: the moving joints in tree order)."""
     tree = ET.parse(urdf).getroot()
     links = {e.get("name"): Link(e.get("name"), _visuals(e, urdf.parent)) for e in tree.findall("link")}
     children: set[str] = set()
@@ -147,13 +144,8 @@ def load_arm(urdf: Path, joint_order: list[str] | None = None) -> ArmModel:
         parent, child = e.find("parent").get("link"), e.find("child").get("link")
         raw_axis = np.array(_floats(axis.get("xyz") if axis is not None else None, (1.0, 0.0, 0.0)))
         norm = float(np.linalg.norm(raw_axis)) or 1.0
-        joint = Joint(
-            e.get("name"),
-            e.get("type", "fixed"),
-            *_origin(e),
-            tuple(float(v) for v in raw_axis / norm),
-            links[child],
-        )
+        unit_axis = tuple(float(v) for v in raw_axis / norm)
+        joint = Joint(e.get("name"), e.get("type", "fixed"), *_origin(e), unit_axis, links[child])
         links[parent].children.append(joint)
         children.add(child)
         joints.append(joint)
