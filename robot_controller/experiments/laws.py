@@ -26,8 +26,7 @@ def with_controller(params: cfg.Params, spec: str | None) -> cfg.Params:
 
 
 def is_law(name: str) -> bool:
-    """Whether ``name`` names a law rather than a configuration: ``module:Class``,
-    ``file.py:Class``, or an installed law's name."""
+    """Whether ``name`` is a law (``module:Class``, ``file.py:Class``, an installed law), not a configuration."""
     return ":" in name or name in registry.installed_laws()
 
 

@@ -14,8 +14,7 @@ from robot_controller.parameters.builders import arm_model
 
 
 def plant_loop(params: cfg.Params) -> tuple[np.ndarray, np.ndarray, float]:
-    """The simulated arm's joint linearised at rest and sampled at the control period
-    (``core.laws.lqr.discretise``: state ``[∫e, e, ė]``): ``A``, ``B`` and the period ``dt``."""
+    """The joint linearised at rest, sampled at the control period (state ``[∫e, e, ė]``): ``A``, ``B``, ``dt``."""
     dynamics = ArmDynamics(resources.resolve_urdf(params["simulator"]["urdf_path"]))
     dt = 1.0 / params["pid_controller"]["control_rate_hz"]
     A, B = lqr.discretise(float(dynamics.mass_matrix(np.zeros(1))[0, 0]), float(dynamics.damping[0]), dt)
@@ -23,12 +22,10 @@ def plant_loop(params: cfg.Params) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 def controller_model(params: cfg.Params):
-    """The arm model the controller designs and predicts with: the URDF's, or its ``model_*``
-    parameters over it."""
+    """The arm model the controller designs and predicts with: the URDF's, or its ``model_*`` parameters over it."""
     return arm_model(params["pid_controller"])
 
 
 def law_gains(params: cfg.Params):
-    """The PID settings the controller runs with (for an LQR, its designed gains on the
-    controller's own arm model)."""
+    """The PID settings the controller runs with (for an LQR, its designed gains on the controller's own arm model)."""
     return law_config(cfg.controller_config(params["pid_controller"], 1), controller_model(params), 1)

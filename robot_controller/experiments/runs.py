@@ -10,7 +10,6 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.core import metrics
 from robot_controller.experiments.step import run_and_score, step_figures, step_params
 from robot_controller.scoring import report
 
@@ -51,14 +50,11 @@ def store(results: dict[str, Any], prefix: str, figures: dict[str, Any], keys) -
 def _response(
     label: str, recording: report.Recording, start_s: float, figures: dict[str, Any], out: Path, until_s: float
 ) -> Response:
-    """Joint 1's trace from ``start_s`` (s of the recording) until ``until_s`` after it (a recording runs on
-    while the nodes stop)."""
+    """Joint 1's trace from ``start_s`` (s of the recording) until ``until_s`` after it."""
     s = recording.state
     t = s["time_s"] - start_s
     keep = t < until_s - 1e-9
-    true = metrics.true_position_at(
-        s["time_s"], recording.true_time_s, recording.true_position, recording.true_velocity
-    )
+    true = recording.true_at_ticks()
     trace = (s["reference"][keep, 0], true[keep, 0], s["command"][keep, 0], s["i"][keep, 0])
     return Response(label, t[keep], *trace, s["saturated"][keep, 0] > 0.5, figures, out)
 

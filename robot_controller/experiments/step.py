@@ -71,7 +71,7 @@ def step_figures(
     if at_rest[-1] == len(t) - 1:
         raise ValueError("the reference never moved: no step in this recording")
     step_time = t[at_rest[-1]]
-    true = metrics.true_position_at(t, recording.true_time_s, recording.true_position, recording.true_velocity)
+    true = recording.true_at_ticks()
     ok = np.all(np.isfinite(true), axis=1)
     if after_s is not None:
         ok &= t < step_time + after_s - 1e-9
@@ -100,9 +100,7 @@ def plot_step(recording: report.Recording, path: Path, title: str, limit_nm: np.
     plt = pyplot()
     s = recording.state
     t = s["time_s"] - s["time_s"][0]
-    true = metrics.true_position_at(
-        s["time_s"], recording.true_time_s, recording.true_position, recording.true_velocity
-    )
+    true = recording.true_at_ticks()
     fig, (ax_q, ax_u) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
     joint_count = s["reference"].shape[1]
     for j in range(joint_count):

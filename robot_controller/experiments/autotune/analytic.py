@@ -37,8 +37,7 @@ LQR_BOX = {"q_integral": (-1.0, 8.0), "q_position": (0.0, 8.0), "q_velocity": (-
 
 
 class AnalyticProblem:
-    """The configured arm and built-in law, as the search sees them (search coordinates: log10 of
-    the searched parameters)."""
+    """The configured arm and built-in law, as the search sees them (coordinates: log10 of the searched values)."""
 
     centres = 8
     check_steps = 2  #: progress steps after the search: the real runs before and after

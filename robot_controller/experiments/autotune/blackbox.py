@@ -116,8 +116,7 @@ CASES = (
 
 
 class BlackBoxProblem:
-    """The configured stack with the law ``controller_type`` names, as the search sees it (search
-    coordinates: each knob's range mapped to [0, 1])."""
+    """The configured stack and its law, as the search sees them (coordinates: each knob's range mapped to [0, 1])."""
 
     centres = 3
     check_steps = 1  #: progress steps after the search: the check before and after
@@ -177,11 +176,8 @@ class BlackBoxProblem:
         """The searched parameters' values in the stack (a per-joint list: its first value)."""
         ctrl = self.params["pid_controller"]
         declared = {p.name: p for p in law_parameters.declared(self.law_class)}
-        out = []
-        for knob in self.knobs:
-            value = ctrl.get(law_parameters.PREFIX + knob.name, declared[knob.name].default)
-            out.append(float(np.atleast_1d(np.asarray(value, dtype=float))[0]))
-        return np.array(out)
+        values = (ctrl.get(law_parameters.PREFIX + k.name, declared[k.name].default) for k in self.knobs)
+        return np.array([float(np.atleast_1d(np.asarray(value, dtype=float))[0]) for value in values])
 
     def overlay(self, values: np.ndarray) -> dict[str, Any]:
         """The ``pid_controller`` parameters that set these values (one for every joint)."""
@@ -291,8 +287,7 @@ def before_after(
     out: Path,
     progress: Callable[[str], None],
 ) -> dict[str, Any]:
-    """``tune.json``'s figures: the search, and each case, the delay margin and the RMS before and after
-    (the check on another noise seed and a longer run)."""
+    """``tune.json``'s figures: the search, and each case, the delay margin and the RMS before and after."""
     progress(f"check: before and after, {plan.check_s:g} s on noise seed {CHECK_SEED}, and the delay margins")
     before = describe(problem, problem.current(), plan)
     after = describe(problem, result.best_values, plan)

@@ -85,20 +85,19 @@ def report_text(values: dict[str, Any], problem: BlackBoxProblem, result: Search
         "sine RMS, search [mrad]",
         "sine RMS, check [mrad]",
     ]
-    rows = []
-    for name in ("before", "after"):
-        rows.append(
-            [
-                f"**{name}**",
-                *[f(values[f"{name}_{k.name}"], "{:.4g}") for k in problem.knobs],
-                *[cell(name, c) for c in CASES],
-                str(values[f"{name}_delay_margin_periods"])
-                + ("+" if values[f"{name}_delay_margin_periods"] == DELAY_REPORTED_UP_TO else ""),
-                "yes" if values[f"{name}_meets_constraints"] else "**no**",
-                f(values[f"{name}_search_rms_rad"] * 1e3, "{:.3f}"),
-                f(values[f"{name}_check_rms_rad"] * 1e3, "{:.3f}"),
-            ]
-        )
+    rows = [
+        [
+            f"**{name}**",
+            *[f(values[f"{name}_{k.name}"], "{:.4g}") for k in problem.knobs],
+            *[cell(name, c) for c in CASES],
+            str(values[f"{name}_delay_margin_periods"])
+            + ("+" if values[f"{name}_delay_margin_periods"] == DELAY_REPORTED_UP_TO else ""),
+            "yes" if values[f"{name}_meets_constraints"] else "**no**",
+            f(values[f"{name}_search_rms_rad"] * 1e3, "{:.3f}"),
+            f(values[f"{name}_check_rms_rad"] * 1e3, "{:.3f}"),
+        ]
+        for name in ("before", "after")
+    ]
     ranges = ", ".join(f"{k.name} {k.low:g}…{k.high:g}" + (" (log)" if k.log else "") for k in problem.knobs)
     before, after = values["before_check_rms_rad"], values["after_check_rms_rad"]
     change = (

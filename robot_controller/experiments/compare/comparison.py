@@ -32,8 +32,7 @@ def compare(
     in_process: bool = False,
 ) -> dict[str, dict[str, dict[str, float]]]:
     """Every contender (``controllers``: :func:`contenders`) on the sine and on the step, ``seeds`` seeds each,
-    in lockstep (``workers`` pairs at once, each on a ROS domain of its own; 1: here, one after the other) or
-    with ``in_process`` on the in-process loop. The same table either way.
+    in lockstep (``workers`` pairs at once, each on a ROS domain of its own) or ``in_process``: the same table.
 
     :raises RuntimeError: a failed run, naming its directory, once the pairs under way have ended
     """

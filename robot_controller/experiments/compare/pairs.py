@@ -44,9 +44,12 @@ def run_pair(
     except ValueError as exc:  # no step in the recording
         raise RuntimeError(f"run in {step_out} failed: {exc}") from None
     between_runs()
-    return {f"sine_{key}": sine[key] for key in COMPARED["sine"]} | {
-        f"step_{key}": figures[key] for key in COMPARED["step"]
-    }
+    return _compared(sine, figures)
+
+
+def _compared(sine: dict[str, float], step: dict[str, float]) -> dict[str, float]:
+    """The compared figures of a sine run and a step run, keyed as in the table."""
+    return {f"sine_{k}": sine[k] for k in COMPARED["sine"]} | {f"step_{k}": step[k] for k in COMPARED["step"]}
 
 
 #: In process the step comes after 1.5 s at rest, not ``step.STEP_LEAD_S`` (0.5 s): the loop starts with
@@ -55,26 +58,21 @@ IN_PROCESS_STEP_LEAD_S = 1.5
 
 
 def run_pair_in_process(contender: Contender, seed: int, sine_duration_s: float, amplitude: float) -> dict[str, float]:
-    """:func:`run_pair` on the in-process loop: the same parameters, no ROS (the lockstep
-    graph's computation without its transport)."""
+    """:func:`run_pair` on the in-process loop: the same parameters, the lockstep graph's computation, no ROS."""
     from robot_controller.experiments import inprocess
 
     base = cfg.merge(cfg.load_stack(contender.preset, robot=contender.robot), {"pid_controller": contender.overrides})
     sine = inprocess.simulate(base, duration_s=sine_duration_s, seed=seed).tracking_metrics()
-    stepped = cfg.merge(
-        step_params(base, amplitude, "min_time"), {"trajectory_planner": {"step_time_s": IN_PROCESS_STEP_LEAD_S}}
-    )
+    lead = {"trajectory_planner": {"step_time_s": IN_PROCESS_STEP_LEAD_S}}
+    stepped = cfg.merge(step_params(base, amplitude, "min_time"), lead)
     result = inprocess.simulate(stepped, duration_s=IN_PROCESS_STEP_LEAD_S + STEP_AFTER_S, seed=seed)
     offset = cfg.per_joint("offset", stepped["trajectory_planner"]["offset"], result.reference.shape[1])
-    figures = loop_step_figures(result, amplitude, offset)
-    return {f"sine_{key}": sine[key] for key in COMPARED["sine"]} | {
-        f"step_{key}": figures[key] for key in COMPARED["step"]
-    }
+    return _compared(sine, loop_step_figures(result, amplitude, offset))
 
 
 def loop_step_figures(result, amplitude: float, offset: np.ndarray) -> dict[str, float]:
-    """Step figures (``step.step_figures``'s, the worst joint's) of an in-process loop's run:
-    on the TRUE angle at each tick, from the tick where the reference starts to move."""
+    """Step figures (``step.step_figures``'s, the worst joint's) of an in-process run, on the TRUE angle at each
+    tick, from the tick where the reference starts to move."""
     t, reference = result.tick_time_s, result.reference
     at_rest = np.flatnonzero(np.all(np.abs(reference - offset) <= 1e-9, axis=1))
     if at_rest.size == 0 or at_rest[-1] == len(t) - 1:

@@ -11,8 +11,7 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.parameters.torque_limits import torque_limit as node_torque_limit
 
-# The excitation: a chirp within the reference sine's range and speed, which an
-# arm about four times the reference arm's inertia still follows inside 10 N·m.
+# The excitation: a chirp within the reference sine's range and speed (4× the arm's inertia follows it in 10 N·m).
 AMPLITUDE_RAD = 0.8
 START_HZ = 0.1
 END_HZ = 0.5
@@ -26,9 +25,8 @@ def excitation_params(
     start_hz: float = START_HZ,
     end_hz: float = END_HZ,
 ) -> cfg.Params:
-    """``params`` with the planner in chirp mode, one sweep over ``duration_s``;
-    on a chain of joints at the planner's own amplitudes (each within its
-    joint's range about the robot's home pose), on one joint ``amplitude_rad``."""
+    """``params`` with the planner in chirp mode, one sweep over ``duration_s``; on a chain of joints at the planner's
+    own amplitudes (each within its joint's range about the robot's home pose), on one joint ``amplitude_rad``."""
     planner = params["trajectory_planner"]
     amplitude = [float(amplitude_rad)] if planner["joint_count"] == 1 else list(planner["amplitude"])
     chirp = {"mode": "chirp", "amplitude": amplitude, "frequency_hz": float(start_hz)}
@@ -37,8 +35,7 @@ def excitation_params(
 
 
 def _step_at(times_s: np.ndarray, event_times_s: np.ndarray, values: np.ndarray, joint_count: int) -> np.ndarray:
-    """The latest of ``values`` (one row per event, one column per joint) at each
-    of ``times_s`` (a step function; zero before the first event), as booleans."""
+    """The latest of ``values`` (a row per event, a column per joint) at each of ``times_s``, as booleans (0 before)."""
     out = np.zeros((len(times_s), joint_count), dtype=bool)
     if len(event_times_s) == 0:
         return out
@@ -50,8 +47,7 @@ def _step_at(times_s: np.ndarray, event_times_s: np.ndarray, values: np.ndarray,
 
 
 def held_or_pushed(recording: Any) -> np.ndarray:
-    """Per true-state sample and joint: a brake engaged, or an external
-    disturbance acting (neither is in the model): left out of the fit."""
+    """Per true-state sample and joint: a brake engaged or a disturbance acting (not in the model, so left out)."""
     t, n = recording.true_time_s, recording.joint_count
     mask = _step_at(t, recording.brakes_time_s, recording.brakes, n)
     if len(getattr(recording, "disturbance_time_s", ())):
@@ -59,9 +55,14 @@ def held_or_pushed(recording: Any) -> np.ndarray:
     return mask
 
 
+def fit_inputs(params: cfg.Params, recording: Any, joint_count: int) -> tuple[tuple, dict[str, np.ndarray]]:
+    """What a fit takes from a run: the TRUE time, position, velocity and applied torque, and what to leave out."""
+    motion = (recording.true_time_s, recording.true_position, recording.true_velocity, recording.true_effort)
+    return motion, {"effort_limit": torque_limit(params, joint_count), "braked": held_or_pushed(recording)}
+
+
 def torque_limit(params: cfg.Params, joint_count: int) -> np.ndarray:
-    """The torque beyond which a recorded effort is saturated: the smallest of
-    the controller's and the motor's ``torque_max`` and the simulated arm's effort limit."""
+    """The torque a recorded effort saturates at: the least of both ``torque_max`` and the arm's effort limit."""
     from robot_controller.core.model import effort_limits, load_model
 
     limit = effort_limits(load_model(resources.resolve_urdf(params["simulator"]["urdf_path"])))

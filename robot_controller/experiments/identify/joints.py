@@ -10,7 +10,7 @@ from typing import Any
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.model import PARAMETERS, JointArmModel, JointFit, identify
-from robot_controller.experiments.identify.excitation import held_or_pushed, torque_limit
+from robot_controller.experiments.identify.excitation import fit_inputs
 from robot_controller.parameters.builders import MODEL_KEYS
 from robot_controller.scoring import report
 
@@ -101,14 +101,8 @@ def identify_joints(
     progress: Callable[[str], None],
 ) -> dict[str, Any]:
     """Fit each joint's four numbers to the recording; write the overlay and the reports."""
-    fits = identify(
-        recording.true_time_s,
-        recording.true_position,
-        recording.true_velocity,
-        recording.true_effort,
-        effort_limit=torque_limit(params, len(joint_names)),
-        braked=held_or_pushed(recording),
-    )
+    motion, left_out = fit_inputs(params, recording, len(joint_names))
+    fits = identify(*motion, **left_out)
     run_keys = ("tracking_rms_rad", "peak_torque_nm", "saturated_ticks")
     results = {
         **flat_results(joint_names, fits),

@@ -11,7 +11,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.experiments.identify.excitation import held_or_pushed, torque_limit
+from robot_controller.experiments.identify.excitation import fit_inputs
 
 
 def identify_payload(
@@ -27,17 +27,8 @@ def identify_payload(
     from robot_controller.core.model import fit_payload
     from robot_controller.scoring import report
 
-    joint_count = recording.joint_count
-    urdf = resources.resolve_urdf(params["pid_controller"]["urdf_path"])
-    fit = fit_payload(
-        urdf,
-        recording.true_time_s,
-        recording.true_position,
-        recording.true_velocity,
-        recording.true_effort,
-        effort_limit=torque_limit(params, joint_count),
-        braked=held_or_pushed(recording),
-    )
+    motion, left_out = fit_inputs(params, recording, recording.joint_count)
+    fit = fit_payload(resources.resolve_urdf(params["pid_controller"]["urdf_path"]), *motion, **left_out)
     mass, (x, y, z) = fit.payload.mass_kg, fit.payload.com_m
     # No mass above its noise: the arm carries nothing the URDF lacks, and the overlay says so.
     overlay = fit.payload.as_values() if fit.found else [0.0, 0.0, 0.0, 0.0]
