@@ -46,8 +46,7 @@ def _accepted(spec) -> str:
 
 
 def parameters_markdown() -> str:
-    """Every node's parameters (type, default, accepted values, meaning), then
-    what each preset and each ``--robot`` changes."""
+    """Every node's parameters (type, default, accepted, meaning), then what each preset and ``--robot`` changes."""
     from robot_controller import parameters as cfg
     from robot_controller import resources
     from robot_controller.robots import DEFAULT_ROBOT, ROBOTS

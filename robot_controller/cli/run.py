@@ -81,8 +81,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def run(options: RunOptions, out: Path | None) -> int:
-    """Run, record and score the loop. A launcher of part of the graph without the simulator
-    records nothing and says what it ran."""
+    """Run, record and score the loop (part of the graph without the simulator: say what it ran)."""
     from robot_controller import resources, robots
     from robot_controller.core.model.mujoco_model import joint_units, load_model
     from robot_controller.runner import launcher, plan

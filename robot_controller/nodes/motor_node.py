@@ -1,10 +1,7 @@
-"""motor_node: the actuator. Each ``/joint_commands`` torque is saturated to ``±torque_max`` (and
-lagged, if set) and passed on as ``/sim/effort`` at once; one older than ``max_command_age_s`` by its
-tick stamp (``ros.messages``) is dropped. Like a drive, it stops on its own (no valid command for
-``command_timeout_s``, or ``/estop``): zero torque and a brake request (``/sim/brake``, category 0).
-Each command's receipt goes out once a second on ``/motor/command_receipts``, rows of
-``[receipt_time_s, command…]``.
-"""
+"""motor_node: the actuator. Each ``/joint_commands`` torque is saturated to ``±torque_max`` (and lagged, if set) and
+passed on as ``/sim/effort``; one older than ``max_command_age_s`` is dropped. Like a drive it stops on its own (no
+valid command for ``command_timeout_s``, or ``/estop``): zero torque and a brake request (``/sim/brake``). Receipts go
+out once a second on ``/motor/command_receipts``, rows of ``[receipt_time_s, command…]``."""
 
 from __future__ import annotations
 

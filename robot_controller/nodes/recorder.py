@@ -1,12 +1,7 @@
-"""recorder: the loop's topics, raw (CDR), into an MCAP bag with rosbags, as ``ros2 bag record``
-would, in a process of its own below the loop (nice +10); the nodes' publishers wait for it. In
-lockstep it publishes the tick it has taken on ``/recorder/clock`` and the simulator holds while it lags.
-
-On stdout to the launcher: ``@ready``, then ``@progress {json}`` every ``PROGRESS_PERIOD_S``. On
-SIGINT/SIGTERM it records until the topics are quiet for ``DRAIN_QUIET_S``, then closes the bag.
-
-    python -m robot_controller.nodes.recorder BAG_DIR [--sim-time]
-"""
+"""recorder: the loop's topics, raw (CDR), into an MCAP bag, as ``ros2 bag record`` would, below the loop (nice +10).
+In lockstep it publishes the tick it has taken on ``/recorder/clock``; the simulator holds while it lags. Tells the
+launcher ``@ready``, then ``@progress {json}``; on SIGINT/SIGTERM it records until the topics are quiet, then closes.
+``python -m robot_controller.nodes.recorder BAG_DIR [--sim-time]``"""
 
 from __future__ import annotations
 
@@ -71,8 +66,8 @@ def topics_for(sim_time: bool) -> dict[str, tuple[type, str]]:
 
 
 def clock_ns_of(cdr: bytes) -> int:
-    """``rosgraph_msgs/Clock`` time from its CDR bytes (little-endian: encapsulation 0x0001),
-    or a stamped message's header stamp, which comes first in it the same way."""
+    """``rosgraph_msgs/Clock`` time from its CDR bytes (little-endian: encapsulation 0x0001), or a stamped message's
+    header stamp (first in it the same way)."""
     if len(cdr) < 12:
         return 0  # not one of the sim's: nothing to learn the time from
     sec, nanosec = struct.unpack_from("<iI" if cdr[1] == 1 else ">iI", cdr, 4)
@@ -89,8 +84,7 @@ class Recorder:
 
         self.node = Node(RECORDER_NODE, context=context, start_parameter_services=False)
         self.sim_time = sim_time
-        #: lockstep: the bag's time base there, the sim's latest tick: its /clock, or its true state's
-        #: stamp, which it publishes just before the /clock of the same tick
+        #: lockstep: the bag's time base, the sim's latest tick (its /clock, or its true state's stamp just before)
         self.clock_ns = 0
         self.clock_taken_s = 0.0  #: when (monotonic s) the latest tick of the time base was taken
         self.writer = Writer(bag_dir, version=9, storage_plugin=StoragePlugin.MCAP)
@@ -126,8 +120,7 @@ class Recorder:
         return record
 
     def take_waiting(self, executor) -> None:
-        """The messages waiting now, one per ``spin_once``, until one takes none or ``TAKE_BUDGET_S``
-        has passed (so that the progress lines go on while the loop outpaces this process)."""
+        """The messages waiting now, one per ``spin_once``, until none or ``TAKE_BUDGET_S`` (progress goes on)."""
         spin_once = executor.spin_once
         give_up = time.monotonic() + TAKE_BUDGET_S
         while True:
@@ -145,8 +138,8 @@ class Recorder:
         self.clock_pub.publish(msg)
 
     def checkpoint(self) -> None:
-        """Close the chunk being written and push it to the file, so that a killed recorder's bag
-        is recoverable but for the last ``CHECKPOINT_PERIOD_S`` (rosbags has no public call for it)."""
+        """Close the chunk being written and push it to the file: a killed recorder's bag is recoverable but for the
+        last ``CHECKPOINT_PERIOD_S`` (rosbags has no public call for it)."""
         storage = getattr(self.writer, "storage", None)
         chunk = getattr(storage, "chunk", None)
         if chunk is None or not hasattr(storage, "close_chunk") or not chunk.bio.tell():

@@ -1,11 +1,6 @@
-"""viewer: the live view of a run (``run --view``) in a browser, from a process of its own.
-
-An observer (``publishing.OBSERVER_NODES``) at the observers' nice value, listening best effort with
-short queues: a slow viewer loses samples instead of holding anyone up. What it hears goes to rerun
-(``robot_controller.view``) and to ``--rrd`` for replay.
-
-    python -m robot_controller.nodes.viewer --rrd DIR/view.rrd --port 9090 [--urdf FILE] [--control-rate HZ]
-"""
+"""viewer: the live view of a run (``run --view``) in a browser, from a process of its own: an observer listening best
+effort with short queues (a slow viewer loses samples, holds no one up), feeding rerun (``robot_controller.view``).
+``python -m robot_controller.nodes.viewer --rrd DIR/view.rrd --port 9090 [--urdf FILE] [--control-rate HZ]``"""
 
 from __future__ import annotations
 

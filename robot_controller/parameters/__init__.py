@@ -1,10 +1,5 @@
-"""Parameters of every node: what each means and accepts (``schema``, one
-entry per parameter), parameter files and presets (``files``), the core's
-configs built from values (``builders``) and the whole-configuration check
-(``consistency``). No rclpy here.
-
-The names most callers need are importable from the package itself.
-"""
+"""Parameters of every node: what each means and accepts (``schema``), parameter files and presets (``files``), the
+core's configs built from values (``builders``) and the whole-configuration check (``consistency``). No rclpy here."""
 
 from robot_controller.parameters.builders import controller_config, sensor_config, trajectory_kwargs
 from robot_controller.parameters.files import (

@@ -1,9 +1,6 @@
-"""The whole configuration checked before anything starts: each value on its own (the schema),
-then the five nodes' values against each other and against the arm the URDFs describe.
-
-A problem is a ``ConfigError`` naming the node, the key and what is wrong. The nodes check their
-own values again on every parameter change; these cross-node rules are enforced here, at start.
-"""
+"""The whole configuration checked before anything starts: each value on its own (the schema), then the five nodes'
+values against each other and against the arm the URDFs describe; a problem is a ``ConfigError`` naming the node, the
+key and what is wrong. The nodes check their own values again on every change; the cross-node rules live here."""
 
 from __future__ import annotations
 
@@ -192,11 +189,8 @@ def _check_planner_matches(params: cfg.Params, joint_count: int) -> None:
 
 
 def trajectory_plan(params: cfg.Params) -> Plan:
-    """The trajectory the run follows: the planner's, checked against the controller's arm model
-    (``builders.arm_model``) and slowed, refused or left as the planner's ``feasibility`` says.
-
-    The ROS planner builds the same model from its own ``urdf_path`` and ``model_*``, which ``run``
-    fills with the controller's and :func:`check_stack` refuses when they differ.
+    """The trajectory the run follows: the planner's, checked against the controller's arm model (the ROS planner's
+    too: :func:`check_stack` refuses a difference) and slowed, refused or left as its ``feasibility`` says.
 
     :raises ConfigError: ``trajectory_planner: …``, one line, when it is refused
     """

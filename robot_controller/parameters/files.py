@@ -18,9 +18,7 @@ Params = dict[str, dict[str, Any]]
 
 
 def read_params_file(path: str | Path) -> Params:
-    """Read a ROS 2 parameter file into ``{node: {param: value}}``, validated.
-
-    ``/**`` entries apply to every node that has the parameter.
+    """Read a ROS 2 parameter file into ``{node: {param: value}}``, validated (``/**`` applies to every node).
 
     :raises ConfigError: naming the file, the key and the problem
     """
@@ -115,10 +113,9 @@ def merge(*layers: Params) -> Params:
 def load_stack(
     preset: str = "default", config: str | Path | list[str | Path] | None = None, robot: str = "one_dof"
 ) -> Params:
-    """The schema's defaults, then the robot's layer (its URDF, home pose and
-    trajectory), the preset's overlay and the user's file(s), later over
-    earlier. An empty ``torque_max`` is then written out as its node's URDF
-    effort limits, so every check and the run's ``params.yaml`` see the numbers."""
+    """The schema's defaults, then the robot's layer (its URDF, home pose and trajectory), the preset's overlay and the
+    user's file(s), later over earlier. An empty ``torque_max`` is then written out as its node's URDF effort limits, so
+    every check and the run's ``params.yaml`` see the numbers."""
     from robot_controller.parameters.torque_limits import fill_torque_limits
     from robot_controller.robots import robot as named_robot
 

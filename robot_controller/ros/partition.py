@@ -1,14 +1,7 @@
-"""Who may speak on the loop's topics: each run talks in a DDS partition of its own.
-
-rclpy says nothing of who sent a message, so the launcher's Fast DDS profile puts every loop topic of
-its run in a partition named for the run: a foreign publisher is never matched (the graph still lists
-it); ``/estop``, ``/rosout`` and the parameter services stay open. Isolation, not security: partition
-names travel in clear. An observer that hears every run uses ``write_observer_profile``.
-
-Across hosts (``run --peers``, docs/design.md §6) the partition comes from the run's name
-(:func:`run_partition`), and the participants speak UDPv4 only (two network namespaces of one machine
-share ``/dev/shm``) and discover by unicast from their ``initialPeersList``.
-"""
+"""Who may speak on the loop's topics: each run's Fast DDS profile puts its loop topics in a partition named for the
+run, so a foreign publisher is never matched (isolation, not security); ``/estop``, ``/rosout`` and parameter services
+stay open; ``write_observer_profile`` hears every run. Across hosts (``--peers``, docs/design.md §6) participants speak
+UDPv4 only (netns share ``/dev/shm``) and discover by unicast from their ``initialPeersList``."""
 
 from __future__ import annotations
 
@@ -22,8 +15,7 @@ from pathlib import Path
 
 from robot_controller import resources
 
-# Every topic the stack's nodes publish or consume to run the loop; /estop is
-# deliberately left out (a stop must be heard from anyone).
+# Every topic the nodes use to run the loop; not /estop (a stop must be heard from anyone).
 LOOP_TOPICS = (
     "/trajectory",
     "/joint_states",
@@ -49,13 +41,10 @@ PROFILES_ENV = "FASTRTPS_DEFAULT_PROFILES_FILE"
 
 _NS = "http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles"
 # "" is the default partition (every peer that sets none); "*" matches every named one.
-_EVERY_PARTITION_READER = ";*"
-_EVERY_PARTITION_WRITER = ";*"
+_EVERY_PARTITION = ";*"
 
-
-# Participant ids whose discovery ports an initial peer is sent to, on every announcement. Two participants
-# meet when either one's id is below it, so it covers one side: a launcher's processes and a few tools.
-# Each port costs a datagram per announcement (docs/network.md, "What crosses the link").
+# Participant ids whose discovery ports an initial peer is sent to, on every announcement (a datagram each): two
+# participants meet when either one's id is below it, so it covers one side, a launcher's processes and a few tools.
 MAX_INITIAL_PEERS_RANGE = 12
 #: With ``--peers``: the participants' periodic announcement (Fast DDS's default; the lease is 20 s).
 SPLIT_ANNOUNCEMENT_PERIOD_S = 3.0
@@ -81,9 +70,8 @@ def check_run_id(run_id: str) -> str:
 
 
 def run_partition(run_id: str) -> str:
-    """The partition of the run named ``run_id``: the same on every host that names it, a
-    different one for every other name (and never one of :func:`new_partition`'s, hex of
-    a hash, not of chance, though of the same form)."""
+    """The partition of the run named ``run_id``: the same on every host that names it, a different one for every other
+    name (and never one of :func:`new_partition`'s, hex of a hash, not of chance, though of the same form)."""
     return f"robot_controller_{hashlib.sha256(check_run_id(run_id).encode()).hexdigest()[:12]}"
 
 
@@ -110,7 +98,7 @@ def write_run_profile(path: Path, partition: str, base: Path | None = None, peer
 
 def write_observer_profile(path: Path, base: Path | None = None) -> Path:
     """A profile for a process that should hear every run and the default partition alike."""
-    return _write(path, base, writer_partitions=_EVERY_PARTITION_WRITER, reader_partitions=_EVERY_PARTITION_READER)
+    return _write(path, base, writer_partitions=_EVERY_PARTITION, reader_partitions=_EVERY_PARTITION)
 
 
 def _write(
@@ -121,9 +109,8 @@ def _write(
     root = tree.getroot()
     if peers:
         _udp_only(root, peers)
-    # A profile named for a topic replaces the default profile for that topic
-    # (unset fields take Fast DDS's defaults, not the default profile's), so
-    # each starts as a copy of the default one.
+    # A profile named for a topic replaces the default profile for that topic (unset fields take Fast DDS's defaults,
+    # not the default profile's), so each starts as a copy of the default one.
     for kind, partitions in (("data_writer", writer_partitions), ("data_reader", reader_partitions)):
         default = next((e for e in root.findall(f"{{{_NS}}}{kind}") if e.get("is_default_profile") == "true"), None)
         for topic in LOOP_TOPICS:
@@ -141,18 +128,14 @@ def _write(
 def _child(parent: ET.Element, tag: str, *, first: bool = False) -> ET.Element:
     """``parent``'s ``tag`` element, made if missing (``first``: made as its first child, as the schema orders it)."""
     found = parent.find(f"{{{_NS}}}{tag}")
-    if found is not None:
-        return found
-    if not first:
-        return ET.SubElement(parent, f"{{{_NS}}}{tag}")
-    made = ET.Element(f"{{{_NS}}}{tag}")
-    parent.insert(0, made)
-    return made
+    if found is None:
+        found = ET.Element(f"{{{_NS}}}{tag}")
+        parent.insert(0 if first else len(parent), found)
+    return found
 
 
 def _udp_only(root: ET.Element, peers: list[str]) -> None:
-    """One UDPv4 transport and no builtin ones (so no shared memory) on the default
-    participant profile, with ``peers`` as its initial peers."""
+    """One UDPv4 transport, no builtin ones (no shared memory), on the default participant; ``peers`` initial."""
     descriptors = _child(root, "transport_descriptors", first=True)
     descriptor = ET.SubElement(descriptors, f"{{{_NS}}}transport_descriptor")
     ET.SubElement(descriptor, f"{{{_NS}}}transport_id").text = UDP_TRANSPORT_ID
@@ -162,8 +145,8 @@ def _udp_only(root: ET.Element, peers: list[str]) -> None:
         (e for e in root.findall(f"{{{_NS}}}participant") if e.get("is_default_profile") == "true"), None
     )
     if participant is None:
-        participant = ET.SubElement(root, f"{{{_NS}}}participant", {"profile_name": "robot_controller_participant"})
-        participant.set("is_default_profile", "true")
+        attributes = {"profile_name": "robot_controller_participant", "is_default_profile": "true"}
+        participant = ET.SubElement(root, f"{{{_NS}}}participant", attributes)
     rtps = _child(participant, "rtps")
     # The schema's order inside <rtps>: the transports before <builtin>.
     transports = ET.Element(f"{{{_NS}}}userTransports")
@@ -174,9 +157,8 @@ def _udp_only(root: ET.Element, peers: list[str]) -> None:
     rtps.insert(0, transports)
     builtin = _child(rtps, "builtin")
     _slow_announcements(builtin)
-    # Discovery by unicast only: a unicast metatraffic locator of any address and port (what
-    # Fast DDS fills in itself) keeps it from making its default multicast one (as rmw_fastrtps
-    # does for LOCALHOST); announcements go to the initial peers.
+    # Discovery by unicast only: a unicast metatraffic locator of any address and port (Fast DDS fills it in) keeps
+    # it from making its default multicast one; announcements go to the initial peers.
     unicast = _child(builtin, "metatrafficUnicastLocatorList")
     ET.SubElement(ET.SubElement(unicast, f"{{{_NS}}}locator"), f"{{{_NS}}}udpv4")
     initial = _child(builtin, "initialPeersList")

@@ -73,8 +73,7 @@ def shutting_down(within_s: float = 0.5) -> bool:
 
 
 def make_executor(context: rclpy.Context | None = None) -> Executor:
-    """rclpy's EventsExecutor (it waits on events instead of rebuilding a wait set for every
-    callback); ``ROBOT_CONTROLLER_EXECUTOR=single`` picks the SingleThreadedExecutor."""
+    """rclpy's EventsExecutor (no wait set rebuilt per callback); ``ROBOT_CONTROLLER_EXECUTOR=single``: the single."""
     if os.environ.get("ROBOT_CONTROLLER_EXECUTOR", "events") == "events":
         from rclpy.experimental import EventsExecutor
 
@@ -88,8 +87,7 @@ _stop_requested = threading.Event()
 def init_with_own_signals(
     args: list[str] | None = None, context: rclpy.Context | None = None, stop: threading.Event = _stop_requested
 ) -> None:
-    """rclpy.init, with SIGINT/SIGTERM only setting ``stop`` (the spin loop ends between callbacks,
-    not by a KeyboardInterrupt inside one), so that cleanup runs in order."""
+    """rclpy.init, SIGINT/SIGTERM only setting ``stop``: the spin ends between callbacks, cleanup runs in order."""
     rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())

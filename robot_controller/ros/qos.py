@@ -16,26 +16,20 @@ def _keep_last(depth: int, *, reliable: bool = True, latched: bool = False) -> Q
     )
 
 
-# Reliable, volatile, keep-last: compatible with the tutorial's default-QoS publishers and
-# subscribers. Depth 1000 (10 s of a 100 Hz topic) lets a reader that falls behind (the
-# recorder, below the loop) catch up without losing samples.
+# Reliable, volatile, keep-last: compatible with the tutorial's default-QoS publishers and subscribers. Depth 1000 (10 s
+# of a 100 Hz topic) lets a reader that falls behind (the recorder, below the loop) catch up without losing samples.
 CONTROL_QOS = _keep_last(1000)
-# What a controller, a drive or an encoder acts on: the newest message only, never a backlog
-# of stale readings or torques after a pause (lockstep readers use LOCKSTEP_QOS).
+# What a controller, a drive or an encoder acts on: the newest message only, never a stale backlog after a pause.
 LATEST_QOS = _keep_last(1)
-# The same, best effort: across a lossy link a lost sample is not waited for (the next one
-# has already made it stale). A reliable writer serves a best-effort reader.
+# The same, best effort: across a lossy link a lost sample is not waited for (the next one made it stale).
 LATEST_BEST_EFFORT_QOS = _keep_last(1, reliable=False)
-# Lockstep: every message is a tick's and is taken in order, none is stale. The planner sends
-# each sample a tick early, so two can be in flight to the controller: all are kept.
+# Lockstep: every message is a tick's, taken in order (the planner sends each a tick early: two may be in flight).
 LOCKSTEP_QOS = _keep_last(100)
-# A state, not an event (the motor's brake request): a late reader, such as a respawned
-# simulator, gets the current value at once.
+# A state, not an event (the brake request): a late reader, such as a respawned simulator, gets it at once.
 LATCHED_QOS = _keep_last(1, latched=True)
 # /clock in lockstep: a reader that matches late still gets the latest tick.
 CLOCK_QOS = _keep_last(1000, latched=True)
-# /estop: volatile readers, so a plain `ros2 topic pub /estop` matches too; the e-stop is
-# latched by the nodes that obey it, not by DDS.
+# /estop: volatile readers, so `ros2 topic pub /estop` matches; the nodes that obey it latch it, not DDS.
 ESTOP_QOS = LATEST_QOS
 # An observer (the viewer): best effort, short queues; no writer waits for it or resends to it.
 OBSERVER_QOS = _keep_last(50, reliable=False)

@@ -18,8 +18,7 @@ OBSERVER_NICE = 10
 LOOP_PROCESSES = frozenset({"simulator", "motor_node", "sensor_node", "pid_controller", "stack"})
 NICE = {**dict.fromkeys(LOOP_PROCESSES, LOOP_NICE), "trajectory_planner": PLANNER_NICE, "recorder": OBSERVER_NICE}
 
-# Sim-time lockstep: a tick is a chain (simulator → sensor → controller → motor → simulator);
-# the planner and recorder are off it and yield to it (by their scheduling group's nice).
+# Lockstep: a tick is a chain (simulator → sensor → controller → motor → simulator); planner and recorder yield to it.
 LOCKSTEP_NICE = {"trajectory_planner": 5, "recorder": 10}
 
 #: SCHED_FIFO priority of the simulator's pacing thread under ``--realtime``.
@@ -44,8 +43,8 @@ class Placement:
 
 
 def placement(process_name: str, wall_clock: bool = True) -> Placement:
-    """The loop's processes share the last allowed CPU, everything else the others (the loop is a chain:
-    one link runs at a time). In sim-time lockstep, anywhere, at ``LOCKSTEP_NICE``."""
+    """The loop's processes (a chain: one link runs at a time) share the last allowed CPU, the rest the others;
+    in lockstep, anywhere, at ``LOCKSTEP_NICE``."""
     if not wall_clock:
         return Placement(nice=LOCKSTEP_NICE.get(process_name, 0))
     cpus = None

@@ -133,8 +133,7 @@ def _raise_interrupt(signum, frame) -> None:
 
 
 def _published_counts(counts_dir: Path, replaced: set[str]) -> dict[str, int]:
-    """Per topic, what the nodes say they published. A node that was killed and
-    respawned took its count with it: its topics are left out (unknown)."""
+    """Per topic, what the nodes say they published (a respawned node's topics left out: its count died with it)."""
     total: dict[str, int] = {}
     unknown: set[str] = set()
     for path in counts_dir.glob("*.json"):

@@ -87,8 +87,7 @@ def lockstep_params(params: cfg.Params) -> cfg.Params:
 
 
 def with_controller_model(params: cfg.Params) -> cfg.Params:
-    """The same parameters with each ``model_*`` the planner leaves empty taken from pid_controller's, so
-    the planner checks its trajectory against the arm the controller models."""
+    """The same parameters with each ``model_*`` the planner leaves empty taken from pid_controller's."""
     out = cfg.merge(params, {})
     planner, ctrl = out["trajectory_planner"], out["pid_controller"]
     for key in ARM_MODEL_KEYS:
@@ -130,8 +129,7 @@ def check(params: cfg.Params, options: RunOptions) -> CheckedRun:
     if options.sim_time:
         params = lockstep_params(params)
         if math.isfinite(options.duration_s):
-            # The loop's first tick comes a moment after t = 0: the simulator stops a little past the end,
-            # the graph falls quiet and the recorder takes every message before the nodes stop.
+            # The simulator stops a little past the end: the recorder takes every message before the nodes stop.
             params["simulator"]["lockstep_end_s"] = options.duration_s + LOCKSTEP_END_MARGIN_S
     consistency.check_stack(params)
     if options.view_port is not None:

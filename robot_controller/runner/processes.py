@@ -94,8 +94,7 @@ class ProcessGroup:
         return again
 
     def relay(self) -> None:
-        """Start relaying every child's output. Only once all are forked: a fork
-        copies one thread, and the locks the others held, into the child."""
+        """Start relaying every child's output, once all are forked (a fork copies the locks other threads hold)."""
         for child in self.children:
             if not child.reader.is_alive() and child.reader.ident is None:
                 child.reader.start()

@@ -93,8 +93,7 @@ class GraphLink:
 def wait_graph(
     graph: GraphLink, group: ProcessGroup, expected: tuple[str, ...], remote: tuple[str, ...], timeout_s: float
 ) -> str | None:
-    """Wait until every node of ``expected`` is in the graph, naming the missing ones; a failure line after
-    ``timeout_s``."""
+    """Wait until every node of ``expected`` is in the graph, naming the missing; a failure line after ``timeout_s``."""
     start = time.monotonic()
     next_say = start + 1.0
     while missing := graph.missing(expected):

@@ -35,8 +35,7 @@ def sample(pid: int) -> Sample | None:
 
 
 def usage(start: dict[str, Sample | None], end: dict[str, Sample | None], wall_s: float) -> dict[str, float]:
-    """``cpu_pct_<name>`` (percent of one core), ``rss_mb_<name>`` and
-    ``rss_growth_mb_<name>`` per process, and ``cpu_pct_total``."""
+    """``cpu_pct_<name>`` (% of one core), ``rss_mb_<name>``, ``rss_growth_mb_<name>`` and ``cpu_pct_total``."""
     out: dict[str, float] = {}
     total = 0.0
     for name, first in start.items():

@@ -108,8 +108,7 @@ class Brakes:
             )
 
     def check_drive_timeout(self, now_ns: int) -> None:
-        """Brake once no effort has arrived for ``drive_timeout_s`` (lock held, physics running):
-        the physics up to now runs on the last torque, then the torque is off (category 0)."""
+        """Brake when no effort came for ``drive_timeout_s`` (lock held); physics to now on the old torque, then off."""
         if now_ns - self.last_effort_mono_ns > self.timeout_ns and "drive_timeout" not in self.reasons:
             self.node.pacing.advance(now_ns)
             self.set("drive_timeout", True)

@@ -1,8 +1,7 @@
-"""The simulator's external disturbances: ``/sim/disturbance`` (``[torque_nm…, duration_s]``) is a torque
-on each joint beside the actuator's (not cut by the brakes; capped at ``MAX_DISTURBANCE_NM``) for
-``duration_s`` of physics time; a new one replaces it. ``/sim/disturbance_applied`` ``[torque_nm…,
-time_s]`` goes with every true state while it acts, and once more, zero, after.
-"""
+"""The simulator's external disturbances: ``/sim/disturbance`` (``[torque_nm…, duration_s]``), a torque on each joint
+beside the actuator's (not cut by the brakes; capped at ``MAX_DISTURBANCE_NM``) until replaced;
+``/sim/disturbance_applied`` ``[torque_nm…, time_s]`` goes with every true state while it acts, and once more, zero,
+after."""
 
 from __future__ import annotations
 

@@ -85,8 +85,7 @@ class LockstepTicks:
             self.publish()
 
     def publish(self) -> None:
-        """The true state first: the tick's longest path starts there (sensor → controller →
-        motor → here); of the /clock readers (controller, planner, recorder) none is on it."""
+        """The true state first: the tick's longest path (sensor → controller → motor → here) starts there."""
         stamp_ns = self.node.steps_done * self.node.physics_dt_ns
         self.waiting_for_effort = True
         self.published += 1
