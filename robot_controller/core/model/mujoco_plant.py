@@ -47,7 +47,6 @@ class MujocoPlant:
     (``set_disturbance``: a push on the arm, neither limited by the drive nor cut by a brake). A brake holds
     against it as against gravity: a joint at rest stays locked; a moving one is slowed by the holding torque.
 
-    :param urdf_path: robot description
     :param physics_dt: physics step, s (1 ms in the reference scenario)
     :param payload: a load on the last joint's link the URDF does not have
     """
