@@ -86,11 +86,8 @@ def read_recording(bag_dir: Path) -> Recording:
     if bag_recovery.needs_recovery(bag_dir):
         # The recorder was killed: rebuild the bag from its complete chunks first.
         recovered = bag_recovery.recover(bag_dir)
-        print(
-            f"{bag_dir}: the recording was not closed (recorder killed); recovered {recovered} messages "
-            f"into a complete bag, the torn file kept as {bag_dir.name}.torn",
-            file=sys.stderr,
-        )
+        note = f"the recording was not closed (recorder killed); recovered {recovered} messages into a complete bag"
+        print(f"{bag_dir}: {note}, the torn file kept as {bag_dir.name}.torn", file=sys.stderr)
     typestore = get_typestore(Stores.ROS2_JAZZY)
     decoded: dict[str, list[tuple[int, Any]]] = {topic: [] for topic in WANTED_TOPICS}
     malformed: dict[str, int] = {}
@@ -123,12 +120,10 @@ def read_recording(bag_dir: Path) -> Recording:
         )
 
     state_width = state_layout.width(joint_count)
-    state_msgs = [
-        msg
-        for _, msg in keep(
-            "/controller/state", decoded["/controller/state"], lambda r: state_layout.fits(len(r[1].data), joint_count)
-        )
-    ]
+    states = keep(
+        "/controller/state", decoded["/controller/state"], lambda r: state_layout.fits(len(r[1].data), joint_count)
+    )
+    state_msgs = [msg for _, msg in states]
     state_rows = [np.asarray(msg.data[:state_width], dtype=float) for msg in state_msgs]
     law_terms = _law_terms(state_msgs, joint_count)
     true = keep(
