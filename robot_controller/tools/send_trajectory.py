@@ -30,14 +30,9 @@ def to_message(spec: TrajectorySpec) -> Any:
     msg = JointTrajectory(joint_names=list(spec.joint_names))
     for point in spec.points:
         ns = round(point.time_from_start_s * 1e9)
-        msg.points.append(
-            JointTrajectoryPoint(
-                positions=point.positions,
-                velocities=point.velocities,
-                accelerations=point.accelerations,
-                time_from_start=Duration(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000),
-            )
-        )
+        at = Duration(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+        values = {"positions": point.positions, "velocities": point.velocities, "accelerations": point.accelerations}
+        msg.points.append(JointTrajectoryPoint(**values, time_from_start=at))
     return msg
 
 

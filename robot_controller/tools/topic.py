@@ -75,12 +75,9 @@ def _echo_qos(g: graph.Graph, topic: str) -> Any:
     publishers = g.node.get_publishers_info_by_topic(topic)
     best_effort = any(p.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for p in publishers)
     latched = bool(publishers) and all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers)
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST,
-        depth=ECHO_DEPTH,
-        reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
-        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
-    )
+    reliability = ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE
+    durability = DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=ECHO_DEPTH, reliability=reliability, durability=durability)
 
 
 def is_message(value: Any) -> bool:
@@ -202,9 +199,5 @@ def _hz_qos() -> Any:
     """Best effort, as ros2 topic hz's sensor-data profile: matches every publisher and never holds one back."""
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST,
-        depth=HZ_DEPTH,
-        reliability=ReliabilityPolicy.BEST_EFFORT,
-        durability=DurabilityPolicy.VOLATILE,
-    )
+    best_effort, volatile = ReliabilityPolicy.BEST_EFFORT, DurabilityPolicy.VOLATILE
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=HZ_DEPTH, reliability=best_effort, durability=volatile)
