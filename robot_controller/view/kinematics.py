@@ -44,10 +44,8 @@ def link_frames(arm: ArmModel, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.
         if joint.kind in ("revolute", "continuous"):
             frames[joint.child.name] = (at_joint[0] @ axis_matrices(joint.axis, value), at_joint[1])
         elif joint.kind == "prismatic":
-            frames[joint.child.name] = (
-                at_joint[0],
-                at_joint[1] + at_joint[0] @ np.asarray(joint.axis) * value[:, None],
-            )
+            slide = at_joint[0] @ np.asarray(joint.axis) * value[:, None]
+            frames[joint.child.name] = (at_joint[0], at_joint[1] + slide)
         else:
             frames[joint.child.name] = at_joint
         if joint.kind in MOVING:
