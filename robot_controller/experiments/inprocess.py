@@ -47,11 +47,8 @@ def prepare(
     plan = trajectory_plan(params)  # refused: the planner's one line, before anything is built
     if plan.warning is not None and on_warning is not None:
         on_warning(plan.warning)
-    plant = MujocoPlant(
-        resources.resolve_urdf(sim["urdf_path"]),
-        1.0 / sim["physics_rate_hz"],
-        Payload.from_values("simulator.payload", sim["payload"]),
-    )
+    payload = Payload.from_values("simulator.payload", sim["payload"])
+    plant = MujocoPlant(resources.resolve_urdf(sim["urdf_path"]), 1.0 / sim["physics_rate_hz"], payload)
     n = len(plant.joint_names)
     plant.reset(cfg.per_joint("initial_position", sim["initial_position"], n))
     dynamics = arm_model(ctrl)  # the URDF's, or the controller's model_* values over it

@@ -41,11 +41,8 @@ def screen(problem: Problem, gains: np.ndarray) -> tuple[dict[str, np.ndarray], 
     ok = finite & margins["stable"]
     with np.errstate(invalid="ignore"):
         ok &= margins["gain_margin_db"] >= MIN_GAIN_MARGIN_DB
-        ok &= (
-            (margins["gain_margin_low_db"] == np.inf)
-            if UNCONDITIONALLY_STABLE
-            else (margins["gain_margin_low_db"] >= MIN_GAIN_MARGIN_DB)
-        )
+        low = margins["gain_margin_low_db"]
+        ok &= (low == np.inf) if UNCONDITIONALLY_STABLE else (low >= MIN_GAIN_MARGIN_DB)
         ok &= margins["phase_margin_deg"] >= MIN_PHASE_MARGIN_DEG
     ok &= margins["spectral_radius"] <= math.exp(-problem.dt / MAX_TIME_CONSTANT_S)
     idx = np.flatnonzero(ok)

@@ -60,8 +60,7 @@ def compare(
             for key, v in rows.items()
         }
     report.write_metrics(out / "compare.json", table)
-    (out / "compare.md").write_text(
-        render_compare(table, seeds, sine_duration_s, amplitude, robot, chosen, in_process=in_process)
-    )
+    text = render_compare(table, seeds, sine_duration_s, amplitude, robot, chosen, in_process=in_process)
+    (out / "compare.md").write_text(text)
     plot_compare(table, out / "compare.png")
     return table

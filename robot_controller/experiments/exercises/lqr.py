@@ -19,20 +19,11 @@ from robot_controller.experiments.runs import SEED, Response, sine_params, sine_
 STEP_RAD = 0.5
 
 
+LQR = {"controller_type": "lqr"}
 CONTENDERS = (
     Contender("pid", "the tutorial's PID as written", "tutorial", {}),
-    Contender(
-        "lqr",
-        "LQR in the tutorial's plumbing (no feedforward, no Kalman filter)",
-        "tutorial",
-        {"controller_type": "lqr"},
-    ),
-    Contender(
-        "lqr_default",
-        "LQR as the default stack runs it (feedforward, Kalman filter)",
-        "default",
-        {"controller_type": "lqr"},
-    ),
+    Contender("lqr", "LQR in the tutorial's plumbing (no feedforward, no Kalman filter)", "tutorial", LQR),
+    Contender("lqr_default", "LQR as the default stack runs it (feedforward, Kalman filter)", "default", LQR),
 )
 
 

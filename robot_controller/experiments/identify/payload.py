@@ -47,59 +47,45 @@ def identify_payload(
     payload = {"model_payload": [float(f"{v:.6g}") for v in overlay]}
     cfg.write_params_file({"pid_controller": payload}, out / "identified.yaml")
     report.write_metrics(out / "identification.json", results)
-    (out / "identification.md").write_text(
-        "\n".join(
-            [
-                "# Identification: a payload on the last link",
-                "",
-                f"{duration_s:g} sim s, lockstep, seed {seed}: a chirp through every joint; fitted on the true "
-                "joint state and the applied torque, by the URDF's inverse dynamics with a point mass welded to "
-                "the last joint's link (MuJoCo's mj_inverse, every joint at once). Tracking during the run (the "
-                f"controller as configured): {(scored.get('tracking_rms_rad') or float('nan')) * 1e3:.2f} mrad "
-                "RMS on the worst joint.",
-                "",
-                "| parameter | identified | ± standard error |",
-                "|---|---|---|",
-                *(
-                    _row(name, value, err, shown=fit.found or name.startswith("mass"))
-                    for name, value, err in zip(
-                        ("mass [kg]", "x [m]", "y [m]", "z [m]"), fit.payload.as_values(), fit.stderr, strict=True
-                    )
-                ),
-                "",
-                *(
-                    []
-                    if fit.found
-                    else [
-                        "No payload found: the mass is not above three standard errors, or under 10 g. The "
-                        "overlay sets `model_payload` to no load ([0, 0, 0, 0]).",
-                        "",
-                    ]
-                ),
-                f"Torque left unexplained: {fit.residual_rms_nm:.3g} N·m RMS with the payload, "
-                f"{fit.residual_rms_without_nm:.3g} N·m with the URDF alone, over {fit.samples} intervals "
-                "(every joint).",
-                "",
-                "Use: `--config identified.yaml` after your other files (it sets only the controller's "
-                "`model_payload`; `run` passes it on to the planner).",
-                "",
-            ]
-        )
-    )
+    labels = ("mass [kg]", "x [m]", "y [m]", "z [m]")
+    rows = zip(labels, fit.payload.as_values(), fit.stderr, strict=True)
+    none_found = [
+        "No payload found: the mass is not above three standard errors, or under 10 g. The "
+        "overlay sets `model_payload` to no load ([0, 0, 0, 0]).",
+        "",
+    ]
+    lines = [
+        "# Identification: a payload on the last link",
+        "",
+        f"{duration_s:g} sim s, lockstep, seed {seed}: a chirp through every joint; fitted on the true "
+        "joint state and the applied torque, by the URDF's inverse dynamics with a point mass welded to "
+        "the last joint's link (MuJoCo's mj_inverse, every joint at once). Tracking during the run (the "
+        f"controller as configured): {(scored.get('tracking_rms_rad') or float('nan')) * 1e3:.2f} mrad "
+        "RMS on the worst joint.",
+        "",
+        "| parameter | identified | ± standard error |",
+        "|---|---|---|",
+        *(_row(name, value, err, shown=fit.found or name.startswith("mass")) for name, value, err in rows),
+        "",
+        *([] if fit.found else none_found),
+        f"Torque left unexplained: {fit.residual_rms_nm:.3g} N·m RMS with the payload, "
+        f"{fit.residual_rms_without_nm:.3g} N·m with the URDF alone, over {fit.samples} intervals "
+        "(every joint).",
+        "",
+        "Use: `--config identified.yaml` after your other files (it sets only the controller's "
+        "`model_payload`; `run` passes it on to the planner).",
+        "",
+    ]
+    (out / "identification.md").write_text("\n".join(lines))
     unexplained = (
         f"torque unexplained {fit.residual_rms_nm:.3g} N·m RMS (the URDF alone: {fit.residual_rms_without_nm:.3g})"
     )
     if not fit.found:
         progress(f"identify: no payload found on the last link ({mass:.2g} ± {fit.stderr[0]:.2g} kg); {unexplained}")
     else:
-        progress(
-            f"identify: payload {mass:.3f} kg at ({x:.3f}, {y:.3f}, {z:.3f}) m on the last link; {unexplained}"
-            + (
-                f"; {', '.join(fit.unidentifiable)} not identifiable (no joint's torque depends on it): set to 0"
-                if fit.unidentifiable
-                else ""
-            )
-        )
+        unseen = f"; {', '.join(fit.unidentifiable)} not identifiable (no joint's torque depends on it): set to 0"
+        found = f"identify: payload {mass:.3f} kg at ({x:.3f}, {y:.3f}, {z:.3f}) m on the last link; {unexplained}"
+        progress(found + (unseen if fit.unidentifiable else ""))
     progress(f"identify: wrote {out / 'identified.yaml'}, identification.json, identification.md")
     return results
 
