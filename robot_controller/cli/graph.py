@@ -18,23 +18,15 @@ def register(sub) -> None:
     p.add_argument("--torque", type=float, required=True, help="N·m")
     p.add_argument("--duration", type=positive_seconds, default=0.5, help="s (default 0.5)")
     p.add_argument("--joint", help="joint name (default: every joint)")
-    p = verb(
-        sub,
-        "goto",
-        "move the running arm to joint positions, at rest after --time (a JointTrajectory to the planner)",
-        _goto,
-    )
+    goto_help = "move the running arm to joint positions, at rest after --time (a JointTrajectory to the planner)"
+    p = verb(sub, "goto", goto_help, _goto)
     p.add_argument("positions", type=float, nargs="+", metavar="Q", help="rad, one per joint")
     p.add_argument("--time", type=positive_seconds, help="s to get there (default: from the distance, at least 1)")
     p.add_argument(
         "--joints", type=joint_list, help="names of the positions' joints, comma-separated (default: the arm's)"
     )
-    p = verb(
-        sub,
-        "trajectory",
-        "send a joint trajectory from a YAML file to the running planner (joint_names, points)",
-        _send_file,
-    )
+    file_help = "send a joint trajectory from a YAML file to the running planner (joint_names, points)"
+    p = verb(sub, "trajectory", file_help, _send_file)
     p.add_argument("file", type=Path, help="YAML: joint_names: [...], points: [{time_from_start, positions}, ...]")
     topics = sub.add_parser("topic", help="ros2 topic's habits: list, echo, hz").add_subparsers(
         dest="topic_verb", required=True, parser_class=Parser
@@ -55,17 +47,12 @@ def register(sub) -> None:
     p = verb(params, "list", "a node's parameters", lambda a: param.param_list(a.node))
     p.add_argument("node")
     p = verb(params, "get", "one parameter's value", lambda a: param.param_get(a.node, a.name))
-    p.add_argument("node")
-    p.add_argument("name")
-    p = verb(
-        params,
-        "set",
-        "set one parameter (the node refuses a bad value with its reason)",
-        lambda a: param.param_set(a.node, a.name, a.value),
-    )
-    p.add_argument("node")
-    p.add_argument("name")
-    p.add_argument("value")
+    for name in ("node", "name"):
+        p.add_argument(name)
+    set_help = "set one parameter (the node refuses a bad value with its reason)"
+    p = verb(params, "set", set_help, lambda a: param.param_set(a.node, a.name, a.value))
+    for name in ("node", "name", "value"):
+        p.add_argument(name)
     p = verb(params, "dump", "a node's parameters as a ROS 2 parameter file", lambda a: param.param_dump(a.node))
     p.add_argument("node")
 

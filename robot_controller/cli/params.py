@@ -1,6 +1,5 @@
-"""``robot-controller params``: every node parameter with its value and meaning, as a parameter
-file (``--yaml``), or the reference page of the schema (``--markdown``, docs/parameters.md);
-``robot-controller robots``: the arms ``--robot`` takes by name, a line each."""
+"""``robot-controller params``: every node parameter with its value and meaning, as a parameter file (``--yaml``), or
+the schema's reference page (``--markdown``); ``robot-controller robots``: the arms ``--robot`` takes, a line each."""
 
 from __future__ import annotations
 
@@ -23,12 +22,8 @@ def register(sub) -> None:
         "to PATH or stdout (docs/parameters.md)",
     )
     stack_options(p, seed=False)
-    verb(
-        sub,
-        "robots",
-        "list the arms --robot takes by name: joints, ranges (rad, m for a prismatic joint) and home pose",
-        _robots,
-    )
+    robots_help = "list the arms --robot takes by name: joints, ranges (rad, m for a prismatic joint) and home pose"
+    verb(sub, "robots", robots_help, _robots)
 
 
 def _params(a: argparse.Namespace) -> int:

@@ -23,32 +23,20 @@ from robot_controller.runner.options import RunOptions
 
 def register(sub) -> None:
     p = verb(sub, "run", "run the five-node loop, record it and score it", _run)
+    duration_help = "seconds of control to record (default 20)"
     p.add_argument(
-        "--duration",
-        dest="duration_s",
-        metavar="DURATION",
-        type=positive_seconds,
-        default=20.0,
-        help="seconds of control to record (default 20)",
+        "--duration", dest="duration_s", metavar="DURATION", type=positive_seconds, default=20.0, help=duration_help
     )
     out_option(p, "runs/<timestamp>")
     stack_options(p)
     p.add_argument("--single-process", action="store_true", help="all five nodes on one executor")
-    p.add_argument(
-        "--sim-time",
-        action="store_true",
-        help="deterministic lockstep on /clock, as fast as the graph goes (--duration in sim seconds)",
-    )
-    p.add_argument(
-        "--respawn",
-        action="store_true",
-        help="start a node that dies again (wall clock), as ros2 launch's respawn=True",
-    )
-    p.add_argument(
-        "--realtime",
-        action="store_true",
-        help="run the simulator's pacing thread SCHED_FIFO, with a CPU budget (docs/controller.md)",
-    )
+    flags = {
+        "--sim-time": "deterministic lockstep on /clock, as fast as the graph goes (--duration in sim seconds)",
+        "--respawn": "start a node that dies again (wall clock), as ros2 launch's respawn=True",
+        "--realtime": "run the simulator's pacing thread SCHED_FIFO, with a CPU budget (docs/controller.md)",
+    }
+    for flag, flag_help in flags.items():
+        p.add_argument(flag, action="store_true", help=flag_help)
     p.add_argument("--view", action="store_true", help="live 3D view and plots in the browser (rerun)")
     p.add_argument("--view-port", type=port, default=9090, help="port of the live view (default 9090)")
     # Part of the graph, across hosts (docs/design.md §6, "Across hosts").
@@ -66,14 +54,8 @@ def register(sub) -> None:
         help="the other hosts' IPv4 addresses: discovery by unicast to them, UDPv4 only (no shared memory)",
     )
     p.add_argument("--run-id", type=run_name, metavar="NAME", help="the run's name, the same on every launcher")
-    p.add_argument(
-        "--wait",
-        dest="wait_s",
-        type=positive_seconds,
-        default=60.0,
-        metavar="S",
-        help="give up if the whole graph is not there within S seconds (default 60)",
-    )
+    wait_help = "give up if the whole graph is not there within S seconds (default 60)"
+    p.add_argument("--wait", dest="wait_s", type=positive_seconds, default=60.0, metavar="S", help=wait_help)
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -121,17 +103,9 @@ def run(options: RunOptions, out: Path | None) -> int:
         recorded_s = min(recorded_s, values["recorded_duration_s"])  # ended early: the ticks' own span (seeded)
     robot = robots.arm_name(options.robot, checked.params["simulator"]["urdf_path"])
     preset, seed = options.preset, options.seed
-    values.update(
-        {
-            "duration_s": round(recorded_s, 3),
-            "interrupted": result.interrupted,
-            "preset": preset,
-            "robot": robot,
-            "seed": seed,
-            "mode": "single_process" if options.single_process else "multi_process",
-            "clock": "sim_lockstep" if sim_time else "wall",
-        }
-    )
+    values.update(duration_s=round(recorded_s, 3), interrupted=result.interrupted, preset=preset, robot=robot)
+    values.update(seed=seed, mode="single_process" if options.single_process else "multi_process")
+    values.update(clock="sim_lockstep" if sim_time else "wall")
     if options.nodes is not None and len(result.local_nodes) < 5:  # a split run: what ran here (the rest elsewhere)
         values["nodes_here"] = ",".join(result.local_nodes)
     # Wall-clock figures of a lockstep run differ run to run: keep them out of metrics.json.
