@@ -41,9 +41,8 @@ def main(argv: list[str] | None = None) -> int:
     next_report = 0.0
     try:
         while not stop.wait(POLL_S):
-            names = sorted(
-                {name for name, namespace in node.get_node_names_and_namespaces() if namespace == "/"} - {NODE_NAME}
-            )
+            in_root = {name for name, namespace in node.get_node_names_and_namespaces() if namespace == "/"}
+            names = sorted(in_root - {NODE_NAME})
             now = time.monotonic()
             if names != last or now >= next_report:
                 print(report_line(names), flush=True)

@@ -125,9 +125,8 @@ class MotorNode(StackNode):
             self.excused_s += own_gap_s - check_period_s
         silent_s = now_s - self.last_command_s - self.excused_s
         if silent_s > self.params["command_timeout_s"]:
-            self.get_logger().warning(
-                f"no valid /joint_commands for {silent_s * 1e3:.0f} ms: zero torque, brake " "requested (category 0)"
-            )
+            warning = f"no valid /joint_commands for {silent_s * 1e3:.0f} ms: zero torque, brake requested (category 0)"
+            self.get_logger().warning(warning)
             self.stop("timeout")
 
     def stop(self, reason: str) -> None:

@@ -148,14 +148,8 @@ class Recorder:
         storage.bio.flush()
 
     def progress(self) -> str:
-        return PROGRESS_PREFIX + json.dumps(
-            {
-                "counts": self.counts,
-                "clock_s": self.clock_ns * 1e-9,
-                "clock_taken_s": self.clock_taken_s,
-                "oversize": self.oversize,
-            }
-        )
+        progress = {"counts": self.counts, "clock_s": self.clock_ns * 1e-9, "clock_taken_s": self.clock_taken_s}
+        return PROGRESS_PREFIX + json.dumps(progress | {"oversize": self.oversize})
 
     def close(self) -> None:
         self.writer.close()

@@ -1,6 +1,5 @@
 """sensor_node: the encoder. Samples ``/sim/joint_states`` on a ``rate_hz`` grid of its stamps, adds
-seeded noise (and ``delay_s``) and publishes ``/joint_states`` stamped with the sample's time.
-"""
+seeded noise (and ``delay_s``) and publishes ``/joint_states`` stamped with the sample's time."""
 
 from __future__ import annotations
 

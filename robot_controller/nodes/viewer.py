@@ -160,12 +160,8 @@ def main(argv: list[str] | None = None) -> int:
     web = serving.serve_web(uri, args.port)
     print(f"{READY_PREFIX}{serving.page_url(args.port)} (data: {uri}; saved to {args.rrd})", flush=True)
 
-    viewer.feed = feed = ViewFeed(
-        [Outlet(live, SERIES_PERIOD_S, FLUSH_PERIOD_S), Outlet(saved, FILE_PERIOD_S)],
-        arm,
-        nominal_period_s=1.0 / args.control_rate,
-        live=True,
-    )
+    outlets = [Outlet(live, SERIES_PERIOD_S, FLUSH_PERIOD_S), Outlet(saved, FILE_PERIOD_S)]
+    viewer.feed = feed = ViewFeed(outlets, arm, nominal_period_s=1.0 / args.control_rate, live=True)
     executor = make_executor(context)
     executor.add_node(viewer.node)
     next_flush = time.monotonic()

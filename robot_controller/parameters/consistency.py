@@ -65,9 +65,8 @@ def _arm(node: str, urdf_path: str) -> tuple[list[str], np.ndarray, np.ndarray]:
 def _check_per_joint(params: cfg.Params, joint_count: int) -> None:
     planner = params["trajectory_planner"]
     if planner["joint_count"] != joint_count:
-        raise ConfigError(
-            f"trajectory_planner: joint_count {planner['joint_count']} but the URDF has " f"{joint_count} joint(s)"
-        )
+        count = planner["joint_count"]
+        raise ConfigError(f"trajectory_planner: joint_count {count} but the URDF has {joint_count} joint(s)")
     for node in cfg.NODES:
         for spec in law_params.node_specs(node, params[node]):
             if spec.per_joint and spec.name not in params[node]:

@@ -1,5 +1,5 @@
-"""ROS 2 parameter files: read (validated, naming the file, the key and the
-problem), layered (defaults, preset, the user's files) and written."""
+"""ROS 2 parameter files: read (validated, naming the file, the key and the problem), layered (defaults, preset, the
+user's files) and written."""
 
 from __future__ import annotations
 
@@ -38,17 +38,12 @@ def read_params_file(path: str | Path) -> Params:
         node = str(key).lstrip("/")
         if node != "**" and node not in NODES:
             hint = difflib.get_close_matches(node, NODES, n=1)
-            raise ConfigError(
-                f"{path}: unknown node {key!r}; nodes are {list(NODES)}"
-                + (f" (did you mean {hint[0]!r}?)" if hint else "")
-            )
-        if (
-            not isinstance(body, dict)
-            or set(body) != {"ros__parameters"}
-            or not isinstance(body["ros__parameters"], dict)
-        ):
+            suggestion = f" (did you mean {hint[0]!r}?)" if hint else ""
+            raise ConfigError(f"{path}: unknown node {key!r}; nodes are {list(NODES)}{suggestion}")
+        values = body.get("ros__parameters") if isinstance(body, dict) and set(body) == {"ros__parameters"} else None
+        if not isinstance(values, dict):
             raise ConfigError(f"{path}: {key}: expected exactly one key 'ros__parameters' holding a mapping")
-        for name, value in _flattened(body["ros__parameters"]).items():
+        for name, value in _flattened(values).items():
             if name in REPORTED:
                 continue  # what a node reports (``param dump`` writes it), not a setting
             targets = [n for n in NODES if _has(n, name)] if node == "**" else [node]
@@ -92,10 +87,8 @@ def _validated(path: Path, node: str, name: str, value: Any) -> Any:
     if not has(node, name):
         names = [spec.name for spec in SCHEMA[node]]
         hint = difflib.get_close_matches(name, names, n=1)
-        raise ConfigError(
-            f"{path}: {node}.{name}: unknown parameter"
-            + (f" (did you mean {hint[0]!r}?)" if hint else f"; {node} has {names}")
-        )
+        suggestion = f" (did you mean {hint[0]!r}?)" if hint else f"; {node} has {names}"
+        raise ConfigError(f"{path}: {node}.{name}: unknown parameter{suggestion}")
     try:
         return spec_of(node, name).validate(value)
     except ConfigError as exc:

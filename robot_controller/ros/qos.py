@@ -8,12 +8,9 @@ from robot_controller.ros.partition import LOOP_QOS_ENV
 
 
 def _keep_last(depth: int, *, reliable: bool = True, latched: bool = False) -> QoSProfile:
-    return QoSProfile(
-        reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
-        history=HistoryPolicy.KEEP_LAST,
-        depth=depth,
-    )
+    reliability = ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT
+    durability = DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE
+    return QoSProfile(reliability=reliability, durability=durability, history=HistoryPolicy.KEEP_LAST, depth=depth)
 
 
 # Reliable, volatile, keep-last: compatible with the tutorial's default-QoS publishers and subscribers. Depth 1000 (10 s

@@ -1,7 +1,6 @@
 """Where and how urgently each process of the loop runs: by nice value, no process real-time (the
 kernel freezes every SCHED_FIFO task once they use ``sched_rt_runtime_us``). With ``--realtime`` the
-simulator's pacing thread alone runs SCHED_FIFO within an ``RLIMIT_RTTIME`` budget (docs/design.md §5).
-"""
+simulator's pacing thread alone runs SCHED_FIFO within an ``RLIMIT_RTTIME`` budget (docs/design.md §5)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,6 @@
 """Run the graph as ``ros2 launch`` does: start what ``plan`` planned, supervise it (``supervise``), stop
 it with SIGINT (SIGKILL for any that hang), the recorder last, and report what was recorded against
-what the nodes say they published. The live viewer is an observer: its death does not end the run.
-"""
+what the nodes say they published. The live viewer is an observer: its death does not end the run."""
 
 from __future__ import annotations
 

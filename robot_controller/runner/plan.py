@@ -64,10 +64,8 @@ def child_env(single_process: bool) -> dict[str, str]:
     env.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "0")
     env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
     # The prefix already names the process; in one process the node name is needed.
-    env.setdefault(
-        "RCUTILS_CONSOLE_OUTPUT_FORMAT",
-        "[{severity}] [{name}] {message}" if single_process else "[{severity}] {message}",
-    )
+    console_format = "[{severity}] [{name}] {message}" if single_process else "[{severity}] {message}"
+    env.setdefault("RCUTILS_CONSOLE_OUTPUT_FORMAT", console_format)
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     env.setdefault(*FASTDDS_PUBLICATION_MODE)
     env.setdefault(partition.PROFILES_ENV, str(resources.fastdds_profiles()))  # quick discovery

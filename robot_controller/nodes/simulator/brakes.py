@@ -1,7 +1,6 @@
 """The simulator's holding brakes (docs/design.md §4): on before the first effort, on e-stop (``/estop``
 or ``/simulator/estop``), on the motor's request (``/sim/brake``) and after ``drive_timeout_s`` without
-efforts. Their state goes out on ``/sim/brakes`` (1 = engaged) on every change and twice a second.
-"""
+efforts. Their state goes out on ``/sim/brakes`` (1 = engaged) on every change and twice a second."""
 
 from __future__ import annotations
 

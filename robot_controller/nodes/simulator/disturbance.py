@@ -55,11 +55,8 @@ class Disturbance:
         if self.scheduled_done or self.plant.time_s + 1e-9 < params["disturbance_start_s"]:
             return
         self.scheduled_done = True
-        torque = np.clip(
-            cfg.per_joint("disturbance_torque_nm", params["disturbance_torque_nm"], self.node.joint_count),
-            -MAX_DISTURBANCE_NM,
-            MAX_DISTURBANCE_NM,
-        )
+        torque = cfg.per_joint("disturbance_torque_nm", params["disturbance_torque_nm"], self.node.joint_count)
+        torque = np.clip(torque, -MAX_DISTURBANCE_NM, MAX_DISTURBANCE_NM)
         if np.any(torque != 0.0):
             self.start(torque, params["disturbance_duration_s"])
 

@@ -1,7 +1,6 @@
 """The simulator's lockstep ticks (``lockstep: true``): it publishes the state and ``/clock`` for tick k,
 then waits; the effort for tick k advances exactly one control period. It holds the next tick while
-the recorder (``/recorder/clock``) is ``RECORDER_LAG_MAX_S`` behind, so no queue overflows.
-"""
+the recorder (``/recorder/clock``) is ``RECORDER_LAG_MAX_S`` behind, so no queue overflows."""
 
 from __future__ import annotations
 

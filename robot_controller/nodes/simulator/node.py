@@ -29,20 +29,15 @@ class Simulator(StackNode):
     def __init__(self) -> None:
         super().__init__("simulator")
         p = self.params
-        self.plant = MujocoPlant(
-            resources.resolve_urdf(p["urdf_path"]),
-            1.0 / p["physics_rate_hz"],
-            Payload.from_values("payload", p["payload"]),
-        )
+        payload = Payload.from_values("payload", p["payload"])
+        self.plant = MujocoPlant(resources.resolve_urdf(p["urdf_path"]), 1.0 / p["physics_rate_hz"], payload)
         self.joint_count = len(self.plant.joint_names)
         self.plant.reset(cfg.per_joint("initial_position", p["initial_position"], self.joint_count))
         self.world = WorldState.open(os.environ.get(WORLD_STATE_ENV, ""), self.joint_count)
         if self.world is not None and self.world.resumed is not None:
             self.plant.reset(self.world.resumed)
-            self.get_logger().warning(
-                f"respawned: the arm is where it was, at {self.world.resumed.tolist()} rad, "
-                "brakes on until the first command"
-            )
+            warning = f"respawned: the arm is where it was, at {self.world.resumed.tolist()} rad"
+            self.get_logger().warning(f"{warning}, brakes on until the first command")
         self.effort = np.zeros(self.joint_count)
         self.steps_done = 0
         self.physics_dt_ns = round(self.plant.physics_dt * 1e9)

@@ -1,6 +1,5 @@
 """The simulator's wall clock: a pacing thread that sleeps to each absolute deadline of a
-``publish_rate_hz`` grid (never a drifting timer), steps the physics due by then and publishes the state.
-"""
+``publish_rate_hz`` grid (never a drifting timer), steps the physics due by then and publishes the state."""
 
 from __future__ import annotations
 
