@@ -63,8 +63,7 @@ def step_figures(
     reference = s["reference"]
     joint_count = reference.shape[1]
     offsets = np.broadcast_to(np.asarray(offset, dtype=float), (joint_count,))
-    # The step starts after the last sample at rest: the reference may first
-    # blend in from where the joint was, and it never comes back after the step.
+    # The step starts after the last sample at rest (the reference may first blend in from where the joint was).
     at_rest = np.flatnonzero(np.all(np.abs(reference - offsets) <= 1e-9, axis=1))
     if at_rest.size == 0:
         raise ValueError("no sample at rest before the step: the recording misses the run's start")

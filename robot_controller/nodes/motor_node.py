@@ -20,8 +20,7 @@ from robot_controller.ros.stack_node import StackNode
 RECEIPTS_PERIOD_S = 1.0
 # The motor's own pause up to this long (a machine-wide stall) is not counted as the controller's silence.
 MAX_EXCUSED_GAP_S = 0.2
-# Stopped for a timeout (or before the first command), the drive moves the arm again only after
-# this many timely commands in a row (wall clock: 50 ms at 100 Hz; lockstep has no timeouts).
+# Stopped for a timeout (or before the first command), the drive restarts after this many timely commands in a row.
 TIMELY_COMMANDS_TO_START = 5
 
 

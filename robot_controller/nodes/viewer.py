@@ -151,8 +151,7 @@ def main(argv: list[str] | None = None) -> int:
     recording_id = str(uuid.uuid4())
     live, saved = serving.open_recording(recording_id), serving.open_recording(recording_id)
     uri = serving.set_sinks(live, rrd=None, serve=True, blueprint=layout.blueprint(arm, live=True), newest_first=True)
-    # The file gets few chunks (FILE_PERIOD_S), so its footer (a line per chunk, kept in memory until the
-    # end) stays small; a viewer killed before writing it leaves a file that still reads.
+    # The file gets few chunks (FILE_PERIOD_S): its footer (a line per chunk, held until the end) stays small.
     serving.set_sinks(saved, rrd=args.rrd, serve=False, blueprint=layout.blueprint(arm, live=True))
     for rec in (live, saved):
         layout.log_styles(rec, arm.joint_names)

@@ -26,8 +26,7 @@ def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, st
         node = graph.node
         publisher = node.create_publisher(Bool, "/estop", PUBLISH_QOS)
         client = node.create_client(SetBool, "/simulator/estop")
-        # Every listener must have matched before the one message goes out (their readers are
-        # volatile): as many matched as the graph shows, unchanged for a moment, and the service up.
+        # Every (volatile) listener must match before the one message goes out, and the service be up.
         deadline = time.monotonic() + timeout_s
         settled_since, last = time.monotonic(), -1
         while time.monotonic() < deadline:

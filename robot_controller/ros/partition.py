@@ -109,8 +109,7 @@ def _write(
     root = tree.getroot()
     if peers:
         _udp_only(root, peers)
-    # A profile named for a topic replaces the default profile for that topic (unset fields take Fast DDS's defaults,
-    # not the default profile's), so each starts as a copy of the default one.
+    # A topic's profile replaces the default one (unset fields take Fast DDS's defaults): start from a copy of it.
     for kind, partitions in (("data_writer", writer_partitions), ("data_reader", reader_partitions)):
         default = next((e for e in root.findall(f"{{{_NS}}}{kind}") if e.get("is_default_profile") == "true"), None)
         for topic in LOOP_TOPICS:

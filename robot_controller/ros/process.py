@@ -102,8 +102,7 @@ def own_context() -> tuple[rclpy.Context, threading.Event]:
 
 def spin(executor: Executor) -> None:
     """Spin until a stop signal or shutdown (spin_once: the EventsExecutor's spin() never returns after one)."""
-    # The executor's context, looked up once: rclpy.ok() finds the default context
-    # again on every call, and this loop turns once per message.
+    # The executor's context, looked up once: rclpy.ok() looks it up on every call, once per message.
     context = executor.context
     stop_requested, spin_once = _stop_requested.is_set, executor.spin_once
     while not stop_requested() and context.ok():

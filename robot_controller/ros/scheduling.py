@@ -89,8 +89,7 @@ demoted = threading.Event()
 
 def install_rt_budget(budget_us: int = RT_BUDGET_US) -> None:
     """Past ``budget_us`` of CPU without blocking, SIGXCPU demotes every thread made real-time here (main thread)."""
-    # Past the hard limit the kernel kills the process: for a thread that spins
-    # holding the GIL, so the handler can never run.
+    # Past the hard limit the kernel kills the process (a thread spinning with the GIL starves the handler).
     resource.setrlimit(resource.RLIMIT_RTTIME, (budget_us, budget_us + 500_000))
     signal.signal(signal.SIGXCPU, _demote_all)
 

@@ -87,8 +87,7 @@ def fork(
     if pid == 0:  # the child: never returns
         code = 1
         try:
-            # `ps`, `pgrep -f` and `kill` see the node as if started with `python -m`
-            # (first: it rearranges the memory the environment lives in).
+            # `ps` and `pgrep -f` see `python -m …` (first: it moves the memory the environment lives in).
             setproctitle.setproctitle(" ".join([sys.executable, "-m", *argv]))
             os.close(read_fd)
             os.setsid()

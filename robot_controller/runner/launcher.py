@@ -34,8 +34,7 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
     for note in run.notes:
         say(note)
     forking.preload()  # before any thread of this run: the children are forked from here
-    # SIGTERM (a CI timeout, `kill`) stops the run as cleanly as Ctrl-C does; Ctrl-C explicitly too,
-    # whatever the process inherited or a library installed.
+    # SIGTERM (a CI timeout, `kill`) stops the run as cleanly as Ctrl-C, whatever handler was inherited.
     previous_sigterm = signal.signal(signal.SIGTERM, _raise_interrupt)
     previous_sigint = signal.signal(signal.SIGINT, _raise_interrupt)
     # `kill -USR1 <launcher>` prints where every thread of a launcher that seems stuck is.

@@ -259,8 +259,7 @@ def run_loop(
         last_tick_s = run.lockstep_end_s - LONGEST_PERIOD_S if run.lockstep_end_s else float("inf")
         result.failure = wait_sim(group, link, min(result.sim_start + duration_s, last_tick_s), meter)
         result.control_seconds = link.clock_s - result.sim_start
-        # The wall time those control seconds took: between the recorder's receipts of the
-        # two ticks (its reports, which the wait above polls, come only every 0.1 s).
+        # The wall time they took: between the recorder's receipts of the two ticks (it reports every 0.1 s).
         result.wall_seconds = link.clock_taken_s - sim_start_taken_s
         if result.failure is None and run.lockstep_end_s:
             # The simulator holds at the end: the recorder takes every tick before the nodes stop.

@@ -40,8 +40,7 @@ def plot_tracking(recording: Recording, path: Path, title: str = "", units: list
         )
         torque.plot(t, s["command"][:, j], lw=1, label="command")
         torque.plot(recording.true_time_s - t0, recording.true_effort[:, j], lw=0.8, alpha=0.7, label="applied")
-        # The error's scale from the noisy reading's spread; with several joints, widened to show
-        # each joint's whole true error after the warm-up (its panel is the only place it is shown).
+        # The error's scale from the reading's spread; with several joints, widened to each whole true error.
         limit = np.nanpercentile(np.abs((s["reference"][:, j] - s["measured"][:, j]) * 1e3), 99.5) * 1.3
         scored = np.abs(s["reference"][t >= metrics.WARMUP_S, j] - true_at_tick[t >= metrics.WARMUP_S, j]) * 1e3
         if n > 1 and np.any(np.isfinite(scored)):

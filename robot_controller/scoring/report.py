@@ -63,8 +63,7 @@ def score(
     out.update(metrics.rate_metrics(ticks, nominal_period_s))
     out["control_ticks"] = int(len(ticks))
     out["watchdog_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES["watchdog"]))
-    # Ticks spent handling a fault (controlled stops, torque off, re-acquiring, e-stop): not
-    # scored as tracking, so each is counted.
+    # Ticks spent handling a fault (stops, torque off, re-acquiring, e-stop): not tracking, so counted apart.
     faults = ("sensor_lost", "reacquiring", "reference_lost", "stopped", "law_fault", "law_stopped")
     for name in (*faults, "late", "late_stopped"):
         out[f"{name}_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES[name]))

@@ -271,8 +271,7 @@ def open_graph(tool: str) -> Iterator[Graph]:
     finally:
         with _sigint_ignored():
             if executor is not None:
-                # Jazzy's Executor.shutdown does not wait for spin() to return: the thread must leave its wait set
-                # before the node and context go (or the process aborts in C++ at exit).
+                # Jazzy's shutdown does not wait for spin(): its thread must leave before the node goes (or C++ aborts).
                 executor.shutdown(timeout_sec=1.0)
                 if spinner is not None:
                     spinner.join(timeout=2.0)

@@ -23,8 +23,7 @@ import yaml
 
 TOP_KEYS = ("joint_names", "points")
 POINT_KEYS = ("time_from_start", "positions", "velocities", "accelerations")
-# goto's default duration: the farthest joint at this mean speed (a quintic peaks at 1.875×),
-# its current speed brought to rest at this mean deceleration, and never shorter than the minimum.
+# goto's default duration: the farthest joint at this mean speed, its speed stopped at this deceleration, a minimum.
 GOTO_SPEED = 0.5  # rad/s
 GOTO_DECELERATION = 2.0  # rad/s²
 GOTO_MIN_S = 1.0

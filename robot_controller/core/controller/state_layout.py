@@ -41,8 +41,7 @@ def encode(
     shape = (joint_count,)
     for value in chain(map(values.__getitem__, FIELDS), extra):
         if isinstance(value, np.ndarray) and value.shape == shape:
-            # One value per joint already (every tick's case): its floats as they are,
-            # without broadcast_to's view, which costs more than the copy for a few joints.
+            # One value per joint already (every tick's case): as it is (broadcast_to costs more than a copy).
             out.extend((value if value.dtype == np.float64 else value.astype(float)).tolist())
         else:
             out.extend(np.broadcast_to(np.asarray(value, dtype=float), shape).tolist())

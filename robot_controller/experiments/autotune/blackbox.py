@@ -228,8 +228,7 @@ class BlackBoxProblem:
         if plain is None or pushed is None or plain.law_fault or pushed.law_fault:
             return failed
         t = pushed.tick_time_s
-        # An unstable loop grows until the torque saturates, and then both runs swing in the same limit
-        # cycle: their difference would say nothing. So neither may reach the limit after the warm-up.
+        # Saturated runs swing in the same limit cycle, their difference saying nothing: neither may saturate.
         scored = t >= WARMUP_S
         saturated = any(
             bool(np.any(np.abs(run.applied[scored]) >= SATURATED * self.torque_limit)) for run in (plain, pushed)
