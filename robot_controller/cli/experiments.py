@@ -72,9 +72,8 @@ def register(sub) -> None:
     controller_option(p)  # a law of one's own: its gain=True parameters, searched on the in-process loop
     p.add_argument("--quick", action="store_true", help="a short search and short checks")
 
-    p = verb(
-        sub, "identify", "identify the arm's inertia, damping, friction and gravity; writes identified.yaml", identify
-    )
+    identify_help = "identify the arm's inertia, damping, friction and gravity; writes identified.yaml"
+    p = verb(sub, "identify", identify_help, identify)
     out_option(p, "runs/identify")
     stack_options(p)
     p.add_argument("--duration", type=positive_seconds, default=20.0, help="excitation, sim s (default 20)")
@@ -161,13 +160,11 @@ def identify(a: argparse.Namespace) -> int:
     consistency.check_stack(params)
     out = output_dir(a.out, Path("runs/identify"))
     hint = f"use it with --config {out / 'identified.yaml'} (after your other --config files)"
-    return run_experiment(
-        "identify",
-        4,
-        lambda p: experiments.identify(params, out, duration_s=a.duration, seed=options.seed, progress=p),
-        out / "identification.md",
-        hint,
-    )
+
+    def fit(progress) -> dict:
+        return experiments.identify(params, out, duration_s=a.duration, seed=options.seed, progress=progress)
+
+    return run_experiment("identify", 4, fit, out / "identification.md", hint)
 
 
 def faults(a: argparse.Namespace) -> int:

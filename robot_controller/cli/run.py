@@ -76,10 +76,8 @@ def run(options: RunOptions, out: Path | None) -> int:
     result = launcher.launch(checked, out)
     if not result.recorded:  # the other launcher records and scores the loop
         if result.end_reason is not None:
-            launcher.say(
-                f"ran {', '.join(result.local_nodes)} for {result.wall_seconds:.1f} s; {result.end_reason} "
-                "(the launcher with the simulator recorded and scored it)"
-            )
+            ran = f"ran {', '.join(result.local_nodes)} for {result.wall_seconds:.1f} s; {result.end_reason}"
+            launcher.say(f"{ran} (the launcher with the simulator recorded and scored it)")
         return result.exit_code
     if result.interrupted:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # scoring takes a second: let it finish
@@ -89,12 +87,9 @@ def run(options: RunOptions, out: Path | None) -> int:
     try:
         recording = report.read_recording(result.bag_dir)
         units = joint_units(load_model(resources.resolve_urdf(checked.params["simulator"]["urdf_path"])))
-        values = report.score(
-            recording,
-            nominal_period_s=1.0 / checked.params["pid_controller"]["control_rate_hz"],
-            window_s=duration_s if sim_time else None,
-            units=units,
-        )
+        period_s = 1.0 / checked.params["pid_controller"]["control_rate_hz"]
+        window_s = duration_s if sim_time else None
+        values = report.score(recording, nominal_period_s=period_s, window_s=window_s, units=units)
     except ValueError as exc:
         launcher.say(f"cannot score the recording: {exc}")
         return result.exit_code or 1

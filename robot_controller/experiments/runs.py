@@ -74,14 +74,9 @@ def step_run(
     """A step from ``offset`` (the arm at rest there) to ``offset + amplitude`` after ``lead_s``, recorded
     ``after_s`` beyond it, in lockstep. Figures on the TRUE angle after the step: ``step.step_figures``',
     ``overshoot_final_pct`` (beyond where the response ends), ``saturated_s`` and ``peak_torque_nm``."""
-    params = cfg.merge(
-        step_params(params, amplitude, shaping),
-        {
-            "trajectory_planner": {"offset": [offset], "step_time_s": lead_s},
-            "simulator": {"initial_position": [offset]},
-            "sensor_node": {"seed": seed},
-        },
-    )
+    start = {"simulator": {"initial_position": [offset]}, "sensor_node": {"seed": seed}}
+    planner = {"trajectory_planner": {"offset": [offset], "step_time_s": lead_s}}
+    params = cfg.merge(step_params(params, amplitude, shaping), planner | start)
     _, recording = run_lockstep(params, out, lead_s + after_s)
     figures = step_figures(recording, amplitude, offset, after_s)
     response = _response(label, recording, recording.state["time_s"][0] + figures["step_time_s"], figures, out, after_s)
@@ -114,9 +109,8 @@ def sine_run(params: cfg.Params, out: Path, label: str, *, duration_s: float, se
 def sine_params(params: cfg.Params) -> cfg.Params:
     """The reference scenario's sine (1 rad, 0.5 Hz), whatever the planner was set to."""
     defaults = cfg.defaults()["trajectory_planner"]
-    return cfg.merge(
-        params, {"trajectory_planner": {key: defaults[key] for key in ("mode", "amplitude", "frequency_hz", "offset")}}
-    )
+    keys = ("mode", "amplitude", "frequency_hz", "offset")
+    return cfg.merge(params, {"trajectory_planner": {key: defaults[key] for key in keys}})
 
 
 def plot_steps(

@@ -32,13 +32,9 @@ def run_checked(checked: plan.CheckedRun, out: Path) -> tuple[dict[str, Any], re
     if result.exit_code != 0:
         raise RuntimeError(f"run in {out} failed: {result.failure}")
     recording = report.read_recording(result.bag_dir)
-    options = checked.options
-    values = report.score(
-        recording,
-        nominal_period_s=1.0 / checked.params["pid_controller"]["control_rate_hz"],
-        window_s=options.duration_s if options.sim_time else None,
-    )
-    return values, recording
+    period_s = 1.0 / checked.params["pid_controller"]["control_rate_hz"]
+    window_s = checked.options.duration_s if checked.options.sim_time else None
+    return report.score(recording, nominal_period_s=period_s, window_s=window_s), recording
 
 
 def step_params(params: cfg.Params, amplitude: float, shaping: str) -> cfg.Params:
@@ -140,10 +136,6 @@ def step_response(checked: plan.CheckedRun, out: Path, *, amplitude: float, shap
     values.update(step_figures(recording, amplitude, np.asarray(params["trajectory_planner"]["offset"], float)))
     values.update(amplitude_rad=amplitude, step_shaping=shaping, seed=seed, clock=clock)
     report.write_metrics(out / "metrics.json", values)
-    plot_step(
-        recording,
-        out / "step.png",
-        f"{amplitude} rad step ({shaping}), seed {seed}",
-        np.asarray(params["motor_node"]["torque_max"], float),
-    )
+    limit_nm = np.asarray(params["motor_node"]["torque_max"], float)
+    plot_step(recording, out / "step.png", f"{amplitude} rad step ({shaping}), seed {seed}", limit_nm)
     return values

@@ -89,10 +89,8 @@ def _check_rates(params: cfg.Params) -> None:
     except Exception as exc:  # noqa: BLE001 - TimingError
         raise ConfigError(f"simulator: publish_rate_hz {sim['publish_rate_hz']:g}: {exc}") from None
     if sensor["rate_hz"] > sim["publish_rate_hz"] + 1e-9:
-        raise ConfigError(
-            f"sensor_node: rate_hz {sensor['rate_hz']:g} is faster than the simulator publishes "
-            f"({sim['publish_rate_hz']:g} Hz)"
-        )
+        publishes = f"the simulator publishes ({sim['publish_rate_hz']:g} Hz)"
+        raise ConfigError(f"sensor_node: rate_hz {sensor['rate_hz']:g} is faster than {publishes}")
     control_period_s = 1.0 / ctrl["control_rate_hz"]
     watchdog_s = ctrl["watchdog_periods"] * control_period_s
     reading_period_s = 1.0 / sensor["rate_hz"]

@@ -147,10 +147,8 @@ def wait_wall(
                 return died(dead)
             for child in children:
                 respawned[child.name] = respawned.get(child.name, 0) + 1
-                say(
-                    f"{child.name} died (exit code {child.process.returncode}): respawning "
-                    f"({respawned[child.name]} of {MAX_RESPAWNS})"
-                )
+                count = f"{respawned[child.name]} of {MAX_RESPAWNS}"
+                say(f"{child.name} died (exit code {child.process.returncode}): respawning ({count})")
                 meter.forget(child.name)
                 restart(child)
         meter.poll()

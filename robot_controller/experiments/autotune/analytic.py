@@ -59,13 +59,8 @@ class AnalyticProblem:
         self.kalman = cfg.controller_config(ctrl, 1).estimator  # None without the filter
         self.lqr_r = float(ctrl["lqr_r"])
         planner = params["trajectory_planner"]
-        self.sine = make_trajectory(
-            "sine",
-            joint_count=1,
-            amplitude=planner["amplitude"],
-            frequency_hz=planner["frequency_hz"],
-            offset=planner["offset"],
-        )
+        sine = {key: planner[key] for key in ("amplitude", "frequency_hz", "offset")}
+        self.sine = make_trajectory("sine", joint_count=1, **sine)
         self.sensor = cfg.sensor_config(params["sensor_node"])
         self.box = PID_BOX if self.controller_type == "pid" else LQR_BOX
         self.low = np.array([b[0] for b in self.box.values()])

@@ -51,18 +51,9 @@ def law_contender(spec: str) -> Contender:
 
 
 def contender_params(contender: Contender, seed: int, duration_s: float, torque_nm: float = TORQUE_NM) -> cfg.Params:
-    return cfg.merge(
-        cfg.load_stack(contender.preset),
-        {"pid_controller": contender.overrides},
-        {
-            "sensor_node": {"seed": seed},
-            "simulator": {
-                "disturbance_torque_nm": [torque_nm],
-                "disturbance_start_s": START_S,
-                "disturbance_duration_s": duration_s,
-            },
-        },
-    )
+    push = {"disturbance_torque_nm": [torque_nm], "disturbance_start_s": START_S, "disturbance_duration_s": duration_s}
+    run = {"sensor_node": {"seed": seed}, "simulator": push}
+    return cfg.merge(cfg.load_stack(contender.preset), {"pid_controller": contender.overrides}, run)
 
 
 def deviation_figures(

@@ -52,10 +52,8 @@ def mode_params(base: cfg.Params, mode: str) -> cfg.Params:
         planner["torque_max"] = [TORQUE_MAX_NM]
     if cfg.has("trajectory_planner", "feasibility"):
         planner["feasibility"] = "ignore"  # a jump the arm cannot follow at once is the point here
-    return cfg.merge(
-        base,
-        {"pid_controller": overrides, "motor_node": {"torque_max": [TORQUE_MAX_NM]}, "trajectory_planner": planner},
-    )
+    motor = {"torque_max": [TORQUE_MAX_NM]}
+    return cfg.merge(base, {"pid_controller": overrides, "motor_node": motor, "trajectory_planner": planner})
 
 
 def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int = SEED) -> dict[str, Any]:

@@ -42,13 +42,10 @@ def identify(
     out.mkdir(parents=True, exist_ok=True)
     run_params = excitation_params(params, duration_s, amplitude_rad=amplitude_rad, start_hz=start_hz, end_hz=end_hz)
     run_params["sensor_node"]["seed"] = seed
-    progress(
-        f"identify: {duration_s:g} sim s of a chirp, {amplitude_rad:g} rad, {start_hz:g} → {end_hz:g} Hz "
-        f"(lockstep, run in {out / 'run'})"
-    )
-    scored, recording = run_and_score(
-        run_params, out / "run", duration_s=duration_s, sim_time=True, domain_id=domain_id
-    )
+    chirp = f"{duration_s:g} sim s of a chirp, {amplitude_rad:g} rad, {start_hz:g} → {end_hz:g} Hz"
+    run_dir = out / "run"
+    progress(f"identify: {chirp} (lockstep, run in {run_dir})")
+    scored, recording = run_and_score(run_params, run_dir, duration_s=duration_s, sim_time=True, domain_id=domain_id)
     names = joint_names(run_params)
     progress(f"identify: fitting {len(recording.true_time_s)} samples of {', '.join(names)}")
     if len(names) > 1:

@@ -69,10 +69,8 @@ class Disturbance:
         if not self.plant.disturbance_active:
             if replaced:
                 self.on = False
-                log.info(
-                    f"disturbance ended at physics t = {now_s:.3f} s (after "
-                    f"{now_s - self.started_s:.3f} s): replaced by a zero one"
-                )
+                after = f"after {now_s - self.started_s:.3f} s"
+                log.info(f"disturbance ended at physics t = {now_s:.3f} s ({after}): replaced by a zero one")
             else:
                 log.info("disturbance of zero torque or duration received: nothing to apply")
             return
@@ -96,10 +94,8 @@ class Disturbance:
         """After the physics stepped (lock held): say when a disturbance has run its course."""
         if self.on and not self.plant.disturbance_active:
             self.on = False
-            self.node.get_logger().info(
-                f"disturbance ended at physics t = {self.ends_s:.3f} s (applied "
-                f"for {self.ends_s - self.started_s:.3f} s)"
-            )
+            applied = f"applied for {self.ends_s - self.started_s:.3f} s"
+            self.node.get_logger().info(f"disturbance ended at physics t = {self.ends_s:.3f} s ({applied})")
 
     def publish_applied(self, stamp_ns: int) -> None:
         """The disturbance that acted in the last physics step: with every state while there is one, then once zero."""
