@@ -149,7 +149,7 @@ class StatusReports:
             limit = float(np.broadcast_to(self.controller.config.pid.output_limit, (self.node.joint_count,))[j])
             cut = "its torque limit" if abs(abs(out.terms.command[j]) - limit) < 1e-9 else "its slew-rate limit"
             self.log.warning(
-                f"{self.node.joint_names[j]}: the law's command has been cut by {cut} (±{limit:g} N·m) for "
+                f"{self.node.joint_names[j]}: the command has been cut by {cut} (±{limit:g} N·m) for "
                 f"{SATURATION_SAID_AFTER_S:g} s in a row: the law asks for more torque than the joint has "
                 "(said once; saturated_ticks_per_joint in metrics.json counts every tick)"
             )
