@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws.parameters import PREFIX as LAW_PREFIX
 from robot_controller.core.laws.pid import PidConfig
 from robot_controller.core.model import SensorConfig
@@ -35,8 +36,10 @@ def model_overridden(values: Mapping[str, Any]) -> bool:
 
 
 def arm_model(values: Mapping[str, Any]) -> ArmDynamics | JointArmModel:
-    """The arm model the controller's model-based parts use: the URDF's (``ArmDynamics``) while every
-    ``model_*`` is empty; otherwise a ``JointArmModel`` with the values given, the URDF's for the rest."""
+    """The arm model the controller's model-based parts use: the URDF's (``ArmDynamics``), its per-joint
+    values replaced by the ``model_*`` given. On one joint that is a ``JointArmModel`` (gravity m·g·l_c·cos q,
+    as identify fits it); on a chain the coupled model keeps its coupling (``ArmDynamics.adjusted``), and
+    gravity comes from the links' masses (a load the URDF lacks is ``model_payload``)."""
     from robot_controller import resources
     from robot_controller.core.model import ArmDynamics, JointArmModel, Payload
 
@@ -46,6 +49,17 @@ def arm_model(values: Mapping[str, Any]) -> ArmDynamics | JointArmModel:
         return dynamics
     n = len(dynamics.joint_names)
     model = {key: per_joint(key, values[key], n) if given(values.get(key)) else None for key in MODEL_KEYS}
+    if n > 1:
+        if model["model_gravity_torque"] is not None:
+            raise ConfigError(
+                "model_gravity_torque: on a chain of joints gravity's torques come from the links' masses, which "
+                "the model keeps; give a load the URDF lacks as model_payload"
+            )
+        return dynamics.adjusted(
+            inertia=model["model_inertia"],
+            damping=model["model_damping"],
+            coulomb_friction=model["model_coulomb_friction"],
+        )
     return JointArmModel.over_urdf(
         dynamics,
         inertia=model["model_inertia"],

@@ -9,6 +9,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from robot_controller.core.errors import ConfigError
 from robot_controller.core.model.mujoco_model import effort_limits, joint_names, load_model
 from robot_controller.core.model.payload import Payload
 
@@ -57,6 +58,7 @@ class ArmDynamics:
         self._qpos, self._qvel, self._qacc = d.qpos, d.qvel, d.qacc
         self._qfrc_applied, self._qfrc_inverse = d.qfrc_applied, d.qfrc_inverse
         self._option = self.model.opt
+        self.adjustments: dict[str, np.ndarray] = {}  #: per-joint values set over the URDF's (:meth:`adjusted`)
 
     def torque(self, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         self._qpos[:] = position
@@ -143,6 +145,40 @@ class ArmDynamics:
         matrix = np.zeros((self.model.nv, self.model.nv))
         mujoco.mj_fullM(self.model, d, matrix)
         return matrix
+
+    def adjusted(self, *, inertia=None, damping=None, coulomb_friction=None) -> ArmDynamics:
+        """This coupled model with per-joint values in place of the URDF's (None: the URDF's), changed in
+        place and returned: ``damping`` N·m·s/rad, ``coulomb_friction`` N·m, ``inertia`` kg·m² each joint's
+        own at q = 0 (the diagonal of M(0)), made up by rotor inertia (armature): a coupled model can add
+        inertia about a joint, not take a link's away."""
+        dofs = self.model.jnt_dofadr[: len(self.joint_names)]
+        if inertia is not None:
+            extra = np.asarray(inertia, float) - np.diag(self.mass_matrix(np.zeros(len(dofs))))
+            if np.any(extra < -1e-9):
+                j = int(np.argmin(extra))
+                raise ConfigError(
+                    f"model_inertia: {self.joint_names[j]}'s {inertia[j]:g} kg·m² is below its links' own "
+                    f"{inertia[j] - extra[j]:.4g} at q = 0; a chain's model can add inertia (a rotor's), not remove it"
+                )
+            self.model.dof_armature[dofs] += np.maximum(extra, 0.0)
+        if damping is not None:
+            self.model.dof_damping[dofs] = damping
+        if coulomb_friction is not None:
+            self.model.dof_frictionloss[dofs] = coulomb_friction
+        self.adjustments = {
+            name: value
+            for name, value in (("inertia", inertia), ("damping", damping), ("coulomb_friction", coulomb_friction))
+            if value is not None
+        }
+        return self
+
+    def describe(self) -> str:
+        """One line: the URDF's coupled model and the per-joint values set over it."""
+        units = {"inertia": "kg·m² at q = 0", "damping": "N·m·s/rad", "coulomb_friction": "N·m"}
+        said = [
+            f"{name} [{', '.join(f'{v:.4g}' for v in value)}] {units[name]}" for name, value in self.adjustments.items()
+        ]
+        return "arm model: the URDF's, coupled (MuJoCo)" + (", with " + ", ".join(said) if said else "")
 
     @property
     def damping(self) -> np.ndarray:

@@ -30,10 +30,10 @@ def arm_model_specs(lead: str = "arm model: ") -> tuple[ParamSpec, ...]:
     common = {"per_joint": True, "allow_empty": True, "read_only": True}
     # fmt: off
     return (
-        ParamSpec("model_inertia", float, [], lead + "each joint's inertia about its axis, kg·m² (empty: the URDF's)", **POSITIVE, **common),
+        ParamSpec("model_inertia", float, [], lead + "each joint's inertia about its axis, kg·m² (on a chain: at q = 0, the coupled model's own plus a rotor's; empty: the URDF's)", **POSITIVE, **common),
         ParamSpec("model_damping", float, [], lead + "each joint's viscous damping, N·m·s/rad (empty: the URDF's)", minimum=0.0, **common),
         ParamSpec("model_coulomb_friction", float, [], lead + "each joint's Coulomb (dry) friction, N·m (empty: the URDF's)", minimum=0.0, **common),
-        ParamSpec("model_gravity_torque", float, [], lead + "gravity's torque on each joint with its link horizontal (m·g·l_c), N·m; the torque is this times cos(q), q = 0 horizontal as in the reference arm (empty: the URDF's)", **common),
+        ParamSpec("model_gravity_torque", float, [], lead + "gravity's torque on each joint with its link horizontal (m·g·l_c), N·m; the torque is this times cos(q), q = 0 horizontal as in the reference arm (one joint only: a chain's gravity is its links'; empty: the URDF's)", **common),
         ParamSpec("model_payload", float, [], lead + "a load on the last joint's link beyond the URDF: [mass_kg, x_m, y_m, z_m], a point mass at that point of the link's frame (empty: none; identify fits it on a chain of joints)", length=4, allow_empty=True, read_only=True),
     )
     # fmt: on
