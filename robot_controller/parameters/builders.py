@@ -41,10 +41,12 @@ def arm_model(values: Mapping[str, Any]) -> ArmDynamics | JointArmModel:
     as identify fits it); on a chain the coupled model keeps its coupling (``ArmDynamics.adjusted``), and
     gravity comes from the links' masses (a load the URDF lacks is ``model_payload``)."""
     from robot_controller import resources
+    from robot_controller.core.estimation import KalmanConfig
     from robot_controller.core.model import ArmDynamics, JointArmModel, Payload
 
     payload = Payload.from_values("model_payload", values.get("model_payload"))
-    dynamics = ArmDynamics(resources.resolve_urdf(values["urdf_path"]), payload)
+    # its inverse over the plant's step, the filter's model step (MuJoCo steps a wrist's damping implicitly)
+    dynamics = ArmDynamics(resources.resolve_urdf(values["urdf_path"]), payload, step_s=KalmanConfig.model_step_s)
     if not model_overridden(values):
         return dynamics
     n = len(dynamics.joint_names)

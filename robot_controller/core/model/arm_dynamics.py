@@ -40,14 +40,19 @@ class ArmDynamics:
 
     ``torque(q, v, a)`` is the joint torque that produces acceleration ``a``
     at state ``(q, v)``: M(q)·a + Coriolis + damping·v + gravity, from
-    MuJoCo's ``mj_inverse``. ``predict`` steps the arm as the plant does
-    (``mj_step``: the same integrator, so the same numbers), and
+    MuJoCo's ``mj_inverse``; with ``step_s``, over one step of the plant's
+    integrator (implicit in damping: a wrist whose damping stops it within
+    a step takes (M + step·D)·a, not M·a). ``predict`` steps the arm as the
+    plant does (``mj_step``: the same integrator, so the same numbers), and
     ``step_jacobian`` linearises one such step (``mjd_transitionFD``).
     """
 
-    def __init__(self, urdf_path: str | Path, payload: Payload | None = None) -> None:
+    def __init__(self, urdf_path: str | Path, payload: Payload | None = None, step_s: float | None = None) -> None:
         self.model = load_model(urdf_path, payload=payload)
         self.payload = payload
+        self.step_s = step_s  #: s, the plant's step ``torque`` inverts (None: continuous time)
+        if step_s is not None:
+            self.model.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_INVDISCRETE)
         self._data = mujoco.MjData(self.model)
         self.joint_names = joint_names(self.model)
         self.effort_limit = effort_limits(self.model)
@@ -64,6 +69,8 @@ class ArmDynamics:
         self._qpos[:] = position
         self._qvel[:] = velocity
         self._qacc[:] = acceleration
+        if self.step_s is not None:
+            self._option.timestep = self.step_s
         mujoco.mj_inverse(self.model, self._data)
         return self._qfrc_inverse.copy()
 
