@@ -13,6 +13,9 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.model.mujoco_model import effort_limits, joint_names, load_model
 from robot_controller.core.model.payload import Payload
 
+#: A joint whose damping over one plant step exceeds this share of its inertia has the step inverted.
+STIFF_DAMPING_SHARE = 0.01
+
 
 def step_count(horizon_s: float, max_step_s: float) -> int:
     """Whole steps of at most ``max_step_s`` in ``horizon_s`` (a rounding error does not add one)."""
@@ -40,9 +43,11 @@ class ArmDynamics:
 
     ``torque(q, v, a)`` is the joint torque that produces acceleration ``a``
     at state ``(q, v)``: M(q)·a + Coriolis + damping·v + gravity, from
-    MuJoCo's ``mj_inverse``; with ``step_s``, over one step of the plant's
-    integrator (implicit in damping: a wrist whose damping stops it within
-    a step takes (M + step·D)·a, not M·a). ``predict`` steps the arm as the
+    MuJoCo's ``mj_inverse``; given the plant's ``step_s``, over one step of its
+    integrator wherever a joint's damping acts within a step (step·D over
+    ``STIFF_DAMPING_SHARE`` of its inertia: implicit in damping, such a wrist
+    takes (M + step·D)·a, not M·a), in continuous time elsewhere (the same
+    to that share). ``predict`` steps the arm as the
     plant does (``mj_step``: the same integrator, so the same numbers), and
     ``step_jacobian`` linearises one such step (``mjd_transitionFD``).
     """
@@ -50,9 +55,6 @@ class ArmDynamics:
     def __init__(self, urdf_path: str | Path, payload: Payload | None = None, step_s: float | None = None) -> None:
         self.model = load_model(urdf_path, payload=payload)
         self.payload = payload
-        self.step_s = step_s  #: s, the plant's step ``torque`` inverts (None: continuous time)
-        if step_s is not None:
-            self.model.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_INVDISCRETE)
         self._data = mujoco.MjData(self.model)
         self.joint_names = joint_names(self.model)
         self.effort_limit = effort_limits(self.model)
@@ -63,7 +65,21 @@ class ArmDynamics:
         self._qpos, self._qvel, self._qacc = d.qpos, d.qvel, d.qacc
         self._qfrc_applied, self._qfrc_inverse = d.qfrc_applied, d.qfrc_inverse
         self._option = self.model.opt
+        self._plant_step_s = step_s
+        self._choose_inverse()
         self.adjustments: dict[str, np.ndarray] = {}  #: per-joint values set over the URDF's (:meth:`adjusted`)
+
+    def _choose_inverse(self) -> None:
+        """Invert the plant's step where a joint's damping acts within it, else continuous time."""
+        n, step_s = len(self.joint_names), self._plant_step_s
+        damped = step_s is not None and np.any(
+            step_s * self.model.dof_damping[:n] > STIFF_DAMPING_SHARE * np.diag(self.mass_matrix(np.zeros(n)))
+        )
+        self.step_s = step_s if damped else None  #: s, the plant's step ``torque`` inverts (None: continuous time)
+        flag = int(mujoco.mjtEnableBit.mjENBL_INVDISCRETE)
+        self.model.opt.enableflags = (
+            (self.model.opt.enableflags | flag) if damped else (self.model.opt.enableflags & ~flag)
+        )
 
     def torque(self, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         self._qpos[:] = position
@@ -172,6 +188,7 @@ class ArmDynamics:
             self.model.dof_damping[dofs] = damping
         if coulomb_friction is not None:
             self.model.dof_frictionloss[dofs] = coulomb_friction
+        self._choose_inverse()
         self.adjustments = {
             name: value
             for name, value in (("inertia", inertia), ("damping", damping), ("coulomb_friction", coulomb_friction))
