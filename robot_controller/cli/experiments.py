@@ -20,7 +20,7 @@ from robot_controller.cli.args import (
     step_size_rad,
     verb,
 )
-from robot_controller.cli.output import output_dir, print_table, run_experiment
+from robot_controller.cli.output import output_dir, print_table, run_experiment, say_arm
 from robot_controller.core.errors import ConfigError
 from robot_controller.runner.options import RunOptions
 
@@ -93,6 +93,7 @@ def step(a: argparse.Namespace) -> int:
     params = with_controller(options.params(), a.controller)
     shape = {"amplitude": a.amplitude, "shaping": a.shaping}
     checked = experiments.check_step(params, **shape, sim_time=options.sim_time, seed=options.seed)  # before the folder
+    say_arm(options.robot)
     out = output_dir(a.out, Path("runs") / ("step-" + dt.datetime.now().strftime("%Y%m%d-%H%M%S")))
     try:
         values = experiments.step_response(checked, out, **shape)
@@ -108,6 +109,7 @@ def step(a: argparse.Namespace) -> int:
 def compare(a: argparse.Namespace) -> int:
     from robot_controller.experiments import compare as experiments
 
+    say_arm(a.robot)
     out = output_dir(a.out, Path("runs/compare"))
     steps = len(experiments.contenders(a.controllers)) * a.seeds
     chosen = dict(seeds=a.seeds, sine_duration_s=a.duration, amplitude=a.amplitude, robot=a.robot)
@@ -144,6 +146,7 @@ def tune(a: argparse.Namespace) -> int:
             f"--robot {a.robot}: tune designs one joint's gains; on a chain of joints the LQR's weights serve "
             "every joint, each scaled by its own inertia (lqr_q, lqr_r, reference_inertia)"
         )
+    say_arm(a.robot)
     out = output_dir(a.out, Path("runs/tune"))
     steps, hint = autotune.steps(a.quick, controller_type), f"use it with --config {out / 'tuned.yaml'}"
     return run_experiment(
@@ -158,6 +161,7 @@ def identify(a: argparse.Namespace) -> int:
     options = RunOptions.from_args(a)
     params = options.params()
     consistency.check_stack(params)
+    say_arm(options.robot)
     out = output_dir(a.out, Path("runs/identify"))
     hint = f"use it with --config {out / 'identified.yaml'} (after your other --config files)"
 
@@ -170,7 +174,15 @@ def identify(a: argparse.Namespace) -> int:
 def faults(a: argparse.Namespace) -> int:
     from robot_controller.experiments import faults as experiments
 
+    say_arm(a.robot)
     out = output_dir(a.out, Path("runs/faults"))
     chosen = dict(quick=a.quick, robot=a.robot, controller=a.controller)
-    cases = len(experiments.cases(a.quick))
-    return run_experiment("faults", cases, lambda p: experiments.faults(out, progress=p, **chosen), out / "faults.md")
+    entries: list[dict] = []
+
+    def body(progress) -> None:
+        entries.extend(experiments.faults(out, progress=progress, **chosen))
+
+    code = run_experiment("faults", len(experiments.cases(a.quick)), body, out / "faults.md")
+    for line in experiments.failed(entries):  # a joint out of its band by more than the goal, or a failed run
+        print(f"robot-controller faults: FAILED: {line}", file=sys.stderr)
+    return code or (1 if experiments.failed(entries) else 0)

@@ -38,6 +38,16 @@ def output_dir(out: Path | None, default: Path) -> Path:
     return chosen
 
 
+def say_arm(robot: str) -> None:
+    """Once per verb that runs the loop: what loading ``robot``'s description changed (fingers held still,
+    meshes dropped), if anything."""
+    from robot_controller import robots
+    from robot_controller.runner import launcher
+
+    if note := robots.robot(robot).note:
+        launcher.say(note)
+
+
 #: The figures a run's table shows first, in this order (``_m``, ``_n``: a prismatic joint's, if the arm has one).
 HEADLINE = tuple(
     "tracking_rms_rad tracking_max_rad tracking_rms_m tracking_max_m measured_rms_rad control_rate_hz jitter_p99_ms "

@@ -17,7 +17,7 @@ from robot_controller.cli.args import (
     stack_options,
     verb,
 )
-from robot_controller.cli.output import output_dir, print_table
+from robot_controller.cli.output import output_dir, print_table, say_arm
 from robot_controller.runner.options import RunOptions
 
 
@@ -64,14 +64,12 @@ def _run(args: argparse.Namespace) -> int:
 
 def run(options: RunOptions, out: Path | None) -> int:
     """Run, record and score the loop (part of the graph without the simulator: say what it ran)."""
-    from robot_controller import resources, robots
-    from robot_controller.core.model.mujoco_model import joint_units, load_model
+    from robot_controller import robots
     from robot_controller.runner import launcher, plan
     from robot_controller.scoring import plots, report
 
     checked = plan.check(options.params(), options)  # before the output folder is made
-    if note := robots.robot(options.robot).note:
-        launcher.say(note)
+    say_arm(options.robot)
     out = output_dir(out, Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S"))
     result = launcher.launch(checked, out)
     if not result.recorded:  # the other launcher records and scores the loop
@@ -86,7 +84,7 @@ def run(options: RunOptions, out: Path | None) -> int:
     sim_time, duration_s = options.sim_time, options.duration_s
     try:
         recording = report.read_recording(result.bag_dir)
-        units = joint_units(load_model(resources.resolve_urdf(checked.params["simulator"]["urdf_path"])))
+        units = report.arm_units(checked.params["simulator"]["urdf_path"])
         period_s = 1.0 / checked.params["pid_controller"]["control_rate_hz"]
         window_s = duration_s if sim_time else None
         values = report.score(recording, nominal_period_s=period_s, window_s=window_s, units=units)

@@ -44,14 +44,14 @@ class LoopResult:
     command: np.ndarray
     applied: np.ndarray
     joint_names: list[str] = field(default_factory=list)  #: the columns' joints (the plant's order)
+    joint_units: list[str] | None = None  #: "rad" or "m" per joint (None: every joint revolute)
     law_fault: str | None = None  #: what a plugin law did wrong (its one line), if it did
 
     def tracking_metrics(self, warmup_s: float = metrics.WARMUP_S) -> dict[str, Any]:
-        """Tracking per joint and the worst joint's (:func:`metrics.tracking_metrics`), with
-        ``joint_names``, as ``metrics.json`` has them."""
-        out = metrics.tracking_metrics(
-            self.tick_time_s, self.reference, self.true_position, self.measured, warmup_s=warmup_s
-        )
+        """Tracking per joint and the worst joint's (:func:`metrics.tracking_metrics`, in each joint's
+        unit), with ``joint_names``, as ``metrics.json`` has them."""
+        q = self.reference, self.true_position, self.measured
+        out = metrics.tracking_metrics(self.tick_time_s, *q, warmup_s=warmup_s, units=self.joint_units)
         names = self.joint_names or [f"joint{k + 1}" for k in range(self.reference.shape[1])]
         return {"joint_names": list(names), **out}
 
@@ -136,6 +136,7 @@ def run_loop(
     return LoopResult(
         tick_time_s=times,
         joint_names=list(plant.joint_names),
+        joint_units=list(plant.joint_units),
         law_fault=None if fault is None else fault.line(),
         **record,
     )

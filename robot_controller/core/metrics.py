@@ -3,6 +3,7 @@ an in-process simulation or a recording read back from a bag alike."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -102,6 +103,17 @@ def joint_errors(error: np.ndarray, prefix: str = "tracking", units: list[str] |
 
 #: The effort unit of each joint position unit: a torque on a revolute joint, a force on a prismatic one.
 EFFORT_UNITS = {"rad": "N·m", "m": "N"}
+
+
+def in_units(values: Any, units: Sequence[str] = (), spec: str | None = None) -> str:
+    """Per-joint ``values`` said with their ``units``: ``[30.0, 10.0] N·m`` when the joints share one unit,
+    else ``[30 N·m, 10 N·m, 40 N]``; ``spec`` formats each number (None: as Python prints a float)."""
+    values = [float(v) for v in np.atleast_1d(values)]
+    if len(set(units)) <= 1:
+        said = ", ".join(format(v, spec) if spec else repr(v) for v in values)
+        return f"[{said}]" + (f" {units[0]}" if units else "")
+    said = ", ".join(f"{v:{spec or 'g'}} {u}" for v, u in zip(np.broadcast_to(values, len(units)), units, strict=True))
+    return f"[{said}]"
 
 
 def by_unit(name: str, per_joint: list[float], units: list[str] | None, suffixes=("rad", "m")) -> dict[str, Any]:

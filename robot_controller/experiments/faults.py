@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
+from robot_controller.core import metrics
+from robot_controller.core.metrics import in_units
 from robot_controller.experiments.reporting import fmt, table
 from robot_controller.runner import launcher, plan
 from robot_controller.runner.options import RunOptions
@@ -81,22 +83,21 @@ def fault_time_s(params: cfg.Params, earliest_s: float = FAULT_AT_S) -> float:
     return float(np.ceil(earliest_s / half_period_s - 1e-9) * half_period_s)
 
 
-def case_figures(recording: report.Recording, fault_start_s: float, fault_end_s: float) -> dict[str, Any]:
-    """What the arm did from the fault on (times on the run's clock, s), on its worst joint."""
+def case_figures(
+    recording: report.Recording, fault_start_s: float, fault_end_s: float, units: list[str] | None = None
+) -> dict[str, Any]:
+    """What the arm did from the fault on (times on the run's clock, s): per joint in its unit (``units``: "rad",
+    the default, or "m"), and on the worst revolute (``_rad``) and prismatic (``_m``) joint (``metrics.by_unit``)."""
     s = recording.state
     planned_t, planned_q = recording.planned_time_s, recording.planned_position
     true_t, true_q = recording.true_time_s, recording.true_position
     low, high = np.min(planned_q, axis=0), np.max(planned_q, axis=0)
     after = true_t >= fault_start_s
     outside_per_joint = np.maximum(0.0, np.maximum(true_q - high, low - true_q))
-    outside = np.max(outside_per_joint, axis=1)
-    error = np.max(
-        np.abs(
-            true_q - np.column_stack([np.interp(true_t, planned_t, planned_q[:, j]) for j in range(planned_q.shape[1])])
-        ),
-        axis=1,
-    )
-    # Back: the first moment after the fault from which the error stays within 2 mrad for REACQUIRED_HOLD_S.
+    planned = np.column_stack([np.interp(true_t, planned_t, planned_q[:, j]) for j in range(planned_q.shape[1])])
+    error_per_joint = np.abs(true_q - planned)
+    error = np.max(error_per_joint, axis=1)
+    # Back: the first moment after the fault from which the error stays within 2 mrad (or mm) for REACQUIRED_HOLD_S.
     reacquire_s = float("nan")
     within = (true_t >= fault_end_s) & (error < REACQUIRED_RAD)
     for start in np.flatnonzero(within):
@@ -112,14 +113,23 @@ def case_figures(recording: report.Recording, fault_start_s: float, fault_end_s:
         & (recording.brakes_time_s <= last_tick_s)
         & np.any(recording.brakes > 0.5, axis=1)
     )
+    units = units or ["rad"] * true_q.shape[1]
+    nan = np.full(true_q.shape[1], np.nan)
+    deviation = np.max(outside_per_joint[after], axis=0).tolist() if np.any(after) else nan.tolist()
+    off_plan = np.max(error_per_joint[after], axis=0).tolist() if np.any(after) else nan.tolist()
+    missed = [  # (NaN: the arm's state after the fault was not recorded)
+        f"{name} left its band by {outside:.4f} {unit} (goal ≤ {GOAL_DEVIATION_RAD:g} {unit})"
+        for name, outside, unit in zip(recording.joint_names, deviation, units, strict=True)
+        if not outside <= GOAL_DEVIATION_RAD
+    ]
     return {
-        "max_deviation_rad": float(np.max(outside[after])) if np.any(after) else float("nan"),
-        "max_deviation_rad_per_joint": np.max(outside_per_joint[after], axis=0).tolist() if np.any(after) else [],
-        "max_error_from_plan_rad": float(np.max(error[after])) if np.any(after) else float("nan"),
+        "max_deviation_per_joint": deviation,
+        **metrics.by_unit("max_deviation", deviation, units),
+        **metrics.by_unit("max_error_from_plan", off_plan, units),
         "reacquire_s": reacquire_s,
-        "peak_torque_nm": float(np.max(np.abs(s["command"][ticks]))) if np.any(ticks) else 0.0,
+        **metrics.peak_torque(s["command"][ticks] if np.any(ticks) else np.zeros((1, len(units))), units),
         "brake_engaged": bool(np.any(braked)),
-    }
+    } | ({"band_missed": "; ".join(missed)} if missed else {})
 
 
 def run_case(case: Case, out: Path, params: cfg.Params) -> dict[str, Any]:
@@ -140,13 +150,15 @@ def run_case(case: Case, out: Path, params: cfg.Params) -> dict[str, Any]:
     if not result.message_counts.get("/controller/state"):
         return entry | {"failure": result.failure or "no recording"}
     recording = report.read_recording(result.bag_dir)
-    values = report.score(recording)
-    entry.update(case_figures(recording, freezer.stopped_at, freezer.resumed_at))
-    entry["tracking_max_rad"] = values.get("tracking_max_rad")
+    units = report.arm_units(params["simulator"]["urdf_path"])
+    values = report.score(recording, units=units)
+    entry.update(case_figures(recording, freezer.stopped_at, freezer.resumed_at, units))
+    entry.update({key: values[key] for key in ("tracking_max_rad", "tracking_max_m") if key in values})
     if result.failure:
         entry["failure"] = result.failure
     report.write_metrics(out / "metrics.json", values)
-    plots.plot_tracking(recording, out / "tracking.png", title=f"{case.node} frozen {case.duration_s:g} s")
+    title = f"{case.node} frozen {case.duration_s:g} s"
+    plots.plot_tracking(recording, out / "tracking.png", title=title, units=units)
     return entry
 
 
@@ -177,20 +189,33 @@ def faults(
             + f" at t = {fault_time_s(params):g} s"
         )
         entries.append(run_case(case, out / case.name, params))
-    summary = {"robot": robot, "controller_type": params["pid_controller"]["controller_type"]}
-    report.write_metrics(out / "faults.json", summary | {"cases": entries, **headline(entries)})
+    summary = {"robot": robot, "controller_type": params["pid_controller"]["controller_type"], "cases": entries}
+    report.write_metrics(out / "faults.json", summary | headline(entries) | {"failed": failed(entries)})
     (out / "faults.md").write_text(render(entries, robot, params))
     return entries
 
 
 def headline(entries: list[dict[str, Any]]) -> dict[str, Any]:
-    deviations = [e.get("max_deviation_rad", float("nan")) for e in entries]
-    worst = max(deviations, key=lambda d: -1 if not np.isfinite(d) else d) if deviations else float("nan")
-    return {
-        "worst_max_deviation_rad": worst,
+    """The worst deviation of every case: a revolute joint's, and a prismatic one's (``_m``) if any."""
+    worst = {
+        f"worst_{key}": max((e[key] for e in entries if np.isfinite(e.get(key, np.nan))), default=float("nan"))
+        for key in ("max_deviation_rad", "max_deviation_m")
+        if key.endswith("rad") or any(key in e for e in entries)
+    }
+    return worst | {
         "goal_max_deviation_rad": GOAL_DEVIATION_RAD,
         "all_cases_ran": all("failure" not in e for e in entries),
     }
+
+
+def failed(entries: list[dict[str, Any]]) -> list[str]:
+    """One line per case that missed its goal: a joint out of its band by more than ``GOAL_DEVIATION_RAD`` (or m),
+    or a run that failed."""
+    return [
+        f"{e['case']}: {e['band_missed'] if e.get('band_missed') else e['failure']}"
+        for e in entries
+        if e.get("band_missed") or e.get("failure")
+    ]
 
 
 def render(entries: list[dict[str, Any]], robot: str = "one_dof", params: cfg.Params | None = None) -> str:
@@ -200,29 +225,36 @@ def render(entries: list[dict[str, Any]], robot: str = "one_dof", params: cfg.Pa
     top = headline(entries)
     params = params or cfg.load_stack(robot=robot)
     planner = params["trajectory_planner"]
+    units = report.arm_units(params["simulator"]["urdf_path"])
+    slides = "m" in units  # a prismatic joint: its figures in m and N beside the revolute joints'
+    worst = f"{num(top['worst_max_deviation_rad'], '{:.4f}')} rad"
+    worst += f", {num(top.get('worst_max_deviation_m'), '{:.4f}')} m" * slides
     lines = [
         "# Faults: each node frozen mid-motion",
         "",
         f"Robot {robot}, default preset (controller_type {params['pid_controller']['controller_type']}), "
-        f"wall clock, sine of {planner['amplitude']} rad at "
+        f"wall clock, sine of {in_units(planner['amplitude'], units)} at "
         f"{planner['frequency_hz']:g} Hz. At {fault_time_s(params):g} s (peak speed) one node gets "
         "SIGSTOP, then SIGCONT after the duration; or SIGKILL, and the launcher respawns it "
-        "(`run --respawn`). Deviation: how far the TRUE angle left the band the "
-        "reference sweeps, on the worst joint. Re-acquired: every joint back within 2 mrad of the planned "
-        "trajectory, after the fault ended.",
+        f"(`run --respawn`). Deviation: how far the TRUE {'position' if slides else 'angle'} left the band the "
+        f"reference sweeps, on the worst joint. Re-acquired: every joint back within 2 mrad{' (2 mm)' * slides} "
+        "of the planned trajectory, after the fault ended.",
         "",
-        f"**Worst deviation: {num(top['worst_max_deviation_rad'], '{:.4f}')} rad** "
-        f"(goal ≤ {GOAL_DEVIATION_RAD:g} rad in every case).",
+        f"**Worst deviation: {worst}** (goal ≤ {GOAL_DEVIATION_RAD:g} rad{f', {GOAL_DEVIATION_RAD:g} m' * slides}"
+        " in every case).",
         "",
+        *(f"**FAILED: {line}**\n" for line in failed(entries)),
     ]
     fault_text = {"SIGSTOP": "frozen {:g} s", "SIGKILL": "killed, respawned"}
-    figures = (("max_deviation_rad", "{:.4f}"), ("max_error_from_plan_rad", "{:.3f}"), ("reacquire_s", "{:.2f}"))
+    shown = (("max_deviation", "{:.4f}", "deviation"), ("max_error_from_plan", "{:.3f}", "largest error from the plan"))
+    figures = [(f"{key}_{u}", spec, f"{name} [{u}]") for key, spec, name in shown for u in ("rad", "m")[: 1 + slides]]
+    figures += [("reacquire_s", "{:.2f}", "re-acquired after [s]"), ("peak_torque_nm", "{:.1f}", "peak torque [N·m]")]
+    figures += [("peak_force_n", "{:.1f}", "peak force [N]")] * slides
     rows = [
-        [e["node"], fault_text[e["fault"]].format(e["duration_s"]), *(num(e.get(k), spec) for k, spec in figures)]
-        + [num(e.get("peak_torque_nm"), "{:.1f}"), "yes" if e.get("brake_engaged") else "no"]
-        + [f"{e.get('exit_code')}{' ' + e['failure'] if e.get('failure') else ''}"]
+        [e["node"], fault_text[e["fault"]].format(e["duration_s"]), *(num(e.get(k), spec) for k, spec, _ in figures)]
+        + ["yes" if e.get("brake_engaged") else "no", f"{e.get('exit_code')} {e.get('failure', '')}".rstrip()]
         for e in entries
     ]
-    headers = "node | fault | deviation [rad] | largest error from the plan [rad] | re-acquired after [s] | "
-    lines.append(table(headers + "peak torque [N·m] | brakes engaged | exit", rows))
+    headers = " | ".join(["node", "fault", *(heading for *_, heading in figures), "brakes engaged", "exit"])
+    lines.append(table(headers, rows))
     return "\n".join(lines) + "\n"

@@ -12,7 +12,7 @@ from robot_controller.core import metrics
 from robot_controller.experiments.reporting import pyplot, save
 from robot_controller.runner import launcher, plan
 from robot_controller.runner.options import RunOptions
-from robot_controller.scoring import report
+from robot_controller.scoring import plots, report
 
 STEP_LEAD_S = 0.5  # time at the start position before the step, s
 STEP_AFTER_S = 2.0  # recorded after the step, s
@@ -34,7 +34,8 @@ def run_checked(checked: plan.CheckedRun, out: Path) -> tuple[dict[str, Any], re
     recording = report.read_recording(result.bag_dir)
     period_s = 1.0 / checked.params["pid_controller"]["control_rate_hz"]
     window_s = checked.options.duration_s if checked.options.sim_time else None
-    return report.score(recording, nominal_period_s=period_s, window_s=window_s), recording
+    units = report.arm_units(checked.params["simulator"]["urdf_path"])
+    return report.score(recording, nominal_period_s=period_s, window_s=window_s, units=units), recording
 
 
 def step_params(params: cfg.Params, amplitude: float, shaping: str) -> cfg.Params:
@@ -91,27 +92,32 @@ def step_figures(
     return figures
 
 
-def plot_step(recording: report.Recording, path: Path, title: str, limit_nm: np.ndarray | None = None) -> None:
+def plot_step(
+    recording: report.Recording, path: Path, title: str, limit_nm: np.ndarray | None = None, units: list[str] = ()
+) -> None:
+    """Reference, true position and command of each joint; ``units``: each joint's ``"rad"`` (default) or ``"m"``."""
     plt = pyplot()
     s = recording.state
     t = s["time_s"] - s["time_s"][0]
     true = recording.true_at_ticks()
     fig, (ax_q, ax_u) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
     joint_count = s["reference"].shape[1]
+    units = list(units) or ["rad"] * joint_count
     for j in range(joint_count):
-        name = "" if joint_count == 1 else f"joint {j + 1} "
+        name = "" if joint_count == 1 else f"joint {j + 1}{' [m]' if units[j] == 'm' else ''} "
         ax_q.plot(t, s["reference"][:, j], "k--", lw=0.8, label=f"{name}reference" if j == 0 else None)
         ax_q.plot(t, true[:, j], label=f"{name}true")
         ax_u.plot(t, s["command"][:, j], label=f"{name}command")
         if joint_count == 1:
             ax_q.plot(t, s["measured"][:, 0], ".", ms=2, alpha=0.4, label="estimate the law used")
             ax_u.plot(t, s["feedforward"][:, 0], lw=0.8, label="feedforward")
-    ax_q.set_ylabel("position [rad]")
+    position, _, effort = plots.headings(units)
+    ax_q.set_ylabel(position)
     if limit_nm is not None:
         for value in np.unique(np.atleast_1d(limit_nm)):
             ax_u.axhline(value, color="r", lw=0.6)
             ax_u.axhline(-value, color="r", lw=0.6)
-    ax_u.set_ylabel("torque [N·m]")
+    ax_u.set_ylabel(effort)
     ax_u.set_xlabel("time [s]")
     for ax in (ax_q, ax_u):
         ax.grid(alpha=0.3)
@@ -137,5 +143,7 @@ def step_response(checked: plan.CheckedRun, out: Path, *, amplitude: float, shap
     values.update(amplitude_rad=amplitude, step_shaping=shaping, seed=seed, clock=clock)
     report.write_metrics(out / "metrics.json", values)
     limit_nm = np.asarray(params["motor_node"]["torque_max"], float)
-    plot_step(recording, out / "step.png", f"{amplitude} rad step ({shaping}), seed {seed}", limit_nm)
+    plot_step(
+        recording, out / "step.png", f"{amplitude} rad step ({shaping}), seed {seed}", limit_nm, values["joint_units"]
+    )
     return values

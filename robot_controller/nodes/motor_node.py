@@ -10,7 +10,9 @@ from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.metrics import EFFORT_UNITS, in_units
 from robot_controller.core.model import Actuator, effort_limits, joint_names, load_model
+from robot_controller.core.model.mujoco_model import joint_units
 from robot_controller.parameters.torque_limits import torque_limit
 from robot_controller.ros.messages import check_effort, clock_s, command_tick_s
 from robot_controller.ros.process import run
@@ -48,7 +50,7 @@ class MotorNode(StackNode):
         self.receipts_pub = self.gated_publisher(Float64MultiArray, "/motor/command_receipts", consumer=False)
         self.create_timer(RECEIPTS_PERIOD_S, self.publish_receipts)
         self.get_logger().info(
-            f"motor: torque limit ±{self.actuator.torque_max.tolist()} N·m, "
+            f"motor: torque limit ±{in_units(self.actuator.torque_max, self.effort_units)}, "
             f"lag {self.actuator.lag_time_constant_s:g} s"
         )
 
@@ -56,8 +58,8 @@ class MotorNode(StackNode):
         torque_max = torque_limit(params, self.joint_count)
         if np.any(torque_max > self.effort_limit):
             raise ConfigError(
-                f"torque_max: {torque_max.tolist()} N·m exceeds the URDF's effort limit "
-                f"{self.effort_limit.tolist()} N·m (it may lower the drive's limit, never raise it)"
+                f"torque_max: {in_units(torque_max, self.effort_units)} exceeds the URDF's effort limit "
+                f"{in_units(self.effort_limit, self.effort_units)} (it may lower the drive's limit, never raise it)"
             )
         return Actuator(torque_max, params["lag_time_constant_s"])
 
@@ -66,6 +68,7 @@ class MotorNode(StackNode):
         self.joint_names = joint_names(model)
         self.joint_count = len(self.joint_names)
         self.effort_limit = effort_limits(model)
+        self.effort_units = [EFFORT_UNITS[unit] for unit in joint_units(model)]  # N·m, or N on a prismatic joint
 
     def check_params(self, params: dict) -> None:
         self._make_actuator(params)

@@ -7,7 +7,9 @@ import numpy as np
 from sensor_msgs.msg import JointState
 
 from robot_controller import parameters as cfg
-from robot_controller.core.model import DelayLine, measure
+from robot_controller import resources
+from robot_controller.core.model import DelayLine, load_model, measure
+from robot_controller.core.model.mujoco_model import joint_units
 from robot_controller.ros.messages import check_joint_state, s_to_stamp, stamp_to_s
 from robot_controller.ros.process import run
 from robot_controller.ros.qos import loop_qos
@@ -33,10 +35,11 @@ class SensorNode(StackNode):
         self.create_subscription(JointState, "/sim/joint_states", self.true_state_callback, loop_qos(self.lockstep))
         self.watch_single_publisher("/sim/joint_states", "simulator")
         self.out = JointState()
+        units = " or ".join(dict.fromkeys(joint_units(load_model(resources.resolve_urdf(self.params["urdf_path"])))))
         self.get_logger().info(
-            f"sensor at {self.params['rate_hz']:g} Hz: σ position {self.sensor.position_noise_std:g} rad, "
-            f"σ velocity {self.sensor.velocity_noise_std:g} rad/s, seed {seed}"
-            + (f", {self.sensor.delay_s * 1e3:g} ms late" if self.sensor.delay_s else "")
+            f"sensor at {self.params['rate_hz']:g} Hz: σ position {self.sensor.position_noise_std:g} {units}, "
+            f"σ velocity {self.sensor.velocity_noise_std:g} {units.replace('rad', 'rad/s').replace('m', 'm/s')}, "
+            f"seed {seed}" + (f", {self.sensor.delay_s * 1e3:g} ms late" if self.sensor.delay_s else "")
         )
 
     def check_params(self, params: dict) -> None:

@@ -23,6 +23,7 @@ from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.metrics import EFFORT_UNITS, in_units
 from robot_controller.core.model import joint_limits, urdf_velocity_limits
 from robot_controller.core.reference import (
     Accepted,
@@ -82,7 +83,7 @@ class TrajectoryPlanner(StackNode):
             self.timer = self.create_timer(1.0 / p["publish_rate_hz"], lambda: self.sample_at(clock_s(self)))
         self.create_subscription(JointTrajectoryMsg, JOINT_TRAJECTORY_TOPIC, self.joint_trajectory_callback, LATEST_QOS)
         self.get_logger().info(
-            f"trajectory: {p['mode']}, amplitude {p['amplitude']} rad, "
+            f"trajectory: {p['mode']}, amplitude {in_units(p['amplitude'], self.dynamics.joint_units)}, "
             f"{p['frequency_hz']:g} Hz, published at {p['publish_rate_hz']:g} Hz"
             + (", lockstep" if p["lockstep"] else "")
             + self._slowed()
@@ -187,9 +188,11 @@ class TrajectoryPlanner(StackNode):
         usable = torque_limit(params, len(self.limits.joint_names)) * (1.0 - params["feasibility_margin"])
         self.crossfade = None  # (a blend under way is ``before``)
         self.crossfade = crossfade(before, self.motion_in_force(), now_s, self.dynamics, usable, self.limits.velocity)
-        gap = np.max(np.abs(before(now_s)[0] - self.crossfade.new(now_s)[0]))
+        gap = np.abs(before(now_s)[0] - self.crossfade.new(now_s)[0])
+        j = int(np.argmax(gap))
         self.get_logger().info(
-            f"new {params['mode']} blended in over {self.crossfade.duration_s:.2f} s ({gap:.3g} rad away)"
+            f"new {params['mode']} blended in over {self.crossfade.duration_s:.2f} s "
+            f"({gap[j]:.3g} {self.dynamics.joint_units[j]} away)"
         )
 
     def motion_in_force(self) -> Motion:
@@ -215,13 +218,14 @@ class TrajectoryPlanner(StackNode):
         trajectory = taken.trajectory
         self.waypoints, self.origin_s, self.crossfade = trajectory, now_s, None  # it starts from the blend
         points = len(trajectory.waypoints.times_s)
-        target = np.round(trajectory.final_position, 4).tolist()
-        delayed = trajectory.start_delay_s
+        units, delayed = self.dynamics.joint_units, trajectory.start_delay_s
+        target = in_units(np.round(trajectory.final_position, 4), units)
         j = int(np.argmax(taken.peak_torque_nm))
+        effort = "torque" if units[j] == "rad" else "force"
         self.get_logger().info(
-            f"joint trajectory taken: {points} point(s), reaching {target} rad {trajectory.duration_s:.3g} s from now"
+            f"joint trajectory taken: {points} point(s), reaching {target} {trajectory.duration_s:.3g} s from now"
             + (f" (its time 0 at its stamp, {delayed:.3g} s from now)" if delayed else "")
-            + f"; peak torque {taken.peak_torque_nm[j]:.2f} N·m on {self.limits.joint_names[j]}"
+            + f"; peak {effort} {taken.peak_torque_nm[j]:.2f} {EFFORT_UNITS[units[j]]} on {self.limits.joint_names[j]}"
         )
         if taken.warning is not None:
             self.get_logger().warning(f"{taken.warning}; running it as it is (feasibility: ignore)")

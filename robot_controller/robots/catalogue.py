@@ -43,6 +43,7 @@ class Robot:
         return {
             "simulator": {"urdf_path": urdf, "initial_position": home},
             "motor_node": {"urdf_path": urdf},
+            "sensor_node": {"urdf_path": urdf},  # (for its joints' units)
             # Without readings the controller stops on its model open loop, which gravity makes
             # unstable on a chain of joints: the brakes take over after CHAIN_SENSOR_TIMEOUT_S.
             "pid_controller": {"urdf_path": urdf, "design_position": home, "sensor_timeout_s": CHAIN_SENSOR_TIMEOUT_S},

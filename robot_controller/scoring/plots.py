@@ -11,6 +11,14 @@ from robot_controller.core import metrics
 from robot_controller.scoring.bag_reader import Recording
 
 
+def headings(units: list[str]) -> tuple[str, str, str]:
+    """The position, error (milli-) and effort axes' headings for joints in ``units`` (rad or m)."""
+    shown, small = " | ".join(dict.fromkeys(units)), " | ".join("m" + u for u in dict.fromkeys(units))
+    efforts = " | ".join(dict.fromkeys(metrics.EFFORT_UNITS[u] for u in units))
+    effort = "torque" if efforts == "N·m" else "force" if efforts == "N" else "effort"
+    return f"position [{shown}]", f"error [{small}]", f"{effort} [{efforts}]"
+
+
 def plot_tracking(recording: Recording, path: Path, title: str = "", units: list[str] | None = None) -> None:
     """Reference, true and measured position; tracking error; commanded and applied effort, for every
     joint; ``units``: each joint's position unit, ``"rad"`` (default) or ``"m"`` (a prismatic joint)."""
@@ -52,15 +60,7 @@ def plot_tracking(recording: Recording, path: Path, title: str = "", units: list
     last = rows[-1]
     last[-1].set_xlim(t[0], t[-1])
     units = units or ["rad"] * n
-    shown = " | ".join(dict.fromkeys(units))
-    efforts = " | ".join(dict.fromkeys(metrics.EFFORT_UNITS[u] for u in units))
-    effort = "torque" if efforts == "N·m" else "force" if efforts == "N" else "effort"
-    headings = (
-        f"position [{shown}]",
-        f"error [{' | '.join('m' + u for u in dict.fromkeys(units))}]",
-        f"{effort} [{efforts}]",
-    )
-    for ax, heading in zip(rows[0], headings, strict=True):  # one joint: stacked, labelled on the left
+    for ax, heading in zip(rows[0], headings(units), strict=True):  # one joint: stacked, labelled on the left
         if n == 1:
             ax.set_ylabel(heading)
         else:

@@ -9,14 +9,17 @@ from typing import Any
 
 import numpy as np
 
+from robot_controller import resources
 from robot_controller.core import metrics
 from robot_controller.core.controller import state_layout
+from robot_controller.core.model.mujoco_model import joint_units, load_model
 
 # What scores a run reads first; importable from here too.
 from robot_controller.scoring.bag_reader import Recording, motor_latency_s, read_recording
 
 __all__ = [
     "Recording",
+    "arm_units",
     "json_safe",
     "motor_latency_s",
     "read_recording",
@@ -26,6 +29,11 @@ __all__ = [
     "tracking_on_sim_timeline",
     "write_metrics",
 ]
+
+
+def arm_units(urdf_path: str) -> list[str]:
+    """Each joint's position unit, ``"rad"`` or ``"m"``, of the arm at ``urdf_path`` ("": the reference arm)."""
+    return joint_units(load_model(resources.resolve_urdf(urdf_path)))
 
 
 def score(

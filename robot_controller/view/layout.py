@@ -39,12 +39,18 @@ SERIES = {
     "latency": (TIMING, "reading → motor latency", [60, 140, 255], 1.0),
 }
 PER_JOINT = {"reference", "true", "measured", "planned", "error_true", "error_controller", "commanded", "applied"}
-# The "all joints" tab: (view, series, title), each in its joint's colour, named in the first plot's legend.
+# The "all joints" tab: (view, series, title, unit on a revolute joint, on a prismatic one), each in its joint's
+# colour, named in the first plot's legend.
 OVERVIEW = (
-    (ERROR, "error_true", "tracking error, reference − true [mrad]"),
-    (POSITION, "true", "position, true [rad] (colours as above)"),
-    (TORQUE, "commanded", "torque, commanded [N·m] (colours as above)"),
+    (ERROR, "error_true", "tracking error, reference − true", "mrad", "mm"),
+    (POSITION, "true", "position, true", "rad", "m"),
+    (TORQUE, "commanded", "torque, commanded", "N·m", "N"),
 )
+# A joint's own tab: (view, title) on a revolute joint ("rad") and on a prismatic one ("m").
+PANELS = {
+    "rad": ((POSITION, "position [rad]"), (ERROR, "tracking error [mrad]"), (TORQUE, "torque [N·m]")),
+    "m": ((POSITION, "position [m]"), (ERROR, "tracking error [mm]"), (TORQUE, "force [N]")),
+}
 # A colour per joint in the "all joints" tab (matplotlib's tab10), repeated past ten joints.
 JOINT_COLOURS = [
     list(bytes.fromhex(h)) for h in "1f77b4 ff7f0e 2ca02c d62728 9467bd 8c564b e377c2 7f7f7f bcbd22 17becf".split()
@@ -110,23 +116,29 @@ def blueprint(arm: ArmModel, *, live: bool):
         return rrb.TimeSeriesView(origin=origin, name=name, time_ranges=ranges, **more)
 
     joints = arm.joint_names
-    panels = ((POSITION, "position [rad]"), (ERROR, "tracking error [mrad]"), (TORQUE, "torque [N·m]"))
+    slides = [joint.name for _, joint in arm.joints() if joint.kind == "prismatic"]  # in m, mm and N
+    panels = {joint: PANELS["m" if joint in slides else "rad"] for joint in joints}
+
+    def overview(k: int, title: str, revolute: str, prismatic: str) -> str:
+        units = revolute + (f"; {prismatic} on {', '.join(slides)}" if slides else "")
+        return f"{title} [{units}]" + (" (colours as above)" if k else "")
+
     if len(joints) == 1:
-        plots = rrb.Vertical(*(plot(view, title) for view, title in panels), plot(TIMING, "loop timing [ms]"))
+        plots = rrb.Vertical(*(plot(*panel) for panel in panels[joints[0]]), plot(TIMING, "loop timing [ms]"))
     else:
         plots = rrb.Vertical(
             rrb.Tabs(
                 rrb.Vertical(
                     *(
-                        overview_plot(plot, view, series, title, joints, legend=k == 0)
-                        for k, (view, series, title) in enumerate(OVERVIEW)
+                        overview_plot(plot, view, series, overview(k, *titles), joints, legend=k == 0)
+                        for k, (view, series, *titles) in enumerate(OVERVIEW)
                     ),
                     row_shares=[3, 2, 2],  # the first holds the legend: a line per joint
                     name="all joints",
                 ),
                 *(
                     rrb.Vertical(
-                        *(plot(f"{view}/{entity_part(joint)}", f"{joint}: {title}") for view, title in panels),
+                        *(plot(f"{view}/{entity_part(joint)}", f"{joint}: {title}") for view, title in panels[joint]),
                         name=joint,
                     )
                     for joint in joints

@@ -131,3 +131,11 @@ def test_revolute_joints_keep_their_keys_and_gain_the_unit_free_lists():
     assert out["tracking_rms_rad_per_joint"] == out["tracking_rms_per_joint"]
     assert out["tracking_rms_rad"] == max(out["tracking_rms_per_joint"])
     assert "peak_force_n" not in metrics.peak_torque(error)
+
+
+def test_values_are_said_in_their_units_as_before_when_every_joint_shares_one():
+    assert metrics.in_units([30.0, 10.0], ["N·m", "N·m"]) == "[30.0, 10.0] N·m"  # the motor's line, as it was
+    assert metrics.in_units([313.2, 37.01], ["N·m/rad"] * 2, ".3g") == "[313, 37] N·m/rad"
+    assert metrics.in_units([30.0, 10.0, 40.0], ["N·m", "N·m", "N"]) == "[30 N·m, 10 N·m, 40 N]"
+    assert metrics.in_units([0.5], ["rad", "m"]) == "[0.5 rad, 0.5 m]"  # one value for every joint
+    assert metrics.in_units([1e4, 1.0], spec=".3g") == "[1e+04, 1]"

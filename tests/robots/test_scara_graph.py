@@ -19,6 +19,13 @@ def test_the_scara_runs_its_quill_in_metres_and_newtons_within_its_limits(tmp_pa
         [sys.executable, "-m", "robot_controller.cli", *command], capture_output=True, text=True, timeout=240
     )
     assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
+    for line in (  # what the nodes say at start, each joint in its unit
+        "motor: torque limit ±[30 N·m, 10 N·m, 40 N]",
+        "sensor at 100 Hz: σ position 0.005 rad or m, σ velocity 0.02 rad/s or m/s",
+        "trajectory: sine, amplitude [0.6 rad, 0.8 rad, 0.05 m]",
+        "|torque| <= [30 N·m, 10 N·m, 40 N]",
+    ):
+        assert line in proc.stdout, line
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["robot"] == "scara" and metrics["joint_names"] == ["shoulder", "elbow", "quill"]
     assert metrics["joint_units"] == ["rad", "rad", "m"]

@@ -111,3 +111,21 @@ def test_every_joint_has_its_series_named_and_the_plots_in_tabs(panda_arm):
     tabs, timing = plots.contents
     assert [str(tab.name) for tab in tabs.contents] == ["all joints", *PANDA_JOINTS]
     assert str(timing.name) == "loop timing [ms]"
+
+
+def test_a_prismatic_joints_plots_are_in_metres_and_newtons():
+    from robot_controller.robots import urdf_of
+    from robot_controller.view.from_bag import stack_joint_order
+
+    path = urdf_of("scara")
+    _, plots = layout.blueprint(urdf_arm.load_arm(path, stack_joint_order(path)), live=True).root_container.contents
+    overview, shoulder, _, quill = plots.contents[0].contents
+    titles = [str(view.name) for view in overview.contents]
+    assert titles[0] == "tracking error, reference − true [mrad; mm on quill]", titles
+    assert titles[2] == "torque, commanded [N·m; N on quill] (colours as above)", titles
+    assert [str(view.name) for view in quill.contents] == [
+        "quill: position [m]",
+        "quill: tracking error [mm]",
+        "quill: force [N]",
+    ]
+    assert [str(view.name) for view in shoulder.contents][0] == "shoulder: position [rad]"

@@ -23,6 +23,7 @@ import numpy as np
 
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws.interface import Arm, ControlLaw, Reference, State
+from robot_controller.core.metrics import in_units
 
 if TYPE_CHECKING:
     from robot_controller.core.model import ArmDynamics
@@ -372,14 +373,19 @@ class BuiltinLaw(ControlLaw):
         torque limit, the feedforward and ``observer`` (a clause on the disturbance observer). In LQR
         mode it says so, and that the kp/ki/kd parameters are unused (the design replaced them)."""
         gains, p = self.pid.config, self.params
+        units = getattr(self.arm.model, "joint_units", None) or ["rad"] * self.arm.joint_count
+
+        def said(values: Any, revolute: str, prismatic: str) -> str:  # N·m and rad, or N and m
+            return in_units(values, [revolute if unit == "rad" else prismatic for unit in units], ".3g")
+
         in_force = (
-            f"Kp={_values(gains.kp)} N·m/rad, Ki={_values(gains.ki)} N·m/(rad·s), "
-            f"Kd={_values(gains.kd)} N·m·s/rad, D on {gains.derivative_source.value}, "
-            f"|torque| <= {_values(gains.output_limit)} N·m, feedforward {p['feedforward'].value}{observer}"
+            f"Kp={said(gains.kp, 'N·m/rad', 'N/m')}, Ki={said(gains.ki, 'N·m/(rad·s)', 'N/(m·s)')}, "
+            f"Kd={said(gains.kd, 'N·m·s/rad', 'N·s/m')}, D on {gains.derivative_source.value}, "
+            f"|torque| <= {said(gains.output_limit, 'N·m', 'N')}, feedforward {p['feedforward'].value}{observer}"
         )
         if self.kind == "lqr":
             return (
-                f"LQR (q={_values(p['lqr_q'])}, r={p['lqr_r']:g}, designed at "
+                f"LQR (q={in_units(p['lqr_q'], spec='.3g')}, r={p['lqr_r']:g}, designed at "
                 f"{1.0 / self.period_s:g} Hz): {in_force}; the kp/ki/kd parameters are unused"
             )
         scaled = "/".join(p.get("scaled_gains", ()))  # one value each, for reference_inertia
@@ -390,7 +396,3 @@ class PidLaw(BuiltinLaw):
     """PID with the node's kp, ki, kd."""
 
     kind = "pid"
-
-
-def _values(values: np.ndarray | tuple[float, ...]) -> str:
-    return "[" + ", ".join(f"{float(v):.3g}" for v in np.atleast_1d(values)) + "]"

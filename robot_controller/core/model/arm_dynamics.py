@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.model.mujoco_model import effort_limits, joint_names, load_model
+from robot_controller.core.model.mujoco_model import effort_limits, joint_names, joint_units, load_model
 from robot_controller.core.model.payload import Payload
 
 #: A joint whose damping over one plant step exceeds this share of its inertia has the step inverted.
@@ -57,6 +57,7 @@ class ArmDynamics:
         self.payload = payload
         self._data = mujoco.MjData(self.model)
         self.joint_names = joint_names(self.model)
+        self.joint_units = joint_units(self.model)  #: "rad" or "m" per joint
         self.effort_limit = effort_limits(self.model)
         self._effort_low = -self.effort_limit
         # Views into the private MjData and the model's options, kept: the controller asks several

@@ -53,6 +53,7 @@ class JointArmModel:
         source: dict[str, str] | None = None,
     ) -> None:
         self.joint_names = list(joint_names)
+        self.joint_units = ["rad"] * len(self.joint_names)  #: revolute joints
         n = len(self.joint_names)
 
         def joints(name: str, values: np.ndarray) -> np.ndarray:

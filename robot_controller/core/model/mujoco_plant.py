@@ -8,7 +8,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from robot_controller.core.model.mujoco_model import effort_limits, joint_names, load_model
+from robot_controller.core.model.mujoco_model import effort_limits, joint_names, joint_units, load_model
 from robot_controller.core.model.payload import Payload
 
 # Below this speed (rad/s) a braking joint counts as stopped and is held where it is.
@@ -55,6 +55,7 @@ class MujocoPlant:
         self.model = load_model(urdf_path, physics_dt, payload)
         self.data = mujoco.MjData(self.model)
         self.joint_names = joint_names(self.model)
+        self.joint_units = joint_units(self.model)  #: "rad" or "m" per joint
         self.physics_dt = float(self.model.opt.timestep)
         dofs = self.model.jnt_dofadr[: self.joint_count]
         self._free_frictionloss = self.model.dof_frictionloss[dofs].copy()

@@ -13,6 +13,7 @@ import numpy as np
 
 class Plant(Protocol):
     joint_names: list[str]
+    joint_units: list[str]  #: "rad" or "m" per joint
     physics_dt: float
 
     @property

@@ -12,6 +12,7 @@ import numpy as np
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller.core.controller import ControlOutput, Status, state_layout
+from robot_controller.core.metrics import EFFORT_UNITS
 from robot_controller.ros.process import LAW_FAULT_FILE, LAW_STOPPED_EXIT_CODE, request_exit
 from robot_controller.ros.publishing import COUNTS_DIR_ENV
 from robot_controller.ros.stack_node import StackNode
@@ -147,10 +148,12 @@ class StatusReports:
         ``SATURATION_SAID_AFTER_S``: the law asks for more than the actuator gives."""
         for j in self.saturation.newly_long(out.time_s, out.terms.saturated):
             limit = float(np.broadcast_to(self.controller.config.pid.output_limit, (self.node.joint_count,))[j])
-            cut = "its torque limit" if abs(abs(out.terms.command[j]) - limit) < 1e-9 else "its slew-rate limit"
+            unit = EFFORT_UNITS[self.node.dynamics.joint_units[j]]  # N·m, or N on a prismatic joint
+            effort = "torque" if unit == "N·m" else "force"
+            cut = f"its {effort} limit" if abs(abs(out.terms.command[j]) - limit) < 1e-9 else "its slew-rate limit"
             self.log.warning(
-                f"{self.node.joint_names[j]}: the command has been cut by {cut} (±{limit:g} N·m) for "
-                f"{SATURATION_SAID_AFTER_S:g} s in a row: the law asks for more torque than the joint has "
+                f"{self.node.joint_names[j]}: the command has been cut by {cut} (±{limit:g} {unit}) for "
+                f"{SATURATION_SAID_AFTER_S:g} s in a row: the law asks for more {effort} than the joint has "
                 "(said once; saturated_ticks_per_joint in metrics.json counts every tick)"
             )
 

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+from robot_controller.parameters.schema.shared import URDF
 from robot_controller.parameters.spec import ParamSpec
 
 # One line per parameter: the schema reads as a table.
 # fmt: off
 SENSOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
+    URDF,
     ParamSpec("rate_hz", float, 100.0, "sensor sample rate, Hz", minimum=10.0, maximum=1000.0),
-    ParamSpec("position_noise_std", float, 0.005, "Gaussian position noise σ, rad", minimum=0.0),
-    ParamSpec("velocity_noise_std", float, 0.02, "Gaussian velocity noise σ, rad/s", minimum=0.0),
+    ParamSpec("position_noise_std", float, 0.005, "Gaussian position noise σ, rad (m on a prismatic joint)", minimum=0.0),
+    ParamSpec("velocity_noise_std", float, 0.02, "Gaussian velocity noise σ, rad/s (m/s on a prismatic joint)", minimum=0.0),
     ParamSpec("position_bias", float, 0.0, "constant position bias, rad"),
     ParamSpec("quantization", float, 0.0, "position quantisation step, rad (0 = none)", minimum=0.0),
     ParamSpec("seed", int, 0, "random seed of the noise; -1 draws one from the OS", minimum=-1),

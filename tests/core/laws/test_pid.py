@@ -166,3 +166,17 @@ def test_gains_given_as_one_value_on_a_chain_are_scaled_by_each_joints_inertia_a
     np.testing.assert_array_equal(law_config(own, dynamics, 2).kp, [50.0, 40.0])
     one = cfg.load_stack()["pid_controller"]  # one joint: its one value is its own, as given to the bit
     assert cfg.controller_config(one, 1).scaled_gains == ()
+
+
+@pytest.mark.parametrize("controller_type", ["lqr", "pid"])
+def test_the_gains_line_gives_a_prismatic_joint_its_own_units(controller_type):
+    from robot_controller import parameters as cfg
+    from robot_controller.core.controller import JointController
+    from robot_controller.parameters.builders import arm_model
+
+    params = cfg.load_stack(robot="scara")["pid_controller"] | {"controller_type": controller_type}
+    line = JointController(cfg.controller_config(params, 3), 3, arm_model(params)).law_in_force()
+    gains = line.split(": ", 1)[1]
+    assert gains.startswith("Kp=[") and " N·m/rad, " in gains and " N/m]" in gains, gains
+    assert ", |torque| <= [30 N·m, 10 N·m, 40 N], " in gains, gains
+    assert " N·m·s/rad, " in gains and " N·s/m]" in gains and " N/(m·s)]" in gains, gains

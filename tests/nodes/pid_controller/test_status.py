@@ -1,9 +1,11 @@
 """The controller's saturation watch (no ROS graph): a joint whose command stays cut by its limit
 for more than SATURATION_SAID_AFTER_S is said once, a brief cut never."""
 
+from types import SimpleNamespace
+
 import numpy as np
 
-from robot_controller.nodes.pid_controller.status import SATURATION_SAID_AFTER_S, SaturationWatch
+from robot_controller.nodes.pid_controller.status import SATURATION_SAID_AFTER_S, SaturationWatch, StatusReports
 
 PERIOD_S = 0.01
 
@@ -30,3 +32,18 @@ def test_brief_cuts_are_not_said_and_a_break_restarts_the_count():
     assert said_over(watch, rows) == []
     rows = [np.array([1.0, 1.0])] * (brief + 5)
     assert [j for _, j in said_over(watch, rows, start_s=10.0)] == [0, 1]
+
+
+def test_a_prismatic_joint_is_said_cut_by_its_force_limit_in_newtons():
+    said = []
+    node = SimpleNamespace(joint_count=3, joint_names=["shoulder", "elbow", "quill"])
+    node.dynamics = SimpleNamespace(joint_units=["rad", "rad", "m"])
+    config = SimpleNamespace(pid=SimpleNamespace(output_limit=np.array([30.0, 10.0, 40.0])))
+    reports = SimpleNamespace(node=node, controller=SimpleNamespace(config=config), saturation=SaturationWatch(3))
+    reports.log = SimpleNamespace(warning=said.append)
+    for k in range(30):
+        terms = SimpleNamespace(saturated=np.array([1.0, 0.0, 1.0]), command=np.array([30.0, 1.0, -40.0]))
+        StatusReports.say_saturation(reports, SimpleNamespace(time_s=k * PERIOD_S, terms=terms))
+    assert [line.split(": ")[0] for line in said] == ["shoulder", "quill"]
+    assert "its torque limit (±30 N·m)" in said[0] and "more torque than" in said[0]
+    assert "its force limit (±40 N)" in said[1] and "more force than" in said[1]
