@@ -54,17 +54,18 @@ def link_frames(arm: ArmModel, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.
 
 
 def view_sphere(arm: ArmModel) -> tuple[np.ndarray, float]:
-    """Where the camera looks (the first joint) and the radius (m) about it to keep in view: one joint, its reach;
-    more, the arm's reach from the first joint at its zero pose (a folding chain's summed lengths overstate it)."""
+    """Where the camera looks and the radius (m) about it to keep in view: one joint, the joint and its reach (the
+    link swings about it); more, the middle of the arm at its zero pose and the radius that holds its frames and
+    shapes (a folding chain's summed lengths overstate it; a stretched arm about its first joint fills half a view)."""
     base = np.asarray(arm.base_xyz, dtype=float)
     if len(arm.joint_names) <= 1:
         return base, arm.reach_m
     frames = link_frames(arm, np.zeros((1, len(arm.joint_names))))
-    radius = 0.0
+    points, extents = [base], [0.0]  # each frame and shape's centre, and how far the shape reaches beyond it
     for link in arm.links():
         rotation, position = frames[link.name]
-        radius = max(radius, float(np.linalg.norm(position[0] - base)))
-        for v in link.visuals:
-            centre = position[0] + rotation[0] @ np.asarray(v.xyz)
-            radius = max(radius, float(np.linalg.norm(centre - base)) + visual_extent(v) - float(np.linalg.norm(v.xyz)))
-    return base, radius
+        points += [position[0]] + [position[0] + rotation[0] @ np.asarray(v.xyz) for v in link.visuals]
+        extents += [0.0] + [max(0.0, visual_extent(v) - float(np.linalg.norm(v.xyz))) for v in link.visuals]
+    points, extents = np.array(points), np.array(extents)[:, None]
+    middle = 0.5 * (np.min(points - extents, axis=0) + np.max(points + extents, axis=0))
+    return middle, float(np.max(np.linalg.norm(points - middle, axis=1) + extents[:, 0]))

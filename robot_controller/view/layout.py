@@ -97,7 +97,7 @@ def blueprint(arm: ArmModel, *, live: bool):
     # From the front (−y: the reference arm moves in the x-z plane), a little above and aside, the whole sweep in view.
     target, radius = view_sphere(arm)
     direction = np.array([0.35, -1.0, 0.3])
-    distance = max(0.8, 2.6 * radius)
+    distance = max(0.8, 3.2 * radius)  # the sphere across the 3-D view's narrow width
     eye = rrb.EyeControls3D(
         position=(target + direction / np.linalg.norm(direction) * distance).tolist(),
         look_target=target.tolist(),
