@@ -43,3 +43,8 @@ chromium:
 .PHONY: nftables
 nftables:
 	command -v nft >/dev/null || (apt-get update && apt-get install -y --no-install-recommends nftables)
+
+# stress-ng, a CPU hog to run the suite or a verb beside (`stress-ng --cpu 1`): a busy host is not a fault.
+.PHONY: stress-ng
+stress-ng:
+	command -v stress-ng >/dev/null || (apt-get update && apt-get install -y --no-install-recommends stress-ng)
