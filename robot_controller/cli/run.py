@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import signal
+from dataclasses import replace
 from pathlib import Path
 
 from robot_controller.cli.args import (
@@ -32,6 +33,8 @@ def register(sub) -> None:
     p.add_argument("--single-process", action="store_true", help="all five nodes on one executor")
     flags = {
         "--sim-time": "deterministic lockstep on /clock, as fast as the graph goes (--duration in sim seconds)",
+        "--wall-clock": "hardware-strict: the drive on this host's clock, any late command refused, a host freeze "
+        "the loop's fault (default: the world's clock keeps pace with the wall clock and pauses with the host)",
         "--respawn": "start a node that dies again (wall clock), as ros2 launch's respawn=True",
         "--realtime": "run the simulator's pacing thread SCHED_FIFO, with a CPU budget (docs/controller.md)",
     }
@@ -59,7 +62,8 @@ def register(sub) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    return run(RunOptions.from_args(args), args.out)
+    paced = not (args.sim_time or args.wall_clock)
+    return run(replace(RunOptions.from_args(args), paced=paced), args.out)
 
 
 def run(options: RunOptions, out: Path | None) -> int:
@@ -81,7 +85,8 @@ def run(options: RunOptions, out: Path | None) -> int:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # scoring takes a second: let it finish
     if result.exit_code != 0 and not any(result.message_counts.values()):
         return result.exit_code
-    sim_time, duration_s = options.sim_time, options.duration_s
+    options = checked.options  # a split or respawning run keeps the wall clock
+    sim_time, duration_s = options.lockstep, options.duration_s
     try:
         recording = report.read_recording(result.bag_dir)
         units = report.arm_units(checked.params["simulator"]["urdf_path"])
@@ -98,21 +103,24 @@ def run(options: RunOptions, out: Path | None) -> int:
     preset, seed = options.preset, options.seed
     values.update(duration_s=round(recorded_s, 3), interrupted=result.interrupted, preset=preset, robot=robot)
     values.update(seed=seed, mode="single_process" if options.single_process else "multi_process")
-    values.update(clock="sim_lockstep" if sim_time else "wall")
+    values.update(clock="sim_paced" if options.paced else "sim_lockstep" if sim_time else "wall")
     if options.nodes is not None and len(result.local_nodes) < 5:  # a split run: what ran here (the rest elsewhere)
         values["nodes_here"] = ",".join(result.local_nodes)
     # Wall-clock figures of a lockstep run differ run to run: keep them out of metrics.json.
     wall = {"real_time_factor": result.real_time_factor, "wall_duration_s": result.wall_seconds}
     # How many messages the bag misses depends on when the nodes stopped, not on the seed.
     (wall if sim_time else values)["unrecorded_messages"] = sum(result.unrecorded.values())
-    if sim_time:
+    if options.sim_time:
         wall.update(result.usage)
-    else:
+    else:  # a paced world's freezes and its loop's late efforts, or the wall clock's
+        values.update(result.world_clock)
         values["realtime_requested"] = options.realtime
         values.update(result.usage)
+    if options.paced:
+        values.update(wall)  # not the same run to run: the host's
     report.write_metrics(out / "metrics.json", values)
-    if sim_time:
+    if options.sim_time:
         report.write_metrics(out / "timing.json", wall)
     plots.plot_tracking(recording, out / "tracking.png", title=f"{robot}, preset {preset}, seed {seed}", units=units)
-    print_table(values | (wall if sim_time else {}), title=f"run: {robot}, preset {preset}, seed {seed} → {out}")
+    print_table(values | (wall if options.sim_time else {}), title=f"run: {robot}, preset {preset}, seed {seed} → {out}")
     return result.exit_code

@@ -24,6 +24,8 @@ from robot_controller.ros.stack_node import StackNode
 LAW_STOPPED_EXIT_CODE = 3
 # Where in the run's scratch folder (COUNTS_DIR_ENV) the controller writes the law's fault, one line.
 LAW_FAULT_FILE = "law_fault.txt"
+#: A paced world's figures (host freezes, late efforts), written by the simulator at its end for metrics.json.
+WORLD_CLOCK_FILE = "simulator.world_clock"
 
 
 _exit_code: list[int] = []

@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from robot_controller.nodes import recorder as rec
-from robot_controller.ros.process import LAW_FAULT_FILE, TEARDOWN_HUNG_SIGNAL
+from robot_controller.ros.process import LAW_FAULT_FILE, TEARDOWN_HUNG_SIGNAL, WORLD_CLOCK_FILE
 from robot_controller.runner import forking, supervise
 from robot_controller.runner.plan import CheckedRun, plan
 from robot_controller.runner.processes import STOP_TIMEOUT_S, ProcessGroup, say
@@ -39,7 +39,7 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
     previous_sigint = signal.signal(signal.SIGINT, _raise_interrupt)
     # `kill -USR1 <launcher>` prints where every thread of a launcher that seems stuck is.
     faulthandler.register(signal.SIGUSR1, all_threads=True)
-    link = supervise.RecorderLink(list(rec.topics_for(options.sim_time)))
+    link = supervise.RecorderLink(list(rec.topics_for(options.lockstep)))
     graph = supervise.GraphLink() if run.watcher is not None else None
     result = RunResult(run.bag_dir, run.records, options.nodes)
     replaced: set[str] = set()  # nodes killed and respawned
@@ -63,7 +63,7 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
                 respawn = replaced if options.respawn else None
                 run_loop(run, group, nodes, link, result, watcher, respawn, viewers.children, graph)
             except KeyboardInterrupt:
-                _interrupted(result, link, options.sim_time and run.records)
+                _interrupted(result, link, options.lockstep and run.records)
             # The nodes first, then the recorder, which takes what is still in flight (and the viewer).
             codes = group.stop(nodes)
             # The recorder drains what is still queued (rec.DRAIN_MAX_S at most) before it closes the bag.
@@ -73,6 +73,9 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
                 if code not in (None, 0, -signal.SIGINT, 130):
                     say(f"WARNING: {child.name} exited with code {code} (the run itself is unaffected)")
         result.published_counts = _published_counts(run.counts_dir, replaced)
+        world_file = run.counts_dir / WORLD_CLOCK_FILE  # a paced world's figures, written by the simulator
+        if world_file.is_file():
+            result.world_clock = json.loads(world_file.read_text())
         fault_file = run.counts_dir / LAW_FAULT_FILE  # the controller's line on its law's failure, if any
         if fault_file.is_file() and (law_fault := fault_file.read_text().strip()):
             # The controller stopped the arm and ended itself (or the run ended first): say why, in one line.

@@ -22,7 +22,8 @@ class RunOptions:
     robot: str = DEFAULT_ROBOT
     config: tuple[Path, ...] = ()  #: parameter files over the preset, later over earlier
     seed: int | None = None  #: the sensor's noise seed (None: the stack's)
-    sim_time: bool = False  #: deterministic lockstep on /clock
+    sim_time: bool = False  #: deterministic lockstep on /clock, as fast as the graph goes
+    paced: bool = False  #: lockstep on a world clock paced to the wall clock, which pauses with the host
     single_process: bool = False  #: all five nodes on one executor
     realtime: bool = False  #: the simulator's pacing thread SCHED_FIFO (``scheduling``)
     respawn: bool = False  #: a node that dies while the loop runs (wall clock) starts again
@@ -43,6 +44,11 @@ class RunOptions:
         if not getattr(args, "view", True):
             given.pop("view_port", None)
         return cls(**given)
+
+    @property
+    def lockstep(self) -> bool:
+        """The nodes step on the simulator's /clock (``sim_time`` or ``paced``); ``duration_s`` is world time."""
+        return self.sim_time or self.paced
 
     def params(self) -> cfg.Params:
         """The stack's parameters: the robot's, the preset over them, the config files over that, the seed."""

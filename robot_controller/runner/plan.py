@@ -124,8 +124,13 @@ def check(params: cfg.Params, options: RunOptions) -> CheckedRun:
         except ValueError as exc:
             raise ConfigError(f"--run-id: {exc}") from None
     params = with_controller_model(params)
-    if options.sim_time:
+    if options.paced and (split or options.peers or options.respawn):
+        # Across hosts the drive keeps its host's clock, as on hardware; a respawned simulator would restart time.
+        options = replace(options, paced=False)
+    if options.lockstep:
         params = lockstep_params(params)
+        if options.paced:
+            params["simulator"]["real_time_factor"] = 1.0
         if math.isfinite(options.duration_s):
             # The simulator stops a little past the end: the recorder takes every message before the nodes stop.
             params["simulator"]["lockstep_end_s"] = options.duration_s + LOCKSTEP_END_MARGIN_S
@@ -180,7 +185,7 @@ def plan(run: CheckedRun, out_dir: Path) -> RunPlan:
     )
     recorder = None
     if RECORDING_NODE in local:
-        recorder = Process("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] * options.sim_time), env)
+        recorder = Process("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] * options.lockstep), env)
     watcher = Process("graph_watch", "graph_watch", [], dict(env)) if local != NODE_ORDER else None
     viewer = view_url = None
     if options.view_port is not None:
@@ -189,7 +194,7 @@ def plan(run: CheckedRun, out_dir: Path) -> RunPlan:
         viewer_args += ["--control-rate", repr(float(params["pid_controller"]["control_rate_hz"]))]
         viewer = Process("viewer", "viewer", viewer_args, dict(env))
         view_url = view_serve.page_url(options.view_port)
-    end_s = params["simulator"].get("lockstep_end_s", 0.0) if options.sim_time else 0.0
+    end_s = params["simulator"].get("lockstep_end_s", 0.0) if options.lockstep else 0.0
     return RunPlan(
         options, out_dir, bag_dir, counts_dir, recorder, processes, notes, viewer, view_url, watcher, end_s or None
     )

@@ -194,6 +194,7 @@ class RunResult:
     end_reason: str | None = None  #: why a launcher without the recorder ended
     started: float | None = None  #: monotonic time the loop closed
     sim_start: float = 0.0  #: the sim time the loop closed at
+    world_clock: dict[str, float] = field(default_factory=dict)  #: a paced world's freezes and late efforts
 
     def raise_if_interrupted(self) -> None:
         """For a series of runs (faults, compare, bench): Ctrl-C ends the whole series, not just this run."""
@@ -231,7 +232,7 @@ def run_loop(
     :param viewers: observers measured apart (outside ``cpu_pct_total``) and never respawned
     :param graph: part of the graph runs here: wait (``wait_s``) for the other side's nodes first
     """
-    duration_s, sim_time, serving = run.options.duration_s, run.options.sim_time, not run.records
+    duration_s, sim_time, serving = run.options.duration_s, run.options.lockstep, not run.records
     here, there = ", ".join(run.options.nodes), ", ".join(run.remote_nodes)
     if run.records:
         failure = f"the recorder was not ready within {RECORDER_READY_TIMEOUT_S:g} s"

@@ -28,6 +28,7 @@ class LockstepTicks:
         self.recorder_clock_ns: int | None = None  #: the tick the recorder has taken; None: no recorder
         self.held_for_recorder = False
         self.holds_for_recorder = 0
+        self.resume_for_recorder = True  #: the recorder's report publishes a held tick (a paced world's thread does)
         end_s = node.params["lockstep_end_s"]
         self.end_ns = round(end_s * 1e9) if end_s > 0 else None  #: no tick after this (the run's end)
         self.ended = False
@@ -48,18 +49,29 @@ class LockstepTicks:
             return
         node.destroy_timer(self.start_poll)
         node.get_logger().info("lockstep: sensor and motor matched, starting at t = 0")
-        self.publish()
+        with node.lock:  # a paced world's thread (``paced``) ticks too
+            self.publish()
 
     def take_effort(self, effort: np.ndarray) -> None:
-        node = self.node
         if not self.waiting_for_effort:
-            node.warn_throttled("extra_effort", "lockstep: effort with no tick waiting for it, ignored")
+            self.node.warn_throttled("extra_effort", "lockstep: effort with no tick waiting for it, ignored")
             return
+        self.accept(effort)
+        self.advance()
+
+    def accept(self, effort: np.ndarray) -> None:
+        """The effort in force from now (none while a brake holds): it releases the start and drive-timeout brakes."""
+        node = self.node
         self.waiting_for_effort = False
         node.brakes.set("start", False)
         node.brakes.set("drive_timeout", False)
         node.effort = np.zeros(node.joint_count) if node.brakes.reasons else effort
         self.efforts_applied += 1
+
+    def advance(self) -> None:
+        """One control period of physics on the effort in force, then the next tick (unless the run's end or
+        the recorder holds it)."""
+        node = self.node
         node.step(self.steps_per_tick)
         if self.end_ns is not None and node.steps_done * node.physics_dt_ns > self.end_ns:
             # The run's end: no more ticks, so the graph falls quiet and the recorder catches up.
@@ -79,7 +91,7 @@ class LockstepTicks:
 
     def recorder_clock(self, msg: ClockMsg) -> None:
         self.recorder_clock_ns = max(self.recorder_clock_ns, msg.clock.sec * 1_000_000_000 + msg.clock.nanosec)
-        if self.held_for_recorder and not self.recorder_behind():
+        if self.resume_for_recorder and self.held_for_recorder and not self.recorder_behind():
             self.held_for_recorder = False
             self.publish()
 

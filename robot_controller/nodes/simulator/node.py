@@ -17,10 +17,12 @@ from robot_controller.core.model import MujocoPlant, Payload, steps_per_period
 from robot_controller.nodes.simulator.brakes import Brakes
 from robot_controller.nodes.simulator.disturbance import Disturbance
 from robot_controller.nodes.simulator.lockstep import LockstepTicks
+from robot_controller.nodes.simulator.paced import PacedTicks
 from robot_controller.nodes.simulator.pacing import Pacing
 from robot_controller.nodes.world_state import WORLD_STATE_ENV, WorldState
 from robot_controller.ros.messages import check_effort
 from robot_controller.ros.process import run
+from robot_controller.ros.publishing import COUNTS_DIR_ENV
 from robot_controller.ros.qos import loop_qos
 from robot_controller.ros.stack_node import StackNode
 
@@ -52,13 +54,16 @@ class Simulator(StackNode):
         self.state_msg = JointState()
         self.state_msg.name = list(self.plant.joint_names)
         self.disturbance = Disturbance(self)
-        self.ticks = LockstepTicks(self) if self.lockstep else None
+        self.ticks: LockstepTicks | PacedTicks | None = None
+        if self.lockstep:
+            self.ticks = PacedTicks(self) if p["real_time_factor"] > 0 else LockstepTicks(self)
         if self.pacing is not None:
             self.pacing.start()
         self.get_logger().info(
             f"MuJoCo arm {self.plant.joint_names} at {p['physics_rate_hz']:g} Hz physics, "
             + (
                 f"lockstep at {p['control_rate_hz']:g} Hz on /clock"
+                + (f", paced at {p['real_time_factor']:g}× the wall clock" if p["real_time_factor"] > 0 else "")
                 if self.lockstep
                 else f"true state at {p['publish_rate_hz']:g} Hz, paced on absolute deadlines"
                 + (", brakes on until the first command" if p["wait_for_first_command"] else "")
@@ -133,6 +138,8 @@ class Simulator(StackNode):
     def finish(self) -> None:
         if self.pacing is not None:
             self.pacing.stop()
+        if isinstance(self.ticks, PacedTicks):
+            self.ticks.stop(os.environ.get(COUNTS_DIR_ENV, ""))
 
     def destroy_node(self) -> None:
         self.finish()
