@@ -122,5 +122,6 @@ def run(options: RunOptions, out: Path | None) -> int:
     if options.sim_time:
         report.write_metrics(out / "timing.json", wall)
     plots.plot_tracking(recording, out / "tracking.png", title=f"{robot}, preset {preset}, seed {seed}", units=units)
-    print_table(values | (wall if options.sim_time else {}), title=f"run: {robot}, preset {preset}, seed {seed} → {out}")
+    title = f"run: {robot}, preset {preset}, seed {seed} → {out}"
+    print_table(values | (wall if options.sim_time else {}), title=title)
     return result.exit_code

@@ -18,6 +18,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.nodes.world_state import WORLD_STATE_ENV
 from robot_controller.parameters import consistency
 from robot_controller.parameters.builders import ARM_MODEL_KEYS
+from robot_controller.parameters.schema.simulator import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import partition, scheduling
 from robot_controller.ros.publishing import COUNTS_DIR_ENV, RECORDED_ENV
 from robot_controller.runner.options import NODE_ORDER, RunOptions, check_nodes
@@ -27,8 +28,6 @@ from robot_controller.view import serve as view_serve
 #: The node whose launcher records and scores a split run: the recorder hears the loop where the arm is.
 RECORDING_NODE = "simulator"
 
-#: Sim seconds the simulator runs past a lockstep run's duration (its ``lockstep_end_s``).
-LOCKSTEP_END_MARGIN_S = 0.5
 # Fast DDS sends from the publishing thread, not through a sender thread: the lockstep runs faster so.
 FASTDDS_PUBLICATION_MODE = ("RMW_FASTRTPS_PUBLICATION_MODE", "SYNCHRONOUS")
 

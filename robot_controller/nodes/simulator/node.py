@@ -136,10 +136,11 @@ class Simulator(StackNode):
         self.disturbance.publish_applied(stamp_ns)
 
     def finish(self) -> None:
+        counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
         if self.pacing is not None:
-            self.pacing.stop()
+            self.pacing.stop(counts_dir)
         if isinstance(self.ticks, PacedTicks):
-            self.ticks.stop(os.environ.get(COUNTS_DIR_ENV, ""))
+            self.ticks.stop(counts_dir)
 
     def destroy_node(self) -> None:
         self.finish()

@@ -3,10 +3,10 @@ that keeps pace with the wall clock and pauses with the host, as Gazebo's real-t
 
 Tick k's effort acts over the period after it, as in lockstep: the world steps at that period's deadline on
 the monotonic clock, or as soon after it as the effort arrives, within ``GRACE_PERIODS``; while every effort is
-in time a run is the lockstep run to the bit. An effort not in by then is the loop's miss: the world goes on with the effort in force and brakes
-(category 0) after ``drive_timeout_s`` of world time without one. A wake-up later than a whole period is a
-freeze of the host (or of the simulator alone): the world paused with it, so nothing counts against the
-loop, which gets a whole period from the wake-up to answer."""
+in time a run is the lockstep run to the bit. An effort not in by then is the loop's miss: the world goes on
+with the effort in force and brakes (category 0) after ``drive_timeout_s`` of world time without one. A
+wake-up later than a whole period is a freeze of the host (or of the simulator alone): the world paused with
+it, so nothing counts against the loop, which gets a whole period from the wake-up to answer."""
 
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from robot_controller.nodes.simulator.lockstep import LockstepTicks
+from robot_controller.parameters.schema.simulator import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import scheduling
 from robot_controller.ros.process import WORLD_CLOCK_FILE
 from robot_controller.ros.stack_node import StackNode
@@ -46,6 +47,18 @@ class FreezeLog:
             "host_freeze_ms_max": round(self.max_ms, 3),
             "host_freeze_ms_total": round(self.total_ms, 3),
         }
+
+    def say_and_leave(self, node: StackNode, counts_dir: str, meaning: str, **more: int) -> None:
+        """Say the freezes (and ``more`` figures) in one line, and leave them in ``counts_dir`` for metrics.json."""
+        figures = {**self.figures(), **more}
+        if self.count or any(more.values()):
+            said = ", ".join(f"{value} {name.replace('_', ' ')}" for name, value in more.items())
+            node.get_logger().info(
+                f"the host froze this simulator {self.count} time(s) (longest {self.max_ms:.0f} ms, "
+                f"{self.total_ms:.0f} ms in all): {meaning}" + (f"; {said}" if said else "")
+            )
+        if counts_dir:
+            (Path(counts_dir) / WORLD_CLOCK_FILE).write_text(json.dumps(figures))
 
 
 class PacedTicks:
@@ -107,7 +120,7 @@ class PacedTicks:
             ticks.held_for_recorder = False
             ticks.publish()
             return deadline_ns + self.period_ns
-        if not self.effort_in:
+        if not self.effort_in and not self.past_the_run():
             self.late_efforts += 1
             self.ticks_without_effort += 1
             brakes = self.node.brakes
@@ -115,16 +128,19 @@ class PacedTicks:
                 brakes.set("drive_timeout", True)
                 self.node.warn_throttled(
                     "drive_timeout",
-                    f"no effort for {self.ticks_without_effort} ticks of world time: torque off, brakes on "
-                    "(category 0)",
+                    f"no effort for {self.ticks_without_effort} ticks of world time (t = "
+                    f"{self.node.steps_done * self.node.plant.physics_dt:.2f} s): torque off, brakes on (category 0)",
                 )
         self.effort_in = False
         ticks.waiting_for_effort = True
         ticks.advance()
         return deadline_ns + self.period_ns
 
-    def figures(self) -> dict[str, float]:
-        return {**self.freezes.figures(), "late_efforts": self.late_efforts}
+    def past_the_run(self) -> bool:
+        """In the margin after the run's duration, where the launcher may stop the nodes (lock held)."""
+        end_ns = self.ticks.end_ns
+        margin_ns = round(LOCKSTEP_END_MARGIN_S * 1e9)
+        return end_ns is not None and self.node.steps_done * self.node.physics_dt_ns > end_ns - margin_ns
 
     def stop(self, counts_dir: str) -> None:
         """End the thread; say and leave (in ``counts_dir``, if any) the world's figures."""
@@ -133,14 +149,9 @@ class PacedTicks:
         self.stopping.set()
         if self.thread.is_alive():
             self.thread.join(timeout=1.0)
-        figures = self.figures()
-        if figures["host_freezes"] or self.late_efforts:
-            self.node.get_logger().info(
-                f"paced world: {figures['host_freezes']} host freeze(s) it paused for "
-                f"(longest {figures['host_freeze_ms_max']:.0f} ms), {self.late_efforts} effort(s) later than their tick"
-            )
-        if counts_dir:
-            (Path(counts_dir) / WORLD_CLOCK_FILE).write_text(json.dumps(figures))
+        self.freezes.say_and_leave(
+            self.node, counts_dir, "the world paused with it", late_efforts=self.late_efforts
+        )
 
     def report(self) -> None:
         self.ticks.report()

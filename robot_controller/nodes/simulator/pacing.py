@@ -7,6 +7,7 @@ import sys
 import threading
 import time
 
+from robot_controller.nodes.simulator.paced import FreezeLog
 from robot_controller.ros import scheduling
 from robot_controller.ros.stack_node import StackNode
 
@@ -23,7 +24,7 @@ class Pacing:
         self.anchor_mono_ns: int | None = None
         self.anchor_ros_ns = 0
         self.behind_warned = False
-        self.late_wakeups = 0
+        self.freezes = FreezeLog()  # wake-ups later than a whole period: the host's (or this process's) freezes
         self.stopping = threading.Event()
         self.thread: threading.Thread | None = None
         self.period_ns = round(1e9 / node.params["publish_rate_hz"])
@@ -82,7 +83,7 @@ class Pacing:
             # Next deadline on the grid of physics time 0 (or the last one while braked), skipping those missed.
             base = anchor if anchor is not None else deadline_ns
             if now_ns - deadline_ns >= period_ns:
-                self.late_wakeups += 1
+                self.freezes.note(now_ns - deadline_ns)
             if rt_priority is not None and scheduling.demoted.is_set():
                 rt_priority = None
                 node.get_logger().warning(
@@ -106,9 +107,12 @@ class Pacing:
             due = MAX_CATCH_UP_STEPS
         node.step(int(due))
 
-    def stop(self) -> None:
+    def stop(self, counts_dir: str) -> None:
+        """End the thread; say how often the host froze the loop, which on the wall clock counts against it."""
+        if self.stopping.is_set():
+            return
         self.stopping.set()
         if self.thread is not None and self.thread.is_alive():
             self.thread.join(timeout=1.0)
-            if self.late_wakeups:
-                self.node.get_logger().info(f"pacing: {self.late_wakeups} wake-up(s) later than a whole period")
+        meaning = "on the wall clock the late commands and brakes then were the host's"
+        self.freezes.say_and_leave(self.node, counts_dir, meaning)

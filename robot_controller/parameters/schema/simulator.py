@@ -6,6 +6,9 @@ from __future__ import annotations
 from robot_controller.parameters.schema.shared import POSITIVE, SAFETY, URDF, lockstep_spec
 from robot_controller.parameters.spec import ParamSpec
 
+#: Sim seconds the simulator runs past a lockstep run's duration (its ``lockstep_end_s``): the nodes may stop then.
+LOCKSTEP_END_MARGIN_S = 0.5
+
 # One line per parameter: the schema reads as a table.
 # fmt: off
 SIMULATOR_PARAMS: tuple[ParamSpec, ...] = (
