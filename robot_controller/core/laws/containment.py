@@ -5,11 +5,16 @@ terms are gathered for ``/controller/state``. The first thing it gets wrong beco
 (a :class:`LawFault`) instead of a torque: it raises, returns anything but one finite number per
 joint, takes longer than its budget on OVERRUN_TICKS ticks running (one long call alone is the
 machine's doing, a slow law is slow on every tick; measured on ``clock``, seconds of wall time, or
-not at all without one), or lets the arm run away from the reference (``error_max_rad``). The
-controller answers a fault with a controlled stop on its built-in law; the law is never called again."""
+not at all without one), is still running a control period past its budget (timed, its calls run on
+a :class:`LawWorker` the controller stops waiting for), or lets the arm run away from the reference
+(``error_max_rad``). The controller answers a fault with a controlled stop on its built-in law; the
+law is never called again."""
 
 from __future__ import annotations
 
+import ctypes
+import queue
+import threading
 import traceback
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -34,11 +39,56 @@ class LawFault:
 
     law: str  #: the law as ``controller_type`` names it
     what: str  #: e.g. "raised ZeroDivisionError: division by zero"
-    time_s: float  #: the tick it happened on, s
+    time_s: float | None  #: the tick it happened on, s (None: before the first)
     traceback: str = ""  #: the law's traceback when it raised
 
     def line(self) -> str:
-        return f"control law {self.law} {self.what} at t = {self.time_s:.3f} s"
+        at = "before the first tick" if self.time_s is None else f"at t = {self.time_s:.3f} s"
+        return f"control law {self.law} {self.what} {at}"
+
+
+class _Abandoned(BaseException):
+    """Raised in an abandoned call at its next Python instruction, to end it."""
+
+
+def _outcome(call: Callable[[], Any]) -> tuple[Any, str | None]:
+    """``(value, None)``, or ``(exception, traceback)`` when ``call`` raised anything, ``SystemExit`` too."""
+    try:
+        return call(), None
+    except BaseException as exc:  # noqa: BLE001 - whatever a law raises is its fault, never the controller's end
+        return exc, traceback.format_exc()
+
+
+class LawWorker:
+    """A thread running a law's calls one at a time, so the controller can stop waiting for one that
+    blocks (sleeps, loops, deadlocks). An abandoned call is asked to end at its next Python instruction;
+    one blocked in C code runs on, and one holding the GIL there stalls every thread: a thread cannot be
+    killed."""
+
+    def __init__(self, name: str) -> None:
+        self._calls: queue.SimpleQueue = queue.SimpleQueue()
+        self._done = threading.Event()
+        self._outcome: tuple[Any, str | None] = (None, None)
+        self._thread = threading.Thread(target=self._serve, name=f"law {name}", daemon=True)
+        self._thread.start()
+
+    def run(self, call: Callable[[], Any], timeout_s: float) -> tuple[Any, str | None] | None:
+        """:func:`_outcome` of ``call``, or None if it is still running after ``timeout_s`` (abandoned)."""
+        self._done.clear()
+        self._calls.put(call)
+        if self._done.wait(timeout_s):
+            return self._outcome
+        self._calls.put(None)  # the thread ends once the call does
+        ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(self._thread.ident), ctypes.py_object(_Abandoned))
+        return None
+
+    def _serve(self) -> None:
+        try:
+            while (call := self._calls.get()) is not None:
+                self._outcome = _outcome(call)
+                self._done.set()
+        except _Abandoned:
+            pass  # it arrived between calls
 
 
 class ContainedLaw(ControlLaw):
@@ -68,10 +118,13 @@ class ContainedLaw(ControlLaw):
         self.slew_rate_limit = 0.0  #: N·m/s (0: none)
         self.extra_terms = tuple(getattr(type(law), "state_terms", ()) or ())  #: terms beyond the standard blocks
         self.fault: LawFault | None = None
+        self.tick_s: float | None = None  #: the latest tick the law was called on, s
+        self.worker = LawWorker(name) if clock is not None else None  #: timed, the calls run here
         self.overruns_s: list[float] = []  #: the durations of the updates over budget in a row, s
         self._previous_command: np.ndarray | None = None
         self._last_s: float | None = None
         self._terms: dict[str, np.ndarray] = {}
+        self._raw_terms: dict[str, Any] = {}
 
     @classmethod
     def build(
@@ -107,12 +160,13 @@ class ContainedLaw(ControlLaw):
         self.budget_s, self.error_max_rad = budget_s, error_max_rad
         self.stop_deceleration_rad_s2 = stop_deceleration_rad_s2
 
-    def reset(self, state: State, time_s: float = 0.0) -> None:
-        """The loop starts (again) from ``state`` at ``time_s`` (s: when a fault in the law's reset happened)."""
+    def reset(self, state: State, time_s: float | None = None) -> None:
+        """The loop starts (again) from ``state`` at the tick ``time_s`` (s; None: the latest)."""
         self._previous_command, self._last_s = None, None
+        self.tick_s = self.tick_s if time_s is None else time_s
         reset = getattr(self.law, "reset", None)
-        if reset is not None and self.fault is None:
-            self._call(time_s, "reset", lambda: reset(state))
+        if reset is not None:
+            self._call(self.tick_s, "reset", lambda: reset(state))
 
     def set_params(self, params: Mapping[str, Any]) -> None:
         """New parameter values, checked against the law's declarations first."""
@@ -121,11 +175,12 @@ class ContainedLaw(ControlLaw):
         if setter is None:
             self.law.params = dict(self.params)
         else:
-            self._call(0.0, "set_params", lambda: setter(self.params))
+            self._call(self.tick_s, "set_params", lambda: setter(self.params))
 
     def update(self, time_s: float, state: State, reference: Reference) -> np.ndarray:
         """The law's torque per joint within the torque limit and slew rate; zeros once it has made a
         fault (``fault`` says which: it is never called again)."""
+        self.tick_s = time_s
         torque = self._checked_torque(time_s, state, reference)
         if torque is None:
             return np.zeros(self.joint_count)
@@ -165,11 +220,10 @@ class ContainedLaw(ControlLaw):
 
     def _checked_torque(self, time_s: float, state: State, reference: Reference) -> np.ndarray | None:
         """The law's torque per joint (float64, finite), or None when it made a fault."""
-        if self.fault is not None:
-            return None
-        returned = self._call(time_s, "update", lambda: self.law.update(time_s, state, reference))
+        returned = self._call(time_s, "update", lambda: (self.law.update(time_s, state, reference), self._law_terms()))
         if isinstance(returned, LawFault):
             return None
+        returned, self._raw_terms = returned
         try:
             torque = np.asarray(returned, dtype=float)
         except (TypeError, ValueError):
@@ -214,18 +268,18 @@ class ContainedLaw(ControlLaw):
             f"(law_error_max_rad {self.error_max_rad:g})",
         )
 
-    def _reported_terms(self) -> dict[str, np.ndarray]:
-        """The user's law's terms, each one finite number per joint (others are not reported; none
-        if reporting them fails, never a reason to stop)."""
+    def _law_terms(self) -> dict[str, Any]:
+        """The user's law's terms as it reports them (none if that fails, never a reason to stop)."""
         terms = getattr(self.law, "terms", None)
-        if terms is None:
-            return {}
         try:
-            reported = dict(terms())
+            return {} if terms is None else dict(terms())
         except Exception:
             return {}
+
+    def _reported_terms(self) -> dict[str, np.ndarray]:
+        """The user's law's terms of the last update, each one finite number per joint (others are not reported)."""
         out = {}
-        for name, value in reported.items():
+        for name, value in self._raw_terms.items():
             try:
                 array = np.broadcast_to(np.asarray(value, dtype=float), (self.joint_count,))
             except (TypeError, ValueError):
@@ -233,17 +287,25 @@ class ContainedLaw(ControlLaw):
             out[name] = np.where(np.isfinite(array), array, 0.0)
         return out
 
-    def _call(self, time_s: float, method: str, call: Callable[[], Any]) -> Any:
+    def _call(self, time_s: float | None, method: str, call: Callable[[], Any]) -> Any:
+        """``call()``'s value, or the law's fault; timed, a call still running ``period_s`` past the
+        budget is a fault at once (its worker abandoned), shorter overruns count as :data:`OVERRUN_TICKS` says."""
+        if self.fault is not None:
+            return self.fault
         timed = self.clock is not None and method == "update"
-        started = self.clock() if timed else 0.0
-        try:
-            value = call()
-        except Exception as exc:
+        started = self.clock() if self.clock is not None else 0.0
+        outcome = _outcome(call) if self.worker is None else self.worker.run(call, self.budget_s + self.period_s)
+        if outcome is None:
             return self._faulted(
                 time_s,
-                f"raised {type(exc).__name__}: {exc}" + ("" if method == "update" else f" in {method}()"),
-                traceback.format_exc(),
+                f"was still in {method}() after {(self.clock() - started) * 1e3:.1f} ms, over its budget of "
+                f"{self.budget_s * 1e3:g} ms (law_budget_s) by more than a control period: abandoned",
             )
+        value, trace = outcome
+        if trace is not None:
+            in_method = "" if method == "update" else f" in {method}()"
+            said = f": {value}" if str(value) else ""
+            return self._faulted(time_s, f"raised {type(value).__name__}{said}{in_method}", trace)
         if timed:
             duration_s = self.clock() - started
             self.overruns_s = self.overruns_s + [duration_s] if duration_s > self.budget_s else []
@@ -256,7 +318,7 @@ class ContainedLaw(ControlLaw):
                 )
         return value
 
-    def _faulted(self, time_s: float, what: str, trace: str = "") -> LawFault:
+    def _faulted(self, time_s: float | None, what: str, trace: str = "") -> LawFault:
         self.fault = LawFault(self.name, what, time_s, trace)
         return self.fault
 

@@ -118,7 +118,7 @@ class StatusReports:
         """Once, when the law first fails: one error line (what it did, what happens next), the
         law's traceback after it, and the line in the run's folder for the launcher to name."""
         fault = self.controller.law_fault
-        if not self.node.lockstep:  # the wall clock's tick times are the system's: count from the first tick
+        if not self.node.lockstep and fault.time_s is not None:  # the wall clock's: count from the first tick
             fault = dataclasses.replace(fault, time_s=fault.time_s - self.node.first_tick_s)
         line = (
             f"{fault.line()}: controlled stop on the built-in {self.controller.config.stop_law}, "

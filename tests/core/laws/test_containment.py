@@ -1,0 +1,125 @@
+"""A contained law that blocks or ends the process: the controller stops waiting for a call still
+running a control period past its budget, contains SystemExit and KeyboardInterrupt as any
+exception, and dates a failure by the tick it happened on. Small budgets; behaviour, not timings."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from robot_controller.core.laws import Arm
+from robot_controller.core.laws.containment import ContainedLaw
+
+ARM = Arm(None, ("joint 1",), np.array([np.inf]), np.array([[-np.inf, np.inf]]))
+
+
+class Blocking:
+    """Blocks in its second update until ``release`` is set (a deadlock, or a long sleep)."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+        self.release = threading.Event()
+        self.went_on = False  # set only if the abandoned call ran past its block
+
+    def update(self, time_s, state, reference):
+        self.calls += 1
+        if self.calls == 2:
+            self.release.wait()
+            self.went_on = True
+        return np.ones(1)
+
+
+def contained(law, clock=time.perf_counter, budget_s=0.001, period_s=0.005) -> ContainedLaw:
+    return ContainedLaw(law, type(law).__name__, ARM, period_s, {}, clock=clock, budget_s=budget_s)
+
+
+def test_a_law_that_blocks_is_abandoned_on_that_tick_and_never_called_again():
+    law = Blocking()
+    held = contained(law)
+    assert held.update(1.0, None, None).tolist() == [1.0] and held.fault is None
+    assert held.update(1.005, None, None).tolist() == [0.0]  # the controller went on without it
+    assert law.calls == 2 and not law.went_on
+    line = held.fault.line()
+    assert "Blocking was still in update()" in line and "over its budget of 1 ms (law_budget_s)" in line, line
+    assert line.endswith("abandoned at t = 1.005 s"), line
+    assert held.update(1.01, None, None).tolist() == [0.0] and law.calls == 2  # never called again
+    # Released, the abandoned call is asked to end at its next instruction: it never goes on.
+    law.release.set()
+    held.worker._thread.join(timeout=10.0)
+    assert not held.worker._thread.is_alive() and not law.went_on
+
+
+def test_a_law_that_sleeps_far_past_its_budget_once_is_a_fault():
+    class SleepsOnce:
+        def __init__(self) -> None:
+            self.calls = 0
+
+        def update(self, time_s, state, reference):
+            self.calls += 1
+            if self.calls == 3:
+                time.sleep(2.0)
+            return np.zeros(1)
+
+    held = contained(SleepsOnce())
+    for t in (0.0, 0.005, 0.01):
+        held.update(t, None, None)
+    assert "over its budget of 1 ms (law_budget_s) by more than a control period" in held.fault.line()
+    assert held.fault.time_s == 0.01
+
+
+def test_a_lone_modest_overrun_is_not_a_fault():
+    class SlowOnce:
+        def __init__(self) -> None:
+            self.calls = 0
+
+        def update(self, time_s, state, reference):
+            self.calls += 1
+            if self.calls == 2:
+                time.sleep(0.01)  # ten times its budget, far less than the period past it
+            return np.zeros(1)
+
+    held = contained(SlowOnce(), budget_s=0.001, period_s=2.0)
+    for t in (0.0, 2.0, 4.0):
+        held.update(t, None, None)
+    assert held.fault is None
+
+
+@pytest.mark.parametrize("raised", [SystemExit(3), KeyboardInterrupt()])
+@pytest.mark.parametrize("clock", [None, time.perf_counter], ids=["inline", "worker"])
+def test_system_exit_and_keyboard_interrupt_from_a_law_are_its_faults(raised, clock):
+    class Ends:
+        def update(self, time_s, state, reference):
+            raise raised
+
+    held = contained(Ends(), clock=clock)
+    assert held.update(2.0, None, None).tolist() == [0.0]
+    said = f"raised {type(raised).__name__}" + (": 3" if isinstance(raised, SystemExit) else "")
+    assert held.fault.line() == f"control law Ends {said} at t = 2.000 s"
+    assert type(raised).__name__ in held.fault.traceback
+
+
+@pytest.mark.parametrize("clock", [None, time.perf_counter], ids=["inline", "worker"])
+def test_failures_in_reset_and_set_params_carry_their_ticks_time(clock):
+    class FailsAside:
+        def update(self, time_s, state, reference):
+            return np.zeros(1)
+
+        def reset(self, state):
+            raise RuntimeError("no reset")
+
+        def set_params(self, params):
+            raise ValueError("no such gain")
+
+    held = contained(FailsAside(), clock=clock)
+    held.update(2.5, None, None)
+    held.set_params({})
+    assert held.fault.line().endswith("raised ValueError: no such gain in set_params() at t = 2.500 s")
+    before = contained(FailsAside(), clock=clock)
+    before.set_params({})
+    assert before.fault.line().endswith("in set_params() before the first tick")
+    at_reset = contained(FailsAside(), clock=clock)
+    at_reset.reset(None, 3.25)
+    assert at_reset.fault.line().endswith("raised RuntimeError: no reset in reset() at t = 3.250 s")
