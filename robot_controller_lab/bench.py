@@ -22,7 +22,14 @@ from typing import Any
 from robot_controller import parameters as cfg
 from robot_controller.scoring import report
 from robot_controller_lab import hop_bench
-from robot_controller_lab.bench_runs import BusyCore, batch_sim_s_per_s, core_steps_per_s, kilohertz, wall_run
+from robot_controller_lab.bench_runs import (
+    BusyCore,
+    HostFreezes,
+    batch_sim_s_per_s,
+    core_steps_per_s,
+    kilohertz,
+    wall_run,
+)
 from robot_controller_lab.bench_targets import TARGETS, render_markdown
 
 SOAK_S, QUICK_SOAK_S = 600.0, 20.0
@@ -137,6 +144,34 @@ def _lockstep(single: bool) -> Callable[[Run], dict[str, Any]]:
     return measure
 
 
+PACED = {
+    "missed": "missed_cycles",
+    "late_efforts": "late_efforts",
+    "watchdog_ticks": "watchdog_ticks",
+    "stopped_ticks": "stopped_ticks",
+    "host_freezes": "host_freezes",
+    "host_freeze_ms_max": "host_freeze_ms_max",
+    "tracking_rms_rad": "tracking_rms_rad",
+    "tracking_max_rad": "tracking_max_rad",
+    "rtf": "real_time_factor",
+}
+
+
+def _paced(frozen: bool) -> Callable[[Run], dict[str, Any]]:
+    """The default run (the paced world); ``frozen``: every node frozen together for 50 ms every 5 s."""
+    name = "paced_frozen" if frozen else "paced"
+
+    def measure(run: Run) -> dict[str, Any]:
+        freezes = HostFreezes() if frozen else None
+        values = wall_run(run.params, run.out, run.duration_s, paced=True, watcher=freezes)
+        figures = _figures(name, values, PACED)
+        if freezes is not None:
+            figures["paced_frozen_injected"] = freezes.count
+        return figures
+
+    return measure
+
+
 def _hop(run: Run) -> dict[str, Any]:
     round_trips = hop_bench.round_trips_per_s(run.duration_s)
     limit = round_trips / 2 / run.params["pid_controller"]["control_rate_hz"]
@@ -197,6 +232,22 @@ SCENARIOS = (
         4.0,
         tuple(f"wall100_loaded_{k}" for k in _TIMING_KEYS),
         _wall100(loaded=True),
+    ),
+    Scenario(
+        "paced",
+        "the default run: the paced world, five processes",
+        120.0,
+        6.0,
+        tuple(f"paced_{k}" for k in PACED),
+        _paced(frozen=False),
+    ),
+    Scenario(
+        "paced_frozen",
+        "the paced world, every node frozen 50 ms every 5 s (a host that stalls)",
+        60.0,
+        9.0,
+        (*(f"paced_frozen_{k}" for k in PACED), "paced_frozen_injected"),
+        _paced(frozen=True),
     ),
     Scenario(
         "wall1k_single",

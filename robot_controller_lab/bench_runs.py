@@ -5,6 +5,7 @@ loop's ticks per second and the batch harness's simulated seconds per second."""
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -22,29 +23,59 @@ from robot_controller.core.reference import make_trajectory
 from robot_controller.experiments import inprocess
 from robot_controller.runner import forking, launcher, plan
 from robot_controller.runner.options import RunOptions
+from robot_controller.runner.supervise import Watcher
 from robot_controller.scoring import report
 
 
 def wall_run(
-    params: cfg.Params, out: Path, duration_s: float, *, single_process: bool = False, sim_time: bool = False
+    params: cfg.Params,
+    out: Path,
+    duration_s: float,
+    *,
+    single_process: bool = False,
+    sim_time: bool = False,
+    paced: bool = False,
+    watcher: Watcher | None = None,
 ) -> dict[str, Any]:
-    options = RunOptions(duration_s, sim_time=sim_time, single_process=single_process)
-    result = launcher.launch(plan.check(params, options), out)
+    options = RunOptions(duration_s, sim_time=sim_time, paced=paced, single_process=single_process)
+    result = launcher.launch(plan.check(params, options), out, watcher=watcher)
     result.raise_if_interrupted()
     if result.exit_code != 0 and not result.message_counts.get("/controller/state"):
         return {"failure": result.failure}
     values = report.score(
         report.read_recording(result.bag_dir),
         nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
-        window_s=duration_s if sim_time else None,
+        window_s=duration_s if options.lockstep else None,
     )
     values["real_time_factor"] = result.real_time_factor
     if result.failure:
         values["failure"] = result.failure  # scored as far as it ran, and said so
     values.update(result.usage)
+    values.update(result.world_clock)  # a paced world's freezes and late efforts
     values["unrecorded_messages"] = sum(result.unrecorded.values())
     report.write_metrics(out / "metrics.json", values)
     return values
+
+
+class HostFreezes:
+    """A launcher watcher that freezes every node of the run together (``SIGSTOP``, then ``SIGCONT``
+    ``freeze_s`` later) every ``every_s`` from ``first_s`` after the loop closed: a host that stalls, as a
+    hypervisor taking the CPU does. The launcher waits through it too."""
+
+    def __init__(self, freeze_s: float = 0.05, every_s: float = 5.0, first_s: float = 3.0) -> None:
+        self.freeze_s, self.every_s, self.next_s = freeze_s, every_s, first_s
+        self.count = 0
+
+    def __call__(self, elapsed_s: float, pids: dict[str, int]) -> None:
+        if elapsed_s < self.next_s:
+            return
+        self.next_s += self.every_s
+        for pid in pids.values():
+            os.kill(pid, signal.SIGSTOP)
+        time.sleep(self.freeze_s)
+        for pid in pids.values():
+            os.kill(pid, signal.SIGCONT)
+        self.count += 1
 
 
 def kilohertz(params: cfg.Params) -> cfg.Params:

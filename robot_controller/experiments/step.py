@@ -33,7 +33,7 @@ def run_checked(checked: plan.CheckedRun, out: Path) -> tuple[dict[str, Any], re
         raise RuntimeError(f"run in {out} failed: {result.failure}")
     recording = report.read_recording(result.bag_dir)
     period_s = 1.0 / checked.params["pid_controller"]["control_rate_hz"]
-    window_s = checked.options.duration_s if checked.options.sim_time else None
+    window_s = checked.options.duration_s if checked.options.lockstep else None
     units = report.arm_units(checked.params["simulator"]["urdf_path"])
     return report.score(recording, nominal_period_s=period_s, window_s=window_s, units=units), recording
 
@@ -128,15 +128,18 @@ def plot_step(
 def check_step(
     params: cfg.Params, *, amplitude: float, shaping: str, sim_time: bool, seed: int, domain_id: int | None = None
 ) -> plan.CheckedRun:
-    """The step run of ``params`` checked whole, before anything is written or started."""
+    """The step run of ``params`` checked whole, before anything is written or started (without ``sim_time``
+    in the paced world, as ``run``)."""
     params = step_params(params, amplitude, shaping)
     params["sensor_node"]["seed"] = seed
-    return plan.check(params, RunOptions(STEP_LEAD_S + STEP_AFTER_S, sim_time=sim_time, domain_id=domain_id))
+    options = RunOptions(STEP_LEAD_S + STEP_AFTER_S, sim_time=sim_time, paced=not sim_time, domain_id=domain_id)
+    return plan.check(params, options)
 
 
 def step_response(checked: plan.CheckedRun, out: Path, *, amplitude: float, shaping: str) -> dict[str, Any]:
     """Run the step :func:`check_step` checked; its figures, also in ``metrics.json`` and ``step.png``."""
-    params, clock = checked.params, "sim_lockstep" if checked.options.sim_time else "wall"
+    options = checked.options
+    params, clock = checked.params, "sim_paced" if options.paced else "sim_lockstep" if options.sim_time else "wall"
     seed = params["sensor_node"]["seed"]
     values, recording = run_checked(checked, out)
     values.update(step_figures(recording, amplitude, np.asarray(params["trajectory_planner"]["offset"], float)))

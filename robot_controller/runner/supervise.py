@@ -158,12 +158,20 @@ def wait_wall(
     return None
 
 
-def wait_sim(group: ProcessGroup, link: RecorderLink, until_sim_s: float, meter: UsageMeter) -> str | None:
+def wait_sim(
+    group: ProcessGroup,
+    link: RecorderLink,
+    until_sim_s: float,
+    meter: UsageMeter,
+    watch: Callable[[], None] | None = None,
+) -> str | None:
     last_clock, last_change = link.clock_s, time.monotonic()
     while link.clock_s < until_sim_s:
         if dead := group.dead():
             return died(dead)
         meter.poll()
+        if watch is not None:
+            watch()
         if link.clock_s != last_clock:
             last_clock, last_change = link.clock_s, time.monotonic()
         elif time.monotonic() - last_change > STALL_TIMEOUT_S:
@@ -252,11 +260,13 @@ def run_loop(
     else:
         say(f"control loop running; recording {duration_s:g} {'sim ' if sim_time else ''}s into {run.bag_dir}")
     meter = UsageMeter(group.children, started + min(USAGE_WARMUP_S, duration_s / 4), viewers)
+    pids = {c.name: c.process.pid for c in nodes}
     if sim_time and not serving:
         result.sim_start, sim_start_taken_s = link.clock_s, link.clock_taken_s
         # The simulator's last tick is within a control period (0.1 s at most) of its end.
         last_tick_s = run.lockstep_end_s - LONGEST_PERIOD_S if run.lockstep_end_s else float("inf")
-        result.failure = wait_sim(group, link, min(result.sim_start + duration_s, last_tick_s), meter)
+        watch = (lambda: watcher(time.monotonic() - started, pids)) if watcher else None
+        result.failure = wait_sim(group, link, min(result.sim_start + duration_s, last_tick_s), meter, watch)
         result.control_seconds = link.clock_s - result.sim_start
         # The wall time they took: between the recorder's receipts of the two ticks (it reports every 0.1 s).
         result.wall_seconds = link.clock_taken_s - sim_start_taken_s
@@ -264,7 +274,6 @@ def run_loop(
             # The simulator holds at the end: the recorder takes every tick before the nodes stop.
             result.failure = wait_sim(group, link, last_tick_s, meter)
     else:
-        pids = {c.name: c.process.pid for c in nodes}
 
         def respawn(dead: Child) -> Child:
             replaced.add(dead.name)
