@@ -341,12 +341,14 @@ class JointKalmanFilter:
         F, at = self._F, self._index
         slopes = self.transition(q, v, torque, dt, self.config.model_step_s)
         if self._groups == 1:
-            F[(0, *at.model_slopes)] = slopes  # [q; v] by [q; v]
+            F[(0, *at.model_slopes)] = slopes[:, : slopes.shape[0]]  # [q; v] by [q; v]
         else:
             F[:, :2, :2] = slopes
         if self.estimates_disturbance:
             b = np.zeros(self.joint_count) if self._own_inverse_mass is None else self._own_inverse_mass
             F[at.q_by_d], F[at.v_by_d] = 0.5 * b * dt * dt, b * dt
+            if slopes.shape[-1] > slopes.shape[-2]:  # the model's own slopes per rad/s² pushed on each joint
+                F[0, at.model_slopes[0], at.d] = slopes[:, slopes.shape[0] :] * b
         return F
 
     def _start(self, joints: np.ndarray, z: np.ndarray) -> None:

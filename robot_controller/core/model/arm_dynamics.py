@@ -15,6 +15,8 @@ from robot_controller.core.model.payload import Payload
 
 #: A joint whose damping over one plant step exceeds this share of its inertia has the step inverted.
 STIFF_DAMPING_SHARE = 0.01
+#: rad/s², the push whose effect :meth:`ArmDynamics.transition` differences: far above the solver's precision
+PUSH = 0.1
 
 
 def step_count(horizon_s: float, max_step_s: float) -> int:
@@ -77,6 +79,8 @@ class ArmDynamics:
             step_s * self.model.dof_damping[:n] > STIFF_DAMPING_SHARE * np.diag(self.mass_matrix(np.zeros(n)))
         )
         self.step_s = step_s if damped else None  #: s, the plant's step ``torque`` inverts (None: continuous time)
+        #: whether a push's effect over a horizon is the model's own (damped or dry friction), not a free mass's
+        self.resists_within_step = damped or bool(np.any(self.model.dof_frictionloss[:n] > 0))
         flag = int(mujoco.mjtEnableBit.mjENBL_INVDISCRETE)
         self.model.opt.enableflags = (
             (self.model.opt.enableflags | flag) if damped else (self.model.opt.enableflags & ~flag)
@@ -153,9 +157,24 @@ class ArmDynamics:
         self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float, max_step_s: float
     ) -> np.ndarray:
         """How ``horizon_s`` of :meth:`predict`'s steps move the state ``[q; v]`` (2n × 2n): one
-        step's slopes at ``(q, v)`` (:meth:`step_jacobian`) carried over the horizon's steps."""
-        steps = step_count(horizon_s, max_step_s)
-        return matrix_power(self.step_jacobian(position, velocity, torque, horizon_s / steps), steps)
+        step's slopes at ``(q, v)`` (:meth:`step_jacobian`) carried over the horizon's steps. Where
+        damping or dry friction resists within a step (:attr:`resists_within_step`), 2n × 3n: then also
+        how a push ``M(q)·α`` moves it, per rad/s² of ``α`` on each joint (a free mass's ``[h²/2; h]``
+        would overstate it there), so an observer's torque moves the state as the model does."""
+        steps, n = step_count(horizon_s, max_step_s), self.model.nv
+        step = self.step_jacobian(position, velocity, torque, horizon_s / steps)
+        if not self.resists_within_step:
+            return matrix_power(step, steps)
+        carried = np.eye(3 * n)  # [[A, B], [0, I]]^steps: its top right is Σ Aᵏ·B
+        carried[: 2 * n, : 2 * n] = step
+        pushes, after = self.mass_matrix(position) * PUSH, np.empty((n + 1, 2 * n))  # column j: PUSH on joint j
+        for j, push in enumerate((None, *pushes.T)):  # the step (step_jacobian's) unpushed, then each push
+            self._load(position, velocity, torque, push)
+            mujoco.mj_step(self.model, self._data)
+            after[j, :n], after[j, n:] = self._qpos, self._qvel
+        self._qfrc_applied.fill(0.0)
+        carried[: 2 * n, 2 * n :] = (after[1:] - after[0]).T / PUSH
+        return matrix_power(carried, steps)[: 2 * n]
 
     def mass_matrix(self, position: np.ndarray) -> np.ndarray:
         """M(q) at ``position`` (kg·m²): MuJoCo's position stages that build it
