@@ -1,11 +1,15 @@
 """``robot-controller``'s parser (each verb's module and the ``robot_controller.verbs`` entry points add
-their verbs) and entry point. A user's mistake is one line, exit 2, never a traceback."""
+their verbs) and entry point. A user's mistake is one line, exit 2; a failed run one line, exit 1; never a
+traceback (a fault of ours writes its own into the run's folder)."""
 
 from __future__ import annotations
 
 import os
 import sys
+import tempfile
+import traceback
 from importlib.metadata import entry_points
+from pathlib import Path
 
 import robot_controller.cli.docs as docs
 import robot_controller.cli.experiments as experiments
@@ -14,7 +18,7 @@ import robot_controller.cli.params as params
 import robot_controller.cli.run as run
 import robot_controller.cli.score as score
 from robot_controller.cli.args import Parser, UsageError
-from robot_controller.core.errors import ConfigError
+from robot_controller.core.errors import ConfigError, RunFailed
 
 #: The entry-point group whose functions ``add(subparsers)`` add their verbs (the project's lab does).
 VERB_ENTRY_POINTS = "robot_controller.verbs"
@@ -56,6 +60,23 @@ def main(argv: list[str] | None = None) -> int:
         where = f" {exc.filename}" if exc.filename else ""
         print(f"robot-controller {args.verb}:{where}: {exc.strerror or exc}", file=sys.stderr)
         return 2
+    except RunFailed as exc:
+        print(f"robot-controller {args.verb}: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"robot-controller {args.verb}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # noqa: BLE001 - a fault of ours: its traceback into a file, one line here
+        out = getattr(args, "out", None)
+        log = Path(out) / "error.log" if out else Path(tempfile.gettempdir()) / f"robot-controller-{args.verb}.log"
+        try:
+            log.parent.mkdir(parents=True, exist_ok=True)
+            log.write_text(traceback.format_exc())
+        except OSError:
+            log = Path("(not written)")
+        said = " ".join(str(exc).split())
+        print(f"robot-controller {args.verb}: {type(exc).__name__}: {said} (traceback in {log})", file=sys.stderr)
+        return 1
 
 
 def entry() -> None:

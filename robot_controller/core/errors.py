@@ -10,3 +10,7 @@ class ConfigError(ValueError):
 
 class TimingError(ValueError):
     """Rates that do not fit together (e.g. control period not a whole number of physics steps)."""
+
+
+class RunFailed(RuntimeError):
+    """A run of the graph failed; the message names its folder and why, in one line."""

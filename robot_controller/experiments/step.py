@@ -9,6 +9,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.core import metrics
+from robot_controller.core.errors import RunFailed
 from robot_controller.experiments.reporting import pyplot, save
 from robot_controller.runner import launcher, plan
 from robot_controller.runner.options import RunOptions
@@ -30,7 +31,7 @@ def run_checked(checked: plan.CheckedRun, out: Path) -> tuple[dict[str, Any], re
     result = launcher.launch(checked, out)
     result.raise_if_interrupted()
     if result.exit_code != 0:
-        raise RuntimeError(f"run in {out} failed: {result.failure}")
+        raise RunFailed(f"run in {out} failed: {result.failure}")
     recording = report.read_recording(result.bag_dir)
     period_s = 1.0 / checked.params["pid_controller"]["control_rate_hz"]
     window_s = checked.options.duration_s if checked.options.lockstep else None

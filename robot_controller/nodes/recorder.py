@@ -1,6 +1,7 @@
 """recorder: the loop's topics, raw (CDR), into an MCAP bag, as ``ros2 bag record`` would, below the loop (nice +10).
 In lockstep it publishes the tick it has taken on ``/recorder/clock``; the simulator holds while it lags. Tells the
-launcher ``@ready``, then ``@progress {json}``; on SIGINT/SIGTERM it records until the topics are quiet, then closes.
+launcher ``@ready``, then ``@progress {json}``; on SIGINT/SIGTERM it records until the topics are quiet (still
+reporting), closes the bag, then tears DDS down under an alarm.
 ``python -m robot_controller.nodes.recorder BAG_DIR [--sim-time]``"""
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
-from robot_controller.ros.process import make_executor, own_context
+from robot_controller.ros.process import make_executor, own_context, work_done_teardown_left
 from robot_controller.ros.publishing import RECORDER_CLOCK_TOPIC, RECORDER_NODE
 from robot_controller.ros.qos import CLOCK_QOS, CONTROL_QOS
 
@@ -151,10 +152,6 @@ class Recorder:
         progress = {"counts": self.counts, "clock_s": self.clock_ns * 1e-9, "clock_taken_s": self.clock_taken_s}
         return PROGRESS_PREFIX + json.dumps(progress | {"oversize": self.oversize})
 
-    def close(self) -> None:
-        self.writer.close()
-        self.node.destroy_node()
-
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="recorder")
@@ -167,27 +164,34 @@ def main(argv: list[str] | None = None) -> int:
     executor.add_node(recorder.node)
     print(READY_LINE, flush=True)
     next_progress = next_checkpoint = time.monotonic()
+
+    def report_progress(now: float) -> None:
+        nonlocal next_progress
+        if now >= next_progress:
+            next_progress += PROGRESS_PERIOD_S
+            recorder.say_clock()
+            print(recorder.progress(), flush=True)
+
     try:
         while not stop.wait(BATCH_PERIOD_S):
             recorder.take_waiting(executor)
-            now = time.monotonic()
-            if now >= next_progress:
-                next_progress += PROGRESS_PERIOD_S
-                recorder.say_clock()
-                print(recorder.progress(), flush=True)
+            report_progress(now := time.monotonic())
             if now >= next_checkpoint:
                 next_checkpoint = now + CHECKPOINT_PERIOD_S
                 recorder.checkpoint()
-        # The nodes stop first; take what is still in flight.
+        # The nodes stop first; take what is still in flight, reporting (the launcher waits while it hears us).
         stopped = time.monotonic()
         deadline = stopped + DRAIN_MAX_S
         while time.monotonic() - max(recorder.last_message, stopped) < DRAIN_QUIET_S and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
+            report_progress(time.monotonic())
     finally:
-        executor.shutdown(timeout_sec=1.0)
-        recorder.close()
-        rclpy.try_shutdown(context=context)
+        recorder.writer.close()  # the bag whole before the DDS teardown, which can hang
     print(recorder.progress(), flush=True)
+    work_done_teardown_left()  # a hang from here on ends by its alarm: a warning, the bag is closed
+    executor.shutdown(timeout_sec=1.0)
+    recorder.node.destroy_node()
+    rclpy.try_shutdown(context=context)
     return 0
 
 

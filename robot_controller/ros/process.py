@@ -89,10 +89,11 @@ _stop_requested = threading.Event()
 def init_with_own_signals(
     args: list[str] | None = None, context: rclpy.Context | None = None, stop: threading.Event = _stop_requested
 ) -> None:
-    """rclpy.init, SIGINT/SIGTERM only setting ``stop``: the spin ends between callbacks, cleanup runs in order."""
+    """rclpy.init, SIGINT/SIGTERM only setting ``stop``: the spin ends between callbacks, cleanup runs in order.
+    ``stop`` is set from a thread: set() in the handler deadlocks on the lock of a ``stop.wait`` it interrupts."""
     rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
     for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+        signal.signal(signum, lambda *_: threading.Thread(target=stop.set, daemon=True).start())
 
 
 def own_context() -> tuple[rclpy.Context, threading.Event]:

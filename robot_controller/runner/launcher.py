@@ -17,8 +17,9 @@ from robot_controller.nodes import recorder as rec
 from robot_controller.ros.process import LAW_FAULT_FILE, TEARDOWN_HUNG_SIGNAL, WORLD_CLOCK_FILE
 from robot_controller.runner import forking, supervise
 from robot_controller.runner.plan import CheckedRun, plan
-from robot_controller.runner.processes import STOP_TIMEOUT_S, ProcessGroup, say
+from robot_controller.runner.processes import ProcessGroup, say
 from robot_controller.runner.supervise import RunResult, Watcher, run_loop
+from robot_controller.scoring import bag_recovery
 
 __all__ = ["RunResult", "launch", "say"]
 
@@ -66,8 +67,9 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
                 _interrupted(result, link, options.lockstep and run.records)
             # The nodes first, then the recorder, which takes what is still in flight (and the viewer).
             codes = group.stop(nodes)
-            # The recorder drains what is still queued (rec.DRAIN_MAX_S at most) before it closes the bag.
-            codes.update(group.stop([*observers, *viewers.children], timeout_s=rec.DRAIN_MAX_S + STOP_TIMEOUT_S))
+            # The recorder drains what is still queued (rec.DRAIN_MAX_S at most), reporting, then closes the bag.
+            heard = {"recorder": lambda: link.heard_s}
+            codes.update(group.stop([*observers, *viewers.children], reported=heard))
             for child in viewers.children:  # a viewer's exit code is not the run's: only said
                 code = codes.pop(child.name, None)
                 if code not in (None, 0, -signal.SIGINT, 130):
@@ -84,10 +86,11 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
             # Their counts were written and their messages acknowledged: the run is whole.
             say(f"WARNING: the DDS teardown of {', '.join(hung)} hung after its work was done (ended by its alarm)")
         bad = {n: c for n, c in codes.items() if c not in (0, -signal.SIGINT, 130, -TEARDOWN_HUNG_SIGNAL)}
-        if result.failure is None and bad:
-            result.failure = "node(s) exited with an error on shutdown: " + ", ".join(
-                f"{n} ({c})" for n, c in bad.items()
-            )
+        if salvaged := run.records and bag_recovery.needs_recovery(run.bag_dir):
+            result.failure = result.failure or _salvage(run.bag_dir, bad.pop("recorder", None))
+        if bad and result.failure is None:  # the run's data was complete: a warning
+            said = ", ".join(f"{n} ({c})" for n, c in bad.items())
+            say(f"WARNING: node(s) exited with an error on shutdown, after the run's data was complete: {said}")
     finally:
         signal.signal(signal.SIGTERM, previous_sigterm)
         signal.signal(signal.SIGINT, previous_sigint if previous_sigint is not None else signal.SIG_DFL)
@@ -99,7 +102,7 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
     if link.oversize:
         dropped = ", ".join(f"{t} {n}" for t, n in link.oversize.items())
         say(f"WARNING: messages over the recorder's size cap were dropped (not from this stack): {dropped}")
-    if result.unrecorded:
+    if result.unrecorded and not salvaged:
         missed = ", ".join(f"{t} {n}" for t, n in result.unrecorded.items())
         say(f"WARNING: the bag misses messages the nodes published: {missed}")
     if result.failure:
@@ -127,6 +130,20 @@ def _interrupted(result: RunResult, link: supervise.RecorderLink, lockstep_recor
     if result.started is not None:
         result.wall_seconds = time.monotonic() - result.started
         result.control_seconds = link.clock_s - result.sim_start if lockstep_recorded else result.wall_seconds
+
+
+def _salvage(bag_dir: Path, code: int | None) -> str | None:
+    """The recorder ended (``code``) before closing its bag: its messages up to its last whole chunk into a
+    complete bag, said in one line; a failure line if even that cannot be read."""
+    try:
+        count = bag_recovery.recover(bag_dir)
+    except (OSError, ValueError) as exc:
+        return f"the recorder's bag could not be salvaged: {exc}"
+    say(
+        f"WARNING: the recorder ended (exit code {code}) before closing its bag: {count} messages salvaged up to"
+        f" its last whole chunk (the torn bag kept as {bag_dir.name}.torn)"
+    )
+    return None
 
 
 def _raise_interrupt(signum, frame) -> None:

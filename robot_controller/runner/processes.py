@@ -102,8 +102,14 @@ class ProcessGroup:
     def dead(self) -> list[tuple[str, int]]:
         return [(c.name, c.process.returncode) for c in self.children if c.process.poll() is not None]
 
-    def stop(self, children: list[Child] | None = None, timeout_s: float = STOP_TIMEOUT_S) -> dict[str, int]:
-        """SIGINT ``children`` (default all), wait ``timeout_s``, then SIGKILL stragglers; each one's exit code."""
+    def stop(
+        self,
+        children: list[Child] | None = None,
+        timeout_s: float = STOP_TIMEOUT_S,
+        reported: dict[str, Callable[[], float]] | None = None,
+    ) -> dict[str, int]:
+        """SIGINT ``children`` (default all), then SIGKILL any silent ``timeout_s``: not exited, nor, by
+        ``reported[name]()`` (when it last reported, monotonic s), still working; each one's exit code."""
         children = self.children if children is None else children
         for child in children:
             if child.process.poll() is None:
@@ -111,14 +117,20 @@ class ProcessGroup:
                     os.killpg(child.process.pid, signal.SIGINT)
                 except ProcessLookupError:
                     pass
-        deadline = time.monotonic() + timeout_s
+        sent, reported = time.monotonic(), reported or {}
         for child in children:
-            try:
-                child.process.wait(timeout=max(0.0, deadline - time.monotonic()))
-            except subprocess.TimeoutExpired:
-                say(f"{child.name} ignored SIGINT for {timeout_s:g} s: killing it")
-                os.killpg(child.process.pid, signal.SIGKILL)
-                child.process.wait()
+            last_report = reported.get(child.name, lambda: 0.0)
+            while True:
+                heard = max(sent, last_report())
+                try:
+                    child.process.wait(timeout=max(0.0, heard + timeout_s - time.monotonic()))
+                    break
+                except subprocess.TimeoutExpired:
+                    if last_report() <= heard:  # stuck, not slow: silent all along
+                        say(f"{child.name} neither exited nor reported for {timeout_s:g} s after SIGINT: killing it")
+                        os.killpg(child.process.pid, signal.SIGKILL)
+                        child.process.wait()
+                        break
         for child in children:
             if child.reader.ident is not None:
                 child.reader.join(timeout=1.0)

@@ -40,8 +40,10 @@ class RecorderLink:
         #: when (CLOCK_MONOTONIC s, the same in every process) the recorder took ``clock_s``: the
         #: lockstep real-time factor is timed on these, not on when its report came (every 0.1 s)
         self.clock_taken_s = 0.0
+        self.heard_s = 0.0  #: when (monotonic s) it last printed: a recorder stopping slowly still reports
 
     def on_line(self, line: str) -> bool:
+        self.heard_s = time.monotonic()
         if line.startswith(rec.PROGRESS_PREFIX):
             progress = json.loads(line[len(rec.PROGRESS_PREFIX) :])
             self.counts, self.clock_s = progress["counts"], progress["clock_s"]
