@@ -12,7 +12,7 @@ from robot_controller.runner import launcher
 from tests.rostools import run_said
 
 
-class Launched(Exception):
+class Launched(BaseException):  # past the CLI's handler of unexpected exceptions
     pass
 
 
