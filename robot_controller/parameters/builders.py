@@ -101,6 +101,8 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         lqr_q=tuple(q.tolist()),
         lqr_r=values["lqr_r"],
         reference_inertia=values["reference_inertia"],
+        # A payload's allowance makes the observer faster than a delay the stamps do not show allows: lockstep only.
+        rated_payload_kg=values["rated_payload_kg"] if values["lockstep"] else 0.0,
         estimator=estimator,
         disturbance_observer=values["disturbance_observer"],
         feedforward=values["feedforward"],

@@ -34,6 +34,7 @@ class Robot:
     amplitude: tuple[float, ...]
     frequency_hz: float
     note: str = ""
+    rated_payload_kg: float = 0.0  #: kg, the maker's rated payload (the controller allows for one it does not know)
 
     def layer(self) -> dict[str, dict[str, Any]]:
         """The robot's parameters, as a layer of ``{node: {param: value}}``."""
@@ -46,7 +47,8 @@ class Robot:
             "sensor_node": {"urdf_path": urdf},  # (for its joints' units)
             # Without readings the controller stops on its model open loop, which gravity makes
             # unstable on a chain of joints: the brakes take over after CHAIN_SENSOR_TIMEOUT_S.
-            "pid_controller": {"urdf_path": urdf, "design_position": home, "sensor_timeout_s": CHAIN_SENSOR_TIMEOUT_S},
+            "pid_controller": {"urdf_path": urdf, "design_position": home, "sensor_timeout_s": CHAIN_SENSOR_TIMEOUT_S}
+            | ({"rated_payload_kg": self.rated_payload_kg} if self.rated_payload_kg else {}),
             "trajectory_planner": {
                 "urdf_path": urdf,
                 "joint_count": len(home),
@@ -103,6 +105,7 @@ ROBOTS: dict[str, Robot] = {
             (0.0, -0.785398, 0.0, -2.35619, 0.0, 1.5707, 0.785398),
             (0.4, 0.3, 0.4, 0.4, 0.5, 0.4, 0.6),
             0.25,
+            rated_payload_kg=3.0,  # Franka's datasheet
         ),
     )
 }

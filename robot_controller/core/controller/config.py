@@ -16,6 +16,10 @@ from robot_controller.core.estimation import KalmanConfig
 from robot_controller.core.laws import FeedforwardMode, lqr
 from robot_controller.core.laws.pid import PidConfig, inertia_scaled
 from robot_controller.core.laws.registry import BUILTIN_LAWS
+from robot_controller.core.model.payload import torque_bound
+
+#: s, the time over which an unknown payload's torque may change by its whole bound as the arm turns it
+PAYLOAD_CHANGE_S = 1.0
 
 if TYPE_CHECKING:
     from robot_controller.core.model import ArmDynamics
@@ -57,6 +61,8 @@ class ControllerConfig:
     #: lqr_r·(this/its inertia)², its observer's σs ×(its inertia/this): the same closed loop on every
     #: joint; 0: the values as they are on every joint
     reference_inertia: float = 0.0
+    #: kg, the most the arm may carry on its last link that its model does not know (0: none allowed for)
+    rated_payload_kg: float = 0.0
     estimator: KalmanConfig | None = None  #: a Kalman filter on the reading, or none
     disturbance_observer: bool = False  #: the filter estimates an external torque, the law subtracts it
     feedforward: FeedforwardMode = FeedforwardMode.NONE
@@ -138,6 +144,14 @@ class ControllerConfig:
         if self.reference_inertia <= 0:
             return None
         return lqr.design_inertia(dynamics, joint_count, self.design_position) / self.reference_inertia
+
+    def payload_torque_std(self, dynamics: ArmDynamics, joint_count: int) -> np.ndarray | None:
+        """Per joint, N·m/√s: the observer's extra mismatch σ for a payload up to ``rated_payload_kg`` the model
+        lacks (its gravity torque at the design pose, :func:`torque_bound`, over PAYLOAD_CHANGE_S); None: none."""
+        if self.rated_payload_kg <= 0 or not self.observes_disturbance or getattr(dynamics, "model", None) is None:
+            return None
+        pose = np.zeros(joint_count) if self.design_position is None else np.asarray(self.design_position, float)
+        return torque_bound(dynamics.model, self.rated_payload_kg, pose) / np.sqrt(PAYLOAD_CHANGE_S)
 
 
 def law_config(

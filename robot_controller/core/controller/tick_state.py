@@ -49,6 +49,7 @@ def make_estimator(
         mass_matrix=dynamics.mass_matrix,
         disturbance_limit=config.pid.output_limit,
         torque_scale=config.observer_torque_scale(dynamics, joint_count),
+        payload_torque_std=config.payload_torque_std(dynamics, joint_count),
     )
 
 

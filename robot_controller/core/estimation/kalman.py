@@ -125,6 +125,8 @@ class JointKalmanFilter:
     :param disturbance_limit: N·m per joint, the bound on ``|d|`` (none if None)
     :param torque_scale: per joint, the factor on the observer's torque σs: the joint's inertia over the
         one they were chosen for (None: 1)
+    :param payload_torque_std: per joint, N·m/√s added (in variance) to the mismatch σ of ``d``: how fast
+        the torque of a payload the model lacks changes as the arm turns it (None: nothing)
     :param independent_joints: the joints do not act on one another (separate one-joint arms)
     """
 
@@ -139,6 +141,7 @@ class JointKalmanFilter:
         mass_matrix: MassMatrix | None = None,
         disturbance_limit: np.ndarray | None = None,
         torque_scale: np.ndarray | None = None,
+        payload_torque_std: np.ndarray | None = None,
         independent_joints: bool = False,
     ) -> None:
         if estimate_disturbance and mass_matrix is None:
@@ -158,6 +161,9 @@ class JointKalmanFilter:
         #: σ (disturbance N·m/√s, acceleration rad/s²) while the readings agree, and at the mismatch
         self._agreeing_std = np.array([config.disturbance_noise_std, config.acceleration_noise_std])
         self._mismatch_std = np.array([mismatch.disturbance_noise_std, mismatch.acceleration_noise_std])
+        if payload_torque_std is not None:  # per joint (n, 2), in the units the torque scale multiplies
+            own = np.hypot(mismatch.disturbance_noise_std, np.asarray(payload_torque_std) / self._torque_scale)
+            self._mismatch_std = np.column_stack([own, np.full(n, mismatch.acceleration_noise_std)])
         self.x: np.ndarray | None = None  # (n, 2): q, v per joint; (n, 3): q, v, d
         #: groups of joints that act on one another: one (the arm), or each joint its own
         self._groups, self._per_group = g, k = (n, 1) if independent_joints else (1, n)
@@ -185,11 +191,7 @@ class JointKalmanFilter:
 
     def reset(self) -> None:
         """Forget the state: the next reading starts the filter again (and the disturbance from 0)."""
-        self.x = None
-        self.time_s = None
-        self._mass = None
-        self._own_inverse_mass = None
-        self._external = None
+        self.x = self.time_s = self._mass = self._own_inverse_mass = self._external = None
 
     @property
     def joint_covariance(self) -> np.ndarray:
@@ -200,9 +202,7 @@ class JointKalmanFilter:
     @property
     def disturbance_state(self) -> list[float] | None:
         """The observer's own state per joint (what :attr:`disturbance` is made of), or None."""
-        if not self.estimates_disturbance or self.x is None:
-            return None
-        return self.x[:, 2].tolist()
+        return self.x[:, 2].tolist() if self.estimates_disturbance and self.x is not None else None
 
     def set_disturbance_state(self, state: list[float]) -> None:
         """Put ``state`` (a :attr:`disturbance_state`) in the observer's place, e.g. a held average."""

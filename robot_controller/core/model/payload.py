@@ -19,6 +19,8 @@ RADIUS_M = 0.02
 MAX_MASS_KG = 100.0
 #: m, a centre further than this from the link's frame is taken for a typing error
 MAX_OFFSET_M = 2.0
+#: m, how far from the last link's origin a rated payload's centre may sit (a tool at the flange)
+RATED_REACH_M = 0.1
 
 
 @dataclass(frozen=True)
@@ -78,3 +80,18 @@ def set_payload(model: mujoco.MjModel, payload: Payload) -> None:
     model.body_ipos[body_id] = 0.0
     model.body_mass[body_id] = max(payload.mass_kg, 1e-9)
     model.body_inertia[body_id] = max(payload.inertia_kgm2, 1e-12)
+
+
+def torque_bound(model: mujoco.MjModel, mass_kg: float, position: np.ndarray) -> np.ndarray:
+    """Per joint, the most gravity torque (N·m; N on a slide) a point mass of ``mass_kg`` within RATED_REACH_M
+    of the last link's origin puts on each joint at ``position``: m·g times how fast such a point moves per
+    unit of the joint's speed (|origin's speed| + RATED_REACH_M·|turn rate|)."""
+    n, data = len(position), mujoco.MjData(model)
+    data.qpos[:n] = position
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    body = int(model.jnt_bodyid[model.njnt - 1])
+    moves, turns = np.zeros((3, model.nv)), np.zeros((3, model.nv))
+    mujoco.mj_jac(model, data, moves, turns, data.xpos[body], body)
+    lever = np.linalg.norm(moves, axis=0) + RATED_REACH_M * np.linalg.norm(turns, axis=0)
+    return mass_kg * float(np.linalg.norm(model.opt.gravity)) * lever[:n]
