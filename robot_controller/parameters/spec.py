@@ -23,6 +23,7 @@ class ParamSpec:
     :param kind: ``bool``, ``int``, ``float`` or ``str``; a float may be a list, ``per_joint`` (one
         number for every joint, or one per joint of the URDF) or of ``length`` numbers
     :param allow_empty: a list may be empty, "not set" (``None`` too: rcl reads a file's ``[]`` so)
+    :param safety: a timeout or limit that protects the arm: read-only, so only the run's configuration sets it
     """
 
     name: str
@@ -37,9 +38,18 @@ class ParamSpec:
     per_joint: bool = False
     length: int | None = None
     allow_empty: bool = False
+    safety: bool = False
 
     def __post_init__(self) -> None:
+        assert self.read_only or not self.safety, f"{self.name}: a safety setting is read-only"
         self.validate(self.default)  # a default that fails its own rules is a bug here, found at import
+
+    @property
+    def refusal(self) -> str:
+        """Why a node refuses to change this parameter at run time (it is read-only)."""
+        if self.safety:
+            return "safety setting: set it in the run's config, not at run time"
+        return "read-only: fixed when the node starts; set it in the run's config"
 
     @property
     def is_list(self) -> bool:
@@ -125,7 +135,8 @@ class ParamSpec:
                 f"{self.name}: must be {'>' if self.exclusive_minimum else '>='} {self.minimum:g}, got {value:g}"
             )
         if self.maximum is not None and value > self.maximum:
-            raise ConfigError(f"{self.name}: must be <= {self.maximum:g}, got {value:g}")
+            bound = " (a safety setting's bound)" if self.safety else ""
+            raise ConfigError(f"{self.name}: must be <= {self.maximum:g}{bound}, got {value:g}")
 
 
 def per_joint(name: str, value: float | list[float], joint_count: int) -> np.ndarray:

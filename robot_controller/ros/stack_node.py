@@ -90,6 +90,16 @@ class StackNode(Node):
             raise ConfigError(f"{type(exc).__name__}: {exc}") from exc
         return out
 
+    def set_parameters_atomically(self, parameter_list: list[Parameter]) -> SetParametersResult:
+        """rclpy's (the parameter services call it), but a read-only parameter's refusal says why and is logged."""
+        for parameter in parameter_list:
+            spec = self.specs.get(parameter.name)
+            if spec is not None and spec.read_only:
+                reason = f"{parameter.name}: {spec.refusal}"
+                self.get_logger().warning(f"refused parameter change: {reason}")
+                return SetParametersResult(successful=False, reason=reason)
+        return super().set_parameters_atomically(parameter_list)
+
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
         candidate = dict(self.params)
         for parameter in parameters:

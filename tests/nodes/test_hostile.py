@@ -160,7 +160,8 @@ def test_parameters_that_would_break_the_loop_are_refused_with_a_reason(tmp_path
             ("pid_controller", "lqr_q", doubles([0.0, 0.0, 0.0]), "does not stabilise"),
             ("pid_controller", "control_rate_hz", double(1e6), "control_rate_hz: must be <= 1000"),
             ("trajectory_planner", "publish_rate_hz", double(1e6), "publish_rate_hz: must be <= 1000"),
-            ("motor_node", "torque_max", doubles([1e6]), "exceeds the URDF's effort limit"),
+            ("motor_node", "torque_max", doubles([1e6]), "torque_max: safety setting: set it in the run's config"),
+            ("motor_node", "command_timeout_s", double(10.0), "command_timeout_s: safety setting"),
         ]:
             result = set_parameter(probe, node, name, value)
             assert not result.successful and reason in result.reason, (node, name, result.reason)

@@ -202,6 +202,15 @@ def test_param_set_of_a_value_the_node_refuses_prints_its_reason_and_exits_1(run
     assert done.stdout == ""
 
 
+def test_param_set_of_a_safety_setting_is_refused_with_the_reason_and_the_old_value_stays(running_graph):
+    alive(running_graph)
+    done = tool("sys.exit(param.param_set('motor_node', 'command_timeout_s', '10'))")
+    reason = "command_timeout_s: safety setting: set it in the run's config, not at run time"
+    assert one_error_line(done) == f"Setting parameter failed: {reason}"
+    done = tool("sys.exit(param.param_get('motor_node', 'command_timeout_s'))")
+    assert (done.returncode, done.stdout) == (0, "Double value is: 0.05\n"), done.stderr
+
+
 def test_param_set_of_a_parameter_the_node_lacks_names_it_and_the_close_ones(running_graph):
     alive(running_graph)
     done = tool("sys.exit(param.param_set('pid_controller', 'kpp', '60'))")

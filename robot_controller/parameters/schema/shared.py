@@ -8,6 +8,8 @@ from robot_controller.parameters.spec import ParamSpec
 
 #: the range of a parameter that must be above zero: ``**POSITIVE``
 POSITIVE = {"minimum": 0.0, "exclusive_minimum": True}
+#: a timeout or limit that protects the arm, set only by the run's configuration: ``**SAFETY``
+SAFETY = {"read_only": True, "safety": True}
 
 
 def enum_values(enum: type[Enum]) -> tuple[str, ...]:
@@ -44,8 +46,9 @@ def lockstep_spec(description: str) -> ParamSpec:
     return ParamSpec("lockstep", bool, False, description, read_only=True)
 
 
-def torque_max_spec(description: str) -> ParamSpec:
-    """A node's torque limit per joint; empty (the default): each joint's URDF effort limit."""
+def torque_max_spec(description: str, safety: bool = False) -> ParamSpec:
+    """A node's torque limit per joint; empty (the default): each joint's URDF effort limit, its bound
+    (``safety``: the drive's, read-only)."""
     return ParamSpec(
         "torque_max",
         float,
@@ -54,4 +57,5 @@ def torque_max_spec(description: str) -> ParamSpec:
         per_joint=True,
         allow_empty=True,
         **POSITIVE,
+        **(SAFETY if safety else {}),
     )
