@@ -1,7 +1,8 @@
 """Who may speak on the loop's topics: each run's Fast DDS profile puts its loop topics in a partition named for the
 run, so a foreign publisher is never matched (isolation, not security); ``/estop``, ``/rosout`` and parameter services
 stay open; ``write_observer_profile`` hears every run. Across hosts (``--peers``, docs/design.md §6) participants speak
-UDPv4 only (netns share ``/dev/shm``) and discover by unicast from their ``initialPeersList``."""
+UDPv4 only (netns share ``/dev/shm``), listen only on loopback and the address that reaches the peers, and discover by
+unicast from their ``initialPeersList``."""
 
 from __future__ import annotations
 
@@ -10,10 +11,12 @@ import hashlib
 import ipaddress
 import re
 import secrets
+import socket
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from robot_controller import resources
+from robot_controller.core.errors import ConfigError
 
 # Every topic the nodes use to run the loop; not /estop (a stop must be heard from anyone).
 LOOP_TOPICS = (
@@ -140,6 +143,9 @@ def _udp_only(root: ET.Element, peers: list[str]) -> None:
     ET.SubElement(descriptor, f"{{{_NS}}}transport_id").text = UDP_TRANSPORT_ID
     ET.SubElement(descriptor, f"{{{_NS}}}type").text = "UDPv4"
     ET.SubElement(descriptor, f"{{{_NS}}}maxInitialPeersRange").text = str(MAX_INITIAL_PEERS_RANGE)
+    allowed = ET.SubElement(descriptor, f"{{{_NS}}}interfaceWhiteList")  # sockets bound to these, not to every one
+    for address in listening_addresses(peers):
+        ET.SubElement(allowed, f"{{{_NS}}}address").text = address
     participant = next(
         (e for e in root.findall(f"{{{_NS}}}participant") if e.get("is_default_profile") == "true"), None
     )
@@ -164,6 +170,21 @@ def _udp_only(root: ET.Element, peers: list[str]) -> None:
     for peer in [LOCALHOST, *(p for p in peers if p != LOCALHOST)]:
         locator = ET.SubElement(initial, f"{{{_NS}}}locator")
         ET.SubElement(ET.SubElement(locator, f"{{{_NS}}}udpv4"), f"{{{_NS}}}address").text = peer
+
+
+def listening_addresses(peers: list[str]) -> list[str]:
+    """The addresses a run across hosts listens on: loopback and this host's address on the way to each peer."""
+    return list(dict.fromkeys([LOCALHOST, *(route_source(peer) for peer in peers)]))
+
+
+def route_source(peer: str) -> str:
+    """The address this host sends to ``peer`` from, as ``ip route get`` gives it (a UDP connect sends nothing)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        try:
+            probe.connect((peer, 9))
+        except OSError as exc:
+            raise ConfigError(f"--peers: no route from this host to {peer} ({exc.strerror})") from None
+        return probe.getsockname()[0]
 
 
 def _slow_announcements(builtin: ET.Element) -> None:

@@ -16,7 +16,8 @@ from tests.cli.test_errors import cli, one_line_error
 NS = {"p": "http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles"}
 
 
-def test_the_profile_across_hosts_is_udp_only_with_the_peers(tmp_path):
+def test_the_profile_across_hosts_is_udp_only_with_the_peers(tmp_path, monkeypatch):
+    monkeypatch.setattr(partition, "route_source", lambda peer: "10.203.0.1")  # whatever this host's routes are
     path = partition.write_run_profile(
         tmp_path / "fastdds.xml", partition.run_partition("r1"), peers=["10.203.0.2", "10.203.0.3"]
     )
