@@ -121,10 +121,10 @@ def get_parameter(probe: RosProbe, node: str, name: str):
     raise AssertionError(f"no answer from /{node}/get_parameters for {name}")
 
 
-def start_run(out, duration: str = "10") -> subprocess.Popen:
-    """``robot-controller run --duration D --out OUT`` in a subprocess, returned once its loop runs."""
+def start_run(out, duration: str = "10", *extra: str) -> subprocess.Popen:
+    """``robot-controller run --duration D --out OUT [EXTRA]`` in a subprocess, returned once its loop runs."""
     run = subprocess.Popen(
-        [sys.executable, "-m", "robot_controller.cli", "run", "--duration", duration, "--out", str(out)],
+        [sys.executable, "-m", "robot_controller.cli", "run", "--duration", duration, "--out", str(out), *extra],
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,

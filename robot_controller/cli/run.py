@@ -92,7 +92,9 @@ def run(options: RunOptions, out: Path | None) -> int:
         units = report.arm_units(checked.params["simulator"]["urdf_path"])
         period_s = 1.0 / checked.params["pid_controller"]["control_rate_hz"]
         window_s = duration_s if sim_time else None
-        values = report.score(recording, nominal_period_s=period_s, window_s=window_s, units=units)
+        values = report.score(
+            recording, nominal_period_s=period_s, window_s=window_s, units=units, receipts=not options.sim_time
+        )
     except ValueError as exc:
         launcher.say(f"cannot score the recording: {exc}")
         return result.exit_code or 1

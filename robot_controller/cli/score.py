@@ -32,7 +32,9 @@ def score(run_dir: Path, *, as_json: bool = False) -> int:
         recording = report.read_recording(run_dir / "bag")
         saved = _saved(run_dir)
         units = saved.get("joint_units") if len(saved.get("joint_units") or []) == recording.joint_count else None
-        values = report.score(recording, window_s=_scored_window_s(saved), units=units)
+        values = report.score(
+            recording, window_s=_scored_window_s(saved), units=units, receipts=saved.get("clock") != "sim_lockstep"
+        )
     except (FileNotFoundError, ValueError) as exc:
         print(f"robot-controller: cannot score {run_dir}: {exc}", file=sys.stderr)
         return 2
@@ -53,10 +55,10 @@ def _saved(run_dir: Path) -> dict:
 
 
 def _scored_window_s(saved: dict) -> float | None:
-    """A lockstep run is scored over its ``--duration`` from its first tick (the simulator
+    """A lockstep or paced run is scored over its ``--duration`` from its first tick (the simulator
     runs on a little past it): that window, from the run's ``metrics.json``, if there is one."""
     try:
-        if saved["clock"] == "sim_lockstep" and saved["duration_s"] > 0:
+        if saved["clock"] in ("sim_lockstep", "sim_paced") and saved["duration_s"] > 0:
             return float(saved["duration_s"])
     except (TypeError, KeyError):
         pass

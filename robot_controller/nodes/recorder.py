@@ -66,6 +66,10 @@ def topics_for(sim_time: bool) -> dict[str, tuple[type, str]]:
     return {**TOPICS, **TELEMETRY_TOPICS, **(CLOCK_TOPIC if sim_time else {})}
 
 
+#: The sim's next tick is at most a control period past the last (10 Hz at the slowest): later is no tick of its.
+MAX_TICK_AHEAD_NS = 1_000_000_000
+
+
 def clock_ns_of(cdr: bytes) -> int:
     """``rosgraph_msgs/Clock`` time from its CDR bytes (little-endian: encapsulation 0x0001), or a stamped message's
     header stamp (first in it the same way)."""
@@ -112,7 +116,10 @@ class Recorder:
                 return
             if sets_time_base:
                 stamp_ns = clock_ns_of(data)
-                if stamp_ns > self.clock_ns or not self.clock_taken_s:  # a new tick (the first is at 0)
+                # A new tick (the first is at 0); never one far ahead: a peer's stamp would end the run's recording.
+                if (
+                    stamp_ns > self.clock_ns or not self.clock_taken_s
+                ) and stamp_ns - self.clock_ns < MAX_TICK_AHEAD_NS:
                     self.clock_ns, self.clock_taken_s = max(stamp_ns, self.clock_ns), time.monotonic()
             write(connection, self.clock_ns if self.sim_time else time.time_ns(), data)
             counts[topic] += 1

@@ -43,6 +43,7 @@ def score(
     warmup_s: float = metrics.WARMUP_S,
     window_s: float | None = None,
     units: list[str] | None = None,
+    receipts: bool | None = None,
 ) -> dict[str, Any]:
     """The run's metrics: tracking on the TRUE position, rates, latency, message counts.
 
@@ -50,6 +51,8 @@ def score(
         names and headlines follow them (:func:`robot_controller.core.metrics.joint_errors`)
     :param window_s: keep only the first ``window_s`` s of ticks and leave out what depends on when
         the recorder heard a message: in lockstep, the same seed then gives the same figures exactly
+    :param receipts: the figures of when the recorder heard each message (latency to the motor, each topic's
+        count and rate) all the same (default: only without ``window_s``); a paced world's run has them
     """
     s = recording.state
     if window_s is not None:
@@ -83,7 +86,7 @@ def score(
     out.update(
         metrics.latency_metrics(s["time_s"][ok_ticks] - s["measurement_stamp_s"][ok_ticks], prefix="controller_latency")
     )
-    if window_s is not None:
+    if not (receipts if receipts is not None else window_s is None):
         return out
     out.update(metrics.latency_metrics(recording.motor_latency_s, prefix="latency"))
     for topic, times in recording.receipt_s.items():

@@ -43,8 +43,9 @@ def run_cli(out, *extra, duration=6.0):
 
 @pytest.mark.parametrize("mode", ["multi_process", "single_process"])
 def test_stack_runs_records_and_tracks(tmp_path, ros_domain, mode):
+    """On the wall clock (``--wall-clock``), with its loop-health report; the paced world's is test_paced_world."""
     out = tmp_path / "run"
-    proc = run_cli(out, *(["--single-process"] if mode == "single_process" else []))
+    proc = run_cli(out, "--wall-clock", *(["--single-process"] if mode == "single_process" else []))
     assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["mode"] == mode

@@ -17,6 +17,7 @@ import pytest
 from sensor_msgs.msg import JointState
 
 from robot_controller import parameters as cfg
+from robot_controller.runner import plan
 from tests.rostools import RosProbe, wait_for
 
 pytestmark = pytest.mark.ros
@@ -42,9 +43,15 @@ def seed_node_source(filename: str) -> str:
     pytest.skip(f"the tutorial's {filename} is not in {where} (the tutorial lives beside the repository)")
 
 
-def test_tutorial_planner_and_controller_drive_our_arm(tmp_path, ros_domain):
+@pytest.mark.parametrize("world", ["wall_clock", "paced"])
+def test_tutorial_planner_and_controller_drive_our_arm(tmp_path, ros_domain, world):
+    """On the wall clock, and in the paced world of the default run (our nodes on the world's /clock)."""
     sources = {name: seed_node_source(f"{name}.py") for name in ("trajectory_planner", "pid_controller")}
-    params_file = cfg.write_params_file(cfg.load_stack(), tmp_path / "params.yaml")
+    params = cfg.load_stack()
+    if world == "paced":
+        params = plan.lockstep_params(params)
+        params["simulator"]["real_time_factor"] = 1.0
+    params_file = cfg.write_params_file(params, tmp_path / "params.yaml")
     processes = []
     probe = RosProbe(ros_domain)
     try:

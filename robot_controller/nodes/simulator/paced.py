@@ -78,7 +78,10 @@ class PacedTicks:
         self.grace_ns = round(GRACE_PERIODS * self.period_ns)
         self.effort_arrived = threading.Condition(node.lock)
         self.stopping = threading.Event()
-        self.thread = threading.Thread(target=self.pace, name="paced world", daemon=True)
+        rt_priority = scheduling.realtime_thread_requested()
+        if rt_priority is not None:
+            scheduling.install_rt_budget()  # its SIGXCPU handler: from the main thread only
+        self.thread = threading.Thread(target=self.pace, args=(rt_priority,), name="paced world", daemon=True)
         self.thread.start()
 
     def take_effort(self, effort: np.ndarray) -> None:
@@ -89,10 +92,8 @@ class PacedTicks:
             self.ticks_without_effort = 0
             self.effort_arrived.notify()
 
-    def pace(self) -> None:
-        rt_priority = scheduling.realtime_thread_requested()
+    def pace(self, rt_priority: int | None) -> None:
         if rt_priority is not None:
-            scheduling.install_rt_budget()
             self.node.get_logger().info(scheduling.make_current_thread_realtime(rt_priority))
         deadline_ns = time.monotonic_ns() + self.period_ns
         while not self.stopping.is_set():
@@ -149,9 +150,7 @@ class PacedTicks:
         self.stopping.set()
         if self.thread.is_alive():
             self.thread.join(timeout=1.0)
-        self.freezes.say_and_leave(
-            self.node, counts_dir, "the world paused with it", late_efforts=self.late_efforts
-        )
+        self.freezes.say_and_leave(self.node, counts_dir, "the world paused with it", late_efforts=self.late_efforts)
 
     def report(self) -> None:
         self.ticks.report()

@@ -1,0 +1,65 @@
+"""The default run's paced world (nodes/simulator/paced.py): a host that freezes every process of the
+loop together is no fault, a controller that freezes alone is. Real nodes over DDS, each test on its own
+domain; figures are judged against what the host did (its freezes, the loop's late efforts), never a
+bare timing threshold."""
+
+import json
+import os
+import signal
+import subprocess
+import time
+
+import pytest
+
+from robot_controller.experiments.faults import case_figures
+from robot_controller.scoring import report
+from tests.rostools import child_pid, run_said, run_while
+
+pytestmark = pytest.mark.ros
+
+NODES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
+FREEZES = 3
+
+
+def freeze(pids: list[int], freeze_s: float) -> None:
+    for pid in pids:
+        os.kill(pid, signal.SIGSTOP)
+    time.sleep(freeze_s)
+    for pid in pids:
+        os.kill(pid, signal.SIGCONT)
+
+
+def frozen_run(tmp_path, nodes: tuple[str, ...], freeze_s: float) -> tuple[dict, str, report.Recording]:
+    """A 10 s default run whose ``nodes`` are frozen together ``FREEZES`` times for ``freeze_s``, 2.5 s apart."""
+    out = tmp_path / "run"
+
+    def act(launcher: subprocess.Popen) -> None:
+        pids = [child_pid(launcher, name) for name in nodes]
+        for _ in range(FREEZES):
+            time.sleep(2.5)
+            freeze(pids, freeze_s)
+
+    code, output = run_while(out, act, duration="10")
+    assert code == 0, run_said(output)
+    return json.loads((out / "metrics.json").read_text()), output, report.read_recording(out / "bag")
+
+
+def test_the_whole_loop_frozen_together_is_the_hosts_freeze_and_no_fault(tmp_path, ros_domain):
+    metrics, output, _ = frozen_run(tmp_path, NODES, 0.05)
+    assert metrics["clock"] == "sim_paced"
+    assert metrics["host_freezes"] >= FREEZES, metrics  # each seen by the world (and the host's own, if any)
+    assert metrics["host_freeze_ms_max"] >= 40.0, metrics
+    assert metrics["watchdog_ticks"] == 0 and metrics["stopped_ticks"] == 0, metrics
+    assert "brakes on" not in output
+    # A freeze of the world costs no tracking; a busy host's late efforts (counted) cost a period each.
+    assert metrics["tracking_max_rad"] <= 0.006 + 0.001 * metrics["late_efforts"], metrics
+
+
+def test_the_controller_frozen_alone_is_its_stall_and_the_arm_stays_in_its_band(tmp_path, ros_domain):
+    metrics, output, recording = frozen_run(tmp_path, ("pid_controller",), 0.08)
+    # Each freeze: the world went on without efforts (8 ticks), and braked after drive_timeout_s (5 ticks).
+    assert metrics["late_efforts"] >= FREEZES * 6, metrics
+    assert metrics["missed_cycles"] >= FREEZES, metrics  # the controller's own ticks missed
+    assert output.count("no effort for 5 ticks of world time") >= 1, run_said(output)
+    figures = case_figures(recording, recording.true_time_s[0], recording.true_time_s[-1])
+    assert figures["brake_engaged"] and figures["max_deviation_rad"] <= 0.1, figures
