@@ -25,7 +25,7 @@ from robot_controller.ros.process import WORLD_CLOCK_FILE
 from robot_controller.ros.stack_node import StackNode
 
 #: How long past its deadline (control periods) the world waits for a tick's effort before going on without it.
-GRACE_PERIODS = 0.5
+GRACE_PERIODS = 1.0
 
 
 class FreezeLog:
