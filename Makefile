@@ -27,6 +27,11 @@ test: $(STAMP) lint
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow $(ARGS)
 
+# The suite beside a one-core CPU hog (a busy host is not a fault): it must pass all the same.
+test-busy: $(STAMP) lint stress-ng
+	stress-ng --cpu 1 --quiet & HOG=$$!; \
+	$(BIN)/python -m pytest -q -m "not slow" $(ARGS); CODE=$$?; kill $$HOG; exit $$CODE
+
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
@@ -48,3 +53,8 @@ nftables:
 .PHONY: stress-ng
 stress-ng:
 	command -v stress-ng >/dev/null || (apt-get update && apt-get install -y --no-install-recommends stress-ng)
+
+# faketime (libfaketime), to run one side of a split run on a shifted wall clock (tests/runner/test_split_run.py).
+.PHONY: faketime
+faketime:
+	command -v faketime >/dev/null || (apt-get update && apt-get install -y --no-install-recommends faketime)
