@@ -103,7 +103,10 @@ def test_a_command_stamped_long_ago_is_dropped_by_the_drive(tmp_path, ros_domain
     assert code == 0, run_said(output)
     assert "a late command is no command" in output and "issued 2" in output  # ~200 ms ago
     metrics = json.loads((out / "metrics.json").read_text())
-    assert metrics["tracking_max_rad"] <= 0.01, metrics["tracking_max_rad"]
+    # Obeyed, 20 full-torque commands swing the arm by tenths of a radian. On the wall clock a host freeze
+    # costs tracking too: judged against what the host did.
+    limit = 0.01 if metrics["host_freezes"] == 0 else 0.03
+    assert metrics["tracking_max_rad"] <= limit, (metrics["tracking_max_rad"], metrics["host_freezes"])
 
 
 def test_a_foreign_publisher_flooding_wrong_readings_is_named_and_never_heard(tmp_path, ros_domain):
