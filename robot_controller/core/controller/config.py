@@ -136,6 +136,7 @@ class ControllerConfig:
             "reference_inertia": self.reference_inertia,
             "design_position": self.design_position,
             "scaled_gains": self.scaled_gains,
+            "rated_payload_kg": self.rated_payload_kg,
         }
 
     def observer_torque_scale(self, dynamics: ArmDynamics, joint_count: int) -> np.ndarray | None:
@@ -172,4 +173,5 @@ def law_config(
         config.lqr_r,
         config.reference_inertia,
         config.design_position,
+        config.rated_payload_kg,
     )

@@ -81,15 +81,17 @@ def designed_gains(
     lqr_r: float,
     reference_inertia: float = 0.0,
     design_position: tuple[float, ...] | None = None,
+    payload_kg: float = 0.0,
 ) -> PidConfig:
     """``pid`` with its gains replaced by each joint's LQR design at ``period_s`` (D on the velocity error).
 
     :param reference_inertia: kg·m², the joint inertia ``lqr_r`` is for (0: ``lqr_r`` on every joint)
     :param design_position: rad per joint, the pose the inertias are taken at
+    :param payload_kg: a rated payload the model lacks, which the inertias allow for (:func:`design_inertia`)
     """
     if dynamics is None:
         raise ConfigError("controller_type lqr: needs the arm model (urdf_path)")
-    inertia = design_inertia(dynamics, joint_count, design_position)
+    inertia = design_inertia(dynamics, joint_count, design_position, payload_kg)
     gains = np.array(
         [
             design(
@@ -123,4 +125,5 @@ class LqrLaw(BuiltinLaw):
             p["lqr_r"],
             p["reference_inertia"],
             p["design_position"],
+            p.get("rated_payload_kg", 0.0),
         )

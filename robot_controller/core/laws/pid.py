@@ -24,6 +24,7 @@ import numpy as np
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws.interface import Arm, ControlLaw, Reference, State
 from robot_controller.core.metrics import in_units
+from robot_controller.core.model import payload
 
 if TYPE_CHECKING:
     from robot_controller.core.model import ArmDynamics
@@ -266,22 +267,28 @@ def decoupling_map(decoupling: bool, dynamics: ArmDynamics | None, position: np.
     return mass / np.diag(mass)[None, :]
 
 
+#: the most a rated payload raises a joint's LQR design inertia (and gains) over the arm's own: the unloaded loop's
+#: bandwidth at most doubles (the Panda at 100 Hz: 4× leaves every joint 1 period of delay margin, 4.25× not;
+#: the PID's gains, as given, stay on the arm's own: its default is already at 1 period)
+PAYLOAD_INERTIA_RATIO = 4.0
+
+
 def design_inertia(
-    dynamics: ArmDynamics, joint_count: int, design_position: tuple[float, ...] | None = None
+    dynamics: ArmDynamics, joint_count: int, design_position: tuple[float, ...] | None = None, payload_kg: float = 0.0
 ) -> np.ndarray:
-    """Each joint's own inertia (the mass matrix's diagonal, kg·m²) at the design pose (rad per
-    joint; None: every joint at 0, or the nearest end of its range where 0 is outside it). Each
-    joint's gains are designed for it, so one set of weights serves a shoulder and a light wrist."""
-    if design_position is not None:
-        pose = np.asarray(design_position, dtype=float)
-    else:
-        pose = np.zeros(joint_count)
-        model = getattr(dynamics, "model", None)  # a MuJoCo model knows the joints' ranges
-        if model is not None:
-            limited = model.jnt_limited[:joint_count].astype(bool)
-            low, high = model.jnt_range[:joint_count, 0], model.jnt_range[:joint_count, 1]
-            pose = np.where(limited, np.clip(pose, low, high), pose)
-    return np.diag(dynamics.mass_matrix(pose)).copy()
+    """Each joint's own inertia (the mass matrix's diagonal, kg·m²) at the design pose (rad per joint; None: every
+    joint at 0, or the nearest end of its range where 0 is outside it): each joint's gains are designed for it.
+    With ``payload_kg`` (a rated payload the model lacks), with that load at its worst place within reach
+    (:func:`payload.inertia_bound`), at most PAYLOAD_INERTIA_RATIO × the arm's own."""
+    model = getattr(dynamics, "model", None)  # a MuJoCo model knows the joints' ranges
+    pose = np.zeros(joint_count) if design_position is None else np.asarray(design_position, dtype=float)
+    if design_position is None and model is not None:
+        limited = model.jnt_limited[:joint_count].astype(bool)
+        pose = np.where(limited, np.clip(pose, *model.jnt_range[:joint_count].T), pose)
+    inertia = np.diag(dynamics.mass_matrix(pose)).copy()
+    if payload_kg > 0 and model is not None:
+        inertia = np.minimum(inertia + payload.inertia_bound(model, payload_kg, pose), PAYLOAD_INERTIA_RATIO * inertia)
+    return inertia
 
 
 def inertia_scaled(
@@ -308,7 +315,7 @@ MAX_STEP_PERIODS = 5
 class BuiltinLaw(ControlLaw):
     """Model feedforward less the observer's torque, plus the PID's feedback. Params: ``pid`` (a
     :class:`PidConfig`), ``feedforward`` (a FeedforwardMode), ``feedback_decoupling``, ``lqr_q``,
-    ``lqr_r``, ``reference_inertia``, ``design_position``, ``scaled_gains``."""
+    ``lqr_r``, ``reference_inertia``, ``design_position``, ``scaled_gains``, ``rated_payload_kg`` (the LQR's)."""
 
     kind: ClassVar[str] = ""
 
@@ -356,17 +363,7 @@ class BuiltinLaw(ControlLaw):
         return self._terms.command
 
     def terms(self) -> dict[str, np.ndarray]:
-        t = self._terms
-        if t is None:
-            return {}
-        return {
-            "command": t.command,
-            "p": t.p,
-            "i": t.i,
-            "d": t.d,
-            "feedforward": t.feedforward,
-            "saturated": t.saturated,
-        }
+        return {} if self._terms is None else dict(vars(self._terms))  # command, p, i, d, feedforward, saturated
 
     def describe(self, observer: str = "") -> str:
         """One line for a log or a status topic: the law, the gains in force with their units, the
@@ -384,9 +381,10 @@ class BuiltinLaw(ControlLaw):
             f"|torque| <= {said(gains.output_limit, 'N·m', 'N')}, feedforward {p['feedforward'].value}{observer}"
         )
         if self.kind == "lqr":
+            load = f", for a {p['rated_payload_kg']:g} kg payload" if p.get("rated_payload_kg") else ""
             return (
                 f"LQR (q={in_units(p['lqr_q'], spec='.3g')}, r={p['lqr_r']:g}, designed at "
-                f"{1.0 / self.period_s:g} Hz): {in_force}; the kp/ki/kd parameters are unused"
+                f"{1.0 / self.period_s:g} Hz{load}): {in_force}; the kp/ki/kd parameters are unused"
             )
         scaled = "/".join(p.get("scaled_gains", ()))  # one value each, for reference_inertia
         return f"PID{f' ({scaled} × each joint inertia / reference_inertia)' if scaled else ''}: {in_force}"

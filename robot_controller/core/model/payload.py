@@ -82,10 +82,9 @@ def set_payload(model: mujoco.MjModel, payload: Payload) -> None:
     model.body_inertia[body_id] = max(payload.inertia_kgm2, 1e-12)
 
 
-def torque_bound(model: mujoco.MjModel, mass_kg: float, position: np.ndarray) -> np.ndarray:
-    """Per joint, the most gravity torque (N·m; N on a slide) a point mass of ``mass_kg`` within RATED_REACH_M
-    of the last link's origin puts on each joint at ``position``: m·g times how fast such a point moves per
-    unit of the joint's speed (|origin's speed| + RATED_REACH_M·|turn rate|)."""
+def reach_lever_m(model: mujoco.MjModel, position: np.ndarray) -> np.ndarray:
+    """Per joint at ``position``, m per unit of its speed: the most a point within RATED_REACH_M of the last link's
+    origin moves (|origin's speed| + RATED_REACH_M·|turn rate|)."""
     n, data = len(position), mujoco.MjData(model)
     data.qpos[:n] = position
     mujoco.mj_kinematics(model, data)
@@ -93,5 +92,15 @@ def torque_bound(model: mujoco.MjModel, mass_kg: float, position: np.ndarray) ->
     body = int(model.jnt_bodyid[model.njnt - 1])
     moves, turns = np.zeros((3, model.nv)), np.zeros((3, model.nv))
     mujoco.mj_jac(model, data, moves, turns, data.xpos[body], body)
-    lever = np.linalg.norm(moves, axis=0) + RATED_REACH_M * np.linalg.norm(turns, axis=0)
-    return mass_kg * float(np.linalg.norm(model.opt.gravity)) * lever[:n]
+    return (np.linalg.norm(moves, axis=0) + RATED_REACH_M * np.linalg.norm(turns, axis=0))[:n]
+
+
+def torque_bound(model: mujoco.MjModel, mass_kg: float, position: np.ndarray) -> np.ndarray:
+    """Per joint, the most gravity torque (N·m; N on a slide) a point mass of ``mass_kg`` within RATED_REACH_M
+    of the last link's origin puts on each joint at ``position``: m·g·:func:`reach_lever_m`."""
+    return mass_kg * float(np.linalg.norm(model.opt.gravity)) * reach_lever_m(model, position)
+
+
+def inertia_bound(model: mujoco.MjModel, mass_kg: float, position: np.ndarray) -> np.ndarray:
+    """Per joint, the most inertia (kg·m²; kg on a slide) such a point mass adds at ``position``: m·lever²."""
+    return mass_kg * reach_lever_m(model, position) ** 2

@@ -168,6 +168,28 @@ def test_gains_given_as_one_value_on_a_chain_are_scaled_by_each_joints_inertia_a
     assert cfg.controller_config(one, 1).scaled_gains == ()
 
 
+def test_the_lqr_is_designed_for_a_rated_payload_within_a_bound_the_pid_is_not():
+    """rated_payload_kg raises each joint's design inertia by the load's worst (payload.inertia_bound), at most
+    PAYLOAD_INERTIA_RATIO × its own: the Panda's last wrist gets that cap, the LQR's gains grow with it."""
+    from robot_controller import parameters as cfg
+    from robot_controller.core.controller import law_config
+    from robot_controller.core.laws.pid import PAYLOAD_INERTIA_RATIO, design_inertia
+    from robot_controller.core.model.payload import inertia_bound
+    from robot_controller.parameters.builders import arm_model
+
+    ctrl = cfg.load_stack(robot="panda")["pid_controller"]
+    dynamics, pose = arm_model(ctrl), tuple(ctrl["design_position"])
+    own, loaded = design_inertia(dynamics, 7, pose), design_inertia(dynamics, 7, pose, 3.0)
+    np.testing.assert_allclose(loaded, np.minimum(own + inertia_bound(dynamics.model, 3.0, np.array(pose)), 4 * own))
+    assert PAYLOAD_INERTIA_RATIO == 4.0 and loaded[6] == pytest.approx(4 * own[6]) and np.all(loaded > own)
+    unloaded, rated = (cfg.controller_config(dict(ctrl, lockstep=lockstep), 7) for lockstep in (False, True))
+    assert (unloaded.rated_payload_kg, rated.rated_payload_kg) == (0.0, 3.0)  # lockstep only
+    assert np.all(law_config(rated, dynamics, 7).kp > 1.5 * law_config(unloaded, dynamics, 7).kp)
+    for config in (unloaded, rated):
+        pid = law_config(config, dynamics, 7, "pid")
+        np.testing.assert_array_equal(pid.kp, law_config(unloaded, dynamics, 7, "pid").kp)
+
+
 @pytest.mark.parametrize("controller_type", ["lqr", "pid"])
 def test_the_gains_line_gives_a_prismatic_joint_its_own_units(controller_type):
     from robot_controller import parameters as cfg
