@@ -105,15 +105,19 @@ class PacedTicks:
                 wait_ns = deadline_ns + self.grace_ns - woken_ns
                 if not self.effort_in and wait_ns > 0:
                     self.effort_arrived.wait(wait_ns * 1e-9)
-                deadline_ns = self.tick(deadline_ns, woken_ns)
+                now_ns = time.monotonic_ns()
+                # Frozen before the wake-up, or within the wait for the effort (past its grace).
+                late_ns = max(woken_ns - deadline_ns, now_ns - woken_ns - max(wait_ns, 0))
+                deadline_ns = self.tick(deadline_ns, now_ns, late_ns)
 
-    def tick(self, deadline_ns: int, now_ns: int) -> int:
-        """What is due at ``deadline_ns``, woken at ``now_ns`` (lock held); the next deadline."""
+    def tick(self, deadline_ns: int, now_ns: int, late_ns: int) -> int:
+        """What is due at ``deadline_ns``, done at ``now_ns``, this process ``late_ns`` late (lock held); the next
+        deadline."""
         ticks = self.ticks
         if ticks.ended or not ticks.published or ticks.efforts_applied == 0:
             return now_ns + self.period_ns  # not started, or ended: the world waits for its first effort
-        if now_ns - deadline_ns > self.period_ns:
-            self.freezes.note(now_ns - deadline_ns)  # the world paused with this process
+        if late_ns > self.period_ns:
+            self.freezes.note(late_ns)  # the world paused with this process
             return now_ns + self.period_ns
         if ticks.held_for_recorder:
             if ticks.recorder_behind():

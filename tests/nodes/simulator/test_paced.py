@@ -1,7 +1,7 @@
 """The default run's paced world (nodes/simulator/paced.py): a host that freezes every process of the
 loop together is no fault, a controller that freezes alone is. Real nodes over DDS, each test on its own
 domain; figures are judged against what the host did (its freezes, the loop's late efforts), never a
-bare timing threshold."""
+bare timing threshold. Last, on stand-ins, the pacing thread's decisions at a deadline."""
 
 import json
 import os
@@ -63,3 +63,65 @@ def test_the_controller_frozen_alone_is_its_stall_and_the_arm_stays_in_its_band(
     assert output.count("no effort for 5 ticks of world time") >= 1, run_said(output)
     figures = case_figures(recording, recording.true_time_s[0], recording.true_time_s[-1])
     assert figures["brake_engaged"] and figures["max_deviation_rad"] <= 0.1, figures
+
+
+# --- the pacing thread's decisions at a deadline, on stand-ins for the node and its lockstep ticks ---
+
+
+class StandInTicks:
+    ended, published, efforts_applied, held_for_recorder, end_ns = False, 1, 1, False, None
+
+    def __init__(self) -> None:
+        self.advanced = 0
+
+    def advance(self) -> None:
+        self.advanced += 1
+
+
+class StandInBrakes:
+    def __init__(self) -> None:
+        self.reasons: set[str] = set()
+
+    def set(self, reason: str, on: bool) -> None:
+        (self.reasons.add if on else self.reasons.discard)(reason)
+
+
+def paced_at_100_hz():
+    from types import SimpleNamespace
+
+    from robot_controller.nodes.simulator.paced import FreezeLog, PacedTicks
+
+    paced = object.__new__(PacedTicks)  # the decisions only: no node, no thread
+    paced.node = SimpleNamespace(
+        brakes=StandInBrakes(),
+        warn_throttled=lambda key, text: None,
+        steps_done=0,
+        physics_dt_ns=1_000_000,
+        plant=SimpleNamespace(physics_dt=1e-3),
+    )
+    paced.ticks = StandInTicks()
+    paced.period_ns, paced.timeout_ticks = 10_000_000, 5
+    paced.effort_in, paced.ticks_without_effort, paced.late_efforts = False, 0, 0
+    paced.freezes = FreezeLog()
+    return paced
+
+
+def test_a_freeze_pauses_the_world_and_counts_against_no_one():
+    paced = paced_at_100_hz()
+    next_ns = paced.tick(deadline_ns=0, now_ns=60_000_000, late_ns=60_000_000)
+    assert paced.freezes.figures() == {"host_freezes": 1, "host_freeze_ms_max": 60.0, "host_freeze_ms_total": 60.0}
+    assert paced.ticks.advanced == 0 and paced.late_efforts == 0  # the world waited, and the loop gets a period
+    assert next_ns == 70_000_000
+
+
+def test_missing_efforts_are_the_loops_and_brake_after_the_drive_timeout():
+    paced = paced_at_100_hz()
+    deadline_ns = 0
+    for tick in range(1, 6):
+        deadline_ns = paced.tick(deadline_ns, deadline_ns + 10_000_000, 0)
+        assert paced.ticks.advanced == tick  # the world goes on without the effort
+        assert ("drive_timeout" in paced.node.brakes.reasons) == (tick >= 5)
+    assert paced.late_efforts == 5 and paced.freezes.count == 0
+    paced.effort_in = True
+    paced.tick(deadline_ns, deadline_ns, 0)
+    assert paced.late_efforts == 5  # an effort in time is no miss
