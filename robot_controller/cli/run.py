@@ -116,6 +116,7 @@ def run(options: RunOptions, out: Path | None) -> int:
         wall.update(result.usage)
     else:  # a paced world's freezes and its loop's late efforts, or the wall clock's
         values.update(result.world_clock)
+        values.update(result.clocks)  # a split run's hosts' clock offset
         values["realtime_requested"] = options.realtime
         values.update(result.usage)
     if options.paced:

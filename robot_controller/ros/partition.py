@@ -35,6 +35,8 @@ LOOP_TOPICS = (
     "/sim/disturbance_applied",
     # A command that moves the arm: heard from the run and the project's tools (observer profile) only.
     "/trajectory_planner/joint_trajectory",
+    "/clock_probe/request",  # the launchers' clock exchange (nodes.graph_watch)
+    "/clock_probe/reply",
 )
 
 #: Set by the launcher in each node's environment: the run's partition name.

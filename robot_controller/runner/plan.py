@@ -185,7 +185,10 @@ def plan(run: CheckedRun, out_dir: Path) -> RunPlan:
     recorder = None
     if RECORDING_NODE in local:
         recorder = Process("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] * options.lockstep), env)
-    watcher = Process("graph_watch", "graph_watch", [], dict(env)) if local != NODE_ORDER else None
+    # The recording launcher's watch measures the other launchers' clocks (wall clock only); theirs answer.
+    ask = ["--ask", repr(params["motor_node"]["max_command_age_s"] / 2)] if recorder and not options.lockstep else []
+    watch_args = ["--here", ",".join(local), *ask]
+    watcher = Process("graph_watch", "graph_watch", watch_args, dict(env)) if local != NODE_ORDER else None
     viewer = view_url = None
     if options.view_port is not None:
         viewer_args = ["--rrd", str(out_dir / "view.rrd"), "--port", str(options.view_port)]

@@ -19,6 +19,7 @@ from robot_controller.runner.processes import Child, ProcessGroup, say
 from robot_controller.runner.usage import USAGE_WARMUP_S, UsageMeter
 
 RECORDER_READY_TIMEOUT_S = 30.0
+CLOCK_WAIT_S = 10.0  #: a split run: the other launcher's clock is measured this long after the graph is complete
 FIRST_TICK_TIMEOUT_S = 20.0
 STALL_TIMEOUT_S = 10.0  #: lockstep: no /clock progress for this long (wall) means the graph is stuck
 GRAPH_SAY_EVERY_S = 5.0  #: how often the launcher names the nodes it is still waiting for
@@ -66,11 +67,12 @@ class GraphLink:
         self.nodes: frozenset[str] = frozenset()
         self.seen: set[str] = set()  #: every node ever seen
         self.missing_since: dict[str, float] = {}
+        self.clock: dict | None = None  #: the latest ``@clock`` report (the recording launcher's watch)
 
     def on_line(self, line: str) -> bool:
         nodes = graph_watch.parse_line(line)
         if nodes is None:
-            return False
+            return self._on_clock(line)
         now = time.monotonic()
         self.nodes = frozenset(nodes)
         self.seen.update(nodes)
@@ -79,6 +81,15 @@ class GraphLink:
                 self.missing_since.pop(name, None)
             else:
                 self.missing_since.setdefault(name, now)
+        return True
+
+    def _on_clock(self, line: str) -> bool:
+        if not line.startswith(graph_watch.CLOCK_PREFIX):
+            return False
+        clock = json.loads(line[len(graph_watch.CLOCK_PREFIX) :])  # {peer, offset_ms, round_trip_ms, apart}
+        if clock["apart"] and self.clock is not None and not self.clock["apart"]:  # said once as it goes past
+            say(f"WARNING: the clocks drifted apart: {clock['apart']}")
+        self.clock = clock
         return True
 
     def missing(self, names: tuple[str, ...]) -> list[str]:
@@ -205,6 +216,7 @@ class RunResult:
     started: float | None = None  #: monotonic time the loop closed
     sim_start: float = 0.0  #: the sim time the loop closed at
     world_clock: dict[str, float] = field(default_factory=dict)  #: a paced world's freezes and late efforts
+    clocks: dict[str, float] = field(default_factory=dict)  #: a split run's clock offset and round trip, ms
 
     def raise_if_interrupted(self) -> None:
         """For a series of runs (faults, compare, bench): Ctrl-C ends the whole series, not just this run."""
@@ -251,6 +263,13 @@ def run_loop(
         result.failure = wait_graph(graph, group, NODE_ORDER, run.remote_nodes, run.options.wait_s)
         if result.failure is None:
             say(f"graph complete: {', '.join(NODE_ORDER)} (here: {here})")
+    if result.failure is None and graph is not None and run.watcher and "--ask" in run.watcher.args:
+        # The drive ages a command by its clock from the controller's stamp: clocks apart refuse the run.
+        failure = f"the other launcher's clock was not measured within {CLOCK_WAIT_S:g} s"
+        result.failure = wait_until(lambda: graph.clock, group, CLOCK_WAIT_S, failure) or graph.clock["apart"]
+        if graph.clock is not None:
+            result.clocks = {f"clock_{k}": graph.clock[k] for k in ("offset_ms", "round_trip_ms")}
+            say(f"clocks: {graph.clock['peer']} {graph.clock['offset_ms']:+.1f} ms from here")
     if result.failure is None and run.records:
         failure = f"no /controller/state within {FIRST_TICK_TIMEOUT_S:g} s of start"
         result.failure = wait_until(lambda: link.counts.get("/controller/state"), group, FIRST_TICK_TIMEOUT_S, failure)
