@@ -16,6 +16,9 @@ ALL_NODES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajec
 CUT_AT_S = 5.0  #: a cut starts this long after the loop closes: mid-motion on the 0.5 Hz sine
 AFTER_CUT_S = 4.0  #: control recorded after a cut ends
 GOAL_DEVIATION_RAD = 0.1
+CONTROL_RATE_HZ = 100.0  #: the reference scenario's controller
+#: The loop ran: at least this share of the run's controller ticks recorded, and of its scored time unbraked.
+RAN_SHARE = 0.5
 REACQUIRED_RAD = 0.002
 REACQUIRED_HOLD_S = 0.1
 #: The loop's reactions, ticks in each state (metrics.json).
@@ -111,6 +114,7 @@ def band_figures(recording, from_s: float, cut_end_s: float | None) -> dict[str,
             "max_error_from_plan_rad": None,
             "reacquire_s": None,
             "brakes_engaged": None,
+            "braked_fraction": braked_fraction(recording, from_s),
         }
     low, high = np.min(planned_q, axis=0), np.max(planned_q, axis=0)
     after = true_t >= from_s
@@ -136,7 +140,21 @@ def band_figures(recording, from_s: float, cut_end_s: float | None) -> dict[str,
         "max_error_from_plan_rad": float(np.max(error[after])) if np.any(after) else None,
         "reacquire_s": reacquire_s,
         "brakes_engaged": bool(np.any(braked)),
+        "braked_fraction": braked_fraction(recording, from_s),
     }
+
+
+def braked_fraction(recording, from_s: float) -> float | None:
+    """The share of the time from ``from_s`` to the last tick (less its end's 0.1 s) that any brake was engaged,
+    each /sim/brakes sample held until the next; None without ticks or brake samples."""
+    if not len(recording.state["time_s"]) or not len(recording.brakes_time_s):
+        return None
+    end_s = recording.state["time_s"][-1] - 0.1
+    if end_s <= from_s:
+        return None
+    t = np.clip(np.append(recording.brakes_time_s, end_s), from_s, end_s)
+    on = np.any(recording.brakes > 0.5, axis=1)
+    return float(np.sum(np.diff(t)[on]) / (end_s - from_s))
 
 
 def message_figures(counts: dict[str, int], published: dict[str, int], span_s: float) -> dict[str, Any]:
@@ -182,3 +200,25 @@ def run_figures(run_dir: Path, split: Split, condition: Condition, cut: tuple[fl
 def within_goal(entry: dict[str, Any]) -> bool:
     deviation = entry.get("band_deviation_rad")
     return deviation is not None and deviation <= GOAL_DEVIATION_RAD
+
+
+def not_run(entry: dict[str, Any]) -> str | None:
+    """Why the loop did not run in this case (a launcher's exit code, no plan at the robot host, too few controller
+    ticks recorded, braked most of the scored time), or None: it ran. Ticks and brakes unknown are not held against
+    it (an older report)."""
+    if entry.get("robot_exit") != 0 or entry.get("control_exit") != 0:
+        return f"exit {entry.get('robot_exit')}/{entry.get('control_exit')}"
+    messages = entry.get("messages") or {}
+    if not messages.get("/trajectory", {}).get("recorded"):
+        return "no plan arrived"
+    ticks, expected = messages.get("/controller/state", {}).get("recorded", 0), entry["duration_s"] * CONTROL_RATE_HZ
+    if ticks < RAN_SHARE * expected:
+        return f"{ticks} controller ticks of {expected:.0f}"
+    if (braked := entry.get("braked_fraction")) is not None and braked > RAN_SHARE:
+        return f"braked {braked:.0%} of the time"
+    return None
+
+
+def passed(entry: dict[str, Any]) -> bool:
+    """The loop ran (``not_run``) and kept the TRUE angle within ``GOAL_DEVIATION_RAD`` of its band."""
+    return not_run(entry) is None and within_goal(entry)

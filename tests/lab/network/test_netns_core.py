@@ -1,6 +1,9 @@
 """The network bench's functional core, without namespaces or privilege: the
 commands it would run, the loss rule, leftovers, the capability check, the report."""
 
+import numpy as np
+import pytest
+
 from robot_controller_lab.network import conditions, netns, report
 
 
@@ -53,10 +56,68 @@ def test_report_names_reactions_and_lost_messages():
         "reacquire_s": 0.6,
         "watchdog_ticks": 5,
         "brakes_engaged": True,
-        "messages": {"/sim/joint_states": {"recorded": 90, "published_here": 100, "lost": 10}},
+        "messages": {
+            "/sim/joint_states": {"recorded": 90, "published_here": 100, "lost": 10},
+            "/trajectory": {"recorded": 1000},
+            "/controller/state": {"recorded": 900},
+        },
+        "duration_s": 11.0,
+        "braked_fraction": 0.2,
         "robot_exit": 0,
         "control_exit": 0,
     }
     text = report.render([entry], quick=False, started="today")
     assert "watchdog 5, brakes" in text and "/sim/joint_states 10" in text
-    assert report.document([entry], False, "today")["all_within_goal"]
+    assert "**1 of 1 cases passed**" in text and text.rstrip().endswith("| yes |")
+    assert report.document([entry], False, "today")["all_passed"]
+
+
+RAN = {
+    "split": "planner_remote",
+    "condition": "clean",
+    "robot_exit": 0,
+    "control_exit": 0,
+    "duration_s": 12.0,
+    "band_deviation_rad": 0.001,
+    "braked_fraction": 0.0,
+    "messages": {"/trajectory": {"recorded": 1300}, "/controller/state": {"recorded": 1210}},
+}
+
+
+def _with(**changes):
+    entry = dict(RAN, messages={t: dict(m) for t, m in RAN["messages"].items()})
+    for key, value in changes.items():
+        if key in ("trajectory", "ticks"):
+            entry["messages"]["/trajectory" if key == "trajectory" else "/controller/state"]["recorded"] = value
+        else:
+            entry[key] = value
+    return entry
+
+
+def test_a_case_passes_only_if_the_loop_ran_and_kept_its_band():
+    assert conditions.passed(RAN) and conditions.not_run(RAN) is None
+    # The measured report counted these as passing (a still arm stays in its band): the loop never ran.
+    no_plan = _with(trajectory=0, control_exit=1, band_deviation_rad=0.0054)  # planner remote, 500 kbit/s
+    braked = _with(ticks=165, control_exit=1, band_deviation_rad=0.0, braked_fraction=0.9)  # controller remote
+    assert conditions.not_run(no_plan) == "exit 0/1" and not conditions.passed(no_plan)
+    assert conditions.not_run(_with(trajectory=0)) == "no plan arrived"
+    assert conditions.not_run(_with(ticks=165)) == "165 controller ticks of 1200"
+    assert conditions.not_run(_with(braked_fraction=0.9)) == "braked 90% of the time"
+    assert not conditions.passed(braked) and not conditions.passed(_with(band_deviation_rad=0.2))
+    doc = report.document([RAN, no_plan, braked], False, "today")
+    assert doc["passed"] == 1 and not doc["all_passed"] and doc["worst_band_deviation_rad"] == 0.001
+    text = report.render([RAN, no_plan, braked], quick=False, started="today")
+    assert "**1 of 3 cases passed**" in text and "no: the loop did not run (exit 0/1)" in text
+
+
+class _Recording:
+    def __init__(self, brakes_time_s, brakes, last_tick_s):
+        self.brakes_time_s, self.brakes = np.asarray(brakes_time_s), np.asarray(brakes, dtype=float)
+        self.state = {"time_s": np.array([0.0, last_tick_s])}
+
+
+def test_braked_fraction_holds_each_brake_sample_until_the_next():
+    # Brakes off from 0 s, on from 4 s, off from 6 s; scored from 2 s to the last tick (10.1 s) less 0.1 s.
+    recording = _Recording([0.0, 4.0, 6.0], [[0.0], [1.0], [0.0]], 10.1)
+    assert conditions.braked_fraction(recording, 2.0) == pytest.approx(2.0 / 8.0)
+    assert conditions.braked_fraction(_Recording([], np.zeros((0, 1)), 10.1), 2.0) is None

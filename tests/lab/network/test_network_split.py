@@ -44,6 +44,7 @@ def test_a_cut_link_leaves_the_split_loop_in_its_band_and_it_reacquires(tmp_path
     # Discovery across the veth: the remote planner's samples reached the recorder.
     assert entry["messages"]["/trajectory"]["recorded"] > 300, entry["messages"]
     assert entry["band_deviation_rad"] < conditions.GOAL_DEVIATION_RAD, entry
+    assert conditions.passed(entry), conditions.not_run(entry)  # the loop ran: plan, ticks, brakes off
     assert entry["reacquire_s"] is not None, entry
     assert entry["reference_lost_ticks"] > 0, entry  # the controller noticed the planner's silence
     assert not _namespaces(net)  # and gone, with the veth pair and the rules inside them
