@@ -1,17 +1,17 @@
 """The simulator's paced world (``real_time_factor`` > 0; the default ``run``): lockstep ticks on a world clock
 that keeps pace with the wall clock and pauses with the host, as Gazebo's real-time factor does.
 
-Tick k's effort acts over the period after it, as in lockstep: the world steps at that period's deadline on
-the monotonic clock, or as soon after it as the effort arrives, within ``GRACE_PERIODS``; while every effort is
-in time a run is the lockstep run to the bit. An effort not in by then is the loop's miss: the world goes on
-with the effort in force and brakes (category 0) after ``drive_timeout_s`` of world time without one. A
-wake-up later than a whole period is a freeze of the host (or of the simulator alone): the world paused with
-it, so nothing counts against the loop, which gets a whole period from the wake-up to answer."""
+Tick k's effort acts over the period after it, exactly as in lockstep, so a run is the lockstep run to the bit
+however busy the host: the world steps at the period's deadline on the monotonic clock, or when the effort
+arrives, waiting for it up to ``drive_timeout_s`` of this process's own running time. An effort later than a
+period past its deadline is the loop's miss (``late_efforts``: the world waited for it); none within the drive
+timeout brakes the arm (category 0), and the world goes on without waiting while the brakes hold. Time this
+process did not run (a wake-up or a wait more than a period late) is a freeze of the host, or of the simulator
+alone: the world paused with it, and nothing counts against the loop."""
 
 from __future__ import annotations
 
 import json
-import math
 import threading
 import time
 from pathlib import Path
@@ -24,8 +24,8 @@ from robot_controller.ros import scheduling
 from robot_controller.ros.process import WORLD_CLOCK_FILE
 from robot_controller.ros.stack_node import StackNode
 
-#: How long past its deadline (control periods) the world waits for a tick's effort before going on without it.
-GRACE_PERIODS = 1.0
+#: An effort this long (control periods) past its tick's deadline is the loop's miss: the world waited for it.
+LATE_PERIODS = 1.0
 
 
 class FreezeLog:
@@ -70,12 +70,11 @@ class PacedTicks:
         self.ticks.resume_for_recorder = False  # this thread resumes a held tick, under the lock
         rate_hz = node.params["control_rate_hz"]
         self.period_ns = round(1e9 / (rate_hz * node.params["real_time_factor"]))  # wall ns per tick
-        self.timeout_ticks = max(1, math.ceil(node.params["drive_timeout_s"] * rate_hz - 1e-9))
+        self.timeout_ns = round(node.params["drive_timeout_s"] * 1e9)
+        self.late_ns = round(LATE_PERIODS * self.period_ns)
         self.effort_in = False  #: an effort arrived since the last tick
-        self.ticks_without_effort = 0
-        self.late_efforts = 0  #: ticks whose effort missed the deadline: the loop's own misses
+        self.late_efforts = 0  #: ticks the world waited for their effort, or went without it: the loop's own misses
         self.freezes = FreezeLog()
-        self.grace_ns = round(GRACE_PERIODS * self.period_ns)
         self.effort_arrived = threading.Condition(node.lock)
         self.stopping = threading.Event()
         rt_priority = scheduling.realtime_thread_requested()
@@ -85,11 +84,11 @@ class PacedTicks:
         self.thread.start()
 
     def take_effort(self, effort: np.ndarray) -> None:
-        """The latest effort is the one in force at the next deadline (a late one too: it is all there is)."""
+        """The latest effort is the one in force from the next step (one after the drive timeout too: it releases
+        the brakes)."""
         with self.node.lock:
             self.ticks.accept(effort)
             self.effort_in = True
-            self.ticks_without_effort = 0
             self.effort_arrived.notify()
 
     def pace(self, rt_priority: int | None) -> None:
@@ -102,44 +101,57 @@ class PacedTicks:
                 time.sleep(remaining_ns * 1e-9)
             with self.effort_arrived:
                 woken_ns = time.monotonic_ns()
-                wait_ns = deadline_ns + self.grace_ns - woken_ns
-                if not self.effort_in and wait_ns > 0:
-                    self.effort_arrived.wait(wait_ns * 1e-9)
-                now_ns = time.monotonic_ns()
-                # Frozen before the wake-up, or within the wait for the effort (past its grace).
-                late_ns = max(woken_ns - deadline_ns, now_ns - woken_ns - max(wait_ns, 0))
-                deadline_ns = self.tick(deadline_ns, now_ns, late_ns)
+                if woken_ns - deadline_ns > self.period_ns:
+                    self.freezes.note(woken_ns - deadline_ns)  # the world paused with this process
+                waited_ns = self.wait_for_effort(woken_ns)
+                deadline_ns = self.tick(deadline_ns, time.monotonic_ns(), waited_ns)
 
-    def tick(self, deadline_ns: int, now_ns: int, late_ns: int) -> int:
-        """What is due at ``deadline_ns``, done at ``now_ns``, this process ``late_ns`` late (lock held); the next
-        deadline."""
+    def wait_for_effort(self, since_ns: int) -> int:
+        """Wait (lock held) for the tick's effort, up to the drive timeout of this process's own running time (none
+        before the first effort, nor while the brakes hold for its absence); the time waited, ns."""
+        ticks, brakes = self.ticks, self.node.brakes
+        if not ticks.efforts_applied or ticks.ended or "drive_timeout" in brakes.reasons:
+            return 0
+        waited_ns, last_ns = 0, since_ns
+        while not self.effort_in and waited_ns < self.timeout_ns and not self.stopping.is_set():
+            self.effort_arrived.wait(min(self.period_ns, self.timeout_ns - waited_ns) * 1e-9)
+            now_ns = time.monotonic_ns()
+            gap_ns, last_ns = now_ns - last_ns, now_ns
+            if gap_ns > 2 * self.period_ns:
+                self.freezes.note(gap_ns)  # frozen while it waited: the host's time, not the loop's
+            else:
+                waited_ns += gap_ns
+        return waited_ns
+
+    def tick(self, deadline_ns: int, now_ns: int, waited_ns: int) -> int:
+        """The tick due at ``deadline_ns``, at ``now_ns`` after waiting ``waited_ns`` for its effort (lock held); the
+        next deadline (on the grid, or now if the world waited past it: it does not catch up)."""
         ticks = self.ticks
         if ticks.ended or not ticks.published or ticks.efforts_applied == 0:
             return now_ns + self.period_ns  # not started, or ended: the world waits for its first effort
-        if late_ns > self.period_ns:
-            self.freezes.note(late_ns)  # the world paused with this process
-            return now_ns + self.period_ns
         if ticks.held_for_recorder:
             if ticks.recorder_behind():
                 return deadline_ns + self.period_ns
             ticks.held_for_recorder = False
             ticks.publish()
             return deadline_ns + self.period_ns
-        if not self.effort_in and not self.past_the_run():
-            self.late_efforts += 1
-            self.ticks_without_effort += 1
+        counted = not self.past_the_run()
+        if not self.effort_in:
+            self.late_efforts += counted
             brakes = self.node.brakes
-            if self.ticks_without_effort >= self.timeout_ticks and "drive_timeout" not in brakes.reasons:
+            if "drive_timeout" not in brakes.reasons:
                 brakes.set("drive_timeout", True)
                 self.node.warn_throttled(
                     "drive_timeout",
-                    f"no effort for {self.ticks_without_effort} ticks of world time (t = "
+                    f"no effort for {self.node.params['drive_timeout_s']:g} s (t = "
                     f"{self.node.steps_done * self.node.plant.physics_dt:.2f} s): torque off, brakes on (category 0)",
                 )
+        elif waited_ns > self.late_ns:
+            self.late_efforts += counted
         self.effort_in = False
         ticks.waiting_for_effort = True
         ticks.advance()
-        return deadline_ns + self.period_ns
+        return max(deadline_ns + self.period_ns, now_ns)
 
     def past_the_run(self) -> bool:
         """In the margin after the run's duration, where the launcher may stop the nodes (lock held)."""
