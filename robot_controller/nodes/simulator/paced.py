@@ -101,24 +101,29 @@ class PacedTicks:
                 time.sleep(remaining_ns * 1e-9)
             with self.effort_arrived:
                 woken_ns = time.monotonic_ns()
-                if woken_ns - deadline_ns > self.period_ns:
+                frozen = woken_ns - deadline_ns > self.period_ns
+                if frozen:
                     self.freezes.note(woken_ns - deadline_ns)  # the world paused with this process
-                waited_ns = self.wait_for_effort(woken_ns)
+                waited_ns = self.wait_for_effort(woken_ns, frozen)
                 deadline_ns = self.tick(deadline_ns, time.monotonic_ns(), waited_ns)
 
-    def wait_for_effort(self, since_ns: int) -> int:
+    def wait_for_effort(self, since_ns: int, frozen: bool = False) -> int:
         """Wait (lock held) for the tick's effort, up to the drive timeout of this process's own running time (none
-        before the first effort, nor while the brakes hold for its absence); the time waited, ns."""
+        before the first effort, nor while the brakes hold for its absence); the time waited, ns. After a freeze
+        the wait starts again with twice the timeout: the loop's messages may wait for DDS's repair (its 50 ms
+        heartbeat), and the world, waiting, stays still."""
         ticks, brakes = self.ticks, self.node.brakes
         if not ticks.efforts_applied or ticks.ended or "drive_timeout" in brakes.reasons:
             return 0
+        budget_ns = self.timeout_ns * (2 if frozen else 1)
         waited_ns, last_ns = 0, since_ns
-        while not self.effort_in and waited_ns < self.timeout_ns and not self.stopping.is_set():
-            self.effort_arrived.wait(min(self.period_ns, self.timeout_ns - waited_ns) * 1e-9)
+        while not self.effort_in and waited_ns < budget_ns and not self.stopping.is_set():
+            self.effort_arrived.wait(min(self.period_ns, budget_ns - waited_ns) * 1e-9)
             now_ns = time.monotonic_ns()
             gap_ns, last_ns = now_ns - last_ns, now_ns
             if gap_ns > 2 * self.period_ns:
                 self.freezes.note(gap_ns)  # frozen while it waited: the host's time, not the loop's
+                budget_ns, waited_ns = 2 * self.timeout_ns, 0
             else:
                 waited_ns += gap_ns
         return waited_ns
@@ -135,17 +140,19 @@ class PacedTicks:
             ticks.held_for_recorder = False
             ticks.publish()
             return deadline_ns + self.period_ns
-        counted = not self.past_the_run()
+        counted = not self.past_the_run()  # in the margin after the run the nodes may stop: brake, say nothing
         if not self.effort_in:
             self.late_efforts += counted
             brakes = self.node.brakes
             if "drive_timeout" not in brakes.reasons:
                 brakes.set("drive_timeout", True)
-                self.node.warn_throttled(
-                    "drive_timeout",
-                    f"no effort for {self.node.params['drive_timeout_s']:g} s (t = "
-                    f"{self.node.steps_done * self.node.plant.physics_dt:.2f} s): torque off, brakes on (category 0)",
-                )
+                if counted:
+                    self.node.warn_throttled(
+                        "drive_timeout",
+                        f"no effort for {self.node.params['drive_timeout_s']:g} s (t = "
+                        f"{self.node.steps_done * self.node.plant.physics_dt:.2f} s): torque off, brakes on "
+                        "(category 0)",
+                    )
         elif waited_ns > self.late_ns:
             self.late_efforts += counted
         self.effort_in = False
