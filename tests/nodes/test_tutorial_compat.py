@@ -85,10 +85,16 @@ def test_tutorial_planner_and_controller_drive_our_arm(tmp_path, ros_domain, wor
                 return any(abs(m.position[0]) > 0.3 for _, m in true_states)
 
         wait_for(moving, 40, "the tutorial's controller to move our arm")
-        time.sleep(5.0)
+        # Judge the last 4 s of 8: the start is the tutorial's transient. Its planner's sine runs from its own
+        # start, and its controller integrates error before the world starts; the first command then meets a
+        # target up to 1 rad away and saturates (on a busy host it swung the arm over the top, 3.4 rad, and
+        # back within 2.5 s).
+        time.sleep(8.0)
         assert all(p.poll() is None for p in processes), "a node died"
         with probe.lock:
-            t = np.array([m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for _, m in true_states])
+            # The tutorial's nodes run on the wall clock; the paced world's pauses with a busy host: judge the arm
+            # on the tutorial's time base, when its states arrived.
+            t = np.array([arrived for arrived, _ in true_states])
             q = np.array([m.position[0] for _, m in true_states])
         recent = t > t[-1] - 4.0
         # The tutorial's loop lags a 1 rad, 0.5 Hz sine but follows it: fit a sine at 0.5 Hz.
@@ -98,6 +104,7 @@ def test_tutorial_planner_and_controller_drive_our_arm(tmp_path, ros_domain, wor
         residual = q[recent] - basis @ coef
         assert 0.6 < amplitude < 1.3, amplitude
         assert np.std(residual) < 0.1
+        assert np.abs(q[recent]).max() < 1.3, "the arm swung past the reference's reach"
     finally:
         probe.close()
         for p in processes:
