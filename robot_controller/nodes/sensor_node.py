@@ -1,10 +1,12 @@
 """sensor_node: the encoder. Samples ``/sim/joint_states`` on a ``rate_hz`` grid of its stamps, adds
-seeded noise (and ``delay_s``) and publishes ``/joint_states`` stamped with the sample's time."""
+seeded noise (and ``delay_s``) and publishes ``/joint_states`` stamped with the sample's time; and, latched, the
+arm's URDF on ``/robot_description`` (as robot_state_publisher does), for ROS clients such as MoveIt."""
 
 from __future__ import annotations
 
 import numpy as np
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
@@ -12,7 +14,7 @@ from robot_controller.core.model import DelayLine, load_model, measure
 from robot_controller.core.model.mujoco_model import joint_units
 from robot_controller.ros.messages import check_joint_state, s_to_stamp, stamp_to_s
 from robot_controller.ros.process import run
-from robot_controller.ros.qos import loop_qos
+from robot_controller.ros.qos import LATCHED_QOS, loop_qos
 from robot_controller.ros.stack_node import StackNode
 
 # Stamps within this of a grid point count as on it (float ns rounding).
@@ -35,7 +37,10 @@ class SensorNode(StackNode):
         self.create_subscription(JointState, "/sim/joint_states", self.true_state_callback, loop_qos(self.lockstep))
         self.watch_single_publisher("/sim/joint_states", "simulator")
         self.out = JointState()
-        units = " or ".join(dict.fromkeys(joint_units(load_model(resources.resolve_urdf(self.params["urdf_path"])))))
+        urdf = resources.resolve_urdf(self.params["urdf_path"])
+        self.description_pub = self.create_publisher(String, "/robot_description", LATCHED_QOS)
+        self.description_pub.publish(String(data=urdf.read_text()))
+        units = " or ".join(dict.fromkeys(joint_units(load_model(urdf))))
         self.get_logger().info(
             f"sensor at {self.params['rate_hz']:g} Hz: σ position {self.sensor.position_noise_std:g} {units}, "
             f"σ velocity {self.sensor.velocity_noise_std:g} {units.replace('rad', 'rad/s').replace('m', 'm/s')}, "

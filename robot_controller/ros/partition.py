@@ -38,6 +38,10 @@ LOOP_TOPICS = (
     "/clock_probe/request",  # the launchers' clock exchange (nodes.graph_watch)
     "/clock_probe/reply",
 )
+#: Loop topics any ROS client may also hear: written in the run's partition and the default one, read in the run's
+#: only (a foreign publisher of them is never heard). The rest of the arm's public face is outside every partition:
+#: the FollowJointTrajectory action, ``/<controller_name>/joint_trajectory``, ``/robot_description``, ``/estop``.
+PUBLISHED_TOO = ("/joint_states",)
 
 #: Set by the launcher in each node's environment: the run's partition name.
 PARTITION_ENV = "ROBOT_CONTROLLER_PARTITION"
@@ -96,9 +100,17 @@ def check_peers(text: str) -> list[str]:
 
 
 def write_run_profile(path: Path, partition: str, base: Path | None = None, peers: list[str] | None = None) -> Path:
-    """The stack's Fast DDS profile (``config/fastdds.xml``) with every loop topic in ``partition``.
-    ``peers``: a run across hosts: UDPv4 only, those addresses as initial peers (module docstring)."""
-    return _write(path, base, writer_partitions=partition, reader_partitions=partition, peers=peers)
+    """The stack's Fast DDS profile (``config/fastdds.xml``) with every loop topic in ``partition`` (written in the
+    default one too for :data:`PUBLISHED_TOO`). ``peers``: a run across hosts: UDPv4 only, those addresses as initial
+    peers (module docstring)."""
+    return _write(
+        path,
+        base,
+        writer_partitions=partition,
+        reader_partitions=partition,
+        peers=peers,
+        public_writers=f";{partition}",
+    )
 
 
 def write_observer_profile(path: Path, base: Path | None = None) -> Path:
@@ -107,7 +119,13 @@ def write_observer_profile(path: Path, base: Path | None = None) -> Path:
 
 
 def _write(
-    path: Path, base: Path | None, *, writer_partitions: str, reader_partitions: str, peers: list[str] | None = None
+    path: Path,
+    base: Path | None,
+    *,
+    writer_partitions: str,
+    reader_partitions: str,
+    peers: list[str] | None = None,
+    public_writers: str | None = None,
 ) -> Path:
     ET.register_namespace("", _NS)
     tree = ET.parse(base or resources.fastdds_profiles())
@@ -120,7 +138,8 @@ def _write(
         for topic in LOOP_TOPICS:
             profile = copy.deepcopy(default) if default is not None else ET.Element(f"{{{_NS}}}{kind}")
             profile.attrib = {"profile_name": topic}
-            _set_property(profile, "partitions", partitions)
+            public = kind == "data_writer" and topic in PUBLISHED_TOO and public_writers is not None
+            _set_property(profile, "partitions", public_writers if public else partitions)
             if peers:
                 _no_data_sharing(profile)
             root.append(profile)

@@ -74,9 +74,10 @@ def shutting_down(within_s: float = 0.5) -> bool:
     return True
 
 
-def make_executor(context: rclpy.Context | None = None) -> Executor:
-    """rclpy's EventsExecutor (no wait set rebuilt per callback); ``ROBOT_CONTROLLER_EXECUTOR=single``: the single."""
-    if os.environ.get("ROBOT_CONTROLLER_EXECUTOR", "events") == "events":
+def make_executor(context: rclpy.Context | None = None, serves_actions: bool = False) -> Executor:
+    """rclpy's EventsExecutor (no wait set rebuilt per callback); ``ROBOT_CONTROLLER_EXECUTOR=single``: the single.
+    ``serves_actions``: the single, since Jazzy's EventsExecutor never hands an action server its goals."""
+    if not serves_actions and os.environ.get("ROBOT_CONTROLLER_EXECUTOR", "events") == "events":
         from rclpy.experimental import EventsExecutor
 
         return EventsExecutor(context=context)
@@ -118,7 +119,7 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
     init_with_own_signals(args)
     nodes: list[Node] = []
     code = [0]
-    executor = make_executor()
+    executor = make_executor(serves_actions=any(getattr(factory, "serves_actions", False) for factory in factories))
     try:
         for factory in factories:
             nodes.append(factory())

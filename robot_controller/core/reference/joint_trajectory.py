@@ -26,6 +26,7 @@ from robot_controller.core.reference.joint_trajectory_checks import (
     torque_shortfall,
 )
 from robot_controller.core.reference.quintic_path import QuinticPath, knot_accelerations, knot_velocities
+from robot_controller.core.reference.stop import overshoots, rest_position, stop_time_s
 from robot_controller.core.reference.trajectory import Sample
 
 # A first point at time 0 must be this close to the reference in force (MoveIt's
@@ -61,6 +62,7 @@ class JointTrajectory:
     path: QuinticPath
     waypoints: Waypoints
     start_delay_s: float
+    stop_first_s: float = 0.0  #: the reference came to rest first (``blend``), so the points are this much later
 
     def sample(self, t: float) -> Sample:
         return self.path.sample(t)
@@ -98,6 +100,48 @@ def _field(name: str, rows: Values, joints: int, points: int) -> np.ndarray | No
     return np.array(rows, dtype=float).reshape(points, joints)
 
 
+def joint_names_problem(names: Sequence[str], arm: Sequence[str], allow_partial: bool = False) -> str | None:
+    """Why a trajectory's joint names cannot drive the arm (``arm``: its joints), or None: each named once, each the
+    arm's, and every joint of the arm unless ``allow_partial`` (the others then hold where their reference is)."""
+    repeated = sorted(name for name, count in Counter(names).items() if count > 1)
+    if repeated:
+        return f"joint {repeated[0]!r} is named more than once"
+    unknown = [name for name in names if name not in arm]
+    if unknown:
+        return f"unknown joint(s) {unknown}: the arm's joints are {list(arm)}"
+    missing = [name for name in arm if name not in names]
+    if missing and not allow_partial:
+        return f"missing joint(s) {missing}: a trajectory gives every joint of the arm {list(arm)}"
+    if not names:
+        return "no joint names"
+    return None
+
+
+def complete_joints(
+    names: Sequence[str],
+    arm: Sequence[str],
+    hold: np.ndarray,
+    positions: Values,
+    velocities: Values,
+    accelerations: Values,
+) -> tuple[list[str], list[list[float]], list[list[float]], list[list[float]]]:
+    """A partial trajectory's points with the arm's other joints added, each held at ``hold`` (the arm's order), at
+    rest where velocities or accelerations are given."""
+    others = [j for j, name in enumerate(arm) if name not in names]
+
+    def widen(rows: Values, values: list[float]) -> list[list[float]]:
+        return [list(row) + values if len(row) else [] for row in rows]
+
+    held = [float(hold[j]) for j in others]
+    rest = [0.0] * len(others)
+    return (
+        [*names, *(arm[j] for j in others)],
+        widen(positions, held),
+        widen(velocities, rest),
+        widen(accelerations, rest),
+    )
+
+
 def check_waypoints(
     joint_names: Sequence[str],
     times_s: Sequence[float],
@@ -111,15 +155,9 @@ def check_waypoints(
     row per point, as the message does."""
     arm = list(limits.joint_names)
     names = list(joint_names)
-    repeated = sorted(name for name, count in Counter(names).items() if count > 1)
-    if repeated:
-        return f"joint {repeated[0]!r} is named more than once"
-    unknown = [name for name in names if name not in arm]
-    if unknown:
-        return f"unknown joint(s) {unknown}: the arm's joints are {arm}"
-    missing = [name for name in arm if name not in names]
-    if missing:
-        return f"missing joint(s) {missing}: a trajectory gives every joint of the arm {arm}"
+    reason = joint_names_problem(names, arm)
+    if reason is not None:
+        return reason
     points = len(times_s)
     if points == 0:
         return "no points"
@@ -165,9 +203,13 @@ def check_waypoints(
     return Waypoints(tuple(arm), times, p, v, a)
 
 
-def blend(waypoints: Waypoints, start: Sample, start_delay_s: float = 0.0) -> JointTrajectory | str:
+def blend(
+    waypoints: Waypoints, start: Sample, start_delay_s: float = 0.0, stop_deceleration: float | None = None
+) -> JointTrajectory | str:
     """The motion from ``start`` (the reference in force: position, velocity, acceleration)
-    through the points, the first reached ``start_delay_s + times_s[0]`` from now; or why not."""
+    through the points, the first reached ``start_delay_s + times_s[0]`` from now; or why not.
+    ``stop_deceleration`` (rad/s²): if joining the first point directly would swing past it (``stop.overshoots``),
+    the reference first comes to rest within it, and the points are reached that much later."""
     p0, v0, a0 = (np.asarray(x, dtype=float) for x in start)
     times = start_delay_s + waypoints.times_s
     p, v, a = waypoints.positions, waypoints.velocities, waypoints.accelerations
@@ -185,11 +227,32 @@ def blend(waypoints: Waypoints, start: Sample, start_delay_s: float = 0.0) -> Jo
         a = None if a is None else a[1:]
         if len(times) == 0 and (np.any(np.abs(v0) > AT_REST_TOLERANCE) or np.any(np.abs(a0) > AT_REST_TOLERANCE)):
             return "its only point is at time 0 while the reference moves: give it a time_from_start > 0"
+    path = _through((p0, v0, a0), times, p, v, a)
+    if stop_deceleration is None or len(times) == 0 or not overshoots(path, (p0, v0, a0), stop_deceleration):
+        return JointTrajectory(path, waypoints, float(start_delay_s))
+    stop_s = stop_time_s(v0, a0, stop_deceleration)
+    rest = np.zeros_like(p0)
+    then = _through((rest_position((p0, v0, a0), stop_s), rest, rest), times, p, v, a)
+    knots = (
+        np.concatenate(([0.0], stop_s + then.times_s)),
+        *(np.vstack((first, knot)) for first, knot in zip((p0, v0, a0), _knots(then), strict=True)),
+    )
+    return JointTrajectory(QuinticPath.through(*knots), waypoints, float(start_delay_s), stop_first_s=stop_s)
+
+
+def _through(start: Sample, times, p, v, a) -> QuinticPath:
+    """The path from ``start`` at 0 through the points at ``times`` (velocities, accelerations chosen if None)."""
+    p0, v0, a0 = start
     knot_times = np.concatenate(([0.0], times))
     knot_p = np.vstack((p0, p))
     knot_v = knot_velocities(knot_times, knot_p, v0) if v is None else np.vstack((v0, v))
     knot_a = knot_accelerations(knot_times, knot_v, a0) if a is None else np.vstack((a0, a))
-    return JointTrajectory(QuinticPath.through(knot_times, knot_p, knot_v, knot_a), waypoints, float(start_delay_s))
+    return QuinticPath.through(knot_times, knot_p, knot_v, knot_a)
+
+
+def _knots(path: QuinticPath) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The positions, velocities and accelerations at ``path``'s knots."""
+    return path.sample_many(path.times_s)
 
 
 def accept_joint_trajectory(
@@ -206,6 +269,7 @@ def accept_joint_trajectory(
     margin: float,
     start_delay_s: float = 0.0,
     torque_policy: str = "refuse",
+    stop_deceleration: float | None = None,
 ) -> Accepted | str:
     """Check a trajectory, blend it from ``start`` and check the motion: an :class:`Accepted`,
     or a one-line reason.
@@ -213,11 +277,12 @@ def accept_joint_trajectory(
     :param dynamics: the arm model (anything with ``torque(q, v, a)``)
     :param torque_limit_nm: per joint; the path may use ``(1 - margin)`` of it
     :param torque_policy: ``refuse`` a path that needs more, or ``warn`` and take it
+    :param stop_deceleration: rad/s², to stop first rather than swing past the first point (``blend``)
     """
     waypoints = check_waypoints(joint_names, times_s, positions, velocities, accelerations, limits)
     if isinstance(waypoints, str):
         return waypoints
-    trajectory = blend(waypoints, start, start_delay_s)
+    trajectory = blend(waypoints, start, start_delay_s, stop_deceleration)
     if isinstance(trajectory, str):
         return trajectory
     reason = path_outside_limits(trajectory.path, limits)

@@ -32,5 +32,12 @@ TRAJECTORY_PLANNER_PARAMS: tuple[ParamSpec, ...] = (
     torque_max_spec("actuator torque limit the trajectory is checked against; must equal motor_node's"),
     ParamSpec("feasibility", str, "scale", "a trajectory that needs more than the usable torque (torque_max less feasibility_margin, from the arm model's inverse dynamics along the path: the URDF's, or the model_* values over it, as the controller's): slow it in time until it fits (frequencies, or a shaped step's max_acceleration), refuse it, or run it anyway with a warning", choices=("scale", "refuse", "ignore")),
     ParamSpec("feasibility_margin", float, 0.2, "fraction of torque_max kept free for the feedback when checking the trajectory (0.2: the path may use 80 %)", minimum=0.0, maximum=0.9),
+    # ros2_controllers' JointTrajectoryController's face (docs/moveit.md).
+    ParamSpec("controller_name", str, "joint_trajectory_controller", "the name clients know the arm's trajectory controller by: the action /<controller_name>/follow_joint_trajectory and the topic /<controller_name>/joint_trajectory (as JointTrajectoryController's; MoveIt's moveit_controllers.yaml names it)", read_only=True),
+    ParamSpec("allow_partial_joints_goal", bool, False, "take a trajectory naming only some joints (the others hold where their reference is), as JointTrajectoryController's parameter; else it is refused (INVALID_JOINTS)"),
+    ParamSpec("path_tolerance", float, 0.0, "default path tolerance of a FollowJointTrajectory goal, rad (m on a slider): |desired − actual| beyond it aborts the goal (PATH_TOLERANCE_VIOLATED); 0: none, unless the goal gives one", minimum=0.0),
+    ParamSpec("goal_tolerance", float, 0.01, "default goal tolerance, rad (m): the goal succeeds once every joint is this close to its last point; 0: none (it succeeds at the trajectory's end)", minimum=0.0),
+    ParamSpec("goal_time_tolerance_s", float, 1.0, "default time after the trajectory's end within which every joint must be within its goal tolerance, s (else GOAL_TOLERANCE_VIOLATED); 0: no limit", minimum=0.0),
+    ParamSpec("stop_deceleration", float, 20.0, "deceleration of the reference's stops, rad/s² (m/s²): a cancelled or aborted goal's stop, and the stop a trajectory makes first when joining it directly would swing past its first point", **POSITIVE),
 )
 # fmt: on

@@ -1,17 +1,20 @@
-"""trajectory_planner: the reference on ``/trajectory``, ``[positions…, velocities…, accelerations…,
+"""The planner node: the reference on ``/trajectory``, ``[positions…, velocities…, accelerations…,
 time_s]`` (``time_s``: when the sample was taken, so the controller evaluates it at its own tick).
 Time starts when the first consumer is matched. Lockstep: each grid point's sample goes one tick early.
 
 Every trajectory is checked against the joints' ranges, the arm model and ``torque_max`` less
 ``feasibility_margin`` (``core.reference``; ``feasibility``: scale, refuse or ignore), at start and on
 every live change, which is blended in from the reference in force (``core.reference.crossfade``). A
-``JointTrajectory`` on ``/trajectory_planner/joint_trajectory`` (as ros2_controllers' JointTrajectoryController
-takes it) is checked against the URDF's limits too, blended from the reference in force, timed from
+``JointTrajectory`` on ``/<controller_name>/joint_trajectory`` (as ros2_controllers' JointTrajectoryController
+takes it; ``/trajectory_planner/joint_trajectory`` too) or in a FollowJointTrajectory goal
+(``follow_joint_trajectory``) is checked against the URDF's limits too, joined onto the reference in force (first
+stopping within ``stop_deceleration`` if joining directly would swing past its first point), timed from
 ``header.stamp`` if set and not past, and held at its last point until the next one or a change of the shape.
 """
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import numpy as np
@@ -28,7 +31,6 @@ from robot_controller.core.model import joint_limits, urdf_velocity_limits
 from robot_controller.core.reference import (
     Accepted,
     Crossfade,
-    JointTrajectory,
     Plan,
     Trajectory,
     accept_joint_trajectory,
@@ -38,6 +40,10 @@ from robot_controller.core.reference import (
     start_delay,
 )
 from robot_controller.core.reference.crossfade import Motion
+from robot_controller.core.reference.joint_trajectory import complete_joints, joint_names_problem
+from robot_controller.core.reference.stop import stop_path
+from robot_controller.core.reference.tolerances import INVALID_GOAL, INVALID_JOINTS, OLD_HEADER_TIMESTAMP
+from robot_controller.nodes.trajectory_planner.follow_joint_trajectory import FollowJointTrajectoryServer
 from robot_controller.parameters.builders import TRAJECTORY_SHAPE_KEYS, arm_model, model_overridden
 from robot_controller.parameters.torque_limits import torque_limit
 from robot_controller.ros.messages import clock_s, stamp_to_s
@@ -46,12 +52,17 @@ from robot_controller.ros.qos import CONTROL_QOS, LATEST_QOS
 from robot_controller.ros.stack_node import StackNode
 
 _GRID_EPS_S = 1e-6
+#: The planner's own name for the JointTrajectory topic (the project's tools hear it in the run's partition).
 JOINT_TRAJECTORY_TOPIC = "/trajectory_planner/joint_trajectory"
+#: A controller name as a ROS name segment.
+_CONTROLLER_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 # A change of these brings the parameters' motion back in place of a joint trajectory.
 SHAPE_KEYS = frozenset(("mode", *TRAJECTORY_SHAPE_KEYS))
 
 
 class TrajectoryPlanner(StackNode):
+    serves_actions = True  #: spun by an executor that serves action servers (ros.process.make_executor)
+
     def __init__(self) -> None:
         self._plan_key: tuple | None = None
         self._plan: Plan | None = None
@@ -62,7 +73,7 @@ class TrajectoryPlanner(StackNode):
         self.pub = self.gated_publisher(Float64MultiArray, "/trajectory")
         self.start_s: float | None = None
         self.next_sample_s = 0.0
-        self.waypoints: JointTrajectory | None = None  # a joint trajectory in force, if any
+        self.waypoints: Trajectory | None = None  # a joint trajectory (or a goal's stop) in force, if any
         self.origin_s = 0.0  # when the motion in force has its time 0 (the start, or a joint trajectory's receipt)
         self.crossfade: Crossfade | None = None  # a live change being blended in
         self.clock_s = 0.0  # lockstep: the latest /clock (time is 0 until the first)
@@ -80,8 +91,10 @@ class TrajectoryPlanner(StackNode):
                 0.05, lambda: self.sample_at(self.clock_s), clock=Clock(clock_type=ClockType.STEADY_TIME)
             )
         else:
-            self.timer = self.create_timer(1.0 / p["publish_rate_hz"], lambda: self.sample_at(clock_s(self)))
-        self.create_subscription(JointTrajectoryMsg, JOINT_TRAJECTORY_TOPIC, self.joint_trajectory_callback, LATEST_QOS)
+            self.timer = self.create_timer(1.0 / p["publish_rate_hz"], self.wall_tick)
+        for topic in (JOINT_TRAJECTORY_TOPIC, public_trajectory_topic(p["controller_name"])):
+            self.create_subscription(JointTrajectoryMsg, topic, self.joint_trajectory_callback, LATEST_QOS)
+        self.action = FollowJointTrajectoryServer(self)
         self.get_logger().info(
             f"trajectory: {p['mode']}, amplitude {in_units(p['amplitude'], self.dynamics.joint_units)}, "
             f"{p['frequency_hz']:g} Hz, published at {p['publish_rate_hz']:g} Hz"
@@ -98,6 +111,10 @@ class TrajectoryPlanner(StackNode):
             )
         if model_overridden(params):
             self.get_logger().info(f"trajectory checked against {self.dynamics.describe()}")
+        if not _CONTROLLER_NAME.fullmatch(params["controller_name"]):
+            raise ConfigError(
+                f"controller_name {params['controller_name']!r}: a letter, then letters, digits or '_' (a ROS name)"
+            )
         # Position and velocity limits (read-only URDF: fixed at start).
         self.limits = joint_limits(resources.resolve_urdf(params["urdf_path"]))
 
@@ -144,6 +161,7 @@ class TrajectoryPlanner(StackNode):
         self.trajectory = self._make(params)
         moved = repr(self.trajectory) != previous
         if self.waypoints is not None and changed & SHAPE_KEYS:
+            self.action.replaced("a change of the parameters' motion")
             self.waypoints, moved = None, True
             self.origin_s = self.start_s or 0.0
             self.get_logger().info(f"joint trajectory left for the parameters' {params['mode']}")
@@ -151,7 +169,17 @@ class TrajectoryPlanner(StackNode):
             self.blend_from(before, params)
         if "publish_rate_hz" in changed and self.timer is not None:
             self.destroy_timer(self.timer)
-            self.timer = self.create_timer(1.0 / params["publish_rate_hz"], lambda: self.sample_at(clock_s(self)))
+            self.timer = self.create_timer(1.0 / params["publish_rate_hz"], self.wall_tick)
+
+    def now_s(self) -> float:
+        """The planner's time: the latest /clock in lockstep, else the node's clock, s."""
+        return self.clock_s if self.params["lockstep"] else clock_s(self)
+
+    def wall_tick(self) -> None:
+        now_s = clock_s(self)
+        self.sample_at(now_s)
+        if self.start_s is not None:
+            self.action.monitor(now_s)
 
     def clock_callback(self, msg: ClockMsg) -> None:
         previous_s, self.clock_s = self.clock_s, stamp_to_s(msg.clock)
@@ -163,6 +191,7 @@ class TrajectoryPlanner(StackNode):
         step_s = self.clock_s - previous_s
         if step_s > 0:
             self.sample_at(self.clock_s + step_s)
+        self.action.monitor(self.clock_s)
 
     def sample_at(self, now_s: float) -> None:
         if self.start_s is None:
@@ -184,7 +213,7 @@ class TrajectoryPlanner(StackNode):
 
     def blend_from(self, before: Motion, params: dict[str, Any]) -> None:
         """A live change starts from the reference in force, blended into the new motion (no jump)."""
-        now_s = self.clock_s if params["lockstep"] else clock_s(self)
+        now_s = self.now_s()
         usable = torque_limit(params, len(self.limits.joint_names)) * (1.0 - params["feasibility_margin"])
         self.crossfade = None  # (a blend under way is ``before``)
         self.crossfade = crossfade(before, self.motion_in_force(), now_s, self.dynamics, usable, self.limits.velocity)
@@ -210,11 +239,29 @@ class TrajectoryPlanner(StackNode):
         return self.motion_in_force()(now_s)
 
     def joint_trajectory_callback(self, msg: JointTrajectoryMsg) -> None:
-        now_s = self.clock_s if self.params["lockstep"] else clock_s(self)
-        taken = self._joint_trajectory(msg, now_s)
-        if isinstance(taken, str):
-            self.warn_throttled("joint_trajectory", f"joint trajectory refused: {taken}; the motion goes on as it was")
+        now_s = self.now_s()
+        taken = self.take_trajectory(msg, now_s, "joint trajectory")
+        if isinstance(taken, tuple):
             return
+        self.action.replaced("a trajectory on the topic")
+        self.install(taken, now_s)
+
+    def take_trajectory(self, msg: JointTrajectoryMsg, now_s: float, what: str) -> Accepted | tuple[int, str]:
+        """``msg`` checked and joined onto the reference in force at ``now_s``; or, refused, JTC's error code and
+        the reason (said in the log, at most once per 2 s for the topic: a goal's client has its result)."""
+        taken = self._joint_trajectory(msg, now_s)
+        if isinstance(taken, Accepted):
+            return taken
+        code, reason = taken
+        line = f"{what} refused: {reason}; the motion goes on as it was"
+        if what == "joint trajectory":
+            self.warn_throttled("joint_trajectory", line)
+        else:
+            self.get_logger().warning(line)
+        return code, reason
+
+    def install(self, taken: Accepted, now_s: float) -> None:
+        """Put a taken trajectory in force from ``now_s`` (it starts from the reference in force) and say so."""
         trajectory = taken.trajectory
         self.waypoints, self.origin_s, self.crossfade = trajectory, now_s, None  # it starts from the blend
         points = len(trajectory.waypoints.times_s)
@@ -225,32 +272,74 @@ class TrajectoryPlanner(StackNode):
         self.get_logger().info(
             f"joint trajectory taken: {points} point(s), reaching {target} {trajectory.duration_s:.3g} s from now"
             + (f" (its time 0 at its stamp, {delayed:.3g} s from now)" if delayed else "")
+            + (
+                f" (after a stop of {trajectory.stop_first_s:.2f} s: joining it directly swung past its first point)"
+                if trajectory.stop_first_s
+                else ""
+            )
             + f"; peak {effort} {taken.peak_torque_nm[j]:.2f} {EFFORT_UNITS[units[j]]} on {self.limits.joint_names[j]}"
         )
         if taken.warning is not None:
             self.get_logger().warning(f"{taken.warning}; running it as it is (feasibility: ignore)")
 
-    def _joint_trajectory(self, msg: JointTrajectoryMsg, now_s: float) -> Accepted | str:
+    def stop(self, now_s: float) -> float:
+        """Bring the reference to rest within ``stop_deceleration`` from ``now_s``, then hold; the stop's length, s."""
+        path = stop_path(self.reference_at(now_s), self.params["stop_deceleration"])
+        self.waypoints, self.origin_s, self.crossfade = path, now_s, None
+        return path.duration_s
+
+    def _joint_trajectory(self, msg: JointTrajectoryMsg, now_s: float) -> Accepted | tuple[int, str]:
         if self.start_s is None:
-            return "the planner is not publishing yet (its consumers are not matched)"
-        delay = start_delay(stamp_to_s(msg.header.stamp), now_s)
-        if isinstance(delay, str):
-            return delay
+            return INVALID_GOAL, "the planner is not publishing yet (its consumers are not matched)"
+        arm = list(self.limits.joint_names)
+        names = list(msg.joint_names)
+        reason = joint_names_problem(names, arm, self.params["allow_partial_joints_goal"])
+        if reason is not None:
+            return INVALID_JOINTS, reason
         points = msg.points
-        return accept_joint_trajectory(
-            list(msg.joint_names),
-            [point.time_from_start.sec + point.time_from_start.nanosec * 1e-9 for point in points],
-            [list(point.positions) for point in points],
-            [list(point.velocities) for point in points],
-            [list(point.accelerations) for point in points],
-            start=self.reference_at(now_s),
+        times = [point.time_from_start.sec + point.time_from_start.nanosec * 1e-9 for point in points]
+        stamp_s = stamp_to_s(msg.header.stamp)
+        if stamp_s != 0.0 and times and stamp_s + max(times) < now_s:
+            return OLD_HEADER_TIMESTAMP, (
+                f"header.stamp {stamp_s:.3f} s plus its last point's {max(times):g} s is before the planner's clock "
+                f"({now_s:.3f} s): the trajectory is over before it arrives"
+            )
+        delay = start_delay(stamp_s, now_s)
+        if isinstance(delay, str):
+            return INVALID_GOAL, delay
+        start = self.reference_at(now_s)
+        positions = [list(point.positions) for point in points]
+        velocities = [list(point.velocities) for point in points]
+        accelerations = [list(point.accelerations) for point in points]
+        if len(names) < len(arm):
+            names, positions, velocities, accelerations = complete_joints(
+                names, arm, start[0], positions, velocities, accelerations
+            )
+        accepted = accept_joint_trajectory(
+            names,
+            times,
+            positions,
+            velocities,
+            accelerations,
+            start=start,
             limits=self.limits,
             dynamics=self.dynamics,
             torque_limit_nm=torque_limit(self.params, len(self.limits.joint_names)),
             margin=self.params["feasibility_margin"],
             start_delay_s=delay,
             torque_policy="warn" if self.params["feasibility"] == "ignore" else "refuse",
+            stop_deceleration=self.params["stop_deceleration"],
         )
+        return (INVALID_GOAL, accepted) if isinstance(accepted, str) else accepted
+
+    def finish(self) -> None:
+        self.action.shutdown()
+        super().finish()
+
+
+def public_trajectory_topic(controller_name: str) -> str:
+    """JointTrajectoryController's topic for ``controller_name``."""
+    return f"/{controller_name}/joint_trajectory"
 
 
 def main(args: list[str] | None = None) -> int:

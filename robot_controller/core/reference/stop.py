@@ -1,0 +1,59 @@
+"""Bringing a moving reference to rest within a deceleration: a cancelled goal's controlled stop, and the stop a new
+trajectory makes first when joining it directly would overshoot its first point.
+
+The stop is one quintic from the reference in force (position, velocity, acceleration) to rest: with the end at
+``p0 + v0·T/2 + a0·T²/20`` its velocity falls monotonically (for ``a0`` = 0) and its deceleration peaks at
+``1.875·|v0|/T``, so ``T`` follows from the deceleration allowed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from robot_controller.core.reference.quintic_path import QuinticPath
+from robot_controller.core.reference.trajectory import Sample
+
+MIN_STOP_S = 0.05  #: even a reference nearly at rest settles over this long (s)
+_PEAK_DECELERATION_PER_V0_T = 1.875  # of a quintic from v0 to rest over T with the end above
+
+
+def stop_time_s(velocity: np.ndarray, acceleration: np.ndarray, deceleration: float) -> float:
+    """How long the stop from ``velocity`` (and ``acceleration``) takes at ``deceleration`` (rad/s²) at most, s."""
+    speed = float(np.max(np.abs(velocity), initial=0.0))
+    pull = float(np.max(np.abs(acceleration), initial=0.0))
+    return max(MIN_STOP_S, _PEAK_DECELERATION_PER_V0_T * speed / deceleration + pull / deceleration)
+
+
+def rest_position(start: Sample, duration_s: float) -> np.ndarray:
+    """Where the stop from ``start`` over ``duration_s`` comes to rest."""
+    p0, v0, a0 = (np.asarray(x, dtype=float) for x in start)
+    return p0 + v0 * duration_s / 2 + a0 * duration_s**2 / 20
+
+
+def stop_path(start: Sample, deceleration: float) -> QuinticPath:
+    """The reference from ``start`` to rest within ``deceleration`` (rad/s²), then held."""
+    p0, v0, a0 = (np.asarray(x, dtype=float) for x in start)
+    duration = stop_time_s(v0, a0, deceleration)
+    rest = np.zeros_like(p0)
+    return QuinticPath.through(
+        np.array([0.0, duration]),
+        np.vstack((p0, rest_position(start, duration))),
+        np.vstack((v0, rest)),
+        np.vstack((a0, rest)),
+    )
+
+
+def overshoots(path: QuinticPath, start: Sample, deceleration: float, samples: int = 64) -> bool:
+    """Whether ``path``'s first segment goes past both its first knot's target and where a stop from ``start`` at
+    ``deceleration`` would rest, on some joint (a join that swings beyond the goal)."""
+    if len(path.times_s) < 2:
+        return False
+    p0, v0, a0 = (np.asarray(x, dtype=float) for x in start)
+    end_s = float(path.times_s[1])
+    target = path.sample(end_s)[0]
+    natural = rest_position(start, stop_time_s(v0, a0, deceleration))
+    low = np.minimum.reduce([p0, target, natural])
+    high = np.maximum.reduce([p0, target, natural])
+    positions, _, _ = path.sample_many(np.linspace(0.0, end_s, samples))
+    slack = 1e-6 + 1e-3 * np.abs(high - low)
+    return bool(np.any(positions < low - slack) or np.any(positions > high + slack))
