@@ -41,7 +41,7 @@ LOOP_TOPICS = (
 #: Loop topics any ROS client may also hear: written in the run's partition and the default one, read in the run's
 #: only (a foreign publisher of them is never heard). The rest of the arm's public face is outside every partition:
 #: the FollowJointTrajectory action, ``/<controller_name>/joint_trajectory``, ``/robot_description``, ``/estop``.
-PUBLISHED_TOO = ("/joint_states",)
+PUBLISHED_TOO = ("/joint_states", "/clock")  # /clock: the paced world's time, for clients on use_sim_time
 
 #: Set by the launcher in each node's environment: the run's partition name.
 PARTITION_ENV = "ROBOT_CONTROLLER_PARTITION"
