@@ -14,6 +14,15 @@ from robot_controller.core.reference import (
     accept_joint_trajectory,
     start_delay,
 )
+from robot_controller.core.reference.joint_trajectory import (
+    JointTrajectory,
+    Waypoints,
+    blend,
+    check_waypoints,
+    complete_joints,
+    joint_names_problem,
+)
+from robot_controller.core.reference.stop import rest_position, stop_time_s
 
 AT_REST = (np.zeros(1), np.zeros(1), np.zeros(1))
 MOVING = (np.array([0.3]), np.array([1.5]), np.array([-4.0]))  # the reference in force, mid-sine
@@ -211,3 +220,104 @@ def test_too_many_points_are_refused_before_any_maths(arm):
     times = np.linspace(0.01, 100.0, 501).tolist()
     result = take(arm, ["joint1"], times, [[0.1]] * 501)
     assert result == "501 points, more than the 500 taken"
+
+
+# A goal taken mid-sine: the sine's peak speed towards a point close ahead (``goto 0.5 --time 2``).
+FAST_TOWARDS = (np.zeros(1), np.array([np.pi]), np.zeros(1))
+STOP_DECELERATION = 20.0  # rad/s², the planner's default
+
+
+def one_point(target, time_s=2.0):
+    return Waypoints(("joint1",), np.array([time_s]), np.array([[target]]), None, None)
+
+
+def positions_of(trajectory, count=8001):
+    t = np.linspace(0.0, trajectory.duration_s + 0.5, count)
+    return t, trajectory.path.sample_many(t)[0][:, 0]
+
+
+def test_a_fast_start_close_to_the_point_stops_first_instead_of_swinging_past_it():
+    direct = blend(one_point(0.5), FAST_TOWARDS)
+    assert isinstance(direct, JointTrajectory) and direct.stop_first_s == 0.0
+    assert positions_of(direct)[1].max() > 1.3  # joined directly: up to 1.36 rad and back to 0.5
+    trajectory = blend(one_point(0.5), FAST_TOWARDS, stop_deceleration=STOP_DECELERATION)
+    assert isinstance(trajectory, JointTrajectory)
+    assert trajectory.stop_first_s == pytest.approx(stop_time_s(np.array([np.pi]), np.zeros(1), STOP_DECELERATION))
+    for got, want in zip(trajectory.sample(0.0), FAST_TOWARDS, strict=True):  # from the reference in force
+        np.testing.assert_allclose(got, want, atol=1e-12)
+    t, p = positions_of(trajectory)
+    assert p.max() <= 0.5 + 1e-9  # never past the point
+    assert np.all(np.diff(p) >= -1e-12)  # on one way: no swing back either
+    # The point is reached stop_first_s later than its time_from_start, at rest, and held.
+    assert trajectory.duration_s == pytest.approx(trajectory.stop_first_s + 2.0)
+    p_end, v_end, a_end = trajectory.sample(trajectory.stop_first_s + 2.0)
+    assert p_end.tolist() == [0.5] and v_end.tolist() == [0.0] and a_end.tolist() == [0.0]
+    accelerations = trajectory.path.sample_many(t[t <= trajectory.stop_first_s])[2]
+    assert np.max(np.abs(accelerations)) <= STOP_DECELERATION * (1 + 1e-9)  # the stop within its deceleration
+
+
+def test_a_start_moving_away_from_the_point_turns_back_no_further_than_its_stop():
+    away = (np.zeros(1), np.array([-np.pi]), np.zeros(1))
+    direct = blend(one_point(0.5), away)
+    trajectory = blend(one_point(0.5), away, stop_deceleration=STOP_DECELERATION)
+    stop_s = stop_time_s(away[1], away[2], STOP_DECELERATION)
+    rest = rest_position(away, stop_s)[0]  # -0.46 rad: where stopping at once rests
+    assert positions_of(direct)[1].min() < rest - 0.5  # joined directly it carried on to -1.15 rad
+    assert trajectory.stop_first_s == pytest.approx(stop_s)
+    _, p = positions_of(trajectory)
+    assert p.min() >= rest - 1e-9 and p.max() <= 0.5 + 1e-9
+    np.testing.assert_allclose(trajectory.sample(stop_s + 2.0)[0], [0.5])
+
+
+@pytest.mark.parametrize(
+    "start",
+    [AT_REST, (np.zeros(1), np.array([0.3]), np.zeros(1)), MOVING],
+    ids=["at_rest", "slowly_towards", "mid_sine_far_point"],
+)
+def test_a_join_that_does_not_swing_past_its_point_is_the_direct_one(start):
+    waypoints = one_point(2.0, 3.0)
+    direct = blend(waypoints, start)
+    trajectory = blend(waypoints, start, stop_deceleration=STOP_DECELERATION)
+    assert trajectory.stop_first_s == 0.0
+    np.testing.assert_array_equal(trajectory.path.times_s, direct.path.times_s)
+    np.testing.assert_array_equal(trajectory.path.coefficients, direct.path.coefficients)
+
+
+def test_the_planner_takes_a_goal_sent_mid_sine_with_the_stop_first(arm):
+    accepted = taken(arm, ["joint1"], [2.0], [[0.5]], start=FAST_TOWARDS, stop_deceleration=STOP_DECELERATION)
+    trajectory = accepted.trajectory
+    assert trajectory.stop_first_s > 0.0
+    assert positions_of(trajectory)[1].max() <= 0.5 + 1e-9
+
+
+def test_joint_names_are_each_the_arms_once_and_all_of_them_unless_partial_goals_are_allowed():
+    arm = ["shoulder", "elbow", "wrist"]
+    assert joint_names_problem(["wrist", "shoulder", "elbow"], arm) is None  # any order
+    assert joint_names_problem(["elbow"], arm) == (
+        "missing joint(s) ['shoulder', 'wrist']: a trajectory gives every joint of the arm "
+        "['shoulder', 'elbow', 'wrist']"
+    )
+    assert joint_names_problem(["elbow"], arm, allow_partial=True) is None
+    assert joint_names_problem(["elbow", "knee"], arm, allow_partial=True) == (
+        "unknown joint(s) ['knee']: the arm's joints are ['shoulder', 'elbow', 'wrist']"
+    )
+    assert joint_names_problem(["elbow", "elbow"], arm, allow_partial=True) == "joint 'elbow' is named more than once"
+    assert joint_names_problem([], arm, allow_partial=True) == "no joint names"
+
+
+def test_a_partial_trajectory_holds_the_other_joints_where_the_reference_is():
+    arm = ("shoulder", "elbow", "wrist")
+    hold = np.array([0.1, -0.2, 0.3])
+    names, positions, velocities, accelerations = complete_joints(
+        ["wrist"], arm, hold, [[0.5], [0.7]], [[0.4], [0.0]], [[], []]
+    )
+    assert names == ["wrist", "shoulder", "elbow"]
+    assert positions == [[0.5, 0.1, -0.2], [0.7, 0.1, -0.2]]
+    assert velocities == [[0.4, 0.0, 0.0], [0.0, 0.0, 0.0]]  # the held joints at rest
+    assert accelerations == [[], []]  # none given: still none
+    # Put in the arm's order by the check, as any full trajectory is.
+    waypoints = check_waypoints(names, [1.0, 2.0], positions, velocities, accelerations, JointLimits.unlimited(arm))
+    assert isinstance(waypoints, Waypoints), waypoints
+    np.testing.assert_array_equal(waypoints.positions, [[0.1, -0.2, 0.5], [0.1, -0.2, 0.7]])
+    np.testing.assert_array_equal(waypoints.velocities, [[0.0, 0.0, 0.4], [0.0, 0.0, 0.0]])
+    assert waypoints.accelerations is None
