@@ -4,6 +4,7 @@ and ros2cli's ``topic`` and ``param`` habits."""
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
@@ -18,16 +19,24 @@ def register(sub) -> None:
     p.add_argument("--torque", type=float, required=True, help="N·m")
     p.add_argument("--duration", type=positive_seconds, default=0.5, help="s (default 0.5)")
     p.add_argument("--joint", help="joint name (default: every joint)")
-    goto_help = "move the running arm to joint positions, at rest after --time (a JointTrajectory to the planner)"
+    goto_help = (
+        "move the running arm to joint positions, at rest after --time: a FollowJointTrajectory goal, its result "
+        "awaited (exit 0 succeeded; 2 refused, aborted or canceled; 1 unknown; Ctrl-C cancels it)"
+    )
     p = verb(sub, "goto", goto_help, _goto)
     p.add_argument("positions", type=float, nargs="+", metavar="Q", help="rad, one per joint")
     p.add_argument("--time", type=positive_seconds, help="s to get there (default: from the distance, at least 1)")
     p.add_argument(
         "--joints", type=joint_list, help="names of the positions' joints, comma-separated (default: the arm's)"
     )
-    file_help = "send a joint trajectory from a YAML file to the running planner (joint_names, points)"
+    _trajectory_controller_option(p)
+    file_help = (
+        "follow a joint trajectory from a YAML file (joint_names, points): a FollowJointTrajectory goal, its result "
+        "awaited (exit codes as goto's; Ctrl-C cancels it)"
+    )
     p = verb(sub, "trajectory", file_help, _send_file)
     p.add_argument("file", type=Path, help="YAML: joint_names: [...], points: [{time_from_start, positions}, ...]")
+    _trajectory_controller_option(p)
     topics = sub.add_parser("topic", help="ros2 topic's habits: list, echo, hz").add_subparsers(
         dest="topic_verb", required=True, parser_class=Parser
     )
@@ -57,6 +66,27 @@ def register(sub) -> None:
     p.add_argument("node")
 
 
+# The planner's controller_name default and form (a ROS name segment), checked before any ROS is loaded.
+TRAJECTORY_CONTROLLER = "joint_trajectory_controller"
+_CONTROLLER_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+
+
+def _controller_name(text: str) -> str:
+    if not _CONTROLLER_NAME.fullmatch(text):
+        raise argparse.ArgumentTypeError(f"a letter, then letters, digits or '_' (a ROS name), got {text!r}")
+    return text
+
+
+def _trajectory_controller_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--controller",
+        type=_controller_name,
+        default=TRAJECTORY_CONTROLLER,
+        metavar="NAME",
+        help="the planner's controller_name: the goal goes to /NAME/follow_joint_trajectory",
+    )
+
+
 def _disturb(a: argparse.Namespace) -> int:
     from robot_controller.tools.disturb import disturb
 
@@ -66,13 +96,13 @@ def _disturb(a: argparse.Namespace) -> int:
 def _goto(a: argparse.Namespace) -> int:
     from robot_controller.tools.send_trajectory import goto
 
-    return goto(a.positions, a.time, a.joints)
+    return goto(a.positions, a.time, a.joints, controller=a.controller)
 
 
 def _send_file(a: argparse.Namespace) -> int:
     from robot_controller.tools.send_trajectory import send_file
 
-    return send_file(a.file)
+    return send_file(a.file, controller=a.controller)
 
 
 def _estop(a: argparse.Namespace) -> int:

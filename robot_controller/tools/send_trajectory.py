@@ -1,25 +1,49 @@
-"""``goto Q… [--time S] [--joints NAMES]`` and ``trajectory FILE.yaml``: send one ``JointTrajectory`` to the planner
-(``/trajectory_planner/joint_trajectory``), which blends it from the reference in force or refuses it. The topic has no
-answer: the tool waits ``ANSWER_TIMEOUT_S`` for the planner's ``/rosout`` line, exit 0 once taken, 2 if refused or
-malformed, 1 if no planner listens or no answer came (a refusal is said at most once per 2 s)."""
+"""``goto Q… [--time S] [--joints NAMES] [--controller NAME]`` and ``trajectory FILE.yaml [--controller NAME]``: one
+``JointTrajectory`` as a ``control_msgs/FollowJointTrajectory`` goal to the planner's action server
+``/<controller_name>/follow_joint_trajectory`` (as ros2_controllers' JointTrajectoryController serves it), which joins
+it onto the reference in force or ends it at once with the reason. The tool waits for the goal's result (its duration
+plus ``RESULT_MARGIN_S``) and says it in one line: exit 0 once it succeeded, 2 if it was rejected, aborted (JTC's error
+code and the reason: refused, out of tolerance, preempted, a fault) or canceled by another client, 1 if no server
+answered or no result came (what is unknown is said). Ctrl-C while waiting cancels the goal: the arm stops and holds;
+the cancel's outcome is said, exit 130."""
 
 from __future__ import annotations
 
-import queue
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from robot_controller.core.reference import tolerances
 from robot_controller.tools import graph, trajectory_file
 from robot_controller.tools.graph import ToolError
 from robot_controller.tools.trajectory_file import TrajectoryFileError, TrajectorySpec
 
-TOPIC = "/trajectory_planner/joint_trajectory"
-PLANNER_NODE = "trajectory_planner"
+#: The planner parameter ``controller_name``'s default: the action is ``/<controller>/follow_joint_trajectory``.
+CONTROLLER = "joint_trajectory_controller"
 STATE_TIMEOUT_S = 2.0  #: how long goto listens for the arm's /joint_states
-MATCH_TIMEOUT_S = 10.0  #: how long to wait for the planner's subscription
-ANSWER_TIMEOUT_S = 2.0  #: how long to listen on /rosout for the planner's verdict
-TAKEN, REFUSED = "joint trajectory taken: ", "joint trajectory refused: "
+MATCH_TIMEOUT_S = 10.0  #: how long to wait for the action server
+ANSWER_TIMEOUT_S = 5.0  #: how long the server may take to accept a goal, or to answer a cancel
+#: How long past the trajectory's end the result may come: the planner's goal_time_tolerance_s (1 s by default), a
+#: stop first when joining directly would swing past the first point, a busy host.
+RESULT_MARGIN_S = 1.0 + 4.0
+STOP_TIMEOUT_S = 5.0  #: how long a canceled goal may take to stop (at stop_deceleration) and end
+INTERRUPTED = 130  # Ctrl-C: the goal canceled, or its fate unknown
+
+#: control_msgs/FollowJointTrajectory's result codes by value.
+ERROR_CODE_NAMES = {
+    tolerances.SUCCESSFUL: "SUCCESSFUL",
+    tolerances.INVALID_GOAL: "INVALID_GOAL",
+    tolerances.INVALID_JOINTS: "INVALID_JOINTS",
+    tolerances.OLD_HEADER_TIMESTAMP: "OLD_HEADER_TIMESTAMP",
+    tolerances.PATH_TOLERANCE_VIOLATED: "PATH_TOLERANCE_VIOLATED",
+    tolerances.GOAL_TOLERANCE_VIOLATED: "GOAL_TOLERANCE_VIOLATED",
+}
+
+
+def action_name(controller: str) -> str:
+    """The FollowJointTrajectory action of the controller named ``controller`` (the planner's ``controller_name``)."""
+    return f"/{controller.strip('/')}/follow_joint_trajectory"
 
 
 def to_message(spec: TrajectorySpec) -> Any:
@@ -36,43 +60,134 @@ def to_message(spec: TrajectorySpec) -> Any:
     return msg
 
 
-def _send(g: graph.Graph, spec: TrajectorySpec, prog: str, what: str, wait_s: float) -> int:
-    from rcl_interfaces.msg import Log
-    from trajectory_msgs.msg import JointTrajectory
+def verdict(status: int, error_code: int, error_string: str) -> tuple[str, int]:
+    """A goal's end in words, and the tool's exit code: 0 succeeded, 2 aborted or canceled, 1 any other status.
 
-    answers: queue.SimpleQueue = queue.SimpleQueue()
+    :param status: the result's ``action_msgs/GoalStatus`` status
+    """
+    from action_msgs.msg import GoalStatus
 
-    def on_log(msg: Any) -> None:
-        if msg.name == PLANNER_NODE and msg.msg.startswith((TAKEN, REFUSED)):
-            answers.put(msg.msg)
+    reason = error_string or "no reason given"
+    if status == GoalStatus.STATUS_SUCCEEDED and error_code == tolerances.SUCCESSFUL:
+        return f"SUCCEEDED ({reason})", 0
+    code = f"{ERROR_CODE_NAMES.get(error_code, 'error code')} ({error_code})"
+    if status == GoalStatus.STATUS_ABORTED:
+        return f"ABORTED, {code}: {reason}", 2
+    if status == GoalStatus.STATUS_CANCELED:
+        return f"CANCELED ({reason})", 2
+    return f"ended with status {status}, {code}: {reason}", 1
 
-    g.node.create_subscription(Log, "/rosout", on_log, graph.reliable_qos(100))  # volatile: no earlier lines
-    publisher = g.node.create_publisher(JointTrajectory, TOPIC, graph.reliable_qos(100))
-    delivered = g.send(publisher, TOPIC, to_message(spec), PLANNER_NODE, wait_s=wait_s)
-    sent = f"sent {what} on {TOPIC} (domain {g.domain})"
+
+def _wait(future: Any, timeout_s: float) -> Any | None:
+    """The future's result once done within ``timeout_s`` (the graph's thread spins), else None."""
+    deadline = time.monotonic() + timeout_s
+    while not future.done():
+        if time.monotonic() >= deadline:
+            return None
+        time.sleep(graph.POLL_S)
+    return future.result()
+
+
+def _wait_for_server(g: graph.Graph, client: Any, name: str, controller: str, what: str, wait_s: float) -> None:
+    """Return once the server has been ready for ``graph.MATCH_SETTLE_S`` (discovery is two-sided and staggered: an
+    answer sent before the server matched our reader would be lost), else ``ToolError``."""
+    since = time.monotonic()
+    ready_since = None
+    while True:
+        now = time.monotonic()
+        if not client.server_is_ready():
+            ready_since = None
+        elif ready_since is None:
+            ready_since = now
+        elif now - ready_since >= graph.MATCH_SETTLE_S:
+            return
+        if now - since > wait_s and ready_since is None:
+            raise ToolError(
+                f"{what}: no {name} action server on domain {g.domain} within {wait_s:g} s, the goal was not sent "
+                f"(is the planner running, its controller_name {controller}?)"
+            )
+        time.sleep(0.05)
+
+
+def _follow(g: graph.Graph, spec: TrajectorySpec, prog: str, what: str, controller: str, wait_s: float) -> int:
+    from control_msgs.action import FollowJointTrajectory
+    from rclpy.action import ActionClient
+
+    name = action_name(controller)
+    client = ActionClient(g.node, FollowJointTrajectory, name)
     try:
-        answer = answers.get(timeout=ANSWER_TIMEOUT_S)
-    except queue.Empty:
-        unacked = "" if delivered else ", not acknowledged"
+        _wait_for_server(g, client, name, controller, what, wait_s)
+    except KeyboardInterrupt:
+        raise ToolError(f"{what}: interrupted before the goal was sent", INTERRUPTED) from None
+    sent = client.send_goal_async(FollowJointTrajectory.Goal(trajectory=to_message(spec)))
+    result = None
+    try:
+        handle = _wait(sent, ANSWER_TIMEOUT_S)
+        if handle is None:
+            raise ToolError(
+                f"{what}: sent to {name} (domain {g.domain}), no answer within {ANSWER_TIMEOUT_S:g} s: whether it "
+                "was accepted, and is moving the arm, is unknown"
+            )
+        if not handle.accepted:
+            raise ToolError(f"{what}: REJECTED by {name}", 2)
+        result = handle.get_result_async()
+        wait_result_s = spec.duration_s + RESULT_MARGIN_S
+        response = _wait(result, wait_result_s)
+    except KeyboardInterrupt:
+        raise ToolError(f"{what}: interrupted: {_cancel(sent, result)}", INTERRUPTED) from None
+    if response is None:
         raise ToolError(
-            f"{sent}{unacked}, but no answer from the planner on /rosout within {ANSWER_TIMEOUT_S:g} s: taken or "
-            "refused is unknown (it says why it refuses at most once per 2 s); see the planner's log"
-        ) from None
-    if answer.startswith(REFUSED):
-        raise ToolError(f"the planner refused it: {answer[len(REFUSED) :]}", 2)
-    print(f"robot-controller {prog}: {sent}; the planner took it: {answer[len(TAKEN) :]}", flush=True)
+            f"{what}: accepted by {name}, but no result within {wait_result_s:.3g} s: whether it succeeded is "
+            "unknown (it may still be in force)"
+        )
+    said, code = verdict(response.status, response.result.error_code, response.result.error_string)
+    if code != 0:
+        raise ToolError(f"{what}: {said}", code)
+    print(f"robot-controller {prog}: {what}: {said}", flush=True)
     return 0
 
 
-@graph.command("goto")
+def _cancel(sent: Any, result: Any | None) -> str:
+    """Cancel the goal ``sent`` (once its acceptance is heard) and say how it ended. A second Ctrl-C ends the tool
+    without a word (the command's interrupted exit)."""
+    from action_msgs.srv import CancelGoal
+
+    handle = sent.result() if sent.done() else _wait(sent, ANSWER_TIMEOUT_S)
+    if handle is None:
+        return f"no answer to the goal within {ANSWER_TIMEOUT_S:g} s: whether it is in force is unknown"
+    if not handle.accepted:
+        return "the goal was rejected (nothing to cancel)"
+    if result is None:
+        result = handle.get_result_async()
+    answer = _wait(handle.cancel_goal_async(), ANSWER_TIMEOUT_S)
+    if answer is None:
+        asked = f"cancel sent, no answer within {ANSWER_TIMEOUT_S:g} s"
+    elif answer.return_code == CancelGoal.Response.ERROR_NONE:
+        asked = "cancel accepted"
+    else:
+        refusals = {
+            CancelGoal.Response.ERROR_REJECTED: "rejected",
+            CancelGoal.Response.ERROR_UNKNOWN_GOAL_ID: "refused: unknown goal",
+            CancelGoal.Response.ERROR_GOAL_TERMINATED: "refused: the goal had ended",
+        }
+        asked = f"cancel {refusals.get(answer.return_code, f'refused (code {answer.return_code})')}"
+    response = _wait(result, STOP_TIMEOUT_S)
+    if response is None:
+        return f"{asked}; no result within {STOP_TIMEOUT_S:g} s: whether the arm stopped is unknown"
+    return f"{asked}; {verdict(response.status, response.result.error_code, response.result.error_string)[0]}"
+
+
+@graph.command("goto", interrupted=INTERRUPTED)
 def goto(
     positions: Sequence[float],
     time_s: float | None = None,
     joints: Sequence[str] | None = None,
     *,
+    controller: str = CONTROLLER,
     wait_s: float = MATCH_TIMEOUT_S,
 ) -> int:
-    """Move the running arm's joints to ``positions`` (rad), at rest after ``time_s`` (None: a safe default)."""
+    """Move the running arm's joints to ``positions`` (rad), at rest after ``time_s`` (None: a safe default), as a
+    goal to ``controller``'s FollowJointTrajectory action; wait for its result."""
     with graph.open_graph("goto") as g:
         state = g.first_joint_state("/joint_states", STATE_TIMEOUT_S) if joints is None or time_s is None else None
         if joints is not None:
@@ -91,16 +206,17 @@ def goto(
         except TrajectoryFileError as exc:
             raise ToolError(str(exc), 2) from None
         target = ", ".join(f"{name} {q:g}" for name, q in zip(names, spec.points[0].positions, strict=True))
-        return _send(g, spec, "goto", f"{target} rad in {time_s:.3g} s", wait_s)
+        return _follow(g, spec, "goto", f"{target} rad in {time_s:.3g} s", controller, wait_s)
 
 
-@graph.command("trajectory")
-def send_file(path: Path, *, wait_s: float = MATCH_TIMEOUT_S) -> int:
-    """Send the joint trajectory in the YAML file at ``path``."""
+@graph.command("trajectory", interrupted=INTERRUPTED)
+def send_file(path: Path, *, controller: str = CONTROLLER, wait_s: float = MATCH_TIMEOUT_S) -> int:
+    """Follow the joint trajectory in the YAML file at ``path`` as a goal to ``controller``'s action; wait for its
+    result."""
     try:
         spec = trajectory_file.load(path)
     except TrajectoryFileError as exc:
         raise ToolError(str(exc), 2) from None
     with graph.open_graph("trajectory") as g:
         what = f"{len(spec.points)} point(s) over {spec.duration_s:.3g} s"
-        return _send(g, spec, "trajectory", what, wait_s)
+        return _follow(g, spec, "trajectory", what, controller, wait_s)

@@ -1,12 +1,16 @@
 """Joint trajectories over the real graph: ``robot-controller goto`` and
-``robot-controller trajectory`` send a ``trajectory_msgs/JointTrajectory``
-from a process of their own (the observer profile, into the run's
-partition); the planner refuses a bad one with its reason and carries on,
-blends a good one from the reference in force and holds its last point, and
-the arm gets there. Real nodes, real DDS, its own ROS_DOMAIN_ID."""
+``robot-controller trajectory`` send a ``control_msgs/FollowJointTrajectory``
+goal from a process of their own and say its result: the planner refuses a
+bad one with its reason (exit 2) and carries on, blends a good one from the
+reference in force and holds its last point, the arm gets there (exit 0), and
+Ctrl-C cancels a goal: the arm stops and holds (exit 130). With no server the
+goal is not sent (exit 1). Real nodes, real DDS, its own ROS_DOMAIN_ID."""
 
+import signal
 import subprocess
 import sys
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -19,6 +23,8 @@ pytestmark = pytest.mark.ros
 
 TOPIC = "/trajectory_planner/joint_trajectory"
 TARGET_RAD, MOVE_S = 0.5, 1.5
+CANCELED_TARGET_RAD, CANCELED_MOVE_S = -0.3, 6.0
+TAKEN = "joint trajectory taken"
 
 
 def cli(*args):
@@ -27,49 +33,105 @@ def cli(*args):
     )
 
 
-def test_goto_is_blended_tracked_and_held_and_a_bad_trajectory_is_refused(tmp_path, ros_domain):
+def test_goals_are_refused_blended_tracked_held_and_canceled(tmp_path, ros_domain):
     bad = tmp_path / "bad.yaml"
-    bad.write_text("joint_names: [elbow]\npoints: [{time_from_start: 1.0, positions: [0.2]}]\n")
+    bad.write_text("joint_names: [joint1]\npoints: [{time_from_start: 1.0, positions: [4.0]}]\n")
     out = tmp_path / "run"
-    run = rostools.start_run(out, "14")  # the two tools find the planner within seconds, more on a busy host
+    run = rostools.start_run(out, "300")  # interrupted once the tools are done, however long they took
+    said: list[str] = []
+    threading.Thread(target=lambda: said.extend(run.stdout), daemon=True).start()  # its pipe must not fill up
     try:
         refused = cli("trajectory", str(bad))
         sent = cli("goto", f"{TARGET_RAD}", "--time", f"{MOVE_S}")
-        output = run.communicate(timeout=60)[0]
+        # A long move, interrupted once the planner has taken it.
+        moving = subprocess.Popen(
+            [sys.executable, "-m", "robot_controller.cli", "goto", f"{CANCELED_TARGET_RAD}"]
+            + ["--time", f"{CANCELED_MOVE_S}"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            rostools.wait_for(lambda: sum(TAKEN in line for line in said) == 2, 60, "the planner to take the move")
+            moving.send_signal(signal.SIGINT)
+            canceled_out, canceled_err = moving.communicate(timeout=60)
+        finally:
+            if moving.poll() is None:
+                moving.kill()
+        time.sleep(0.5)  # a recorded hold after the stop
+        run.send_signal(signal.SIGINT)
+        run.wait(timeout=120)
     finally:
         if run.poll() is None:
             run.kill()
+    output = "".join(said)
     assert refused.returncode == 2, refused.stdout + refused.stderr
-    assert refused.stderr.strip() == (
-        "robot-controller trajectory: the planner refused it: unknown joint(s) ['elbow']: "
-        "the arm's joints are ['joint1']; the motion goes on as it was"
+    assert refused.stdout == ""
+    assert refused.stderr == (
+        "robot-controller trajectory: 1 point(s) over 1 s: ABORTED, INVALID_GOAL (-1): "
+        "points[0]: joint1 position 4 rad is above its upper limit 3.14159 rad\n"
     )
     assert sent.returncode == 0, sent.stdout + sent.stderr
-    assert f"sent joint1 {TARGET_RAD:g} rad in {MOVE_S:g} s on {TOPIC}" in sent.stdout
-    assert "the planner took it: 1 point(s), reaching [0.5] rad 1.5 s from now" in sent.stdout
+    assert sent.stdout.startswith(
+        f"robot-controller goto: joint1 {TARGET_RAD:g} rad in {MOVE_S:g} s: SUCCEEDED (reached within its goal "
+        "tolerance "
+    ), sent.stdout
+    assert sent.stdout.endswith(" s after its end)\n") and sent.stderr == ""
+    assert moving.returncode == 130, canceled_out + canceled_err
+    assert canceled_err == (
+        f"robot-controller goto: joint1 {CANCELED_TARGET_RAD:g} rad in {CANCELED_MOVE_S:g} s: interrupted: "
+        "cancel accepted; CANCELED (the arm stopped and holds where it came to rest)\n"
+    )
     assert run.returncode == 0, run_said(output)
-    assert "[trajectory_planner] [WARN]" in output and "joint trajectory refused: unknown joint(s)" in output
-    assert output.count("joint trajectory taken") == 1
+    assert "[trajectory_planner] [WARN]" in output and "refused: points[0]: joint1 position 4 rad" in output
+    assert output.count(TAKEN) == 2
+    assert "succeeded: reached within its goal tolerance" in output and "canceled: the arm stopped" in output
 
     recording = report.read_recording(out / "bag")
-    assert recording.counts[TOPIC] == 2  # both recorded
-    taken_s = recording.receipt_s[TOPIC][-1]
+    assert recording.counts.get(TOPIC, 0) == 0  # goals, not the topic
     t, q, v = recording.planned_time_s, recording.planned_position[:, 0], recording.planned_velocity[:, 0]
-    # Before: the sine went on through the refusal. Around the goto: no jump in the reference, each
-    # step what its own velocity says (the blend may outrun the sine's π rad/s: taken at the sine's
-    # peak speed away from the goal, it carried on to 1.12 rad, 38 mrad a sample, before turning back).
-    around = (t > taken_s - 0.5) & (t < taken_s + 0.5)
+    # The goto's hold: exactly the target, at rest, until the canceled move began.
+    at_target = (q == TARGET_RAD) & (v == 0.0)
+    assert at_target.any()
+    first = int(np.argmax(at_target))
+    last = first + int(np.argmin(at_target[first:])) - 1
+    held_from_s, held_to_s = t[first], t[last]
+    assert last - first > 100 and np.all(at_target[first : last + 1]), (held_from_s, held_to_s)
+    # Before: the sine went on through the refusal. Around the goto's join (MOVE_S before its hold, plus a stop
+    # first if joining directly would swing past its point): no jump in the reference, each step what its own
+    # velocity says.
+    around = (t > held_from_s - MOVE_S - 1.0) & (t < held_from_s)
     steps, spans = np.diff(q[around]), np.diff(t[around])
     mean_velocity = 0.5 * (v[around][1:] + v[around][:-1])
     assert np.max(np.abs(steps - mean_velocity * spans)) < 0.005
-    # After: exactly the target, at rest, held to the end.
-    held = t > taken_s + MOVE_S + 0.05
-    assert held.sum() > 100, held.sum()
-    assert np.all(q[held] == TARGET_RAD) and np.all(v[held] == 0.0)
     # And the arm is there.
-    settled = recording.true_time_s > taken_s + MOVE_S + 1.0
+    settled = (recording.true_time_s > held_from_s + 1.0) & (recording.true_time_s < held_to_s)
     assert settled.sum() > 50
     assert np.max(np.abs(recording.true_position[settled, 0] - TARGET_RAD)) < 0.02
+    # The canceled move stopped on its way and holds there.
+    after = t > held_to_s
+    assert v[after][-1] == 0.0 and q[after][-1] == q[after][-2]
+    assert CANCELED_TARGET_RAD < q[after][-1] < TARGET_RAD
+
+
+def test_with_no_server_the_goal_is_not_sent(ros_domain):
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys\nfrom robot_controller.tools import send_trajectory as s\n"
+            "sys.exit(s.goto([0.5], 1.0, ['joint1'], controller='arm_controller', wait_s=1.0))",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 1 and done.stdout == ""
+    assert done.stderr == (
+        f"robot-controller goto: joint1 0.5 rad in 1 s: no /arm_controller/follow_joint_trajectory action server on "
+        f"domain {ros_domain} within 1 s, the goal was not sent (is the planner running, its controller_name "
+        "arm_controller?)\n"
+    )
 
 
 def test_the_planner_node_blends_takes_a_stamp_and_gives_way_to_a_shape_change(ros_domain):

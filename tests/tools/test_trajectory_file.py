@@ -1,5 +1,6 @@
 """The ``trajectory`` verb's YAML file and ``goto``'s request, without a graph:
-what is sent, and a bad file named by key and problem in one line."""
+what is sent, a bad file named by key and problem in one line, and how a
+goal's result is said and exits."""
 
 import subprocess
 import sys
@@ -7,7 +8,7 @@ import sys
 import pytest
 
 from robot_controller.tools import trajectory_file
-from robot_controller.tools.send_trajectory import to_message
+from robot_controller.tools.send_trajectory import action_name, to_message, verdict
 from robot_controller.tools.trajectory_file import TrajectoryFileError
 
 GOOD = """\
@@ -34,6 +35,33 @@ def test_a_file_becomes_one_joint_trajectory_message(tmp_path):
     assert msg.points[1].time_from_start.nanosec == 500_000_000
     assert list(msg.points[0].positions) == [0.5, -0.25] and list(msg.points[0].velocities) == [0.1, 0.0]
     assert list(msg.points[0].accelerations) == []
+
+
+def test_the_goal_goes_to_the_controllers_action():
+    assert action_name("joint_trajectory_controller") == "/joint_trajectory_controller/follow_joint_trajectory"
+    assert action_name("arm_controller") == "/arm_controller/follow_joint_trajectory"
+
+
+@pytest.mark.parametrize(
+    ("status", "code", "reason", "said", "exit_code"),
+    [
+        (4, 0, "reached within its goal tolerance 0.01 s after its end", "SUCCEEDED (reached within", 0),
+        (6, -1, "points[0]: joint1 position 4 rad is above", "ABORTED, INVALID_GOAL (-1): points[0]: joint1", 2),
+        (6, -2, "unknown joint(s) ['elbow']", "ABORTED, INVALID_JOINTS (-2): unknown joint(s)", 2),
+        (6, -3, "header.stamp", "ABORTED, OLD_HEADER_TIMESTAMP (-3): header.stamp", 2),
+        (6, -4, "joint1 position error", "ABORTED, PATH_TOLERANCE_VIOLATED (-4): joint1", 2),
+        (6, -5, "joint1 position error", "ABORTED, GOAL_TOLERANCE_VIOLATED (-5): joint1", 2),
+        (6, -9, "", "ABORTED, error code (-9): no reason given", 2),
+        (5, 0, "the arm stopped and holds", "CANCELED (the arm stopped and holds)", 2),
+        (4, -4, "inconsistent", "ended with status 4, PATH_TOLERANCE_VIOLATED (-4): inconsistent", 1),
+        (0, 0, "", "ended with status 0", 1),
+    ],
+)
+def test_a_result_is_said_with_its_code_name_and_reason(status, code, reason, said, exit_code):
+    """GoalStatus: 4 succeeded, 5 canceled, 6 aborted; control_msgs' error codes by name."""
+    words, got = verdict(status, code, reason)
+    assert words.startswith(said), words
+    assert got == exit_code
 
 
 @pytest.mark.parametrize(
