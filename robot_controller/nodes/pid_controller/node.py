@@ -18,7 +18,8 @@ from robot_controller.core.controller import JointController, Status, check_dela
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters as law_parameters
 from robot_controller.core.laws import registry
-from robot_controller.nodes.pid_controller.status import StatusReports
+from robot_controller.nodes.pid_controller import log_line
+from robot_controller.nodes.pid_controller.status import StartWaits, StatusReports
 from robot_controller.nodes.pid_controller.timing import LoopTiming
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model, model_overridden
@@ -45,7 +46,9 @@ class PidControllerNode(StackNode):
         )
         self.last_tick_s = -np.inf
         self.first_tick_s: float | None = None
-        self.next_log_s = -np.inf
+        self.log_schedule = log_line.LogSchedule(self.params["log_period_s"])
+        self.reference_samples = 0  # usable /trajectory samples so far (two teach the controller the planner's period)
+        self.waits = StartWaits(self)
         self.mismatch_since: float | None = None
         self.command_pub = self.gated_publisher(Float64MultiArray, "/joint_commands")
         self.command_msg = Float64MultiArray()
@@ -165,6 +168,7 @@ class PidControllerNode(StackNode):
         if isinstance(checked, str):
             return self.drop("/trajectory", checked)
         position, velocity, acceleration, sample_time_s = checked
+        self.reference_samples += 1
         # Received at the tick in force (lockstep: the latest /clock, so a sample sent a tick early waits for it).
         received_s = max(self.pairing.clock_s, 0.0) if self.pairing is not None else clock_s(self)
         self.controller.set_reference(received_s, position, velocity, acceleration, sample_time_s)
@@ -192,7 +196,7 @@ class PidControllerNode(StackNode):
         if self.first_tick_s is None:
             self.first_tick_s = now_s
         if out.status is Status.NO_MEASUREMENT:
-            self.warn_throttled("no_measurement", "no valid /joint_states yet: not commanding")
+            self.waits.waiting("readings", "the first valid /joint_states reading (sensor_node's): not commanding")
             return
         if out.status is not self.status.last_status:
             self.status.status_changed(out.status)
@@ -207,12 +211,8 @@ class PidControllerNode(StackNode):
         self.timing.note_tick(now_s, command)
         self.status.say_saturation(out)
         self.status.publish_state(out)
-        if now_s >= self.next_log_s:
-            self.next_log_s = now_s + self.params["log_period_s"]
-            self.get_logger().info(
-                f"target={_fmt(out.reference)}, actual={_fmt(out.measured)}, error={_fmt(out.error)}, "
-                f"torque={_fmt(out.command)}"
-            )
+        if self.log_schedule.due(now_s, self.params["log_period_s"]):
+            self.get_logger().info(log_line.line(out.reference, out.measured, out.error, out.command))
         if out.status is Status.LAW_STOPPED:
             self.status.end_after_law_stop()
 
@@ -280,25 +280,23 @@ class LockstepPairing:
         node = self.node
         if not self.controller.has_reference():
             # Nothing to fall back on before the first sample: wait (the launcher ends a stalled lockstep).
-            node.warn_throttled("first_reference", "lockstep: waiting for the first /trajectory sample")
+            node.waits.waiting("reference", "lockstep: the first /trajectory sample (trajectory_planner's)")
             return
         if time.monotonic() - self.waiting_since > REFERENCE_WAIT_S:
             said = (
                 f"lockstep: no reference sample for t={self.tick_s:.3f} s "
                 f"after {REFERENCE_WAIT_S:g} s; using the latest"
             )
-            if self.reference_waits == 0:
-                # A planner slower than the control rate leaves the first such tick without a sample.
-                node.get_logger().info(said + " (a planner slower than the control rate)")
+            if node.reference_samples < 2:
+                # The planner's period is learned from its first two samples; until then a planner slower than the
+                # control rate leaves ticks without a sample due: said once.
+                if self.reference_waits == 0:
+                    node.get_logger().info(said + " until the planner's rate is known from its second sample")
             else:
                 node.warn_throttled("reference_wait", said)
             self.reference_waits += 1
             tick_s, self.tick_s = self.tick_s, None
             node.tick(tick_s)
-
-
-def _fmt(values: Any) -> str:
-    return ",".join(f"{v:.3f}" for v in values)
 
 
 def main(args: list[str] | None = None) -> int:

@@ -20,6 +20,8 @@ from robot_controller.ros.stack_node import StackNode
 # Wall clock: after a failed law's stop, state is still published this long (the brakes engaging
 # are recorded), then the node ends. In lockstep it ends at once: without commands sim time stops.
 LAW_STOPPED_LINGER_S = 0.5
+# A start's normal wait for the first reading or reference sample lasts less than this (wall s); past it, a warning.
+START_PATIENCE_S = 10.0
 # A joint whose command the limit cuts this long without a break (s, the tick's clock) is said, once per run.
 SATURATION_SAID_AFTER_S = 0.2
 
@@ -41,6 +43,29 @@ class SaturationWatch:
         long = cut & ~self.said & (now_s - self.since_s >= SATURATION_SAID_AFTER_S - 1e-9)
         self.said |= long
         return np.flatnonzero(long).tolist()
+
+
+class StartWaits:
+    """What the controller waits for at start (its first reading, in lockstep its first reference sample): said
+    once as information, for that is how every start begins; a warning once the wait has lasted
+    ``START_PATIENCE_S``, for then the node it waits for is not running or not heard (another domain, partition or
+    arm), something to act on."""
+
+    def __init__(self, node: StackNode) -> None:
+        self.node = node
+        self.since: dict[str, float] = {}  # monotonic s each wait began
+
+    def waiting(self, key: str, what: str) -> None:
+        """Another tick waiting for ``what`` (``key`` names the wait)."""
+        now = time.monotonic()
+        if key not in self.since:
+            self.since[key] = now
+            self.node.get_logger().info(f"waiting for {what}")
+        elif now - self.since[key] > START_PATIENCE_S:
+            waited = now - self.since[key]
+            self.node.warn_throttled(
+                f"start_{key}", f"still waiting after {waited:.0f} s for {what}: is that node running, on this domain?"
+            )
 
 
 class StatusReports:
@@ -75,9 +100,8 @@ class StatusReports:
         rate_hz = self.node.params["control_rate_hz"]
         in_force = self.controller.law_in_force()
         if margin is not None:  # None: a law of one's own, whose feedback is not known here
-            in_force += (
-                f"; delay margin {margin} control periods ({margin * 1e3 / rate_hz:g} ms) beyond what the stamps show"
-            )
+            periods = "control period" if margin == 1 else "control periods"
+            in_force += f"; delay margin {margin} {periods} ({margin * 1e3 / rate_hz:g} ms) beyond what the stamps show"
         self.node.report("law_in_force", in_force, "the control law and its gains in force, as designed")
         self.log.info(
             f"{in_force}; at {rate_hz:g} Hz on {self.node.joint_names}" + (", lockstep" if self.node.lockstep else "")

@@ -47,3 +47,34 @@ def test_a_prismatic_joint_is_said_cut_by_its_force_limit_in_newtons():
     assert [line.split(": ")[0] for line in said] == ["shoulder", "quill"]
     assert "its torque limit (±30 N·m)" in said[0] and "more torque than" in said[0]
     assert "its force limit (±40 N)" in said[1] and "more force than" in said[1]
+
+
+def test_a_start_s_wait_is_information_and_a_warning_only_once_it_lasts(monkeypatch):
+    from robot_controller.nodes.pid_controller import status
+
+    clock = [100.0]
+    monkeypatch.setattr(status.time, "monotonic", lambda: clock[0])
+    info, warnings = [], []
+    node = SimpleNamespace(get_logger=lambda: SimpleNamespace(info=info.append))
+    node.warn_throttled = lambda key, message: warnings.append((key, message))
+    waits = status.StartWaits(node)
+    for _ in range(int(status.START_PATIENCE_S / PERIOD_S)):  # every tick of a slow start: said once, as information
+        waits.waiting("readings", "the first valid /joint_states reading")
+        clock[0] += PERIOD_S * 0.99
+    assert info == ["waiting for the first valid /joint_states reading"] and warnings == []
+    clock[0] += 1.0
+    waits.waiting("readings", "the first valid /joint_states reading")
+    assert len(warnings) == 1 and warnings[0][0] == "start_readings"
+    assert warnings[0][1].startswith("still waiting after 11 s for the first valid /joint_states reading")
+
+
+def test_a_delay_margin_of_one_period_is_said_in_the_singular():
+    said = []
+    node = SimpleNamespace(params={"control_rate_hz": 100.0}, joint_names=["joint1"], lockstep=False)
+    node.report = lambda *args: None
+    for margin in (1, 2):
+        controller = SimpleNamespace(delay_margin_periods=lambda m=margin: m, law_in_force=lambda: "PID")
+        reports = SimpleNamespace(node=node, controller=controller, log=SimpleNamespace(info=said.append))
+        StatusReports.log_gains(reports)
+    assert "delay margin 1 control period (10 ms)" in said[0]
+    assert "delay margin 2 control periods (20 ms)" in said[1]
