@@ -1,0 +1,114 @@
+"""The arm as a plain ROS client sees it: FollowJointTrajectory on ``/joint_trajectory_controller/
+follow_joint_trajectory``, ``/joint_states`` and ``/robot_description``, from a process that knows nothing of the
+run's DDS profile or partition (tests/nodes/follow_joint_trajectory_client.py, started without
+FASTRTPS_DEFAULT_PROFILES_FILE on the run's ROS_DOMAIN_ID). A goal succeeds with feedback, a new goal preempts the
+one in force, a cancel stops and holds, an unknown joint and an impossible path tolerance end with JTC's error
+codes; the run's own recording says where the reference and the arm were meanwhile. Real nodes, real DDS."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robot_controller.ros import partition
+from robot_controller.scoring import report
+from tests import rostools
+from tests.rostools import run_said
+
+pytestmark = pytest.mark.ros
+
+CLIENT = Path(__file__).with_name("follow_joint_trajectory_client.py")
+# What a client that never heard of us has: none of our DDS settings.
+OURS = (partition.PROFILES_ENV, "FASTDDS_DEFAULT_PROFILES_FILE", partition.PARTITION_ENV, partition.LOOP_QOS_ENV)
+INVALID_GOAL, INVALID_JOINTS, PATH_TOLERANCE_VIOLATED = -1, -2, -4  # control_msgs' result codes
+
+
+def run_with_client(out: Path, robot: str, duration: str, *client_args: str) -> tuple[dict, str]:
+    """A run of ``robot`` into ``out`` and, once its loop runs, the plain client beside it: what the client printed
+    (its JSON) and what the run said. The run must end by itself with exit 0."""
+    run = rostools.start_run(out, duration, "--robot", robot)
+    try:
+        env = {name: value for name, value in os.environ.items() if name not in OURS}
+        client = subprocess.run(
+            [sys.executable, str(CLIENT), *client_args], capture_output=True, text=True, timeout=180, env=env
+        )
+        output = run.communicate(timeout=240)[0]
+    finally:
+        if run.poll() is None:
+            run.kill()
+    said = f"client exit {client.returncode}\n{client.stdout[-3000:]}\n{client.stderr[-3000:]}"
+    assert client.returncode == 0 and client.stdout.strip(), said
+    assert run.returncode == 0, run_said(output) + "\n" + said
+    return json.loads(client.stdout.strip().splitlines()[-1]), output
+
+
+def check_public_face_and_success(got: dict, joints: list[str]) -> None:
+    """The client found the action, heard the arm and its description, and a 3-point goal succeeded with feedback."""
+    assert got["server"], got
+    assert got["joint_states_heard"] >= 20 and got["joint_names"] == joints, got
+    assert got["robot_description_chars"] > 0 and got["description_names_every_joint"], got  # the arm's URDF
+    three = got["three_point"]
+    assert (three["status"], three["error_code"]) == ("SUCCEEDED", 0), three
+    feedback = three["feedback"]
+    assert feedback["count"] > 10 and feedback["joint_names"] == [joints], feedback
+    assert feedback["max_error_rad"] < 0.02, feedback  # the controller's estimate follows the goal's reference
+    # Its last feedback was on the last point (base + 0.15), and the arm was left there.
+    np.testing.assert_allclose(feedback["desired_last"], np.add(got["base"], 0.15), atol=0.02)
+    np.testing.assert_allclose(got["after_three_point"], np.add(got["base"], 0.15), atol=0.02)
+
+
+def check_the_other_goals(got: dict, out: Path, joints: list[str]) -> None:
+    """Preemption, cancel then hold (the client's readings and the run's recording), and two refusals."""
+    assert (got["preempted"]["status"], got["preempted"]["error_code"]) == ("ABORTED", INVALID_GOAL), got
+    assert got["preempted"]["error_string"] == "preempted by a new goal"
+    assert (got["preempting"]["status"], got["preempting"]["error_code"]) == ("SUCCEEDED", 0), got
+    assert got["cancel_accepted"], got
+    assert got["canceled"]["status"] == "CANCELED", got
+    hold = got["hold"]
+    assert hold["samples"] >= 20 and hold["drift_rad"] < 0.015, hold  # noisy readings (σ 5 mrad), averaged
+
+    unknown = got["unknown_joint"]
+    assert (unknown["status"], unknown["error_code"]) == ("ABORTED", INVALID_JOINTS), unknown
+    assert unknown["error_string"].startswith("unknown joint(s) ['no_such_joint']: the arm's joints are")
+    tight = got["tight_path_tolerance"]
+    assert (tight["status"], tight["error_code"]) == ("ABORTED", PATH_TOLERANCE_VIOLATED), tight
+    assert "is outside its path tolerance ±1e-06 rad" in tight["error_string"]
+
+    # The recording, on the run's clock (the client's times are /joint_states stamps): from the cancel's result
+    # until the client stopped watching, the reference stood still where the stop brought it, between where the
+    # cancelled move started (base + 0.1) and its target (base + 0.5): it stopped, not swung past. The arm held it.
+    recording = report.read_recording(out / "bag")
+    assert recording.joint_names == joints
+    start_s, until_s = got["canceled"]["stamp_s"] + 0.1, hold["until_stamp_s"]
+    t, q = recording.planned_time_s, recording.planned_position
+    window = (t > start_s) & (t < until_s)
+    assert window.sum() > 50, (start_s, until_s)
+    held = q[window][0]
+    assert np.all(q[window] == held)
+    base = np.asarray(got["base"])
+    assert np.all(held >= base + 0.1 - 1e-6) and np.all(held <= base + 0.5 + 1e-6), (held - base).tolist()
+    settled = (recording.true_time_s > hold["from_stamp_s"]) & (recording.true_time_s < until_s)
+    assert settled.sum() > 50
+    assert np.max(np.abs(recording.true_position[settled] - held)) < 0.01
+
+
+def test_a_plain_ros_client_drives_the_arm_through_follow_joint_trajectory(tmp_path, ros_domain):
+    out = tmp_path / "run"
+    got, output = run_with_client(out, "one_dof", "35")
+    joints = ["joint1"]
+    check_public_face_and_success(got, joints)
+    check_the_other_goals(got, out, joints)
+    assert output.count("canceled: the arm stopped and holds where it came to rest") == 1
+
+
+@pytest.mark.slow
+def test_the_panda_follows_a_goal_on_all_seven_joints_for_a_plain_client(tmp_path, ros_domain):
+    out = tmp_path / "panda"
+    got, _ = run_with_client(out, "panda", "40")
+    joints = [f"panda_joint{k}" for k in range(1, 8)]
+    check_public_face_and_success(got, joints)
+    check_the_other_goals(got, out, joints)
