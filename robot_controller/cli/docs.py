@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from robot_controller.cli.args import verb
+from robot_controller.cli.args import UsageError, verb
 
 PARAMS_COMMAND = "robot-controller params --markdown docs/parameters.md"
 CLI_COMMAND = "robot-controller help --markdown docs/cli.md"
@@ -205,17 +205,35 @@ def write(text: str, path: str | None, verb: str) -> int:
 
 
 def register(sub, root: argparse.ArgumentParser) -> None:
-    """``help``: every verb of ``root``, the whole parser."""
-    p = verb(sub, "help", "every verb's options and help", lambda a: _help_verb(root, a.markdown))
+    """``help [VERB]``: one verb's help, or every verb of ``root``, the whole parser."""
+    p = verb(
+        sub,
+        "help",
+        "a verb's options and help (every verb's without one)",
+        lambda a: _help_verb(root, a.about, a.markdown),
+    )
+    p.add_argument("about", nargs="?", metavar="VERB", help="the verb to explain, as `VERB --help` does")
     p.add_argument(
-        "--markdown", nargs="?", const="-", metavar="PATH", help="as Markdown, to PATH or stdout (docs/cli.md)"
+        "--markdown",
+        nargs="?",
+        const="-",
+        metavar="PATH",
+        help="every verb as Markdown, to PATH or stdout (docs/cli.md)",
     )
 
 
-def _help_verb(root: argparse.ArgumentParser, markdown: str | None) -> int:
+def _help_verb(root: argparse.ArgumentParser, about: str | None, markdown: str | None) -> int:
+    verbs = {name: sub for name, _, sub in subcommands(root)}
+    if about is not None:
+        if markdown is not None:
+            raise UsageError("--markdown writes every verb's page: give no VERB with it")
+        if about not in verbs:
+            raise UsageError(f"no verb {about!r}; the verbs: {', '.join(verbs)}")
+        print(verbs[about].format_help(), end="")
+        return 0
     if markdown is not None:
         return write(cli_markdown(root), markdown, "help")
     print(root.format_help())
-    for name, _, sub in subcommands(root):
+    for name, sub in verbs.items():
         print(f"--- {name} ---\n{sub.format_help()}")
     return 0

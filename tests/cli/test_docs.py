@@ -50,3 +50,25 @@ def test_every_parameter_and_every_verb_is_in_its_page():
     text = docs.cli_markdown(cli.build_parser())
     for name, _, _ in docs.subcommands(cli.build_parser()):
         assert f"\n## {name}\n" in text, name
+
+
+def test_help_verb_prints_that_verb_s_help_as_verb_help_does(capsys):
+    assert cli.main(["help", "faults"]) == 0
+    said = capsys.readouterr().out
+    assert said.startswith("usage: robot-controller faults")
+    faults = next(sub for name, _, sub in docs.subcommands(cli.build_parser()) if name == "faults")
+    assert said == faults.format_help()
+    assert "--- run ---" not in said  # that verb alone
+
+
+@pytest.mark.parametrize(
+    "args, said",
+    [
+        (["help", "fault"], "robot-controller help: no verb 'fault'; the verbs: run, score"),
+        (["help", "faults", "--markdown"], "--markdown writes every verb's page: give no VERB with it"),
+    ],
+)
+def test_help_of_an_unknown_verb_is_one_line_naming_the_verbs(capsys, args, said):
+    assert cli.main(args) == 2
+    err = capsys.readouterr().err
+    assert said in err and len(err.strip().splitlines()) == 1
