@@ -1,9 +1,11 @@
-"""What the verbs write and show: the output directory (never overwriting results), a table of figures,
-and a long verb's progress (a rich bar on a terminal, else a line per step: ``[bench] 3/9 ...``)."""
+"""What the verbs write and show: the output directory (never overwriting results), the end of a verb (its
+verdict and a dozen figures), the table of every figure, and a long verb's progress (a rich bar on a terminal,
+else a line per step: ``[bench] 3/9 ...``)."""
 
 from __future__ import annotations
 
 import os
+import shlex
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -48,6 +50,41 @@ def say_arm(robot: str) -> None:
         launcher.say(note)
 
 
+def typed_command(argv: list[str] | None = None) -> str:
+    """The command as the user typed it (``argv``: default this process's), for a run's ``summary.md``."""
+    argv = sys.argv if argv is None else argv
+    program = Path(argv[0]).name if argv else "robot-controller"
+    if program == "__main__.py":  # python -m robot_controller.cli
+        program = "python -m robot_controller.cli"
+    return " ".join([program, *(shlex.quote(arg) for arg in argv[1:])])
+
+
+def effort_limits(params: dict, joint_count: int) -> list[float] | None:
+    """The controller's effort limit per joint (``torque_max``, N·m or N), None if it cannot be read."""
+    from robot_controller.core.errors import ConfigError
+    from robot_controller.parameters.torque_limits import torque_limit
+
+    try:
+        return torque_limit(params["pid_controller"], joint_count).tolist()
+    except (ConfigError, KeyError, ValueError):
+        return None
+
+
+def print_summary(verdict_line: str | None, rows: list[tuple[str, str]]) -> None:
+    """The end of a verb (:func:`robot_controller.scoring.summary.lines`): its verdict first, green ``ok`` or
+    red ``FAILED: why``, the rows, and a FAILED verdict again last, where the final screen shows it (None: the
+    rows alone, as a re-score says them)."""
+    from rich.console import Console
+    from rich.text import Text
+
+    from robot_controller.scoring import summary
+
+    console = Console(highlight=False, soft_wrap=True)
+    for line in summary.lines(verdict_line, rows):
+        style = ("bold green" if line == "ok" else "bold red") if verdict_line and line == verdict_line else None
+        console.print(Text(line, style=style))
+
+
 #: The figures a run's table shows first, in this order (``_m``, ``_n``: a prismatic joint's, if the arm has one).
 HEADLINE = tuple(
     "tracking_rms_rad tracking_max_rad tracking_rms_m tracking_max_m measured_rms_rad control_rate_hz jitter_p99_ms "
@@ -56,6 +93,7 @@ HEADLINE = tuple(
 
 
 def print_table(values: dict, title: str, headline: tuple[str, ...] = HEADLINE) -> None:
+    """Every figure of ``values`` (``score DIR --all``): the headline first, then the rest by name."""
     from rich.console import Console
     from rich.table import Table
 
@@ -75,10 +113,15 @@ def print_table(values: dict, title: str, headline: tuple[str, ...] = HEADLINE) 
 
 
 def run_experiment(
-    verb: str, steps: int, body: Callable[[StepProgress], object], report: Path, hint: str | None = None
+    verb: str,
+    steps: int,
+    body: Callable[[StepProgress], object],
+    report: Path,
+    hint: str | None = None,
+    show: Callable[[], None] | None = None,
 ) -> int:
-    """``body(progress)`` with a progress line, then the report it wrote and a ``hint`` on using what it
-    wrote. An experiment that fails is one line, exit 1; Ctrl-C ends it with 130."""
+    """``body(progress)`` with a progress line, then the report it wrote (or what ``show`` prints instead) and a
+    ``hint`` on using what it wrote. An experiment that fails is one line, exit 1; Ctrl-C ends it with 130."""
     try:
         with StepProgress(verb, steps) as progress:
             body(progress)
@@ -90,7 +133,10 @@ def run_experiment(
     except KeyboardInterrupt:
         print(f"robot-controller: {verb} interrupted", file=sys.stderr)
         return 130
-    print(report.read_text())
+    if show is not None:
+        show()
+    else:
+        print(report.read_text())
     if hint is not None:
         print(f"robot-controller: {hint}")
     return 0

@@ -18,7 +18,7 @@ from robot_controller.cli.args import (
     stack_options,
     verb,
 )
-from robot_controller.cli.output import output_dir, print_table, say_arm
+from robot_controller.cli.output import effort_limits, output_dir, print_summary, say_arm, typed_command
 from robot_controller.runner.options import RunOptions
 
 
@@ -70,7 +70,7 @@ def run(options: RunOptions, out: Path | None) -> int:
     """Run, record and score the loop (part of the graph without the simulator: say what it ran)."""
     from robot_controller import robots
     from robot_controller.runner import launcher, plan
-    from robot_controller.scoring import plots, report
+    from robot_controller.scoring import plots, report, summary
 
     checked = plan.check(options.params(), options)  # before the output folder is made
     say_arm(options.robot)
@@ -96,7 +96,7 @@ def run(options: RunOptions, out: Path | None) -> int:
             recording, nominal_period_s=period_s, window_s=window_s, units=units, receipts=not options.sim_time
         )
     except ValueError as exc:
-        launcher.say(f"cannot score the recording: {exc}")
+        launcher.say(f"FAILED: cannot score the recording: {exc}")
         return result.exit_code or 1
     recorded_s = result.control_seconds if result.interrupted or not sim_time else duration_s
     if sim_time and result.failure is not None and values.get("recorded_duration_s") is not None:
@@ -125,6 +125,11 @@ def run(options: RunOptions, out: Path | None) -> int:
     if options.sim_time:
         report.write_metrics(out / "timing.json", wall)
     plots.plot_tracking(recording, out / "tracking.png", title=f"{robot}, preset {preset}, seed {seed}", units=units)
-    title = f"run: {robot}, preset {preset}, seed {seed} → {out}"
-    print_table(values | (wall if options.sim_time else {}), title=title)
+    verdict = summary.verdict(result.failure if result.exit_code else None)
+    limits = effort_limits(checked.params, len(units))
+    rows = summary.run_rows(values | (wall if options.sim_time else {}), effort_limits=limits, out=str(out))
+    links = ["tracking.png", "bag/", "metrics.json", "params.yaml"]
+    text = summary.markdown(verdict, rows, title=f"Run {out.name}", command=typed_command(), links=links)
+    (out / "summary.md").write_text(text)
+    print_summary(verdict, rows)
     return result.exit_code

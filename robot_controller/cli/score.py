@@ -7,13 +7,19 @@ import sys
 from pathlib import Path
 
 from robot_controller.cli.args import UsageError, port, verb
-from robot_controller.cli.output import print_table
+from robot_controller.cli.output import print_summary, print_table
 
 
 def register(sub) -> None:
-    p = verb(sub, "score", "re-score a run directory from its bag", lambda a: score(a.run_dir, as_json=a.json))
+    p = verb(
+        sub,
+        "score",
+        "re-score a run directory from its bag",
+        lambda a: score(a.run_dir, as_json=a.json, every_figure=a.all),
+    )
     p.add_argument("run_dir", type=Path)
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    p.add_argument("--all", action="store_true", help="print every figure as a table (default: the dozen that matter)")
     p = verb(
         sub,
         "view",
@@ -25,8 +31,8 @@ def register(sub) -> None:
     p.add_argument("--no-serve", action="store_true", help="only write DIR/view.rrd")
 
 
-def score(run_dir: Path, *, as_json: bool = False) -> int:
-    from robot_controller.scoring import report
+def score(run_dir: Path, *, as_json: bool = False, every_figure: bool = False) -> int:
+    from robot_controller.scoring import report, summary
 
     try:
         recording = report.read_recording(run_dir / "bag")
@@ -40,8 +46,12 @@ def score(run_dir: Path, *, as_json: bool = False) -> int:
         return 2
     if as_json:
         print(json.dumps(values, indent=2, sort_keys=True))
-    else:
+    elif every_figure:
         print_table(values, title=f"re-scored {run_dir / 'bag'}")
+    else:  # the run's facts (robot, clock, host freezes) from its metrics.json, the figures re-scored
+        rows = summary.run_rows(saved | values, effort_limits=_effort_limits(run_dir, recording.joint_count))
+        print(f"re-scored {run_dir / 'bag'}")
+        print_summary(None, [*rows, ("all figures", f"robot-controller score {run_dir} --all")])
     return 0
 
 
@@ -52,6 +62,18 @@ def _saved(run_dir: Path) -> dict:
     except (OSError, ValueError):
         return {}  # none, or not one of ours: the whole recording, every joint revolute
     return saved if isinstance(saved, dict) else {}
+
+
+def _effort_limits(run_dir: Path, joint_count: int) -> list[float] | None:
+    """The controller's ``torque_max`` from the run's ``params.yaml``, if it holds one per joint."""
+    import yaml
+
+    try:
+        limits = yaml.safe_load((run_dir / "params.yaml").read_text())["pid_controller"]["ros__parameters"]
+        limits = [float(x) for x in limits["torque_max"]]
+    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError):
+        return None
+    return limits if len(limits) == joint_count else None
 
 
 def _scored_window_s(saved: dict) -> float | None:

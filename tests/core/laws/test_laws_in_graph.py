@@ -77,6 +77,10 @@ def test_a_failing_law_is_stopped_braked_named_in_one_line_and_still_scored(
     failed = [line for line in proc.stdout.splitlines() if line.startswith("[launcher] FAILED")]
     assert len(failed) == 1 and "the control law failed" in failed[0], output[-3000:]
     assert f"faulty_laws.py:{law} " in failed[0] and did in failed[0] and "built-in lqr" in failed[0], failed[0]
+    # The run's end says it first and last, where the final screen shows it.
+    verdict = failed[0].removeprefix("[launcher] ")
+    said = proc.stdout.splitlines()
+    assert said[-1] == verdict and said.index(verdict) >= len(said) - 16, "\n".join(said[-16:])
     errors = [line for line in output.splitlines() if line.startswith("[pid_controller] [ERROR]")]
     assert len(errors) == 1 and did in errors[0], errors
     # Scored all the same: the stop on the built-in law, then the law stopped (torque off).
