@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import json
 import sys
 from pathlib import Path
 
@@ -20,11 +21,10 @@ from robot_controller.cli.args import (
     step_size_rad,
     verb,
 )
-from robot_controller.cli.output import output_dir, print_table, run_experiment, say_arm
+from robot_controller.cli.output import effort_limits, output_dir, print_summary, run_experiment, say_arm
 from robot_controller.core.errors import ConfigError
 from robot_controller.runner.options import RunOptions
 
-STEP_HEADLINE = ("overshoot_pct", "rise_time_s", "settling_time_s", "steady_state_error_rad", "peak_torque_nm")
 # The exercises by name, for the parser (importing them would slow every verb's start).
 EXERCISE_NAMES = ("tune", "disturbance", "windup", "lqr")
 #: The exercises that take ``--controller`` (the law runs beside their own contenders).
@@ -100,9 +100,14 @@ def step(a: argparse.Namespace) -> int:
     except ConfigError:
         raise  # a user error: one line, exit 2
     except (RuntimeError, ValueError) as exc:
-        print(f"robot-controller: {exc}", file=sys.stderr)
+        print(f"robot-controller step: FAILED: {exc}", file=sys.stderr)
         return 1
-    print_table(values, title=f"step {a.amplitude} rad ({a.shaping}) → {out}", headline=STEP_HEADLINE)
+    from robot_controller.scoring import summary
+
+    limits = effort_limits(checked.params, len(values["joint_names"]))
+    rows = summary.step_rows(values, robot=options.robot, effort_limits=limits)
+    rows += [("files", f"{out}/: step.png, metrics.json (every figure), bag/")]
+    print_summary(summary.verdict(None), rows)
     return 0
 
 
@@ -114,9 +119,15 @@ def compare(a: argparse.Namespace) -> int:
     steps = len(experiments.contenders(a.controllers)) * a.seeds
     chosen = dict(seeds=a.seeds, sine_duration_s=a.duration, amplitude=a.amplitude, robot=a.robot)
     chosen.update(controllers=a.controllers, in_process=a.in_process)
-    return run_experiment(
+    code = run_experiment(
         "compare", steps, lambda progress: experiments.compare(out, progress=progress, **chosen), out / "compare.md"
     )
+    if code == 0:  # the reference arm's targets a contender missed, marked
+        from robot_controller.scoring import summary
+
+        for line in summary.compare_missed(json.loads((out / "compare.json").read_text()), a.robot):
+            print(line)
+    return code
 
 
 def exercise(a: argparse.Namespace) -> int:
@@ -182,7 +193,15 @@ def faults(a: argparse.Namespace) -> int:
     def body(progress) -> None:
         entries.extend(experiments.faults(out, progress=progress, **chosen))
 
-    code = run_experiment("faults", len(experiments.cases(a.quick)), body, out / "faults.md")
+    def show() -> None:  # the short form: every case is in faults.md
+        from robot_controller.scoring import summary
+
+        failed = experiments.failed(entries)
+        verdict = summary.verdict(f"{len(failed)} of {len(entries)} cases missed their goal" if failed else None)
+        rows = summary.faults_rows(entries, failed, experiments.GOAL_DEVIATION_RAD)
+        print_summary(verdict, [*rows, ("files", f"{out}/: faults.md (every case), faults.json, a folder per case")])
+
+    code = run_experiment("faults", len(experiments.cases(a.quick)), body, out / "faults.md", show=show)
     for line in experiments.failed(entries):  # a joint out of its band by more than the goal, or a failed run
         print(f"robot-controller faults: FAILED: {line}", file=sys.stderr)
     return code or (1 if experiments.failed(entries) else 0)
