@@ -97,7 +97,7 @@ def log_run(rec, run: SavedRun) -> None:
     from robot_controller.core.controller import state_layout
 
     arm, recording = run.arm, run.recording
-    layout.log_styles(rec, arm.joint_names)
+    layout.log_styles(rec, arm.joint_names, layout.joint_units(arm))
     layout.log_scene(rec, arm)
     feed = ViewFeed([Outlet(rec, float("inf"))], arm, nominal_period_s=run.period_s, live=False)
     s = recording.state

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from robot_controller.scoring.plots import TRACES, quantity
 from robot_controller.view.arm import log_static
 from robot_controller.view.kinematics import view_sphere
 from robot_controller.view.urdf_arm import ArmModel, entity_part
@@ -24,16 +25,17 @@ POSES = {  # pose → (colour RGBA, radius factor), in instance order: the true 
 POSITION, ERROR, TORQUE, TIMING = "plots/position", "plots/error", "plots/torque", "plots/timing"
 STATUS_LOG = "log/status"
 
-# series → (view, label, colour, width)
+# series → (view, label, colour, width); the labels are tracking.png's (``{q}``: angle, or position on a chain
+# with a slide). "measured" is the sensor's readings (/joint_states), "error_controller" the controller's own error.
 SERIES = {
-    "reference": (POSITION, "reference", [40, 190, 90], 2.0),
-    "true": (POSITION, "true", [235, 125, 25], 2.0),
-    "measured": (POSITION, "measured", [60, 140, 255], 1.0),
-    "planned": (POSITION, "planned", [150, 150, 150], 1.0),
-    "error_true": (ERROR, "reference − true", [220, 50, 50], 1.5),
-    "error_controller": (ERROR, "reference − estimate (controller)", [120, 120, 200], 1.0),
-    "commanded": (TORQUE, "commanded", [150, 80, 200], 1.5),
-    "applied": (TORQUE, "applied", [235, 125, 25], 1.5),
+    "reference": (POSITION, TRACES["reference"], [40, 190, 90], 2.0),
+    "true": (POSITION, TRACES["true"], [235, 125, 25], 2.0),
+    "measured": (POSITION, TRACES["readings"], [60, 140, 255], 1.0),
+    "planned": (POSITION, "planned (/trajectory samples)", [150, 150, 150], 1.0),
+    "error_true": (ERROR, TRACES["error_true"], [220, 50, 50], 1.5),
+    "error_controller": (ERROR, TRACES["error_estimate"], [120, 120, 200], 1.0),
+    "commanded": (TORQUE, TRACES["commanded"], [150, 80, 200], 1.5),
+    "applied": (TORQUE, TRACES["applied"], [235, 125, 25], 1.5),
     "jitter": (TIMING, "tick jitter |period − nominal|", [110, 110, 110], 1.0),
     "jitter_p99": (TIMING, "jitter p99 (last s, /diagnostics)", [220, 50, 50], 2.0),
     "latency": (TIMING, "reading → motor latency", [60, 140, 255], 1.0),
@@ -42,8 +44,8 @@ PER_JOINT = {"reference", "true", "measured", "planned", "error_true", "error_co
 # The "all joints" tab: (view, series, title, unit on a revolute joint, on a prismatic one), each in its joint's
 # colour, named in the first plot's legend.
 OVERVIEW = (
-    (ERROR, "error_true", "tracking error, reference − true", "mrad", "mm"),
-    (POSITION, "true", "position, true", "rad", "m"),
+    (ERROR, "error_true", "tracking error, reference − true {q}", "mrad", "mm"),
+    (POSITION, "true", "position, true {q}", "rad", "m"),
     (TORQUE, "commanded", "torque, commanded", "N·m", "N"),
 )
 # A joint's own tab: (view, title) on a revolute joint ("rad") and on a prismatic one ("m").
@@ -64,13 +66,26 @@ def series_path(series: str, joint: str, joint_count: int) -> str:
     return f"{view}/{entity_part(joint)}/{series}"
 
 
-def log_styles(rec, joint_names: list[str]) -> None:
-    """Names, colours and widths of every series (static)."""
+def series_label(series: str, units: list[str]) -> str:
+    """The name of ``series`` on joints in ``units`` (rad, or m on a slide), as tracking.png names it."""
+    return SERIES[series][1].format(q=quantity(units))
+
+
+def joint_units(arm: ArmModel) -> list[str]:
+    """Each joint's position unit: m on a prismatic joint, else rad."""
+    slides = {joint.name for _, joint in arm.joints() if joint.kind == "prismatic"}
+    return ["m" if name in slides else "rad" for name in arm.joint_names]
+
+
+def log_styles(rec, joint_names: list[str], units: list[str] | None = None) -> None:
+    """Names, colours and widths of every series (static); ``units``: each joint's (default rad)."""
     import rerun as rr
 
     n = len(joint_names)
-    for series, (_, label, colour, width) in SERIES.items():
+    units = units or ["rad"] * n
+    for series, (_, _, colour, width) in SERIES.items():
         joints = joint_names if series in PER_JOINT else joint_names[:1]
+        label = series_label(series, units)
         for joint in joints:
             name = label if series not in PER_JOINT or n == 1 else f"{label} ({joint})"
             style = rr.SeriesLines(colors=[colour], widths=[width], names=[name])
@@ -117,11 +132,12 @@ def blueprint(arm: ArmModel, *, live: bool):
 
     joints = arm.joint_names
     slides = [joint.name for _, joint in arm.joints() if joint.kind == "prismatic"]  # in m, mm and N
+    what = quantity(joint_units(arm))
     panels = {joint: PANELS["m" if joint in slides else "rad"] for joint in joints}
 
     def overview(k: int, title: str, revolute: str, prismatic: str) -> str:
         units = revolute + (f"; {prismatic} on {', '.join(slides)}" if slides else "")
-        return f"{title} [{units}]" + (" (colours as above)" if k else "")
+        return f"{title.format(q=what)} [{units}]" + (" (colours as above)" if k else "")
 
     if len(joints) == 1:
         plots = rrb.Vertical(*(plot(*panel) for panel in panels[joints[0]]), plot(TIMING, "loop timing [ms]"))
@@ -149,7 +165,7 @@ def blueprint(arm: ArmModel, *, live: bool):
             plot(TIMING, "loop timing [ms]"),
             row_shares=[4, 1],
         )
-    arm_name = "arm: true (solid), measured (blue), reference (green)"
+    arm_name = "arm: true (solid), sensor reading (blue), reference (green)"
     arm_view = rrb.Spatial3DView(origin=WORLD, name=arm_name, eye_controls=eye)
     return rrb.Blueprint(
         rrb.Horizontal(arm_view, plots, column_shares=[2, 3]),

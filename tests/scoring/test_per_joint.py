@@ -99,4 +99,12 @@ def test_a_prismatic_joint_is_scored_shown_and_drawn_in_metres_and_newtons(tmp_p
     plots.plot_tracking(recording, tmp_path / "tracking.png", units=units)
     titles = [ax.get_title() for ax in drawn[0].axes[:3]]
     assert titles == ["position [rad | m]", "error [mrad | mm]", "effort [N·m | N]"]
-    assert [ax.get_ylabel() for ax in drawn[0].axes[::3]] == ["shoulder", "elbow", "quill [m]"]
+    assert [ax.get_ylabel() for ax in drawn[0].axes[::3]] == [
+        "shoulder\nposition [rad]",
+        "elbow\nposition [rad]",
+        "quill\nposition [m]",
+    ]
+    quill = ["quill\nposition [m]", "quill\nerror [mm]", "quill\nforce [N]"]
+    assert [ax.get_ylabel() for ax in drawn[0].axes[6:9]] == quill
+    legend = [text.get_text() for text in drawn[0].axes[0].get_legend().get_texts()]
+    assert "true position (/sim/joint_states)" in legend  # a chain with a slide: positions, not angles

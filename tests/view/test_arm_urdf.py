@@ -123,7 +123,7 @@ def test_a_prismatic_joints_plots_are_in_metres_and_newtons():
     _, plots = layout.blueprint(urdf_arm.load_arm(path, stack_joint_order(path)), live=True).root_container.contents
     overview, shoulder, _, quill = plots.contents[0].contents
     titles = [str(view.name) for view in overview.contents]
-    assert titles[0] == "tracking error, reference − true [mrad; mm on quill]", titles
+    assert titles[0] == "tracking error, reference − true position [mrad; mm on quill]", titles
     assert titles[2] == "torque, commanded [N·m; N on quill] (colours as above)", titles
     assert [str(view.name) for view in quill.contents] == [
         "quill: position [m]",
