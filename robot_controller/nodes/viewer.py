@@ -154,10 +154,11 @@ def main(argv: list[str] | None = None) -> int:
     # The file gets few chunks (FILE_PERIOD_S): its footer (a line per chunk, held until the end) stays small.
     serving.set_sinks(saved, rrd=args.rrd, serve=False, blueprint=layout.blueprint(arm, live=True))
     for rec in (live, saved):
-        layout.log_styles(rec, arm.joint_names)
+        layout.log_styles(rec, arm.joint_names, layout.joint_units(arm))
         layout.log_scene(rec, arm)
     web = serving.serve_web(uri, args.port)
-    print(f"{READY_PREFIX}{serving.page_url(args.port)} (data: {uri}; saved to {args.rrd})", flush=True)
+    said = f"{serving.page_url(args.port)} (the page and its data on this one port; saved to {args.rrd})"
+    print(READY_PREFIX + said, flush=True)
 
     outlets = [Outlet(live, SERIES_PERIOD_S, FLUSH_PERIOD_S), Outlet(saved, FILE_PERIOD_S)]
     viewer.feed = feed = ViewFeed(outlets, arm, nominal_period_s=1.0 / args.control_rate, live=True)

@@ -1,10 +1,13 @@
-"""Serving a view to a browser from this machine, offline, from three local servers: rerun's gRPC server (holds the
-recording up to ``SERVER_MEMORY_LIMIT``, the oldest data going past it), rerun's web server with the viewer's files, and
-on the user's port (127.0.0.1) a redirect to the viewer with the gRPC address in its ``?url=``. The gRPC and web ports
-are free ones picked at start, so runs side by side do not collide."""
+"""Serving a view to a browser from this machine, offline, on one port (``127.0.0.1:PORT``): behind it, rerun's
+gRPC server (holds the recording up to ``SERVER_MEMORY_LIMIT``, the oldest data going past it) and rerun's web server
+with the viewer's files, each on a free port picked at start (runs side by side do not collide) and reached only
+through the port's gateway. The gateway sends the viewer's gRPC-web calls to the gRPC server and every other request
+to the web server, and opens the page with the data's address on its own port, as the browser named it: so one
+``ssh -L PORT:127.0.0.1:PORT host`` (or any local port) shows a remote run."""
 
 from __future__ import annotations
 
+import http.client
 import socket
 import threading
 import urllib.parse
@@ -16,6 +19,7 @@ from robot_controller.core.errors import ConfigError
 HOST = "127.0.0.1"
 DEFAULT_PORT = 9090
 SERVER_MEMORY_LIMIT = "256MiB"
+UPSTREAM_CONNECT_TIMEOUT_S = 10.0  # the servers behind the port are on this host: they answer at once or not at all
 
 
 def free_port() -> int:
@@ -73,30 +77,117 @@ def set_sinks(
     return uri
 
 
-class _Redirect(BaseHTTPRequestHandler):
-    """Every request sent on to the server's ``target``."""
+#: The gRPC-web calls' paths (rerun's services: ``/rerun.<package>.<Service>/<Method>``).
+GRPC_PATH_PREFIX = "/rerun."
+#: Headers about one hop of a connection, never passed on.
+HOP_BY_HOP = {"connection", "keep-alive", "proxy-connection", "te", "trailer", "transfer-encoding", "upgrade"}
+COPY_CHUNK = 64 * 1024
+
+
+def data_url(host: str) -> str:
+    """The address the viewer reads its data from, on the gateway ``host`` (``name:port``) as the browser reaches it."""
+    return f"rerun+http://{host}/proxy"
+
+
+class _Gateway(BaseHTTPRequestHandler):
+    """One port for the page, its files and its data: ``/`` with no ``url`` opens the viewer on this port's data;
+    gRPC-web calls go to the gRPC server, the rest to the web server; replies are streamed as they come."""
+
+    protocol_version = "HTTP/1.1"  # keep-alive, and chunked replies for the data's endless stream
 
     def do_GET(self) -> None:  # noqa: N802 - http.server's name
-        self.send_response(302)
-        self.send_header("Location", self.server.target)
-        self.send_header("Cache-Control", "no-store")
-        self.end_headers()
+        path, _, query = self.path.partition("?")
+        if path in ("", "/", "/index.html") and "url" not in urllib.parse.parse_qs(query):
+            host = self.headers.get("Host") or f"{HOST}:{self.server.server_address[1]}"
+            self.send_response(302)
+            self.send_header("Location", f"/?url={urllib.parse.quote(data_url(host), safe='')}")
+            self.send_header("Cache-Control", "no-store")
+            self.send_header("Content-Length", "0")
+            self.end_headers()
+            return
+        self._forward(self.server.web_port)
 
-    do_HEAD = do_GET
+    def do_HEAD(self) -> None:  # noqa: N802
+        self.do_GET()
+
+    def do_POST(self) -> None:  # noqa: N802
+        grpc = self.path.startswith(GRPC_PATH_PREFIX)
+        self._forward(self.server.grpc_port if grpc else self.server.web_port)
+
+    def do_OPTIONS(self) -> None:  # noqa: N802
+        self.do_POST()
+
+    def _forward(self, port: int) -> None:
+        length = int(self.headers.get("Content-Length") or 0)
+        body = self.rfile.read(length) if length else None
+        # The browser's Origin is this port's; the servers behind see a request of their own host's.
+        skip = HOP_BY_HOP | {"host", "origin", "content-length"}
+        headers = {k: v for k, v in self.headers.items() if k.lower() not in skip}
+        upstream = http.client.HTTPConnection(HOST, port, timeout=UPSTREAM_CONNECT_TIMEOUT_S)
+        try:
+            upstream.request(self.command, self.path, body=body, headers=headers)
+            upstream.sock.settimeout(None)  # the data's stream stays open as long as the page does
+            reply = upstream.getresponse()
+        except OSError as exc:
+            upstream.close()
+            self.send_error(502, f"the view's server on port {port} did not answer ({exc})")
+            return
+        try:
+            self._relay(reply)
+        except (BrokenPipeError, ConnectionResetError):
+            self.close_connection = True  # the page went away
+        finally:
+            upstream.close()
+
+    def _relay(self, reply: http.client.HTTPResponse) -> None:
+        self.send_response_only(reply.status, reply.reason)
+        length = reply.getheader("Content-Length")
+        for key, value in reply.getheaders():
+            if key.lower() not in HOP_BY_HOP:
+                self.send_header(key, value)
+        bodiless = self.command == "HEAD" or reply.status in (204, 304) or 100 <= reply.status < 200
+        chunked = length is None and not bodiless
+        if chunked:
+            self.send_header("Transfer-Encoding", "chunked")
+        self.end_headers()
+        if bodiless:
+            return
+        while chunk := reply.read1(COPY_CHUNK):
+            self.wfile.write(b"%x\r\n%s\r\n" % (len(chunk), chunk) if chunked else chunk)
+            self.wfile.flush()
+        if chunked:
+            self.wfile.write(b"0\r\n\r\n")
+            self.wfile.flush()
 
     def log_message(self, *args) -> None:  # quiet: the launcher's output is for the run
         pass
 
 
-def serve_web(grpc_uri: str, port: int) -> ThreadingHTTPServer:
-    """rerun's web viewer on a free port, and on ``port`` a redirect to it with ``grpc_uri`` to connect to:
-    the redirecting server, served by a daemon thread (``shutdown()`` stops it)."""
+class Gateway(ThreadingHTTPServer):
+    """The view's one port: ``shutdown()`` stops it."""
+
+    daemon_threads = True
+
+    def __init__(self, port: int, web_port: int, grpc_port: int) -> None:
+        super().__init__((HOST, port), _Gateway)
+        self.web_port, self.grpc_port = web_port, grpc_port
+
+
+def serve_web(grpc_uri: str, port: int) -> Gateway:
+    """rerun's web viewer on a free port, and on ``port`` the gateway to it and to the gRPC server at ``grpc_uri``
+    (``rerun+http://127.0.0.1:N/proxy``), served by a daemon thread."""
     import rerun as rr
 
     web_port = free_port()
     rr.serve_web_viewer(web_port=web_port, open_browser=False, connect_to=grpc_uri)
-    server = ThreadingHTTPServer((HOST, port), _Redirect)
-    server.target = f"http://{HOST}:{web_port}/?url={urllib.parse.quote(grpc_uri, safe='')}"
-    server.daemon_threads = True
-    threading.Thread(target=server.serve_forever, name="view-redirect", daemon=True).start()
+    server = Gateway(port, web_port, grpc_port_of(grpc_uri))
+    threading.Thread(target=server.serve_forever, name="view-gateway", daemon=True).start()
     return server
+
+
+def grpc_port_of(grpc_uri: str) -> int:
+    """The port of a ``rerun+http://host:port/proxy`` address."""
+    port = urllib.parse.urlsplit(grpc_uri.removeprefix("rerun+")).port
+    if port is None:
+        raise ValueError(f"no port in the gRPC server's address {grpc_uri!r}")
+    return port

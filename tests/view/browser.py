@@ -11,6 +11,7 @@ from __future__ import annotations
 import base64
 import json
 import os
+import select
 import shutil
 import subprocess
 import time
@@ -51,7 +52,9 @@ class Browser:
         profile_dir: Path,
         nice: int = 0,
         cpus: frozenset[int] | None = None,
+        watch_requests: bool = False,
     ) -> None:
+        """``watch_requests``: note every request the page makes (``requests``), from its first."""
         exe = chromium_path()
         if exe is None:
             raise FileNotFoundError("chromium is not installed")
@@ -75,7 +78,13 @@ class Browser:
                 os.sched_setaffinity(0, cpus)
 
         self.process = subprocess.Popen(
-            [exe, *CHROMIUM_FLAGS, f"--window-size={width},{height}", f"--user-data-dir={profile_dir}", url],
+            [
+                exe,
+                *CHROMIUM_FLAGS,
+                f"--window-size={width},{height}",
+                f"--user-data-dir={profile_dir}",
+                "about:blank" if watch_requests else url,
+            ],
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
@@ -95,6 +104,9 @@ class Browser:
             {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False},
             self.session,
         )
+        if watch_requests:  # the page opened blank; now with the requests noted
+            self._send("Network.enable", session=self.session)
+            self._send("Page.navigate", {"url": url}, self.session)
 
     def _send(
         self, method: str, params: dict | None = None, session: str | None = None, timeout_s: float = 30.0
@@ -113,14 +125,18 @@ class Browser:
                     "method" in reply
                     and len(self.events) < MAX_EVENTS
                     and reply.get("params", {}).get("type") != "debug"
+                    and (not reply["method"].startswith("Network.") or reply["method"] == "Network.requestWillBeSent")
                 ):
                     self.events.append(reply)
                 if reply.get("id") == self._next_id:
                     if "error" in reply:
                         raise RuntimeError(f"{method}: {reply['error']}")
                     return reply.get("result", {})
-            if time.monotonic() > deadline or self.process.poll() is not None:
+            left_s = deadline - time.monotonic()
+            if left_s <= 0 or self.process.poll() is not None:
                 raise TimeoutError(f"no answer to {method} from chromium")
+            if not select.select([self._from_child], [], [], min(left_s, 1.0))[0]:
+                continue  # a busy page: its answer may still come, within the timeout
             chunk = os.read(self._from_child, 1 << 20)
             if not chunk:
                 raise EOFError("chromium closed its DevTools pipe")
@@ -158,6 +174,11 @@ class Browser:
                 entry = params.get("entry", {})
                 out.append(f"{entry.get('level')}: {entry.get('text')} {entry.get('url', '')}")
         return out
+
+    def requests(self) -> list[str]:
+        """The URLs the page asked for (with ``watch_requests``)."""
+        sent = [e for e in self.events if e["method"] == "Network.requestWillBeSent"]
+        return [e["params"]["request"]["url"] for e in sent]
 
     def evaluate(self, expression: str):
         result = self._send("Runtime.evaluate", {"expression": expression, "returnByValue": True}, self.session)

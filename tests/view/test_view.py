@@ -14,6 +14,7 @@ import textwrap
 import threading
 import time
 import urllib.error
+import urllib.parse
 import urllib.request
 from pathlib import Path
 
@@ -204,6 +205,69 @@ def test_plan_adds_the_viewer_as_an_observer(tmp_path):
     assert without.viewer is None and without.view_url is None
 
 
+def _grpc_web_read(port: int, min_bytes: int = 1000) -> tuple[int, bytes]:
+    """rerun's ReadMessages over gRPC-web on ``port`` (as the viewer calls it): status, the stream's first bytes."""
+    import http.client
+
+    conn = http.client.HTTPConnection(serving.HOST, port, timeout=10)
+    try:
+        conn.request(
+            "POST",
+            "/rerun.sdk_comms.v1alpha1.MessageProxyService/ReadMessages",
+            body=b"\x00\x00\x00\x00\x00",  # an empty request, framed
+            headers={
+                "Content-Type": "application/grpc-web+proto",
+                "X-Grpc-Web": "1",
+                "Origin": "http://localhost:8000",
+            },
+        )
+        reply = conn.getresponse()
+        got = b""
+        while len(got) < min_bytes and (chunk := reply.read1(65536)):
+            got += chunk
+        return reply.status, got
+    finally:
+        conn.close()
+
+
+def test_the_page_its_files_and_its_data_come_from_one_port():
+    """What ``ssh -L PORT:127.0.0.1:PORT`` needs: the page opens on its data at the address the browser used, and
+    the viewer's files and its gRPC-web stream come through the same port."""
+    import http.client
+
+    import rerun as rr
+
+    rec = serving.open_recording()
+    grpc_uri = serving.set_sinks(rec, rrd=None, serve=True, blueprint=None)
+    for k in range(200):
+        rec.set_time(layout.TIMELINE, duration=0.01 * k)
+        rec.log("plots/x", rr.Scalars(float(np.sin(0.1 * k))))
+    rec.flush()
+    port = serving.free_port()
+    gateway = serving.serve_web(grpc_uri, port)
+    try:
+        conn = http.client.HTTPConnection(serving.HOST, port, timeout=10)
+        conn.request("GET", "/", headers={"Host": "localhost:8000"})  # a tunnel's local end
+        reply = conn.getresponse()
+        reply.read()
+        assert reply.status == 302
+        location = reply.getheader("Location")
+        assert location == "/?url=" + urllib.parse.quote("rerun+http://localhost:8000/proxy", safe="")
+        conn.request("GET", location)
+        reply = conn.getresponse()
+        assert reply.status == 200 and b"Rerun" in reply.read()
+        conn.request("GET", "/re_viewer.js")  # the viewer's code, from the web server behind the port
+        reply = conn.getresponse()
+        assert reply.status == 200 and len(reply.read()) > 100_000
+        direct = _grpc_web_read(serving.grpc_port_of(grpc_uri))
+        through = _grpc_web_read(port)
+        assert through[0] == direct[0] == 200
+        assert len(through[1]) >= 1000 and through[1][:1000] == direct[1][:1000]  # the recording, streamed
+    finally:
+        gateway.shutdown()
+        rec.disconnect()
+
+
 # --- a real run, looked at in a browser -----------------------------------------------------
 
 
@@ -264,6 +328,38 @@ LAUNCH = textwrap.dedent("""
 """)
 
 
+def _tunnel(target_port: int) -> int:
+    """A port that forwards each connection to ``target_port`` and nothing else, as ``ssh -L`` does."""
+    listener = socket.create_server((serving.HOST, 0))
+
+    def pump(source: socket.socket, sink: socket.socket) -> None:
+        try:
+            while data := source.recv(65536):
+                sink.sendall(data)
+        except OSError:
+            pass
+        finally:
+            for end in (source, sink):
+                try:
+                    end.shutdown(socket.SHUT_RDWR)
+                except OSError:
+                    pass
+
+    def accept() -> None:
+        while True:
+            client, _ = listener.accept()
+            try:
+                upstream = socket.create_connection((serving.HOST, target_port))
+            except OSError:  # nothing behind the port (the run is over): this connection fails, as ssh's would
+                client.close()
+                continue
+            threading.Thread(target=pump, args=(client, upstream), daemon=True).start()
+            threading.Thread(target=pump, args=(upstream, client), daemon=True).start()
+
+    threading.Thread(target=accept, daemon=True).start()
+    return listener.getsockname()[1]
+
+
 @pytest.mark.ros
 @pytest.mark.timeout(400)
 def test_live_view_of_a_real_run_in_headless_chromium(tmp_path, ros_domain):
@@ -290,15 +386,27 @@ def test_live_view_of_a_real_run_in_headless_chromium(tmp_path, ros_domain):
         verdict = (False, "no screenshot")
         # Where the observers run (off the loop's CPU, see ros.scheduling), below them in priority: a
         # browser rendering WebGL in software takes all the CPU it gets.
-        with Browser(url, profile_dir=tmp_path / "chromium", nice=15, cpus=_observer_cpus()) as browser:
+        # Through one forwarded port, as from another machine over `ssh -L`: everything must come through it.
+        tunnelled = serving.page_url(_tunnel(port))
+        with Browser(
+            tunnelled, profile_dir=tmp_path / "chromium", nice=15, cpus=_observer_cpus(), watch_requests=True
+        ) as browser:
             deadline = time.monotonic() + 90
             time.sleep(8)  # the page loads, then the run's first seconds come in
             while time.monotonic() < deadline:
-                browser.screenshot(shot)
+                try:
+                    browser.screenshot(shot)
+                except TimeoutError:  # a page still compiling the viewer on a busy host: ask again
+                    verdict = (False, "no screenshot within a minute")
+                    continue
                 verdict = _looks_like_the_view(shot)
                 if verdict[0]:  # also after the run ends: a page keeps what it got, and a slow one still draws
                     break
                 time.sleep(2)
+            asked = [u for u in browser.requests() if u.startswith(("http:", "https:", "ws:", "wss:"))]
+        local = [u for u in asked if urllib.parse.urlsplit(u).hostname in ("127.0.0.1", "localhost", "::1")]
+        elsewhere = [u for u in local if not u.startswith(tunnelled + "/")]
+        assert local and not elsewhere, f"the page asked this host's other ports: {elsewhere[:5]}"
         if os.environ.get(SCREENSHOT_ENV) and shot.exists():
             shutil.copy(shot, os.environ[SCREENSHOT_ENV])
         assert verdict[0], f"the page does not show the run ({verdict[1]}); see {shot}"
