@@ -45,7 +45,11 @@ def register(sub) -> None:
     p = verb(topics, "echo", "print a topic's messages", lambda a: topic.topic_echo(a.topic, count=a.count, csv=a.csv))
     p.add_argument("topic")
     p.add_argument("--count", type=positive_int, help="stop after this many messages")
-    p.add_argument("--csv", action="store_true", help="one line of comma-separated values per message")
+    p.add_argument(
+        "--csv",
+        action="store_true",
+        help="a header line naming the columns, then one line of comma-separated values per message",
+    )
     p = verb(topics, "hz", "a topic's rate", lambda a: topic.topic_hz(a.topic, window=a.window, duration_s=a.duration))
     p.add_argument("topic")
     p.add_argument("--window", "-w", type=positive_int, default=10_000, help="messages the statistics cover")

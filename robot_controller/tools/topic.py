@@ -34,7 +34,8 @@ def topic_list(show_types: bool = False) -> int:
 
 @graph.command("topic echo")
 def topic_echo(topic: str, count: int | None = None, csv: bool = False) -> int:
-    """``ros2 topic echo [--csv]``: ``count`` messages (None: until Ctrl-C) as YAML then ``---``, or CSV lines."""
+    """``ros2 topic echo [--csv]``: ``count`` messages (None: until Ctrl-C) as YAML then ``---``, or CSV lines
+    after a header line naming each column (which ros2's ``--csv`` does not write)."""
     if count is not None and count < 1:
         raise ToolError(f"count must be at least 1, got {count}")
     topic = graph.absolute(topic)
@@ -49,6 +50,8 @@ def topic_echo(topic: str, count: int | None = None, csv: bool = False) -> int:
             except queue.Empty:
                 continue
             if csv:
+                if printed == 0:  # the columns' names, from the first message's fields and sizes
+                    print(csv_header(msg), flush=True)
                 print(message_to_csv(msg), flush=True)
             else:
                 print(message_to_yaml(msg), end="---\n", flush=True)
@@ -115,6 +118,21 @@ def message_to_csv(msg: Any) -> str:
         return str(value)
 
     return cell(message_to_plain(msg))
+
+
+def csv_header(msg: Any) -> str:
+    """The names of :func:`message_to_csv`'s columns for ``msg``: each field's path (``header.stamp.sec``), a
+    sequence's items indexed (``position[0]``), an empty sequence its one empty column. A later message with longer
+    sequences has more columns than its header names."""
+
+    def names(value: Any, path: str) -> list[str]:
+        if isinstance(value, dict):
+            return [name for key, item in value.items() for name in names(item, f"{path}.{key}" if path else key)]
+        if isinstance(value, list):
+            return [name for k, item in enumerate(value) for name in names(item, f"{path}[{k}]")] or [path]
+        return [path]
+
+    return ",".join(names(message_to_plain(msg), ""))
 
 
 class RateWindow:

@@ -62,6 +62,18 @@ def test_a_message_prints_as_one_csv_line_of_its_values_in_field_order():
     assert topic.message_to_csv(Float64MultiArray(data=[1.0, 2.0])) == ",0,1.0,2.0"
 
 
+def test_the_csv_header_names_each_column_of_the_line():
+    header = "header.stamp.sec,header.stamp.nanosec,header.frame_id,name[0],position[0],velocity[0],effort"
+    assert topic.csv_header(joint_state()) == header
+    assert (
+        topic.csv_header(command())
+        == "layout.dim[0].label,layout.dim[0].size,layout.dim[0].stride,layout.data_offset,data[0]"
+    )
+    assert topic.csv_header(Float64MultiArray(data=[1.0, 2.0])) == "layout.dim,layout.data_offset,data[0],data[1]"
+    for msg in (joint_state(), command(), Float64MultiArray(data=[1.0, 2.0])):  # a name for every cell
+        assert len(topic.csv_header(msg).split(",")) == len(topic.message_to_csv(msg).split(","))
+
+
 @pytest.mark.parametrize(
     ("typed", "current", "sent"),
     [

@@ -164,13 +164,15 @@ def test_echo_of_a_partitioned_loop_topic_indents_its_nested_fields(running_grap
     assert done.stdout.count("---\n") == 1
 
 
-def test_echo_csv_prints_one_line_of_numbers_per_message(running_graph):
+def test_echo_csv_prints_a_header_then_one_line_of_numbers_per_message(running_graph):
     alive(running_graph)
     done = tool("sys.exit(topic.topic_echo('/joint_commands', 3, True))")
     assert done.returncode == 0, done.stderr[-3000:]
-    lines = done.stdout.splitlines()
+    header, *lines = done.stdout.splitlines()
+    assert header == "layout.dim[0].label,layout.dim[0].size,layout.dim[0].stride,layout.data_offset,data[0]"
     assert len(lines) == 3, done.stdout
     for line in lines:
+        assert len(line.split(",")) == len(header.split(","))
         cells = line.split(",")
         assert cells[0].startswith("tick_ns:")  # layout.dim[0]: the label carries the command's tick
         assert [float(cell) for cell in cells[1:]]  # its size and stride, data_offset, then the torque
