@@ -45,3 +45,18 @@ def test_a_lockstep_run_ends_with_its_verdict_a_few_lines_and_a_summary(tmp_path
     assert f"python -m robot_controller.cli {' '.join(command)}" in text
     assert tracking in text and "one_dof, preset default, seed 0" in text
     assert "[tracking.png](tracking.png)" in text and "[bag/](bag/)" in text and (out / "tracking.png").is_file()
+
+
+def test_compare_marks_the_targets_a_contender_missed_under_its_table(tmp_path, monkeypatch, capsys):
+    from robot_controller import cli
+    from robot_controller.experiments import compare
+
+    def fake_compare(out, **_):
+        table = {"default": {"sine_tracking_rms_rad": {"mean": 0.001}, "step_settling_time_s": {"mean": 0.296}}}
+        (out / "compare.json").write_text(json.dumps(table))
+        (out / "compare.md").write_text("# Controller comparison\n")
+
+    monkeypatch.setattr(compare, "compare", fake_compare)
+    assert cli.main(["compare", "--seeds", "1", "--out", str(tmp_path / "compare")]) == 0
+    said = capsys.readouterr().out.splitlines()
+    assert said[-1] == f"{summary.MISSED}: default: step settling 0.296 s (target ≤ 0.25 s)", said
