@@ -96,7 +96,8 @@ def run(options: RunOptions, out: Path | None) -> int:
             recording, nominal_period_s=period_s, window_s=window_s, units=units, receipts=not options.sim_time
         )
     except ValueError as exc:
-        launcher.say(f"FAILED: cannot score the recording: {exc}")
+        # A run that already failed said FAILED and why: its verdict stays one line.
+        launcher.say(f"{'' if result.exit_code else 'FAILED: '}cannot score the recording: {exc}")
         return result.exit_code or 1
     recorded_s = result.control_seconds if result.interrupted or not sim_time else duration_s
     if sim_time and result.failure is not None and values.get("recorded_duration_s") is not None:

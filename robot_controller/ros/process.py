@@ -119,11 +119,17 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
     init_with_own_signals(args)
     nodes: list[Node] = []
     code = [0]
-    executor = make_executor(serves_actions=any(getattr(factory, "serves_actions", False) for factory in factories))
+    serves_actions = [getattr(factory, "serves_actions", False) for factory in factories]
+    executor = make_executor(serves_actions=all(serves_actions))
+    # Several nodes in one process (all_in_one): those serving actions spin on an executor of their own, on a thread,
+    # so the loop's nodes keep the EventsExecutor.
+    action_executor = make_executor(serves_actions=True) if any(serves_actions) and not all(serves_actions) else None
     try:
-        for factory in factories:
+        for factory, own in zip(factories, serves_actions, strict=True):
             nodes.append(factory())
-            executor.add_node(nodes[-1])
+            (action_executor if own and action_executor is not None else executor).add_node(nodes[-1])
+        if action_executor is not None:
+            threading.Thread(target=spin, args=(action_executor,), name="action nodes", daemon=True).start()
         # Everything built so far lives as long as the nodes: out of every later full collection (a pause).
         gc.freeze()
         spin(executor)
@@ -140,6 +146,8 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
         code[0] = 2
     finally:
         guard = exit_after_cleanup_timeout(code)
+        if action_executor is not None:
+            action_executor.shutdown(timeout_sec=1.0)
         executor.shutdown(timeout_sec=1.0)
         for node in nodes:
             if isinstance(node, StackNode):
