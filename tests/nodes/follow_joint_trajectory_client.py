@@ -44,7 +44,8 @@ class Client:
         self.action = ActionClient(self.node, FollowJointTrajectory, ACTION)
         self.states: list[tuple[float, list[str], list[float]]] = []  # (stamp s: the run's clock, names, positions)
         self.description: str | None = None
-        self.node.create_subscription(JointState, "/joint_states", self.joint_states, 50)
+        # Depth 1: each reading taken is the latest, so a busy client's stamps do not lag behind a backlog.
+        self.node.create_subscription(JointState, "/joint_states", self.joint_states, 1)
         latched = QoSProfile(
             depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
         )
@@ -55,8 +56,17 @@ class Client:
         self.states.append((stamp_s, list(msg.name), list(msg.position)))
 
     def stamp_s(self) -> float:
-        """The run's time now, as the latest /joint_states says (its stamps: sim time on a paced run)."""
+        """The run's time, as the latest /joint_states says (its stamps: sim time on a paced run): no later than now."""
         return self.states[-1][0]
+
+    def fresh_stamp_s(self) -> float:
+        """The stamp of a reading published after this call: no earlier than now (the second new one: the first may
+        have been waiting in the reader's history)."""
+        count = len(self.states)
+        deadline = time.monotonic() + 5.0
+        while len(self.states) < count + 2 and time.monotonic() < deadline:
+            rclpy.spin_once(self.node, timeout_sec=0.01)
+        return self.stamp_s()
 
     def robot_description(self, msg: String) -> None:
         self.description = msg.data
@@ -108,17 +118,28 @@ class Client:
             "status": STATUS.get(got.status, str(got.status)),
             "error_code": got.result.error_code,
             "error_string": got.result.error_string,
-            "stamp_s": self.stamp_s(),  # when the client heard it, on the run's clock
+            "stamp_s": self.fresh_stamp_s(),  # after the client heard it, on the run's clock
         }
 
 
 def summary(feedback: list, joints: list[str]) -> dict:
     """What the goal's feedback said: how many, the joints it names, its largest position error."""
-    errors = [np.abs(np.asarray(f.error.positions)) for f in feedback if len(f.error.positions) == len(joints)]
+    whole = [f for f in feedback if len(f.error.positions) == len(joints)]
+    errors = [float(np.max(np.abs(f.error.positions))) for f in whole]
+    worst = whole[int(np.argmax(errors))] if whole else None
     return {
         "count": len(feedback),
         "joint_names": sorted({tuple(f.joint_names) for f in feedback}),
-        "max_error_rad": float(np.max(errors)) if errors else None,
+        "max_error_rad": max(errors) if errors else None,
+        # Where it was largest: the feedback's stamp (the run's clock), its index, desired and actual.
+        "worst": None
+        if worst is None
+        else {
+            "stamp_s": worst.header.stamp.sec + worst.header.stamp.nanosec * 1e-9,
+            "index": int(np.argmax(errors)),
+            "desired": list(worst.desired.positions),
+            "actual": list(worst.actual.positions),
+        },
         "desired_last": list(feedback[-1].desired.positions) if feedback else None,
     }
 
@@ -132,6 +153,9 @@ def main() -> None:
     while (len(client.states) < 20 or client.description is None) and time.monotonic() < deadline:
         client.spin_for(0.1)
     out["joint_states_heard"] = len(client.states)
+    # One arm on the domain: another run sharing ROS_DOMAIN_ID would add its publishers (and its own action server).
+    out["joint_states_publishers"] = client.node.count_publishers("/joint_states")
+    out["action_servers"] = client.node.count_publishers(f"{ACTION}/_action/feedback")
     out["robot_description_chars"] = len(client.description or "")
     if not out["server"] or len(client.states) < 20:
         print(json.dumps(out), flush=True)

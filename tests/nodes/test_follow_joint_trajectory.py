@@ -16,7 +16,6 @@ import pytest
 
 from robot_controller.ros import partition
 from robot_controller.scoring import report
-from tests import rostools
 from tests.rostools import run_said
 
 pytestmark = pytest.mark.ros
@@ -30,17 +29,32 @@ INVALID_GOAL, INVALID_JOINTS, PATH_TOLERANCE_VIOLATED = -1, -2, -4  # control_ms
 def run_with_client(out: Path, robot: str, duration: str, *client_args: str) -> tuple[dict, str]:
     """A run of ``robot`` into ``out`` and, once its loop runs, the plain client beside it: what the client printed
     (its JSON) and what the run said. The run must end by itself with exit 0."""
-    run = rostools.start_run(out, duration, "--robot", robot)
+    command = ["run", "--robot", robot, "--duration", duration, "--out", str(out)]
+    run = subprocess.Popen(
+        [sys.executable, "-m", "robot_controller.cli", *command],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    before = []  # what the run said before its loop ran (rostools.start_run's wait, keeping the lines)
+    for line in run.stdout:
+        before.append(line)
+        if "control loop running" in line:
+            break
+    else:
+        run.wait(timeout=60)
+        pytest.fail(f"the run ended (exit {run.returncode}) before its loop ran:\n{run_said(''.join(before))}")
     try:
         env = {name: value for name, value in os.environ.items() if name not in OURS}
         client = subprocess.run(
             [sys.executable, str(CLIENT), *client_args], capture_output=True, text=True, timeout=180, env=env
         )
-        output = run.communicate(timeout=240)[0]
+        output = "".join(before) + run.communicate(timeout=240)[0]
     finally:
         if run.poll() is None:
             run.kill()
     said = f"client exit {client.returncode}\n{client.stdout[-3000:]}\n{client.stderr[-3000:]}"
+    (out / "client.json").write_text(client.stdout)  # beside the run's bag, for a failure's reader
     assert client.returncode == 0 and client.stdout.strip(), said
     assert run.returncode == 0, run_said(output) + "\n" + said
     return json.loads(client.stdout.strip().splitlines()[-1]), output
@@ -49,6 +63,7 @@ def run_with_client(out: Path, robot: str, duration: str, *client_args: str) -> 
 def check_public_face_and_success(got: dict, joints: list[str]) -> None:
     """The client found the action, heard the arm and its description, and a 3-point goal succeeded with feedback."""
     assert got["server"], got
+    assert (got["joint_states_publishers"], got["action_servers"]) == (1, 1), f"not one arm on the domain: {got}"
     assert got["joint_states_heard"] >= 20 and got["joint_names"] == joints, got
     assert got["robot_description_chars"] > 0 and got["description_names_every_joint"], got  # the arm's URDF
     three = got["three_point"]
@@ -78,9 +93,10 @@ def check_the_other_goals(got: dict, out: Path, joints: list[str]) -> None:
     assert (tight["status"], tight["error_code"]) == ("ABORTED", PATH_TOLERANCE_VIOLATED), tight
     assert "is outside its path tolerance ±1e-06 rad" in tight["error_string"]
 
-    # The recording, on the run's clock (the client's times are /joint_states stamps): from the cancel's result
-    # until the client stopped watching, the reference stood still where the stop brought it, between where the
-    # cancelled move started (base + 0.1) and its target (base + 0.5): it stopped, not swung past. The arm held it.
+    # The recording, on the run's clock (the client's times are /joint_states stamps: one published after it had the
+    # result, and the latest it heard while it watched the hold): from the cancel's result until the client stopped
+    # watching, the reference stood still where the stop brought it, between where the cancelled move started
+    # (base + 0.1) and its target (base + 0.5): it stopped, not swung past. The arm held it.
     recording = report.read_recording(out / "bag")
     assert recording.joint_names == joints
     start_s, until_s = got["canceled"]["stamp_s"] + 0.1, hold["until_stamp_s"]
@@ -88,7 +104,7 @@ def check_the_other_goals(got: dict, out: Path, joints: list[str]) -> None:
     window = (t > start_s) & (t < until_s)
     assert window.sum() > 50, (start_s, until_s)
     held = q[window][0]
-    assert np.all(q[window] == held)
+    assert np.all(q[window] == held), f"the reference moved in {start_s:.2f}-{until_s:.2f} s: see {out}"
     base = np.asarray(got["base"])
     assert np.all(held >= base + 0.1 - 1e-6) and np.all(held <= base + 0.5 + 1e-6), (held - base).tolist()
     settled = (recording.true_time_s > hold["from_stamp_s"]) & (recording.true_time_s < until_s)
