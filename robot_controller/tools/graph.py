@@ -295,6 +295,20 @@ def _sigint_ignored() -> Iterator[None]:
         signal.signal(signal.SIGINT, previous)
 
 
+@contextlib.contextmanager
+def _sigint_heard() -> Iterator[None]:
+    """Ctrl-C (SIGINT) raises ``KeyboardInterrupt`` while a command runs, even when the command was started with
+    SIGINT ignored (a shell's ``&`` does that, and Python then keeps ignoring it): a ``kill -INT`` must still cancel."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def command(name: str, *, interrupted: int = 0) -> Callable[[Callable[..., int]], Callable[..., int]]:
     """A tool's function as a command: ``ToolError`` → one line on stderr, its exit code; Ctrl-C → ``interrupted`` (0:
     the way ``echo`` and ``hz`` are meant to end), no traceback; a closed pipe (``| head``) → 0, quietly."""
@@ -303,7 +317,8 @@ def command(name: str, *, interrupted: int = 0) -> Callable[[Callable[..., int]]
         @functools.wraps(function)
         def run(*args: Any, **kwargs: Any) -> int:
             try:
-                return function(*args, **kwargs)
+                with _sigint_heard():
+                    return function(*args, **kwargs)
             except ToolError as exc:
                 print(f"robot-controller {name}: {exc}", file=sys.stderr, flush=True)
                 return exc.code

@@ -51,6 +51,8 @@ def test_goals_are_refused_blended_tracked_held_and_canceled(tmp_path, ros_domai
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
+            # Started as a shell's `&` starts it (SIGINT ignored, which Python then keeps): a SIGINT still cancels.
+            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
         )
         try:
             rostools.wait_for(lambda: sum(TAKEN in line for line in said) == 2, 60, "the planner to take the move")
