@@ -20,6 +20,8 @@ from robot_controller.scoring.bag_reader import Recording, motor_latency_s, read
 __all__ = [
     "Recording",
     "arm_units",
+    "brake_metrics",
+    "braked_at",
     "json_safe",
     "motor_latency_s",
     "read_recording",
@@ -78,6 +80,7 @@ def score(
     faults = ("sensor_lost", "reacquiring", "reference_lost", "stopped", "law_fault", "law_stopped")
     for name in (*faults, "late", "late_stopped"):
         out[f"{name}_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES[name]))
+    out.update(brake_metrics(recording, ticks[0], end_s))
     out["saturated_ticks"] = int(np.count_nonzero(np.any(s["saturated"] > 0.5, axis=1)))
     out["saturated_ticks_per_joint"] = np.count_nonzero(s["saturated"] > 0.5, axis=0).tolist()
     out.update(metrics.peak_torque(s["command"], units))
@@ -98,9 +101,35 @@ def score(
 
 
 def reference_in_force(recording: Recording, nominal_period_s: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
-    """The reference in force at every true-state sample of ``recording`` (:func:`reference_in_force_at`)."""
+    """The reference in force at every true-state sample of ``recording`` (:func:`reference_in_force_at`), and
+    whether one is: none while the drive's brakes hold the arm (category 0: torque off, the joint locked), which is a
+    stop, counted apart (``brake_engagements``), not tracking."""
     s = recording.state
-    return reference_in_force_at(s["time_s"], s["reference"], s["status"], recording.true_time_s, nominal_period_s)
+    t = recording.true_time_s
+    in_force, valid = reference_in_force_at(s["time_s"], s["reference"], s["status"], t, nominal_period_s)
+    return in_force, valid & ~braked_at(recording, t)
+
+
+def braked_at(recording: Recording, t: np.ndarray) -> np.ndarray:
+    """Whether the drive's brakes held any joint at each time ``t`` (from ``/sim/brakes``; never, if not recorded)."""
+    if not len(recording.brakes_time_s):
+        return np.zeros(len(t), bool)
+    index = np.searchsorted(recording.brakes_time_s, t, side="right") - 1
+    held = np.any(recording.brakes > 0.5, axis=1)
+    return (index >= 0) & held[np.clip(index, 0, None)]
+
+
+def brake_metrics(recording: Recording, start_s: float, end_s: float) -> dict[str, Any]:
+    """How often the brakes went on between ``start_s`` and ``end_s`` (a stall of the loop, an e-stop: the drive's
+    category 0 stop), and for how long in all (s, the simulator's time)."""
+    t, held = recording.brakes_time_s, np.any(recording.brakes > 0.5, axis=1)
+    if not len(t):
+        return {"brake_engagements": 0, "braked_s": 0.0}
+    engaged = np.flatnonzero(held[1:] & ~held[:-1]) + 1
+    engaged = engaged[(t[engaged] > start_s) & (t[engaged] < end_s)]
+    ends = np.append(t[1:], end_s)
+    spans = np.clip(np.minimum(ends, end_s) - np.maximum(t, start_s), 0.0, None)
+    return {"brake_engagements": int(len(engaged)), "braked_s": float(np.sum(spans[held]))}
 
 
 def reference_in_force_at(

@@ -239,6 +239,9 @@ def _trouble_rows(values: dict[str, Any]) -> list[Row]:
     ]
     if faults:
         rows.append(("faults", ", ".join(faults)))
+    if engagements := values.get("brake_engagements"):
+        held_s = _num(values.get("braked_s"), ".2f")
+        rows.append(("brakes", f"held the arm {_count(engagements, 'time')}, {held_s} s in all (not scored)"))
     if freezes := values.get("host_freezes"):
         longest, total = values.get("host_freeze_ms_max"), values.get("host_freeze_ms_total")
         text = f"{freezes}, the longest {_num(longest, '.0f')} ms, {_num(total, '.0f')} ms in all"

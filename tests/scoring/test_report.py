@@ -1,8 +1,9 @@
-"""The motor's once-a-second receipts are paired with the controller's ticks offline."""
+"""Scoring offline: the motor's receipts paired with the controller's ticks; no reference in force while the brakes hold."""
 
 import numpy as np
+import pytest
 
-from robot_controller.scoring.report import motor_latency_s
+from robot_controller.scoring.report import Recording, brake_metrics, motor_latency_s, reference_in_force
 
 
 def test_each_receipt_pairs_with_the_latest_tick_that_issued_its_command():
@@ -20,3 +21,35 @@ def test_each_receipt_pairs_with_the_latest_tick_that_issued_its_command():
         ]
     )  # no tick issued 9.0: not a latency
     assert np.allclose(motor_latency_s(state, receipts), [0.004, 0.003, 0.0035, 0.006])
+
+
+def _stalled_then_braked():
+    """A loop tracking a 1 rad/s ramp whose ticks stop at 1.0 s; the drive brakes the arm at 1.01 s (where it
+    stands) until the loop returns at 1.5 s."""
+    ticks = np.round(np.concatenate([np.arange(0.0, 1.0 + 1e-9, 0.01), np.arange(1.5, 2.0, 0.01)]), 6)
+    reference = ticks[:, None].copy()
+    t = np.round(np.arange(0.0, 2.0, 0.001), 6)
+    q = np.where(t < 1.01, t, np.where(t < 1.5, 1.01, t))[:, None]
+    state = {"time_s": ticks, "reference": reference, "status": np.zeros(len(ticks))}
+    zeros = np.zeros_like(q)
+    return Recording(
+        state, t, q, zeros, zeros, brakes_time_s=np.array([0.0, 1.01, 1.5]), brakes=np.array([[0.0], [1.0], [0.0]])
+    )
+
+
+def test_no_reference_is_in_force_while_the_brakes_hold_the_arm():
+    recording = _stalled_then_braked()
+    in_force, valid = reference_in_force(recording)
+    t = recording.true_time_s
+    assert not valid[(t >= 1.01) & (t < 1.5)].any()  # a category 0 stop: not tracking
+    assert valid[(t < 1.01) | (t >= 1.5)].all()
+    error = in_force[valid, 0] - recording.true_position[valid, 0]
+    assert np.max(np.abs(error)) < 0.011  # without the brakes' window: the carried reference, 0.05 rad on
+    assert np.max(np.abs(error)) > 0.0  # the period the last effort acted over is still scored
+
+
+def test_brake_engagements_count_the_stops_after_the_start_and_their_time():
+    recording = _stalled_then_braked()
+    assert brake_metrics(recording, 0.0, 2.0) == {"brake_engagements": 1, "braked_s": pytest.approx(0.49)}
+    assert brake_metrics(recording, 1.6, 2.0) == {"brake_engagements": 0, "braked_s": 0.0}
+    assert brake_metrics(Recording({}, t_empty := np.zeros(0), t_empty, t_empty, t_empty), 0, 1)["braked_s"] == 0.0
