@@ -14,7 +14,7 @@ from robot_controller.core.model import DelayLine, load_model, measure
 from robot_controller.core.model.mujoco_model import joint_units
 from robot_controller.ros.messages import check_joint_state, s_to_stamp, stamp_to_s
 from robot_controller.ros.process import run
-from robot_controller.ros.qos import LATCHED_QOS, loop_qos
+from robot_controller.ros.qos import LATCHED_QOS, LOCKSTEP_READINGS_QOS, loop_qos
 from robot_controller.ros.stack_node import StackNode
 
 # Stamps within this of a grid point count as on it (float ns rounding).
@@ -33,7 +33,9 @@ class SensorNode(StackNode):
         self.period_s = 1.0 / self.params["rate_hz"]
         self.next_sample_s: float | None = None
         self.joint_names: list[str] | None = None
-        self.pub = self.gated_publisher(JointState, "/joint_states")
+        self.pub = self.gated_publisher(
+            JointState, "/joint_states", qos=LOCKSTEP_READINGS_QOS if self.lockstep else None
+        )
         self.create_subscription(JointState, "/sim/joint_states", self.true_state_callback, loop_qos(self.lockstep))
         self.watch_single_publisher("/sim/joint_states", "simulator")
         self.out = JointState()

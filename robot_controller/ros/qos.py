@@ -22,6 +22,11 @@ LATEST_QOS = _keep_last(1)
 LATEST_BEST_EFFORT_QOS = _keep_last(1, reliable=False)
 # Lockstep: every message is a tick's, taken in order (the planner sends each a tick early: two may be in flight).
 LOCKSTEP_QOS = _keep_last(100)
+# Lockstep's /joint_states (the sensor's writer, our controller's reader): transient local as well, since it has more
+# readers than the controller (the planner's action feedback, any ROS client's): one of them can open the sensor's gate
+# (ros.publishing) before the controller matched, and a tick's reading lost so stalls the run for good. A controller
+# that matches late gets the reading outstanding. A volatile reader (the tutorial's controller) matches it all the same.
+LOCKSTEP_READINGS_QOS = _keep_last(100, latched=True)
 # A state, not an event (the brake request): a late reader, such as a respawned simulator, gets it at once.
 LATCHED_QOS = _keep_last(1, latched=True)
 # /clock in lockstep: a reader that matches late still gets the latest tick.

@@ -78,7 +78,7 @@ def lockstep_params(params: cfg.Params) -> cfg.Params:
     out = cfg.merge(params, {})
     for node in cfg.NODES:
         out[node]["use_sim_time"] = False
-    for node in ("simulator", "pid_controller", "trajectory_planner", "motor_node"):
+    for node in ("simulator", "pid_controller", "trajectory_planner", "motor_node", "sensor_node"):
         out[node]["lockstep"] = True
     return out
 

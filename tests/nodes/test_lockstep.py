@@ -175,3 +175,34 @@ def test_rescoring_a_lockstep_run_gives_its_own_figures(tmp_path, ros_domain):
     rescored = json.loads(proc.stdout)
     for key in ("tracking_rms_rad", "tracking_max_rad", "scored_samples", "recorded_duration_s"):
         assert rescored[key] == saved[key], key
+
+
+def test_a_controller_that_starts_late_still_gets_the_first_tick(tmp_path, ros_domain):
+    """The sensor's /joint_states has readers besides the controller (the planner's action feedback, any ROS client),
+    and one of them may open its gate first: tick 0's reading, published then, must still reach a controller that
+    matches seconds later (a lost reading stalls a lockstep run for good)."""
+    run = subprocess.Popen(
+        [sys.executable, "-m", "robot_controller.cli", "run", "--sim-time", "--duration", "2", "--out", str(tmp_path)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 30
+        controller = None
+        while controller is None and time.monotonic() < deadline:  # held before rclpy is even imported
+            try:
+                controller = child_pid(run, "pid_controller")
+            except (StopIteration, OSError):  # not started yet, or a short-lived child gone while looked at
+                time.sleep(0.01)
+        assert controller is not None, "no controller process"
+        os.kill(controller, signal.SIGSTOP)
+        time.sleep(4.0)  # the simulator, sensor, planner and recorder have matched and tick 0 is out
+        os.kill(controller, signal.SIGCONT)
+        output = run.communicate(timeout=120)[0]
+    finally:
+        if run.poll() is None:
+            run.kill()
+    assert run.returncode == 0, run_said(output)
+    assert "1 ticks published, 0 efforts applied" not in output
+    assert json.loads((tmp_path / "metrics.json").read_text())["control_ticks"] == 200
