@@ -11,6 +11,7 @@ import traceback
 from importlib.metadata import entry_points
 from pathlib import Path
 
+import robot_controller.cli.campaign as campaign
 import robot_controller.cli.docs as docs
 import robot_controller.cli.experiments as experiments
 import robot_controller.cli.graph as graph
@@ -34,6 +35,7 @@ def build_parser() -> Parser:
     params.register(sub)
     docs.register(sub, parser)
     experiments.register(sub)
+    campaign.register(sub)
     graph.register(sub)
     for entry in sorted(entry_points(group=VERB_ENTRY_POINTS), key=lambda e: e.name):
         try:

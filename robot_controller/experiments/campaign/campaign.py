@@ -1,0 +1,134 @@
+"""A campaign, run: every (controller, run) pair the folder does not hold yet, on local workers or a Ray cluster, each
+row stored as it finishes, with a progress line (runs/s, time left); then the report."""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from robot_controller.experiments.campaign import draws, executors
+from robot_controller.experiments.campaign.one_run import Task
+from robot_controller.experiments.campaign.spec import CampaignSpec, controller_spec
+from robot_controller.experiments.campaign.store import ResultStore
+
+
+@dataclass(frozen=True)
+class Contender:
+    label: str  #: the rows' ``controller`` ("" when the spec's controller runs alone)
+    spec: str | None  #: controller_type (None: the spec's)
+
+
+def contenders(spec: CampaignSpec, names: list[str] | None) -> tuple[Contender, ...]:
+    """``--controllers A,B``: each checked (its class loads), labelled by its class name; None: the spec's own."""
+    from robot_controller.core.errors import ConfigError
+    from robot_controller.experiments.laws import label
+
+    if not names:
+        return (Contender("", None),)
+
+    def refuse(why: str) -> ConfigError:
+        return ConfigError(f"--controllers: {why}")
+
+    chosen = tuple(Contender(label(n), controller_spec(n, Path.cwd(), refuse)) for n in names)
+    if len({c.label for c in chosen}) != len(chosen):
+        raise ConfigError(f"--controllers: two controllers share a name: {','.join(names)}")
+    return chosen
+
+
+def tasks(spec: CampaignSpec, chosen: tuple[Contender, ...], done: set[tuple[str, int]]) -> list[Task]:
+    """The runs still to do, run by run (each run's controllers side by side): the same draws for every controller."""
+    stacks = {c.label: spec.base_params(c.spec) for c in chosen}
+    out = []
+    for run_id in range(spec.runs):
+        drawn = draws.draw(spec, run_id)
+        seed = draws.run_seed(spec.seed, run_id)
+        for c in chosen:
+            if (c.label, run_id) not in done:
+                out.append(Task(run_id, c.label, stacks[c.label], drawn, seed, spec.duration_s))
+    return out
+
+
+def run_campaign(
+    spec: CampaignSpec,
+    out: Path,
+    *,
+    controllers: list[str] | None = None,
+    workers: int | None = None,
+    ray_address: str | None = None,
+    say: Callable[[str], None] = print,
+) -> ResultStore:
+    """Run the campaign into ``out`` (resuming what it holds) and return its rows."""
+    chosen = contenders(spec, controllers)
+    labels = tuple(c.spec or spec.controller or "" for c in chosen)
+    about = {
+        "spec": spec.text,
+        "spec_path": str(spec.path),
+        "controllers": [c.label for c in chosen],
+        "controller_types": list(labels),
+    }
+    store = ResultStore(out, spec.fingerprint(labels), about)
+    todo = tasks(spec, chosen, store.done())
+    total = spec.runs * len(chosen)
+    if len(todo) < total:
+        say(f"resuming: {total - len(todo)} of {total} runs already in {out / 'results.parquet'}")
+    if not todo:
+        return store
+    workers = workers or executors.default_workers()
+    rows = executors.run_ray(todo, ray_address) if ray_address else executors.run_local(todo, workers)
+    try:
+        with Progress(len(todo), total - len(todo)) as progress:
+            for row in rows:
+                store.add([row])
+                progress.advance()
+    finally:
+        store.compact()
+    return store
+
+
+class Progress:
+    """A bar with runs/s and time left on a terminal; else a line every 10 % (``[campaign] 30/60 runs, ...``)."""
+
+    def __init__(self, todo: int, already: int) -> None:
+        self.todo, self.already, self.done = todo, already, 0
+        self.start = time.monotonic()
+        self._bar = None
+        self._next_line = 0.1
+
+    def __enter__(self) -> Progress:
+        if sys.stdout.isatty():
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+            self._bar = Progress(
+                TextColumn("[bold]campaign[/bold]"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TextColumn("{task.description}"),
+                TimeRemainingColumn(),
+                TextColumn("left"),
+            )
+            self._bar.__enter__()
+            self._task = self._bar.add_task("", total=self.todo + self.already, completed=self.already)
+        return self
+
+    def rate(self) -> float:
+        elapsed = time.monotonic() - self.start
+        return self.done / elapsed if elapsed > 0 else 0.0
+
+    def advance(self) -> None:
+        self.done += 1
+        rate = self.rate()
+        if self._bar is not None:
+            self._bar.update(self._task, advance=1, description=f"{rate:.2f} runs/s")
+        elif self.done >= self._next_line * self.todo or self.done == self.todo:
+            left = (self.todo - self.done) / rate if rate > 0 else float("nan")
+            count = f"{self.already + self.done}/{self.already + self.todo}"
+            print(f"[campaign] {count} runs, {rate:.2f} runs/s, {left:.0f} s left", flush=True)
+            self._next_line = self.done / self.todo + 0.1
+
+    def __exit__(self, *exc: Any) -> None:
+        if self._bar is not None:
+            self._bar.__exit__(*exc)

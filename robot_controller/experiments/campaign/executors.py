@@ -1,0 +1,92 @@
+"""Where a campaign's runs run: local worker processes, or the tasks of a Ray cluster the user started. Both take
+the same tasks and yield the same rows (each run's figures depend on its task alone), as the runs finish."""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Iterable, Iterator
+from dataclasses import replace
+from typing import Any
+
+from robot_controller.core.errors import ConfigError, RunFailed
+from robot_controller.experiments.campaign import one_run
+from robot_controller.experiments.campaign.one_run import Task
+
+#: Tasks in flight per worker: enough that none waits for the next, few enough that rows stream in order.
+IN_FLIGHT_PER_WORKER = 2
+
+
+def default_workers() -> int:
+    return os.cpu_count() or 1
+
+
+def run_local(tasks: Iterable[Task], workers: int) -> Iterator[dict[str, Any]]:
+    """``tasks`` on ``workers`` processes (forkserver: a clean process each, the parent's threads not copied)."""
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    todo = iter(tasks)
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("forkserver")) as pool:
+        pending = set()
+        try:
+            while True:
+                while len(pending) < IN_FLIGHT_PER_WORKER * workers and (task := next(todo, None)) is not None:
+                    pending.add(pool.submit(one_run.run, task))
+                if not pending:
+                    return
+                finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for future in finished:
+                    yield future.result()
+        finally:
+            for future in pending:
+                future.cancel()
+
+
+def _run_remote(params, task: Task) -> dict[str, Any]:
+    """A Ray task: the campaign's stack arrives once per worker as an object, the task without it."""
+    return one_run.run(replace(task, params=params))
+
+
+def connect_ray(address: str) -> int:
+    """Connect to the Ray cluster at ``address`` (``auto``: ``RAY_ADDRESS``, or the one on this host); its CPUs.
+
+    :raises RunFailed: no cluster answers there
+    """
+    try:
+        import ray
+    except ImportError:
+        raise ConfigError("--ray: the ray package is not installed (pip install ray)") from None
+    try:
+        ray.init(address=address, logging_level=logging.ERROR, log_to_driver=False, configure_logging=False)
+    except (ConnectionError, RuntimeError, ValueError) as exc:
+        said = " ".join(str(exc).split())[:200]
+        raise RunFailed(
+            f"--ray {address}: no Ray cluster to connect to ({said}); start one with `ray start --head`"
+        ) from None
+    return max(1, int(ray.cluster_resources().get("CPU", 1)))
+
+
+def run_ray(tasks: Iterable[Task], address: str) -> Iterator[dict[str, Any]]:
+    """``tasks`` as Ray tasks on the cluster at ``address``, one CPU each."""
+    import ray
+
+    cpus = connect_ray(address)
+    try:
+        remote = ray.remote(num_cpus=1, max_retries=0)(_run_remote)
+        todo = iter(tasks)
+        params_refs: dict[int, Any] = {}  # one object per distinct stack (one per compared controller)
+        pending: list = []
+        while True:
+            while len(pending) < IN_FLIGHT_PER_WORKER * cpus and (task := next(todo, None)) is not None:
+                ref = params_refs.get(id(task.params))
+                if ref is None:
+                    ref = params_refs[id(task.params)] = ray.put(task.params)
+                pending.append(remote.remote(ref, replace(task, params=None)))
+            if not pending:
+                return
+            finished, pending = ray.wait(pending, num_returns=1)
+            for ref in finished:
+                yield ray.get(ref)
+    finally:
+        ray.shutdown()
