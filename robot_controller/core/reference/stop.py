@@ -15,6 +15,8 @@ from robot_controller.core.reference.trajectory import Sample
 
 MIN_STOP_S = 0.05  #: even a reference nearly at rest settles over this long (s)
 _PEAK_DECELERATION_PER_V0_T = 1.875  # of a quintic from v0 to rest over T with the end above
+# A quintic of this shape from (v0, a0) against v0 keeps its velocity's sign while |a0|·T <= (4 + 2√3)·|v0| (7.46).
+_ONE_WAY = 7.0
 
 
 def stop_time_s(velocity: np.ndarray, acceleration: np.ndarray, deceleration: float) -> float:
@@ -31,9 +33,16 @@ def rest_position(start: Sample, duration_s: float) -> np.ndarray:
 
 
 def stop_path(start: Sample, deceleration: float) -> QuinticPath:
-    """The reference from ``start`` to rest within ``deceleration`` (rad/s²), then held."""
+    """The reference from ``start`` to rest within ``deceleration`` (rad/s²), then held, never turning back: on a
+    joint already slowing down (its acceleration against its velocity, or at rest) the stop keeps only the part of the
+    acceleration that cannot reverse it (an acceleration step instead: at a sine's peak the stop holds where it is)."""
     p0, v0, a0 = (np.asarray(x, dtype=float) for x in start)
     duration = stop_time_s(v0, a0, deceleration)
+    slowing = a0 * v0 <= 0.0
+    a0 = np.where(slowing, np.clip(a0, -_ONE_WAY * np.abs(v0) / duration, _ONE_WAY * np.abs(v0) / duration), a0)
+    # A smaller acceleration shortens the stop, and a shorter stop allows more: the bound still holds.
+    duration = stop_time_s(v0, a0, deceleration)
+    start = (p0, v0, a0)
     rest = np.zeros_like(p0)
     return QuinticPath.through(
         np.array([0.0, duration]),
