@@ -111,6 +111,8 @@ class Brakes:
         if now_ns - self.last_effort_mono_ns > self.timeout_ns and "drive_timeout" not in self.reasons:
             self.node.pacing.advance(now_ns)
             self.set("drive_timeout", True)
+            if not self.node.context.ok():  # the run's end (SIGINT): the drive stopped first, as it should
+                return
             self.node.warn_throttled(
                 "drive_timeout",
                 f"no effort for over {self.node.params['drive_timeout_s']:g} s: torque off, brakes on (category 0)",
