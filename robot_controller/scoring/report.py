@@ -80,7 +80,9 @@ def score(
     faults = ("sensor_lost", "reacquiring", "reference_lost", "stopped", "law_fault", "law_stopped")
     for name in (*faults, "late", "late_stopped"):
         out[f"{name}_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES[name]))
-    out.update(brake_metrics(recording, ticks[0], end_s))
+    out.update(
+        brake_metrics(recording, ticks[0], min(end_s, ticks[-1]), 2 * nominal_period_s)
+    )  # ended early: to its end
     out["saturated_ticks"] = int(np.count_nonzero(np.any(s["saturated"] > 0.5, axis=1)))
     out["saturated_ticks_per_joint"] = np.count_nonzero(s["saturated"] > 0.5, axis=0).tolist()
     out.update(metrics.peak_torque(s["command"], units))
@@ -119,14 +121,15 @@ def braked_at(recording: Recording, t: np.ndarray) -> np.ndarray:
     return (index >= 0) & held[np.clip(index, 0, None)]
 
 
-def brake_metrics(recording: Recording, start_s: float, end_s: float) -> dict[str, Any]:
+def brake_metrics(recording: Recording, start_s: float, end_s: float, grace_s: float = 0.02) -> dict[str, Any]:
     """How often the brakes went on between ``start_s`` and ``end_s`` (a stall of the loop, an e-stop: the drive's
-    category 0 stop), and for how long in all (s, the simulator's time)."""
+    category 0 stop; ``grace_s`` past the end too: the stop that ended a failed run), and for how long in all (s, the
+    simulator's time)."""
     t, held = recording.brakes_time_s, np.any(recording.brakes > 0.5, axis=1)
     if not len(t):
         return {"brake_engagements": 0, "braked_s": 0.0}
     engaged = np.flatnonzero(held[1:] & ~held[:-1]) + 1
-    engaged = engaged[(t[engaged] > start_s) & (t[engaged] < end_s)]
+    engaged = engaged[(t[engaged] > start_s) & (t[engaged] <= end_s + grace_s)]
     ends = np.append(t[1:], end_s)
     spans = np.clip(np.minimum(ends, end_s) - np.maximum(t, start_s), 0.0, None)
     return {"brake_engagements": int(len(engaged)), "braked_s": float(np.sum(spans[held]))}
