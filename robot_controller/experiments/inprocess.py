@@ -12,7 +12,7 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.controller import JointController
 from robot_controller.core.loop import Disturbance, LoopResult, run_loop
-from robot_controller.core.model import Actuator, MujocoPlant, Payload
+from robot_controller.core.model import Actuator, MujocoPlant, PlantVariation
 from robot_controller.parameters.builders import arm_model
 from robot_controller.parameters.consistency import trajectory_plan
 from robot_controller.parameters.torque_limits import torque_limit
@@ -47,8 +47,8 @@ def prepare(
     plan = trajectory_plan(params)  # refused: the planner's one line, before anything is built
     if plan.warning is not None and on_warning is not None:
         on_warning(plan.warning)
-    payload = Payload.from_values("simulator.payload", sim["payload"])
-    plant = MujocoPlant(resources.resolve_urdf(sim["urdf_path"]), 1.0 / sim["physics_rate_hz"], payload)
+    variation = PlantVariation.from_params(sim, "simulator.")  # the simulator node's plant, the same way
+    plant = MujocoPlant(resources.resolve_urdf(sim["urdf_path"]), 1.0 / sim["physics_rate_hz"], variation=variation)
     n = len(plant.joint_names)
     plant.reset(cfg.per_joint("initial_position", sim["initial_position"], n))
     dynamics = arm_model(ctrl)  # the URDF's, or the controller's model_* values over it

@@ -13,6 +13,7 @@ from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters as law_parameters
 from robot_controller.core.model import joint_limits, urdf_velocity_limits
+from robot_controller.core.model.plant_variation import PlantVariation
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import ARM_MODEL_KEYS, arm_model, given
 from robot_controller.parameters.torque_limits import torque_limit
@@ -42,6 +43,7 @@ def check_stack(params: cfg.Params) -> None:
             raise ConfigError(f"joint names differ: simulator's URDF has {names}, {node}'s has {other}")
     joint_count = len(names)
     _check_per_joint(params, joint_count)
+    PlantVariation.from_params(params["simulator"], "simulator: ")  # payload or payload_kg, not both
     _check_rates(params)
     _check_limits(params, arms["simulator"])
     _check_planner_matches(params, joint_count)

@@ -22,6 +22,7 @@ from robot_controller.core.model.mujoco_plant import (
 from robot_controller.core.model.payload import Payload
 from robot_controller.core.model.payload_identification import PayloadFit, fit_payload
 from robot_controller.core.model.plant import Plant
+from robot_controller.core.model.plant_variation import PlantVariation
 from robot_controller.core.model.sensor_model import DelayLine, SensorConfig, measure
 
 __all__ = [
@@ -38,6 +39,7 @@ __all__ = [
     "Payload",
     "PayloadFit",
     "Plant",
+    "PlantVariation",
     "Predictor",
     "SensorConfig",
     "Transition",

@@ -8,8 +8,10 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from robot_controller.core.errors import ConfigError
 from robot_controller.core.model.mujoco_model import effort_limits, joint_names, joint_units, load_model
 from robot_controller.core.model.payload import Payload
+from robot_controller.core.model.plant_variation import PlantVariation
 
 # Below this speed (rad/s) a braking joint counts as stopped and is held where it is.
 BRAKE_LOCK_SPEED = 0.05
@@ -49,10 +51,24 @@ class MujocoPlant:
 
     :param physics_dt: physics step, s (1 ms in the reference scenario)
     :param payload: a load on the last joint's link the URDF does not have
+    :param variation: what else the arm has that its URDF does not (friction, damping, armature, link masses),
+        and a payload if ``payload`` is None
     """
 
-    def __init__(self, urdf_path: str | Path, physics_dt: float = 0.001, payload: Payload | None = None) -> None:
-        self.model = load_model(urdf_path, physics_dt, payload)
+    def __init__(
+        self,
+        urdf_path: str | Path,
+        physics_dt: float = 0.001,
+        payload: Payload | None = None,
+        variation: PlantVariation | None = None,
+    ) -> None:
+        if payload is not None and variation is not None and variation.payload is not None:
+            raise ConfigError("payload: given twice, as the plant's payload and in its variation")
+        self.model = load_model(
+            urdf_path, physics_dt, payload if payload is not None or variation is None else variation.payload
+        )
+        if variation is not None:
+            variation.apply(self.model)
         self.data = mujoco.MjData(self.model)
         self.joint_names = joint_names(self.model)
         self.joint_units = joint_units(self.model)  #: "rad" or "m" per joint

@@ -13,7 +13,7 @@ from std_msgs.msg import Float64MultiArray
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.model import MujocoPlant, Payload, steps_per_period
+from robot_controller.core.model import MujocoPlant, PlantVariation, steps_per_period
 from robot_controller.nodes.simulator.brakes import Brakes
 from robot_controller.nodes.simulator.disturbance import Disturbance
 from robot_controller.nodes.simulator.lockstep import LockstepTicks
@@ -31,8 +31,10 @@ class Simulator(StackNode):
     def __init__(self) -> None:
         super().__init__("simulator")
         p = self.params
-        payload = Payload.from_values("payload", p["payload"])
-        self.plant = MujocoPlant(resources.resolve_urdf(p["urdf_path"]), 1.0 / p["physics_rate_hz"], payload)
+        variation = PlantVariation.from_params(p)
+        self.plant = MujocoPlant(
+            resources.resolve_urdf(p["urdf_path"]), 1.0 / p["physics_rate_hz"], variation=variation
+        )
         self.joint_count = len(self.plant.joint_names)
         self.plant.reset(cfg.per_joint("initial_position", p["initial_position"], self.joint_count))
         self.world = WorldState.open(os.environ.get(WORLD_STATE_ENV, ""), self.joint_count)
@@ -69,8 +71,11 @@ class Simulator(StackNode):
                 + (", brakes on until the first command" if p["wait_for_first_command"] else "")
             )
         )
+        if not variation.nominal:
+            self.get_logger().info(f"the plant differs from its URDF: {variation.describe()}")
 
     def check_params(self, params: dict) -> None:
+        PlantVariation.from_params(params)  # one payload, not two; every value finite and in range
         steps_per_period(1.0 / params["physics_rate_hz"], 1.0 / params["publish_rate_hz"])
         steps_per_period(1.0 / params["physics_rate_hz"], 1.0 / params["control_rate_hz"])
 

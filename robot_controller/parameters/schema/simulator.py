@@ -14,6 +14,13 @@ LOCKSTEP_END_MARGIN_S = 0.5
 SIMULATOR_PARAMS: tuple[ParamSpec, ...] = (
     URDF,
     ParamSpec("payload", float, [], "a load the arm carries that its URDF lacks: [mass_kg, x_m, y_m, z_m], a point mass at that point of the last joint's link's frame (empty: none)", length=4, allow_empty=True, read_only=True),
+    # The plant the controller does not know (core.model.plant_variation): each on top of the URDF's own.
+    ParamSpec("payload_kg", float, 0.0, "a load the arm carries that its URDF lacks, kg, a point mass at payload_offset_m (0: none; not with payload)", minimum=0.0, maximum=100.0, read_only=True),
+    ParamSpec("payload_offset_m", float, [0.0, 0.0, 0.0], "where payload_kg's centre sits in the last joint's link's frame, m (x, y, z)", length=3, minimum=-2.0, maximum=2.0, read_only=True),
+    ParamSpec("joint_friction_nm", float, [0.0], "Coulomb (dry) friction on each joint the URDF does not have, N·m (N on a prismatic joint), added to the URDF's own (its joint dynamics friction)", per_joint=True, minimum=0.0, maximum=1000.0, read_only=True),
+    ParamSpec("joint_damping_nms", float, [0.0], "viscous damping on each joint the URDF does not have, N·m·s/rad, added to the URDF's own (its joint dynamics damping)", per_joint=True, minimum=0.0, maximum=1000.0, read_only=True),
+    ParamSpec("armature_kgm2", float, [0.0], "rotor inertia reflected through each joint's gears (rotor inertia × gear ratio²), kg·m², added to the joint's inertia", per_joint=True, minimum=0.0, maximum=100.0, read_only=True),
+    ParamSpec("link_mass_scale", float, [1.0], "each link's mass and inertia times this (one for every link, or one per joint: the links that joint moves)", per_joint=True, minimum=0.0, exclusive_minimum=True, maximum=10.0, read_only=True),
     ParamSpec("physics_rate_hz", float, 1000.0, "physics steps per second (MuJoCo)", minimum=100.0, maximum=10000.0),
     ParamSpec("publish_rate_hz", float, 100.0, "rate of /sim/joint_states (true state), Hz; a whole divisor of physics_rate_hz", minimum=10.0, maximum=1000.0),
     ParamSpec("initial_position", float, [0.0], "initial joint position, rad (one per joint, or one for all)", per_joint=True),
