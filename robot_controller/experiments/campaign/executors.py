@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import logging
 import os
+import time
 from collections.abc import Iterable, Iterator
 from dataclasses import replace
 from typing import Any
@@ -15,6 +16,8 @@ from robot_controller.experiments.campaign.one_run import Task
 
 #: Tasks in flight per worker: enough that none waits for the next, few enough that rows stream in order.
 IN_FLIGHT_PER_WORKER = 2
+#: How often a local worker checks that the campaign that started it is still there, s.
+PARENT_POLL_S = 0.25
 
 
 def default_workers() -> int:
@@ -22,12 +25,13 @@ def default_workers() -> int:
 
 
 def run_local(tasks: Iterable[Task], workers: int) -> Iterator[dict[str, Any]]:
-    """``tasks`` on ``workers`` processes (forkserver: a clean process each, the parent's threads not copied)."""
+    """``tasks`` on ``workers`` processes, forked from this one (the stack already imported), each exiting with it."""
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
     todo = iter(tasks)
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("forkserver")) as pool:
+    context = multiprocessing.get_context("fork")
+    with ProcessPoolExecutor(workers, mp_context=context, initializer=_exit_with_parent) as pool:
         pending = set()
         try:
             while True:
@@ -41,6 +45,21 @@ def run_local(tasks: Iterable[Task], workers: int) -> Iterator[dict[str, Any]]:
         finally:
             for future in pending:
                 future.cancel()
+
+
+def _exit_with_parent() -> None:
+    """In a worker: exit once the campaign that forked it has gone (killed with SIGKILL, say): a pool's workers
+    hold their own task queue open and would otherwise wait on it for ever."""
+    import threading
+
+    parent = os.getppid()
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
 
 
 def _run_remote(params, task: Task) -> dict[str, Any]:
@@ -57,6 +76,13 @@ def connect_ray(address: str) -> int:
         import ray
     except ImportError:
         raise ConfigError("--ray: the ray package is not installed (pip install ray)") from None
+    host, _, port = address.rpartition(":")
+    if address != "auto" and port.isdigit() and not _listening(host or "127.0.0.1", int(port)):
+        # ray.init retries an address where nothing listens for a minute or more: say so at once
+        raise RunFailed(
+            f"--ray {address}: no Ray cluster to connect to (nothing listens there); start one with "
+            "`ray start --head`"
+        )
     try:
         ray.init(address=address, logging_level=logging.ERROR, log_to_driver=False, configure_logging=False)
     except (ConnectionError, RuntimeError, ValueError) as exc:
@@ -65,6 +91,16 @@ def connect_ray(address: str) -> int:
             f"--ray {address}: no Ray cluster to connect to ({said}); start one with `ray start --head`"
         ) from None
     return max(1, int(ray.cluster_resources().get("CPU", 1)))
+
+
+def _listening(host: str, port: int) -> bool:
+    import socket
+
+    try:
+        with socket.create_connection((host, port), timeout=5):
+            return True
+    except OSError:
+        return False
 
 
 def run_ray(tasks: Iterable[Task], address: str) -> Iterator[dict[str, Any]]:
