@@ -110,6 +110,7 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         control_period_s=1.0 / values["control_rate_hz"],
         reference_extrapolation=values["reference_extrapolation"],
         latency_compensation=values["latency_compensation"],
+        lockstep=values["lockstep"],
         watchdog_periods=values["watchdog_periods"],
         sensor_timeout_s=values["sensor_timeout_s"],
         max_reading_age_s=values["max_reading_age_s"],

@@ -71,6 +71,9 @@ class ControllerConfig:
     control_period_s: float = 0.01
     reference_extrapolation: bool = False
     latency_compensation: bool = False
+    #: each command acts from its tick and the world waits for it (sim-time lockstep, the paced world): a world that
+    #: went on without this controller's commands did so braked (the drive's timeout), until the next command
+    lockstep: bool = False
     watchdog_periods: int = 5
     sensor_timeout_s: float = 1.0  #: readings missing this long end the controlled stop: torque off, brake
     #: s; a reading older than this when it arrives (or stamped this far ahead) is refused: after a

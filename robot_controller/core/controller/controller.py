@@ -1,12 +1,9 @@
-"""The joint controller the ``pid_controller`` node runs, called once per tick.
-
-It keeps the latest reference and reading with the times they arrived and, on
-:meth:`JointController.update`, turns them into one torque command in a fixed
-sequence of steps: advance the tick clock, check the inputs' health
-(:mod:`~robot_controller.core.controller.supervision`), estimate the arm's state at
-the tick (:mod:`~robot_controller.core.controller.tick_state`), take the reference
-at the tick (:mod:`~robot_controller.core.controller.reference_in_force`), run the law in force
-(the built-in one, or a user's :class:`~robot_controller.core.laws.ContainedLaw`, called alike), or a stop.
+"""The joint controller the ``pid_controller`` node runs, called once per tick: :meth:`JointController.update` keeps
+the latest reference and reading with their arrival times, advances the tick clock, checks the inputs' health
+(:mod:`~robot_controller.core.controller.supervision`), estimates the arm's state at the tick
+(:mod:`~robot_controller.core.controller.tick_state`), takes the reference at the tick
+(:mod:`~robot_controller.core.controller.reference_in_force`) and runs the law in force (the built-in one, or a
+user's :class:`~robot_controller.core.laws.ContainedLaw`, called alike), or a stop: one torque command.
 """
 
 from __future__ import annotations
@@ -89,6 +86,7 @@ class JointController:
         self._clock = TickClock()
         self._halted = False
         self._braked = False
+        self._gap_braked = False  # lockstep: the world went on without this controller, so its drive braked
         self._latency_guard = latency_guard
         self._latency = self._new_latency_guard(config) if latency_guard else None
         self._rest_s: dict[ReferenceSource, float] = {}  # when each controlled stop came to rest
@@ -197,9 +195,8 @@ class JointController:
         if config.estimator != self.config.estimator or config.observes_disturbance != self.config.observes_disturbance:
             self._state.kalman = make_estimator(config, self.dynamics, self.joint_count)
         elif self._state.kalman is not None:
-            self._state.kalman.disturbance_limit = np.broadcast_to(
-                np.asarray(config.pid.output_limit, float), (self.joint_count,)
-            ).copy()
+            limit = np.asarray(config.pid.output_limit, float)
+            self._state.kalman.disturbance_limit = np.broadcast_to(limit, (self.joint_count,)).copy()
         builtin_in_force = self.law is self.stop_law
         self.config = config
         if config.builtin_law != self.builtin.kind:
@@ -285,8 +282,10 @@ class JointController:
         if tick.paused:  # this controller was not running: the world moved on
             self._reference.request_reacquire()
             self._readings.excuse_pause(tick.gap_s, config.control_period_s, config.max_reading_age_s)
+            self._gap_braked = config.lockstep  # until a command releases them: no stop on a model that moved on
         self._reference.planner.advance_to(now_s)  # the samples that were sent ahead of their time
-        health = check_health(self._readings, now_s, self._halted, self._braked, config)
+        braked = self._braked or self._gap_braked
+        health = check_health(self._readings, now_s, self._halted, braked, config)
         if health.restart:
             self._reference.request_reacquire()
         if not health.status.commanding:
@@ -303,7 +302,7 @@ class JointController:
             if self.latency.late:
                 return self._stop(now_s, ReferenceSource.LATE_STOP)
         if health.status is Status.WATCHDOG:
-            if self._braked:  # the brakes hold the arm already; a command would release them
+            if braked:  # the brakes hold the arm already; a command would release them
                 return self._no_command(now_s, Status.SENSOR_LOST)
             return self._stop(now_s, ReferenceSource.SENSOR_STOP)
         self._rest_s.pop(ReferenceSource.SENSOR_STOP, None)
@@ -363,6 +362,7 @@ class JointController:
             reference = self._reference.stop(now_s, ReferenceSource.LAW_STOP, position, self.config, reference)
             law.update(now_s, state, reference)
         t = law.terms()
+        self._gap_braked = False  # this command releases the drive's brakes
         terms = PidTerms(t["command"], t["p"], t["i"], t["d"], t["feedforward"], t["saturated"])
         self._state.remember_command(now_s, terms.command)
         return ControlOutput(

@@ -76,6 +76,7 @@ class StatusReports:
         self.controller = node.controller
         self.log = node.get_logger()
         self.last_status: Status | None = None
+        self.faults_seen = False  # "again" only after a fault: the start's blend ends "on the trajectory"
         self.law_stopped_since: float | None = None  # monotonic s LAW_STOPPED was first reached
         self.saturation = SaturationWatch(node.joint_count)
         plugin = self.controller.plugin
@@ -114,8 +115,13 @@ class StatusReports:
         warnings = {
             Status.WATCHDOG: f"no valid /joint_states for over {config.watchdog_periods} periods: "
             "controlled stop on the arm model's estimate (category 2)",
-            Status.SENSOR_LOST: f"no valid /joint_states for {config.sensor_timeout_s:g} s: no more "
-            "commands, torque off, the brake holds (category 1)",
+            Status.SENSOR_LOST: (
+                "no valid /joint_states, and the world went on without this controller's commands: its drive's "
+                "brakes hold the arm (category 0); no command until a fresh reading, then re-acquiring from it"
+                if self.node.lockstep
+                else f"no valid /joint_states for {config.sensor_timeout_s:g} s: no more commands, torque off, the "
+                "brake holds (category 1)"
+            ),
             Status.REFERENCE_LOST: "no /trajectory sample for too long: controlled stop, holding",
             Status.STOPPED: "e-stop: not commanding until it is released",
         }
@@ -132,11 +138,13 @@ class StatusReports:
             self.log.info("first reading and reference: leading the arm from where it is onto the trajectory")
             return
         if status in warnings:
+            self.faults_seen = True
             self.log.warning(warnings[status])  # one call site per severity: rclpy refuses two at one site
         elif status is Status.REACQUIRING:
+            self.faults_seen = True
             self.log.info("fault cleared: re-acquiring from the measurement, blending back onto the trajectory")
         elif status is Status.OK and before not in (None, Status.HOLDING, Status.OK):
-            self.log.info("tracking the trajectory again")
+            self.log.info("tracking the trajectory again" if self.faults_seen else "on the trajectory: tracking it")
 
     def report_law_fault(self) -> None:
         """Once, when the law first fails: one error line (what it did, what happens next), the

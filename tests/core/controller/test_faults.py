@@ -37,8 +37,8 @@ def test_a_blend_starts_at_the_offset_ends_at_zero_within_its_acceleration():
 class Loop:
     """The default controller on the MuJoCo arm, readings delivered unless told not to."""
 
-    def __init__(self) -> None:
-        params = cfg.load_stack()["pid_controller"]
+    def __init__(self, lockstep: bool = False) -> None:
+        params = cfg.load_stack()["pid_controller"] | {"lockstep": lockstep}
         dynamics = ArmDynamics(resources.default_urdf())
         self.controller = JointController(cfg.controller_config(params, 1), 1, dynamics)
         self.plant = MujocoPlant(resources.default_urdf(), 0.001)
@@ -194,3 +194,26 @@ def test_a_silent_planner_gives_a_controlled_stop_then_a_blend_back():
     assert loop.statuses(3.0) == [Status.OK, Status.REFERENCE_LOST, Status.REACQUIRING, Status.OK]
     references = np.array([row[2] for row in loop.log])
     assert np.max(np.abs(np.diff(references))) < 0.05  # never a jump (the sine moves ≤ 0.031 per tick)
+
+
+def test_in_a_paced_world_that_went_on_braked_the_controller_neither_stops_on_its_model_nor_commands_until_a_reading():
+    # The paced world waits for each tick's command and goes on only with its drive's brakes on: a sensor frozen
+    # 0.46 s brakes the arm where it is. The controller's first tick after it came on the sensor's stale backlog: a
+    # stop on its model, coasted 0.46 s as if the arm were free, commanded 10 N·m towards -1.3 rad (the arm stood
+    # at 0.55), and the next tick -10 N·m.
+    loop = Loop(lockstep=True)
+    loop.run(2.8)
+    stale_stamp = loop.t
+    stale_q, stale_v = loop.plant.state()
+    loop.plant.set_brakes(np.array([True]), 50.0)
+    loop.run(0.46, readings=False, controller_runs=False)
+    loop.plant.set_brakes(np.array([False]), 50.0)
+    assert loop.controller.set_measurement(stale_stamp, loop.t, stale_q, stale_v) is not None  # refused: too old
+    out = loop.controller.update(loop.t)
+    assert not out.status.commanding, out.status  # the brakes hold the arm: nothing to stop, no command
+    resumed_at = loop.t
+    loop.run(2.0)
+    after = [row for row in loop.log if row[0] > resumed_at]
+    assert after[0][1] is Status.REACQUIRING and abs(after[0][2] - after[0][3]) < 0.01  # from where it stood
+    assert max(abs(row[4]) for row in after) < 10.0  # no saturation on the way back
+    assert Status.WATCHDOG not in {row[1] for row in after}
