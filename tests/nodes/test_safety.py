@@ -3,6 +3,8 @@ configuration that disagrees. Each test runs the project's own commands on
 its own ROS_DOMAIN_ID and judges the arm by the TRUE angle in the recording."""
 
 import json
+import os
+import signal
 import subprocess
 import sys
 import time
@@ -13,7 +15,7 @@ import pytest
 from robot_controller import resources
 from robot_controller.core.controller import state_layout
 from robot_controller.scoring import report
-from tests.rostools import run_said, run_while
+from tests.rostools import child_pid, run_said, run_while
 
 pytestmark = pytest.mark.ros
 
@@ -42,6 +44,30 @@ def test_frozen_sensor_and_frozen_controller_leave_the_arm_held(tmp_path, ros_do
     sensor_run = report.read_recording(tmp_path / "faults" / "sensor_node_stop_0.5s" / "bag")
     statuses = set(sensor_run.state["status"].astype(int).tolist())
     assert state_layout.STATUS_CODES["watchdog"] in statuses and state_layout.STATUS_CODES["reacquiring"] in statuses
+
+
+def test_a_sensor_frozen_in_the_paced_world_brakes_the_arm_where_it_is_and_the_loop_recovers(tmp_path, ros_domain):
+    """The default run: the paced world goes on braked while the sensor is frozen. On its return the sensor's stale
+    backlog comes first; the controller must neither stop on a model coasted across the gap (it swung 1.36 rad) nor
+    score the brake's hold as tracking."""
+    out = tmp_path / "run"
+
+    def freeze_the_sensor_twice(launcher):
+        sensor = child_pid(launcher, "sensor_node")
+        for _ in range(2):
+            time.sleep(2.3)
+            os.kill(sensor, signal.SIGSTOP)
+            time.sleep(0.5)
+            os.kill(sensor, signal.SIGCONT)
+
+    code, output = run_while(out, freeze_the_sensor_twice, duration="9")
+    assert code == 0, run_said(output)
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["brake_engagements"] == 2, metrics["brake_engagements"]
+    assert metrics["tracking_max_rad"] <= 0.1, metrics["tracking_max_rad"]
+    recording = report.read_recording(out / "bag")
+    assert np.all(np.abs(recording.true_position) <= 1.1)
+    assert np.max(np.abs(recording.true_effort)) < 10.0  # no full-torque kick on the way back
 
 
 def test_estop_latches_until_released_and_the_loop_recovers(tmp_path, ros_domain):
