@@ -16,11 +16,12 @@ def register(sub) -> None:
     p = verb(
         sub, "campaign", "a robustness campaign: many runs over varied worlds, resumable, with a report", _campaign
     )
+    p.usage = (
+        "robot-controller campaign SPEC.yaml --out DIR [--workers N | --ray ADDRESS] [--controllers A,B]\n"
+        "       robot-controller campaign replay DIR RUN_ID --out OUT [--controller NAME]"
+    )
     p.add_argument(
-        "target",
-        nargs="+",
-        metavar="SPEC.yaml | replay DIR RUN_ID",
-        help="the campaign's spec (docs/campaign.md), or replay DIR RUN_ID",
+        "target", nargs="+", metavar="ARG", help="the campaign's spec (docs/campaign.md), or: replay DIR RUN_ID"
     )
     p.add_argument(
         "--out", type=Path, help="the campaign's folder (the same again resumes it); replay: the run's folder"

@@ -1,0 +1,79 @@
+"""One run of a campaign replayed through the real ROS graph in lockstep: the run's draws and noise seed reach the
+nodes, and the graph's tracking is the campaign's (in-process) within a few percent."""
+
+import json
+import subprocess
+import sys
+
+import pyarrow.parquet as pq
+import pytest
+import yaml
+
+from tests.rostools import run_said
+
+pytestmark = pytest.mark.ros
+
+SPEC = {
+    "robot": "one_dof",
+    "duration_s": 6,
+    "runs": 2,
+    "seed": 11,
+    "vary": {
+        "sensor_node.delay_s": {"uniform": [0.005, 0.025]},
+        "sensor_node.position_noise_std": {"loguniform": [0.002, 0.01]},
+        "motor_node.lag_time_constant_s": {"uniform": [0.0, 0.01]},
+    },
+}
+
+
+def cli(*args, timeout=240):
+    proc = subprocess.run(
+        [sys.executable, "-m", "robot_controller.cli", *map(str, args)], capture_output=True, text=True, timeout=timeout
+    )
+    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
+    return proc.stdout
+
+
+def test_a_replayed_run_has_its_draws_and_the_campaigns_figures(tmp_path, ros_domain):
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(yaml.safe_dump(SPEC))
+    cli("campaign", spec, "--out", tmp_path / "c", "--workers", 1)
+    row = next(r for r in pq.read_table(tmp_path / "c" / "results.parquet").to_pylist() if r["run_id"] == 1)
+    said = cli("campaign", "replay", tmp_path / "c", 1, "--out", tmp_path / "r")
+    assert "the campaign's (in process) beside the graph's (lockstep)" in said, said
+    ran = yaml.safe_load((tmp_path / "r" / "params.yaml").read_text())
+    sensor = ran["sensor_node"]["ros__parameters"]
+    assert sensor["delay_s"] == pytest.approx(row["sensor_node.delay_s"])
+    assert sensor["position_noise_std"] == pytest.approx(row["sensor_node.position_noise_std"])
+    assert sensor["seed"] == row["seed"]
+    assert ran["motor_node"]["ros__parameters"]["lag_time_constant_s"] == pytest.approx(
+        row["motor_node.lag_time_constant_s"]
+    )
+    metrics = json.loads((tmp_path / "r" / "metrics.json").read_text())
+    assert metrics["clock"] == "sim_lockstep" and metrics["seed"] == row["seed"]
+    assert metrics["tracking_rms_rad"] == pytest.approx(row["tracking_rms_rad"], rel=0.1)
+    assert metrics["tracking_max_rad"] == pytest.approx(row["tracking_max_rad"], rel=0.15)
+
+
+def test_replay_of_a_run_the_campaign_does_not_hold_is_one_line(tmp_path):
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(yaml.safe_dump({**SPEC, "runs": 1, "duration_s": 3}))
+    cli("campaign", spec, "--out", tmp_path / "c", "--workers", 1)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "robot_controller.cli",
+            "campaign",
+            "replay",
+            tmp_path / "c",
+            "5",
+            "--out",
+            tmp_path / "r",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 2 and "RUN_ID 5: the campaign's runs are 0 to 0" in proc.stderr, proc.stderr
+    assert not (tmp_path / "r").exists()
