@@ -87,6 +87,11 @@ def make_executor(context: rclpy.Context | None = None, serves_actions: bool = F
 _stop_requested = threading.Event()
 
 
+def stop_requested() -> bool:
+    """Whether this process was asked to stop (SIGINT, SIGTERM, ``request_exit``): the run is ending."""
+    return _stop_requested.is_set()
+
+
 def init_with_own_signals(
     args: list[str] | None = None, context: rclpy.Context | None = None, stop: threading.Event = _stop_requested
 ) -> None:
@@ -104,13 +109,18 @@ def own_context() -> tuple[rclpy.Context, threading.Event]:
     return context, stop
 
 
+# How long a spin waits for work at most: a signal's Python handler runs only once the main thread is back from the
+# wait, and the simulator's drive timeout (50 ms) must not fire at a run's end before it knows the run is ending.
+SPIN_WAKE_S = 0.02
+
+
 def spin(executor: Executor) -> None:
     """Spin until a stop signal or shutdown (spin_once: the EventsExecutor's spin() never returns after one)."""
     # The executor's context, looked up once: rclpy.ok() looks it up on every call, once per message.
     context = executor.context
     stop_requested, spin_once = _stop_requested.is_set, executor.spin_once
     while not stop_requested() and context.ok():
-        spin_once(timeout_sec=0.1)
+        spin_once(timeout_sec=SPIN_WAKE_S)
 
 
 def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: list[str] | None = None) -> int:

@@ -8,6 +8,7 @@ import numpy as np
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import SetBool
 
+from robot_controller.ros.process import stop_requested
 from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS
 from robot_controller.ros.stack_node import StackNode
 
@@ -111,7 +112,7 @@ class Brakes:
         if now_ns - self.last_effort_mono_ns > self.timeout_ns and "drive_timeout" not in self.reasons:
             self.node.pacing.advance(now_ns)
             self.set("drive_timeout", True)
-            if not self.node.context.ok():  # the run's end (SIGINT): the drive stopped first, as it should
+            if stop_requested():  # the run's end (SIGINT to every node): the drive stopped first
                 return
             self.node.warn_throttled(
                 "drive_timeout",

@@ -43,6 +43,7 @@ class Simulator(StackNode):
             warning = f"respawned: the arm is where it was, at {self.world.resumed.tolist()} rad"
             self.get_logger().warning(f"{warning}, brakes on until the first command")
         self.effort = np.zeros(self.joint_count)
+        self.said_brake_wait = False  # the start's wait for the motor's /sim/brake state, said once
         self.steps_done = 0
         self.physics_dt_ns = round(self.plant.physics_dt * 1e9)
         self.lock = threading.Lock()  # the plant and effort: pacing thread vs the executor's callbacks
@@ -115,8 +116,11 @@ class Simulator(StackNode):
                 self.warn_throttled("estop_effort", "e-stop: efforts ignored until it is released")
                 return
             if not brakes.request_heard and self.count_publishers("/sim/brake"):
-                # A motor is there: its latched /sim/brake state comes before any effort releases the brakes.
-                self.warn_throttled("brake_state", "efforts ignored until the motor's /sim/brake state arrives")
+                # A motor is there: its latched /sim/brake state comes before any effort releases the brakes. The
+                # two race at the start (a respawned simulator's too): normal, said once.
+                if not self.said_brake_wait:
+                    self.said_brake_wait = True
+                    self.get_logger().info("efforts wait for the motor's latched /sim/brake state (the start's race)")
                 return
             if not self.pacing.running:
                 self.pacing.begin()
