@@ -21,7 +21,7 @@ from typing import Any
 
 from robot_controller import parameters as cfg
 from robot_controller.scoring import report
-from robot_controller_lab import hop_bench
+from robot_controller_lab import campaign_bench, hop_bench
 from robot_controller_lab.bench_runs import (
     BusyCore,
     HostFreezes,
@@ -195,6 +195,27 @@ def _core(run: Run) -> dict[str, Any]:
     }
 
 
+def _campaign(run: Run) -> dict[str, Any]:
+    """A one-joint campaign on 1 and 2 local workers and on a Ray head started for it."""
+    return campaign_bench.campaign_figures(run.out, 6 if run.quick else 40, run.duration_s)
+
+
+def _loop_floor(run: Run) -> dict[str, Any]:
+    figures: dict[str, Any] = {}
+    for robot in ("one_dof", "panda"):
+        timed = campaign_bench.loop_floor(cfg.load_stack(robot=robot), run.duration_s)
+        figures.update({f"loop_floor_{robot}_{k}": timed[k] for k in ("loop_s", "mujoco_s", "loop_vs_floor")})
+    return figures
+
+
+CAMPAIGN_KEYS = tuple(
+    "campaign_runs campaign_run_s campaign_runs_per_s_1w campaign_runs_per_s_2w campaign_core_share_1w "
+    "campaign_core_share_2w campaign_runs_per_s_per_worker campaign_scaling_2w campaign_ray_connect_s "
+    "campaign_ray_overhead_ms_per_run".split()
+)
+LOOP_FLOOR_KEYS = tuple(
+    f"loop_floor_{robot}_{k}" for robot in ("one_dof", "panda") for k in ("loop_s", "mujoco_s", "loop_vs_floor")
+)
 CPU_KEYS = tuple(f"cpu_pct_{name}" for name in ("total", "recorder", "launcher", *NODE_NAMES))
 _TIMING_KEYS = tuple(TIMING)
 SCENARIOS = (
@@ -309,6 +330,10 @@ SCENARIOS = (
         ),
         _core,
     ),
+)
+SCENARIOS += (
+    Scenario("campaign", "campaign: runs/s on 1 and 2 workers, Ray's overhead", 5.0, 1.0, CAMPAIGN_KEYS, _campaign),
+    Scenario("loop_floor", "in-process loop against its MuJoCo calls", 10.0, 2.0, LOOP_FLOOR_KEYS, _loop_floor),
 )
 _DECLARED = {key for scenario in SCENARIOS for key in scenario.keys}
 assert all(target.key in _DECLARED for target in TARGETS), "a target names a key no scenario measures"

@@ -41,6 +41,8 @@ TARGETS = (
     Target("batch_sim_s_per_s", 10_000.0, False, "batch ≥ 10,000 simulated s per wall s"),
     Target("core_steps_per_s", 10_000.0, False, "in-process loop, one joint: ≥ 10,000 control steps per wall s"),
     Target("core_steps_per_s_panda", 1_000.0, False, "in-process loop, the 7-joint Panda: ≥ 1,000 steps per wall s"),
+    Target("campaign_scaling_2w", 1.8, False, "campaign: 2 local workers ≥ 1.8× the runs/s of 1"),
+    Target("loop_floor_panda_loop_vs_floor", 2.0, True, "in-process loop, Panda: ≤ 2× its MuJoCo calls' time"),
 )
 
 

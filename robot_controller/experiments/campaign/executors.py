@@ -109,20 +109,27 @@ def run_ray(tasks: Iterable[Task], address: str) -> Iterator[dict[str, Any]]:
 
     cpus = connect_ray(address)
     try:
-        remote = ray.remote(num_cpus=1, max_retries=0)(_run_remote)
-        todo = iter(tasks)
-        params_refs: dict[int, Any] = {}  # one object per distinct stack (one per compared controller)
-        pending: list = []
-        while True:
-            while len(pending) < IN_FLIGHT_PER_WORKER * cpus and (task := next(todo, None)) is not None:
-                ref = params_refs.get(id(task.params))
-                if ref is None:
-                    ref = params_refs[id(task.params)] = ray.put(task.params)
-                pending.append(remote.remote(ref, replace(task, params=None)))
-            if not pending:
-                return
-            finished, pending = ray.wait(pending, num_returns=1)
-            for ref in finished:
-                yield ray.get(ref)
+        yield from ray_rows(tasks, cpus)
     finally:
         ray.shutdown()
+
+
+def ray_rows(tasks: Iterable[Task], cpus: int) -> Iterator[dict[str, Any]]:
+    """``tasks`` on the Ray cluster this process is connected to (``cpus`` of them), rows as they finish."""
+    import ray
+
+    remote = ray.remote(num_cpus=1, max_retries=0)(_run_remote)
+    todo = iter(tasks)
+    params_refs: dict[int, Any] = {}  # one object per distinct stack (one per compared controller)
+    pending: list = []
+    while True:
+        while len(pending) < IN_FLIGHT_PER_WORKER * cpus and (task := next(todo, None)) is not None:
+            ref = params_refs.get(id(task.params))
+            if ref is None:
+                ref = params_refs[id(task.params)] = ray.put(task.params)
+            pending.append(remote.remote(ref, replace(task, params=None)))
+        if not pending:
+            return
+        finished, pending = ray.wait(pending, num_returns=1)
+        for ref in finished:
+            yield ray.get(ref)
