@@ -26,7 +26,9 @@ LOCKSTEP_QOS = _keep_last(100)
 # readers than the controller (the planner's action feedback, any ROS client's): one of them can open the sensor's gate
 # (ros.publishing) before the controller matched, and a tick's reading lost so stalls the run for good. A controller
 # that matches late gets the reading outstanding. A volatile reader (the tutorial's controller) matches it all the same.
-LOCKSTEP_READINGS_QOS = _keep_last(100, latched=True)
+# The writer keeps CONTROL_QOS's 1000, which a recorder that falls behind catches up from.
+LOCKSTEP_READINGS_QOS = _keep_last(1000, latched=True)
+LOCKSTEP_READINGS_READER_QOS = _keep_last(100, latched=True)
 # A state, not an event (the brake request): a late reader, such as a respawned simulator, gets it at once.
 LATCHED_QOS = _keep_last(1, latched=True)
 # /clock in lockstep: a reader that matches late still gets the latest tick.

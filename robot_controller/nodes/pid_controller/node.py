@@ -25,7 +25,7 @@ from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model, model_overridden
 from robot_controller.ros.messages import check_joint_state, check_trajectory, clock_s, stamp_command, stamp_to_s
 from robot_controller.ros.process import run
-from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS, LOCKSTEP_READINGS_QOS, loop_qos
+from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS, LOCKSTEP_READINGS_READER_QOS, loop_qos
 from robot_controller.ros.stack_node import StackNode
 
 # Readings naming other joints for this long, none usable yet: a configuration mismatch.
@@ -54,7 +54,7 @@ class PidControllerNode(StackNode):
         self.command_msg = Float64MultiArray()
         self.status = StatusReports(self)
         self.timing = LoopTiming(self)
-        readings_qos = LOCKSTEP_READINGS_QOS if self.lockstep else loop_qos(False)
+        readings_qos = LOCKSTEP_READINGS_READER_QOS if self.lockstep else loop_qos(False)
         self.create_subscription(JointState, "/joint_states", self.joint_state_callback, readings_qos)
         self.watch_single_publisher("/joint_states", "sensor_node")
         self.create_subscription(Float64MultiArray, "/trajectory", self.trajectory_callback, loop_qos(self.lockstep))
