@@ -210,7 +210,8 @@ def _loop_floor(run: Run) -> dict[str, Any]:
 
 CAMPAIGN_KEYS = tuple(
     "campaign_runs campaign_run_s campaign_runs_per_s_1w campaign_runs_per_s_2w campaign_core_share_1w "
-    "campaign_core_share_2w campaign_runs_per_s_per_worker campaign_scaling_2w campaign_ray_connect_s "
+    "campaign_core_share_2w campaign_idle_ms_per_run_1w campaign_idle_ms_per_run_2w campaign_runs_per_s_per_worker "
+    "campaign_scaling_2w campaign_ray_connect_s "
     "campaign_ray_overhead_ms_per_run".split()
 )
 LOOP_FLOOR_KEYS = tuple(

@@ -1,6 +1,7 @@
-"""The campaign's speed for ``bench``: runs per second on 1 and 2 local workers (the scaling), Ray's overhead per run
-on a head started here, and the in-process loop's time against its floor, the MuJoCo calls it must make (the plant's
-steps and the controller's model: its filter and feedforward), timed in the same run."""
+"""The campaign's speed for ``bench``: runs per second on 1 and 2 local workers (the scaling); the time a worker slot
+spends on no run, per run, locally and on a Ray head started here (Ray's overhead); and the in-process loop's time
+against its floor, the MuJoCo calls it must make (the plant's steps and the controller's model: its filter and
+feedforward), timed in the same run."""
 
 from __future__ import annotations
 
@@ -51,13 +52,20 @@ def campaign_figures(out: Path, runs: int, duration_s: float) -> dict[str, Any]:
         figures[f"campaign_runs_per_s_{workers}w"] = runs / walls[workers]
         # The share of a core each run had: below 1, the host gave the workers less than a core each.
         figures[f"campaign_core_share_{workers}w"] = sum(r["cpu_s"] for r in rows) / sum(r["wall_s"] for r in rows)
+        figures[f"campaign_idle_ms_per_run_{workers}w"] = _idle_ms_per_run(rows, walls[workers], workers)
     figures["campaign_runs_per_s_per_worker"] = figures["campaign_runs_per_s_1w"]
     figures["campaign_scaling_2w"] = walls[1] / walls[2]
-    figures.update(_ray_figures(todo, runs, walls[2]))
+    figures.update(_ray_figures(todo))
     return figures
 
 
-def _ray_figures(todo: list, runs: int, local_wall_s: float) -> dict[str, Any]:
+def _idle_ms_per_run(rows: list[dict], wall_s: float, slots: int) -> float:
+    """The time a worker slot spent on no run, per run (sending tasks, fetching rows, starting workers): the campaign's
+    wall time on every slot less the runs' own, measured in the same campaign, so a busy host inflates both alike."""
+    return 1e3 * (wall_s * slots - sum(r["wall_s"] for r in rows)) / len(rows)
+
+
+def _ray_figures(todo: list) -> dict[str, Any]:
     import ray
 
     with ray_head(cpus=2) as address:
@@ -66,13 +74,13 @@ def _ray_figures(todo: list, runs: int, local_wall_s: float) -> dict[str, Any]:
         connect_s = time.perf_counter() - start
         try:
             start = time.perf_counter()
-            list(executors.ray_rows(todo, cpus))
+            rows = list(executors.ray_rows(todo, cpus))
             wall_s = time.perf_counter() - start
         finally:
             ray.shutdown()
     return {
         "campaign_ray_connect_s": connect_s,
-        "campaign_ray_overhead_ms_per_run": 1e3 * (wall_s - local_wall_s) / runs,
+        "campaign_ray_overhead_ms_per_run": _idle_ms_per_run(rows, wall_s, cpus),
     }
 
 
