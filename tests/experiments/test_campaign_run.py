@@ -10,6 +10,7 @@ import socket
 import subprocess
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -180,3 +181,19 @@ def test_no_cluster_at_the_address_is_one_line(spec_file, tmp_path):
     out, _ = process.communicate(timeout=120)
     assert process.returncode == 1 and "no Ray cluster to connect to" in out, out
     assert "Traceback" not in out
+
+
+def test_two_controllers_run_on_the_same_draws_and_are_compared(spec_file, tmp_path):
+    from robot_controller.experiments.campaign import campaign, report
+    from robot_controller.experiments.campaign.spec import load_spec
+
+    spec = replace(load_spec(spec_file), runs=3)
+    store = campaign.run_campaign(spec, tmp_path, controllers=["lqr", "pid"], workers=1, say=lambda line: None)
+    rows = {(r["controller"], r["run_id"]): r for r in store.rows}
+    assert sorted(rows) == [(c, k) for c in ("lqr", "pid") for k in range(3)]
+    for k in range(3):
+        lqr, pid = rows["lqr", k], rows["pid", k]
+        assert lqr["sensor_node.delay_s"] == pid["sensor_node.delay_s"] and lqr["seed"] == pid["seed"]
+        assert lqr["tracking_rms_rad"] != pid["tracking_rms_rad"]  # another law on the same world
+    text = report.write_report(spec, store.rows, tmp_path, ["lqr", "pid"]).read_text()
+    assert "## Paired on the same draws" in text and "On the 3 runs both finished" in text
