@@ -123,8 +123,7 @@ def _made_loadable(root: ET.Element, source: Path) -> str:
     """Rewrite the URDF ``root`` in place as the module's docstring says; what was changed, in a phrase."""
     held = []
     for joint in root.iter("joint"):
-        moving = joint.get("type") in ("revolute", "continuous", "prismatic")
-        if moving and (joint.find("mimic") is not None or HELD.search(joint.get("name", ""))):
+        if _moves(joint) and (joint.find("mimic") is not None or HELD.search(joint.get("name", ""))):
             held.append(joint.get("name", ""))
             joint.set("type", "fixed")
             for element in [*joint.iter("limit"), *joint.iter("dynamics"), *joint.iter("mimic")]:
@@ -149,12 +148,26 @@ def _made_loadable(root: ET.Element, source: Path) -> str:
     compiler = mujoco.find("compiler") if mujoco.find("compiler") is not None else ET.SubElement(mujoco, "compiler")
     for key in ("strippath", "discardvisual", "fusestatic", "balanceinertia"):
         compiler.attrib.setdefault(key, "false")
+    # A link a joint moves with no <inertial> (a gimbal's yoke) is massless in URDF; MuJoCo refuses a moving body
+    # under mjMINVAL, so it gets a negligible one (the bounds lift nothing heavier)
+    carried = {j.find("child").get("link") for j in root.iter("joint") if _moves(j)}
+    if massless := [
+        k.get("name") for k in root.iter("link") if k.get("name") in carried and k.find("inertial") is None
+    ]:
+        compiler.attrib.setdefault("boundmass", "1e-6")
+        compiler.attrib.setdefault("boundinertia", "1e-9")
     if mujoco.find("option") is None:
         ET.SubElement(ET.SubElement(mujoco, "option"), "flag", {"contact": "disable"})
     said = [f"held still {', '.join(held)} (fingers and mimic joints)"] * bool(held)
+    if massless:
+        said.append(f"no <inertial> on {', '.join(massless)}: given 1e-6 kg (URDF's massless, MuJoCo's minimum)")
     if dropped:
         said.append(f"{dropped} visual(s) MuJoCo cannot read dropped, {replaced} collision shape(s) drawn instead")
     return "; ".join(said)
+
+
+def _moves(joint: ET.Element) -> bool:
+    return joint.get("type") in ("revolute", "continuous", "prismatic") and joint.find("child") is not None
 
 
 def _readable(element: ET.Element) -> bool:

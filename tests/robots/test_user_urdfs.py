@@ -1,0 +1,27 @@
+"""URDFs as a user writes them: a massless link between two joints (a gimbal's yoke) loads."""
+
+import mujoco
+import numpy as np
+
+from robot_controller.robots.description import describe
+
+INERTIAL = (
+    '<inertial><mass value="0.5"/><inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>'
+)
+LIMIT = '<limit lower="-1" upper="1" effort="10" velocity="2"/>'
+GIMBAL = f"""<robot name="gimbal"><link name="base"/>
+<joint name="pan" type="revolute"><parent link="base"/><child link="yoke"/><axis xyz="0 0 1"/>{LIMIT}</joint>
+<link name="yoke"/>
+<joint name="tilt" type="revolute"><parent link="yoke"/><child link="head"/><axis xyz="0 1 0"/>{LIMIT}</joint>
+<link name="head">{INERTIAL}</link></robot>"""
+
+
+def test_a_massless_link_a_joint_moves_loads_with_a_negligible_mass_and_is_said(monkeypatch, tmp_path):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    (path := tmp_path / "gimbal.urdf").write_text(GIMBAL)
+    described = describe(str(path))
+    model = mujoco.MjModel.from_xml_path(str(described.path))  # MuJoCo refused 'yoke': mass below mjMINVAL
+    yoke = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "yoke")
+    assert 0 < model.body_mass[yoke] <= 1e-6
+    assert np.isclose(model.body_mass.sum(), 0.5, atol=1e-5)  # the arm's mass is the URDF's
+    assert "yoke" in described.note
