@@ -105,6 +105,7 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         rated_payload_kg=values["rated_payload_kg"] if values["lockstep"] else 0.0,
         estimator=estimator,
         disturbance_observer=values["disturbance_observer"],
+        inertia_adaptation=values["inertia_adaptation"],
         feedforward=values["feedforward"],
         feedback_decoupling=values["feedback_decoupling"],
         control_period_s=1.0 / values["control_rate_hz"],

@@ -65,6 +65,8 @@ class ControllerConfig:
     rated_payload_kg: float = 0.0
     estimator: KalmanConfig | None = None  #: a Kalman filter on the reading, or none
     disturbance_observer: bool = False  #: the filter estimates an external torque, the law subtracts it
+    #: with the observer, in lockstep: each joint's inertia beyond the model is estimated and put in the model and gains
+    inertia_adaptation: bool = False
     feedforward: FeedforwardMode = FeedforwardMode.NONE
     #: on a chain of joints, the feedback torques through M(q)·diag(M(q))⁻¹ (computed-torque feedback)
     feedback_decoupling: bool = False

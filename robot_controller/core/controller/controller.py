@@ -25,7 +25,7 @@ from robot_controller.core.controller.supervision import (
     check_health,
     delay_margin_periods,
 )
-from robot_controller.core.controller.tick_state import MAX_EXTRAPOLATION_S, StateAtTick, make_estimator
+from robot_controller.core.controller.tick_state import MAX_EXTRAPOLATION_S, StateAtTick, make_estimator, make_state
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation import JointKalmanFilter
 from robot_controller.core.laws import (
@@ -80,7 +80,7 @@ class JointController:
         #: the built-in law: the law in force, or under a plugin law the one that stops the arm if it fails
         self.stop_law = self._builtin(config)
         self.law = self._plugin(config, law_clock) if config.plugin_law else self.stop_law  #: the law in force
-        self._state = StateAtTick(joint_count, dynamics, make_estimator(config, dynamics, joint_count))
+        self._state = make_state(config, dynamics, joint_count, lambda: self.pid)
         self._reference = ReferenceAtTick(joint_count)
         self._readings = Readings()
         self._clock = TickClock()

@@ -8,13 +8,16 @@ torques N·m, times s."""
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 
 import numpy as np
 
 from robot_controller.core.controller.config import ControllerConfig
+from robot_controller.core.controller.inertia_adaptation import InertiaAdaptation
 from robot_controller.core.controller.supervision import Readings
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation import JointKalmanFilter
+from robot_controller.core.laws.pid import Pid
 from robot_controller.core.model import ArmDynamics
 
 # Extrapolating further than this (s) is guessing, not compensating.
@@ -53,6 +56,16 @@ def make_estimator(
     )
 
 
+def make_state(
+    config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int, pid: Callable[[], Pid]
+) -> StateAtTick:
+    """The controller's state at its ticks: its filter (:func:`make_estimator`) and, with the disturbance observer,
+    the model's and the gains' inertia kept the arm's (:class:`InertiaAdaptation`)."""
+    state = StateAtTick(joint_count, dynamics, make_estimator(config, dynamics, joint_count))
+    state.inertia = InertiaAdaptation.build(config, dynamics, joint_count, pid)
+    return state
+
+
 class StateAtTick:
     """Estimates the arm's ``(position, velocity)`` at a tick, and remembers the
     commands issued (for the filter's input and the model's prediction)."""
@@ -71,6 +84,8 @@ class StateAtTick:
         self._disturbance_average: list[float] | None = None
         self._average_s = 0.0
         self._coasting = False  #: the model coasts on the average: readings are missing
+        #: keeps the model's and the gains' inertia the arm's, after each reading (None: they stay as designed)
+        self.inertia: InertiaAdaptation | None = None
 
     def reset(self) -> None:
         """Start again from the next reading: filter re-initialised, no estimate carried over."""
@@ -106,6 +121,8 @@ class StateAtTick:
                 )
                 self._filtered_stamp_s = readings.stamp_s
                 self._average_disturbance(readings.stamp_s)
+                if self.inertia is not None:
+                    self.inertia.after_reading(readings.stamp_s, self.kalman)
             position, velocity = self._filtered
         if latency_compensation:
             age_s = clipped_age_s(now_s, readings.stamp_s)

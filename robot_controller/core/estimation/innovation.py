@@ -84,3 +84,13 @@ def allow_jumps(P_pred: np.ndarray, jumped: np.ndarray, jump_std: np.ndarray, b:
         group, first = divmod(j, k)
         own = slice(first * 3, (first + 1) * 3)
         P_pred[group, own, own] += jump_std[j] ** 2 * np.outer(G, G)
+
+
+def updated_average(average: np.ndarray, distance_sq: np.ndarray, jumped: np.ndarray | None, dt: float) -> np.ndarray:
+    """The innovation's squared distance per joint averaged over about ``CONSISTENCY_TIME_S``,
+    a reading ``dt`` s on; one taken as a jump (``jumped``) is explained by it: no disagreement."""
+    alpha = min(1.0, dt / CONSISTENCY_TIME_S)
+    updated = average + alpha * (distance_sq - average)
+    if jumped is not None:
+        updated[jumped] = average[jumped]
+    return updated

@@ -94,16 +94,6 @@ def timing_noise_template(dt: float) -> np.ndarray:
     return template
 
 
-def updated_average(average: np.ndarray, distance_sq: np.ndarray, jumped: np.ndarray | None, dt: float) -> np.ndarray:
-    """The innovation's squared distance per joint averaged over about ``innovation.CONSISTENCY_TIME_S``,
-    a reading ``dt`` s on; one taken as a jump (``jumped``) is explained by it: no disagreement."""
-    alpha = min(1.0, dt / innovation.CONSISTENCY_TIME_S)
-    updated = average + alpha * (distance_sq - average)
-    if jumped is not None:
-        updated[jumped] = average[jumped]
-    return updated
-
-
 def clearly_within(distance_sq: np.ndarray, sigma: float) -> bool:
     """Whether every joint's surprise is clearly within ``sigma`` σ (squared distance below
     ``innovation.CLEAR_SHARE``·σ²): then so is any part of it, and neither of innovation's tests can hold."""
@@ -198,6 +188,11 @@ class JointKalmanFilter:
         """Each joint's own covariance (n, m, m): the diagonal blocks of ``P``."""
         n, m = self.joint_count, self.size
         return self.P[(slice(None), *self._index.blocks)].reshape(n, m, m)
+
+    @property
+    def disagreeing(self) -> np.ndarray:
+        """Per joint, whether its readings disagree with the filter (its noise moving to the mismatch σs)."""
+        return self._distance_sq_average > innovation.MISMATCH_FROM
 
     @property
     def disturbance_state(self) -> list[float] | None:
@@ -312,7 +307,7 @@ class JointKalmanFilter:
                 jump_std = DISTURBANCE_PRIOR_STD_NM * self._torque_scale
                 innovation.allow_jumps(P_pred, jumped, jump_std, b, dt, self._per_group)
                 self.jump_count += jumped
-        self._distance_sq_average = updated_average(self._distance_sq_average, distance_sq, jumped, dt)
+        self._distance_sq_average = innovation.updated_average(self._distance_sq_average, distance_sq, jumped, dt)
         P_read = P_pred[:, at.read, :]  # (g, 2k, km)
         if k == 1 and jumped is None:  # S is each joint's own block, inverted above
             K = np.matmul(S_inv, P_read).transpose(0, 2, 1)  # (g, m, 2)
