@@ -90,6 +90,10 @@ def source_of(robot: str, known: Iterable[str]) -> tuple[str, Path]:
     plain = share is not None and re.fullmatch(r"[\w.-]+", robot)
     if found := sorted(share.glob(f"example-robot-data/robots/*/*/{robot}.urdf")) if plain else []:
         return robot, found[0]
+    if (path := Path(robot).expanduser()).is_file():  # a file of another kind: say what it is, not "unknown"
+        if path.suffix.lower() == ".xacro":
+            raise ConfigError(f"--robot {robot}: a xacro file; expand it first: xacro {path.name} > {path.stem}")
+        raise ConfigError(f"--robot {robot}: not a URDF (.urdf) or MJCF (.xml, .mjcf) file")
     names = sorted({*known, *ARMS})
     raise ConfigError(f"--robot: unknown robot {robot!r}; robots are {names}, a URDF or MJCF path, or package://…")
 

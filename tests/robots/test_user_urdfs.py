@@ -1,8 +1,12 @@
 """URDFs as a user writes them: a massless link between two joints (a gimbal's yoke) loads."""
 
+import re
+
 import mujoco
 import numpy as np
+import pytest
 
+from robot_controller.core.errors import ConfigError
 from robot_controller.robots.description import describe
 
 INERTIAL = (
@@ -25,3 +29,13 @@ def test_a_massless_link_a_joint_moves_loads_with_a_negligible_mass_and_is_said(
     assert 0 < model.body_mass[yoke] <= 1e-6
     assert np.isclose(model.body_mass.sum(), 0.5, atol=1e-5)  # the arm's mass is the URDF's
     assert "yoke" in described.note
+
+
+@pytest.mark.parametrize(
+    ("filename", "reason"),
+    [("arm.urdf.xacro", "xacro arm.urdf.xacro > arm.urdf"), ("arm.sdf", "not a URDF (.urdf) or MJCF (.xml, .mjcf)")],
+)
+def test_a_file_of_another_kind_is_refused_saying_what_it_is(tmp_path, filename, reason):
+    (path := tmp_path / filename).write_text(GIMBAL)
+    with pytest.raises(ConfigError, match=re.escape(reason)):
+        describe(str(path))
