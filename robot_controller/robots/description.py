@@ -154,10 +154,11 @@ def _made_loadable(root: ET.Element, source: Path) -> str:
         compiler.attrib.setdefault(key, "false")
     # A link a joint moves with no <inertial> (a gimbal's yoke) is massless in URDF; MuJoCo refuses a moving body
     # under mjMINVAL, so it gets a negligible one (the bounds lift nothing heavier)
+    # (one with collision shapes weighs as water, MuJoCo's default for a body with none: said, as URDF says 0)
     carried = {j.find("child").get("link") for j in root.iter("joint") if _moves(j)}
-    if massless := [
-        k.get("name") for k in root.iter("link") if k.get("name") in carried and k.find("inertial") is None
-    ]:
+    bare = [k for k in root.iter("link") if k.find("inertial") is None]
+    solid = [k.get("name") for k in bare if k.find("collision") is not None]
+    if massless := [k.get("name") for k in bare if k.get("name") in carried and k.find("collision") is None]:
         compiler.attrib.setdefault("boundmass", "1e-6")
         compiler.attrib.setdefault("boundinertia", "1e-9")
     if mujoco.find("option") is None:
@@ -165,6 +166,8 @@ def _made_loadable(root: ET.Element, source: Path) -> str:
     said = [f"held still {', '.join(held)} (fingers and mimic joints)"] * bool(held)
     if massless:
         said.append(f"no <inertial> on {', '.join(massless)}: given 1e-6 kg (URDF's massless, MuJoCo's minimum)")
+    if solid:
+        said.append(f"{', '.join(solid)}: no <inertial>, mass from its collision shapes at 1000 kg/m³ (MuJoCo's)")
     if dropped:
         said.append(f"{dropped} visual(s) MuJoCo cannot read dropped, {replaced} collision shape(s) drawn instead")
     return "; ".join(said)

@@ -39,3 +39,15 @@ def test_a_file_of_another_kind_is_refused_saying_what_it_is(tmp_path, filename,
     (path := tmp_path / filename).write_text(GIMBAL)
     with pytest.raises(ConfigError, match=re.escape(reason)):
         describe(str(path))
+
+
+def test_a_link_with_collision_shapes_and_no_inertial_is_said_to_weigh_as_water(monkeypatch, tmp_path):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    box = '<collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision>'
+    mount = '<joint name="mount" type="fixed"><parent link="head"/><child link="tool"/></joint>'
+    tool = f'{mount}<link name="tool">{box}</link>'
+    (path := tmp_path / "gimbal.urdf").write_text(GIMBAL.replace("</robot>", f"{tool}</robot>"))
+    described = describe(str(path))
+    model = mujoco.MjModel.from_xml_path(str(described.path))
+    assert np.isclose(model.body_mass[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "tool")], 1.0)  # MuJoCo's
+    assert "tool: no <inertial>, mass from its collision shapes at 1000 kg/m³" in described.note
