@@ -269,7 +269,7 @@ def open_graph(tool: str) -> Iterator[Graph]:
         spinner.start()
         yield Graph(context, node)
     finally:
-        with _sigint_ignored():
+        with _sigint_as(signal.SIG_IGN):
             if executor is not None:
                 # Jazzy's shutdown does not wait for spin(): its thread must leave before the node goes (or C++ aborts).
                 executor.shutdown(timeout_sec=1.0)
@@ -284,25 +284,12 @@ def open_graph(tool: str) -> Iterator[Graph]:
 
 
 @contextlib.contextmanager
-def _sigint_ignored() -> Iterator[None]:
+def _sigint_as(handler: Any) -> Iterator[None]:
+    """SIGINT handled by ``handler`` for the block (in the main thread; elsewhere left as it is)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-@contextlib.contextmanager
-def _sigint_heard() -> Iterator[None]:
-    """Ctrl-C (SIGINT) raises ``KeyboardInterrupt`` while a command runs, even when the command was started with
-    SIGINT ignored (a shell's ``&`` does that, and Python then keeps ignoring it): a ``kill -INT`` must still cancel."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    previous = signal.signal(signal.SIGINT, handler)
     try:
         yield
     finally:
@@ -317,7 +304,9 @@ def command(name: str, *, interrupted: int = 0) -> Callable[[Callable[..., int]]
         @functools.wraps(function)
         def run(*args: Any, **kwargs: Any) -> int:
             try:
-                with _sigint_heard():
+                # Ctrl-C raises KeyboardInterrupt while the command runs, even when it was started with SIGINT
+                # ignored (a shell's `&` does that, and Python then keeps ignoring it): `kill -INT` must still cancel.
+                with _sigint_as(signal.default_int_handler):
                     return function(*args, **kwargs)
             except ToolError as exc:
                 print(f"robot-controller {name}: {exc}", file=sys.stderr, flush=True)
