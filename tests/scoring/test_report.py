@@ -1,4 +1,5 @@
-"""Scoring offline: the motor's receipts paired with the controller's ticks; no reference in force while the brakes hold."""
+"""Scoring offline: the motor's receipts paired with the controller's ticks; no reference in force while the
+brakes hold."""
 
 import numpy as np
 import pytest
