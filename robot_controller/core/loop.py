@@ -115,7 +115,8 @@ def run_loop(
         if not braked and brake_torque_nm is not None and out.status in BRAKING_STATUSES:
             plant.set_brakes(np.ones(n, dtype=bool), brake_torque_nm)
             braked = True
-        applied = actuator.apply(command, control_period_s)
+        # As motor_node: the first command comes after no time at the old (zero) torque; each later one a period on.
+        applied = actuator.apply(command, control_period_s if k else 0.0)
         if disturbance is not None and plant.time_s + 1e-9 >= disturbance.start_s:
             plant.set_disturbance(np.asarray(disturbance.torque_nm, dtype=float), disturbance.duration_s)
             disturbance = None

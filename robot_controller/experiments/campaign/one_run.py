@@ -86,7 +86,7 @@ def figures(params: cfg.Params, duration_s: float, seed: int) -> dict[str, Any]:
         params, duration_s=duration_s, seed=seed, measurement_delay_s=sensor_delay_s(params["sensor_node"])
     )
     watched = _StatusWatch(loop.keywords["controller"])
-    result = loop(controller=watched, actuator=_FirstCommandHeld(loop.keywords["actuator"]))
+    result = loop(controller=watched)
     if not np.all(np.isfinite(result.true_position)):
         raise RuntimeError("the arm's state went non-finite (the physics diverged)")
     tracking = result.tracking_metrics()
@@ -107,23 +107,6 @@ def figures(params: cfg.Params, duration_s: float, seed: int) -> dict[str, Any]:
     out["faults"] = watched.stops + (1 if result.law_fault and not watched.stops else 0)
     out["law_fault"] = result.law_fault or ""
     return out
-
-
-class _FirstCommandHeld:
-    """The actuator as motor_node drives it: its first command comes after no time at the old (zero) torque, so a
-    lagging drive applies none of it on that tick; every later one after the time since the last. (The loop alone
-    lags the first command over a whole period: on a world near its delay margin that start makes another run.)"""
-
-    def __init__(self, actuator) -> None:
-        self._actuator = actuator
-        self._first = True
-
-    def apply(self, command: np.ndarray, dt: float) -> np.ndarray:
-        dt, self._first = (0.0 if self._first else dt), False
-        return self._actuator.apply(command, dt)
-
-    def __getattr__(self, name: str):
-        return getattr(self._actuator, name)
 
 
 class _StatusWatch:
