@@ -16,8 +16,9 @@ from rclpy.parameter import Parameter
 
 from robot_controller import parameters as cfg
 from robot_controller.core.errors import ConfigError
+from robot_controller.ros.loop_processes import leave_pid
 from robot_controller.ros.partition import PARTITION_ENV
-from robot_controller.ros.publishing import GatedPublisher, write_publish_counts
+from robot_controller.ros.publishing import COUNTS_DIR_ENV, GatedPublisher, write_publish_counts
 
 WARN_PERIOD_S = 2.0
 # At the end, how long a node waits for its last messages to be acknowledged (within the cleanup's
@@ -51,6 +52,7 @@ class StackNode(Node):
         self._gated_publishers: list[GatedPublisher] = []
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._post_set_parameters)
+        leave_pid(os.environ.get(COUNTS_DIR_ENV, ""), schema_name)  # the paced world tells the host's waits by it
 
     def _declare(self, specs: tuple[cfg.ParamSpec, ...]) -> None:
         for spec in specs:

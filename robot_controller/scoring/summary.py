@@ -228,6 +228,8 @@ def _rate_line(values: dict[str, Any]) -> str:
         text += f", jitter p99 {values['jitter_p99_ms']:.2f} ms"
     if late := values.get("late_efforts"):
         text += f", {_count(late, 'late effort')} (the world waited for the loop)"
+    if host_late := values.get("late_efforts_host"):
+        text += f"; {_count(host_late, 'effort')} the host made late (not counted)"
     return text
 
 

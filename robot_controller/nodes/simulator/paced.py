@@ -4,14 +4,17 @@ that keeps pace with the wall clock and pauses with the host, as Gazebo's real-t
 Tick k's effort acts over the period after it, exactly as in lockstep, so a run is the lockstep run to the bit
 however busy the host: the world steps at the period's deadline on the monotonic clock, or when the effort
 arrives, waiting for it up to ``drive_timeout_s`` of this process's own running time. An effort later than a
-period past its deadline is the loop's miss (``late_efforts``: the world waited for it); none within the drive
-timeout brakes the arm (category 0), and the world goes on without waiting while the brakes hold. Time this
+period past its deadline is the loop's miss (``late_efforts``: the world waited for it), unless the host took
+that much time from the loop meanwhile (its processes waited for a CPU, or the hypervisor stole it:
+``late_efforts_host``, ``ros/loop_processes``); none within the drive timeout brakes the arm (category 0), and
+the world goes on without waiting while the brakes hold. Time this
 process did not run (a wake-up or a wait more than a period late) is a freeze of the host, or of the simulator
 alone: the world paused with it, and nothing counts against the loop."""
 
 from __future__ import annotations
 
 import json
+import os
 import threading
 import time
 from pathlib import Path
@@ -21,11 +24,15 @@ import numpy as np
 from robot_controller.nodes.simulator.lockstep import LockstepTicks
 from robot_controller.parameters.schema.simulator import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import scheduling
+from robot_controller.ros.loop_processes import LoopProcesses, Usage, host_kept_waiting
 from robot_controller.ros.process import WORLD_CLOCK_FILE
+from robot_controller.ros.publishing import COUNTS_DIR_ENV
 from robot_controller.ros.stack_node import StackNode
 
 #: An effort this long (control periods) past its tick's deadline is the loop's miss: the world waited for it.
 LATE_PERIODS = 1.0
+#: How the world's figures read in its closing line.
+SAID = {"late_efforts": "late efforts (the loop's own)", "late_efforts_host": "late efforts the host made late"}
 
 
 class FreezeLog:
@@ -52,7 +59,7 @@ class FreezeLog:
         """Say the freezes (and ``more`` figures) in one line, and leave them in ``counts_dir`` for metrics.json."""
         figures = {**self.figures(), **more}
         if self.count or any(more.values()):
-            said = ", ".join(f"{value} {name.replace('_', ' ')}" for name, value in more.items())
+            said = ", ".join(f"{value} {SAID.get(name, name.replace('_', ' '))}" for name, value in more.items())
             node.get_logger().info(
                 f"the host froze this simulator {self.count} time(s) (longest {self.max_ms:.0f} ms, "
                 f"{self.total_ms:.0f} ms in all): {meaning}" + (f"; {said}" if said else "")
@@ -75,6 +82,9 @@ class PacedTicks:
         self.effort_in = False  #: an effort arrived since the last tick
         self.late_efforts = 0  #: ticks the world waited for their effort, or went without it: the loop's own misses
         self.freezes = FreezeLog()
+        self.late_for_host = 0  #: late efforts the host made late (the loop waited that long for a CPU): not counted
+        self.loop = LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
+        self.wait_usage: Usage | None = None  #: the loop's usage when the world began to wait for a tick's effort
         self.effort_arrived = threading.Condition(node.lock)
         self.stopping = threading.Event()
         rt_priority = scheduling.realtime_thread_requested()
@@ -116,6 +126,8 @@ class PacedTicks:
         if not ticks.efforts_applied or ticks.ended or "drive_timeout" in brakes.reasons:
             return 0
         budget_ns = self.timeout_ns * (2 if frozen else 1)
+        if not self.effort_in:
+            self.wait_usage = self.loop.usage()
         waited_ns, last_ns = 0, since_ns
         while not self.effort_in and waited_ns < budget_ns and not self.stopping.is_set():
             self.effort_arrived.wait(min(self.period_ns, budget_ns - waited_ns) * 1e-9)
@@ -154,11 +166,21 @@ class PacedTicks:
                         "(category 0)",
                     )
         elif waited_ns > self.late_ns:
-            self.late_efforts += counted
+            if self.host_made_it_late(waited_ns):
+                self.late_for_host += counted
+            else:
+                self.late_efforts += counted
         self.effort_in = False
         ticks.waiting_for_effort = True
         ticks.advance()
         return max(deadline_ns + self.period_ns, now_ns)
+
+    def host_made_it_late(self, waited_ns: int) -> bool:
+        """Whether the host took from the loop, while the world waited ``waited_ns`` for an effort, all the time
+        the effort was late by: without it the effort would have come within a period."""
+        if self.wait_usage is None or (now := self.loop.usage()) is None:
+            return False  # nothing measured: the loop's own
+        return host_kept_waiting(now - self.wait_usage, waited_ns - self.late_ns)
 
     def past_the_run(self) -> bool:
         """In the margin after the run's duration, where the launcher may stop the nodes (lock held)."""
@@ -173,7 +195,13 @@ class PacedTicks:
         self.stopping.set()
         if self.thread.is_alive():
             self.thread.join(timeout=1.0)
-        self.freezes.say_and_leave(self.node, counts_dir, "the world paused with it", late_efforts=self.late_efforts)
+        self.freezes.say_and_leave(
+            self.node,
+            counts_dir,
+            "the world paused with it",
+            late_efforts=self.late_efforts,
+            late_efforts_host=self.late_for_host,
+        )
 
     def report(self) -> None:
         self.ticks.report()

@@ -52,7 +52,8 @@ def test_the_whole_loop_frozen_together_is_the_hosts_freeze_and_no_fault(tmp_pat
     assert metrics["watchdog_ticks"] == 0 and metrics["stopped_ticks"] == 0, metrics
     assert "brakes on" not in output
     # A freeze of the world costs no tracking; a busy host's late efforts (counted) cost a period each.
-    assert metrics["tracking_max_rad"] <= 0.006 + 0.001 * metrics["late_efforts"], metrics
+    late = metrics["late_efforts"] + metrics.get("late_efforts_host", 0)
+    assert metrics["tracking_max_rad"] <= 0.006 + 0.001 * late, metrics
 
 
 def test_the_controller_frozen_alone_is_its_stall_and_the_arm_stays_in_its_band(tmp_path, ros_domain):
@@ -86,6 +87,16 @@ class StandInBrakes:
         (self.reasons.add if on else self.reasons.discard)(reason)
 
 
+class StandInLoop:
+    """The loop's processes as ``ros.loop_processes`` reads them, scripted: one ``Usage`` a call."""
+
+    def __init__(self, *usages) -> None:
+        self.usages = list(usages)
+
+    def usage(self):
+        return self.usages.pop(0) if self.usages else None
+
+
 def paced_at_100_hz():
     import threading
     from types import SimpleNamespace
@@ -103,7 +114,8 @@ def paced_at_100_hz():
     )
     paced.ticks = StandInTicks()
     paced.period_ns, paced.timeout_ns, paced.late_ns = 10_000_000, 50_000_000, 10_000_000
-    paced.effort_in, paced.late_efforts = False, 0
+    paced.effort_in, paced.late_efforts, paced.late_for_host = False, 0, 0
+    paced.loop, paced.wait_usage = StandInLoop(), None
     paced.freezes = FreezeLog()
     paced.effort_arrived = threading.Condition()
     paced.stopping = threading.Event()
@@ -122,6 +134,37 @@ def test_the_world_waits_for_a_late_effort_counts_it_and_does_not_catch_up():
     paced.effort_in = True
     assert paced.tick(deadline_ns=0, now_ns=30_000_000, waited_ns=30_000_000) == 30_000_000
     assert paced.ticks.advanced == 1 and paced.late_efforts == 1 and not paced.node.brakes.reasons
+
+
+def test_an_effort_the_host_kept_waiting_is_not_the_loops_miss_and_one_it_did_not_is():
+    from robot_controller.ros.loop_processes import Usage
+
+    paced = paced_at_100_hz()
+    # 25 ms late: 15 ms past the period it may take. The loop's processes waited 9 ms for a CPU, 10 ms were stolen.
+    paced.wait_usage, paced.loop = Usage(5_000_000, 1_000_000, 0), StandInLoop(Usage(9_000_000, 10_000_000, 10**7))
+    paced.effort_in = True
+    paced.tick(deadline_ns=0, now_ns=25_000_000, waited_ns=25_000_000)
+    assert (paced.late_efforts, paced.late_for_host) == (0, 1)
+    # The same lateness with the loop running or blocked, not kept from a CPU (5 ms waited): its own miss.
+    paced.wait_usage, paced.loop = Usage(5_000_000, 1_000_000, 0), StandInLoop(Usage(20_000_000, 6_000_000, 0))
+    paced.effort_in = True
+    paced.tick(deadline_ns=0, now_ns=25_000_000, waited_ns=25_000_000)
+    assert (paced.late_efforts, paced.late_for_host) == (1, 1)
+
+
+def test_the_loops_processes_are_read_from_the_pids_its_nodes_leave(tmp_path):
+    import os
+
+    from robot_controller.ros.loop_processes import LoopProcesses, leave_pid
+
+    assert LoopProcesses(str(tmp_path)).usage() is None  # no node has left its pid: nothing measured
+    leave_pid(str(tmp_path), "pid_controller")
+    before = LoopProcesses(str(tmp_path)).usage()
+    sum(range(2_000_000))  # this process's main thread runs a while
+    after = LoopProcesses(str(tmp_path)).usage()
+    assert (tmp_path / "pid.pid_controller").read_text() == str(os.getpid())
+    assert before is not None and after is not None
+    assert (after - before).cpu_ns > 0 and (after - before).run_wait_ns >= 0
 
 
 def test_no_effort_within_the_drive_timeout_brakes_and_the_world_goes_on_without_waiting():
