@@ -117,6 +117,9 @@ def run(options: RunOptions, out: Path | None) -> int:
         wall.update(result.usage)
     else:  # a paced world's freezes and its loop's late efforts, or the wall clock's
         values.update(result.world_clock)
+        if result.host_missed:  # periods the host stretched (the loop waited for a CPU): not the loop's own misses
+            values["missed_cycles_host"] = result.host_missed
+            values["missed_cycles"] = max(0, values.get("missed_cycles", 0) - result.host_missed)
         values.update(result.clocks)  # a split run's hosts' clock offset
         values["realtime_requested"] = options.realtime
         values.update(result.usage)

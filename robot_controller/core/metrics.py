@@ -140,6 +140,8 @@ def peak_torque(command: np.ndarray, units: list[str] | None = None) -> dict[str
 
 
 STALL_S = 0.030
+#: A loop period longer than this many nominal periods is a missed cycle.
+MISSED_PERIODS = 1.5
 
 
 def rate_metrics(tick_time_s: np.ndarray, nominal_period_s: float) -> dict[str, float]:
@@ -154,7 +156,7 @@ def rate_metrics(tick_time_s: np.ndarray, nominal_period_s: float) -> dict[str, 
         "jitter_p50_ms": float(np.percentile(jitter_ms, 50)),
         "jitter_p99_ms": float(np.percentile(jitter_ms, 99)),
         "jitter_max_ms": float(np.max(jitter_ms)),
-        "missed_cycles": int(np.count_nonzero(periods > 1.5 * nominal_period_s)),
+        "missed_cycles": int(np.count_nonzero(periods > MISSED_PERIODS * nominal_period_s)),
         # a gap long enough to matter to an arm: three periods of a 100 Hz loop
         "stalls_30ms": int(np.count_nonzero(periods > STALL_S)),
         "longest_period_ms": float(np.max(periods) * 1e3),

@@ -26,6 +26,8 @@ LAW_STOPPED_EXIT_CODE = 3
 LAW_FAULT_FILE = "law_fault.txt"
 #: A paced world's figures (host freezes, late efforts), written by the simulator at its end for metrics.json.
 WORLD_CLOCK_FILE = "simulator.world_clock"
+#: The controller's missed cycles the host caused (wall clock), written at its end for metrics.json.
+HOST_MISSED_FILE = "pid_controller.host_missed"
 
 
 _exit_code: list[int] = []

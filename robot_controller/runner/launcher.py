@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from robot_controller.nodes import recorder as rec
-from robot_controller.ros.process import LAW_FAULT_FILE, TEARDOWN_HUNG_SIGNAL, WORLD_CLOCK_FILE
+from robot_controller.ros.process import HOST_MISSED_FILE, LAW_FAULT_FILE, TEARDOWN_HUNG_SIGNAL, WORLD_CLOCK_FILE
 from robot_controller.runner import forking, supervise
 from robot_controller.runner.plan import CheckedRun, plan
 from robot_controller.runner.processes import ProcessGroup, say
@@ -78,6 +78,9 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
         world_file = run.counts_dir / WORLD_CLOCK_FILE  # a paced world's figures, written by the simulator
         if world_file.is_file():
             result.world_clock = json.loads(world_file.read_text())
+        host_missed_file = run.counts_dir / HOST_MISSED_FILE  # the controller's, on the wall clock
+        if host_missed_file.is_file():
+            result.host_missed = int(json.loads(host_missed_file.read_text())["missed_cycles_host"])
         fault_file = run.counts_dir / LAW_FAULT_FILE  # the controller's line on its law's failure, if any
         if fault_file.is_file() and (law_fault := fault_file.read_text().strip()):
             # The controller stopped the arm and ended itself (or the run ended first): say why, in one line.

@@ -216,6 +216,7 @@ class RunResult:
     started: float | None = None  #: monotonic time the loop closed
     sim_start: float = 0.0  #: the sim time the loop closed at
     world_clock: dict[str, float] = field(default_factory=dict)  #: a paced world's freezes and late efforts
+    host_missed: int = 0  #: the controller's missed cycles the host caused (wall clock): not the loop's own
     clocks: dict[str, float] = field(default_factory=dict)  #: a split run's clock offset and round trip, ms
 
     def raise_if_interrupted(self) -> None:

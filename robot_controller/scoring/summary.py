@@ -224,6 +224,8 @@ def _run_line(values: dict[str, Any]) -> str:
 
 def _rate_line(values: dict[str, Any]) -> str:
     text = f"{values['control_rate_hz']:.1f} Hz, {_count(values.get('missed_cycles', 0), 'missed cycle')}"
+    if host_missed := values.get("missed_cycles_host"):
+        text += f" ({host_missed} more the host made, not counted)"
     if values.get("clock") == "wall" and _finite(values.get("jitter_p99_ms")):
         text += f", jitter p99 {values['jitter_p99_ms']:.2f} ms"
     if late := values.get("late_efforts"):

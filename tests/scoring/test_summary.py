@@ -56,6 +56,8 @@ def test_off_lockstep_the_rate_and_misses_are_said_and_faults_only_when_there_we
     wall = LOCKSTEP | {"clock": "wall", "control_rate_hz": 99.97, "missed_cycles": 1, "jitter_p99_ms": 0.214}
     rows = dict(summary.run_rows(wall))
     assert rows["rate"] == "100.0 Hz, 1 missed cycle, jitter p99 0.21 ms"
+    rows = dict(summary.run_rows(wall | {"missed_cycles_host": 80}))
+    assert rows["rate"] == "100.0 Hz, 1 missed cycle (80 more the host made, not counted), jitter p99 0.21 ms"
     assert "faults" not in rows and "host freezes" not in rows and "brakes" not in rows
     paced = LOCKSTEP | {"clock": "sim_paced", "late_efforts": 2, "host_freezes": 3, "host_freeze_ms_max": 41.2}
     paced |= {"host_freeze_ms_total": 80.0, "watchdog_ticks": 4, "stopped_ticks": 1, "unrecorded_messages": 3}

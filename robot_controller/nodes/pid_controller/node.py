@@ -113,6 +113,9 @@ class PidControllerNode(StackNode):
         if changed & {"control_rate_hz", "trigger", "watchdog_periods"} and self.timer is not None:
             self.set_timer_period(self.timer_period_s(params))
 
+    def finish(self) -> None:
+        self.timing.leave_host_misses()
+
     def set_timer_period(self, period_s: float) -> None:
         if period_s == self.timer_period:
             return

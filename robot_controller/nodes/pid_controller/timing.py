@@ -3,15 +3,21 @@ is later than its gains survive, and jitter, missed cycles and latency on ``/dia
 
 from __future__ import annotations
 
+import json
+import os
 import time
 from collections import deque
+from pathlib import Path
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import Float64MultiArray
 
 from robot_controller.core import metrics
+from robot_controller.ros.loop_processes import LoopProcesses, Usage, host_kept_waiting
 from robot_controller.ros.messages import clock_s
+from robot_controller.ros.process import HOST_MISSED_FILE
+from robot_controller.ros.publishing import COUNTS_DIR_ENV
 from robot_controller.ros.stack_node import StackNode
 
 # While the loop is late, its one line comes at most this often (s).
@@ -32,6 +38,10 @@ class LoopTiming:
         self.window_ticks: list[float] = []
         self.window_latency: list[float] = []
         self.next_late_line = -np.inf  # monotonic s
+        # Wall clock: which missed cycles the host caused (the loop's processes kept from a CPU that long).
+        self.loop = None if node.lockstep else LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
+        self.last_tick: tuple[float, Usage | None] | None = None  #: (time s, the loop's usage) at the last tick
+        self.missed_for_host = 0  #: missed cycles the host made: not the loop's own
         self.pub = node.gated_publisher(DiagnosticArray, "/diagnostics", consumer=False)
         if not node.lockstep:
             # When each command reached the drive: the command path's delay, for the latency guard.
@@ -48,6 +58,25 @@ class LoopTiming:
         self.window_ticks.append(now_s)
         if not lockstep:  # in lockstep a tick takes no sim time
             self.window_latency.append(clock_s(self.node) - self.controller.measurement_stamp_s)
+            self.note_host_wait(now_s)
+
+    def note_host_wait(self, now_s: float) -> None:
+        """Count the period that ends at ``now_s`` as the host's miss if the host took from the loop's processes
+        all it ran over (they waited that long for a CPU, or the CPUs were stolen): without it, no miss."""
+        assert self.loop is not None
+        usage = self.loop.usage()
+        if self.last_tick is not None:
+            last_s, last_usage = self.last_tick
+            over_s = now_s - last_s - metrics.MISSED_PERIODS * self.controller.config.control_period_s
+            if over_s > 0 and usage is not None and last_usage is not None:
+                self.missed_for_host += host_kept_waiting(usage - last_usage, round(over_s * 1e9))
+        self.last_tick = (now_s, usage)
+
+    def leave_host_misses(self) -> None:
+        """At the end: the missed cycles the host made, for metrics.json (the run's scratch folder, if any)."""
+        counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
+        if counts_dir and self.loop is not None:
+            (Path(counts_dir) / HOST_MISSED_FILE).write_text(json.dumps({"missed_cycles_host": self.missed_for_host}))
 
     def receipts_callback(self, msg: Float64MultiArray) -> None:
         """The drive's receipts, rows ``[receipt_time_s, command…]``: each paired with the latest

@@ -1,0 +1,46 @@
+"""The controller's missed cycles on the wall clock, told apart (nodes/pid_controller/timing.py): a period the
+host stretched (the loop's processes kept from a CPU as long as it ran over) is the host's, any other the loop's.
+On stand-ins for the node and the loop's processes; the real /proc reads are tested in tests/nodes/simulator."""
+
+from types import SimpleNamespace
+
+from robot_controller.nodes.pid_controller.timing import LoopTiming
+from robot_controller.ros.loop_processes import Usage
+
+MS = 1_000_000
+
+
+class ScriptedLoop:
+    def __init__(self, *usages: Usage) -> None:
+        self.usages = list(usages)
+
+    def usage(self) -> Usage:
+        return self.usages.pop(0)
+
+
+def timing_at_100_hz(*usages: Usage) -> LoopTiming:
+    timing = object.__new__(LoopTiming)  # the counting only: no node, no publishers
+    timing.controller = SimpleNamespace(config=SimpleNamespace(control_period_s=0.01))
+    timing.loop, timing.last_tick, timing.missed_for_host = ScriptedLoop(*usages), None, 0
+    return timing
+
+
+def test_a_period_the_host_stretched_is_its_miss_and_one_it_did_not_is_the_loops():
+    timing = timing_at_100_hz(
+        Usage(0, 0, 0),
+        Usage(1 * MS, 0, 0),  # 10 ms: on time
+        Usage(2 * MS, 12 * MS, 0),  # 35 ms (20 over 1.5 periods), 12 ms waiting for a CPU: not enough
+        Usage(3 * MS, 14 * MS, 10 * MS),  # 35 ms, 2 ms waiting and 10 ms stolen: not enough either
+        Usage(4 * MS, 34 * MS, 10 * MS),  # 35 ms, 20 ms waiting: the host's
+        Usage(5 * MS, 34 * MS, 30 * MS),  # 35 ms, 20 ms stolen: the host's
+    )
+    for now_s in (0.0, 0.01, 0.045, 0.08, 0.115, 0.15):
+        timing.note_host_wait(now_s)
+    assert timing.missed_for_host == 2
+
+
+def test_nothing_read_nothing_counted_for_the_host():
+    timing = timing_at_100_hz(None, None)
+    timing.note_host_wait(0.0)
+    timing.note_host_wait(1.0)
+    assert timing.missed_for_host == 0
