@@ -1,18 +1,21 @@
 """Where the loop's processes spent a stretch of wall time: running, or kept from running by the host.
 
-Each stack node leaves its pid in the run's scratch folder (``COUNTS_DIR_ENV``); the paced world reads, over a
-late effort's wait, how long the loop's main threads (where their executors run) waited for a CPU
-(``/proc/<pid>/schedstat``'s run delay) and how long the hypervisor took the host's CPUs (``/proc/stat``'s
-steal, in 10 ms steps). A wait the host filled is the host's, not the loop's own miss. Linux only; elsewhere
-nothing is measured and every late effort is the loop's."""
+Each stack node leaves its pid in the run's scratch folder (``COUNTS_DIR_ENV``). Over a late effort's wait (the
+paced world) or a missed cycle (the controller, on the wall clock) this reads how long the loop's threads
+(Python's, where executors and pacing run, and Fast DDS's receivers) waited for a CPU
+(``/proc/<pid>/task/<tid>/schedstat``'s run delay) and how long the hypervisor took the host's CPUs
+(``/proc/stat``'s steal, in 10 ms steps). A wait the host filled is the host's, not the loop's own miss. Linux
+only; elsewhere nothing is measured and every miss is the loop's."""
 
 from __future__ import annotations
 
 import os
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
 PID_FILE_PREFIX = "pid."
+REFIND_S = 1.0  #: how often the loop's threads are listed again, s
 _TICK_NS = 1_000_000_000 // (os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100)
 
 
@@ -28,14 +31,26 @@ def leave_pid(counts_dir: str, node_name: str) -> None:
 
 @dataclass(frozen=True)
 class Usage:
-    """Totals at one instant, ns: the loop's threads' CPU time and run-queue wait, and the host's steal."""
+    """Over a stretch of time, ns: the loop's threads' CPU time and run-queue wait, and the host's steal."""
 
     cpu_ns: int
     run_wait_ns: int
     steal_ns: int
 
-    def __sub__(self, other: Usage) -> Usage:
-        return Usage(self.cpu_ns - other.cpu_ns, self.run_wait_ns - other.run_wait_ns, self.steal_ns - other.steal_ns)
+
+@dataclass(frozen=True)
+class Sample:
+    """At one instant: each watched thread's (CPU time, run-queue wait), ns, and the host's steal since boot."""
+
+    threads: dict[int, tuple[int, int]]
+    steal_ns: int
+
+    def __sub__(self, earlier: Sample) -> Usage:
+        """What happened since ``earlier``, over the threads both saw."""
+        common = self.threads.keys() & earlier.threads.keys()
+        cpu_ns = sum(self.threads[tid][0] - earlier.threads[tid][0] for tid in common)
+        wait_ns = sum(self.threads[tid][1] - earlier.threads[tid][1] for tid in common)
+        return Usage(cpu_ns, wait_ns, self.steal_ns - earlier.steal_ns)
 
 
 def host_kept_waiting(used: Usage, late_ns: int) -> bool:
@@ -44,47 +59,71 @@ def host_kept_waiting(used: Usage, late_ns: int) -> bool:
     return used.run_wait_ns + used.steal_ns >= late_ns
 
 
+def _watched(comm: str) -> bool:
+    """A thread on the loop's path: Python's (the executor, a pacing thread) and Fast DDS's receivers."""
+    return not comm.startswith("dds.") or (comm.startswith(("dds.shm.", "dds.udp.")) and comm != "dds.shm.wdog")
+
+
 class LoopProcesses:
-    """The loop's processes (every stack node, this one too) as found in ``counts_dir``."""
+    """The loop's processes (every stack node, this one too) as found in ``counts_dir``, and their threads on
+    the loop's path, each read through a file kept open (a few microseconds a read)."""
 
     def __init__(self, counts_dir: str) -> None:
         self.counts_dir = Path(counts_dir) if counts_dir else None
-        self.pids: list[int] = []
+        self.files: dict[int, int] = {}  #: tid → its open schedstat file
+        self.found_at = -float("inf")  #: when (monotonic s) the threads were last listed
+        self.stat_file: int | None = None
 
     def _find(self) -> None:
+        """List the threads again (once a second: threads start late, and a respawned node has a new pid)."""
+        self.found_at = time.monotonic()
         if self.counts_dir is None:
             return
-        pids = []
+        pids = set()
         for path in self.counts_dir.glob(f"{PID_FILE_PREFIX}*"):
             try:
-                pids.append(int(path.read_text()))
+                pids.add(int(path.read_text()))
             except (OSError, ValueError):
                 continue
-        self.pids = sorted(set(pids))  # one process for all nodes (--single-process): read once
-
-    def usage(self) -> Usage | None:
-        """The totals now, or None where they cannot be read (not Linux, no scratch folder). Each process's main
-        thread only, where its executor runs: one read a process, cheap enough for the world's pacing thread."""
-        if not self.pids:
-            self._find()
-        cpu_ns = wait_ns = 0
-        read = False
-        for pid in self.pids:
+        wanted = set()
+        for pid in pids:
             try:
-                with open(f"/proc/{pid}/schedstat") as f:
-                    fields = f.read().split()
+                tids = [int(tid) for tid in os.listdir(f"/proc/{pid}/task")]
             except OSError:
-                self.pids = []  # one ended: found again next time (a respawned node has a new pid)
+                continue  # ended
+            for tid in tids:
+                try:
+                    with open(f"/proc/{pid}/task/{tid}/comm") as f:
+                        if not _watched(f.read().strip()):
+                            continue
+                    if tid not in self.files:
+                        self.files[tid] = os.open(f"/proc/{pid}/task/{tid}/schedstat", os.O_RDONLY)
+                    wanted.add(tid)
+                except OSError:
+                    continue
+        for tid in set(self.files) - wanted:
+            os.close(self.files.pop(tid))
+
+    def usage(self) -> Sample | None:
+        """Each watched thread's figures now, or None where none can be read (not Linux, no scratch folder)."""
+        if time.monotonic() - self.found_at > REFIND_S:
+            self._find()
+        threads = {}
+        for tid, fd in list(self.files.items()):
+            try:
+                fields = os.pread(fd, 128, 0).split()
+            except OSError:  # the thread ended
+                os.close(self.files.pop(tid))
                 continue
-            cpu_ns, wait_ns, read = cpu_ns + int(fields[0]), wait_ns + int(fields[1]), True
-        return Usage(cpu_ns, wait_ns, _steal_ns()) if read else None
+            threads[tid] = (int(fields[0]), int(fields[1]))
+        return Sample(threads, self._steal_ns()) if threads else None
 
-
-def _steal_ns() -> int:
-    """The hypervisor's steal over every CPU since boot, ns (``/proc/stat``'s eighth figure, in clock ticks)."""
-    try:
-        with open("/proc/stat") as f:
-            fields = f.readline().split()
-    except OSError:
-        return 0
-    return int(fields[8]) * _TICK_NS if len(fields) > 8 else 0
+    def _steal_ns(self) -> int:
+        """The hypervisor's steal over every CPU since boot, ns (``/proc/stat``'s eighth figure, in clock ticks)."""
+        try:
+            if self.stat_file is None:
+                self.stat_file = os.open("/proc/stat", os.O_RDONLY)
+            fields = os.pread(self.stat_file, 256, 0).split(b"\n", 1)[0].split()
+        except OSError:
+            return 0
+        return int(fields[8]) * _TICK_NS if len(fields) > 8 else 0

@@ -14,7 +14,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import Float64MultiArray
 
 from robot_controller.core import metrics
-from robot_controller.ros.loop_processes import LoopProcesses, Usage, host_kept_waiting
+from robot_controller.ros.loop_processes import LoopProcesses, Sample, host_kept_waiting
 from robot_controller.ros.messages import clock_s
 from robot_controller.ros.process import HOST_MISSED_FILE
 from robot_controller.ros.publishing import COUNTS_DIR_ENV
@@ -40,7 +40,7 @@ class LoopTiming:
         self.next_late_line = -np.inf  # monotonic s
         # Wall clock: which missed cycles the host caused (the loop's processes kept from a CPU that long).
         self.loop = None if node.lockstep else LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
-        self.last_tick: tuple[float, Usage | None] | None = None  #: (time s, the loop's usage) at the last tick
+        self.last_tick: tuple[float, Sample | None] | None = None  #: (time s, the loop's usage) at the last tick
         self.missed_for_host = 0  #: missed cycles the host made: not the loop's own
         self.pub = node.gated_publisher(DiagnosticArray, "/diagnostics", consumer=False)
         if not node.lockstep:

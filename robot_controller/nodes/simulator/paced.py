@@ -24,7 +24,7 @@ import numpy as np
 from robot_controller.nodes.simulator.lockstep import LockstepTicks
 from robot_controller.parameters.schema.simulator import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import scheduling
-from robot_controller.ros.loop_processes import LoopProcesses, Usage, host_kept_waiting
+from robot_controller.ros.loop_processes import LoopProcesses, Sample, host_kept_waiting
 from robot_controller.ros.process import WORLD_CLOCK_FILE
 from robot_controller.ros.publishing import COUNTS_DIR_ENV
 from robot_controller.ros.stack_node import StackNode
@@ -84,7 +84,7 @@ class PacedTicks:
         self.freezes = FreezeLog()
         self.late_for_host = 0  #: late efforts the host made late (the loop waited that long for a CPU): not counted
         self.loop = LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
-        self.wait_usage: Usage | None = None  #: the loop's usage when the world began to wait for a tick's effort
+        self.wait_usage: Sample | None = None  #: the loop's usage when the world began to wait for a tick's effort
         self.effort_arrived = threading.Condition(node.lock)
         self.stopping = threading.Event()
         rt_priority = scheduling.realtime_thread_requested()

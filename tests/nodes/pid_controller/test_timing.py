@@ -5,20 +5,22 @@ On stand-ins for the node and the loop's processes; the real /proc reads are tes
 from types import SimpleNamespace
 
 from robot_controller.nodes.pid_controller.timing import LoopTiming
-from robot_controller.ros.loop_processes import Usage
+from robot_controller.ros.loop_processes import Sample
 
 MS = 1_000_000
 
 
 class ScriptedLoop:
-    def __init__(self, *usages: Usage) -> None:
+    def __init__(self, *usages: tuple[int, int, int] | None) -> None:
         self.usages = list(usages)
 
-    def usage(self) -> Usage:
-        return self.usages.pop(0)
+    def usage(self) -> Sample | None:
+        """The next scripted (CPU, run-queue wait, steal), ns, as one thread's sample."""
+        usage = self.usages.pop(0)
+        return None if usage is None else Sample({1: usage[:2]}, usage[2])
 
 
-def timing_at_100_hz(*usages: Usage) -> LoopTiming:
+def timing_at_100_hz(*usages: tuple[int, int, int] | None) -> LoopTiming:
     timing = object.__new__(LoopTiming)  # the counting only: no node, no publishers
     timing.controller = SimpleNamespace(config=SimpleNamespace(control_period_s=0.01))
     timing.loop, timing.last_tick, timing.missed_for_host = ScriptedLoop(*usages), None, 0
@@ -27,12 +29,12 @@ def timing_at_100_hz(*usages: Usage) -> LoopTiming:
 
 def test_a_period_the_host_stretched_is_its_miss_and_one_it_did_not_is_the_loops():
     timing = timing_at_100_hz(
-        Usage(0, 0, 0),
-        Usage(1 * MS, 0, 0),  # 10 ms: on time
-        Usage(2 * MS, 12 * MS, 0),  # 35 ms (20 over 1.5 periods), 12 ms waiting for a CPU: not enough
-        Usage(3 * MS, 14 * MS, 10 * MS),  # 35 ms, 2 ms waiting and 10 ms stolen: not enough either
-        Usage(4 * MS, 34 * MS, 10 * MS),  # 35 ms, 20 ms waiting: the host's
-        Usage(5 * MS, 34 * MS, 30 * MS),  # 35 ms, 20 ms stolen: the host's
+        (0, 0, 0),
+        (1 * MS, 0, 0),  # 10 ms: on time
+        (2 * MS, 12 * MS, 0),  # 35 ms (20 over 1.5 periods), 12 ms waiting for a CPU: not enough
+        (3 * MS, 14 * MS, 10 * MS),  # 35 ms, 2 ms waiting and 10 ms stolen: not enough either
+        (4 * MS, 34 * MS, 10 * MS),  # 35 ms, 20 ms waiting: the host's
+        (5 * MS, 34 * MS, 30 * MS),  # 35 ms, 20 ms stolen: the host's
     )
     for now_s in (0.0, 0.01, 0.045, 0.08, 0.115, 0.15):
         timing.note_host_wait(now_s)

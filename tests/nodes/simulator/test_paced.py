@@ -137,16 +137,19 @@ def test_the_world_waits_for_a_late_effort_counts_it_and_does_not_catch_up():
 
 
 def test_an_effort_the_host_kept_waiting_is_not_the_loops_miss_and_one_it_did_not_is():
-    from robot_controller.ros.loop_processes import Usage
+    from robot_controller.ros.loop_processes import Sample
+
+    def usage(cpu_ns, run_wait_ns, steal_ns):
+        return Sample({1: (cpu_ns, run_wait_ns)}, steal_ns)
 
     paced = paced_at_100_hz()
     # 25 ms late: 15 ms past the period it may take. The loop's processes waited 9 ms for a CPU, 10 ms were stolen.
-    paced.wait_usage, paced.loop = Usage(5_000_000, 1_000_000, 0), StandInLoop(Usage(9_000_000, 10_000_000, 10**7))
+    paced.wait_usage, paced.loop = usage(5_000_000, 1_000_000, 0), StandInLoop(usage(9_000_000, 10_000_000, 10**7))
     paced.effort_in = True
     paced.tick(deadline_ns=0, now_ns=25_000_000, waited_ns=25_000_000)
     assert (paced.late_efforts, paced.late_for_host) == (0, 1)
     # The same lateness with the loop running or blocked, not kept from a CPU (5 ms waited): its own miss.
-    paced.wait_usage, paced.loop = Usage(5_000_000, 1_000_000, 0), StandInLoop(Usage(20_000_000, 6_000_000, 0))
+    paced.wait_usage, paced.loop = usage(5_000_000, 1_000_000, 0), StandInLoop(usage(20_000_000, 6_000_000, 0))
     paced.effort_in = True
     paced.tick(deadline_ns=0, now_ns=25_000_000, waited_ns=25_000_000)
     assert (paced.late_efforts, paced.late_for_host) == (1, 1)
@@ -164,7 +167,8 @@ def test_the_loops_processes_are_read_from_the_pids_its_nodes_leave(tmp_path):
     after = LoopProcesses(str(tmp_path)).usage()
     assert (tmp_path / "pid.pid_controller").read_text() == str(os.getpid())
     assert before is not None and after is not None
-    assert (after - before).cpu_ns > 0 and (after - before).run_wait_ns >= 0
+    used = after - before
+    assert used.cpu_ns > 0 and used.run_wait_ns >= 0 and used.steal_ns >= 0
 
 
 def test_no_effort_within_the_drive_timeout_brakes_and_the_world_goes_on_without_waiting():
