@@ -7,9 +7,9 @@ arrives, waiting for it up to ``drive_timeout_s`` of this process's own running 
 period past its deadline is the loop's miss (``late_efforts``: the world waited for it), unless the host took
 that much time from the loop meanwhile (its processes waited for a CPU, or the hypervisor stole it:
 ``late_efforts_host``, ``ros/loop_processes``); none within the drive timeout brakes the arm (category 0), and
-the world goes on without waiting while the brakes hold. Time this
-process did not run (a wake-up or a wait more than a period late) is a freeze of the host, or of the simulator
-alone: the world paused with it, and nothing counts against the loop."""
+the world goes on without waiting while the brakes hold. Time this process did not run (a wake-up or a wait
+more than a period late) is a freeze of the host, or of the simulator alone: the world paused with it, and
+nothing counts against the loop."""
 
 from __future__ import annotations
 
