@@ -17,6 +17,7 @@ from pathlib import Path
 PID_FILE_PREFIX = "pid."
 REFIND_S = 1.0  #: how often the loop's threads are listed again, s
 _TICK_NS = 1_000_000_000 // (os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100)
+_CPUS = os.cpu_count() or 1
 
 
 def leave_pid(counts_dir: str, node_name: str) -> None:
@@ -40,17 +41,24 @@ class Usage:
 
 @dataclass(frozen=True)
 class Sample:
-    """At one instant: each watched thread's (CPU time, run-queue wait), ns, and the host's steal since boot."""
+    """At one instant: each watched thread's (pid, CPU time ns, run-queue wait ns), by thread id, and the host's
+    steal since boot over all its CPUs, ns."""
 
-    threads: dict[int, tuple[int, int]]
+    threads: dict[int, tuple[int, int, int]]
     steal_ns: int
 
     def __sub__(self, earlier: Sample) -> Usage:
-        """What happened since ``earlier``, over the threads both saw."""
-        common = self.threads.keys() & earlier.threads.keys()
-        cpu_ns = sum(self.threads[tid][0] - earlier.threads[tid][0] for tid in common)
-        wait_ns = sum(self.threads[tid][1] - earlier.threads[tid][1] for tid in common)
-        return Usage(cpu_ns, wait_ns, self.steal_ns - earlier.steal_ns)
+        """What happened since ``earlier``, over the threads both saw, in wall time: each process a hop of the
+        loop, waiting as long as its longest-waiting thread (threads of one process wait side by side); the steal
+        a CPU's share, less one step of its counter (what it certainly was)."""
+        cpu_ns, wait_by_pid = 0, {}
+        for tid in self.threads.keys() & earlier.threads.keys():
+            pid, cpu_now, wait_now = self.threads[tid]
+            _, cpu_then, wait_then = earlier.threads[tid]
+            cpu_ns += cpu_now - cpu_then
+            wait_by_pid[pid] = max(wait_by_pid.get(pid, 0), wait_now - wait_then)
+        steal_ns = max(0, self.steal_ns - earlier.steal_ns - _TICK_NS) // _CPUS
+        return Usage(cpu_ns, sum(wait_by_pid.values()), steal_ns)
 
 
 def host_kept_waiting(used: Usage, late_ns: int) -> bool:
@@ -70,53 +78,57 @@ class LoopProcesses:
 
     def __init__(self, counts_dir: str) -> None:
         self.counts_dir = Path(counts_dir) if counts_dir else None
-        self.files: dict[int, int] = {}  #: tid → its open schedstat file
+        self.files: dict[int, tuple[int, int]] = {}  #: tid → (pid, its open schedstat file)
+        self.passed_over: set[int] = set()  #: tids not on the loop's path (DDS's other threads)
         self.found_at = -float("inf")  #: when (monotonic s) the threads were last listed
         self.stat_file: int | None = None
 
     def _find(self) -> None:
-        """List the threads again (once a second: threads start late, and a respawned node has a new pid)."""
+        """List the threads again (once a second: threads start late, and a respawned node has a new pid); only
+        a thread not seen before has its name read."""
         self.found_at = time.monotonic()
         if self.counts_dir is None:
             return
-        pids = set()
         for path in self.counts_dir.glob(f"{PID_FILE_PREFIX}*"):
             try:
-                pids.add(int(path.read_text()))
-            except (OSError, ValueError):
-                continue
-        wanted = set()
-        for pid in pids:
-            try:
+                pid = int(path.read_text())
                 tids = [int(tid) for tid in os.listdir(f"/proc/{pid}/task")]
-            except OSError:
-                continue  # ended
+            except (OSError, ValueError):
+                continue  # ended, or half written
             for tid in tids:
+                if tid in self.files or tid in self.passed_over:
+                    continue
                 try:
                     with open(f"/proc/{pid}/task/{tid}/comm") as f:
                         if not _watched(f.read().strip()):
+                            self.passed_over.add(tid)
                             continue
-                    if tid not in self.files:
-                        self.files[tid] = os.open(f"/proc/{pid}/task/{tid}/schedstat", os.O_RDONLY)
-                    wanted.add(tid)
+                    self.files[tid] = (pid, os.open(f"/proc/{pid}/task/{tid}/schedstat", os.O_RDONLY))
                 except OSError:
                     continue
-        for tid in set(self.files) - wanted:
-            os.close(self.files.pop(tid))
 
     def usage(self) -> Sample | None:
         """Each watched thread's figures now, or None where none can be read (not Linux, no scratch folder)."""
         if time.monotonic() - self.found_at > REFIND_S:
             self._find()
         threads = {}
-        for tid, fd in list(self.files.items()):
+        for tid, (pid, fd) in list(self.files.items()):
             try:
                 fields = os.pread(fd, 128, 0).split()
             except OSError:  # the thread ended
-                os.close(self.files.pop(tid))
+                self.files.pop(tid)
+                os.close(fd)
                 continue
-            threads[tid] = (int(fields[0]), int(fields[1]))
+            threads[tid] = (pid, int(fields[0]), int(fields[1]))
         return Sample(threads, self._steal_ns()) if threads else None
+
+    def close(self) -> None:
+        for _, fd in self.files.values():
+            os.close(fd)
+        self.files.clear()
+        if self.stat_file is not None:
+            os.close(self.stat_file)
+            self.stat_file = None
 
     def _steal_ns(self) -> int:
         """The hypervisor's steal over every CPU since boot, ns (``/proc/stat``'s eighth figure, in clock ticks)."""

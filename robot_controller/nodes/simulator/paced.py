@@ -136,6 +136,7 @@ class PacedTicks:
             if gap_ns > 2 * self.period_ns:
                 self.freezes.note(gap_ns)  # frozen while it waited: the host's time, not the loop's
                 budget_ns, waited_ns = 2 * self.timeout_ns, 0
+                self.wait_usage = self.loop.usage()  # the wait starts again: so does what the host took
             else:
                 waited_ns += gap_ns
         return waited_ns

@@ -154,17 +154,19 @@ class FollowJointTrajectoryServer:
         if isinstance(tolerances, str):
             handle.abort()
             return self.action.Result(error_code=INVALID_GOAL, error_string=tolerances)
-        self.end_active("aborted", INVALID_GOAL, "preempted by a new goal")
+        self.end_active("aborted", INVALID_GOAL, "preempted by a new goal", next_goal=True)
         planner.install(taken, now_s)
         self.listen(True)
         done = Future()
         self.active = ActiveGoal(handle, done, now_s, now_s + taken.trajectory.duration_s, tolerances)
         return await done
 
-    def end_active(self, how: str, code: int, reason: str) -> None:
-        """End the goal in force (if any) now: ``succeeded``, ``aborted`` or ``canceled``, with its result."""
+    def end_active(self, how: str, code: int, reason: str, next_goal: bool = False) -> None:
+        """End the goal in force (if any) now: ``succeeded``, ``aborted`` or ``canceled``, with its result
+        (``next_goal``: one that preempts it follows, and hears the arm as it did)."""
         active, self.active = self.active, None
-        self.listen(False)
+        if not next_goal:
+            self.listen(False)
         if active is None or active.done.done():
             return
         if how == "canceled" and active.handle.is_cancel_requested:

@@ -5,6 +5,7 @@ On stand-ins for the node and the loop's processes; the real /proc reads are tes
 from types import SimpleNamespace
 
 from robot_controller.nodes.pid_controller.timing import LoopTiming
+from robot_controller.ros import loop_processes
 from robot_controller.ros.loop_processes import Sample
 
 MS = 1_000_000
@@ -17,7 +18,7 @@ class ScriptedLoop:
     def usage(self) -> Sample | None:
         """The next scripted (CPU, run-queue wait, steal), ns, as one thread's sample."""
         usage = self.usages.pop(0)
-        return None if usage is None else Sample({1: usage[:2]}, usage[2])
+        return None if usage is None else Sample({1: (1, *usage[:2])}, usage[2])
 
 
 def timing_at_100_hz(*usages: tuple[int, int, int] | None) -> LoopTiming:
@@ -27,14 +28,16 @@ def timing_at_100_hz(*usages: tuple[int, int, int] | None) -> LoopTiming:
     return timing
 
 
-def test_a_period_the_host_stretched_is_its_miss_and_one_it_did_not_is_the_loops():
+def test_a_period_the_host_stretched_is_its_miss_and_one_it_did_not_is_the_loops(monkeypatch):
+    monkeypatch.setattr(loop_processes, "_CPUS", 2)  # a host of two CPUs
+    monkeypatch.setattr(loop_processes, "_TICK_NS", 10_000_000)  # whose steal counter moves in 10 ms steps
     timing = timing_at_100_hz(
         (0, 0, 0),
         (1 * MS, 0, 0),  # 10 ms: on time
         (2 * MS, 12 * MS, 0),  # 35 ms (20 over 1.5 periods), 12 ms waiting for a CPU: not enough
-        (3 * MS, 14 * MS, 10 * MS),  # 35 ms, 2 ms waiting and 10 ms stolen: not enough either
-        (4 * MS, 34 * MS, 10 * MS),  # 35 ms, 20 ms waiting: the host's
-        (5 * MS, 34 * MS, 30 * MS),  # 35 ms, 20 ms stolen: the host's
+        (3 * MS, 12 * MS, 30 * MS),  # 35 ms, 30 ms stolen from two CPUs, in 10 ms steps: 10 ms certain, not enough
+        (4 * MS, 32 * MS, 30 * MS),  # 35 ms, 20 ms waiting: the host's
+        (5 * MS, 32 * MS, 80 * MS),  # 35 ms, 50 ms stolen: 20 ms of a CPU certain, the host's
     )
     for now_s in (0.0, 0.01, 0.045, 0.08, 0.115, 0.15):
         timing.note_host_wait(now_s)
