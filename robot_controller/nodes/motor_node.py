@@ -14,7 +14,7 @@ from robot_controller.core.metrics import EFFORT_UNITS, in_units
 from robot_controller.core.model import Actuator, effort_limits, joint_names, load_model
 from robot_controller.core.model.mujoco_model import joint_units
 from robot_controller.parameters.torque_limits import torque_limit
-from robot_controller.ros.messages import check_effort, clock_s, command_tick_s
+from robot_controller.ros.messages import check_effort, clock_s, command_tick_s, stamp_command
 from robot_controller.ros.process import run
 from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, loop_qos
 from robot_controller.ros.stack_node import StackNode
@@ -114,6 +114,10 @@ class MotorNode(StackNode):
         self.excused_s = 0.0
         applied = self.actuator.apply(checked, dt)
         self.effort_msg.data = applied.tolist()
+        if tick_s is not None:  # the tick goes on with it: a paced world drops an effort that comes too late
+            stamp_command(self.effort_msg, tick_s)
+        else:
+            self.effort_msg.layout.dim = []
         self.effort_pub.publish(self.effort_msg)
 
     def timeout_check(self) -> None:
@@ -136,6 +140,7 @@ class MotorNode(StackNode):
         self.actuator.reset()
         self.request_brake(True)  # before the zero torque: it must never reach an unbraked, gravity-loaded arm
         self.effort_msg.data = [0.0] * self.joint_count
+        self.effort_msg.layout.dim = []  # the stop's own torque: no tick's command
         self.effort_pub.publish(self.effort_msg)
 
     def request_brake(self, on: bool) -> None:

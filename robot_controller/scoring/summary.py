@@ -232,6 +232,8 @@ def _rate_line(values: dict[str, Any]) -> str:
         text += f", {_count(late, 'late effort')} (the world waited for the loop)"
     if host_late := values.get("late_efforts_host"):
         text += f"; {_count(host_late, 'effort')} the host made late (not counted)"
+    if stale := values.get("stale_efforts"):
+        text += f"; {_count(stale, 'stale effort')} dropped (the world had moved on)"
     return text
 
 

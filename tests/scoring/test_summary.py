@@ -61,10 +61,12 @@ def test_off_lockstep_the_rate_and_misses_are_said_and_faults_only_when_there_we
     assert "faults" not in rows and "host freezes" not in rows and "brakes" not in rows
     paced = LOCKSTEP | {"clock": "sim_paced", "late_efforts": 2, "host_freezes": 3, "host_freeze_ms_max": 41.2}
     paced |= {"host_freeze_ms_total": 80.0, "watchdog_ticks": 4, "stopped_ticks": 1, "unrecorded_messages": 3}
-    paced |= {"brake_engagements": 1, "braked_s": 0.4612, "late_efforts_host": 7}
+    paced |= {"brake_engagements": 1, "braked_s": 0.4612, "late_efforts_host": 7, "stale_efforts": 1}
     rows = dict(summary.run_rows(paced))
     assert rows["rate"].startswith("100.0 Hz, 0 missed cycles, 2 late efforts")
-    assert rows["rate"].endswith("; 7 efforts the host made late (not counted)")
+    assert rows["rate"].endswith(
+        "; 7 efforts the host made late (not counted); 1 stale effort dropped (the world had moved on)"
+    )
     assert rows["faults"] == "watchdog 4 ticks, stopped 1 tick"
     assert rows["host freezes"].startswith("3, the longest 41 ms, 80 ms in all")
     assert rows["brakes"] == "held the arm 1 time, 0.46 s in all (not scored)"

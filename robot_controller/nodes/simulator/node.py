@@ -20,7 +20,7 @@ from robot_controller.nodes.simulator.lockstep import LockstepTicks
 from robot_controller.nodes.simulator.paced import PacedTicks
 from robot_controller.nodes.simulator.pacing import Pacing
 from robot_controller.nodes.world_state import WORLD_STATE_ENV, WorldState
-from robot_controller.ros.messages import check_effort
+from robot_controller.ros.messages import check_effort, command_tick_s
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import COUNTS_DIR_ENV
 from robot_controller.ros.qos import loop_qos
@@ -107,6 +107,10 @@ class Simulator(StackNode):
                 f"/sim/effort {checked.tolist()} beyond the URDF's effort limit {limit.tolist()}: clamped",
             )
             checked = np.clip(checked, -limit, limit)
+        if isinstance(self.ticks, PacedTicks):
+            tick_s = command_tick_s(msg)  # the motor passes the controller's tick on
+            self.ticks.take_effort(checked, None if tick_s is None else round(tick_s * 1e9))
+            return
         if self.ticks is not None:
             self.ticks.take_effort(checked)
             return

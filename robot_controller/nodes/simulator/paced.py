@@ -7,9 +7,11 @@ arrives, waiting for it up to ``drive_timeout_s`` of this process's own running 
 period past its deadline is the loop's miss (``late_efforts``: the world waited for it), unless the host took
 that much time from the loop meanwhile (its processes waited for a CPU, or the hypervisor stole it:
 ``late_efforts_host``, ``ros/loop_processes``); none within the drive timeout brakes the arm (category 0), and
-the world goes on without waiting while the brakes hold. Time this process did not run (a wake-up or a wait
-more than a period late) is a freeze of the host, or of the simulator alone: the world paused with it, and
-nothing counts against the loop."""
+the world goes on without waiting while the brakes hold. An effort computed for a tick more than a period
+before the world's (``STALE_PERIODS``: one held up while the brakes took the arm) is dropped, never applied nor
+releasing them (``stale_efforts``): it answers a world that has moved on. Time this process did not run (a
+wake-up or a wait more than a period late) is a freeze of the host, or of the simulator alone: the world paused
+with it, and nothing counts against the loop."""
 
 from __future__ import annotations
 
@@ -31,8 +33,16 @@ from robot_controller.ros.stack_node import StackNode
 
 #: An effort this long (control periods) past its tick's deadline is the loop's miss: the world waited for it.
 LATE_PERIODS = 1.0
+#: An effort for a tick more than this many control periods before the world's is stale: dropped. The world waits
+#: for each tick's effort, so only one held up past the drive timeout's brakes is that old. Applied, it would release
+#: them with a torque computed on a reading that knew nothing of them (measured: 10 N·m, 0.17 s late).
+STALE_PERIODS = 1.0
 #: How the world's figures read in its closing line.
-SAID = {"late_efforts": "late efforts (the loop's own)", "late_efforts_host": "late efforts the host made late"}
+SAID = {
+    "late_efforts": "late efforts (the loop's own)",
+    "late_efforts_host": "late efforts the host made late",
+    "stale_efforts": "stale efforts dropped",
+}
 
 
 class FreezeLog:
@@ -83,6 +93,8 @@ class PacedTicks:
         self.late_efforts = 0  #: ticks the world waited for their effort, or went without it: the loop's own misses
         self.freezes = FreezeLog()
         self.late_for_host = 0  #: late efforts the host made late (the loop waited that long for a CPU): not counted
+        self.stale_ns = round(STALE_PERIODS * 1e9 / rate_hz)  #: world ns
+        self.stale_efforts = 0  #: efforts dropped: computed for a tick more than ``stale_ns`` before the world's
         self.loop = LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
         self.wait_usage: Sample | None = None  #: the loop's usage when the world began to wait for a tick's effort
         self.effort_arrived = threading.Condition(node.lock)
@@ -93,10 +105,19 @@ class PacedTicks:
         self.thread = threading.Thread(target=self.pace, args=(rt_priority,), name="paced world", daemon=True)
         self.thread.start()
 
-    def take_effort(self, effort: np.ndarray) -> None:
+    def take_effort(self, effort: np.ndarray, tick_ns: int | None = None) -> None:
         """The latest effort is the one in force from the next step (one after the drive timeout too: it releases
-        the brakes)."""
+        the brakes), unless computed for a tick (``tick_ns``, world ns; None: not said) that is stale."""
         with self.node.lock:
+            world_ns = self.node.steps_done * self.node.physics_dt_ns
+            if tick_ns is not None and world_ns - tick_ns > self.stale_ns:
+                self.stale_efforts += 1
+                self.node.warn_throttled(
+                    "stale_effort",
+                    f"/sim/effort for t = {tick_ns * 1e-9:.2f} s dropped at t = {world_ns * 1e-9:.2f} s: "
+                    "computed before the world moved on (a stale effort is no effort)",
+                )
+                return
             self.ticks.accept(effort)
             self.effort_in = True
             self.effort_arrived.notify()
@@ -202,6 +223,7 @@ class PacedTicks:
             "the world paused with it",
             late_efforts=self.late_efforts,
             late_efforts_host=self.late_for_host,
+            stale_efforts=self.stale_efforts,
         )
 
     def report(self) -> None:

@@ -80,6 +80,9 @@ class StandInTicks:
     def advance(self) -> None:
         self.advanced += 1
 
+    def accept(self, effort) -> None:
+        self.accepted = effort
+
 
 class StandInBrakes:
     def __init__(self) -> None:
@@ -107,6 +110,7 @@ def paced_at_100_hz():
 
     paced = object.__new__(PacedTicks)  # the decisions only: no node, no thread
     paced.node = SimpleNamespace(
+        lock=threading.Lock(),
         brakes=StandInBrakes(),
         warn_throttled=lambda key, text: None,
         steps_done=0,
@@ -117,9 +121,10 @@ def paced_at_100_hz():
     paced.ticks = StandInTicks()
     paced.period_ns, paced.timeout_ns, paced.late_ns = 10_000_000, 50_000_000, 10_000_000
     paced.effort_in, paced.late_efforts, paced.late_for_host = False, 0, 0
+    paced.stale_ns, paced.stale_efforts = 10_000_000, 0
     paced.loop, paced.wait_usage = StandInLoop(), None
     paced.freezes = FreezeLog()
-    paced.effort_arrived = threading.Condition()
+    paced.effort_arrived = threading.Condition(paced.node.lock)
     paced.stopping = threading.Event()
     return paced
 
@@ -189,6 +194,21 @@ def test_no_effort_within_the_drive_timeout_brakes_and_the_world_goes_on_without
     assert paced.node.brakes.reasons == {"drive_timeout"} and paced.ticks.advanced == 1 and paced.late_efforts == 1
     with paced.effort_arrived:
         assert paced.wait_for_effort(time.monotonic_ns()) == 0  # braked: no more waiting
+
+
+def test_an_effort_held_up_while_the_brakes_took_the_arm_is_dropped_and_a_fresh_one_releases_them():
+    """Seen in a run beside a flood: the effort for t = 1.59 s, 10 N·m on a reading the brakes had just stopped,
+    reached the world at 1.76 s; applied, it released the brakes with a kick (30 mrad)."""
+    import numpy as np
+
+    paced = paced_at_100_hz()
+    paced.node.steps_done = 1760  # the world, at 1 ms a step, is at 1.76 s
+    paced.take_effort(np.array([10.0]), tick_ns=1_590_000_000)
+    assert paced.stale_efforts == 1 and not paced.effort_in and not hasattr(paced.ticks, "accepted")
+    paced.take_effort(np.array([2.0]), tick_ns=1_750_000_000)  # computed for the tick before the world's: in time
+    assert paced.effort_in and paced.ticks.accepted.tolist() == [2.0]
+    paced.take_effort(np.array([3.0]))  # a controller that does not stamp its ticks (the tutorial's): taken
+    assert paced.ticks.accepted.tolist() == [3.0] and paced.stale_efforts == 1
 
 
 def test_freezes_are_counted_with_their_longest_and_total():
