@@ -69,6 +69,7 @@ def _run(args: argparse.Namespace) -> int:
 def run(options: RunOptions, out: Path | None) -> int:
     """Run, record and score the loop (part of the graph without the simulator: say what it ran)."""
     from robot_controller import robots
+    from robot_controller.core import metrics
     from robot_controller.runner import launcher, plan
     from robot_controller.scoring import plots, report, summary
 
@@ -117,9 +118,11 @@ def run(options: RunOptions, out: Path | None) -> int:
         wall.update(result.usage)
     else:  # a paced world's freezes and its loop's late efforts, or the wall clock's
         values.update(result.world_clock)
-        if result.host_missed:  # periods the host stretched (the loop waited for a CPU): not the loop's own misses
-            values["missed_cycles_host"] = result.host_missed
-            values["missed_cycles"] = max(0, values.get("missed_cycles", 0) - result.host_missed)
+        # Periods the host stretched (the loop waited for a CPU): not the loop's own misses, among those scored.
+        host_missed = metrics.periods_ending_within(result.host_missed_ends_s, recording.state["time_s"])
+        if host_missed:
+            values["missed_cycles_host"] = host_missed
+            values["missed_cycles"] = max(0, values.get("missed_cycles", 0) - host_missed)
         values.update(result.clocks)  # a split run's hosts' clock offset
         values["realtime_requested"] = options.realtime
         values.update(result.usage)

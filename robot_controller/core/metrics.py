@@ -163,6 +163,16 @@ def rate_metrics(tick_time_s: np.ndarray, nominal_period_s: float) -> dict[str, 
     }
 
 
+def periods_ending_within(ends_s: Sequence[float], tick_time_s: np.ndarray) -> int:
+    """How many of the periods that ended at ``ends_s`` (s) are among those of ``tick_time_s``'s ticks (the
+    periods :func:`rate_metrics` scores: each ends at a tick after the first)."""
+    t = np.asarray(tick_time_s, dtype=float)
+    if len(t) < 2:
+        return 0
+    ends = np.asarray(ends_s, dtype=float)
+    return int(np.count_nonzero((ends > t[0]) & (ends <= t[-1])))
+
+
 def latency_metrics(latency_s: np.ndarray, prefix: str = "latency") -> dict[str, float]:
     lat_ms = np.asarray(latency_s, dtype=float) * 1e3
     lat_ms = lat_ms[np.isfinite(lat_ms)]

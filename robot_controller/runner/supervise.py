@@ -216,7 +216,8 @@ class RunResult:
     started: float | None = None  #: monotonic time the loop closed
     sim_start: float = 0.0  #: the sim time the loop closed at
     world_clock: dict[str, float] = field(default_factory=dict)  #: a paced world's freezes and late efforts
-    host_missed: int = 0  #: the controller's missed cycles the host caused (wall clock): not the loop's own
+    #: when (tick s) each missed cycle the host caused ended (the controller's, wall clock): not the loop's own
+    host_missed_ends_s: list[float] = field(default_factory=list)
     clocks: dict[str, float] = field(default_factory=dict)  #: a split run's clock offset and round trip, ms
 
     def raise_if_interrupted(self) -> None:

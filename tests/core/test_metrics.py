@@ -45,6 +45,14 @@ def test_rate_metrics():
     assert out["control_rate_hz"] == pytest.approx(999 / (9.99 + 0.02))
 
 
+def test_only_the_host_misses_among_the_scored_periods_are_counted():
+    ticks = np.arange(1.0, 2.0, 0.01)
+    # Before the first recorded tick, at it (no period of the recording ends there), inside, at the last, after.
+    count = metrics.periods_ending_within([0.5, 1.0, 1.5, ticks[-1], 2.5], ticks)
+    assert count == 2 and type(count) is int  # (a NumPy integer is no JSON)
+    assert metrics.periods_ending_within([1.5], ticks[:1]) == 0
+
+
 def test_step_metrics_on_a_second_order_system():
     zeta, wn = 0.5, 10.0
     t = np.linspace(0, 3, 30001)

@@ -62,12 +62,16 @@ class PidControllerNode(StackNode):
         self.create_subscription(Bool, "/estop", lambda msg: self.controller.halt(bool(msg.data)), ESTOP_QOS)
         self.timer = None
         self.timer_period = 0.0
+        # The drive's status word: its brakes. While they hold, what is commanded does not move the arm: the
+        # reference starts again from the measurement. In lockstep, only once their start has been heard to end:
+        # the tick at which the first effort's release arrives is a race, and a run is the same to the bit every
+        # time; the brakes of a paced world's drive timeout or of an e-stop come with a fault, which is no race.
+        self.brakes_heard_released = not self.lockstep
+        self.create_subscription(Float64MultiArray, "/sim/brakes", self.brakes_callback, LATEST_QOS)
         if self.lockstep:
             self.pairing = LockstepPairing(self)
         else:
             self.pairing = None
-            # The drive's status word: its brakes. Not in lockstep, where its arrival against the ticks is a race.
-            self.create_subscription(Float64MultiArray, "/sim/brakes", self.brakes_callback, LATEST_QOS)
             self.set_timer_period(self.timer_period_s(self.params))
         self.status.log_gains()
 
@@ -192,7 +196,11 @@ class PidControllerNode(StackNode):
     def brakes_callback(self, msg: Float64MultiArray) -> None:
         values = np.asarray(msg.data, dtype=float)
         if values.size == self.joint_count and np.all(np.isfinite(values)):
-            self.controller.brakes(bool(np.any(values > 0.5)))
+            engaged = bool(np.any(values > 0.5))
+            if not engaged:
+                self.brakes_heard_released = True
+            if self.brakes_heard_released:
+                self.controller.brakes(engaged)
 
     def tick(self, now_s: float) -> None:
         out = self.controller.update(now_s)

@@ -41,7 +41,7 @@ class LoopTiming:
         # Wall clock: which missed cycles the host caused (the loop's processes kept from a CPU that long).
         self.loop = None if node.lockstep else LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
         self.last_tick: tuple[float, Sample | None] | None = None  #: (time s, the loop's usage) at the last tick
-        self.missed_for_host = 0  #: missed cycles the host made: not the loop's own
+        self.missed_for_host: list[float] = []  #: when (tick s) each missed period the host made ended
         self.pub = node.gated_publisher(DiagnosticArray, "/diagnostics", consumer=False)
         if not node.lockstep:
             # When each command reached the drive: the command path's delay, for the latency guard.
@@ -68,15 +68,17 @@ class LoopTiming:
         if self.last_tick is not None:
             last_s, last_usage = self.last_tick
             over_s = now_s - last_s - metrics.MISSED_PERIODS * self.controller.config.control_period_s
-            if over_s > 0 and usage is not None and last_usage is not None:
-                self.missed_for_host += host_kept_waiting(usage - last_usage, round(over_s * 1e9))
+            measured = over_s > 0 and usage is not None and last_usage is not None
+            if measured and host_kept_waiting(usage - last_usage, round(over_s * 1e9)):
+                self.missed_for_host.append(now_s)
         self.last_tick = (now_s, usage)
 
     def leave_host_misses(self) -> None:
-        """At the end: the missed cycles the host made, for metrics.json (the run's scratch folder, if any)."""
+        """At the end: when each missed cycle the host made ended, for metrics.json, which counts those within the
+        ticks it scores (the run's scratch folder, if any)."""
         counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
         if counts_dir and self.loop is not None:
-            (Path(counts_dir) / HOST_MISSED_FILE).write_text(json.dumps({"missed_cycles_host": self.missed_for_host}))
+            (Path(counts_dir) / HOST_MISSED_FILE).write_text(json.dumps({"ends_s": self.missed_for_host}))
 
     def receipts_callback(self, msg: Float64MultiArray) -> None:
         """The drive's receipts, rows ``[receipt_time_s, command…]``: each paired with the latest

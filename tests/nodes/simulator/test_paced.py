@@ -68,6 +68,17 @@ def test_the_controller_frozen_alone_is_its_stall_and_the_arm_stays_in_its_band(
     assert figures["brake_engaged"] and figures["max_deviation_rad"] <= 0.1, figures
 
 
+def test_the_motor_frozen_alone_brakes_the_arm_and_the_controller_takes_it_back_without_a_swing(tmp_path, ros_domain):
+    """The controller goes on ticking while its commands stop reaching the arm: it must hear the brakes (and
+    re-acquire from where they held the arm), and the commands the freeze held up must never be applied.
+    Before both, a 0.3 s freeze mid-swing left the arm 0.87 rad off its reference, driven at the 10 N·m limit."""
+    metrics, output, _ = frozen_run(tmp_path, ("motor_node",), 0.3)
+    assert metrics["brake_engagements"] >= 1 and metrics["stale_efforts"] >= 1, metrics
+    assert "a stale effort is no effort" in output, run_said(output)
+    assert metrics["tracking_max_rad"] <= 0.05, metrics
+    assert metrics["peak_torque_nm"] < 10.0, metrics  # the arm's limit: never driven there to catch up
+
+
 # --- the pacing thread's decisions at a deadline, on stand-ins for the node and its lockstep ticks ---
 
 
