@@ -114,7 +114,7 @@ class MotorNode(StackNode):
         self.excused_s = 0.0
         applied = self.actuator.apply(checked, dt)
         self.effort_msg.data = applied.tolist()
-        if tick_s is not None:  # the tick goes on with it: a paced world drops an effort that comes too late
+        if self.lockstep and tick_s is not None:  # the tick goes on: a paced world drops an effort come too late
             stamp_command(self.effort_msg, tick_s)
         else:
             self.effort_msg.layout.dim = []

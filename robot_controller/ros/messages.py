@@ -106,6 +106,23 @@ def check_effort(data: Sequence[float], joint_count: int) -> np.ndarray | str:
 LABEL_PREFIX = "tick_ns:"
 
 
+#: ``/sim/brakes``' label: ``engaged:`` and why they hold, comma-separated (``start``, ``drive_timeout``,
+#: ``requested``, ``estop``; nothing when released).
+BRAKES_LABEL_PREFIX = "engaged:"
+
+
+def brakes_label(reasons: set[str]) -> str:
+    return BRAKES_LABEL_PREFIX + ",".join(sorted(reasons))
+
+
+def brake_reasons(msg: Float64MultiArray) -> set[str] | None:
+    """Why ``msg``'s brakes hold, as its label says (None: it does not say)."""
+    if not msg.layout.dim or not msg.layout.dim[0].label.startswith(BRAKES_LABEL_PREFIX):
+        return None
+    said = msg.layout.dim[0].label[len(BRAKES_LABEL_PREFIX) :]
+    return set(said.split(",")) if said else set()
+
+
 def stamp_to_s(stamp: Any) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
 

@@ -5,6 +5,8 @@ import pytest
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller.ros.messages import (
+    brake_reasons,
+    brakes_label,
     check_effort,
     check_joint_state,
     check_trajectory,
@@ -58,3 +60,14 @@ def test_a_command_without_the_stamp_says_nothing():
     assert command_tick_s(labelled) is None
     labelled.layout.dim[0].label = "tick_ns:soon"
     assert command_tick_s(labelled) is None
+
+
+def test_the_brakes_say_why_they_hold_and_a_label_not_ours_says_nothing():
+    msg = Float64MultiArray(data=[1.0])
+    msg.layout.dim = [MultiArrayDimension(label=brakes_label({"start", "estop"}), size=1, stride=1)]
+    assert brake_reasons(msg) == {"start", "estop"}
+    msg.layout.dim[0].label = brakes_label(set())
+    assert brake_reasons(msg) == set()
+    msg.layout.dim[0].label = "engaged"  # an older simulator's
+    assert brake_reasons(msg) is None
+    assert brake_reasons(Float64MultiArray(data=[0.0])) is None

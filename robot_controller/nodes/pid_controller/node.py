@@ -23,7 +23,14 @@ from robot_controller.nodes.pid_controller.status import StartWaits, StatusRepor
 from robot_controller.nodes.pid_controller.timing import LoopTiming
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model, model_overridden
-from robot_controller.ros.messages import check_joint_state, check_trajectory, clock_s, stamp_command, stamp_to_s
+from robot_controller.ros.messages import (
+    brake_reasons,
+    check_joint_state,
+    check_trajectory,
+    clock_s,
+    stamp_command,
+    stamp_to_s,
+)
 from robot_controller.ros.process import run
 from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS, LATEST_QOS, LOCKSTEP_READINGS_READER_QOS, loop_qos
 from robot_controller.ros.stack_node import StackNode
@@ -63,10 +70,9 @@ class PidControllerNode(StackNode):
         self.timer = None
         self.timer_period = 0.0
         # The drive's status word: its brakes. While they hold, what is commanded does not move the arm: the
-        # reference starts again from the measurement. In lockstep, only once their start has been heard to end:
-        # the tick at which the first effort's release arrives is a race, and a run is the same to the bit every
-        # time; the brakes of a paced world's drive timeout or of an e-stop come with a fault, which is no race.
-        self.brakes_heard_released = not self.lockstep
+        # reference starts again from the measurement. In lockstep, not the start's: the tick at which the first
+        # effort's release arrives is a race, and a run without faults is the same to the bit every time (the
+        # paced world's drive-timeout brakes and an e-stop's are heard, at a tick that is a race: a fault's).
         self.create_subscription(Float64MultiArray, "/sim/brakes", self.brakes_callback, LATEST_QOS)
         if self.lockstep:
             self.pairing = LockstepPairing(self)
@@ -197,10 +203,9 @@ class PidControllerNode(StackNode):
         values = np.asarray(msg.data, dtype=float)
         if values.size == self.joint_count and np.all(np.isfinite(values)):
             engaged = bool(np.any(values > 0.5))
-            if not engaged:
-                self.brakes_heard_released = True
-            if self.brakes_heard_released:
-                self.controller.brakes(engaged)
+            if self.lockstep and engaged and brake_reasons(msg) == {"start"}:
+                return
+            self.controller.brakes(engaged)
 
     def tick(self, now_s: float) -> None:
         out = self.controller.update(now_s)

@@ -1,6 +1,7 @@
 """The simulator's holding brakes (docs/design.md §4): on before the first effort, on e-stop (``/estop``
 or ``/simulator/estop``), on the motor's request (``/sim/brake``) and after ``drive_timeout_s`` without
-efforts. Their state goes out on ``/sim/brakes`` (1 = engaged) on every change and twice a second."""
+efforts. Their state goes out on ``/sim/brakes`` (1 = engaged, and why in its label) on every change, and twice a second
+on the wall clock."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import numpy as np
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import SetBool
 
+from robot_controller.ros.messages import brakes_label
 from robot_controller.ros.process import stop_requested
 from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS
 from robot_controller.ros.stack_node import StackNode
@@ -52,6 +54,7 @@ class Brakes:
 
     def report(self) -> None:
         self.msg.data = [1.0 if self.reasons else 0.0] * self.node.joint_count
+        self.msg.layout.dim[0].label = brakes_label(self.reasons)  # why: the start's are a lockstep controller's race
         self.pub.publish(self.msg)
 
     def report_periodically(self, now_ns: int) -> None:

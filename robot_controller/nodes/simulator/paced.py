@@ -95,6 +95,7 @@ class PacedTicks:
         self.late_for_host = 0  #: late efforts the host made late (the loop waited that long for a CPU): not counted
         self.stale_ns = round(STALE_PERIODS * 1e9 / rate_hz)  #: world ns
         self.stale_efforts = 0  #: efforts dropped: computed for a tick more than ``stale_ns`` before the world's
+        self.loop_heard = False  #: a stale effort came while the drive timeout's brakes hold: wait for the next
         self.loop = LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
         self.wait_usage: Sample | None = None  #: the loop's usage when the world began to wait for a tick's effort
         self.effort_arrived = threading.Condition(node.lock)
@@ -111,12 +112,16 @@ class PacedTicks:
         with self.node.lock:
             world_ns = self.node.steps_done * self.node.physics_dt_ns
             if tick_ns is not None and world_ns - tick_ns > self.stale_ns:
-                self.stale_efforts += 1
-                self.node.warn_throttled(
-                    "stale_effort",
-                    f"/sim/effort for t = {tick_ns * 1e-9:.2f} s dropped at t = {world_ns * 1e-9:.2f} s: "
-                    "computed before the world moved on (a stale effort is no effort)",
-                )
+                # The loop is alive, only slow: the next tick waits for its effort again, as before the brakes
+                # (moving on without waiting, the world would leave a loop slower than a period braked for good).
+                self.loop_heard = True
+                if not self.past_the_run():  # in the margin after the run the nodes may stop: say nothing
+                    self.stale_efforts += 1
+                    self.node.warn_throttled(
+                        "stale_effort",
+                        f"/sim/effort for t = {tick_ns * 1e-9:.2f} s dropped at t = {world_ns * 1e-9:.2f} s: "
+                        "computed before the world moved on (a stale effort is no effort)",
+                    )
                 return
             self.ticks.accept(effort)
             self.effort_in = True
@@ -140,11 +145,13 @@ class PacedTicks:
 
     def wait_for_effort(self, since_ns: int, frozen: bool = False) -> int:
         """Wait (lock held) for the tick's effort, up to the drive timeout of this process's own running time (none
-        before the first effort, nor while the brakes hold for its absence); the time waited, ns. After a freeze
+        before the first effort, nor while the brakes hold for its absence unless a stale effort has come since: the
+        loop is alive); the time waited, ns. After a freeze
         the wait starts again with twice the timeout: the loop's messages may wait for DDS's repair (its 50 ms
         heartbeat), and the world, waiting, stays still."""
         ticks, brakes = self.ticks, self.node.brakes
-        if not ticks.efforts_applied or ticks.ended or "drive_timeout" in brakes.reasons:
+        braked_for_absence = "drive_timeout" in brakes.reasons and not self.loop_heard
+        if not ticks.efforts_applied or ticks.ended or braked_for_absence:
             return 0
         budget_ns = self.timeout_ns * (2 if frozen else 1)
         if not self.effort_in:
@@ -175,6 +182,7 @@ class PacedTicks:
             ticks.publish()
             return deadline_ns + self.period_ns
         counted = not self.past_the_run()  # in the margin after the run the nodes may stop: brake, say nothing
+        self.loop_heard = False  # waited for once: if nothing fresh came, the world goes on without waiting again
         if not self.effort_in:
             self.late_efforts += counted
             brakes = self.node.brakes

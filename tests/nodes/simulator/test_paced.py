@@ -132,7 +132,7 @@ def paced_at_100_hz():
     paced.ticks = StandInTicks()
     paced.period_ns, paced.timeout_ns, paced.late_ns = 10_000_000, 50_000_000, 10_000_000
     paced.effort_in, paced.late_efforts, paced.late_for_host = False, 0, 0
-    paced.stale_ns, paced.stale_efforts = 10_000_000, 0
+    paced.stale_ns, paced.stale_efforts, paced.loop_heard = 10_000_000, 0, False
     paced.loop, paced.wait_usage = StandInLoop(), None
     paced.freezes = FreezeLog()
     paced.effort_arrived = threading.Condition(paced.node.lock)
@@ -207,7 +207,7 @@ def test_no_effort_within_the_drive_timeout_brakes_and_the_world_goes_on_without
         assert paced.wait_for_effort(time.monotonic_ns()) == 0  # braked: no more waiting
 
 
-def test_an_effort_held_up_while_the_brakes_took_the_arm_is_dropped_and_a_fresh_one_releases_them():
+def test_an_effort_held_up_while_the_brakes_took_the_arm_is_dropped_and_a_fresh_one_is_taken():
     """Seen in a run beside a flood: the effort for t = 1.59 s, 10 N·m on a reading the brakes had just stopped,
     reached the world at 1.76 s; applied, it released the brakes with a kick (30 mrad)."""
     import numpy as np
@@ -220,6 +220,25 @@ def test_an_effort_held_up_while_the_brakes_took_the_arm_is_dropped_and_a_fresh_
     assert paced.effort_in and paced.ticks.accepted.tolist() == [2.0]
     paced.take_effort(np.array([3.0]))  # a controller that does not stamp its ticks (the tutorial's): taken
     assert paced.ticks.accepted.tolist() == [3.0] and paced.stale_efforts == 1
+
+
+def test_a_loop_slower_than_a_period_is_waited_for_again_once_its_stale_effort_shows_it_alive():
+    """Braked for the drive timeout, the world goes on without waiting: a loop 30 ms slow would send only stale
+    efforts, and stay braked for good. Its first stale effort makes the next tick wait for its effort again."""
+    import numpy as np
+
+    paced = paced_at_100_hz()
+    paced.node.brakes.reasons.add("drive_timeout")
+    paced.node.steps_done = 2000
+    with paced.effort_arrived:
+        assert paced.wait_for_effort(time.monotonic_ns()) == 0  # braked, nothing heard: no waiting
+    paced.take_effort(np.array([1.0]), tick_ns=1_970_000_000)
+    assert paced.stale_efforts == 1 and paced.loop_heard
+    with paced.effort_arrived:
+        waited_ns = paced.wait_for_effort(time.monotonic_ns())
+    assert waited_ns >= paced.timeout_ns or paced.freezes.count  # it waited (a host freeze meanwhile restarts it)
+    paced.tick(deadline_ns=0, now_ns=waited_ns, waited_ns=waited_ns)
+    assert not paced.loop_heard  # none came: the world goes on without waiting again
 
 
 def test_freezes_are_counted_with_their_longest_and_total():
