@@ -42,7 +42,9 @@ def test_a_recorder_stuck_or_killed_at_the_end_of_a_lockstep_run_leaves_a_salvag
     assert recorder is not None, output[-3000:]
     assert verb.returncode == 0, output[-3000:]
     assert "Traceback" not in output
-    warnings = [line for line in said if "WARNING" in line]
+    # One warning for the recorder. A node whose DDS teardown then hangs (a reader gone mid-exchange; seen beside a
+    # CPU hog: pid_controller) is ended by its alarm and said apart: its work was done, the run is whole.
+    warnings = [line for line in said if "WARNING" in line and "teardown of" not in line]
     assert len(warnings) == 1 and "the recorder ended" in warnings[0], warnings
     assert (out / "bag.torn").is_dir() and (out / "bag" / "metadata.yaml").is_file()
     assert json.loads((out / "metrics.json").read_text())["control_ticks"] > 50
