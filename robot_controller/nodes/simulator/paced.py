@@ -9,7 +9,8 @@ that much time from the loop meanwhile (its processes waited for a CPU, or the h
 ``late_efforts_host``, ``ros/loop_processes``); none within the drive timeout brakes the arm (category 0), and
 the world goes on without waiting while the brakes hold. An effort computed for a tick more than a period
 before the world's (``STALE_PERIODS``: one held up while the brakes took the arm) is dropped, never applied nor
-releasing them (``stale_efforts``): it answers a world that has moved on. Time this process did not run (a
+releasing them (``stale_efforts``): it answers a world that has moved on; it shows the loop alive, so the next
+tick waits for its effort again. Time this process did not run (a
 wake-up or a wait more than a period late) is a freeze of the host, or of the simulator alone: the world paused
 with it, and nothing counts against the loop."""
 
