@@ -13,8 +13,9 @@ import pytest
 from std_msgs.msg import Float64MultiArray
 
 from robot_controller.scoring import report
+from robot_controller.tools import graph
 from tests import rostools
-from tests.rostools import RosProbe, run_said, wait_for
+from tests.rostools import RosProbe, run_said
 
 pytestmark = pytest.mark.ros
 
@@ -47,8 +48,11 @@ def test_a_push_is_applied_recorded_and_rejected(tmp_path, ros_domain):
     try:
         # What the simulator must drop, each with a reason: too short, NaN, a negative or too long duration.
         bad = probe.node.create_publisher(Float64MultiArray, "/sim/disturbance", 10)
-        wait_for(lambda: bad.get_subscription_count() >= 2, 20, "the simulator and recorder to hear the peer")
-        time.sleep(0.5)
+        # The tool's own wait: both sides of discovery settled, the recorder's too (a writer that has matched a
+        # reader may still be unknown to it: a sample sent then is lost to that reader).
+        since = time.monotonic()
+        heard = graph.wait_until_heard(probe.node, bad, "/sim/disturbance", "simulator", since=since, wait_s=20)
+        assert heard, "the simulator and recorder did not hear the peer in 20 s"
         for data in ([TORQUE_NM], [float("nan"), 0.3], [TORQUE_NM, -0.3], [TORQUE_NM, 61.0]):
             bad.publish(Float64MultiArray(data=data))
             time.sleep(0.1)  # each heard (the simulator keeps only the newest)
