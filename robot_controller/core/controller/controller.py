@@ -307,8 +307,8 @@ class JointController:
             return self._stop(now_s, ReferenceSource.SENSOR_STOP)
         self._rest_s.pop(ReferenceSource.SENSOR_STOP, None)
         if self._reference.reacquire_pending:
-            self._restart_from_measurement(now_s)
-        position, velocity = self._estimate_at_tick(now_s)
+            self._restart_from_measurement(now_s, braked)
+        position, velocity = self._state.held(now_s, self._readings) if braked else self._estimate_at_tick(now_s)
         reference = self._reference.at_tick(now_s, position, config)
         return self._apply_law(now_s, position, velocity, reference)
 
@@ -316,12 +316,16 @@ class JointController:
         """The arm's ``(position rad, velocity rad/s)`` at ``now_s``: the reading, filtered, advanced to the tick."""
         return self._state.at_tick(now_s, self._readings, self.config.latency_compensation)
 
-    def _restart_from_measurement(self, now_s: float) -> None:
+    def _restart_from_measurement(self, now_s: float, braked: bool = False) -> None:
         """A fault has cleared (or the loop is starting): forget the law's and the filter's state,
-        and lead the arm from where the reading says it is onto the trajectory, if there is a fresh
-        one (otherwise the reference holds the arm, and this is tried again next tick)."""
+        and lead the arm from where the reading says it is (``braked``: held there, at rest) onto the
+        trajectory, if there is a fresh one (otherwise the reference holds the arm, and this is tried
+        again next tick)."""
         self._state.reset()
-        position, velocity = StateAtTick.reading_alone(now_s, self._readings, self.config.latency_compensation)
+        if braked:
+            position, velocity = self._state.held(now_s, self._readings)
+        else:
+            position, velocity = StateAtTick.reading_alone(now_s, self._readings, self.config.latency_compensation)
         state = self._law_state(position, velocity, None)
         if self.plugin is not None:
             self.plugin.reset(state, now_s)

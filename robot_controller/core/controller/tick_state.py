@@ -192,6 +192,15 @@ class StateAtTick:
             position = position + velocity * clipped_age_s(now_s, readings.stamp_s)
         return position, velocity
 
+    def held(self, now_s: float, readings: Readings) -> tuple[np.ndarray, np.ndarray]:
+        """The arm as the drive's brakes hold it: where the latest reading put it, at rest. A reading taken
+        before they caught it is not advanced on its velocity or the model: the arm stood since (advanced, one
+        taken 40 ms before a brake at 3 rad/s put the arm 0.11 rad from where it stood)."""
+        position = readings.latest[0]
+        velocity = np.zeros_like(position)
+        self.latest = (position, velocity, now_s)
+        return position, velocity
+
     # --- commands issued ------------------------------------------------------------
 
     def remember_command(self, now_s: float, command: np.ndarray) -> None:

@@ -96,6 +96,23 @@ def test_while_the_brakes_hold_the_reference_restarts_from_the_arm_every_tick():
     assert outs[-1].status is Status.OK
 
 
+def test_a_reading_from_before_the_brakes_is_where_they_hold_the_arm_not_advanced_on_its_speed():
+    """The controller frozen mid-swing: the world brakes the arm and goes on; on its return the newest reading
+    is from before the brakes. Advanced on its 3 rad/s it put the arm 0.12 rad on (a 0.11 rad error in CI)."""
+    c = tracking(speed=3.0, latency_compensation=True)  # the last reading at tick 16, at 3 rad/s
+    c.brakes(True)
+    t = 20 * PERIOD  # four periods on (inside the watchdog's five), no reading since
+    c.set_reference(t, one(3.0 * t), one(3.0), one(0.0), sample_time_s=t)
+    out = c.update(t)
+    assert out.status is Status.REACQUIRING and out.reference_source is ReferenceSource.REACQUIRE_BLEND
+    assert out.measured[0] == pytest.approx(16 * PERIOD * 3.0)  # where the reading put it, at rest
+    assert out.reference[0] == pytest.approx(out.measured[0])  # the blend starts at the arm
+    c.brakes(False)
+    # Released, the readings advance on their speed again.
+    c.set_measurement(t - 0.005, t, one(0.5), one(1.0))
+    assert c.update(t + PERIOD).measured[0] == pytest.approx(0.5 + 1.0 * (PERIOD + 0.005))
+
+
 def test_a_short_pause_of_the_controller_is_not_the_sensors_silence_but_restarts_the_reference():
     c = tracking()
     # Paused 6 periods (< max_reading_age_s): readings held back count as on their way.

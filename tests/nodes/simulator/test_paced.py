@@ -60,10 +60,14 @@ def test_the_controller_frozen_alone_is_its_stall_and_the_arm_stays_in_its_band(
     metrics, output, recording = frozen_run(tmp_path, ("pid_controller",), 0.08)
     # Each freeze: the world waited drive_timeout_s (50 ms) for the effort, braked, and went on without it.
     assert metrics["late_efforts"] >= FREEZES, metrics
-    # The controller's own ticks missed at each freeze the world waited through. One the whole host froze
-    # through too (beside a CPU hog) paused the world with it: no brake, no miss then (2 of 3 seen so).
-    assert 1 <= metrics["brake_engagements"] <= metrics["missed_cycles"], metrics
+    # The world braked the arm at a freeze it waited through. One the whole host froze through too (beside a CPU
+    # hog) paused the world with it: no brake then. The controller may skip the ticks it slept through (missed
+    # cycles) or take them all late from its backlog: its missed cycles are not a count of the freezes.
+    assert metrics["brake_engagements"] >= 1, metrics
     assert "no effort for 0.05 s" in output, run_said(output)
+    # Back, it starts from where the brakes hold the arm: its newest reading, from before them, is not advanced
+    # on the arm's speed (it was, once: a 0.11 rad error at the first tick beside a hog).
+    assert metrics["tracking_max_rad"] <= 0.05 and metrics["peak_torque_nm"] < 10.0, metrics
     figures = case_figures(recording, recording.true_time_s[0], recording.true_time_s[-1])
     assert figures["brake_engaged"] and figures["max_deviation_rad"] <= 0.1, figures
 
