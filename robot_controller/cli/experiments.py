@@ -83,6 +83,8 @@ def register(sub) -> None:
     controller_option(p)
     out_option(p, "runs/faults")
     p.add_argument("--quick", action="store_true", help="two cases: sensor and controller frozen 0.5 s")
+    wall_help = "freeze on the hardware-strict wall clock (as run --wall-clock), not in the default run's paced world"
+    p.add_argument("--wall-clock", action="store_true", help=wall_help)
 
 
 def step(a: argparse.Namespace) -> int:
@@ -187,7 +189,7 @@ def faults(a: argparse.Namespace) -> int:
 
     say_arm(a.robot)
     out = output_dir(a.out, Path("runs/faults"))
-    chosen = dict(quick=a.quick, robot=a.robot, controller=a.controller)
+    chosen = dict(quick=a.quick, robot=a.robot, controller=a.controller, wall_clock=a.wall_clock)
     entries: list[dict] = []
 
     def body(progress) -> None:

@@ -1,6 +1,8 @@
 """``robot-controller faults``: freeze (``SIGSTOP``) or kill each node in turn mid-motion (the sine's
-peak speed) on a wall-clock run and measure what the arm did: deviation from the band the reference
-sweeps, time to re-acquire the plan, peak torque, brakes. docs/design.md §4 says what each loss must cause."""
+peak speed) and measure what the arm did: deviation from the band the reference sweeps, time to re-acquire
+the plan, peak torque, brakes. A freeze strikes the default run (the paced world) or, with ``wall_clock``, the
+hardware-strict one; a kill is respawned, on the wall clock (a respawned simulator would restart the paced
+world's time). docs/design.md §4 says what each loss must cause."""
 
 from __future__ import annotations
 
@@ -45,12 +47,14 @@ class Case:
 
 
 class Freezer:
-    """A launcher watcher: ``SIGSTOP`` the node at ``at_s``, ``SIGCONT`` it later; when (system time) it did both."""
+    """A launcher watcher: ``SIGSTOP`` the node at ``at_s``, ``SIGCONT`` it later; when it did both, on the system
+    clock (a wall-clock run's time) and CLOCK_MONOTONIC (mapped to a paced world's time after the run)."""
 
     def __init__(self, case: Case, at_s: float) -> None:
         self.case, self.at_s = case, at_s
         self.started = False
         self.stopped_at = self.resumed_at = float("nan")
+        self.stopped_monotonic = self.resumed_monotonic = float("nan")
         self.thread: threading.Thread | None = None
 
     def __call__(self, elapsed_s: float, pids: dict[str, int]) -> None:
@@ -63,15 +67,16 @@ class Freezer:
     def _freeze(self, pid: int) -> None:
         if self.case.kind == "SIGKILL":
             os.kill(pid, signal.SIGKILL)
-            self.stopped_at = self.resumed_at = time.time()
+            self.stopped_at, self.stopped_monotonic = time.time(), time.monotonic()
+            self.resumed_at, self.resumed_monotonic = self.stopped_at, self.stopped_monotonic
             return
         try:
             os.kill(pid, signal.SIGSTOP)
-            self.stopped_at = time.time()
+            self.stopped_at, self.stopped_monotonic = time.time(), time.monotonic()
             time.sleep(self.case.duration_s)
         finally:
             os.kill(pid, signal.SIGCONT)
-            self.resumed_at = time.time()
+            self.resumed_at, self.resumed_monotonic = time.time(), time.monotonic()
 
 
 def fault_time_s(params: cfg.Params, earliest_s: float = FAULT_AT_S) -> float:
@@ -132,10 +137,18 @@ def case_figures(
     } | ({"band_missed": "; ".join(missed)} if missed else {})
 
 
-def run_case(case: Case, out: Path, params: cfg.Params) -> dict[str, Any]:
+def world_of(case: Case, wall_clock: bool) -> str:
+    """Where ``case`` runs: "paced" (the default run's world) or "wall clock" (a kill: respawned there)."""
+    return "wall clock" if wall_clock or case.kind == "SIGKILL" else "paced"
+
+
+def run_case(case: Case, out: Path, params: cfg.Params, *, wall_clock: bool = False) -> dict[str, Any]:
+    """One fault on one run: in the paced world (the default run's), or on the wall clock (``wall_clock``, and
+    every kill)."""
     at_s = fault_time_s(params)
     freezer = Freezer(case, at_s)
-    options = RunOptions(at_s + case.duration_s + AFTER_S, respawn=case.kind == "SIGKILL")
+    world = world_of(case, wall_clock)
+    options = RunOptions(at_s + case.duration_s + AFTER_S, respawn=case.kind == "SIGKILL", paced=world == "paced")
     result = launcher.launch(plan.check(params, options), out, watcher=freezer)
     result.raise_if_interrupted()
     if freezer.thread is not None:
@@ -145,6 +158,7 @@ def run_case(case: Case, out: Path, params: cfg.Params) -> dict[str, Any]:
         "node": case.node,
         "fault": case.kind,
         "duration_s": case.duration_s,
+        "world": world,
         "exit_code": result.exit_code,
     }
     if not result.message_counts.get("/controller/state"):
@@ -152,12 +166,17 @@ def run_case(case: Case, out: Path, params: cfg.Params) -> dict[str, Any]:
     recording = report.read_recording(result.bag_dir)
     units = report.arm_units(params["simulator"]["urdf_path"])
     values = report.score(recording, units=units)
-    entry.update(case_figures(recording, freezer.stopped_at, freezer.resumed_at, units))
+    if world == "paced":  # the run's time is the world's: the freeze's instants mapped onto it
+        start_s, end_s = (result.world_time_at(t) for t in (freezer.stopped_monotonic, freezer.resumed_monotonic))
+    else:
+        start_s, end_s = freezer.stopped_at, freezer.resumed_at
+    entry.update(case_figures(recording, start_s, end_s, units))
+    entry["fault_s"] = [start_s, end_s]  #: when it struck and ended, on the run's clock (the recording's)
     entry.update({key: values[key] for key in ("tracking_max_rad", "tracking_max_m") if key in values})
     if result.failure:
         entry["failure"] = result.failure
     report.write_metrics(out / "metrics.json", values)
-    title = f"{case.node} frozen {case.duration_s:g} s"
+    title = f"{case.node} frozen {case.duration_s:g} s ({world})"
     plots.plot_tracking(recording, out / "tracking.png", title=title, units=units)
     return entry
 
@@ -175,8 +194,10 @@ def faults(
     progress: Callable[[str], None] = print,
     robot: str = "one_dof",
     controller: str | None = None,
+    wall_clock: bool = False,
 ) -> list[dict[str, Any]]:
-    """Every case (:func:`cases`) on the default stack; ``controller``: with that law (``--controller``)."""
+    """Every case (:func:`cases`) on the default stack; ``controller``: with that law (``--controller``);
+    ``wall_clock``: freezes on the hardware-strict clock, not in the paced world (``--wall-clock``)."""
     from robot_controller.experiments.laws import with_controller
 
     params = with_controller(cfg.load_stack(robot=robot), controller)
@@ -186,12 +207,12 @@ def faults(
         progress(
             f"{case.node}: "
             + (f"SIGSTOP for {case.duration_s:g} s" if case.kind == "SIGSTOP" else "SIGKILL, respawned")
-            + f" at t = {fault_time_s(params):g} s"
+            + f" at t = {fault_time_s(params):g} s ({world_of(case, wall_clock)})"
         )
-        entries.append(run_case(case, out / case.name, params))
+        entries.append(run_case(case, out / case.name, params, wall_clock=wall_clock))
     summary = {"robot": robot, "controller_type": params["pid_controller"]["controller_type"], "cases": entries}
     report.write_metrics(out / "faults.json", summary | headline(entries) | {"failed": failed(entries)})
-    (out / "faults.md").write_text(render(entries, robot, params))
+    (out / "faults.md").write_text(render(entries, robot, params, wall_clock=wall_clock))
     return entries
 
 
@@ -218,7 +239,9 @@ def failed(entries: list[dict[str, Any]]) -> list[str]:
     ]
 
 
-def render(entries: list[dict[str, Any]], robot: str = "one_dof", params: cfg.Params | None = None) -> str:
+def render(
+    entries: list[dict[str, Any]], robot: str = "one_dof", params: cfg.Params | None = None, *, wall_clock: bool = False
+) -> str:
     def num(value: Any, spec: str) -> str:
         return fmt(value, spec, "n/a")
 
@@ -229,14 +252,20 @@ def render(entries: list[dict[str, Any]], robot: str = "one_dof", params: cfg.Pa
     slides = "m" in units  # a prismatic joint: its figures in m and N beside the revolute joints'
     worst = f"{num(top['worst_max_deviation_rad'], '{:.4f}')} rad"
     worst += f", {num(top.get('worst_max_deviation_m'), '{:.4f}')} m" * slides
+    world = (
+        "freezes on the wall clock (`--wall-clock`: the drive on this host's clock, any late command refused)"
+        if wall_clock
+        else "freezes in the paced world (the default run's: its clock keeps pace with the wall clock)"
+    )
     lines = [
         "# Faults: each node frozen mid-motion",
         "",
         f"Robot {robot}, default preset (controller_type {params['pid_controller']['controller_type']}), "
-        f"wall clock, sine of {in_units(planner['amplitude'], units)} at "
+        f"{world}, kills on the wall clock; sine of {in_units(planner['amplitude'], units)} at "
         f"{planner['frequency_hz']:g} Hz. At {fault_time_s(params):g} s (peak speed) one node gets "
         "SIGSTOP, then SIGCONT after the duration; or SIGKILL, and the launcher respawns it "
-        f"(`run --respawn`). Deviation: how far the TRUE {'position' if slides else 'angle'} left the band the "
+        "(`run --respawn`, wall clock: a respawned simulator would restart the paced world's time). "
+        f"Deviation: how far the TRUE {'position' if slides else 'angle'} left the band the "
         f"reference sweeps, on the worst joint. Re-acquired: every joint back within 2 mrad{' (2 mm)' * slides} "
         "of the planned trajectory, after the fault ended.",
         "",
@@ -251,10 +280,11 @@ def render(entries: list[dict[str, Any]], robot: str = "one_dof", params: cfg.Pa
     figures += [("reacquire_s", "{:.2f}", "re-acquired after [s]"), ("peak_torque_nm", "{:.1f}", "peak torque [N·m]")]
     figures += [("peak_force_n", "{:.1f}", "peak force [N]")] * slides
     rows = [
-        [e["node"], fault_text[e["fault"]].format(e["duration_s"]), *(num(e.get(k), spec) for k, spec, _ in figures)]
+        [e["node"], fault_text[e["fault"]].format(e["duration_s"]), e.get("world", "wall clock")]
+        + [num(e.get(k), spec) for k, spec, _ in figures]
         + ["yes" if e.get("brake_engaged") else "no", f"{e.get('exit_code')} {e.get('failure', '')}".rstrip()]
         for e in entries
     ]
-    headers = " | ".join(["node", "fault", *(heading for *_, heading in figures), "brakes engaged", "exit"])
+    headers = " | ".join(["node", "fault", "world", *(heading for *_, heading in figures), "brakes engaged", "exit"])
     lines.append(table(headers, rows))
     return "\n".join(lines) + "\n"

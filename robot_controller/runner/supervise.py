@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import bisect
 import json
 import threading
 import time
@@ -41,6 +42,8 @@ class RecorderLink:
         #: when (CLOCK_MONOTONIC s, the same in every process) the recorder took ``clock_s``: the
         #: lockstep real-time factor is timed on these, not on when its report came (every 0.1 s)
         self.clock_taken_s = 0.0
+        #: ``(clock_taken_s, clock_s)`` at each new tick reported: maps an instant to the world's time
+        self.clock_marks: list[tuple[float, float]] = []
         self.heard_s = 0.0  #: when (monotonic s) it last printed: a recorder stopping slowly still reports
 
     def on_line(self, line: str) -> bool:
@@ -49,6 +52,8 @@ class RecorderLink:
             progress = json.loads(line[len(rec.PROGRESS_PREFIX) :])
             self.counts, self.clock_s = progress["counts"], progress["clock_s"]
             self.clock_taken_s = progress.get("clock_taken_s", 0.0)
+            if not self.clock_marks or self.clock_marks[-1][1] != self.clock_s:
+                self.clock_marks.append((self.clock_taken_s, self.clock_s))
             self.oversize = progress.get("oversize", {})
             return True
         if line.strip() == rec.READY_LINE:
@@ -219,11 +224,24 @@ class RunResult:
     #: when (tick s) each missed cycle the host caused ended (the controller's, wall clock): not the loop's own
     host_missed_ends_s: list[float] = field(default_factory=list)
     clocks: dict[str, float] = field(default_factory=dict)  #: a split run's clock offset and round trip, ms
+    #: lockstep: ``(monotonic s, world s)`` at each tick the recorder reported (about every 0.1 s)
+    clock_marks: list[tuple[float, float]] = field(default_factory=list)
 
     def raise_if_interrupted(self) -> None:
         """For a series of runs (faults, compare, bench): Ctrl-C ends the whole series, not just this run."""
         if self.interrupted:
             raise KeyboardInterrupt
+
+    def world_time_at(self, monotonic_s: float) -> float:
+        """A paced world's time (s) at the instant ``monotonic_s`` (CLOCK_MONOTONIC): the last tick reported before
+        it, advanced at the world's pace (1×) but never past the next (a paused world's time stands); NaN unknown."""
+        marks = self.clock_marks
+        before = bisect.bisect_right(marks, monotonic_s, key=lambda mark: mark[0]) - 1
+        if before < 0:
+            return float("nan")
+        taken_s, world_s = marks[before]
+        ahead = world_s + (monotonic_s - taken_s)
+        return min(ahead, marks[before + 1][1]) if before + 1 < len(marks) else ahead
 
     @property
     def real_time_factor(self) -> float:
@@ -286,6 +304,7 @@ def run_loop(
     pids = {c.name: c.process.pid for c in nodes}
     if sim_time and not serving:
         result.sim_start, sim_start_taken_s = link.clock_s, link.clock_taken_s
+        result.clock_marks = link.clock_marks  # filled on as the recorder reports
         # The simulator's last tick is within a control period (0.1 s at most) of its end.
         last_tick_s = run.lockstep_end_s - LONGEST_PERIOD_S if run.lockstep_end_s else float("inf")
         watch = (lambda: watcher(time.monotonic() - started, pids)) if watcher else None

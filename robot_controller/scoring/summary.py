@@ -5,6 +5,7 @@ The same rows make the terminal's end of a run and ``summary.md``; every other f
 
 from __future__ import annotations
 
+import collections
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -120,6 +121,9 @@ def faults_rows(entries: Sequence[dict[str, Any]], failed: Sequence[str], goal: 
     deviations = [(e.get(f"max_deviation_{u}"), e["case"], u) for e in entries for u in ("rad", "m")]
     deviations = [d for d in deviations if _finite(d[0])]
     rows = [("cases", f"{n}: {', '.join(dict.fromkeys(e['case'] for e in entries))}" if n <= 3 else str(n))]
+    # Freezes strike the paced world unless --wall-clock; kills are respawned on the wall clock.
+    worlds = collections.Counter(e.get("world", "wall clock") for e in entries)
+    rows.append(("world", ", ".join(f"{world} ({_count(count, 'case')})" for world, count in worlds.items())))
     if deviations:
         worst, case, unit = max(deviations)
         milli = "mrad" if unit == "rad" else "mm"

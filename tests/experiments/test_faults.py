@@ -9,6 +9,7 @@ import pytest
 from robot_controller import cli
 from robot_controller.core.controller import state_layout
 from robot_controller.experiments import faults
+from robot_controller.runner.supervise import RunResult
 from robot_controller.scoring.bag_reader import Recording
 
 NAMES, UNITS = ["shoulder", "elbow", "quill"], ["rad", "rad", "m"]
@@ -78,3 +79,24 @@ def test_faults_exits_1_naming_the_case_and_joint_that_left_its_band(tmp_path, m
     verdict = "FAILED: 1 of 1 cases missed their goal" if missed else "ok"
     assert end[0] == verdict and end[-1].startswith(verdict if missed else "files") and len(end) <= 14, end
     assert any("sensor_node_stop_0.5s: quill left its band" in line for line in end) == missed, end
+
+
+def test_a_freeze_is_placed_on_the_paced_worlds_time_which_stands_while_the_world_is_paused():
+    result = RunResult(bag_dir=None, recorded=True, local_nodes=())
+    # The recorder's reports: (monotonic s, world s); the world paused from 100.2 to 100.6 (its simulator frozen).
+    result.clock_marks = [(100.0, 5.0), (100.1, 5.1), (100.2, 5.2), (100.6, 5.21), (100.7, 5.31)]
+    assert np.isnan(result.world_time_at(99.9))  # before the loop's first report: unknown
+    assert result.world_time_at(100.05) == pytest.approx(5.05)
+    assert result.world_time_at(100.4) == pytest.approx(5.21)  # never past the next tick reported
+    assert result.world_time_at(100.75) == pytest.approx(5.36)  # after the last, at the world's pace
+
+
+@pytest.mark.parametrize("wall_clock", [False, True])
+def test_freezes_strike_the_default_runs_paced_world_and_kills_the_wall_clock(wall_clock):
+    freeze, kill = faults.Case("sensor_node", 0.5), faults.Case("sensor_node", 0.0, "SIGKILL")
+    assert faults.world_of(freeze, wall_clock) == ("wall clock" if wall_clock else "paced")
+    assert faults.world_of(kill, wall_clock) == "wall clock"  # respawned: a new simulator would restart world time
+    entry = {"case": freeze.name, "node": "sensor_node", "fault": "SIGSTOP", "duration_s": 0.5, "exit_code": 0}
+    page = faults.render([entry | {"world": faults.world_of(freeze, wall_clock)}], wall_clock=wall_clock)
+    assert ("freezes on the wall clock" in page) == wall_clock and ("freezes in the paced world" in page) != wall_clock
+    assert "| world |" in page and f"| frozen 0.5 s | {faults.world_of(freeze, wall_clock)} |" in page

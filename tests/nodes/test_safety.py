@@ -26,13 +26,16 @@ def cli(*args, timeout=240, **kwargs):
     )
 
 
-def test_frozen_sensor_and_frozen_controller_leave_the_arm_held(tmp_path, ros_domain):
-    proc = cli("faults", "--quick", "--out", str(tmp_path / "faults"))
+@pytest.mark.parametrize("world", ["paced", "wall clock"])
+def test_frozen_sensor_and_frozen_controller_leave_the_arm_held(tmp_path, ros_domain, world):
+    """``faults --quick`` in the default run's paced world, and with ``--wall-clock``."""
+    proc = cli("faults", "--quick", "--out", str(tmp_path / "faults"), *(["--wall-clock"] if world != "paced" else []))
     assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
+    assert ["world", f"{world} (2 cases)"] in [line.split(None, 1) for line in proc.stdout.splitlines()], proc.stdout
     cases = {c["node"]: c for c in json.loads((tmp_path / "faults" / "faults.json").read_text())["cases"]}
     assert set(cases) == {"sensor_node", "pid_controller"}
     for case in cases.values():
-        assert case["exit_code"] == 0 and "failure" not in case, case
+        assert case["exit_code"] == 0 and "failure" not in case and case["world"] == world, case
         assert case["max_deviation_rad"] <= 0.1, case  # the arm never left the band the sine sweeps
         assert case["peak_torque_nm"] <= 10.0
         assert case["reacquire_s"] is not None, case  # back on the trajectory before the run ended
@@ -41,6 +44,8 @@ def test_frozen_sensor_and_frozen_controller_leave_the_arm_held(tmp_path, ros_do
     # the brake held the arm.
     assert cases["sensor_node"]["brake_engaged"]
     assert cases["pid_controller"]["brake_engaged"]
+    if world == "paced":
+        return  # the paced world goes on braked while the sensor is frozen (the test below)
     sensor_run = report.read_recording(tmp_path / "faults" / "sensor_node_stop_0.5s" / "bag")
     statuses = set(sensor_run.state["status"].astype(int).tolist())
     assert state_layout.STATUS_CODES["watchdog"] in statuses and state_layout.STATUS_CODES["reacquiring"] in statuses

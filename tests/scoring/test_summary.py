@@ -145,6 +145,7 @@ def test_compare_marks_each_contenders_missed_target():
 def test_faults_in_a_few_lines_the_missed_cases_named():
     entries = [
         {"case": f"node{k}_stop_0.5s", "max_deviation_rad": 0.001 * k, "reacquire_s": 0.1 * k, "brake_engaged": k % 2}
+        | ({"world": "paced"} if k < 8 else {})  # a faults.json of before the world was said: the wall clock's
         for k in range(1, 9)
     ]
     failed = [f"node{k}_stop_0.5s: joint1 left its band by 0.2 rad" for k in range(1, 8)]
@@ -152,6 +153,7 @@ def test_faults_in_a_few_lines_the_missed_cases_named():
     said = dict(rows)
     assert said["worst deviation"] == "8 mrad (node8_stop_0.5s), goal ≤ 100 mrad"
     assert said["brakes engaged"] == "in 4 of 8 cases"
+    assert said["world"] == "paced (7 cases), wall clock (1 case)"
     assert said["re-acquired"].startswith("within 0.80 s")
     missed = [text for label, text in rows if label == "missed"]
     assert missed[:5] == failed[:5] and missed[5] == "2 more in faults.md" and len(rows) <= 12
