@@ -113,11 +113,11 @@ def case_figures(
     # Up to 0.1 s before the last tick: the nodes stopping one by one at the end is not the fault's doing.
     last_tick_s = s["time_s"][-1] - 0.1
     ticks = (s["time_s"] >= fault_start_s) & (s["time_s"] <= last_tick_s)
-    braked = (
-        (recording.brakes_time_s >= fault_start_s)
-        & (recording.brakes_time_s <= last_tick_s)
-        & np.any(recording.brakes > 0.5, axis=1)
-    )
+    # The brakes' state in force at the fault's start, and each change after: in the paced world the brakes are
+    # stamped with the world's tick, which can fall a moment before a start mapped from the wall clock.
+    brakes_s = recording.brakes_time_s
+    in_force_s = brakes_s[brakes_s <= fault_start_s].max(initial=-np.inf)
+    braked = (brakes_s >= in_force_s) & (brakes_s <= last_tick_s) & np.any(recording.brakes > 0.5, axis=1)
     units = units or ["rad"] * true_q.shape[1]
     nan = np.full(true_q.shape[1], np.nan)
     deviation = np.max(outside_per_joint[after], axis=0).tolist() if np.any(after) else nan.tolist()
@@ -167,7 +167,8 @@ def run_case(case: Case, out: Path, params: cfg.Params, *, wall_clock: bool = Fa
     units = report.arm_units(params["simulator"]["urdf_path"])
     values = report.score(recording, units=units)
     if world == "paced":  # the run's time is the world's: the freeze's instants mapped onto it
-        start_s, end_s = (result.world_time_at(t) for t in (freezer.stopped_monotonic, freezer.resumed_monotonic))
+        start_s = result.world_time_at(freezer.stopped_monotonic)
+        end_s = result.world_time_at(freezer.resumed_monotonic, resuming=True)
     else:
         start_s, end_s = freezer.stopped_at, freezer.resumed_at
     entry.update(case_figures(recording, start_s, end_s, units))
@@ -257,11 +258,12 @@ def render(
         if wall_clock
         else "freezes in the paced world (the default run's: its clock keeps pace with the wall clock)"
     )
+    kills = ", kills on the wall clock" if any(e["fault"] == "SIGKILL" for e in entries) else ""
     lines = [
         "# Faults: each node frozen mid-motion",
         "",
         f"Robot {robot}, default preset (controller_type {params['pid_controller']['controller_type']}), "
-        f"{world}, kills on the wall clock; sine of {in_units(planner['amplitude'], units)} at "
+        f"{world}{kills}; sine of {in_units(planner['amplitude'], units)} at "
         f"{planner['frequency_hz']:g} Hz. At {fault_time_s(params):g} s (peak speed) one node gets "
         "SIGSTOP, then SIGCONT after the duration; or SIGKILL, and the launcher respawns it "
         "(`run --respawn`, wall clock: a respawned simulator would restart the paced world's time). "

@@ -28,7 +28,8 @@ MAX_RESPAWNS = 5  #: per node and run: a node that keeps dying ends the run
 #: The longest control period (10 Hz, the lowest control_rate_hz): a lockstep run's last tick is within it of its end.
 LONGEST_PERIOD_S = 0.1
 
-Watcher = Callable[[float, dict[str, int]], None]  #: ``watcher(seconds since the loop closed, pids)``
+#: ``watcher(seconds since the loop closed, pids)``: the world's seconds in lockstep and the paced world
+Watcher = Callable[[float, dict[str, int]], None]
 
 
 class RecorderLink:
@@ -52,7 +53,8 @@ class RecorderLink:
             progress = json.loads(line[len(rec.PROGRESS_PREFIX) :])
             self.counts, self.clock_s = progress["counts"], progress["clock_s"]
             self.clock_taken_s = progress.get("clock_taken_s", 0.0)
-            if not self.clock_marks or self.clock_marks[-1][1] != self.clock_s:
+            # (a report before the first tick has no time it was taken: 0)
+            if self.clock_taken_s and (not self.clock_marks or self.clock_marks[-1][1] != self.clock_s):
                 self.clock_marks.append((self.clock_taken_s, self.clock_s))
             self.oversize = progress.get("oversize", {})
             return True
@@ -232,16 +234,22 @@ class RunResult:
         if self.interrupted:
             raise KeyboardInterrupt
 
-    def world_time_at(self, monotonic_s: float) -> float:
-        """A paced world's time (s) at the instant ``monotonic_s`` (CLOCK_MONOTONIC): the last tick reported before
-        it, advanced at the world's pace (1×) but never past the next (a paused world's time stands); NaN unknown."""
+    def world_time_at(self, monotonic_s: float, *, resuming: bool = False) -> float:
+        """A paced world's time (s) at the instant ``monotonic_s`` (CLOCK_MONOTONIC), from the ticks reported about
+        it, the world going at 1× between them and never past either. A pause in between (a frozen node: the world
+        waits for it) is taken to come after the instant, or with ``resuming`` (the instant a freeze ended) before
+        it: then the time is counted back from the next tick. NaN before the first tick reported."""
         marks = self.clock_marks
         before = bisect.bisect_right(marks, monotonic_s, key=lambda mark: mark[0]) - 1
         if before < 0:
             return float("nan")
         taken_s, world_s = marks[before]
-        ahead = world_s + (monotonic_s - taken_s)
-        return min(ahead, marks[before + 1][1]) if before + 1 < len(marks) else ahead
+        if before + 1 == len(marks):
+            return world_s + (monotonic_s - taken_s)
+        next_taken_s, next_world_s = marks[before + 1]
+        if resuming:
+            return max(world_s, next_world_s - (next_taken_s - monotonic_s))
+        return min(world_s + (monotonic_s - taken_s), next_world_s)
 
     @property
     def real_time_factor(self) -> float:
@@ -307,7 +315,8 @@ def run_loop(
         result.clock_marks = link.clock_marks  # filled on as the recorder reports
         # The simulator's last tick is within a control period (0.1 s at most) of its end.
         last_tick_s = run.lockstep_end_s - LONGEST_PERIOD_S if run.lockstep_end_s else float("inf")
-        watch = (lambda: watcher(time.monotonic() - started, pids)) if watcher else None
+        # The world's time since the loop closed: a host pause before a fault does not move where it strikes.
+        watch = (lambda: watcher(link.clock_s - result.sim_start, pids)) if watcher else None
         result.failure = wait_sim(group, link, min(result.sim_start + duration_s, last_tick_s), meter, watch)
         result.control_seconds = link.clock_s - result.sim_start
         # The wall time they took: between the recorder's receipts of the two ticks (it reports every 0.1 s).

@@ -87,8 +87,18 @@ def test_a_freeze_is_placed_on_the_paced_worlds_time_which_stands_while_the_worl
     result.clock_marks = [(100.0, 5.0), (100.1, 5.1), (100.2, 5.2), (100.6, 5.21), (100.7, 5.31)]
     assert np.isnan(result.world_time_at(99.9))  # before the loop's first report: unknown
     assert result.world_time_at(100.05) == pytest.approx(5.05)
-    assert result.world_time_at(100.4) == pytest.approx(5.21)  # never past the next tick reported
+    assert result.world_time_at(100.25) == pytest.approx(5.21)  # a freeze starting: never past the next tick
+    assert result.world_time_at(100.55, resuming=True) == pytest.approx(5.2)  # one ending: the world stood
+    assert result.world_time_at(100.65, resuming=True) == pytest.approx(5.26)  # counted back from the next tick
     assert result.world_time_at(100.75) == pytest.approx(5.36)  # after the last, at the world's pace
+
+
+def test_brakes_stamped_on_the_worlds_tick_just_before_the_fault_started_count():
+    recording = recording_with_drift([0.0, 0.0, 0.0])
+    recording.brakes_time_s, recording.brakes = np.array([0.0, 2.99, 3.4]), np.array([[0.0], [1.0], [0.0]])
+    assert faults.case_figures(recording, 3.0, 3.5, UNITS)["brake_engaged"]  # in force at the start
+    recording.brakes = np.array([[0.0], [0.0], [0.0]])
+    assert not faults.case_figures(recording, 3.0, 3.5, UNITS)["brake_engaged"]
 
 
 @pytest.mark.parametrize("wall_clock", [False, True])

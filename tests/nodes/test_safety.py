@@ -39,13 +39,14 @@ def test_frozen_sensor_and_frozen_controller_leave_the_arm_held(tmp_path, ros_do
         assert case["max_deviation_rad"] <= 0.1, case  # the arm never left the band the sine sweeps
         assert case["peak_torque_nm"] <= 10.0
         assert case["reacquire_s"] is not None, case  # back on the trajectory before the run ended
-    # Sensor lost: a controlled stop on the model, then (0.1 s at rest) no commands and the brake:
-    # open loop, a hold drifts. Controller lost: the motor's command timeout stopped the drive and
-    # the brake held the arm.
+    # The paced world brakes the arm for either (it waits for each tick's effort, then goes on braked).
     assert cases["sensor_node"]["brake_engaged"]
     assert cases["pid_controller"]["brake_engaged"]
     if world == "paced":
-        return  # the paced world goes on braked while the sensor is frozen (the test below)
+        return
+    # Wall clock. Sensor lost: a controlled stop on the model, then (0.1 s at rest) no commands and the
+    # brake: open loop, a hold drifts. Controller lost: the motor's command timeout stopped the drive and
+    # the brake held the arm.
     sensor_run = report.read_recording(tmp_path / "faults" / "sensor_node_stop_0.5s" / "bag")
     statuses = set(sensor_run.state["status"].astype(int).tolist())
     assert state_layout.STATUS_CODES["watchdog"] in statuses and state_layout.STATUS_CODES["reacquiring"] in statuses

@@ -317,15 +317,11 @@ class JointController:
         return self._state.at_tick(now_s, self._readings, self.config.latency_compensation)
 
     def _restart_from_measurement(self, now_s: float, braked: bool = False) -> None:
-        """A fault has cleared (or the loop is starting): forget the law's and the filter's state,
-        and lead the arm from where the reading says it is (``braked``: held there, at rest) onto the
-        trajectory, if there is a fresh one (otherwise the reference holds the arm, and this is tried
-        again next tick)."""
+        """A fault has cleared (or the loop is starting): forget the law's and the filter's state, and lead the arm
+        from the reading (``braked``: held there) onto a fresh trajectory (none: hold it, and try again next tick)."""
         self._state.reset()
-        if braked:
-            position, velocity = self._state.held(now_s, self._readings)
-        else:
-            position, velocity = StateAtTick.reading_alone(now_s, self._readings, self.config.latency_compensation)
+        compensate = self.config.latency_compensation
+        position, velocity = StateAtTick.reading_alone(now_s, self._readings, compensate, held=braked)
         state = self._law_state(position, velocity, None)
         if self.plugin is not None:
             self.plugin.reset(state, now_s)

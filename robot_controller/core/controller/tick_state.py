@@ -184,10 +184,15 @@ class StateAtTick:
         return self.latest[0] if self.latest is not None else readings.latest[0]
 
     @staticmethod
-    def reading_alone(now_s: float, readings: Readings, latency_compensation: bool) -> tuple[np.ndarray, np.ndarray]:
+    def reading_alone(
+        now_s: float, readings: Readings, latency_compensation: bool, held: bool = False
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The reading brought to ``now_s`` on its own velocity only (with
-        ``latency_compensation``): after a fault the last commands are no guide."""
+        ``latency_compensation``): after a fault the last commands are no guide.
+        ``held``: the drive's brakes hold the arm: where the reading put it, at rest."""
         position, velocity = readings.latest
+        if held:
+            return position, np.zeros_like(position)
         if latency_compensation:
             position = position + velocity * clipped_age_s(now_s, readings.stamp_s)
         return position, velocity
@@ -196,8 +201,7 @@ class StateAtTick:
         """The arm as the drive's brakes hold it: where the latest reading put it, at rest. A reading taken
         before they caught it is not advanced on its velocity or the model: the arm stood since (advanced, one
         taken 40 ms before a brake at 3 rad/s put the arm 0.11 rad from where it stood)."""
-        position = readings.latest[0]
-        velocity = np.zeros_like(position)
+        position, velocity = self.reading_alone(now_s, readings, False, held=True)
         self.latest = (position, velocity, now_s)
         return position, velocity
 

@@ -98,7 +98,8 @@ def test_while_the_brakes_hold_the_reference_restarts_from_the_arm_every_tick():
 
 def test_a_reading_from_before_the_brakes_is_where_they_hold_the_arm_not_advanced_on_its_speed():
     """The controller frozen mid-swing: the world brakes the arm and goes on; on its return the newest reading
-    is from before the brakes. Advanced on its 3 rad/s it put the arm 0.12 rad on (a 0.11 rad error in CI)."""
+    is from before the brakes. Advanced on its speed it put the arm where it never went (0.1 rad off beside a
+    CPU hog: a reading 40 ms old at 3 rad/s)."""
     c = tracking(speed=3.0, latency_compensation=True)  # the last reading at tick 16, at 3 rad/s
     c.brakes(True)
     t = 20 * PERIOD  # four periods on (inside the watchdog's five), no reading since
