@@ -168,7 +168,8 @@ def run_case(case: Case, out: Path, params: cfg.Params, *, wall_clock: bool = Fa
     values = report.score(recording, units=units)
     if world == "paced":  # the run's time is the world's: the freeze's instants mapped onto it
         start_s = result.world_time_at(freezer.stopped_monotonic)
-        end_s = result.world_time_at(freezer.resumed_monotonic, resuming=True)
+        # (a world paused at once, its simulator frozen: the start, carried on at 1×, can pass the end by a tick)
+        end_s = max(start_s, result.world_time_at(freezer.resumed_monotonic, resuming=True))
     else:
         start_s, end_s = freezer.stopped_at, freezer.resumed_at
     entry.update(case_figures(recording, start_s, end_s, units))
