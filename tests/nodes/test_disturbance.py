@@ -84,16 +84,20 @@ def test_a_push_is_applied_recorded_and_rejected(tmp_path, ros_domain):
     first_tick = recording.state["time_s"][0]
     assert 2.5 < start_s - first_tick < 10.0, start_s - first_tick
 
-    before = report.tracking_on_sim_timeline(recording, start_s - 1.0, start_s)
+    # The loop's own level before the push: the median of its half-second maxima from 1 s in (beside a CPU hog
+    # one second of it can be the host's: 7 mrad once, just as the tool's process started).
+    windows = np.arange(first_tick + 1.0, start_s - 0.5 + 1e-9, 0.5)
+    maxima = [report.tracking_on_sim_timeline(recording, a, a + 0.5)["tracking_max_rad"] for a in windows]
+    before = float(np.median(maxima))
     during = report.tracking_on_sim_timeline(recording, start_s, start_s + 0.5)
     after = report.tracking_on_sim_timeline(recording, start_s + 3.0, start_s + 4.0)
-    assert during["scored_samples"] >= 40 and after["scored_samples"] >= 90
+    assert during["scored_samples"] >= 40 and after["scored_samples"] >= 90 and len(maxima) >= 2
     # Visible: 3 N·m on a 0.083 kg·m² link is 36 rad/s² until the controller answers (observed in the paced
     # world: about 11 mrad at its peak, against 3.6 mrad before; 0.125 rad on the wall clock).
-    assert during["tracking_max_rad"] > 2 * before["tracking_max_rad"], (before, during)
+    assert during["tracking_max_rad"] > 2 * before, (maxima, during)
     assert during["tracking_max_rad"] > 0.006, during
     # Rejected: the integral winds the last 10-30 mrad back out within about 3 s (observed).
-    assert after["tracking_max_rad"] < max(3 * before["tracking_max_rad"], 0.01), (before, after)
+    assert after["tracking_max_rad"] < max(3 * before, 0.01), (maxima, after)
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["msgs_sim_disturbance_applied"] == len(recording.disturbance)
     assert metrics["unrecorded_messages"] == 0
