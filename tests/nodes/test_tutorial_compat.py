@@ -85,26 +85,32 @@ def test_tutorial_planner_and_controller_drive_our_arm(tmp_path, ros_domain, wor
                 return any(abs(m.position[0]) > 0.3 for _, m in true_states)
 
         wait_for(moving, 40, "the tutorial's controller to move our arm")
-        # Judge the last 4 s of 8: the start is the tutorial's transient. Its planner's sine runs from its own
+        # Judge the last 4 s, from 8 s on: the start is the tutorial's transient. Its planner's sine runs from its own
         # start, and its controller integrates error before the world starts; the first command then meets a
         # target up to 1 rad away and saturates (on a busy host it swung the arm over the top, 3.4 rad, and
         # back within 2.5 s).
-        time.sleep(8.0)
-        assert all(p.poll() is None for p in processes), "a node died"
-        with probe.lock:
-            # The tutorial's nodes run on the wall clock; the paced world's pauses with a busy host: judge the arm
-            # on the tutorial's time base, when its states arrived.
-            t = np.array([arrived for arrived, _ in true_states])
-            q = np.array([m.position[0] for _, m in true_states])
-        recent = t > t[-1] - 4.0
-        # The tutorial's loop lags a 1 rad, 0.5 Hz sine but follows it: fit a sine at 0.5 Hz.
-        basis = np.column_stack([np.sin(np.pi * t[recent]), np.cos(np.pi * t[recent]), np.ones(recent.sum())])
-        coef, *_ = np.linalg.lstsq(basis, q[recent], rcond=None)
-        amplitude = np.hypot(coef[0], coef[1])
-        residual = q[recent] - basis @ coef
-        assert 0.6 < amplitude < 1.3, amplitude
-        assert np.std(residual) < 0.1
-        assert np.abs(q[recent]).max() < 1.3, "the arm swung past the reference's reach"
+        # The tutorial's loop lags a 1 rad, 0.5 Hz sine but follows it: a sine at 0.5 Hz fits its last 4 s. Beside
+        # a CPU hog its start transient can outlast 8 s (residual 0.13 rad once): judged again every 4 s, to 20 s.
+        fits = []
+        for waited_s in (8.0, 4.0, 4.0, 4.0):
+            time.sleep(waited_s)
+            assert all(p.poll() is None for p in processes), "a node died"
+            with probe.lock:
+                # The tutorial's nodes run on the wall clock; the paced world's pauses with a busy host: judge the
+                # arm on the tutorial's time base, when its states arrived.
+                t = np.array([arrived for arrived, _ in true_states])
+                q = np.array([m.position[0] for _, m in true_states])
+            recent = t > t[-1] - 4.0
+            basis = np.column_stack([np.sin(np.pi * t[recent]), np.cos(np.pi * t[recent]), np.ones(recent.sum())])
+            coef, *_ = np.linalg.lstsq(basis, q[recent], rcond=None)
+            fit = (np.hypot(coef[0], coef[1]), np.std(q[recent] - basis @ coef), np.abs(q[recent]).max())
+            fits.append(fit)
+            if 0.6 < fit[0] < 1.3 and fit[1] < 0.1 and fit[2] < 1.3:
+                break
+        amplitude, residual, reach = fits[-1]
+        assert 0.6 < amplitude < 1.3, fits
+        assert residual < 0.1, fits
+        assert reach < 1.3, ("the arm swung past the reference's reach", fits)
     finally:
         probe.close()
         for p in processes:
