@@ -107,7 +107,11 @@ def test_a_command_stamped_long_ago_is_dropped_by_the_drive(tmp_path, ros_domain
     # split runs keep the wall clock, and on one host no command comes late.
     code, output = run_with_peer(out, ros_domain, "late_link", late_link, "10", "--wall-clock")
     assert code == 0, run_said(output)
-    assert "a late command is no command" in output and "issued 2" in output  # ~200 ms ago
+    # Dropped as late, said (throttled: after a host freeze made the controller's own command late first, the
+    # peer's are counted under that warning), and heard: the bag holds the peer's 50 beside what the nodes sent.
+    assert "a late command is no command" in output, run_said(output)
+    published = json.loads((out / "published.json").read_text())["/joint_commands"]
+    assert report.read_recording(out / "bag").counts["/joint_commands"] - published >= 40, run_said(output)
     metrics = json.loads((out / "metrics.json").read_text())
     # Obeyed, 50 full-torque commands swing the arm by tenths of a radian. On the wall clock a host freeze
     # costs tracking too: judged against what the host did.
