@@ -1,6 +1,7 @@
 """``robot-controller estop [--release]``: the operator's button. Publishes ``/estop``
 (``std_msgs/Bool``, true = stop) and calls the simulator's ``/simulator/estop``
-service, so the drive stops even if the topic were lost; latched until released."""
+service, so the drive stops even if the topic were lost; latched until released. The level is sent
+again for a while: a listener that matched late still hears it."""
 
 from __future__ import annotations
 
@@ -18,6 +19,11 @@ PUBLISH_QOS = LATCHED_QOS
 DISCOVERY_TIMEOUT_S = 5.0
 SETTLE_S = 0.5
 ACK_WAIT_S = 3.0
+# Sent again for this long: a reader that matches the writer only after the first copy (discovery is two-sided, and
+# slow on a busy host) is volatile and gets no history, yet must hear the stop. The nodes latch the level, so a copy
+# is harmless.
+RESEND_FOR_S = 1.5
+RESEND_EVERY_S = 0.25
 
 
 def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, str]:
@@ -46,6 +52,10 @@ def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, st
                 time.sleep(0.05)  # the graph's executor spins in its own thread
             if future.done() and future.result() is not None:
                 service_note = f"simulator: {future.result().message}"
+        resend_until = time.monotonic() + RESEND_FOR_S
+        while time.monotonic() < resend_until:
+            time.sleep(RESEND_EVERY_S)
+            publisher.publish(Bool(data=engage))
         # Deliver before the node goes: every matched reader acknowledges.
         publisher.wait_for_all_acked(Duration(seconds=ACK_WAIT_S))
     what = "e-stop ENGAGED" if engage else "e-stop released"

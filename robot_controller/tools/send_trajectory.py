@@ -112,9 +112,12 @@ def _wait_for_server(g: graph.Graph, client: Any, name: str, controller: str, wh
 def _follow(g: graph.Graph, spec: TrajectorySpec, prog: str, what: str, controller: str, wait_s: float) -> int:
     from control_msgs.action import FollowJointTrajectory
     from rclpy.action import ActionClient
+    from rclpy.logging import LoggingSeverity
 
     name = action_name(controller)
     client = ActionClient(g.node, FollowJointTrajectory, name)
+    # Its warnings are of a duplicate response DDS delivered late (seen on a busy host after a cancel): not the user's.
+    g.node.get_logger().get_child("action_client").set_level(LoggingSeverity.ERROR)
     try:
         _wait_for_server(g, client, name, controller, what, wait_s)
     except KeyboardInterrupt:
