@@ -123,6 +123,10 @@ def run(options: RunOptions, out: Path | None) -> int:
         if host_missed:
             values["missed_cycles_host"] = host_missed
             values["missed_cycles"] = max(0, values.get("missed_cycles", 0) - host_missed)
+        # Watchdog ticks the host made (the readings' silence past the window was its doing): counted apart.
+        if host_watchdog := metrics.periods_ending_within(result.host_watchdog_s, recording.state["time_s"]):
+            values["watchdog_ticks_host"] = host_watchdog
+            values["watchdog_ticks"] = max(0, values.get("watchdog_ticks", 0) - host_watchdog)
         values.update(result.clocks)  # a split run's hosts' clock offset
         values["realtime_requested"] = options.realtime
         values.update(result.usage)

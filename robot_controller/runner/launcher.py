@@ -80,7 +80,9 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
             result.world_clock = json.loads(world_file.read_text())
         host_missed_file = run.counts_dir / HOST_MISSED_FILE  # the controller's, on the wall clock
         if host_missed_file.is_file():
-            result.host_missed_ends_s = [float(t) for t in json.loads(host_missed_file.read_text()).get("ends_s", [])]
+            host_made = json.loads(host_missed_file.read_text())
+            result.host_missed_ends_s = [float(t) for t in host_made.get("ends_s", [])]
+            result.host_watchdog_s = [float(t) for t in host_made.get("watchdog_s", [])]
         fault_file = run.counts_dir / LAW_FAULT_FILE  # the controller's line on its law's failure, if any
         if fault_file.is_file() and (law_fault := fault_file.read_text().strip()):
             # The controller stopped the arm and ended itself (or the run ended first): say why, in one line.

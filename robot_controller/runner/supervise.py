@@ -225,6 +225,8 @@ class RunResult:
     world_clock: dict[str, float] = field(default_factory=dict)  #: a paced world's freezes and late efforts
     #: when (tick s) each missed cycle the host caused ended (the controller's, wall clock): not the loop's own
     host_missed_ends_s: list[float] = field(default_factory=list)
+    #: when (tick s) each watchdog tick the host caused fell (its processes kept from a CPU past the window)
+    host_watchdog_s: list[float] = field(default_factory=list)
     clocks: dict[str, float] = field(default_factory=dict)  #: a split run's clock offset and round trip, ms
     #: lockstep: ``(monotonic s, world s)`` at each tick the recorder reported (about every 0.1 s)
     clock_marks: list[tuple[float, float]] = field(default_factory=list)

@@ -247,6 +247,11 @@ def _trouble_rows(values: dict[str, Any]) -> list[Row]:
     faults = [
         f"{name.replace('_', ' ')} {_count(n, 'tick')}" for name in FAULT_TICKS if (n := values.get(f"{name}_ticks"))
     ]
+    if host_watchdog := values.get("watchdog_ticks_host"):  # said as the rate line says missed cycles
+        if values.get("watchdog_ticks"):
+            faults[0] += f" ({host_watchdog} more the host made, not counted)"
+        else:
+            faults.insert(0, f"watchdog: {_count(host_watchdog, 'tick')} the host made (not counted)")
     if faults:
         rows.append(("faults", ", ".join(faults)))
     if engagements := values.get("brake_engagements"):

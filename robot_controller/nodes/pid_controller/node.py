@@ -158,6 +158,7 @@ class PidControllerNode(StackNode):
             if refused:
                 self.warn_throttled("joint_states_age", f"/joint_states dropped: {refused}")
                 return
+            self.timing.note_reading(now_s)
             if self.params["trigger"] == "measurement":
                 self.set_timer_period(self.timer_period_s(self.params))  # readings drive the loop again
                 self.tick(now_s)
@@ -225,7 +226,7 @@ class PidControllerNode(StackNode):
             stamp_command(self.command_msg, now_s)
             self.command_pub.publish(self.command_msg)
             command = tuple(self.command_msg.data)
-        self.timing.note_tick(now_s, command)
+        self.timing.note_tick(now_s, command, watchdog=out.status is Status.WATCHDOG)
         self.status.say_saturation(out)
         self.status.publish_state(out)
         if self.log_schedule.due(now_s, self.params["log_period_s"]):

@@ -42,6 +42,12 @@ class LoopTiming:
         self.loop = None if node.lockstep else LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
         self.last_tick: tuple[float, Sample | None] | None = None  #: (time s, the loop's usage) at the last tick
         self.missed_for_host: list[float] = []  #: when (tick s) each missed period the host made ended
+        # The watchdog's silence, timed from the latest accepted reading's arrival (s) and the loop's usage at the
+        # first tick since (the same instant when readings drive the loop).
+        self.reading_s: float | None = None
+        self.usage_at_reading: Sample | None = None
+        self.reading_unsampled = False
+        self.watchdog_for_host: list[float] = []  #: when (tick s) each watchdog tick the host made fell
         self.pub = node.gated_publisher(DiagnosticArray, "/diagnostics", consumer=False)
         if not node.lockstep:
             # When each command reached the drive: the command path's delay, for the latency guard.
@@ -50,21 +56,34 @@ class LoopTiming:
             )
         node.create_timer(node.params["diagnostics_period_s"], self.publish_diagnostics)
 
-    def note_tick(self, now_s: float, command: tuple[float, ...] | None) -> None:
-        """A tick at ``now_s`` that published ``command`` (None: it commanded nothing)."""
+    def note_reading(self, now_s: float) -> None:
+        """A reading was accepted at ``now_s`` (s): the watchdog's silence starts again."""
+        self.reading_s, self.reading_unsampled = now_s, True
+
+    def note_tick(self, now_s: float, command: tuple[float, ...] | None, watchdog: bool = False) -> None:
+        """A tick at ``now_s`` that published ``command`` (None: it commanded nothing); ``watchdog``: its verdict
+        was the watchdog's (no reading for longer than its window)."""
         lockstep = self.node.lockstep
         if command is not None and not lockstep:
             self.issued.append((now_s, command))
         self.window_ticks.append(now_s)
         if not lockstep:  # in lockstep a tick takes no sim time
             self.window_latency.append(clock_s(self.node) - self.controller.measurement_stamp_s)
-            self.note_host_wait(now_s)
+            self.note_host_wait(now_s, watchdog)
 
-    def note_host_wait(self, now_s: float) -> None:
+    def note_host_wait(self, now_s: float, watchdog: bool = False) -> None:
         """Count the period that ends at ``now_s`` as the host's miss if the host took from the loop's processes
-        all it ran over (they waited that long for a CPU, or the CPUs were stolen): without it, no miss."""
+        all it ran over (they waited that long for a CPU, or the CPUs were stolen): without it, no miss. A
+        watchdog tick is the host's on the same terms, over the reading's silence past the watchdog's window."""
         assert self.loop is not None
         usage = self.loop.usage()
+        if self.reading_unsampled:
+            self.usage_at_reading, self.reading_unsampled = usage, False
+        if watchdog and self.reading_s is not None and usage is not None and self.usage_at_reading is not None:
+            config = self.controller.config
+            over_s = now_s - self.reading_s - config.watchdog_periods * config.control_period_s
+            if over_s > 0 and host_kept_waiting(usage - self.usage_at_reading, round(over_s * 1e9)):
+                self.watchdog_for_host.append(now_s)
         if self.last_tick is not None:
             last_s, last_usage = self.last_tick
             over_s = now_s - last_s - metrics.MISSED_PERIODS * self.controller.config.control_period_s
@@ -74,11 +93,12 @@ class LoopTiming:
         self.last_tick = (now_s, usage)
 
     def leave_host_misses(self) -> None:
-        """At the end: when each missed cycle the host made ended, for metrics.json, which counts those within the
-        ticks it scores (the run's scratch folder, if any)."""
+        """At the end: when each missed cycle the host made ended, and when each watchdog tick it made fell, for
+        metrics.json, which counts those within the ticks it scores (the run's scratch folder, if any)."""
         counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
         if counts_dir and self.loop is not None:
-            (Path(counts_dir) / HOST_MISSED_FILE).write_text(json.dumps({"ends_s": self.missed_for_host}))
+            host_made = {"ends_s": self.missed_for_host, "watchdog_s": self.watchdog_for_host}
+            (Path(counts_dir) / HOST_MISSED_FILE).write_text(json.dumps(host_made))
 
     def receipts_callback(self, msg: Float64MultiArray) -> None:
         """The drive's receipts, rows ``[receipt_time_s, command…]``: each paired with the latest

@@ -1,5 +1,6 @@
-"""The controller's missed cycles on the wall clock, told apart (nodes/pid_controller/timing.py): a period the
-host stretched (the loop's processes kept from a CPU as long as it ran over) is the host's, any other the loop's.
+"""The controller's missed cycles and watchdog ticks on the wall clock, told apart (nodes/pid_controller/timing.py):
+a period the host stretched (the loop's processes kept from a CPU as long as it ran over) is the host's, any other
+the loop's; so is a watchdog tick, over the readings' silence past the watchdog's window.
 On stand-ins for the node and the loop's processes; the real /proc reads are tested in tests/nodes/simulator."""
 
 from types import SimpleNamespace
@@ -23,8 +24,10 @@ class ScriptedLoop:
 
 def timing_at_100_hz(*usages: tuple[int, int, int] | None) -> LoopTiming:
     timing = object.__new__(LoopTiming)  # the counting only: no node, no publishers
-    timing.controller = SimpleNamespace(config=SimpleNamespace(control_period_s=0.01))
+    timing.controller = SimpleNamespace(config=SimpleNamespace(control_period_s=0.01, watchdog_periods=5))
     timing.loop, timing.last_tick, timing.missed_for_host = ScriptedLoop(*usages), None, []
+    timing.reading_s, timing.usage_at_reading, timing.reading_unsampled = None, None, False
+    timing.watchdog_for_host = []
     return timing
 
 
@@ -49,3 +52,19 @@ def test_nothing_read_nothing_counted_for_the_host():
     timing.note_host_wait(0.0)
     timing.note_host_wait(1.0)
     assert timing.missed_for_host == []
+
+
+def test_a_watchdog_tick_is_the_hosts_only_if_it_kept_the_loop_waiting_past_the_window(monkeypatch):
+    monkeypatch.setattr(loop_processes, "_CPUS", 2)
+    monkeypatch.setattr(loop_processes, "_TICK_NS", 10_000_000)
+    timing = timing_at_100_hz(
+        (0, 0, 0),  # the reading arrives at 0: its tick samples the loop
+        (1 * MS, 3 * MS, 0),  # 56 ms of silence, 6 past the 50 ms window: 3 ms waiting, the watchdog's own
+        (2 * MS, 13 * MS, 0),  # 66 ms, 16 past: 13 ms waiting, still its own
+        (3 * MS, 13 * MS, 50 * MS),  # 76 ms, 26 past: 13 ms waiting and 20 of a CPU stolen, the host's
+    )
+    timing.note_reading(0.0)
+    for now_s, watchdog in ((0.0, False), (0.056, True), (0.066, True), (0.076, True)):
+        timing.note_host_wait(now_s, watchdog)
+    assert timing.watchdog_for_host == [0.076]
+    assert timing.missed_for_host == []  # the 56 ms gap was the loop's own miss
