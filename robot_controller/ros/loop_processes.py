@@ -61,6 +61,16 @@ class Sample:
         return Usage(cpu_ns, sum(wait_by_pid.values()), steal_ns)
 
 
+def thread_run_wait_s() -> float:
+    """How long the calling thread has waited for a CPU since it started, s (its schedstat run delay); 0 where that
+    cannot be read, so that nothing is excused."""
+    try:
+        with open("/proc/thread-self/schedstat", "rb") as f:
+            return int(f.read().split()[1]) * 1e-9
+    except (OSError, IndexError, ValueError):
+        return 0.0
+
+
 def host_kept_waiting(used: Usage, late_ns: int) -> bool:
     """Whether, over a wait ``late_ns`` past the effort's due time, the host took at least that long from the
     loop (its threads waiting for a CPU, or the hypervisor's steal): then the host made the effort late."""

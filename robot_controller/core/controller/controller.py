@@ -3,8 +3,7 @@ the latest reference and reading with their arrival times, advances the tick clo
 (:mod:`~robot_controller.core.controller.supervision`), estimates the arm's state at the tick
 (:mod:`~robot_controller.core.controller.tick_state`), takes the reference at the tick
 (:mod:`~robot_controller.core.controller.reference_in_force`) and runs the law in force (the built-in one, or a
-user's :class:`~robot_controller.core.laws.ContainedLaw`, called alike), or a stop: one torque command.
-"""
+user's :class:`~robot_controller.core.laws.ContainedLaw`, called alike), or a stop: one torque command."""
 
 from __future__ import annotations
 
@@ -57,10 +56,10 @@ STOPS = {
 
 
 class JointController:
-    """``law_clock``: a function giving seconds of wall time, to hold a plugin law to its
-    ``law_budget_s`` (None: its time is not checked, as in the in-process loops).
-    ``latency_guard``: stop the motion while the readings' and commands' delay is past the
-    delay margin (:class:`~robot_controller.core.controller.supervision.LatencyGuard`)."""
+    """``law_clock``: a function giving seconds of wall time, to hold a plugin law to its ``law_budget_s`` (None: its
+    time is not checked, as in the in-process loops), less the seconds ``law_run_wait`` says the law's thread waited
+    for a CPU (None: not known). ``latency_guard``: stop the motion while the readings' and commands' delay is past
+    the delay margin (:class:`~robot_controller.core.controller.supervision.LatencyGuard`)."""
 
     def __init__(
         self,
@@ -69,6 +68,7 @@ class JointController:
         dynamics: ArmDynamics | None = None,
         law_clock: Callable[[], float] | None = None,
         latency_guard: bool = False,
+        law_run_wait: Callable[[], float] | None = None,
     ) -> None:
         if config.feedforward is not FeedforwardMode.NONE and dynamics is None:
             raise ConfigError("feedforward: needs the arm model (urdf_path)")
@@ -79,7 +79,8 @@ class JointController:
             raise ConfigError(f"controller_type: {config.controller_type!r} is registered to a law not built in")
         #: the built-in law: the law in force, or under a plugin law the one that stops the arm if it fails
         self.stop_law = self._builtin(config)
-        self.law = self._plugin(config, law_clock) if config.plugin_law else self.stop_law  #: the law in force
+        self._law_clocks = (law_clock, law_run_wait)
+        self.law = self._plugin(config) if config.plugin_law else self.stop_law  #: the law in force
         self._state = make_state(config, dynamics, joint_count, lambda: self.pid)
         self._reference = ReferenceAtTick(joint_count)
         self._readings = Readings()
@@ -108,10 +109,9 @@ class JointController:
         law_class = registry.resolve(config.builtin_law)  # pid or lqr, by their entry points
         return law_class(self._arm(config), config.control_period_s, config.law_params())
 
-    def _plugin(self, config: ControllerConfig, clock: Callable[[], float] | None) -> ContainedLaw:
-        law = ContainedLaw.build(
-            config.controller_type, self._arm(config), config.control_period_s, config.law_parameters, clock
-        )
+    def _plugin(self, config: ControllerConfig) -> ContainedLaw:
+        arm, period_s, given = self._arm(config), config.control_period_s, config.law_parameters
+        law = ContainedLaw.build(config.controller_type, arm, period_s, given, *self._law_clocks)
         self._hold_to_limits(law, config)
         return law
 

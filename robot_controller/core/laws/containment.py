@@ -4,8 +4,9 @@ to the user's law checked. Its torque is held here to the torque limit and the s
 terms are gathered for ``/controller/state``. The first thing it gets wrong becomes its ``fault``
 (a :class:`LawFault`) instead of a torque: it raises, returns anything but one finite number per
 joint, takes longer than its budget on OVERRUN_TICKS ticks running (one long call alone is the
-machine's doing, a slow law is slow on every tick; measured on ``clock``, seconds of wall time, or
-not at all without one), is still running a control period past its budget (timed, its calls run on
+machine's doing, a slow law is slow on every tick; measured on ``clock``, seconds of wall time, less
+what ``run_wait`` says its thread waited for a CPU meanwhile, the host's share; not at all without a
+clock), is still running a control period past its budget (timed, its calls run on
 a :class:`LawWorker` the controller stops waiting for), or lets the arm run away from the reference
 (``error_max_rad``). The controller answers a fault with a controlled stop on its built-in law; the
 law is never called again."""
@@ -104,6 +105,7 @@ class ContainedLaw(ControlLaw):
         params: Mapping[str, Any],
         clock: Callable[[], float] | None = None,
         budget_s: float = 0.005,
+        run_wait: Callable[[], float] | None = None,
     ) -> None:
         super().__init__(arm, period_s, params)
         self.law = law
@@ -111,7 +113,8 @@ class ContainedLaw(ControlLaw):
         self.joint_count = arm.joint_count
         self.joint_names = arm.joint_names  #: for the fault's line
         self.clock = clock
-        self.budget_s = budget_s  #: s of wall time per update
+        self.budget_s = budget_s  #: s of wall time per update, less the time its thread waited for a CPU
+        self.run_wait = run_wait  #: s the calling thread has waited for a CPU so far (None: not known, not excused)
         self.error_max_rad = 0.0  #: how far the arm may be from the reference (0: no check)
         self.stop_deceleration_rad_s2 = 20.0  #: the controlled stop's, for the way still to go
         self.output_limit = arm.torque_limit  #: N·m per joint
@@ -128,11 +131,17 @@ class ContainedLaw(ControlLaw):
 
     @classmethod
     def build(
-        cls, spec: str, arm: Arm, period_s: float, given: Mapping[str, Any], clock: Callable[[], float] | None = None
+        cls,
+        spec: str,
+        arm: Arm,
+        period_s: float,
+        given: Mapping[str, Any],
+        clock: Callable[[], float] | None = None,
+        run_wait: Callable[[], float] | None = None,
     ) -> ContainedLaw:
         """The law ``spec`` names, built with the values ``given`` for its parameters and contained (its
-        time checked on ``clock``, seconds of wall time; None: not checked); ``ConfigError`` in one line
-        if it cannot be built."""
+        time checked on ``clock``, seconds of wall time, less ``run_wait``'s; None: not checked);
+        ``ConfigError`` in one line if it cannot be built."""
         if arm.model is None:
             raise ConfigError("controller_type: a law of one's own needs the arm model (urdf_path)")
         law_class = resolve(spec)
@@ -143,7 +152,7 @@ class ContainedLaw(ControlLaw):
             raise
         except Exception as exc:
             raise ConfigError(f"controller_type: {spec} failed to start: {type(exc).__name__}: {exc}") from exc
-        return cls(law, spec, arm, period_s, values, clock)
+        return cls(law, spec, arm, period_s, values, clock, run_wait=run_wait)
 
     def set_limits(
         self,
@@ -293,12 +302,15 @@ class ContainedLaw(ControlLaw):
         if self.fault is not None:
             return self.fault
         timed = self.clock is not None and method == "update"
-        started = self.clock() if self.clock is not None else 0.0
-        outcome = _outcome(call) if self.worker is None else self.worker.run(call, self.budget_s + self.period_s)
+        spent_s: list[float] = []  # the call's own time, measured on the thread it runs on
+        if timed:
+            call = self._timed(call, spent_s)
+        waited_s = self.budget_s + self.period_s  # of wall time, for a call still running: abandoned
+        outcome = _outcome(call) if self.worker is None else self.worker.run(call, waited_s)
         if outcome is None:
             return self._faulted(
                 time_s,
-                f"was still in {method}() after {(self.clock() - started) * 1e3:.1f} ms, over its budget of "
+                f"was still in {method}() after {waited_s * 1e3:.1f} ms, over its budget of "
                 f"{self.budget_s * 1e3:g} ms (law_budget_s) by more than a control period: abandoned",
             )
         value, trace = outcome
@@ -307,7 +319,7 @@ class ContainedLaw(ControlLaw):
             said = f": {value}" if str(value) else ""
             return self._faulted(time_s, f"raised {type(value).__name__}{said}{in_method}", trace)
         if timed:
-            duration_s = self.clock() - started
+            duration_s = spent_s[0]
             self.overruns_s = self.overruns_s + [duration_s] if duration_s > self.budget_s else []
             if len(self.overruns_s) >= OVERRUN_TICKS:
                 took = ", ".join(f"{d * 1e3:.1f}" for d in self.overruns_s)
@@ -317,6 +329,21 @@ class ContainedLaw(ControlLaw):
                     f"{self.budget_s * 1e3:g} ms (law_budget_s)",
                 )
         return value
+
+    def _timed(self, call: Callable[[], Any], spent_s: list[float]) -> Callable[[], Any]:
+        """``call``, leaving in ``spent_s`` how long it took on ``clock`` less the time its thread waited for a
+        CPU meanwhile (``run_wait``, read on that thread: a law preempted by the host is not slow)."""
+        assert self.clock is not None
+        clock, run_wait = self.clock, self.run_wait or (lambda: 0.0)
+
+        def timed() -> Any:
+            started_s, waited_s = clock(), run_wait()
+            try:
+                return call()
+            finally:
+                spent_s.append(max(0.0, clock() - started_s - (run_wait() - waited_s)))
+
+        return timed
 
     def _faulted(self, time_s: float | None, what: str, trace: str = "") -> LawFault:
         self.fault = LawFault(self.name, what, time_s, trace)

@@ -23,6 +23,7 @@ from robot_controller.nodes.pid_controller.status import StartWaits, StatusRepor
 from robot_controller.nodes.pid_controller.timing import LoopTiming
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model, model_overridden
+from robot_controller.ros.loop_processes import thread_run_wait_s
 from robot_controller.ros.messages import (
     brake_reasons,
     check_joint_state,
@@ -42,14 +43,16 @@ CONFIG_MISMATCH_S = 2.0
 class PidControllerNode(StackNode):
     def __init__(self) -> None:
         super().__init__("pid_controller")
-        # A law of one's own is held to its law_budget_s in wall time, in lockstep too. On the
-        # wall clock the loop's delay is watched against the gains' delay margin (core.latency).
+        # A law of one's own is held to its law_budget_s in wall time, in lockstep too, less the time the
+        # host kept its thread from a CPU. On the wall clock the loop's delay is watched against the gains'
+        # delay margin (core.latency).
         self.controller = JointController(
             cfg.controller_config(self.params, self.joint_count),
             self.joint_count,
             self.dynamics,
             law_clock=time.perf_counter,
             latency_guard=not self.lockstep,
+            law_run_wait=thread_run_wait_s,
         )
         self.last_tick_s = -np.inf
         self.first_tick_s: float | None = None
