@@ -13,7 +13,7 @@ from robot_controller_lab.network import bench, conditions, netns
 
 pytestmark = pytest.mark.ros
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 
 
 def _machine() -> None:
