@@ -52,7 +52,7 @@ CLOCK_TOPIC = {"/clock": (Clock, "rosgraph_msgs/msg/Clock")}
 PROGRESS_PERIOD_S = 0.1
 BATCH_PERIOD_S = 0.005
 TAKE_BUDGET_S = 0.05  #: the longest one batch takes before the progress and checkpoint get their turn
-CHECKPOINT_PERIOD_S = 1.0
+CHECKPOINT_PERIOD_S = 1.0  #: of wall time and, in lockstep, of the run's clock (a short run may outpace the wall)
 # A larger message is dropped and counted: the loop's are under a kilobyte; a peer's must not fill the disk.
 MAX_MESSAGE_BYTES = 64 * 1024
 DRAIN_QUIET_S = 0.15
@@ -98,6 +98,8 @@ class Recorder:
         self.taken = 0  #: messages taken from DDS, recorded or not: how a batch knows it took them all
         self.oversize: dict[str, int] = {}  #: messages over MAX_MESSAGE_BYTES, dropped, per topic
         self.last_message = time.monotonic()
+        self.next_checkpoint_s = time.monotonic()  #: monotonic s
+        self.next_checkpoint_clock_ns = 0  #: lockstep: the run's clock, ns
         self.clock_pub = self.node.create_publisher(Clock, RECORDER_CLOCK_TOPIC, CLOCK_QOS) if sim_time else None
         typestore = get_typestore(Stores.ROS2_JAZZY)
         for topic, (msg_class, type_name) in topics_for(sim_time).items():
@@ -145,6 +147,15 @@ class Recorder:
         msg.clock.sec, msg.clock.nanosec = divmod(self.clock_ns, 1_000_000_000)
         self.clock_pub.publish(msg)
 
+    def checkpoint_when_due(self, now: float) -> None:
+        """A checkpoint every ``CHECKPOINT_PERIOD_S`` of wall time and of the run's clock: lockstep may run a short
+        run faster than the wall, which would leave a killed recorder with no whole chunk."""
+        if now < self.next_checkpoint_s and self.clock_ns < self.next_checkpoint_clock_ns:
+            return
+        self.next_checkpoint_s = now + CHECKPOINT_PERIOD_S
+        self.next_checkpoint_clock_ns = self.clock_ns + int(CHECKPOINT_PERIOD_S * 1e9)
+        self.checkpoint()
+
     def checkpoint(self) -> None:
         """Close the chunk being written and push it to the file: a killed recorder's bag is recoverable but for the
         last ``CHECKPOINT_PERIOD_S`` (rosbags has no public call for it)."""
@@ -170,7 +181,7 @@ def main(argv: list[str] | None = None) -> int:
     executor = make_executor(context)
     executor.add_node(recorder.node)
     print(READY_LINE, flush=True)
-    next_progress = next_checkpoint = time.monotonic()
+    next_progress = time.monotonic()
 
     def report_progress(now: float) -> None:
         nonlocal next_progress
@@ -183,9 +194,7 @@ def main(argv: list[str] | None = None) -> int:
         while not stop.wait(BATCH_PERIOD_S):
             recorder.take_waiting(executor)
             report_progress(now := time.monotonic())
-            if now >= next_checkpoint:
-                next_checkpoint = now + CHECKPOINT_PERIOD_S
-                recorder.checkpoint()
+            recorder.checkpoint_when_due(now)
         # The nodes stop first; take what is still in flight, reporting (the launcher waits while it hears us).
         stopped = time.monotonic()
         deadline = stopped + DRAIN_MAX_S
