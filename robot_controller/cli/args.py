@@ -36,10 +36,13 @@ def _number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
 
 
-def positive_seconds(text: str) -> float:
+def positive_float(text: str) -> float:
     if not 0 < (value := _number(text)) < float("inf"):
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
     return value
+
+
+positive_seconds = positive_float
 
 
 def step_size_rad(text: str) -> float:

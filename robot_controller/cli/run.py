@@ -13,6 +13,7 @@ from robot_controller.cli.args import (
     out_option,
     peer_list,
     port,
+    positive_float,
     positive_seconds,
     run_name,
     stack_options,
@@ -57,6 +58,11 @@ def register(sub) -> None:
         help="the other hosts' IPv4 addresses: discovery by unicast to them, UDPv4 only (no shared memory)",
     )
     p.add_argument("--run-id", type=run_name, metavar="NAME", help="the run's name, the same on every launcher")
+    band_help = (
+        "how far (rad; m on a prismatic joint) the arm may be from its reference, start included, for the run to be "
+        "ok (default: the robot's, 0.02)"
+    )
+    p.add_argument("--tracking-band", dest="tracking_band_rad", type=positive_float, metavar="RAD", help=band_help)
     wait_help = "give up if the whole graph is not there within S seconds (default 60)"
     p.add_argument("--wait", dest="wait_s", type=positive_seconds, default=60.0, metavar="S", help=wait_help)
 
@@ -71,7 +77,7 @@ def run(options: RunOptions, out: Path | None) -> int:
     from robot_controller import robots
     from robot_controller.core import metrics
     from robot_controller.runner import launcher, plan
-    from robot_controller.scoring import plots, report, summary
+    from robot_controller.scoring import plots, report, summary, verdict
 
     checked = plan.check(options.params(), options)  # before the output folder is made
     say_arm(options.robot)
@@ -132,15 +138,17 @@ def run(options: RunOptions, out: Path | None) -> int:
         values.update(result.usage)
     if options.paced:
         values.update(wall)  # not the same run to run: the host's
+    band_rad = options.tracking_band_rad or robots.robot(options.robot).tracking_band_rad
+    judged = verdict.judge(values, band_rad=band_rad, failure=result.failure if result.exit_code else None)
+    values.update(judged.as_metrics(), tracking_band_rad=band_rad)
     report.write_metrics(out / "metrics.json", values)
     if options.sim_time:
         report.write_metrics(out / "timing.json", wall)
     plots.plot_tracking(recording, out / "tracking.png", title=f"{robot}, preset {preset}, seed {seed}", units=units)
-    verdict = summary.verdict(result.failure if result.exit_code else None)
     limits = effort_limits(checked.params, len(units))
     rows = summary.run_rows(values | (wall if options.sim_time else {}), effort_limits=limits, out=str(out))
     links = ["tracking.png", "bag/", "metrics.json", "params.yaml"]
-    text = summary.markdown(verdict, rows, title=f"Run {out.name}", command=typed_command(), links=links)
+    text = summary.markdown(judged.line, rows, title=f"Run {out.name}", command=typed_command(), links=links)
     (out / "summary.md").write_text(text)
-    print_summary(verdict, rows)
-    return result.exit_code
+    print_summary(judged.line, rows)
+    return result.exit_code or (0 if judged.ok else 1)

@@ -32,7 +32,8 @@ def register(sub) -> None:
 
 
 def score(run_dir: Path, *, as_json: bool = False, every_figure: bool = False) -> int:
-    from robot_controller.scoring import report, summary
+    from robot_controller import robots
+    from robot_controller.scoring import report, summary, verdict
 
     try:
         recording = report.read_recording(run_dir / "bag")
@@ -44,14 +45,17 @@ def score(run_dir: Path, *, as_json: bool = False, every_figure: bool = False) -
     except (FileNotFoundError, ValueError) as exc:
         print(f"robot-controller: cannot score {run_dir}: {exc}", file=sys.stderr)
         return 2
+    band_rad = saved.get("tracking_band_rad") or robots.robot(robots.DEFAULT_ROBOT).tracking_band_rad
+    judged = verdict.judge(saved | values, band_rad=band_rad)
+    values.update(judged.as_metrics(), tracking_band_rad=band_rad)
     if as_json:
-        print(json.dumps(values, indent=2, sort_keys=True))
+        print(json.dumps(report.json_safe(values), indent=2, sort_keys=True))
     elif every_figure:
         print_table(values, title=f"re-scored {run_dir / 'bag'}")
     else:  # the run's facts (robot, clock, host freezes) from its metrics.json, the figures re-scored
         rows = summary.run_rows(saved | values, effort_limits=_effort_limits(run_dir, recording.joint_count))
         print(f"re-scored {run_dir / 'bag'}")
-        print_summary(None, [*rows, ("all figures", f"robot-controller score {run_dir} --all")])
+        print_summary(judged.line, [*rows, ("all figures", f"robot-controller score {run_dir} --all")])
     return 0
 
 

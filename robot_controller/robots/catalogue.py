@@ -35,6 +35,9 @@ class Robot:
     frequency_hz: float
     note: str = ""
     rated_payload_kg: float = 0.0  #: kg, the maker's rated payload (the controller allows for one it does not know)
+    #: rad (m on a prismatic joint): how far the true position may be from the reference in force, start included,
+    #: for a run to be ``ok`` (``run --tracking-band``)
+    tracking_band_rad: float = 0.02
 
     def layer(self) -> dict[str, dict[str, Any]]:
         """The robot's parameters, as a layer of ``{node: {param: value}}``."""

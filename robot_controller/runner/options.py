@@ -33,6 +33,7 @@ class RunOptions:
     run_id: str | None = None  #: the run's name, the same on every launcher (its partition)
     wait_s: float = 60.0  #: how long to wait for the whole graph of a split run
     domain_id: int | None = None  #: the graph's ROS_DOMAIN_ID (default: this process's)
+    tracking_band_rad: float | None = None  #: the band the run is judged by (None: the robot's)
 
     @classmethod
     def from_args(cls, args: Any) -> RunOptions:

@@ -41,6 +41,8 @@ class Recording:
     #: /sim/brakes: when recorded, and 1/0 per joint
     brakes_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     brakes: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
+    #: why each /sim/brakes message says they hold (its label's reasons: ``estop``, ``drive_timeout``…; empty if unsaid)
+    brakes_reasons: list[frozenset[str]] = field(default_factory=list)
     #: /sim/disturbance_applied: the external torque on each joint (N·m) at each time, one zero row after
     disturbance_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     disturbance: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
@@ -147,7 +149,7 @@ def read_recording(bag_dir: Path) -> Recording:
             malformed["/trajectory"] = malformed.get("/trajectory", 0) + 1
     brakes = keep(
         "/sim/brakes",
-        [(t, np.asarray(m.data, dtype=float)) for t, m in decoded["/sim/brakes"]],
+        [(t, np.asarray(m.data, dtype=float), _brake_reasons(m)) for t, m in decoded["/sim/brakes"]],
         lambda r: r[1].size == joint_count,
     )
     # [torque_nm…, time_s] (the simulator's); one torque per joint without the time: when recorded.
@@ -186,8 +188,9 @@ def read_recording(bag_dir: Path) -> Recording:
         planned_time_s=np.array([t for t, _, _ in planned]),
         planned_position=rows([q for _, q, _ in planned]),
         planned_velocity=rows([v for _, _, v in planned]),
-        brakes_time_s=np.array([t * 1e-9 for t, _ in brakes]),
-        brakes=rows([b for _, b in brakes]),
+        brakes_time_s=np.array([t * 1e-9 for t, _, _ in brakes]),
+        brakes=rows([b for _, b, _ in brakes]),
+        brakes_reasons=[reasons for _, _, reasons in brakes],
         disturbance_time_s=np.array([t for t, _ in disturbance]),
         disturbance=rows([d for _, d in disturbance]),
         malformed=malformed,
@@ -206,6 +209,13 @@ WANTED_TOPICS = (
     "/sim/brakes",
     "/sim/disturbance_applied",
 )
+
+
+def _brake_reasons(msg: Any) -> frozenset[str]:
+    """Why ``/sim/brakes`` says they hold (``engaged:estop,requested``); empty if its label does not say."""
+    label = msg.layout.dim[0].label if msg.layout.dim else ""
+    prefix = "engaged:"  # ros.messages.BRAKES_LABEL_PREFIX, not imported: scoring runs without rclpy
+    return frozenset(filter(None, label[len(prefix) :].split(","))) if label.startswith(prefix) else frozenset()
 
 
 def _joint_count_of(decoded: dict[str, list[tuple[int, Any]]]) -> int:

@@ -65,6 +65,13 @@ def score(
     out: dict[str, Any] = {"joint_names": list(recording.joint_names), "joint_units": units}
     end_s = ticks[0] + window_s if window_s is not None else ticks[-1]
     out.update(tracking_on_sim_timeline(recording, ticks[0] + warmup_s, end_s, nominal_period_s, units))
+    out.update(start_transient(recording, ticks[0], out, nominal_period_s, units))
+    pushed = pushed_at(recording, recording.true_time_s, PUSH_SETTLE_S)
+    if np.any(pushed):  # what the band judges: the tracking away from the pushes someone asked for
+        unpushed = tracking_on_sim_timeline(
+            recording, ticks[0] + warmup_s, end_s, nominal_period_s, units, prefix="unpushed", leave_out=pushed
+        )
+        out.update({key: value for key, value in unpushed.items() if "_rms" not in key})
     # The sensor's own readings against the reference the law used with them (null if not recorded).
     active = s["status"] == state_layout.STATUS_CODES["ok"]
     raw = recording.raw_reading_at(s["measurement_stamp_s"])
@@ -124,15 +131,30 @@ def braked_at(recording: Recording, t: np.ndarray) -> np.ndarray:
 def brake_metrics(recording: Recording, start_s: float, end_s: float, grace_s: float = 0.02) -> dict[str, Any]:
     """How often the brakes went on between ``start_s`` and ``end_s`` (a stall of the loop, an e-stop: the drive's
     category 0 stop; ``grace_s`` past the end too: the stop that ended a failed run), and for how long in all (s, the
-    simulator's time)."""
+    simulator's time); of those, the ones an e-stop held at some time (``…_estop``): asked for, not the loop's."""
     t, held = recording.brakes_time_s, np.any(recording.brakes > 0.5, axis=1)
     if not len(t):
-        return {"brake_engagements": 0, "braked_s": 0.0}
+        return {"brake_engagements": 0, "braked_s": 0.0, "brake_engagements_estop": 0, "braked_s_estop": 0.0}
+    # Each span the brakes held without a break, and whether an e-stop held it at some time.
+    span_id = np.cumsum(held & ~np.concatenate(([False], held[:-1])))
+    estop = np.array([held[k] and "estop" in reasons for k, reasons in enumerate(_reasons_of(recording, len(t)))])
+    estop_spans = set(span_id[estop].tolist())
+    by_estop = np.isin(span_id, list(estop_spans)) & held
     engaged = np.flatnonzero(held[1:] & ~held[:-1]) + 1
     engaged = engaged[(t[engaged] > start_s) & (t[engaged] <= end_s + grace_s)]
     ends = np.append(t[1:], end_s)
     spans = np.clip(np.minimum(ends, end_s) - np.maximum(t, start_s), 0.0, None)
-    return {"brake_engagements": int(len(engaged)), "braked_s": float(np.sum(spans[held]))}
+    return {
+        "brake_engagements": int(len(engaged)),
+        "braked_s": float(np.sum(spans[held])),
+        "brake_engagements_estop": int(np.count_nonzero(by_estop[engaged])),
+        "braked_s_estop": float(np.sum(spans[by_estop])),
+    }
+
+
+def _reasons_of(recording: Recording, count: int) -> list[frozenset[str]]:
+    reasons = list(recording.brakes_reasons)
+    return reasons if len(reasons) == count else [frozenset()] * count
 
 
 def reference_in_force_at(
@@ -166,17 +188,62 @@ def reference_in_force_at(
 
 
 def tracking_on_sim_timeline(
-    recording: Recording, start_s: float, end_s: float, nominal_period_s: float = 0.01, units: list[str] | None = None
+    recording: Recording,
+    start_s: float,
+    end_s: float,
+    nominal_period_s: float = 0.01,
+    units: list[str] | None = None,
+    *,
+    prefix: str = "tracking",
+    leave_out: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """Tracking on the simulator's timeline: every true-state sample from ``start_s`` to ``end_s`` against the reference
-    in force at that time (:func:`reference_in_force`), per joint and the worst joint's."""
+    in force at that time (:func:`reference_in_force`), per joint and the worst joint's.
+
+    :param leave_out: per true-state sample, whether to leave it out (a push and the settle after it)
+    """
     t, q = recording.true_time_s, recording.true_position
     in_force, valid = reference_in_force(recording, nominal_period_s)
     window = (t >= start_s - 1e-9) & (t <= end_s + 1e-9) & valid
+    if leave_out is not None:
+        window &= ~leave_out
     error = in_force[window] - q[window] if np.any(window) else np.full((1, recording.joint_count), np.nan)
-    return {**metrics.joint_errors(error, units=units), "scored_samples": int(np.count_nonzero(window))}
+    samples = {f"{'scored' if prefix == 'tracking' else prefix}_samples": int(np.count_nonzero(window))}
+    return {**metrics.joint_errors(error, prefix=prefix, units=units), **samples}
 
 
+def start_transient(
+    recording: Recording, start_s: float, settled: dict[str, Any], nominal_period_s: float, units: list[str]
+) -> dict[str, Any]:
+    """The start, which the tracking figures leave out: its largest error (``start_tracking_max_rad``, per joint too)
+    and when it ended (``start_transient_end_s``, from the first tick): the last sample of the start whose error is
+    beyond what the joint's error reaches after it (``settled``: the figures after the start)."""
+    end_s = start_s + metrics.WARMUP_S
+    out = tracking_on_sim_timeline(recording, start_s, end_s, nominal_period_s, units, prefix="start_tracking")
+    out = {key: value for key, value in out.items() if "_max" in key}
+    t, q = recording.true_time_s, recording.true_position
+    in_force, valid = reference_in_force(recording, nominal_period_s)
+    window = (t >= start_s - 1e-9) & (t < end_s) & valid
+    after = np.asarray(settled.get("tracking_max_per_joint") or [np.nan] * recording.joint_count, dtype=float)
+    beyond = np.any(np.abs(in_force[window] - q[window]) > np.where(np.isfinite(after), after, np.inf), axis=1)
+    out["start_transient_end_s"] = float(t[window][beyond][-1] - start_s) if np.any(beyond) else 0.0
+    return out
+
+
+def pushed_at(recording: Recording, t: np.ndarray, settle_s: float) -> np.ndarray:
+    """Whether an external torque (``/sim/disturbance_applied``: a push someone asked for) acted at each time ``t``,
+    or did less than ``settle_s`` before."""
+    pushed = np.zeros(len(t), bool)
+    times, torque = recording.disturbance_time_s, recording.disturbance
+    acting = np.any(np.abs(torque) > 0.0, axis=1) if len(times) else np.zeros(0, bool)
+    for k in np.flatnonzero(acting):
+        until = times[k + 1] if k + 1 < len(times) else times[k]
+        pushed |= (t >= times[k] - 1e-9) & (t <= until + settle_s)
+    return pushed
+
+
+#: s after a push (an external torque someone asked for) that the band does not judge: the arm is brought back.
+PUSH_SETTLE_S = 1.0
 # Ticks further apart than this many control periods: the controller was not running.
 GAP_PERIODS = 5
 # How long a drive goes on acting on the last command it got (motor command_timeout_s).

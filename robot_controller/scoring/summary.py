@@ -26,6 +26,8 @@ FAULT_TICKS = (
     "late",
     "late_stopped",
 )
+#: How a stop's ticks are said, where its name alone would not say whose it was.
+FAULT_NAMES = {"stopped": "e-stopped (asked for)"}
 #: ``metrics.json``'s ``clock``, as a person says it.
 CLOCKS = {"sim_lockstep": "in lockstep (--sim-time)", "sim_paced": "in the paced world", "wall": "on the wall clock"}
 #: The reference arm's targets (docs/compare.md), by figure: what ``step`` and ``compare`` mark when missed.
@@ -37,6 +39,8 @@ REFERENCE_TARGETS = {
     "peak_torque_nm": 10.0,
 }
 MISSED = "✗ misses its target"
+#: rad, the tracking error the tutorial says its controller reaches ("~0.005 rad (0.5% of amplitude)")
+TUTORIAL_CLAIM_RAD = 0.005
 
 
 def verdict(failure: str | None) -> str:
@@ -53,6 +57,11 @@ def run_rows(
     :param out: the run's directory, as the user named it
     """
     rows = [("run", _run_line(values)), ("tracking", tracking_line(values))]
+    if start := start_line(values):
+        rows.append(("start", start))
+    if values.get("preset") == "tutorial" and _finite(rms := values.get("tracking_rms_rad")):
+        claim = f"the tutorial claims ~{TUTORIAL_CLAIM_RAD * 1e3:g} mrad; its controller as written tracks at "
+        rows.append(("tutorial", claim + f"{rms * 1e3:.3g} mrad RMS"))
     if effort := effort_line(values, effort_limits, note=", start-up included"):
         rows.append(("peak effort", effort))
     if values.get("clock") in ("wall", "sim_paced") and _finite(values.get("control_rate_hz")):
@@ -183,6 +192,23 @@ def tracking_line(values: dict[str, Any]) -> str:
     return "; ".join(said) + f"{where} (true {'position' if 'm' in units else 'angle'}, after {WARMUP_S:g} s)"
 
 
+def start_line(values: dict[str, Any]) -> str | None:
+    """The start's transient, which the tracking line leaves out: its largest error, when it ended, the band."""
+    names, units = _joints(values)
+    peak = values.get("start_tracking_max_per_joint")
+    if not peak or len(peak) != len(names) or not any(_finite(p) for p in peak):
+        return None
+    worst = _worst(peak, None)
+    milli = "mrad" if units[worst] == "rad" else "mm"
+    on = f" on {names[worst]}" if len(names) > 1 else ""
+    text = f"max {_num(_milli(peak[worst]), '.3g')} {milli}{on} in the first {WARMUP_S:g} s"
+    if _finite(ended := values.get("start_transient_end_s")):
+        text += f", down to the run's level from {ended:.2f} s"
+    if _finite(band := values.get("tracking_band_rad")):
+        text += f" (band {band * 1e3:g} {milli})"
+    return text
+
+
 def effort_line(
     values: dict[str, Any],
     limits: Sequence[float] | None = None,
@@ -245,7 +271,9 @@ def _trouble_rows(values: dict[str, Any]) -> list[Row]:
     """Faults and stops, host freezes, messages lost: only those that happened."""
     rows = []
     faults = [
-        f"{name.replace('_', ' ')} {_count(n, 'tick')}" for name in FAULT_TICKS if (n := values.get(f"{name}_ticks"))
+        f"{FAULT_NAMES.get(name, name.replace('_', ' '))} {_count(n, 'tick')}"
+        for name in FAULT_TICKS
+        if (n := values.get(f"{name}_ticks"))
     ]
     if host_watchdog := values.get("watchdog_ticks_host"):  # said as the rate line says missed cycles
         if values.get("watchdog_ticks"):
@@ -256,7 +284,10 @@ def _trouble_rows(values: dict[str, Any]) -> list[Row]:
         rows.append(("faults", ", ".join(faults)))
     if engagements := values.get("brake_engagements"):
         held_s = _num(values.get("braked_s"), ".2f")
-        rows.append(("brakes", f"held the arm {_count(engagements, 'time')}, {held_s} s in all (not scored)"))
+        text = f"held the arm {_count(engagements, 'time')}, {held_s} s in all (not scored)"
+        if estop := values.get("brake_engagements_estop"):
+            text += f"; {estop} of them your e-stop's ({_num(values.get('braked_s_estop'), '.2f')} s)"
+        rows.append(("brakes", text))
     if freezes := values.get("host_freezes"):
         longest, total = values.get("host_freeze_ms_max"), values.get("host_freeze_ms_total")
         text = f"{freezes}, the longest {_num(longest, '.0f')} ms, {_num(total, '.0f')} ms in all"

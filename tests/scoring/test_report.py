@@ -51,6 +51,24 @@ def test_no_reference_is_in_force_while_the_brakes_hold_the_arm():
 
 def test_brake_engagements_count_the_stops_after_the_start_and_their_time():
     recording = _stalled_then_braked()
-    assert brake_metrics(recording, 0.0, 2.0) == {"brake_engagements": 1, "braked_s": pytest.approx(0.49)}
-    assert brake_metrics(recording, 1.6, 2.0) == {"brake_engagements": 0, "braked_s": 0.0}
+    assert brake_metrics(recording, 0.0, 2.0) == {
+        "brake_engagements": 1,
+        "braked_s": pytest.approx(0.49),
+        "brake_engagements_estop": 0,
+        "braked_s_estop": 0.0,
+    }
+    assert brake_metrics(recording, 1.6, 2.0)["brake_engagements"] == 0
     assert brake_metrics(Recording({}, t_empty := np.zeros(0), t_empty, t_empty, t_empty), 0, 1)["braked_s"] == 0.0
+
+
+def test_brakes_an_estop_held_are_counted_as_asked_for():
+    recording = _stalled_then_braked()
+    # The e-stop engages the brakes; on its release they wait for the drive's next effort, the same stop.
+    recording.brakes_time_s = np.array([0.0, 1.01, 1.2, 1.5])
+    recording.brakes = np.array([[0.0], [1.0], [1.0], [0.0]])
+    recording.brakes_reasons = [frozenset(), frozenset({"estop"}), frozenset({"drive_timeout"}), frozenset()]
+    figures = brake_metrics(recording, 0.0, 2.0)
+    assert figures["brake_engagements"] == figures["brake_engagements_estop"] == 1
+    assert figures["braked_s_estop"] == pytest.approx(0.49)
+    recording.brakes_reasons = [frozenset(), frozenset({"drive_timeout"}), frozenset({"drive_timeout"}), frozenset()]
+    assert brake_metrics(recording, 0.0, 2.0)["brake_engagements_estop"] == 0

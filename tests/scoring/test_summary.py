@@ -67,15 +67,15 @@ def test_off_lockstep_the_rate_and_misses_are_said_and_faults_only_when_there_we
     assert rows["rate"].endswith(
         "; 7 efforts the host made late (not counted); 1 stale effort dropped (the world had moved on)"
     )
-    assert rows["faults"] == "watchdog 4 ticks, stopped 1 tick"
+    assert rows["faults"] == "watchdog 4 ticks, e-stopped (asked for) 1 tick"
     assert rows["host freezes"].startswith("3, the longest 41 ms, 80 ms in all")
     assert rows["brakes"] == "held the arm 1 time, 0.46 s in all (not scored)"
     assert rows["recording"] == "3 published messages missing from the bag"
     host = {"watchdog_ticks_host": 2, "stopped_ticks": 1}
     rows = dict(summary.run_rows(wall | host))
-    assert rows["faults"] == "watchdog: 2 ticks the host made (not counted), stopped 1 tick"
+    assert rows["faults"] == "watchdog: 2 ticks the host made (not counted), e-stopped (asked for) 1 tick"
     rows = dict(summary.run_rows(wall | host | {"watchdog_ticks": 1}))
-    assert rows["faults"] == "watchdog 1 tick (2 more the host made, not counted), stopped 1 tick"
+    assert rows["faults"] == "watchdog 1 tick (2 more the host made, not counted), e-stopped (asked for) 1 tick"
 
 
 def test_a_failing_run_says_failed_first_and_last():

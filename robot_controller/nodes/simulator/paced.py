@@ -94,6 +94,7 @@ class PacedTicks:
         self.late_efforts = 0  #: ticks the world waited for their effort, or went without it: the loop's own misses
         self.freezes = FreezeLog()
         self.late_for_host = 0  #: late efforts the host made late (the loop waited that long for a CPU): not counted
+        self.after_estop = False  #: an e-stop held the brakes, and no effort has come since
         self.stale_ns = round(STALE_PERIODS * 1e9 / rate_hz)  #: world ns
         self.stale_efforts = 0  #: efforts dropped: computed for a tick more than ``stale_ns`` before the world's
         self.loop_heard = False  #: a stale effort came while the drive timeout's brakes hold: wait for the next
@@ -182,7 +183,11 @@ class PacedTicks:
             ticks.held_for_recorder = False
             ticks.publish()
             return deadline_ns + self.period_ns
-        counted = not self.past_the_run()  # in the margin after the run the nodes may stop: brake, say nothing
+        # In the margin after the run the nodes may stop: brake, say nothing. An e-stop is asked for: the efforts it
+        # holds back (until the first after its release) are not the loop's to miss.
+        estop = "estop" in self.node.brakes.reasons
+        self.after_estop = (self.after_estop or estop) and not self.effort_in
+        counted = not self.past_the_run() and not (estop or self.after_estop)
         self.loop_heard = False  # waited for once: if nothing fresh came, the world goes on without waiting again
         if not self.effort_in:
             self.late_efforts += counted

@@ -1,0 +1,86 @@
+"""A run's verdict: ``ok`` only if it tracked within its band from its first tick, no brake held the arm for a fault,
+and no stop came that nobody asked for. An e-stop is asked for: said as the user's, never as the loop's.
+
+It reads ``metrics.json``'s figures only, so ``score`` judges a saved run the same way."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from robot_controller.core.metrics import WARMUP_S
+
+#: Controller states that are a stop nobody asked for (``{name}_ticks``); ``stopped`` is the e-stop's, asked for.
+UNASKED_STOPS = ("watchdog", "sensor_lost", "reference_lost", "law_fault", "law_stopped", "late", "late_stopped")
+
+
+@dataclass(frozen=True)
+class Verdict:
+    reasons: tuple[str, ...]  #: what the run missed, one clause each; empty: ``ok``
+
+    @property
+    def ok(self) -> bool:
+        return not self.reasons
+
+    @property
+    def line(self) -> str:
+        """``ok``, or ``FAILED: <what it missed>``."""
+        return "ok" if self.ok else "FAILED: " + "; ".join(self.reasons)
+
+    def as_metrics(self) -> dict[str, Any]:
+        return {"verdict": "ok" if self.ok else "failed", "verdict_reasons": list(self.reasons)}
+
+
+def judge(values: dict[str, Any], *, band_rad: float, failure: str | None = None) -> Verdict:
+    """The verdict of a run from its figures (``metrics.json``'s keys).
+
+    :param band_rad: rad (m on a prismatic joint), the largest |reference in force − true position| allowed on every
+        joint, the start included (a push someone asked for, and ``PUSH_SETTLE_S`` after it, are left out)
+    :param failure: why the run itself failed (a node died, the law failed), said first
+    """
+    reasons = [failure] if failure else []
+    names = list(values.get("joint_names") or [])
+    units = list(values.get("joint_units") or ["rad"] * len(names))
+    settled = values.get("unpushed_max_per_joint") or values.get("tracking_max_per_joint")
+    if not values.get("scored_samples") or not _all_finite(settled):
+        reasons.append("nothing to judge its tracking by (no sample scored)")
+    else:
+        pushed = " (pushes left out)" if values.get("unpushed_max_per_joint") is not None else ""
+        reasons += [r + pushed for r in _beyond(settled, band_rad, names, units, "tracking")]
+    start = values.get("start_tracking_max_per_joint")
+    if _all_finite(start):
+        reasons += _beyond(start, band_rad, names, units, f"in its first {WARMUP_S:g} s")
+    faults = values.get("brake_engagements", 0) - values.get("brake_engagements_estop", 0)
+    if faults > 0:
+        braked = values.get("braked_s", 0.0) - values.get("braked_s_estop", 0.0)
+        reasons.append(f"the brakes held the arm {faults} time(s) for a fault ({braked:.2f} s in all)")
+    stops = {name: values.get(f"{name}_ticks", 0) for name in UNASKED_STOPS}
+    if said := ", ".join(f"{name} {count}" for name, count in stops.items() if count):
+        reasons.append(f"stops nobody asked for ({said} ticks)")
+    return Verdict(tuple(reasons))
+
+
+def _beyond(peaks: Sequence[float], band: float, names: list[str], units: list[str], what: str) -> list[str]:
+    """One clause for the worst joint beyond the band, naming how many others are too."""
+    over = [j for j, peak in enumerate(peaks) if peak > band]
+    if not over:
+        return []
+    worst = max(over, key=lambda j: peaks[j])
+    unit = units[worst] if worst < len(units) else "rad"
+    milli = "mrad" if unit == "rad" else "mm"
+    name = f" on {names[worst]}" if len(names) > 1 and worst < len(names) else ""
+    others = f" (and {len(over) - 1} other joint(s))" if len(over) > 1 else ""
+    return [
+        f"{what} {peaks[worst] * 1e3:.3g} {milli}{name} off its reference, beyond the band of "
+        f"{band * 1e3:g} {milli} (tracking_band_rad){others}"
+    ]
+
+
+def _finite(value: Any) -> bool:
+    return isinstance(value, (int, float)) and math.isfinite(value)
+
+
+def _all_finite(values: Any) -> bool:
+    return bool(values) and all(_finite(v) for v in values)

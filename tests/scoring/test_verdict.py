@@ -1,0 +1,71 @@
+import pytest
+
+from robot_controller.scoring.verdict import judge
+
+BAND = 0.02
+
+
+def _run(**figures):
+    """A clean one-joint run's figures, with ``figures`` over them."""
+    values = {
+        "joint_names": ["joint1"],
+        "joint_units": ["rad"],
+        "scored_samples": 1000,
+        "tracking_max_per_joint": [0.004],
+        "start_tracking_max_per_joint": [0.005],
+        "brake_engagements": 0,
+        "braked_s": 0.0,
+    }
+    return values | figures
+
+
+def test_a_run_within_its_band_is_ok():
+    verdict = judge(_run(), band_rad=BAND)
+    assert verdict.ok and verdict.line == "ok"
+    assert verdict.as_metrics() == {"verdict": "ok", "verdict_reasons": []}
+
+
+def test_tracking_beyond_the_band_fails_naming_the_band_and_the_joint():
+    values = _run(
+        joint_names=["shoulder", "wrist"],
+        joint_units=["rad", "rad"],
+        tracking_max_per_joint=[0.03, 0.407],
+        start_tracking_max_per_joint=[0.001, 0.001],
+    )
+    verdict = judge(values, band_rad=BAND)
+    assert not verdict.ok
+    assert verdict.line.startswith("FAILED: tracking 407 mrad on wrist off its reference, beyond the band of 20 mrad")
+    assert "1 other joint" in verdict.line
+    assert verdict.as_metrics()["verdict"] == "failed"
+
+
+def test_the_start_is_judged_by_the_same_band():
+    verdict = judge(_run(start_tracking_max_per_joint=[0.172]), band_rad=BAND)
+    assert verdict.reasons == (
+        "in its first 2 s 172 mrad off its reference, beyond the band of 20 mrad (tracking_band_rad)",
+    )
+
+
+def test_a_push_someone_asked_for_is_left_out():
+    values = _run(tracking_max_per_joint=[0.3], unpushed_max_per_joint=[0.004])
+    assert judge(values, band_rad=BAND).ok
+    failed = judge(values | {"unpushed_max_per_joint": [0.05]}, band_rad=BAND)
+    assert "pushes left out" in failed.line
+
+
+@pytest.mark.parametrize("unscored", [{"scored_samples": 0}, {"tracking_max_per_joint": [float("nan")]}])
+def test_a_run_with_nothing_scored_is_never_ok(unscored):
+    assert "nothing to judge" in judge(_run(**unscored), band_rad=BAND).line
+
+
+def test_brakes_for_a_fault_fail_and_an_estop_does_not():
+    braked = _run(brake_engagements=2, braked_s=0.4, brake_engagements_estop=1, braked_s_estop=0.3)
+    assert judge(braked, band_rad=BAND).reasons == ("the brakes held the arm 1 time(s) for a fault (0.10 s in all)",)
+    estopped = _run(brake_engagements=1, braked_s=4.0, brake_engagements_estop=1, braked_s_estop=4.0, stopped_ticks=400)
+    assert judge(estopped, band_rad=BAND).ok
+
+
+def test_stops_nobody_asked_for_fail_and_the_runs_own_failure_comes_first():
+    verdict = judge(_run(watchdog_ticks=3, law_fault_ticks=5), band_rad=BAND, failure="the control law failed: boom")
+    assert verdict.reasons[0] == "the control law failed: boom"
+    assert verdict.reasons[1] == "stops nobody asked for (watchdog 3, law_fault 5 ticks)"
