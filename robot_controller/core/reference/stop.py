@@ -3,7 +3,8 @@ trajectory makes first when joining it directly would overshoot its first point.
 
 The stop is one quintic from the reference in force (position, velocity, acceleration) to rest: with the end at
 ``p0 + v0·T/2 + a0·T²/20`` its velocity falls monotonically (for ``a0`` = 0) and its deceleration peaks at
-``1.875·|v0|/T``, so ``T`` follows from the deceleration allowed.
+``1.875·|v0|/T``, so ``T`` follows from the deceleration allowed. Given the joints' range, a stop that would come to
+rest beyond it is made shorter (harder), to rest at the limit: the range is the arm's, the deceleration a preference.
 """
 
 from __future__ import annotations
@@ -17,6 +18,8 @@ MIN_STOP_S = 0.05  #: even a reference nearly at rest settles over this long (s)
 _PEAK_DECELERATION_PER_V0_T = 1.875  # of a quintic from v0 to rest over T with the end above
 # A quintic of this shape from (v0, a0) against v0 keeps its velocity's sign while |a0|·T <= (4 + 2√3)·|v0| (7.46).
 _ONE_WAY = 7.0
+_BISECTIONS = 40
+_SHORTEST_STOP_S = 1e-3  #: a reference at its limit at speed stops this fast (the drive's own limit then rules)
 
 
 def stop_time_s(velocity: np.ndarray, acceleration: np.ndarray, deceleration: float) -> float:
@@ -32,10 +35,13 @@ def rest_position(start: Sample, duration_s: float) -> np.ndarray:
     return p0 + v0 * duration_s / 2 + a0 * duration_s**2 / 20
 
 
-def stop_path(start: Sample, deceleration: float) -> QuinticPath:
+def stop_path(
+    start: Sample, deceleration: float, position_range: tuple[np.ndarray, np.ndarray] | None = None
+) -> QuinticPath:
     """The reference from ``start`` to rest within ``deceleration`` (rad/s²), then held, never turning back: on a
     joint already slowing down (its acceleration against its velocity, or at rest) the stop keeps only the part of the
-    acceleration that cannot reverse it (an acceleration step instead: at a sine's peak the stop holds where it is)."""
+    acceleration that cannot reverse it (an acceleration step instead: at a sine's peak the stop holds where it is).
+    ``position_range`` (lower, upper per joint): a stop that would rest beyond it is shortened to rest within it."""
     p0, v0, a0 = (np.asarray(x, dtype=float) for x in start)
     duration = stop_time_s(v0, a0, deceleration)
     slowing = a0 * v0 <= 0.0
@@ -43,6 +49,8 @@ def stop_path(start: Sample, deceleration: float) -> QuinticPath:
     # A smaller acceleration shortens the stop, and a shorter stop allows more: the bound still holds.
     duration = stop_time_s(v0, a0, deceleration)
     start = (p0, v0, a0)
+    if position_range is not None:
+        duration = _within(start, duration, *position_range)
     rest = np.zeros_like(p0)
     return QuinticPath.through(
         np.array([0.0, duration]),
@@ -50,6 +58,23 @@ def stop_path(start: Sample, deceleration: float) -> QuinticPath:
         np.vstack((v0, rest)),
         np.vstack((a0, rest)),
     )
+
+
+def _within(start: Sample, duration_s: float, lower: np.ndarray, upper: np.ndarray) -> float:
+    """The longest stop no longer than ``duration_s`` whose rest is within [lower, upper] (or as near as the start
+    allows), found by bisection: the rest moves from the start (within the range) as the stop lengthens."""
+
+    def inside(duration: float) -> bool:
+        rest = rest_position(start, duration)
+        return bool(np.all(rest >= np.minimum(lower, start[0])) and np.all(rest <= np.maximum(upper, start[0])))
+
+    if inside(duration_s):
+        return duration_s
+    short, long = 0.0, duration_s
+    for _ in range(_BISECTIONS):
+        middle = 0.5 * (short + long)
+        short, long = (middle, long) if inside(middle) else (short, middle)
+    return max(short, _SHORTEST_STOP_S)
 
 
 def overshoots(path: QuinticPath, start: Sample, deceleration: float, samples: int = 64) -> bool:

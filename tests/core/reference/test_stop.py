@@ -103,3 +103,22 @@ def test_a_join_is_said_to_overshoot_only_when_it_goes_past_both_its_point_and_t
     assert not overshoots(join(0.5, 0.25), start, DECELERATION)  # reached within the stop's own distance
     single = QuinticPath.through(np.zeros(1), np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)))
     assert not overshoots(single, start, DECELERATION)  # no segment to join
+
+
+def test_a_stop_that_would_rest_beyond_the_range_rests_at_its_limit_one_way():
+    # At the sine's peak speed 0.2 rad below the upper limit: at 20 rad/s² it would rest 0.46 rad on, past it.
+    lower, upper = np.array([-np.pi, -1.0]), np.array([np.pi, 1.0])
+    start = (np.array([np.pi - 0.2, 0.0]), np.array([np.pi, -0.5]), np.zeros(2))
+    free = stop_path(start, DECELERATION)
+    assert free.final_position[0] > upper[0]
+    path = stop_path(start, DECELERATION, (lower, upper))
+    t, p, v, a = sampled(path)
+    assert path.duration_s < free.duration_s
+    assert np.all(p <= upper + 1e-9) and np.all(p >= lower - 1e-9)
+    assert path.final_position[0] == pytest.approx(upper[0], abs=1e-6)  # as far as it may go: no harder than needed
+    assert np.all(np.diff(p[:, 0]) >= -1e-12) and np.all(np.diff(p[:, 1]) <= 1e-12)  # one way each
+    for got, want in zip(path.sample(0.0), start, strict=True):
+        np.testing.assert_allclose(got, want, atol=1e-12)
+    # Within the range, the range changes nothing.
+    inside = (np.array([0.0, 0.0]), np.array([np.pi, -0.5]), np.zeros(2))
+    assert stop_path(inside, DECELERATION, (lower, upper)).duration_s == stop_path(inside, DECELERATION).duration_s
