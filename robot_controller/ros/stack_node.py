@@ -5,6 +5,7 @@ else publishes its inputs, and the gated publishers it owns (``publishing``)."""
 from __future__ import annotations
 
 import os
+import threading
 import time
 from typing import Any
 
@@ -46,7 +47,7 @@ class StackNode(Node):
         # Read-only: fixed for the node's life, as its gates need it.
         self.lockstep = bool(self.params.get("lockstep", False))
         self._reports: dict[str, str] = {}  # name → description of what the node reports there
-        self._reporting = False
+        self._reporting: int | None = None  # the thread reporting (the parameter services may run on another)
         self._pending: dict[str, Any] | None = None  # validated by the on-set callback, applied after it
         self._warned_at: dict[str, tuple[float, int]] = {}
         self._gated_publishers: list[GatedPublisher] = []
@@ -105,7 +106,7 @@ class StackNode(Node):
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
         candidate = dict(self.params)
         for parameter in parameters:
-            if parameter.name in self._reports and not self._reporting:
+            if parameter.name in self._reports and self._reporting != threading.get_ident():
                 reason = f"{parameter.name}: reported by the node, not settable ({self._reports[parameter.name]})"
                 return SetParametersResult(successful=False, reason=reason)
             if parameter.name not in candidate:
@@ -113,6 +114,8 @@ class StackNode(Node):
             if parameter.type_ == Parameter.Type.NOT_SET:
                 return SetParametersResult(successful=False, reason=f"{parameter.name}: cannot be undeclared")
             candidate[parameter.name] = parameter.value
+        if not any(parameter.name in self.params for parameter in parameters):
+            return SetParametersResult(successful=True)  # a report or a built-in: nothing of the node's to check
         try:
             self._pending = self._validated(candidate)
         except ConfigError as exc:
@@ -130,7 +133,7 @@ class StackNode(Node):
 
     def report(self, name: str, value: str, description: str = "") -> None:
         """Show ``value`` as the read-only string parameter ``name`` (the gains in force, say)."""
-        self._reporting = True  # declaring and setting both pass through the on-set callback
+        self._reporting = threading.get_ident()  # declaring and setting both pass through the on-set callback
         try:
             if name in self._reports:
                 self.set_parameters([Parameter(name, Parameter.Type.STRING, value)])
@@ -138,7 +141,7 @@ class StackNode(Node):
                 self._reports[name] = description
                 self.declare_parameter(name, value, ParameterDescriptor(description=description))
         finally:
-            self._reporting = False
+            self._reporting = None
 
     def gated_publisher(self, msg_type: Any, topic: str, *, consumer: bool = True, qos: Any = None) -> GatedPublisher:
         """A publisher that holds its messages until its audience has matched (``ros.publishing``)."""

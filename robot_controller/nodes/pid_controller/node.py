@@ -14,11 +14,12 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray
 
 from robot_controller import parameters as cfg
-from robot_controller.core.controller import JointController, Status, check_delay_margin
+from robot_controller.core.controller import JointController, Status
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters as law_parameters
 from robot_controller.core.laws import registry
-from robot_controller.nodes.pid_controller import log_line
+from robot_controller.nodes.pid_controller import live_gains, log_line
+from robot_controller.nodes.pid_controller.designer import Designer
 from robot_controller.nodes.pid_controller.status import StartWaits, StatusReports
 from robot_controller.nodes.pid_controller.timing import LoopTiming
 from robot_controller.parameters import law_params
@@ -38,11 +39,14 @@ from robot_controller.ros.stack_node import StackNode
 
 # Readings naming other joints for this long, none usable yet: a configuration mismatch.
 CONFIG_MISMATCH_S = 2.0
+# The parameters whose change makes the law in force say itself again.
+GAIN_KEYS = frozenset({"controller_type", "lqr_q", "lqr_r", "kp", "ki", "kd", "control_rate_hz"})
 
 
 class PidControllerNode(StackNode):
     def __init__(self) -> None:
-        super().__init__("pid_controller")
+        # Its parameter services are live_gains', on a thread of their own (started last, below).
+        super().__init__("pid_controller", start_parameter_services=False)
         # A law of one's own is held to its law_budget_s in wall time, in lockstep too, less the time the
         # host kept its thread from a CPU. On the wall clock the loop's delay is watched against the gains'
         # delay margin (core.latency).
@@ -82,13 +86,18 @@ class PidControllerNode(StackNode):
         else:
             self.pairing = None
             self.set_timer_period(self.timer_period_s(self.params))
-        self.status.log_gains()
+        self.gain_changes = live_gains.Handover()
+        self.status.log_gains(self.checked.margin)
+        self.parameter_services = live_gains.ParameterServices(self)
 
     def setup(self, params: dict[str, Any]) -> None:
         # The arm model: the URDF's, or the model_* values over it (read-only: fixed at start).
         self.dynamics = arm_model(params)
         self.joint_names = list(self.dynamics.joint_names)
         self.joint_count = len(self.joint_names)
+        # The same model again, for designing and checking a change in the designer's process (adaptation writes
+        # its armature into the loop's own, and MuJoCo's data is not shared between threads).
+        self.designer = Designer(arm_model(params), self.joint_count)
         if model_overridden(params):
             self.get_logger().info(self.dynamics.describe())
 
@@ -104,10 +113,9 @@ class PidControllerNode(StackNode):
         return specs
 
     def check_params(self, params: dict[str, Any]) -> None:
-        # The law designs here, before the change is accepted (an LQR that does not
-        # stabilise is refused, not found when applying it).
+        # The law designs here, before the change is accepted (an LQR that does not stabilise is refused, not
+        # found when applying it): on the parameter services' thread, waiting for the designer's process.
         config = cfg.controller_config(params, self.joint_count)
-        check_delay_margin(config, self.dynamics, self.joint_count)  # designs the law (and refuses a bad design)
         running = getattr(self, "controller", None)
         changed = running is not None and config.controller_type != running.config.controller_type
         if changed and (config.plugin_law or running.config.plugin_law):
@@ -116,18 +124,42 @@ class PidControllerNode(StackNode):
             )
         if config.plugin_law:  # per-joint lengths and the like, as the law will be given them
             law_parameters.values(registry.resolve(config.controller_type), config.law_parameters, self.joint_count)
+        margin = self.designer.margin(config)
+        self.checked = live_gains.GainChange(config, params, margin=margin)  # what the post-set callback hands over
 
     def apply_params(self, params: dict[str, Any], changed: set[str]) -> None:
-        self.controller.set_config(cfg.controller_config(params, self.joint_count))
-        if changed & {"controller_type", "lqr_q", "lqr_r", "kp", "ki", "kd", "control_rate_hz"} or any(
-            law_parameters.is_law_key(name) for name in changed
-        ):
-            self.status.log_gains()
-        if changed & {"control_rate_hz", "trigger", "watchdog_periods"} and self.timer is not None:
-            self.set_timer_period(self.timer_period_s(params))
+        # On the parameter services' thread: the loop takes the change over at its next tick (take_gain_change).
+        checked = self.checked
+        self.gain_changes.offer(live_gains.GainChange(checked.config, params, set(changed), checked.margin))
+
+    def take_gain_change(self) -> None:
+        """At the start of a tick: the newest accepted change, if any, takes over (bumpless: the PID keeps its I term
+        in N·m). Its law was designed and checked when it was accepted; should the controller refuse it even so,
+        the law in force stays, said once."""
+        change = self.gain_changes.take()
+        if change is None:
+            return
+        try:
+            self.controller.set_config(change.config)
+        except ConfigError as exc:
+            self.get_logger().warning(
+                f"the law in force stays: the change to {sorted(change.changed)} was refused ({exc})"
+            )
+            return
+        if change.changed & GAIN_KEYS or any(law_parameters.is_law_key(name) for name in change.changed):
+            self.status.log_gains(change.margin)
+        if change.changed & {"control_rate_hz", "trigger", "watchdog_periods"} and self.timer is not None:
+            self.set_timer_period(self.timer_period_s(change.params))
 
     def finish(self) -> None:
+        self.parameter_services.stop()
+        self.designer.stop()
         self.timing.leave_host_misses()
+
+    def destroy_node(self) -> None:
+        self.parameter_services.stop()  # its thread first: it answers for this node
+        self.designer.stop()
+        super().destroy_node()
 
     def set_timer_period(self, period_s: float) -> None:
         if period_s == self.timer_period:
@@ -212,6 +244,7 @@ class PidControllerNode(StackNode):
             self.controller.brakes(engaged)
 
     def tick(self, now_s: float) -> None:
+        self.take_gain_change()
         out = self.controller.update(now_s)
         self.last_tick_s = now_s
         if self.first_tick_s is None:

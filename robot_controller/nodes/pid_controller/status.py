@@ -94,10 +94,10 @@ class StatusReports:
             MultiArrayDimension(label=name, size=n, stride=n) for name in (*state_layout.FIELDS, *self.extra_terms)
         ]
 
-    def log_gains(self) -> None:
-        """The law and gains in force (LQR's are designed, not the kp/ki/kd parameters)
-        and how much unaccounted delay they survive: in the log and as ``law_in_force``."""
-        margin = self.controller.delay_margin_periods()
+    def log_gains(self, margin: int | None) -> None:
+        """The law and gains in force (LQR's are designed, not the kp/ki/kd parameters) and ``margin``, the control
+        periods of unaccounted delay they survive (found when the change was checked: tens of ms per joint), in the
+        log and as ``law_in_force``."""
         rate_hz = self.node.params["control_rate_hz"]
         in_force = self.controller.law_in_force()
         if margin is not None:  # None: a law of one's own, whose feedback is not known here

@@ -73,8 +73,8 @@ def test_a_delay_margin_of_one_period_is_said_in_the_singular():
     node = SimpleNamespace(params={"control_rate_hz": 100.0}, joint_names=["joint1"], lockstep=False)
     node.report = lambda *args: None
     for margin in (1, 2):
-        controller = SimpleNamespace(delay_margin_periods=lambda m=margin: m, law_in_force=lambda: "PID")
+        controller = SimpleNamespace(law_in_force=lambda: "PID")
         reports = SimpleNamespace(node=node, controller=controller, log=SimpleNamespace(info=said.append))
-        StatusReports.log_gains(reports)
+        StatusReports.log_gains(reports, margin)
     assert "delay margin 1 control period (10 ms)" in said[0]
     assert "delay margin 2 control periods (20 ms)" in said[1]

@@ -1,0 +1,70 @@
+"""The law of a parameter change designed and checked in a process of its own (:class:`Designer`): finding a
+design's delay margin is small numpy steps for tens of ms per joint, and in the node's process those hold the
+interpreter against the loop's thread, which needs it back at every message it takes or publishes (a refused
+``lqr_r`` checked on a thread of the node still stalled its loop 0.3 s, and the drive braked)."""
+
+from __future__ import annotations
+
+import multiprocessing
+import signal
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from typing import TYPE_CHECKING
+
+from robot_controller.core.controller import check_delay_margin, delay_margin_periods, law_config
+from robot_controller.core.errors import ConfigError
+
+if TYPE_CHECKING:
+    from robot_controller.core.controller import ControllerConfig
+    from robot_controller.core.model import ArmDynamics
+
+_dynamics: ArmDynamics | None = None  # the worker's arm model: the design's copy, as it was when the node forked it
+
+
+def designed_margin(config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int) -> int | None:
+    """Design ``config``'s built-in law and return its delay margin in control periods (the worst joint's; None
+    without the arm model, or for a law of one's own, whose feedback is not known here). ``ConfigError``, with its
+    reason, for a design that does not stabilise or leaves less than ``min_delay_margin_periods``. One design and
+    one margin: a margin takes tens of ms per joint."""
+    margin = delay_margin_periods(law_config(config, dynamics, joint_count), dynamics, joint_count, config)
+    if margin is not None and margin < config.min_delay_margin_periods:
+        check_delay_margin(config, dynamics, joint_count)  # refuses, naming the joint (only now computed per joint)
+    return None if config.plugin_law else margin
+
+
+def _start_worker(dynamics: ArmDynamics | None) -> None:
+    global _dynamics
+    _dynamics = dynamics
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C is the node's to act on; the worker ends with it
+
+
+def _check(config: ControllerConfig, joint_count: int) -> tuple[int | None, str | None]:
+    """In the worker: ``(margin, None)``, or ``(None, the reason)`` for a refused design."""
+    try:
+        return designed_margin(config, _dynamics, joint_count), None
+    except ConfigError as exc:
+        return None, str(exc)
+
+
+class Designer:
+    """:func:`designed_margin` on ``dynamics`` (a copy the loop never touches) in one worker process, forked when
+    the designer is made: it starts with everything imported and the model built."""
+
+    def __init__(self, dynamics: ArmDynamics | None, joint_count: int) -> None:
+        self._dynamics, self._joint_count = dynamics, joint_count
+        context = multiprocessing.get_context("fork")
+        self._pool = ProcessPoolExecutor(1, context, initializer=_start_worker, initargs=(dynamics,))
+        self._pool.submit(int)  # the fork now, at the start, not at the first change
+
+    def margin(self, config: ControllerConfig) -> int | None:
+        """:func:`designed_margin` of ``config``, waited for (the caller's thread lets go of the interpreter)."""
+        try:
+            margin, refused = self._pool.submit(_check, config, self._joint_count).result()
+        except BrokenProcessPool:  # the worker is gone (killed): designed here, as correct, if slower for the loop
+            return designed_margin(config, self._dynamics, self._joint_count)
+        if refused is not None:
+            raise ConfigError(refused)
+        return margin
+
+    def stop(self) -> None:
+        self._pool.shutdown(wait=False, cancel_futures=True)
