@@ -7,9 +7,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from robot_controller.cli.args import UsageError, positive_int, verb
+from robot_controller.cli.args import UsageError, positive_float, positive_int, verb
 
-USAGE = "campaign SPEC.yaml --out DIR [--workers N | --ray ADDRESS] [--controllers A,B]; campaign replay DIR RUN_ID"
+USAGE = (
+    "campaign SPEC.yaml --out DIR [--workers N | --ray ADDRESS] [--controllers A,B] [--run-timeout S]; "
+    "campaign replay DIR RUN_ID"
+)
 
 
 def register(sub) -> None:
@@ -17,7 +20,8 @@ def register(sub) -> None:
         sub, "campaign", "a robustness campaign: many runs over varied worlds, resumable, with a report", _campaign
     )
     p.usage = (
-        "robot-controller campaign SPEC.yaml --out DIR [--workers N | --ray ADDRESS] [--controllers A,B]\n"
+        "robot-controller campaign SPEC.yaml --out DIR [--workers N | --ray ADDRESS] [--controllers A,B] "
+        "[--run-timeout S]\n"
         "       robot-controller campaign replay DIR RUN_ID --out OUT [--controller NAME]"
     )
     p.add_argument(
@@ -35,11 +39,20 @@ def register(sub) -> None:
         metavar="A,B",
         help="compare these controllers on the same draws (laws: lqr, pid, path.py:Class)",
     )
+    p.add_argument(
+        "--run-timeout",
+        type=positive_float,
+        metavar="S",
+        help="a run's wall-time limit, s: past it its process is killed, the run recorded as timed out and tried "
+        "once more (default: the spec's run_timeout_s, else 60 s + 10 s per simulated second)",
+    )
     p.add_argument("--controller", metavar="NAME", help="replay: the compared controller whose run to replay")
 
 
 def _campaign(a: argparse.Namespace) -> int:
     if a.target[0] == "replay":
+        if a.run_timeout is not None:
+            raise UsageError("--run-timeout is the campaign's; replay runs through the ROS graph with its own limits")
         return _replay(a)
     if len(a.target) != 1:
         raise UsageError(f"expected one spec file, got {' '.join(a.target)} (usage: {USAGE})")
@@ -63,8 +76,16 @@ def _campaign(a: argparse.Namespace) -> int:
         raise UsageError(f"--out {a.out}: exists and is not a directory")
     a.out.mkdir(parents=True, exist_ok=True)
     where = f"Ray at {a.ray}" if a.ray else f"{a.workers or campaign.executors.default_workers()} local workers"
-    print(f"robot-controller campaign: {spec.runs} runs of {spec.duration_s:g} s on {spec.robot}, {where}", flush=True)
-    store = campaign.run_campaign(spec, a.out, controllers=names, workers=a.workers, ray_address=a.ray)
+    opened = campaign.open_store(spec, a.out, names)  # another campaign's folder: refused before anything is said
+    limit_s = a.run_timeout or spec.timeout_s
+    print(
+        f"robot-controller campaign: {spec.runs} runs of {spec.duration_s:g} s on {spec.robot}, {where}, "
+        f"each within {limit_s:g} s of wall time",
+        flush=True,
+    )
+    store = campaign.run_campaign(
+        spec, a.out, controllers=names, workers=a.workers, ray_address=a.ray, run_timeout_s=a.run_timeout, store=opened
+    )
     labels = [c.label for c in campaign.contenders(spec, names)]
     path = report.write_report(spec, store.rows, a.out, labels)
     _say_end(spec, store.rows, labels, path)
@@ -80,6 +101,12 @@ def _say_end(spec, rows, labels, path: Path) -> None:
         ok = [r for r in mine if r.get("status") == "ok"]
         who = f"{label}: " if label else ""
         line = f"{who}{len(ok)} of {len(mine)} runs finished"
+        timed_out = sum(r.get("status") == "timed_out" for r in mine)
+        if timed_out:
+            line += f" ({timed_out} timed out)"
+        retried = sum((r.get("attempts") or 1) > 1 for r in mine)
+        if retried:
+            line += f", {retried} tried twice"
         if ok:
             worst = max(ok, key=lambda r: r[target])
             line += f"; worst {target} {worst[target]:.4g} (run {worst['run_id']})"

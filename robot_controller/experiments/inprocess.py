@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from functools import partial
 from typing import Any
@@ -16,6 +17,10 @@ from robot_controller.core.model import Actuator, MujocoPlant, PlantVariation
 from robot_controller.parameters.builders import arm_model
 from robot_controller.parameters.consistency import trajectory_plan
 from robot_controller.parameters.torque_limits import torque_limit
+
+#: s of wall time a law's call may run before it is abandoned: the loop waits for the law as the lockstep world does,
+#: so only a law that blocks (sleeps, loops, deadlocks) is abandoned, never one the host kept from a CPU a moment.
+ABANDON_S = 1.0
 
 
 def simulate(params: cfg.Params, *, duration_s: float, **options: Any) -> LoopResult:
@@ -53,7 +58,7 @@ def prepare(
     plant.reset(cfg.per_joint("initial_position", sim["initial_position"], n))
     dynamics = arm_model(ctrl)  # the URDF's, or the controller's model_* values over it
     controller_config = cfg.controller_config(dict(ctrl, lockstep=True), n)  # each command acts from its tick
-    controller = JointController(controller_config, n, dynamics)
+    controller = contained_controller(controller_config, n, dynamics)
     actuator = (Actuator if actuator_gain == 1.0 else partial(ScaledActuator, actuator_gain))(
         torque_limit(motor, n), motor["lag_time_constant_s"]
     )
@@ -84,3 +89,14 @@ class ScaledActuator(Actuator):
 
     def apply(self, command: np.ndarray, dt: float) -> np.ndarray:
         return super().apply(self.gain * np.asarray(command, dtype=float), dt)
+
+
+def contained_controller(config, joint_count: int, dynamics) -> JointController:
+    """The controller as the node builds it, a law of one's own contained alike (torque, slew, error band, each call
+    on a thread of its own), its budget judged on its thread's CPU time: the loop runs at no wall rate, so a law is
+    slow for what it computes, and a law that blocks is abandoned after :data:`ABANDON_S` of wall time, a fault
+    whose controlled stop (category 2, then 1) ends the run's motion instead of hanging it."""
+    controller = JointController(config, joint_count, dynamics, law_clock=time.thread_time)
+    if controller.plugin is not None:
+        controller.plugin.abandon_s = max(ABANDON_S, config.law_budget_s + config.control_period_s)
+    return controller

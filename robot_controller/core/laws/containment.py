@@ -17,6 +17,7 @@ import ctypes
 import queue
 import threading
 import traceback
+import weakref
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -64,32 +65,39 @@ class LawWorker:
     """A thread running a law's calls one at a time, so the controller can stop waiting for one that
     blocks (sleeps, loops, deadlocks). An abandoned call is asked to end at its next Python instruction;
     one blocked in C code runs on, and one holding the GIL there stalls every thread: a thread cannot be
-    killed."""
+    killed. The thread ends once the worker is no longer referenced (a loop run in process after loop)."""
 
     def __init__(self, name: str) -> None:
         self._calls: queue.SimpleQueue = queue.SimpleQueue()
         self._done = threading.Event()
-        self._outcome: tuple[Any, str | None] = (None, None)
-        self._thread = threading.Thread(target=self._serve, name=f"law {name}", daemon=True)
+        self._outcome: list[tuple[Any, str | None]] = [(None, None)]  # shared with the thread, which holds no self
+        self._thread = threading.Thread(
+            target=_serve, args=(self._calls, self._done, self._outcome), name=f"law {name}", daemon=True
+        )
         self._thread.start()
+        weakref.finalize(self, self._calls.put, None)
 
     def run(self, call: Callable[[], Any], timeout_s: float) -> tuple[Any, str | None] | None:
         """:func:`_outcome` of ``call``, or None if it is still running after ``timeout_s`` (abandoned)."""
         self._done.clear()
         self._calls.put(call)
         if self._done.wait(timeout_s):
-            return self._outcome
+            outcome, self._outcome[0] = self._outcome[0], (None, None)  # the thread keeps nothing of the law's
+            return outcome
         self._calls.put(None)  # the thread ends once the call does
         ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(self._thread.ident), ctypes.py_object(_Abandoned))
         return None
 
-    def _serve(self) -> None:
-        try:
-            while (call := self._calls.get()) is not None:
-                self._outcome = _outcome(call)
-                self._done.set()
-        except _Abandoned:
-            pass  # it arrived between calls
+
+def _serve(calls: queue.SimpleQueue, done: threading.Event, outcome: list) -> None:
+    """A :class:`LawWorker`'s thread: each call's outcome, until a None."""
+    try:
+        while (call := calls.get()) is not None:
+            outcome[0] = _outcome(call)
+            call = None  # nor the call (it holds the law): the worker, once unreferenced, ends this thread
+            done.set()
+    except _Abandoned:
+        pass  # it arrived between calls
 
 
 class ContainedLaw(ControlLaw):
@@ -123,6 +131,9 @@ class ContainedLaw(ControlLaw):
         self.fault: LawFault | None = None
         self.tick_s: float | None = None  #: the latest tick the law was called on, s
         self.worker = LawWorker(name) if clock is not None else None  #: timed, the calls run here
+        #: s of wall time a call may run before it is abandoned (None: ``budget_s`` and a control period, as a
+        #: loop on the wall clock can wait; a loop the world waits for waits longer)
+        self.abandon_s: float | None = None
         self.overruns_s: list[float] = []  #: the durations of the updates over budget in a row, s
         self._previous_command: np.ndarray | None = None
         self._last_s: float | None = None
@@ -305,13 +316,14 @@ class ContainedLaw(ControlLaw):
         spent_s: list[float] = []  # the call's own time, measured on the thread it runs on
         if timed:
             call = self._timed(call, spent_s)
-        waited_s = self.budget_s + self.period_s  # of wall time, for a call still running: abandoned
+        waited_s = self.budget_s + self.period_s if self.abandon_s is None else self.abandon_s
         outcome = _outcome(call) if self.worker is None else self.worker.run(call, waited_s)
         if outcome is None:
+            over = " by more than a control period" if self.abandon_s is None else ""
             return self._faulted(
                 time_s,
                 f"was still in {method}() after {waited_s * 1e3:.1f} ms, over its budget of "
-                f"{self.budget_s * 1e3:g} ms (law_budget_s) by more than a control period: abandoned",
+                f"{self.budget_s * 1e3:g} ms (law_budget_s){over}: abandoned",
             )
         value, trace = outcome
         if trace is not None:

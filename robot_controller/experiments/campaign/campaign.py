@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from robot_controller.experiments.campaign import draws, executors
+from robot_controller.experiments.campaign import draws, executors, fingerprint
 from robot_controller.experiments.campaign.one_run import Task
 from robot_controller.experiments.campaign.spec import CampaignSpec, controller_spec
 from robot_controller.experiments.campaign.store import ResultStore
@@ -39,8 +39,12 @@ def contenders(spec: CampaignSpec, names: list[str] | None) -> tuple[Contender, 
     return chosen
 
 
-def tasks(spec: CampaignSpec, chosen: tuple[Contender, ...], done: set[tuple[str, int]]) -> list[Task]:
-    """The runs still to do, run by run (each run's controllers side by side): the same draws for every controller."""
+def tasks(
+    spec: CampaignSpec, chosen: tuple[Contender, ...], done: set[tuple[str, int]], timeout_s: float | None = None
+) -> list[Task]:
+    """The runs still to do, run by run (each run's controllers side by side): the same draws for every controller;
+    each held to ``timeout_s`` of wall time (None: the spec's)."""
+    timeout_s = spec.timeout_s if timeout_s is None else timeout_s
     stacks = {c.label: spec.base_params(c.spec) for c in chosen}
     out = []
     for run_id in range(spec.runs):
@@ -48,8 +52,24 @@ def tasks(spec: CampaignSpec, chosen: tuple[Contender, ...], done: set[tuple[str
         seed = draws.run_seed(spec.seed, run_id)
         for c in chosen:
             if (c.label, run_id) not in done:
-                out.append(Task(run_id, c.label, stacks[c.label], drawn, seed, spec.duration_s))
+                out.append(Task(run_id, c.label, stacks[c.label], drawn, seed, spec.duration_s, timeout_s))
     return out
+
+
+def open_store(spec: CampaignSpec, out: Path, controllers: list[str] | None = None) -> ResultStore:
+    """``out``'s rows of this campaign (none yet, or those of a resume).
+
+    :raises ConfigError: ``out`` holds another campaign's, in one line naming what differs (:mod:`.fingerprint`)
+    """
+    chosen = contenders(spec, controllers)
+    labels = tuple(c.spec or spec.controller or "" for c in chosen)
+    about = {
+        "spec": spec.text,
+        "spec_path": str(spec.path),
+        "controllers": [c.label for c in chosen],
+        "controller_types": list(labels),
+    }
+    return ResultStore(out, fingerprint.parts(spec, labels), about)
 
 
 def run_campaign(
@@ -59,19 +79,15 @@ def run_campaign(
     controllers: list[str] | None = None,
     workers: int | None = None,
     ray_address: str | None = None,
+    run_timeout_s: float | None = None,
     say: Callable[[str], None] = print,
+    store: ResultStore | None = None,
 ) -> ResultStore:
-    """Run the campaign into ``out`` (resuming what it holds) and return its rows."""
+    """Run the campaign into ``out`` (resuming what it holds, or what ``store`` opened there) and return its rows;
+    each run held to ``run_timeout_s`` of wall time (None: the spec's ``run_timeout_s``, or its default)."""
     chosen = contenders(spec, controllers)
-    labels = tuple(c.spec or spec.controller or "" for c in chosen)
-    about = {
-        "spec": spec.text,
-        "spec_path": str(spec.path),
-        "controllers": [c.label for c in chosen],
-        "controller_types": list(labels),
-    }
-    store = ResultStore(out, spec.fingerprint(labels), about)
-    todo = tasks(spec, chosen, store.done())
+    store = store or open_store(spec, out, controllers)
+    todo = tasks(spec, chosen, store.done(), run_timeout_s)
     total = spec.runs * len(chosen)
     if len(todo) < total:
         say(f"resuming: {total - len(todo)} of {total} runs already in {out / 'results.parquet'}")

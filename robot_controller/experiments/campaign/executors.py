@@ -1,5 +1,6 @@
 """Where a campaign's runs run: local worker processes, or the tasks of a Ray cluster the user started. Both take
-the same tasks and yield the same rows (each run's figures depend on its task alone), as the runs finish."""
+the same tasks and yield the same rows (each run's figures depend on its task alone), as the runs finish. Either way
+a worker runs each run in a child process held to the run's wall-time limit (:mod:`.limits`), so no run can hang it."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from dataclasses import replace
 from typing import Any
 
 from robot_controller.core.errors import ConfigError, RunFailed
-from robot_controller.experiments.campaign import one_run
+from robot_controller.experiments.campaign import limits
 from robot_controller.experiments.campaign.one_run import Task
 
 #: Tasks in flight per worker: enough that none waits for the next, few enough that rows stream in order.
@@ -36,7 +37,7 @@ def run_local(tasks: Iterable[Task], workers: int) -> Iterator[dict[str, Any]]:
         try:
             while True:
                 while len(pending) < IN_FLIGHT_PER_WORKER * workers and (task := next(todo, None)) is not None:
-                    pending.add(pool.submit(one_run.run, task))
+                    pending.add(pool.submit(limits.run, task))
                 if not pending:
                     return
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)
@@ -64,7 +65,7 @@ def _exit_with_parent() -> None:
 
 def _run_remote(params, task: Task) -> dict[str, Any]:
     """A Ray task: the campaign's stack arrives once per worker as an object, the task without it."""
-    return one_run.run(replace(task, params=params))
+    return limits.run(replace(task, params=params))
 
 
 def connect_ray(address: str) -> int:

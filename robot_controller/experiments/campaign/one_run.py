@@ -30,7 +30,7 @@ STOP_STATUSES = frozenset(
 #: An applied torque this close to its limit (as a fraction of it) counts as saturated.
 SATURATED_FRACTION = 0.999
 #: The row's columns that are the host's, not the run's: left out when two campaigns' figures are compared.
-HOST_COLUMNS = ("wall_s", "cpu_s")
+HOST_COLUMNS = ("wall_s", "cpu_s", "attempts", "first_failure")
 
 
 @dataclass(frozen=True)
@@ -43,12 +43,19 @@ class Task:
     drawn: dict[str, Any]
     seed: int
     duration_s: float
+    timeout_s: float = math.inf  #: the run's wall-time limit, s (``limits`` holds it to it)
+
+
+def head(task: Task) -> dict[str, Any]:
+    """The columns that name the run: ``run_id``, ``controller``, ``seed`` and every drawn value."""
+    row: dict[str, Any] = {"run_id": task.run_id, "controller": task.controller, "seed": task.seed}
+    row.update(drawing.columns(task.drawn))
+    return row
 
 
 def run(task: Task) -> dict[str, Any]:
     """Task's row: ``run_id``, ``controller``, ``seed``, every drawn value, every figure, ``status`` and ``reason``."""
-    row: dict[str, Any] = {"run_id": task.run_id, "controller": task.controller, "seed": task.seed}
-    row.update(drawing.columns(task.drawn))
+    row = head(task)
     start, cpu_start = time.perf_counter(), time.process_time()
     try:
         row.update(figures(run_params(task.params, task.drawn, task.seed), task.duration_s, task.seed))

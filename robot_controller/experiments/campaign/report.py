@@ -36,8 +36,9 @@ def headline(rows: list[dict[str, Any]]) -> str:
 
 
 def passes(row: dict[str, Any], bounds: dict[str, float]) -> bool:
-    """A run that finished and kept every bound (a bound on a figure the arm lacks, as rad on a slider: kept)."""
-    if row.get("status") != "ok":
+    """A run that finished, its law with no fault, and kept every bound (a bound on a figure the arm lacks, as rad
+    on a slider: kept)."""
+    if row.get("status") != "ok" or row.get("law_fault"):
         return False
     return all(row.get(k) is None or row[k] <= bound for k, bound in bounds.items())
 
@@ -82,10 +83,11 @@ def write_report(spec: CampaignSpec, rows: list[dict[str, Any]], out: Path, cont
     lines += _worst_section(spec, rows, target, out)
     lines += _sensitivity_section(spec, groups, target, out)
     failed = [r for r in rows if r.get("status") != "ok"]
-    if failed:
-        lines += ["## Failed runs", ""]
-        lines += [f"- run {r['run_id']}{_who(r)}: {r.get('reason', '')}" for r in failed[:20]]
-        lines += [f"- … and {len(failed) - 20} more (results.parquet)" if len(failed) > 20 else "", ""]
+    lines += _listed("Failed and timed-out runs", [(r, r.get("reason", "")) for r in failed])
+    faulted = [(r, r["law_fault"]) for r in rows if r.get("status") == "ok" and r.get("law_fault")]
+    lines += _listed("Law faults (the run ended in a controlled stop)", faulted)
+    retried = [(r, f"first try {r['first_failure']}") for r in rows if r.get("first_failure")]
+    lines += _listed("Runs tried twice", retried)
     plot_distributions(groups, out / "distributions.png")
     lines += [
         "## Files",
@@ -213,6 +215,14 @@ def _sensitivity_section(spec: CampaignSpec, groups: dict[str, list[dict]], targ
         lines.append("")
     plot_sensitivity(ranked_by_group, target, out / "sensitivity.png")
     return lines + ["![sensitivity](sensitivity.png) ![distributions](distributions.png)", ""]
+
+
+def _listed(title: str, entries: list[tuple[dict, str]]) -> list[str]:
+    """A section listing runs with what was said of each (the first 20)."""
+    if not entries:
+        return []
+    lines = [f"## {title}", ""] + [f"- run {r['run_id']}{_who(r)}: {said}" for r, said in entries[:20]]
+    return lines + [f"- … and {len(entries) - 20} more (results.parquet)" if len(entries) > 20 else "", ""]
 
 
 def plot_distributions(groups: dict[str, list[dict]], path: Path) -> None:

@@ -18,6 +18,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from robot_controller.core.errors import ConfigError
+from robot_controller.experiments.campaign.fingerprint import changed, combined
 
 RESULTS = "results.parquet"
 CAMPAIGN = "campaign.json"
@@ -29,10 +30,11 @@ COMPACT_EVERY_S = 2.0
 class ResultStore:
     """The rows of ``folder``'s campaign: those already there (a resume) and those added as runs finish."""
 
-    def __init__(self, folder: Path, fingerprint: str, about: dict[str, Any]) -> None:
-        """Open ``folder`` for the campaign ``fingerprint`` names (``about``: what ``campaign.json`` says of it).
+    def __init__(self, folder: Path, parts: dict[str, str], about: dict[str, Any]) -> None:
+        """Open ``folder`` for the campaign whose fingerprint has these ``parts`` (:func:`fingerprint.parts`;
+        ``about``: what else ``campaign.json`` says of it).
 
-        :raises ConfigError: the folder holds another campaign's results
+        :raises ConfigError: the folder holds another campaign's results, in one line naming what differs
         """
         self.folder = folder
         self.path = folder / RESULTS
@@ -40,17 +42,21 @@ class ResultStore:
         for stale in [*folder.glob(".*.tmp"), *self.parts.glob(".*.tmp")]:  # a write a kill cut: the files stand
             stale.unlink(missing_ok=True)
         marker = folder / CAMPAIGN
+        fingerprint = combined(parts)
         if marker.is_file():
-            held = json.loads(marker.read_text()).get("fingerprint")
-            if held != fingerprint:
+            held = json.loads(marker.read_text())
+            if held.get("fingerprint") != fingerprint:
+                differs = changed(held["parts"], parts) if isinstance(held.get("parts"), dict) else []
+                why = "; ".join(differs) or "an earlier robot_controller's campaign, which kept no record of its parts"
                 raise ConfigError(
-                    f"--out {folder}: holds another campaign's results (another spec, controllers or config); "
-                    "choose another directory, or run the same command to resume it"
+                    f"--out {folder}: holds another campaign's results, not resumed: {why}; "
+                    "choose another directory, or put back what changed"
                 )
         elif self.path.exists():
             raise ConfigError(f"--out {folder}: holds a {RESULTS} of no campaign; choose another directory")
         else:
-            _atomic_write(marker, json.dumps({"fingerprint": fingerprint, **about}, indent=2).encode())
+            record = {"fingerprint": fingerprint, "parts": parts, **about}
+            _atomic_write(marker, json.dumps(record, indent=2).encode())
         self.rows: list[dict[str, Any]] = []
         seen: set[tuple[str, int]] = set()
         files = [self.path] if self.path.exists() else []
