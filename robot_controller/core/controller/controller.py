@@ -12,6 +12,7 @@ from collections.abc import Callable
 import numpy as np
 
 from robot_controller.core.controller.config import ControllerConfig, law_config
+from robot_controller.core.controller.inertia_adaptation import InertiaAdaptation
 from robot_controller.core.controller.reference_in_force import ReferenceAtTick
 from robot_controller.core.controller.supervision import (
     ControlOutput,
@@ -42,9 +43,9 @@ from robot_controller.core.laws import (
 )
 from robot_controller.core.model import ArmDynamics
 
-# How long the arm is held at rest after a controlled stop before the torque goes off and the brakes
-# hold (category 2, then 1), and the status then: on the built-in law after a plugin law failed; on
-# the model (open loop it drifts: held briefly) while readings are missing or the loop is late.
+# How long the arm is held at rest after a controlled stop before the torque goes off and the brakes hold (category 2,
+# then 1), and the status then: on the built-in law after a plugin law failed; on the model (open loop it drifts: held
+# briefly) while readings are missing or the loop is late.
 LAW_FAULT_HOLD_S = 0.5
 LATE_HOLD_S = 0.1
 SENSOR_STOP_HOLD_S = 0.1
@@ -56,10 +57,9 @@ STOPS = {
 
 
 class JointController:
-    """``law_clock``: a function giving seconds of wall time, to hold a plugin law to its ``law_budget_s`` (None: its
-    time is not checked, as in the in-process loops), less the seconds ``law_run_wait`` says the law's thread waited
-    for a CPU (None: not known). ``latency_guard``: stop the motion while the readings' and commands' delay is past
-    the delay margin (:class:`~robot_controller.core.controller.supervision.LatencyGuard`)."""
+    """``law_clock``: wall-time seconds, to hold a plugin law to its ``law_budget_s`` (None: unchecked, as in the
+    in-process loops), less what ``law_run_wait`` says the law's thread waited for a CPU (None: unknown).
+    ``latency_guard``: stop the motion while the readings' and commands' delay is past the delay margin."""
 
     def __init__(
         self,
@@ -81,7 +81,9 @@ class JointController:
         self.stop_law = self._builtin(config)
         self._law_clocks = (law_clock, law_run_wait)
         self.law = self._plugin(config) if config.plugin_law else self.stop_law  #: the law in force
-        self._state = make_state(config, dynamics, joint_count, lambda: self.pid)
+        self._state = make_state(config, dynamics, joint_count, lambda: self.pid, lambda: self.config)
+        #: the inertia adaptation (its ``armature``, kg·m² per joint; ``notes()``: its gain changes), or None
+        self.inertia: InertiaAdaptation | None = self._state.inertia
         self._reference = ReferenceAtTick(joint_count)
         self._readings = Readings()
         self._clock = TickClock()
@@ -116,10 +118,9 @@ class JointController:
         return law
 
     @staticmethod
-    def _hold_to_limits(law: ContainedLaw, config: ControllerConfig) -> None:
-        pid = config.pid
-        budget, error_max, deceleration = config.law_budget_s, config.law_error_max_rad, config.stop_deceleration
-        law.set_limits(pid.output_limit, pid.slew_rate_limit, budget, error_max, deceleration)
+    def _hold_to_limits(law: ContainedLaw, c: ControllerConfig) -> None:
+        limits = (c.law_budget_s, c.law_error_max_rad, c.stop_deceleration)
+        law.set_limits(c.pid.output_limit, c.pid.slew_rate_limit, *limits)
 
     @property
     def plugin(self) -> ContainedLaw | None:
@@ -153,26 +154,24 @@ class JointController:
 
     @property
     def gains(self) -> PidConfig:
-        """The built-in law's gains in force (for LQR, the designed ones)."""
+        """The built-in law's gains in force (for LQR, the designed ones; with the inertia adaptation, scaled)."""
         return self.pid.config
 
     def law_in_force(self) -> str:
-        """One line saying which law runs and with which gains; in LQR mode, that the design
-        replaces kp/ki/kd. For a plugin law: its name and parameters, and the built-in law its stops run on."""
-        observer = ""
-        if self.config.observes_disturbance:
-            sigma = self.config.estimator.disturbance_noise_std
-            observer = f", disturbance observer (σ {sigma:g} N·m/√s, estimate subtracted)"
-        builtin = self.builtin.describe(observer)
+        """One line: the law and its gains in force (LQR: the design replaces kp/ki/kd; the inertia adaptation's
+        factors); for a plugin law, its name and parameters, and the built-in law its stops run on."""
+        sigma = self.config.estimator.disturbance_noise_std if self.config.observes_disturbance else None
+        observer = "" if sigma is None else f", disturbance observer (σ {sigma:g} N·m/√s, estimate subtracted)"
+        builtin = self.builtin.describe(observer) + ("" if self.inertia is None else self.inertia.describe())
         return builtin if self.plugin is None else f"{self.plugin.describe()}; stops on the built-in {builtin}"
 
     def delay_margin_periods(self) -> int | None:
-        """Whole control periods of unaccounted delay the built-in law's feedback survives on the
-        worst joint (:func:`~robot_controller.core.controller.supervision.delay_margin_periods`); None
-        without the arm model, and for a plugin law (its feedback is not known here)."""
+        """Whole control periods of unaccounted delay the built-in law's feedback survives on the worst joint
+        (:func:`delay_margin_periods`); None without the arm model, and for a plugin law (its feedback is unknown)."""
         if self.plugin is not None:
             return None
-        return delay_margin_periods(self.gains, self.dynamics, self.joint_count, self.config)
+        learnt = None if self.inertia is None else self.inertia.inertia  # adapted gains: judged on the inertia learnt
+        return delay_margin_periods(self.gains, self.dynamics, self.joint_count, self.config, learnt)
 
     def _new_latency_guard(self, config: ControllerConfig) -> LatencyGuard | None:
         """The guard for the gains in force; compensation accounts for MAX_EXTRAPOLATION_S of a reading's age."""
@@ -183,10 +182,9 @@ class JointController:
         """New gains and options, applied bumplessly from the next tick."""
         if config.feedforward is not FeedforwardMode.NONE and self.dynamics is None:
             raise ConfigError("feedforward: needs the arm model (urdf_path)")
-        if config.controller_type != self.config.controller_type and (config.plugin_law or self.config.plugin_law):
-            raise ConfigError(
-                "controller_type: a law of one's own is chosen when the controller starts; restart it to change"
-            )
+        own = config.plugin_law or self.config.plugin_law
+        if config.controller_type != self.config.controller_type and own:
+            raise ConfigError("controller_type: a law of one's own is chosen when the controller starts; restart it")
         law_config(config, self.dynamics, self.joint_count)  # refuses a bad design first
         if self.plugin is not None:
             if config.law_parameters != self.config.law_parameters:
@@ -240,13 +238,13 @@ class JointController:
     def set_measurement(
         self, stamp_s: float, received_s: float, position: np.ndarray, velocity: np.ndarray
     ) -> str | None:
-        """Take a reading stamped ``stamp_s`` that arrived at ``received_s``; returns why it was
-        refused (it is then no sign of life for the watchdog either), or None."""
+        """Take a reading stamped ``stamp_s`` that arrived at ``received_s``; returns why it was refused (it is then no
+        sign of life for the watchdog either), or None."""
         refused = self._readings.accept(stamp_s, received_s, position, velocity, self.config.max_reading_age_s)
         age_s = received_s - stamp_s
         if self._latency is not None and (refused is None or age_s > 0):
-            # A reading refused as too old is weighed too: those kept are at most max_reading_age_s
-            # old, all of which the latency compensation accounts for.
+            # A reading refused as too old is weighed too: those kept are at most max_reading_age_s old, all of which
+            # the latency compensation accounts for.
             self._latency.reading(age_s)
         return refused
 

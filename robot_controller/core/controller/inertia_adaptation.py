@@ -5,7 +5,19 @@ it), and the built-in law's gains are raised with each joint's design inertia, s
 
 Why both: a Panda wrist with 0.1 kg·m² of armature (16 times its own 0.0067) makes the observer on the lighter model
 oscillate (115 mrad); told the armature the filter tracks again, but the gains designed for the lighter joint leave
-its friction's reversals 13 mrad; with the gains scaled, 3.5."""
+its friction's reversals 13 mrad; with the gains scaled, 3.5.
+
+What keeps it from running away:
+
+- the gains are always the design on the NOMINAL model (``ArmDynamics.learnt_armature`` is taken away from every
+  design, :func:`~robot_controller.core.laws.pid.design_inertia`) times one factor per joint: a redesign by hand
+  never compounds with the factor;
+- every factor is checked against the delay margin (``min_delay_margin_periods``) on the inertia learnt, and cut
+  back until the margin holds;
+- the estimate is bounded per joint (a multiple of its own inertia) and learns only from readings the observer's
+  torque can be the arm's inertia in: not while an external torque acts (a push the filter took as a jump, until its
+  torque is gone; one held), a command at the torque limit, a restart of the filter (a collision, the brakes, an
+  e-stop: every stop restarts it), each of which restarts its evidence."""
 
 from __future__ import annotations
 
@@ -15,6 +27,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from robot_controller.core.controller.supervision import joint_delay_margins
 from robot_controller.core.estimation.inertia import InertiaEstimate
 from robot_controller.core.laws.pid import PAYLOAD_INERTIA_RATIO, Pid
 from robot_controller.core.model import payload
@@ -25,31 +38,63 @@ if TYPE_CHECKING:
     from robot_controller.core.laws.pid import PidConfig
     from robot_controller.core.model import ArmDynamics
 
-#: the gains are set again once a joint's factor has moved by this share (setting them takes a dataclass's checks)
-GAIN_STEP = 0.005
+#: the gains are set again once a joint's factor has moved by this share (each setting checks the delay margin)
+GAIN_STEP = 0.02
+#: a change of the gains in force is said (:meth:`InertiaAdaptation.notes`) once a joint's factor has moved this share
+#: from the one last said
+SAID_STEP = 0.1
+#: a joint's observer torque this share of its torque limit away from where it was before a jump the filter took is an
+#: external torque still acting (a push, one held): nothing is learnt until it is gone
+PUSH_SHARE = 0.1
+#: s, over about how long the observer's torque is averaged to tell a torque that stays (a push) from an oscillation
+PUSH_AVERAGE_S = 0.5
+#: halvings of a factor towards 1 looked for when the delay margin refuses it
+MARGIN_STEPS = 6
 
 
 class InertiaAdaptation:
-    """:param model: the controller's MuJoCo model (``ArmDynamics.model``), its ``dof_armature`` written to
+    """:param dynamics: the controller's MuJoCo model (``ArmDynamics``): its ``model.dof_armature`` is written to, and
+        ``learnt_armature`` says how much of it is learnt
     :param own_inertia: kg·m² per joint, the model's own at the design pose (before anything is added)
     :param payload_bound: kg·m² per joint, what the rated payload may add there (the gains' design allows for it)
     :param pid: gives the built-in law's PID, whose gains are scaled
+    :param config: gives the controller's configuration in force (the delay margin asked for, the torque limit)
     """
 
-    def __init__(self, model, own_inertia: np.ndarray, payload_bound: np.ndarray, pid: Callable[[], Pid]) -> None:
+    def __init__(
+        self,
+        dynamics: ArmDynamics,
+        own_inertia: np.ndarray,
+        payload_bound: np.ndarray,
+        pid: Callable[[], Pid],
+        config: Callable[[], ControllerConfig],
+    ) -> None:
         n = len(own_inertia)
         self.estimate = InertiaEstimate(own_inertia)
+        self._dynamics = dynamics
+        model = dynamics.model
         self._model, self._dofs = model, model.jnt_dofadr[:n]
         self._armature = model.dof_armature[self._dofs].copy()  #: the URDF's (or model_inertia's)
         self._own, self._payload_bound = np.asarray(own_inertia, float), np.asarray(payload_bound, float)
-        self._pid = pid
+        self._pid, self._config = pid, config
         self._designed: PidConfig | None = None  #: the gains as designed, before any scaling
         self._scaled: PidConfig | None = None  #: the gains last set here
         self._scale = np.ones(n)  #: their factor on the designed ones
+        self._said = np.ones(n)  #: the factor last said in a note
+        self._notes: list[str] = []
+        self._jumps: np.ndarray | None = None  #: the filter's jump and restart counts at the last reading
+        self._before_push: np.ndarray | None = None  #: the observer's torque before the last jump, while it acts
+        #: the observer's torque averaged over PUSH_AVERAGE_S, and when
+        self._slow_torque: tuple[np.ndarray, float] | None = None
 
     @classmethod
     def build(
-        cls, config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int, pid: Callable[[], Pid]
+        cls,
+        config: ControllerConfig,
+        dynamics: ArmDynamics | None,
+        joint_count: int,
+        pid: Callable[[], Pid],
+        config_in_force: Callable[[], ControllerConfig] | None = None,
     ) -> InertiaAdaptation | None:
         """For a controller with the disturbance observer on a coupled MuJoCo model, in lockstep (on the wall clock the
         filter disagrees with its readings by design, and nothing would tell an inertia from the command's jitter);
@@ -58,29 +103,127 @@ class InertiaAdaptation:
         if model is None or not (config.inertia_adaptation and config.observes_disturbance and config.lockstep):
             return None
         pose = np.zeros(joint_count) if config.design_position is None else np.asarray(config.design_position, float)
-        own = np.diag(dynamics.mass_matrix(pose)).copy()
+        own = np.diag(dynamics.mass_matrix(pose)) - dynamics.learnt_armature
         bound = payload.inertia_bound(model, config.rated_payload_kg, pose) if config.rated_payload_kg > 0 else None
-        return cls(model, own, np.zeros(joint_count) if bound is None else bound, pid)
+        payload_bound = np.zeros(joint_count) if bound is None else bound
+        return cls(dynamics, own, payload_bound, pid, config_in_force or (lambda: config))
 
-    def after_reading(self, time_s: float, kalman: JointKalmanFilter) -> None:
-        """Take the filter's state after the reading at ``time_s``; move the model and the gains with the estimate."""
+    @property
+    def armature(self) -> np.ndarray:
+        """kg·m² per joint, the armature learnt (added to the model's own)."""
+        return self.estimate.extra.copy()
+
+    @property
+    def inertia(self) -> np.ndarray:
+        """kg·m² per joint, the inertia at the design pose the gains in force are for: the own and the learnt."""
+        return self._own + self.estimate.extra
+
+    @property
+    def scale(self) -> np.ndarray:
+        """Per joint, the factor on the designed gains in force."""
+        return self._scale.copy()
+
+    def describe(self) -> str:
+        """A clause for ``law_in_force``: the gains above are the design times these factors, for this armature."""
+        factors = ", ".join(f"{s:.3g}" for s in self._scale)
+        armature = ", ".join(f"{a:.3g}" for a in self.estimate.extra)
+        return f"; inertia adaptation: gains × [{factors}] of the design for armature [{armature}] kg·m² learnt"
+
+    def notes(self) -> list[str]:
+        """What changed in the gains since the last call, one line each (for the log), then forgotten."""
+        notes, self._notes = self._notes, []
+        return notes
+
+    def interrupted(self) -> None:
+        """The filter starts again (a stop, the brakes, an e-stop, a fault): so does the estimate's evidence."""
+        self.estimate.restart()
+        self._jumps = self._before_push = self._slow_torque = None
+
+    def after_reading(self, time_s: float, kalman: JointKalmanFilter, command: np.ndarray | None = None) -> None:
+        """Take the filter's state after the reading at ``time_s`` (``command``: N·m, the torque that acted up to it);
+        move the model and the gains with the estimate."""
         if kalman.x is None or not kalman.estimates_disturbance:
-            self.estimate.restart()
+            self.interrupted()
             return
-        before = self.estimate.extra
-        extra = self.estimate.update(time_s, kalman.x[:, 1], kalman.disturbance, kalman.disagreeing)
-        if np.array_equal(extra, before):  # (an arm that agrees with its model: never anything to do)
-            return
-        self._model.dof_armature[self._dofs] = self._armature + extra
+        torque = kalman.disturbance
+        blocked = self._blocked(time_s, kalman, torque)
+        limit = np.asarray(self._config().pid.output_limit, float)
+        saturated = command is not None and bool(np.any(np.abs(command) >= limit * (1.0 - 1e-9)))
+        before = self.estimate.extra.copy()
+        extra = self.estimate.update(time_s, kalman.x[:, 1], torque, kalman.disagreeing, blocked, saturated)
         pid = self._pid()
-        if pid.config is not self._scaled:  # new gains (set at run time): those are the design now
+        if np.array_equal(extra, before) and pid.config is self._scaled:
+            return  # (an arm that agrees with its model: never anything to do)
+        self._model.dof_armature[self._dofs] = self._armature + extra
+        self._dynamics.learnt_armature = extra.copy()
+        redesigned = pid.config is not self._scaled
+        if redesigned:  # new gains (set at run time, designed on the nominal model): the design, scaled from here
             self._designed = pid.config
-        scale = self._design(self._own + extra) / self._design(self._own)
-        if pid.config is self._scaled and np.all(np.abs(scale - self._scale) <= GAIN_STEP * self._scale):
+        wanted = self._design(self._own + extra) / self._design(self._own)
+        if not redesigned and np.all(np.abs(wanted - self._scale) <= GAIN_STEP * self._scale):
             return
+        self._set(pid, self._within_margin(wanted, self._own + extra, redesigned))
+
+    def _blocked(self, time_s: float, kalman: JointKalmanFilter, torque: np.ndarray) -> bool:
+        """Whether the observer's torque cannot be the arm's inertia at this reading: the filter took a jump (a push,
+        a collision) or restarted a joint, and the torque's slow part (over PUSH_AVERAGE_S: an inertia's is an
+        oscillation's, which averages out) is still away from where it was before."""
+        counts = np.concatenate([kalman.jump_count, kalman.restart_count])
+        jumped = self._jumps is not None and not np.array_equal(counts, self._jumps)
+        self._jumps = counts
+        last = self._slow_torque
+        if last is None:
+            self._slow_torque = (torque.copy(), time_s)
+        else:
+            weight = min(max(time_s - last[1], 0.0) / PUSH_AVERAGE_S, 1.0)
+            self._slow_torque = (last[0] + weight * (torque - last[0]), time_s)
+        if jumped and self._before_push is None and last is not None:
+            self._before_push = last[0]
+        if self._before_push is None:
+            return False
+        limit = np.asarray(self._config().pid.output_limit, float)
+        if np.all(np.abs(self._slow_torque[0] - self._before_push) <= PUSH_SHARE * limit):
+            self._before_push = None  # none that stays (an oscillation's), or gone: the evidence starts again from here
+            return False
+        return True
+
+    def _within_margin(self, wanted: np.ndarray, inertia: np.ndarray, every: bool = False) -> np.ndarray:
+        """``wanted`` with each joint whose scaled gains would leave it less than ``min_delay_margin_periods`` on
+        ``inertia`` (kg·m², the inertia learnt) cut back towards 1 until the margin holds: the joints whose factor
+        changes (``every``: all, for a new design)."""
+        config, designed = self._config(), self._designed
+        needed = config.min_delay_margin_periods
+        changed = np.flatnonzero((wanted != self._scale) | every)
+        if needed <= 0 or not changed.size:
+            return wanted
+        scale = wanted.copy()
+        for j in changed.tolist():
+            low, high = 1.0, wanted[j]
+            for _ in range(MARGIN_STEPS + 1):
+                gains = replace(designed, kp=designed.kp * high, ki=designed.ki * high, kd=designed.kd * high)
+                margin = joint_delay_margins(gains, self._dynamics, len(wanted), config, inertia, needed, [j])[0]
+                if margin >= needed:
+                    break
+                high = low + 0.5 * (high - low)
+            else:
+                high = low
+            scale[j] = high
+        return scale
+
+    def _set(self, pid: Pid, scale: np.ndarray) -> None:
+        """Put the designed gains times ``scale`` in force; say so once a factor has moved by SAID_STEP."""
         self._scale, designed = scale, self._designed
         self._scaled = replace(designed, kp=designed.kp * scale, ki=designed.ki * scale, kd=designed.kd * scale)
         pid.set_config(self._scaled)
+        moved = np.abs(scale - self._said) > SAID_STEP * self._said
+        if np.any(moved):
+            said = ", ".join(
+                f"{self._dynamics.joint_names[j]} ×{scale[j]:.3g} (was ×{self._said[j]:.3g}; "
+                f"armature {self.estimate.extra[j]:.3g} kg·m²)"
+                for j in np.flatnonzero(moved)
+            )
+            self._notes.append(f"inertia adaptation: gains in force now the design {said}")
+            self._said = np.where(moved, scale, self._said)
 
     def _design(self, own: np.ndarray) -> np.ndarray:
         """The inertia the gains are designed for, as :func:`~robot_controller.core.laws.pid.design_inertia`."""

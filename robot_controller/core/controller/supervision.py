@@ -26,6 +26,8 @@ from robot_controller.core.laws import PidTerms, lqr, robustness
 from robot_controller.core.laws.pid import PidConfig
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from robot_controller.core.model import ArmDynamics
 
 
@@ -288,39 +290,60 @@ class LatencyGuard:
 
 
 def delay_margin_periods(
-    gains: PidConfig, dynamics: ArmDynamics | None, joint_count: int, config: ControllerConfig
+    gains: PidConfig,
+    dynamics: ArmDynamics | None,
+    joint_count: int,
+    config: ControllerConfig,
+    inertia: np.ndarray | None = None,
 ) -> int | None:
-    """The smallest of :func:`joint_delay_margins`: the worst joint's (None without the arm model)."""
-    margins = joint_delay_margins(gains, dynamics, joint_count, config)
+    """The smallest of :func:`joint_delay_margins` (on ``inertia``, kg·m² per joint; None: the nominal model's): the
+    worst joint's (None without the arm model)."""
+    margins = joint_delay_margins(gains, dynamics, joint_count, config, inertia)
     return None if margins is None else min(margins)
 
 
 def joint_delay_margins(
-    gains: PidConfig, dynamics: ArmDynamics | None, joint_count: int, config: ControllerConfig
+    gains: PidConfig,
+    dynamics: ArmDynamics | None,
+    joint_count: int,
+    config: ControllerConfig,
+    inertia: np.ndarray | None = None,
+    up_to: int = 50,
+    joints: Sequence[int] | None = None,
 ) -> list[int] | None:
     """Per joint, whole control periods of delay nobody accounts for (a late command, a reading
     stamped on arrival) the feedback with ``gains`` survives, the arm linearised at rest at
     the design pose (:func:`robustness.delay_margin_periods`). With the disturbance observer, the
     loop through the filter and the observer (:func:`robustness.observer_delay_margin_periods`),
     for the filter as it is while the readings agree with it and as it becomes when they do not
-    (``KalmanConfig.at_mismatch``: late readings disagree), the worse. None without the arm model."""
+    (``KalmanConfig.at_mismatch``: late readings disagree), the worse. None without the arm model.
+
+    :param inertia: kg·m² per joint the loop is linearised with (None: the nominal model's at the design pose; the
+        inertia adaptation's gains are judged on the inertia it learnt)
+    :param up_to: count no further than this many periods (a check against a minimum is cheap: 2 eigenvalue problems)
+    :param joints: only these joints' margins (None: every joint)
+    """
     if dynamics is None:
         return None
     period_s = config.control_period_s
-    inertia = lqr.design_inertia(dynamics, joint_count, config.design_position)
+    if inertia is None:
+        inertia = lqr.design_inertia(dynamics, joint_count, config.design_position)
     scale = config.observer_torque_scale(dynamics, joint_count)
     margins = []
-    for j in range(joint_count):
+    for j in range(joint_count) if joints is None else joints:
         ki, kp, kd = float(gains.ki[j]), float(gains.kp[j]), float(gains.kd[j])
         joint_inertia, damping = float(inertia[j]), float(dynamics.damping[j])
         if config.observes_disturbance:
             joint_filter = config.estimator if scale is None else config.estimator.for_inertia(float(scale[j]))
             both = (joint_filter, joint_filter.at_mismatch())
             filters = [steady_state_gain(f, joint_inertia, damping, period_s, estimate_disturbance=True) for f in both]
-            margins.append(min(robustness.observer_delay_margin_periods((ki, kp, kd), f, period_s) for f in filters))
+            margins.append(
+                min(robustness.observer_delay_margin_periods((ki, kp, kd), f, period_s, up_to) for f in filters)
+            )
         else:
             A, B = lqr.discretise(joint_inertia, damping, period_s)
-            margins.append(int(robustness.delay_margin_periods(A, B, robustness.pid_gain_row(kp, ki, kd))[0]))
+            row = robustness.pid_gain_row(kp, ki, kd)
+            margins.append(int(robustness.delay_margin_periods(A, B, row, up_to)[0]))
     return margins
 
 

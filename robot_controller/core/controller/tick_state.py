@@ -57,12 +57,17 @@ def make_estimator(
 
 
 def make_state(
-    config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int, pid: Callable[[], Pid]
+    config: ControllerConfig,
+    dynamics: ArmDynamics | None,
+    joint_count: int,
+    pid: Callable[[], Pid],
+    config_in_force: Callable[[], ControllerConfig] | None = None,
 ) -> StateAtTick:
     """The controller's state at its ticks: its filter (:func:`make_estimator`) and, with the disturbance observer,
-    the model's and the gains' inertia kept the arm's (:class:`InertiaAdaptation`)."""
+    the model's and the gains' inertia kept the arm's (:class:`InertiaAdaptation`; ``config_in_force`` gives the
+    configuration its gains are checked with, None: ``config``)."""
     state = StateAtTick(joint_count, dynamics, make_estimator(config, dynamics, joint_count))
-    state.inertia = InertiaAdaptation.build(config, dynamics, joint_count, pid)
+    state.inertia = InertiaAdaptation.build(config, dynamics, joint_count, pid, config_in_force)
     return state
 
 
@@ -97,6 +102,8 @@ class StateAtTick:
         latest estimate is kept for reporting."""
         if self.kalman is not None:
             self.kalman.reset()
+        if self.inertia is not None:  # the filter's evidence is gone: so is the estimate's
+            self.inertia.interrupted()
         self._filtered_stamp_s = -np.inf
         self._disturbance_average, self._coasting = None, False
 
@@ -122,7 +129,7 @@ class StateAtTick:
                 self._filtered_stamp_s = readings.stamp_s
                 self._average_disturbance(readings.stamp_s)
                 if self.inertia is not None:
-                    self.inertia.after_reading(readings.stamp_s, self.kalman)
+                    self.inertia.after_reading(readings.stamp_s, self.kalman, self.command_before(readings.stamp_s))
             position, velocity = self._filtered
         if latency_compensation:
             age_s = clipped_age_s(now_s, readings.stamp_s)

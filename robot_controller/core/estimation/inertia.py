@@ -7,7 +7,8 @@ the position, so a gravity torque the model has wrong looks just like an inertia
 (the loop's own corrections, and an oscillation if the model is far enough off to cause one) tells them apart. The
 fit is therefore a least-squares one of the observer's torque on the acceleration (and on the sign of the velocity,
 friction's reversals) with their slow parts taken away; it moves only while the joint's readings disagree with the
-filter, so an arm that agrees with its model is never touched."""
+filter, so an arm that agrees with its model is never touched, and only while the fit explains what the observer
+sees (:class:`InertiaEstimate` says when it learns, keeps and forgets)."""
 
 from __future__ import annotations
 
@@ -29,42 +30,80 @@ MAX_GAP_S = 0.1
 #: whether they agree, disagree by design, and the averages are not yet averages (1.3 % on planar2's shoulder,
 #: learnt in its first 80 ms, left 5 mrad on its elbow)
 SETTLE_S = 1.0
-#: kg·m², the most added to a joint
-MAX_EXTRA_KGM2 = 1.0
+#: the most added to a joint, as a multiple of its own inertia (the nominal model's at the design pose): a geared
+#: wrist's rotor can be many times its link's (the Panda's: 0.1 kg·m² is 15 times its 0.0067), a shoulder's cannot be
+#: 20 times its 1.55 kg·m²; without a bound an estimate that nothing explains (readings late beyond their stamps, an
+#: oscillation) climbs for as long as the arm moves
+MAX_EXTRA_RATIO = 20.0
 #: a fit within this share of the joint's own inertia moves nothing: readings late by more than their stamps say look
 #: heavier too (20 ms unstamped on the reference arm: 20 %), and gains raised for them would take the delay margin
 DEAD_ZONE = 0.5
+#: the least share of the observer's fast torque the fit (inertia and friction) must explain for it to move the
+#: estimate: what it leaves is something else (a push's recovery on a coupled joint, a delay's oscillation)
+MIN_EXPLAINED = 0.25
+#: s, the time constant an estimate nothing supports decays with towards 0 (held still, pushed, unexplained):
+#: long beside ADAPT_S, so a true rotor, confirmed whenever the joint moves, is kept through a pause
+FORGET_S = 30.0
 
 
 class InertiaEstimate:
-    """Per joint, the inertia (kg·m²; kg on a slide) the arm has beyond its model, at least 0: the model's can be
-    raised (a rotor added), never lowered below the URDF's links.
+    """Per joint, the inertia (kg·m²; kg on a slide) the arm has beyond its model, between 0 and
+    ``MAX_EXTRA_RATIO`` × the joint's own: the model's can be raised (a rotor added), never lowered below the URDF's
+    links.
 
-    :param own_inertia: kg·m² per joint, the model's own (what the dead zone is a share of)
+    It moves only on evidence: the joint excited by the motion, its readings disagreeing with the filter, and the
+    fit explaining at least MIN_EXPLAINED of what the observer sees; it is kept while the joint moves and its readings
+    agree (the model with it explains them), and decays over FORGET_S otherwise. A reading the caller marks
+    ``blocked`` (a push, a held or saturated torque, a restart of the filter, the brakes) restarts the evidence: the
+    signals and averages begin again, and nothing moves for SETTLE_S.
+
+    :param own_inertia: kg·m² per joint, the model's own (what the dead zone and the bound are shares of)
+    :param max_ratio: the bound, a multiple of ``own_inertia``
     """
 
-    def __init__(self, own_inertia: np.ndarray) -> None:
-        self._dead_zone = DEAD_ZONE * np.asarray(own_inertia, dtype=float)
-        joint_count = len(self._dead_zone)
+    def __init__(self, own_inertia: np.ndarray, max_ratio: float = MAX_EXTRA_RATIO) -> None:
+        own = np.asarray(own_inertia, dtype=float)
+        self._dead_zone = DEAD_ZONE * own
+        self.bound = max_ratio * own  #: kg·m² per joint, the most the estimate holds
+        joint_count = len(own)
         self.extra = np.zeros(joint_count)  #: kg·m² per joint, the estimate
+        self.explained = np.zeros(joint_count)  #: per joint, the share of the observer's fast torque the fit explains
+        self._time_s: float | None = None  #: the last reading's (forgetting runs on it through blocked readings)
         self._last: tuple[float, np.ndarray] | None = None  #: (time s, velocity) of the last reading
         self._slow: np.ndarray | None = None  #: (n, 3): the slow parts of acceleration, friction's sign, torque
         self._since_s = 0.0  #: when the signals started
-        self._aa = np.zeros((joint_count, 3))  #: per joint, averaged a², a·s, s² (the fast parts)
-        self._ad = np.zeros((joint_count, 2))  #: per joint, averaged a·d, s·d
+        self._sums = np.zeros((joint_count, 6))  #: per joint, averaged a², a·s, s², a·d, s·d, d² (the fast parts)
 
     def restart(self) -> None:
-        """Forget the signals (the estimate stays): after a fault the next readings start them again."""
+        """Forget the evidence (the estimate stays, and decays unless new evidence supports it): the signals and
+        their averages start again with the next reading."""
         self._last = self._slow = None
+        self._sums[:] = 0.0
 
-    def update(self, time_s: float, velocity: np.ndarray, torque: np.ndarray, disagreeing: np.ndarray) -> np.ndarray:
+    def update(
+        self,
+        time_s: float,
+        velocity: np.ndarray,
+        torque: np.ndarray,
+        disagreeing: np.ndarray,
+        blocked: bool = False,
+        paused: bool = False,
+    ) -> np.ndarray:
         """Take the filter's velocity (rad/s) and the observer's torque on each joint's own axis (N·m) after a
-        reading at ``time_s``; ``disagreeing`` per joint: its readings disagree with the filter. Returns ``extra``."""
+        reading at ``time_s``; ``disagreeing`` per joint: its readings disagree with the filter; ``blocked``: the
+        observer's torque is not the arm's inertia now (see the class); ``paused``: nothing moves on this reading (a
+        command at the torque limit), the evidence goes on. Returns ``extra``."""
+        previous_s, self._time_s = self._time_s, time_s
+        elapsed = 0.0 if previous_s is None else min(max(time_s - previous_s, 0.0), MAX_GAP_S)
         velocity = np.asarray(velocity, dtype=float)
         last, self._last = self._last, (time_s, velocity.copy())
-        if last is None or not 0.0 < time_s - last[0] < MAX_GAP_S:
-            self._slow = None
-            return self.extra
+        if blocked or last is None or not 0.0 < time_s - last[0] < MAX_GAP_S:
+            if blocked:
+                self.restart()
+            else:
+                self._slow = None
+                self._sums[:] = 0.0
+            return self._forget(elapsed, np.zeros(len(self.extra), dtype=bool))
         dt = time_s - last[0]
         signals = np.column_stack([(velocity - last[1]) / dt, np.tanh(velocity / FRICTION_SPEED), torque])
         if self._slow is None:
@@ -72,15 +111,29 @@ class InertiaEstimate:
         self._slow += min(1.0, dt / HIGHPASS_S) * (signals - self._slow)
         a, s, d = (signals - self._slow).T
         w = min(1.0, dt / WINDOW_S)
-        self._aa += w * (np.column_stack([a * a, a * s, s * s]) - self._aa)
-        self._ad += w * (np.column_stack([a * d, s * d]) - self._ad)
+        self._sums += w * (np.column_stack([a * a, a * s, s * s, a * d, s * d, d * d]) - self._sums)
+        aa, a_s, ss, ad, sd, dd = self._sums.T
         # d = −δ·a − f·s: the 2 × 2 normal equations per joint (a little ridge keeps a still joint's solvable).
-        aa, a_s, ss = self._aa[:, 0] + 1e-6, self._aa[:, 1], self._aa[:, 2] + 1e-6
-        beyond = -(ss * self._ad[:, 0] - a_s * self._ad[:, 1]) / (aa * ss - a_s * a_s)
-        moving = np.asarray(disagreeing, dtype=bool) & (self._aa[:, 0] > MIN_EXCITATION)
-        moving &= np.abs(beyond) > self._dead_zone
-        if time_s - self._since_s < SETTLE_S:
-            return self.extra
-        step = np.where(moving, (dt / ADAPT_S) * beyond, 0.0)
-        self.extra = np.clip(self.extra + step, 0.0, MAX_EXTRA_KGM2)
+        aa, ss = aa + 1e-6, ss + 1e-6
+        det = aa * ss - a_s * a_s
+        beyond = -(ss * ad - a_s * sd) / det
+        friction = -(aa * sd - a_s * ad) / det
+        # The least-squares fit's share of the torque's energy: (−δ·ad − f·sd) / dd, within [0, 1].
+        self.explained = np.clip((-beyond * ad - friction * sd) / np.maximum(dd, 1e-12), 0.0, 1.0)
+        if paused or time_s - self._since_s < SETTLE_S:
+            return self._forget(dt, np.zeros(len(self.extra), dtype=bool))
+        excited = self._sums[:, 0] > MIN_EXCITATION
+        disagreeing = np.asarray(disagreeing, dtype=bool)
+        # Up only while the readings disagree (an arm as heavy as its model is never touched); back down towards the
+        # model's own whenever the fit says the estimate is too much (it overshoots by its lag while it learns).
+        wanted = (disagreeing | (beyond < 0.0)) & (np.abs(beyond) > self._dead_zone)
+        moving = excited & wanted & (self.explained >= MIN_EXPLAINED)
+        supported = moving | (excited & ~disagreeing)  # a joint that moves as its model (with the estimate) says
+        self.extra = np.where(moving, self.extra + (dt / ADAPT_S) * beyond, self.extra)
+        return self._forget(dt, supported)
+
+    def _forget(self, dt: float, supported: np.ndarray) -> np.ndarray:
+        """Decay what nothing supports over FORGET_S; keep the estimate within [0, bound]."""
+        decayed = self.extra * np.exp(-dt / FORGET_S)
+        self.extra = np.clip(np.where(supported, self.extra, decayed), 0.0, self.bound)
         return self.extra

@@ -277,7 +277,8 @@ def design_inertia(
     dynamics: ArmDynamics, joint_count: int, design_position: tuple[float, ...] | None = None, payload_kg: float = 0.0
 ) -> np.ndarray:
     """Each joint's own inertia (the mass matrix's diagonal, kg·m²) at the design pose (rad per joint; None: every
-    joint at 0, or the nearest end of its range where 0 is outside it): each joint's gains are designed for it.
+    joint at 0, or the nearest end of its range where 0 is outside it) on the nominal model (without the armature
+    learnt at run time, ``dynamics.learnt_armature``): each joint's gains are designed for it.
     With ``payload_kg`` (a rated payload the model lacks), with that load at its worst place within reach
     (:func:`payload.inertia_bound`), at most PAYLOAD_INERTIA_RATIO × the arm's own."""
     model = getattr(dynamics, "model", None)  # a MuJoCo model knows the joints' ranges
@@ -285,7 +286,9 @@ def design_inertia(
     if design_position is None and model is not None:
         limited = model.jnt_limited[:joint_count].astype(bool)
         pose = np.where(limited, np.clip(pose, *model.jnt_range[:joint_count].T), pose)
-    inertia = np.diag(dynamics.mass_matrix(pose)).copy()
+    # The NOMINAL model's: what the controller learnt at run time (armature it added, InertiaAdaptation) is taken away,
+    # so a redesign never compounds with the scaling the adaptation puts on the gains it designs.
+    inertia = np.diag(dynamics.mass_matrix(pose)) - getattr(dynamics, "learnt_armature", 0.0)
     if payload_kg > 0 and model is not None:
         inertia = np.minimum(inertia + payload.inertia_bound(model, payload_kg, pose), PAYLOAD_INERTIA_RATIO * inertia)
     return inertia

@@ -71,6 +71,9 @@ class ArmDynamics:
         self._plant_step_s = step_s
         self._choose_inverse()
         self.adjustments: dict[str, np.ndarray] = {}  #: per-joint values set over the URDF's (:meth:`adjusted`)
+        #: kg·m² per joint, the armature the controller learnt at run time and holds in ``model.dof_armature`` on top of
+        #: the model's own (the inertia adaptation's): designs take it away, so gains are designed on the nominal model
+        self.learnt_armature = np.zeros(len(self.joint_names))
 
     def _choose_inverse(self) -> None:
         """Invert the plant's step where a joint's damping acts within it, else continuous time."""

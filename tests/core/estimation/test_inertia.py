@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from robot_controller import parameters as cfg
-from robot_controller.core.estimation.inertia import SETTLE_S, InertiaEstimate
+from robot_controller.core.estimation.inertia import FORGET_S, MAX_EXTRA_RATIO, SETTLE_S, InertiaEstimate
 from robot_controller.experiments import inprocess
 
 DT = 0.01
@@ -29,7 +29,9 @@ def learn(estimate: InertiaEstimate, seconds: float, extra_kgm2: float, friction
 def test_a_joint_heavier_than_its_model_is_found_despite_friction_and_a_gravity_error(friction_nm):
     estimate = InertiaEstimate(np.array([0.0067]))
     learn(estimate, 8.0, 0.1, friction_nm, disagreeing=True)
-    assert estimate.extra[0] == pytest.approx(0.1, rel=0.15)  # 0.107: the slow gravity error leaks a little
+    # Short of it without friction (0.085): near the end the slow gravity error, 3 times the inertia's fast torque,
+    # is most of what the fit sees, and a fit that explains too little of it moves nothing (MIN_EXPLAINED).
+    assert 0.08 < estimate.extra[0] < 0.115
 
 
 def test_nothing_moves_while_the_readings_agree_nor_in_the_first_second():
@@ -39,6 +41,42 @@ def test_nothing_moves_while_the_readings_agree_nor_in_the_first_second():
     early = InertiaEstimate(np.array([0.0067]))
     learn(early, SETTLE_S - 0.05, 0.1, 0.0, disagreeing=True)
     assert early.extra[0] == 0.0
+
+
+def apparent(estimate: InertiaEstimate, seconds: float, heavier_kgm2: float, start_s: float = 0.0, **flags) -> None:
+    """Feed ``estimate`` an observer that sees the joint ``heavier_kgm2`` heavier whatever is added to the model (no
+    inertia explains it: readings late beyond their stamps, an oscillation the gains make)."""
+    for t, v, a in zip(*motion(seconds), strict=True):
+        estimate.update(start_s + t, np.array([v]), np.array([-heavier_kgm2 * a]), np.array([True]), **flags)
+
+
+def test_an_estimate_nothing_explains_would_run_away_and_is_held_within_its_bound():
+    own = np.array([0.0067])
+    unbounded = InertiaEstimate(own, max_ratio=np.inf)
+    apparent(unbounded, 30.0, 0.05)
+    assert unbounded.extra[0] > 50 * own[0]  # 0.05 kg·m² more every second, for as long as the arm moves
+    bounded = InertiaEstimate(own)
+    apparent(bounded, 30.0, 0.05)
+    assert bounded.extra[0] == pytest.approx(MAX_EXTRA_RATIO * own[0])
+
+
+def test_blocked_readings_restart_the_evidence_and_what_nothing_supports_is_forgotten():
+    estimate = InertiaEstimate(np.array([0.0067]))
+    learn(estimate, 4.0, 0.1, 0.0, disagreeing=True)
+    learnt = estimate.extra[0]
+    assert learnt > 0.05
+    # Pushed: nothing moves, the evidence starts again, and the estimate decays over FORGET_S.
+    apparent(estimate, 3.0, 1.0, start_s=4.0, blocked=True)
+    assert estimate.extra[0] == pytest.approx(learnt * np.exp(-3.0 / FORGET_S), rel=0.01)
+    assert not estimate._sums.any()
+    # After a restart the first SETTLE_S moves nothing, even on a torque that says "heavier" at once.
+    before = estimate.extra[0]
+    apparent(estimate, SETTLE_S - 0.05, 1.0, start_s=7.0)
+    assert estimate.extra[0] <= before
+    # Held still: nothing supports it, it is forgotten.
+    for k in range(int(4 * FORGET_S / DT)):
+        estimate.update(8.0 + k * DT, np.zeros(1), np.zeros(1), np.array([False]))
+    assert estimate.extra[0] < 0.03 * learnt
 
 
 def panda(**simulator) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
