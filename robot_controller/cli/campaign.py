@@ -102,8 +102,10 @@ def _say_end(spec, rows, labels, path: Path) -> None:
         who = f"{label}: " if label else ""
         line = f"{who}{len(ok)} of {len(mine)} runs finished"
         timed_out = sum(r.get("status") == "timed_out" for r in mine)
-        if timed_out:
-            line += f" ({timed_out} timed out)"
+        faulted = sum(bool(r.get("law_fault")) for r in ok)
+        said = [f"{timed_out} timed out"] * bool(timed_out) + [f"{faulted} with a law fault"] * bool(faulted)
+        if said:
+            line += f" ({', '.join(said)})"
         retried = sum((r.get("attempts") or 1) > 1 for r in mine)
         if retried:
             line += f", {retried} tried twice"
