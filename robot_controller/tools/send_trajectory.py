@@ -4,7 +4,8 @@
 it onto the reference in force or ends it at once with the reason. The tool waits for the goal's result (its duration
 plus ``RESULT_MARGIN_S``) and says it in one line: exit 0 once it succeeded, 2 if it was rejected, aborted (JTC's error
 code and the reason: refused, out of tolerance, preempted, a fault) or canceled by another client, 1 if no server
-answered or no result came (what is unknown is said). Ctrl-C while waiting cancels the goal: the arm stops and holds;
+answered or no result came (what is unknown is said). A rejected goal's reason is the planner's log line for it, heard
+on ``/rosout`` (the action's answer carries none). Ctrl-C while waiting cancels the goal: the arm stops and holds;
 the cancel's outcome is said, exit 130."""
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ ANSWER_TIMEOUT_S = 5.0  #: how long the server may take to accept a goal, or to 
 #: stop first when joining directly would swing past the first point, a busy host.
 RESULT_MARGIN_S = 1.0 + 4.0
 STOP_TIMEOUT_S = 5.0  #: how long a canceled goal may take to stop (at stop_deceleration) and end
+REASON_TIMEOUT_S = 1.0  #: how long to wait for the planner's log line saying why a goal was rejected
 INTERRUPTED = 130  # Ctrl-C: the goal canceled, or its fate unknown
 
 #: control_msgs/FollowJointTrajectory's result codes by value.
@@ -116,6 +118,7 @@ def _follow(g: graph.Graph, spec: TrajectorySpec, prog: str, what: str, controll
 
     name = action_name(controller)
     client = ActionClient(g.node, FollowJointTrajectory, name)
+    rejections = _hear_rejections(g)
     # Its warnings are of a duplicate response DDS delivered late (seen on a busy host after a cancel): not the user's.
     g.node.get_logger().get_child("action_client").set_level(LoggingSeverity.ERROR)
     try:
@@ -132,7 +135,9 @@ def _follow(g: graph.Graph, spec: TrajectorySpec, prog: str, what: str, controll
                 "was accepted, and is moving the arm, is unknown"
             )
         if not handle.accepted:
-            raise ToolError(f"{what}: REJECTED by {name}", 2)
+            reason = _wait_for(rejections, REASON_TIMEOUT_S)
+            said = f": {reason}" if reason is not None else " (its reason is in the planner's log)"
+            raise ToolError(f"{what}: REJECTED by {name}{said}", 2)
         result = handle.get_result_async()
         wait_result_s = spec.duration_s + RESULT_MARGIN_S
         response = _wait(result, wait_result_s)
@@ -148,6 +153,29 @@ def _follow(g: graph.Graph, spec: TrajectorySpec, prog: str, what: str, controll
         raise ToolError(f"{what}: {said}", code)
     print(f"robot-controller {prog}: {what}: {said}", flush=True)
     return 0
+
+
+def _hear_rejections(g: graph.Graph) -> list[str]:
+    """The list the planner's reasons for rejecting a goal go into, from its log lines on ``/rosout`` heard from now
+    (matched before the goal is sent: waiting for the server takes longer than discovery)."""
+    from rcl_interfaces.msg import Log
+
+    reasons: list[str] = []
+
+    def heard(msg: Any) -> None:
+        if msg.name.endswith("trajectory_planner") and msg.msg.startswith(tolerances.GOAL_REJECTED_LOG):
+            reasons.append(msg.msg[len(tolerances.GOAL_REJECTED_LOG) :])
+
+    g.node.create_subscription(Log, "/rosout", heard, graph.reliable_qos(100))
+    return reasons
+
+
+def _wait_for(reasons: list[str], timeout_s: float) -> str | None:
+    """The latest reason heard within ``timeout_s`` (the spinning thread fills the list), else None."""
+    deadline = time.monotonic() + timeout_s
+    while not reasons and time.monotonic() < deadline:
+        time.sleep(graph.POLL_S)
+    return reasons[-1] if reasons else None
 
 
 def _cancel(sent: Any, result: Any | None) -> str:

@@ -4,11 +4,16 @@ FollowJointTrajectory goals and prints one JSON object of what it got (tests/nod
 
 Usage: ``python follow_joint_trajectory_client.py [--quick]`` on the run's ROS_DOMAIN_ID; ``--quick``: only the
 3-point goal. Every target is an offset from where the arm is when the client starts (so it suits any arm whose
-range has room for ±0.5 rad there)."""
+range has room for ±0.5 rad there). ``--judge [--freeze-pid PID] [--home Q,...]``: instead, how goals are judged:
+one naming an unknown joint, a fast swing from ``home`` (default −0.6 rad on every joint) cancelled at its peak speed,
+then (with ``--freeze-pid``) a goal during which that process (the controller) is frozen from mid-motion until past
+its end."""
 
 from __future__ import annotations
 
 import json
+import os
+import signal
 import sys
 import time
 import uuid
@@ -144,6 +149,47 @@ def summary(feedback: list, joints: list[str]) -> dict:
     }
 
 
+#: The judged swing: this far (rad) in this long (s): a quintic's peak speed 1.875·1.2/0.7 = 3.2 rad/s, the default
+#: sine's (π rad/s), reached half-way, when the cancel goes.
+SWING_RAD, SWING_S = 1.2, 0.7
+#: The frozen goal: its length, when the controller is frozen (s after it was accepted) and for how long.
+FROZEN_GOAL_S, FREEZE_AT_S, FREEZE_FOR_S = 3.0, 1.0, 4.0
+
+
+def judge(client: Client, joints: list[str], home: np.ndarray, freeze_pid: int | None) -> dict:
+    """The goals that are judged: rejected, cancelled at speed, and (``freeze_pid``) frozen under."""
+    out: dict = {"home": home.tolist()}
+    unknown, _ = client.send(client.goal(["no_such_joint"], [(1.0, [0.1])]))
+    out["unknown_joint"] = client.result(unknown, 10.0)
+    rest, _ = client.send(client.goal(joints, [(2.0, home)]))
+    out["to_home"] = client.result(rest)
+    client.spin_for(0.5)
+
+    swing, _ = client.send(client.goal(joints, [(SWING_S, home + SWING_RAD)]))
+    client.spin_for(SWING_S / 2)
+    out["cancel_stamp_s"] = client.stamp_s()  # no later than the cancel: the latest reading heard
+    cancel = client.spin_until(swing.cancel_goal_async(), 5.0) if swing is not None else None
+    out["cancel_accepted"] = bool(cancel is not None and len(cancel.goals_canceling) == 1)
+    out["canceled"] = client.result(swing, 10.0)
+    client.spin_for(2.0)
+    out["hold_until_stamp_s"] = client.stamp_s()
+    if freeze_pid is None:
+        return out
+
+    frozen, _ = client.send(client.goal(joints, [(FROZEN_GOAL_S, home)]))
+    client.spin_for(FREEZE_AT_S)
+    os.kill(freeze_pid, signal.SIGSTOP)
+    try:
+        time.sleep(FREEZE_FOR_S)  # not spinning: nothing this client hears meanwhile matters
+    finally:
+        os.kill(freeze_pid, signal.SIGCONT)
+    out["frozen"] = client.result(frozen, 20.0)
+    out["frozen_target"] = home.tolist()
+    client.spin_for(1.0)
+    out["after_frozen"] = client.position_now().tolist()
+    return out
+
+
 def main() -> None:
     quick = "--quick" in sys.argv[1:]
     rclpy.init()
@@ -165,6 +211,13 @@ def main() -> None:
     out["description_names_every_joint"] = all(f'name="{name}"' in (client.description or "") for name in joints)
     base = client.position_now()
     out["base"] = base.tolist()
+    if "--judge" in sys.argv[1:]:
+        default = ",".join([f"{-SWING_RAD / 2:g}"] * len(joints))
+        home = np.array([float(x) for x in _option("--home", default).split(",")])
+        freeze = _option("--freeze-pid", None)
+        out.update(judge(client, joints, home, None if freeze is None else int(freeze)))
+        print(json.dumps(out), flush=True)
+        return
 
     def at(offset: float) -> list[float]:
         return (base + offset).tolist()
@@ -211,6 +264,11 @@ def main() -> None:
     tight, _ = client.send(client.goal(joints, [(2.0, at(0.0))], path_tolerance=1e-6))
     out["tight_path_tolerance"] = client.result(tight, 10.0)
     print(json.dumps(out), flush=True)
+
+
+def _option(name: str, default: str | None) -> str | None:
+    args = sys.argv[1:]
+    return args[args.index(name) + 1] if name in args else default
 
 
 if __name__ == "__main__":

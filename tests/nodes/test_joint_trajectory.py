@@ -71,8 +71,8 @@ def test_goals_are_refused_blended_tracked_held_and_canceled(tmp_path, ros_domai
     assert refused.returncode == 2, refused.stdout + refused.stderr
     assert refused.stdout == ""
     assert refused.stderr == (
-        "robot-controller trajectory: 1 point(s) over 1 s: ABORTED, INVALID_GOAL (-1): "
-        "points[0]: joint1 position 4 rad is above its upper limit 3.14159 rad\n"
+        "robot-controller trajectory: 1 point(s) over 1 s: REJECTED by /joint_trajectory_controller/"
+        "follow_joint_trajectory: points[0]: joint1 position 4 rad is above its upper limit 3.14159 rad\n"
     )
     assert sent.returncode == 0, sent.stdout + sent.stderr
     assert sent.stdout.startswith(
@@ -86,7 +86,7 @@ def test_goals_are_refused_blended_tracked_held_and_canceled(tmp_path, ros_domai
         "cancel accepted; CANCELED (the arm stopped and holds where it came to rest)\n"
     )
     assert run.returncode == 0, run_said(output)
-    assert "[trajectory_planner] [WARN]" in output and "refused: points[0]: joint1 position 4 rad" in output
+    assert "[trajectory_planner] [WARN]" in output and "goal rejected: points[0]: joint1 position 4 rad" in output
     assert output.count(TAKEN) == 2
     assert "succeeded: reached within its goal tolerance" in output and "canceled: the arm stopped" in output
 

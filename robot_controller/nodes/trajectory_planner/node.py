@@ -40,7 +40,7 @@ from robot_controller.core.reference import (
     start_delay,
 )
 from robot_controller.core.reference.crossfade import Motion
-from robot_controller.core.reference.joint_trajectory import complete_joints, joint_names_problem
+from robot_controller.core.reference.joint_trajectory import check_waypoints, complete_joints, joint_names_problem
 from robot_controller.core.reference.stop import stop_path
 from robot_controller.core.reference.tolerances import INVALID_GOAL, INVALID_JOINTS, OLD_HEADER_TIMESTAMP
 from robot_controller.nodes.trajectory_planner.follow_joint_trajectory import FollowJointTrajectoryServer
@@ -283,12 +283,23 @@ class TrajectoryPlanner(StackNode):
             self.get_logger().warning(f"{taken.warning}; running it as it is (feasibility: ignore)")
 
     def stop(self, now_s: float) -> float:
-        """Bring the reference to rest within ``stop_deceleration`` from ``now_s``, then hold; the stop's length, s."""
-        path = stop_path(self.reference_at(now_s), self.params["stop_deceleration"])
+        """Bring the reference to rest within ``stop_deceleration`` from ``now_s`` (sooner if it would rest beyond a
+        joint's range), then hold; the stop's length, s."""
+        limits = self.limits
+        path = stop_path(self.reference_at(now_s), self.params["stop_deceleration"], (limits.lower, limits.upper))
         self.waypoints, self.origin_s, self.crossfade = path, now_s, None
         return path.duration_s
 
-    def _joint_trajectory(self, msg: JointTrajectoryMsg, now_s: float) -> Accepted | tuple[int, str]:
+    def check_goal(self, msg: JointTrajectoryMsg, now_s: float) -> tuple[int, str] | None:
+        """Why ``msg`` cannot be taken, as JTC's goal callback says it (its error code and the reason), or None: its
+        joints, points, times and values against the URDF's limits, and its stamp. Its join onto the reference in force
+        (the path between the points, the torque) is checked when it is taken."""
+        prepared = self._points(msg, now_s)
+        return prepared if isinstance(prepared[0], int) else None
+
+    def _points(self, msg: JointTrajectoryMsg, now_s: float) -> tuple:
+        """``(names, times, positions, velocities, accelerations, start delay)`` in the arm's terms, every joint
+        given, checked (``check_waypoints``); or JTC's error code and the reason."""
         if self.start_s is None:
             return INVALID_GOAL, "the planner is not publishing yet (its consumers are not matched)"
         arm = list(self.limits.joint_names)
@@ -307,21 +318,30 @@ class TrajectoryPlanner(StackNode):
         delay = start_delay(stamp_s, now_s)
         if isinstance(delay, str):
             return INVALID_GOAL, delay
-        start = self.reference_at(now_s)
         positions = [list(point.positions) for point in points]
         velocities = [list(point.velocities) for point in points]
         accelerations = [list(point.accelerations) for point in points]
         if len(names) < len(arm):
             names, positions, velocities, accelerations = complete_joints(
-                names, arm, start[0], positions, velocities, accelerations
+                names, arm, self.reference_at(now_s)[0], positions, velocities, accelerations
             )
+        checked = check_waypoints(names, times, positions, velocities, accelerations, self.limits)
+        if isinstance(checked, str):
+            return INVALID_GOAL, checked
+        return names, times, positions, velocities, accelerations, delay
+
+    def _joint_trajectory(self, msg: JointTrajectoryMsg, now_s: float) -> Accepted | tuple[int, str]:
+        prepared = self._points(msg, now_s)
+        if isinstance(prepared[0], int):
+            return prepared
+        names, times, positions, velocities, accelerations, delay = prepared
         accepted = accept_joint_trajectory(
             names,
             times,
             positions,
             velocities,
             accelerations,
-            start=start,
+            start=self.reference_at(now_s),
             limits=self.limits,
             dynamics=self.dynamics,
             torque_limit_nm=torque_limit(self.params, len(self.limits.joint_names)),

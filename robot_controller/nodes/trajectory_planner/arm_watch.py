@@ -1,0 +1,161 @@
+"""What a FollowJointTrajectory goal hears of the arm while it is in force: the controller's state (its estimate, the
+reference it compared it with, its status), the sensor's ``/joint_states``, the simulator's brakes, the e-stop; and
+from them whether the arm can still be judged, or why the goal must end.
+
+The controller's state is stale once the planner has heard none for ``STALE_PERIODS`` of the controller's period
+(seen in the stamps of its state), at two checks in a row: a planner whose executor was held up checks once before
+it takes what arrived meanwhile. A controller that publishes no state (the tutorial's) is judged on ``/joint_states``
+the same way. Ages are the planner's own clock at receipt (the latest ``/clock`` in lockstep and the paced world),
+never a stamp from another process's clock.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Bool, Float64MultiArray
+
+from robot_controller.core.controller import state_layout
+from robot_controller.ros.messages import brake_reasons
+from robot_controller.ros.qos import ESTOP_QOS, LATEST_QOS
+from robot_controller.ros.stack_node import StackNode
+
+#: Controller states that end a goal: the loop is stopping or stopped, whatever the reference does.
+FAULT_STATES = frozenset(
+    ("watchdog", "sensor_lost", "reference_lost", "stopped", "law_fault", "law_stopped", "late", "late_stopped")
+)
+_STATUS_NAMES = {code: name for name, code in state_layout.STATUS_CODES.items()}
+STALE_PERIODS = 5  #: how many of the controller's periods without its state make it stale
+PERIOD_SAMPLES = 20  #: the controller's period is the median of this many intervals between its states' stamps
+FIRST_HEARD_S = 3.0  #: how long a goal may wait to hear the arm at all (new subscriptions match meanwhile)
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """The controller's latest state: its tick (its clock), when the planner heard it (the planner's clock), the
+    reference it compared with, its estimate and its status."""
+
+    time_s: float
+    received_s: float
+    reference: np.ndarray
+    measured: np.ndarray
+    status: str
+
+
+class ArmWatch:
+    """The planner's ears for a goal (``FollowJointTrajectoryServer.watch``)."""
+
+    def __init__(self, planner: StackNode, joint_names: list[str]) -> None:
+        self.planner = planner
+        self.joint_names = joint_names
+        self.estop = False
+        self.subscriptions: list = []
+        self._forget(planner.now_s())
+        planner.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
+
+    def _forget(self, now_s: float) -> None:
+        self.estimate: Estimate | None = None
+        self.measured: tuple[float, np.ndarray, np.ndarray] | None = None  #: (received s, positions, velocities)
+        self.intervals: deque[float] = deque(maxlen=PERIOD_SAMPLES)
+        self.brakes: str | None = None  #: why the brakes hold, while they do
+        self.since_s = now_s  #: listening since
+        self.stale_checks = 0
+
+    @property
+    def listening(self) -> bool:
+        return bool(self.subscriptions)
+
+    def listen(self, on: bool) -> None:
+        """Hear the arm only while a goal is in force. Two 100 Hz subscriptions cost the planner's executor (rclpy's
+        single-threaded one, which rebuilds its wait set at every wake-up) a third of a CPU, taken from the loop on a
+        busy host. Off, what was heard is forgotten: a next goal is never judged on an earlier one's estimate."""
+        planner = self.planner
+        if on and not self.subscriptions:
+            self._forget(planner.now_s())
+            self.subscriptions = [
+                planner.create_subscription(JointState, "/joint_states", self.joint_states, LATEST_QOS),
+                planner.create_subscription(Float64MultiArray, "/controller/state", self.controller_state, LATEST_QOS),
+                planner.create_subscription(Float64MultiArray, "/sim/brakes", self.brakes_callback, LATEST_QOS),
+            ]
+        elif not on and self.subscriptions:
+            for subscription in self.subscriptions:
+                planner.destroy_subscription(subscription)
+            self.subscriptions = []
+            self._forget(planner.now_s())
+
+    def joint_states(self, msg: JointState) -> None:
+        names = list(msg.name)
+        if len(msg.position) != len(names) or any(name not in names for name in self.joint_names):
+            return
+        order = [names.index(name) for name in self.joint_names]
+        position = np.asarray(msg.position, dtype=float)[order]
+        velocity = np.asarray(msg.velocity, dtype=float)[order] if len(msg.velocity) == len(names) else None
+        self.measured = (self.planner.now_s(), position, velocity if velocity is not None else np.zeros_like(position))
+
+    def controller_state(self, msg: Float64MultiArray) -> None:
+        n = len(self.joint_names)
+        if not state_layout.fits(len(msg.data), n):
+            return
+        state = state_layout.decode(np.asarray(msg.data, dtype=float), n)
+        time_s = float(state["time_s"])
+        if self.estimate is not None and time_s > self.estimate.time_s:
+            self.intervals.append(time_s - self.estimate.time_s)
+        status = _STATUS_NAMES.get(int(state["status"]), "ok")
+        self.estimate = Estimate(time_s, self.planner.now_s(), state["reference"], state["measured"], status)
+
+    def brakes_callback(self, msg: Float64MultiArray) -> None:
+        values = np.asarray(msg.data, dtype=float)
+        if values.size != len(self.joint_names):
+            return
+        if np.any(values > 0.5):
+            reasons = brake_reasons(msg) or set()
+            if self.planner.params["lockstep"] and reasons == {"start"}:
+                return  # held for the world's start, released by the controller's first effort (as it reads them)
+            self.brakes = ", ".join(sorted(reasons)) or "no reason given"
+        else:
+            self.brakes = None
+
+    def estop_callback(self, msg: Bool) -> None:
+        self.estop = bool(msg.data)
+
+    def fault(self, now_s: float) -> str | None:
+        """Why the goal cannot go on (None: it can): the e-stop, the brakes, the controller's fault or its silence."""
+        if self.estop:
+            return "e-stop: the arm is braked"
+        if self.brakes is not None:
+            return f"the arm's brakes engaged ({self.brakes}): the arm is not following the trajectory"
+        estimate = self.estimate
+        if estimate is not None and estimate.status in FAULT_STATES:
+            return f"the controller reports {estimate.status}: the loop stops"
+        return self._silence(now_s)
+
+    def _silence(self, now_s: float) -> str | None:
+        heard = self.estimate.received_s if self.estimate is not None else None
+        source = "the controller's state (/controller/state)"
+        if heard is None and self.measured is not None:
+            heard, source = self.measured[0], "the arm's readings (/joint_states)"
+        if heard is None:
+            waited = now_s - self.since_s
+            return None if waited <= FIRST_HEARD_S else f"nothing heard of the arm in {waited:.2f} s"
+        age, limit = now_s - heard, self.stale_after_s()
+        self.stale_checks = self.stale_checks + 1 if age > limit else 0
+        if self.stale_checks < 2:
+            return None
+        return f"{source} is stale: none for {age:.3f} s, over {limit:.3f} s ({STALE_PERIODS} control periods)"
+
+    def stale_after_s(self) -> float:
+        """How long without the controller's state is too long: a few of its periods, no less than two of the
+        planner's own ticks (it checks once per tick)."""
+        own = 1.0 / self.planner.params["publish_rate_hz"]
+        period = float(np.median(self.intervals)) if self.intervals else own
+        return max(STALE_PERIODS * period, 2.0 * own)
+
+    def fresh(self, now_s: float) -> bool:
+        """Whether what the arm is judged on was heard within the stale limit."""
+        heard = self.estimate.received_s if self.estimate is not None else None
+        if heard is None and self.measured is not None:
+            heard = self.measured[0]
+        return heard is not None and now_s - heard <= self.stale_after_s()
