@@ -134,15 +134,22 @@ def test_runs_one_after_another_leave_no_law_thread_behind(laws):
     import gc
     import threading
 
-    params = with_controller(cfg.load_stack("default", None, "one_dof"), f"{laws}:Tracks")
-    before = threading.active_count()
+    spec = f"{laws}:Tracks"  # this test's own file: its law's threads are named after it
+    params = with_controller(cfg.load_stack("default", None, "one_dof"), spec)
+
+    def law_threads() -> int:
+        return sum(t.name == f"law {spec}" for t in threading.enumerate())
+
     for _ in range(3):
-        inprocess.simulate(params, duration_s=0.5)
+        loop = inprocess.prepare(params, duration_s=0.5)
+        assert law_threads() >= 1  # the law's calls run on a thread of its own
+        loop()
+    del loop
     gc.collect()
     deadline = time.monotonic() + 5
-    while threading.active_count() > before and time.monotonic() < deadline:
+    while law_threads() and time.monotonic() < deadline:
         time.sleep(0.01)  # a worker's thread ends at its next look at its queue
-    assert threading.active_count() == before
+    assert law_threads() == 0
 
 
 def test_a_campaign_whose_law_blocks_in_one_run_finishes_that_run_a_law_fault(laws, tmp_path):
