@@ -4,10 +4,10 @@ FollowJointTrajectory goals and prints one JSON object of what it got (tests/nod
 
 Usage: ``python follow_joint_trajectory_client.py [--quick]`` on the run's ROS_DOMAIN_ID; ``--quick``: only the
 3-point goal. Every target is an offset from where the arm is when the client starts (so it suits any arm whose
-range has room for ±0.5 rad there). ``--judge [--freeze-pid PID] [--home Q,...]``: instead, how goals are judged:
-one naming an unknown joint, a fast swing from ``home`` (default −0.6 rad on every joint) cancelled at its peak speed,
-then (with ``--freeze-pid``) a goal during which that process (the controller) is frozen from mid-motion until past
-its end."""
+range has room for ±0.5 rad there). ``--judge [--freeze-pid PID] [--home Q,...] [--swing-s S]``: instead, how goals
+are judged: one naming an unknown joint, a swing of 1.2 rad in ``S`` s (0.7) from ``home`` (default −0.6 rad on every
+joint) cancelled at its peak speed, then (with ``--freeze-pid``) a goal during which that process (the controller) is
+frozen from mid-motion until past its end."""
 
 from __future__ import annotations
 
@@ -156,8 +156,11 @@ SWING_RAD, SWING_S = 1.2, 0.7
 FROZEN_GOAL_S, FREEZE_AT_S, FREEZE_FOR_S = 3.0, 1.0, 4.0
 
 
-def judge(client: Client, joints: list[str], home: np.ndarray, freeze_pid: int | None) -> dict:
-    """The goals that are judged: rejected, cancelled at speed, and (``freeze_pid``) frozen under."""
+def judge(
+    client: Client, joints: list[str], home: np.ndarray, freeze_pid: int | None, swing_s: float = SWING_S
+) -> dict:
+    """The goals that are judged: rejected, cancelled at speed (``swing_s``: the swing's time), and (``freeze_pid``)
+    frozen under."""
     out: dict = {"home": home.tolist()}
     unknown, _ = client.send(client.goal(["no_such_joint"], [(1.0, [0.1])]))
     out["unknown_joint"] = client.result(unknown, 10.0)
@@ -165,8 +168,8 @@ def judge(client: Client, joints: list[str], home: np.ndarray, freeze_pid: int |
     out["to_home"] = client.result(rest)
     client.spin_for(0.5)
 
-    swing, _ = client.send(client.goal(joints, [(SWING_S, home + SWING_RAD)]))
-    client.spin_for(SWING_S / 2)
+    swing, _ = client.send(client.goal(joints, [(swing_s, home + SWING_RAD)]))
+    client.spin_for(swing_s / 2)
     out["cancel_stamp_s"] = client.stamp_s()  # no later than the cancel: the latest reading heard
     cancel = client.spin_until(swing.cancel_goal_async(), 5.0) if swing is not None else None
     out["cancel_accepted"] = bool(cancel is not None and len(cancel.goals_canceling) == 1)
@@ -215,7 +218,8 @@ def main() -> None:
         default = ",".join([f"{-SWING_RAD / 2:g}"] * len(joints))
         home = np.array([float(x) for x in _option("--home", default).split(",")])
         freeze = _option("--freeze-pid", None)
-        out.update(judge(client, joints, home, None if freeze is None else int(freeze)))
+        swing_s = float(_option("--swing-s", str(SWING_S)))
+        out.update(judge(client, joints, home, None if freeze is None else int(freeze), swing_s))
         print(json.dumps(out), flush=True)
         return
 
