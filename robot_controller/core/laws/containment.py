@@ -4,18 +4,20 @@ to the user's law checked. Its torque is held here to the torque limit and the s
 terms are gathered for ``/controller/state``. The first thing it gets wrong becomes its ``fault``
 (a :class:`LawFault`) instead of a torque: it raises, returns anything but one finite number per
 joint, takes longer than its budget on OVERRUN_TICKS ticks running (one long call alone is the
-machine's doing, a slow law is slow on every tick; measured on ``clock``, seconds of wall time, less
-what ``run_wait`` says its thread waited for a CPU meanwhile, the host's share; not at all without a
-clock), is still running a control period past its budget (timed, its calls run on
-a :class:`LawWorker` the controller stops waiting for), or lets the arm run away from the reference
-(``error_max_rad``). The controller answers a fault with a controlled stop on its built-in law; the
-law is never called again."""
+machine's doing, a slow law is slow on every tick; measured on ``clock`` on the law's thread: its CPU
+time where the world waits for the law, or seconds of wall time less what ``run_wait`` says its thread
+waited for a CPU meanwhile, the host's share; not at all without a clock), is still running when the
+controller stops waiting for it (timed, its calls run on a :class:`LawWorker`: a control period past its
+budget, or ``abandon_s`` of wall time where the world waits, sooner once the call has used a control
+period past its budget of CPU time), or lets the arm run away from the reference (``error_max_rad``).
+The controller answers a fault with a controlled stop on its built-in law; the law is never called again."""
 
 from __future__ import annotations
 
 import ctypes
 import queue
 import threading
+import time
 import traceback
 import weakref
 from collections.abc import Callable, Mapping
@@ -33,6 +35,8 @@ from robot_controller.core.laws.registry import resolve
 OVERRUN_TICKS = 3
 # rad/s: slower than this the arm is not running away, whatever its distance.
 RUNAWAY_MIN_SPEED_RAD_S = 0.1
+# s of wall time after which a call the world waits for is blocked: far more than a busy host keeps a thread from a CPU.
+BLOCKED_S = 0.5
 
 
 @dataclass(frozen=True)
@@ -77,16 +81,34 @@ class LawWorker:
         self._thread.start()
         weakref.finalize(self, self._calls.put, None)
 
-    def run(self, call: Callable[[], Any], timeout_s: float) -> tuple[Any, str | None] | None:
-        """:func:`_outcome` of ``call``, or None if it is still running after ``timeout_s`` (abandoned)."""
+    def run(
+        self, call: Callable[[], Any], timeout_s: float, cpu_limit_s: float | None = None
+    ) -> tuple[Any, str | None] | None:
+        """:func:`_outcome` of ``call``, or None if it is still running after ``timeout_s`` of wall time, or
+        once it has used ``cpu_limit_s`` of its thread's CPU time (None: not checked): abandoned. A call
+        kept from a CPU uses none; one that loops uses it all."""
         self._done.clear()
+        deadline_s = time.monotonic() + timeout_s
+        started_cpu_s = 0.0 if cpu_limit_s is None else self.cpu_s()
         self._calls.put(call)
-        if self._done.wait(timeout_s):
+        # Looked at every ``cpu_limit_s``: a call within it is never looked at.
+        while not (done := self._done.wait(max(0.0, min(cpu_limit_s or timeout_s, deadline_s - time.monotonic())))):
+            if time.monotonic() >= deadline_s or self.cpu_s() - started_cpu_s >= (cpu_limit_s or float("inf")):
+                break
+        if done:
             outcome, self._outcome[0] = self._outcome[0], (None, None)  # the thread keeps nothing of the law's
             return outcome
         self._calls.put(None)  # the thread ends once the call does
         ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(self._thread.ident), ctypes.py_object(_Abandoned))
         return None
+
+    def cpu_s(self) -> float:
+        """The CPU time the worker's thread has used, s (its schedstat; 0 where that cannot be read)."""
+        try:
+            with open(f"/proc/self/task/{self._thread.native_id}/schedstat", "rb") as f:
+                return int(f.read().split()[0]) * 1e-9
+        except (OSError, IndexError, ValueError):
+            return 0.0
 
 
 def _serve(calls: queue.SimpleQueue, done: threading.Event, outcome: list) -> None:
@@ -114,6 +136,7 @@ class ContainedLaw(ControlLaw):
         clock: Callable[[], float] | None = None,
         budget_s: float = 0.005,
         run_wait: Callable[[], float] | None = None,
+        abandon_s: float | None = None,
     ) -> None:
         super().__init__(arm, period_s, params)
         self.law = law
@@ -121,7 +144,7 @@ class ContainedLaw(ControlLaw):
         self.joint_count = arm.joint_count
         self.joint_names = arm.joint_names  #: for the fault's line
         self.clock = clock
-        self.budget_s = budget_s  #: s of wall time per update, less the time its thread waited for a CPU
+        self.budget_s = budget_s  #: s per update on ``clock`` (its thread's CPU time, or wall time less ``run_wait``)
         self.run_wait = run_wait  #: s the calling thread has waited for a CPU so far (None: not known, not excused)
         self.error_max_rad = 0.0  #: how far the arm may be from the reference (0: no check)
         self.stop_deceleration_rad_s2 = 20.0  #: the controlled stop's, for the way still to go
@@ -132,8 +155,9 @@ class ContainedLaw(ControlLaw):
         self.tick_s: float | None = None  #: the latest tick the law was called on, s
         self.worker = LawWorker(name) if clock is not None else None  #: timed, the calls run here
         #: s of wall time a call may run before it is abandoned (None: ``budget_s`` and a control period, as a
-        #: loop on the wall clock can wait; a loop the world waits for waits longer)
-        self.abandon_s: float | None = None
+        #: loop on the wall clock can wait). A loop the world waits for waits longer, for a law kept from a CPU
+        #: is not blocked; one that computes is abandoned once it has used ``budget_s`` and a period of CPU time.
+        self.abandon_s = abandon_s
         self.overruns_s: list[float] = []  #: the durations of the updates over budget in a row, s
         self._previous_command: np.ndarray | None = None
         self._last_s: float | None = None
@@ -149,10 +173,11 @@ class ContainedLaw(ControlLaw):
         given: Mapping[str, Any],
         clock: Callable[[], float] | None = None,
         run_wait: Callable[[], float] | None = None,
+        abandon_s: float | None = None,
     ) -> ContainedLaw:
         """The law ``spec`` names, built with the values ``given`` for its parameters and contained (its
-        time checked on ``clock``, seconds of wall time, less ``run_wait``'s; None: not checked);
-        ``ConfigError`` in one line if it cannot be built."""
+        time checked on ``clock``, less ``run_wait``'s; None: not checked; a call abandoned as
+        :attr:`abandon_s` says); ``ConfigError`` in one line if it cannot be built."""
         if arm.model is None:
             raise ConfigError("controller_type: a law of one's own needs the arm model (urdf_path)")
         law_class = resolve(spec)
@@ -163,7 +188,7 @@ class ContainedLaw(ControlLaw):
             raise
         except Exception as exc:
             raise ConfigError(f"controller_type: {spec} failed to start: {type(exc).__name__}: {exc}") from exc
-        return cls(law, spec, arm, period_s, values, clock, run_wait=run_wait)
+        return cls(law, spec, arm, period_s, values, clock, run_wait=run_wait, abandon_s=abandon_s)
 
     def set_limits(
         self,
@@ -316,13 +341,20 @@ class ContainedLaw(ControlLaw):
         spent_s: list[float] = []  # the call's own time, measured on the thread it runs on
         if timed:
             call = self._timed(call, spent_s)
-        waited_s = self.budget_s + self.period_s if self.abandon_s is None else self.abandon_s
-        outcome = _outcome(call) if self.worker is None else self.worker.run(call, waited_s)
+        over_s = self.budget_s + self.period_s
+        waited_s = over_s if self.abandon_s is None else self.abandon_s
+        cpu_limit_s = None if self.abandon_s is None else over_s
+        started_s, started_cpu_s = time.monotonic(), 0.0 if self.worker is None else self.worker.cpu_s()
+        outcome = _outcome(call) if self.worker is None else self.worker.run(call, waited_s, cpu_limit_s)
         if outcome is None:
+            assert self.worker is not None
+            took = f"{(time.monotonic() - started_s) * 1e3:.1f} ms"
+            if cpu_limit_s is not None:
+                took += f" ({(self.worker.cpu_s() - started_cpu_s) * 1e3:.1f} ms of CPU time)"
             over = " by more than a control period" if self.abandon_s is None else ""
             return self._faulted(
                 time_s,
-                f"was still in {method}() after {waited_s * 1e3:.1f} ms, over its budget of "
+                f"was still in {method}() after {took}, over its budget of "
                 f"{self.budget_s * 1e3:g} ms (law_budget_s){over}: abandoned",
             )
         value, trace = outcome

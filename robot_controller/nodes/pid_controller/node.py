@@ -18,6 +18,7 @@ from robot_controller.core.controller import JointController, Status
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters as law_parameters
 from robot_controller.core.laws import registry
+from robot_controller.core.laws.containment import BLOCKED_S
 from robot_controller.nodes.pid_controller import live_gains, log_line
 from robot_controller.nodes.pid_controller.designer import Designer
 from robot_controller.nodes.pid_controller.status import StartWaits, StatusReports
@@ -47,17 +48,21 @@ class PidControllerNode(StackNode):
     def __init__(self) -> None:
         # Its parameter services are live_gains', on a thread of their own (started last, below).
         super().__init__("pid_controller", start_parameter_services=False)
-        # A law of one's own is held to its law_budget_s in wall time, in lockstep too, less the time the
-        # host kept its thread from a CPU. On the wall clock the loop's delay is watched against the gains'
-        # delay margin (core.latency).
+        # A law of one's own is held to its law_budget_s on the time it used. Where the world waits for it
+        # (lockstep, the paced world): its thread's CPU time, a call abandoned once blocked for BLOCKED_S of wall
+        # time (a law kept from a CPU is not blocked) or once it has computed a period past its budget. On the
+        # wall clock: wall time less what the host took from its thread. There the loop's delay is watched
+        # against the gains' delay margin (core.latency).
         self.controller = JointController(
             cfg.controller_config(self.params, self.joint_count),
             self.joint_count,
             self.dynamics,
-            law_clock=time.perf_counter,
+            law_clock=time.thread_time if self.lockstep else time.perf_counter,
             latency_guard=not self.lockstep,
-            law_run_wait=thread_run_wait_s,
+            law_run_wait=None if self.lockstep else thread_run_wait_s,
         )
+        if self.lockstep and self.controller.plugin is not None:
+            self.controller.plugin.abandon_s = BLOCKED_S
         self.last_tick_s = -np.inf
         self.first_tick_s: float | None = None
         self.log_schedule = log_line.LogSchedule(self.params["log_period_s"])

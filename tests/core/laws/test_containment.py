@@ -121,7 +121,7 @@ def test_system_exit_and_keyboard_interrupt_from_a_law_are_its_faults(raised, cl
         def update(self, time_s, state, reference):
             raise raised
 
-    held = contained(Ends(), clock=clock)
+    held = contained(Ends(), clock=clock, period_s=1.0)  # a busy host: no abandonment first
     assert held.update(2.0, None, None).tolist() == [0.0]
     said = f"raised {type(raised).__name__}" + (": 3" if isinstance(raised, SystemExit) else "")
     assert held.fault.line() == f"control law Ends {said} at t = 2.000 s"
@@ -140,13 +140,75 @@ def test_failures_in_reset_and_set_params_carry_their_ticks_time(clock):
         def set_params(self, params):
             raise ValueError("no such gain")
 
-    held = contained(FailsAside(), clock=clock)
+    held = contained(FailsAside(), clock=clock, period_s=1.0)
     held.update(2.5, None, None)
     held.set_params({})
     assert held.fault.line().endswith("raised ValueError: no such gain in set_params() at t = 2.500 s")
-    before = contained(FailsAside(), clock=clock)
+    before = contained(FailsAside(), clock=clock, period_s=1.0)
     before.set_params({})
     assert before.fault.line().endswith("in set_params() before the first tick")
-    at_reset = contained(FailsAside(), clock=clock)
+    at_reset = contained(FailsAside(), clock=clock, period_s=1.0)
     at_reset.reset(None, 3.25)
     assert at_reset.fault.line().endswith("raised RuntimeError: no reset in reset() at t = 3.250 s")
+
+
+# --- where the world waits for the law (lockstep, the paced world): its budget on its thread's CPU time ---
+
+
+def world_waits(law, abandon_s: float) -> ContainedLaw:
+    held = contained(law, clock=time.thread_time, budget_s=0.001, period_s=0.005)
+    held.abandon_s = abandon_s
+    return held
+
+
+class Computes:
+    """Uses ``cpu_s`` of its thread's CPU time per update, or loops until ``release`` is set (``cpu_s`` None)."""
+
+    def __init__(self, cpu_s: float | None) -> None:
+        self.cpu_s, self.release = cpu_s, threading.Event()
+
+    def update(self, time_s, state, reference):
+        until_s = time.thread_time() + (self.cpu_s if self.cpu_s is not None else float("inf"))
+        while time.thread_time() < until_s and not self.release.is_set():
+            pass
+        return np.zeros(1)
+
+
+def test_where_the_world_waits_a_law_off_a_cpu_for_longer_than_a_period_is_neither_slow_nor_abandoned():
+    class Waits:
+        """30 ms a call without a CPU: a host that keeps its thread waiting uses none of its time either."""
+
+        def update(self, time_s, state, reference):
+            time.sleep(0.03)
+            return np.ones(1)
+
+    held = world_waits(Waits(), abandon_s=0.5)
+    for t in (0.0, 0.005, 0.01, 0.015):
+        assert held.update(t, None, None).tolist() == [1.0]
+    assert held.fault is None  # on wall time: 6 control periods past its 1 ms budget, abandoned on the first
+
+
+def test_where_the_world_waits_a_law_that_blocks_is_still_abandoned():
+    law = Blocking()
+    held = world_waits(law, abandon_s=0.2)
+    held.update(1.0, None, None)
+    assert held.update(1.005, None, None).tolist() == [0.0] and not law.went_on
+    line = held.fault.line()
+    assert "Blocking was still in update() after " in line and "over its budget of 1 ms (law_budget_s)" in line, line
+    assert "ms of CPU time" in line and line.endswith("abandoned at t = 1.005 s"), line
+    law.release.set()
+
+
+def test_where_the_world_waits_a_law_that_loops_is_abandoned_on_its_cpu_time_long_before_the_wall_limit():
+    law = Computes(None)
+    held = world_waits(law, abandon_s=600.0)  # never reached: the test would hang
+    assert held.update(0.0, None, None).tolist() == [0.0]
+    assert "Computes was still in update()" in held.fault.line() and "ms of CPU time" in held.fault.line()
+    law.release.set()
+
+
+def test_where_the_world_waits_a_law_that_computes_past_its_budget_three_ticks_running_is_slow():
+    held = world_waits(Computes(0.002), abandon_s=0.5)
+    for t in (0.0, 0.005, 0.01):
+        held.update(t, None, None)
+    assert "ms in update() on 3 ticks running, over its budget of 1 ms (law_budget_s)" in held.fault.line()
