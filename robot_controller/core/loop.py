@@ -46,14 +46,18 @@ class LoopResult:
     joint_names: list[str] = field(default_factory=list)  #: the columns' joints (the plant's order)
     joint_units: list[str] | None = None  #: "rad" or "m" per joint (None: every joint revolute)
     law_fault: str | None = None  #: what a plugin law did wrong (its one line), if it did
+    #: kg·m² per joint, the armature the inertia adaptation had learnt at the end (None: zeros, no adaptation)
+    adapted_armature_kgm2: list[float] | None = None
 
     def tracking_metrics(self, warmup_s: float = metrics.WARMUP_S) -> dict[str, Any]:
         """Tracking per joint and the worst joint's (:func:`metrics.tracking_metrics`, in each joint's
         unit), with ``joint_names``, as ``metrics.json`` has them."""
         q = self.reference, self.true_position, self.measured
         out = metrics.tracking_metrics(self.tick_time_s, *q, warmup_s=warmup_s, units=self.joint_units)
-        names = self.joint_names or [f"joint{k + 1}" for k in range(self.reference.shape[1])]
-        return {"joint_names": list(names), **out}
+        n = self.reference.shape[1]
+        names = self.joint_names or [f"joint{k + 1}" for k in range(n)]
+        armature = self.adapted_armature_kgm2 if self.adapted_armature_kgm2 is not None else [0.0] * n
+        return {"joint_names": list(names), **out, "adapted_armature_kgm2": list(armature)}
 
 
 def run_loop(
@@ -133,11 +137,12 @@ def run_loop(
         true_velocity_rows[k] = true_velocity
         command_rows[k] = command
         applied_rows[k] = applied
-    fault = controller.law_fault
+    fault, inertia = controller.law_fault, getattr(controller, "inertia", None)  # (a stand-in may have none)
     return LoopResult(
         tick_time_s=times,
         joint_names=list(plant.joint_names),
         joint_units=list(plant.joint_units),
         law_fault=None if fault is None else fault.line(),
+        adapted_armature_kgm2=None if inertia is None else inertia.armature.tolist(),
         **record,
     )

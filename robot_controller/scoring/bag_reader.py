@@ -48,8 +48,9 @@ class Recording:
     disturbance: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
     #: the joints' names as /sim/joint_states gives them, in the order of every array's columns
     recorded_joint_names: list[str] = field(default_factory=list)
-    #: a law of one's own's extra terms on /controller/state (its ``state_terms``), by name: one row per
-    #: row of ``state`` (N·m per joint; NaN where a message did not carry the term); empty for a built-in law
+    #: the extra blocks on /controller/state by name (a law of one's own's ``state_terms``, N·m per joint; the
+    #: inertia adaptation's ``adapted_armature_kgm2``): one row per row of ``state`` (NaN where a message did not
+    #: carry the block); empty for a built-in law without the adaptation
     law_terms: dict[str, np.ndarray] = field(default_factory=dict)
 
     def true_at_ticks(self) -> np.ndarray:

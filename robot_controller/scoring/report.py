@@ -19,6 +19,7 @@ from robot_controller.scoring.bag_reader import Recording, motor_latency_s, read
 
 __all__ = [
     "Recording",
+    "adapted_armature",
     "arm_units",
     "brake_metrics",
     "braked_at",
@@ -57,6 +58,7 @@ def score(
         count and rate) all the same (default: only without ``window_s``); a paced world's run has them
     """
     s = recording.state
+    keep = None
     if window_s is not None:
         keep = s["time_s"] < s["time_s"][0] + window_s - 1e-9
         s = {k: v[keep] for k, v in s.items()}
@@ -90,6 +92,7 @@ def score(
     out.update(
         brake_metrics(recording, ticks[0], min(end_s, ticks[-1]), 2 * nominal_period_s)
     )  # ended early: to its end
+    out["adapted_armature_kgm2"] = adapted_armature(recording.law_terms, recording.joint_count, keep)
     out["saturated_ticks"] = int(np.count_nonzero(np.any(s["saturated"] > 0.5, axis=1)))
     out["saturated_ticks_per_joint"] = np.count_nonzero(s["saturated"] > 0.5, axis=0).tolist()
     out.update(metrics.peak_torque(s["command"], units))
@@ -107,6 +110,18 @@ def score(
         if len(times) > 1 and times[-1] > times[0]:
             out[f"rate_{key}_hz"] = float((len(times) - 1) / (times[-1] - times[0]))
     return out
+
+
+def adapted_armature(law_terms: dict[str, np.ndarray], joint_count: int, keep: Any = None) -> list[float]:
+    """kg·m² per joint, the armature the inertia adaptation had learnt at the run's end: the last finite row of its
+    block on ``/controller/state`` among the ticks ``keep`` selects (None: all); zeros without one (adaptation off)."""
+    rows = law_terms.get(state_layout.ADAPTED_ARMATURE)
+    if rows is None:
+        rows = np.zeros((0, joint_count))
+    elif keep is not None:
+        rows = rows[keep]
+    finite = rows[np.all(np.isfinite(rows), axis=1)]
+    return finite[-1].tolist() if len(finite) else [0.0] * joint_count
 
 
 def reference_in_force(recording: Recording, nominal_period_s: float = 0.01) -> tuple[np.ndarray, np.ndarray]:

@@ -1,10 +1,20 @@
 """Scoring offline: the motor's receipts paired with the controller's ticks; no reference in force while the
-brakes hold."""
+brakes hold; the armature the inertia adaptation learnt, read from its block."""
+
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from robot_controller.scoring.report import Recording, brake_metrics, motor_latency_s, reference_in_force
+from robot_controller.core.controller import state_layout
+from robot_controller.scoring.bag_reader import _law_terms
+from robot_controller.scoring.report import (
+    Recording,
+    adapted_armature,
+    brake_metrics,
+    motor_latency_s,
+    reference_in_force,
+)
 
 
 def test_each_receipt_pairs_with_the_latest_tick_that_issued_its_command():
@@ -72,3 +82,27 @@ def test_brakes_an_estop_held_are_counted_as_asked_for():
     assert figures["braked_s_estop"] == pytest.approx(0.49)
     recording.brakes_reasons = [frozenset(), frozenset({"drive_timeout"}), frozenset({"drive_timeout"}), frozenset()]
     assert brake_metrics(recording, 0.0, 2.0)["brake_engagements_estop"] == 0
+
+
+def _state_message(joint_count, names, blocks):
+    """A /controller/state message as the node labels it: the standard blocks, then ``names``' blocks."""
+    values = {name: np.zeros(joint_count) for name in state_layout.FIELDS}
+    labels = [*state_layout.HEADER, *state_layout.FIELDS, *names]
+    data = state_layout.encode(0.0, "ok", 0.0, joint_count, values, blocks)
+    return SimpleNamespace(data=data, layout=SimpleNamespace(dim=[SimpleNamespace(label=label) for label in labels]))
+
+
+def test_the_adapted_armature_is_the_last_finite_row_of_its_block_beside_a_laws_own_terms():
+    armature = state_layout.ADAPTED_ARMATURE
+    messages = [
+        _state_message(2, ("gravity", armature), (np.ones(2), np.array([0.0, 0.01]))),
+        _state_message(2, ("gravity", armature), (np.ones(2), np.array([0.0, 0.08]))),
+        _state_message(2, ("gravity",), (np.ones(2),)),  # a message without the block: NaN there
+    ]
+    terms = _law_terms(messages, 2)
+    assert set(terms) == {"gravity", armature} and np.all(terms["gravity"] == 1.0)
+    assert adapted_armature(terms, 2) == [0.0, 0.08]
+    assert adapted_armature(terms, 2, np.array([True, False, False])) == [0.0, 0.01]  # a scoring window
+    assert adapted_armature({"gravity": terms["gravity"]}, 2) == [0.0, 0.0]  # adaptation off: learnt nothing
+    # A reader of the standard blocks only sees the message as it was.
+    assert list(state_layout.standard(messages[0].data, 2)) == messages[2].data[: state_layout.width(2)]

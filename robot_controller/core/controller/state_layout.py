@@ -1,7 +1,8 @@
 """Layout of ``/controller/state`` (a labelled ``std_msgs/Float64MultiArray``): ``[time_s, status_code,
 measurement_stamp_s]``, then one block of ``joint_count`` per :data:`FIELDS` entry, then a law's own ``state_terms``
-blocks; the layout's labels name each block, so ``ros2 topic echo`` shows what each number is. A reader that knows only
-the standard blocks takes the first :func:`width` values (:func:`standard`); :func:`extra` reads the rest."""
+blocks and, with the inertia adaptation, :data:`ADAPTED_ARMATURE`'s; the layout's labels name each block, so
+``ros2 topic echo`` shows what each number is. A reader that knows only the standard blocks takes the first
+:func:`width` values (:func:`standard`); :func:`extra` reads the rest."""
 
 from __future__ import annotations
 
@@ -12,6 +13,8 @@ import numpy as np
 
 HEADER = ("time_s", "status", "measurement_stamp_s")
 FIELDS = ("reference", "measured", "error", "p", "i", "d", "feedforward", "command", "saturated")
+#: the extra block, after a law's own, of the armature the inertia adaptation has learnt (kg·m² per joint), when on
+ADAPTED_ARMATURE = "adapted_armature_kgm2"
 STATUS_CODES = {
     "ok": 0,
     "holding": 1,

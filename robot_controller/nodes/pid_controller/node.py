@@ -269,6 +269,7 @@ class PidControllerNode(StackNode):
             command = tuple(self.command_msg.data)
         self.timing.note_tick(now_s, command, watchdog=out.status is Status.WATCHDOG)
         self.status.say_saturation(out)
+        self.status.say_adaptation(now_s)
         self.status.publish_state(out)
         if self.log_schedule.due(now_s, self.params["log_period_s"]):
             self.get_logger().info(log_line.line(out.reference, out.measured, out.error, out.command))

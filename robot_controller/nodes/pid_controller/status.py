@@ -7,11 +7,13 @@ import dataclasses
 import os
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller.core.controller import ControlOutput, Status, state_layout
+from robot_controller.core.controller.inertia_adaptation import SAID_STEP
 from robot_controller.core.metrics import EFFORT_UNITS
 from robot_controller.ros.process import LAW_FAULT_FILE, LAW_STOPPED_EXIT_CODE, request_exit
 from robot_controller.ros.publishing import COUNTS_DIR_ENV
@@ -24,6 +26,9 @@ LAW_STOPPED_LINGER_S = 0.5
 START_PATIENCE_S = 10.0
 # A joint whose command the limit cuts this long without a break (s, the tick's clock) is said, once per run.
 SATURATION_SAID_AFTER_S = 0.2
+# The inertia adaptation's gain changes are said at most this often (s, the tick's clock): it moves a factor a few
+# times a second while it learns, and each line is a gain change a reader may want to see, not each step.
+ADAPTATION_SAID_EVERY_S = 1.0
 
 
 class SaturationWatch:
@@ -68,6 +73,26 @@ class StartWaits:
             )
 
 
+def report_law_in_force(node: StackNode, controller: Any, margin: int | None) -> str:
+    """Report ``law_in_force``: the controller's line and ``margin``, the delay margin last checked in full (None: a
+    law of one's own, whose feedback is not known here); returned."""
+    in_force = controller.law_in_force()
+    if margin is not None:
+        rate_hz = node.params["control_rate_hz"]
+        periods = "control period" if margin == 1 else "control periods"
+        in_force += f"; delay margin {margin} {periods} ({margin * 1e3 / rate_hz:g} ms) beyond what the stamps show"
+        inertia = getattr(controller, "inertia", None)
+        if inertia is not None and np.any(inertia.scale != 1.0):
+            needed = controller.config.min_delay_margin_periods
+            in_force += (
+                f" as designed, at least {needed} with the adaptive factors on the inertia learnt"
+                if needed > 0
+                else " as designed, unchecked with the adaptive factors (min_delay_margin_periods 0)"
+            )
+    node.report("law_in_force", in_force, "the control law and its gains in force, as designed")
+    return in_force
+
+
 class StatusReports:
     """What the controller node says: in its log, as parameters and on ``/controller/state``."""
 
@@ -84,14 +109,23 @@ class StatusReports:
         self.extra_terms = tuple(
             name
             for name in (plugin.extra_terms if plugin is not None else ())
-            if name not in state_layout.FIELDS and name not in state_layout.HEADER
+            if name not in state_layout.FIELDS
+            and name not in state_layout.HEADER
+            and name != state_layout.ADAPTED_ARMATURE
         )
+        # Then the armature the inertia adaptation has learnt (None: no adaptation, no block).
+        self.inertia = self.controller.inertia
+        adaptation = () if self.inertia is None else (state_layout.ADAPTED_ARMATURE,)
+        self.next_adaptation_s = -np.inf  # the tick's clock: when its gain changes may be said again
+        self.said_scale = np.ones(node.joint_count)  # the factors on the designed gains last said
+        self.margin: int | None = None  # the delay margin law_in_force last stated
         self.state_pub = node.gated_publisher(Float64MultiArray, "/controller/state", consumer=False)
         self.state_msg = Float64MultiArray()
         n = node.joint_count
         self.state_msg.layout.dim = [MultiArrayDimension(label=name, size=1, stride=1) for name in state_layout.HEADER]
         self.state_msg.layout.dim += [
-            MultiArrayDimension(label=name, size=n, stride=n) for name in (*state_layout.FIELDS, *self.extra_terms)
+            MultiArrayDimension(label=name, size=n, stride=n)
+            for name in (*state_layout.FIELDS, *self.extra_terms, *adaptation)
         ]
 
     def log_gains(self, margin: int | None) -> None:
@@ -99,14 +133,33 @@ class StatusReports:
         periods of unaccounted delay they survive (found when the change was checked: tens of ms per joint), in the
         log and as ``law_in_force``."""
         rate_hz = self.node.params["control_rate_hz"]
-        in_force = self.controller.law_in_force()
-        if margin is not None:  # None: a law of one's own, whose feedback is not known here
-            periods = "control period" if margin == 1 else "control periods"
-            in_force += f"; delay margin {margin} {periods} ({margin * 1e3 / rate_hz:g} ms) beyond what the stamps show"
-        self.node.report("law_in_force", in_force, "the control law and its gains in force, as designed")
+        self.margin = margin
+        in_force = report_law_in_force(self.node, self.controller, margin)
         self.log.info(
             f"{in_force}; at {rate_hz:g} Hz on {self.node.joint_names}" + (", lockstep" if self.node.lockstep else "")
         )
+
+    def say_adaptation(self, now_s: float) -> None:
+        """The inertia adaptation's gain changes since they were last said (a factor moved over SAID_STEP, 10 %),
+        one log line for all the steps in an interval, and ``law_in_force`` stated again with them; at most once
+        every ``ADAPTATION_SAID_EVERY_S`` of the tick's clock, so a tick costs one comparison. The delay margin
+        stated stays the one last checked in full (a check takes up to a second on a 7-joint arm), with the
+        ``min_delay_margin_periods`` each adaptive factor has been checked to keep."""
+        if self.inertia is None or now_s < self.next_adaptation_s:
+            return
+        self.next_adaptation_s = now_s + ADAPTATION_SAID_EVERY_S
+        if not self.inertia.notes():  # (its lines, one per step of SAID_STEP: said here as one per interval)
+            return
+        scale, armature, said = self.inertia.scale, self.inertia.armature, self.said_scale
+        moved = np.flatnonzero(np.abs(scale - said) > SAID_STEP * said)
+        if moved.size:
+            names = self.node.joint_names
+            changes = ", ".join(
+                f"{names[j]} ×{scale[j]:.3g} (was ×{said[j]:.3g}; armature {armature[j]:.3g} kg·m²)" for j in moved
+            )
+            self.log.info(f"inertia adaptation: gains in force now the design {changes}")
+            self.said_scale = np.where(np.isin(np.arange(len(scale)), moved), scale, said)
+        report_law_in_force(self.node, self.controller, self.margin)
 
     def status_changed(self, status: Status) -> None:
         """One log line when the loop's state changes (faults, stops, recovery)."""
@@ -212,9 +265,13 @@ class StatusReports:
         self.state_pub.publish(self.state_msg)
 
     def law_term_blocks(self, out: ControlOutput) -> tuple[np.ndarray, ...]:
-        """The law's extra terms in the layout's order; zeros on a tick the law did not run."""
-        if not self.extra_terms:
-            return ()
-        reported = out.law_terms or {}
-        zeros = np.zeros(self.node.joint_count)
-        return tuple(reported.get(name, zeros) for name in self.extra_terms)
+        """The law's extra terms in the layout's order (zeros on a tick the law did not run), then the armature the
+        inertia adaptation has learnt, if it is on."""
+        blocks: tuple[np.ndarray, ...] = ()
+        if self.extra_terms:
+            reported = out.law_terms or {}
+            zeros = np.zeros(self.node.joint_count)
+            blocks = tuple(reported.get(name, zeros) for name in self.extra_terms)
+        if self.inertia is not None:
+            blocks += (self.inertia.armature,)
+        return blocks
