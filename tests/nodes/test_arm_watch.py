@@ -49,6 +49,7 @@ def watched():
     planner = Planner()
     watch = ArmWatch(planner, ["joint1"])
     watch.listen(True)
+    watch.new_goal()
     for k in range(30):  # the controller ticks at 100 Hz, heard as it ticks
         planner.time_s = k * PERIOD_S
         watch.controller_state(state(planner.time_s))
@@ -89,7 +90,9 @@ def test_brakes_and_faults_end_the_goal_with_the_reason(watched):
     assert watch.fault(planner.time_s) == (
         "the arm's brakes engaged (drive_timeout): the arm is not following the trajectory"
     )
-    watch.brakes_callback(brakes(False))
+    watch.brakes_callback(brakes(False))  # released before the planner looked: the arm stood braked all the same
+    assert "brakes engaged (drive_timeout)" in watch.fault(planner.time_s)
+    watch.new_goal()  # the next goal is judged on its own time
     assert watch.fault(planner.time_s) is None
     watch.controller_state(state(planner.time_s, "law_fault"))
     assert watch.fault(planner.time_s) == "the controller reports law_fault: the loop stops"
@@ -102,6 +105,7 @@ def test_on_the_wall_clock_the_start_brakes_count_too():
     watch = ArmWatch(planner, ["joint1"])
     watch.listen(True)
     watch.brakes_callback(brakes(True, "start"))
+    watch.new_goal()  # one that starts while the brakes hold ends at once
     assert "brakes engaged (start)" in watch.fault(0.0)
 
 
@@ -109,9 +113,9 @@ def test_an_arm_never_heard_ends_the_goal_after_a_while_and_listening_again_forg
     planner = Planner()
     watch = ArmWatch(planner, ["joint1"])
     watch.listen(True)
-    assert planner.subscriptions == 4  # the e-stop's, always; the arm's three while a goal is in force
+    assert planner.subscriptions == 4  # the e-stop's and the brakes', always; the arm's two while a goal is in force
     assert watch.fault(FIRST_HEARD_S) is None
     assert watch.fault(FIRST_HEARD_S + 0.01) == "nothing heard of the arm in 3.01 s"
     watch.controller_state(state(0.0))
     watch.listen(False)
-    assert planner.subscriptions == 1 and watch.estimate is None
+    assert planner.subscriptions == 2 and watch.estimate is None

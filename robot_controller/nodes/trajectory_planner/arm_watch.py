@@ -2,7 +2,10 @@
 reference it compared it with, its status), the sensor's ``/joint_states``, the simulator's brakes, the e-stop; and
 from them whether the arm can still be judged, or why the goal must end.
 
-The controller's state is stale once the planner has heard none for ``STALE_PERIODS`` of the controller's period
+The brakes are heard all the time (a message on each change, 2 Hz on the wall clock: no cost), every message kept, so
+an engagement released before the planner looks is still seen; an engagement during a goal ends it even if released
+since, as the arm stood braked meanwhile (a goal that starts while they hold ends at once). The controller's state is
+stale once the planner has heard none for ``STALE_PERIODS`` of the controller's period
 (seen in the stamps of its state), at two checks in a row: a planner whose executor was held up checks once before
 it takes what arrived meanwhile. A controller that publishes no state (the tutorial's) is judged on ``/joint_states``
 the same way. Ages are the planner's own clock at receipt (the latest ``/clock`` in lockstep and the paced world),
@@ -20,7 +23,7 @@ from std_msgs.msg import Bool, Float64MultiArray
 
 from robot_controller.core.controller import state_layout
 from robot_controller.ros.messages import brake_reasons
-from robot_controller.ros.qos import ESTOP_QOS, LATEST_QOS
+from robot_controller.ros.qos import CONTROL_QOS, ESTOP_QOS, LATEST_QOS
 from robot_controller.ros.stack_node import StackNode
 
 #: Controller states that end a goal: the loop is stopping or stopped, whatever the reference does.
@@ -52,15 +55,17 @@ class ArmWatch:
         self.planner = planner
         self.joint_names = joint_names
         self.estop = False
+        self.brakes_now: str | None = None  #: why the brakes hold, while they do (None: released)
         self.subscriptions: list = []
         self._forget(planner.now_s())
         planner.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
+        planner.create_subscription(Float64MultiArray, "/sim/brakes", self.brakes_callback, CONTROL_QOS)
 
     def _forget(self, now_s: float) -> None:
         self.estimate: Estimate | None = None
         self.measured: tuple[float, np.ndarray, np.ndarray] | None = None  #: (received s, positions, velocities)
         self.intervals: deque[float] = deque(maxlen=PERIOD_SAMPLES)
-        self.brakes: str | None = None  #: why the brakes hold, while they do
+        self.braked: str | None = None  #: why the brakes engaged since the goal began (latched until the next goal)
         self.since_s = now_s  #: listening since
         self.stale_checks = 0
 
@@ -78,13 +83,16 @@ class ArmWatch:
             self.subscriptions = [
                 planner.create_subscription(JointState, "/joint_states", self.joint_states, LATEST_QOS),
                 planner.create_subscription(Float64MultiArray, "/controller/state", self.controller_state, LATEST_QOS),
-                planner.create_subscription(Float64MultiArray, "/sim/brakes", self.brakes_callback, LATEST_QOS),
             ]
         elif not on and self.subscriptions:
             for subscription in self.subscriptions:
                 planner.destroy_subscription(subscription)
             self.subscriptions = []
             self._forget(planner.now_s())
+
+    def new_goal(self) -> None:
+        """A goal starts: only the brakes' engagements from now on (and their state now) count against it."""
+        self.braked = self.brakes_now
 
     def joint_states(self, msg: JointState) -> None:
         names = list(msg.name)
@@ -114,9 +122,10 @@ class ArmWatch:
             reasons = brake_reasons(msg) or set()
             if self.planner.params["lockstep"] and reasons == {"start"}:
                 return  # held for the world's start, released by the controller's first effort (as it reads them)
-            self.brakes = ", ".join(sorted(reasons)) or "no reason given"
+            self.brakes_now = ", ".join(sorted(reasons)) or "no reason given"
+            self.braked = self.braked or self.brakes_now
         else:
-            self.brakes = None
+            self.brakes_now = None
 
     def estop_callback(self, msg: Bool) -> None:
         self.estop = bool(msg.data)
@@ -125,8 +134,8 @@ class ArmWatch:
         """Why the goal cannot go on (None: it can): the e-stop, the brakes, the controller's fault or its silence."""
         if self.estop:
             return "e-stop: the arm is braked"
-        if self.brakes is not None:
-            return f"the arm's brakes engaged ({self.brakes}): the arm is not following the trajectory"
+        if self.braked is not None:
+            return f"the arm's brakes engaged ({self.braked}): the arm is not following the trajectory"
         estimate = self.estimate
         if estimate is not None and estimate.status in FAULT_STATES:
             return f"the controller reports {estimate.status}: the loop stops"

@@ -138,6 +138,7 @@ class FollowJointTrajectoryServer:
         self.end_active("aborted", INVALID_GOAL, "preempted by a new goal", next_goal=True)
         planner.install(taken, now_s)
         self.watch.listen(True)
+        self.watch.new_goal()
         done = Future()
         end_s = now_s + taken.trajectory.duration_s
         self.active = ActiveGoal(handle, done, now_s, end_s, taken.trajectory.final_position, tolerances)
