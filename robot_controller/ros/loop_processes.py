@@ -3,9 +3,12 @@
 Each stack node leaves its pid in the run's scratch folder (``COUNTS_DIR_ENV``). Over a late effort's wait (the
 paced world) or a missed cycle (the controller, on the wall clock) this reads how long the loop's threads
 (Python's, where executors and pacing run, and Fast DDS's receivers) waited for a CPU
-(``/proc/<pid>/task/<tid>/schedstat``'s run delay) and how long the hypervisor took the host's CPUs
-(``/proc/stat``'s steal, in 10 ms steps). A wait the host filled is the host's, not the loop's own miss. Linux
-only; elsewhere nothing is measured and every miss is the loop's."""
+(``/proc/<pid>/task/<tid>/schedstat``'s run delay), how long the hypervisor took the host's CPUs (``/proc/stat``'s
+steal, in 10 ms steps) and how much CPU time everything but the loop's processes used (``/proc/stat``'s busy time
+less theirs, ``/proc/<pid>/stat``). A wait the host filled is the host's, not the loop's own miss: the steal, and
+the loop's run-queue wait as far as other programs used the CPUs meanwhile; processes of the loop that keep each
+other waiting overload their own cores, the loop's fault. Linux only; elsewhere nothing is measured and every miss
+is the loop's."""
 
 from __future__ import annotations
 
@@ -32,25 +35,29 @@ def leave_pid(counts_dir: str, node_name: str) -> None:
 
 @dataclass(frozen=True)
 class Usage:
-    """Over a stretch of time, ns: the loop's threads' CPU time and run-queue wait, and the host's steal."""
+    """Over a stretch of time, ns: the loop's threads' CPU time and run-queue wait, the host's steal, and the CPU
+    time everything but the loop's processes used."""
 
     cpu_ns: int
     run_wait_ns: int
     steal_ns: int
+    others_ns: int = 0
 
 
 @dataclass(frozen=True)
 class Sample:
-    """At one instant: each watched thread's (pid, CPU time ns, run-queue wait ns), by thread id, and the host's
-    steal since boot over all its CPUs, ns."""
+    """At one instant: each watched thread's (pid, CPU time ns, run-queue wait ns), by thread id, the host's steal
+    over all its CPUs, and the CPU time of everything but the loop's processes (all CPUs' busy time less theirs), ns
+    (counters: only their differences mean anything)."""
 
     threads: dict[int, tuple[int, int, int]]
     steal_ns: int
+    others_ns: int = 0
 
     def __sub__(self, earlier: Sample) -> Usage:
         """What happened since ``earlier``, over the threads both saw, in wall time: each process a hop of the
         loop, waiting as long as its longest-waiting thread (threads of one process wait side by side); the steal
-        a CPU's share, less one step of its counter (what it certainly was)."""
+        a CPU's share, less one step of its counter (what it certainly was); so is the others' CPU time, whole."""
         cpu_ns, wait_by_pid = 0, {}
         for tid in self.threads.keys() & earlier.threads.keys():
             pid, cpu_now, wait_now = self.threads[tid]
@@ -58,7 +65,8 @@ class Sample:
             cpu_ns += cpu_now - cpu_then
             wait_by_pid[pid] = max(wait_by_pid.get(pid, 0), wait_now - wait_then)
         steal_ns = max(0, self.steal_ns - earlier.steal_ns - _TICK_NS) // _CPUS
-        return Usage(cpu_ns, sum(wait_by_pid.values()), steal_ns)
+        others_ns = max(0, self.others_ns - earlier.others_ns - _TICK_NS)
+        return Usage(cpu_ns, sum(wait_by_pid.values()), steal_ns, others_ns)
 
 
 def thread_run_wait_s() -> float:
@@ -71,10 +79,23 @@ def thread_run_wait_s() -> float:
         return 0.0
 
 
+def thread_kept_s() -> float:
+    """How long the host has kept the calling thread from running, s: its run-queue wait (:func:`thread_run_wait_s`)
+    and a CPU's share of the hypervisor's steal (``/proc/stat``, all CPUs, since boot). Only differences mean
+    anything."""
+    try:
+        with open("/proc/stat", "rb") as f:
+            steal_ticks = int(f.readline().split()[8])
+    except (OSError, IndexError, ValueError):
+        steal_ticks = 0
+    return thread_run_wait_s() + steal_ticks * _TICK_NS * 1e-9 / _CPUS
+
+
 def host_kept_waiting(used: Usage, late_ns: int) -> bool:
     """Whether, over a wait ``late_ns`` past the effort's due time, the host took at least that long from the
-    loop (its threads waiting for a CPU, or the hypervisor's steal): then the host made the effort late."""
-    return used.run_wait_ns + used.steal_ns >= late_ns
+    loop: the hypervisor's steal, and the loop's wait for a CPU as far as other programs used the CPUs meanwhile
+    (a loop whose processes keep each other waiting overloads its own cores). Then the host made it late."""
+    return min(used.run_wait_ns, used.others_ns) + used.steal_ns >= late_ns
 
 
 def _watched(comm: str) -> bool:
@@ -92,6 +113,7 @@ class LoopProcesses:
         self.passed_over: set[int] = set()  #: tids not on the loop's path (DDS's other threads)
         self.found_at = -float("inf")  #: when (monotonic s) the threads were last listed
         self.stat_file: int | None = None
+        self.process_files: dict[int, int] = {}  #: pid → its open /proc/<pid>/stat
 
     def _find(self) -> None:
         """List the threads again (once a second: threads start late, and a respawned node has a new pid); only
@@ -105,6 +127,11 @@ class LoopProcesses:
                 tids = [int(tid) for tid in os.listdir(f"/proc/{pid}/task")]
             except (OSError, ValueError):
                 continue  # ended, or half written
+            if pid not in self.process_files:
+                try:
+                    self.process_files[pid] = os.open(f"/proc/{pid}/stat", os.O_RDONLY)
+                except OSError:
+                    continue
             for tid in tids:
                 if tid in self.files or tid in self.passed_over:
                     continue
@@ -130,22 +157,41 @@ class LoopProcesses:
                 os.close(fd)
                 continue
             threads[tid] = (pid, int(fields[0]), int(fields[1]))
-        return Sample(threads, self._steal_ns()) if threads else None
+        if not threads:
+            return None
+        busy_ns, steal_ns = self._host_ns()
+        return Sample(threads, steal_ns, busy_ns - self._loop_cpu_ns())
 
     def close(self) -> None:
-        for _, fd in self.files.values():
+        for fd in [fd for _, fd in self.files.values()] + list(self.process_files.values()):
             os.close(fd)
         self.files.clear()
+        self.process_files.clear()
         if self.stat_file is not None:
             os.close(self.stat_file)
             self.stat_file = None
 
-    def _steal_ns(self) -> int:
-        """The hypervisor's steal over every CPU since boot, ns (``/proc/stat``'s eighth figure, in clock ticks)."""
+    def _host_ns(self) -> tuple[int, int]:
+        """Every CPU's busy time (user, nice, system, irq, softirq) and the hypervisor's steal since boot, ns
+        (``/proc/stat``'s first line, in clock ticks)."""
         try:
             if self.stat_file is None:
                 self.stat_file = os.open("/proc/stat", os.O_RDONLY)
-            fields = os.pread(self.stat_file, 256, 0).split(b"\n", 1)[0].split()
-        except OSError:
-            return 0
-        return int(fields[8]) * _TICK_NS if len(fields) > 8 else 0
+            fields = [int(f) for f in os.pread(self.stat_file, 256, 0).split(b"\n", 1)[0].split()[1:]]
+        except (OSError, ValueError):
+            return 0, 0
+        if len(fields) < 8:
+            return 0, 0
+        return (fields[0] + fields[1] + fields[2] + fields[5] + fields[6]) * _TICK_NS, fields[7] * _TICK_NS
+
+    def _loop_cpu_ns(self) -> int:
+        """The CPU time the loop's processes have used, every thread of theirs, ns (``/proc/<pid>/stat``'s utime and
+        stime, in clock ticks, as ``/proc/stat`` counts)."""
+        total = 0
+        for pid, fd in list(self.process_files.items()):
+            try:
+                fields = os.pread(fd, 1024, 0).rsplit(b")", 1)[1].split()
+                total += (int(fields[11]) + int(fields[12])) * _TICK_NS
+            except (OSError, IndexError, ValueError):  # it ended
+                os.close(self.process_files.pop(pid))
+        return total

@@ -25,7 +25,7 @@ from robot_controller.nodes.pid_controller.status import StartWaits, StatusRepor
 from robot_controller.nodes.pid_controller.timing import LoopTiming
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model, model_overridden
-from robot_controller.ros.loop_processes import thread_run_wait_s
+from robot_controller.ros.loop_processes import thread_kept_s
 from robot_controller.ros.messages import (
     brake_reasons,
     check_joint_state,
@@ -51,15 +51,15 @@ class PidControllerNode(StackNode):
         # A law of one's own is held to its law_budget_s on the time it used. Where the world waits for it
         # (lockstep, the paced world): its thread's CPU time, a call abandoned once blocked for BLOCKED_S of wall
         # time (a law kept from a CPU is not blocked) or once it has computed a period past its budget. On the
-        # wall clock: wall time less what the host took from its thread. There the loop's delay is watched
-        # against the gains' delay margin (core.latency).
+        # wall clock: wall time less what the host took from its thread (run-queue wait, steal). There the loop's
+        # delay is watched against the gains' delay margin (core.latency).
         self.controller = JointController(
             cfg.controller_config(self.params, self.joint_count),
             self.joint_count,
             self.dynamics,
             law_clock=time.thread_time if self.lockstep else time.perf_counter,
             latency_guard=not self.lockstep,
-            law_run_wait=None if self.lockstep else thread_run_wait_s,
+            law_run_wait=None if self.lockstep else thread_kept_s,
         )
         if self.lockstep and self.controller.plugin is not None:
             self.controller.plugin.abandon_s = BLOCKED_S

@@ -10,9 +10,9 @@ that much time from the loop meanwhile (its processes waited for a CPU, or the h
 the world goes on without waiting while the brakes hold. An effort computed for a tick more than a period
 before the world's (``STALE_PERIODS``: one held up while the brakes took the arm) is dropped, never applied nor
 releasing them (``stale_efforts``): it answers a world that has moved on; it shows the loop alive, so the next
-tick waits for its effort again. Time this process did not run (a
-wake-up or a wait more than a period late) is a freeze of the host, or of the simulator alone: the world paused
-with it, and nothing counts against the loop."""
+tick waits for its effort again. Time this process did not run (a wake-up or a wait more than a period late) is a
+freeze of the host, or of the simulator alone: the world paused with it, and that time counts against nobody; the
+rest of a wait counts against the loop, whatever the simulator did meanwhile."""
 
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ import numpy as np
 from robot_controller.nodes.simulator.lockstep import LockstepTicks
 from robot_controller.parameters.schema.simulator import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import scheduling
-from robot_controller.ros.loop_processes import LoopProcesses, Sample, host_kept_waiting
+from robot_controller.ros.loop_processes import LoopProcesses, Sample, host_kept_waiting, thread_run_wait_s
 from robot_controller.ros.process import WORLD_CLOCK_FILE
 from robot_controller.ros.publishing import COUNTS_DIR_ENV
 from robot_controller.ros.stack_node import StackNode
@@ -134,41 +134,50 @@ class PacedTicks:
             self.node.get_logger().info(scheduling.make_current_thread_realtime(rt_priority))
         deadline_ns = time.monotonic_ns() + self.period_ns
         while not self.stopping.is_set():
-            remaining_ns = deadline_ns - time.monotonic_ns()
+            remaining_ns, run_wait_s = deadline_ns - time.monotonic_ns(), thread_run_wait_s()
             if remaining_ns > 0:
                 time.sleep(remaining_ns * 1e-9)
             with self.effort_arrived:
                 woken_ns = time.monotonic_ns()
-                frozen = woken_ns - deadline_ns > self.period_ns
-                if frozen:
+                host_froze = False
+                if woken_ns - deadline_ns > self.period_ns:
                     self.freezes.note(woken_ns - deadline_ns)  # the world paused with this process
-                waited_ns = self.wait_for_effort(woken_ns, frozen)
+                    host_froze = self.host_froze(woken_ns - deadline_ns, run_wait_s)
+                waited_ns = self.wait_for_effort(woken_ns, host_froze)
                 deadline_ns = self.tick(deadline_ns, time.monotonic_ns(), waited_ns)
 
-    def wait_for_effort(self, since_ns: int, frozen: bool = False) -> int:
+    def host_froze(self, gap_ns: int, run_wait_s: float) -> bool:
+        """Whether this thread's gap of ``gap_ns``, since its run-queue wait was ``run_wait_s``, may be a freeze of
+        the whole host (every process stopped together, or the hypervisor's pause): it was not kept waiting for a
+        CPU for most of it, as a busy host keeps the simulator alone (pacing thread only)."""
+        return (thread_run_wait_s() - run_wait_s) * 1e9 < gap_ns / 2
+
+    def wait_for_effort(self, since_ns: int, host_froze: bool = False) -> int:
         """Wait (lock held) for the tick's effort, up to the drive timeout of this process's own running time (none
         before the first effort, nor while the brakes hold for its absence unless a stale effort has come since: the
-        loop is alive); the time waited, ns. After a freeze
-        the wait starts again with twice the timeout: the loop's messages may wait for DDS's repair (its 50 ms
-        heartbeat), and the world, waiting, stays still."""
+        loop is alive); the time waited, ns. A gap of this process (woken over two periods late) is not counted:
+        only the simulator's own time is excused, never the rest of a controller's stall. A freeze of the whole host
+        (``host_froze``: before the wait) that began before the effort was late adds a drive timeout: the loop's
+        messages may then wait for DDS's repair (its 50 ms heartbeat), and the world, waiting, stays still."""
         ticks, brakes = self.ticks, self.node.brakes
         braked_for_absence = "drive_timeout" in brakes.reasons and not self.loop_heard
         if not ticks.efforts_applied or ticks.ended or braked_for_absence:
             return 0
-        budget_ns = self.timeout_ns * (2 if frozen else 1)
+        budget_ns = self.timeout_ns * (2 if host_froze else 1)
         if not self.effort_in:
             self.wait_usage = self.loop.usage()
         waited_ns, last_ns = 0, since_ns
         while not self.effort_in and waited_ns < budget_ns and not self.stopping.is_set():
-            self.effort_arrived.wait(min(self.period_ns, budget_ns - waited_ns) * 1e-9)
+            run_wait_s, slice_ns = thread_run_wait_s(), min(self.period_ns, budget_ns - waited_ns)
+            self.effort_arrived.wait(slice_ns * 1e-9)
             now_ns = time.monotonic_ns()
             gap_ns, last_ns = now_ns - last_ns, now_ns
             if gap_ns > 2 * self.period_ns:
-                self.freezes.note(gap_ns)  # frozen while it waited: the host's time, not the loop's
-                budget_ns, waited_ns = 2 * self.timeout_ns, 0
-                self.wait_usage = self.loop.usage()  # the wait starts again: so does what the host took
-            else:
-                waited_ns += gap_ns
+                self.freezes.note(gap_ns)  # frozen while it waited: the simulator's time, not the loop's
+                if budget_ns == self.timeout_ns and waited_ns <= self.late_ns and self.host_froze(gap_ns, run_wait_s):
+                    budget_ns += self.timeout_ns
+                gap_ns = slice_ns  # the loop's time all the same: only what ran over it is the simulator's
+            waited_ns += gap_ns
         return waited_ns
 
     def tick(self, deadline_ns: int, now_ns: int, waited_ns: int) -> int:

@@ -1,6 +1,7 @@
 """The controller's missed cycles and watchdog ticks on the wall clock, told apart (nodes/pid_controller/timing.py):
-a period the host stretched (the loop's processes kept from a CPU as long as it ran over) is the host's, any other
-the loop's; so is a watchdog tick, over the readings' silence past the watchdog's window.
+a period the host stretched (the loop's processes kept from a CPU as long as it ran over while other programs used
+the CPUs, or the CPUs stolen) is the host's, any other the loop's; so is a watchdog tick, over the readings' silence
+past the watchdog's window.
 On stand-ins for the node and the loop's processes; the real /proc reads are tested in tests/nodes/simulator."""
 
 from types import SimpleNamespace
@@ -13,16 +14,20 @@ MS = 1_000_000
 
 
 class ScriptedLoop:
-    def __init__(self, *usages: tuple[int, int, int] | None) -> None:
+    def __init__(self, *usages: tuple[int, ...] | None) -> None:
         self.usages = list(usages)
 
     def usage(self) -> Sample | None:
-        """The next scripted (CPU, run-queue wait, steal), ns, as one thread's sample."""
+        """The next scripted (CPU, run-queue wait, steal[, other programs' CPU time]), ns, as one thread's sample;
+        other programs busy all along unless said (a second a tick: any wait is theirs to excuse)."""
         usage = self.usages.pop(0)
-        return None if usage is None else Sample({1: (1, *usage[:2])}, usage[2])
+        if usage is None:
+            return None
+        self.others_ns = usage[3] if len(usage) > 3 else getattr(self, "others_ns", 0) + 1_000_000_000
+        return Sample({1: (1, *usage[:2])}, usage[2], self.others_ns)
 
 
-def timing_at_100_hz(*usages: tuple[int, int, int] | None) -> LoopTiming:
+def timing_at_100_hz(*usages: tuple[int, ...] | None) -> LoopTiming:
     timing = object.__new__(LoopTiming)  # the counting only: no node, no publishers
     timing.controller = SimpleNamespace(config=SimpleNamespace(control_period_s=0.01, watchdog_periods=5))
     timing.loop, timing.last_tick, timing.missed_for_host = ScriptedLoop(*usages), None, []
@@ -68,3 +73,20 @@ def test_a_watchdog_tick_is_the_hosts_only_if_it_kept_the_loop_waiting_past_the_
         timing.note_host_wait(now_s, watchdog)
     assert timing.watchdog_for_host == [0.076]
     assert timing.missed_for_host == []  # the 56 ms gap was the loop's own miss
+
+
+def test_a_loop_that_keeps_its_own_processes_waiting_is_late_by_its_own_fault(monkeypatch):
+    """Its processes waited for a CPU, but nothing else used one: the loop overloads its own cores (the Panda at
+    1 kHz in one process ran at 741 Hz, its misses all excused as the host's). Other programs' CPU time excuses the
+    wait only as far as it goes."""
+    monkeypatch.setattr(loop_processes, "_CPUS", 2)
+    monkeypatch.setattr(loop_processes, "_TICK_NS", 10_000_000)
+    timing = timing_at_100_hz(
+        (0, 0, 0, 0),
+        (20 * MS, 30 * MS, 0, 10 * MS),  # 35 ms (20 over 1.5 periods), 30 ms waiting, others one counter step: its own
+        (40 * MS, 60 * MS, 0, 40 * MS),  # 35 ms, 30 ms waiting, others 20 ms beyond that step: 20 ms, the host's
+        (60 * MS, 90 * MS, 0, 60 * MS),  # 35 ms, 30 ms waiting, others 10 ms beyond it: not enough, its own
+    )
+    for now_s in (0.0, 0.035, 0.07, 0.105):
+        timing.note_host_wait(now_s)
+    assert timing.missed_for_host == [0.07]
