@@ -99,8 +99,15 @@ def run(options: RunOptions, out: Path | None) -> int:
         units = report.arm_units(checked.params["simulator"]["urdf_path"])
         period_s = 1.0 / checked.params["pid_controller"]["control_rate_hz"]
         window_s = duration_s if sim_time else None
+        # On the wall clock the nodes stop one by one after the run: the stops that follow are not the run's.
+        judged_s = None if sim_time else result.control_seconds
         values = report.score(
-            recording, nominal_period_s=period_s, window_s=window_s, units=units, receipts=not options.sim_time
+            recording,
+            nominal_period_s=period_s,
+            window_s=window_s,
+            units=units,
+            receipts=not options.sim_time,
+            judged_s=judged_s,
         )
     except ValueError as exc:
         # A run that already failed said FAILED and why: its verdict stays one line.

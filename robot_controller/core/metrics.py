@@ -56,7 +56,8 @@ def tracking_metrics(
     warmup_s: float = WARMUP_S,
     units: list[str] | None = None,
 ) -> dict[str, Any]:
-    """Tracking errors after ``warmup_s`` from the first tick (``units``: as :func:`joint_errors`).
+    """Tracking errors after ``warmup_s`` from the first tick (``units``: as :func:`joint_errors`), and the largest
+    before it (``start_tracking_max_*``: the start, which a verdict judges too).
 
     ``tracking_*`` compare the reference with the TRUE position at each
     control tick; ``measured_rms_rad`` compares it with what the sensor said.
@@ -72,8 +73,11 @@ def tracking_metrics(
     if not np.any(window):
         raise ValueError(f"no control ticks after the {warmup_s} s warm-up to score")
     measured = joint_errors(ref[window] - meas[window], "measured", units)
+    start = (t < t[0] + warmup_s) & np.all(np.isfinite(true), axis=1)
+    start_errors = joint_errors(ref[start] - true[start], "start_tracking", units) if np.any(start) else {}
     return {
         **joint_errors(ref[window] - true[window], units=units),
+        **{key: value for key, value in start_errors.items() if "_max" in key},
         **{key: value for key, value in measured.items() if key.startswith("measured_rms")},
         "scored_ticks": int(np.count_nonzero(window)),
     }

@@ -47,6 +47,7 @@ def score(
     window_s: float | None = None,
     units: list[str] | None = None,
     receipts: bool | None = None,
+    judged_s: float | None = None,
 ) -> dict[str, Any]:
     """The run's metrics: tracking on the TRUE position, rates, latency, message counts.
 
@@ -56,6 +57,8 @@ def score(
         the recorder heard a message: in lockstep, the same seed then gives the same figures exactly
     :param receipts: the figures of when the recorder heard each message (latency to the motor, each topic's
         count and rate) all the same (default: only without ``window_s``); a paced world's run has them
+    :param judged_s: the run's own span from its first tick (None: the whole recording): the stops and brakes of its
+        shutdown after it (a split run's controller outliving the sensor's side) are left out of their counts
     """
     s = recording.state
     keep = None
@@ -84,13 +87,14 @@ def score(
     out["malformed_messages"] = int(sum(recording.malformed.values()))
     out.update(metrics.rate_metrics(ticks, nominal_period_s))
     out["control_ticks"] = int(len(ticks))
-    out["watchdog_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES["watchdog"]))
+    stops_end_s = min(end_s, ticks[0] + judged_s) if judged_s is not None else end_s
+    status = s["status"][ticks <= stops_end_s + 1e-9]
     # Ticks spent handling a fault (stops, torque off, re-acquiring, e-stop): not tracking, so counted apart.
-    faults = ("sensor_lost", "reacquiring", "reference_lost", "stopped", "law_fault", "law_stopped")
+    faults = ("watchdog", "sensor_lost", "reacquiring", "reference_lost", "stopped", "law_fault", "law_stopped")
     for name in (*faults, "late", "late_stopped"):
-        out[f"{name}_ticks"] = int(np.count_nonzero(s["status"] == state_layout.STATUS_CODES[name]))
+        out[f"{name}_ticks"] = int(np.count_nonzero(status == state_layout.STATUS_CODES[name]))
     out.update(
-        brake_metrics(recording, ticks[0], min(end_s, ticks[-1]), 2 * nominal_period_s)
+        brake_metrics(recording, ticks[0], min(stops_end_s, ticks[-1]), 2 * nominal_period_s)
     )  # ended early: to its end
     out["adapted_armature_kgm2"] = adapted_armature(recording.law_terms, recording.joint_count, keep)
     out["saturated_ticks"] = int(np.count_nonzero(np.any(s["saturated"] > 0.5, axis=1)))

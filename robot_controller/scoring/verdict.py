@@ -40,7 +40,9 @@ def judge(values: dict[str, Any], *, band_rad: float, failure: str | None = None
         joint, the start included (a push someone asked for, and ``PUSH_SETTLE_S`` after it, are left out)
     :param failure: why the run itself failed (a node died, the law failed), said first
     """
-    reasons = [failure] if failure else []
+    if failure:  # the stops and the brakes that followed are its own: said once, as the run's failure
+        return Verdict((failure,))
+    reasons = []
     names = list(values.get("joint_names") or [])
     units = list(values.get("joint_units") or ["rad"] * len(names))
     settled = values.get("unpushed_max_per_joint") or values.get("tracking_max_per_joint")

@@ -100,8 +100,13 @@ def test_stack_runs_records_and_tracks(tmp_path, ros_domain, mode):
 def test_tutorial_preset_runs_and_lags(tmp_path, ros_domain):
     out = tmp_path / "tutorial"
     proc = run_cli(out, "--preset", "tutorial", duration=5.0)
-    assert proc.returncode == 0, run_said(proc.stdout)
+    # It lags the sine by about 0.2 rad: a run that does not track is never ok.
+    assert proc.returncode == 1, run_said(proc.stdout)
+    assert proc.stdout.splitlines()[-1].startswith("FAILED: tracking "), run_said(proc.stdout)
+    assert "beyond the band of 20 mrad (tracking_band_rad)" in proc.stdout
+    assert "the tutorial claims ~5 mrad" in proc.stdout
     metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["verdict"] == "failed" and metrics["tracking_band_rad"] == 0.02
     assert metrics["preset"] == "tutorial"
     assert 0.1 < metrics["tracking_rms_rad"] < 0.4
     assert 15 < metrics["rate_trajectory_hz"] < 25

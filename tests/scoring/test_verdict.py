@@ -65,7 +65,13 @@ def test_brakes_for_a_fault_fail_and_an_estop_does_not():
     assert judge(estopped, band_rad=BAND).ok
 
 
-def test_stops_nobody_asked_for_fail_and_the_runs_own_failure_comes_first():
-    verdict = judge(_run(watchdog_ticks=3, law_fault_ticks=5), band_rad=BAND, failure="the control law failed: boom")
-    assert verdict.reasons[0] == "the control law failed: boom"
-    assert verdict.reasons[1] == "stops nobody asked for (watchdog 3, law_fault 5 ticks)"
+def test_stops_nobody_asked_for_fail():
+    verdict = judge(_run(watchdog_ticks=3, law_fault_ticks=5), band_rad=BAND)
+    assert verdict.reasons == ("stops nobody asked for (watchdog 3, law_fault 5 ticks)",)
+
+
+def test_a_run_that_failed_is_said_by_its_failure_alone():
+    """The law's stop and brakes are what its failure did: one line, the launcher's."""
+    values = _run(law_fault_ticks=51, brake_engagements=1, braked_s=2.0)
+    verdict = judge(values, band_rad=BAND, failure="the control law failed: boom")
+    assert verdict.line == "FAILED: the control law failed: boom"

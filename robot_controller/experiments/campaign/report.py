@@ -13,7 +13,15 @@ import numpy as np
 from robot_controller.experiments.campaign.spec import CampaignSpec
 
 #: The figures whose distributions are drawn, in order (those the rows have).
-DISTRIBUTED = ("tracking_rms_rad", "tracking_max_rad", "tracking_rms_m", "tracking_max_m", "peak_effort_ratio")
+DISTRIBUTED = (
+    "tracking_rms_rad",
+    "tracking_max_rad",
+    "start_tracking_max_rad",
+    "tracking_rms_m",
+    "tracking_max_m",
+    "start_tracking_max_m",
+    "peak_effort_ratio",
+)
 DISTRIBUTED += ("saturated_ticks", "faults")
 WORST_SHOWN = 5
 #: z of a two-sided 95 % interval.

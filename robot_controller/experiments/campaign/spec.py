@@ -47,6 +47,8 @@ PASS_METRICS = (
     "tracking_max_rad",
     "tracking_rms_m",
     "tracking_max_m",
+    "start_tracking_max_rad",
+    "start_tracking_max_m",
     "peak_effort_ratio",
     "saturated_ticks",
     "faults",
