@@ -99,8 +99,9 @@ def run(options: RunOptions, out: Path | None) -> int:
         units = report.arm_units(checked.params["simulator"]["urdf_path"])
         period_s = 1.0 / checked.params["pid_controller"]["control_rate_hz"]
         window_s = duration_s if sim_time else None
-        # On the wall clock the nodes stop one by one after the run: the stops that follow are not the run's.
-        judged_s = None if sim_time else result.control_seconds
+        # On the wall clock, or interrupted, the nodes stop one by one after the run: the stops that follow (a
+        # controller gone before the drive's timeout) are not the run's.
+        judged_s = result.control_seconds if result.interrupted or not sim_time else None
         values = report.score(
             recording,
             nominal_period_s=period_s,
