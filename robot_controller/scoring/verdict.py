@@ -46,12 +46,12 @@ def judge(values: dict[str, Any], *, band_rad: float, failure: str | None = None
     names = list(values.get("joint_names") or [])
     units = list(values.get("joint_units") or ["rad"] * len(names))
     settled = values.get("unpushed_max_per_joint") or values.get("tracking_max_per_joint")
-    if not values.get("scored_samples") or not _all_finite(settled):
+    start = values.get("start_tracking_max_per_joint")
+    if not _all_finite(start) and (not values.get("scored_samples") or not _all_finite(settled)):
         reasons.append("nothing to judge its tracking by (no sample scored)")
-    else:
+    elif values.get("scored_samples") and _all_finite(settled):  # (a run shorter than its start: the start alone)
         pushed = " (pushes left out)" if values.get("unpushed_max_per_joint") is not None else ""
         reasons += [r + pushed for r in _beyond(settled, band_rad, names, units, "tracking")]
-    start = values.get("start_tracking_max_per_joint")
     if _all_finite(start):
         reasons += _beyond(start, band_rad, names, units, f"in its first {WARMUP_S:g} s")
     faults = values.get("brake_engagements", 0) - values.get("brake_engagements_estop", 0)

@@ -55,7 +55,14 @@ def test_a_push_someone_asked_for_is_left_out():
 
 @pytest.mark.parametrize("unscored", [{"scored_samples": 0}, {"tracking_max_per_joint": [float("nan")]}])
 def test_a_run_with_nothing_scored_is_never_ok(unscored):
-    assert "nothing to judge" in judge(_run(**unscored), band_rad=BAND).line
+    values = _run(**unscored, start_tracking_max_per_joint=[float("nan")])
+    assert "nothing to judge" in judge(values, band_rad=BAND).line
+
+
+def test_a_run_shorter_than_its_start_is_judged_by_its_start():
+    assert judge(_run(scored_samples=0, tracking_max_per_joint=[float("nan")]), band_rad=BAND).ok
+    failed = judge(_run(scored_samples=0, start_tracking_max_per_joint=[0.3]), band_rad=BAND)
+    assert failed.line.startswith("FAILED: in its first 2 s 300 mrad")
 
 
 def test_brakes_for_a_fault_fail_and_an_estop_does_not():
