@@ -13,6 +13,7 @@ is the loop's."""
 from __future__ import annotations
 
 import os
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -77,6 +78,17 @@ def thread_run_wait_s() -> float:
             return int(f.read().split()[1]) * 1e-9
     except (OSError, IndexError, ValueError):
         return 0.0
+
+
+def process_run_wait_s() -> float:
+    """How long the calling thread and this process's main thread (its executor's, which may hold the interpreter's
+    lock the calling thread waits for) have waited for a CPU, s, summed; 0 where that cannot be read."""
+    try:
+        with open("/proc/self/schedstat", "rb") as f:  # the thread group's leader: the main thread
+            main_s = int(f.read().split()[1]) * 1e-9
+    except (OSError, IndexError, ValueError):
+        main_s = 0.0
+    return main_s + (thread_run_wait_s() if threading.get_native_id() != os.getpid() else 0.0)
 
 
 def thread_kept_s() -> float:
@@ -161,6 +173,16 @@ class LoopProcesses:
             return None
         busy_ns, steal_ns = self._host_ns()
         return Sample(threads, steal_ns, busy_ns - self._loop_cpu_ns())
+
+    def any_stopped(self) -> bool:
+        """Whether a process of the loop is stopped now (SIGSTOP, a debugger): frozen alone, not with the host."""
+        for fd in list(self.process_files.values()):
+            try:
+                if os.pread(fd, 1024, 0).rsplit(b")", 1)[1].split()[0] in (b"T", b"t"):
+                    return True
+            except (OSError, IndexError):
+                continue
+        return False
 
     def close(self) -> None:
         for fd in [fd for _, fd in self.files.values()] + list(self.process_files.values()):

@@ -27,7 +27,7 @@ import numpy as np
 from robot_controller.nodes.simulator.lockstep import LockstepTicks
 from robot_controller.parameters.schema.simulator import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import scheduling
-from robot_controller.ros.loop_processes import LoopProcesses, Sample, host_kept_waiting, thread_run_wait_s
+from robot_controller.ros.loop_processes import LoopProcesses, Sample, host_kept_waiting, process_run_wait_s
 from robot_controller.ros.process import WORLD_CLOCK_FILE
 from robot_controller.ros.publishing import COUNTS_DIR_ENV
 from robot_controller.ros.stack_node import StackNode
@@ -134,7 +134,7 @@ class PacedTicks:
             self.node.get_logger().info(scheduling.make_current_thread_realtime(rt_priority))
         deadline_ns = time.monotonic_ns() + self.period_ns
         while not self.stopping.is_set():
-            remaining_ns, run_wait_s = deadline_ns - time.monotonic_ns(), thread_run_wait_s()
+            remaining_ns, run_wait_s = deadline_ns - time.monotonic_ns(), process_run_wait_s()
             if remaining_ns > 0:
                 time.sleep(remaining_ns * 1e-9)
             with self.effort_arrived:
@@ -147,10 +147,11 @@ class PacedTicks:
                 deadline_ns = self.tick(deadline_ns, time.monotonic_ns(), waited_ns)
 
     def host_froze(self, gap_ns: int, run_wait_s: float) -> bool:
-        """Whether this thread's gap of ``gap_ns``, since its run-queue wait was ``run_wait_s``, may be a freeze of
-        the whole host (every process stopped together, or the hypervisor's pause): it was not kept waiting for a
-        CPU for most of it, as a busy host keeps the simulator alone (pacing thread only)."""
-        return (thread_run_wait_s() - run_wait_s) * 1e9 < gap_ns / 2
+        """Whether this thread's gap of ``gap_ns``, since its process's run-queue wait was ``run_wait_s``, may be a
+        freeze of the whole host (every process stopped together, or the hypervisor's pause): neither this thread
+        nor the main thread (the executor's, which may hold the interpreter's lock this one waits for) was kept
+        waiting for a CPU for half of it, as a busy host keeps them, and no process of the loop is still stopped."""
+        return (process_run_wait_s() - run_wait_s) * 1e9 < gap_ns / 2 and not self.loop.any_stopped()
 
     def wait_for_effort(self, since_ns: int, host_froze: bool = False) -> int:
         """Wait (lock held) for the tick's effort, up to the drive timeout of this process's own running time (none
@@ -168,7 +169,7 @@ class PacedTicks:
             self.wait_usage = self.loop.usage()
         waited_ns, last_ns = 0, since_ns
         while not self.effort_in and waited_ns < budget_ns and not self.stopping.is_set():
-            run_wait_s, slice_ns = thread_run_wait_s(), min(self.period_ns, budget_ns - waited_ns)
+            run_wait_s, slice_ns = process_run_wait_s(), min(self.period_ns, budget_ns - waited_ns)
             self.effort_arrived.wait(slice_ns * 1e-9)
             now_ns = time.monotonic_ns()
             gap_ns, last_ns = now_ns - last_ns, now_ns

@@ -63,9 +63,11 @@ def test_the_controller_frozen_alone_is_its_stall_and_the_arm_stays_in_its_band(
     # Each freeze: the world waited drive_timeout_s (50 ms) for the effort, braked, and went on without it.
     assert metrics["late_efforts"] >= FREEZES, metrics
     # The world braked the arm at every freeze: only the simulator's own hiccups meanwhile (beside a CPU hog) are
-    # excused, never the rest of the controller's stall. The controller may skip the ticks it slept through (missed
-    # cycles) or take them all late from its backlog: its missed cycles are not a count of the freezes.
-    assert metrics["brake_engagements"] >= FREEZES, metrics
+    # excused, never the rest of the controller's stall; unless the simulator froze through most of it too (its
+    # publishing held up by the stopped reader, seen once in six runs on a loaded host: the world paused with it).
+    # The controller may skip the ticks it slept through (missed cycles) or take them all late from its backlog:
+    # its missed cycles are not a count of the freezes.
+    assert metrics["brake_engagements"] >= FREEZES - (metrics["host_freeze_ms_max"] >= 60.0), metrics
     assert "no effort for 0.05 s" in output, run_said(output)
     assert metrics["verdict_reasons"][0].startswith("the brakes held the arm"), metrics  # its stall: a fault
     # Back, it starts from where the brakes hold the arm: its newest reading, from before them, is not advanced
@@ -119,6 +121,9 @@ class StandInLoop:
 
     def usage(self):
         return self.usages.pop(0) if self.usages else None
+
+    def any_stopped(self) -> bool:
+        return False
 
 
 def paced_at_100_hz():
@@ -304,7 +309,7 @@ def scripted_wait(monkeypatch, gaps: dict[int, float], busy: bool) -> tuple[int,
 
     script = ScriptedWait(gaps, busy)
     monkeypatch.setattr(paced_module, "time", SimpleNamespace(monotonic_ns=lambda: script.now_ns))
-    monkeypatch.setattr(paced_module, "thread_run_wait_s", lambda: script.run_wait_s)
+    monkeypatch.setattr(paced_module, "process_run_wait_s", lambda: script.run_wait_s)
     paced = paced_at_100_hz()
     paced.effort_arrived = script
     waited_ns = paced.wait_for_effort(0)
