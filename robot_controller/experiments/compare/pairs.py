@@ -14,7 +14,7 @@ from robot_controller.experiments.compare.contenders import Contender
 from robot_controller.experiments.step import STEP_AFTER_S, check_step, run_and_score, step_params, step_response
 
 COMPARED = {
-    "sine": ("tracking_rms_rad", "tracking_max_rad"),
+    "sine": ("tracking_rms_rad", "tracking_max_rad", "start_tracking_max_rad"),
     "step": ("overshoot_pct", "settling_time_s", "rise_time_s", "peak_torque_nm", "steady_state_error_rad"),
 }
 
