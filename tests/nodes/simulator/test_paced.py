@@ -64,7 +64,7 @@ def test_the_controller_frozen_alone_is_its_stall_and_the_arm_stays_in_its_band(
     assert metrics["late_efforts"] >= FREEZES, metrics
     # The world braked the arm at every freeze: only the simulator's own hiccups meanwhile (beside a CPU hog) are
     # excused, never the rest of the controller's stall; unless the simulator froze through most of it too (its
-    # publishing held up by the stopped reader, seen once in six runs on a loaded host: the world paused with it).
+    # publishing held up by the stopped reader, seen in 1 of 9 freezes on a loaded host: the world paused with it).
     # The controller may skip the ticks it slept through (missed cycles) or take them all late from its backlog:
     # its missed cycles are not a count of the freezes.
     assert metrics["brake_engagements"] >= FREEZES - (metrics["host_freeze_ms_max"] >= 60.0), metrics
