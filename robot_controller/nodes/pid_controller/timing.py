@@ -38,7 +38,7 @@ class LoopTiming:
         self.window_ticks: list[float] = []
         self.window_latency: list[float] = []
         self.next_late_line = -np.inf  # monotonic s
-        # Wall clock: which missed cycles the host caused (the loop's processes kept from a CPU that long).
+        # Wall clock: which missed cycles the host caused (the loop kept from a CPU by other programs, or stolen).
         self.loop = None if node.lockstep else LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
         self.last_tick: tuple[float, Sample | None] | None = None  #: (time s, the loop's usage) at the last tick
         self.missed_for_host: list[float] = []  #: when (tick s) each missed period the host made ended
@@ -73,7 +73,8 @@ class LoopTiming:
 
     def note_host_wait(self, now_s: float, watchdog: bool = False) -> None:
         """Count the period that ends at ``now_s`` as the host's miss if the host took from the loop's processes
-        all it ran over (they waited that long for a CPU, or the CPUs were stolen): without it, no miss. A
+        all it ran over (they waited that long for a CPU other programs used, or the CPUs were stolen: processes of
+        the loop keeping each other waiting are its own fault, ``loop_processes.host_kept_waiting``). A
         watchdog tick is the host's on the same terms, over the reading's silence past the watchdog's window."""
         assert self.loop is not None
         usage = self.loop.usage()
