@@ -120,9 +120,12 @@ def fork(
     return ForkedProcess(pid, os.fdopen(read_fd, "r", buffering=1, errors="replace"))
 
 
-def die_with_parent() -> None:
-    """Ask the kernel to SIGTERM this process when its parent dies (``PR_SET_PDEATHSIG``)."""
+def die_with_parent(sig: int = signal.SIGTERM, parent: int | None = None) -> None:
+    """Ask the kernel to send this process ``sig`` when the thread that forked it ends (``PR_SET_PDEATHSIG``); if
+    that parent (pid ``parent``) has already gone, exit at once: the request came too late to take hold."""
     try:
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, sig)
     except OSError:
-        pass
+        return  # not Linux: the process ends by itself
+    if parent is not None and os.getppid() != parent:
+        os._exit(1)

@@ -6,7 +6,6 @@ blocks, so the campaign always ends."""
 
 from __future__ import annotations
 
-import ctypes
 import os
 import pickle
 import select
@@ -16,11 +15,10 @@ from typing import Any
 
 from robot_controller.experiments.campaign import one_run
 from robot_controller.experiments.campaign.one_run import Task
+from robot_controller.runner.forking import die_with_parent
 
 #: Tries of a run beyond its first, when it fails or times out.
 RETRIES = 1
-#: prctl's option: the signal a process gets when the thread that forked it ends.
-_PR_SET_PDEATHSIG = 1
 
 
 def run(task: Task) -> dict[str, Any]:
@@ -96,13 +94,7 @@ def _read(fd: int, deadline: float) -> tuple[bytes, bool]:
 def _die_with(parent: int) -> None:
     """In the child: be killed when the worker that forked it ends (a killed campaign leaves no run behind, even one
     stuck in C code)."""
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
-    except (OSError, AttributeError):
-        return  # not Linux: the run ends by itself or at its limit
-    if os.getppid() != parent:  # the worker ended before the request took hold
-        os._exit(1)
+    die_with_parent(signal.SIGKILL, parent)
 
 
 def _exit_said(status: int) -> str:

@@ -6,6 +6,7 @@ interpreter against the loop's thread, which needs it back at every message it t
 from __future__ import annotations
 
 import multiprocessing
+import os
 import signal
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -13,6 +14,7 @@ from typing import TYPE_CHECKING
 
 from robot_controller.core.controller import check_delay_margin, delay_margin_periods, law_config
 from robot_controller.core.errors import ConfigError
+from robot_controller.runner.forking import die_with_parent
 
 if TYPE_CHECKING:
     from robot_controller.core.controller import ControllerConfig
@@ -32,10 +34,13 @@ def designed_margin(config: ControllerConfig, dynamics: ArmDynamics | None, join
     return None if config.plugin_law else margin
 
 
-def _start_worker(dynamics: ArmDynamics | None) -> None:
+def _start_worker(dynamics: ArmDynamics | None, node_pid: int) -> None:
     global _dynamics
     _dynamics = dynamics
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C is the node's to act on; the worker ends with it
+    # A node killed (SIGKILL, the launcher's last resort) never shuts the pool down: the worker would wait on its
+    # call queue for ever, an orphan (44 of them were seen on a busy host).
+    die_with_parent(signal.SIGKILL, node_pid)
 
 
 def _check(config: ControllerConfig, joint_count: int) -> tuple[int | None, str | None]:
@@ -53,7 +58,7 @@ class Designer:
     def __init__(self, dynamics: ArmDynamics | None, joint_count: int) -> None:
         self._dynamics, self._joint_count = dynamics, joint_count
         context = multiprocessing.get_context("fork")
-        self._pool = ProcessPoolExecutor(1, context, initializer=_start_worker, initargs=(dynamics,))
+        self._pool = ProcessPoolExecutor(1, context, initializer=_start_worker, initargs=(dynamics, os.getpid()))
         self._pool.submit(int)  # the fork now, at the start, not at the first change
 
     def margin(self, config: ControllerConfig) -> int | None:
