@@ -168,6 +168,9 @@ def test_a_killed_node_is_respawned_and_the_loop_recovers(tmp_path, ros_domain):
     assert code == 1, run_said(output)  # the drive braked the arm for the fault: the run says so
     assert "the brakes held the arm 1 time(s) for a fault" in output.splitlines()[-1], run_said(output)
     assert "pid_controller died (exit code -9): respawning" in output
+    # Nothing of the run outlives it: the killed controller's designer process died with it (it was left behind).
+    left = subprocess.run(["pgrep", "-f", str(out / "params.yaml")], capture_output=True, text=True).stdout.split()
+    assert not left, subprocess.run(["ps", "-o", "pid,ppid,cmd", "-p", ",".join(left)], capture_output=True).stdout
     recording = report.read_recording(out / "bag")
     assert np.all(np.abs(recording.true_position[:, 0]) < 1.1)
     assert recording.state["status"][-1] == state_layout.STATUS_CODES["ok"]
