@@ -14,7 +14,7 @@ def register(sub) -> None:
     p = verb(
         sub,
         "score",
-        "re-score a run directory from its bag",
+        "re-score a run directory from its bag and judge it against the band it ran with (exit 1 if FAILED)",
         lambda a: score(a.run_dir, as_json=a.json, every_figure=a.all),
     )
     p.add_argument("run_dir", type=Path)
@@ -39,8 +39,14 @@ def score(run_dir: Path, *, as_json: bool = False, every_figure: bool = False) -
         recording = report.read_recording(run_dir / "bag")
         saved = _saved(run_dir)
         units = saved.get("joint_units") if len(saved.get("joint_units") or []) == recording.joint_count else None
+        # As the run judged itself: on the wall clock, or interrupted, its stops after its duration are its shutdown's.
+        judged_s = saved.get("duration_s") if saved.get("clock") == "wall" or saved.get("interrupted") else None
         values = report.score(
-            recording, window_s=_scored_window_s(saved), units=units, receipts=saved.get("clock") != "sim_lockstep"
+            recording,
+            window_s=_scored_window_s(saved),
+            units=units,
+            receipts=saved.get("clock") != "sim_lockstep",
+            judged_s=judged_s if isinstance(judged_s, (int, float)) else None,
         )
     except (FileNotFoundError, ValueError) as exc:
         print(f"robot-controller: cannot score {run_dir}: {exc}", file=sys.stderr)
@@ -52,11 +58,12 @@ def score(run_dir: Path, *, as_json: bool = False, every_figure: bool = False) -
         print(json.dumps(report.json_safe(values), indent=2, sort_keys=True))
     elif every_figure:
         print_table(values, title=f"re-scored {run_dir / 'bag'}")
+        print_summary(judged.line, [])
     else:  # the run's facts (robot, clock, host freezes) from its metrics.json, the figures re-scored
         rows = summary.run_rows(saved | values, effort_limits=_effort_limits(run_dir, recording.joint_count))
         print(f"re-scored {run_dir / 'bag'}")
         print_summary(judged.line, [*rows, ("all figures", f"robot-controller score {run_dir} --all")])
-    return 0
+    return 0 if judged.ok else 1
 
 
 def _saved(run_dir: Path) -> dict:

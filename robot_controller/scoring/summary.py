@@ -59,6 +59,8 @@ def run_rows(
     rows = [("run", _run_line(values)), ("tracking", tracking_line(values))]
     if start := start_line(values):
         rows.append(("start", start))
+    if pushed := _pushed_line(values):
+        rows.append(("pushes", pushed))
     if values.get("preset") == "tutorial" and _finite(rms := values.get("tracking_rms_rad")):
         claim = f"the tutorial claims ~{TUTORIAL_CLAIM_RAD * 1e3:g} mrad; its controller as written tracks at "
         rows.append(("tutorial", claim + f"{rms * 1e3:.3g} mrad RMS"))
@@ -174,7 +176,7 @@ def markdown(verdict_line: str, rows: Sequence[Row], *, title: str, command: str
 def tracking_line(values: dict[str, Any]) -> str:
     """Tracking on the true angle, RMS and max, in mrad (mm for a prismatic joint); the worst joint named on a chain."""
     if not values.get("scored_samples", 1):
-        return f"not scored: nothing after the {WARMUP_S:g} s warm-up"
+        return f"not scored: nothing after the {WARMUP_S:g} s start"
     names, units = _joints(values)
     rms = _per_joint(values, "tracking_rms", units)
     peak = _per_joint(values, "tracking_max", units)
@@ -202,11 +204,23 @@ def start_line(values: dict[str, Any]) -> str | None:
     milli = "mrad" if units[worst] == "rad" else "mm"
     on = f" on {names[worst]}" if len(names) > 1 else ""
     text = f"max {_num(_milli(peak[worst]), '.3g')} {milli}{on} in the first {WARMUP_S:g} s"
-    if _finite(ended := values.get("start_transient_end_s")):
-        text += f", down to the run's level from {ended:.2f} s"
+    if _finite(ended := values.get("start_transient_end_s")) and values.get("scored_samples"):
+        text += ", no worse than after it" + (f" from {ended:.2f} s" if ended > 0 else "")
     if _finite(band := values.get("tracking_band_rad")):
         text += f" (band {band * 1e3:g} {milli})"
     return text
+
+
+def _pushed_line(values: dict[str, Any]) -> str | None:
+    """What the band judged where someone pushed the arm: the tracking without each push and the second after it."""
+    names, units = _joints(values)
+    peak = values.get("unpushed_max_per_joint")
+    if not peak or len(peak) != len(names):
+        return None
+    worst = _worst(peak, None)
+    milli = "mrad" if units[worst] == "rad" else "mm"
+    figure = f"max {_num(_milli(peak[worst]), '.3g')} {milli}"
+    return f"{figure} without each push and the 1 s after it (what the band judges)"
 
 
 def effort_line(
@@ -284,7 +298,7 @@ def _trouble_rows(values: dict[str, Any]) -> list[Row]:
         rows.append(("faults", ", ".join(faults)))
     if engagements := values.get("brake_engagements"):
         held_s = _num(values.get("braked_s"), ".2f")
-        text = f"held the arm {_count(engagements, 'time')}, {held_s} s in all (not scored)"
+        text = f"held the arm {_count(engagements, 'time')}, {held_s} s in all (not scored as tracking)"
         if estop := values.get("brake_engagements_estop"):
             text += f"; {estop} of them your e-stop's ({_num(values.get('braked_s_estop'), '.2f')} s)"
         rows.append(("brakes", text))

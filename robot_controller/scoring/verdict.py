@@ -57,7 +57,8 @@ def judge(values: dict[str, Any], *, band_rad: float, failure: str | None = None
     faults = values.get("brake_engagements", 0) - values.get("brake_engagements_estop", 0)
     if faults > 0:
         braked = values.get("braked_s", 0.0) - values.get("braked_s_estop", 0.0)
-        reasons.append(f"the brakes held the arm {faults} time(s) for a fault ({braked:.2f} s in all)")
+        times = "once" if faults == 1 else f"{faults} times"
+        reasons.append(f"the brakes held the arm {times} for a fault ({braked:.2f} s in all)")
     stops = {name: values.get(f"{name}_ticks", 0) for name in UNASKED_STOPS}
     if said := ", ".join(f"{name} {count}" for name, count in stops.items() if count):
         reasons.append(f"stops nobody asked for ({said} ticks)")
@@ -75,8 +76,8 @@ def _beyond(peaks: Sequence[float], band: float, names: list[str], units: list[s
     name = f" on {names[worst]}" if len(names) > 1 and worst < len(names) else ""
     others = f" (and {len(over) - 1} other joint(s))" if len(over) > 1 else ""
     return [
-        f"{what} {peaks[worst] * 1e3:.3g} {milli}{name} off its reference, beyond the band of "
-        f"{band * 1e3:g} {milli} (tracking_band_rad){others}"
+        f"{what} {peaks[worst] * 1e3:.3g} {milli}{name} off its reference, beyond its {band * 1e3:.3g} {milli} "
+        f"tracking band{others}"
     ]
 
 

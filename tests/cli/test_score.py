@@ -38,3 +38,21 @@ def test_score_prints_a_few_lines_and_every_figure_with_all(tmp_path, monkeypatc
     assert score.score(tmp_path, every_figure=True) == 0
     table = capsys.readouterr().out
     assert "watchdog_ticks" in table and "control_ticks" in table and len(table.splitlines()) > 30
+
+
+def test_score_judges_a_saved_run_against_the_band_it_ran_with(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(report, "read_recording", lambda path: synthetic_recording([0.03], ["elbow"]))
+    (tmp_path / "metrics.json").write_text(json.dumps({"tracking_band_rad": 0.05}))
+    assert score.score(tmp_path) == 0
+    assert capsys.readouterr().out.splitlines()[1] == "ok"
+    (tmp_path / "metrics.json").write_text(json.dumps({"tracking_band_rad": 0.02}))
+    assert score.score(tmp_path) == 1
+    said = capsys.readouterr().out.splitlines()
+    assert (
+        said[1]
+        == said[-1]
+        == "FAILED: tracking 30 mrad off its reference, beyond its 20 mrad tracking band; "
+        + ("in its first 2 s 30 mrad off its reference, beyond its 20 mrad tracking band")
+    )
+    assert score.score(tmp_path, every_figure=True) == 1
+    assert capsys.readouterr().out.splitlines()[-1].startswith("FAILED: tracking 30 mrad")

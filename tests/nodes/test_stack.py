@@ -103,7 +103,7 @@ def test_tutorial_preset_runs_and_lags(tmp_path, ros_domain):
     # It lags the sine by about 0.2 rad: a run that does not track is never ok.
     assert proc.returncode == 1, run_said(proc.stdout)
     assert proc.stdout.splitlines()[-1].startswith("FAILED: tracking "), run_said(proc.stdout)
-    assert "beyond the band of 20 mrad (tracking_band_rad)" in proc.stdout
+    assert "beyond its 20 mrad tracking band" in proc.stdout
     assert "the tutorial claims ~5 mrad" in proc.stdout
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["verdict"] == "failed" and metrics["tracking_band_rad"] == 0.02

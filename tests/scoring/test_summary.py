@@ -69,7 +69,7 @@ def test_off_lockstep_the_rate_and_misses_are_said_and_faults_only_when_there_we
     )
     assert rows["faults"] == "watchdog 4 ticks, e-stopped (asked for) 1 tick"
     assert rows["host freezes"].startswith("3, the longest 41 ms, 80 ms in all")
-    assert rows["brakes"] == "held the arm 1 time, 0.46 s in all (not scored)"
+    assert rows["brakes"] == "held the arm 1 time, 0.46 s in all (not scored as tracking)"
     assert rows["recording"] == "3 published messages missing from the bag"
     host = {"watchdog_ticks_host": 2, "stopped_ticks": 1}
     rows = dict(summary.run_rows(wall | host))
@@ -101,7 +101,7 @@ def test_a_chain_names_its_worst_joint_and_the_one_nearest_its_effort_limit():
 
 def test_a_run_shorter_than_the_warm_up_says_it_was_not_scored():
     rows = dict(summary.run_rows(LOCKSTEP | {"scored_samples": 0, "tracking_rms_rad": None}))
-    assert rows["tracking"] == "not scored: nothing after the 2 s warm-up"
+    assert rows["tracking"] == "not scored: nothing after the 2 s start"
 
 
 def test_summary_md_holds_the_verdict_the_command_the_figures_and_links():
@@ -162,3 +162,20 @@ def test_faults_in_a_few_lines_the_missed_cases_named():
     assert said["re-acquired"].startswith("within 0.80 s")
     missed = [text for label, text in rows if label == "missed"]
     assert missed[:5] == failed[:5] and missed[5] == "2 more in faults.md" and len(rows) <= 12
+
+
+def test_a_run_with_pushes_says_what_the_band_judged_and_the_start_what_it_did():
+    values = {
+        "scored_samples": 800,
+        "tracking_rms_rad": 0.002,
+        "tracking_max_rad": 0.0113,
+        "unpushed_max_per_joint": [0.00357],
+        "start_tracking_max_per_joint": [0.00155],
+        "start_transient_end_s": 0.0,
+        "tracking_band_rad": 0.006,
+    }
+    rows = dict(summary.run_rows(values))
+    assert rows["pushes"] == "max 3.57 mrad without each push and the 1 s after it (what the band judges)"
+    assert rows["start"] == "max 1.55 mrad in the first 2 s, no worse than after it (band 6 mrad)"
+    rows = dict(summary.run_rows(values | {"start_transient_end_s": 1.25}))
+    assert rows["start"] == "max 1.55 mrad in the first 2 s, no worse than after it from 1.25 s (band 6 mrad)"
