@@ -147,8 +147,10 @@ def run(options: RunOptions, out: Path | None) -> int:
     if options.paced:
         values.update(wall)  # not the same run to run: the host's
     band_rad = options.tracking_band_rad or robots.robot(options.robot).tracking_band_rad
-    judged = verdict.judge(values, band_rad=band_rad, failure=result.failure if result.exit_code else None)
-    values.update(judged.as_metrics(), tracking_band_rad=band_rad)
+    failure = result.failure if result.exit_code else None
+    judged = verdict.judge(values, band_rad=band_rad, failure=failure)
+    # The run's own failure (a node died, the law failed), apart from a verdict on a run that ran: both exit 1.
+    values.update(judged.as_metrics(), tracking_band_rad=band_rad, run_failure=failure)
     report.write_metrics(out / "metrics.json", values)
     if options.sim_time:
         report.write_metrics(out / "timing.json", wall)

@@ -177,6 +177,8 @@ def run_figures(run_dir: Path, split: Split, condition: Condition, cut: tuple[fl
     metrics = json.loads((run_dir / "metrics.json").read_text()) if (run_dir / "metrics.json").exists() else {}
     published = json.loads((run_dir / "published.json").read_text()) if (run_dir / "published.json").exists() else {}
     figures: dict[str, Any] = {
+        "verdict": metrics.get("verdict"),
+        "run_failure": metrics.get("run_failure"),
         "tracking_rms_rad": metrics.get("tracking_rms_rad"),
         "tracking_max_rad": metrics.get("tracking_max_rad"),
         "latency_p99_ms": metrics.get("latency_p99_ms"),
@@ -205,8 +207,10 @@ def within_goal(entry: dict[str, Any]) -> bool:
 def not_run(entry: dict[str, Any]) -> str | None:
     """Why the loop did not run in this case (a launcher's exit code, no plan at the robot host, too few controller
     ticks recorded, braked most of the scored time), or None: it ran. Ticks and brakes unknown are not held against
-    it (an older report)."""
-    if entry.get("robot_exit") != 0 or entry.get("control_exit") != 0:
+    it (an older report). The robot's launcher exits 1 for a run that ran and was judged FAILED (a cut link's stop
+    is a stop nobody asked for): that is this bench's to judge by its band, not a run that did not run."""
+    judged_only = entry.get("robot_exit") == 1 and entry.get("verdict") == "failed" and not entry.get("run_failure")
+    if (entry.get("robot_exit") != 0 and not judged_only) or entry.get("control_exit") != 0:
         return f"exit {entry.get('robot_exit')}/{entry.get('control_exit')}"
     messages = entry.get("messages") or {}
     if not messages.get("/trajectory", {}).get("recorded"):

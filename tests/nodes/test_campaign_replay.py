@@ -26,11 +26,11 @@ SPEC = {
 }
 
 
-def cli(*args, timeout=240):
+def cli(*args, timeout=240, codes=(0,)):
     proc = subprocess.run(
         [sys.executable, "-m", "robot_controller.cli", *map(str, args)], capture_output=True, text=True, timeout=timeout
     )
-    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
+    assert proc.returncode in codes, run_said(proc.stdout) + proc.stderr[-2000:]
     return proc.stdout
 
 
@@ -39,7 +39,8 @@ def test_a_replayed_run_has_its_draws_and_the_campaigns_figures(tmp_path, ros_do
     spec.write_text(yaml.safe_dump(SPEC))
     cli("campaign", spec, "--out", tmp_path / "c", "--workers", 1)
     row = next(r for r in pq.read_table(tmp_path / "c" / "results.parquet").to_pylist() if r["run_id"] == 1)
-    said = cli("campaign", "replay", tmp_path / "c", 1, "--out", tmp_path / "r")
+    # A world the controller does not know may start beyond the band: the replayed run then says FAILED, exit 1.
+    said = cli("campaign", "replay", tmp_path / "c", 1, "--out", tmp_path / "r", codes=(0, 1))
     assert "the campaign's (in process) beside the graph's (lockstep)" in said, said
     ran = yaml.safe_load((tmp_path / "r" / "params.yaml").read_text())
     sensor = ran["sensor_node"]["ros__parameters"]
@@ -53,6 +54,8 @@ def test_a_replayed_run_has_its_draws_and_the_campaigns_figures(tmp_path, ros_do
     assert metrics["clock"] == "sim_lockstep" and metrics["seed"] == row["seed"]
     assert metrics["tracking_rms_rad"] == pytest.approx(row["tracking_rms_rad"], rel=0.05)
     assert metrics["tracking_max_rad"] == pytest.approx(row["tracking_max_rad"], rel=0.05)
+    assert metrics["start_tracking_max_rad"] == pytest.approx(row["start_tracking_max_rad"], rel=0.05)
+    assert ("FAILED: " in said) == (metrics["verdict"] == "failed"), said
 
 
 def test_replay_of_a_run_the_campaign_does_not_hold_is_one_line(tmp_path):

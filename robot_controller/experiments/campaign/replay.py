@@ -19,6 +19,7 @@ from robot_controller.experiments.campaign.store import CAMPAIGN, RESULTS, read_
 COMPARED = (
     ("tracking_rms_rad", "tracking_rms_rad"),
     ("tracking_max_rad", "tracking_max_rad"),
+    ("start_tracking_max_rad", "start_tracking_max_rad"),
     ("tracking_rms_m", "tracking_rms_m"),
     ("tracking_max_m", "tracking_max_m"),
     ("peak_effort", "peak_torque_nm"),

@@ -104,6 +104,11 @@ def test_a_case_passes_only_if_the_loop_ran_and_kept_its_band():
     assert conditions.not_run(_with(ticks=165)) == "165 controller ticks of 1200"
     assert conditions.not_run(_with(braked_fraction=0.9)) == "braked 90% of the time"
     assert not conditions.passed(braked) and not conditions.passed(_with(band_deviation_rad=0.2))
+    # A run that ran and was judged FAILED (a cut link's stop) is the bench's to judge; one that failed is not run.
+    judged = _with(robot_exit=1, verdict="failed", run_failure=None)
+    assert conditions.not_run(judged) is None and conditions.passed(judged)
+    crashed = _with(robot_exit=1, verdict="failed", run_failure="pid_controller died (exit code -9)")
+    assert conditions.not_run(crashed) == "exit 1/0"
     doc = report.document([RAN, no_plan, braked], False, "today")
     assert doc["passed"] == 1 and not doc["all_passed"] and doc["worst_band_deviation_rad"] == 0.001
     text = report.render([RAN, no_plan, braked], quick=False, started="today")

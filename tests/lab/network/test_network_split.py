@@ -39,7 +39,9 @@ def test_a_cut_link_leaves_the_split_loop_in_its_band_and_it_reacquires(tmp_path
         assert len(_namespaces(net)) == 2  # made
         entry = bench.run_one(net, split, cut, tmp_path, quick=True)
     robot_log = (tmp_path / "robot.log").read_text(errors="replace")
-    assert entry["robot_exit"] == 0 and entry["control_exit"] == 0, robot_log[-3000:]
+    # The cut's stop is one nobody asked for: the run's verdict FAILED (exit 1), the bench judges it by its band.
+    assert entry["robot_exit"] in (0, 1) and entry["control_exit"] == 0, robot_log[-3000:]
+    assert entry["robot_exit"] == 0 or (entry["verdict"] == "failed" and not entry["run_failure"]), entry
     assert "failure" not in entry, entry
     # Discovery across the veth: the remote planner's samples reached the recorder.
     assert entry["messages"]["/trajectory"]["recorded"] > 300, entry["messages"]
