@@ -69,7 +69,8 @@ def test_a_sensor_frozen_in_the_paced_world_brakes_the_arm_where_it_is_and_the_l
     code, output = run_while(out, freeze_the_sensor_twice, duration="9")
     assert code == 1, run_said(output)  # braked for a fault: never ok
     metrics = json.loads((out / "metrics.json").read_text())
-    assert metrics["verdict_reasons"][0].startswith("the brakes held the arm 2 times for a fault"), metrics
+    reasons = metrics["verdict_reasons"]
+    assert any(reason.startswith("the brakes held the arm 2 times for a fault") for reason in reasons), metrics
     assert metrics["brake_engagements"] == 2, metrics["brake_engagements"]
     assert metrics["tracking_max_rad"] <= 0.1, metrics["tracking_max_rad"]
     recording = report.read_recording(out / "bag")

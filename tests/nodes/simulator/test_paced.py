@@ -69,7 +69,8 @@ def test_the_controller_frozen_alone_is_its_stall_and_the_arm_stays_in_its_band(
     # its missed cycles are not a count of the freezes.
     assert metrics["brake_engagements"] >= FREEZES - (metrics["host_freeze_ms_max"] >= 60.0), metrics
     assert "no effort for 0.05 s" in output, run_said(output)
-    assert metrics["verdict_reasons"][0].startswith("the brakes held the arm"), metrics  # its stall: a fault
+    # Its stall: a fault (the swing back may also take the arm past the band).
+    assert any(reason.startswith("the brakes held the arm") for reason in metrics["verdict_reasons"]), metrics
     # Back, it starts from where the brakes hold the arm: its newest reading, from before them, is not advanced
     # on the arm's speed (it was, once: a 0.11 rad error at the first tick beside a hog).
     assert metrics["tracking_max_rad"] <= 0.05 and metrics["peak_torque_nm"] < 10.0, metrics
