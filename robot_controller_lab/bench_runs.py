@@ -137,7 +137,10 @@ def batch_sim_s_per_s(batch: int, duration_s: float) -> tuple[float, float]:
         output_limit=[10.0],
         integral_limit=[10.0],
         anti_windup="conditional_integration",
+        back_calculation_time_s=0.1,
         derivative_source="velocity_error",
+        derivative_filter_time_s=0.0,
+        slew_rate_limit=0.0,
     )
     params = cfg.load_stack()
     start = time.perf_counter()

@@ -1,7 +1,13 @@
 """Parameters of every node: what each means and accepts (``schema``), parameter files and presets (``files``), the
 core's configs built from values (``builders``) and the whole-configuration check (``consistency``). No rclpy here."""
 
-from robot_controller.parameters.builders import controller_config, sensor_config, trajectory_kwargs
+from robot_controller.parameters.builders import (
+    controller_config,
+    kalman_config,
+    pid_config,
+    sensor_config,
+    trajectory_kwargs,
+)
 from robot_controller.parameters.files import (
     Params,
     available_presets,
@@ -12,7 +18,7 @@ from robot_controller.parameters.files import (
     read_params_file,
     write_params_file,
 )
-from robot_controller.parameters.schema import NODES, ROS_BUILTIN, SCHEMA, URDF, defaults, has, spec_of
+from robot_controller.parameters.schema import NODES, ROS_BUILTIN, SCHEMA, URDF, defaults, has, node_defaults, spec_of
 from robot_controller.parameters.spec import ParamSpec, per_joint
 
 __all__ = [
@@ -27,10 +33,13 @@ __all__ = [
     "controller_config",
     "defaults",
     "has",
+    "kalman_config",
     "load_stack",
     "merge",
+    "node_defaults",
     "params_yaml",
     "per_joint",
+    "pid_config",
     "read_params_file",
     "sensor_config",
     "spec_of",

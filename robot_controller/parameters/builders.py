@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from dataclasses import fields
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -11,6 +12,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws.parameters import PREFIX as LAW_PREFIX
 from robot_controller.core.laws.pid import PidConfig
 from robot_controller.core.model import SensorConfig
+from robot_controller.parameters.schema import has, spec_of
 from robot_controller.parameters.spec import per_joint
 from robot_controller.parameters.torque_limits import torque_limit
 
@@ -19,6 +21,9 @@ if TYPE_CHECKING:  # the controller pulls in scipy and MuJoCo: only the nodes th
     from robot_controller.core.estimation import KalmanConfig
     from robot_controller.core.model import ArmDynamics, JointArmModel
 
+T = TypeVar("T")
+# The node whose parameters make the controller's configs.
+NODE = "pid_controller"
 # The controller's arm-model parameters, in the order of core.arm_model.PARAMETERS; empty = the URDF's.
 MODEL_KEYS = ("model_inertia", "model_damping", "model_coulomb_friction", "model_gravity_torque")
 # Every parameter of the controller's arm model: the per-joint ones and a payload on the last link.
@@ -71,67 +76,66 @@ def arm_model(values: Mapping[str, Any]) -> ArmDynamics | JointArmModel:
     )
 
 
+def from_values(
+    cls: type[T],
+    values: Mapping[str, Any],
+    *,
+    node: str,
+    prefix: str = "",
+    joint_count: int | None = None,
+    **derived: Any,
+) -> T:
+    """A config dataclass made from ``node``'s parameter values: each field from the parameter named as it is
+    (``prefix`` + its name; a per-joint one as one value for each of ``joint_count`` joints), unless ``derived``
+    holds it. A field with no parameter and none derived keeps the dataclass's default, which only a value that is
+    no parameter has: the schema's defaults are the one set. A field missing is a ``TypeError`` (a bug)."""
+    names = {f.name for f in fields(cls)}  # type: ignore[arg-type]
+    assert set(derived) <= names, f"{cls.__name__} has no field {sorted(set(derived) - names)}"
+    kwargs = dict(derived)
+    for name in names - set(derived):
+        key = prefix + name
+        if key not in values:
+            continue
+        joints = joint_count is not None and has(node, key) and spec_of(node, key).per_joint
+        kwargs[name] = per_joint(key, values[key], joint_count) if joints else values[key]
+    return cls(**kwargs)
+
+
+def pid_config(values: Mapping[str, Any], joint_count: int) -> PidConfig:
+    """The built-in law's gains and options: the controller's parameters of the same names, its limit
+    ``torque_max`` (each joint's URDF effort limit when empty)."""
+    return from_values(
+        PidConfig, values, node=NODE, joint_count=joint_count, output_limit=torque_limit(values, joint_count)
+    )
+
+
 def controller_config(values: Mapping[str, Any], joint_count: int) -> ControllerConfig:
+    """The controller's config from its parameter values (``node_defaults("pid_controller")`` for the schema's):
+    each field from the parameter of its name, the few below worked out from theirs."""
     from robot_controller.core.controller import ControllerConfig
 
-    def joints(name: str) -> np.ndarray:
-        return per_joint(name, values[name], joint_count)
-
-    pid = PidConfig(
-        kp=joints("kp"),
-        ki=joints("ki"),
-        kd=joints("kd"),
-        output_limit=torque_limit(values, joint_count),
-        integral_limit=joints("integral_limit"),
-        anti_windup=values["anti_windup"],
-        back_calculation_time_s=values["back_calculation_time_s"],
-        derivative_source=values["derivative_source"],
-        derivative_filter_time_s=values["derivative_filter_time_s"],
-        slew_rate_limit=values["slew_rate_limit"],
-    )
-    q = np.asarray(values["lqr_q"], dtype=float)  # three weights: the schema checks the length
-    estimator = kalman_config(values) if values["estimator"] == "kalman" else None
-    return ControllerConfig(
-        pid=pid,
-        controller_type=values["controller_type"],
+    return from_values(
+        ControllerConfig,
+        values,
+        node=NODE,
+        pid=pid_config(values, joint_count),
         law_parameters={key[len(LAW_PREFIX) :]: value for key, value in values.items() if key.startswith(LAW_PREFIX)},
-        law_budget_s=values["law_budget_s"],
-        law_error_max_rad=values["law_error_max_rad"],
-        stop_law=values["stop_law"],
-        lqr_q=tuple(q.tolist()),
-        lqr_r=values["lqr_r"],
-        reference_inertia=values["reference_inertia"],
+        lqr_q=tuple(float(w) for w in values["lqr_q"]),  # three weights: the schema checks the length
         # A payload's allowance makes the observer faster than a delay the stamps do not show allows: lockstep only.
         rated_payload_kg=values["rated_payload_kg"] if values["lockstep"] else 0.0,
-        estimator=estimator,
-        disturbance_observer=values["disturbance_observer"],
-        inertia_adaptation=values["inertia_adaptation"],
-        feedforward=values["feedforward"],
-        feedback_decoupling=values["feedback_decoupling"],
+        estimator=kalman_config(values) if values["estimator"] == "kalman" else None,
         control_period_s=1.0 / values["control_rate_hz"],
-        reference_extrapolation=values["reference_extrapolation"],
-        latency_compensation=values["latency_compensation"],
-        lockstep=values["lockstep"],
-        watchdog_periods=values["watchdog_periods"],
-        sensor_timeout_s=values["sensor_timeout_s"],
-        max_reading_age_s=values["max_reading_age_s"],
-        stop_deceleration=values["stop_deceleration"],
-        reacquire_acceleration=values["reacquire_acceleration"],
-        design_position=tuple(joints("design_position").tolist()) if given(values.get("design_position")) else None,
+        design_position=tuple(per_joint("design_position", values["design_position"], joint_count).tolist())
+        if given(values.get("design_position"))
+        else None,
         # One value on a chain is for a joint of reference_inertia; one per joint is taken as given.
         scaled_gains=tuple(k for k in ("kp", "ki", "kd") if joint_count > 1 and np.size(values[k]) == 1),
-        min_delay_margin_periods=values["min_delay_margin_periods"],
     )
 
 
 def sensor_config(values: Mapping[str, Any]) -> SensorConfig:
-    return SensorConfig(
-        position_noise_std=values["position_noise_std"],
-        velocity_noise_std=values["velocity_noise_std"],
-        position_bias=values["position_bias"],
-        quantization=values["quantization"],
-        delay_s=values["delay_s"],
-    )
+    """The encoder's noise, bias, quantisation and delay: the sensor's parameters of the same names."""
+    return from_values(SensorConfig, values, node="sensor_node")
 
 
 # The planner's parameters that shape its trajectory (besides ``mode``).
@@ -145,7 +149,7 @@ def trajectory_kwargs(values: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def kalman_config(values: Mapping[str, Any]) -> KalmanConfig:
-    """The controller's Kalman filter from its parameters. In lockstep each command acts from its tick
+    """The controller's Kalman filter from its ``kalman_*`` parameters. In lockstep each command acts from its tick
     exactly, and the filter trusts its model as configured. On the wall clock a command reaches the
     drive a few ms late and a push begins anywhere inside a period, which a filter that trusts its
     model cannot place: there it runs at its mismatch settings throughout and takes no jumps."""
@@ -153,14 +157,12 @@ def kalman_config(values: Mapping[str, Any]) -> KalmanConfig:
 
     from robot_controller.core.estimation import KalmanConfig
 
-    config = KalmanConfig(
-        values["kalman_position_noise_std"],
-        values["kalman_velocity_noise_std"],
-        values["kalman_acceleration_noise_std"],
-        disturbance_noise_std=values["kalman_disturbance_noise_std"],
+    config = from_values(
+        KalmanConfig,
+        values,
+        node=NODE,
+        prefix="kalman_",
         jump_detection_sigma=values["kalman_disturbance_jump_sigma"],
-        mismatch_acceleration_noise_std=values["kalman_mismatch_acceleration_noise_std"],
-        mismatch_disturbance_noise_std=values["kalman_mismatch_disturbance_noise_std"],
         command_timing_uncertainty_s=0.0 if values["lockstep"] else values["kalman_command_timing_uncertainty_s"],
     )
     if values["lockstep"]:

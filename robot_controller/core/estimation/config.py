@@ -15,7 +15,8 @@ DISTURBANCE_PRIOR_STD_NM = 2.0
 
 @dataclass(frozen=True)
 class KalmanConfig:
-    """The filter's tuning.
+    """The filter's tuning, every value given: the defaults are the parameter schema's
+    (``parameters.builders.kalman_config``).
 
     :param position_noise_std: measurement σ on position, rad
     :param velocity_noise_std: measurement σ on velocity, rad/s
@@ -24,24 +25,24 @@ class KalmanConfig:
         (σ of its random walk; used only when the filter estimates it)
     """
 
-    position_noise_std: float = 0.005
-    velocity_noise_std: float = 0.02
-    acceleration_noise_std: float = 0.005
-    #: s, the longest step the arm model is integrated in between two readings: the plant's own
-    #: (a coarser step puts the predicted position off by about a·T·step/2)
-    model_step_s: float = 0.001
-    disturbance_noise_std: float = 0.0001
+    position_noise_std: float
+    velocity_noise_std: float
+    acceleration_noise_std: float
+    disturbance_noise_std: float
     #: a reading this many σ from the prediction, among readings that agree with the filter, is a
     #: sudden external torque: the observer allows its torque a jump (σ DISTURBANCE_PRIOR_STD_NM)
     #: that period; between jumps it changes only slowly (disturbance_noise_std). 0: never.
-    jump_detection_sigma: float = 5.0
+    jump_detection_sigma: float
     #: the σ the filter moves to while its readings disagree with it (an arm unlike its model,
     #: readings later than their stamps): it then follows the readings rather than its model
-    mismatch_acceleration_noise_std: float = 2.0
-    mismatch_disturbance_noise_std: float = 0.3
+    mismatch_acceleration_noise_std: float
+    mismatch_disturbance_noise_std: float
     #: s, how uncertain the instant is from which a new command acts: 0 on a known schedule (lockstep);
     #: on the wall clock, the command path's jitter. A change Δτ leaves the velocity uncertain by Δτ·this/I.
-    command_timing_uncertainty_s: float = 0.0
+    command_timing_uncertainty_s: float
+    #: s, the longest step the arm model is integrated in between two readings: the plant's own
+    #: (a coarser step puts the predicted position off by about a·T·step/2). Not a parameter: the plant's step.
+    model_step_s: float = 0.001
 
     def __post_init__(self) -> None:
         positive = ("position_noise_std", "velocity_noise_std", "acceleration_noise_std", "model_step_s")

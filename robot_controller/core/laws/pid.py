@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from enum import StrEnum
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -50,7 +50,8 @@ class DerivativeSource(StrEnum):
 
 @dataclass
 class PidConfig:
-    """Gains and options of :class:`Pid`.
+    """Gains and options of :class:`Pid`, every one given: the defaults are the parameter schema's
+    (``parameters.builders`` makes this from a node's values).
 
     :param kp: proportional gain, N·m/rad, per joint
     :param ki: integral gain, N·m/(rad·s), per joint
@@ -64,16 +65,16 @@ class PidConfig:
     :param slew_rate_limit: max |du/dt|, N·m/s (0 = off)
     """
 
-    kp: np.ndarray = field(default_factory=lambda: np.array([50.0]))
-    ki: np.ndarray = field(default_factory=lambda: np.array([10.0]))
-    kd: np.ndarray = field(default_factory=lambda: np.array([5.0]))
-    output_limit: np.ndarray = field(default_factory=lambda: np.array([10.0]))
-    integral_limit: np.ndarray = field(default_factory=lambda: np.array([10.0]))
-    anti_windup: AntiWindup = AntiWindup.CLAMP
-    back_calculation_time_s: float = 0.1
-    derivative_source: DerivativeSource = DerivativeSource.MEASURED_VELOCITY
-    derivative_filter_time_s: float = 0.0
-    slew_rate_limit: float = 0.0
+    kp: np.ndarray
+    ki: np.ndarray
+    kd: np.ndarray
+    output_limit: np.ndarray
+    integral_limit: np.ndarray
+    anti_windup: AntiWindup
+    back_calculation_time_s: float
+    derivative_source: DerivativeSource
+    derivative_filter_time_s: float
+    slew_rate_limit: float
 
     def __post_init__(self) -> None:
         for name in ("kp", "ki", "kd", "output_limit", "integral_limit"):

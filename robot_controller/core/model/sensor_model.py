@@ -13,7 +13,8 @@ from robot_controller.core.errors import ConfigError
 
 @dataclass(frozen=True)
 class SensorConfig:
-    """Noise and imperfections of the joint sensor.
+    """Noise and imperfections of the joint sensor, every one given: the defaults are the parameter
+    schema's (``parameters.builders.sensor_config``).
 
     :param position_noise_std: Gaussian σ on position, rad
     :param velocity_noise_std: Gaussian σ on velocity, rad/s
@@ -23,11 +24,11 @@ class SensorConfig:
         so (the sample's time), as a hardware-timestamped encoder's does
     """
 
-    position_noise_std: float = 0.005
-    velocity_noise_std: float = 0.02
-    position_bias: float = 0.0
-    quantization: float = 0.0
-    delay_s: float = 0.0
+    position_noise_std: float
+    velocity_noise_std: float
+    position_bias: float
+    quantization: float
+    delay_s: float
 
     def __post_init__(self) -> None:
         for name in ("position_noise_std", "velocity_noise_std", "quantization", "delay_s"):

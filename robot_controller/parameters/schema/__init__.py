@@ -3,7 +3,16 @@ as in generate_parameter_library: the nodes declare from here, ``params`` prints
 holds specs several declare. Rates have a floor and a ceiling: beyond it the loop starves, below it the watchdog has
 nothing to watch."""
 
-from robot_controller.parameters.schema.nodes import NODES, REPORTED, ROS_BUILTIN, SCHEMA, defaults, has, spec_of
+from robot_controller.parameters.schema.nodes import (
+    NODES,
+    REPORTED,
+    ROS_BUILTIN,
+    SCHEMA,
+    defaults,
+    has,
+    node_defaults,
+    spec_of,
+)
 from robot_controller.parameters.schema.shared import URDF
 
-__all__ = ["NODES", "REPORTED", "ROS_BUILTIN", "SCHEMA", "URDF", "defaults", "has", "spec_of"]
+__all__ = ["NODES", "REPORTED", "ROS_BUILTIN", "SCHEMA", "URDF", "defaults", "has", "node_defaults", "spec_of"]

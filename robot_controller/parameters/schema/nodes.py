@@ -40,3 +40,8 @@ def has(node: str, name: str) -> bool:
 def defaults() -> dict[str, dict]:
     """Every node's default values (the reference scenario with the default controller)."""
     return {node: {spec.name: spec.default_value() for spec in specs} for node, specs in SCHEMA.items()}
+
+
+def node_defaults(node: str) -> dict:
+    """``node``'s default values: the one set the core's configs are made from (``parameters.builders``)."""
+    return {spec.name: spec.default_value() for spec in SCHEMA[node]}

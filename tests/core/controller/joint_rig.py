@@ -7,8 +7,8 @@ import numpy as np
 
 from robot_controller import resources
 from robot_controller.core.controller import ControllerConfig, ControlOutput, JointController, Status
-from robot_controller.core.laws.pid import PidConfig
 from robot_controller.core.model import ArmDynamics
+from tests.core import configs
 
 PERIOD = 1 / 64  #: s: tick times k·PERIOD, and the watchdog's threshold, are exact in binary
 TORQUE_MAX = 10.0
@@ -24,9 +24,8 @@ def arm() -> ArmDynamics:
 
 
 def config(**kw) -> ControllerConfig:
-    base = {"control_period_s": PERIOD, "pid": PidConfig(kp=[50.0], ki=[10.0], kd=[5.0], output_limit=[TORQUE_MAX])}
-    base.update(kw)
-    return ControllerConfig(**base)
+    """The rig's controller: a plain PID on its exact period (``configs.CONTROLLER``), ``kw`` over it."""
+    return configs.controller(**({"control_period_s": PERIOD, "pid": configs.pid(output_limit=[TORQUE_MAX])} | kw))
 
 
 def run(

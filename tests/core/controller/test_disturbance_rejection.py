@@ -24,7 +24,6 @@ import pytest
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.controller import ControlOutput, JointController, Status
-from robot_controller.core.estimation import KalmanConfig
 from robot_controller.core.loop import Disturbance
 from robot_controller.core.model import MujocoPlant
 from robot_controller.core.reference import make_trajectory
@@ -35,6 +34,7 @@ from robot_controller.experiments.exercises.disturbance import (
     deviation_figures,
     push_effect,
 )
+from tests.core import configs
 from tests.core.controller.joint_rig import PERIOD as RIG_PERIOD
 from tests.core.controller.joint_rig import TORQUE_MAX, arm, config, one
 
@@ -246,7 +246,7 @@ def test_a_braked_arm_winds_nothing_up():
     # The arm held where it is (by a brake) while the controller commands: the
     # filter would take the brake for an external torque.
     def held(brakes: bool) -> list[ControlOutput]:
-        c = JointController(config(estimator=KalmanConfig(), disturbance_observer=True), 1, arm())
+        c = JointController(config(estimator=configs.kalman(), disturbance_observer=True), 1, arm())
         c.brakes(brakes)
         outs = []
         for k in range(64):

@@ -12,6 +12,7 @@ from robot_controller.core.controller import ControlOutput, JointController, Sta
 from robot_controller.core.controller.supervision import ReferenceSource
 from robot_controller.core.laws import Reference
 from robot_controller.core.laws.pid import PidTerms
+from tests.core import configs
 from tests.core.controller.joint_rig import PERIOD, TORQUE_MAX, arm, config, one, run, tracking
 
 # --- health: watchdog, sensor timeout, stale readings, e-stop, brakes, pauses -------------
@@ -265,13 +266,11 @@ def test_output_is_finite_within_torque_max_and_says_when_the_reference_is_not_t
     if law == "pid":
         c = JointController(config(latency_compensation=True, reference_extrapolation=True), 1)
     else:
-        from robot_controller.core.estimation import KalmanConfig
-
         c = JointController(
             config(
                 controller_type="lqr" if law == "lqr" else "pid",
                 feedforward="full",
-                estimator=KalmanConfig(),
+                estimator=configs.kalman(),
                 latency_compensation=True,
                 reference_extrapolation=True,
             ),

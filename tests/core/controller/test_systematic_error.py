@@ -23,10 +23,11 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.controller import JointController, Status
 from robot_controller.core.controller.reference_in_force import PlannerReference
-from robot_controller.core.estimation import JointKalmanFilter, KalmanConfig
+from robot_controller.core.estimation import JointKalmanFilter
 from robot_controller.core.model import ArmDynamics, MujocoPlant
 from robot_controller.core.reference import make_trajectory
 from robot_controller.experiments import inprocess
+from tests.core import configs
 from tests.core.controller.joint_rig import PERIOD, arm, config, one
 
 NOISE_FREE = {"position_noise_std": 0.0, "velocity_noise_std": 0.0}
@@ -134,7 +135,7 @@ def test_the_controller_feeds_forward_the_reference_over_the_period():
 def test_the_filters_model_steps_like_the_plant():
     dynamics = ArmDynamics(resources.default_urdf())
     plant = MujocoPlant(resources.default_urdf(), 0.001)
-    kf = JointKalmanFilter(KalmanConfig(), 1, dynamics.predict)
+    kf = JointKalmanFilter(configs.kalman(), 1, dynamics.predict)
     previous_torque, worst = np.zeros(1), 0.0
     for k in range(300):
         q, v = plant.state()
@@ -158,7 +159,9 @@ def test_the_velocity_at_the_instant_is_the_one_the_position_moves_at():
     plant.step(torque, 1)
     after, _ = plant.state()
     central = (after - before) / 0.002
-    at_instant = JointKalmanFilter(KalmanConfig(), 1, dynamics.predict).velocity_at_instant(position, velocity, torque)
+    at_instant = JointKalmanFilter(configs.kalman(), 1, dynamics.predict).velocity_at_instant(
+        position, velocity, torque
+    )
     assert abs(at_instant[0] - central[0]) < 5e-5
     assert abs(velocity[0] - central[0]) > 5e-3  # the plant's own is half a step behind
 
@@ -167,4 +170,4 @@ def test_the_model_step_is_checked():
     from robot_controller.core.errors import ConfigError
 
     with pytest.raises(ConfigError, match="model_step_s"):
-        KalmanConfig(model_step_s=0.0)
+        configs.kalman(model_step_s=0.0)

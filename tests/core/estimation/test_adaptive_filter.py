@@ -10,11 +10,12 @@ import pytest
 from robot_controller import resources
 from robot_controller.core.controller.tick_state import StateAtTick
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.estimation import JointKalmanFilter, KalmanConfig
-from robot_controller.core.model import ArmDynamics, MujocoPlant, SensorConfig, measure
+from robot_controller.core.estimation import JointKalmanFilter
+from robot_controller.core.model import ArmDynamics, MujocoPlant, measure
+from tests.core import configs
 
 DT = 0.01
-SENSOR = SensorConfig(position_noise_std=0.005, velocity_noise_std=0.02)
+SENSOR = configs.sensor(position_noise_std=0.005, velocity_noise_std=0.02)
 
 
 @pytest.fixture(scope="module")
@@ -24,7 +25,7 @@ def dynamics() -> ArmDynamics:
 
 def observer(dynamics: ArmDynamics, **config) -> JointKalmanFilter:
     return JointKalmanFilter(
-        KalmanConfig(**config), 1, dynamics.predict, estimate_disturbance=True, mass_matrix=dynamics.mass_matrix
+        configs.kalman(**config), 1, dynamics.predict, estimate_disturbance=True, mass_matrix=dynamics.mass_matrix
     )
 
 
@@ -110,7 +111,7 @@ def test_readings_that_disagree_move_the_filter_to_follow_them_and_make_no_jumps
 def test_a_command_change_whose_instant_is_uncertain_widens_the_velocity(dynamics):
     def velocity_variance(uncertainty_s: float, change: float) -> float:
         kf = JointKalmanFilter(
-            KalmanConfig(command_timing_uncertainty_s=uncertainty_s),
+            configs.kalman(command_timing_uncertainty_s=uncertainty_s),
             1,
             dynamics.predict,
             mass_matrix=dynamics.mass_matrix,
@@ -124,7 +125,7 @@ def test_a_command_change_whose_instant_is_uncertain_widens_the_velocity(dynamic
     assert velocity_variance(0.01, 0.0) == pytest.approx(exact)  # no change: nothing uncertain
     assert velocity_variance(0.01, 1.0) > 1.5 * exact
     with pytest.raises(ConfigError, match="command_timing_uncertainty_s"):
-        KalmanConfig(command_timing_uncertainty_s=-1.0)
+        configs.kalman(command_timing_uncertainty_s=-1.0)
 
 
 def test_the_command_change_over_a_span_is_what_the_controller_issued_in_it():
@@ -142,7 +143,7 @@ def test_a_reading_no_torque_within_the_limit_explains_restarts_the_filter(dynam
     # at the limit and commanded against once the brake has let go; instead the filter starts
     # again from the reading, the external torque back to 0.
     kf = JointKalmanFilter(
-        KalmanConfig(),
+        configs.kalman(),
         1,
         dynamics.predict,
         estimate_disturbance=True,

@@ -8,8 +8,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from robot_controller import resources
-from robot_controller.core.estimation import JointKalmanFilter, KalmanConfig, innovation, inverse_2x2, process_noise
+from robot_controller.core.estimation import JointKalmanFilter, innovation, inverse_2x2, process_noise
 from robot_controller.core.model import ArmDynamics, matrix_power
+from tests.core import configs
 
 
 @pytest.mark.parametrize("size", [2, 4, 14])
@@ -31,7 +32,7 @@ def test_process_noise_is_the_double_integrator_entry_by_entry():
     """The templates' product against the formula written out for each entry."""
     dt, b = 0.01, np.array([2.0, 30.0])
     sigma_d, sigma_a = np.array([1e-4, 0.3]), np.array([5e-3, 2.0])
-    Q = process_noise(KalmanConfig(), dt, b, sigma_d, sigma_a)
+    Q = process_noise(configs.kalman(), dt, b, sigma_d, sigma_a)
     a2, w = sigma_a**2, sigma_d**2
     expected = np.zeros((2, 3, 3))
     expected[:, 0, 0] = dt**4 / 4 * a2 + w * b * b * dt**5 / 20
@@ -80,7 +81,7 @@ def test_one_joint_through_a_push_disagreement_and_a_restart(observer, timing_s)
     is taken as a jump and a reading beyond any torque restarts the filter."""
     dynamics = ArmDynamics(resources.default_urdf())
     kf = JointKalmanFilter(
-        KalmanConfig(command_timing_uncertainty_s=timing_s),
+        configs.kalman(command_timing_uncertainty_s=timing_s),
         1,
         dynamics.predict,
         transition=dynamics.transition,
@@ -119,7 +120,7 @@ def test_a_payload_allowance_lets_the_observer_follow_a_load_turning_with_the_ar
 
     def disturbance_error(payload_torque_std):
         kf = JointKalmanFilter(
-            KalmanConfig(),
+            configs.kalman(),
             1,
             dynamics.predict,
             transition=dynamics.transition,

@@ -5,11 +5,12 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.controller import ControllerConfig, law_config
+from robot_controller.core.controller import law_config
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.estimation import JointKalmanFilter, KalmanConfig
+from robot_controller.core.estimation import JointKalmanFilter
 from robot_controller.core.laws import lqr, robustness
-from robot_controller.core.model import ArmDynamics, MujocoPlant, SensorConfig, measure
+from robot_controller.core.model import ArmDynamics, MujocoPlant, measure
+from tests.core import configs
 
 INERTIA, DAMPING, DT = 1.0 / 12.0, 0.1, 0.01
 
@@ -61,7 +62,7 @@ def test_lqr_settings_are_checked():
 
 def test_lqr_law_is_a_pid_with_the_designed_gains():
     dynamics = ArmDynamics(resources.default_urdf())
-    config = ControllerConfig(controller_type="lqr", lqr_q=(1e4, 1e4, 1.0), lqr_r=1e-2, control_period_s=DT)
+    config = configs.controller(controller_type="lqr", lqr_q=(1e4, 1e4, 1.0), lqr_r=1e-2, control_period_s=DT)
     gains = law_config(config, dynamics, 1)
     design = lqr.design(INERTIA, DAMPING, DT, np.array([1e4, 1e4, 1.0]), 1e-2)
     np.testing.assert_allclose([gains.ki[0], gains.kp[0], gains.kd[0]], design.K[0], rtol=1e-6)
@@ -71,8 +72,8 @@ def test_lqr_law_is_a_pid_with_the_designed_gains():
 def test_kalman_velocity_error_is_below_the_raw_readings():
     dynamics = ArmDynamics(resources.default_urdf())
     plant = MujocoPlant(resources.default_urdf(), 0.001)
-    sensor = SensorConfig(position_noise_std=0.005, velocity_noise_std=0.02)
-    kf = JointKalmanFilter(KalmanConfig(0.005, 0.02, 2.0), 1, dynamics.predict)
+    sensor = configs.sensor(position_noise_std=0.005, velocity_noise_std=0.02)
+    kf = JointKalmanFilter(configs.kalman(acceleration_noise_std=2.0), 1, dynamics.predict)
     rng = np.random.default_rng(1)
     raw_errors, filtered_errors = [], []
     previous_torque = np.zeros(1)
@@ -94,7 +95,7 @@ def test_kalman_velocity_error_is_below_the_raw_readings():
 
 def test_kalman_settings_are_checked():
     with pytest.raises(ConfigError, match="acceleration_noise_std"):
-        KalmanConfig(0.005, 0.02, 0.0)
+        configs.kalman(acceleration_noise_std=0.0)
 
 
 def test_delay_margin_counts_the_periods_of_delay_the_loop_survives():

@@ -4,15 +4,14 @@ import numpy as np
 import pytest
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.laws.pid import AntiWindup, DerivativeSource, Pid, PidConfig
+from robot_controller.core.laws.pid import AntiWindup, DerivativeSource, Pid
+from tests.core import configs
 
 DT = 0.01
 
 
 def make(**kw):
-    base = dict(kp=[50.0], ki=[10.0], kd=[5.0], output_limit=[10.0], integral_limit=[10.0])
-    base.update(kw)
-    return Pid(PidConfig(**base))
+    return Pid(configs.pid(**kw))
 
 
 def step(pid, r=0.0, y=0.0, rv=0.0, yv=0.0, ff=0.0, dt=DT):
@@ -77,13 +76,13 @@ def test_bumpless_gain_change_keeps_the_output_continuous():
     pid = make(kp=[0.0], kd=[0.0], ki=[10.0])
     for _ in range(50):
         last = step(pid, r=0.2).command[0]
-    pid.set_config(PidConfig(kp=[0.0], kd=[0.0], ki=[40.0]))
+    pid.set_config(configs.pid(kp=[0.0], kd=[0.0], ki=[40.0]))
     after = step(pid, r=0.2).command[0]
     assert abs(after - last) < 40 * 0.2 * DT * 1.01  # only one period's integration, no jump
 
 
 def test_batch_of_gain_sets_broadcasts():
-    pid = Pid(PidConfig(kp=[10.0, 20.0, 30.0], ki=[0.0], kd=[0.0], output_limit=[100.0]))
+    pid = Pid(configs.pid(kp=[10.0, 20.0, 30.0], ki=[0.0], kd=[0.0], output_limit=[100.0]))
     out = pid.step(DT, np.ones(3), np.zeros(3), np.zeros(3), np.zeros(3))
     np.testing.assert_allclose(out.command, [10, 20, 30])
 

@@ -3,14 +3,15 @@
 import numpy as np
 import pytest
 
-from robot_controller.core.laws.pid import AntiWindup, DerivativeSource, Pid, PidConfig
+from robot_controller.core.laws.pid import AntiWindup, DerivativeSource, Pid
+from tests.core import configs
 
 
 @pytest.mark.parametrize("anti_windup", list(AntiWindup))
 @pytest.mark.parametrize("source", list(DerivativeSource))
 @pytest.mark.parametrize("options", [{}, {"derivative_filter_time_s": 0.02, "slew_rate_limit": 200.0}])
 def test_one_joint_is_a_batch_of_one(anti_windup, source, options):
-    config = PidConfig(
+    config = configs.pid(
         kp=[40.0],
         ki=[15.0],
         kd=[3.0],

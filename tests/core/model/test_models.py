@@ -11,7 +11,6 @@ from robot_controller.core.model import (
     Actuator,
     ArmDynamics,
     MujocoPlant,
-    SensorConfig,
     can_collide,
     load_model,
     measure,
@@ -20,6 +19,7 @@ from robot_controller.core.model import (
 from robot_controller.core.model.mujoco_model import joint_units
 from robot_controller.core.reference import make_trajectory
 from robot_controller.robots import urdf_of
+from tests.core import configs
 
 URDF = resources.default_urdf()
 MASS, LENGTH, DAMPING, G = 1.0, 0.5, 0.1, 9.81
@@ -27,7 +27,7 @@ INERTIA = MASS * LENGTH**2 / 3
 
 
 def test_sensor_noise_is_seeded_and_has_the_configured_spread():
-    cfg = SensorConfig(position_noise_std=0.005, velocity_noise_std=0.02)
+    cfg = configs.sensor(position_noise_std=0.005, velocity_noise_std=0.02)
     q, v = np.zeros(20000), np.zeros(20000)
     a = measure(cfg, q, v, np.random.default_rng(3))
     b = measure(cfg, q, v, np.random.default_rng(3))
@@ -37,7 +37,7 @@ def test_sensor_noise_is_seeded_and_has_the_configured_spread():
 
 
 def test_sensor_quantisation_and_bias():
-    cfg = SensorConfig(position_noise_std=0.0, velocity_noise_std=0.0, position_bias=0.01, quantization=0.004)
+    cfg = configs.sensor(position_noise_std=0.0, velocity_noise_std=0.0, position_bias=0.01, quantization=0.004)
     q, _ = measure(cfg, np.array([0.1234]), np.array([0.0]), np.random.default_rng(0))
     assert q[0] == pytest.approx(0.132)
 
