@@ -85,7 +85,7 @@ def kilohertz(params: cfg.Params) -> cfg.Params:
         {
             "pid_controller": {"control_rate_hz": 1000.0},
             "sensor_node": {"rate_hz": 1000.0},
-            "simulator": {"publish_rate_hz": 1000.0},
+            "simulator": {"publish_rate_hz": 1000.0, "control_rate_hz": 1000.0},  # the loop's one rate
             "trajectory_planner": {"publish_rate_hz": 1000.0},
         },
     )

@@ -16,6 +16,7 @@ from robot_controller.core.model import joint_limits, urdf_velocity_limits
 from robot_controller.core.model.plant_variation import PlantVariation
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import ARM_MODEL_KEYS, arm_model, given
+from robot_controller.parameters.schema import LOOP_WIDE
 from robot_controller.parameters.torque_limits import torque_limit
 
 if TYPE_CHECKING:  # MuJoCo and the trajectories: imported when used
@@ -45,6 +46,7 @@ def check_stack(params: cfg.Params) -> None:
     _check_per_joint(params, joint_count)
     PlantVariation.from_params(params["simulator"], "simulator: ")  # payload or payload_kg, not both
     _check_rates(params)
+    _check_loop_wide(params)
     _check_limits(params, arms["simulator"])
     _check_planner_matches(params, joint_count)
     _check_controller(params, joint_count)
@@ -117,6 +119,15 @@ def _check_rates(params: cfg.Params) -> None:
             steps_per_period(physics_dt, control_period_s)
         except Exception as exc:  # noqa: BLE001 - TimingError
             raise ConfigError(f"pid_controller: control_rate_hz {ctrl['control_rate_hz']:g}: {exc}") from None
+
+
+def _check_loop_wide(params: cfg.Params) -> None:
+    """One value of each loop-wide parameter for every node (``load_stack`` gives each the same)."""
+    for key, nodes in LOOP_WIDE.items():
+        values = {node: params[node][key] for node in nodes}
+        if len(set(values.values())) > 1:
+            said = " but ".join(f"{node}.{key} {value:g}" for node, value in values.items())
+            raise ConfigError(f"{said}: the loop has one {key}; set it once (on one node, or under /**)")
 
 
 def _check_limits(params: cfg.Params, arm: tuple[list[str], np.ndarray, np.ndarray]) -> None:

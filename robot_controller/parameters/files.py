@@ -12,7 +12,7 @@ import yaml
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters as law_params
-from robot_controller.parameters.schema import NODES, REPORTED, ROS_BUILTIN, SCHEMA, defaults, has, spec_of
+from robot_controller.parameters.schema import LOOP_WIDE, NODES, REPORTED, ROS_BUILTIN, SCHEMA, defaults, has, spec_of
 
 Params = dict[str, dict[str, Any]]
 
@@ -112,7 +112,7 @@ def load_stack(
     from robot_controller.parameters.torque_limits import fill_torque_limits
     from robot_controller.robots import robot as named_robot
 
-    layers = [defaults(), named_robot(robot).layer()]
+    layers = [("the schema", defaults()), (f"--robot {robot}", named_robot(robot).layer())]
     files = []
     if preset != "default":
         preset_path = resources.preset_yaml(preset)
@@ -121,12 +121,31 @@ def load_stack(
         files.append(preset_path)
     files += [] if config is None else config if isinstance(config, list) else [config]
     sources = [(Path(path), read_params_file(path)) for path in files]
-    params = merge(*layers, *(layer for _, layer in sources))
+    params = merge(*(layer for _, layer in layers), *(layer for _, layer in sources))
     check_complete(params)
+    one_value_for_the_loop(params, [*layers, *((str(path), layer) for path, layer in sources)])
     # The law controller_type names: found (a file's path made absolute), its law.* values checked, defaults in.
     law_params.settle(params, sources)
     fill_torque_limits(params)
     return params
+
+
+def one_value_for_the_loop(params: Params, layers: list[tuple[str, Params]]) -> None:
+    """Each loop-wide parameter (``LOOP_WIDE``) set on every node that declares it, to the value of the last layer
+    that sets it on any of them: a file that sets pid_controller's control_rate_hz sets the simulator's too.
+
+    :raises ConfigError: a layer gives two nodes different values, naming it and the key
+    """
+    for key, nodes in LOOP_WIDE.items():
+        value = None
+        for where, layer in layers:
+            given = {node: layer[node][key] for node in nodes if key in layer.get(node, {})}
+            if len(set(given.values())) > 1:
+                said = " but ".join(f"{node}.{key} {v:g}" for node, v in given.items())
+                raise ConfigError(f"{where}: {said}: the loop has one {key}; set it once (on one node, or under /**)")
+            value = next(iter(given.values()), value)
+        for node in nodes:
+            params[node][key] = value
 
 
 def available_presets() -> list[str]:

@@ -34,3 +34,19 @@ def test_a_chain_refuses_less_inertia_than_its_links_and_a_gravity_torque_with_t
         arm_model({**values, "model_inertia": [1e-4, 1e-4]})
     with pytest.raises(ConfigError, match=r"model_gravity_torque: on a chain .* model_payload"):
         arm_model({**values, "model_gravity_torque": [1.0, 2.0]})
+
+
+def test_the_configs_are_the_schemas_defaults_with_nothing_of_their_own():
+    """The core's configs have no defaults: made from the schema's values, each field is its parameter's."""
+    values = cfg.node_defaults("pid_controller")
+    config = cfg.controller_config(values, 1)
+    assert (config.controller_type, config.lqr_r, config.feedforward.value) == ("lqr", 10.0, "full")
+    assert config.estimator is not None and config.estimator.command_timing_uncertainty_s == 0.01  # the wall clock's:
+    assert config.estimator.acceleration_noise_std == values["kalman_mismatch_acceleration_noise_std"]  # mismatched
+    assert config.pid.anti_windup.value == values["anti_windup"] and list(config.pid.output_limit) == [10.0]
+    lockstep = cfg.kalman_config(values | {"lockstep": True})
+    assert lockstep.command_timing_uncertainty_s == 0.0 and lockstep.jump_detection_sigma == 5.0
+    sensor = cfg.sensor_config(cfg.node_defaults("sensor_node") | {"delay_s": 0.02})
+    assert (sensor.position_noise_std, sensor.delay_s) == (0.005, 0.02)
+    with pytest.raises(TypeError, match="required"):
+        cfg.sensor_config({"position_noise_std": 0.005})  # a value missing is a bug, never a default of its own

@@ -209,3 +209,45 @@ def test_a_run_whose_gains_leave_a_joint_no_delay_margin_is_refused_at_start(tmp
     path.write_text("pid_controller:\n  ros__parameters:\n    controller_type: pid\n    kp: [50.0, 2000.0]\n")
     with pytest.raises(ConfigError, match=r"pid_controller: controller_type pid: .* joint elbow a delay margin of 0"):
         consistency.check_stack(cfg.load_stack(config=path, robot="planar2"))
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "pid_controller:\n  ros__parameters:\n    control_rate_hz: 50.0\n",
+        "simulator:\n  ros__parameters:\n    control_rate_hz: 50.0\n",
+        "/**:\n  ros__parameters:\n    control_rate_hz: 50.0\n",
+    ],
+)
+def test_the_loop_has_one_control_rate_set_on_any_node(tmp_path, text):
+    path = tmp_path / "rate.yaml"
+    path.write_text(text)
+    params = cfg.load_stack("default", path)
+    assert params["simulator"]["control_rate_hz"] == params["pid_controller"]["control_rate_hz"] == 50.0
+
+
+def test_a_later_file_sets_the_loops_rate_on_either_node(tmp_path):
+    slow, fast = tmp_path / "slow.yaml", tmp_path / "fast.yaml"
+    slow.write_text("pid_controller:\n  ros__parameters:\n    control_rate_hz: 50.0\n")
+    fast.write_text("simulator:\n  ros__parameters:\n    control_rate_hz: 200.0\n")
+    params = cfg.load_stack("default", [slow, fast])
+    assert params["simulator"]["control_rate_hz"] == params["pid_controller"]["control_rate_hz"] == 200.0
+
+
+def test_two_control_rates_for_one_loop_are_refused_naming_the_key(tmp_path):
+    from robot_controller.parameters import consistency
+
+    path = tmp_path / "two.yaml"
+    path.write_text(
+        "pid_controller:\n  ros__parameters:\n    control_rate_hz: 50.0\n"
+        "simulator:\n  ros__parameters:\n    control_rate_hz: 200.0\n"
+    )
+    with pytest.raises(
+        ConfigError,
+        match=r"two.yaml: simulator.control_rate_hz 200 but pid_controller.control_rate_hz 50: the loop has one",
+    ):
+        cfg.load_stack("default", path)
+    params = cfg.load_stack()
+    params["pid_controller"]["control_rate_hz"] = 50.0  # built in code, past the files
+    with pytest.raises(ConfigError, match="the loop has one control_rate_hz"):
+        consistency.check_stack(params)

@@ -4,6 +4,7 @@ holds specs several declare. Rates have a floor and a ceiling: beyond it the loo
 nothing to watch."""
 
 from robot_controller.parameters.schema.nodes import (
+    LOOP_WIDE,
     NODES,
     REPORTED,
     ROS_BUILTIN,
@@ -15,4 +16,15 @@ from robot_controller.parameters.schema.nodes import (
 )
 from robot_controller.parameters.schema.shared import URDF
 
-__all__ = ["NODES", "REPORTED", "ROS_BUILTIN", "SCHEMA", "URDF", "defaults", "has", "node_defaults", "spec_of"]
+__all__ = [
+    "LOOP_WIDE",
+    "NODES",
+    "REPORTED",
+    "ROS_BUILTIN",
+    "SCHEMA",
+    "URDF",
+    "defaults",
+    "has",
+    "node_defaults",
+    "spec_of",
+]

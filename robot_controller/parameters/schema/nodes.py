@@ -15,6 +15,10 @@ ROS_BUILTIN = ("use_sim_time", "start_type_description_service")
 # Parameters a node declares to report something it works out (read-only in effect); a parameter file
 # that holds them (`robot-controller param dump`) is read without them.
 REPORTED = ("law_in_force",)
+# Parameters of the whole loop that several nodes declare: one value for all of them. A parameter file names them
+# on any of these nodes (or under /**); the launcher hands the value to each (``files.load_stack``), and the
+# whole-configuration check refuses two nodes that disagree (``consistency``).
+LOOP_WIDE: dict[str, tuple[str, ...]] = {"control_rate_hz": ("simulator", "pid_controller")}
 
 SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
     "simulator": SIMULATOR_PARAMS,

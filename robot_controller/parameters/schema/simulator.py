@@ -28,7 +28,7 @@ SIMULATOR_PARAMS: tuple[ParamSpec, ...] = (
     lockstep_spec("sim-time lockstep: publish /clock and advance one control period per effort"),
     ParamSpec("real_time_factor", float, 0.0, "lockstep: world seconds per wall second the world keeps pace at, pausing with the host (the default run's 1); 0: as fast as the graph goes", minimum=0.0, maximum=10.0, read_only=True),
     ParamSpec("lockstep_end_s", float, 0.0, "lockstep: publish no tick after this sim time, s (0: none); the launcher sets it a little past --duration, so that the recorder takes every message before the nodes stop", minimum=0.0, read_only=True),
-    ParamSpec("control_rate_hz", float, 100.0, "control rate the lockstep advances by (one period per effort), Hz", minimum=10.0, maximum=1000.0),
+    ParamSpec("control_rate_hz", float, 100.0, "control rate the lockstep advances by (one period per effort), Hz: the loop's one rate, the controller's control_rate_hz (a parameter file sets it on either node, and run gives both the value; two different values are refused)", minimum=10.0, maximum=1000.0),
     ParamSpec("drive_timeout_s", float, 0.05, "efforts missing this long (wall clock) engage the holding brakes and cut the torque (category 0), s; at most 0.2 s, as the motor's command timeout", **POSITIVE, maximum=0.2, **SAFETY),
     ParamSpec("brake_torque_nm", float, 50.0, "holding torque of each joint's brake, N·m (stops the reference arm from 3 rad/s in about 5 ms)", **POSITIVE, **SAFETY),
     # A disturbance at a set physics time (the tutorial's exercise 2), the same input as /sim/disturbance:
