@@ -1,12 +1,13 @@
-"""recorder: the loop's topics, raw (CDR), into an MCAP bag, as ``ros2 bag record`` would, below the loop (nice +10).
-In lockstep it publishes the tick it has taken on ``/recorder/clock``; the simulator holds while it lags. Tells the
-launcher ``@ready``, then ``@progress {json}``; on SIGINT/SIGTERM it records until the topics are quiet (still
-reporting), closes the bag, then tears DDS down under an alarm.
+"""recorder: the topics ``blocks.spec`` records, raw (CDR), into an MCAP bag, as ``ros2 bag record`` would, below
+the loop (nice +10). In lockstep it publishes the tick it has taken (port ``recorder_clock``); the simulator holds
+while it lags. Tells the launcher ``@ready``, then ``@progress {json}``; on SIGINT/SIGTERM it records until the topics
+are quiet (still reporting), closes the bag, then tears DDS down under an alarm.
 ``python -m robot_controller.nodes.recorder BAG_DIR [--sim-time]``"""
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import struct
 import sys
@@ -14,40 +15,16 @@ import time
 from pathlib import Path
 
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Bool, Float64MultiArray
-from trajectory_msgs.msg import JointTrajectory
 
+from robot_controller.blocks import spec
 from robot_controller.ros.process import make_executor, own_context, work_done_teardown_left
-from robot_controller.ros.publishing import RECORDER_CLOCK_TOPIC, RECORDER_NODE
+from robot_controller.ros.publishing import RECORDER_NODE
 from robot_controller.ros.qos import CLOCK_QOS, CONTROL_QOS
 
 # Reliable with a deep queue: the recorder runs below the loop and may be late, never lossy.
 RECORDER_QOS = CONTROL_QOS
-
-# topic → (ROS message class, rosbag2 type name)
-TOPICS = {
-    "/trajectory": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
-    "/joint_states": (JointState, "sensor_msgs/msg/JointState"),
-    "/joint_commands": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
-    "/sim/effort": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
-    "/sim/joint_states": (JointState, "sensor_msgs/msg/JointState"),
-    "/controller/state": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
-}
-TELEMETRY_TOPICS = {
-    "/diagnostics": (DiagnosticArray, "diagnostic_msgs/msg/DiagnosticArray"),
-    "/motor/command_receipts": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
-    "/sim/brakes": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
-    "/sim/brake": (Bool, "std_msgs/msg/Bool"),
-    "/estop": (Bool, "std_msgs/msg/Bool"),
-    "/sim/disturbance": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
-    "/sim/disturbance_applied": (Float64MultiArray, "std_msgs/msg/Float64MultiArray"),
-    "/trajectory_planner/joint_trajectory": (JointTrajectory, "trajectory_msgs/msg/JointTrajectory"),
-}
-CLOCK_TOPIC = {"/clock": (Clock, "rosgraph_msgs/msg/Clock")}
 
 PROGRESS_PERIOD_S = 0.1
 BATCH_PERIOD_S = 0.005
@@ -63,7 +40,14 @@ PROGRESS_PREFIX = "@progress "
 
 
 def topics_for(sim_time: bool) -> dict[str, tuple[type, str]]:
-    return {**TOPICS, **TELEMETRY_TOPICS, **(CLOCK_TOPIC if sim_time else {})}
+    """topic → (ROS message class, rosbag2 type name): every port ``blocks.spec`` records (``sim_time``: lockstep)."""
+    return {p.topic: (message_class(p.msg_type), p.msg_type) for p in spec.recorded_ports(sim_time)}
+
+
+def message_class(type_name: str) -> type:
+    """The rclpy message class of a ROS type name, ``package/msg/Name``."""
+    package, _, name = type_name.split("/")
+    return getattr(importlib.import_module(f"{package}.msg"), name)
 
 
 #: The sim's next tick is at most a control period past the last (10 Hz at the slowest): later is no tick of its.
@@ -89,7 +73,7 @@ class Recorder:
 
         self.node = Node(RECORDER_NODE, context=context, start_parameter_services=False)
         self.sim_time = sim_time
-        #: lockstep: the bag's time base, the sim's latest tick (its /clock, or its true state's stamp just before)
+        #: lockstep: the bag's time base, the sim's latest tick (its clock, or its true state's stamp just before)
         self.clock_ns = 0
         self.clock_taken_s = 0.0  #: when (monotonic s) the latest tick of the time base was taken
         self.writer = Writer(bag_dir, version=9, storage_plugin=StoragePlugin.MCAP)
@@ -100,7 +84,7 @@ class Recorder:
         self.last_message = time.monotonic()
         self.next_checkpoint_s = time.monotonic()  #: monotonic s
         self.next_checkpoint_clock_ns = 0  #: lockstep: the run's clock, ns
-        self.clock_pub = self.node.create_publisher(Clock, RECORDER_CLOCK_TOPIC, CLOCK_QOS) if sim_time else None
+        self.clock_pub = self.node.create_publisher(Clock, spec.RECORDER_CLOCK.topic, CLOCK_QOS) if sim_time else None
         typestore = get_typestore(Stores.ROS2_JAZZY)
         for topic, (msg_class, type_name) in topics_for(sim_time).items():
             connection = self.writer.add_connection(topic, type_name, typestore=typestore)
@@ -109,7 +93,7 @@ class Recorder:
     def _callback(self, topic: str, connection):
         write = self.writer.write
         counts = self.counts
-        sets_time_base = topic in ("/clock", "/sim/joint_states") and self.sim_time
+        sets_time_base = topic in (spec.CLOCK.topic, spec.TRUE_STATE.topic) and self.sim_time
 
         def record(data: bytes) -> None:
             self.taken += 1

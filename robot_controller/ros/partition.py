@@ -1,6 +1,6 @@
 """Who may speak on the loop's topics: each run's Fast DDS profile puts its loop topics in a partition named for the
-run, so a foreign publisher is never matched (isolation, not security); ``/estop``, ``/rosout`` and parameter services
-stay open; ``write_observer_profile`` hears every run. Across hosts (``--peers``, docs/design.md §6) participants speak
+run, so a foreign publisher is never matched (isolation, not security); the e-stop, the log and parameter services stay
+open; ``write_observer_profile`` hears every run. Across hosts (``--peers``, docs/design.md §6) participants speak
 UDPv4 only (netns share ``/dev/shm``), listen only on loopback and the address that reaches the peers, and discover by
 unicast from their ``initialPeersList``."""
 
@@ -16,32 +16,17 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from robot_controller import resources
+from robot_controller.blocks import spec
 from robot_controller.core.errors import ConfigError
 
-# Every topic the nodes use to run the loop; not /estop (a stop must be heard from anyone).
-LOOP_TOPICS = (
-    "/trajectory",
-    "/joint_states",
-    "/joint_commands",
-    "/sim/effort",
-    "/sim/joint_states",
-    "/sim/brake",
-    "/sim/brakes",
-    "/controller/state",
-    "/motor/command_receipts",
-    "/diagnostics",
-    "/clock",
-    "/sim/disturbance",
-    "/sim/disturbance_applied",
-    # A command that moves the arm: heard from the run and the project's tools (observer profile) only.
-    "/trajectory_planner/joint_trajectory",
-    "/clock_probe/request",  # the launchers' clock exchange (nodes.graph_watch)
-    "/clock_probe/reply",
-)
+# Every topic the nodes use to run the loop (``blocks.spec``'s partition ports); not the e-stop (a stop must be heard
+# from anyone).
+LOOP_TOPICS = spec.partition_topics()
 #: Loop topics any ROS client may also hear: written in the run's partition and the default one, read in the run's
-#: only (a foreign publisher of them is never heard). The rest of the arm's public face is outside every partition:
-#: the FollowJointTrajectory action, ``/<controller_name>/joint_trajectory``, ``/robot_description``, ``/estop``.
-PUBLISHED_TOO = ("/joint_states", "/clock")  # /clock: the paced world's time, for clients on use_sim_time
+#: only (a foreign publisher of them is never heard): the readings, and the paced world's clock for clients on
+#: use_sim_time. The rest of the arm's public face is outside every partition: the FollowJointTrajectory action, the
+#: controller's waypoints topic, the robot description, the e-stop.
+PUBLISHED_TOO = spec.public_topics()
 
 #: Set by the launcher in each node's environment: the run's partition name.
 PARTITION_ENV = "ROBOT_CONTROLLER_PARTITION"

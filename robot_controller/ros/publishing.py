@@ -21,8 +21,6 @@ from robot_controller.ros.qos import CONTROL_QOS
 RECORDER_NODE = "recorder"
 VIEWER_NODE = "viewer"
 OBSERVER_NODES = frozenset({RECORDER_NODE, VIEWER_NODE})
-# Lockstep: the tick the recorder has taken (the simulator never runs further ahead than its queues hold).
-RECORDER_CLOCK_TOPIC = "/recorder/clock"
 
 # Set by the launcher when a recorder runs: every publisher then waits for it too (the bag holds every message).
 RECORDED_ENV = "ROBOT_CONTROLLER_RECORDED"

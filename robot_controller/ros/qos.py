@@ -22,7 +22,7 @@ LATEST_QOS = _keep_last(1)
 LATEST_BEST_EFFORT_QOS = _keep_last(1, reliable=False)
 # Lockstep: every message is a tick's, taken in order (the planner sends each a tick early: two may be in flight).
 LOCKSTEP_QOS = _keep_last(100)
-# Lockstep's /joint_states (the sensor's writer, our controller's reader): transient local as well, since it has more
+# Lockstep's readings (the sensor's writer, our controller's reader): transient local as well, since it has more
 # readers than the controller (the planner's action feedback, any ROS client's): one of them can open the sensor's gate
 # (ros.publishing) before the controller matched, and a tick's reading lost so stalls the run for good. A controller
 # that matches late gets the reading outstanding. A volatile reader (the tutorial's controller) matches it all the same.
@@ -31,9 +31,9 @@ LOCKSTEP_READINGS_QOS = _keep_last(1000, latched=True)
 LOCKSTEP_READINGS_READER_QOS = _keep_last(100, latched=True)
 # A state, not an event (the brake request): a late reader, such as a respawned simulator, gets it at once.
 LATCHED_QOS = _keep_last(1, latched=True)
-# /clock in lockstep: a reader that matches late still gets the latest tick.
+# The sim's clock in lockstep: a reader that matches late still gets the latest tick.
 CLOCK_QOS = _keep_last(1000, latched=True)
-# /estop: volatile readers, so `ros2 topic pub /estop` matches; the nodes that obey it latch it, not DDS.
+# The e-stop: volatile readers, so `ros2 topic pub` on it matches; the nodes that obey it latch it, not DDS.
 ESTOP_QOS = LATEST_QOS
 # An observer (the viewer): best effort, short queues; no writer waits for it or resends to it.
 OBSERVER_QOS = _keep_last(50, reliable=False)
@@ -47,3 +47,17 @@ def loop_qos(lockstep: bool) -> QoSProfile:
     if os.environ.get(LOOP_QOS_ENV) == "best_effort":
         return LATEST_BEST_EFFORT_QOS
     return LATEST_QOS
+
+
+def profile(qos_class: str, *, lockstep: bool) -> QoSProfile:
+    """The profile of a port's QoS class (``blocks.spec.QOS_CLASSES``) in this clock mode."""
+    profiles = {
+        "control": CONTROL_QOS,
+        "latest": LATEST_QOS,
+        "loop": loop_qos(lockstep),
+        "readings": LOCKSTEP_READINGS_READER_QOS if lockstep else loop_qos(False),
+        "readings_writer": LOCKSTEP_READINGS_QOS if lockstep else CONTROL_QOS,
+        "latched": LATCHED_QOS,
+        "clock": CLOCK_QOS,
+    }
+    return profiles[qos_class]

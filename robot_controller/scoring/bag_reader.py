@@ -13,16 +13,20 @@ import numpy as np
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
+from robot_controller.blocks import spec
 from robot_controller.core import metrics
 from robot_controller.core.controller import state_layout
 from robot_controller.scoring import bag_recovery
+
+STATE, TRUE_STATE, READING = spec.STATE.topic, spec.TRUE_STATE.topic, spec.READING.topic
+REFERENCE, BRAKES, DISTURBANCE_APPLIED = spec.REFERENCE.topic, spec.BRAKES.topic, spec.DISTURBANCE_APPLIED.topic
 
 
 @dataclass
 class Recording:
     """The loop's signals read back from a bag, as arrays (times in s)."""
 
-    state: dict[str, np.ndarray]  #: /controller/state decoded; ``time_s`` is the controller's tick time
+    state: dict[str, np.ndarray]  #: the controller's state decoded; ``time_s`` is the controller's tick time
     true_time_s: np.ndarray
     true_position: np.ndarray
     true_velocity: np.ndarray
@@ -30,7 +34,7 @@ class Recording:
     counts: dict[str, int] = field(default_factory=dict)
     receipt_s: dict[str, np.ndarray] = field(default_factory=dict)  #: bag receive times per topic
     motor_latency_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: stamp → command at the motor
-    reading_stamp_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: /joint_states stamps
+    reading_stamp_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: the sensor's readings' stamps
     reading_position: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))  #: the raw, noisy readings
     #: the planner's samples: their time (its stamp, else when recorded) and positions
     planned_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -38,17 +42,17 @@ class Recording:
     planned_velocity: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
     #: messages that could not be decoded or did not fit the run's joint count, per topic: skipped
     malformed: dict[str, int] = field(default_factory=dict)
-    #: /sim/brakes: when recorded, and 1/0 per joint
+    #: the brakes' state: when recorded, and 1/0 per joint
     brakes_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     brakes: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
-    #: why each /sim/brakes message says they hold (its label's reasons: ``estop``, ``drive_timeout``…; empty if unsaid)
+    #: why each brakes message says they hold (its label's reasons: ``estop``, ``drive_timeout``…; empty if unsaid)
     brakes_reasons: list[frozenset[str]] = field(default_factory=list)
-    #: /sim/disturbance_applied: the external torque on each joint (N·m) at each time, one zero row after
+    #: the disturbance applied: the external torque on each joint (N·m) at each time, one zero row after
     disturbance_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     disturbance: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
-    #: the joints' names as /sim/joint_states gives them, in the order of every array's columns
+    #: the joints' names as the true state gives them, in the order of every array's columns
     recorded_joint_names: list[str] = field(default_factory=list)
-    #: the extra blocks on /controller/state by name (a law of one's own's ``state_terms``, N·m per joint; the
+    #: the extra blocks on the controller's state by name (a law of one's own's ``state_terms``, N·m per joint; the
     #: inertia adaptation's ``adapted_armature_kgm2``): one row per row of ``state`` (NaN where a message did not
     #: carry the block); empty for a built-in law without the adaptation
     law_terms: dict[str, np.ndarray] = field(default_factory=dict)
@@ -123,49 +127,49 @@ def read_recording(bag_dir: Path) -> Recording:
         )
 
     state_width = state_layout.width(joint_count)
-    states = keep(
-        "/controller/state", decoded["/controller/state"], lambda r: state_layout.fits(len(r[1].data), joint_count)
-    )
+    states = keep(STATE, decoded[STATE], lambda r: state_layout.fits(len(r[1].data), joint_count))
     state_msgs = [msg for _, msg in states]
     state_rows = [np.asarray(msg.data[:state_width], dtype=float) for msg in state_msgs]
     law_terms = _law_terms(state_msgs, joint_count)
     true = keep(
-        "/sim/joint_states",
-        decoded["/sim/joint_states"],
+        TRUE_STATE,
+        decoded[TRUE_STATE],
         lambda r: joint_state_fits(r) and len(r[1].effort) == joint_count,
     )
-    readings = keep("/joint_states", decoded["/joint_states"], joint_state_fits)
+    readings = keep(READING, decoded[READING], joint_state_fits)
     if not state_rows or not true:
-        raise ValueError(f"{bag_dir}: no usable /controller/state or /sim/joint_states recorded")
+        raise ValueError(f"{bag_dir}: no usable {STATE} or {TRUE_STATE} recorded")
     state = state_layout.decode(np.vstack(state_rows), joint_count)
     # Our planner's message is [positions, velocities, accelerations, time_s]; the tutorial's [p, v].
     planned = []
-    for timestamp, msg in decoded["/trajectory"]:
+    for timestamp, msg in decoded[REFERENCE]:
         data = np.asarray(msg.data, dtype=float)
         if len(data) == 3 * joint_count + 1 and np.all(np.isfinite(data)):
             planned.append((data[-1], data[:joint_count], data[joint_count : 2 * joint_count]))
         elif len(data) == 2 * joint_count and np.all(np.isfinite(data)):
             planned.append((timestamp * 1e-9, data[:joint_count], data[joint_count:]))
         else:
-            malformed["/trajectory"] = malformed.get("/trajectory", 0) + 1
+            malformed[REFERENCE] = malformed.get(REFERENCE, 0) + 1
     brakes = keep(
-        "/sim/brakes",
-        [(t, np.asarray(m.data, dtype=float), _brake_reasons(m)) for t, m in decoded["/sim/brakes"]],
+        BRAKES,
+        [(t, np.asarray(m.data, dtype=float), _brake_reasons(m)) for t, m in decoded[BRAKES]],
         lambda r: r[1].size == joint_count,
     )
     # [torque_nm…, time_s] (the simulator's); one torque per joint without the time: when recorded.
     disturbance = []
-    for timestamp, msg in decoded["/sim/disturbance_applied"]:
+    for timestamp, msg in decoded[DISTURBANCE_APPLIED]:
         data = np.asarray(msg.data, dtype=float)
         if data.size == joint_count + 1 and np.all(np.isfinite(data)):
             disturbance.append((float(data[-1]), data[:-1]))
         elif data.size == joint_count and np.all(np.isfinite(data)):
             disturbance.append((timestamp * 1e-9, data))
         else:
-            malformed["/sim/disturbance_applied"] = malformed.get("/sim/disturbance_applied", 0) + 1
-    receipts = [np.asarray(m.data, dtype=float) for _, m in decoded["/motor/command_receipts"]]
+            malformed[DISTURBANCE_APPLIED] = malformed.get(DISTURBANCE_APPLIED, 0) + 1
+    receipts = [np.asarray(m.data, dtype=float) for _, m in decoded[spec.COMMAND_RECEIPTS.topic]]
     receipts = [r for r in receipts if r.size % (1 + joint_count) == 0]
-    latency = [v for _, m in decoded["/motor/command_latency"] for v in m.data]  # bags from before the receipts
+    latency = [
+        v for _, m in decoded[spec.LEGACY_COMMAND_LATENCY.topic] for v in m.data
+    ]  # bags from before the receipts
     if receipts:
         latency = motor_latency_s(state, np.concatenate(receipts).reshape(-1, 1 + joint_count)).tolist()
 
@@ -200,20 +204,12 @@ def read_recording(bag_dir: Path) -> Recording:
     )
 
 
-WANTED_TOPICS = (
-    "/controller/state",
-    "/sim/joint_states",
-    "/motor/command_latency",
-    "/motor/command_receipts",
-    "/joint_states",
-    "/trajectory",
-    "/sim/brakes",
-    "/sim/disturbance_applied",
-)
+#: What scoring reads back (``blocks.spec``'s scored ports).
+WANTED_TOPICS = spec.scored_topics()
 
 
 def _brake_reasons(msg: Any) -> frozenset[str]:
-    """Why ``/sim/brakes`` says they hold (``engaged:estop,requested``); empty if its label does not say."""
+    """Why the brakes' state says they hold (``engaged:estop,requested``); empty if its label does not say."""
     label = msg.layout.dim[0].label if msg.layout.dim else ""
     prefix = "engaged:"  # ros.messages.BRAKES_LABEL_PREFIX, not imported: scoring runs without rclpy
     return frozenset(filter(None, label[len(prefix) :].split(","))) if label.startswith(prefix) else frozenset()
@@ -221,15 +217,15 @@ def _brake_reasons(msg: Any) -> frozenset[str]:
 
 def _joint_count_of(decoded: dict[str, list[tuple[int, Any]]]) -> int:
     """The run's joint count: what most true-state messages carry (a stray one cannot change it)."""
-    sizes = [len(msg.position) for _, msg in decoded["/sim/joint_states"] if len(msg.position) > 0]
+    sizes = [len(msg.position) for _, msg in decoded[TRUE_STATE] if len(msg.position) > 0]
     if not sizes:
-        raise ValueError("no /sim/joint_states with joint positions recorded")
+        raise ValueError(f"no {TRUE_STATE} with joint positions recorded")
     values, counts = np.unique(sizes, return_counts=True)
     return int(values[np.argmax(counts)])
 
 
 def _law_terms(messages: list[Any], joint_count: int) -> dict[str, np.ndarray]:
-    """The extra blocks of ``/controller/state`` by their layout labels (those after the standard ones)."""
+    """The extra blocks of the controller's state by their layout labels (those after the standard ones)."""
     standard = len(state_layout.HEADER) + len(state_layout.FIELDS)
     rows = [
         state_layout.extra(msg.data, joint_count, [dim.label for dim in msg.layout.dim[standard:]]) for msg in messages

@@ -7,6 +7,7 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
+from robot_controller.blocks import spec
 from robot_controller.core.errors import ConfigError
 from robot_controller.ros import partition
 
@@ -48,3 +49,20 @@ def test_a_peer_this_host_has_no_route_to_is_refused_naming_it(monkeypatch):
         ConfigError, match=r"^--peers: no route from this host to 10\.203\.0\.2 \(Network is unreachable\)$"
     ):
         partition.route_source("10.203.0.2")
+
+
+def test_every_port_of_the_partition_has_a_profile_and_the_public_ones_are_written_outside_it_too(tmp_path):
+    root = ET.parse(partition.write_run_profile(tmp_path / "fastdds.xml", "robot_controller_0123456789ab")).getroot()
+
+    def partitions(kind: str) -> dict[str, str]:
+        return {
+            e.get("profile_name"): e.findtext("p:propertiesPolicy/p:properties/p:property/p:value", namespaces=NS)
+            for e in root.findall(f"p:{kind}", NS)
+            if e.get("profile_name", "").startswith("/")
+        }
+
+    writers, readers = partitions("data_writer"), partitions("data_reader")
+    assert set(writers) == set(readers) == set(spec.partition_topics())
+    assert spec.ESTOP.topic not in writers
+    assert {t for t, p in writers.items() if p.startswith(";")} == {spec.READING.topic, spec.CLOCK.topic}
+    assert set(readers.values()) == {"robot_controller_0123456789ab"}

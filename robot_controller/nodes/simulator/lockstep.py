@@ -1,6 +1,6 @@
-"""The simulator's lockstep ticks (``lockstep: true``): it publishes the state and ``/clock`` for tick k,
+"""The simulator's lockstep ticks (``lockstep: true``): it publishes the true state and the clock for tick k,
 then waits; the effort for tick k advances exactly one control period. It holds the next tick while
-the recorder (``/recorder/clock``) is ``RECORDER_LAG_MAX_S`` behind, so no queue overflows."""
+the recorder (its ``recorder_clock``) is ``RECORDER_LAG_MAX_S`` behind, so no queue overflows."""
 
 from __future__ import annotations
 
@@ -8,8 +8,9 @@ import numpy as np
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 
+from robot_controller.blocks import spec
 from robot_controller.core.model import steps_per_period
-from robot_controller.ros.publishing import RECORDER_CLOCK_TOPIC, recorded
+from robot_controller.ros.publishing import recorded
 from robot_controller.ros.qos import CLOCK_QOS
 from robot_controller.ros.stack_node import StackNode
 
@@ -33,12 +34,12 @@ class LockstepTicks:
         self.end_ns = round(end_s * 1e9) if end_s > 0 else None  #: no tick after this (the run's end)
         self.ended = False
         self.steps_per_tick = steps_per_period(node.plant.physics_dt, 1.0 / node.params["control_rate_hz"])
-        self.clock_pub = node.gated_publisher(ClockMsg, "/clock", consumer=False, qos=CLOCK_QOS)
+        self.clock_pub = node.gated_publisher(ClockMsg, spec.CLOCK.topic, consumer=False, qos=CLOCK_QOS)
         self.clock_msg = ClockMsg()
         self.waiting_for_effort = False
         if recorded():
             self.recorder_clock_ns = 0
-            node.create_subscription(ClockMsg, RECORDER_CLOCK_TOPIC, self.recorder_clock, CLOCK_QOS)
+            node.create_subscription(ClockMsg, spec.RECORDER_CLOCK.topic, self.recorder_clock, CLOCK_QOS)
         self.start_poll = node.create_timer(0.05, self.start, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def start(self) -> None:

@@ -1,0 +1,255 @@
+"""The graph spec: every port of the loop and every ROS interface the product serves or uses, with its topic (or
+service, or action) name, message type, QoS class, whether it is in the run's DDS partition, whether the recorder
+records it and scoring reads it back, and who writes it. This is the one module that spells a topic name: nodes, tools,
+the recorder, the partition's profile and the bag reader take them from here (``spec.READING.topic``), so a topic is
+renamed, re-typed or recorded in one line. Plain data: no ROS in it, so the core, scoring and tests read it as well.
+
+The names (``/joint_states``, ``/trajectory``, …) are the tutorial's and ros2_controllers'; users' clients depend on
+them, so they never change."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+#: The QoS classes a port may name; ``ros.qos.profile`` maps each to its profile (docs/design.md's QoS table).
+QOS_CLASSES = (
+    "control",  # reliable, keep 1000: every writer by default, and readers that must keep every message
+    "latest",  # reliable, keep 1: a reader acting on the newest message only
+    "loop",  # a periodic loop topic's acting reader: ``latest`` on the wall clock, every message in lockstep
+    "readings",  # the sensor's readings: ``loop``, transient local in lockstep (a late controller gets tick 0's)
+    "latched",  # reliable, transient local, keep 1: a state a late reader gets at once
+    "readings_writer",  # the sensor's writer: ``control``, transient local in lockstep
+    "clock",  # reliable, transient local, keep 1000: the simulator's ticks
+)
+
+#: When the recorder records a port.
+NEVER, ALWAYS, SIM_TIME = "never", "always", "sim_time"
+
+#: ``writer`` of a port anyone may write: an operator's tool or any ROS client.
+ANYONE = "anyone"
+#: ``{controller_name}`` in a name: the planner parameter ``controller_name`` (ros2_controllers' controller name).
+CONTROLLER_NAME_DEFAULT = "joint_trajectory_controller"
+
+
+@dataclass(frozen=True)
+class Port:
+    """One topic of the graph, named for what it carries."""
+
+    name: str  #: what it carries, as blocks name their inputs and outputs
+    topic: str  #: the ROS topic; ``{controller_name}`` is filled by :meth:`topic_for`
+    msg_type: str  #: the ROS type, ``package/msg/Name``
+    writer: str  #: the node that writes it (or :data:`ANYONE`)
+    qos: str = "control"  #: the QoS class of the reader that acts on it (:data:`QOS_CLASSES`)
+    writer_qos: str = "control"  #: the QoS class of its writer
+    partition: bool = False  #: in the run's DDS partition (a foreign writer is never heard)
+    public: bool = False  #: in the partition, and written in the default one too (any ROS client may hear it)
+    recorded: str = NEVER  #: when the recorder records it (:data:`ALWAYS`, :data:`SIM_TIME`: in lockstep only)
+    scored: bool = False  #: read back from the bag by scoring
+
+    def topic_for(self, controller_name: str) -> str:
+        """The topic for the planner parameter ``controller_name`` (the topic itself if it names none)."""
+        return self.topic.format(controller_name=controller_name)
+
+
+@dataclass(frozen=True)
+class Service:
+    """A ROS service a node of the product serves."""
+
+    name: str
+    service: str  #: the ROS service name
+    srv_type: str  #: ``package/srv/Name``
+    server: str
+
+
+@dataclass(frozen=True)
+class Action:
+    """A ROS action a node of the product serves."""
+
+    name: str
+    action: str  #: the ROS action name; ``{controller_name}`` is filled by :meth:`action_for`
+    action_type: str  #: ``package/action/Name``
+    server: str
+
+    def action_for(self, controller_name: str) -> str:
+        return self.action.format(controller_name=controller_name)
+
+
+_FLOATS = "std_msgs/msg/Float64MultiArray"
+_JOINT_STATE = "sensor_msgs/msg/JointState"
+_BOOL = "std_msgs/msg/Bool"
+_JOINT_TRAJECTORY = "trajectory_msgs/msg/JointTrajectory"
+_STRING = "std_msgs/msg/String"
+_CLOCK = "rosgraph_msgs/msg/Clock"
+
+# The loop.
+#: ``[q…, q̇…, q̈…, time_s]``, the reference (the tutorial's ``[q…, q̇…]`` accepted too)
+REFERENCE = Port(
+    "reference", "/trajectory", _FLOATS, "trajectory_planner", "loop", partition=True, recorded=ALWAYS, scored=True
+)
+#: the sensor's noisy readings, stamped with the sample time
+READING = Port(
+    "reading",
+    "/joint_states",
+    _JOINT_STATE,
+    "sensor_node",
+    "readings",
+    "readings_writer",
+    partition=True,
+    public=True,
+    recorded=ALWAYS,
+    scored=True,
+)
+#: the controller's torque, N·m per joint (its tick's stamp in the layout's first dimension)
+COMMAND = Port("command", "/joint_commands", _FLOATS, "pid_controller", "loop", partition=True, recorded=ALWAYS)
+#: the drive's torque applied to the world, N·m per joint
+EFFORT = Port("effort", "/sim/effort", _FLOATS, "motor_node", "loop", partition=True, recorded=ALWAYS)
+#: the world's true state (q, q̇, applied effort), stamped with its physics time
+TRUE_STATE = Port(
+    "true_state", "/sim/joint_states", _JOINT_STATE, "simulator", "loop", partition=True, recorded=ALWAYS, scored=True
+)
+#: every term of the controller's tick (``core.controller.state_layout``)
+STATE = Port("state", "/controller/state", _FLOATS, "pid_controller", partition=True, recorded=ALWAYS, scored=True)
+
+# Telemetry and safety.
+#: the controller's timing over the last second
+DIAGNOSTICS = Port(
+    "diagnostics",
+    "/diagnostics",
+    "diagnostic_msgs/msg/DiagnosticArray",
+    "pid_controller",
+    partition=True,
+    recorded=ALWAYS,
+)
+#: rows of ``[receipt_time_s, command…]``, once a second
+COMMAND_RECEIPTS = Port(
+    "command_receipts", "/motor/command_receipts", _FLOATS, "motor_node", partition=True, recorded=ALWAYS, scored=True
+)
+#: 1 = a joint's brake engaged; why, in the label (``engaged:drive_timeout``)
+BRAKES = Port("brakes", "/sim/brakes", _FLOATS, "simulator", "latest", partition=True, recorded=ALWAYS, scored=True)
+#: the drive's brake request (a state, latched)
+BRAKE_REQUEST = Port(
+    "brake_request", "/sim/brake", _BOOL, "motor_node", "latched", "latched", partition=True, recorded=ALWAYS
+)
+#: true = stop; outside every partition: a stop is heard from anyone
+ESTOP = Port("estop", "/estop", _BOOL, ANYONE, "latest", recorded=ALWAYS)
+#: ``[torque_nm…, duration_s]``, an external torque asked for
+DISTURBANCE = Port("disturbance", "/sim/disturbance", _FLOATS, ANYONE, "latest", partition=True, recorded=ALWAYS)
+#: ``[torque_nm…, time_s]`` while an external torque acts, one zero row after
+DISTURBANCE_APPLIED = Port(
+    "disturbance_applied",
+    "/sim/disturbance_applied",
+    _FLOATS,
+    "simulator",
+    partition=True,
+    recorded=ALWAYS,
+    scored=True,
+)
+#: the sim's time, lockstep and the paced world (clients on ``use_sim_time`` hear it)
+CLOCK = Port("clock", "/clock", _CLOCK, "simulator", "latched", "clock", partition=True, public=True, recorded=SIM_TIME)
+#: lockstep: the tick the recorder has taken (the simulator holds while it lags)
+RECORDER_CLOCK = Port("recorder_clock", "/recorder/clock", _CLOCK, "recorder", "clock", "clock")
+
+# The arm's face to ROS clients.
+#: a waypoint trajectory replacing the planner's motion, in the run's partition (the project's tools)
+WAYPOINTS = Port(
+    "waypoints",
+    "/trajectory_planner/joint_trajectory",
+    _JOINT_TRAJECTORY,
+    ANYONE,
+    "latest",
+    partition=True,
+    recorded=ALWAYS,
+)
+#: the same, as JointTrajectoryController's topic, outside every partition
+CONTROLLER_WAYPOINTS = Port(
+    "controller_waypoints", "/{controller_name}/joint_trajectory", _JOINT_TRAJECTORY, ANYONE, "latest"
+)
+#: the arm's URDF, latched (as robot_state_publisher's)
+ROBOT_DESCRIPTION = Port("robot_description", "/robot_description", _STRING, "sensor_node", "latched", "latched")
+#: every node's log lines (rclpy's): where a rejected goal's reason is read back
+ROSOUT = Port("rosout", "/rosout", "rcl_interfaces/msg/Log", ANYONE)
+
+# The launchers' clock exchange across hosts (``nodes.graph_watch``).
+CLOCK_PROBE_REQUEST = Port("clock_probe_request", "/clock_probe/request", _STRING, "graph_watch", partition=True)
+CLOCK_PROBE_REPLY = Port("clock_probe_reply", "/clock_probe/reply", _STRING, "graph_watch", partition=True)
+
+#: Bags from before the command receipts: the motor's latency, s (read if there, written no more).
+LEGACY_COMMAND_LATENCY = Port("command_latency", "/motor/command_latency", _FLOATS, "motor_node", scored=True)
+
+PORTS = (
+    REFERENCE,
+    READING,
+    COMMAND,
+    EFFORT,
+    TRUE_STATE,
+    STATE,
+    DIAGNOSTICS,
+    COMMAND_RECEIPTS,
+    BRAKES,
+    BRAKE_REQUEST,
+    ESTOP,
+    DISTURBANCE,
+    DISTURBANCE_APPLIED,
+    WAYPOINTS,
+    CLOCK,
+    RECORDER_CLOCK,
+    CONTROLLER_WAYPOINTS,
+    ROBOT_DESCRIPTION,
+    ROSOUT,
+    CLOCK_PROBE_REQUEST,
+    CLOCK_PROBE_REPLY,
+    LEGACY_COMMAND_LATENCY,
+)
+
+#: the simulator's e-stop button (true = stop), as ``robot-controller estop`` presses it
+ESTOP_SERVICE = Service("estop_button", "/simulator/estop", "std_srvs/srv/SetBool", "simulator")
+#: the planner's FollowJointTrajectory action, as JointTrajectoryController serves it (MoveIt's client)
+FOLLOW_JOINT_TRAJECTORY = Action(
+    "follow_joint_trajectory",
+    "/{controller_name}/follow_joint_trajectory",
+    "control_msgs/action/FollowJointTrajectory",
+    "trajectory_planner",
+)
+SERVICES = (ESTOP_SERVICE,)
+ACTIONS = (FOLLOW_JOINT_TRAJECTORY,)
+
+
+def port(name: str) -> Port:
+    """The port named ``name``, or KeyError naming the known ones."""
+    for candidate in PORTS:
+        if candidate.name == name:
+            return candidate
+    raise KeyError(f"no port {name!r}; the spec has {', '.join(p.name for p in PORTS)}")
+
+
+def partition_topics() -> tuple[str, ...]:
+    """Every topic in the run's DDS partition (``ros.partition`` writes a profile for each)."""
+    return tuple(p.topic for p in PORTS if p.partition)
+
+
+def public_topics() -> tuple[str, ...]:
+    """Partition topics written in the default partition too: any ROS client may hear them."""
+    return tuple(p.topic for p in PORTS if p.public)
+
+
+def recorded_ports(sim_time: bool) -> tuple[Port, ...]:
+    """What the recorder records: every :data:`ALWAYS` port, and the :data:`SIM_TIME` ones in lockstep."""
+    return tuple(p for p in PORTS if p.recorded == ALWAYS or (sim_time and p.recorded == SIM_TIME))
+
+
+def scored_topics() -> tuple[str, ...]:
+    """What scoring reads back from a bag."""
+    return tuple(p.topic for p in PORTS if p.scored)
+
+
+#: The blocks a node of the graph may run, by the name its ``block`` parameter gives (``module:Class``; the first is
+#: the default). A block of one's own is one module and one line here; the node, its topics and the in-process loop
+#: host it as they host ours.
+BLOCKS = {
+    "sensor_node": {
+        "encoder": "robot_controller.blocks.encoder:Encoder",
+    },
+    "motor_node": {
+        "drive": "robot_controller.blocks.drive:Drive",
+    },
+}
