@@ -253,3 +253,11 @@ BLOCKS = {
         "drive": "robot_controller.blocks.drive:Drive",
     },
 }
+
+
+#: The blocks each node of the graph may run, by the name its ``block`` parameter gives (the first without one):
+#: ``module:Class`` (``blocks.registry`` imports only the one chosen).
+BLOCKS: dict[str, dict[str, str]] = {
+    "motor_node": {"drive": "robot_controller.blocks.drive:Drive"},
+    "sensor_node": {"encoder": "robot_controller.blocks.encoder:Encoder"},
+}
