@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import argparse
 import signal
-import struct
 import sys
 import threading
 import time
@@ -14,18 +13,27 @@ import uuid
 from pathlib import Path
 
 import numpy as np
+from rosbags.typesys import Stores, get_typestore
 
 from robot_controller.core.controller import state_layout
 from robot_controller.ros import scheduling
 from robot_controller.ros.messages import stamp_to_s
 from robot_controller.ros.publishing import VIEWER_NODE
 from robot_controller.ros.qos import OBSERVER_QOS
-from robot_controller.view import cdr
 
 FLUSH_PERIOD_S = 0.1  # the browser's arm moves 10 times a second...
 SERIES_PERIOD_S = 0.2  # ...and its plots 5 times (each send costs CPU, per entity)
 FILE_PERIOD_S = 2.0  # view.rrd is written in chunks of 2 s
 READY_PREFIX = "live view at "
+TYPESTORE = get_typestore(Stores.ROS2_JAZZY)  # the raw CDR read as the bag reader reads it
+
+
+def decode(data: bytes, msgtype: str):
+    """A message from its raw CDR bytes (``sensor_msgs/msg/JointState``…), or None if they are not one."""
+    try:
+        return TYPESTORE.deserialize_cdr(data, msgtype)
+    except Exception:  # noqa: BLE001 - any bytes that are not the type: dropped, as scoring skips them
+        return None
 
 
 class Viewer:
@@ -50,13 +58,13 @@ class Viewer:
         self.node.create_subscription(JointState, "/joint_states", self._measured, self.qos, raw=True)
         self.node.create_subscription(Float64MultiArray, "/trajectory", self._planned, self.qos, raw=True)
 
-    # The callbacks only read the numbers out of the raw CDR (``view.cdr``; unreadable: dropped).
+    # The callbacks take raw CDR (rosbags decodes it faster than rclpy; unreadable: dropped).
 
     def _joint_state(self, data: bytes):
-        try:
-            stamp, names, position, effort = cdr.joint_state(data)
-        except (ValueError, struct.error):
+        msg = decode(data, "sensor_msgs/msg/JointState")
+        if msg is None:
             return None
+        stamp, names, position, effort = stamp_to_s(msg.header.stamp), msg.name, msg.position, msg.effort
         if self.order is None and names:
             try:
                 self.order = [names.index(j) for j in self.joints]
@@ -82,10 +90,8 @@ class Viewer:
 
     @staticmethod
     def _array(data: bytes) -> np.ndarray | None:
-        try:
-            return cdr.float64_array(data)
-        except (ValueError, struct.error):
-            return None
+        msg = decode(data, "std_msgs/msg/Float64MultiArray")
+        return None if msg is None else msg.data
 
     def _state(self, data: bytes) -> None:
         values = self._array(data)
@@ -137,12 +143,10 @@ def main(argv: list[str] | None = None) -> int:
     from robot_controller.ros.process import make_executor
     from robot_controller.view import layout
     from robot_controller.view import serve as serving
+    from robot_controller.view.arm import Arm
     from robot_controller.view.feed import Outlet, ViewFeed
-    from robot_controller.view.from_bag import stack_joint_order
-    from robot_controller.view.urdf_arm import load_arm
 
-    urdf = resources.resolve_urdf(args.urdf)
-    arm = load_arm(urdf, stack_joint_order(urdf))
+    arm = Arm(resources.resolve_urdf(args.urdf))
     # Listening first (what arrives waits in the readers' short queues), then rerun and its servers.
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
@@ -154,7 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     # The file gets few chunks (FILE_PERIOD_S): its footer (a line per chunk, held until the end) stays small.
     serving.set_sinks(saved, rrd=args.rrd, serve=False, blueprint=layout.blueprint(arm, live=True))
     for rec in (live, saved):
-        layout.log_styles(rec, arm.joint_names, layout.joint_units(arm))
+        layout.log_styles(rec, arm.joint_names, arm.units)
         layout.log_scene(rec, arm)
     web = serving.serve_web(uri, args.port)
     said = f"{serving.page_url(args.port)} (the page and its data on this one port; saved to {args.rrd})"

@@ -12,9 +12,9 @@ import numpy as np
 from robot_controller.core.controller import state_layout
 from robot_controller.scoring import bag_reader, report
 from robot_controller.view import layout
+from robot_controller.view.arm import Arm
 from robot_controller.view.outlet import Outlet
 from robot_controller.view.thinning import Decimator
-from robot_controller.view.urdf_arm import ArmModel
 
 SERIES_HZ = 50.0
 POSE_HZ = 20.0
@@ -36,7 +36,7 @@ def reference_in_force(
 class ViewFeed:
     """Collects the loop's samples and hands them, thinned, to its outlets on ``flush``."""
 
-    def __init__(self, outlets: list[Outlet], arm: ArmModel, *, nominal_period_s: float, live: bool = True) -> None:
+    def __init__(self, outlets: list[Outlet], arm: Arm, *, nominal_period_s: float, live: bool = True) -> None:
         self.outlets = outlets
         self.arm = arm
         self.joints = arm.joint_names

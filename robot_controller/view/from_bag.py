@@ -14,8 +14,8 @@ import numpy as np
 from robot_controller import resources
 from robot_controller.view import layout
 from robot_controller.view import serve as serving
+from robot_controller.view.arm import Arm
 from robot_controller.view.feed import Outlet, ViewFeed
-from robot_controller.view.urdf_arm import ArmModel, load_arm
 
 if TYPE_CHECKING:
     from robot_controller.scoring.bag_reader import Recording
@@ -31,13 +31,6 @@ def run_setup(run_dir: Path) -> tuple[Path, float]:
     urdf = resources.resolve_urdf(params.get("simulator", {}).get("urdf_path", ""))
     rate = float(params.get("pid_controller", {}).get("control_rate_hz", 100.0))
     return urdf, 1.0 / rate
-
-
-def stack_joint_order(urdf: Path) -> list[str]:
-    """The joints in the order of every array of the stack (MuJoCo's)."""
-    from robot_controller.core.model import joint_names, load_model
-
-    return joint_names(load_model(urdf))
 
 
 def _telemetry(bag_dir: Path) -> tuple[list[tuple[float, float]], list[np.ndarray]]:
@@ -69,7 +62,7 @@ def _telemetry(bag_dir: Path) -> tuple[list[tuple[float, float]], list[np.ndarra
 
 @dataclass
 class SavedRun:
-    arm: ArmModel
+    arm: Arm
     period_s: float
     recording: Recording
     diagnostics: list[tuple[float, float]]
@@ -85,7 +78,7 @@ def load_run(run_dir: Path) -> SavedRun:
 
     urdf, period = run_setup(run_dir)
     recording = read_recording(run_dir / "bag")
-    arm = load_arm(urdf, stack_joint_order(urdf))
+    arm = Arm(urdf)
     if len(arm.joint_names) != recording.joint_count:
         raise ValueError(f"{run_dir}: the bag has {recording.joint_count} joint(s), {urdf} {len(arm.joint_names)}")
     diagnostics, receipts = _telemetry(run_dir / "bag")
@@ -97,7 +90,7 @@ def log_run(rec, run: SavedRun) -> None:
     from robot_controller.core.controller import state_layout
 
     arm, recording = run.arm, run.recording
-    layout.log_styles(rec, arm.joint_names, layout.joint_units(arm))
+    layout.log_styles(rec, arm.joint_names, arm.units)
     layout.log_scene(rec, arm)
     feed = ViewFeed([Outlet(rec, float("inf"))], arm, nominal_period_s=run.period_s, live=False)
     s = recording.state

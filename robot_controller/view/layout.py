@@ -7,9 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from robot_controller.scoring.plots import TRACES, quantity
-from robot_controller.view.arm import log_static
-from robot_controller.view.kinematics import view_sphere
-from robot_controller.view.urdf_arm import ArmModel, entity_part
+from robot_controller.view.arm import Arm, entity_part
 
 APPLICATION_ID = "robot_controller"
 TIMELINE = "time"  #: seconds since the controller's first tick
@@ -71,12 +69,6 @@ def series_label(series: str, units: list[str]) -> str:
     return SERIES[series][1].format(q=quantity(units))
 
 
-def joint_units(arm: ArmModel) -> list[str]:
-    """Each joint's position unit: m on a prismatic joint, else rad."""
-    slides = {joint.name for _, joint in arm.joints() if joint.kind == "prismatic"}
-    return ["m" if name in slides else "rad" for name in arm.joint_names]
-
-
 def log_styles(rec, joint_names: list[str], units: list[str] | None = None) -> None:
     """Names, colours and widths of every series (static); ``units``: each joint's (default rad)."""
     import rerun as rr
@@ -92,7 +84,7 @@ def log_styles(rec, joint_names: list[str], units: list[str] | None = None) -> N
             rec.log(series_path(series, joint, n), style, static=True)
 
 
-def log_scene(rec, arm: ArmModel) -> None:
+def log_scene(rec, arm: Arm) -> None:
     """The static 3-D scene: axes convention, a pedestal up to the first joint, the arm's shapes (one per pose)."""
     import rerun as rr
 
@@ -101,16 +93,16 @@ def log_scene(rec, arm: ArmModel) -> None:
     if z > 0.05:  # the arm's first joint stands on something: draw it
         shape = {"lengths": [z - 0.04], "radii": [0.03], "colors": [[95, 95, 105]], "fill_mode": "solid"}
         rec.log(f"{WORLD}/pedestal", rr.Cylinders3D(centers=[[x, y, 0.5 * z - 0.02]], **shape), static=True)
-    log_static(rec, arm, ARM, list(POSES.values()))
+    arm.log_static(rec, ARM, list(POSES.values()))
 
 
-def blueprint(arm: ArmModel, *, live: bool):
+def blueprint(arm: Arm, *, live: bool):
     """The saved layout: 3-D view left, time series right (position, tracking error, torque, timing). Live, the plots
     scroll over the last ``LIVE_WINDOW_S``; built from a bag, they show the whole run."""
     import rerun.blueprint as rrb
 
     # From the front (−y: the reference arm moves in the x-z plane), a little above and aside, the whole sweep in view.
-    target, radius = view_sphere(arm)
+    target, radius = arm.sphere
     direction = np.array([0.35, -1.0, 0.3])
     distance = max(0.8, 3.2 * radius)  # the sphere across the 3-D view's narrow width
     eye = rrb.EyeControls3D(
@@ -131,8 +123,8 @@ def blueprint(arm: ArmModel, *, live: bool):
         return rrb.TimeSeriesView(origin=origin, name=name, time_ranges=ranges, **more)
 
     joints = arm.joint_names
-    slides = [joint.name for _, joint in arm.joints() if joint.kind == "prismatic"]  # in m, mm and N
-    what = quantity(joint_units(arm))
+    slides = [joint for joint, unit in zip(joints, arm.units, strict=True) if unit == "m"]  # in m, mm and N
+    what = quantity(arm.units)
     panels = {joint: PANELS["m" if joint in slides else "rad"] for joint in joints}
 
     def overview(k: int, title: str, revolute: str, prismatic: str) -> str:

@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from robot_controller.view import layout
-from robot_controller.view.arm import pose_columns
-from robot_controller.view.urdf_arm import ArmModel
+from robot_controller.view.arm import Arm
 
 
 class Outlet:
@@ -20,13 +19,13 @@ class Outlet:
         self.pose_period_s = period_s if pose_period_s is None else pose_period_s
         self.next_send = self.next_pose_send = 0.0
         self.scalars: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
-        self.arm: ArmModel | None = None
+        self.arm: Arm | None = None
         self.poses: list[tuple[np.ndarray, np.ndarray]] = []  #: (t (m,), q (m, poses, joints))
 
     def add_scalars(self, path: str, t: np.ndarray, v: np.ndarray) -> None:
         self.scalars.setdefault(path, []).append((t, v))
 
-    def add_poses(self, arm: ArmModel, t: np.ndarray, q: np.ndarray) -> None:
+    def add_poses(self, arm: Arm, t: np.ndarray, q: np.ndarray) -> None:
         self.arm = arm
         self.poses.append((t, q))
 
@@ -51,6 +50,6 @@ class Outlet:
             self.next_pose_send = now + self.pose_period_s
             t, q = np.concatenate([p[0] for p in self.poses]), np.concatenate([p[1] for p in self.poses])
             time = [rr.TimeColumn(layout.TIMELINE, duration=t)]
-            for path, columns in pose_columns(self.arm, layout.ARM, q):
+            for path, columns in self.arm.pose_columns(layout.ARM, q):
                 self.rec.send_columns(path, indexes=time, columns=columns)
             self.poses.clear()

@@ -1,16 +1,17 @@
-"""The view draws any arm from its URDF: the Franka Panda's (meshes, a chain of seven
-revolute joints with rotated origins), posed as MuJoCo poses it, and its plots per joint."""
+"""The view draws any arm from its MuJoCo model: the Franka Panda's (meshes, a chain of seven
+revolute joints with rotated origins), posed by MuJoCo, and its plots per joint."""
 
 from __future__ import annotations
 
 import importlib.metadata
 
+import mujoco
 import numpy as np
 import pytest
 
 from robot_controller.core.controller import state_layout
 from robot_controller.view import arm as arm_view
-from robot_controller.view import feed, kinematics, layout, urdf_arm
+from robot_controller.view import feed, layout
 from tests.view.test_view import FakeRecording
 
 PANDA_JOINTS = [f"panda_joint{k}" for k in range(1, 8)]
@@ -30,49 +31,40 @@ def panda_urdf():
 
 @pytest.fixture(scope="module")
 def panda_arm(panda_urdf):
-    from robot_controller.view.from_bag import stack_joint_order
-
-    return urdf_arm.load_arm(panda_urdf, stack_joint_order(panda_urdf))
+    return arm_view.Arm(panda_urdf)
 
 
-def test_the_panda_is_a_chain_of_seven_revolute_joints_drawn_with_meshes(panda_arm):
-    assert panda_arm.joint_names == PANDA_JOINTS
-    moving = [(parent, joint) for parent, joint in panda_arm.joints() if joint.kind in urdf_arm.MOVING]
-    assert [joint.name for _, joint in moving] == PANDA_JOINTS
-    assert all(joint.kind == "revolute" for _, joint in moving)
-    for (_, before), (parent, _) in zip(moving, moving[1:], strict=False):
-        assert parent is before.child  # a serial chain: each joint moves the next one's link
-    assert any(joint.rpy != (0.0, 0.0, 0.0) for _, joint in moving)  # rotated origins, as a real arm has
-    meshes = {link.name: v for link in panda_arm.links() for v in link.visuals if v.kind == "mesh"}
-    assert {f"panda_link{k}" for k in range(8)} | {"panda_hand"} <= set(meshes)
-    for visual in meshes.values():
-        assert visual.mesh.is_file() and visual.mesh.suffix == ".stl"
-        assert 0.0 < np.linalg.norm(visual.centre) < 0.2  # read from the file: the link's bulk, near its frame
-    target, radius = kinematics.view_sphere(panda_arm)
-    frames = kinematics.link_frames(panda_arm, np.zeros((1, 7)))
-    assert max(np.linalg.norm(position[0] - target) for _, position in frames.values()) < radius < 0.8
+def test_the_panda_is_drawn_with_its_meshes_and_framed_whole(panda_arm):
+    assert panda_arm.joint_names == PANDA_JOINTS and panda_arm.units == ["rad"] * 7
+    model = panda_arm.model
+    meshes = {
+        part.split("/")[0]
+        for g, part in zip(panda_arm.geoms, panda_arm.parts, strict=True)
+        if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH
+    }
+    assert meshes == {f"panda_link{k}" for k in range(8)} | {"panda_hand"}
+    assert all(model.geom_contype[g] == 0 for g in panda_arm.geoms)  # the visuals, not the collision shapes too
+    target, radius = panda_arm.sphere
+    position, _, anchor, _ = panda_arm.poses(np.zeros((1, 7)))
+    assert max(np.linalg.norm(p - target) for p in [*position[0], *anchor[0]]) < radius < 0.8
     assert 0.333 < target[2] < 1.0  # about the middle of the arm (standing at its zero pose), not its first joint
 
 
-def test_forward_kinematics_agree_with_mujoco_on_the_panda(panda_urdf, panda_arm):
-    import mujoco
-
-    from robot_controller.core.model import joint_names, load_model
-
-    model = load_model(panda_urdf)
-    data = mujoco.MjData(model)
+def test_each_pose_is_placed_in_its_own_rows(panda_arm):
+    """Rows are sample-major, pose-minor: each ghost's mesh is placed where MuJoCo poses its own joint vector."""
     rng = np.random.default_rng(3)
-    q = np.vstack([READY, rng.uniform(-1.5, 1.5, (4, 7))])
-    frames = kinematics.link_frames(panda_arm, q)
-    for row, values in enumerate(q):
-        for name, value in zip(joint_names(model), values, strict=True):
-            data.qpos[model.jnt_qposadr[model.joint(name).id]] = value
-        mujoco.mj_kinematics(model, data)
-        for link in ("panda_link1", "panda_link4", "panda_link7", "panda_hand"):
-            rotation, position = frames[link]
-            body = model.body(link).id
-            np.testing.assert_allclose(position[row], data.xpos[body], atol=1e-6, err_msg=link)
-            np.testing.assert_allclose(rotation[row], data.xmat[body].reshape(3, 3), atol=1e-6, err_msg=link)
+    q = READY + rng.uniform(-0.5, 0.5, (2, 3, 7))  # 2 samples, the true arm and two ghosts, 7 joints
+    columns = dict(panda_arm.pose_columns("world/arm", q))
+    model, data = panda_arm.model, mujoco.MjData(panda_arm.model)
+    mesh = model.geom_dataid.tolist()
+    geom = next(g for g in panda_arm.geoms if model.geom_bodyid[g] == model.body("panda_link4").id and mesh[g] >= 0)
+    for pose, path in enumerate(("visual_0", "visual_0/ghost_1", "visual_0/ghost_2")):
+        rows = list(columns[f"world/arm/panda_link4/{path}"])[0].as_arrow_array().to_pylist()
+        translations = np.asarray(rows, dtype=float)
+        for sample in range(2):
+            data.qpos[:] = q[sample, pose]
+            mujoco.mj_kinematics(model, data)
+            np.testing.assert_allclose(translations.reshape(-1, 3)[sample], data.geom_xpos[geom], atol=1e-6)
 
 
 def test_the_panda_is_logged_mesh_by_mesh_with_its_ghosts(panda_arm):
@@ -84,13 +76,13 @@ def test_the_panda_is_logged_mesh_by_mesh_with_its_ghosts(panda_arm):
         def log(self, path, entry, static=False):
             logged.append((path, entry))
 
-    arm_view.log_static(Log(), panda_arm, "world/arm", list(layout.POSES.values()))
-    assets = [path for path, entry in logged if isinstance(entry, rr.Asset3D)]
-    assert "world/arm/panda_link4/visual_0" in assets
-    assert "world/arm/panda_link4/visual_0/ghost_1" in assets and "world/arm/panda_link4/visual_0/ghost_2" in assets
-    assert len(assets) == 3 * 9  # link0…link7 and the hand, each true and two ghosts
-    poses = dict(arm_view.pose_columns(panda_arm, "world/arm", np.broadcast_to(READY, (4, 3, 7))))
-    assert set(assets) <= set(poses)  # every mesh entity is placed
+    panda_arm.log_static(Log(), "world/arm", list(layout.POSES.values()))
+    meshes = [path for path, entry in logged if isinstance(entry, rr.Mesh3D)]
+    assert "world/arm/panda_link4/visual_0" in meshes
+    assert "world/arm/panda_link4/visual_0/ghost_1" in meshes and "world/arm/panda_link4/visual_0/ghost_2" in meshes
+    assert len(meshes) == 3 * 9  # link0…link7 and the hand, each true and two ghosts
+    poses = dict(panda_arm.pose_columns("world/arm", np.broadcast_to(READY, (4, 3, 7))))
+    assert set(meshes) <= set(poses)  # every mesh entity is placed
     assert {f"world/arm/hubs/{name}" for name in PANDA_JOINTS} <= set(poses)
 
 
@@ -117,10 +109,8 @@ def test_every_joint_has_its_series_named_and_the_plots_in_tabs(panda_arm):
 
 def test_a_prismatic_joints_plots_are_in_metres_and_newtons():
     from robot_controller.robots import urdf_of
-    from robot_controller.view.from_bag import stack_joint_order
 
-    path = urdf_of("scara")
-    _, plots = layout.blueprint(urdf_arm.load_arm(path, stack_joint_order(path)), live=True).root_container.contents
+    _, plots = layout.blueprint(arm_view.Arm(urdf_of("scara")), live=True).root_container.contents
     overview, shoulder, _, quill = plots.contents[0].contents
     titles = [str(view.name) for view in overview.contents]
     assert titles[0] == "tracking error, reference − true position [mrad; mm on quill]", titles

@@ -26,7 +26,7 @@ from robot_controller import resources
 from robot_controller.core.controller import state_layout
 from robot_controller.core.errors import ConfigError
 from robot_controller.view import arm as arm_view
-from robot_controller.view import cdr, feed, kinematics, layout, urdf_arm
+from robot_controller.view import feed, layout
 from robot_controller.view import serve as serving
 from tests.rostools import run_said
 
@@ -90,7 +90,7 @@ def test_reference_in_force_interpolates_and_skips_idle_ticks():
 
 
 def test_feed_thins_the_loop_to_browser_rates_and_stays_bounded():
-    arm = urdf_arm.load_arm(resources.default_urdf())
+    arm = arm_view.Arm(resources.default_urdf())
     live, saved = FakeRecording(), FakeRecording()
     view = feed.ViewFeed([feed.Outlet(live, 0.2, 0.1), feed.Outlet(saved, 2.0)], arm, nominal_period_s=0.01)
     width = state_layout.width(1)
@@ -125,51 +125,45 @@ def test_feed_thins_the_loop_to_browser_rates_and_stays_bounded():
     assert len(view.measured_in) == feed.MAX_PENDING
 
 
-def test_cdr_reader_matches_rclpy():
+def test_the_viewer_reads_raw_messages_as_rclpy_wrote_them():
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
+    from robot_controller.nodes.viewer import decode
+
     msg = JointState(name=["joint1", "joint2"], position=[0.5, -0.25], velocity=[1.0, 2.0], effort=[3.0, -4.0])
     msg.header.stamp.sec, msg.header.stamp.nanosec, msg.header.frame_id = 12, 250_000_000, "base"
-    stamp, names, position, effort = cdr.joint_state(serialize_message(msg))
-    assert (stamp, names, position.tolist(), effort.tolist()) == (
-        12.25,
-        ["joint1", "joint2"],
-        [0.5, -0.25],
-        [3.0, -4.0],
-    )
+    got = decode(serialize_message(msg), "sensor_msgs/msg/JointState")
+    assert (got.header.stamp.sec, got.header.stamp.nanosec, got.name) == (12, 250_000_000, ["joint1", "joint2"])
+    assert (got.position.tolist(), got.effort.tolist()) == ([0.5, -0.25], [3.0, -4.0])
     array = Float64MultiArray(data=[1.0, 2.5, -3.0])
     array.layout.dim = [MultiArrayDimension(label="header", size=3, stride=3)]
-    assert cdr.float64_array(serialize_message(array)).tolist() == [1.0, 2.5, -3.0]
-    with pytest.raises((ValueError, Exception)):
-        cdr.joint_state(b"\x00\x01\x00\x00\x01")
+    assert decode(serialize_message(array), "std_msgs/msg/Float64MultiArray").data.tolist() == [1.0, 2.5, -3.0]
+    assert decode(b"\x00\x01\x00\x00\x01", "sensor_msgs/msg/JointState") is None  # not one: dropped
 
 
-def test_arm_from_the_reference_urdf_posed_by_forward_kinematics():
-    arm = urdf_arm.load_arm(resources.default_urdf(), ["joint1"])
-    assert arm.joint_names == ["joint1"]
-    assert arm.base_xyz == (0.0, 0.0, 1.0)
-    assert 0.45 < arm.reach_m < 0.6
-    ((parent, joint),) = arm.joints()
-    assert (parent.name, joint.name, joint.kind, joint.axis) == ("base_link", "joint1", "revolute", (0.0, -1.0, 0.0))
+def test_arm_from_the_reference_urdf_posed_by_mujoco():
+    arm = arm_view.Arm(resources.default_urdf())
+    assert (arm.joint_names, arm.units, arm.base_xyz) == (["joint1"], ["rad"], (0.0, 0.0, 1.0))
+    target, reach = arm.sphere
+    assert np.allclose(target, arm.base_xyz) and 0.45 < reach < 0.6  # the link's sweep about its joint
     # q = 0: the link lies along +x from the joint; q = π/2 about −y raises it straight up.
-    frames = kinematics.link_frames(arm, np.array([[0.0], [np.pi / 2]]))
-    rotation, position = frames["link1"]
-    visual = arm.links()[1].visuals[0]
-    centers = position + rotation @ np.asarray(visual.xyz)
-    assert np.allclose(centers, [[0.25, 0.0, 1.0], [0.0, 0.0, 1.25]], atol=1e-9)
+    position, rotation, anchor, axis = arm.poses(np.array([[0.0], [np.pi / 2]]))
+    assert np.allclose(position[:, 0], [[0.25, 0.0, 1.0], [0.0, 0.0, 1.25]], atol=1e-9)
     # The cylinder (along its own z) lies along the link: +x at q = 0.
-    axis = (rotation @ kinematics.rpy_matrix(visual.rpy))[0] @ [0.0, 0.0, 1.0]
-    assert np.allclose(np.abs(axis), [1.0, 0.0, 0.0], atol=1e-6)
-    for rpy in [(0.0, 1.5707963, 0.0), (0.3, -0.7, 1.2)]:
-        assert np.allclose(kinematics.rpy_matrix(rpy) @ kinematics.rpy_matrix(rpy).T, np.eye(3))
-    hub = kinematics.z_to_matrix(joint.axis) @ [0.0, 0.0, 1.0]
-    assert np.allclose(hub, joint.axis)
-    paths = [path for path, _ in arm_view.pose_columns(arm, "world/arm", np.zeros((4, 3, 1)))]
-    assert paths == ["world/arm/link1/visual_0", "world/arm/hubs/joint1"]
-    with pytest.raises(ValueError, match="no moving joint"):
-        urdf_arm.load_arm(resources.default_urdf(), ["elbow"])
+    assert np.allclose(np.abs(rotation[0, 0] @ [0.0, 0.0, 1.0]), [1.0, 0.0, 0.0], atol=1e-6)
+    assert np.allclose(anchor[:, 0], [0.0, 0.0, 1.0]) and np.allclose(axis[:, 0], [0.0, -1.0, 0.0])
+    columns = dict(arm.pose_columns("world/arm", np.zeros((4, 3, 1))))
+    assert list(columns) == ["world/arm/link1/visual_0", "world/arm/hubs/joint1"]
+    # Each of the 4 rows places the three arms (true, measured, reference) at once; the hub, the true arm's.
+    centers = list(columns["world/arm/link1/visual_0"])[0].as_arrow_array()
+    assert (len(centers), len(centers.flatten())) == (4, 12)
+    from scipy.spatial.transform import Rotation
+
+    for hub in ([0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]):  # the hub's cylinder turned onto the axis
+        turned = Rotation.from_quat(arm_view._z_onto(np.array([hub]))).apply([0.0, 0.0, 1.0])
+        assert np.allclose(turned[0], hub)
 
 
 def test_a_busy_port_is_refused_before_anything_is_written(tmp_path):
