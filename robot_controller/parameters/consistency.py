@@ -153,8 +153,9 @@ def _check_controller(params: cfg.Params, joint_count: int) -> None:
     ctrl = params["pid_controller"]
     try:
         config, dynamics = cfg.controller_config(ctrl, joint_count), arm_model(ctrl)
-        JointController(config, joint_count, dynamics)
-        check_delay_margin(config, dynamics, joint_count)
+        # The margin of the gains the controller designed: one design, not two.
+        controller = JointController(config, joint_count, dynamics)
+        check_delay_margin(config, dynamics, joint_count, gains=controller.stop_law.pid.config)
     except ConfigError as exc:
         raise ConfigError(f"pid_controller: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - a solver's error is a refusal, not a crash

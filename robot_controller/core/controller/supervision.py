@@ -347,12 +347,20 @@ def joint_delay_margins(
     return margins
 
 
-def check_delay_margin(config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int) -> None:
+def check_delay_margin(
+    config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int, gains: PidConfig | None = None
+) -> None:
     """Refuse (``ConfigError``, naming the joint) a built-in law whose gains leave a joint fewer than
-    ``min_delay_margin_periods`` control periods of delay margin: unstable, or so with a little delay."""
+    ``min_delay_margin_periods`` control periods of delay margin: unstable, or so with a little delay.
+
+    :param gains: the built-in law's gains as a controller built from ``config`` designed them (None: designed here)
+    """
     needed = config.min_delay_margin_periods
-    margins = joint_delay_margins(law_config(config, dynamics, joint_count), dynamics, joint_count, config)
-    if needed <= 0 or margins is None or min(margins) >= needed:
+    if needed <= 0:
+        return
+    gains = law_config(config, dynamics, joint_count) if gains is None else gains
+    margins = joint_delay_margins(gains, dynamics, joint_count, config)
+    if margins is None or min(margins) >= needed:
         return
     j = int(np.argmin(margins))
     key = "stop_law" if config.plugin_law else "controller_type"
