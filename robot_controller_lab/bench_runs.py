@@ -114,7 +114,7 @@ class BusyCore:
 def core_steps_per_s(duration_s: float, robot: str = "one_dof") -> float:
     """Control ticks per wall-clock second of the in-process loop on ``robot``'s
     parameters (:func:`inprocess.simulate`, seed 0), timing the loop alone:
-    ``duration_s`` seconds of :func:`~robot_controller.core.loop.run_loop` (planner,
+    ``duration_s`` seconds of :func:`~robot_controller.blocks.wiring.run_loop` (planner,
     sensor, controller, actuator and the plant's physics steps, 10 per tick in the
     reference scenario). Not timed: the set-up (:func:`inprocess.prepare`: the URDF
     compiled, the trajectory planned, the gains designed) and a short warm-up run

@@ -27,8 +27,7 @@ NEVER, ALWAYS, SIM_TIME = "never", "always", "sim_time"
 
 #: ``writer`` of a port anyone may write: an operator's tool or any ROS client.
 ANYONE = "anyone"
-#: ``{controller_name}`` in a name: the planner parameter ``controller_name`` (ros2_controllers' controller name).
-CONTROLLER_NAME_DEFAULT = "joint_trajectory_controller"
+# ``{controller_name}`` in a name is the planner parameter ``controller_name`` (ros2_controllers' controller name).
 
 
 @dataclass(frozen=True)
@@ -242,22 +241,12 @@ def scored_topics() -> tuple[str, ...]:
     return tuple(p.topic for p in PORTS if p.scored)
 
 
-#: The blocks a node of the graph may run, by the name its ``block`` parameter gives (``module:Class``; the first is
-#: the default). A block of one's own is one module and one line here; the node, its topics and the in-process loop
-#: host it as they host ours.
-BLOCKS = {
-    "sensor_node": {
-        "encoder": "robot_controller.blocks.encoder:Encoder",
-    },
-    "motor_node": {
-        "drive": "robot_controller.blocks.drive:Drive",
-    },
-}
-
-
 #: The blocks each node of the graph may run, by the name its ``block`` parameter gives (the first without one):
 #: ``module:Class`` (``blocks.registry`` imports only the one chosen).
 BLOCKS: dict[str, dict[str, str]] = {
     "motor_node": {"drive": "robot_controller.blocks.drive:Drive"},
-    "sensor_node": {"encoder": "robot_controller.blocks.encoder:Encoder"},
+    "sensor_node": {
+        "encoder": "robot_controller.blocks.encoder:Encoder",
+        "every_other_tick": "robot_controller.blocks.every_other_tick:EveryOtherTick",
+    },
 }

@@ -7,16 +7,15 @@ from collections.abc import Callable
 from functools import partial
 from typing import Any
 
-import numpy as np
-
 from robot_controller import parameters as cfg
 from robot_controller import resources
+from robot_controller.blocks import registry
+from robot_controller.blocks.block import Lines
+from robot_controller.blocks.wiring import Disturbance, LoopResult, run_loop
 from robot_controller.core.controller import JointController
-from robot_controller.core.loop import Disturbance, LoopResult, run_loop
-from robot_controller.core.model import Actuator, MujocoPlant, PlantVariation
+from robot_controller.core.model import MujocoPlant, PlantVariation
 from robot_controller.parameters.builders import arm_model
 from robot_controller.parameters.consistency import trajectory_plan
-from robot_controller.parameters.torque_limits import torque_limit
 
 #: s of wall time a law's call may run before it is abandoned: the loop waits for the law as the lockstep world does,
 #: so only a law that blocks (sleeps, loops, deadlocks) is abandoned, never one the host kept from a CPU a moment.
@@ -59,17 +58,16 @@ def prepare(
     dynamics = arm_model(ctrl)  # the URDF's, or the controller's model_* values over it
     controller_config = cfg.controller_config(dict(ctrl, lockstep=True), n)  # each command acts from its tick
     controller = contained_controller(controller_config, n, dynamics)
-    actuator = (Actuator if actuator_gain == 1.0 else partial(ScaledActuator, actuator_gain))(
-        torque_limit(motor, n), motor["lag_time_constant_s"]
-    )
+    # The graph's sensor and drive, as their nodes' configuration chooses them; the loop's clock waits for each.
+    sensor_block = registry.make("sensor_node", dict(sensor, seed=seed), Lines(), world_waits=True)
+    drive_block = registry.make("motor_node", motor, Lines(), world_waits=True)
     return partial(
         run_loop,
         plant=plant,
         controller=controller,
-        actuator=actuator,
-        sensor=cfg.sensor_config(sensor),
+        sensor=sensor_block,
+        drive=drive_block,
         trajectory=plan.trajectory,
-        rng=np.random.default_rng(seed),
         duration_s=duration_s,
         control_period_s=controller_config.control_period_s,
         planner_period_s=1.0 / planner["publish_rate_hz"],
@@ -77,18 +75,8 @@ def prepare(
         delay_unstamped=delay_unstamped,
         disturbance=disturbance,
         brake_torque_nm=sim["brake_torque_nm"],
+        command_gain=actuator_gain,
     )
-
-
-class ScaledActuator(Actuator):
-    """An actuator that applies ``gain`` times the command, within the same torque limit."""
-
-    def __init__(self, gain: float, torque_max: np.ndarray, lag_time_constant_s: float = 0.0) -> None:
-        super().__init__(torque_max, lag_time_constant_s)
-        self.gain = float(gain)
-
-    def apply(self, command: np.ndarray, dt: float) -> np.ndarray:
-        return super().apply(self.gain * np.asarray(command, dtype=float), dt)
 
 
 def contained_controller(config, joint_count: int, dynamics) -> JointController:

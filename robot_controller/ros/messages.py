@@ -8,103 +8,26 @@ ignore the layout).
 
 from __future__ import annotations
 
-import math
-from collections.abc import Sequence
+import importlib
 from typing import Any
 
 import numpy as np
 from rclpy.node import Node
 from rclpy.time import Time
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-Checked = tuple[np.ndarray, np.ndarray] | str
-
-
-def check_joint_state(
-    names: Sequence[str], position: Sequence[float], velocity: Sequence[float], expected_names: Sequence[str]
-) -> Checked:
-    """Validate a JointState against the arm's joints; reorder by name.
-
-    Messages without names are accepted when their arrays have exactly one
-    entry per joint (in the arm's order), as the tutorial's sensor sends them
-    named; unknown or missing names are refused.
-    """
-    n = len(expected_names)
-    position = np.asarray(position, dtype=float)
-    velocity = np.asarray(velocity, dtype=float)
-    if position.size == 0:
-        return "empty position array"
-    if len(names) == n and position.size == n and velocity.size == n and list(names) == list(expected_names):
-        # Every reading of a well-configured graph: already in the arm's order (copies, as the reorder gives).
-        if not (np.isfinite(position).all() and np.isfinite(velocity).all()):
-            return "non-finite position or velocity"
-        return position.copy(), velocity.copy()
-    if len(names) == 0:
-        if position.size != n or velocity.size != n:
-            return f"expected {n} position and velocity values, got {position.size} and {velocity.size}"
-        order = np.arange(n)
-    else:
-        if len(names) != position.size or len(names) != velocity.size:
-            return f"name, position and velocity lengths differ " f"({len(names)}, {position.size}, {velocity.size})"
-        index = {name: k for k, name in enumerate(names)}
-        unknown = [name for name in names if name not in expected_names]
-        if unknown:
-            return f"unknown joint name(s) {unknown}, expected {list(expected_names)}"
-        missing = [name for name in expected_names if name not in index]
-        if missing:
-            return f"missing joint(s) {missing}"
-        order = np.array([index[name] for name in expected_names])
-    position, velocity = position[order], velocity[order]
-    if not (np.isfinite(position).all() and np.isfinite(velocity).all()):
-        return "non-finite position or velocity"
-    return position, velocity
-
-
-TrajectorySample = tuple[np.ndarray, np.ndarray, np.ndarray, float | None]
-
-
-def check_trajectory(data: Sequence[float], joint_count: int) -> TrajectorySample | str:
-    """Validate a ``/trajectory`` array into ``(p, v, a, sample_time_s or None)``.
-
-    Accepted: ``[p…, v…, a…]`` (one block per quantity, one value per
-    joint); the same followed by the sample time in seconds (our planner,
-    so the controller knows when the sample was taken); or the tutorial's
-    ``[p…, v…]``.
-    """
-    data = np.asarray(data, dtype=float)
-    n = joint_count
-    sample_time: float | None = None
-    if data.size == 3 * n + 1:
-        sample_time = float(data[-1])
-        data = data[:-1]
-    if data.size == 3 * n:
-        p, v, a = data[:n], data[n : 2 * n], data[2 * n :]
-    elif data.size == 2 * n:
-        p, v = data[:n], data[n:]
-        a = np.zeros(n)
-    else:
-        return (
-            f"expected {3 * n} values ([position, velocity, acceleration] per joint) "
-            f"or {3 * n + 1} (with the sample time), got {np.asarray(data).size + (sample_time is not None)}"
-        )
-    if not np.isfinite(data).all() or (sample_time is not None and not math.isfinite(sample_time)):
-        return "non-finite value in trajectory"
-    return p, v, a, sample_time
-
-
-def check_effort(data: Sequence[float], joint_count: int) -> np.ndarray | str:
-    data = np.asarray(data, dtype=float)
-    if data.size != joint_count:
-        return f"expected {joint_count} torque value(s), got {data.size}"
-    if not np.isfinite(data).all():
-        return "non-finite torque"
-    return data
-
+from robot_controller.blocks.values import (  # noqa: F401 (the checks: the shell checks with them too)
+    Array,
+    JointSample,
+    check_effort,
+    check_joint_state,
+    check_trajectory,
+    labelled_tick_s,
+    tick_label,
+)
 
 # --- time ---------------------------------------------------------------------------
-
-LABEL_PREFIX = "tick_ns:"
-
 
 #: ``/sim/brakes``' label: ``engaged:`` and why they hold, comma-separated (``start``, ``drive_timeout``,
 #: ``requested``, ``estop``; nothing when released).
@@ -135,7 +58,7 @@ def s_to_stamp(time_s: float) -> Any:
 def stamp_command(msg: Float64MultiArray, tick_s: float) -> None:
     """Mark ``msg`` (its ``data`` already set) as computed for the tick at ``tick_s`` (ROS time, s)."""
     size = len(msg.data)
-    label = f"{LABEL_PREFIX}{round(tick_s * 1e9)}"
+    label = tick_label(tick_s)
     if msg.layout.dim:
         dim = msg.layout.dim[0]
         dim.label, dim.size, dim.stride = label, size, size
@@ -145,15 +68,7 @@ def stamp_command(msg: Float64MultiArray, tick_s: float) -> None:
 
 def command_tick_s(msg: Float64MultiArray) -> float | None:
     """The tick (ROS time, s) ``msg`` says it was computed for, or None if it does not say."""
-    if not msg.layout.dim:
-        return None
-    label = msg.layout.dim[0].label
-    if not label.startswith(LABEL_PREFIX):
-        return None
-    try:
-        return int(label[len(LABEL_PREFIX) :]) * 1e-9
-    except ValueError:
-        return None
+    return labelled_tick_s(msg.layout.dim[0].label) if msg.layout.dim else None
 
 
 def clock_s(node: Node) -> float:
@@ -161,3 +76,51 @@ def clock_s(node: Node) -> float:
     handle = node.get_clock().handle
     with handle:
         return handle.get_now().nanoseconds * 1e-9
+
+
+# --- port values ------------------------------------------------------------------
+
+
+def message_class(msg_type: str) -> Any:
+    """The message class of a ROS type name, ``package/msg/Name``."""
+    package, _, name = msg_type.split("/")
+    return getattr(importlib.import_module(f"{package}.msg"), name)
+
+
+def decode(msg: Any) -> Any:
+    """A message as the value a block takes (``blocks.values``): joint states as a ``JointSample``, arrays as an
+    ``Array`` with their first dimension's label, a flag as a bool, a text as a str."""
+    if isinstance(msg, JointState):
+        effort = np.asarray(msg.effort, dtype=float) if len(msg.effort) else None
+        position, velocity = np.asarray(msg.position, dtype=float), np.asarray(msg.velocity, dtype=float)
+        return JointSample(stamp_to_s(msg.header.stamp), list(msg.name), position, velocity, effort)
+    if isinstance(msg, Float64MultiArray):
+        return Array(np.asarray(msg.data, dtype=float), msg.layout.dim[0].label if msg.layout.dim else "")
+    return msg.data  # Bool, String
+
+
+def encode(value: Any, msg: Any) -> Any:
+    """``value`` written into ``msg`` (reused: a loop's message is built once)."""
+    if isinstance(msg, JointState):
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(round(value.stamp_s * 1e9), 1_000_000_000)
+        msg.name = list(value.names)
+        msg.position = value.position.tolist()
+        msg.velocity = value.velocity.tolist()
+        if value.effort is not None:
+            msg.effort = value.effort.tolist()
+    elif isinstance(msg, Float64MultiArray):
+        msg.data = value.data.tolist()
+        size = len(msg.data)
+        if value.row is not None:
+            label, row_size = value.row
+            msg.layout.dim = [
+                MultiArrayDimension(label=value.label, size=size // row_size, stride=size),
+                MultiArrayDimension(label=label, size=row_size, stride=row_size),
+            ]
+        elif value.label:
+            msg.layout.dim = [MultiArrayDimension(label=value.label, size=size, stride=size)]
+        else:
+            msg.layout.dim = []
+    else:
+        msg.data = value
+    return msg

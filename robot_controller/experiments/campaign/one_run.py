@@ -77,13 +77,6 @@ def run_params(params: cfg.Params, drawn: dict[str, Any], seed: int) -> cfg.Para
     return cfg.merge(params, layer, {"sensor_node": {"seed": seed}})
 
 
-def sensor_delay_s(sensor: dict[str, Any]) -> float:
-    """The delay the sensor node gives its readings: it publishes the latest sample at least ``delay_s`` old, and it
-    samples at ``rate_hz``, so the delay is ``delay_s`` rounded up to whole sample periods."""
-    period_s = 1.0 / sensor["rate_hz"]
-    return math.ceil(sensor["delay_s"] / period_s - 1e-6) * period_s if sensor["delay_s"] > 0 else 0.0
-
-
 def figures(params: cfg.Params, duration_s: float, seed: int) -> dict[str, Any]:
     """The figures of one in-process run of ``params``: the worst joint's tracking (RMS and largest, on the true
     angle), the peak commanded effort (and against the limit), the ticks the drive's torque is at its limit, the
@@ -91,9 +84,7 @@ def figures(params: cfg.Params, duration_s: float, seed: int) -> dict[str, Any]:
     from robot_controller.experiments import inprocess
     from robot_controller.parameters.torque_limits import torque_limit
 
-    loop = inprocess.prepare(
-        params, duration_s=duration_s, seed=seed, measurement_delay_s=sensor_delay_s(params["sensor_node"])
-    )
+    loop = inprocess.prepare(params, duration_s=duration_s, seed=seed)  # the sensor block delays its readings
     watched = _StatusWatch(loop.keywords["controller"])
     result = loop(controller=watched)
     if not np.all(np.isfinite(result.true_position)):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from robot_controller.blocks.spec import BLOCKS
 from robot_controller.parameters.schema.shared import URDF, lockstep_spec
 from robot_controller.parameters.spec import ParamSpec
 
@@ -9,6 +10,7 @@ from robot_controller.parameters.spec import ParamSpec
 # fmt: off
 SENSOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
     URDF,
+    ParamSpec("block", str, "encoder", "the sensor block it runs (one of the graph spec's; fixed at start)", choices=tuple(BLOCKS["sensor_node"]), read_only=True),
     ParamSpec("rate_hz", float, 100.0, "sensor sample rate, Hz", minimum=10.0, maximum=1000.0),
     ParamSpec("position_noise_std", float, 0.005, "Gaussian position noise σ, rad (m on a prismatic joint)", minimum=0.0),
     ParamSpec("velocity_noise_std", float, 0.02, "Gaussian velocity noise σ, rad/s (m/s on a prismatic joint)", minimum=0.0),

@@ -24,7 +24,7 @@ import pytest
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.controller import ControlOutput, JointController, Status
-from robot_controller.core.loop import Disturbance
+from robot_controller.blocks.wiring import Disturbance
 from robot_controller.core.model import MujocoPlant
 from robot_controller.core.reference import make_trajectory
 from robot_controller.experiments import inprocess

@@ -1,8 +1,7 @@
-"""The whole control loop in one Python loop, no ROS: planner, sensor,
-controller, actuator and plant at their rates, with the same core objects
-the nodes use. For tuning, sweeps, tests and as the ideal the ROS graph is
-measured against (no transport delay, perfectly periodic ticks).
-"""
+"""The loop in one process, no ROS: the graph's blocks (the sensor and the drive its configuration names) wired as
+the graph wires them, with the planner, the controller and the world stepped in order each control period. For
+tuning, sweeps, tests, and as the ideal the ROS graph is measured against (no transport delay, perfectly periodic
+ticks): each value reaches its reader at the tick it was written, as in the lockstep graph."""
 
 from __future__ import annotations
 
@@ -11,9 +10,11 @@ from typing import Any
 
 import numpy as np
 
+from robot_controller.blocks.block import Block
+from robot_controller.blocks.values import Array, JointSample, tick_label
 from robot_controller.core import metrics
 from robot_controller.core.controller import JointController, Status
-from robot_controller.core.model import Actuator, Plant, SensorConfig, measure, steps_per_period
+from robot_controller.core.model import Plant, steps_per_period
 from robot_controller.core.reference import Trajectory
 
 # Ticks that command nothing once a controlled stop is over: the drive brakes the arm.
@@ -22,10 +23,9 @@ BRAKING_STATUSES = (Status.SENSOR_LOST, Status.LAW_STOPPED)
 
 @dataclass(frozen=True)
 class Disturbance:
-    """An external torque on the arm from a set physics time, as the simulator's
-    ``disturbance_*`` parameters schedule it: it starts with the first control
-    period that begins at or after ``start_s`` (the simulator starts it with the
-    first batch of physics steps from then on)."""
+    """An external torque on the arm from a set physics time, as the simulator's ``disturbance_*`` parameters
+    schedule it: it starts with the first control period that begins at or after ``start_s`` (the simulator starts
+    it with the first batch of physics steps from then on)."""
 
     torque_nm: np.ndarray  #: N·m per joint
     start_s: float  #: s of physics time
@@ -64,10 +64,9 @@ def run_loop(
     *,
     plant: Plant,
     controller: JointController,
-    actuator: Actuator,
-    sensor: SensorConfig,
+    sensor: Block,
+    drive: Block,
     trajectory: Trajectory,
-    rng: np.random.Generator,
     duration_s: float,
     control_period_s: float,
     planner_period_s: float,
@@ -75,22 +74,26 @@ def run_loop(
     delay_unstamped: bool = False,
     disturbance: Disturbance | None = None,
     brake_torque_nm: float | None = None,
+    command_gain: float = 1.0,
 ) -> LoopResult:
-    """Run ``duration_s`` seconds of the loop and return what happened at each tick: the planner
-    publishes if its period has come round, the sensor samples the true state, the controller
-    computes, and the actuator's torque is held over the next control period of physics steps.
+    """Run ``duration_s`` seconds of the loop and return what happened at each tick: the planner publishes if its
+    period has come round, the sensor block reads the true state, the controller computes, the drive block turns
+    the command into the effort held over the next control period of physics steps.
 
-    :param measurement_delay_s: what the graph adds between physics and controller: the sensor
-        reads the true state that many seconds old, stamped with its own time
+    :param sensor: the sensor block (``blocks.registry.make("sensor_node", …)``), its readings the controller's
+    :param drive: the drive block, stepped at each tick with the tick's command
+    :param measurement_delay_s: what the graph's transport adds between physics and sensor: the sensor reads the
+        true state that many seconds old, stamped with its own time
     :param delay_unstamped: stamped when it arrives instead, so the controller cannot compensate
     :param disturbance: an external torque on the plant (it needs ``set_disturbance``), on a schedule
     :param brake_torque_nm: once the controller commands nothing after a controlled stop, the
         brakes engage with this holding torque, as the drive's command timeout engages them
+    :param command_gain: the drive is given this many times the command (a drive that is stronger than its model)
     """
     n_steps = steps_per_period(plant.physics_dt, control_period_s)
     ticks = int(round(duration_s / control_period_s))
     planner_every = max(1, int(round(planner_period_s / control_period_s)))
-    n = len(plant.joint_names)
+    names, n = list(plant.joint_names), len(plant.joint_names)
     delay_steps = int(round(measurement_delay_s / plant.physics_dt))
     history: list[tuple[float, np.ndarray, np.ndarray]] = []  # (time, q, v) per physics step
     record = {
@@ -99,6 +102,8 @@ def run_loop(
     }
     times = np.arange(ticks) * control_period_s
     braked = False
+    position = np.zeros(n)
+    effort = np.zeros(n)
     # (The record's rows by name, bound once: six dict lookups a tick less.)
     reference_rows, measured_rows, true_position_rows = record["reference"], record["measured"], record["true_position"]
     true_velocity_rows, command_rows, applied_rows = record["true_velocity"], record["command"], record["applied"]
@@ -112,35 +117,43 @@ def run_loop(
             del history[: max(0, len(history) - 1 - delay_steps)]
         else:
             stamp, seen_q, seen_v = t, true_position, true_velocity
-        position, velocity = measure(sensor, seen_q, seen_v, rng)
-        controller.set_measurement(t if delay_unstamped else stamp, t, position, velocity)
+        # The sensor reads, at the tick, what reaches it (late by the transport's delay); its reading is of the
+        # state at ``stamp``, that much older than the stamp it gives (unless it cannot tell: ``delay_unstamped``).
+        reading = sensor.step(t, {"true_state": JointSample(t, names, seen_q, seen_v)}).get("reading")
+        if reading is not None:
+            position = reading.position
+            sample_s = (
+                reading.stamp_s if stamp == t else stamp if reading.stamp_s == t else reading.stamp_s - (t - stamp)
+            )
+            controller.set_measurement(t if delay_unstamped else sample_s, t, position, reading.velocity)
         out = controller.update(t)
         command = out.command
         if not braked and brake_torque_nm is not None and out.status in BRAKING_STATUSES:
             plant.set_brakes(np.ones(n, dtype=bool), brake_torque_nm)
             braked = True
-        # As motor_node: the first command comes after no time at the old (zero) torque; each later one a period on.
-        applied = actuator.apply(command, control_period_s if k else 0.0)
+        written = drive.step(t, {"command": Array(command_gain * command, tick_label(t))}).get("effort")
+        if written is not None:
+            effort = written.data
         if disturbance is not None and plant.time_s + 1e-9 >= disturbance.start_s:
             plant.set_disturbance(np.asarray(disturbance.torque_nm, dtype=float), disturbance.duration_s)
             disturbance = None
         if delay_steps:
             for step in range(1, n_steps + 1):
-                plant.step(applied, 1)
+                plant.step(effort, 1)
                 if step < n_steps:
                     history.append((t + step * plant.physics_dt, *plant.state()))
         else:
-            plant.step(applied, n_steps)
+            plant.step(effort, n_steps)
         reference_rows[k] = out.reference
         measured_rows[k] = position
         true_position_rows[k] = true_position
         true_velocity_rows[k] = true_velocity
         command_rows[k] = command
-        applied_rows[k] = applied
+        applied_rows[k] = effort
     fault, inertia = controller.law_fault, getattr(controller, "inertia", None)  # (a stand-in may have none)
     return LoopResult(
         tick_time_s=times,
-        joint_names=list(plant.joint_names),
+        joint_names=names,
         joint_units=list(plant.joint_units),
         law_fault=None if fault is None else fault.line(),
         adapted_armature_kgm2=None if inertia is None else inertia.armature.tolist(),

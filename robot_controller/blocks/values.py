@@ -1,0 +1,134 @@
+"""What the ports carry, as plain values, and the checks a value from outside passes before any maths: each check
+returns the clean arrays or a reason (a short sentence for a rate-limited warning)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class JointSample:
+    """The arm's joints at one instant: the true state, or a reading of it."""
+
+    stamp_s: float  #: s, the instant it describes
+    names: Sequence[str]
+    position: np.ndarray  #: rad (m on a prismatic joint)
+    velocity: np.ndarray  #: rad/s (m/s)
+    effort: np.ndarray | None = None  #: N·m applied (N), if said
+
+
+Checked = tuple[np.ndarray, np.ndarray] | str
+
+
+def check_joint_state(
+    names: Sequence[str], position: Sequence[float], velocity: Sequence[float], expected_names: Sequence[str]
+) -> Checked:
+    """Validate a joint state against the arm's joints; reorder by name.
+
+    Messages without names are accepted when their arrays have exactly one
+    entry per joint (in the arm's order), as the tutorial's sensor sends them
+    named; unknown or missing names are refused.
+    """
+    n = len(expected_names)
+    position = np.asarray(position, dtype=float)
+    velocity = np.asarray(velocity, dtype=float)
+    if position.size == 0:
+        return "empty position array"
+    if len(names) == n and position.size == n and velocity.size == n and list(names) == list(expected_names):
+        # Every reading of a well-configured graph: already in the arm's order (copies, as the reorder gives).
+        if not (np.isfinite(position).all() and np.isfinite(velocity).all()):
+            return "non-finite position or velocity"
+        return position.copy(), velocity.copy()
+    if len(names) == 0:
+        if position.size != n or velocity.size != n:
+            return f"expected {n} position and velocity values, got {position.size} and {velocity.size}"
+        order = np.arange(n)
+    else:
+        if len(names) != position.size or len(names) != velocity.size:
+            return f"name, position and velocity lengths differ " f"({len(names)}, {position.size}, {velocity.size})"
+        index = {name: k for k, name in enumerate(names)}
+        unknown = [name for name in names if name not in expected_names]
+        if unknown:
+            return f"unknown joint name(s) {unknown}, expected {list(expected_names)}"
+        missing = [name for name in expected_names if name not in index]
+        if missing:
+            return f"missing joint(s) {missing}"
+        order = np.array([index[name] for name in expected_names])
+    position, velocity = position[order], velocity[order]
+    if not (np.isfinite(position).all() and np.isfinite(velocity).all()):
+        return "non-finite position or velocity"
+    return position, velocity
+
+
+TrajectorySample = tuple[np.ndarray, np.ndarray, np.ndarray, float | None]
+
+
+def check_trajectory(data: Sequence[float], joint_count: int) -> TrajectorySample | str:
+    """Validate a reference array into ``(p, v, a, sample_time_s or None)``.
+
+    Accepted: ``[p…, v…, a…]`` (one block per quantity, one value per
+    joint); the same followed by the sample time in seconds (our planner,
+    so the controller knows when the sample was taken); or the tutorial's
+    ``[p…, v…]``.
+    """
+    data = np.asarray(data, dtype=float)
+    n = joint_count
+    sample_time: float | None = None
+    if data.size == 3 * n + 1:
+        sample_time = float(data[-1])
+        data = data[:-1]
+    if data.size == 3 * n:
+        p, v, a = data[:n], data[n : 2 * n], data[2 * n :]
+    elif data.size == 2 * n:
+        p, v = data[:n], data[n:]
+        a = np.zeros(n)
+    else:
+        return (
+            f"expected {3 * n} values ([position, velocity, acceleration] per joint) "
+            f"or {3 * n + 1} (with the sample time), got {np.asarray(data).size + (sample_time is not None)}"
+        )
+    if not np.isfinite(data).all() or (sample_time is not None and not math.isfinite(sample_time)):
+        return "non-finite value in trajectory"
+    return p, v, a, sample_time
+
+
+def check_effort(data: Sequence[float], joint_count: int) -> np.ndarray | str:
+    data = np.asarray(data, dtype=float)
+    if data.size != joint_count:
+        return f"expected {joint_count} torque value(s), got {data.size}"
+    if not np.isfinite(data).all():
+        return "non-finite torque"
+    return data
+
+
+@dataclass(frozen=True)
+class Array:
+    """A flat array with the label of its first dimension (where our messages say what they carry beyond the
+    numbers: a command's tick, the brakes' reasons); a table's ``row`` (its label and size) as the second dimension."""
+
+    data: np.ndarray
+    label: str = ""
+    row: tuple[str, int] | None = None
+
+
+#: A command's label: the tick it was computed for, ``tick_ns:<ns of the loop's clock>`` (a ``Float64MultiArray``
+#: has no header; the tutorial's nodes ignore the layout).
+TICK_LABEL_PREFIX = "tick_ns:"
+
+
+def tick_label(tick_s: float) -> str:
+    return f"{TICK_LABEL_PREFIX}{round(tick_s * 1e9)}"
+
+
+def labelled_tick_s(label: str) -> float | None:
+    """The tick (s) a label says, or None if it says none."""
+    if not label.startswith(TICK_LABEL_PREFIX):
+        return None
+    try:
+        return int(label[len(TICK_LABEL_PREFIX) :]) * 1e-9
+    except ValueError:
+        return None
