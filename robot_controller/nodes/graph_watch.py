@@ -18,6 +18,7 @@ import rclpy
 from rclpy.node import Node
 from std_msgs.msg import String
 
+from robot_controller.blocks import spec
 from robot_controller.core import clock_offset
 from robot_controller.ros.process import make_executor, own_context
 
@@ -26,7 +27,7 @@ CLOCK_PREFIX = "@clock "
 NODE_NAME = "graph_watch"
 POLL_S = 0.1
 REPORT_PERIOD_S = 1.0
-REQUEST_TOPIC, REPLY_TOPIC = "/clock_probe/request", "/clock_probe/reply"  # in the run's partition
+REQUEST_TOPIC, REPLY_TOPIC = spec.CLOCK_PROBE_REQUEST.topic, spec.CLOCK_PROBE_REPLY.topic  # in the run's partition
 PROBE_WINDOW, PROBE_MIN_SAMPLES = 30, 8  #: an estimate takes the latest 30 exchanges (3 s), once it has 8
 
 

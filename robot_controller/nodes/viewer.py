@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 from rosbags.typesys import Stores, get_typestore
 
+from robot_controller.blocks import spec
 from robot_controller.core.controller import state_layout
 from robot_controller.ros import scheduling
 from robot_controller.ros.messages import stamp_to_s
@@ -51,12 +52,14 @@ class Viewer:
         self.node = Node(VIEWER_NODE, context=context, start_parameter_services=False)
         self.qos = OBSERVER_QOS
         self.order: list[int] | None = None  #: indices of the stack's joints in the JointState names
-        self.node.create_subscription(Float64MultiArray, "/controller/state", self._state, self.qos, raw=True)
-        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._diagnostics, self.qos)
-        self.node.create_subscription(Float64MultiArray, "/motor/command_receipts", self._receipts, self.qos, raw=True)
-        self.node.create_subscription(JointState, "/sim/joint_states", self._true, self.qos, raw=True)
-        self.node.create_subscription(JointState, "/joint_states", self._measured, self.qos, raw=True)
-        self.node.create_subscription(Float64MultiArray, "/trajectory", self._planned, self.qos, raw=True)
+        self.node.create_subscription(Float64MultiArray, spec.STATE.topic, self._state, self.qos, raw=True)
+        self.node.create_subscription(DiagnosticArray, spec.DIAGNOSTICS.topic, self._diagnostics, self.qos)
+        self.node.create_subscription(
+            Float64MultiArray, spec.COMMAND_RECEIPTS.topic, self._receipts, self.qos, raw=True
+        )
+        self.node.create_subscription(JointState, spec.TRUE_STATE.topic, self._true, self.qos, raw=True)
+        self.node.create_subscription(JointState, spec.READING.topic, self._measured, self.qos, raw=True)
+        self.node.create_subscription(Float64MultiArray, spec.REFERENCE.topic, self._planned, self.qos, raw=True)
 
     # The callbacks take raw CDR (rosbags decodes it faster than rclpy; unreadable: dropped).
 

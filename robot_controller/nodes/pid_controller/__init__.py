@@ -1,5 +1,5 @@
-"""pid_controller: the law ``controller_type`` selects at ``control_rate_hz``, from ``/joint_states`` and
-``/trajectory`` to ``/joint_commands``, ``/controller/state`` and ``/diagnostics``."""
+"""pid_controller: the law ``controller_type`` selects at ``control_rate_hz``, from the ports ``reading`` and
+``reference`` to ``command``, ``state`` and ``diagnostics`` (``blocks.spec``)."""
 
 from robot_controller.nodes.pid_controller.node import PidControllerNode, main
 

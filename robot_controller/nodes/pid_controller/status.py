@@ -1,5 +1,5 @@
 """pid_controller's reports: the law and gains in force, a log line per change of the loop's state, a
-failed law's line and the node's end, and every term of each tick on ``/controller/state``."""
+failed law's line and the node's end, and every term of each tick on its state (port ``state``)."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
+from robot_controller.blocks import spec
 from robot_controller.core.controller import ControlOutput, Status, state_layout
 from robot_controller.core.controller.inertia_adaptation import SAID_STEP
 from robot_controller.core.metrics import EFFORT_UNITS
@@ -94,7 +95,7 @@ def report_law_in_force(node: StackNode, controller: Any, margin: int | None) ->
 
 
 class StatusReports:
-    """What the controller node says: in its log, as parameters and on ``/controller/state``."""
+    """What the controller node says: in its log, as parameters and on its state (port ``state``)."""
 
     def __init__(self, node: StackNode) -> None:
         self.node = node
@@ -105,7 +106,7 @@ class StatusReports:
         self.law_stopped_since: float | None = None  # monotonic s LAW_STOPPED was first reached
         self.saturation = SaturationWatch(node.joint_count)
         plugin = self.controller.plugin
-        # The law's extra terms on /controller/state, after the standard blocks (state_layout).
+        # The law's extra terms on the state, after the standard blocks (state_layout).
         self.extra_terms = tuple(
             name
             for name in (plugin.extra_terms if plugin is not None else ())
@@ -119,7 +120,7 @@ class StatusReports:
         self.next_adaptation_s = -np.inf  # the tick's clock: when its gain changes may be said again
         self.said_scale = np.ones(node.joint_count)  # the factors on the designed gains last said
         self.margin: int | None = None  # the delay margin law_in_force last stated
-        self.state_pub = node.gated_publisher(Float64MultiArray, "/controller/state", consumer=False)
+        self.state_pub = node.gated_publisher(Float64MultiArray, spec.STATE.topic, consumer=False)
         self.state_msg = Float64MultiArray()
         n = node.joint_count
         self.state_msg.layout.dim = [MultiArrayDimension(label=name, size=1, stride=1) for name in state_layout.HEADER]
@@ -166,16 +167,16 @@ class StatusReports:
         config = self.controller.config
         before, self.last_status = self.last_status, status
         warnings = {
-            Status.WATCHDOG: f"no valid /joint_states for over {config.watchdog_periods} periods: "
+            Status.WATCHDOG: f"no valid {spec.READING.topic} for over {config.watchdog_periods} periods: "
             "controlled stop on the arm model's estimate (category 2)",
             Status.SENSOR_LOST: (
-                "no valid /joint_states, and the world went on without this controller's commands: its drive's "
+                f"no valid {spec.READING.topic}, and the world went on without this controller's commands: its drive's "
                 "brakes hold the arm (category 0); no command until a fresh reading, then re-acquiring from it"
                 if self.node.lockstep
-                else f"no valid /joint_states for {config.sensor_timeout_s:g} s: no more commands, torque off, the "
-                "brake holds (category 1)"
+                else f"no valid {spec.READING.topic} for {config.sensor_timeout_s:g} s: no more commands, torque off, "
+                "the brake holds (category 1)"
             ),
-            Status.REFERENCE_LOST: "no /trajectory sample for too long: controlled stop, holding",
+            Status.REFERENCE_LOST: f"no {spec.REFERENCE.topic} sample for too long: controlled stop, holding",
             Status.STOPPED: "e-stop: not commanding until it is released",
         }
         if status is Status.LAW_FAULT and before is not Status.LAW_FAULT and self.controller.law_fault is not None:

@@ -1,5 +1,5 @@
 """pid_controller's loop timing: the command path's delay (the drive's receipts), the line while the loop
-is later than its gains survive, and jitter, missed cycles and latency on ``/diagnostics``."""
+is later than its gains survive, and jitter, missed cycles and latency on its diagnostics (port ``diagnostics``)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import Float64MultiArray
 
+from robot_controller.blocks import spec
 from robot_controller.core import metrics
 from robot_controller.ros.loop_processes import LoopProcesses, Sample, host_kept_waiting
 from robot_controller.ros.messages import clock_s
@@ -48,11 +49,11 @@ class LoopTiming:
         self.usage_at_reading: Sample | None = None
         self.reading_unsampled = False
         self.watchdog_for_host: list[float] = []  #: when (tick s) each watchdog tick the host made fell
-        self.pub = node.gated_publisher(DiagnosticArray, "/diagnostics", consumer=False)
+        self.pub = node.gated_publisher(DiagnosticArray, spec.DIAGNOSTICS.topic, consumer=False)
         if not node.lockstep:
             # When each command reached the drive: the command path's delay, for the latency guard.
             node.create_subscription(
-                Float64MultiArray, "/motor/command_receipts", self.receipts_callback, COMMAND_RECEIPTS_QOS
+                Float64MultiArray, spec.COMMAND_RECEIPTS.topic, self.receipts_callback, COMMAND_RECEIPTS_QOS
             )
         node.create_timer(node.params["diagnostics_period_s"], self.publish_diagnostics)
 

@@ -1,6 +1,6 @@
-"""The simulator's holding brakes (docs/design.md §4): on before the first effort, on e-stop (``/estop``
-or ``/simulator/estop``), on the motor's request (``/sim/brake``) and after ``drive_timeout_s`` without
-efforts. Their state goes out on ``/sim/brakes`` (1 = engaged, and why in its label) on every change, and twice a second
+"""The simulator's holding brakes (docs/design.md §4): on before the first effort, on e-stop (port ``estop``
+or the ``estop_button`` service), on the motor's request (port ``brake_request``) and after ``drive_timeout_s`` without
+efforts. Their state goes out on port ``brakes`` (1 = engaged, and why in its label) on every change, and twice a second
 on the wall clock."""
 
 from __future__ import annotations
@@ -9,6 +9,7 @@ import numpy as np
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import SetBool
 
+from robot_controller.blocks import spec
 from robot_controller.ros.messages import brakes_label
 from robot_controller.ros.process import stop_requested
 from robot_controller.ros.qos import ESTOP_QOS, LATCHED_QOS
@@ -28,14 +29,14 @@ class Brakes:
         node.plant.set_brakes(np.ones(node.joint_count, dtype=bool), node.params["brake_torque_nm"])
         self.last_effort_mono_ns = 0
         self.timeout_ns = round(1e9 * node.params["drive_timeout_s"])
-        self.pub = node.gated_publisher(Float64MultiArray, "/sim/brakes", consumer=False)
+        self.pub = node.gated_publisher(Float64MultiArray, spec.BRAKES.topic, consumer=False)
         self.msg = Float64MultiArray()
         self.msg.layout.dim = [MultiArrayDimension(label="engaged", size=node.joint_count, stride=node.joint_count)]
         self.next_report_ns = 0
         self.request_heard = False
-        node.create_subscription(Bool, "/sim/brake", self.request_callback, LATCHED_QOS)
-        node.create_subscription(Bool, "/estop", lambda msg: self.set_estop(bool(msg.data)), ESTOP_QOS)
-        node.create_service(SetBool, "/simulator/estop", self.estop_service)
+        node.create_subscription(Bool, spec.BRAKE_REQUEST.topic, self.request_callback, LATCHED_QOS)
+        node.create_subscription(Bool, spec.ESTOP.topic, lambda msg: self.set_estop(bool(msg.data)), ESTOP_QOS)
+        node.create_service(SetBool, spec.ESTOP_SERVICE.service, self.estop_service)
 
     def set(self, reason: str, on: bool) -> None:
         """Add or remove one reason for the brakes (lock held); they hold while any reason does."""

@@ -1,6 +1,6 @@
-"""The simulator's external disturbances: ``/sim/disturbance`` (``[torque_nm…, duration_s]``), a torque on each joint
+"""The simulator's external disturbances: port ``disturbance`` (``[torque_nm…, duration_s]``), a torque on each joint
 beside the actuator's (not cut by the brakes; capped at ``MAX_DISTURBANCE_NM``) until replaced;
-``/sim/disturbance_applied`` ``[torque_nm…, time_s]`` goes with every true state while it acts, and once more, zero,
+port ``disturbance_applied``, ``[torque_nm…, time_s]``, goes with every true state while it acts, and once more, zero,
 after."""
 
 from __future__ import annotations
@@ -9,6 +9,7 @@ import numpy as np
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller import parameters as cfg
+from robot_controller.blocks import spec
 from robot_controller.core.model import MAX_DISTURBANCE_NM, check_disturbance
 from robot_controller.ros.qos import LATEST_QOS
 from robot_controller.ros.stack_node import StackNode
@@ -20,8 +21,8 @@ class Disturbance:
     def __init__(self, node: StackNode) -> None:
         self.node = node
         self.plant = node.plant
-        node.create_subscription(Float64MultiArray, "/sim/disturbance", self.callback, LATEST_QOS)
-        self.pub = node.gated_publisher(Float64MultiArray, "/sim/disturbance_applied", consumer=False)
+        node.create_subscription(Float64MultiArray, spec.DISTURBANCE.topic, self.callback, LATEST_QOS)
+        self.pub = node.gated_publisher(Float64MultiArray, spec.DISTURBANCE_APPLIED.topic, consumer=False)
         self.msg = Float64MultiArray()
         self.msg.layout.dim = [
             MultiArrayDimension(label="torque_nm", size=node.joint_count, stride=node.joint_count),
@@ -30,19 +31,19 @@ class Disturbance:
         self.on = False  #: one is being applied (for the line when it ends)
         self.started_s = 0.0  #: physics time it started and ends at
         self.ends_s = 0.0
-        self.reported = False  #: the last /sim/disturbance_applied was not zero
+        self.reported = False  #: the last disturbance applied was not zero
         self.scheduled_done = False  #: the parameters' one has started (or there is none)
 
     def callback(self, msg: Float64MultiArray) -> None:
         node = self.node
         checked = check_disturbance(msg.data, node.joint_count)
         if isinstance(checked, str):
-            return node.drop("/sim/disturbance", checked)
+            return node.drop(spec.DISTURBANCE.topic, checked)
         torque, duration_s = checked
         if np.any(np.abs(torque) > MAX_DISTURBANCE_NM):
             node.warn_throttled(
                 "disturbance_limit",
-                f"/sim/disturbance {torque.tolist()} N·m beyond {MAX_DISTURBANCE_NM:g} N·m per joint: capped",
+                f"{spec.DISTURBANCE.topic} {torque.tolist()} N·m beyond {MAX_DISTURBANCE_NM:g} N·m per joint: capped",
             )
             torque = np.clip(torque, -MAX_DISTURBANCE_NM, MAX_DISTURBANCE_NM)
         with node.lock:

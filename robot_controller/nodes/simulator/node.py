@@ -13,6 +13,7 @@ from std_msgs.msg import Float64MultiArray
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
+from robot_controller.blocks import spec
 from robot_controller.core.model import MujocoPlant, PlantVariation, steps_per_period
 from robot_controller.nodes.simulator.brakes import Brakes
 from robot_controller.nodes.simulator.disturbance import Disturbance
@@ -43,16 +44,16 @@ class Simulator(StackNode):
             warning = f"respawned: the arm is where it was, at {self.world.resumed.tolist()} rad"
             self.get_logger().warning(f"{warning}, brakes on until the first command")
         self.effort = np.zeros(self.joint_count)
-        self.said_brake_wait = False  # the start's wait for the motor's /sim/brake state, said once
+        self.said_brake_wait = False  # the start's wait for the motor's brake request, said once
         self.steps_done = 0
         self.physics_dt_ns = round(self.plant.physics_dt * 1e9)
         self.lock = threading.Lock()  # the plant and effort: pacing thread vs the executor's callbacks
         self.pacing = None if self.lockstep else Pacing(self)
-        self.state_pub = self.gated_publisher(JointState, "/sim/joint_states")
+        self.state_pub = self.gated_publisher(JointState, spec.TRUE_STATE.topic)
         self.effort_sub = self.create_subscription(
-            Float64MultiArray, "/sim/effort", self.effort_callback, loop_qos(self.lockstep)
+            Float64MultiArray, spec.EFFORT.topic, self.effort_callback, loop_qos(self.lockstep)
         )
-        self.watch_single_publisher("/sim/effort", "motor_node")
+        self.watch_single_publisher(spec.EFFORT.topic, spec.EFFORT.writer)
         self.brakes = Brakes(self)
         self.state_msg = JointState()
         self.state_msg.name = list(self.plant.joint_names)
@@ -65,7 +66,7 @@ class Simulator(StackNode):
         self.get_logger().info(
             f"MuJoCo arm {self.plant.joint_names} at {p['physics_rate_hz']:g} Hz physics, "
             + (
-                f"lockstep at {p['control_rate_hz']:g} Hz on /clock"
+                f"lockstep at {p['control_rate_hz']:g} Hz on {spec.CLOCK.topic}"
                 + (f", paced at {p['real_time_factor']:g}× the wall clock" if p["real_time_factor"] > 0 else "")
                 if self.lockstep
                 else f"true state at {p['publish_rate_hz']:g} Hz, paced on absolute deadlines"
@@ -99,12 +100,12 @@ class Simulator(StackNode):
     def effort_callback(self, msg: Float64MultiArray) -> None:
         checked = check_effort(msg.data, self.joint_count)
         if isinstance(checked, str):
-            return self.drop("/sim/effort", checked)
+            return self.drop(spec.EFFORT.topic, checked)
         limit = self.plant.effort_limit
         if np.any(np.abs(checked) > limit):
             self.warn_throttled(
                 "effort_limit",
-                f"/sim/effort {checked.tolist()} beyond the URDF's effort limit {limit.tolist()}: clamped",
+                f"{spec.EFFORT.topic} {checked.tolist()} beyond the URDF's effort limit {limit.tolist()}: clamped",
             )
             checked = np.clip(checked, -limit, limit)
         if isinstance(self.ticks, PacedTicks):
@@ -119,12 +120,14 @@ class Simulator(StackNode):
             if "estop" in brakes.reasons:
                 self.warn_throttled("estop_effort", "e-stop: efforts ignored until it is released")
                 return
-            if not brakes.request_heard and self.count_publishers("/sim/brake"):
-                # A motor is there: its latched /sim/brake state comes before any effort releases the brakes. The
+            if not brakes.request_heard and self.count_publishers(spec.BRAKE_REQUEST.topic):
+                # A motor is there: its latched brake request comes before any effort releases the brakes. The
                 # two race at the start (a respawned simulator's too): normal, said once.
                 if not self.said_brake_wait:
                     self.said_brake_wait = True
-                    self.get_logger().info("efforts wait for the motor's latched /sim/brake state (the start's race)")
+                    self.get_logger().info(
+                        f"efforts wait for the motor's latched {spec.BRAKE_REQUEST.topic} state (the start's race)"
+                    )
                 return
             if not self.pacing.running:
                 self.pacing.begin()

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from robot_controller.blocks import spec
 from robot_controller.nodes.simulator.lockstep import LockstepTicks
 from robot_controller.parameters.schema.simulator import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import scheduling
@@ -121,7 +122,7 @@ class PacedTicks:
                     self.stale_efforts += 1
                     self.node.warn_throttled(
                         "stale_effort",
-                        f"/sim/effort for t = {tick_ns * 1e-9:.2f} s dropped at t = {world_ns * 1e-9:.2f} s: "
+                        f"{spec.EFFORT.topic} for t = {tick_ns * 1e-9:.2f} s dropped at t = {world_ns * 1e-9:.2f} s: "
                         "computed before the world moved on (a stale effort is no effort)",
                     )
                 return

@@ -1,5 +1,6 @@
-"""trajectory_planner: the reference on ``/trajectory``, and the arm's face to ROS clients as ros2_controllers'
-JointTrajectoryController shows it: ``/<controller_name>/joint_trajectory`` and the FollowJointTrajectory action."""
+"""trajectory_planner: the reference (port ``reference``), and the arm's face to ROS clients as ros2_controllers'
+JointTrajectoryController shows it: its waypoints topic (port ``controller_waypoints``) and the FollowJointTrajectory
+action (``blocks.spec``)."""
 
 from robot_controller.nodes.trajectory_planner.node import TrajectoryPlanner, main
 

@@ -1,5 +1,5 @@
 """What a FollowJointTrajectory goal hears of the arm while it is in force: the controller's state (its estimate, the
-reference it compared it with, its status), the sensor's ``/joint_states``, the simulator's brakes, the e-stop; and
+reference it compared it with, its status), the sensor's readings, the simulator's brakes, the e-stop; and
 from them whether the arm can still be judged, or why the goal must end.
 
 The brakes are heard all the time (a message on each change, 2 Hz on the wall clock: no cost), every message kept, so
@@ -7,8 +7,8 @@ an engagement released before the planner looks is still seen; an engagement dur
 since, as the arm stood braked meanwhile (a goal that starts while they hold ends at once). The controller's state is
 stale once the planner has heard none for ``STALE_PERIODS`` of the controller's period
 (seen in the stamps of its state), at two checks in a row: a planner whose executor was held up checks once before
-it takes what arrived meanwhile. A controller that publishes no state (the tutorial's) is judged on ``/joint_states``
-the same way. Ages are the planner's own clock at receipt (the latest ``/clock`` in lockstep and the paced world),
+it takes what arrived meanwhile. A controller that publishes no state (the tutorial's) is judged on the readings
+the same way. Ages are the planner's own clock at receipt (the sim's latest clock in lockstep and the paced world),
 never a stamp from another process's clock.
 """
 
@@ -21,6 +21,7 @@ import numpy as np
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray
 
+from robot_controller.blocks import spec
 from robot_controller.core.controller import state_layout
 from robot_controller.ros.messages import brake_reasons
 from robot_controller.ros.qos import CONTROL_QOS, ESTOP_QOS, LATEST_QOS
@@ -58,8 +59,8 @@ class ArmWatch:
         self.brakes_now: str | None = None  #: why the brakes hold, while they do (None: released)
         self.subscriptions: list = []
         self._forget(planner.now_s())
-        planner.create_subscription(Bool, "/estop", self.estop_callback, ESTOP_QOS)
-        planner.create_subscription(Float64MultiArray, "/sim/brakes", self.brakes_callback, CONTROL_QOS)
+        planner.create_subscription(Bool, spec.ESTOP.topic, self.estop_callback, ESTOP_QOS)
+        planner.create_subscription(Float64MultiArray, spec.BRAKES.topic, self.brakes_callback, CONTROL_QOS)
 
     def _forget(self, now_s: float) -> None:
         self.estimate: Estimate | None = None
@@ -81,8 +82,8 @@ class ArmWatch:
         if on and not self.subscriptions:
             self._forget(planner.now_s())
             self.subscriptions = [
-                planner.create_subscription(JointState, "/joint_states", self.joint_states, LATEST_QOS),
-                planner.create_subscription(Float64MultiArray, "/controller/state", self.controller_state, LATEST_QOS),
+                planner.create_subscription(JointState, spec.READING.topic, self.joint_states, LATEST_QOS),
+                planner.create_subscription(Float64MultiArray, spec.STATE.topic, self.controller_state, LATEST_QOS),
             ]
         elif not on and self.subscriptions:
             for subscription in self.subscriptions:
@@ -143,9 +144,9 @@ class ArmWatch:
 
     def _silence(self, now_s: float) -> str | None:
         heard = self.estimate.received_s if self.estimate is not None else None
-        source = "the controller's state (/controller/state)"
+        source = f"the controller's state ({spec.STATE.topic})"
         if heard is None and self.measured is not None:
-            heard, source = self.measured[0], "the arm's readings (/joint_states)"
+            heard, source = self.measured[0], f"the arm's readings ({spec.READING.topic})"
         if heard is None:
             waited = now_s - self.since_s
             return None if waited <= FIRST_HEARD_S else f"nothing heard of the arm in {waited:.2f} s"

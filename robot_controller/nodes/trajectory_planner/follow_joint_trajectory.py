@@ -1,9 +1,9 @@
-"""The planner's FollowJointTrajectory action server, ``/<controller_name>/follow_joint_trajectory``, served as
+"""The planner's FollowJointTrajectory action server (``blocks.spec.FOLLOW_JOINT_TRAJECTORY``), served as
 ros2_controllers' JointTrajectoryController serves it, so MoveIt and any action client can drive the arm.
 
 A goal is checked in the goal callback as JTC checks it (joint names, points, times, values, the URDF's limits, its
 tolerances, its stamp; the planner's ``check_goal``): one that fails is REJECTED, the reason said in one warning line
-("goal rejected: …", which ``robot-controller goto`` reads back from ``/rosout``: the action's answer carries no
+("goal rejected: …", which ``robot-controller goto`` reads back from the log topic: the action's answer carries no
 reason). An accepted goal's trajectory is then joined onto the reference in force (the planner's
 ``take_trajectory``); if the join cannot be taken (its path between the points, its torque) the goal ends at once,
 aborted with JTC's error code and the reason, and the motion in force goes on. A taken goal preempts the one in force
@@ -13,9 +13,10 @@ aborts and the reference stops (``stop_deceleration``, within the joints' range)
 the same way, and the goal ends CANCELED once the reference is at rest. An e-stop, the brakes, the controller
 reporting a fault, or its state gone stale (``arm_watch``) abort the goal with the reason.
 
-"Actual" is the controller's estimate on ``/controller/state`` (the measurement its law closes on: the noisy sensor's
-``/joint_states`` would trip a tight tolerance on noise alone), with the reference it was compared with at that tick;
-a controller that publishes none (the tutorial's) is judged on ``/joint_states``. Velocities are ``/joint_states'``.
+"Actual" is the controller's estimate on its state (port ``state``; the measurement its law closes on: the noisy
+sensor's readings would trip a tight tolerance on noise alone), with the reference it was compared with at that tick;
+a controller that publishes none (the tutorial's) is judged on the readings (port ``reading``). Velocities are the
+readings'.
 The goal succeeds only on a fresh state heard after the trajectory's end with every joint within its goal tolerance
 of the last point: never on an estimate from before a stall.
 """
@@ -30,6 +31,7 @@ from rclpy.action.server import ServerGoalHandle
 from rclpy.task import Future
 from trajectory_msgs.msg import JointTrajectoryPoint
 
+from robot_controller.blocks import spec
 from robot_controller.core.reference.tolerances import (
     GOAL_REJECTED_LOG,
     GOAL_TOLERANCE_VIOLATED,
@@ -78,7 +80,7 @@ class FollowJointTrajectoryServer:
         self.planner = planner
         self.action = _action_type()
         self.joint_names = list(planner.limits.joint_names)
-        self.name = f"/{planner.params['controller_name']}/follow_joint_trajectory"
+        self.name = spec.FOLLOW_JOINT_TRAJECTORY.action_for(planner.params["controller_name"])
         self.active: ActiveGoal | None = None
         self.watch = ArmWatch(planner, self.joint_names)
         self.server = ActionServer(

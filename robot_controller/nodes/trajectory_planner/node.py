@@ -1,12 +1,12 @@
-"""The planner node: the reference on ``/trajectory``, ``[positions…, velocities…, accelerations…,
+"""The planner node: the reference (port ``reference``), ``[positions…, velocities…, accelerations…,
 time_s]`` (``time_s``: when the sample was taken, so the controller evaluates it at its own tick).
 Time starts when the first consumer is matched. Lockstep: each grid point's sample goes one tick early.
 
 Every trajectory is checked against the joints' ranges, the arm model and ``torque_max`` less
 ``feasibility_margin`` (``core.reference``; ``feasibility``: scale, refuse or ignore), at start and on
 every live change, which is blended in from the reference in force (``core.reference.crossfade``). A
-``JointTrajectory`` on ``/<controller_name>/joint_trajectory`` (as ros2_controllers' JointTrajectoryController
-takes it; ``/trajectory_planner/joint_trajectory`` too) or in a FollowJointTrajectory goal
+``JointTrajectory`` on JointTrajectoryController's topic for ``controller_name`` (port ``controller_waypoints``, as
+ros2_controllers' controller takes it; port ``waypoints`` too) or in a FollowJointTrajectory goal
 (``follow_joint_trajectory``) is checked against the URDF's limits too, joined onto the reference in force (first
 stopping within ``stop_deceleration`` if joining directly would swing past its first point), timed from
 ``header.stamp`` if set and not past, and held at its last point until the next one or a change of the shape.
@@ -25,6 +25,7 @@ from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
+from robot_controller.blocks import spec
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.metrics import EFFORT_UNITS, in_units
 from robot_controller.core.model import joint_limits, urdf_velocity_limits
@@ -52,8 +53,6 @@ from robot_controller.ros.qos import CONTROL_QOS, LATEST_QOS
 from robot_controller.ros.stack_node import StackNode
 
 _GRID_EPS_S = 1e-6
-#: The planner's own name for the JointTrajectory topic (the project's tools hear it in the run's partition).
-JOINT_TRAJECTORY_TOPIC = "/trajectory_planner/joint_trajectory"
 #: A controller name as a ROS name segment.
 _CONTROLLER_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 # A change of these brings the parameters' motion back in place of a joint trajectory.
@@ -70,13 +69,13 @@ class TrajectoryPlanner(StackNode):
         super().__init__("trajectory_planner")
         p = self.params
         self.trajectory = self._make(p)
-        self.pub = self.gated_publisher(Float64MultiArray, "/trajectory")
+        self.pub = self.gated_publisher(Float64MultiArray, spec.REFERENCE.topic)
         self.start_s: float | None = None
         self.next_sample_s = 0.0
         self.waypoints: Trajectory | None = None  # a joint trajectory (or a goal's stop) in force, if any
         self.origin_s = 0.0  # when the motion in force has its time 0 (the start, or a joint trajectory's receipt)
         self.crossfade: Crossfade | None = None  # a live change being blended in
-        self.clock_s = 0.0  # lockstep: the latest /clock (time is 0 until the first)
+        self.clock_s = 0.0  # lockstep: the sim's latest clock (time is 0 until the first)
         self.msg = Float64MultiArray()
         n = p["joint_count"]
         self.msg.layout.dim = [
@@ -85,14 +84,14 @@ class TrajectoryPlanner(StackNode):
         self.msg.layout.dim.append(MultiArrayDimension(label="time_s", size=1, stride=1))
         self.timer = None
         if p["lockstep"]:
-            self.create_subscription(ClockMsg, "/clock", self.clock_callback, CONTROL_QOS)
-            # Before the first /clock the time is 0: poll (on the wall clock) for the controller.
+            self.create_subscription(ClockMsg, spec.CLOCK.topic, self.clock_callback, CONTROL_QOS)
+            # Before the sim's first clock the time is 0: poll (on the wall clock) for the controller.
             self.start_poll = self.create_timer(
                 0.05, lambda: self.sample_at(self.clock_s), clock=Clock(clock_type=ClockType.STEADY_TIME)
             )
         else:
             self.timer = self.create_timer(1.0 / p["publish_rate_hz"], self.wall_tick)
-        for topic in (JOINT_TRAJECTORY_TOPIC, public_trajectory_topic(p["controller_name"])):
+        for topic in (spec.WAYPOINTS.topic, spec.CONTROLLER_WAYPOINTS.topic_for(p["controller_name"])):
             self.create_subscription(JointTrajectoryMsg, topic, self.joint_trajectory_callback, LATEST_QOS)
         self.action = FollowJointTrajectoryServer(self)
         self.get_logger().info(
@@ -172,7 +171,7 @@ class TrajectoryPlanner(StackNode):
             self.timer = self.create_timer(1.0 / params["publish_rate_hz"], self.wall_tick)
 
     def now_s(self) -> float:
-        """The planner's time: the latest /clock in lockstep, else the node's clock, s."""
+        """The planner's time: the sim's latest clock in lockstep, else the node's clock, s."""
         return self.clock_s if self.params["lockstep"] else clock_s(self)
 
     def wall_tick(self) -> None:
@@ -355,11 +354,6 @@ class TrajectoryPlanner(StackNode):
     def finish(self) -> None:
         self.action.shutdown()
         super().finish()
-
-
-def public_trajectory_topic(controller_name: str) -> str:
-    """JointTrajectoryController's topic for ``controller_name``."""
-    return f"/{controller_name}/joint_trajectory"
 
 
 def main(args: list[str] | None = None) -> int:
