@@ -14,6 +14,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray
 
 from robot_controller import parameters as cfg
+from robot_controller.blocks import spec
 from robot_controller.core.controller import JointController, Status
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters as law_parameters
@@ -66,26 +67,28 @@ class PidControllerNode(StackNode):
         self.last_tick_s = -np.inf
         self.first_tick_s: float | None = None
         self.log_schedule = log_line.LogSchedule(self.params["log_period_s"])
-        self.reference_samples = 0  # usable /trajectory samples so far (two teach the controller the planner's period)
+        self.reference_samples = 0  # usable reference samples so far (two teach the controller the planner's period)
         self.waits = StartWaits(self)
         self.mismatch_since: float | None = None
-        self.command_pub = self.gated_publisher(Float64MultiArray, "/joint_commands")
+        self.command_pub = self.gated_publisher(Float64MultiArray, spec.COMMAND.topic)
         self.command_msg = Float64MultiArray()
         self.status = StatusReports(self)
         self.timing = LoopTiming(self)
         readings_qos = LOCKSTEP_READINGS_READER_QOS if self.lockstep else loop_qos(False)
-        self.create_subscription(JointState, "/joint_states", self.joint_state_callback, readings_qos)
-        self.watch_single_publisher("/joint_states", "sensor_node")
-        self.create_subscription(Float64MultiArray, "/trajectory", self.trajectory_callback, loop_qos(self.lockstep))
-        self.watch_single_publisher("/trajectory", "trajectory_planner")
-        self.create_subscription(Bool, "/estop", lambda msg: self.controller.halt(bool(msg.data)), ESTOP_QOS)
+        self.create_subscription(JointState, spec.READING.topic, self.joint_state_callback, readings_qos)
+        self.watch_single_publisher(spec.READING.topic, spec.READING.writer)
+        self.create_subscription(
+            Float64MultiArray, spec.REFERENCE.topic, self.trajectory_callback, loop_qos(self.lockstep)
+        )
+        self.watch_single_publisher(spec.REFERENCE.topic, spec.REFERENCE.writer)
+        self.create_subscription(Bool, spec.ESTOP.topic, lambda msg: self.controller.halt(bool(msg.data)), ESTOP_QOS)
         self.timer = None
         self.timer_period = 0.0
         # The drive's status word: its brakes. While they hold, what is commanded does not move the arm: the
         # reference starts again from the measurement. In lockstep, not the start's: the tick at which the first
         # effort's release arrives is a race, and a run without faults is the same to the bit every time (the
         # paced world's drive-timeout brakes and an e-stop's are heard, at a tick that is a race: a fault's).
-        self.create_subscription(Float64MultiArray, "/sim/brakes", self.brakes_callback, LATEST_QOS)
+        self.create_subscription(Float64MultiArray, spec.BRAKES.topic, self.brakes_callback, LATEST_QOS)
         if self.lockstep:
             self.pairing = LockstepPairing(self)
         else:
@@ -186,7 +189,7 @@ class PidControllerNode(StackNode):
     def joint_state_callback(self, msg: JointState) -> None:
         checked = check_joint_state(msg.name, msg.position, msg.velocity, self.joint_names)
         if isinstance(checked, str):
-            self.drop("/joint_states", checked)
+            self.drop(spec.READING.topic, checked)
             self.check_configuration(list(msg.name))
             return
         stamp_s = stamp_to_s(msg.header.stamp)
@@ -196,7 +199,7 @@ class PidControllerNode(StackNode):
             now_s = clock_s(self)
             refused = self.controller.set_measurement(stamp_s, now_s, *checked)
             if refused:
-                self.warn_throttled("joint_states_age", f"/joint_states dropped: {refused}")
+                self.warn_throttled("joint_states_age", f"{spec.READING.topic} dropped: {refused}")
                 return
             self.timing.note_reading(now_s)
             if self.params["trigger"] == "measurement":
@@ -213,7 +216,7 @@ class PidControllerNode(StackNode):
         self.mismatch_since = self.mismatch_since or now
         if now - self.mismatch_since > CONFIG_MISMATCH_S:
             raise ConfigError(
-                f"joint names disagree: /joint_states (the simulator's URDF) has {names}, "
+                f"joint names disagree: {spec.READING.topic} (the simulator's URDF) has {names}, "
                 f"pid_controller's URDF ({self.params['urdf_path'] or 'the reference arm'}) has "
                 f"{self.joint_names}"
             )
@@ -221,10 +224,10 @@ class PidControllerNode(StackNode):
     def trajectory_callback(self, msg: Float64MultiArray) -> None:
         checked = check_trajectory(msg.data, self.joint_count)
         if isinstance(checked, str):
-            return self.drop("/trajectory", checked)
+            return self.drop(spec.REFERENCE.topic, checked)
         position, velocity, acceleration, sample_time_s = checked
         self.reference_samples += 1
-        # Received at the tick in force (lockstep: the latest /clock, so a sample sent a tick early waits for it).
+        # Received at the tick in force (lockstep: the sim's latest clock, so a sample sent a tick early waits for it).
         received_s = max(self.pairing.clock_s, 0.0) if self.pairing is not None else clock_s(self)
         self.controller.set_reference(received_s, position, velocity, acceleration, sample_time_s)
         if self.pairing is not None:
@@ -255,7 +258,9 @@ class PidControllerNode(StackNode):
         if self.first_tick_s is None:
             self.first_tick_s = now_s
         if out.status is Status.NO_MEASUREMENT:
-            self.waits.waiting("readings", "the first valid /joint_states reading (sensor_node's): not commanding")
+            self.waits.waiting(
+                "readings", f"the first valid {spec.READING.topic} reading (sensor_node's): not commanding"
+            )
             return
         if out.status is not self.status.last_status:
             self.status.status_changed(out.status)
@@ -282,43 +287,43 @@ REFERENCE_WAIT_S = 0.3
 
 
 class LockstepPairing:
-    """In lockstep (``lockstep: true``, sim time) each reading is a tick at the sim's ``/clock`` it
+    """In lockstep (``lockstep: true``, sim time) each reading is a tick at the sim's clock it
     pairs with, computed once the reference sample due by then has arrived (or, from a planner
     slower than the control rate, after ``REFERENCE_WAIT_S`` with the latest)."""
 
     def __init__(self, node: PidControllerNode) -> None:
         self.node = node
         self.controller = node.controller
-        self.clock_s = -np.inf  # the latest /clock
-        self.reading: tuple[float, tuple[np.ndarray, np.ndarray]] | None = None  # waiting for its /clock
+        self.clock_s = -np.inf  # the sim's latest clock
+        self.reading: tuple[float, tuple[np.ndarray, np.ndarray]] | None = None  # waiting for its clock
         self.tick_s: float | None = None  # a measured tick waiting for its reference
         self.waiting_since = 0.0  # monotonic s the tick began waiting
         self.reference_waits = 0  # ticks that went on without a due reference sample
         node.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
-        node.create_subscription(ClockMsg, "/clock", self.clock_callback, LATCHED_QOS)
+        node.create_subscription(ClockMsg, spec.CLOCK.topic, self.clock_callback, LATCHED_QOS)
 
     def clock_callback(self, msg: ClockMsg) -> None:
         self.clock_s = max(self.clock_s, stamp_to_s(msg.clock))
         self.pair()
 
     def take_reading(self, stamp_s: float, position: np.ndarray, velocity: np.ndarray) -> None:
-        """One reading per sim tick; the tick's time is the /clock it pairs with (a delayed sensor's
+        """One reading per sim tick; the tick's time is the clock it pairs with (a delayed sensor's
         stamp is older than the tick)."""
         self.reading = (stamp_s, (position, velocity))
         self.pair()
 
     def pair(self) -> None:
-        """A tick is due once the sim's /clock for it and its reading are both in, whichever came
-        first (the sim publishes the next /clock only after this tick's command: one to one)."""
+        """A tick is due once the sim's clock for it and its reading are both in, whichever came
+        first (the sim publishes the next clock only after this tick's command: one to one)."""
         if self.reading is None or self.tick_s is not None or self.clock_s <= self.node.last_tick_s:
             return
         stamp_s, (position, velocity) = self.reading
         if stamp_s > self.clock_s + 1e-9:
-            return  # the reading is for a tick whose /clock has not arrived yet
+            return  # the reading is for a tick whose clock has not arrived yet
         self.reading = None
         refused = self.controller.set_measurement(stamp_s, self.clock_s, position, velocity)
         if refused:
-            self.node.warn_throttled("joint_states_age", f"/joint_states dropped: {refused}")
+            self.node.warn_throttled("joint_states_age", f"{spec.READING.topic} dropped: {refused}")
         self.tick_s = self.clock_s
         self.waiting_since = time.monotonic()
         self.try_tick()
@@ -340,7 +345,7 @@ class LockstepPairing:
         node = self.node
         if not self.controller.has_reference():
             # Nothing to fall back on before the first sample: wait (the launcher ends a stalled lockstep).
-            node.waits.waiting("reference", "lockstep: the first /trajectory sample (trajectory_planner's)")
+            node.waits.waiting("reference", f"lockstep: the first {spec.REFERENCE.topic} sample (trajectory_planner's)")
             return
         if time.monotonic() - self.waiting_since > REFERENCE_WAIT_S:
             said = (
