@@ -8,6 +8,7 @@ import re
 import sys
 from pathlib import Path
 
+from robot_controller.blocks import spec
 from robot_controller.cli.args import Parser, joint_list, positive_int, positive_seconds, verb
 from robot_controller.tools import param, topic  # no ROS until a verb runs
 
@@ -15,7 +16,9 @@ from robot_controller.tools import param, topic  # no ROS until a verb runs
 def register(sub) -> None:
     p = verb(sub, "estop", "emergency stop of the running graph: torque off, brakes on, latched", _estop)
     p.add_argument("--release", action="store_true", help="release the e-stop; the loop re-acquires")
-    p = verb(sub, "disturb", "push the running arm: an external torque for a while (/sim/disturbance)", _disturb)
+    p = verb(
+        sub, "disturb", f"push the running arm: an external torque for a while ({spec.DISTURBANCE.topic})", _disturb
+    )
     p.add_argument("--torque", type=float, required=True, help="N·m")
     p.add_argument("--duration", type=positive_seconds, default=0.5, help="s (default 0.5)")
     p.add_argument("--joint", help="joint name (default: every joint)")
@@ -87,7 +90,7 @@ def _trajectory_controller_option(p: argparse.ArgumentParser) -> None:
         type=_controller_name,
         default=TRAJECTORY_CONTROLLER,
         metavar="NAME",
-        help="the planner's controller_name: the goal goes to /NAME/follow_joint_trajectory",
+        help=f"the planner's controller_name: the goal goes to {spec.FOLLOW_JOINT_TRAJECTORY.action_for('NAME')}",
     )
 
 

@@ -8,6 +8,7 @@ import signal
 from dataclasses import replace
 from pathlib import Path
 
+from robot_controller.blocks import spec
 from robot_controller.cli.args import (
     node_list,
     out_option,
@@ -33,7 +34,8 @@ def register(sub) -> None:
     stack_options(p)
     p.add_argument("--single-process", action="store_true", help="all five nodes on one executor")
     flags = {
-        "--sim-time": "deterministic lockstep on /clock, as fast as the graph goes (--duration in sim seconds)",
+        "--sim-time": f"deterministic lockstep on {spec.CLOCK.topic}, as fast as the graph goes "
+        "(--duration in sim seconds)",
         "--wall-clock": "hardware-strict: the drive on this host's clock, any late command refused, a host freeze "
         "the loop's fault (default: the world's clock keeps pace with the wall clock and pauses with the host)",
         "--respawn": "start a node that dies again (wall clock), as ros2 launch's respawn=True",

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
+from robot_controller.blocks import spec
 from robot_controller.core import metrics
 from robot_controller.core.metrics import in_units
 from robot_controller.experiments.reporting import fmt, table
@@ -161,7 +162,7 @@ def run_case(case: Case, out: Path, params: cfg.Params, *, wall_clock: bool = Fa
         "world": world,
         "exit_code": result.exit_code,
     }
-    if not result.message_counts.get("/controller/state"):
+    if not result.message_counts.get(spec.STATE.topic):
         return entry | {"failure": result.failure or "no recording"}
     recording = report.read_recording(result.bag_dir)
     units = report.arm_units(params["simulator"]["urdf_path"])

@@ -73,8 +73,8 @@ class BlockNode(StackNode):
         self.publish(self.block.step(self.input_time_s(value), {name: value}))
 
     def input_time_s(self, value: Any) -> float:
-        """When a value arrived, on the loop's clock: in lockstep the tick it says it was computed for (its /clock
-        may come after it), else the node's clock."""
+        """When a value arrived, on the loop's clock: in lockstep the tick it says it was computed for (its clock
+        message may come after it), else the node's clock."""
         tick_s = labelled_tick_s(getattr(value, "label", "")) if self.lockstep else None
         return clock_s(self) if tick_s is None else tick_s
 

@@ -1,6 +1,6 @@
-"""``robot-controller estop [--release]``: the operator's button. Publishes ``/estop``
-(``std_msgs/Bool``, true = stop) and calls the simulator's ``/simulator/estop``
-service, so the drive stops even if the topic were lost; latched until released. The level is sent
+"""``robot-controller estop [--release]``: the operator's button. Publishes the e-stop (port ``estop``,
+``std_msgs/Bool``, true = stop) and calls the simulator's ``estop_button`` service (``blocks.spec``),
+so the drive stops even if the topic were lost; latched until released. The level is sent
 again for a while: a listener that matched late still hears it."""
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ from rclpy.duration import Duration
 from std_msgs.msg import Bool
 from std_srvs.srv import SetBool
 
+from robot_controller.blocks import spec
 from robot_controller.ros.qos import LATCHED_QOS
 from robot_controller.tools.graph import open_graph
 
@@ -30,19 +31,19 @@ def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, st
     """Engage (or release) the e-stop. Returns (someone obeyed, a one-line report)."""
     with open_graph("estop") as graph:
         node = graph.node
-        publisher = node.create_publisher(Bool, "/estop", PUBLISH_QOS)
-        client = node.create_client(SetBool, "/simulator/estop")
+        publisher = node.create_publisher(Bool, spec.ESTOP.topic, PUBLISH_QOS)
+        client = node.create_client(SetBool, spec.ESTOP_SERVICE.service)
         # Every (volatile) listener must match before the one message goes out, and the service be up.
         deadline = time.monotonic() + timeout_s
         settled_since, last = time.monotonic(), -1
         while time.monotonic() < deadline:
             matched = publisher.get_subscription_count()
-            if matched != last or matched < len(node.get_subscriptions_info_by_topic("/estop")):
+            if matched != last or matched < len(node.get_subscriptions_info_by_topic(spec.ESTOP.topic)):
                 settled_since, last = time.monotonic(), matched
             elif matched > 0 and client.service_is_ready() and time.monotonic() - settled_since >= SETTLE_S:
                 break
             time.sleep(0.05)
-        listeners = sorted({info.node_name for info in node.get_subscriptions_info_by_topic("/estop")})
+        listeners = sorted({info.node_name for info in node.get_subscriptions_info_by_topic(spec.ESTOP.topic)})
         publisher.publish(Bool(data=engage))
         service_note = "the simulator's service did not answer"
         if client.service_is_ready():
@@ -60,5 +61,8 @@ def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, st
         publisher.wait_for_all_acked(Duration(seconds=ACK_WAIT_S))
     what = "e-stop ENGAGED" if engage else "e-stop released"
     if not listeners and service_note.startswith("the simulator's service did not"):
-        return False, f"{what}, but no node is listening on /estop (is the stack running on this ROS_DOMAIN_ID?)"
-    return True, f"{what}: heard by {', '.join(listeners) or 'no /estop subscriber'}; {service_note}"
+        return (
+            False,
+            f"{what}, but no node is listening on {spec.ESTOP.topic} (is the stack running on this ROS_DOMAIN_ID?)",
+        )
+    return True, f"{what}: heard by {', '.join(listeners) or f'no {spec.ESTOP.topic} subscriber'}; {service_note}"

@@ -1,7 +1,7 @@
 """Messages in and out, the shell's translation between ROS messages and arrays: checks on
 incoming data before any maths (each returns the clean arrays or a reason, a short sentence for a
 rate-limited warning), and time: ``builtin_interfaces/Time`` to and from seconds, a node's clock
-in seconds, and the tick a ``/joint_commands`` message was computed for, in its first dimension's
+in seconds, and the tick a command (port ``command``) was computed for, in its first dimension's
 label ``tick_ns:<ROS time in ns>`` (``Float64MultiArray`` has no header; the tutorial's nodes
 ignore the layout).
 """
@@ -29,7 +29,7 @@ from robot_controller.blocks.values import (  # noqa: F401 (the checks: the shel
 
 # --- time ---------------------------------------------------------------------------
 
-#: ``/sim/brakes``' label: ``engaged:`` and why they hold, comma-separated (``start``, ``drive_timeout``,
+#: The brakes' state's label: ``engaged:`` and why they hold, comma-separated (``start``, ``drive_timeout``,
 #: ``requested``, ``estop``; nothing when released).
 BRAKES_LABEL_PREFIX = "engaged:"
 

@@ -13,6 +13,7 @@ import threading
 import time
 from pathlib import Path
 
+from robot_controller.blocks import spec
 from robot_controller.nodes import recorder as rec
 from robot_controller.ros.process import HOST_MISSED_FILE, LAW_FAULT_FILE, TEARDOWN_HUNG_SIGNAL, WORLD_CLOCK_FILE
 from robot_controller.runner import forking, supervise
@@ -130,7 +131,7 @@ def _interrupted(result: RunResult, link: supervise.RecorderLink, lockstep_recor
     signal.signal(signal.SIGINT, patient)
     signal.signal(signal.SIGTERM, patient)
     say("interrupted: stopping the nodes (the recording is kept and scored)")
-    ran = link.counts.get("/controller/state") if result.recorded else result.started is not None
+    ran = link.counts.get(spec.STATE.topic) if result.recorded else result.started is not None
     result.failure = None if ran else "interrupted before the loop ran"
     if result.started is not None:
         result.wall_seconds = time.monotonic() - result.started

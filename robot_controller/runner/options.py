@@ -22,7 +22,7 @@ class RunOptions:
     robot: str = DEFAULT_ROBOT
     config: tuple[Path, ...] = ()  #: parameter files over the preset, later over earlier
     seed: int | None = None  #: the sensor's noise seed (None: the stack's)
-    sim_time: bool = False  #: deterministic lockstep on /clock, as fast as the graph goes
+    sim_time: bool = False  #: deterministic lockstep on the sim's clock, as fast as the graph goes
     paced: bool = False  #: lockstep on a world clock paced to the wall clock, which pauses with the host
     single_process: bool = False  #: all five nodes on one executor
     realtime: bool = False  #: the simulator's pacing thread SCHED_FIFO (``scheduling``)
@@ -48,7 +48,7 @@ class RunOptions:
 
     @property
     def lockstep(self) -> bool:
-        """The nodes step on the simulator's /clock (``sim_time`` or ``paced``); ``duration_s`` is world time."""
+        """The nodes step on the simulator's clock (``sim_time`` or ``paced``); ``duration_s`` is world time."""
         return self.sim_time or self.paced
 
     def params(self) -> cfg.Params:

@@ -74,7 +74,7 @@ def child_env(single_process: bool) -> dict[str, str]:
 
 def lockstep_params(params: cfg.Params) -> cfg.Params:
     """The same parameters in sim-time lockstep: the nodes step on messages instead of timers (none uses ROS
-    sim time, which costs a /clock callback every tick)."""
+    sim time, which costs a clock callback every tick)."""
     out = cfg.merge(params, {})
     for node in cfg.NODES:
         out[node]["use_sim_time"] = False

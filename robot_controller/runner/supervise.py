@@ -11,6 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from robot_controller.blocks import spec
 from robot_controller.nodes import graph_watch
 from robot_controller.nodes import recorder as rec
 from robot_controller.ros.process import LAW_STOPPED_EXIT_CODE
@@ -22,7 +23,7 @@ from robot_controller.runner.usage import USAGE_WARMUP_S, UsageMeter
 RECORDER_READY_TIMEOUT_S = 30.0
 CLOCK_WAIT_S = 10.0  #: a split run: the other launcher's clock is measured this long after the graph is complete
 FIRST_TICK_TIMEOUT_S = 20.0
-STALL_TIMEOUT_S = 10.0  #: lockstep: no /clock progress for this long (wall) means the graph is stuck
+STALL_TIMEOUT_S = 10.0  #: lockstep: no progress of the sim's clock for this long (wall) means the graph is stuck
 GRAPH_SAY_EVERY_S = 5.0  #: how often the launcher names the nodes it is still waiting for
 MAX_RESPAWNS = 5  #: per node and run: a node that keeps dying ends the run
 #: The longest control period (10 Hz, the lowest control_rate_hz): a lockstep run's last tick is within it of its end.
@@ -33,7 +34,7 @@ Watcher = Callable[[float, dict[str, int]], None]
 
 
 class RecorderLink:
-    """What the recorder process reports on its stdout: ready, counts, /clock."""
+    """What the recorder process reports on its stdout: ready, counts, the sim's clock."""
 
     def __init__(self, topics: list[str]) -> None:
         self.ready = threading.Event()
@@ -301,8 +302,8 @@ def run_loop(
             result.clocks = {f"clock_{k}": graph.clock[k] for k in ("offset_ms", "round_trip_ms")}
             say(f"clocks: {graph.clock['peer']} {graph.clock['offset_ms']:+.1f} ms from here")
     if result.failure is None and run.records:
-        failure = f"no /controller/state within {FIRST_TICK_TIMEOUT_S:g} s of start"
-        result.failure = wait_until(lambda: link.counts.get("/controller/state"), group, FIRST_TICK_TIMEOUT_S, failure)
+        failure = f"no {spec.STATE.topic} within {FIRST_TICK_TIMEOUT_S:g} s of start"
+        result.failure = wait_until(lambda: link.counts.get(spec.STATE.topic), group, FIRST_TICK_TIMEOUT_S, failure)
     if result.failure is not None:
         return
     started = result.started = time.monotonic()

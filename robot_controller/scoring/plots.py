@@ -9,23 +9,24 @@ from pathlib import Path
 
 import numpy as np
 
+from robot_controller.blocks import spec
 from robot_controller.core import metrics
 from robot_controller.scoring.bag_reader import Recording
 
 #: What each trace is, by key, in tracking.png and the live view alike; ``{q}``: the quantity (:func:`quantity`).
 TRACES = {
     "reference": "reference",
-    "true": "true {q} (/sim/joint_states)",
-    "readings": "sensor readings (/joint_states, noisy)",
-    "estimate": "controller's estimate (/controller/state)",
+    "true": f"true {{q}} ({spec.TRUE_STATE.topic})",
+    "readings": f"sensor readings ({spec.READING.topic}, noisy)",
+    "estimate": f"controller's estimate ({spec.STATE.topic})",
     "error_true": "reference − true {q} (scored)",
     "error_estimate": "reference − estimate (the controller's error)",
     "commanded": "commanded",
-    "applied": "applied (/sim/joint_states)",
+    "applied": f"applied ({spec.TRUE_STATE.topic})",
 }
 #: When the controller acts on the readings as they are (``estimator: none``): its estimate is the reading.
 UNFILTERED = {
-    "readings": "sensor readings (/joint_states, noisy; the controller's input, no estimator)",
+    "readings": f"sensor readings ({spec.READING.topic}, noisy; the controller's input, no estimator)",
     "error_estimate": "reference − reading (the controller's error, no estimator)",
 }
 #: The error panel's limits: this much beyond the largest error drawn, so that no feature is cut.

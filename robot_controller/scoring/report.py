@@ -118,7 +118,7 @@ def score(
 
 def adapted_armature(law_terms: dict[str, np.ndarray], joint_count: int, keep: Any = None) -> list[float]:
     """kg·m² per joint, the armature the inertia adaptation had learnt at the run's end: the last finite row of its
-    block on ``/controller/state`` among the ticks ``keep`` selects (None: all); zeros without one (adaptation off)."""
+    block on the controller's state among the ticks ``keep`` selects (None: all); zeros without one (adaptation off)."""
     rows = law_terms.get(state_layout.ADAPTED_ARMATURE)
     if rows is None:
         rows = np.zeros((0, joint_count))
@@ -139,7 +139,7 @@ def reference_in_force(recording: Recording, nominal_period_s: float = 0.01) -> 
 
 
 def braked_at(recording: Recording, t: np.ndarray) -> np.ndarray:
-    """Whether the drive's brakes held any joint at each time ``t`` (from ``/sim/brakes``; never, if not recorded)."""
+    """Whether the drive's brakes held any joint at each time ``t`` (from the brakes' state; never, if not recorded)."""
     if not len(recording.brakes_time_s):
         return np.zeros(len(t), bool)
     index = np.searchsorted(recording.brakes_time_s, t, side="right") - 1
@@ -185,7 +185,7 @@ def reference_in_force_at(
     at its speed for ``CARRY_S``, then held: a stall cannot hide. None before the first tick or where the controller
     commands nothing (``IDLE_STATUSES``).
 
-    :param ticks: ``/controller/state``'s tick times, s; ``reference`` and ``status`` are its too
+    :param ticks: the controller's state's tick times, s; ``reference`` and ``status`` are its too
     """
     index = np.clip(np.searchsorted(ticks, t, side="right") - 1, 0, len(ticks) - 1)
     following = np.clip(index + 1, 0, len(ticks) - 1)
@@ -250,7 +250,7 @@ def start_transient(
 
 
 def pushed_at(recording: Recording, t: np.ndarray, settle_s: float) -> np.ndarray:
-    """Whether an external torque (``/sim/disturbance_applied``: a push someone asked for) acted at each time ``t``,
+    """Whether an external torque (the disturbance applied: a push someone asked for) acted at each time ``t``,
     or did less than ``settle_s`` before."""
     pushed = np.zeros(len(t), bool)
     times, torque = recording.disturbance_time_s, recording.disturbance

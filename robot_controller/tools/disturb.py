@@ -1,16 +1,17 @@
 """``robot-controller disturb --torque N·m [--duration s] [--joint NAME]``: push a running arm with an external torque:
-one ``/sim/disturbance`` (``[torque_nm…, duration_s]``), applied beside the actuator's for ``duration_s`` of sim time
-and reported on ``/sim/disturbance_applied``. Joints: the running simulator's (``/sim/joint_states``), else the
+one disturbance (port ``disturbance``, ``[torque_nm…, duration_s]``), applied beside the actuator's for ``duration_s``
+of sim time and reported as the disturbance applied. Joints: the running simulator's (its true state), else the
 reference arm's."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from robot_controller.blocks import spec
 from robot_controller.tools import graph
 from robot_controller.tools.graph import ToolError
 
-TOPIC = "/sim/disturbance"
+TOPIC = spec.DISTURBANCE.topic
 NAMES_TIMEOUT_S = 2.0  #: how long to listen for the running simulator's joint names
 MATCH_TIMEOUT_S = 10.0  #: how long to wait for the simulator's subscription
 SIMULATOR_NODE = "simulator"
@@ -18,7 +19,7 @@ INTERRUPTED = 130  # Ctrl-C: the push may or may not have been sent
 
 
 def disturbance_data(torque_nm: np.ndarray, duration_s: float) -> list[float]:
-    """The ``/sim/disturbance`` array: one torque per joint (N·m), then the duration (s)."""
+    """The disturbance's array: one torque per joint (N·m), then the duration (s)."""
     return [float(t) for t in torque_nm] + [float(duration_s)]
 
 
@@ -49,7 +50,7 @@ def disturb(torque_nm: float, duration_s: float, joint: str | None, *, wait_s: f
         from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
         publisher = g.node.create_publisher(Float64MultiArray, TOPIC, graph.reliable_qos(1))
-        state = g.first_joint_state("/sim/joint_states", NAMES_TIMEOUT_S)
+        state = g.first_joint_state(spec.TRUE_STATE.topic, NAMES_TIMEOUT_S)
         if state is not None:
             names, source = list(state.name), "the running simulator's"
         else:

@@ -65,7 +65,7 @@ def _remove_profile(directory: Path) -> None:
 
 
 def absolute(name: str) -> str:
-    """``joint_states`` → ``/joint_states`` (the tools' node lives in the root namespace)."""
+    """``arm/state`` → ``/arm/state`` (the tools' node lives in the root namespace)."""
     return "/" + name.strip().lstrip("/")
 
 

@@ -1,12 +1,12 @@
 """``goto Q… [--time S] [--joints NAMES] [--controller NAME]`` and ``trajectory FILE.yaml [--controller NAME]``: one
 ``JointTrajectory`` as a ``control_msgs/FollowJointTrajectory`` goal to the planner's action server
-``/<controller_name>/follow_joint_trajectory`` (as ros2_controllers' JointTrajectoryController serves it), which joins
+(``blocks.spec.FOLLOW_JOINT_TRAJECTORY``, as ros2_controllers' JointTrajectoryController serves it), which joins
 it onto the reference in force or ends it at once with the reason. The tool waits for the goal's result (its duration
 plus ``RESULT_MARGIN_S``) and says it in one line: exit 0 once it succeeded, 2 if it was rejected, aborted (JTC's error
 code and the reason: refused, out of tolerance, preempted, a fault) or canceled by another client, 1 if no server
 answered or no result came (what is unknown is said). A rejected goal's reason is the planner's log line for it, heard
-on ``/rosout`` (the action's answer carries none). Ctrl-C while waiting cancels the goal: the arm stops and holds;
-the cancel's outcome is said, exit 130."""
+on the log topic (port ``rosout``; the action's answer carries none). Ctrl-C while waiting cancels the goal: the arm
+stops and holds; the cancel's outcome is said, exit 130."""
 
 from __future__ import annotations
 
@@ -15,14 +15,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from robot_controller.blocks import spec as graph_spec
 from robot_controller.core.reference import tolerances
 from robot_controller.tools import graph, trajectory_file
 from robot_controller.tools.graph import ToolError
 from robot_controller.tools.trajectory_file import TrajectoryFileError, TrajectorySpec
 
-#: The planner parameter ``controller_name``'s default: the action is ``/<controller>/follow_joint_trajectory``.
+#: The planner parameter ``controller_name``'s default, which names the action.
 CONTROLLER = "joint_trajectory_controller"
-STATE_TIMEOUT_S = 2.0  #: how long goto listens for the arm's /joint_states
+STATE_TIMEOUT_S = 2.0  #: how long goto listens for the arm's readings
 MATCH_TIMEOUT_S = 10.0  #: how long to wait for the action server
 ANSWER_TIMEOUT_S = 5.0  #: how long the server may take to accept a goal, or to answer a cancel
 #: How long past the trajectory's end the result may come: the planner's goal_time_tolerance_s (1 s by default), a
@@ -45,7 +46,7 @@ ERROR_CODE_NAMES = {
 
 def action_name(controller: str) -> str:
     """The FollowJointTrajectory action of the controller named ``controller`` (the planner's ``controller_name``)."""
-    return f"/{controller.strip('/')}/follow_joint_trajectory"
+    return graph_spec.FOLLOW_JOINT_TRAJECTORY.action_for(controller.strip("/"))
 
 
 def to_message(spec: TrajectorySpec) -> Any:
@@ -156,7 +157,7 @@ def _follow(g: graph.Graph, spec: TrajectorySpec, prog: str, what: str, controll
 
 
 def _hear_rejections(g: graph.Graph) -> list[str]:
-    """The list the planner's reasons for rejecting a goal go into, from its log lines on ``/rosout`` heard from now
+    """The list the planner's reasons for rejecting a goal go into, from its log lines on the log topic heard from now
     (matched before the goal is sent: waiting for the server takes longer than discovery)."""
     from rcl_interfaces.msg import Log
 
@@ -166,7 +167,7 @@ def _hear_rejections(g: graph.Graph) -> list[str]:
         if msg.name.endswith("trajectory_planner") and msg.msg.startswith(tolerances.GOAL_REJECTED_LOG):
             reasons.append(msg.msg[len(tolerances.GOAL_REJECTED_LOG) :])
 
-    g.node.create_subscription(Log, "/rosout", heard, graph.reliable_qos(100))
+    g.node.create_subscription(Log, graph_spec.ROSOUT.topic, heard, graph.reliable_qos(100))
     return reasons
 
 
@@ -220,7 +221,8 @@ def goto(
     """Move the running arm's joints to ``positions`` (rad), at rest after ``time_s`` (None: a safe default), as a
     goal to ``controller``'s FollowJointTrajectory action; wait for its result."""
     with graph.open_graph("goto") as g:
-        state = g.first_joint_state("/joint_states", STATE_TIMEOUT_S) if joints is None or time_s is None else None
+        unknown = joints is None or time_s is None
+        state = g.first_joint_state(graph_spec.READING.topic, STATE_TIMEOUT_S) if unknown else None
         if joints is not None:
             names = list(joints)
         else:

@@ -20,7 +20,7 @@ SERIES_HZ = 50.0
 POSE_HZ = 20.0
 MAX_PENDING = 5000  # per input: 50 s of a 100 Hz topic
 TICK_TAIL = 400  # controller ticks kept to pair true samples and motor receipts with (4 s at 100 Hz)
-OTHER_CLOCK_S = 60.0  # a /diagnostics stamp this far outside the ticks' span is on another clock
+OTHER_CLOCK_S = 60.0  # a diagnostics stamp this far outside the ticks' span is on another clock
 STATUS_NAMES = {code: name for name, code in state_layout.STATUS_CODES.items()}
 
 

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robot_controller import resources
+from robot_controller.blocks import spec
 from robot_controller.view import layout
 from robot_controller.view import serve as serving
 from robot_controller.view.arm import Arm
@@ -34,20 +35,20 @@ def run_setup(run_dir: Path) -> tuple[Path, float]:
 
 
 def _telemetry(bag_dir: Path) -> tuple[list[tuple[float, float]], list[np.ndarray]]:
-    """``/diagnostics`` (stamp, jitter p99 ms) and ``/motor/command_receipts`` rows: what scoring does not read."""
+    """The diagnostics (stamp, jitter p99 ms) and the drive's command receipts' rows: what scoring does not read."""
     from rosbags.rosbag2 import Reader
     from rosbags.typesys import Stores, get_typestore
 
     typestore = get_typestore(Stores.ROS2_JAZZY)
     diagnostics, receipts = [], []
     with Reader(bag_dir) as reader:
-        wanted = [c for c in reader.connections if c.topic in ("/diagnostics", "/motor/command_receipts")]
+        wanted = [c for c in reader.connections if c.topic in (spec.DIAGNOSTICS.topic, spec.COMMAND_RECEIPTS.topic)]
         for connection, _, raw in reader.messages(connections=wanted):
             try:
                 msg = typestore.deserialize_cdr(raw, connection.msgtype)
             except Exception:  # noqa: BLE001 - a malformed message is skipped, as scoring does
                 continue
-            if connection.topic == "/motor/command_receipts":
+            if connection.topic == spec.COMMAND_RECEIPTS.topic:
                 receipts.append(np.asarray(msg.data, dtype=float))
                 continue
             stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from robot_controller.blocks import spec
 from robot_controller.scoring.plots import TRACES, quantity
 from robot_controller.view.arm import Arm, entity_part
 
@@ -24,18 +25,18 @@ POSITION, ERROR, TORQUE, TIMING = "plots/position", "plots/error", "plots/torque
 STATUS_LOG = "log/status"
 
 # series → (view, label, colour, width); the labels are tracking.png's (``{q}``: angle, or position on a chain
-# with a slide). "measured" is the sensor's readings (/joint_states), "error_controller" the controller's own error.
+# with a slide). "measured" is the sensor's readings, "error_controller" the controller's own error.
 SERIES = {
     "reference": (POSITION, TRACES["reference"], [40, 190, 90], 2.0),
     "true": (POSITION, TRACES["true"], [235, 125, 25], 2.0),
     "measured": (POSITION, TRACES["readings"], [60, 140, 255], 1.0),
-    "planned": (POSITION, "planned (/trajectory samples)", [150, 150, 150], 1.0),
+    "planned": (POSITION, f"planned ({spec.REFERENCE.topic} samples)", [150, 150, 150], 1.0),
     "error_true": (ERROR, TRACES["error_true"], [220, 50, 50], 1.5),
     "error_controller": (ERROR, TRACES["error_estimate"], [120, 120, 200], 1.0),
     "commanded": (TORQUE, TRACES["commanded"], [150, 80, 200], 1.5),
     "applied": (TORQUE, TRACES["applied"], [235, 125, 25], 1.5),
     "jitter": (TIMING, "tick jitter |period − nominal|", [110, 110, 110], 1.0),
-    "jitter_p99": (TIMING, "jitter p99 (last s, /diagnostics)", [220, 50, 50], 2.0),
+    "jitter_p99": (TIMING, f"jitter p99 (last s, {spec.DIAGNOSTICS.topic})", [220, 50, 50], 2.0),
     "latency": (TIMING, "reading → motor latency", [60, 140, 255], 1.0),
 }
 PER_JOINT = {"reference", "true", "measured", "planned", "error_true", "error_controller", "commanded", "applied"}

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
+from robot_controller.blocks import spec
 from robot_controller.core.laws.pid import AntiWindup
 from robot_controller.experiments.reporting import Progress, cells, pyplot, save, table, write_report, write_results
 from robot_controller.experiments.runs import SEED, Response, plot_steps, step_run, store
@@ -138,7 +139,7 @@ def _report(results: dict[str, Any], plan: dict[str, Any], responses: list[Respo
         ),
         "",
         "*Time saturated*: control ticks after the step on which the torque limit cut the command (the "
-        "controller's `saturated` flag on `/controller/state`), times the 10 ms period. *I term*: "
+        f"controller's `saturated` flag on `{spec.STATE.topic}`), times the 10 ms period. *I term*: "
         "the integral's share of the command after the step; beyond 2 N·m it is torque the motor can never "
         "give, stored up to be paid back as overshoot.",
         "",
