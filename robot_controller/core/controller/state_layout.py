@@ -1,4 +1,4 @@
-"""Layout of ``/controller/state`` (a labelled ``std_msgs/Float64MultiArray``): ``[time_s, status_code,
+"""Layout of the controller's state (port ``state``, a labelled ``std_msgs/Float64MultiArray``): ``[time_s, status_code,
 measurement_stamp_s]``, then one block of ``joint_count`` per :data:`FIELDS` entry, then a law's own ``state_terms``
 blocks and, with the inertia adaptation, :data:`ADAPTED_ARMATURE`'s; the layout's labels name each block, so
 ``ros2 topic echo`` shows what each number is. A reader that knows only the standard blocks takes the first
@@ -68,7 +68,7 @@ def decode(data: np.ndarray, joint_count: int) -> dict[str, np.ndarray]:
 
 
 def width(joint_count: int) -> int:
-    """Values in one ``/controller/state`` message for ``joint_count`` joints."""
+    """Values in one state message for ``joint_count`` joints."""
     return len(HEADER) + len(FIELDS) * joint_count
 
 

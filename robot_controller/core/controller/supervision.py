@@ -91,7 +91,7 @@ class ControlOutput:
     #: N·m per joint, the external torque the disturbance observer estimates (the command
     #: subtracts it, inside ``terms.feedforward``); None without an observer or a command
     disturbance: np.ndarray | None = None
-    #: a plugin law's extra terms for ``/controller/state`` (its ``state_terms``), N·m per joint
+    #: a plugin law's extra terms for the controller's state (its ``state_terms``), N·m per joint
     law_terms: dict[str, np.ndarray] | None = None
 
     @property
@@ -216,7 +216,7 @@ _OK = Health(Status.OK, restart=False)
 # Two delays add up to the loop's unaccounted delay, each the median of its last WINDOW (at least
 # MIN_SAMPLES: jitter and one-off stalls move a median by one place at most): a reading's age on
 # arrival beyond what latency compensation accounts for (compensated_s), and a command's delay to
-# the drive (from /motor/command_receipts, for COMMAND_MEMORY_S). Above the delay margin the loop
+# the drive (from the drive's command receipts, for COMMAND_MEMORY_S). Above the delay margin the loop
 # is late; it is on time again once the delay has stayed within half the margin for CLEAR_AFTER_S.
 
 #: How many recent readings (and command receipts) the medians cover.

@@ -1,7 +1,7 @@
 """A user's law, contained: a :class:`ControlLaw` itself, so the controller runs it as it runs the
 built-in law (``update(time, state, reference)``, ``reset``, ``set_params``, ``terms``), each call
 to the user's law checked. Its torque is held here to the torque limit and the slew rate, and its
-terms are gathered for ``/controller/state``. The first thing it gets wrong becomes its ``fault``
+terms are gathered for the controller's state. The first thing it gets wrong becomes its ``fault``
 (a :class:`LawFault`) instead of a torque: it raises, returns anything but one finite number per
 joint, takes longer than its budget on OVERRUN_TICKS ticks running (one long call alone is the
 machine's doing, a slow law is slow on every tick; measured on ``clock`` on the law's thread: its CPU

@@ -122,7 +122,7 @@ class ControlLaw:
 
     ``parameters``: what the law declares (:class:`Parameter`); their values are
     in ``self.params`` by name. ``state_terms``: names of extra per-joint terms
-    the law reports through :meth:`terms` for ``/controller/state``; ``p``, ``i``,
+    the law reports through :meth:`terms` for the controller's state; ``p``, ``i``,
     ``d`` and ``feedforward`` fill the standard blocks.
     """
 
@@ -147,5 +147,5 @@ class ControlLaw:
         self.params = dict(params)
 
     def terms(self) -> Mapping[str, np.ndarray]:
-        """The last update's parts for ``/controller/state`` (N·m per joint)."""
+        """The last update's parts for the controller's state (N·m per joint)."""
         return {}

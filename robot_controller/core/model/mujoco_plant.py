@@ -22,7 +22,7 @@ MAX_DISTURBANCE_S = 60.0
 
 
 def check_disturbance(data, joint_count: int) -> tuple[np.ndarray, float] | str:
-    """Validate a ``/sim/disturbance`` array ``[torque_nm…, duration_s]`` (one torque per joint) into
+    """Validate a disturbance's array (port ``disturbance``) ``[torque_nm…, duration_s]`` (one torque per joint) into
     ``(torque, duration_s)``, or a reason to drop it. A torque beyond ``MAX_DISTURBANCE_NM`` is returned
     as sent: the caller caps it (and says so). A duration of 0 ends the current one."""
     data = np.asarray(data, dtype=float).ravel()

@@ -23,7 +23,7 @@ OLD_HEADER_TIMESTAMP = -3
 PATH_TOLERANCE_VIOLATED = -4
 GOAL_TOLERANCE_VIOLATED = -5
 #: How the server's log line for a rejected goal begins (the action protocol's answer carries no reason: a client that
-#: wants it reads the line from ``/rosout``).
+#: wants it reads the line from the log topic, ``rosout``).
 GOAL_REJECTED_LOG = "goal rejected: "
 
 #: One JointTolerance as the goal gives it: (joint name, position, velocity); rad and rad/s (m, m/s on a slider).

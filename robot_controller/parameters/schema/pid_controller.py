@@ -3,6 +3,7 @@ the arm model, the limits and the clock."""
 
 from __future__ import annotations
 
+from robot_controller.blocks import spec
 from robot_controller.core.laws import FeedforwardMode
 from robot_controller.core.laws.pid import AntiWindup, DerivativeSource
 from robot_controller.parameters.schema.shared import (
@@ -67,7 +68,7 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("stop_deceleration", float, 20.0, "deceleration of a controlled stop (sensor or planner lost), rad/s²; at least 1: from 3 rad/s a stop of 3 s and 4.5 rad", minimum=1.0, **SAFETY),
     ParamSpec("reacquire_acceleration", float, 20.0, "acceleration limit of the blend from where the arm is back onto the trajectory after a fault, rad/s²; at most 100 (the reference arm's torque gives about 90: faster, the blend saturates)", **POSITIVE, maximum=100.0, **SAFETY),
     ParamSpec("log_period_s", float, 1.0, "period of the target/actual/error/torque log line, s", **POSITIVE),
-    ParamSpec("diagnostics_period_s", float, 1.0, "period of the loop-health report on /diagnostics, s", **POSITIVE),
+    ParamSpec("diagnostics_period_s", float, 1.0, f"period of the loop-health report on {spec.DIAGNOSTICS.topic}, s", **POSITIVE),
     lockstep_spec("compute on each measurement once the due reference is in (sim-time lockstep), not on a timer"),
 )
 # fmt: on

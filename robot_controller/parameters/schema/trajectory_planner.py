@@ -3,6 +3,7 @@ against the arm model."""
 
 from __future__ import annotations
 
+from robot_controller.blocks import spec
 from robot_controller.core.reference import MODES
 from robot_controller.parameters.schema.shared import POSITIVE, URDF, arm_model_specs, lockstep_spec, torque_max_spec
 from robot_controller.parameters.spec import ParamSpec
@@ -20,8 +21,8 @@ TRAJECTORY_PLANNER_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("max_acceleration", float, 60.0, "acceleration limit of a shaped step, rad/s² (the reference arm: (10 − 2.45) N·m / 0.0833 kg·m² ≈ 90 at most; 60 leaves the feedback room)", **POSITIVE),
     ParamSpec("end_frequency_hz", float, 2.0, "end frequency of the chirp, Hz", minimum=0.0),
     ParamSpec("sweep_time_s", float, 10.0, "duration of one chirp sweep, s", **POSITIVE),
-    ParamSpec("publish_rate_hz", float, 100.0, "rate of /trajectory, Hz", minimum=1.0, maximum=1000.0),
-    lockstep_spec("sample on /clock ticks (sim-time lockstep) instead of a timer"),
+    ParamSpec("publish_rate_hz", float, 100.0, f"rate of {spec.REFERENCE.topic}, Hz", minimum=1.0, maximum=1000.0),
+    lockstep_spec(f"sample on {spec.CLOCK.topic} ticks (sim-time lockstep) instead of a timer"),
     URDF,
     # The arm model the trajectory is checked against: the controller's (`run` passes pid_controller's
     # model_* values on to these when they are empty; set, they must equal the controller's).
@@ -33,7 +34,7 @@ TRAJECTORY_PLANNER_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("feasibility", str, "scale", "a trajectory that needs more than the usable torque (torque_max less feasibility_margin, from the arm model's inverse dynamics along the path: the URDF's, or the model_* values over it, as the controller's): slow it in time until it fits (frequencies, or a shaped step's max_acceleration), refuse it, or run it anyway with a warning", choices=("scale", "refuse", "ignore")),
     ParamSpec("feasibility_margin", float, 0.2, "fraction of torque_max kept free for the feedback when checking the trajectory (0.2: the path may use 80 %)", minimum=0.0, maximum=0.9),
     # ros2_controllers' JointTrajectoryController's face (docs/moveit.md).
-    ParamSpec("controller_name", str, "joint_trajectory_controller", "the name clients know the arm's trajectory controller by: the action /<controller_name>/follow_joint_trajectory and the topic /<controller_name>/joint_trajectory (as JointTrajectoryController's; MoveIt's moveit_controllers.yaml names it)", read_only=True),
+    ParamSpec("controller_name", str, "joint_trajectory_controller", f"the name clients know the arm's trajectory controller by: the action {spec.FOLLOW_JOINT_TRAJECTORY.action_for('<controller_name>')} and the topic {spec.CONTROLLER_WAYPOINTS.topic_for('<controller_name>')} (as JointTrajectoryController's; MoveIt's moveit_controllers.yaml names it)", read_only=True),
     ParamSpec("allow_partial_joints_goal", bool, False, "take a trajectory naming only some joints (the others hold where their reference is), as JointTrajectoryController's parameter; else it is refused (INVALID_JOINTS)"),
     ParamSpec("path_tolerance", float, 0.0, "default path tolerance of a FollowJointTrajectory goal, rad (m on a slider): |desired − actual| beyond it aborts the goal (PATH_TOLERANCE_VIOLATED); 0: none, unless the goal gives one", minimum=0.0),
     ParamSpec("goal_tolerance", float, 0.01, "default goal tolerance, rad (m): the goal succeeds once every joint is this close to its last point; 0: none (it succeeds at the trajectory's end)", minimum=0.0),
