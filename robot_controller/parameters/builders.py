@@ -121,7 +121,9 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         pid=pid_config(values, joint_count),
         law_parameters={key[len(LAW_PREFIX) :]: value for key, value in values.items() if key.startswith(LAW_PREFIX)},
         lqr_q=tuple(float(w) for w in values["lqr_q"]),  # three weights: the schema checks the length
-        # A payload's allowance makes the observer faster than a delay the stamps do not show allows: lockstep only.
+        # A payload's allowance makes the observer faster than a delay the stamps do not show allows: only where the
+        # world waits for each command (the ROS parameter ``lockstep``: sim time, the paced world).
+        world_waits=bool(values["lockstep"]),
         rated_payload_kg=values["rated_payload_kg"] if values["lockstep"] else 0.0,
         estimator=kalman_config(values) if values["estimator"] == "kalman" else None,
         control_period_s=1.0 / values["control_rate_hz"],

@@ -49,7 +49,7 @@ CONTROLLER = {
     "control_period_s": 0.01,
     "reference_extrapolation": False,
     "latency_compensation": False,
-    "lockstep": False,
+    "world_waits": False,
     "watchdog_periods": 5,
     "sensor_timeout_s": 1.0,
     "max_reading_age_s": 0.1,

@@ -64,7 +64,8 @@ class ControllerConfig:
     rated_payload_kg: float
     estimator: KalmanConfig | None  #: a Kalman filter on the reading, or none
     disturbance_observer: bool  #: the filter estimates an external torque, the law subtracts it
-    #: with the observer, in lockstep: each joint's inertia beyond the model is estimated and put in the model and gains
+    #: with the observer, where the world waits: each joint's inertia beyond the model is estimated, put in the model
+    #: and gains
     inertia_adaptation: bool
     feedforward: FeedforwardMode
     #: on a chain of joints, the feedback torques through M(q)·diag(M(q))⁻¹ (computed-torque feedback)
@@ -72,9 +73,9 @@ class ControllerConfig:
     control_period_s: float
     reference_extrapolation: bool
     latency_compensation: bool
-    #: each command acts from its tick and the world waits for it (sim-time lockstep, the paced world): a world that
+    #: each command acts from its tick and the world waits for it (sim time, the paced world): a world that
     #: went on without this controller's commands did so braked (the drive's timeout), until the next command
-    lockstep: bool
+    world_waits: bool
     watchdog_periods: int
     sensor_timeout_s: float  #: readings missing this long end the controlled stop: torque off, brake
     #: s; a reading older than this when it arrives (or stamped this far ahead) is refused: after a

@@ -89,7 +89,7 @@ class JointController:
         self._clock = TickClock()
         self._halted = False
         self._braked = False
-        self._gap_braked = False  # lockstep: the world went on without this controller, so its drive braked
+        self._gap_braked = False  # the world went on without this controller (it waits no more), so its drive braked
         self._latency_guard = latency_guard
         self._latency = self._new_latency_guard(config) if latency_guard else None
         self._rest_s: dict[ReferenceSource, float] = {}  # when each controlled stop came to rest
@@ -280,7 +280,7 @@ class JointController:
         if tick.paused:  # this controller was not running: the world moved on
             self._reference.request_reacquire()
             self._readings.excuse_pause(tick.gap_s, config.control_period_s, config.max_reading_age_s)
-            self._gap_braked = config.lockstep  # until a command releases them: no stop on a model that moved on
+            self._gap_braked = config.world_waits  # until a command releases them: no stop on a model that moved on
         self._reference.planner.advance_to(now_s)  # the samples that were sent ahead of their time
         braked = self._braked or self._gap_braked
         health = check_health(self._readings, now_s, self._halted, braked, config)

@@ -96,11 +96,11 @@ class InertiaAdaptation:
         pid: Callable[[], Pid],
         config_in_force: Callable[[], ControllerConfig] | None = None,
     ) -> InertiaAdaptation | None:
-        """For a controller with the disturbance observer on a coupled MuJoCo model, in lockstep (on the wall clock the
-        filter disagrees with its readings by design, and nothing would tell an inertia from the command's jitter);
-        None otherwise."""
+        """For a controller with the disturbance observer on a coupled MuJoCo model, where the world waits for each
+        command (on the wall clock the filter disagrees with its readings by design, and nothing would tell an
+        inertia from the command's jitter); None otherwise."""
         model = getattr(dynamics, "model", None)
-        if model is None or not (config.inertia_adaptation and config.observes_disturbance and config.lockstep):
+        if model is None or not (config.inertia_adaptation and config.observes_disturbance and config.world_waits):
             return None
         pose = np.zeros(joint_count) if config.design_position is None else np.asarray(config.design_position, float)
         own = np.diag(dynamics.mass_matrix(pose)) - dynamics.learnt_armature
