@@ -16,12 +16,12 @@ USAGE_WARMUP_S = 2.0
 
 
 @dataclass(frozen=True)
-class Sample:
+class ProcessUsage:
     cpu_s: float  #: user + system CPU seconds since the process started
     rss_mb: float  #: resident set size, MiB
 
 
-def sample(pid: int) -> Sample | None:
+def sample(pid: int) -> ProcessUsage | None:
     """The process's CPU time and memory now; None if it is gone."""
     try:
         with open(f"/proc/{pid}/stat") as f:
@@ -31,10 +31,14 @@ def sample(pid: int) -> Sample | None:
     except (OSError, IndexError, ValueError):
         return None
     # After the ")" of the command name: fields[11] is utime, fields[12] stime (stat(5) fields 14, 15).
-    return Sample(cpu_s=(int(fields[11]) + int(fields[12])) / _TICKS_PER_S, rss_mb=resident_pages * _PAGE_BYTES / 2**20)
+    return ProcessUsage(
+        cpu_s=(int(fields[11]) + int(fields[12])) / _TICKS_PER_S, rss_mb=resident_pages * _PAGE_BYTES / 2**20
+    )
 
 
-def usage(start: dict[str, Sample | None], end: dict[str, Sample | None], wall_s: float) -> dict[str, float]:
+def usage(
+    start: dict[str, ProcessUsage | None], end: dict[str, ProcessUsage | None], wall_s: float
+) -> dict[str, float]:
     """``cpu_pct_<name>`` (% of one core), ``rss_mb_<name>``, ``rss_growth_mb_<name>`` and ``cpu_pct_total``."""
     out: dict[str, float] = {}
     total = 0.0
@@ -59,11 +63,11 @@ class UsageMeter:
         self.pids = {c.name: c.process.pid for c in children}
         self.observers = list(observers)
         self.start_at = start_at
-        self.first: dict[str, Sample | None] | None = None
+        self.first: dict[str, ProcessUsage | None] | None = None
         self.first_time = 0.0
         self.said: set[str] = set()
 
-    def _sample(self) -> dict[str, Sample | None]:
+    def _sample(self) -> dict[str, ProcessUsage | None]:
         out = {name: sample(pid) for name, pid in self.pids.items()}
         out.update({c.name: sample(c.process.pid) for c in self.observers})
         out["launcher"] = sample(os.getpid())

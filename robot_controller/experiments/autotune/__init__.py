@@ -6,13 +6,13 @@ from robot_controller.experiments.autotune.analytic import AnalyticProblem, batc
 from robot_controller.experiments.autotune.blackbox import CASES, BlackBoxProblem
 from robot_controller.experiments.autotune.margins import describe_margins
 from robot_controller.experiments.autotune.procedure import steps, tune
-from robot_controller.experiments.autotune.search import Plan, SearchResult, search
+from robot_controller.experiments.autotune.search import SearchPlan, SearchResult, search
 
 __all__ = [
     "CASES",
     "AnalyticProblem",
     "BlackBoxProblem",
-    "Plan",
+    "SearchPlan",
     "SearchResult",
     "batch_tracking_rms",
     "describe_margins",

@@ -26,7 +26,7 @@ from robot_controller.experiments.autotune.margins import (
     describe_margins,
     screen,
 )
-from robot_controller.experiments.autotune.search import FAILED, ROBUST, SEED, Plan, SearchResult
+from robot_controller.experiments.autotune.search import FAILED, ROBUST, SEED, SearchPlan, SearchResult
 from robot_controller.experiments.loop_model import controller_model, law_gains, plant_loop
 from robot_controller.experiments.runs import run_lockstep
 
@@ -68,10 +68,10 @@ class AnalyticProblem:
         self.clip_low, self.clip_high = self.low - 1.0, self.high + 1.0
 
     @staticmethod
-    def plan(quick: bool) -> Plan:
+    def plan(quick: bool) -> SearchPlan:
         if quick:
-            return Plan(first=2048, rounds=((256, 0.25), (256, 0.1)), duration_s=4.0, check_s=3.0)
-        return Plan(
+            return SearchPlan(first=2048, rounds=((256, 0.25), (256, 0.1)), duration_s=4.0, check_s=3.0)
+        return SearchPlan(
             first=8192, rounds=((1024, 0.3), (1024, 0.15), (1024, 0.07), (1024, 0.03)), duration_s=10.0, check_s=10.0
         )
 
@@ -83,7 +83,7 @@ class AnalyticProblem:
         return 10.0 ** np.atleast_2d(points)
 
     def evaluate(
-        self, values: np.ndarray, plan: Plan, seed: int, best_rms: float
+        self, values: np.ndarray, plan: SearchPlan, seed: int, best_rms: float
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Screen every gain set by its margins; simulate those that meet them."""
         gains = self.gains_of_values(values)
@@ -155,7 +155,7 @@ def batch_tracking_rms(
 def before_after(
     problem: AnalyticProblem,
     result: SearchResult,
-    plan: Plan,
+    plan: SearchPlan,
     *,
     seed: int,
     search_s: float,

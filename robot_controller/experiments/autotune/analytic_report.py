@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from robot_controller.experiments.autotune.analytic import AnalyticProblem as Problem
+from robot_controller.experiments.autotune.analytic import AnalyticProblem
 from robot_controller.experiments.autotune.margins import (
     MAX_TIME_CONSTANT_S,
     MIN_DELAY_PERIODS,
@@ -20,7 +20,7 @@ from robot_controller.experiments.autotune.search import ROBUST, SearchResult
 from robot_controller.experiments.reporting import fmt, pyplot, save, table
 
 
-def yaml_header(problem: Problem, result: SearchResult) -> str:
+def yaml_header(problem: AnalyticProblem, result: SearchResult) -> str:
     what = "Kp, Ki, Kd" if problem.controller_type == "pid" else "lqr_q (lqr_r unchanged)"
     return (
         f"# robot-controller tune: {what} for controller_type {problem.controller_type}, feedforward "
@@ -61,7 +61,7 @@ def plot(path: Path, result: SearchResult) -> None:
     save(fig, path, f"Gain sets that met every margin ({int(np.count_nonzero(finite))}), coloured by tracking error")
 
 
-def report_text(values: dict[str, Any], problem: Problem, result: SearchResult, quick: bool) -> str:
+def report_text(values: dict[str, Any], problem: AnalyticProblem, result: SearchResult, quick: bool) -> str:
     def f(value: Any, spec: str = "{:.3g}") -> str:
         return "∞" if value == math.inf else fmt(value, spec)
 

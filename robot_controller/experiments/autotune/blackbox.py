@@ -13,13 +13,13 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
+from robot_controller.blocks.wiring import Disturbance, LoopResult
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import parameters as law_parameters
 from robot_controller.core.laws import registry
-from robot_controller.blocks.wiring import Disturbance, LoopResult
 from robot_controller.core.metrics import WARMUP_S
 from robot_controller.experiments.autotune.margins import MAX_TIME_CONSTANT_S, MIN_DELAY_PERIODS, MIN_GAIN_MARGIN_DB
-from robot_controller.experiments.autotune.search import FAILED, ROBUST, SEED, UNCHECKED, Plan, SearchResult
+from robot_controller.experiments.autotune.search import FAILED, ROBUST, SEED, UNCHECKED, SearchPlan, SearchResult
 from robot_controller.parameters.torque_limits import torque_limit
 
 PUSH_AT_S = 2.0  #: the push, s of the run (after the warm-up; the default sine's peak speed)
@@ -93,7 +93,7 @@ def knobs(law_class: type) -> tuple[Knob, ...]:
 
 
 @dataclass(frozen=True)
-class Case:
+class RobustnessCase:
     """One robustness case: the loop perturbed this way must still let a push die away."""
 
     name: str
@@ -104,14 +104,18 @@ class Case:
 
 #: In the order they are checked: the one that fails most often first.
 CASES = (
-    Case(
+    RobustnessCase(
         "delay",
         f"readings {MIN_DELAY_PERIODS} control periods late, stamped on arrival (delay margin)",
         delay_periods=MIN_DELAY_PERIODS,
     ),
-    Case("nominal", f"as configured (slowest pole within about {MAX_TIME_CONSTANT_S:g} s)"),
-    Case("gain_up", f"the drive applies {GAIN_FACTOR:.3g}× the command (+{MIN_GAIN_MARGIN_DB:g} dB)", 0, GAIN_FACTOR),
-    Case("gain_down", f"the drive applies {1 / GAIN_FACTOR:.3g}× (−{MIN_GAIN_MARGIN_DB:g} dB)", 0, 1 / GAIN_FACTOR),
+    RobustnessCase("nominal", f"as configured (slowest pole within about {MAX_TIME_CONSTANT_S:g} s)"),
+    RobustnessCase(
+        "gain_up", f"the drive applies {GAIN_FACTOR:.3g}× the command (+{MIN_GAIN_MARGIN_DB:g} dB)", 0, GAIN_FACTOR
+    ),
+    RobustnessCase(
+        "gain_down", f"the drive applies {1 / GAIN_FACTOR:.3g}× (−{MIN_GAIN_MARGIN_DB:g} dB)", 0, 1 / GAIN_FACTOR
+    ),
 )
 
 
@@ -134,10 +138,12 @@ class BlackBoxProblem:
         self.high = self.clip_high = np.ones(len(self.knobs))
 
     @staticmethod
-    def plan(quick: bool) -> Plan:
+    def plan(quick: bool) -> SearchPlan:
         if quick:
-            return Plan(first=16, rounds=((8, 0.12), (8, 0.05)), duration_s=4.0, check_s=10.0, max_checks=3)
-        return Plan(first=48, rounds=((16, 0.15), (16, 0.07), (16, 0.03)), duration_s=10.0, check_s=20.0, max_checks=6)
+            return SearchPlan(first=16, rounds=((8, 0.12), (8, 0.05)), duration_s=4.0, check_s=10.0, max_checks=3)
+        return SearchPlan(
+            first=48, rounds=((16, 0.15), (16, 0.07), (16, 0.03)), duration_s=10.0, check_s=20.0, max_checks=6
+        )
 
     def round_text(self, samples: int, spread: float | None) -> str:
         return f"{samples} candidates on the in-process loop" + (
@@ -152,7 +158,7 @@ class BlackBoxProblem:
         return np.column_stack([k.value(points[:, j]) for j, k in enumerate(self.knobs)])
 
     def evaluate(
-        self, values: np.ndarray, plan: Plan, seed: int, best_rms: float
+        self, values: np.ndarray, plan: SearchPlan, seed: int, best_rms: float
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Run every candidate; check the best-tracking ones, in order, until one is robust."""
         rms = np.array([self.tracking_rms(v, plan.duration_s, seed) for v in values])
@@ -213,7 +219,7 @@ class BlackBoxProblem:
         rms = float(result.tracking_metrics()["tracking_rms_rad"])
         return rms if math.isfinite(rms) else math.inf
 
-    def push_decay(self, values: np.ndarray, case: Case, seed: int = SEED) -> dict[str, float]:
+    def push_decay(self, values: np.ndarray, case: RobustnessCase, seed: int = SEED) -> dict[str, float]:
         """The push's own effect in ``case``: its peak and what is left at the end (rad), and whether it died away."""
         options = {
             "measurement_delay_s": case.delay_periods * self.dt,
@@ -255,12 +261,12 @@ class BlackBoxProblem:
     def delay_margin(self, values: np.ndarray, seed: int = SEED, up_to: int = DELAY_REPORTED_UP_TO) -> int:
         """The most whole control periods of unstamped delay after which a push still dies away (0 … ``up_to``)."""
         for periods in range(1, up_to + 1):
-            if not self.push_decay(values, Case("delay", "", delay_periods=periods), seed)["ok"]:
+            if not self.push_decay(values, RobustnessCase("delay", "", delay_periods=periods), seed)["ok"]:
                 return periods - 1
         return up_to
 
 
-def describe(problem: BlackBoxProblem, values: np.ndarray, plan: Plan) -> dict[str, Any]:
+def describe(problem: BlackBoxProblem, values: np.ndarray, plan: SearchPlan) -> dict[str, Any]:
     """Everything the report says of one set of values: each case, the delay margin, the RMS."""
     out: dict[str, Any] = {k.name: float(v) for k, v in zip(problem.knobs, values, strict=True)}
     meets = True
@@ -279,7 +285,7 @@ def describe(problem: BlackBoxProblem, values: np.ndarray, plan: Plan) -> dict[s
 def before_after(
     problem: BlackBoxProblem,
     result: SearchResult,
-    plan: Plan,
+    plan: SearchPlan,
     *,
     seed: int,
     search_s: float,

@@ -20,7 +20,7 @@ from robot_controller.experiments.autotune.blackbox import (
     SETTLE_S,
     TAIL_S,
     BlackBoxProblem,
-    Case,
+    RobustnessCase,
 )
 from robot_controller.experiments.autotune.margins import MAX_TIME_CONSTANT_S, MIN_DELAY_PERIODS, MIN_GAIN_MARGIN_DB
 from robot_controller.experiments.autotune.search import FAILED, ROBUST, UNCHECKED, SearchResult
@@ -69,7 +69,7 @@ def plot(path: Path, result: SearchResult) -> None:
 def report_text(values: dict[str, Any], problem: BlackBoxProblem, result: SearchResult, quick: bool) -> str:
     f = fmt
 
-    def cell(name: str, case: Case) -> str:
+    def cell(name: str, case: RobustnessCase) -> str:
         ok = values[f"{name}_{case.name}_ok"]
         if values[f"{name}_{case.name}_saturated"]:
             return "**no** (saturated)"

@@ -11,7 +11,7 @@ import numpy as np
 from robot_controller.core.laws import robustness
 
 
-class Problem(Protocol):
+class SampledLoop(Protocol):
     """The sampled loop: ``x[k+1] = A x[k] + B u[k]`` on ``[∫e, e, ė]``, period ``dt`` (s)."""
 
     A: np.ndarray
@@ -32,7 +32,7 @@ UNCONDITIONALLY_STABLE = True
 MAX_TIME_CONSTANT_S = 1.0
 
 
-def screen(problem: Problem, gains: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:
+def screen(problem: SampledLoop, gains: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """The margins of each gain set (rows Kp, Ki, Kd) and whether it meets every constraint."""
     rows = np.column_stack([gains[:, 1], gains[:, 0], gains[:, 2]])  # on [∫e, e, ė]
     finite = np.all(np.isfinite(rows), axis=1)
@@ -52,7 +52,7 @@ def screen(problem: Problem, gains: np.ndarray) -> tuple[dict[str, np.ndarray], 
     return margins, ok
 
 
-def describe_margins(problem: Problem, gains: np.ndarray) -> dict[str, float]:
+def describe_margins(problem: SampledLoop, gains: np.ndarray) -> dict[str, float]:
     """Every margin of the loop with gains (Kp, Ki, Kd), and whether it meets the constraints."""
     row = robustness.pid_gain_row(*gains)
     m = robustness.margins(problem.A, problem.B, row, problem.dt)

@@ -1,5 +1,5 @@
 """The search ``tune`` runs on any problem: a Latin hypercube over its box, then rounds of samples
-around the best robust candidates, narrower each round (:meth:`Problem.evaluate` judges them)."""
+around the best robust candidates, narrower each round (:meth:`SearchProblem.evaluate` judges them)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ ROBUST, FAILED, UNCHECKED = 1, 0, -1  #: a candidate's verdict
 
 
 @dataclass(frozen=True)
-class Plan:
+class SearchPlan:
     first: int  #: Latin-hypercube samples of the first round
     rounds: tuple[tuple[int, float], ...]  #: refinement rounds: (samples, σ of the spread around the best)
     duration_s: float  #: each candidate's sine run (2 s warm-up included)
@@ -23,7 +23,7 @@ class Plan:
     max_checks: int = 0  #: robustness checks per round at most, once one is robust (a black box's)
 
 
-class Problem(Protocol):
+class SearchProblem(Protocol):
     low: np.ndarray  #: the first round's box, in search coordinates
     high: np.ndarray
     clip_low: np.ndarray  #: the refinement rounds' bounds
@@ -34,7 +34,7 @@ class Problem(Protocol):
     def values(self, points: np.ndarray) -> np.ndarray: ...
     def round_text(self, samples: int, spread: float | None) -> str: ...
     def evaluate(
-        self, values: np.ndarray, plan: Plan, seed: int, best_rms: float
+        self, values: np.ndarray, plan: SearchPlan, seed: int, best_rms: float
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
     def passes(self, values: np.ndarray, seed: int) -> bool: ...
     def nothing_robust(self) -> str: ...
@@ -72,7 +72,7 @@ def latin_hypercube(rng: np.random.Generator, samples: int, low: np.ndarray, hig
 
 
 def search(
-    problem: Problem, plan: Plan, *, progress: Callable[[str], None] | None = None, seed: int = SEED
+    problem: SearchProblem, plan: SearchPlan, *, progress: Callable[[str], None] | None = None, seed: int = SEED
 ) -> SearchResult:
     """The best-tracking robust candidate, rounded as the parameter file gets it.
 

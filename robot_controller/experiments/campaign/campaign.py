@@ -17,30 +17,33 @@ from robot_controller.experiments.campaign.store import ResultStore
 
 
 @dataclass(frozen=True)
-class Contender:
+class CampaignContender:
     label: str  #: the rows' ``controller`` ("" when the spec's controller runs alone)
     spec: str | None  #: controller_type (None: the spec's)
 
 
-def contenders(spec: CampaignSpec, names: list[str] | None) -> tuple[Contender, ...]:
+def contenders(spec: CampaignSpec, names: list[str] | None) -> tuple[CampaignContender, ...]:
     """``--controllers A,B``: each checked (its class loads), labelled by its class name; None: the spec's own."""
     from robot_controller.core.errors import ConfigError
     from robot_controller.experiments.laws import label
 
     if not names:
-        return (Contender("", None),)
+        return (CampaignContender("", None),)
 
     def refuse(why: str) -> ConfigError:
         return ConfigError(f"--controllers: {why}")
 
-    chosen = tuple(Contender(label(n), controller_spec(n, Path.cwd(), refuse)) for n in names)
+    chosen = tuple(CampaignContender(label(n), controller_spec(n, Path.cwd(), refuse)) for n in names)
     if len({c.label for c in chosen}) != len(chosen):
         raise ConfigError(f"--controllers: two controllers share a name: {','.join(names)}")
     return chosen
 
 
 def tasks(
-    spec: CampaignSpec, chosen: tuple[Contender, ...], done: set[tuple[str, int]], timeout_s: float | None = None
+    spec: CampaignSpec,
+    chosen: tuple[CampaignContender, ...],
+    done: set[tuple[str, int]],
+    timeout_s: float | None = None,
 ) -> list[Task]:
     """The runs still to do, run by run (each run's controllers side by side): the same draws for every controller;
     each held to ``timeout_s`` of wall time (None: the spec's)."""
