@@ -143,7 +143,8 @@ def test_core_never_imports_rclpy():
         text = path.read_text()
         assert "import rclpy" not in text and "from rclpy" not in text, path
     code = (
-        "import sys, robot_controller.blocks.wiring, robot_controller.experiments.inprocess; print('rclpy' in sys.modules)"
+        "import sys, robot_controller.blocks.wiring, robot_controller.experiments.inprocess; "
+        "print('rclpy' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60)
     assert out.stdout.strip() == "False"
