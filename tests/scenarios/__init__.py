@@ -1,0 +1,2 @@
+"""Scenarios: the whole loop run as a user runs it (ROS graphs, CLI verbs), apart from the unit tests
+that mirror the modules."""
