@@ -39,7 +39,8 @@ TIMING = {
     "jitter_p50_ms": "jitter_p50_ms",
     "jitter_p99_ms": "jitter_p99_ms",
     "jitter_max_ms": "jitter_max_ms",
-    "missed": "missed_cycles",
+    "missed": "missed_cycles",  # the loop's own; those the host caused apart
+    "missed_host": "missed_cycles_host",
     "latency_p50_ms": "latency_p50_ms",
     "latency_p99_ms": "latency_p99_ms",
     "rate_hz": "control_rate_hz",

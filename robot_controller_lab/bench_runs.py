@@ -24,7 +24,7 @@ from robot_controller.experiments import inprocess
 from robot_controller.runner import forking, launcher, plan
 from robot_controller.runner.options import RunOptions
 from robot_controller.runner.supervise import Watcher
-from robot_controller.scoring import report
+from robot_controller.scoring import report, scored_run
 
 
 def wall_run(
@@ -38,21 +38,18 @@ def wall_run(
     watcher: Watcher | None = None,
 ) -> dict[str, Any]:
     options = RunOptions(duration_s, sim_time=sim_time, paced=paced, single_process=single_process)
-    result = launcher.launch(plan.check(params, options), out, watcher=watcher)
+    checked = plan.check(params, options)
+    result = launcher.launch(checked, out, watcher=watcher)
     result.raise_if_interrupted()
-    if result.exit_code != 0 and not result.message_counts.get("/controller/state"):
+    if result.exit_code != 0 and not scored_run.has_ticks(result):
         return {"failure": result.failure}
-    values = report.score(
-        report.read_recording(result.bag_dir),
-        nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
-        window_s=duration_s if options.lockstep else None,
-    )
-    values["real_time_factor"] = result.real_time_factor
+    scored = scored_run.score_launched(checked, result)
+    # The host's figures beside the run's, a lockstep run's too (CPU, unrecorded messages): the bench measures them.
+    values = scored.metrics | scored.timing | {"real_time_factor": result.real_time_factor}
+    # The periods the host stretched are counted apart from the loop's own misses (none in lockstep): both reported.
+    values.setdefault("missed_cycles_host", 0)
     if result.failure:
         values["failure"] = result.failure  # scored as far as it ran, and said so
-    values.update(result.usage)
-    values.update(result.world_clock)  # a paced world's freezes and late efforts
-    values["unrecorded_messages"] = sum(result.unrecorded.values())
     report.write_metrics(out / "metrics.json", values)
     return values
 

@@ -29,7 +29,7 @@ from robot_controller import parameters as cfg
 from robot_controller.ros import partition as dds_partition
 from robot_controller.runner import launcher, plan
 from robot_controller.runner.options import RunOptions
-from robot_controller.scoring import report
+from robot_controller.scoring import report, scored_run
 
 FLOOD_AT_S, FLOOD_S, RATE_HZ, RUN_S = 5.0, 5.0, 5000.0, 14.0
 GOAL_RAD = 0.02
@@ -108,7 +108,8 @@ def publish(case: str) -> None:
 
 def run_case(case: str, out: Path) -> dict[str, Any]:
     flood = Flood(case)
-    result = launcher.launch(plan.check(cfg.load_stack(), RunOptions(RUN_S)), out, watcher=flood)
+    checked = plan.check(cfg.load_stack(), RunOptions(RUN_S))
+    result = launcher.launch(checked, out, watcher=flood)
     sent = flood.finish()
     result.raise_if_interrupted()
     started_s, ended_s = sent.get("started_s", float("nan")), sent.get("ended_s", float("nan"))
@@ -120,14 +121,14 @@ def run_case(case: str, out: Path) -> dict[str, Any]:
         "sent": sent.get("sent", 0),
         "rate_hz": sent.get("sent", 0) / (ended_s - started_s),
     }
-    if not result.message_counts.get("/controller/state"):
+    if not scored_run.has_ticks(result):
         return entry | {"failure": result.failure or "no recording"}
-    recording = report.read_recording(result.bag_dir)
+    scored = scored_run.score_launched(checked, result)
+    recording, values = scored.recording, scored.metrics
     during = report.tracking_on_sim_timeline(recording, started_s, ended_s)
     entry.update(
         {"tracking_max_during_rad": during["tracking_max_rad"], "tracking_rms_during_rad": during["tracking_rms_rad"]}
     )
-    values = report.score(recording)
     entry.update({k: values.get(k) for k in ("tracking_max_rad", "watchdog_ticks", "saturated_ticks")})
     return entry
 

@@ -76,10 +76,8 @@ def _run(args: argparse.Namespace) -> int:
 
 def run(options: RunOptions, out: Path | None) -> int:
     """Run, record and score the loop (part of the graph without the simulator: say what it ran)."""
-    from robot_controller import robots
-    from robot_controller.core import metrics
     from robot_controller.runner import launcher, plan
-    from robot_controller.scoring import plots, report, summary, verdict
+    from robot_controller.scoring import scored_run
 
     checked = plan.check(options.params(), options)  # before the output folder is made
     say_arm(options.robot)
@@ -94,73 +92,16 @@ def run(options: RunOptions, out: Path | None) -> int:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # scoring takes a second: let it finish
     if result.exit_code != 0 and not any(result.message_counts.values()):
         return result.exit_code
-    options = checked.options  # a split or respawning run keeps the wall clock
-    sim_time, duration_s = options.lockstep, options.duration_s
     try:
-        recording = report.read_recording(result.bag_dir)
-        units = report.arm_units(checked.params["simulator"]["urdf_path"])
-        period_s = 1.0 / checked.params["pid_controller"]["control_rate_hz"]
-        window_s = duration_s if sim_time else None
-        # On the wall clock, or interrupted, the nodes stop one by one after the run: the stops that follow (a
-        # controller gone before the drive's timeout) are not the run's.
-        judged_s = result.control_seconds if result.interrupted or not sim_time else None
-        values = report.score(
-            recording,
-            nominal_period_s=period_s,
-            window_s=window_s,
-            units=units,
-            receipts=not options.sim_time,
-            judged_s=judged_s,
-        )
+        scored = scored_run.score_launched(checked, result)
     except ValueError as exc:
         # A run that already failed said FAILED and why: its verdict stays one line.
         launcher.say(f"{'' if result.exit_code else 'FAILED: '}cannot score the recording: {exc}")
         return result.exit_code or 1
-    recorded_s = result.control_seconds if result.interrupted or not sim_time else duration_s
-    if sim_time and result.failure is not None and values.get("recorded_duration_s") is not None:
-        recorded_s = min(recorded_s, values["recorded_duration_s"])  # ended early: the ticks' own span (seeded)
-    robot = robots.arm_name(options.robot, checked.params["simulator"]["urdf_path"])
-    preset, seed = options.preset, options.seed
-    values.update(duration_s=round(recorded_s, 3), interrupted=result.interrupted, preset=preset, robot=robot)
-    values.update(seed=seed, mode="single_process" if options.single_process else "multi_process")
-    values.update(clock="sim_paced" if options.paced else "sim_lockstep" if sim_time else "wall")
-    if options.nodes is not None and len(result.local_nodes) < 5:  # a split run: what ran here (the rest elsewhere)
-        values["nodes_here"] = ",".join(result.local_nodes)
-    # Wall-clock figures of a lockstep run differ run to run: keep them out of metrics.json.
-    wall = {"real_time_factor": result.real_time_factor, "wall_duration_s": result.wall_seconds}
-    # How many messages the bag misses depends on when the nodes stopped, not on the seed.
-    (wall if sim_time else values)["unrecorded_messages"] = sum(result.unrecorded.values())
-    if options.sim_time:
-        wall.update(result.usage)
-    else:  # a paced world's freezes and its loop's late efforts, or the wall clock's
-        values.update(result.world_clock)
-        # Periods the host stretched (the loop waited for a CPU): not the loop's own misses, among those scored.
-        host_missed = metrics.periods_ending_within(result.host_missed_ends_s, recording.state["time_s"])
-        if host_missed:
-            values["missed_cycles_host"] = host_missed
-            values["missed_cycles"] = max(0, values.get("missed_cycles", 0) - host_missed)
-        # Watchdog ticks the host made (the readings' silence past the window was its doing): counted apart.
-        if host_watchdog := metrics.periods_ending_within(result.host_watchdog_s, recording.state["time_s"]):
-            values["watchdog_ticks_host"] = host_watchdog
-            values["watchdog_ticks"] = max(0, values.get("watchdog_ticks", 0) - host_watchdog)
-        values.update(result.clocks)  # a split run's hosts' clock offset
-        values["realtime_requested"] = options.realtime
-        values.update(result.usage)
-    if options.paced:
-        values.update(wall)  # not the same run to run: the host's
-    band_rad = options.tracking_band_rad or robots.robot(options.robot).tracking_band_rad
-    failure = result.failure if result.exit_code else None
-    judged = verdict.judge(values, band_rad=band_rad, failure=failure)
+    values = scored.metrics
+    limits = effort_limits(checked.params, len(values["joint_units"]))
+    title = f"{values['robot']}, preset {values['preset']}, seed {values['seed']}"
+    scored.write(out, command=typed_command(), plot_title=title, effort_limits=limits)
+    print_summary(scored.verdict.line, scored.rows(limits, str(out)))
     # The run's own failure (a node died, the law failed), apart from a verdict on a run that ran: both exit 1.
-    values.update(judged.as_metrics(), tracking_band_rad=band_rad, run_failure=failure)
-    report.write_metrics(out / "metrics.json", values)
-    if options.sim_time:
-        report.write_metrics(out / "timing.json", wall)
-    plots.plot_tracking(recording, out / "tracking.png", title=f"{robot}, preset {preset}, seed {seed}", units=units)
-    limits = effort_limits(checked.params, len(units))
-    rows = summary.run_rows(values | (wall if options.sim_time else {}), effort_limits=limits, out=str(out))
-    links = ["tracking.png", "bag/", "metrics.json", "params.yaml"]
-    text = summary.markdown(judged.line, rows, title=f"Run {out.name}", command=typed_command(), links=links)
-    (out / "summary.md").write_text(text)
-    print_summary(judged.line, rows)
-    return result.exit_code or (0 if judged.ok else 1)
+    return result.exit_code or (0 if scored.verdict.ok else 1)

@@ -32,47 +32,23 @@ def register(sub) -> None:
 
 
 def score(run_dir: Path, *, as_json: bool = False, every_figure: bool = False) -> int:
-    from robot_controller import robots
-    from robot_controller.scoring import report, summary, verdict
+    from robot_controller.scoring import report, scored_run
 
     try:
-        recording = report.read_recording(run_dir / "bag")
-        saved = _saved(run_dir)
-        units = saved.get("joint_units") if len(saved.get("joint_units") or []) == recording.joint_count else None
-        # As the run judged itself: on the wall clock, or interrupted, its stops after its duration are its shutdown's.
-        judged_s = saved.get("duration_s") if saved.get("clock") == "wall" or saved.get("interrupted") else None
-        values = report.score(
-            recording,
-            window_s=_scored_window_s(saved),
-            units=units,
-            receipts=saved.get("clock") != "sim_lockstep",
-            judged_s=judged_s if isinstance(judged_s, (int, float)) else None,
-        )
+        scored = scored_run.rescore(run_dir)
     except (FileNotFoundError, ValueError) as exc:
         print(f"robot-controller: cannot score {run_dir}: {exc}", file=sys.stderr)
         return 2
-    band_rad = saved.get("tracking_band_rad") or robots.robot(robots.DEFAULT_ROBOT).tracking_band_rad
-    judged = verdict.judge(saved | values, band_rad=band_rad)
-    values.update(judged.as_metrics(), tracking_band_rad=band_rad)
     if as_json:
-        print(json.dumps(report.json_safe(values), indent=2, sort_keys=True))
+        print(json.dumps(report.json_safe(scored.judged), indent=2, sort_keys=True))
     elif every_figure:
-        print_table(values, title=f"re-scored {run_dir / 'bag'}")
-        print_summary(judged.line, [])
+        print_table(scored.judged, title=f"re-scored {run_dir / 'bag'}")
+        print_summary(scored.verdict.line, [])
     else:  # the run's facts (robot, clock, host freezes) from its metrics.json, the figures re-scored
-        rows = summary.run_rows(saved | values, effort_limits=_effort_limits(run_dir, recording.joint_count))
+        rows = scored.rows(_effort_limits(run_dir, scored.recording.joint_count))
         print(f"re-scored {run_dir / 'bag'}")
-        print_summary(judged.line, [*rows, ("all figures", f"robot-controller score {run_dir} --all")])
-    return 0 if judged.ok else 1
-
-
-def _saved(run_dir: Path) -> dict:
-    """The run's ``metrics.json``: its joints' units (all rad without them), its clock and duration."""
-    try:
-        saved = json.loads((run_dir / "metrics.json").read_text())
-    except (OSError, ValueError):
-        return {}  # none, or not one of ours: the whole recording, every joint revolute
-    return saved if isinstance(saved, dict) else {}
+        print_summary(scored.verdict.line, [*rows, ("all figures", f"robot-controller score {run_dir} --all")])
+    return 0 if scored.verdict.ok else 1
 
 
 def _effort_limits(run_dir: Path, joint_count: int) -> list[float] | None:
@@ -85,17 +61,6 @@ def _effort_limits(run_dir: Path, joint_count: int) -> list[float] | None:
     except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError):
         return None
     return limits if len(limits) == joint_count else None
-
-
-def _scored_window_s(saved: dict) -> float | None:
-    """A lockstep or paced run is scored over its ``--duration`` from its first tick (the simulator
-    runs on a little past it): that window, from the run's ``metrics.json``, if there is one."""
-    try:
-        if saved["clock"] in ("sim_lockstep", "sim_paced") and saved["duration_s"] > 0:
-            return float(saved["duration_s"])
-    except (TypeError, KeyError):
-        pass
-    return None
 
 
 def view(run_dir: Path, *, port: int, serve: bool) -> int:

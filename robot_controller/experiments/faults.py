@@ -18,13 +18,12 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.blocks import spec
 from robot_controller.core import metrics
 from robot_controller.core.metrics import in_units
 from robot_controller.experiments.reporting import fmt, table
 from robot_controller.runner import launcher, plan
 from robot_controller.runner.options import RunOptions
-from robot_controller.scoring import plots, report
+from robot_controller.scoring import plots, report, scored_run
 
 NODES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
 DURATIONS_S = (0.05, 0.5, 3.0)
@@ -150,7 +149,8 @@ def run_case(case: Case, out: Path, params: cfg.Params, *, wall_clock: bool = Fa
     freezer = Freezer(case, at_s)
     world = world_of(case, wall_clock)
     options = RunOptions(at_s + case.duration_s + AFTER_S, respawn=case.kind == "SIGKILL", paced=world == "paced")
-    result = launcher.launch(plan.check(params, options), out, watcher=freezer)
+    checked = plan.check(params, options)
+    result = launcher.launch(checked, out, watcher=freezer)
     result.raise_if_interrupted()
     if freezer.thread is not None:
         freezer.thread.join()
@@ -162,11 +162,10 @@ def run_case(case: Case, out: Path, params: cfg.Params, *, wall_clock: bool = Fa
         "world": world,
         "exit_code": result.exit_code,
     }
-    if not result.message_counts.get(spec.STATE.topic):
+    if not scored_run.has_ticks(result):
         return entry | {"failure": result.failure or "no recording"}
-    recording = report.read_recording(result.bag_dir)
-    units = report.arm_units(params["simulator"]["urdf_path"])
-    values = report.score(recording, units=units)
+    scored = scored_run.score_launched(checked, result)
+    recording, values, units = scored.recording, scored.metrics, scored.metrics["joint_units"]
     if world == "paced":  # the run's time is the world's: the freeze's instants mapped onto it
         start_s = result.world_time_at(freezer.stopped_monotonic)
         # (a world paused at once, its simulator frozen: the start, carried on at 1×, can pass the end by a tick)

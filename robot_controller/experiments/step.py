@@ -13,7 +13,7 @@ from robot_controller.core.errors import RunFailed
 from robot_controller.experiments.reporting import pyplot, save
 from robot_controller.runner import launcher, plan
 from robot_controller.runner.options import RunOptions
-from robot_controller.scoring import plots, report
+from robot_controller.scoring import plots, report, scored_run
 
 STEP_LEAD_S = 0.5  # time at the start position before the step, s
 STEP_AFTER_S = 2.0  # recorded after the step, s
@@ -27,16 +27,13 @@ def run_and_score(
 
 
 def run_checked(checked: plan.CheckedRun, out: Path) -> tuple[dict[str, Any], report.Recording]:
-    """Launch a checked run into ``out``; its scores (over its duration, in lockstep) and recording."""
+    """Launch a checked run into ``out``; its figures and facts (:func:`scored_run.score_launched`) and recording."""
     result = launcher.launch(checked, out)
     result.raise_if_interrupted()
     if result.exit_code != 0:
         raise RunFailed(f"run in {out} failed: {result.failure}")
-    recording = report.read_recording(result.bag_dir)
-    period_s = 1.0 / checked.params["pid_controller"]["control_rate_hz"]
-    window_s = checked.options.duration_s if checked.options.lockstep else None
-    units = report.arm_units(checked.params["simulator"]["urdf_path"])
-    return report.score(recording, nominal_period_s=period_s, window_s=window_s, units=units), recording
+    scored = scored_run.score_launched(checked, result)
+    return scored.metrics, scored.recording
 
 
 def step_params(params: cfg.Params, amplitude: float, shaping: str) -> cfg.Params:
@@ -139,12 +136,11 @@ def check_step(
 
 def step_response(checked: plan.CheckedRun, out: Path, *, amplitude: float, shaping: str) -> dict[str, Any]:
     """Run the step :func:`check_step` checked; its figures, also in ``metrics.json`` and ``step.png``."""
-    options = checked.options
-    params, clock = checked.params, "sim_paced" if options.paced else "sim_lockstep" if options.sim_time else "wall"
+    params = checked.params
     seed = params["sensor_node"]["seed"]
     values, recording = run_checked(checked, out)
     values.update(step_figures(recording, amplitude, np.asarray(params["trajectory_planner"]["offset"], float)))
-    values.update(amplitude_rad=amplitude, step_shaping=shaping, seed=seed, clock=clock)
+    values.update(amplitude_rad=amplitude, step_shaping=shaping, seed=seed)
     report.write_metrics(out / "metrics.json", values)
     limit_nm = np.asarray(params["motor_node"]["torque_max"], float)
     plot_step(

@@ -1,0 +1,195 @@
+"""One scored run: a launched run's bag read back, scored over the span its clock gives, the host's share of its
+misses set apart, judged against its band and summed up. ``run``, ``score DIR``, every experiment, ``faults`` and the
+benches score through here, so a run says the same wherever it is scored.
+
+The span by clock: in sim time (``sim_lockstep``, ``sim_paced``) the ticks of the run's ``--duration`` from its first
+(the simulator runs on a little past it); on the wall clock, or interrupted, the stops after the run's own span are its
+shutdown's, not counted. When the recorder heard each message (latency to the motor, counts, rates) differs run to run
+in lockstep only: scored on every other clock."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from robot_controller.core import metrics as core_metrics
+from robot_controller.scoring import plots, report, summary, verdict
+from robot_controller.scoring.bag_reader import Recording
+
+if TYPE_CHECKING:
+    from robot_controller.runner.plan import CheckedRun
+    from robot_controller.runner.supervise import RunResult
+
+LOCKSTEP, PACED, WALL = "sim_lockstep", "sim_paced", "wall"  #: ``metrics.json``'s ``clock``
+
+
+@dataclass
+class ScoredRun:
+    """What a run scored to: its figures and facts, the host's figures apart, its verdict."""
+
+    recording: Recording
+    metrics: dict[str, Any]  #: figures and the run's facts: ``metrics.json`` without the verdict
+    verdict: verdict.Verdict
+    band_rad: float  #: the tracking band it was judged by
+    failure: str | None = None  #: the run's own failure (a node died, the law failed): its verdict
+    #: a lockstep run's host figures (wall time, CPU, unrecorded messages): ``timing.json``, they differ run to run
+    timing: dict[str, Any] = field(default_factory=dict)
+    facts: dict[str, Any] = field(default_factory=dict)  #: a re-scored run's saved ``metrics.json`` (robot, clock, …)
+
+    @property
+    def judged(self) -> dict[str, Any]:
+        """``metrics.json``: the figures, facts and verdict."""
+        return self.metrics | self.verdict.as_metrics() | {"tracking_band_rad": self.band_rad}
+
+    def rows(self, effort_limits: list[float] | None = None, out: str | None = None) -> list[summary.Row]:
+        """The summary's rows (:func:`summary.run_rows`)."""
+        return summary.run_rows(self.facts | self.judged | self.timing, effort_limits=effort_limits, out=out)
+
+    def write(self, out: Path, *, command: str, plot_title: str, effort_limits: list[float] | None = None) -> None:
+        """``metrics.json`` (``timing.json`` in lockstep), ``tracking.png`` and ``summary.md`` into ``out``."""
+        report.write_metrics(out / "metrics.json", self.judged)
+        if self.timing:
+            report.write_metrics(out / "timing.json", self.timing)
+        plots.plot_tracking(self.recording, out / "tracking.png", title=plot_title, units=self.metrics["joint_units"])
+        links = ["tracking.png", "bag/", "metrics.json", "params.yaml"]
+        rows = self.rows(effort_limits, str(out))
+        (out / "summary.md").write_text(
+            summary.markdown(self.verdict.line, rows, title=f"Run {out.name}", command=command, links=links)
+        )
+
+
+def clock_of(options: Any) -> str:
+    """``metrics.json``'s ``clock`` of a run's options."""
+    return PACED if options.paced else LOCKSTEP if options.sim_time else WALL
+
+
+def has_ticks(result: RunResult) -> bool:
+    """Whether the run's bag holds any controller tick: something to score."""
+    from robot_controller.blocks import spec
+
+    return bool(result.message_counts.get(spec.STATE.topic))
+
+
+def score_launched(checked: CheckedRun, result: RunResult) -> ScoredRun:
+    """The scored run of what :func:`robot_controller.runner.launcher.launch` ran from ``checked``.
+
+    :raises ValueError: the recording cannot be scored (no controller tick, a torn bag)
+    """
+    from robot_controller import robots
+
+    options, params = checked.options, checked.params
+    clock = clock_of(options)
+    recording = report.read_recording(result.bag_dir)
+    sim = clock != WALL
+    # On the wall clock, or interrupted, the nodes stop one by one after the run: the stops that follow (a
+    # controller gone before the drive's timeout) are not the run's.
+    judged_s = result.control_seconds if result.interrupted or not sim else None
+    values = _figures(
+        recording,
+        clock=clock,
+        window_s=options.duration_s if sim else None,
+        judged_s=judged_s,
+        period_s=1.0 / params["pid_controller"]["control_rate_hz"],
+        units=report.arm_units(params["simulator"]["urdf_path"]),
+    )
+    recorded_s = result.control_seconds if result.interrupted or not sim else options.duration_s
+    if sim and result.failure is not None and values.get("recorded_duration_s") is not None:
+        recorded_s = min(recorded_s, values["recorded_duration_s"])  # ended early: the ticks' own span (seeded)
+    robot = robots.arm_name(options.robot, params["simulator"]["urdf_path"])
+    values.update(duration_s=round(recorded_s, 3), interrupted=result.interrupted, preset=options.preset, robot=robot)
+    values.update(seed=options.seed, mode="single_process" if options.single_process else "multi_process")
+    values.update(clock=clock)
+    if options.nodes is not None and len(result.local_nodes) < 5:  # a split run: what ran here (the rest elsewhere)
+        values["nodes_here"] = ",".join(result.local_nodes)
+    # Wall-clock figures of a lockstep run differ run to run: kept out of metrics.json.
+    host = {"real_time_factor": result.real_time_factor, "wall_duration_s": result.wall_seconds}
+    # How many messages the bag misses depends on when the nodes stopped, not on the seed.
+    (host if clock == LOCKSTEP else values)["unrecorded_messages"] = sum(result.unrecorded.values())
+    if clock == LOCKSTEP:
+        host.update(result.usage)
+    else:  # a paced world's freezes and its loop's late efforts, or the wall clock's
+        values.update(result.world_clock)
+        ticks = recording.state["time_s"]
+        missed = core_metrics.periods_ending_within(result.host_missed_ends_s, ticks)
+        set_host_share_apart(values, missed, core_metrics.periods_ending_within(result.host_watchdog_s, ticks))
+        values.update(result.clocks)  # a split run's hosts' clock offset
+        values["realtime_requested"] = options.realtime
+        values.update(result.usage)
+    if clock == PACED:
+        values.update(host)  # not the same run to run: the host's
+    band_rad = options.tracking_band_rad or robots.robot(options.robot).tracking_band_rad
+    failure = result.failure if result.exit_code else None
+    values["run_failure"] = failure  # apart from a verdict on a run that ran
+    judged = verdict.judge(values, band_rad=band_rad, failure=failure)
+    return ScoredRun(recording, values, judged, band_rad, failure, host if clock == LOCKSTEP else {})
+
+
+def rescore(run_dir: Path) -> ScoredRun:
+    """A saved run re-scored from its bag and judged as it judged itself: by the band, clock, duration, units,
+    host's share of its misses and failure its ``metrics.json`` saved (none saved: the whole recording, every joint
+    revolute, the default robot's band).
+
+    :raises FileNotFoundError, ValueError: no bag there, or one that cannot be scored
+    """
+    from robot_controller import robots
+
+    recording = report.read_recording(run_dir / "bag")
+    saved = _saved(run_dir)
+    units = saved.get("joint_units") if len(saved.get("joint_units") or []) == recording.joint_count else None
+    clock = saved.get("clock")
+    duration_s = saved.get("duration_s") if isinstance(saved.get("duration_s"), (int, float)) else None
+    sim = clock in (LOCKSTEP, PACED) and duration_s is not None and duration_s > 0
+    # As the run judged itself: on the wall clock, or interrupted, its stops after its duration are its shutdown's.
+    judged_s = duration_s if clock == WALL or saved.get("interrupted") else None
+    values = _figures(recording, clock=clock, window_s=duration_s if sim else None, judged_s=judged_s, units=units)
+    set_host_share_apart(values, _count(saved, "missed_cycles_host"), _count(saved, "watchdog_ticks_host"))
+    band_rad = saved.get("tracking_band_rad") or robots.robot(robots.DEFAULT_ROBOT).tracking_band_rad
+    failure = saved.get("run_failure") if isinstance(saved.get("run_failure"), str) else None
+    judged = verdict.judge(saved | values, band_rad=band_rad, failure=failure)
+    return ScoredRun(recording, values, judged, band_rad, failure, facts=saved)
+
+
+def set_host_share_apart(values: dict[str, Any], missed_cycles: int, watchdog_ticks: int) -> None:
+    """Periods the host stretched (the loop waited for a CPU) and watchdog ticks it made (the readings' silence past
+    the window was its doing), among those scored: counted apart (``…_host``), not as the loop's own."""
+    for key, count in (("missed_cycles", missed_cycles), ("watchdog_ticks", watchdog_ticks)):
+        if count:
+            values[f"{key}_host"] = count
+            values[key] = max(0, values.get(key, 0) - count)
+
+
+def _figures(
+    recording: Recording,
+    *,
+    clock: str | None,
+    window_s: float | None,
+    judged_s: float | None,
+    period_s: float = 0.01,
+    units: list[str] | None = None,
+) -> dict[str, Any]:
+    """The recording's figures over ``window_s`` (:func:`report.score`); when the recorder heard each message is a
+    figure on every clock but lockstep."""
+    return report.score(
+        recording,
+        nominal_period_s=period_s,
+        window_s=window_s,
+        units=units,
+        receipts=clock != LOCKSTEP,
+        judged_s=judged_s,
+    )
+
+
+def _saved(run_dir: Path) -> dict[str, Any]:
+    """The run's ``metrics.json`` (empty if none, or not one of ours)."""
+    try:
+        saved = json.loads((run_dir / "metrics.json").read_text())
+    except (OSError, ValueError):
+        return {}
+    return saved if isinstance(saved, dict) else {}
+
+
+def _count(saved: dict[str, Any], key: str) -> int:
+    value = saved.get(key)
+    return int(value) if isinstance(value, (int, float)) and value > 0 else 0
