@@ -1,167 +1,183 @@
-"""The simulator node: the plant, the effort taken in and the true state sent out; its parts (``pacing``
-or ``ticks``, ``brakes``, ``disturbance``) share its plant, effort and lock."""
+"""The simulator node: the host of the world block (``blocks.world``) and of the clock that steps it
+(``ros.clocks``), chosen once at start from ``lockstep`` and ``real_time_factor``. It turns the world's ports into
+topics (``blocks.spec``), serves the e-stop button and, in sim time, follows the recorder's clock."""
 
 from __future__ import annotations
 
 import os
-import threading
-import time
+from typing import Any
 
-import numpy as np
+from rclpy.clock import Clock, ClockType
+from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
+from std_srvs.srv import SetBool
 
-from robot_controller import parameters as cfg
-from robot_controller import resources
 from robot_controller.blocks import spec
-from robot_controller.core.model import MujocoPlant, PlantVariation, steps_per_period
-from robot_controller.nodes.simulator.brakes import Brakes
-from robot_controller.nodes.simulator.disturbance import Disturbance
-from robot_controller.nodes.simulator.lockstep import LockstepTicks
-from robot_controller.nodes.simulator.paced import PacedTicks
-from robot_controller.nodes.simulator.pacing import Pacing
+from robot_controller.blocks.world import World, Written
 from robot_controller.nodes.world_state import WORLD_STATE_ENV, WorldState
-from robot_controller.ros.messages import check_effort, command_tick_s
+from robot_controller.ros.adapter import NodeLog
+from robot_controller.ros.clocks.outlets import Outlets
+from robot_controller.ros.clocks.paced import PacedClock
+from robot_controller.ros.clocks.stepped import SteppedClock
+from robot_controller.ros.clocks.wall import WallClock
+from robot_controller.ros.messages import command_tick_s, decode, message_class
 from robot_controller.ros.process import run
-from robot_controller.ros.publishing import COUNTS_DIR_ENV
-from robot_controller.ros.qos import loop_qos
+from robot_controller.ros.publishing import COUNTS_DIR_ENV, recorded
+from robot_controller.ros.qos import CLOCK_QOS, profile
 from robot_controller.ros.stack_node import StackNode
+
+#: How often, s (steady clock), sim time looks whether the graph is ready for tick 0.
+START_POLL_S = 0.05
 
 
 class Simulator(StackNode):
     def __init__(self) -> None:
         super().__init__("simulator")
         p = self.params
-        variation = PlantVariation.from_params(p)
-        self.plant = MujocoPlant(
-            resources.resolve_urdf(p["urdf_path"]), 1.0 / p["physics_rate_hz"], variation=variation
-        )
-        self.joint_count = len(self.plant.joint_names)
-        self.plant.reset(cfg.per_joint("initial_position", p["initial_position"], self.joint_count))
-        self.world = WorldState.open(os.environ.get(WORLD_STATE_ENV, ""), self.joint_count)
-        if self.world is not None and self.world.resumed is not None:
-            self.plant.reset(self.world.resumed)
-            warning = f"respawned: the arm is where it was, at {self.world.resumed.tolist()} rad"
-            self.get_logger().warning(f"{warning}, brakes on until the first command")
-        self.effort = np.zeros(self.joint_count)
-        self.said_brake_wait = False  # the start's wait for the motor's brake request, said once
-        self.steps_done = 0
-        self.physics_dt_ns = round(self.plant.physics_dt * 1e9)
-        self.lock = threading.Lock()  # the plant and effort: pacing thread vs the executor's callbacks
-        self.pacing = None if self.lockstep else Pacing(self)
+        self.world = world = World(p, NodeLog(self), world_waits=self.lockstep)
+        n = world.joint_count
+        state_file = WorldState.open(os.environ.get(WORLD_STATE_ENV, ""), n)
+        if state_file is not None and state_file.resumed is not None:
+            world.respawn(state_file.resumed)
         self.state_pub = self.gated_publisher(JointState, spec.TRUE_STATE.topic)
-        self.effort_sub = self.create_subscription(
-            Float64MultiArray, spec.EFFORT.topic, self.effort_callback, loop_qos(self.lockstep)
-        )
-        self.watch_single_publisher(spec.EFFORT.topic, spec.EFFORT.writer)
-        self.brakes = Brakes(self)
-        self.state_msg = JointState()
-        self.state_msg.name = list(self.plant.joint_names)
-        self.disturbance = Disturbance(self)
-        self.ticks: LockstepTicks | PacedTicks | None = None
+        self.state_msg = JointState(name=world.joint_names)
+        self.brakes_pub = self.gated_publisher(Float64MultiArray, spec.BRAKES.topic, consumer=False)
+        self.brakes_msg = Float64MultiArray()
+        self.brakes_msg.layout.dim = [MultiArrayDimension(label="engaged", size=n, stride=n)]
+        self.applied_pub = self.gated_publisher(Float64MultiArray, spec.DISTURBANCE_APPLIED.topic, consumer=False)
+        self.applied_msg = Float64MultiArray()
+        self.applied_msg.layout.dim = [
+            MultiArrayDimension(label="torque_nm", size=n, stride=n),
+            MultiArrayDimension(label="time_s", size=1, stride=1),
+        ]
+        self.clock_pub = self.clock_msg = None
         if self.lockstep:
-            self.ticks = PacedTicks(self) if p["real_time_factor"] > 0 else LockstepTicks(self)
-        if self.pacing is not None:
-            self.pacing.start()
-        self.get_logger().info(
-            f"MuJoCo arm {self.plant.joint_names} at {p['physics_rate_hz']:g} Hz physics, "
-            + (
-                f"lockstep at {p['control_rate_hz']:g} Hz on {spec.CLOCK.topic}"
-                + (f", paced at {p['real_time_factor']:g}× the wall clock" if p["real_time_factor"] > 0 else "")
-                if self.lockstep
-                else f"true state at {p['publish_rate_hz']:g} Hz, paced on absolute deadlines"
-                + (", brakes on until the first command" if p["wait_for_first_command"] else "")
-            )
+            self.clock_pub = self.gated_publisher(ClockMsg, spec.CLOCK.topic, consumer=False, qos=CLOCK_QOS)
+            self.clock_msg = ClockMsg()
+        self.effort_sub = self.subscribe(spec.EFFORT, self.effort_callback)
+        self.watch_single_publisher(spec.EFFORT.topic, spec.EFFORT.writer)
+        self.subscribe(spec.BRAKE_REQUEST, self.brake_request_callback)
+        self.subscribe(spec.ESTOP, lambda msg: self.set_estop(bool(msg.data)))
+        self.subscribe(spec.DISTURBANCE, self.disturbance_callback)
+        self.create_service(SetBool, spec.ESTOP_SERVICE.service, self.estop_service)
+        out = Outlets(
+            write=self.write,
+            write_state=self.write_state,
+            state_open=lambda: self.state_pub.open,
+            write_clock=self.write_clock,
+            ready=self.graph_ready,
+            ros_now_ns=lambda: self.get_clock().now().nanoseconds,
+            motor_present=lambda: bool(self.count_publishers(spec.BRAKE_REQUEST.topic)),
+            save_position=None if state_file is None else state_file.save,
         )
-        if not variation.nominal:
-            self.get_logger().info(f"the plant differs from its URDF: {variation.describe()}")
+        log = NodeLog(self)
+        if not self.lockstep:
+            self.clock = WallClock(world, p, out, log)
+        elif p["real_time_factor"] > 0:
+            self.clock = PacedClock(world, p, out, log, recorded=recorded())
+        else:
+            self.clock = SteppedClock(world, p, out, log, recorded=recorded())
+        if self.lockstep:
+            if recorded():
+                self.subscribe(spec.RECORDER_CLOCK, self.recorder_clock_callback)
+            self.start_poll = self.create_timer(
+                START_POLL_S, self.try_start, clock=Clock(clock_type=ClockType.STEADY_TIME)
+            )
+        self.clock.start()
+        self.get_logger().info(
+            f"MuJoCo arm {world.joint_names} at {p['physics_rate_hz']:g} Hz physics, {self.clock.describe(p)}"
+        )
+
+    def subscribe(self, port: spec.Port, callback: Any) -> Any:
+        """A reader of ``port`` with the QoS its class has in this clock mode."""
+        qos = profile(port.qos, lockstep=self.lockstep)
+        return self.create_subscription(message_class(port.msg_type), port.topic, callback, qos)
 
     def check_params(self, params: dict) -> None:
-        PlantVariation.from_params(params)  # one payload, not two; every value finite and in range
-        steps_per_period(1.0 / params["physics_rate_hz"], 1.0 / params["publish_rate_hz"])
-        steps_per_period(1.0 / params["physics_rate_hz"], 1.0 / params["control_rate_hz"])
+        World.check_params(params)  # before the world exists, too
 
     def apply_params(self, params: dict, changed: set[str]) -> None:
-        if changed & {"physics_rate_hz", "publish_rate_hz", "initial_position", "control_rate_hz"}:
-            self.get_logger().warning("physics and publish rates and the initial position apply on restart")
+        self.world.set_params(params, changed)
 
-    def step(self, steps: int) -> None:
-        """Step the physics ``steps`` times on the effort in force (lock held)."""
-        self.disturbance.start_scheduled()
-        self.plant.step(self.effort, steps)
-        self.steps_done += steps
-        self.disturbance.note_end()
-
-    def catch_up(self) -> None:
-        """Wall clock, physics running: step what is due by now on the old inputs (lock held)."""
-        if self.pacing is not None and self.pacing.running:
-            self.pacing.advance(time.monotonic_ns())
+    # --- the world's inputs -----------------------------------------------------------------------------------------
 
     def effort_callback(self, msg: Float64MultiArray) -> None:
-        checked = check_effort(msg.data, self.joint_count)
-        if isinstance(checked, str):
-            return self.drop(spec.EFFORT.topic, checked)
-        limit = self.plant.effort_limit
-        if np.any(np.abs(checked) > limit):
-            self.warn_throttled(
-                "effort_limit",
-                f"{spec.EFFORT.topic} {checked.tolist()} beyond the URDF's effort limit {limit.tolist()}: clamped",
-            )
-            checked = np.clip(checked, -limit, limit)
-        if isinstance(self.ticks, PacedTicks):
-            tick_s = command_tick_s(msg)  # the motor passes the controller's tick on
-            self.ticks.take_effort(checked, None if tick_s is None else round(tick_s * 1e9))
+        effort = self.world.check_effort(decode(msg))
+        if effort is None:
             return
-        if self.ticks is not None:
-            self.ticks.take_effort(checked)
-            return
-        brakes = self.brakes
-        with self.lock:
-            if "estop" in brakes.reasons:
-                self.warn_throttled("estop_effort", "e-stop: efforts ignored until it is released")
-                return
-            if not brakes.request_heard and self.count_publishers(spec.BRAKE_REQUEST.topic):
-                # A motor is there: its latched brake request comes before any effort releases the brakes. The
-                # two race at the start (a respawned simulator's too): normal, said once.
-                if not self.said_brake_wait:
-                    self.said_brake_wait = True
-                    self.get_logger().info(
-                        f"efforts wait for the motor's latched {spec.BRAKE_REQUEST.topic} state (the start's race)"
-                    )
-                return
-            if not self.pacing.running:
-                self.pacing.begin()
-                self.get_logger().info("first command received, physics running")
-            else:
-                self.catch_up()  # the new torque acts from here
-            brakes.last_effort_mono_ns = time.monotonic_ns()
-            self.effort = checked
-            brakes.set("start", False)
-            if "drive_timeout" in brakes.reasons:
-                self.get_logger().info("efforts back: brakes released")
-            brakes.set("drive_timeout", False)
+        tick_s = command_tick_s(msg)  # the drive passes the controller's tick on
+        self.clock.take_effort(effort, None if tick_s is None else round(tick_s * 1e9))
 
-    def publish_state(self, stamp_ns: int) -> None:
-        position, velocity = self.plant.state()
+    def brake_request_callback(self, msg: Bool) -> None:
+        with self.clock.lock:
+            self.write(self.world.take_brake_request(bool(msg.data)))
+
+    def estop_service(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        self.set_estop(bool(request.data))
+        response.success = True
+        response.message = "e-stop engaged: torque off, brakes on" if request.data else "e-stop released"
+        return response
+
+    def set_estop(self, on: bool) -> None:
+        with self.clock.lock:
+            self.clock.catch_up()  # the physics up to now ran without it
+            self.write(self.world.take_estop(on))
+        if not on:
+            with self.clock.lock:  # released, the brakes wait for the drive's next effort
+                self.write(self.world.set_brake("drive_timeout", True))
+
+    def disturbance_callback(self, msg: Float64MultiArray) -> None:
+        with self.clock.lock:
+            self.clock.catch_up()  # the physics up to now ran without it
+            self.world.take_disturbance(decode(msg), physics_running=self.clock.physics_running)
+
+    def recorder_clock_callback(self, msg: ClockMsg) -> None:
+        self.clock.recorder_at(msg.clock.sec * 1_000_000_000 + msg.clock.nanosec)
+
+    def try_start(self) -> None:
+        if self.clock.try_start():
+            self.destroy_timer(self.start_poll)
+
+    def graph_ready(self) -> bool:
+        """Sim time's tick 0: the sensor (and recorder) listen and the drive matched (not only named in the graph: a
+        drive of an earlier run can linger there)."""
+        return self.state_pub.open and self.clock_pub.open and bool(self.effort_sub.get_publisher_count())
+
+    # --- the world's outputs ----------------------------------------------------------------------------------------
+
+    def write(self, written: Written) -> None:
+        for name, value in written:
+            if name == "brakes":
+                self.brakes_msg.data = value.data.tolist()
+                self.brakes_msg.layout.dim[0].label = value.label
+                self.brakes_pub.publish(self.brakes_msg)
+            elif name == "disturbance_applied":
+                self.applied_msg.data = value.data.tolist()
+                self.applied_pub.publish(self.applied_msg)
+
+    def write_state(self, stamp_ns: int) -> None:
+        """The true state stamped ``stamp_ns`` (exact: a wall clock's stamp is too large for a float's ns)."""
+        written = self.world.sample(stamp_ns * 1e-9)
+        sample = written[0][1]
         msg = self.state_msg
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(stamp_ns), 1_000_000_000)
-        msg.position = position.tolist()
-        msg.velocity = velocity.tolist()
-        msg.effort = [0.0] * self.joint_count if self.brakes.reasons else self.effort.tolist()
+        msg.position = sample.position.tolist()
+        msg.velocity = sample.velocity.tolist()
+        msg.effort = sample.effort.tolist()
         self.state_pub.publish(msg)
-        self.disturbance.publish_applied(stamp_ns)
+        self.write(written[1:])
+
+    def write_clock(self, stamp_ns: int) -> None:
+        self.clock_msg.clock.sec, self.clock_msg.clock.nanosec = divmod(stamp_ns, 1_000_000_000)
+        self.clock_pub.publish(self.clock_msg)
 
     def finish(self) -> None:
-        counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
-        if self.pacing is not None:
-            self.pacing.stop(counts_dir)
-        if isinstance(self.ticks, PacedTicks):
-            self.ticks.stop(counts_dir)
+        self.clock.stop(os.environ.get(COUNTS_DIR_ENV, ""))
 
     def destroy_node(self) -> None:
         self.finish()
-        if self.ticks is not None:
-            self.ticks.report()
+        self.clock.report()
         super().destroy_node()
 
 

@@ -1,4 +1,4 @@
-"""The default run's paced world (nodes/simulator/paced.py): a host that freezes every process of the
+"""The default run's paced world (ros/clocks/paced.py): a host that freezes every process of the
 loop together is no fault, a controller that freezes alone is. Real nodes over DDS, each test on its own
 domain; figures are judged against what the host did (its freezes, the loop's late efforts), never a
 bare timing threshold. Last, on stand-ins, the pacing thread's decisions at a deadline."""
@@ -90,7 +90,7 @@ def test_the_motor_frozen_alone_brakes_the_arm_and_the_controller_takes_it_back_
     assert metrics["peak_torque_nm"] < 10.0, metrics  # the arm's limit: never driven there to catch up
 
 
-# --- the pacing thread's decisions at a deadline, on stand-ins for the node and its lockstep ticks ---
+# --- the pacing thread's decisions at a deadline, on stand-ins for the world and its sim-time ticks ---
 
 
 class StandInTicks:
@@ -106,12 +106,27 @@ class StandInTicks:
         self.accepted = effort
 
 
-class StandInBrakes:
+class StandInWorld:
+    """The world block as the paced clock sees it: its time and why its brakes hold."""
+
     def __init__(self) -> None:
         self.reasons: set[str] = set()
+        self.time_ns = 0
 
-    def set(self, reason: str, on: bool) -> None:
+    @property
+    def time_s(self) -> float:
+        return self.time_ns * 1e-9
+
+    @property
+    def estopped(self) -> bool:
+        return "estop" in self.reasons
+
+    def braked_for(self, reason: str) -> bool:
+        return reason in self.reasons
+
+    def set_brake(self, reason: str, on: bool) -> list:
         (self.reasons.add if on else self.reasons.discard)(reason)
+        return []
 
 
 class StandInLoop:
@@ -131,25 +146,22 @@ def paced_at_100_hz():
     import threading
     from types import SimpleNamespace
 
-    from robot_controller.nodes.simulator.paced import FreezeLog, PacedTicks
+    from robot_controller.ros.clocks.freezes import FreezeLog
+    from robot_controller.ros.clocks.paced import PacedClock
 
-    paced = object.__new__(PacedTicks)  # the decisions only: no node, no thread
-    paced.node = SimpleNamespace(
-        lock=threading.Lock(),
-        brakes=StandInBrakes(),
-        warn_throttled=lambda key, text: None,
-        steps_done=0,
-        physics_dt_ns=1_000_000,
-        plant=SimpleNamespace(physics_dt=1e-3),
-        params={"drive_timeout_s": 0.05},
-    )
+    paced = object.__new__(PacedClock)  # the decisions only: no world, no host, no thread
+    paced.world = StandInWorld()
+    paced.out = SimpleNamespace(write=lambda written: None)
+    paced.log = SimpleNamespace(info=lambda text: None, warn=lambda key, text: None)
+    paced.lock = threading.Lock()
+    paced.drive_timeout_s = 0.05
     paced.ticks = StandInTicks()
     paced.period_ns, paced.timeout_ns, paced.late_ns = 10_000_000, 50_000_000, 10_000_000
     paced.effort_in, paced.late_efforts, paced.late_for_host, paced.after_estop = False, 0, 0, False
     paced.stale_ns, paced.stale_efforts, paced.loop_heard = 10_000_000, 0, False
     paced.loop, paced.wait_usage = StandInLoop(), None
     paced.freezes = FreezeLog()
-    paced.effort_arrived = threading.Condition(paced.node.lock)
+    paced.effort_arrived = threading.Condition(paced.lock)
     paced.stopping = threading.Event()
     return paced
 
@@ -158,14 +170,14 @@ def test_an_effort_in_time_steps_the_world_on_its_grid_and_is_no_miss():
     paced = paced_at_100_hz()
     paced.effort_in = True
     assert paced.tick(deadline_ns=0, now_ns=2_000_000, waited_ns=0) == 10_000_000
-    assert paced.ticks.advanced == 1 and paced.late_efforts == 0 and not paced.node.brakes.reasons
+    assert paced.ticks.advanced == 1 and paced.late_efforts == 0 and not paced.world.reasons
 
 
 def test_the_world_waits_for_a_late_effort_counts_it_and_does_not_catch_up():
     paced = paced_at_100_hz()
     paced.effort_in = True
     assert paced.tick(deadline_ns=0, now_ns=30_000_000, waited_ns=30_000_000) == 30_000_000
-    assert paced.ticks.advanced == 1 and paced.late_efforts == 1 and not paced.node.brakes.reasons
+    assert paced.ticks.advanced == 1 and paced.late_efforts == 1 and not paced.world.reasons
 
 
 def test_an_effort_the_host_kept_waiting_is_not_the_loops_miss_and_one_it_did_not_is(monkeypatch):
@@ -223,7 +235,7 @@ def test_no_effort_within_the_drive_timeout_brakes_and_the_world_goes_on_without
         waited_ns = paced.wait_for_effort(time.monotonic_ns())
     assert waited_ns >= paced.timeout_ns or paced.freezes.count  # (a host freeze meanwhile is not the loop's)
     paced.tick(deadline_ns=0, now_ns=waited_ns, waited_ns=waited_ns)
-    assert paced.node.brakes.reasons == {"drive_timeout"} and paced.ticks.advanced == 1 and paced.late_efforts == 1
+    assert paced.world.reasons == {"drive_timeout"} and paced.ticks.advanced == 1 and paced.late_efforts == 1
     with paced.effort_arrived:
         assert paced.wait_for_effort(time.monotonic_ns()) == 0  # braked: no more waiting
 
@@ -232,10 +244,10 @@ def test_the_ticks_an_estop_holds_back_are_not_the_loops_late_efforts():
     """The e-stop is asked for: the efforts it stops (the motor drops the commands) are no miss of the loop's, until
     the first effort after its release (it said 426 late efforts, the loop's own, after a 4 s e-stop)."""
     paced = paced_at_100_hz()
-    paced.node.brakes.set("estop", True)
+    paced.world.set_brake("estop", True)
     for k in range(5):
         paced.tick(deadline_ns=k * paced.period_ns, now_ns=k * paced.period_ns, waited_ns=0)
-    paced.node.brakes.set("estop", False)  # released: the brakes wait for the drive's next effort
+    paced.world.set_brake("estop", False)  # released: the brakes wait for the drive's next effort
     paced.tick(deadline_ns=5 * paced.period_ns, now_ns=5 * paced.period_ns, waited_ns=0)
     assert paced.late_efforts == 0 and paced.ticks.advanced == 6
     paced.effort_in = True  # the loop is back
@@ -250,7 +262,7 @@ def test_an_effort_held_up_while_the_brakes_took_the_arm_is_dropped_and_a_fresh_
     import numpy as np
 
     paced = paced_at_100_hz()
-    paced.node.steps_done = 1760  # the world, at 1 ms a step, is at 1.76 s
+    paced.world.time_ns = 1_760_000_000  # the world, at 1 ms a step, is at 1.76 s
     paced.take_effort(np.array([10.0]), tick_ns=1_590_000_000)
     assert paced.stale_efforts == 1 and not paced.effort_in and not hasattr(paced.ticks, "accepted")
     paced.take_effort(np.array([2.0]), tick_ns=1_750_000_000)  # computed for the tick before the world's: in time
@@ -265,8 +277,8 @@ def test_a_loop_slower_than_a_period_is_waited_for_again_once_its_stale_effort_s
     import numpy as np
 
     paced = paced_at_100_hz()
-    paced.node.brakes.reasons.add("drive_timeout")
-    paced.node.steps_done = 2000
+    paced.world.reasons.add("drive_timeout")
+    paced.world.time_ns = 2_000_000_000
     with paced.effort_arrived:
         assert paced.wait_for_effort(time.monotonic_ns()) == 0  # braked, nothing heard: no waiting
     paced.take_effort(np.array([1.0]), tick_ns=1_970_000_000)
@@ -279,7 +291,7 @@ def test_a_loop_slower_than_a_period_is_waited_for_again_once_its_stale_effort_s
 
 
 def test_freezes_are_counted_with_their_longest_and_total():
-    from robot_controller.nodes.simulator.paced import FreezeLog
+    from robot_controller.ros.clocks.freezes import FreezeLog
 
     freezes = FreezeLog()
     freezes.note(60_000_000)
@@ -306,7 +318,7 @@ def scripted_wait(monkeypatch, gaps: dict[int, float], busy: bool) -> tuple[int,
     """The time waited for an effort that never comes, the wall time that took, and the gaps seen (ns, ns, count)."""
     from types import SimpleNamespace
 
-    from robot_controller.nodes.simulator import paced as paced_module
+    from robot_controller.ros.clocks import paced as paced_module
 
     script = ScriptedWait(gaps, busy)
     monkeypatch.setattr(paced_module, "time", SimpleNamespace(monotonic_ns=lambda: script.now_ns))

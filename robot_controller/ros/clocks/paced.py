@@ -1,8 +1,8 @@
-"""The simulator's paced world (``real_time_factor`` > 0; the default ``run``): lockstep ticks on a world clock
-that keeps pace with the wall clock and pauses with the host, as Gazebo's real-time factor does.
+"""The paced world (``lockstep: true``, ``real_time_factor`` > 0; the default ``run``): sim-time ticks (``stepped``)
+on a world clock that keeps pace with the wall clock and pauses with the host, as Gazebo's real-time factor does.
 
-Tick k's effort acts over the period after it, exactly as in lockstep, so a run is the lockstep run to the bit
-however busy the host: the world steps at the period's deadline on the monotonic clock, or when the effort
+Tick k's effort acts over the period after it, exactly as in sim time as fast as it goes, so a run is that run to the
+bit however busy the host: the world steps at the period's deadline on the monotonic clock, or when the effort
 arrives, waiting for it up to ``drive_timeout_s`` of this process's own running time. An effort later than a
 period past its deadline is the loop's miss (``late_efforts``: the world waited for it), unless the host took
 that much time from the loop meanwhile (its processes waited for a CPU, or the hypervisor stole it:
@@ -16,22 +16,24 @@ rest of a wait counts against the loop, whatever the simulator did meanwhile."""
 
 from __future__ import annotations
 
-import json
 import os
 import threading
 import time
-from pathlib import Path
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
 from robot_controller.blocks import spec
-from robot_controller.nodes.simulator.lockstep import LockstepTicks
+from robot_controller.blocks.block import Log
+from robot_controller.blocks.world import World
 from robot_controller.parameters.schema.simulator import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import scheduling
+from robot_controller.ros.clocks.freezes import FreezeLog
+from robot_controller.ros.clocks.outlets import Outlets
+from robot_controller.ros.clocks.stepped import SteppedClock
 from robot_controller.ros.loop_processes import LoopProcesses, Sample, host_kept_waiting, process_run_wait_s
-from robot_controller.ros.process import WORLD_CLOCK_FILE
 from robot_controller.ros.publishing import COUNTS_DIR_ENV
-from robot_controller.ros.stack_node import StackNode
 
 #: An effort this long (control periods) past its tick's deadline is the loop's miss: the world waited for it.
 LATE_PERIODS = 1.0
@@ -39,57 +41,22 @@ LATE_PERIODS = 1.0
 #: for each tick's effort, so only one held up past the drive timeout's brakes is that old. Applied, it would release
 #: them with a torque computed on a reading that knew nothing of them (measured: 10 N·m, 0.17 s late).
 STALE_PERIODS = 1.0
-#: How the world's figures read in its closing line.
-SAID = {
-    "late_efforts": "late efforts (the loop's own)",
-    "late_efforts_host": "late efforts the host made late",
-    "stale_efforts": "stale efforts dropped",
-}
 
 
-class FreezeLog:
-    """Wall-clock gaps the world paused for: how many, the longest and the total, ms."""
+class PacedClock:
+    """Sim-time ticks advanced by a pacing thread at each deadline of the world's clock."""
 
-    def __init__(self) -> None:
-        self.count = 0
-        self.max_ms = 0.0
-        self.total_ms = 0.0
+    physics_running = True
 
-    def note(self, gap_ns: int) -> None:
-        self.count += 1
-        self.max_ms = max(self.max_ms, gap_ns * 1e-6)
-        self.total_ms += gap_ns * 1e-6
-
-    def figures(self) -> dict[str, float]:
-        return {
-            "host_freezes": self.count,
-            "host_freeze_ms_max": round(self.max_ms, 3),
-            "host_freeze_ms_total": round(self.total_ms, 3),
-        }
-
-    def say_and_leave(self, node: StackNode, counts_dir: str, meaning: str, **more: int) -> None:
-        """Say the freezes (and ``more`` figures) in one line, and leave them in ``counts_dir`` for metrics.json."""
-        figures = {**self.figures(), **more}
-        if self.count or any(more.values()):
-            said = ", ".join(f"{value} {SAID.get(name, name.replace('_', ' '))}" for name, value in more.items())
-            node.get_logger().info(
-                f"the host froze this simulator {self.count} time(s) (longest {self.max_ms:.0f} ms, "
-                f"{self.total_ms:.0f} ms in all): {meaning}" + (f"; {said}" if said else "")
-            )
-        if counts_dir:
-            (Path(counts_dir) / WORLD_CLOCK_FILE).write_text(json.dumps(figures))
-
-
-class PacedTicks:
-    """Lockstep ticks advanced by a pacing thread at each deadline of the world's clock."""
-
-    def __init__(self, node: StackNode) -> None:
-        self.node = node
-        self.ticks = LockstepTicks(node)
+    def __init__(self, world: World, params: Mapping[str, Any], out: Outlets, log: Log, *, recorded: bool) -> None:
+        self.world, self.out, self.log = world, out, log
+        self.ticks = SteppedClock(world, params, out, log, recorded=recorded)
         self.ticks.resume_for_recorder = False  # this thread resumes a held tick, under the lock
-        rate_hz = node.params["control_rate_hz"]
-        self.period_ns = round(1e9 / (rate_hz * node.params["real_time_factor"]))  # wall ns per tick
-        self.timeout_ns = round(node.params["drive_timeout_s"] * 1e9)
+        self.lock = self.ticks.lock
+        rate_hz = params["control_rate_hz"]
+        self.drive_timeout_s = params["drive_timeout_s"]
+        self.period_ns = round(1e9 / (rate_hz * params["real_time_factor"]))  # wall ns per tick
+        self.timeout_ns = round(self.drive_timeout_s * 1e9)
         self.late_ns = round(LATE_PERIODS * self.period_ns)
         self.effort_in = False  #: an effort arrived since the last tick
         self.late_efforts = 0  #: ticks the world waited for their effort, or went without it: the loop's own misses
@@ -101,26 +68,41 @@ class PacedTicks:
         self.loop_heard = False  #: a stale effort came while the drive timeout's brakes hold: wait for the next
         self.loop = LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
         self.wait_usage: Sample | None = None  #: the loop's usage when the world began to wait for a tick's effort
-        self.effort_arrived = threading.Condition(node.lock)
+        self.effort_arrived = threading.Condition(self.lock)
         self.stopping = threading.Event()
+        self.thread: threading.Thread | None = None
+
+    def describe(self, params: Mapping[str, Any]) -> str:
+        return f"{self.ticks.describe(params)}, paced at {params['real_time_factor']:g}× the wall clock"
+
+    def start(self) -> None:
         rt_priority = scheduling.realtime_thread_requested()
         if rt_priority is not None:
             scheduling.install_rt_budget()  # its SIGXCPU handler: from the main thread only
         self.thread = threading.Thread(target=self.pace, args=(rt_priority,), name="paced world", daemon=True)
         self.thread.start()
 
+    def try_start(self) -> bool:
+        return self.ticks.try_start()
+
+    def recorder_at(self, clock_ns: int) -> None:
+        self.ticks.recorder_at(clock_ns)
+
+    def catch_up(self) -> None:
+        """No time passes between ticks."""
+
     def take_effort(self, effort: np.ndarray, tick_ns: int | None = None) -> None:
         """The latest effort is the one in force from the next step (one after the drive timeout too: it releases
         the brakes), unless computed for a tick (``tick_ns``, world ns; None: not said) that is stale."""
-        with self.node.lock:
-            world_ns = self.node.steps_done * self.node.physics_dt_ns
+        with self.lock:
+            world_ns = self.world.time_ns
             if tick_ns is not None and world_ns - tick_ns > self.stale_ns:
                 # The loop is alive, only slow: the next tick waits for its effort again, as before the brakes
                 # (moving on without waiting, the world would leave a loop slower than a period braked for good).
                 self.loop_heard = True
                 if not self.past_the_run():  # in the margin after the run the nodes may stop: say nothing
                     self.stale_efforts += 1
-                    self.node.warn_throttled(
+                    self.log.warn(
                         "stale_effort",
                         f"{spec.EFFORT.topic} for t = {tick_ns * 1e-9:.2f} s dropped at t = {world_ns * 1e-9:.2f} s: "
                         "computed before the world moved on (a stale effort is no effort)",
@@ -132,7 +114,7 @@ class PacedTicks:
 
     def pace(self, rt_priority: int | None) -> None:
         if rt_priority is not None:
-            self.node.get_logger().info(scheduling.make_current_thread_realtime(rt_priority))
+            self.log.info(scheduling.make_current_thread_realtime(rt_priority))
         deadline_ns = time.monotonic_ns() + self.period_ns
         while not self.stopping.is_set():
             remaining_ns, run_wait_s = deadline_ns - time.monotonic_ns(), process_run_wait_s()
@@ -161,8 +143,8 @@ class PacedTicks:
         only the simulator's own time is excused, never the rest of a controller's stall. A freeze of the whole host
         (``host_froze``: before the wait) that began before the effort was late adds a drive timeout: the loop's
         messages may then wait for DDS's repair (its 50 ms heartbeat), and the world, waiting, stays still."""
-        ticks, brakes = self.ticks, self.node.brakes
-        braked_for_absence = "drive_timeout" in brakes.reasons and not self.loop_heard
+        ticks = self.ticks
+        braked_for_absence = self.world.braked_for("drive_timeout") and not self.loop_heard
         if not ticks.efforts_applied or ticks.ended or braked_for_absence:
             return 0
         budget_ns = self.timeout_ns * (2 if host_froze else 1)
@@ -196,21 +178,19 @@ class PacedTicks:
             return deadline_ns + self.period_ns
         # In the margin after the run the nodes may stop: brake, say nothing. An e-stop is asked for: the efforts it
         # holds back (until the first after its release) are not the loop's to miss.
-        estop = "estop" in self.node.brakes.reasons
+        estop = self.world.estopped
         self.after_estop = (self.after_estop or estop) and not self.effort_in
         counted = not self.past_the_run() and not (estop or self.after_estop)
         self.loop_heard = False  # waited for once: if nothing fresh came, the world goes on without waiting again
         if not self.effort_in:
             self.late_efforts += counted
-            brakes = self.node.brakes
-            if "drive_timeout" not in brakes.reasons:
-                brakes.set("drive_timeout", True)
+            if not self.world.braked_for("drive_timeout"):
+                self.out.write(self.world.set_brake("drive_timeout", True))
                 if counted:
-                    self.node.warn_throttled(
+                    self.log.warn(
                         "drive_timeout",
-                        f"no effort for {self.node.params['drive_timeout_s']:g} s (t = "
-                        f"{self.node.steps_done * self.node.plant.physics_dt:.2f} s): torque off, brakes on "
-                        "(category 0)",
+                        f"no effort for {self.drive_timeout_s:g} s (t = {self.world.time_s:.2f} s): torque off, "
+                        "brakes on (category 0)",
                     )
         elif waited_ns > self.late_ns:
             if self.host_made_it_late(waited_ns):
@@ -233,17 +213,17 @@ class PacedTicks:
         """In the margin after the run's duration, where the launcher may stop the nodes (lock held)."""
         end_ns = self.ticks.end_ns
         margin_ns = round(LOCKSTEP_END_MARGIN_S * 1e9)
-        return end_ns is not None and self.node.steps_done * self.node.physics_dt_ns > end_ns - margin_ns
+        return end_ns is not None and self.world.time_ns > end_ns - margin_ns
 
     def stop(self, counts_dir: str) -> None:
         """End the thread; say and leave (in ``counts_dir``, if any) the world's figures."""
         if self.stopping.is_set():
             return
         self.stopping.set()
-        if self.thread.is_alive():
+        if self.thread is not None and self.thread.is_alive():
             self.thread.join(timeout=1.0)
         self.freezes.say_and_leave(
-            self.node,
+            self.log,
             counts_dir,
             "the world paused with it",
             late_efforts=self.late_efforts,

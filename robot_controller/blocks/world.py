@@ -1,0 +1,221 @@
+"""The world (the graph's ``simulator``, the Gazebo role): MuJoCo steps the arm from its URDF at ``physics_rate_hz`` on
+the effort in force (port ``effort``: clamped to the URDF's limits, ignored while the e-stop holds), with its holding
+brakes (``blocks.brakes``) and an external disturbance (``blocks.external_torque``); it writes its true state (port
+``true_state``, stamped with its physics time, the effort applied), the brakes' state and the disturbance applied.
+
+The world never decides when physics runs: its host's clock does (``ros.clocks``: the wall clock, the paced world,
+sim time as fast as it goes; in process, ``step``), through :meth:`World.advance` and the ``take_*`` methods. Each
+method returns what the world writes by it, in order: ``[(port, value), …]``."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from robot_controller import parameters as cfg
+from robot_controller import resources
+from robot_controller.blocks import spec
+from robot_controller.blocks.block import Log
+from robot_controller.blocks.brakes import Brakes
+from robot_controller.blocks.external_torque import ExternalTorque
+from robot_controller.blocks.values import Array, JointSample, check_effort
+from robot_controller.core.model import MujocoPlant, PlantVariation, steps_per_period
+
+#: What the world writes, in order: (port, value) pairs.
+Written = list[tuple[str, Any]]
+
+#: Parameters read once: a change applies on restart.
+ON_RESTART = {"physics_rate_hz", "publish_rate_hz", "initial_position", "control_rate_hz"}
+
+
+class World:
+    inputs = ("effort", "brake_request", "estop", "disturbance")
+    outputs = ("true_state", "brakes", "disturbance_applied")
+
+    def __init__(self, params: Mapping[str, Any], log: Log, *, world_waits: bool = False) -> None:
+        """:param world_waits: the loop's clock waits for each effort (the world's physics runs only when its clock
+        steps it, whatever the mode: the world itself never branches on it)"""
+        self.log = log
+        self.params = dict(params)
+        self.variation = PlantVariation.from_params(params)
+        self.plant = MujocoPlant(
+            resources.resolve_urdf(params["urdf_path"]), 1.0 / params["physics_rate_hz"], variation=self.variation
+        )
+        self.joint_names = list(self.plant.joint_names)
+        self.joint_count = len(self.joint_names)
+        self.plant.reset(cfg.per_joint("initial_position", params["initial_position"], self.joint_count))
+        self.effort = np.zeros(self.joint_count)  #: N·m per joint, in force until the next
+        self.steps_done = 0  #: physics steps since time 0
+        self.physics_dt_ns = round(self.plant.physics_dt * 1e9)
+        self.brakes = Brakes(self.plant, params["brake_torque_nm"])
+        self.push = ExternalTorque(self.plant, params, log)
+        self.request_heard = False  #: the drive's brake request has been heard (a state it latches)
+        if not self.variation.nominal:
+            log.info(f"the plant differs from its URDF: {self.variation.describe()}")
+
+    # --- the Block protocol (the in-process loop) -----------------------------------------------------------------
+
+    def start(self) -> dict[str, Any]:
+        return {}  # the brakes' state goes out on its first change (a wall clock repeats it)
+
+    def step(self, t_s: float, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        """Take ``inputs`` (they act from the world's time), run physics to ``t_s`` on them, and write the state
+        there (each port's last value)."""
+        written = self.take(inputs)
+        due = round(t_s * 1e9) // self.physics_dt_ns - self.steps_done
+        if due > 0:
+            self.advance(due)
+        written += self.sample(self.time_s)
+        return dict(written)
+
+    def wake_period_s(self) -> float | None:
+        return None
+
+    @staticmethod
+    def check_params(params: Mapping[str, Any]) -> None:
+        PlantVariation.from_params(params)  # one payload, not two; every value finite and in range
+        steps_per_period(1.0 / params["physics_rate_hz"], 1.0 / params["publish_rate_hz"])
+        steps_per_period(1.0 / params["physics_rate_hz"], 1.0 / params["control_rate_hz"])
+
+    def set_params(self, params: Mapping[str, Any], changed: set[str]) -> None:
+        if changed & ON_RESTART:
+            self.log.warn("on_restart", "physics and publish rates and the initial position apply on restart")
+
+    # --- what the clocks call ---------------------------------------------------------------------------------------
+
+    @property
+    def time_ns(self) -> int:
+        """Physics time, ns (exact: whole steps)."""
+        return self.steps_done * self.physics_dt_ns
+
+    @property
+    def time_s(self) -> float:
+        return self.steps_done * self.plant.physics_dt
+
+    @property
+    def physics_dt(self) -> float:
+        """s per physics step."""
+        return self.plant.physics_dt
+
+    @property
+    def estopped(self) -> bool:
+        return "estop" in self.brakes.reasons
+
+    def braked_for(self, reason: str) -> bool:
+        """Whether ``reason`` (``blocks.brakes.REASONS``) holds the brakes."""
+        return reason in self.brakes.reasons
+
+    def position(self) -> np.ndarray:
+        """Each joint's position now, rad (m)."""
+        return self.plant.state()[0]
+
+    def brakes_state(self) -> Written:
+        """Port ``brakes`` as it is (a clock repeats it for late listeners)."""
+        return [("brakes", self.brakes.value())]
+
+    def respawn(self, position: np.ndarray) -> None:
+        """Start where an earlier world left the arm (a respawned simulator): braked until the first effort."""
+        self.plant.reset(position)
+        self.log.warn(
+            "respawned",
+            f"respawned: the arm is where it was, at {position.tolist()} rad, brakes on until the first command",
+        )
+
+    def take(self, inputs: Mapping[str, Any]) -> Written:
+        """Every input that arrived, in port order (an effort is checked here: :meth:`check_effort`)."""
+        written: Written = []
+        for name in self.inputs:
+            if name not in inputs:
+                continue
+            value = inputs[name]
+            if name == "effort":
+                effort = self.check_effort(value)
+                written += [] if effort is None else self.take_effort(effort)
+            elif name == "brake_request":
+                written += self.take_brake_request(bool(value))
+            elif name == "estop":
+                written += self.take_estop(bool(value))
+                if not value:
+                    written += self.set_brake("drive_timeout", True)
+            else:
+                self.take_disturbance(value)
+        return written
+
+    def check_effort(self, value: Array) -> np.ndarray | None:
+        """Port ``effort``'s value as torques, clamped to the URDF's effort limits; None (and a warning) if bad."""
+        checked = check_effort(value.data, self.joint_count)
+        if isinstance(checked, str):
+            self.log.warn(spec.EFFORT.topic, f"{spec.EFFORT.topic} dropped: {checked}")
+            return None
+        limit = self.plant.effort_limit
+        if np.any(np.abs(checked) > limit):
+            self.log.warn(
+                "effort_limit",
+                f"{spec.EFFORT.topic} {checked.tolist()} beyond the URDF's effort limit {limit.tolist()}: clamped",
+            )
+            checked = np.clip(checked, -limit, limit)
+        return checked
+
+    def take_effort(self, effort: np.ndarray) -> Written:
+        """The effort in force from now (zero while a brake holds; ignored while the e-stop does): it releases the
+        start's and the drive timeout's brakes."""
+        if self.estopped:
+            self.log.warn("estop_effort", "e-stop: efforts ignored until it is released")
+            return []
+        released = self.brakes.set("start", False) | self.brakes.set("drive_timeout", False)
+        self.effort = np.zeros(self.joint_count) if self.brakes.engaged else effort
+        return [("brakes", self.brakes.value())] if released else []
+
+    def set_brake(self, reason: str, on: bool) -> Written:
+        """Add or remove one reason for the brakes; engaged, they cut the effort."""
+        if not self.brakes.set(reason, on):
+            return []
+        if self.brakes.engaged:
+            self.effort = np.zeros(self.joint_count)
+        return [("brakes", self.brakes.value())]
+
+    def take_brake_request(self, on: bool) -> Written:
+        """Port ``brake_request``: the drive's request (a state)."""
+        self.request_heard = True
+        if on != ("requested" in self.brakes.reasons):
+            said = "brake requested by the motor: torque off, brakes on" if on else "motor released its brake request"
+            self.log.warn("brake_request", said)
+        return self.set_brake("requested", on)
+
+    def take_estop(self, on: bool) -> Written:
+        """Port ``estop`` (and the e-stop button): latched until released; released, the brakes wait for the drive's
+        next effort (the caller sets ``drive_timeout``: a second message, after the release's)."""
+        if on == self.estopped:
+            return []
+        written = self.set_brake("estop", on)
+        self.log.warn(
+            "estop",
+            "E-STOP: torque off, brakes on (latched until released)"
+            if on
+            else "e-stop released: brakes release when efforts arrive",
+        )
+        return written
+
+    def take_disturbance(self, value: Array, *, physics_running: bool = True) -> None:
+        """Port ``disturbance``: applied from now (``physics_running``: the clock runs physics already)."""
+        self.push.take(value, braked=self.brakes.engaged, physics_running=physics_running)
+
+    def advance(self, steps: int) -> None:
+        """Run ``steps`` physics steps on the effort in force (the parameters' disturbance starting if due)."""
+        self.push.start_scheduled()
+        self.plant.step(self.effort, steps)
+        self.steps_done += steps
+        self.push.note_end()
+
+    def sample(self, stamp_s: float) -> Written:
+        """The true state now, stamped ``stamp_s`` (the effort applied: zero while braked), and the disturbance
+        applied in the last physics step if there is one to say."""
+        position, velocity = self.plant.state()
+        effort = np.zeros(self.joint_count) if self.brakes.engaged else self.effort.copy()
+        written: Written = [("true_state", JointSample(stamp_s, self.joint_names, position, velocity, effort))]
+        applied = self.push.applied(stamp_s)
+        if applied is not None:
+            written.append(("disturbance_applied", applied))
+        return written
