@@ -1,4 +1,4 @@
-"""The paced world (``lockstep: true``, ``real_time_factor`` > 0; the default ``run``): sim-time ticks (``stepped``)
+"""The paced world (sim time with ``real_time_factor`` > 0; the default ``run``): sim-time ticks (``stepped``)
 on a world clock that keeps pace with the wall clock and pauses with the host, as Gazebo's real-time factor does.
 
 Tick k's effort acts over the period after it, exactly as in sim time as fast as it goes, so a run is that run to the

@@ -1,4 +1,4 @@
-"""Sim time as fast as the graph goes (``lockstep: true``, ``real_time_factor`` 0; ``run --sim-time``): the clock
+"""Sim time as fast as the graph goes (``real_time_factor`` 0; ``run --sim-time``): the clock
 publishes the world's true state and the sim's clock for tick k, then waits; the effort for tick k runs exactly one
 control period of physics. It holds the next tick while the recorder (its ``recorder_clock``) is
 ``RECORDER_LAG_MAX_S`` behind, so no queue overflows. The paced world (``paced``) runs these ticks on its own clock."""

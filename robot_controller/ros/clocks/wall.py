@@ -1,4 +1,4 @@
-"""The wall clock (``lockstep: false``; ``run --wall-clock``): a pacing thread sleeps to each absolute deadline of a
+"""The wall clock (``run --wall-clock``): a pacing thread sleeps to each absolute deadline of a
 ``publish_rate_hz`` grid (never a drifting timer), steps the physics due by then on the monotonic clock and publishes
 the true state. Physics time 0 is the first effort (``wait_for_first_command``, brakes on until then) or the start.
 The efforts act from when they arrive; none for ``drive_timeout_s`` brakes the arm (category 0), and the brakes'
