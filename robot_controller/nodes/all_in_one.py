@@ -4,7 +4,7 @@ same topics, same parameters, no inter-process hops."""
 from __future__ import annotations
 
 from robot_controller.nodes.motor_node import MotorNode
-from robot_controller.nodes.pid_controller import PidControllerNode
+from robot_controller.nodes.pid_controller import ControllerNode
 from robot_controller.nodes.sensor_node import SensorNode
 from robot_controller.nodes.simulator import Simulator
 from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
@@ -12,7 +12,7 @@ from robot_controller.ros.process import run
 
 
 def main(args: list[str] | None = None) -> int:
-    return run([Simulator, MotorNode, SensorNode, PidControllerNode, TrajectoryPlanner], args)
+    return run([Simulator, MotorNode, SensorNode, ControllerNode, TrajectoryPlanner], args)
 
 
 if __name__ == "__main__":

@@ -12,7 +12,7 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import TYPE_CHECKING
 
-from robot_controller.core.controller import check_delay_margin, delay_margin_periods, law_config
+from robot_controller.blocks.controller import designed_margin
 from robot_controller.core.errors import ConfigError
 from robot_controller.runner.forking import die_with_parent
 
@@ -21,17 +21,6 @@ if TYPE_CHECKING:
     from robot_controller.core.model import ArmDynamics
 
 _dynamics: ArmDynamics | None = None  # the worker's arm model: the design's copy, as it was when the node forked it
-
-
-def designed_margin(config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int) -> int | None:
-    """Design ``config``'s built-in law and return its delay margin in control periods (the worst joint's; None
-    without the arm model, or for a law of one's own, whose feedback is not known here). ``ConfigError``, with its
-    reason, for a design that does not stabilise or leaves less than ``min_delay_margin_periods``. One design and
-    one margin: a margin takes tens of ms per joint."""
-    margin = delay_margin_periods(law_config(config, dynamics, joint_count), dynamics, joint_count, config)
-    if margin is not None and margin < config.min_delay_margin_periods:
-        check_delay_margin(config, dynamics, joint_count)  # refuses, naming the joint (only now computed per joint)
-    return None if config.plugin_law else margin
 
 
 def _start_worker(dynamics: ArmDynamics | None, node_pid: int) -> None:

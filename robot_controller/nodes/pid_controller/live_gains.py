@@ -1,58 +1,22 @@
 """A live gain change that never stalls the loop. The controller's parameter services answer on a thread of their
 own (:class:`ParameterServices`), where a change is checked, its law designed in the designer's process
-(:mod:`~robot_controller.nodes.pid_controller.designer`), and handed over (:class:`Handover`) for the loop to take at
-the start of its next tick. Checking a change means designing its law and finding its delay margin, tens of ms on
+(:mod:`.designer`), and handed over (``blocks.controller.Handover``) for the loop to take at the start of its next
+tick. Checking a change means designing its law and finding its delay margin, tens of ms on
 one joint and hundreds on the Panda: on the loop's thread that left readings unanswered until the drive braked."""
 
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter_service import ParameterService
 
-if TYPE_CHECKING:
-    from robot_controller.core.controller import ControllerConfig
-
 # The services' node: hidden (a leading underscore), under the controller's own name.
 SERVICES_NODE = "_parameter_services"
 # s; how long the services' thread waits for a request before looking whether the node is stopping.
 SERVICES_WAKE_S = 0.2
-
-
-@dataclass
-class GainChange:
-    """An accepted change: the whole configuration it makes, the parameters it changed and the margin found for it."""
-
-    config: ControllerConfig
-    params: dict[str, Any]
-    changed: set[str] = field(default_factory=set)
-    margin: int | None = None
-
-
-class Handover:
-    """The newest accepted change, offered by the services' thread and taken by the loop's at a tick. A change offered
-    before the last was taken replaces it: its configuration is whole, and what either changed is said."""
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()  # held for an assignment or two: the loop never waits on a design
-        self._pending: GainChange | None = None
-
-    def offer(self, change: GainChange) -> None:
-        with self._lock:
-            if self._pending is not None:
-                change.changed |= self._pending.changed
-            self._pending = change
-
-    def take(self) -> GainChange | None:
-        if self._pending is None:  # nearly every tick: no lock taken
-            return None
-        with self._lock:
-            change, self._pending = self._pending, None
-        return change
 
 
 class _ServicesOf:

@@ -9,7 +9,7 @@ import rclpy
 from rclpy.parameter import Parameter
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.nodes.pid_controller import PidControllerNode
+from robot_controller.nodes.pid_controller import ControllerNode
 
 pytestmark = pytest.mark.ros
 
@@ -17,10 +17,10 @@ ROOT = Path(__file__).resolve().parents[3]
 EXAMPLE = "examples/own_controller.py:PDWithGravity"
 
 
-def start(domain: int, *overrides: str) -> PidControllerNode:
+def start(domain: int, *overrides: str) -> ControllerNode:
     args = ["--ros-args", "-p", f"controller_type:={EXAMPLE}"] + [a for o in overrides for a in ("-p", o)]
     rclpy.init(args=args, domain_id=domain)
-    return PidControllerNode()
+    return ControllerNode()
 
 
 def test_the_controller_declares_checks_and_applies_its_laws_parameters(ros_domain, monkeypatch):

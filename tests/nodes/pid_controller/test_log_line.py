@@ -5,7 +5,7 @@ line landed on the sine's zero crossing)."""
 import numpy as np
 import pytest
 
-from robot_controller.nodes.pid_controller.log_line import LATEST_PHASE, PHASE_STEP, LogSchedule, line, phase_in_period
+from robot_controller.blocks.controller_log_line import LATEST_PHASE, PHASE_STEP, LogSchedule, line, phase_in_period
 
 TICK_S = 0.01
 

@@ -1,13 +1,11 @@
-"""The controller's missed cycles and watchdog ticks on the wall clock, told apart (nodes/pid_controller/timing.py):
+"""The controller's missed cycles and watchdog ticks on the wall clock, told apart (ros/controller_ticks.py):
 a period the host stretched (the loop's processes kept from a CPU as long as it ran over while other programs used
 the CPUs, or the CPUs stolen) is the host's, any other the loop's; so is a watchdog tick, over the readings' silence
 past the watchdog's window.
 On stand-ins for the node and the loop's processes; the real /proc reads are tested in tests/nodes/simulator."""
 
-from types import SimpleNamespace
-
-from robot_controller.nodes.pid_controller.timing import LoopTiming
 from robot_controller.ros import loop_processes
+from robot_controller.ros.controller_ticks import HostMisses
 from robot_controller.ros.loop_processes import Sample
 
 MS = 1_000_000
@@ -27,9 +25,9 @@ class ScriptedLoop:
         return Sample({1: (1, *usage[:2])}, usage[2], self.others_ns)
 
 
-def timing_at_100_hz(*usages: tuple[int, ...] | None) -> LoopTiming:
-    timing = object.__new__(LoopTiming)  # the counting only: no node, no publishers
-    timing.controller = SimpleNamespace(config=SimpleNamespace(control_period_s=0.01, watchdog_periods=5))
+def timing_at_100_hz(*usages: tuple[int, ...] | None) -> HostMisses:
+    timing = object.__new__(HostMisses)  # the counting only: no scratch folder
+    timing.control_period_s, timing.watchdog_periods = lambda: 0.01, lambda: 5
     timing.loop, timing.last_tick, timing.missed_for_host = ScriptedLoop(*usages), None, []
     timing.reading_s, timing.usage_at_reading, timing.reading_unsampled = None, None, False
     timing.watchdog_for_host = []
@@ -48,14 +46,14 @@ def test_a_period_the_host_stretched_is_its_miss_and_one_it_did_not_is_the_loops
         (5 * MS, 32 * MS, 80 * MS),  # 35 ms, 50 ms stolen: 20 ms of a CPU certain, the host's
     )
     for now_s in (0.0, 0.01, 0.045, 0.08, 0.115, 0.15):
-        timing.note_host_wait(now_s)
+        timing.note_tick(now_s)
     assert timing.missed_for_host == [0.115, 0.15]  # when each ended: metrics.json counts those it scores
 
 
 def test_nothing_read_nothing_counted_for_the_host():
     timing = timing_at_100_hz(None, None)
-    timing.note_host_wait(0.0)
-    timing.note_host_wait(1.0)
+    timing.note_tick(0.0)
+    timing.note_tick(1.0)
     assert timing.missed_for_host == []
 
 
@@ -70,7 +68,7 @@ def test_a_watchdog_tick_is_the_hosts_only_if_it_kept_the_loop_waiting_past_the_
     )
     timing.note_reading(0.0)
     for now_s, watchdog in ((0.0, False), (0.056, True), (0.066, True), (0.076, True)):
-        timing.note_host_wait(now_s, watchdog)
+        timing.note_tick(now_s, watchdog)
     assert timing.watchdog_for_host == [0.076]
     assert timing.missed_for_host == []  # the 56 ms gap was the loop's own miss
 
@@ -88,5 +86,5 @@ def test_a_loop_that_keeps_its_own_processes_waiting_is_late_by_its_own_fault(mo
         (60 * MS, 90 * MS, 0, 60 * MS),  # 35 ms, 30 ms waiting, others 10 ms beyond it: not enough, its own
     )
     for now_s in (0.0, 0.035, 0.07, 0.105):
-        timing.note_host_wait(now_s)
+        timing.note_tick(now_s)
     assert timing.missed_for_host == [0.07]

@@ -1,35 +1,53 @@
-"""pid_controller's reports: the law and gains in force, a log line per change of the loop's state, a
-failed law's line and the node's end, and every term of each tick on its state (port ``state``)."""
+"""What the controller block says: the law and gains in force, a line per change of the loop's state, a failed law's
+line, a joint cut by its limit, the inertia adaptation's gain changes, the start's waits, and every term of each
+tick as the row of its port ``state`` (``core.controller.state_layout``). Times are the tick's (``t_s``) unless a
+method is given another clock."""
 
 from __future__ import annotations
 
 import dataclasses
-import os
-import time
-from pathlib import Path
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, Protocol
 
 import numpy as np
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller.blocks import spec
-from robot_controller.core.controller import ControlOutput, Status, state_layout
+from robot_controller.blocks.block import Log
+from robot_controller.core.controller import ControlOutput, JointController, Status, state_layout
 from robot_controller.core.controller.inertia_adaptation import SAID_STEP
 from robot_controller.core.metrics import EFFORT_UNITS
-from robot_controller.ros.process import LAW_FAULT_FILE, LAW_STOPPED_EXIT_CODE, request_exit
-from robot_controller.ros.publishing import COUNTS_DIR_ENV
-from robot_controller.ros.stack_node import StackNode
 
-# Wall clock: after a failed law's stop, state is still published this long (the brakes engaging
-# are recorded), then the node ends. In lockstep it ends at once: without commands sim time stops.
-LAW_STOPPED_LINGER_S = 0.5
-# A start's normal wait for the first reading or reference sample lasts less than this (wall s); past it, a warning.
+# A start's normal wait for the first reading or reference sample lasts less than this (s); past it, a warning.
 START_PATIENCE_S = 10.0
 # A joint whose command the limit cuts this long without a break (s, the tick's clock) is said, once per run.
 SATURATION_SAID_AFTER_S = 0.2
 # The inertia adaptation's gain changes are said at most this often (s, the tick's clock): it moves a factor a few
 # times a second while it learns, and each line is a gain change a reader may want to see, not each step.
 ADAPTATION_SAID_EVERY_S = 1.0
+#: The exit code of a controller whose own law failed and whose stop is over (the launcher names it).
+LAW_STOPPED_EXIT_CODE = 3
+
+
+class LevelledLog(Protocol):
+    """A ``Log`` with the levels a controller's lines need: a warning and an error said every time."""
+
+    def info(self, message: str) -> None: ...
+
+    def warn(self, key: str, message: str) -> None: ...
+
+    def warning(self, message: str) -> None: ...
+
+    def error(self, message: str) -> None: ...
+
+
+class Levels:
+    """``log`` with ``warning`` and ``error``: its own if it has them, else its rate-limited ``warn`` keyed by the
+    line (an in-process ``blocks.block.Lines`` keeps each distinct line once)."""
+
+    def __init__(self, log: Log) -> None:
+        self.info, self.warn = log.info, log.warn
+        self.warning = getattr(log, "warning", None) or (lambda message: log.warn(message, message))
+        self.error = getattr(log, "error", None) or (lambda message: log.warn(message, message))
 
 
 class SaturationWatch:
@@ -52,34 +70,32 @@ class SaturationWatch:
 
 
 class StartWaits:
-    """What the controller waits for at start (its first reading, in lockstep its first reference sample): said
-    once as information, for that is how every start begins; a warning once the wait has lasted
+    """What the controller waits for at start (its first reading; where the world waits, its first reference
+    sample): said once as information, for that is how every start begins; a warning once the wait has lasted
     ``START_PATIENCE_S``, for then the node it waits for is not running or not heard (another domain, partition or
-    arm), something to act on."""
+    arm), something to act on. Timed on the clock its caller gives (a wall clock: sim time stands still then)."""
 
-    def __init__(self, node: StackNode) -> None:
-        self.node = node
-        self.since: dict[str, float] = {}  # monotonic s each wait began
+    def __init__(self, log: Log) -> None:
+        self.log = log
+        self.since: dict[str, float] = {}  # s each wait began
 
-    def waiting(self, key: str, what: str) -> None:
-        """Another tick waiting for ``what`` (``key`` names the wait)."""
-        now = time.monotonic()
+    def waiting(self, key: str, what: str, now_s: float) -> None:
+        """Another tick waiting for ``what`` (``key`` names the wait) at ``now_s``."""
         if key not in self.since:
-            self.since[key] = now
-            self.node.get_logger().info(f"waiting for {what}")
-        elif now - self.since[key] > START_PATIENCE_S:
-            waited = now - self.since[key]
-            self.node.warn_throttled(
+            self.since[key] = now_s
+            self.log.info(f"waiting for {what}")
+        elif now_s - self.since[key] > START_PATIENCE_S:
+            waited = now_s - self.since[key]
+            self.log.warn(
                 f"start_{key}", f"still waiting after {waited:.0f} s for {what}: is that node running, on this domain?"
             )
 
 
-def report_law_in_force(node: StackNode, controller: Any, margin: int | None) -> str:
-    """Report ``law_in_force``: the controller's line and ``margin``, the delay margin last checked in full (None: a
-    law of one's own, whose feedback is not known here); returned."""
+def law_in_force_line(controller: Any, margin: int | None, rate_hz: float) -> str:
+    """The controller's law line and ``margin``, the delay margin last checked in full (None: a law of one's own,
+    whose feedback is not known here)."""
     in_force = controller.law_in_force()
     if margin is not None:
-        rate_hz = node.params["control_rate_hz"]
         periods = "control period" if margin == 1 else "control periods"
         in_force += f"; delay margin {margin} {periods} ({margin * 1e3 / rate_hz:g} ms) beyond what the stamps show"
         inertia = getattr(controller, "inertia", None)
@@ -90,22 +106,31 @@ def report_law_in_force(node: StackNode, controller: Any, margin: int | None) ->
                 if needed > 0
                 else " as designed, unchecked with the adaptive factors (min_delay_margin_periods 0)"
             )
-    node.report("law_in_force", in_force, "the control law and its gains in force, as designed")
     return in_force
 
 
-class StatusReports:
-    """What the controller node says: in its log, as parameters and on its state (port ``state``)."""
+class Reports:
+    """The controller's lines and its state row. ``law_in_force`` is the line its host shows as the read-only
+    parameter of that name; ``law_fault_line`` the failed law's line, once said."""
 
-    def __init__(self, node: StackNode) -> None:
-        self.node = node
-        self.controller = node.controller
-        self.log = node.get_logger()
+    def __init__(
+        self,
+        log: LevelledLog,
+        controller: JointController,
+        joint_names: Sequence[str],
+        joint_units: Sequence[str],
+        world_waits: bool,
+    ) -> None:
+        self.log = log
+        self.controller = controller
+        self.joint_names = list(joint_names)
+        self.joint_units = list(joint_units)
+        self.joint_count = len(self.joint_names)
+        self.world_waits = world_waits
         self.last_status: Status | None = None
         self.faults_seen = False  # "again" only after a fault: the start's blend ends "on the trajectory"
-        self.law_stopped_since: float | None = None  # monotonic s LAW_STOPPED was first reached
-        self.saturation = SaturationWatch(node.joint_count)
-        plugin = self.controller.plugin
+        self.saturation = SaturationWatch(self.joint_count)
+        plugin = controller.plugin
         # The law's extra terms on the state, after the standard blocks (state_layout).
         self.extra_terms = tuple(
             name
@@ -115,30 +140,27 @@ class StatusReports:
             and name != state_layout.ADAPTED_ARMATURE
         )
         # Then the armature the inertia adaptation has learnt (None: no adaptation, no block).
-        self.inertia = self.controller.inertia
+        self.inertia = controller.inertia
         adaptation = () if self.inertia is None else (state_layout.ADAPTED_ARMATURE,)
+        #: the state row's blocks, (label, size) each: its layout
+        self.state_blocks = tuple((name, 1) for name in state_layout.HEADER) + tuple(
+            (name, self.joint_count) for name in (*state_layout.FIELDS, *self.extra_terms, *adaptation)
+        )
         self.next_adaptation_s = -np.inf  # the tick's clock: when its gain changes may be said again
-        self.said_scale = np.ones(node.joint_count)  # the factors on the designed gains last said
+        self.said_scale = np.ones(self.joint_count)  # the factors on the designed gains last said
         self.margin: int | None = None  # the delay margin law_in_force last stated
-        self.state_pub = node.gated_publisher(Float64MultiArray, spec.STATE.topic, consumer=False)
-        self.state_msg = Float64MultiArray()
-        n = node.joint_count
-        self.state_msg.layout.dim = [MultiArrayDimension(label=name, size=1, stride=1) for name in state_layout.HEADER]
-        self.state_msg.layout.dim += [
-            MultiArrayDimension(label=name, size=n, stride=n)
-            for name in (*state_layout.FIELDS, *self.extra_terms, *adaptation)
-        ]
+        self.rate_hz = 0.0
+        self.law_in_force = ""
+        self.law_fault_line: str | None = None
 
-    def log_gains(self, margin: int | None) -> None:
+    def log_gains(self, margin: int | None, rate_hz: float) -> None:
         """The law and gains in force (LQR's are designed, not the kp/ki/kd parameters) and ``margin``, the control
         periods of unaccounted delay they survive (found when the change was checked: tens of ms per joint), in the
         log and as ``law_in_force``."""
-        rate_hz = self.node.params["control_rate_hz"]
-        self.margin = margin
-        in_force = report_law_in_force(self.node, self.controller, margin)
-        self.log.info(
-            f"{in_force}; at {rate_hz:g} Hz on {self.node.joint_names}" + (", lockstep" if self.node.lockstep else "")
-        )
+        self.margin, self.rate_hz = margin, rate_hz
+        self.law_in_force = law_in_force_line(self.controller, margin, rate_hz)
+        world = ", on sim time" if self.world_waits else ""
+        self.log.info(f"{self.law_in_force}; at {rate_hz:g} Hz on {self.joint_names}" + world)
 
     def say_adaptation(self, now_s: float) -> None:
         """The inertia adaptation's gain changes since they were last said (a factor moved over SAID_STEP, 10 %),
@@ -154,15 +176,15 @@ class StatusReports:
         scale, armature, said = self.inertia.scale, self.inertia.armature, self.said_scale
         moved = np.flatnonzero(np.abs(scale - said) > SAID_STEP * said)
         if moved.size:
-            names = self.node.joint_names
+            names = self.joint_names
             changes = ", ".join(
                 f"{names[j]} ×{scale[j]:.3g} (was ×{said[j]:.3g}; armature {armature[j]:.3g} kg·m²)" for j in moved
             )
             self.log.info(f"inertia adaptation: gains in force now the design {changes}")
             self.said_scale = np.where(np.isin(np.arange(len(scale)), moved), scale, said)
-        report_law_in_force(self.node, self.controller, self.margin)
+        self.law_in_force = law_in_force_line(self.controller, self.margin, self.rate_hz)
 
-    def status_changed(self, status: Status) -> None:
+    def status_changed(self, status: Status, first_tick_s: float) -> None:
         """One log line when the loop's state changes (faults, stops, recovery)."""
         config = self.controller.config
         before, self.last_status = self.last_status, status
@@ -172,7 +194,7 @@ class StatusReports:
             Status.SENSOR_LOST: (
                 f"no valid {spec.READING.topic}, and the world went on without this controller's commands: its drive's "
                 "brakes hold the arm (category 0); no command until a fresh reading, then re-acquiring from it"
-                if self.node.lockstep
+                if self.world_waits
                 else f"no valid {spec.READING.topic} for {config.sensor_timeout_s:g} s: no more commands, torque off, "
                 "the brake holds (category 1)"
             ),
@@ -180,7 +202,7 @@ class StatusReports:
             Status.STOPPED: "e-stop: not commanding until it is released",
         }
         if status is Status.LAW_FAULT and before is not Status.LAW_FAULT and self.controller.law_fault is not None:
-            self.report_law_fault()
+            self.report_law_fault(first_tick_s)
             return
         if status is Status.LAW_STOPPED:
             self.log.warning(
@@ -193,19 +215,19 @@ class StatusReports:
             return
         if status in warnings:
             self.faults_seen = True
-            self.log.warning(warnings[status])  # one call site per severity: rclpy refuses two at one site
+            self.log.warning(warnings[status])
         elif status is Status.REACQUIRING:
             self.faults_seen = True
             self.log.info("fault cleared: re-acquiring from the measurement, blending back onto the trajectory")
         elif status is Status.OK and before not in (None, Status.HOLDING, Status.OK):
             self.log.info("tracking the trajectory again" if self.faults_seen else "on the trajectory: tracking it")
 
-    def report_law_fault(self) -> None:
-        """Once, when the law first fails: one error line (what it did, what happens next), the
-        law's traceback after it, and the line in the run's folder for the launcher to name."""
+    def report_law_fault(self, first_tick_s: float) -> None:
+        """Once, when the law first fails: one error line (what it did, what happens next), the law's traceback
+        after it; the line kept as ``law_fault_line`` for the host to leave where the launcher reads it."""
         fault = self.controller.law_fault
-        if not self.node.lockstep and fault.time_s is not None:  # the wall clock's: count from the first tick
-            fault = dataclasses.replace(fault, time_s=fault.time_s - self.node.first_tick_s)
+        if not self.world_waits and fault.time_s is not None:  # the wall clock's: count from the first tick
+            fault = dataclasses.replace(fault, time_s=fault.time_s - first_tick_s)
         line = (
             f"{fault.line()}: controlled stop on the built-in {self.controller.config.stop_law}, "
             "then torque off and the brakes"
@@ -213,43 +235,30 @@ class StatusReports:
         self.log.error(line)
         if fault.traceback:
             self.log.info("the control law's traceback:\n" + fault.traceback.rstrip())
-        counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
-        if counts_dir:
-            try:
-                (Path(counts_dir) / LAW_FAULT_FILE).write_text(line + "\n")
-            except OSError:
-                pass  # the launcher then only knows the node's exit code
-
-    def end_after_law_stop(self) -> None:
-        """The failed law's stop is over and the brakes hold: end the node (its exit code says
-        why), at once in lockstep, after LAW_STOPPED_LINGER_S of state on the wall clock."""
-        now = time.monotonic()
-        if self.law_stopped_since is None:
-            self.law_stopped_since = now
-        if self.node.lockstep or now - self.law_stopped_since >= LAW_STOPPED_LINGER_S:
-            request_exit(LAW_STOPPED_EXIT_CODE)
+        self.law_fault_line = line
 
     def say_saturation(self, out: ControlOutput) -> None:
         """One warning per joint, the first time its command stays cut by its limit for over
         ``SATURATION_SAID_AFTER_S``: the law asks for more than the actuator gives."""
         for j in self.saturation.newly_long(out.time_s, out.terms.saturated):
-            limit = float(np.broadcast_to(self.controller.config.pid.output_limit, (self.node.joint_count,))[j])
-            unit = EFFORT_UNITS[self.node.dynamics.joint_units[j]]  # N·m, or N on a prismatic joint
+            limit = float(np.broadcast_to(self.controller.config.pid.output_limit, (self.joint_count,))[j])
+            unit = EFFORT_UNITS[self.joint_units[j]]  # N·m, or N on a prismatic joint
             effort = "torque" if unit == "N·m" else "force"
             cut = f"its {effort} limit" if abs(abs(out.terms.command[j]) - limit) < 1e-9 else "its slew-rate limit"
             self.log.warning(
-                f"{self.node.joint_names[j]}: the command has been cut by {cut} (±{limit:g} {unit}) for "
+                f"{self.joint_names[j]}: the command has been cut by {cut} (±{limit:g} {unit}) for "
                 f"{SATURATION_SAID_AFTER_S:g} s in a row: the law asks for more {effort} than the joint has "
                 "(said once; saturated_ticks_per_joint in metrics.json counts every tick)"
             )
 
-    def publish_state(self, out: ControlOutput) -> None:
+    def state_row(self, out: ControlOutput) -> list[float]:
+        """Every term of the tick, as ``state_layout`` lays them out."""
         terms = out.terms
-        self.state_msg.data = state_layout.encode(
+        return state_layout.encode(
             out.time_s,
             out.status.value,
             self.controller.measurement_stamp_s,
-            self.node.joint_count,
+            self.joint_count,
             {
                 "reference": out.reference,
                 "measured": out.measured,
@@ -263,7 +272,6 @@ class StatusReports:
             },
             self.law_term_blocks(out),
         )
-        self.state_pub.publish(self.state_msg)
 
     def law_term_blocks(self, out: ControlOutput) -> tuple[np.ndarray, ...]:
         """The law's extra terms in the layout's order (zeros on a tick the law did not run), then the armature the
@@ -271,7 +279,7 @@ class StatusReports:
         blocks: tuple[np.ndarray, ...] = ()
         if self.extra_terms:
             reported = out.law_terms or {}
-            zeros = np.zeros(self.node.joint_count)
+            zeros = np.zeros(self.joint_count)
             blocks = tuple(reported.get(name, zeros) for name in self.extra_terms)
         if self.inertia is not None:
             blocks += (self.inertia.armature,)

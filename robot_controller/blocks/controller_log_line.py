@@ -2,7 +2,7 @@
 
 Said once in every logging period, as the tutorial's is, but not at the same instant of each: a trajectory whose
 period divides the logging period (the 0.5 Hz sine against a line a second) would be seen at one phase only (in
-lockstep, its zero crossing every time: the arm looks dead). The instant moves ``PHASE_STEP`` of a period later each
+sim time, its zero crossing every time: the arm looks dead). The instant moves ``PHASE_STEP`` of a period later each
 period, and back once it nears the period's end, so lines are never closer than ``1 - PHASE_STEP`` periods apart and
 a periodic motion is seen across its range."""
 

@@ -1,0 +1,338 @@
+"""The controller (the graph's ``pid_controller``: the law ``controller_type`` selects): from its ports ``reading``,
+``reference``, ``estop``, ``brakes`` (the drive's status word) and ``command_receipts`` to ``command``, ``state`` and
+``diagnostics``. It holds the ``JointController`` (every decision about torque) and says what its tick did. Its host's
+clock decides when it ticks (``step``); what arrives between ticks is taken with ``take``. A gain change, checked
+(its law designed) on any thread, is handed over and takes effect at the start of the next tick."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from robot_controller import parameters as cfg
+from robot_controller.blocks import controller_log_line as log_line
+from robot_controller.blocks import spec
+from robot_controller.blocks.block import Log
+from robot_controller.blocks.controller_reports import LAW_STOPPED_EXIT_CODE, Levels, Reports, StartWaits
+from robot_controller.blocks.controller_timing import Diagnostics, LoopTiming
+from robot_controller.blocks.values import Array, JointSample, check_joint_state, check_trajectory, tick_label
+from robot_controller.core.controller import (
+    ControllerConfig,
+    JointController,
+    Status,
+    check_delay_margin,
+    delay_margin_periods,
+    law_config,
+)
+from robot_controller.core.errors import ConfigError
+from robot_controller.core.laws import parameters as law_parameters
+from robot_controller.core.laws import registry
+from robot_controller.core.laws.containment import BLOCKED_S
+from robot_controller.parameters.builders import arm_model, model_overridden
+from robot_controller.ros.loop_processes import thread_kept_s
+
+# Readings naming other joints for this long (s of the caller's wall clock), none usable yet: a configuration mismatch.
+CONFIG_MISMATCH_S = 2.0
+# The parameters whose change makes the law in force say itself again.
+GAIN_KEYS = frozenset({"controller_type", "lqr_q", "lqr_r", "kp", "ki", "kd", "control_rate_hz"})
+# After a failed law's stop on the wall clock, state goes on this long (s; the brakes engaging are recorded) before
+# the block asks to end. Where the world waits it ends at once: without commands the world's time stops.
+LAW_STOPPED_LINGER_S = 0.5
+#: The brakes' label: ``engaged:`` and why they hold (``start``, ``drive_timeout``, …).
+BRAKES_LABEL_PREFIX = "engaged:"
+
+MarginOf = Callable[[ControllerConfig], "int | None"]
+
+
+def designed_margin(config: ControllerConfig, dynamics: Any, joint_count: int) -> int | None:
+    """Design ``config``'s built-in law and return its delay margin in control periods (the worst joint's; None
+    without the arm model, or for a law of one's own, whose feedback is not known here). ``ConfigError``, with its
+    reason, for a design that does not stabilise or leaves less than ``min_delay_margin_periods``. One design and
+    one margin: a margin takes tens of ms per joint."""
+    margin = delay_margin_periods(law_config(config, dynamics, joint_count), dynamics, joint_count, config)
+    if margin is not None and margin < config.min_delay_margin_periods:
+        check_delay_margin(config, dynamics, joint_count)  # refuses, naming the joint (only now computed per joint)
+    return None if config.plugin_law else margin
+
+
+@dataclass
+class GainChange:
+    """An accepted change: the whole configuration it makes, the parameters it changed and the margin found for it."""
+
+    config: ControllerConfig
+    params: dict[str, Any]
+    changed: set[str] = field(default_factory=set)
+    margin: int | None = None
+
+
+class Handover:
+    """The newest accepted change, offered by the checking thread and taken by the loop's at a tick. A change offered
+    before the last was taken replaces it: its configuration is whole, and what either changed is said."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()  # held for an assignment or two: the loop never waits on a design
+        self._pending: GainChange | None = None
+
+    def offer(self, change: GainChange) -> None:
+        with self._lock:
+            if self._pending is not None:
+                change.changed |= self._pending.changed
+            self._pending = change
+
+    def take(self) -> GainChange | None:
+        if self._pending is None:  # nearly every tick: no lock taken
+            return None
+        with self._lock:
+            change, self._pending = self._pending, None
+        return change
+
+
+def _same(params: Mapping[str, Any], other: Mapping[str, Any]) -> bool:
+    try:
+        return dict(params) == dict(other)
+    except ValueError:  # an array among them: compared as a whole, it has no one truth value
+        return False
+
+
+class Controller:
+    inputs = ("reading", "reference", "estop", "brakes", "command_receipts")
+    outputs = ("command", "state", "diagnostics")
+
+    def __init__(
+        self, params: Mapping[str, Any], log: Log, *, world_waits: bool, margin_of: MarginOf | None = None
+    ) -> None:
+        """:param world_waits: each command acts from its tick and the world waits for it (sim time, the paced
+        world): the law is held to its budget on its thread's CPU time, there is no latency guard, the start's
+        brakes are not heard (their release is a race) and a failed law's stop ends the block at once.
+        :param margin_of: designs a configuration's law and finds its delay margin (:func:`designed_margin`; a
+        host may run it in a process of its own, ``nodes.pid_controller.designer``); in this thread without one."""
+        self.log = Levels(log)
+        self.world_waits = world_waits
+        # The arm model: the URDF's, or the model_* values over it (read-only: fixed at start).
+        self.dynamics = arm_model(params)
+        self.joint_names = list(self.dynamics.joint_names)
+        self.joint_count = len(self.joint_names)
+        self._margin_of = margin_of or (lambda config: designed_margin(config, self.dynamics, self.joint_count))
+        if model_overridden(params):
+            self.log.info(self.dynamics.describe())
+        self.controller: JointController | None = None
+        self.check_params(params)
+        # A law of one's own is held to its law_budget_s on the time it used. Where the world waits for it: its
+        # thread's CPU time, a call abandoned once blocked for BLOCKED_S of wall time (a law kept from a CPU is not
+        # blocked) or once it has computed a period past its budget. On the wall clock: wall time less what the
+        # host took from its thread (run-queue wait, steal). There the loop's delay is watched against the gains'
+        # delay margin (core.latency).
+        self.controller = JointController(
+            self.checked.config,
+            self.joint_count,
+            self.dynamics,
+            law_clock=time.thread_time if world_waits else time.perf_counter,
+            latency_guard=not world_waits,
+            law_run_wait=None if world_waits else thread_kept_s,
+        )
+        if world_waits and self.controller.plugin is not None:
+            self.controller.plugin.abandon_s = BLOCKED_S
+        self.params = dict(params)
+        self.gain_changes = Handover()
+        self.reports = Reports(self.log, self.controller, self.joint_names, self.dynamics.joint_units, world_waits)
+        self.timing = LoopTiming(self.controller, self.log, world_waits)
+        self.waits = StartWaits(self.log)
+        self.state_blocks = self.reports.state_blocks  #: the state row's (label, size) blocks
+        self.last_tick_s = -np.inf
+        self.first_tick_s: float | None = None
+        self.status: Status | None = None  #: the last tick's
+        self.reference_samples = 0  # usable reference samples so far (two teach the controller the planner's period)
+        self.law_stopped_since: float | None = None
+        self.exit_code: int | None = None  #: set once the block has ended (a failed law's stop is over)
+        self.mismatch_since: float | None = None
+        self.log_schedule = log_line.LogSchedule(params["log_period_s"])
+        self.reports.log_gains(self.checked.margin, params["control_rate_hz"])
+
+    # -- parameters ------------------------------------------------------------------------------------------------
+
+    def check_params(self, params: Mapping[str, Any]) -> None:
+        """The law designed before the change is accepted (an LQR that does not stabilise is refused, not found when
+        applying it); ``checked`` is what ``set_params`` hands over. The values the block runs on are not checked
+        again (a host's start checks what the block was made with)."""
+        if self.controller is not None and _same(params, self.params):
+            self.checked = GainChange(self.controller.config, dict(params), margin=self.checked.margin)
+            return
+        config = cfg.controller_config(params, self.joint_count)
+        running = self.controller
+        changed = running is not None and config.controller_type != running.config.controller_type
+        if changed and (config.plugin_law or running.config.plugin_law):
+            raise ConfigError(
+                "controller_type: a law of one's own is chosen when the controller starts; restart it to change"
+            )
+        if config.plugin_law:  # per-joint lengths and the like, as the law will be given them
+            law_parameters.values(registry.resolve(config.controller_type), config.law_parameters, self.joint_count)
+        self.checked = GainChange(config, dict(params), margin=self._margin_of(config))
+
+    def set_params(self, params: Mapping[str, Any], changed: set[str]) -> None:
+        """Take checked values (on any thread): the loop takes them over at its next tick."""
+        checked = self.checked
+        self.gain_changes.offer(GainChange(checked.config, dict(params), set(changed), checked.margin))
+
+    def take_gain_change(self) -> None:
+        """At the start of a tick: the newest accepted change, if any, takes over (bumpless: the PID keeps its I term
+        in N·m). Its law was designed and checked when it was accepted; should the controller refuse it even so,
+        the law in force stays, said once."""
+        change = self.gain_changes.take()
+        if change is None:
+            return
+        try:
+            self.controller.set_config(change.config)
+        except ConfigError as exc:
+            self.log.warning(f"the law in force stays: the change to {sorted(change.changed)} was refused ({exc})")
+            return
+        self.params = change.params
+        if change.changed & GAIN_KEYS or any(law_parameters.is_law_key(name) for name in change.changed):
+            self.reports.log_gains(change.margin, change.params["control_rate_hz"])
+
+    # -- inputs ----------------------------------------------------------------------------------------------------
+
+    def start(self) -> dict[str, Any]:
+        return {}
+
+    def wake_period_s(self) -> float | None:
+        return None  # its host's clock steps it
+
+    def checked_reading(self, sample: JointSample) -> JointSample | None:
+        """``sample`` in the arm's joint order, or None (said, rate-limited) if it cannot be used."""
+        checked = check_joint_state(sample.names, sample.position, sample.velocity, self.joint_names)
+        if isinstance(checked, str):
+            self.log.warn(spec.READING.topic, f"{spec.READING.topic} dropped: {checked}")
+            return None
+        return JointSample(sample.stamp_s, self.joint_names, *checked)
+
+    def check_names(self, names: list[str], wall_s: float) -> None:
+        """Readings naming other joints than this arm's, none usable since start, for ``CONFIG_MISMATCH_S`` of the
+        caller's wall clock (``wall_s``): the graph is configured for different arms; ``ConfigError`` naming both."""
+        if self.controller.has_measurement or not names or sorted(names) == sorted(self.joint_names):
+            self.mismatch_since = None
+            return
+        self.mismatch_since = self.mismatch_since or wall_s
+        if wall_s - self.mismatch_since > CONFIG_MISMATCH_S:
+            raise ConfigError(
+                f"joint names disagree: {spec.READING.topic} (the simulator's URDF) has {names}, "
+                f"pid_controller's URDF ({self.params['urdf_path'] or 'the reference arm'}) has {self.joint_names}"
+            )
+
+    def take(self, t_s: float, inputs: Mapping[str, Any]) -> bool:
+        """Take what arrived at ``t_s`` between ticks; False if a reading among it was refused (said)."""
+        accepted = True
+        for port, value in inputs.items():
+            if port == "reading":
+                accepted = self._take_reading(t_s, value)
+            elif port == "reference":
+                self._take_reference(t_s, value)
+            elif port == "estop":
+                self.controller.halt(bool(value))
+            elif port == "brakes":
+                self._take_brakes(value)
+            elif port == "command_receipts":
+                self.timing.take_receipts(value.data, self.joint_count)
+        return accepted
+
+    def _take_reading(self, t_s: float, sample: JointSample) -> bool:
+        checked = self.checked_reading(sample)
+        if checked is None:
+            return False
+        refused = self.controller.set_measurement(checked.stamp_s, t_s, checked.position, checked.velocity)
+        if refused:
+            self.log.warn("joint_states_age", f"{spec.READING.topic} dropped: {refused}")
+            return False
+        return True
+
+    def _take_reference(self, t_s: float, value: Array) -> None:
+        checked = check_trajectory(value.data, self.joint_count)
+        if isinstance(checked, str):
+            self.log.warn(spec.REFERENCE.topic, f"{spec.REFERENCE.topic} dropped: {checked}")
+            return
+        self.reference_samples += 1
+        self.controller.set_reference(t_s, *checked)
+
+    def _take_brakes(self, value: Array) -> None:
+        # While the brakes hold, what is commanded does not move the arm: the reference starts again from the
+        # measurement. Where the world waits, not the start's: the tick at which the first effort's release arrives
+        # is a race, and a run without faults is the same to the bit every time (the paced world's drive-timeout
+        # brakes and an e-stop's are heard, at a tick that is a race: a fault's).
+        values = np.asarray(value.data, dtype=float)
+        if values.size != self.joint_count or not np.all(np.isfinite(values)):
+            return
+        engaged = bool(np.any(values > 0.5))
+        if self.world_waits and engaged and value.label == BRAKES_LABEL_PREFIX + "start":
+            return
+        self.controller.brakes(engaged)
+
+    def reference_ready(self, t_s: float) -> bool:
+        """Whether every reference sample due by ``t_s`` is in."""
+        return self.controller.reference_ready(t_s)
+
+    def has_reference(self) -> bool:
+        return self.controller.has_reference()
+
+    # -- the tick --------------------------------------------------------------------------------------------------
+
+    def step(self, t_s: float, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        """Take ``inputs`` at ``t_s``, then tick: the torque (``command``, labelled with its tick) if this tick
+        commands one, and the tick's terms (``state``); nothing before the first valid reading."""
+        if inputs:
+            self.take(t_s, inputs)
+        self.take_gain_change()
+        out = self.controller.update(t_s)
+        self.last_tick_s = t_s
+        if self.first_tick_s is None:
+            self.first_tick_s = t_s
+        self.status = out.status
+        if out.status is Status.NO_MEASUREMENT:
+            self.waits.waiting(
+                "readings", f"the first valid {spec.READING.topic} reading (sensor_node's): not commanding", t_s
+            )
+            return {}
+        reports = self.reports
+        if out.status is not reports.last_status:
+            reports.status_changed(out.status, self.first_tick_s)
+        if out.status is Status.LATE:
+            self.timing.report_late(t_s)
+        outputs: dict[str, Any] = {}
+        command = None
+        if out.status.commanding:
+            outputs["command"] = Array(out.command, tick_label(t_s))
+            command = tuple(out.command.tolist())
+        self.timing.note_tick(t_s, command)
+        reports.say_saturation(out)
+        reports.say_adaptation(t_s)
+        outputs["state"] = Array(np.asarray(reports.state_row(out)))
+        if self.log_schedule.due(t_s, self.params["log_period_s"]):
+            self.log.info(log_line.line(out.reference, out.measured, out.error, out.command))
+        if out.status is Status.LAW_STOPPED:
+            self._end_after_law_stop(t_s)
+        return outputs
+
+    def _end_after_law_stop(self, t_s: float) -> None:
+        """The failed law's stop is over and the brakes hold: the block ends (its ``exit_code`` says why), at once
+        where the world waits, after LAW_STOPPED_LINGER_S of state on the wall clock."""
+        if self.law_stopped_since is None:
+            self.law_stopped_since = t_s
+        if self.world_waits or t_s - self.law_stopped_since >= LAW_STOPPED_LINGER_S:
+            self.exit_code = LAW_STOPPED_EXIT_CODE
+
+    def diagnostics(self, t_s: float) -> dict[str, Diagnostics]:
+        """The loop's health over the period since the last (port ``diagnostics``)."""
+        return {"diagnostics": self.timing.diagnostics(t_s)}
+
+    @property
+    def law_in_force(self) -> str:
+        """The law and gains in force, as designed (its host shows it as the read-only parameter ``law_in_force``)."""
+        return self.reports.law_in_force
+
+    @property
+    def law_fault_line(self) -> str | None:
+        """A failed law's line, once said."""
+        return self.reports.law_fault_line

@@ -1,0 +1,248 @@
+"""When the controller block ticks: its clock in the ROS graph, chosen once when its node starts.
+
+- :class:`TimerTicks`, the wall clock: a timer ticks it (``trigger: timer``), or each accepted reading does
+  (``trigger: measurement``) with the timer covering their absence;
+- :class:`PairedTicks`, where the world waits for each command (sim time, the paced world): each reading is a tick at
+  the world's ``/clock`` it pairs with, stepped once the reference sample due by then is in.
+
+A clock holds the block and a ``tick(t_s)`` that steps it and publishes what it wrote; it asks the block only what a
+clock needs (its last tick, whether its reference is ready), and uses the node for ROS alone (timers, its clock)."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock as ClockMsg
+
+from robot_controller.blocks import spec
+from robot_controller.blocks.controller import Controller
+from robot_controller.blocks.values import JointSample
+from robot_controller.core import metrics
+from robot_controller.core.controller import Status
+from robot_controller.ros.loop_processes import LoopProcesses, Sample, host_kept_waiting
+from robot_controller.ros.messages import clock_s, stamp_to_s
+from robot_controller.ros.process import HOST_MISSED_FILE
+from robot_controller.ros.publishing import COUNTS_DIR_ENV
+from robot_controller.ros.qos import LATCHED_QOS
+
+Tick = Callable[[float], dict[str, Any]]
+
+# How long (wall s) a paired tick waits for its reference sample before using the latest.
+REFERENCE_WAIT_S = 0.3
+
+
+def timer_period_s(params: dict[str, Any]) -> float:
+    """The timer ticks the loop (``trigger: timer``), or with readings driving it watches for their absence, twice per
+    watchdog window (while they are missing it ticks the loop)."""
+    period_s = 1.0 / params["control_rate_hz"]
+    if params["trigger"] == "measurement":
+        return period_s * max(1.0, params["watchdog_periods"] / 2)
+    return period_s
+
+
+class HostMisses:
+    """On the wall clock, which missed cycles and watchdog ticks the host caused (the loop kept from a CPU by other
+    programs, or the CPUs stolen): left for ``metrics.json``, which counts those within the ticks it scores."""
+
+    def __init__(self, control_period_s: Callable[[], float], watchdog_periods: Callable[[], int]) -> None:
+        self.control_period_s, self.watchdog_periods = control_period_s, watchdog_periods
+        self.loop = LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
+        self.last_tick: tuple[float, Sample | None] | None = None  #: (time s, the loop's usage) at the last tick
+        self.missed_for_host: list[float] = []  #: when (tick s) each missed period the host made ended
+        # The watchdog's silence, timed from the latest accepted reading's arrival (s) and the loop's usage at the
+        # first tick since (the same instant when readings drive the loop).
+        self.reading_s: float | None = None
+        self.usage_at_reading: Sample | None = None
+        self.reading_unsampled = False
+        self.watchdog_for_host: list[float] = []  #: when (tick s) each watchdog tick the host made fell
+
+    def note_reading(self, now_s: float) -> None:
+        """A reading was accepted at ``now_s`` (s): the watchdog's silence starts again."""
+        self.reading_s, self.reading_unsampled = now_s, True
+
+    def note_tick(self, now_s: float, watchdog: bool = False) -> None:
+        """Count the period that ends at ``now_s`` as the host's miss if the host took from the loop's processes
+        all it ran over (they waited that long for a CPU other programs used, or the CPUs were stolen: processes of
+        the loop keeping each other waiting are its own fault, ``loop_processes.host_kept_waiting``). A
+        watchdog tick is the host's on the same terms, over the reading's silence past the watchdog's window."""
+        usage = self.loop.usage()
+        if self.reading_unsampled:
+            self.usage_at_reading, self.reading_unsampled = usage, False
+        period_s = self.control_period_s()
+        if watchdog and self.reading_s is not None and usage is not None and self.usage_at_reading is not None:
+            over_s = now_s - self.reading_s - self.watchdog_periods() * period_s
+            if over_s > 0 and host_kept_waiting(usage - self.usage_at_reading, round(over_s * 1e9)):
+                self.watchdog_for_host.append(now_s)
+        if self.last_tick is not None:
+            last_s, last_usage = self.last_tick
+            over_s = now_s - last_s - metrics.MISSED_PERIODS * period_s
+            measured = over_s > 0 and usage is not None and last_usage is not None
+            if measured and host_kept_waiting(usage - last_usage, round(over_s * 1e9)):
+                self.missed_for_host.append(now_s)
+        self.last_tick = (now_s, usage)
+
+    def leave(self) -> None:
+        """At the end: when each missed cycle and watchdog tick the host made fell (the run's scratch folder)."""
+        counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
+        if counts_dir:
+            host_made = {"ends_s": self.missed_for_host, "watchdog_s": self.watchdog_for_host}
+            (Path(counts_dir) / HOST_MISSED_FILE).write_text(json.dumps(host_made))
+
+
+class TimerTicks:
+    """The wall clock: a timer's ticks, or the readings' with the timer covering their absence."""
+
+    def __init__(self, node: Node, block: Controller, tick: Tick) -> None:
+        self.node, self.block, self._tick = node, block, tick
+        config = lambda: block.controller.config  # noqa: E731 (the config in force at each tick)
+        self.misses = HostMisses(lambda: config().control_period_s, lambda: config().watchdog_periods)
+        self.timer: Any = None
+        self.timer_period = 0.0
+        self.params = block.params
+        self.set_timer_period(timer_period_s(block.params))
+
+    def set_timer_period(self, period_s: float) -> None:
+        if period_s == self.timer_period:
+            return
+        if self.timer is not None:
+            self.node.destroy_timer(self.timer)
+        self.timer = self.node.create_timer(period_s, self.timer_callback)
+        self.timer_period = period_s
+
+    def tick(self, now_s: float) -> None:
+        self._tick(now_s)
+        status = self.block.status
+        if status is not Status.NO_MEASUREMENT:
+            self.misses.note_tick(now_s, watchdog=status is Status.WATCHDOG)
+        if self.block.params is not self.params:  # a change taken at this tick: the rate or trigger may be new
+            self.params = self.block.params
+            self.set_timer_period(timer_period_s(self.params))
+
+    def take_reading(self, sample: JointSample) -> None:
+        now_s = clock_s(self.node)
+        if not self.block.take(now_s, {"reading": sample}):
+            self.block.check_names(list(sample.names), time.monotonic())
+            return
+        self.misses.note_reading(now_s)
+        if self.block.params["trigger"] == "measurement":
+            self.set_timer_period(timer_period_s(self.block.params))  # readings drive the loop again
+            self.tick(now_s)
+
+    def take_reference(self, value: Any) -> None:
+        self.block.take(clock_s(self.node), {"reference": value})
+
+    def timer_callback(self) -> None:
+        now_s = clock_s(self.node)
+        period_s = self.block.controller.config.control_period_s
+        if self.block.params["trigger"] == "measurement":
+            covering = self.timer_period == period_s  # readings are missing: this timer ticks the loop
+            if now_s - self.block.last_tick_s < (0.5 if covering else 1.5) * period_s:
+                return  # readings are driving the loop; this timer only covers for their absence
+            self.set_timer_period(period_s)
+        self.tick(now_s)
+
+    def finish(self) -> None:
+        self.misses.leave()
+
+
+class PairedTicks:
+    """Where the world waits for each command, each reading is a tick at the world's clock it pairs with, computed
+    once the reference sample due by then has arrived (or, from a planner slower than the control rate, after
+    ``REFERENCE_WAIT_S`` with the latest)."""
+
+    def __init__(self, node: Node, block: Controller, tick: Tick) -> None:
+        self.node, self.block, self._tick = node, block, tick
+        self.clock_s = -np.inf  # the world's latest clock
+        self.reading: JointSample | None = None  # waiting for its clock
+        self.tick_s: float | None = None  # a measured tick waiting for its reference
+        self.waiting_since = 0.0  # monotonic s the tick began waiting
+        self.reference_waits = 0  # ticks that went on without a due reference sample
+        node.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        node.create_subscription(ClockMsg, spec.CLOCK.topic, self.clock_callback, LATCHED_QOS)
+
+    def clock_callback(self, msg: ClockMsg) -> None:
+        self.clock_s = max(self.clock_s, stamp_to_s(msg.clock))
+        self.pair()
+
+    def take_reading(self, sample: JointSample) -> None:
+        """One reading per world tick; the tick's time is the clock it pairs with (a delayed sensor's stamp is older
+        than the tick)."""
+        checked = self.block.checked_reading(sample)
+        if checked is None:
+            self.block.check_names(list(sample.names), time.monotonic())
+            return
+        self.reading = checked
+        self.pair()
+
+    def take_reference(self, value: Any) -> None:
+        # Received at the tick in force (the world's latest clock, so a sample sent a tick early waits for it).
+        self.block.take(max(self.clock_s, 0.0), {"reference": value})
+        self.try_tick()
+
+    def pair(self) -> None:
+        """A tick is due once the world's clock for it and its reading are both in, whichever came first (the world
+        publishes the next clock only after this tick's command: one to one)."""
+        if self.reading is None or self.tick_s is not None or self.clock_s <= self.block.last_tick_s:
+            return
+        if self.reading.stamp_s > self.clock_s + 1e-9:
+            return  # the reading is for a tick whose clock has not arrived yet
+        reading, self.reading = self.reading, None
+        self.block.take(self.clock_s, {"reading": reading})  # a refused one is said; the tick goes on
+        self.tick_s = self.clock_s
+        self.waiting_since = time.monotonic()
+        self.try_tick()
+
+    def try_tick(self) -> None:
+        """Tick if the measured tick's reference sample is in."""
+        tick_s = self.tick_s
+        if tick_s is None or not self.block.reference_ready(tick_s):
+            return
+        self.tick_s = None
+        self._tick(tick_s)
+        self.pair()
+
+    def reference_wait_check(self) -> None:
+        """A planner slower than the control rate leaves ticks with no sample due; until its period is learned from
+        two samples, do not wait forever."""
+        if self.tick_s is None:
+            return
+        block = self.block
+        if not block.has_reference():
+            # Nothing to fall back on before the first sample: wait (the launcher ends a stalled run).
+            block.waits.waiting(
+                "reference",
+                f"sim time: the first {spec.REFERENCE.topic} sample (trajectory_planner's)",
+                time.monotonic(),
+            )
+            return
+        if time.monotonic() - self.waiting_since > REFERENCE_WAIT_S:
+            said = (
+                f"sim time: no reference sample for t={self.tick_s:.3f} s "
+                f"after {REFERENCE_WAIT_S:g} s; using the latest"
+            )
+            if block.reference_samples < 2:
+                # The planner's period is learned from its first two samples; until then a planner slower than the
+                # control rate leaves ticks without a sample due: said once.
+                if self.reference_waits == 0:
+                    block.log.info(said + " until the planner's rate is known from its second sample")
+            else:
+                block.log.warn("reference_wait", said)
+            self.reference_waits += 1
+            tick_s, self.tick_s = self.tick_s, None
+            self._tick(tick_s)
+
+    def finish(self) -> None:
+        pass
+
+
+def ticks_for(node: Node, block: Controller, tick: Tick, *, world_waits: bool) -> TimerTicks | PairedTicks:
+    """The controller's clock, chosen once: paired with the world's where it waits for each command, else a timer's."""
+    return PairedTicks(node, block, tick) if world_waits else TimerTicks(node, block, tick)
