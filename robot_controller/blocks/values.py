@@ -132,3 +132,16 @@ def labelled_tick_s(label: str) -> float | None:
         return int(label[len(TICK_LABEL_PREFIX) :]) * 1e-9
     except ValueError:
         return None
+
+
+@dataclass(frozen=True)
+class WaypointRequest:
+    """A ``JointTrajectory`` as the planner takes it: joints, then per point its time and values (empty rows where a
+    point gives none)."""
+
+    stamp_s: float  #: s, its header's stamp (0: start on receipt)
+    joint_names: tuple[str, ...]
+    times_s: tuple[float, ...]  #: s from its time 0, per point
+    positions: tuple[tuple[float, ...], ...]
+    velocities: tuple[tuple[float, ...], ...] = ()
+    accelerations: tuple[tuple[float, ...], ...] = ()

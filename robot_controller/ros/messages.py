@@ -16,10 +16,12 @@ from rclpy.node import Node
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+from trajectory_msgs.msg import JointTrajectory
 
 from robot_controller.blocks.values import (  # noqa: F401 (the checks: the shell checks with them too)
     Array,
     JointSample,
+    WaypointRequest,
     check_effort,
     check_joint_state,
     check_trajectory,
@@ -89,13 +91,24 @@ def message_class(msg_type: str) -> Any:
 
 def decode(msg: Any) -> Any:
     """A message as the value a block takes (``blocks.values``): joint states as a ``JointSample``, arrays as an
-    ``Array`` with their first dimension's label, a flag as a bool, a text as a str."""
+    ``Array`` with their first dimension's label, a joint trajectory as a ``WaypointRequest``, a flag as a bool, a
+    text as a str."""
     if isinstance(msg, JointState):
         effort = np.asarray(msg.effort, dtype=float) if len(msg.effort) else None
         position, velocity = np.asarray(msg.position, dtype=float), np.asarray(msg.velocity, dtype=float)
         return JointSample(stamp_to_s(msg.header.stamp), list(msg.name), position, velocity, effort)
     if isinstance(msg, Float64MultiArray):
         return Array(np.asarray(msg.data, dtype=float), msg.layout.dim[0].label if msg.layout.dim else "")
+    if isinstance(msg, JointTrajectory):
+        points = msg.points
+        return WaypointRequest(
+            stamp_to_s(msg.header.stamp),
+            tuple(msg.joint_names),
+            tuple(p.time_from_start.sec + p.time_from_start.nanosec * 1e-9 for p in points),
+            tuple(tuple(p.positions) for p in points),
+            tuple(tuple(p.velocities) for p in points),
+            tuple(tuple(p.accelerations) for p in points),
+        )
     return msg.data  # Bool, String
 
 

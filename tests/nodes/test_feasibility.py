@@ -108,7 +108,7 @@ def test_parameter_changes_are_checked_and_scaled_the_same_way(ros_domain):
     try:
         node = TrajectoryPlanner()
         try:
-            assert node.trajectory.frequency_hz == 0.5  # the default sine, as it is
+            assert node.block.trajectory.frequency_hz == 0.5  # the default sine, as it is
             chirp = [
                 Parameter("mode", value="chirp"),
                 Parameter("end_frequency_hz", value=3.0),
@@ -116,13 +116,13 @@ def test_parameter_changes_are_checked_and_scaled_the_same_way(ros_domain):
             ]
             result = node.set_parameters_atomically(chirp)
             assert not result.successful and "slow it down (feasibility: scale)" in result.reason
-            assert node.params["mode"] == "sine" and node.trajectory.frequency_hz == 0.5
+            assert node.params["mode"] == "sine" and node.block.trajectory.frequency_hz == 0.5
             chirp[-1] = Parameter("feasibility", value="scale")
             assert node.set_parameters_atomically(chirp).successful
-            assert isinstance(node.trajectory, Chirp)
-            assert 0.15 < node.trajectory.frequency_hz < 0.35 and node.trajectory.sweep_time_s > 15.0
+            assert isinstance(node.block.trajectory, Chirp)
+            assert 0.15 < node.block.trajectory.frequency_hz < 0.35 and node.block.trajectory.sweep_time_s > 15.0
             assert node.set_parameters_atomically([Parameter("feasibility", value="ignore")]).successful
-            assert node.trajectory.end_frequency_hz == 3.0
+            assert node.block.trajectory.end_frequency_hz == 3.0
         finally:
             node.destroy_node()
     finally:
@@ -154,10 +154,10 @@ def test_the_planner_node_plans_on_the_controllers_arm_model_from_the_run_plan(t
         node = TrajectoryPlanner()
         try:
             assert node.params["model_inertia"] == [1.0]
-            assert node.dynamics.describe() == arm_model(params["pid_controller"]).describe()
-            assert isinstance(node.trajectory, Sine)
-            assert node.trajectory.frequency_hz == expected.trajectory.frequency_hz
-            assert node._plan.warning == expected.warning
+            assert node.block.dynamics.describe() == arm_model(params["pid_controller"]).describe()
+            assert isinstance(node.block.trajectory, Sine)
+            assert node.block.trajectory.frequency_hz == expected.trajectory.frequency_hz
+            assert node.block._plan.warning == expected.warning
         finally:
             node.destroy_node()
     finally:

@@ -150,24 +150,24 @@ def test_the_planner_node_blends_takes_a_stamp_and_gives_way_to_a_shape_change(r
         node = TrajectoryPlanner()
         try:
             now = clock_s(node)
-            node.start_s = node.origin_s = now - 0.3  # publishing the sine for 0.3 s
-            before = node.reference_at(now)
+            node.block.start_s = node.block.origin_s = now - 0.3  # publishing the sine for 0.3 s
+            before = node.block.reference_at(now)
             msg = JointTrajectory(joint_names=["joint1"])
             msg.points.append(JointTrajectoryPoint(positions=[0.4]))
             msg.points[0].time_from_start.sec = 2
             msg.header.stamp = s_to_stamp(now + 1.0)  # in the future: its time 0 is then
-            node.joint_trajectory_callback(msg)
-            assert node.waypoints is not None
-            assert node.waypoints.start_delay_s == pytest.approx(1.0, abs=0.1)
+            node.waypoints_callback("waypoints", msg)
+            assert node.block.waypoints is not None
+            assert node.block.waypoints.start_delay_s == pytest.approx(1.0, abs=0.1)
             # From the sine's state at receipt (the sine moved on for the microseconds in between).
-            for got, want in zip(node.reference_at(node.origin_s), before, strict=True):
+            for got, want in zip(node.block.reference_at(node.block.origin_s), before, strict=True):
                 np.testing.assert_allclose(got, want, atol=0.01)
-            assert node.reference_at(node.origin_s + 10.0)[0].tolist() == [0.4]
+            assert node.block.reference_at(node.block.origin_s + 10.0)[0].tolist() == [0.4]
             msg.joint_names = ["joint1", "joint1"]
-            node.joint_trajectory_callback(msg)  # refused: the one in force stays
-            assert node.reference_at(node.origin_s + 10.0)[0].tolist() == [0.4]
+            node.waypoints_callback("waypoints", msg)  # refused: the one in force stays
+            assert node.block.reference_at(node.block.origin_s + 10.0)[0].tolist() == [0.4]
             assert node.set_parameters_atomically([Parameter("mode", value="hold")]).successful
-            assert node.waypoints is None and node.origin_s == node.start_s
+            assert node.block.waypoints is None and node.block.origin_s == node.block.start_s
         finally:
             node.destroy_node()
     finally:

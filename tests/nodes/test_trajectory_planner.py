@@ -15,7 +15,7 @@ def planner(ros_domain):
 
     rclpy.init(args=["trajectory_planner", "--ros-args", "-p", "lockstep:=true"], domain_id=ros_domain)
     node = TrajectoryPlanner()
-    node.start_s = node.origin_s = 0.0  # publishing since t = 0 (lockstep: the planner's time is /clock's)
+    node.block.start_s = node.block.origin_s = 0.0  # publishing since t = 0 (lockstep: the planner's time is /clock's)
     node.clock_s = 3.3
     try:
         yield node
@@ -30,25 +30,25 @@ def test_a_live_change_leaving_a_joints_range_is_refused_with_the_reason(planner
     result = planner.set_parameters_atomically([Parameter("offset", value=[2.5])])  # 1 rad about 2.5: past π
     assert not result.successful
     assert "reaches [1.5, 3.5] rad on joint1, beyond its limits [-3.14159, 3.14159] rad" in result.reason
-    assert planner.params["offset"] == [0.0] and planner.crossfade is None
+    assert planner.params["offset"] == [0.0] and planner.block.crossfade is None
 
 
 def test_a_live_change_blends_from_the_reference_in_force(planner):
     from rclpy.parameter import Parameter
 
-    before = planner.reference_at(3.3)
+    before = planner.block.reference_at(3.3)
     change = [
         Parameter("amplitude", value=[0.5]),
         Parameter("offset", value=[1.0]),
         Parameter("frequency_hz", value=1.0),
     ]
     assert planner.set_parameters_atomically(change).successful
-    blend = planner.crossfade
+    blend = planner.block.crossfade
     assert blend is not None and blend.start_s == 3.3
-    for got, want in zip(planner.reference_at(3.3), before, strict=True):
+    for got, want in zip(planner.block.reference_at(3.3), before, strict=True):
         assert got == pytest.approx(want)  # no jump: position, velocity and acceleration carry on
     t = np.arange(3.3, 3.3 + blend.duration_s + 0.5, 1e-3)
-    p, v, _ = np.array([planner.reference_at(s) for s in t])[:, :, 0].T
+    p, v, _ = np.array([planner.block.reference_at(s) for s in t])[:, :, 0].T
     assert np.max(np.abs(np.diff(p) - (v[1:] + v[:-1]) / 2 * 1e-3)) < 1e-5  # each step as the velocity says: no jump
     assert p[-1] == pytest.approx(1.0 + 0.5 * np.sin(2 * np.pi * t[-1]))  # on the new sine after the blend
-    assert planner.crossfade is None
+    assert planner.block.crossfade is None

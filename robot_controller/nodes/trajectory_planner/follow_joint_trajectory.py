@@ -2,10 +2,10 @@
 ros2_controllers' JointTrajectoryController serves it, so MoveIt and any action client can drive the arm.
 
 A goal is checked in the goal callback as JTC checks it (joint names, points, times, values, the URDF's limits, its
-tolerances, its stamp; the planner's ``check_goal``): one that fails is REJECTED, the reason said in one warning line
-("goal rejected: …", which ``robot-controller goto`` reads back from the log topic: the action's answer carries no
-reason). An accepted goal's trajectory is then joined onto the reference in force (the planner's
-``take_trajectory``); if the join cannot be taken (its path between the points, its torque) the goal ends at once,
+tolerances, its stamp; the planner block's ``check_goal``): one that fails is REJECTED, the reason said in one warning
+line ("goal rejected: …", which ``robot-controller goto`` reads back from the log topic: the action's answer carries
+no reason). An accepted goal's trajectory is then joined onto the reference in force (the planner block's ``take``);
+if the join cannot be taken (its path between the points, its torque) the goal ends at once,
 aborted with JTC's error code and the reason, and the motion in force goes on. A taken goal preempts the one in force
 (aborted: "preempted"). At every tick the goal's feedback carries desired, actual and error, and its tolerances are
 checked (``core.reference.tolerances``): outside a path tolerance, or not within the goal tolerance in time, the goal
@@ -32,6 +32,7 @@ from rclpy.task import Future
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from robot_controller.blocks import spec
+from robot_controller.blocks.planner import Planner
 from robot_controller.core.reference.tolerances import (
     GOAL_REJECTED_LOG,
     GOAL_TOLERANCE_VIOLATED,
@@ -42,6 +43,7 @@ from robot_controller.core.reference.tolerances import (
     goal_tolerances,
 )
 from robot_controller.nodes.trajectory_planner.arm_watch import ArmWatch
+from robot_controller.ros.messages import decode
 from robot_controller.ros.stack_node import StackNode
 
 
@@ -73,18 +75,20 @@ def _point(positions, velocities=(), time_s: float = 0.0) -> JointTrajectoryPoin
 
 
 class FollowJointTrajectoryServer:
-    """The action server, part of the planner (``planner.action``)."""
+    """The action server, beside the planner block in its node (``node.action``)."""
 
-    def __init__(self, planner: StackNode) -> None:
-        """``planner``: the trajectory planner (its check_goal, take_trajectory, install, stop and reference_at)."""
+    def __init__(self, node: StackNode, planner: Planner) -> None:
+        """``node``: the planner's node (its clock ``now_s``, parameters, log and subscriptions); ``planner``: the
+        block (its check_goal, take, install, stop and reference_at)."""
+        self.node = node
         self.planner = planner
         self.action = _action_type()
         self.joint_names = list(planner.limits.joint_names)
-        self.name = spec.FOLLOW_JOINT_TRAJECTORY.action_for(planner.params["controller_name"])
+        self.name = spec.FOLLOW_JOINT_TRAJECTORY.action_for(node.params["controller_name"])
         self.active: ActiveGoal | None = None
-        self.watch = ArmWatch(planner, self.joint_names)
+        self.watch = ArmWatch(node, self.joint_names)
         self.server = ActionServer(
-            planner,
+            node,
             self.action,
             self.name,
             execute_callback=self.execute,
@@ -94,7 +98,7 @@ class FollowJointTrajectoryServer:
 
     def tolerances(self, goal) -> Tolerances | str:
         """The goal's tolerances in force, or why they are invalid."""
-        params = self.planner.params
+        params = self.node.params
         return goal_tolerances(
             self.joint_names,
             [(t.name, t.position, t.velocity) for t in goal.path_tolerance],
@@ -111,13 +115,13 @@ class FollowJointTrajectoryServer:
         reason = self.rejection(goal)
         if reason is None:
             return GoalResponse.ACCEPT
-        self.planner.get_logger().warning(f"{GOAL_REJECTED_LOG}{reason}")
+        self.node.get_logger().warning(f"{GOAL_REJECTED_LOG}{reason}")
         return GoalResponse.REJECT
 
     def rejection(self, goal) -> str | None:
         if self.watch.estop:
             return "the e-stop is engaged: release it first"
-        checked = self.planner.check_goal(goal.trajectory, self.planner.now_s())
+        checked = self.planner.check_goal(decode(goal.trajectory), self.node.now_s())
         if checked is not None:
             return checked[1]
         tolerances = self.tolerances(goal)
@@ -126,11 +130,12 @@ class FollowJointTrajectoryServer:
     # Goals.
     async def execute(self, handle: ServerGoalHandle):
         planner = self.planner
-        now_s = planner.now_s()
+        now_s = self.node.now_s()
         goal = handle.request
-        taken = planner.take_trajectory(goal.trajectory, now_s, f"goal {_goal_id(handle)}")
+        taken = planner.take(decode(goal.trajectory), now_s)
         if isinstance(taken, tuple):
             code, reason = taken
+            self.node.get_logger().warning(f"goal {_goal_id(handle)} refused: {reason}; the motion goes on as it was")
             handle.abort()
             return self.action.Result(error_code=code, error_string=reason)
         tolerances = self.tolerances(goal)
@@ -162,9 +167,9 @@ class FollowJointTrajectoryServer:
             active.handle.abort()
         line = f"goal {_goal_id(active.handle)} {how}: {reason}"
         if how == "aborted" and code != INVALID_GOAL:  # a fault or a tolerance missed, not a preemption
-            self.planner.get_logger().warning(line)
+            self.node.get_logger().warning(line)
         else:
-            self.planner.get_logger().info(line)
+            self.node.get_logger().info(line)
         active.done.set_result(self.action.Result(error_code=code, error_string=reason))
 
     def stop_and_end(self, now_s: float, how: str, code: int, reason: str) -> None:
