@@ -136,8 +136,9 @@ class World:
             elif name == "brake_request":
                 written += self.take_brake_request(bool(value))
             elif name == "estop":
+                released = self.estopped and not value
                 written += self.take_estop(bool(value))
-                if not value:
+                if released:
                     written += self.set_brake("drive_timeout", True)
             else:
                 self.take_disturbance(value)

@@ -55,6 +55,7 @@ def test_the_estop_ignores_efforts_and_its_release_holds_the_brakes_until_the_dr
     assert any("efforts ignored" in line for line in log.lines)
     written = block.take({"estop": False})
     assert [value.label for _, value in written] == ["engaged:", "engaged:drive_timeout"]  # two messages, in order
+    assert block.take({"estop": False}) == []  # said again: nothing changes
     assert block.take_effort(np.array([3.0]))[-1][1].label == "engaged:" and block.effort.tolist() == [3.0]
 
 

@@ -121,6 +121,8 @@ class Simulator(StackNode):
 
     def set_estop(self, on: bool) -> None:
         with self.clock.lock:
+            if on == self.world.estopped:
+                return  # said again (the button repeats it): nothing changes
             self.clock.catch_up()  # the physics up to now ran without it
             self.write(self.world.take_estop(on))
         if not on:
