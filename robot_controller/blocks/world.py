@@ -182,7 +182,7 @@ class World:
         self.request_heard = True
         if on != ("requested" in self.brakes.reasons):
             said = "brake requested by the motor: torque off, brakes on" if on else "motor released its brake request"
-            self.log.warn("brake_request", said)
+            self.log.warn(f"brake_request_{on}", said)  # each way its own line
         return self.set_brake("requested", on)
 
     def take_estop(self, on: bool) -> Written:
@@ -192,7 +192,7 @@ class World:
             return []
         written = self.set_brake("estop", on)
         self.log.warn(
-            "estop",
+            f"estop_{on}",  # each way its own line
             "E-STOP: torque off, brakes on (latched until released)"
             if on
             else "e-stop released: brakes release when efforts arrive",
