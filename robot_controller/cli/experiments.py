@@ -21,7 +21,7 @@ from robot_controller.cli.args import (
     step_size_rad,
     verb,
 )
-from robot_controller.cli.output import effort_limits, output_dir, print_summary, run_experiment, say_arm
+from robot_controller.cli.output import output_dir, print_summary, run_experiment, say_arm
 from robot_controller.core.errors import ConfigError
 from robot_controller.runner.options import RunOptions
 
@@ -104,9 +104,9 @@ def step(a: argparse.Namespace) -> int:
     except (RuntimeError, ValueError) as exc:
         print(f"robot-controller step: FAILED: {exc}", file=sys.stderr)
         return 1
-    from robot_controller.scoring import summary
+    from robot_controller.scoring import scored_run, summary
 
-    limits = effort_limits(checked.params, len(values["joint_names"]))
+    limits = scored_run.effort_limits(checked.params, len(values["joint_names"]))
     rows = summary.step_rows(values, robot=options.robot, effort_limits=limits)
     rows += [("files", f"{out}/: step.png, metrics.json (every figure), bag/")]
     print_summary(summary.verdict(None), rows)

@@ -59,17 +59,6 @@ def typed_command(argv: list[str] | None = None) -> str:
     return " ".join([program, *(shlex.quote(arg) for arg in argv[1:])])
 
 
-def effort_limits(params: dict, joint_count: int) -> list[float] | None:
-    """The controller's effort limit per joint (``torque_max``, N·m or N), None if it cannot be read."""
-    from robot_controller.core.errors import ConfigError
-    from robot_controller.parameters.torque_limits import torque_limit
-
-    try:
-        return torque_limit(params["pid_controller"], joint_count).tolist()
-    except (ConfigError, KeyError, ValueError):
-        return None
-
-
 def print_summary(verdict_line: str | None, rows: list[tuple[str, str]]) -> None:
     """The end of a verb (:func:`robot_controller.scoring.summary.lines`): its verdict first, green ``ok`` or
     red ``FAILED: why``, the rows, and a FAILED verdict again last, where the final screen shows it (None: the

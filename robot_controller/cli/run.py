@@ -20,7 +20,7 @@ from robot_controller.cli.args import (
     stack_options,
     verb,
 )
-from robot_controller.cli.output import effort_limits, output_dir, print_summary, say_arm, typed_command
+from robot_controller.cli.output import output_dir, print_summary, say_arm, typed_command
 from robot_controller.runner.options import RunOptions
 
 
@@ -98,10 +98,7 @@ def run(options: RunOptions, out: Path | None) -> int:
         # A run that already failed said FAILED and why: its verdict stays one line.
         launcher.say(f"{'' if result.exit_code else 'FAILED: '}cannot score the recording: {exc}")
         return result.exit_code or 1
-    values = scored.metrics
-    limits = effort_limits(checked.params, len(values["joint_units"]))
-    title = f"{values['robot']}, preset {values['preset']}, seed {values['seed']}"
-    scored.write(out, command=typed_command(), plot_title=title, effort_limits=limits)
-    print_summary(scored.verdict.line, scored.rows(limits, str(out)))
+    scored.write(out, command=typed_command())
+    print_summary(scored.verdict.line, scored.rows(out))
     # The run's own failure (a node died, the law failed), apart from a verdict on a run that ran: both exit 1.
     return result.exit_code or (0 if scored.verdict.ok else 1)

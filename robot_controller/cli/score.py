@@ -45,22 +45,10 @@ def score(run_dir: Path, *, as_json: bool = False, every_figure: bool = False) -
         print_table(scored.judged, title=f"re-scored {run_dir / 'bag'}")
         print_summary(scored.verdict.line, [])
     else:  # the run's facts (robot, clock, host freezes) from its metrics.json, the figures re-scored
-        rows = scored.rows(_effort_limits(run_dir, scored.recording.joint_count))
+        rows = scored.rows()
         print(f"re-scored {run_dir / 'bag'}")
         print_summary(scored.verdict.line, [*rows, ("all figures", f"robot-controller score {run_dir} --all")])
     return 0 if scored.verdict.ok else 1
-
-
-def _effort_limits(run_dir: Path, joint_count: int) -> list[float] | None:
-    """The controller's ``torque_max`` from the run's ``params.yaml``, if it holds one per joint."""
-    import yaml
-
-    try:
-        limits = yaml.safe_load((run_dir / "params.yaml").read_text())["pid_controller"]["ros__parameters"]
-        limits = [float(x) for x in limits["torque_max"]]
-    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError):
-        return None
-    return limits if len(limits) == joint_count else None
 
 
 def view(run_dir: Path, *, port: int, serve: bool) -> int:

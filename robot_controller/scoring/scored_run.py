@@ -2,10 +2,10 @@
 misses set apart, judged against its band and summed up. ``run``, ``score DIR``, every experiment, ``faults`` and the
 benches score through here, so a run says the same wherever it is scored.
 
-The span by clock: in sim time (``sim_lockstep``, ``sim_paced``) the ticks of the run's ``--duration`` from its first
+The span by clock: in sim time (``--sim-time``, the paced world) the ticks of the run's ``--duration`` from its first
 (the simulator runs on a little past it); on the wall clock, or interrupted, the stops after the run's own span are its
-shutdown's, not counted. When the recorder heard each message (latency to the motor, counts, rates) differs run to run
-in lockstep only: scored on every other clock."""
+shutdown's, not counted. When the recorder heard each message (latency to the motor, counts, rates) is a figure on
+every clock but ``--sim-time``'s, where it differs run to run."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ if TYPE_CHECKING:
     from robot_controller.runner.plan import CheckedRun
     from robot_controller.runner.supervise import RunResult
 
-LOCKSTEP, PACED, WALL = "sim_lockstep", "sim_paced", "wall"  #: ``metrics.json``'s ``clock``
+SIM_TIME, PACED, WALL = "sim_lockstep", "sim_paced", "wall"  #: ``metrics.json``'s ``clock`` (``--sim-time``, …)
 
 
 @dataclass
@@ -33,36 +33,44 @@ class ScoredRun:
     metrics: dict[str, Any]  #: figures and the run's facts: ``metrics.json`` without the verdict
     verdict: verdict.Verdict
     band_rad: float  #: the tracking band it was judged by
-    failure: str | None = None  #: the run's own failure (a node died, the law failed): its verdict
-    #: a lockstep run's host figures (wall time, CPU, unrecorded messages): ``timing.json``, they differ run to run
+    #: a ``--sim-time`` run's host figures (wall time, CPU, unrecorded messages): ``timing.json``, differing run to run
     timing: dict[str, Any] = field(default_factory=dict)
     facts: dict[str, Any] = field(default_factory=dict)  #: a re-scored run's saved ``metrics.json`` (robot, clock, …)
+    effort_limits: list[float] | None = None  #: the controller's ``torque_max`` per joint (N·m, or N), if known
 
     @property
     def judged(self) -> dict[str, Any]:
         """``metrics.json``: the figures, facts and verdict."""
         return self.metrics | self.verdict.as_metrics() | {"tracking_band_rad": self.band_rad}
 
-    def rows(self, effort_limits: list[float] | None = None, out: str | None = None) -> list[summary.Row]:
-        """The summary's rows (:func:`summary.run_rows`)."""
-        return summary.run_rows(self.facts | self.judged | self.timing, effort_limits=effort_limits, out=out)
+    def rows(self, out: Path | None = None) -> list[summary.Row]:
+        """The summary's rows (:func:`summary.run_rows`); ``out``: the run's directory, as the user named it."""
+        figures = self.facts | self.judged | self.timing
+        return summary.run_rows(figures, effort_limits=self.effort_limits, out=None if out is None else str(out))
 
-    def write(self, out: Path, *, command: str, plot_title: str, effort_limits: list[float] | None = None) -> None:
-        """``metrics.json`` (``timing.json`` in lockstep), ``tracking.png`` and ``summary.md`` into ``out``."""
+    def write(self, out: Path, *, command: str) -> None:
+        """``metrics.json`` (``timing.json`` with ``--sim-time``), ``tracking.png`` and ``summary.md`` into ``out``."""
+        values = self.metrics
         report.write_metrics(out / "metrics.json", self.judged)
         if self.timing:
             report.write_metrics(out / "timing.json", self.timing)
-        plots.plot_tracking(self.recording, out / "tracking.png", title=plot_title, units=self.metrics["joint_units"])
+        title = f"{values['robot']}, preset {values['preset']}, seed {values['seed']}"
+        plots.plot_tracking(self.recording, out / "tracking.png", title=title, units=values["joint_units"])
         links = ["tracking.png", "bag/", "metrics.json", "params.yaml"]
-        rows = self.rows(effort_limits, str(out))
         (out / "summary.md").write_text(
-            summary.markdown(self.verdict.line, rows, title=f"Run {out.name}", command=command, links=links)
+            summary.markdown(self.verdict.line, self.rows(out), title=f"Run {out.name}", command=command, links=links)
         )
 
 
-def clock_of(options: Any) -> str:
-    """``metrics.json``'s ``clock`` of a run's options."""
-    return PACED if options.paced else LOCKSTEP if options.sim_time else WALL
+def effort_limits(params: dict[str, Any], joint_count: int) -> list[float] | None:
+    """The controller's effort limit per joint (``torque_max``, N·m or N), None if it cannot be read."""
+    from robot_controller.core.errors import ConfigError
+    from robot_controller.parameters.torque_limits import torque_limit
+
+    try:
+        return torque_limit(params["pid_controller"], joint_count).tolist()
+    except (ConfigError, KeyError, ValueError):
+        return None
 
 
 def has_ticks(result: RunResult) -> bool:
@@ -80,19 +88,19 @@ def score_launched(checked: CheckedRun, result: RunResult) -> ScoredRun:
     from robot_controller import robots
 
     options, params = checked.options, checked.params
-    clock = clock_of(options)
+    clock = PACED if options.paced else SIM_TIME if options.sim_time else WALL
     recording = report.read_recording(result.bag_dir)
     sim = clock != WALL
     # On the wall clock, or interrupted, the nodes stop one by one after the run: the stops that follow (a
     # controller gone before the drive's timeout) are not the run's.
     judged_s = result.control_seconds if result.interrupted or not sim else None
-    values = _figures(
+    values = report.score(
         recording,
-        clock=clock,
+        nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
         window_s=options.duration_s if sim else None,
-        judged_s=judged_s,
-        period_s=1.0 / params["pid_controller"]["control_rate_hz"],
         units=report.arm_units(params["simulator"]["urdf_path"]),
+        receipts=clock != SIM_TIME,
+        judged_s=judged_s,
     )
     recorded_s = result.control_seconds if result.interrupted or not sim else options.duration_s
     if sim and result.failure is not None and values.get("recorded_duration_s") is not None:
@@ -103,11 +111,11 @@ def score_launched(checked: CheckedRun, result: RunResult) -> ScoredRun:
     values.update(clock=clock)
     if options.nodes is not None and len(result.local_nodes) < 5:  # a split run: what ran here (the rest elsewhere)
         values["nodes_here"] = ",".join(result.local_nodes)
-    # Wall-clock figures of a lockstep run differ run to run: kept out of metrics.json.
+    # Wall-clock figures of a ``--sim-time`` run differ run to run: kept out of metrics.json.
     host = {"real_time_factor": result.real_time_factor, "wall_duration_s": result.wall_seconds}
     # How many messages the bag misses depends on when the nodes stopped, not on the seed.
-    (host if clock == LOCKSTEP else values)["unrecorded_messages"] = sum(result.unrecorded.values())
-    if clock == LOCKSTEP:
+    (host if clock == SIM_TIME else values)["unrecorded_messages"] = sum(result.unrecorded.values())
+    if clock == SIM_TIME:
         host.update(result.usage)
     else:  # a paced world's freezes and its loop's late efforts, or the wall clock's
         values.update(result.world_clock)
@@ -123,7 +131,9 @@ def score_launched(checked: CheckedRun, result: RunResult) -> ScoredRun:
     failure = result.failure if result.exit_code else None
     values["run_failure"] = failure  # apart from a verdict on a run that ran
     judged = verdict.judge(values, band_rad=band_rad, failure=failure)
-    return ScoredRun(recording, values, judged, band_rad, failure, host if clock == LOCKSTEP else {})
+    limits = effort_limits(params, recording.joint_count)
+    timing = host if clock == SIM_TIME else {}
+    return ScoredRun(recording, values, judged, band_rad, timing=timing, effort_limits=limits)
 
 
 def rescore(run_dir: Path) -> ScoredRun:
@@ -140,15 +150,17 @@ def rescore(run_dir: Path) -> ScoredRun:
     units = saved.get("joint_units") if len(saved.get("joint_units") or []) == recording.joint_count else None
     clock = saved.get("clock")
     duration_s = saved.get("duration_s") if isinstance(saved.get("duration_s"), (int, float)) else None
-    sim = clock in (LOCKSTEP, PACED) and duration_s is not None and duration_s > 0
+    sim = clock in (SIM_TIME, PACED) and duration_s is not None and duration_s > 0
     # As the run judged itself: on the wall clock, or interrupted, its stops after its duration are its shutdown's.
     judged_s = duration_s if clock == WALL or saved.get("interrupted") else None
-    values = _figures(recording, clock=clock, window_s=duration_s if sim else None, judged_s=judged_s, units=units)
+    window_s = duration_s if sim else None
+    values = report.score(recording, window_s=window_s, units=units, receipts=clock != SIM_TIME, judged_s=judged_s)
     set_host_share_apart(values, _count(saved, "missed_cycles_host"), _count(saved, "watchdog_ticks_host"))
     band_rad = saved.get("tracking_band_rad") or robots.robot(robots.DEFAULT_ROBOT).tracking_band_rad
     failure = saved.get("run_failure") if isinstance(saved.get("run_failure"), str) else None
     judged = verdict.judge(saved | values, band_rad=band_rad, failure=failure)
-    return ScoredRun(recording, values, judged, band_rad, failure, facts=saved)
+    limits = _saved_effort_limits(run_dir, recording.joint_count)
+    return ScoredRun(recording, values, judged, band_rad, facts=saved, effort_limits=limits)
 
 
 def set_host_share_apart(values: dict[str, Any], missed_cycles: int, watchdog_ticks: int) -> None:
@@ -158,27 +170,6 @@ def set_host_share_apart(values: dict[str, Any], missed_cycles: int, watchdog_ti
         if count:
             values[f"{key}_host"] = count
             values[key] = max(0, values.get(key, 0) - count)
-
-
-def _figures(
-    recording: Recording,
-    *,
-    clock: str | None,
-    window_s: float | None,
-    judged_s: float | None,
-    period_s: float = 0.01,
-    units: list[str] | None = None,
-) -> dict[str, Any]:
-    """The recording's figures over ``window_s`` (:func:`report.score`); when the recorder heard each message is a
-    figure on every clock but lockstep."""
-    return report.score(
-        recording,
-        nominal_period_s=period_s,
-        window_s=window_s,
-        units=units,
-        receipts=clock != LOCKSTEP,
-        judged_s=judged_s,
-    )
 
 
 def _saved(run_dir: Path) -> dict[str, Any]:
@@ -193,3 +184,15 @@ def _saved(run_dir: Path) -> dict[str, Any]:
 def _count(saved: dict[str, Any], key: str) -> int:
     value = saved.get(key)
     return int(value) if isinstance(value, (int, float)) and value > 0 else 0
+
+
+def _saved_effort_limits(run_dir: Path, joint_count: int) -> list[float] | None:
+    """The controller's ``torque_max`` from the run's ``params.yaml``, if it holds one per joint."""
+    import yaml
+
+    try:
+        limits = yaml.safe_load((run_dir / "params.yaml").read_text())["pid_controller"]["ros__parameters"]
+        limits = [float(x) for x in limits["torque_max"]]
+    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError):
+        return None
+    return limits if len(limits) == joint_count else None
