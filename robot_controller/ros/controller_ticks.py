@@ -35,6 +35,8 @@ from robot_controller.ros.qos import LATCHED_QOS
 
 Tick = Callable[[float], dict[str, Any]]
 
+# The parameters the timer's period follows.
+TIMING_KEYS = ("control_rate_hz", "trigger", "watchdog_periods")
 # How long (wall s) a paired tick waits for its reference sample before using the latest.
 REFERENCE_WAIT_S = 0.3
 
@@ -123,8 +125,9 @@ class TimerTicks:
         if status is not Status.NO_MEASUREMENT:
             self.misses.note_tick(now_s, watchdog=status is Status.WATCHDOG)
         if self.block.params is not self.params:  # a change taken at this tick: the rate or trigger may be new
-            self.params = self.block.params
-            self.set_timer_period(timer_period_s(self.params))
+            before, self.params = self.params, self.block.params
+            if any(before[key] != self.params[key] for key in TIMING_KEYS):
+                self.set_timer_period(timer_period_s(self.params))
 
     def take_reading(self, sample: JointSample) -> None:
         now_s = clock_s(self.node)
