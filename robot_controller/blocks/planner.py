@@ -9,7 +9,8 @@ from the reference in force (``core.reference.crossfade``). A joint trajectory (
 ``controller_waypoints``, or a FollowJointTrajectory goal through :meth:`Planner.take`) is checked against the URDF's
 limits too, joined onto the reference in force (first stopping within ``stop_deceleration`` if joining directly would
 swing past its first point), timed from its stamp if set and not past, and held at its last point until the next one
-or a change of the shape, which brings the parameters' motion back."""
+or a change of the shape, which brings the parameters' motion back. What the arm does (ports ``reading``, ``state``,
+``brakes``, ``estop``) goes to its ``arm`` watch (``blocks.arm_watch``), which judges a goal in force."""
 
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
+from robot_controller.blocks.arm_watch import ArmWatch
 from robot_controller.blocks.block import Log
 from robot_controller.blocks.values import Array, WaypointRequest
 from robot_controller.core.errors import ConfigError
@@ -48,16 +50,19 @@ from robot_controller.parameters.torque_limits import torque_limit
 _CONTROLLER_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 #: A change of these brings the parameters' motion back in place of a joint trajectory.
 SHAPE_KEYS = frozenset(("mode", *TRAJECTORY_SHAPE_KEYS))
+#: The ports a joint trajectory comes on.
+WAYPOINT_PORTS = ("waypoints", "controller_waypoints")
 #: Refused: JTC's error code and the reason.
 Refusal = tuple[int, str]
 
 
 class Planner:
-    inputs = ("waypoints", "controller_waypoints")
+    inputs = (*WAYPOINT_PORTS, "reading", "state", "brakes", "estop")
     outputs = ("reference",)
 
     def __init__(self, params: Mapping[str, Any], log: Log, *, world_waits: bool = False) -> None:
-        """:param world_waits: unused: the planner computes the same on every clock (its host steps it)."""
+        """:param world_waits: the world's brakes hold from its start until the first effort (its arm watch does
+        not count them); the reference is the same on every clock (its host steps it)"""
         self.log = log
         # The arm model: the URDF's, or the model_* values over it (read-only: fixed at start).
         self.dynamics = arm_model(params)
@@ -86,6 +91,7 @@ class Planner:
         #: told (with what replaced it) when the motion in force gives way to the topic's or the parameters' (the
         #: action server ends its goal)
         self.replaced: list[Callable[[str], None]] = []
+        self.arm = ArmWatch(self.limits.joint_names, 1.0 / params["publish_rate_hz"], world_waits=world_waits)
 
     # The block.
     def start(self) -> dict[str, Any]:
@@ -97,13 +103,14 @@ class Planner:
         return 1.0 / self.params["publish_rate_hz"]
 
     def step(self, t_s: float, inputs: Mapping[str, Any]) -> dict[str, Any]:
-        """Take the joint trajectories that arrived; stepped with none, sample the reference at ``t_s``."""
-        taken = False
-        for name in ("waypoints", "controller_waypoints"):
-            if name in inputs:
-                self.take_waypoints(inputs[name], t_s)
-                taken = True
-        if taken:
+        """Take the joint trajectories and what the arm does that arrived at ``t_s``; stepped with none, sample the
+        reference at ``t_s``."""
+        for name, value in inputs.items():
+            if name in WAYPOINT_PORTS:
+                self.take_waypoints(value, t_s)
+            else:
+                self.arm.take(name, value, t_s)
+        if inputs:
             return {}
         if self.start_s is None:
             self.start_s = self.origin_s = t_s
@@ -119,6 +126,7 @@ class Planner:
         from the reference in force, and a shape change ends a joint trajectory in force."""
         now_s = self.last_step_s if now_s is None else now_s
         self.params = dict(params)
+        self.arm.own_period_s = 1.0 / params["publish_rate_hz"]
         before, previous = self.motion_in_force(), repr(self.trajectory)  # (the dataclass's values)
         self.trajectory = self._make(params)
         moved = repr(self.trajectory) != previous

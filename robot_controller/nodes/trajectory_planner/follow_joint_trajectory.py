@@ -11,7 +11,7 @@ aborted with JTC's error code and the reason, and the motion in force goes on. A
 checked (``core.reference.tolerances``): outside a path tolerance, or not within the goal tolerance in time, the goal
 aborts and the reference stops (``stop_deceleration``, within the joints' range) and holds. A cancel stops and holds
 the same way, and the goal ends CANCELED once the reference is at rest. An e-stop, the brakes, the controller
-reporting a fault, or its state gone stale (``arm_watch``) abort the goal with the reason.
+reporting a fault, or its state gone stale (the block's ``blocks.arm_watch``) abort the goal with the reason.
 
 "Actual" is the controller's estimate on its state (port ``state``; the measurement its law closes on: the noisy
 sensor's readings would trip a tight tolerance on noise alone), with the reference it was compared with at that tick;
@@ -42,7 +42,6 @@ from robot_controller.core.reference.tolerances import (
     Tolerances,
     goal_tolerances,
 )
-from robot_controller.nodes.trajectory_planner.arm_watch import ArmWatch
 from robot_controller.ros.messages import decode
 from robot_controller.ros.stack_node import StackNode
 
@@ -78,15 +77,15 @@ class FollowJointTrajectoryServer:
     """The action server, beside the planner block in its node (``node.action``)."""
 
     def __init__(self, node: StackNode, planner: Planner) -> None:
-        """``node``: the planner's node (its clock ``now_s``, parameters, log and subscriptions); ``planner``: the
-        block (its check_goal, take, install, stop and reference_at)."""
+        """``node``: the planner's node (its clock ``now_s``, parameters, log, and ``listen_to_arm``); ``planner``:
+        the block (its check_goal, take, install, stop, reference_at, and its ``arm`` watch)."""
         self.node = node
         self.planner = planner
         self.action = _action_type()
         self.joint_names = list(planner.limits.joint_names)
         self.name = spec.FOLLOW_JOINT_TRAJECTORY.action_for(node.params["controller_name"])
         self.active: ActiveGoal | None = None
-        self.watch = ArmWatch(node, self.joint_names)
+        self.watch = planner.arm
         self.server = ActionServer(
             node,
             self.action,
@@ -144,7 +143,7 @@ class FollowJointTrajectoryServer:
             return self.action.Result(error_code=INVALID_GOAL, error_string=tolerances)
         self.end_active("aborted", INVALID_GOAL, "preempted by a new goal", next_goal=True)
         planner.install(taken, now_s)
-        self.watch.listen(True)
+        self.node.listen_to_arm(True)
         self.watch.new_goal()
         done = Future()
         end_s = now_s + taken.trajectory.duration_s
@@ -156,7 +155,7 @@ class FollowJointTrajectoryServer:
         (``next_goal``: one that preempts it follows, and hears the arm as it did)."""
         active, self.active = self.active, None
         if not next_goal:
-            self.watch.listen(False)
+            self.node.listen_to_arm(False)
         if active is None or active.done.done():
             return
         if how == "canceled" and active.handle.is_cancel_requested:

@@ -1,6 +1,7 @@
 """The planner node: the planner block (``blocks.planner``) stepped on the node's clock, its reference published
 through a gate (its time starts when the first consumer is matched), the joint trajectory topics handed to it, and
-the FollowJointTrajectory action served beside it (``follow_joint_trajectory``).
+the FollowJointTrajectory action served beside it (``follow_joint_trajectory``), and what the arm does handed to it
+(the brakes and the e-stop always, the readings and the controller's state while a goal is in force).
 
 When it is stepped: on the wall clock, by a timer at ``publish_rate_hz``; in sim time, at the sim's ticks
 (port ``clock``) on the grid of its period from its start, each grid point's sample one tick early: the controller holds
@@ -21,9 +22,9 @@ from robot_controller.blocks import registry, spec
 from robot_controller.blocks.planner import Planner
 from robot_controller.nodes.trajectory_planner.follow_joint_trajectory import FollowJointTrajectoryServer
 from robot_controller.ros.adapter import NodeLog
-from robot_controller.ros.messages import clock_s, decode, stamp_to_s
+from robot_controller.ros.messages import clock_s, decode, message_class, stamp_to_s
 from robot_controller.ros.process import run
-from robot_controller.ros.qos import CONTROL_QOS, LATEST_QOS
+from robot_controller.ros.qos import CONTROL_QOS, ESTOP_QOS, LATEST_QOS
 from robot_controller.ros.stack_node import StackNode
 
 _GRID_EPS_S = 1e-6
@@ -62,6 +63,9 @@ class TrajectoryPlanner(StackNode):
                 lambda msg, name=port.name: self.waypoints_callback(name, msg),
                 LATEST_QOS,
             )
+        self.arm_subscriptions: list = []
+        self.hear(spec.ESTOP, ESTOP_QOS)
+        self.hear(spec.BRAKES, CONTROL_QOS)  # every change kept: an engagement released before a goal looks counts
         self.action = FollowJointTrajectoryServer(self, self.block)
         self.block.replaced.append(self.action.replaced)
         self.get_logger().info(self.block.summary(", lockstep" if p["lockstep"] else ""))
@@ -84,6 +88,28 @@ class TrajectoryPlanner(StackNode):
 
     def waypoints_callback(self, port: str, msg: JointTrajectoryMsg) -> None:
         self.block.step(self.now_s(), {port: decode(msg)})
+
+    def hear(self, port: spec.Port, qos: Any) -> Any:
+        """A subscription handing ``port``'s values to the block at the node's time."""
+        return self.create_subscription(
+            message_class(port.msg_type),
+            port.topic,
+            lambda msg, name=port.name: self.block.step(self.now_s(), {name: decode(msg)}),
+            qos,
+        )
+
+    def listen_to_arm(self, on: bool) -> None:
+        """Hear the arm only while a goal is in force. Two 100 Hz subscriptions cost the planner's executor (rclpy's
+        single-threaded one, which rebuilds its wait set at every wake-up) a third of a CPU, taken from the loop on a
+        busy host. Off, what was heard is forgotten: a next goal is never judged on an earlier one's estimate."""
+        if on and not self.arm_subscriptions:
+            self.block.arm.forget(self.now_s())
+            self.arm_subscriptions = [self.hear(spec.READING, LATEST_QOS), self.hear(spec.STATE, LATEST_QOS)]
+        elif not on and self.arm_subscriptions:
+            for subscription in self.arm_subscriptions:
+                self.destroy_subscription(subscription)
+            self.arm_subscriptions = []
+            self.block.arm.forget(self.now_s())
 
     def wall_tick(self) -> None:
         now_s = clock_s(self)

@@ -1,31 +1,29 @@
 """What a FollowJointTrajectory goal hears of the arm while it is in force: the controller's state (its estimate, the
-reference it compared it with, its status), the sensor's readings, the simulator's brakes, the e-stop; and
-from them whether the arm can still be judged, or why the goal must end.
+reference it compared it with, its status), the sensor's readings, the world's brakes, the e-stop; and from them
+whether the arm can still be judged, or why the goal must end. Values in (ports ``state``, ``reading``, ``brakes``,
+``estop``), each with the planner's time at receipt; no ROS.
 
-The brakes are heard all the time (a message on each change, 2 Hz on the wall clock: no cost), every message kept, so
-an engagement released before the planner looks is still seen; an engagement during a goal ends it even if released
-since, as the arm stood braked meanwhile (a goal that starts while they hold ends at once). The controller's state is
-stale once the planner has heard none for ``STALE_PERIODS`` of the controller's period
-(seen in the stamps of its state), at two checks in a row: a planner whose executor was held up checks once before
-it takes what arrived meanwhile. A controller that publishes no state (the tutorial's) is judged on the readings
-the same way. Ages are the planner's own clock at receipt (the sim's latest clock in lockstep and the paced world),
-never a stamp from another process's clock.
+The brakes are heard all the time, every message kept, so an engagement released before the planner looks is still
+seen; an engagement during a goal ends it even if released since, as the arm stood braked meanwhile (a goal that
+starts while they hold ends at once). The controller's state is stale once the planner has heard none for
+``STALE_PERIODS`` of the controller's period (seen in the stamps of its state), at two checks in a row: a planner
+held up checks once before it takes what arrived meanwhile. A controller that publishes no state (the tutorial's) is
+judged on the readings the same way. Ages are the planner's own clock at receipt, never a stamp from another
+process's clock.
 """
 
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Bool, Float64MultiArray
 
 from robot_controller.blocks import spec
+from robot_controller.blocks.brakes import BRAKES_LABEL_PREFIX
+from robot_controller.blocks.values import Array, JointSample
 from robot_controller.core.controller import state_layout
-from robot_controller.ros.messages import brake_reasons
-from robot_controller.ros.qos import CONTROL_QOS, ESTOP_QOS, LATEST_QOS
-from robot_controller.ros.stack_node import StackNode
 
 #: Controller states that end a goal: the loop is stopping or stopped, whatever the reference does.
 FAULT_STATES = frozenset(
@@ -49,20 +47,29 @@ class Estimate:
     status: str
 
 
-class ArmWatch:
-    """The planner's ears for a goal (``FollowJointTrajectoryServer.watch``)."""
+def brake_reasons(label: str) -> set[str] | None:
+    """Why the brakes hold, as their state's label says (None: it does not say)."""
+    if not label.startswith(BRAKES_LABEL_PREFIX):
+        return None
+    said = label[len(BRAKES_LABEL_PREFIX) :]
+    return set(said.split(",")) if said else set()
 
-    def __init__(self, planner: StackNode, joint_names: list[str]) -> None:
-        self.planner = planner
-        self.joint_names = joint_names
+
+class ArmWatch:
+    """The planner's ears for a goal."""
+
+    def __init__(self, joint_names: Sequence[str], own_period_s: float, *, world_waits: bool) -> None:
+        """:param own_period_s: the planner's step period, s (it checks once per step)
+        :param world_waits: the world holds its brakes from its start until the first effort (not a fault)"""
+        self.joint_names = list(joint_names)
+        self.own_period_s = own_period_s
+        self.world_waits = world_waits
         self.estop = False
         self.brakes_now: str | None = None  #: why the brakes hold, while they do (None: released)
-        self.subscriptions: list = []
-        self._forget(planner.now_s())
-        planner.create_subscription(Bool, spec.ESTOP.topic, self.estop_callback, ESTOP_QOS)
-        planner.create_subscription(Float64MultiArray, spec.BRAKES.topic, self.brakes_callback, CONTROL_QOS)
+        self.forget(0.0)
 
-    def _forget(self, now_s: float) -> None:
+    def forget(self, now_s: float) -> None:
+        """Forget what was heard of the arm (listening from ``now_s``): a goal is never judged on an earlier one's."""
         self.estimate: Estimate | None = None
         self.measured: tuple[float, np.ndarray, np.ndarray] | None = None  #: (received s, positions, velocities)
         self.intervals: deque[float] = deque(maxlen=PERIOD_SAMPLES)
@@ -70,66 +77,53 @@ class ArmWatch:
         self.since_s = now_s  #: listening since
         self.stale_checks = 0
 
-    @property
-    def listening(self) -> bool:
-        return bool(self.subscriptions)
-
-    def listen(self, on: bool) -> None:
-        """Hear the arm only while a goal is in force. Two 100 Hz subscriptions cost the planner's executor (rclpy's
-        single-threaded one, which rebuilds its wait set at every wake-up) a third of a CPU, taken from the loop on a
-        busy host. Off, what was heard is forgotten: a next goal is never judged on an earlier one's estimate."""
-        planner = self.planner
-        if on and not self.subscriptions:
-            self._forget(planner.now_s())
-            self.subscriptions = [
-                planner.create_subscription(JointState, spec.READING.topic, self.joint_states, LATEST_QOS),
-                planner.create_subscription(Float64MultiArray, spec.STATE.topic, self.controller_state, LATEST_QOS),
-            ]
-        elif not on and self.subscriptions:
-            for subscription in self.subscriptions:
-                planner.destroy_subscription(subscription)
-            self.subscriptions = []
-            self._forget(planner.now_s())
-
     def new_goal(self) -> None:
         """A goal starts: only the brakes' engagements from now on (and their state now) count against it."""
         self.braked = self.brakes_now
 
-    def joint_states(self, msg: JointState) -> None:
-        names = list(msg.name)
-        if len(msg.position) != len(names) or any(name not in names for name in self.joint_names):
+    def take(self, port: str, value, now_s: float) -> None:
+        """A value heard on ``port`` at ``now_s`` (the planner's clock)."""
+        if port == "reading":
+            self.joint_states(value, now_s)
+        elif port == "state":
+            self.controller_state(value, now_s)
+        elif port == "brakes":
+            self.brakes(value)
+        elif port == "estop":
+            self.estop = bool(value)
+
+    def joint_states(self, sample: JointSample, now_s: float) -> None:
+        names = list(sample.names)
+        if len(sample.position) != len(names) or any(name not in names for name in self.joint_names):
             return
         order = [names.index(name) for name in self.joint_names]
-        position = np.asarray(msg.position, dtype=float)[order]
-        velocity = np.asarray(msg.velocity, dtype=float)[order] if len(msg.velocity) == len(names) else None
-        self.measured = (self.planner.now_s(), position, velocity if velocity is not None else np.zeros_like(position))
+        position = np.asarray(sample.position, dtype=float)[order]
+        velocity = np.asarray(sample.velocity, dtype=float)[order] if len(sample.velocity) == len(names) else None
+        self.measured = (now_s, position, velocity if velocity is not None else np.zeros_like(position))
 
-    def controller_state(self, msg: Float64MultiArray) -> None:
+    def controller_state(self, state: Array, now_s: float) -> None:
         n = len(self.joint_names)
-        if not state_layout.fits(len(msg.data), n):
+        if not state_layout.fits(len(state.data), n):
             return
-        state = state_layout.decode(np.asarray(msg.data, dtype=float), n)
-        time_s = float(state["time_s"])
+        decoded = state_layout.decode(np.asarray(state.data, dtype=float), n)
+        time_s = float(decoded["time_s"])
         if self.estimate is not None and time_s > self.estimate.time_s:
             self.intervals.append(time_s - self.estimate.time_s)
-        status = _STATUS_NAMES.get(int(state["status"]), "ok")
-        self.estimate = Estimate(time_s, self.planner.now_s(), state["reference"], state["measured"], status)
+        status = _STATUS_NAMES.get(int(decoded["status"]), "ok")
+        self.estimate = Estimate(time_s, now_s, decoded["reference"], decoded["measured"], status)
 
-    def brakes_callback(self, msg: Float64MultiArray) -> None:
-        values = np.asarray(msg.data, dtype=float)
+    def brakes(self, brakes: Array) -> None:
+        values = np.asarray(brakes.data, dtype=float)
         if values.size != len(self.joint_names):
             return
         if np.any(values > 0.5):
-            reasons = brake_reasons(msg) or set()
-            if self.planner.params["lockstep"] and reasons == {"start"}:
+            reasons = brake_reasons(brakes.label) or set()
+            if self.world_waits and reasons == {"start"}:
                 return  # held for the world's start, released by the controller's first effort (as it reads them)
             self.brakes_now = ", ".join(sorted(reasons)) or "no reason given"
             self.braked = self.braked or self.brakes_now
         else:
             self.brakes_now = None
-
-    def estop_callback(self, msg: Bool) -> None:
-        self.estop = bool(msg.data)
 
     def fault(self, now_s: float) -> str | None:
         """Why the goal cannot go on (None: it can): the e-stop, the brakes, the controller's fault or its silence."""
@@ -158,8 +152,8 @@ class ArmWatch:
 
     def stale_after_s(self) -> float:
         """How long without the controller's state is too long: a few of its periods, no less than two of the
-        planner's own ticks (it checks once per tick)."""
-        own = 1.0 / self.planner.params["publish_rate_hz"]
+        planner's own steps (it checks once per step)."""
+        own = self.own_period_s
         period = float(np.median(self.intervals)) if self.intervals else own
         return max(STALE_PERIODS * period, 2.0 * own)
 
