@@ -34,7 +34,6 @@ from robot_controller.core.laws import parameters as law_parameters
 from robot_controller.core.laws import registry
 from robot_controller.core.laws.containment import BLOCKED_S
 from robot_controller.parameters.builders import arm_model, model_overridden
-from robot_controller.ros.loop_processes import thread_kept_s
 
 # Readings naming other joints for this long (s of the caller's wall clock), none usable yet: a configuration mismatch.
 CONFIG_MISMATCH_S = 2.0
@@ -46,7 +45,7 @@ LAW_STOPPED_LINGER_S = 0.5
 #: The brakes' label: ``engaged:`` and why they hold (``start``, ``drive_timeout``, …).
 BRAKES_LABEL_PREFIX = "engaged:"
 
-MarginOf = Callable[[ControllerConfig], "int | None"]
+MarginOf = Callable[[ControllerConfig], "int | None"]  # a configuration → its delay margin, control periods
 
 
 def designed_margin(config: ControllerConfig, dynamics: Any, joint_count: int) -> int | None:
@@ -104,13 +103,21 @@ class Controller:
     outputs = ("command", "state", "diagnostics")
 
     def __init__(
-        self, params: Mapping[str, Any], log: Log, *, world_waits: bool, margin_of: MarginOf | None = None
+        self,
+        params: Mapping[str, Any],
+        log: Log,
+        *,
+        world_waits: bool,
+        margin_of: MarginOf | None = None,
+        run_wait: Callable[[], float] | None = None,
     ) -> None:
         """:param world_waits: each command acts from its tick and the world waits for it (sim time, the paced
         world): the law is held to its budget on its thread's CPU time, there is no latency guard, the start's
         brakes are not heard (their release is a race) and a failed law's stop ends the block at once.
         :param margin_of: designs a configuration's law and finds its delay margin (:func:`designed_margin`; a
-        host may run it in a process of its own, ``nodes.pid_controller.designer``); in this thread without one."""
+        host may run it in a process of its own, ``nodes.pid_controller.designer``); in this thread without one.
+        :param run_wait: on the wall clock, how long (s) the host has kept this thread from running so far (run-queue
+        wait, steal: ``ros.loop_processes.thread_kept_s``), which a law's budget does not count; None: none known."""
         self.log = Levels(log)
         self.world_waits = world_waits
         # The arm model: the URDF's, or the model_* values over it (read-only: fixed at start).
@@ -133,7 +140,7 @@ class Controller:
             self.dynamics,
             law_clock=time.thread_time if world_waits else time.perf_counter,
             latency_guard=not world_waits,
-            law_run_wait=None if world_waits else thread_kept_s,
+            law_run_wait=None if world_waits else run_wait,
         )
         if world_waits and self.controller.plugin is not None:
             self.controller.plugin.abandon_s = BLOCKED_S

@@ -22,6 +22,7 @@ from robot_controller.nodes.pid_controller.designer import Designer
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model
 from robot_controller.ros.controller_ticks import ticks_for
+from robot_controller.ros.loop_processes import thread_kept_s
 from robot_controller.ros.messages import clock_s, decode, stamp_command
 from robot_controller.ros.process import LAW_FAULT_FILE, request_exit, run
 from robot_controller.ros.publishing import COUNTS_DIR_ENV
@@ -97,7 +98,13 @@ class ControllerNode(StackNode):
         design_model = arm_model(params)
         self.designer = Designer(design_model, len(design_model.joint_names))
         world_waits = bool(params.get("lockstep", False))
-        self.block = Controller(params, ControllerLog(self), world_waits=world_waits, margin_of=self.designer.margin)
+        self.block = Controller(
+            params,
+            ControllerLog(self),
+            world_waits=world_waits,
+            margin_of=self.designer.margin,
+            run_wait=thread_kept_s,  # what the host took from the loop's thread is not the law's time
+        )
 
     def more_specs(self, values: dict[str, Any]) -> tuple[cfg.ParamSpec, ...]:
         """A law of one's own: its declared parameters, law.NAME (a value given for one it does
