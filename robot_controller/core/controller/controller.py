@@ -228,7 +228,7 @@ class JointController:
         return self._reference.planner.spoke
 
     def reference_ready(self, tick_s: float) -> bool:
-        """Whether every reference sample due by ``tick_s`` is in (lockstep)."""
+        """Whether every reference sample due by ``tick_s`` is in (where the world waits for each command)."""
         return self._reference.planner.ready(tick_s)
 
     @property

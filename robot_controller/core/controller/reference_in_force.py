@@ -111,7 +111,7 @@ class PlannerReference:
         self.time_s = now_s
 
     def ready(self, tick_s: float) -> bool:
-        """Whether every sample due by ``tick_s`` is in (lockstep): the latest is
+        """Whether every sample due by ``tick_s`` is in (where the world waits): the latest is
         at least as new as the tick, a later one is waiting, or the next is not due yet."""
         self.advance_to(tick_s)
         if self._upcoming:

@@ -66,7 +66,7 @@ class ControllerNode(StackNode):
             MultiArrayDimension(label=label, size=size, stride=size) for label, size in block.state_blocks
         ]
         self.diagnostics_pub = self.gated_publisher(DiagnosticArray, spec.DIAGNOSTICS.topic, consumer=False)
-        if not self.lockstep:
+        if not block.world_waits:
             # When each command reached the drive: the command path's delay, for the latency guard.
             self.create_subscription(
                 Float64MultiArray,
@@ -88,7 +88,7 @@ class ControllerNode(StackNode):
         self.create_subscription(
             Float64MultiArray, spec.BRAKES.topic, lambda msg: block.take(0.0, {"brakes": decode(msg)}), LATEST_QOS
         )
-        self.ticks = ticks_for(self, block, self.tick, world_waits=self.lockstep)
+        self.ticks = ticks_for(self, block, self.tick, world_waits=block.world_waits)
         self.report_law()
         self.parameter_services = live_gains.ParameterServices(self)
 
@@ -97,7 +97,7 @@ class ControllerNode(StackNode):
         # its armature into the loop's own, and MuJoCo's data is not shared between threads).
         design_model = arm_model(params)
         self.designer = Designer(design_model, len(design_model.joint_names))
-        world_waits = bool(params.get("lockstep", False))
+        world_waits = bool(params.get("lockstep", False))  # the ROS parameter users' files set
         self.block = Controller(
             params,
             ControllerLog(self),
