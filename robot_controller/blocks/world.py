@@ -34,18 +34,23 @@ class World:
     inputs = ("effort", "brake_request", "estop", "disturbance")
     outputs = ("true_state", "brakes", "disturbance_applied")
 
-    def __init__(self, params: Mapping[str, Any], log: Log, *, world_waits: bool = False) -> None:
+    def __init__(
+        self, params: Mapping[str, Any], log: Log, *, world_waits: bool = False, plant: MujocoPlant | None = None
+    ) -> None:
         """:param world_waits: the loop's clock waits for each effort (the world's physics runs only when its clock
-        steps it, whatever the mode: the world itself never branches on it)"""
+            steps it, whatever the mode: the world itself never branches on it)
+        :param plant: the arm to use as it is (an in-process loop's, already set up); None: the parameters' (the
+            URDF, its variation, at ``initial_position``)"""
         self.log = log
         self.params = dict(params)
         self.variation = PlantVariation.from_params(params)
-        self.plant = MujocoPlant(
-            resources.resolve_urdf(params["urdf_path"]), 1.0 / params["physics_rate_hz"], variation=self.variation
-        )
+        if plant is None:
+            urdf = resources.resolve_urdf(params["urdf_path"])
+            plant = MujocoPlant(urdf, 1.0 / params["physics_rate_hz"], variation=self.variation)
+            plant.reset(cfg.per_joint("initial_position", params["initial_position"], len(plant.joint_names)))
+        self.plant = plant
         self.joint_names = list(self.plant.joint_names)
         self.joint_count = len(self.joint_names)
-        self.plant.reset(cfg.per_joint("initial_position", params["initial_position"], self.joint_count))
         self.effort = np.zeros(self.joint_count)  #: N·m per joint, in force until the next
         self.steps_done = 0  #: physics steps since time 0
         self.physics_dt_ns = round(self.plant.physics_dt * 1e9)

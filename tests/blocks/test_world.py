@@ -94,3 +94,11 @@ def test_rates_that_are_no_whole_multiple_are_refused():
     params = cfg.load_stack()["simulator"]
     with pytest.raises(ValueError):  # TimingError: which period, and its ratio
         World.check_params(params | {"physics_rate_hz": 1000.0, "publish_rate_hz": 300.0})
+
+
+def test_a_plant_given_is_used_as_it_is():
+    params = cfg.load_stack()["simulator"]
+    plant = MujocoPlant(resources.resolve_urdf(params["urdf_path"]), 1.0 / params["physics_rate_hz"])
+    plant.reset(np.array([0.3]))
+    block = World(params, Lines(), world_waits=True, plant=plant)
+    assert block.plant is plant and block.position().tolist() == [0.3] and block.braked_for("start")
