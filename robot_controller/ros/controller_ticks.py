@@ -3,7 +3,7 @@
 - :class:`TimerTicks`, the wall clock: a timer ticks it (``trigger: timer``), or each accepted reading does
   (``trigger: measurement``) with the timer covering their absence;
 - :class:`PairedTicks`, where the world waits for each command (sim time, the paced world): each reading is a tick at
-  the world's ``/clock`` it pairs with, stepped once the reference sample due by then is in.
+  the world's clock (port ``clock``) it pairs with, stepped once the reference sample due by then is in.
 
 A clock holds the block and a ``tick(t_s)`` that steps it and publishes what it wrote; it asks the block only what a
 clock needs (its last tick, whether its reference is ready), and uses the node for ROS alone (timers, its clock)."""
