@@ -16,7 +16,6 @@ import numpy as np
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
-from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 
 from robot_controller.blocks import registry, spec
 from robot_controller.blocks.planner import Planner
@@ -48,7 +47,8 @@ class TrajectoryPlanner(StackNode):
         self.clock_s = 0.0  # sim time: the sim's latest clock (0 until the first)
         self.next_sample_s = 0.0  # sim time: the next point of the block's grid
         self.timer = None
-        if self.lockstep:
+        self.arm_subscriptions: list = []
+        if self.sim_time:
             self.create_subscription(ClockMsg, spec.CLOCK.topic, self.clock_callback, CONTROL_QOS)
             # Before the sim's first clock the time is 0: poll (on the wall clock) for the controller.
             self.start_poll = self.create_timer(
@@ -56,22 +56,18 @@ class TrajectoryPlanner(StackNode):
             )
         else:
             self.timer = self.create_timer(1.0 / p["publish_rate_hz"], self.wall_tick)
-        for port in (spec.WAYPOINTS, spec.CONTROLLER_WAYPOINTS):
-            self.create_subscription(
-                JointTrajectoryMsg,
-                port.topic_for(p["controller_name"]),
-                lambda msg, name=port.name: self.waypoints_callback(name, msg),
-                LATEST_QOS,
-            )
-        self.arm_subscriptions: list = []
+        self.hear(spec.WAYPOINTS, LATEST_QOS)
+        self.hear(spec.CONTROLLER_WAYPOINTS, LATEST_QOS)
         self.hear(spec.ESTOP, ESTOP_QOS)
         self.hear(spec.BRAKES, CONTROL_QOS)  # every change kept: an engagement released before a goal looks counts
         self.action = FollowJointTrajectoryServer(self, self.block)
         self.block.replaced.append(self.action.replaced)
-        self.get_logger().info(self.block.summary(", lockstep" if p["lockstep"] else ""))
+        self.get_logger().info(self.block.summary(", sim time" if self.sim_time else ""))
 
     def setup(self, params: dict[str, Any]) -> None:
-        self.block: Planner = registry.make(self.get_name(), params, NodeLog(self), bool(params["lockstep"]))
+        # On the sim's clock (its ``lockstep`` parameter, the paced world's too) the world waits for each effort.
+        self.sim_time = bool(params["lockstep"])
+        self.block: Planner = registry.make(self.get_name(), params, NodeLog(self), self.sim_time)
 
     def check_params(self, params: dict[str, Any]) -> None:
         self.block.check_params(params)
@@ -84,19 +80,18 @@ class TrajectoryPlanner(StackNode):
 
     def now_s(self) -> float:
         """The planner's time: the sim's latest clock in sim time, else the node's clock, s."""
-        return self.clock_s if self.lockstep else clock_s(self)
-
-    def waypoints_callback(self, port: str, msg: JointTrajectoryMsg) -> None:
-        self.block.step(self.now_s(), {port: decode(msg)})
+        return self.clock_s if self.sim_time else clock_s(self)
 
     def hear(self, port: spec.Port, qos: Any) -> Any:
-        """A subscription handing ``port``'s values to the block at the node's time."""
+        """A subscription handing ``port``'s messages to the block (:meth:`take`)."""
+        topic = port.topic_for(self.params["controller_name"])
         return self.create_subscription(
-            message_class(port.msg_type),
-            port.topic,
-            lambda msg, name=port.name: self.block.step(self.now_s(), {name: decode(msg)}),
-            qos,
+            message_class(port.msg_type), topic, lambda msg, name=port.name: self.take(name, msg), qos
         )
+
+    def take(self, port: str, msg: Any) -> None:
+        """A message on ``port``, handed to the block as its value at the node's time."""
+        self.block.step(self.now_s(), {port: decode(msg)})
 
     def listen_to_arm(self, on: bool) -> None:
         """Hear the arm only while a goal is in force. Two 100 Hz subscriptions cost the planner's executor (rclpy's
