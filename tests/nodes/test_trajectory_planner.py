@@ -1,5 +1,5 @@
-"""Live changes of the planner's shape on the node (no graph spun): checked against the joint ranges
-as at start, and blended from the reference in force."""
+"""The planner node (no graph spun): live changes of its shape checked against the joint ranges as at start and
+blended from the reference in force; on the sim's clock, its block stepped on its period's grid, a tick early."""
 
 import numpy as np
 import pytest
@@ -52,3 +52,29 @@ def test_a_live_change_blends_from_the_reference_in_force(planner):
     assert np.max(np.abs(np.diff(p) - (v[1:] + v[:-1]) / 2 * 1e-3)) < 1e-5  # each step as the velocity says: no jump
     assert p[-1] == pytest.approx(1.0 + 0.5 * np.sin(2 * np.pi * t[-1]))  # on the new sine after the blend
     assert planner.block.crossfade is None
+
+
+def test_on_the_sims_clock_each_grid_points_sample_goes_out_a_tick_early(ros_domain):
+    import rclpy
+    from rosgraph_msgs.msg import Clock
+
+    from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
+    from robot_controller.ros.messages import s_to_stamp
+
+    args = ["trajectory_planner", "--ros-args", "-p", "lockstep:=true", "-p", "publish_rate_hz:=20.0"]
+    rclpy.init(args=args, domain_id=ros_domain)
+    try:
+        node = TrajectoryPlanner()
+        try:
+            sent = []  # (the sim's clock when it went out, its sample time)
+            node.pub.open = True  # its consumers matched
+            node.pub.publish = lambda msg: sent.append((node.clock_s, msg.data[-1]))
+            node.on_grid(node.clock_s)  # the start poll, before the sim's first clock: time 0
+            for k in range(1, 12):
+                node.clock_callback(Clock(clock=s_to_stamp(k * 0.01)))  # the sim ticks at 100 Hz
+            assert np.array(sent) == pytest.approx(np.array([[0.0, 0.0], [0.04, 0.05], [0.09, 0.1]]))
+            assert node.block.start_s == 0.0
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown()
