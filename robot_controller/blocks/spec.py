@@ -245,6 +245,7 @@ def scored_topics() -> tuple[str, ...]:
 #: ``module:Class`` (``blocks.registry`` imports only the one chosen).
 BLOCKS: dict[str, dict[str, str]] = {
     "motor_node": {"drive": "robot_controller.blocks.drive:Drive"},
+    "pid_controller": {"controller": "robot_controller.blocks.controller:Controller"},
     "trajectory_planner": {"planner": "robot_controller.blocks.planner:Planner"},
     "sensor_node": {
         "encoder": "robot_controller.blocks.encoder:Encoder",

@@ -14,7 +14,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
 from robot_controller import parameters as cfg
-from robot_controller.blocks import spec
+from robot_controller.blocks import registry, spec
 from robot_controller.blocks.controller import Controller
 from robot_controller.core.laws import parameters as law_parameters
 from robot_controller.nodes.pid_controller import live_gains
@@ -98,7 +98,7 @@ class ControllerNode(StackNode):
         design_model = arm_model(params)
         self.designer = Designer(design_model, len(design_model.joint_names))
         world_waits = bool(params.get("lockstep", False))  # the ROS parameter users' files set
-        self.block = Controller(
+        self.block: Controller = registry.block_class(self.get_name(), params)(
             params,
             ControllerLog(self),
             world_waits=world_waits,
