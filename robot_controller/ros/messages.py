@@ -18,6 +18,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from trajectory_msgs.msg import JointTrajectory
 
+from robot_controller.blocks.brakes import BRAKES_LABEL_PREFIX, brakes_label  # noqa: F401 (the world writes it)
 from robot_controller.blocks.values import (  # noqa: F401 (the checks: the shell checks with them too)
     Array,
     JointSample,
@@ -30,14 +31,6 @@ from robot_controller.blocks.values import (  # noqa: F401 (the checks: the shel
 )
 
 # --- time ---------------------------------------------------------------------------
-
-#: The brakes' state's label: ``engaged:`` and why they hold, comma-separated (``start``, ``drive_timeout``,
-#: ``requested``, ``estop``; nothing when released).
-BRAKES_LABEL_PREFIX = "engaged:"
-
-
-def brakes_label(reasons: set[str]) -> str:
-    return BRAKES_LABEL_PREFIX + ",".join(sorted(reasons))
 
 
 def brake_reasons(msg: Float64MultiArray) -> set[str] | None:
