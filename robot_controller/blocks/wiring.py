@@ -1,5 +1,5 @@
-"""The loop in one process, no ROS: the graph's blocks (the sensor and the drive its configuration names) wired as
-the graph wires them, with the planner, the controller and the world stepped in order each control period. For
+"""The loop in one process, no ROS: the graph's blocks (the world, and the sensor and the drive its configuration
+names) wired as the graph wires them, with the planner and the controller, stepped in order each control period. For
 tuning, sweeps, tests, and as the ideal the ROS graph is measured against (no transport delay, perfectly periodic
 ticks): each value reaches its reader at the tick it was written, as in the lockstep graph."""
 
@@ -12,24 +12,14 @@ import numpy as np
 
 from robot_controller.blocks.block import Block
 from robot_controller.blocks.values import Array, JointSample, tick_label
+from robot_controller.blocks.world import World
 from robot_controller.core import metrics
 from robot_controller.core.controller import JointController, Status
-from robot_controller.core.model import Plant, steps_per_period
+from robot_controller.core.model import steps_per_period
 from robot_controller.core.reference import Trajectory
 
 # Ticks that command nothing once a controlled stop is over: the drive brakes the arm.
 BRAKING_STATUSES = (Status.SENSOR_LOST, Status.LAW_STOPPED)
-
-
-@dataclass(frozen=True)
-class Disturbance:
-    """An external torque on the arm from a set physics time, as the simulator's ``disturbance_*`` parameters
-    schedule it: it starts with the first control period that begins at or after ``start_s`` (the simulator starts
-    it with the first batch of physics steps from then on)."""
-
-    torque_nm: np.ndarray  #: N·m per joint
-    start_s: float  #: s of physics time
-    duration_s: float  #: s
 
 
 @dataclass
@@ -62,7 +52,7 @@ class LoopResult:
 
 def run_loop(
     *,
-    plant: Plant,
+    world: World,
     controller: JointController,
     sensor: Block,
     drive: Block,
@@ -72,29 +62,25 @@ def run_loop(
     planner_period_s: float,
     measurement_delay_s: float = 0.0,
     delay_unstamped: bool = False,
-    disturbance: Disturbance | None = None,
-    brake_torque_nm: float | None = None,
     command_gain: float = 1.0,
 ) -> LoopResult:
     """Run ``duration_s`` seconds of the loop and return what happened at each tick: the planner publishes if its
-    period has come round, the sensor block reads the true state, the controller computes, the drive block turns
-    the command into the effort held over the next control period of physics steps.
+    period has come round, the sensor block reads the world's true state, the controller computes, the drive block
+    turns the command into the effort the world holds over the next control period of physics steps.
 
+    :param world: the world block (``blocks.world``), stepped here as the graph's sim-time clock steps it
     :param sensor: the sensor block (``blocks.registry.make("sensor_node", …)``), its readings the controller's
     :param drive: the drive block, stepped at each tick with the tick's command
     :param measurement_delay_s: what the graph's transport adds between physics and sensor: the sensor reads the
         true state that many seconds old, stamped with its own time
     :param delay_unstamped: stamped when it arrives instead, so the controller cannot compensate
-    :param disturbance: an external torque on the plant (it needs ``set_disturbance``), on a schedule
-    :param brake_torque_nm: once the controller commands nothing after a controlled stop, the
-        brakes engage with this holding torque, as the drive's command timeout engages them
     :param command_gain: the drive is given this many times the command (a drive that is stronger than its model)
     """
-    n_steps = steps_per_period(plant.physics_dt, control_period_s)
+    n_steps = steps_per_period(world.physics_dt, control_period_s)
     ticks = int(round(duration_s / control_period_s))
     planner_every = max(1, int(round(planner_period_s / control_period_s)))
-    names, n = list(plant.joint_names), len(plant.joint_names)
-    delay_steps = int(round(measurement_delay_s / plant.physics_dt))
+    names, n = list(world.joint_names), len(world.joint_names)
+    delay_steps = int(round(measurement_delay_s / world.physics_dt))
     history: list[tuple[float, np.ndarray, np.ndarray]] = []  # (time, q, v) per physics step
     record = {
         name: np.zeros((ticks, n))
@@ -104,13 +90,14 @@ def run_loop(
     braked = False
     position = np.zeros(n)
     effort = np.zeros(n)
+    true_state = dict(world.sample(0.0))["true_state"]
     # (The record's rows by name, bound once: six dict lookups a tick less.)
     reference_rows, measured_rows, true_position_rows = record["reference"], record["measured"], record["true_position"]
     true_velocity_rows, command_rows, applied_rows = record["true_velocity"], record["command"], record["applied"]
     for k, t in enumerate(times.tolist()):  # Python floats: the controller's scalar time arithmetic is cheaper
         if k % planner_every == 0:
             controller.set_reference(t, *trajectory.sample(t))
-        true_position, true_velocity = plant.state()
+        true_position, true_velocity = true_state.position, true_state.velocity
         if delay_steps:
             history.append((t, true_position, true_velocity))
             stamp, seen_q, seen_v = history[max(0, len(history) - 1 - delay_steps)]
@@ -128,22 +115,24 @@ def run_loop(
             controller.set_measurement(t if delay_unstamped else sample_s, t, position, reading.velocity)
         out = controller.update(t)
         command = out.command
-        if not braked and brake_torque_nm is not None and out.status in BRAKING_STATUSES:
-            plant.set_brakes(np.ones(n, dtype=bool), brake_torque_nm)
+        inputs: dict[str, Any] = {}
+        if not braked and out.status in BRAKING_STATUSES:
+            inputs["brake_request"] = True  # as the drive's command timeout asks the graph's world
             braked = True
         written = drive.step(t, {"command": Array(command_gain * command, tick_label(t))}).get("effort")
         if written is not None:
             effort = written.data
-        if disturbance is not None and plant.time_s + 1e-9 >= disturbance.start_s:
-            plant.set_disturbance(np.asarray(disturbance.torque_nm, dtype=float), disturbance.duration_s)
-            disturbance = None
+            inputs["effort"] = written
+        world.take(inputs)
         if delay_steps:
             for step in range(1, n_steps + 1):
-                plant.step(effort, 1)
+                world.advance(1)
                 if step < n_steps:
-                    history.append((t + step * plant.physics_dt, *plant.state()))
+                    state = dict(world.sample(t + step * world.physics_dt))["true_state"]
+                    history.append((state.stamp_s, state.position, state.velocity))
         else:
-            plant.step(effort, n_steps)
+            world.advance(n_steps)
+        true_state = dict(world.sample(world.time_s))["true_state"]
         reference_rows[k] = out.reference
         measured_rows[k] = position
         true_position_rows[k] = true_position
@@ -154,7 +143,7 @@ def run_loop(
     return LoopResult(
         tick_time_s=times,
         joint_names=names,
-        joint_units=list(plant.joint_units),
+        joint_units=list(world.plant.joint_units),
         law_fault=None if fault is None else fault.line(),
         adapted_armature_kgm2=None if inertia is None else inertia.armature.tolist(),
         **record,

@@ -4,14 +4,18 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import partial
 from typing import Any
+
+import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.blocks import registry
 from robot_controller.blocks.block import Lines
-from robot_controller.blocks.wiring import Disturbance, LoopResult, run_loop
+from robot_controller.blocks.wiring import LoopResult, run_loop
+from robot_controller.blocks.world import World
 from robot_controller.core.controller import JointController
 from robot_controller.core.model import MujocoPlant, PlantVariation
 from robot_controller.parameters.builders import arm_model
@@ -20,6 +24,16 @@ from robot_controller.parameters.consistency import trajectory_plan
 #: s of wall time a law's call may run before it is abandoned: the loop waits for the law as the lockstep world does,
 #: so only a law that blocks (sleeps, loops, deadlocks) is abandoned, never one the host kept from a CPU a moment.
 ABANDON_S = 1.0
+
+
+@dataclass(frozen=True)
+class Disturbance:
+    """An external torque on the arm from a set physics time: the world starts it with the first physics steps at or
+    after ``start_s``, as the simulator's ``disturbance_*`` parameters schedule it."""
+
+    torque_nm: np.ndarray  #: N·m per joint
+    start_s: float  #: s of physics time
+    duration_s: float  #: s
 
 
 def simulate(params: cfg.Params, *, duration_s: float, **options: Any) -> LoopResult:
@@ -41,7 +55,7 @@ def prepare(
     """The loop from ``params``, built (URDF compiled, trajectory planned, gains designed): calling it runs
     ``duration_s`` s of :func:`run_loop`, the loop alone (what the bench times).
 
-    :param disturbance: an external torque on a schedule (the simulator's ``disturbance_*`` are not read)
+    :param disturbance: an external torque on a schedule, in place of the simulator's ``disturbance_*``
     :param on_warning: receives the planner's one-line warning (a trajectory slowed, or run as it is)
     :param actuator_gain: the drive applies this many times the command (before its torque limit)
     :raises ConfigError: the planner's one line, when it refuses the trajectory
@@ -55,6 +69,14 @@ def prepare(
     plant = MujocoPlant(resources.resolve_urdf(sim["urdf_path"]), 1.0 / sim["physics_rate_hz"], variation=variation)
     n = len(plant.joint_names)
     plant.reset(cfg.per_joint("initial_position", sim["initial_position"], n))
+    if disturbance is not None:  # the world schedules it, as the simulator node's parameters would
+        sim = dict(
+            sim,
+            disturbance_torque_nm=[float(x) for x in np.atleast_1d(disturbance.torque_nm)],
+            disturbance_start_s=disturbance.start_s,
+            disturbance_duration_s=disturbance.duration_s,
+        )
+    world = World(sim, Lines(), world_waits=True, plant=plant)
     dynamics = arm_model(ctrl)  # the URDF's, or the controller's model_* values over it
     controller_config = cfg.controller_config(dict(ctrl, lockstep=True), n)  # each command acts from its tick
     controller = contained_controller(controller_config, n, dynamics)
@@ -63,7 +85,7 @@ def prepare(
     drive_block = registry.make("motor_node", motor, Lines(), world_waits=True)
     return partial(
         run_loop,
-        plant=plant,
+        world=world,
         controller=controller,
         sensor=sensor_block,
         drive=drive_block,
@@ -73,8 +95,6 @@ def prepare(
         planner_period_s=1.0 / planner["publish_rate_hz"],
         measurement_delay_s=measurement_delay_s,
         delay_unstamped=delay_unstamped,
-        disturbance=disturbance,
-        brake_torque_nm=sim["brake_torque_nm"],
         command_gain=actuator_gain,
     )
 

@@ -24,7 +24,6 @@ import pytest
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.controller import ControlOutput, JointController, Status
-from robot_controller.blocks.wiring import Disturbance
 from robot_controller.core.model import MujocoPlant
 from robot_controller.core.reference import make_trajectory
 from robot_controller.experiments import inprocess
@@ -34,6 +33,7 @@ from robot_controller.experiments.exercises.disturbance import (
     deviation_figures,
     push_effect,
 )
+from robot_controller.experiments.inprocess import Disturbance
 from tests.core import configs
 from tests.core.controller.joint_rig import PERIOD as RIG_PERIOD
 from tests.core.controller.joint_rig import TORQUE_MAX, arm, config, one

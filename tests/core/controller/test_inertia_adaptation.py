@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from robot_controller import parameters as cfg
-from robot_controller.blocks.wiring import Disturbance
 from robot_controller.experiments import inprocess
+from robot_controller.experiments.inprocess import Disturbance
 
 WRIST = {"armature_kgm2": [0.0] * 6 + [0.1]}
 
