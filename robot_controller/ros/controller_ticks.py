@@ -39,6 +39,9 @@ Tick = Callable[[float], dict[str, Any]]
 TIMING_KEYS = ("control_rate_hz", "trigger", "watchdog_periods")
 # How long (wall s) a paired tick waits for its reference sample before using the latest.
 REFERENCE_WAIT_S = 0.3
+# How long (wall) a tick waits for a reading before going on with the latest, until the sensor's period is known: long
+# enough that a loaded host's late reading is waited for (a full-rate sensor's period is then known from its second).
+READING_WAIT_S = 1.0
 
 
 def timer_period_s(params: dict[str, Any]) -> float:
@@ -159,7 +162,10 @@ class TimerTicks:
 class PairedTicks:
     """Where the world waits for each command, each reading is a tick at the world's clock it pairs with, computed
     once the reference sample due by then has arrived (or, from a planner slower than the control rate, after
-    ``REFERENCE_WAIT_S`` with the latest)."""
+    ``REFERENCE_WAIT_S`` with the latest). A sensor slower than the loop (one that reports every other tick) leaves
+    ticks with no reading due: once the readings' period is known from two of their stamps, such a tick goes on at once
+    with the latest reading; before, after ``READING_WAIT_S``. A reading due and missing is waited for (a sensor that
+    stopped is the world's drive timeout's to brake, as ever)."""
 
     def __init__(self, node: Node, block: Controller, tick: Tick) -> None:
         self.node, self.block, self._tick = node, block, tick
@@ -168,11 +174,18 @@ class PairedTicks:
         self.tick_s: float | None = None  # a measured tick waiting for its reference
         self.waiting_since = 0.0  # monotonic s the tick began waiting
         self.reference_waits = 0  # ticks that went on without a due reference sample
+        self.paired_s: float | None = None  # the world's clock the latest reading paired with
+        self.paired_stamp_s: float | None = None  # and that reading's stamp
+        self.clock_seen = time.monotonic()  # when the world's clock last moved on
+        self.reading_period_s: float | None = None  # s between the last two readings' stamps
         node.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
         node.create_subscription(ClockMsg, spec.CLOCK.topic, self.clock_callback, LATCHED_QOS)
 
     def clock_callback(self, msg: ClockMsg) -> None:
-        self.clock_s = max(self.clock_s, stamp_to_s(msg.clock))
+        clock_s = max(self.clock_s, stamp_to_s(msg.clock))
+        if clock_s > self.clock_s:
+            self.clock_seen = time.monotonic()
+        self.clock_s = clock_s
         self.pair()
 
     def take_reading(self, sample: JointSample) -> None:
@@ -192,13 +205,33 @@ class PairedTicks:
 
     def pair(self) -> None:
         """A tick is due once the world's clock for it and its reading are both in, whichever came first (the world
-        publishes the next clock only after this tick's command: one to one)."""
-        if self.reading is None or self.tick_s is not None or self.clock_s <= self.block.last_tick_s:
+        publishes the next clock only after this tick's command: one to one), or its clock alone if no reading is
+        due then."""
+        if self.tick_s is not None or self.clock_s <= self.block.last_tick_s:
+            return
+        if self.reading is None:
+            if self.reading_due():
+                return
+            self.tick_without_reading()
             return
         if self.reading.stamp_s > self.clock_s + 1e-9:
             return  # the reading is for a tick whose clock has not arrived yet
         reading, self.reading = self.reading, None
+        if self.paired_stamp_s is not None and reading.stamp_s > self.paired_stamp_s:
+            self.reading_period_s = reading.stamp_s - self.paired_stamp_s  # the sensor's own, however late they came
+        self.paired_s, self.paired_stamp_s = self.clock_s, reading.stamp_s
         self.block.take(self.clock_s, {"reading": reading})  # a refused one is said; the tick goes on
+        self.tick_s = self.clock_s
+        self.waiting_since = time.monotonic()
+        self.try_tick()
+
+    def reading_due(self) -> bool:
+        """Whether a reading is due at the world's clock: always, until the readings' period is known."""
+        if self.reading_period_s is None or self.paired_s is None:
+            return True
+        return self.clock_s - self.paired_s >= self.reading_period_s - 1e-9
+
+    def tick_without_reading(self) -> None:
         self.tick_s = self.clock_s
         self.waiting_since = time.monotonic()
         self.try_tick()
@@ -213,9 +246,16 @@ class PairedTicks:
         self.pair()
 
     def reference_wait_check(self) -> None:
-        """A planner slower than the control rate leaves ticks with no sample due; until its period is learned from
-        two samples, do not wait forever."""
+        """A planner slower than the control rate leaves ticks with no sample due, a sensor slower than it ticks with no
+        reading due; until their periods are learned from two samples, do not wait forever."""
         if self.tick_s is None:
+            waited = self.clock_s > self.block.last_tick_s and time.monotonic() - self.clock_seen > READING_WAIT_S
+            if waited and self.reading_period_s is None and self.paired_s is not None and self.reading is None:
+                self.block.log.info(
+                    f"sim time: no reading for t={self.clock_s:.3f} s after {READING_WAIT_S:g} s; ticking on "
+                    "the latest until the sensor's rate is known from its second reading"
+                )
+                self.tick_without_reading()
             return
         block = self.block
         if not block.has_reference():

@@ -1,5 +1,5 @@
 """A block swapped by configuration alone: sensor_node runs the second sensor block (every_other_tick) from a config
-file, in the real graph, and the loop still tracks on the readings it gets (half of them)."""
+file, in the real graph, and the loop still tracks on the readings it gets (half of them), on every clock."""
 
 import json
 import subprocess
@@ -15,12 +15,14 @@ pytestmark = pytest.mark.ros
 DURATION_S = 6.0
 
 
-def test_the_every_other_tick_sensor_runs_in_the_graph_from_a_config_file(tmp_path, ros_domain):
+@pytest.mark.parametrize("clock", ["--wall-clock", "--sim-time"])
+def test_the_every_other_tick_sensor_runs_in_the_graph_from_a_config_file(tmp_path, ros_domain, clock):
+    """On the wall clock, and on sim time, where a tick with no reading due goes on with the latest."""
     config = tmp_path / "sensor.yaml"
     config.write_text("sensor_node:\n  ros__parameters:\n    block: every_other_tick\n")
     out = tmp_path / "run"
     proc = subprocess.run(
-        [sys.executable, "-m", "robot_controller.cli", "run", "--wall-clock", "--duration", str(DURATION_S)]
+        [sys.executable, "-m", "robot_controller.cli", "run", clock, "--duration", str(DURATION_S)]
         + ["--config", str(config), "--out", str(out)],
         capture_output=True,
         text=True,
