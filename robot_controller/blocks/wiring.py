@@ -16,7 +16,6 @@ from robot_controller.blocks.world import World
 from robot_controller.core import metrics
 from robot_controller.core.controller import JointController, Status
 from robot_controller.core.model import steps_per_period
-from robot_controller.core.reference import Trajectory
 
 # Ticks that command nothing once a controlled stop is over: the drive brakes the arm.
 BRAKING_STATUSES = (Status.SENSOR_LOST, Status.LAW_STOPPED)
@@ -56,7 +55,7 @@ def run_loop(
     controller: JointController,
     sensor: Block,
     drive: Block,
-    trajectory: Trajectory,
+    planner: Block,
     duration_s: float,
     control_period_s: float,
     planner_period_s: float,
@@ -69,6 +68,8 @@ def run_loop(
     turns the command into the effort the world holds over the next control period of physics steps.
 
     :param world: the world block (``blocks.world``), stepped here as the graph's sim-time clock steps it
+    :param planner: the planner block, stepped on its period's grid; its reference taken at the tick (its sample
+        time not said: it is the tick's)
     :param sensor: the sensor block (``blocks.registry.make("sensor_node", …)``), its readings the controller's
     :param drive: the drive block, stepped at each tick with the tick's command
     :param measurement_delay_s: what the graph's transport adds between physics and sensor: the sensor reads the
@@ -96,7 +97,8 @@ def run_loop(
     true_velocity_rows, command_rows, applied_rows = record["true_velocity"], record["command"], record["applied"]
     for k, t in enumerate(times.tolist()):  # Python floats: the controller's scalar time arithmetic is cheaper
         if k % planner_every == 0:
-            controller.set_reference(t, *trajectory.sample(t))
+            sample = planner.step(t, {})["reference"].data
+            controller.set_reference(t, sample[:n], sample[n : 2 * n], sample[2 * n : 3 * n])
         true_position, true_velocity = true_state.position, true_state.velocity
         if delay_steps:
             history.append((t, true_position, true_velocity))

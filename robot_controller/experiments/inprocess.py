@@ -18,8 +18,8 @@ from robot_controller.blocks.wiring import LoopResult, run_loop
 from robot_controller.blocks.world import World
 from robot_controller.core.controller import JointController
 from robot_controller.core.model import MujocoPlant, PlantVariation
+from robot_controller.parameters import consistency
 from robot_controller.parameters.builders import arm_model
-from robot_controller.parameters.consistency import trajectory_plan
 
 #: s of wall time a law's call may run before it is abandoned: the loop waits for the law as the lockstep world does,
 #: so only a law that blocks (sleeps, loops, deadlocks) is abandoned, never one the host kept from a CPU a moment.
@@ -62,7 +62,7 @@ def prepare(
     """
     sim, motor, sensor = params["simulator"], params["motor_node"], params["sensor_node"]
     ctrl, planner = params["pid_controller"], params["trajectory_planner"]
-    plan = trajectory_plan(params)  # refused: the planner's one line, before anything is built
+    plan = consistency.trajectory_plan(params)  # refused: the planner's one line, before anything is built
     if plan.warning is not None and on_warning is not None:
         on_warning(plan.warning)
     variation = PlantVariation.from_params(sim, "simulator.")  # the simulator node's plant, the same way
@@ -83,13 +83,16 @@ def prepare(
     # The graph's sensor and drive, as their nodes' configuration chooses them; the loop's clock waits for each.
     sensor_block = registry.make("sensor_node", dict(sensor, seed=seed), Lines(), world_waits=True)
     drive_block = registry.make("motor_node", motor, Lines(), world_waits=True)
+    planner_params = consistency.with_controller_model(params)["trajectory_planner"]  # as ``run`` gives them
+    planner_block = registry.make("trajectory_planner", planner_params, Lines(), world_waits=True)
+    planner_block.start()
     return partial(
         run_loop,
         world=world,
         controller=controller,
         sensor=sensor_block,
         drive=drive_block,
-        trajectory=plan.trajectory,
+        planner=planner_block,
         duration_s=duration_s,
         control_period_s=controller_config.control_period_s,
         planner_period_s=1.0 / planner["publish_rate_hz"],

@@ -4,6 +4,7 @@ key and what is wrong. The nodes check their own values again on every change; t
 
 from __future__ import annotations
 
+import copy
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -197,6 +198,16 @@ def _check_planner_matches(params: cfg.Params, joint_count: int) -> None:
             "its trajectory is checked against: leave it empty (run passes the controller's on) or set both "
             "(or set it once under /**)"
         )
+
+
+def with_controller_model(params: cfg.Params) -> cfg.Params:
+    """The same parameters with each ``model_*`` the planner leaves empty taken from pid_controller's."""
+    out = cfg.merge(params, {})
+    planner, ctrl = out["trajectory_planner"], out["pid_controller"]
+    for key in ARM_MODEL_KEYS:
+        if planner.get(key) is None or np.size(planner[key]) == 0:
+            planner[key] = copy.deepcopy(ctrl[key])  # not the same list: YAML would write an alias, which rcl refuses
+    return out
 
 
 def trajectory_plan(params: cfg.Params) -> Plan:

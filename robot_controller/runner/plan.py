@@ -3,21 +3,17 @@ process's arguments and environment, the parameter file and the run's DDS profil
 
 from __future__ import annotations
 
-import copy
 import math
 import os
 import tempfile
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-import numpy as np
-
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 from robot_controller.nodes.world_state import WORLD_STATE_ENV
 from robot_controller.parameters import consistency
-from robot_controller.parameters.builders import ARM_MODEL_KEYS
 from robot_controller.parameters.schema.simulator import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import partition, scheduling
 from robot_controller.ros.publishing import COUNTS_DIR_ENV, RECORDED_ENV
@@ -83,16 +79,6 @@ def lockstep_params(params: cfg.Params) -> cfg.Params:
     return out
 
 
-def with_controller_model(params: cfg.Params) -> cfg.Params:
-    """The same parameters with each ``model_*`` the planner leaves empty taken from pid_controller's."""
-    out = cfg.merge(params, {})
-    planner, ctrl = out["trajectory_planner"], out["pid_controller"]
-    for key in ARM_MODEL_KEYS:
-        if planner.get(key) is None or np.size(planner[key]) == 0:
-            planner[key] = copy.deepcopy(ctrl[key])  # not the same list: YAML would write an alias, which rcl refuses
-    return out
-
-
 @dataclass(frozen=True)
 class CheckedRun:
     """A run's parameters as its nodes get them, checked whole for its options (made by :func:`check`)."""
@@ -122,7 +108,7 @@ def check(params: cfg.Params, options: RunOptions) -> CheckedRun:
             partition.check_run_id(options.run_id)
         except ValueError as exc:
             raise ConfigError(f"--run-id: {exc}") from None
-    params = with_controller_model(params)
+    params = consistency.with_controller_model(params)
     if options.paced and (split or options.peers or options.respawn):
         # Across hosts the drive keeps its host's clock, as on hardware; a respawned simulator would restart time.
         options = replace(options, paced=False)
