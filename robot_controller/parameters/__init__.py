@@ -18,7 +18,18 @@ from robot_controller.parameters.files import (
     read_params_file,
     write_params_file,
 )
-from robot_controller.parameters.schema import NODES, ROS_BUILTIN, SCHEMA, URDF, defaults, has, node_defaults, spec_of
+from robot_controller.parameters.schema import (
+    NODES,
+    ROS_BUILTIN,
+    SCHEMA,
+    URDF,
+    WORLD_WAITS,
+    defaults,
+    has,
+    node_defaults,
+    spec_of,
+    world_waits,
+)
 from robot_controller.parameters.spec import ParamSpec, per_joint
 
 __all__ = [
@@ -26,6 +37,7 @@ __all__ = [
     "ROS_BUILTIN",
     "SCHEMA",
     "URDF",
+    "WORLD_WAITS",
     "ParamSpec",
     "Params",
     "available_presets",
@@ -44,5 +56,6 @@ __all__ = [
     "sensor_config",
     "spec_of",
     "trajectory_kwargs",
+    "world_waits",
     "write_params_file",
 ]

@@ -12,7 +12,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws.parameters import PREFIX as LAW_PREFIX
 from robot_controller.core.laws.pid import PidConfig
 from robot_controller.core.model import SensorConfig
-from robot_controller.parameters.schema import has, spec_of
+from robot_controller.parameters.schema import has, spec_of, world_waits
 from robot_controller.parameters.spec import per_joint
 from robot_controller.parameters.torque_limits import torque_limit
 
@@ -122,9 +122,9 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         law_parameters={key[len(LAW_PREFIX) :]: value for key, value in values.items() if key.startswith(LAW_PREFIX)},
         lqr_q=tuple(float(w) for w in values["lqr_q"]),  # three weights: the schema checks the length
         # A payload's allowance makes the observer faster than a delay the stamps do not show allows: only where the
-        # world waits for each command (the ROS parameter ``lockstep``: sim time, the paced world).
-        world_waits=bool(values["lockstep"]),
-        rated_payload_kg=values["rated_payload_kg"] if values["lockstep"] else 0.0,
+        # world waits for each command (sim time, the paced world).
+        world_waits=world_waits(values),
+        rated_payload_kg=values["rated_payload_kg"] if world_waits(values) else 0.0,
         estimator=kalman_config(values) if values["estimator"] == "kalman" else None,
         control_period_s=1.0 / values["control_rate_hz"],
         design_position=tuple(per_joint("design_position", values["design_position"], joint_count).tolist())
@@ -151,9 +151,9 @@ def trajectory_kwargs(values: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def kalman_config(values: Mapping[str, Any]) -> KalmanConfig:
-    """The controller's Kalman filter from its ``kalman_*`` parameters. In lockstep each command acts from its tick
-    exactly, and the filter trusts its model as configured. On the wall clock a command reaches the
-    drive a few ms late and a push begins anywhere inside a period, which a filter that trusts its
+    """The controller's Kalman filter from its ``kalman_*`` parameters. Where the world waits (sim time) each
+    command acts from its tick exactly, and the filter trusts its model as configured. On the wall clock a command
+    reaches the drive a few ms late and a push begins anywhere inside a period, which a filter that trusts its
     model cannot place: there it runs at its mismatch settings throughout and takes no jumps."""
     from dataclasses import replace
 
@@ -165,8 +165,8 @@ def kalman_config(values: Mapping[str, Any]) -> KalmanConfig:
         node=NODE,
         prefix="kalman_",
         jump_detection_sigma=values["kalman_disturbance_jump_sigma"],
-        command_timing_uncertainty_s=0.0 if values["lockstep"] else values["kalman_command_timing_uncertainty_s"],
+        command_timing_uncertainty_s=0.0 if world_waits(values) else values["kalman_command_timing_uncertainty_s"],
     )
-    if values["lockstep"]:
+    if world_waits(values):
         return config
     return replace(config.at_mismatch(), jump_detection_sigma=0.0)

@@ -115,7 +115,7 @@ def _check_rates(params: cfg.Params) -> None:
                 f"{node}: {key} {value:g} s is shorter than {TIMEOUT_MIN_PERIODS} control periods "
                 f"({TIMEOUT_MIN_PERIODS * control_period_s:g} s)"
             )
-    if sim["lockstep"] or ctrl["lockstep"]:
+    if cfg.world_waits(sim) or cfg.world_waits(ctrl):
         try:
             steps_per_period(physics_dt, control_period_s)
         except Exception as exc:  # noqa: BLE001 - TimingError

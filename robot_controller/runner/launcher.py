@@ -41,7 +41,7 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
     previous_sigint = signal.signal(signal.SIGINT, _raise_interrupt)
     # `kill -USR1 <launcher>` prints where every thread of a launcher that seems stuck is.
     faulthandler.register(signal.SIGUSR1, all_threads=True)
-    link = supervise.RecorderLink(list(rec.topics_for(options.lockstep)))
+    link = supervise.RecorderLink(list(rec.topics_for(options.world_waits)))
     graph = supervise.GraphLink() if run.watcher is not None else None
     result = RunResult(run.bag_dir, run.records, options.nodes)
     replaced: set[str] = set()  # nodes killed and respawned
@@ -65,7 +65,7 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
                 respawn = replaced if options.respawn else None
                 run_loop(run, group, nodes, link, result, watcher, respawn, viewers.children, graph)
             except KeyboardInterrupt:
-                _interrupted(result, link, options.lockstep and run.records)
+                _interrupted(result, link, options.world_waits and run.records)
             # The nodes first, then the recorder, which takes what is still in flight (and the viewer).
             codes = group.stop(nodes)
             # The recorder drains what is still queued (rec.DRAIN_MAX_S at most), reporting, then closes the bag.
@@ -116,7 +116,7 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
     return result
 
 
-def _interrupted(result: RunResult, link: supervise.RecorderLink, lockstep_recorded: bool) -> None:
+def _interrupted(result: RunResult, link: supervise.RecorderLink, sim_time_recorded: bool) -> None:
     """Ctrl-C or SIGTERM: the run stops, and what was recorded is kept and scored."""
     result.interrupted = True
     # A second Ctrl-C must not cut the stop short: the bag and the metrics come next.
@@ -135,7 +135,7 @@ def _interrupted(result: RunResult, link: supervise.RecorderLink, lockstep_recor
     result.failure = None if ran else "interrupted before the loop ran"
     if result.started is not None:
         result.wall_seconds = time.monotonic() - result.started
-        result.control_seconds = link.clock_s - result.sim_start if lockstep_recorded else result.wall_seconds
+        result.control_seconds = link.clock_s - result.sim_start if sim_time_recorded else result.wall_seconds
 
 
 def _salvage(bag_dir: Path, code: int | None) -> str | None:

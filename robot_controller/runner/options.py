@@ -22,8 +22,8 @@ class RunOptions:
     robot: str = DEFAULT_ROBOT
     config: tuple[Path, ...] = ()  #: parameter files over the preset, later over earlier
     seed: int | None = None  #: the sensor's noise seed (None: the stack's)
-    sim_time: bool = False  #: deterministic lockstep on the sim's clock, as fast as the graph goes
-    paced: bool = False  #: lockstep on a world clock paced to the wall clock, which pauses with the host
+    sim_time: bool = False  #: deterministic, on the sim's clock, as fast as the graph goes
+    paced: bool = False  #: on the sim's clock paced to the wall clock (the paced world), which pauses with the host
     single_process: bool = False  #: all five nodes on one executor
     realtime: bool = False  #: the simulator's pacing thread SCHED_FIFO (``scheduling``)
     respawn: bool = False  #: a node that dies while the loop runs (wall clock) starts again
@@ -47,8 +47,9 @@ class RunOptions:
         return cls(**given)
 
     @property
-    def lockstep(self) -> bool:
-        """The nodes step on the simulator's clock (``sim_time`` or ``paced``); ``duration_s`` is world time."""
+    def world_waits(self) -> bool:
+        """The nodes step on the simulator's clock, which waits for each command (``sim_time`` or ``paced``);
+        ``duration_s`` is world time."""
         return self.sim_time or self.paced
 
     def params(self) -> cfg.Params:

@@ -24,7 +24,7 @@ from robot_controller.view import serve as view_serve
 #: The node whose launcher records and scores a split run: the recorder hears the loop where the arm is.
 RECORDING_NODE = "simulator"
 
-# Fast DDS sends from the publishing thread, not through a sender thread: the lockstep runs faster so.
+# Fast DDS sends from the publishing thread, not through a sender thread: sim time runs faster so.
 FASTDDS_PUBLICATION_MODE = ("RMW_FASTRTPS_PUBLICATION_MODE", "SYNCHRONOUS")
 
 
@@ -40,7 +40,7 @@ class RunPlan:
     viewer: Process | None  #: the live view (``view_port``): an observer, like the recorder
     view_url: str | None  #: where the live view is served
     watcher: Process | None  #: ``graph_watch``, when the other nodes are another launcher's
-    lockstep_end_s: float | None  #: lockstep: the simulator publishes no tick after this sim time
+    sim_end_s: float | None  #: sim time: the simulator publishes no tick after this sim time
 
     @property
     def remote_nodes(self) -> tuple[str, ...]:
@@ -68,14 +68,14 @@ def child_env(single_process: bool) -> dict[str, str]:
     return env
 
 
-def lockstep_params(params: cfg.Params) -> cfg.Params:
-    """The same parameters in sim-time lockstep: the nodes step on messages instead of timers (none uses ROS
-    sim time, which costs a clock callback every tick)."""
+def world_waits_params(params: cfg.Params) -> cfg.Params:
+    """The same parameters on the sim's clock, where the world waits: the nodes step on messages instead of timers
+    (none uses ROS sim time, which costs a clock callback every tick)."""
     out = cfg.merge(params, {})
     for node in cfg.NODES:
         out[node]["use_sim_time"] = False
     for node in ("simulator", "pid_controller", "trajectory_planner", "motor_node", "sensor_node"):
-        out[node]["lockstep"] = True
+        out[node][cfg.WORLD_WAITS] = True
     return out
 
 
@@ -112,8 +112,8 @@ def check(params: cfg.Params, options: RunOptions) -> CheckedRun:
     if options.paced and (split or options.peers or options.respawn):
         # Across hosts the drive keeps its host's clock, as on hardware; a respawned simulator would restart time.
         options = replace(options, paced=False)
-    if options.lockstep:
-        params = lockstep_params(params)
+    if options.world_waits:
+        params = world_waits_params(params)
         if options.paced:
             params["simulator"]["real_time_factor"] = 1.0
         if math.isfinite(options.duration_s):
@@ -170,9 +170,9 @@ def plan(run: CheckedRun, out_dir: Path) -> RunPlan:
     )
     recorder = None
     if RECORDING_NODE in local:
-        recorder = Process("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] * options.lockstep), env)
+        recorder = Process("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] * options.world_waits), env)
     # The recording launcher's watch measures the other launchers' clocks (wall clock only); theirs answer.
-    ask = ["--ask", repr(params["motor_node"]["max_command_age_s"] / 2)] if recorder and not options.lockstep else []
+    ask = ["--ask", repr(params["motor_node"]["max_command_age_s"] / 2)] if recorder and not options.world_waits else []
     watch_args = ["--here", ",".join(local), *ask]
     watcher = Process("graph_watch", "graph_watch", watch_args, dict(env)) if local != NODE_ORDER else None
     viewer = view_url = None
@@ -182,7 +182,7 @@ def plan(run: CheckedRun, out_dir: Path) -> RunPlan:
         viewer_args += ["--control-rate", repr(float(params["pid_controller"]["control_rate_hz"]))]
         viewer = Process("viewer", "viewer", viewer_args, dict(env))
         view_url = view_serve.page_url(options.view_port)
-    end_s = params["simulator"].get("lockstep_end_s", 0.0) if options.lockstep else 0.0
+    end_s = params["simulator"].get("lockstep_end_s", 0.0) if options.world_waits else 0.0
     return RunPlan(
         options, out_dir, bag_dir, counts_dir, recorder, processes, notes, viewer, view_url, watcher, end_s or None
     )

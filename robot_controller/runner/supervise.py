@@ -23,13 +23,13 @@ from robot_controller.runner.usage import USAGE_WARMUP_S, UsageMeter
 RECORDER_READY_TIMEOUT_S = 30.0
 CLOCK_WAIT_S = 10.0  #: a split run: the other launcher's clock is measured this long after the graph is complete
 FIRST_TICK_TIMEOUT_S = 20.0
-STALL_TIMEOUT_S = 10.0  #: lockstep: no progress of the sim's clock for this long (wall) means the graph is stuck
+STALL_TIMEOUT_S = 10.0  #: sim time: no progress of the sim's clock for this long (wall) means the graph is stuck
 GRAPH_SAY_EVERY_S = 5.0  #: how often the launcher names the nodes it is still waiting for
 MAX_RESPAWNS = 5  #: per node and run: a node that keeps dying ends the run
-#: The longest control period (10 Hz, the lowest control_rate_hz): a lockstep run's last tick is within it of its end.
+#: The longest control period (10 Hz, the lowest control_rate_hz): a sim-time run's last tick is within it of its end.
 LONGEST_PERIOD_S = 0.1
 
-#: ``watcher(seconds since the loop closed, pids)``: the world's seconds in lockstep and the paced world
+#: ``watcher(seconds since the loop closed, pids)``: the world's seconds on sim time (the paced world too)
 Watcher = Callable[[float, dict[str, int]], None]
 
 
@@ -42,7 +42,7 @@ class RecorderLink:
         self.oversize: dict[str, int] = {}  #: messages the recorder dropped as too large, per topic
         self.clock_s = 0.0
         #: when (CLOCK_MONOTONIC s, the same in every process) the recorder took ``clock_s``: the
-        #: lockstep real-time factor is timed on these, not on when its report came (every 0.1 s)
+        #: sim-time real-time factor is timed on these, not on when its report came (every 0.1 s)
         self.clock_taken_s = 0.0
         #: ``(clock_taken_s, clock_s)`` at each new tick reported: maps an instant to the world's time
         self.clock_marks: list[tuple[float, float]] = []
@@ -196,7 +196,7 @@ def wait_sim(
         if link.clock_s != last_clock:
             last_clock, last_change = link.clock_s, time.monotonic()
         elif time.monotonic() - last_change > STALL_TIMEOUT_S:
-            return f"lockstep stalled at t = {last_clock:.3f} s: no tick for {STALL_TIMEOUT_S:g} s"
+            return f"sim time stalled at t = {last_clock:.3f} s: no tick for {STALL_TIMEOUT_S:g} s"
         time.sleep(0.01)
     return None
 
@@ -229,7 +229,7 @@ class RunResult:
     #: when (tick s) each watchdog tick the host caused fell (its processes kept from a CPU past the window)
     host_watchdog_s: list[float] = field(default_factory=list)
     clocks: dict[str, float] = field(default_factory=dict)  #: a split run's clock offset and round trip, ms
-    #: lockstep: ``(monotonic s, world s)`` at each tick the recorder reported (about every 0.1 s)
+    #: sim time: ``(monotonic s, world s)`` at each tick the recorder reported (about every 0.1 s)
     clock_marks: list[tuple[float, float]] = field(default_factory=list)
 
     def raise_if_interrupted(self) -> None:
@@ -285,7 +285,7 @@ def run_loop(
     :param viewers: observers measured apart (outside ``cpu_pct_total``) and never respawned
     :param graph: part of the graph runs here: wait (``wait_s``) for the other side's nodes first
     """
-    duration_s, sim_time, serving = run.options.duration_s, run.options.lockstep, not run.records
+    duration_s, sim_time, serving = run.options.duration_s, run.options.world_waits, not run.records
     here, there = ", ".join(run.options.nodes), ", ".join(run.remote_nodes)
     if run.records:
         failure = f"the recorder was not ready within {RECORDER_READY_TIMEOUT_S:g} s"
@@ -317,14 +317,14 @@ def run_loop(
         result.sim_start, sim_start_taken_s = link.clock_s, link.clock_taken_s
         result.clock_marks = link.clock_marks  # filled on as the recorder reports
         # The simulator's last tick is within a control period (0.1 s at most) of its end.
-        last_tick_s = run.lockstep_end_s - LONGEST_PERIOD_S if run.lockstep_end_s else float("inf")
+        last_tick_s = run.sim_end_s - LONGEST_PERIOD_S if run.sim_end_s else float("inf")
         # The world's time since the loop closed: a host pause before a fault does not move where it strikes.
         watch = (lambda: watcher(link.clock_s - result.sim_start, pids)) if watcher else None
         result.failure = wait_sim(group, link, min(result.sim_start + duration_s, last_tick_s), meter, watch)
         result.control_seconds = link.clock_s - result.sim_start
         # The wall time they took: between the recorder's receipts of the two ticks (it reports every 0.1 s).
         result.wall_seconds = link.clock_taken_s - sim_start_taken_s
-        if result.failure is None and run.lockstep_end_s:
+        if result.failure is None and run.sim_end_s:
             # The simulator holds at the end: the recorder takes every tick before the nodes stop.
             result.failure = wait_sim(group, link, last_tick_s, meter)
     else:

@@ -49,7 +49,7 @@ def test_tutorial_planner_and_controller_drive_our_arm(tmp_path, ros_domain, wor
     sources = {name: seed_node_source(f"{name}.py") for name in ("trajectory_planner", "pid_controller")}
     params = cfg.load_stack()
     if world == "paced":
-        params = plan.lockstep_params(params)
+        params = plan.world_waits_params(params)
         params["simulator"]["real_time_factor"] = 1.0
     params_file = cfg.write_params_file(params, tmp_path / "params.yaml")
     processes = []

@@ -14,7 +14,7 @@ from robot_controller.parameters.schema.nodes import (
     node_defaults,
     spec_of,
 )
-from robot_controller.parameters.schema.shared import URDF
+from robot_controller.parameters.schema.shared import URDF, WORLD_WAITS, world_waits
 
 __all__ = [
     "LOOP_WIDE",
@@ -23,8 +23,10 @@ __all__ = [
     "ROS_BUILTIN",
     "SCHEMA",
     "URDF",
+    "WORLD_WAITS",
     "defaults",
     "has",
     "node_defaults",
     "spec_of",
+    "world_waits",
 ]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from robot_controller.blocks import spec
 from robot_controller.blocks.spec import BLOCKS
-from robot_controller.parameters.schema.shared import URDF, lockstep_spec
+from robot_controller.parameters.schema.shared import URDF, world_waits_spec
 from robot_controller.parameters.spec import ParamSpec
 
 # One line per parameter: the schema reads as a table.
@@ -19,6 +19,6 @@ SENSOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("quantization", float, 0.0, "position quantisation step, rad (0 = none)", minimum=0.0),
     ParamSpec("seed", int, 0, "random seed of the noise; -1 draws one from the OS", minimum=-1),
     ParamSpec("delay_s", float, 0.0, "each reading is published this late, stamped with its sample time, s (a slow encoder or bus)", minimum=0.0, maximum=1.0),
-    lockstep_spec(f"sim-time lockstep: {spec.READING.topic} is transient local, so a controller that matches late still gets the reading its tick waits for"),
+    world_waits_spec(f"on the sim's clock: {spec.READING.topic} is transient local, so a controller that matches late still gets the reading its tick waits for"),
 )
 # fmt: on

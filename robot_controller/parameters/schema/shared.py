@@ -1,8 +1,10 @@
-"""Parameter specs more than one node declares: the URDF, the arm model's values, a torque limit."""
+"""Parameter specs more than one node declares: the URDF, the arm model's values, a torque limit, the sim's clock."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from enum import Enum
+from typing import Any
 
 from robot_controller.parameters.spec import ParamSpec
 
@@ -41,9 +43,19 @@ def arm_model_specs(lead: str = "arm model: ") -> tuple[ParamSpec, ...]:
     # fmt: on
 
 
-def lockstep_spec(description: str) -> ParamSpec:
-    """The read-only switch to sim-time lockstep (``run --sim-time`` sets it); ``description``: what it changes."""
-    return ParamSpec("lockstep", bool, False, description, read_only=True)
+#: The name of the ROS parameter that puts a node on the sim's clock, where the world waits for each command (``run``
+#: sets it for the paced world and ``--sim-time``); users' parameter files set it by this name, which stays.
+WORLD_WAITS = "lockstep"
+
+
+def world_waits_spec(description: str) -> ParamSpec:
+    """The read-only switch to the sim's clock (:data:`WORLD_WAITS`); ``description``: what it changes in a node."""
+    return ParamSpec(WORLD_WAITS, bool, False, description, read_only=True)
+
+
+def world_waits(values: Mapping[str, Any]) -> bool:
+    """Whether a node's parameter ``values`` put it on the sim's clock, where the world waits for each command."""
+    return bool(values.get(WORLD_WAITS, False))
 
 
 def torque_max_spec(description: str, safety: bool = False) -> ParamSpec:

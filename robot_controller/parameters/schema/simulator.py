@@ -1,13 +1,13 @@
-"""The simulator's parameters: the arm and its physics, the wall clock or lockstep, the brakes,
+"""The simulator's parameters: the arm and its physics, the wall clock or the sim's, the brakes,
 the scheduled disturbance."""
 
 from __future__ import annotations
 
 from robot_controller.blocks import spec
-from robot_controller.parameters.schema.shared import POSITIVE, SAFETY, URDF, lockstep_spec
+from robot_controller.parameters.schema.shared import POSITIVE, SAFETY, URDF, world_waits_spec
 from robot_controller.parameters.spec import ParamSpec
 
-#: Sim seconds the simulator runs past a lockstep run's duration (its ``lockstep_end_s``): the nodes may stop then.
+#: Sim seconds the simulator runs past a sim-time run's duration (its ``lockstep_end_s``): the nodes may stop then.
 LOCKSTEP_END_MARGIN_S = 0.5
 
 # One line per parameter: the schema reads as a table.
@@ -26,14 +26,14 @@ SIMULATOR_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("publish_rate_hz", float, 100.0, f"rate of {spec.TRUE_STATE.topic} (true state), Hz; a whole divisor of physics_rate_hz", minimum=10.0, maximum=1000.0),
     ParamSpec("initial_position", float, [0.0], "initial joint position, rad (one per joint, or one for all)", per_joint=True),
     ParamSpec("wait_for_first_command", bool, True, "keep the arm still (brakes on) until the first effort arrives, so start-up order does not matter"),
-    lockstep_spec(f"sim-time lockstep: publish {spec.CLOCK.topic} and advance one control period per effort"),
-    ParamSpec("real_time_factor", float, 0.0, "lockstep: world seconds per wall second the world keeps pace at, pausing with the host (the default run's 1); 0: as fast as the graph goes", minimum=0.0, maximum=10.0, read_only=True),
-    ParamSpec("lockstep_end_s", float, 0.0, "lockstep: publish no tick after this sim time, s (0: none); the launcher sets it a little past --duration, so that the recorder takes every message before the nodes stop", minimum=0.0, read_only=True),
-    ParamSpec("control_rate_hz", float, 100.0, "control rate the lockstep advances by (one period per effort), Hz: the loop's one rate, the controller's control_rate_hz (a parameter file sets it on either node, and run gives both the value; two different values are refused)", minimum=10.0, maximum=1000.0),
+    world_waits_spec(f"sim time: publish {spec.CLOCK.topic} and advance one control period per effort"),
+    ParamSpec("real_time_factor", float, 0.0, "on sim time: world seconds per wall second the world keeps pace at, pausing with the host (the default run's 1); 0: as fast as the graph goes", minimum=0.0, maximum=10.0, read_only=True),
+    ParamSpec("lockstep_end_s", float, 0.0, "on sim time: publish no tick after this sim time, s (0: none); the launcher sets it a little past --duration, so that the recorder takes every message before the nodes stop", minimum=0.0, read_only=True),
+    ParamSpec("control_rate_hz", float, 100.0, "control rate sim time advances by (one period per effort), Hz: the loop's one rate, the controller's control_rate_hz (a parameter file sets it on either node, and run gives both the value; two different values are refused)", minimum=10.0, maximum=1000.0),
     ParamSpec("drive_timeout_s", float, 0.05, "efforts missing this long (wall clock) engage the holding brakes and cut the torque (category 0), s; at most 0.2 s, as the motor's command timeout", **POSITIVE, maximum=0.2, **SAFETY),
     ParamSpec("brake_torque_nm", float, 50.0, "holding torque of each joint's brake, N·m (stops the reference arm from 3 rad/s in about 5 ms)", **POSITIVE, **SAFETY),
     # A disturbance at a set physics time (the tutorial's exercise 2), the same input as the disturbance port:
-    # a lockstep run reproduces it exactly.
+    # a sim-time run reproduces it exactly.
     ParamSpec("disturbance_torque_nm", float, [0.0], "external torque on each joint from disturbance_start_s, N·m (0: none)", per_joint=True, minimum=-100.0, maximum=100.0),
     ParamSpec("disturbance_start_s", float, 0.0, "physics time the disturbance starts at, s (the physics starts with the first command)", minimum=0.0),
     ParamSpec("disturbance_duration_s", float, 1.0, "how long the disturbance acts, s", **POSITIVE, maximum=60.0),

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from robot_controller.blocks import spec
 from robot_controller.core.reference import MODES
-from robot_controller.parameters.schema.shared import POSITIVE, URDF, arm_model_specs, lockstep_spec, torque_max_spec
+from robot_controller.parameters.schema.shared import POSITIVE, URDF, arm_model_specs, torque_max_spec, world_waits_spec
 from robot_controller.parameters.spec import ParamSpec
 
 # One line per parameter: the schema reads as a table.
@@ -22,7 +22,7 @@ TRAJECTORY_PLANNER_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("end_frequency_hz", float, 2.0, "end frequency of the chirp, Hz", minimum=0.0),
     ParamSpec("sweep_time_s", float, 10.0, "duration of one chirp sweep, s", **POSITIVE),
     ParamSpec("publish_rate_hz", float, 100.0, f"rate of {spec.REFERENCE.topic}, Hz", minimum=1.0, maximum=1000.0),
-    lockstep_spec(f"sample on {spec.CLOCK.topic} ticks (sim-time lockstep) instead of a timer"),
+    world_waits_spec(f"sample on {spec.CLOCK.topic} ticks (the sim's clock) instead of a timer"),
     URDF,
     # The arm model the trajectory is checked against: the controller's (`run` passes pid_controller's
     # model_* values on to these when they are empty; set, they must equal the controller's).
