@@ -72,7 +72,7 @@ class Encoder:
                 f"true state stamp {stamp_s:.3f} s is {behind_s:.3f} s behind the sampling grid: re-synchronised",
             )
         if self.joint_names is None:
-            self.joint_names = list(state.names)
+            self.joint_names = state.names  # the world's own list: the same object every time, compared at once
         checked = check_joint_state(state.names, state.position, state.velocity, self.joint_names)
         if isinstance(checked, str):
             self.log.warn("true_state", f"true state unusable: {checked}")

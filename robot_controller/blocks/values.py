@@ -38,7 +38,8 @@ def check_joint_state(
     velocity = np.asarray(velocity, dtype=float)
     if position.size == 0:
         return "empty position array"
-    if len(names) == n and position.size == n and velocity.size == n and list(names) == list(expected_names):
+    same_names = names is expected_names or list(names) == list(expected_names)
+    if len(names) == n and position.size == n and velocity.size == n and same_names:
         # Every reading of a well-configured graph: already in the arm's order (copies, as the reorder gives).
         if not (np.isfinite(position).all() and np.isfinite(velocity).all()):
             return "non-finite position or velocity"

@@ -121,7 +121,8 @@ def run_loop(
         if not braked and out.status in BRAKING_STATUSES:
             inputs["brake_request"] = True  # as the drive's command timeout asks the graph's world
             braked = True
-        written = drive.step(t, {"command": Array(command_gain * command, tick_label(t))}).get("effort")
+        given = command if command_gain == 1.0 else command_gain * command
+        written = drive.step(t, {"command": Array(given, tick_label(t))}).get("effort")
         if written is not None:
             effort = written.data
             inputs["effort"] = written

@@ -151,11 +151,14 @@ class World:
 
     def check_effort(self, value: Array) -> np.ndarray | None:
         """Port ``effort``'s value as torques, clamped to the URDF's effort limits; None (and a warning) if bad."""
-        checked = check_effort(value.data, self.joint_count)
+        limit = self.plant.effort_limit
+        data = value.data
+        if data.shape == limit.shape and (np.abs(data) <= limit).all():
+            return data  # every effort of a sound drive: finite and within the limits (a NaN fails the comparison)
+        checked = check_effort(data, self.joint_count)
         if isinstance(checked, str):
             self.log.warn(spec.EFFORT.topic, f"{spec.EFFORT.topic} dropped: {checked}")
             return None
-        limit = self.plant.effort_limit
         if np.any(np.abs(checked) > limit):
             self.log.warn(
                 "effort_limit",
