@@ -150,6 +150,22 @@ def test_core_never_imports_rclpy():
     assert out.stdout.strip() == "False"
 
 
+def test_blocks_never_import_ros():
+    """A block runs in a node and in process alike: nothing of ROS, nor of the ROS layer, in it (transitively)."""
+    blocks = [name for name in GRAPH if name.startswith("robot_controller.blocks")]
+    for name in blocks:
+        reached, todo = set(), [name]
+        while todo:
+            for child in GRAPH.get(todo.pop(), ()):
+                if child not in reached:
+                    reached.add(child)
+                    todo.append(child)
+        ros = sorted(m for m in reached if m.startswith(("robot_controller.ros", "robot_controller.nodes")))
+        assert not ros, (name, ros)
+        text = MODULES[name].read_text()
+        assert "import rclpy" not in text and "from rclpy" not in text, name
+
+
 def test_package_inits_hold_no_logic():
     """An ``__init__`` is a docstring, imports, ``__all__`` and entry-point stubs; no classes."""
     for name, path in MODULES.items():
