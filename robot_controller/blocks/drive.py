@@ -31,7 +31,7 @@ class Drive:
     outputs = ("effort", "brake_request", "command_receipts")
 
     def __init__(self, params: Mapping[str, Any], log: Log, *, world_waits: bool = False) -> None:
-        """:param world_waits: the loop's clock waits for each effort (lockstep, the paced world): every command is
+        """:param world_waits: the loop's clock waits for each effort (sim time, the paced world): every command is
         timely, and the first starts the drive (waiting for more, it would wait for ever)."""
         self.log = log
         model = load_model(resources.resolve_urdf(params["urdf_path"]))

@@ -19,5 +19,5 @@ def block_class(node_name: str, params: Mapping[str, Any]) -> type:
 
 
 def make(node_name: str, params: Mapping[str, Any], log: Log, world_waits: bool) -> Block:
-    """The block ``node_name`` runs; ``world_waits``: the loop's clock waits for each effort (lockstep, paced)."""
+    """The block ``node_name`` runs; ``world_waits``: the loop's clock waits for each effort (the sim's clock)."""
     return block_class(node_name, params)(params, log, world_waits=world_waits)

@@ -15,10 +15,10 @@ from dataclasses import dataclass
 QOS_CLASSES = (
     "control",  # reliable, keep 1000: every writer by default, and readers that must keep every message
     "latest",  # reliable, keep 1: a reader acting on the newest message only
-    "loop",  # a periodic loop topic's acting reader: ``latest`` on the wall clock, every message in lockstep
-    "readings",  # the sensor's readings: ``loop``, transient local in lockstep (a late controller gets tick 0's)
+    "loop",  # a periodic loop topic's acting reader: ``latest`` on the wall clock, every message where the world waits
+    "readings",  # the sensor's readings: ``loop``, transient local where the world waits (a late reader gets tick 0)
     "latched",  # reliable, transient local, keep 1: a state a late reader gets at once
-    "readings_writer",  # the sensor's writer: ``control``, transient local in lockstep
+    "readings_writer",  # the sensor's writer: ``control``, transient local where the world waits
     "clock",  # reliable, transient local, keep 1000: the simulator's ticks
 )
 
@@ -42,7 +42,7 @@ class Port:
     writer_qos: str = "control"  #: the QoS class of its writer
     partition: bool = False  #: in the run's DDS partition (a foreign writer is never heard)
     public: bool = False  #: in the partition, and written in the default one too (any ROS client may hear it)
-    recorded: str = NEVER  #: when the recorder records it (:data:`ALWAYS`, :data:`SIM_TIME`: in lockstep only)
+    recorded: str = NEVER  #: when the recorder records it (:data:`ALWAYS`, :data:`SIM_TIME`: on sim time only)
     scored: bool = False  #: read back from the bag by scoring
 
     def topic_for(self, controller_name: str) -> str:
@@ -143,9 +143,9 @@ DISTURBANCE_APPLIED = Port(
     recorded=ALWAYS,
     scored=True,
 )
-#: the sim's time, lockstep and the paced world (clients on ``use_sim_time`` hear it)
+#: the sim's time, as fast as it goes (``--sim-time``) and in the paced world (clients on ``use_sim_time`` hear it)
 CLOCK = Port("clock", "/clock", _CLOCK, "simulator", "latched", "clock", partition=True, public=True, recorded=SIM_TIME)
-#: lockstep: the tick the recorder has taken (the simulator holds while it lags)
+#: sim time: the tick the recorder has taken (the simulator holds while it lags)
 RECORDER_CLOCK = Port("recorder_clock", "/recorder/clock", _CLOCK, "recorder", "clock", "clock")
 
 # The arm's face to ROS clients.
@@ -232,7 +232,7 @@ def public_topics() -> tuple[str, ...]:
 
 
 def recorded_ports(sim_time: bool) -> tuple[Port, ...]:
-    """What the recorder records: every :data:`ALWAYS` port, and the :data:`SIM_TIME` ones in lockstep."""
+    """What the recorder records: every :data:`ALWAYS` port, and the :data:`SIM_TIME` ones on sim time."""
     return tuple(p for p in PORTS if p.recorded == ALWAYS or (sim_time and p.recorded == SIM_TIME))
 
 

@@ -1,6 +1,6 @@
 """``robot-controller campaign``: a robustness campaign over worlds the controller does not know (local worker
 processes or a Ray cluster), resumable, with its report; ``campaign replay DIR RUN_ID`` runs one of its runs again
-through the ROS graph in lockstep."""
+through the ROS graph on sim time."""
 
 from __future__ import annotations
 
@@ -153,7 +153,7 @@ def _replay(a: argparse.Namespace) -> int:
         return code or 1
     import json
 
-    print(f"run {run_id} of {folder}: the campaign's (in process) beside the graph's (lockstep)")
+    print(f"run {run_id} of {folder}: the campaign's (in process) beside the graph's (sim time)")
     for name, ours, theirs, diff in replay.compared(row, json.loads(metrics_path.read_text())):
         print(f"  {name:<18} {ours:10.5g} {theirs:10.5g}  {diff:+.1%}")
     return code

@@ -43,7 +43,7 @@ def register(sub) -> None:
     out_option(p, None)
     stack_options(p)
     controller_option(p)
-    p.add_argument("--sim-time", action="store_true", help="deterministic lockstep")
+    p.add_argument("--sim-time", action="store_true", help="deterministic: on sim time, as fast as the graph goes")
 
     p = verb(sub, "compare", "the tutorial preset, PID, PID+FF, PID+FF+Kalman, LQR on sine and step", compare)
     robot_option(p)

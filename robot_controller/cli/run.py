@@ -34,7 +34,7 @@ def register(sub) -> None:
     stack_options(p)
     p.add_argument("--single-process", action="store_true", help="all five nodes on one executor")
     flags = {
-        "--sim-time": f"deterministic lockstep on {spec.CLOCK.topic}, as fast as the graph goes "
+        "--sim-time": f"deterministic, on the sim's clock ({spec.CLOCK.topic}), as fast as the graph goes "
         "(--duration in sim seconds)",
         "--wall-clock": "hardware-strict: the drive on this host's clock, any late command refused, a host freeze "
         "the loop's fault (default: the world's clock keeps pace with the wall clock and pauses with the host)",

@@ -1,4 +1,4 @@
-"""Seeded lockstep runs of the real graph and what they show, as the exercises and ``tune`` use them:
+"""Seeded sim-time runs of the real graph and what they show, as the exercises and ``tune`` use them:
 a step's figures, a sine's tracking, one joint's trace (:class:`Response`)."""
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ SEED = 0
 
 @dataclass
 class Response:
-    """One lockstep run, as the exercises plot and tabulate it."""
+    """One sim-time run, as the exercises plot and tabulate it."""
 
     label: str
     time_s: np.ndarray  #: control ticks, s from the step (step runs) or from the first tick (sine runs)
@@ -32,8 +32,8 @@ class Response:
     out: Path | None = None
 
 
-def run_lockstep(params: cfg.Params, out: Path, duration_s: float) -> tuple[dict[str, Any], report.Recording]:
-    """``step.run_and_score`` in sim-time lockstep; a run that fails is run once more (in ``<out>_retry``):
+def run_sim_time(params: cfg.Params, out: Path, duration_s: float) -> tuple[dict[str, Any], report.Recording]:
+    """``step.run_and_score`` on sim time; a run that fails is run once more (in ``<out>_retry``):
     a run is deterministic per seed, so one stray failure does not end an exercise of twenty runs."""
     try:
         return run_and_score(params, out, duration_s=duration_s, sim_time=True)
@@ -72,12 +72,12 @@ def step_run(
     seed: int = SEED,
 ) -> Response:
     """A step from ``offset`` (the arm at rest there) to ``offset + amplitude`` after ``lead_s``, recorded
-    ``after_s`` beyond it, in lockstep. Figures on the TRUE angle after the step: ``step.step_figures``',
+    ``after_s`` beyond it, on sim time. Figures on the TRUE angle after the step: ``step.step_figures``',
     ``overshoot_final_pct`` (beyond where the response ends), ``saturated_s`` and ``peak_torque_nm``."""
     start = {"simulator": {"initial_position": [offset]}, "sensor_node": {"seed": seed}}
     planner = {"trajectory_planner": {"offset": [offset], "step_time_s": lead_s}}
     params = cfg.merge(step_params(params, amplitude, shaping), planner | start)
-    _, recording = run_lockstep(params, out, lead_s + after_s)
+    _, recording = run_sim_time(params, out, lead_s + after_s)
     figures = step_figures(recording, amplitude, offset, after_s)
     response = _response(label, recording, recording.state["time_s"][0] + figures["step_time_s"], figures, out, after_s)
     window = response.time_s >= 0
@@ -100,9 +100,9 @@ def overshoot_vs_final_pct(time_s: np.ndarray, position: np.ndarray) -> float:
 
 
 def sine_run(params: cfg.Params, out: Path, label: str, *, duration_s: float, seed: int = SEED) -> Response:
-    """The configured planner (the sine, unless the parameters say otherwise) for ``duration_s`` sim s in
-    lockstep; figures are the run's scores (``tracking_rms_rad`` on the TRUE angle after the warm-up…)."""
-    values, recording = run_lockstep(cfg.merge(params, {"sensor_node": {"seed": seed}}), out, duration_s)
+    """The configured planner (the sine, unless the parameters say otherwise) for ``duration_s`` sim s on
+    sim time; figures are the run's scores (``tracking_rms_rad`` on the TRUE angle after the warm-up…)."""
+    values, recording = run_sim_time(cfg.merge(params, {"sensor_node": {"seed": seed}}), out, duration_s)
     return _response(label, recording, recording.state["time_s"][0], values, out, duration_s)
 
 

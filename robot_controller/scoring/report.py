@@ -54,7 +54,7 @@ def score(
     :param units: each joint's position unit, ``"rad"`` or ``"m"`` (default all ``"rad"``): the figures'
         names and headlines follow them (:func:`robot_controller.core.metrics.joint_errors`)
     :param window_s: keep only the first ``window_s`` s of ticks and leave out what depends on when
-        the recorder heard a message: in lockstep, the same seed then gives the same figures exactly
+        the recorder heard a message: on sim time, the same seed then gives the same figures exactly
     :param receipts: the figures of when the recorder heard each message (latency to the motor, each topic's
         count and rate) all the same (default: only without ``window_s``); a paced world's run has them
     :param judged_s: the run's own span from its first tick (None: the whole recording): the stops and brakes of its

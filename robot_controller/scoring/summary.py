@@ -1,6 +1,6 @@
 """What a run says at its end: a verdict (``ok`` or ``FAILED: why``), then the dozen figures a person reads
 first, as ``(label, text)`` rows: tracking on the true angle in mrad (the worst joint named), peak effort
-against its limit, rate and misses off lockstep, faults and stops when there were any, where the files are.
+against its limit, rate and misses unless on ``--sim-time``, faults and stops when there were any, where the files are.
 The same rows make the terminal's end of a run and ``summary.md``; every other figure stays in ``metrics.json``."""
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ FAULT_TICKS = (
 #: How a stop's ticks are said, where its name alone would not say whose it was.
 FAULT_NAMES = {"stopped": "e-stopped (asked for)"}
 #: ``metrics.json``'s ``clock``, as a person says it.
-CLOCKS = {"sim_lockstep": "in lockstep (--sim-time)", "sim_paced": "in the paced world", "wall": "on the wall clock"}
+CLOCKS = {"sim_lockstep": "on sim time (--sim-time)", "sim_paced": "in the paced world", "wall": "on the wall clock"}
 #: The reference arm's targets (docs/compare.md), by figure: what ``step`` and ``compare`` mark when missed.
 REFERENCE_ARM = "one_dof"
 REFERENCE_TARGETS = {
@@ -51,7 +51,7 @@ def verdict(failure: str | None) -> str:
 def run_rows(
     values: dict[str, Any], *, effort_limits: Sequence[float] | None = None, out: str | None = None
 ) -> list[Row]:
-    """The rows of a run's end from its metrics (``metrics.json``'s keys, a lockstep run's ``timing.json`` too).
+    """The rows of a run's end from its metrics (``metrics.json``'s keys, a sim-time run's ``timing.json`` too).
 
     :param effort_limits: the controller's ``torque_max`` per joint (N·m, or N on a prismatic joint), if known
     :param out: the run's directory, as the user named it

@@ -169,7 +169,7 @@ class ViewFeed:
             self._latency(receipts, final)
         diagnostics = self._drain(self.diagnostics_in, 2)
         if diagnostics is not None and len(self.ticks):
-            # Stamped on another clock than the ticks (the wall clock's, in lockstep): left out, or plots span years.
+            # Stamped on another clock than the ticks (the wall clock's, on sim time): left out, or plots span years.
             t = diagnostics[:, 0]
             near = (t >= self.t0 - OTHER_CLOCK_S) & (t <= self.ticks[-1] + OTHER_CLOCK_S)
             if np.any(near):

@@ -45,6 +45,7 @@ def test_a_lockstep_run_ends_with_its_verdict_and_a_few_lines_in_mrad():
     assert said[0] == "ok" and len(said) - 1 <= 14
     text = "\n".join(said)
     assert "RMS 0.991 mrad, max 3.57 mrad" in text and "true angle" in text
+    assert " s on sim time (--sim-time), " in said[1], said[1]
     assert "3.52 N·m of 10 N·m (35 %)" in text
     assert "robot-controller score runs/r5 --all" in text and "runs/r5/: summary.md" in text
     # What lockstep makes meaningless, and what is normal, is not said.

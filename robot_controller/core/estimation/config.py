@@ -37,7 +37,7 @@ class KalmanConfig:
     #: readings later than their stamps): it then follows the readings rather than its model
     mismatch_acceleration_noise_std: float
     mismatch_disturbance_noise_std: float
-    #: s, how uncertain the instant is from which a new command acts: 0 on a known schedule (lockstep);
+    #: s, how uncertain the instant is from which a new command acts: 0 on a known schedule (sim time);
     #: on the wall clock, the command path's jitter. A change Δτ leaves the velocity uncertain by Δτ·this/I.
     command_timing_uncertainty_s: float
     #: s, the longest step the arm model is integrated in between two readings: the plant's own

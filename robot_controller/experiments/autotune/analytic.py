@@ -1,6 +1,6 @@
 """``tune`` of a built-in law (``pid``: Kp, Ki, Kd; ``lqr``: the weights ``lqr_q``, ``lqr_r`` kept): the
 search runs on the batch harness (``core.batch``, common random numbers) after screening every gain set by
-the sampled loop's margins, then one seeded lockstep sine run before and one after on the real graph."""
+the sampled loop's margins, then one seeded sine run on sim time before and one after on the real graph."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ from robot_controller.experiments.autotune.margins import (
 )
 from robot_controller.experiments.autotune.search import FAILED, ROBUST, SEED, SearchPlan, SearchResult
 from robot_controller.experiments.loop_model import controller_model, law_gains, plant_loop
-from robot_controller.experiments.runs import run_lockstep
+from robot_controller.experiments.runs import run_sim_time
 
 #: The search box, log10 of each parameter. PID: Kp N·m/rad, Ki N·m/(rad·s), Kd N·m·s/rad.
 PID_BOX = {"kp": (0.0, 3.5), "ki": (-1.0, 3.5), "kd": (-2.0, 1.7)}
@@ -163,7 +163,7 @@ def before_after(
     progress: Callable[[str], None],
 ) -> dict[str, Any]:
     """``tune.json``'s figures: the search, each margin and the batch RMS before and after, and one
-    seeded lockstep sine run each on the real graph (in ``out/real_before``, ``out/real_after``)."""
+    seeded sine run on sim time each on the real graph (in ``out/real_before``, ``out/real_after``)."""
     before_gains = np.array([problem.law.kp[0], problem.law.ki[0], problem.law.kd[0]], dtype=float)
     after_gains = problem.gains_of_values(result.best_values)[0]
     batch = problem.tracking_rms(np.vstack([before_gains, after_gains]), plan.duration_s, seed)
@@ -191,9 +191,9 @@ def before_after(
     values["batch_rms_before_rad"], values["batch_rms_after_rad"] = (float(v) for v in batch)
     tuned = cfg.merge(problem.params, {"pid_controller": problem.overlay(result.best_values)})
     for name, run_params in (("before", problem.params), ("after", tuned)):
-        progress(f"real graph, {name}: {plan.check_s:g} s sine in lockstep")
+        progress(f"real graph, {name}: {plan.check_s:g} s sine on sim time")
         seeded = cfg.merge(run_params, {"sensor_node": {"seed": seed}})
-        figures, _ = run_lockstep(seeded, out / f"real_{name}", plan.check_s)
+        figures, _ = run_sim_time(seeded, out / f"real_{name}", plan.check_s)
         values[f"real_rms_{name}_rad"] = figures["tracking_rms_rad"]
         values[f"real_max_{name}_rad"] = figures["tracking_max_rad"]
         values[f"real_peak_torque_{name}_nm"] = figures["peak_torque_nm"]

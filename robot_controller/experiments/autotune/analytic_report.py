@@ -121,7 +121,7 @@ def report_text(values: dict[str, Any], problem: AnalyticProblem, result: Search
         "",
         table(headers, rows),
         "",
-        f"Real graph: one seeded lockstep sine run each, {values['real_duration_s']:g} sim s (2 s warm-up), RMS "
+        f"Real graph: one seeded sine run on sim time each, {values['real_duration_s']:g} sim s (2 s warm-up), RMS "
         f"of (reference − true angle): {change}.",
         "",
         *_caveats(values),

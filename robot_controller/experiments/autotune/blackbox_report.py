@@ -111,7 +111,7 @@ def report_text(values: dict[str, Any], problem: BlackBoxProblem, result: Search
         f"Controller type **{problem.spec}**. Searched: its parameters declared `gain=True`, within their "
         f"ranges: {ranges}; one value for every joint." + (" **Quick form**: a smaller search." if quick else ""),
         "",
-        f"The law is a black box, so each candidate ran the in-process loop (the lockstep graph's computation, no "
+        f"The law is a black box, so each candidate ran the in-process loop (the sim-time graph's computation, no "
         f"ROS; the batch harness runs the built-in PID only): {result.evaluated} candidates, "
         f"{values['search_duration_s']:g} s of the sine each with the sensor's noise (seed {values['seed']}, "
         f"the same for all; the first 2 s not scored), in {len(result.rounds)} rounds (a Latin hypercube, then "

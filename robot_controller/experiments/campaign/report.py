@@ -190,7 +190,7 @@ def _worst_section(spec: CampaignSpec, rows: list[dict], target: str, out: Path)
     if ok:
         worst = ok[0]
         who = f" --controller {worst['controller']}" if worst.get("controller") else ""
-        lines += ["", "Replay the worst through the ROS graph in lockstep:", ""]
+        lines += ["", "Replay the worst through the ROS graph on sim time:", ""]
         lines += [
             f"    robot-controller campaign replay {out} {worst['run_id']}{who} --out runs/replay-{worst['run_id']}"
         ]

@@ -1,5 +1,5 @@
 """The controller comparison (``robot-controller compare``): each contender on the sine and on a step,
-over several seeds, in lockstep side by side, or on the in-process loop."""
+over several seeds, on sim time side by side, or on the in-process loop."""
 
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ def compare(
     in_process: bool = False,
 ) -> dict[str, dict[str, dict[str, float]]]:
     """Every contender (``controllers``: :func:`contenders`) on the sine and on the step, ``seeds`` seeds each,
-    in lockstep (``workers`` pairs at once, each on a ROS domain of its own) or ``in_process``: the same table.
+    on sim time (``workers`` pairs at once, each on a ROS domain of its own) or ``in_process``: the same table.
 
     :raises RuntimeError: a failed run, naming its directory, once the pairs under way have ended
     """

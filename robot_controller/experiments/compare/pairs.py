@@ -1,5 +1,5 @@
 """One contender at one seed, as ``compare`` runs it: the sine run, then the step run, on the real
-graph in lockstep or on the in-process loop, reduced to the compared figures (:data:`COMPARED`)."""
+graph on sim time or on the in-process loop, reduced to the compared figures (:data:`COMPARED`)."""
 
 from __future__ import annotations
 
@@ -58,7 +58,7 @@ IN_PROCESS_STEP_LEAD_S = 1.5
 
 
 def run_pair_in_process(contender: Contender, seed: int, sine_duration_s: float, amplitude: float) -> dict[str, float]:
-    """:func:`run_pair` on the in-process loop: the same parameters, the lockstep graph's computation, no ROS."""
+    """:func:`run_pair` on the in-process loop: the same parameters, the sim-time graph's computation, no ROS."""
     from robot_controller.experiments import inprocess
 
     base = cfg.merge(cfg.load_stack(contender.preset, robot=contender.robot), {"pid_controller": contender.overrides})

@@ -24,9 +24,9 @@ def render_compare(
 ) -> str:
     names = {c.name: c.description for c in (chosen or CONTENDERS)}
     how = (
-        f"the in-process loop (no ROS; the lockstep graph's computation; the step after {IN_PROCESS_STEP_LEAD_S:g} s)"
+        f"the in-process loop (no ROS; the sim-time graph's computation; the step after {IN_PROCESS_STEP_LEAD_S:g} s)"
         if in_process
-        else "sim-time lockstep"
+        else "sim time"
     )
     columns = [
         ("sine_tracking_rms_rad", "sine RMS, true [rad]", "{:.5f}"),

@@ -1,5 +1,5 @@
 """Exercise 2, "Add a disturbance": a 2 N·m step torque at t = 5 s while the arm tracks the sine
-(the simulator's scheduled disturbance). Per controller two seeded lockstep runs, pushed and not,
+(the simulator's scheduled disturbance). Per controller two seeded sim-time runs, pushed and not,
 with the same sensor noise: their difference is the push's own effect."""
 
 from __future__ import annotations
@@ -156,7 +156,7 @@ def _plot(path: Path, traces: dict[str, tuple[tuple[np.ndarray, np.ndarray], tup
     ax_zoom.axvline(0.0, color="r", lw=0.7)
     ax_zoom.axhspan(-RECOVERED_RAD * 1e3, RECOVERED_RAD * 1e3, color="0.88", lw=0, zorder=0)
     ax_zoom.set_xlabel("time since the disturbance [s] (pushed run's error − the undisturbed run's, same noise)")
-    save(fig, path, f"Exercise 2: a {TORQUE_NM:g} N·m step disturbance at t = {START_S:g} s (real graph, lockstep)")
+    save(fig, path, f"Exercise 2: a {TORQUE_NM:g} N·m step disturbance at t = {START_S:g} s (real graph, sim time)")
 
 
 def _report(results: dict[str, Any], plan: dict[str, Any], quick: bool) -> str:
@@ -191,7 +191,7 @@ def _report(results: dict[str, Any], plan: dict[str, Any], quick: bool) -> str:
             "",
             f"The arm tracks the reference sine (1 rad, 0.5 Hz). At physics time {START_S:g} s an external torque of "
             f"{TORQUE_NM:g} N·m starts acting on the joint and stays ({plan['after_s']:g} s recorded after it). Each "
-            "controller runs twice on the whole graph (five processes, sim-time lockstep, sensor seed "
+            "controller runs twice on the whole graph (five processes, sim time, sensor seed "
             f"{results['seed']}), pushed and not; the error is the reference in force minus the TRUE angle, on the "
             "simulator's timeline. Both runs draw the same sensor noise, so they agree to the bit until the push: "
             "their difference after it is the push's own effect." + (" **Quick form**." if quick else ""),

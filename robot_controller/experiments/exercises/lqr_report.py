@@ -42,7 +42,7 @@ def plot(
     ax_poles.grid(alpha=0.3)
     ax_poles.legend(fontsize=8)
     ax_poles.set_title("closed-loop poles, z-plane (zoomed; the unit circle in black)", fontsize=10)
-    save(fig, path, "Exercise 4: PID against LQR (real graph, lockstep)")
+    save(fig, path, "Exercise 4: PID against LQR (real graph, sim time)")
 
 
 def report_text(results: dict[str, Any], plan: dict[str, Any], analyses: dict[str, dict[str, Any]], quick: bool) -> str:
@@ -74,7 +74,7 @@ def report_text(results: dict[str, Any], plan: dict[str, Any], analyses: dict[st
         "The LQR here is designed at the control rate on each joint's `[∫e, e, ė]` (the arm `J ë + b ė = u` "
         "sampled with a zero-order hold, weights `lqr_q` on the state and `lqr_r` on the torque). The "
         "design's feedback `u = −K x` *is* a PID (`K = [Ki, Kp, Kd]`, derivative on the velocity error), so "
-        "both laws can be put side by side gain by gain. Every run is the whole graph in sim-time lockstep "
+        "both laws can be put side by side gain by gain. Every run is the whole graph on sim time "
         f"(sensor seed {results['seed']}); figures on the TRUE angle." + (" **Quick form**." if quick else ""),
         "",
         "## The gains and the closed loop",

@@ -102,7 +102,7 @@ def _plot(path: Path, responses: list[Response]) -> None:
         ax.legend(fontsize=7)
     ax_u.set_xlabel("time since the step [s]")
     ax_q.set_xlabel("")
-    save(fig, path, "Exercise 3: saturation at 2 N·m, with and without anti-windup (real graph, lockstep)")
+    save(fig, path, "Exercise 3: saturation at 2 N·m, with and without anti-windup (real graph, sim time)")
 
 
 def _report(results: dict[str, Any], plan: dict[str, Any], responses: list[Response], quick: bool) -> str:
@@ -120,7 +120,7 @@ def _report(results: dict[str, Any], plan: dict[str, Any], responses: list[Respo
         f"1.3 N·m of the 2) and the reference jumps by {STEP_RAD:g} rad, over the top to "
         f"{OFFSET_RAD + STEP_RAD:g} rad: far more than the arm can follow at once, so the command sits at the "
         "limit while the arm catches up. One run per anti-windup mode, everything else identical: the whole "
-        f"graph as five processes in sim-time lockstep (sensor seed {results['seed']}), figures on the TRUE "
+        f"graph as five processes on sim time (sensor seed {results['seed']}), figures on the TRUE "
         f"angle over the {after:g} s after the step." + (" **Quick form**." if quick else ""),
         "",
     ]

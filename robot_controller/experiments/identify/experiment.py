@@ -1,4 +1,4 @@
-"""Identification of the real arm (``robot-controller identify``): one lockstep run of the stack with
+"""Identification of the real arm (``robot-controller identify``): one sim-time run of the stack with
 the planner in ``chirp`` mode, the model fitted to the TRUE joint state and the applied torque (each
 joint's four numbers, ``joints``; on a chain, a payload on the last link, ``payload``), written into
 ``out`` as ``identified.yaml`` (an overlay), ``identification.json``, ``identification.md`` and ``run/``."""
@@ -44,7 +44,7 @@ def identify(
     run_params["sensor_node"]["seed"] = seed
     chirp = f"{duration_s:g} sim s of a chirp, {amplitude_rad:g} rad, {start_hz:g} → {end_hz:g} Hz"
     run_dir = out / "run"
-    progress(f"identify: {chirp} (lockstep, run in {run_dir})")
+    progress(f"identify: {chirp} (sim time, run in {run_dir})")
     scored, recording = run_and_score(run_params, run_dir, duration_s=duration_s, sim_time=True, domain_id=domain_id)
     names = joint_names(run_params)
     progress(f"identify: fitting {len(recording.true_time_s)} samples of {', '.join(names)}")

@@ -53,7 +53,7 @@ def markdown(joint_names: list[str], fits: list[JointFit], urdf: JointArmModel, 
     lines = [
         "# Identification",
         "",
-        f"{facts['duration_s']:g} sim s, lockstep, seed {facts['seed']}: chirp {facts['amplitude_rad']:g} rad "
+        f"{facts['duration_s']:g} sim s, sim time, seed {facts['seed']}: chirp {facts['amplitude_rad']:g} rad "
         f"from {facts['start_hz']:g} to {facts['end_hz']:g} Hz; fitted on the true joint state and the "
         "applied torque, tau = I·a + b·v + f_c·sign(v) + G·cos(q). Tracking during the run "
         f"(the controller as configured): {facts['tracking_rms_rad'] * 1e3:.2f} mrad RMS, "

@@ -57,7 +57,7 @@ def identify_payload(
     lines = [
         "# Identification: a payload on the last link",
         "",
-        f"{duration_s:g} sim s, lockstep, seed {seed}: a chirp through every joint; fitted on the true "
+        f"{duration_s:g} sim s, sim time, seed {seed}: a chirp through every joint; fitted on the true "
         "joint state and the applied torque, by the URDF's inverse dynamics with a point mass welded to "
         "the last joint's link (MuJoCo's mj_inverse, every joint at once). Tracking during the run (the "
         f"controller as configured): {(scored.get('tracking_rms_rad') or float('nan')) * 1e3:.2f} mrad "

@@ -39,7 +39,7 @@ def plot_stages(
         title="the gains chosen",
         band=(STAGE_STEP_RAD * 0.98, STAGE_STEP_RAD * 1.02),
     )
-    save(fig, path, "Exercise 1: tune the PID (the tutorial's controller, real graph, lockstep)")
+    save(fig, path, "Exercise 1: tune the PID (the tutorial's controller, real graph, sim time)")
 
 
 def plot_sine(path: Path, sine: Response, tutorial: Response | None) -> None:

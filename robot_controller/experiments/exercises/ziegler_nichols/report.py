@@ -49,7 +49,7 @@ def report_text(
         "then Ki. Compare responses.*",
         "",
         "Every run below is the whole graph (simulator, motor, sensor, controller, planner as five "
-        "processes) in sim-time lockstep, so the same seed gives the same figures. The controller is the "
+        "processes) on sim time, so the same seed gives the same figures. The controller is the "
         f"tutorial's (`--preset tutorial`: PID, no feedforward, no Kalman filter, derivative on the measured "
         f"velocity) with only Kp, Ki and Kd changed. Figures are on the TRUE joint angle (sensor seed "
         f"{results['seed']})." + (" **Quick form**: fewer and shorter runs." if quick else ""),
