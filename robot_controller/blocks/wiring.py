@@ -1,7 +1,7 @@
 """The loop in one process, no ROS: the graph's blocks (the world, and the sensor and the drive its configuration
 names) wired as the graph wires them, with the planner and the controller, stepped in order each control period. For
 tuning, sweeps, tests, and as the ideal the ROS graph is measured against (no transport delay, perfectly periodic
-ticks): each value reaches its reader at the tick it was written, as in the lockstep graph."""
+ticks): each value reaches its reader at the tick it was written, as in the graph on sim time."""
 
 from __future__ import annotations
 

@@ -21,7 +21,7 @@ from robot_controller.core.model import MujocoPlant, PlantVariation
 from robot_controller.parameters import consistency
 from robot_controller.parameters.builders import arm_model
 
-#: s of wall time a law's call may run before it is abandoned: the loop waits for the law as the lockstep world does,
+#: s of wall time a law's call may run before it is abandoned: the loop waits for the law as the world on sim time does,
 #: so only a law that blocks (sleeps, loops, deadlocks) is abandoned, never one the host kept from a CPU a moment.
 ABANDON_S = 1.0
 
@@ -78,7 +78,7 @@ def prepare(
         )
     world = World(sim, Lines(), world_waits=True, plant=plant)
     dynamics = arm_model(ctrl)  # the URDF's, or the controller's model_* values over it
-    controller_config = cfg.controller_config(dict(ctrl, lockstep=True), n)  # each command acts from its tick
+    controller_config = cfg.controller_config({**ctrl, cfg.WORLD_WAITS: True}, n)  # each command acts from its tick
     controller = contained_controller(controller_config, n, dynamics)
     # The graph's sensor and drive, as their nodes' configuration chooses them; the loop's clock waits for each.
     sensor_block = registry.make("sensor_node", dict(sensor, seed=seed), Lines(), world_waits=True)

@@ -132,8 +132,9 @@ def test_the_schema_refuses_what_the_plant_would():
 def test_the_in_process_loop_varies_its_plant_and_not_its_controllers_model():
     varied = {"joint_friction_nm": 1.5, "joint_damping_nms": 1.0, "armature_kgm2": 0.1, "link_mass_scale": 0.9}
     params = cfg.merge(cfg.load_stack(robot="panda"), {"simulator": dict(varied, payload_kg=1.5)})
-    loop = inprocess.prepare(params, duration_s=0.1).keywords
-    plant, controller = loop["plant"].model, loop["controller"].dynamics.model
+    run = inprocess.prepare(params, duration_s=0.1)
+    run()  # the world's start-up brakes released by the first effort: the plant's own friction shows
+    plant, controller = run.keywords["world"].plant.model, run.keywords["controller"].dynamics.model
     urdf = ArmDynamics(PANDA).model
     assert np.all(plant.dof_frictionloss == 1.5) and np.all(plant.dof_armature == 0.1)
     assert plant.body("robot_controller_payload").mass[0] == 1.5
