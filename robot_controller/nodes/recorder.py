@@ -1,5 +1,5 @@
 """recorder: the topics ``blocks.spec`` records, raw (CDR), into an MCAP bag, as ``ros2 bag record`` would, below
-the loop (nice +10). In lockstep it publishes the tick it has taken (port ``recorder_clock``); the simulator holds
+the loop (nice +10). On sim time it publishes the tick it has taken (port ``recorder_clock``); the simulator holds
 while it lags. Tells the launcher ``@ready``, then ``@progress {json}``; on SIGINT/SIGTERM it records until the topics
 are quiet (still reporting), closes the bag, then tears DDS down under an alarm.
 ``python -m robot_controller.nodes.recorder BAG_DIR [--sim-time]``"""
@@ -29,7 +29,7 @@ RECORDER_QOS = CONTROL_QOS
 PROGRESS_PERIOD_S = 0.1
 BATCH_PERIOD_S = 0.005
 TAKE_BUDGET_S = 0.05  #: the longest one batch takes before the progress and checkpoint get their turn
-CHECKPOINT_PERIOD_S = 1.0  #: of wall time and, in lockstep, of the run's clock (a short run may outpace the wall)
+CHECKPOINT_PERIOD_S = 1.0  #: of wall time and, on sim time, of the run's clock (a short run may outpace the wall)
 # A larger message is dropped and counted: the loop's are under a kilobyte; a peer's must not fill the disk.
 MAX_MESSAGE_BYTES = 64 * 1024
 DRAIN_QUIET_S = 0.15
@@ -40,7 +40,7 @@ PROGRESS_PREFIX = "@progress "
 
 
 def topics_for(sim_time: bool) -> dict[str, tuple[type, str]]:
-    """topic → (ROS message class, rosbag2 type name): every port ``blocks.spec`` records (``sim_time``: lockstep)."""
+    """topic → (ROS message class, rosbag2 type name): every port ``blocks.spec`` records (``sim_time``: sim time)."""
     return {p.topic: (message_class(p.msg_type), p.msg_type) for p in spec.recorded_ports(sim_time)}
 
 
@@ -73,7 +73,7 @@ class Recorder:
 
         self.node = Node(RECORDER_NODE, context=context, start_parameter_services=False)
         self.sim_time = sim_time
-        #: lockstep: the bag's time base, the sim's latest tick (its clock, or its true state's stamp just before)
+        #: sim time: the bag's time base, the sim's latest tick (its clock, or its true state's stamp just before)
         self.clock_ns = 0
         self.clock_taken_s = 0.0  #: when (monotonic s) the latest tick of the time base was taken
         self.writer = Writer(bag_dir, version=9, storage_plugin=StoragePlugin.MCAP)
@@ -83,7 +83,7 @@ class Recorder:
         self.oversize: dict[str, int] = {}  #: messages over MAX_MESSAGE_BYTES, dropped, per topic
         self.last_message = time.monotonic()
         self.next_checkpoint_s = time.monotonic()  #: monotonic s
-        self.next_checkpoint_clock_ns = 0  #: lockstep: the run's clock, ns
+        self.next_checkpoint_clock_ns = 0  #: sim time: the run's clock, ns
         self.clock_pub = self.node.create_publisher(Clock, spec.RECORDER_CLOCK.topic, CLOCK_QOS) if sim_time else None
         typestore = get_typestore(Stores.ROS2_JAZZY)
         for topic, (msg_class, type_name) in topics_for(sim_time).items():
@@ -132,7 +132,7 @@ class Recorder:
         self.clock_pub.publish(msg)
 
     def checkpoint_when_due(self, now: float) -> None:
-        """A checkpoint every ``CHECKPOINT_PERIOD_S`` of wall time and of the run's clock: lockstep may run a short
+        """A checkpoint every ``CHECKPOINT_PERIOD_S`` of wall time and of the run's clock: sim time may run a short
         run faster than the wall, which would leave a killed recorder with no whole chunk."""
         if now < self.next_checkpoint_s and self.clock_ns < self.next_checkpoint_clock_ns:
             return

@@ -9,9 +9,10 @@ from collections.abc import Mapping
 from typing import Any
 
 from robot_controller.blocks import registry, spec
-from robot_controller.ros.messages import clock_s, decode, encode, labelled_tick_s, message_class
+from robot_controller.ros.messages import decode, encode, message_class
 from robot_controller.ros.qos import profile
 from robot_controller.ros.stack_node import StackNode
+from robot_controller.ros.ticks import clock_mode, tick_source_class
 
 
 class NodeLog:
@@ -37,7 +38,7 @@ class BlockNode(StackNode):
         for name in block.outputs:
             port = spec.port(name)
             msg_type = message_class(port.msg_type)
-            qos = profile(port.writer_qos, lockstep=self.lockstep)
+            qos = profile(port.writer_qos, world_waits=self.mode.world_waits)
             if port.partition:
                 # A consumer acts on it (its QoS class is a reader's that acts); telemetry's reader only watches.
                 publisher = self.gated_publisher(msg_type, port.topic, consumer=port.qos != "control", qos=qos)
@@ -50,17 +51,18 @@ class BlockNode(StackNode):
                 message_class(port.msg_type),
                 port.topic,
                 lambda msg, name=name: self.deliver(name, msg),
-                profile(port.qos, lockstep=self.lockstep),
+                profile(port.qos, world_waits=self.mode.world_waits),
             )
             if port.writer != spec.ANYONE:
                 self.watch_single_publisher(port.topic, port.writer)
-        period_s = block.wake_period_s()
-        if period_s is not None and not self.lockstep:  # in lockstep no time passes between ticks
-            self.create_timer(period_s, lambda: self.publish(self.block.step(clock_s(self), {})))
-        self.publish(block.start())
+        self.ticks.start()
 
     def setup(self, params: dict[str, Any]) -> None:
-        self.block = registry.make(self.get_name(), params, NodeLog(self), bool(params.get("lockstep", False)))
+        world_waits = clock_mode(params).world_waits
+        self.block = registry.make(self.get_name(), params, NodeLog(self), world_waits)
+        self.ticks = tick_source_class(self.get_name(), clock_mode(params))(
+            self, self.block, self.publish, world_waits=world_waits
+        )
 
     def check_params(self, params: dict[str, Any]) -> None:
         self.block.check_params(params)
@@ -69,14 +71,7 @@ class BlockNode(StackNode):
         self.block.set_params(params, changed)
 
     def deliver(self, name: str, msg: Any) -> None:
-        value = decode(msg)
-        self.publish(self.block.step(self.input_time_s(value), {name: value}))
-
-    def input_time_s(self, value: Any) -> float:
-        """When a value arrived, on the loop's clock: in lockstep the tick it says it was computed for (its clock
-        message may come after it), else the node's clock."""
-        tick_s = labelled_tick_s(getattr(value, "label", "")) if self.lockstep else None
-        return clock_s(self) if tick_s is None else tick_s
+        self.ticks.take(name, decode(msg))
 
     def publish(self, outputs: Mapping[str, Any]) -> None:
         for name, value in outputs.items():
@@ -84,6 +79,4 @@ class BlockNode(StackNode):
             publisher.publish(encode(value, msg))
 
     def finish(self) -> None:
-        finish = getattr(self.block, "finish", None)
-        if finish is not None:
-            self.publish(finish())
+        self.ticks.finish()

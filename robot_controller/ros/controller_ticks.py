@@ -112,7 +112,12 @@ class TimerTicks:
         self.timer: Any = None
         self.timer_period = 0.0
         self.params = block.params
-        self.set_timer_period(timer_period_s(block.params))
+
+    def start(self) -> None:
+        self.set_timer_period(timer_period_s(self.params))
+
+    def take(self, port: str, value: Any) -> None:
+        (self.take_reading if port == "reading" else self.take_reference)(value)
 
     def set_timer_period(self, period_s: float) -> None:
         if period_s == self.timer_period:
@@ -178,8 +183,13 @@ class PairedTicks:
         self.paired_stamp_s: float | None = None  # and that reading's stamp
         self.clock_seen = time.monotonic()  # when the world's clock last moved on
         self.reading_period_s: float | None = None  # s between the last two readings' stamps
-        node.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
-        node.create_subscription(ClockMsg, spec.CLOCK.topic, self.clock_callback, LATCHED_QOS)
+
+    def start(self) -> None:
+        self.node.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.node.create_subscription(ClockMsg, spec.CLOCK.topic, self.clock_callback, LATCHED_QOS)
+
+    def take(self, port: str, value: Any) -> None:
+        (self.take_reading if port == "reading" else self.take_reference)(value)
 
     def clock_callback(self, msg: ClockMsg) -> None:
         clock_s = max(self.clock_s, stamp_to_s(msg.clock))
@@ -284,8 +294,3 @@ class PairedTicks:
 
     def finish(self) -> None:
         pass
-
-
-def ticks_for(node: Node, block: Controller, tick: Tick, *, world_waits: bool) -> TimerTicks | PairedTicks:
-    """The controller's clock, chosen once: paired with the world's where it waits for each command, else a timer's."""
-    return PairedTicks(node, block, tick) if world_waits else TimerTicks(node, block, tick)

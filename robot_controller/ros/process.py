@@ -18,7 +18,6 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.ros.stack_node import StackNode
 
 # The controller ended itself after its control law failed and the arm was stopped and braked.
 LAW_STOPPED_EXIT_CODE = 3
@@ -161,13 +160,13 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
         if action_executor is not None:
             action_executor.shutdown(timeout_sec=1.0)
         executor.shutdown(timeout_sec=1.0)
-        for node in nodes:
-            if isinstance(node, StackNode):
-                node.finish()
-        for node in nodes:
-            if isinstance(node, StackNode):
-                node.wait_until_acknowledged()
-                node.write_publish_counts()  # final: nothing publishes now
+        # The stack's nodes (``ros.stack_node``; a plain rclpy node has no last words or gates).
+        stack_nodes = [node for node in nodes if hasattr(node, "write_publish_counts")]
+        for node in stack_nodes:
+            node.finish()
+        for node in stack_nodes:
+            node.wait_until_acknowledged()
+            node.write_publish_counts()  # final: nothing publishes now
         work_done_teardown_left()
         for node in nodes:
             node.destroy_node()

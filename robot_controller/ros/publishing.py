@@ -43,16 +43,16 @@ class GatedPublisher:
     has matched, then publishes; counts what it published. ``consumer=False``: telemetry."""
 
     def __init__(
-        self, node: Node, msg_type: Any, topic: str, *, lockstep: bool, consumer: bool = True, qos: QoSProfile = None
+        self, node: Node, msg_type: Any, topic: str, *, world_waits: bool, consumer: bool = True, qos: QoSProfile = None
     ) -> None:
         self.node, self.topic = node, topic
         self.publisher = node.create_publisher(msg_type, topic, qos or CONTROL_QOS)
         self.consumer = consumer
         self.recorder = recorded()
         self.open = not consumer and not self.recorder
-        # Held until open: every message for telemetry and in lockstep (each is a tick, and the bag
+        # Held until open: every message for telemetry and where the world waits (each is a tick, and the bag
         # must hold them all), only the newest for a wall-clock consumer (an old torque is worth nothing).
-        self.pending: deque[Any] = deque(maxlen=MAX_HELD if not consumer or lockstep else 1)
+        self.pending: deque[Any] = deque(maxlen=MAX_HELD if not consumer or world_waits else 1)
         self.count = 0
         self.seen_since: float | None = None  # monotonic s the audience was first seen, while it stays
         self._poll = None

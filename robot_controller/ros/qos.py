@@ -20,18 +20,18 @@ CONTROL_QOS = _keep_last(1000)
 LATEST_QOS = _keep_last(1)
 # The same, best effort: across a lossy link a lost sample is not waited for (the next one made it stale).
 LATEST_BEST_EFFORT_QOS = _keep_last(1, reliable=False)
-# Lockstep: every message is a tick's, taken in order (the planner sends each a tick early: two may be in flight).
-LOCKSTEP_QOS = _keep_last(100)
-# Lockstep's readings (the sensor's writer, our controller's reader): transient local as well, since it has more
+# Sim time: every message is a tick's, taken in order (the planner sends each a tick early: two may be in flight).
+SIM_TIME_QOS = _keep_last(100)
+# Sim time's readings (the sensor's writer, our controller's reader): transient local as well, since it has more
 # readers than the controller (the planner's action feedback, any ROS client's): one of them can open the sensor's gate
 # (ros.publishing) before the controller matched, and a tick's reading lost so stalls the run for good. A controller
 # that matches late gets the reading outstanding. A volatile reader (the tutorial's controller) matches it all the same.
 # The writer keeps CONTROL_QOS's 1000, which a recorder that falls behind catches up from.
-LOCKSTEP_READINGS_QOS = _keep_last(1000, latched=True)
-LOCKSTEP_READINGS_READER_QOS = _keep_last(100, latched=True)
+SIM_TIME_READINGS_QOS = _keep_last(1000, latched=True)
+SIM_TIME_READINGS_READER_QOS = _keep_last(100, latched=True)
 # A state, not an event (the brake request): a late reader, such as a respawned simulator, gets it at once.
 LATCHED_QOS = _keep_last(1, latched=True)
-# The sim's clock in lockstep: a reader that matches late still gets the latest tick.
+# The sim's clock: a reader that matches late still gets the latest tick.
 CLOCK_QOS = _keep_last(1000, latched=True)
 # The e-stop: volatile readers, so `ros2 topic pub` on it matches; the nodes that obey it latch it, not DDS.
 ESTOP_QOS = LATEST_QOS
@@ -39,24 +39,24 @@ ESTOP_QOS = LATEST_QOS
 OBSERVER_QOS = _keep_last(50, reliable=False)
 
 
-def loop_qos(lockstep: bool) -> QoSProfile:
-    """A periodic loop topic's reader: reliable (a lost message would stall a lockstep run), keeping every
-    message in lockstep, best effort on the wall clock when the launcher split the loop across hosts."""
-    if lockstep:
-        return LOCKSTEP_QOS
+def loop_qos(world_waits: bool) -> QoSProfile:
+    """A periodic loop topic's reader: reliable (a lost message would stall a sim-time run), keeping every
+    message where the world waits, best effort on the wall clock when the launcher split the loop across hosts."""
+    if world_waits:
+        return SIM_TIME_QOS
     if os.environ.get(LOOP_QOS_ENV) == "best_effort":
         return LATEST_BEST_EFFORT_QOS
     return LATEST_QOS
 
 
-def profile(qos_class: str, *, lockstep: bool) -> QoSProfile:
+def profile(qos_class: str, *, world_waits: bool) -> QoSProfile:
     """The profile of a port's QoS class (``blocks.spec.QOS_CLASSES``) in this clock mode."""
     profiles = {
         "control": CONTROL_QOS,
         "latest": LATEST_QOS,
-        "loop": loop_qos(lockstep),
-        "readings": LOCKSTEP_READINGS_READER_QOS if lockstep else loop_qos(False),
-        "readings_writer": LOCKSTEP_READINGS_QOS if lockstep else CONTROL_QOS,
+        "loop": loop_qos(world_waits),
+        "readings": SIM_TIME_READINGS_READER_QOS if world_waits else loop_qos(False),
+        "readings_writer": SIM_TIME_READINGS_QOS if world_waits else CONTROL_QOS,
         "latched": LATCHED_QOS,
         "clock": CLOCK_QOS,
     }

@@ -17,8 +17,8 @@ OBSERVER_NICE = 10
 LOOP_PROCESSES = frozenset({"simulator", "motor_node", "sensor_node", "pid_controller", "stack"})
 NICE = {**dict.fromkeys(LOOP_PROCESSES, LOOP_NICE), "trajectory_planner": PLANNER_NICE, "recorder": OBSERVER_NICE}
 
-# Lockstep: a tick is a chain (simulator → sensor → controller → motor → simulator); planner and recorder yield to it.
-LOCKSTEP_NICE = {"trajectory_planner": 5, "recorder": 10}
+# Sim time: a tick is a chain (simulator → sensor → controller → motor → simulator); planner and recorder yield to it.
+SIM_TIME_NICE = {"trajectory_planner": 5, "recorder": 10}
 
 #: SCHED_FIFO priority of the simulator's pacing thread under ``--realtime``.
 PACING_RT_PRIORITY = 30
@@ -43,9 +43,9 @@ class Placement:
 
 def placement(process_name: str, wall_clock: bool = True) -> Placement:
     """The loop's processes (a chain: one link runs at a time) share the last allowed CPU, the rest the others;
-    in lockstep, anywhere, at ``LOCKSTEP_NICE``."""
+    on sim time, anywhere, at ``SIM_TIME_NICE``."""
     if not wall_clock:
-        return Placement(nice=LOCKSTEP_NICE.get(process_name, 0))
+        return Placement(nice=SIM_TIME_NICE.get(process_name, 0))
     cpus = None
     allowed = sorted(os.sched_getaffinity(0))
     if len(allowed) >= 2 and os.environ.get(AFFINITY_ENV, "1") != "0":

@@ -20,6 +20,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.ros.loop_processes import leave_pid
 from robot_controller.ros.partition import PARTITION_ENV
 from robot_controller.ros.publishing import COUNTS_DIR_ENV, GatedPublisher, write_publish_counts
+from robot_controller.ros.ticks import clock_mode
 
 WARN_PERIOD_S = 2.0
 # At the end, how long a node waits for its last messages to be acknowledged (within the cleanup's
@@ -44,8 +45,8 @@ class StackNode(Node):
         values.update({spec.name: spec.validate(self.get_parameter(spec.name).value) for spec in more})
         self.setup(values)
         self.params = self._validated(values)
-        # Read-only: fixed for the node's life, as its gates need it.
-        self.lockstep = bool(self.params.get("lockstep", False))
+        # Read-only: fixed for the node's life, as its gates and its clock need it.
+        self.mode = clock_mode(self.params)
         self._reports: dict[str, str] = {}  # name → description of what the node reports there
         self._reporting: int | None = None  # the thread reporting (the parameter services may run on another)
         self._pending: dict[str, Any] | None = None  # validated by the on-set callback, applied after it
@@ -145,7 +146,7 @@ class StackNode(Node):
 
     def gated_publisher(self, msg_type: Any, topic: str, *, consumer: bool = True, qos: Any = None) -> GatedPublisher:
         """A publisher that holds its messages until its audience has matched (``ros.publishing``)."""
-        gated = GatedPublisher(self, msg_type, topic, lockstep=self.lockstep, consumer=consumer, qos=qos)
+        gated = GatedPublisher(self, msg_type, topic, world_waits=self.mode.world_waits, consumer=consumer, qos=qos)
         self._gated_publishers.append(gated)
         return gated
 

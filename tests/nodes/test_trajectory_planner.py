@@ -16,7 +16,7 @@ def planner(ros_domain):
     rclpy.init(args=["trajectory_planner", "--ros-args", "-p", "lockstep:=true"], domain_id=ros_domain)
     node = TrajectoryPlanner()
     node.block.start_s = node.block.origin_s = 0.0  # publishing since t = 0 (lockstep: the planner's time is /clock's)
-    node.clock_s = 3.3
+    node.ticks.clock_s = 3.3
     try:
         yield node
     finally:
@@ -68,10 +68,10 @@ def test_on_the_sims_clock_each_grid_points_sample_goes_out_a_tick_early(ros_dom
         try:
             sent = []  # (the sim's clock when it went out, its sample time)
             node.pub.open = True  # its consumers matched
-            node.pub.publish = lambda msg: sent.append((node.clock_s, msg.data[-1]))
-            node.on_grid(node.clock_s)  # the start poll, before the sim's first clock: time 0
+            node.pub.publish = lambda msg: sent.append((node.ticks.clock_s, msg.data[-1]))
+            node.ticks.on_grid(node.ticks.clock_s)  # the start poll, before the sim's first clock: time 0
             for k in range(1, 12):
-                node.clock_callback(Clock(clock=s_to_stamp(k * 0.01)))  # the sim ticks at 100 Hz
+                node.ticks.clock_callback(Clock(clock=s_to_stamp(k * 0.01)))  # the sim ticks at 100 Hz
             assert np.array(sent) == pytest.approx(np.array([[0.0, 0.0], [0.04, 0.05], [0.09, 0.1]]))
             assert node.block.start_s == 0.0
         finally:

@@ -21,13 +21,13 @@ from robot_controller.nodes.pid_controller import live_gains
 from robot_controller.nodes.pid_controller.designer import Designer
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model
-from robot_controller.ros.controller_ticks import ticks_for
 from robot_controller.ros.loop_processes import thread_kept_s
 from robot_controller.ros.messages import clock_s, decode, stamp_command
 from robot_controller.ros.process import LAW_FAULT_FILE, request_exit, run
 from robot_controller.ros.publishing import COUNTS_DIR_ENV
 from robot_controller.ros.qos import ESTOP_QOS, LATEST_QOS, profile
 from robot_controller.ros.stack_node import StackNode
+from robot_controller.ros.ticks import clock_mode, tick_source_class
 
 # The receipts come once a second, each message a second's rows: keep a few, never a backlog.
 COMMAND_RECEIPTS_QOS = 5
@@ -78,17 +78,18 @@ class ControllerNode(StackNode):
         self.reported_law = ""
         self.law_fault_left = False
         self.ticks: Any = None  # the clock, made once its inputs are subscribed
-        readings_qos = profile(spec.READING.qos, lockstep=self.lockstep)
+        readings_qos = profile(spec.READING.qos, world_waits=self.mode.world_waits)
         self.create_subscription(JointState, spec.READING.topic, self.reading_callback, readings_qos)
         self.watch_single_publisher(spec.READING.topic, spec.READING.writer)
-        reference_qos = profile(spec.REFERENCE.qos, lockstep=self.lockstep)
+        reference_qos = profile(spec.REFERENCE.qos, world_waits=self.mode.world_waits)
         self.create_subscription(Float64MultiArray, spec.REFERENCE.topic, self.reference_callback, reference_qos)
         self.watch_single_publisher(spec.REFERENCE.topic, spec.REFERENCE.writer)
         self.create_subscription(Bool, spec.ESTOP.topic, lambda msg: block.take(0.0, {"estop": msg.data}), ESTOP_QOS)
         self.create_subscription(
             Float64MultiArray, spec.BRAKES.topic, lambda msg: block.take(0.0, {"brakes": decode(msg)}), LATEST_QOS
         )
-        self.ticks = ticks_for(self, block, self.tick, world_waits=block.world_waits)
+        self.ticks = tick_source_class(self.get_name(), self.mode)(self, block, self.tick)
+        self.ticks.start()
         self.report_law()
         self.parameter_services = live_gains.ParameterServices(self)
 
@@ -97,7 +98,7 @@ class ControllerNode(StackNode):
         # its armature into the loop's own, and MuJoCo's data is not shared between threads).
         design_model = arm_model(params)
         self.designer = Designer(design_model, len(design_model.joint_names))
-        world_waits = bool(params.get("lockstep", False))  # the ROS parameter users' files set
+        world_waits = clock_mode(params).world_waits
         self.block: Controller = registry.block_class(self.get_name(), params)(
             params,
             ControllerLog(self),
@@ -126,10 +127,10 @@ class ControllerNode(StackNode):
         self.block.set_params(params, changed)
 
     def reading_callback(self, msg: JointState) -> None:
-        self.ticks.take_reading(decode(msg))
+        self.ticks.take("reading", decode(msg))
 
     def reference_callback(self, msg: Float64MultiArray) -> None:
-        self.ticks.take_reference(decode(msg))
+        self.ticks.take("reference", decode(msg))
 
     def tick(self, t_s: float) -> dict[str, Any]:
         """Step the block at ``t_s`` and publish what it wrote: the command first."""

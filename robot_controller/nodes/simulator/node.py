@@ -1,5 +1,5 @@
 """The simulator node: the host of the world block (``blocks.world``) and of the clock that steps it
-(``ros.clocks``), chosen once at start from ``lockstep`` and ``real_time_factor``. It turns the world's ports into
+(``ros.clocks``), chosen once at start (``ros.ticks``). It turns the world's ports into
 topics (``blocks.spec``), serves the e-stop button and, in sim time, follows the recorder's clock."""
 
 from __future__ import annotations
@@ -18,14 +18,12 @@ from robot_controller.blocks.world import World, Written
 from robot_controller.nodes.world_state import WORLD_STATE_ENV, WorldState
 from robot_controller.ros.adapter import NodeLog
 from robot_controller.ros.clocks.outlets import Outlets
-from robot_controller.ros.clocks.paced import PacedClock
-from robot_controller.ros.clocks.stepped import SteppedClock
-from robot_controller.ros.clocks.wall import WallClock
 from robot_controller.ros.messages import command_tick_s, decode, message_class
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import COUNTS_DIR_ENV, recorded
 from robot_controller.ros.qos import CLOCK_QOS, profile
 from robot_controller.ros.stack_node import StackNode
+from robot_controller.ros.ticks import ClockMode, tick_source_class
 
 #: How often, s (steady clock), sim time looks whether the graph is ready for tick 0.
 START_POLL_S = 0.05
@@ -35,7 +33,7 @@ class Simulator(StackNode):
     def __init__(self) -> None:
         super().__init__("simulator")
         p = self.params
-        self.world = world = World(p, NodeLog(self), world_waits=self.lockstep)
+        self.world = world = World(p, NodeLog(self), world_waits=self.mode.world_waits)
         n = world.joint_count
         state_file = WorldState.open(os.environ.get(WORLD_STATE_ENV, ""), n)
         if state_file is not None and state_file.resumed is not None:
@@ -52,7 +50,7 @@ class Simulator(StackNode):
             MultiArrayDimension(label="time_s", size=1, stride=1),
         ]
         self.clock_pub = self.clock_msg = None
-        if self.lockstep:
+        if self.mode.world_waits:
             self.clock_pub = self.gated_publisher(ClockMsg, spec.CLOCK.topic, consumer=False, qos=CLOCK_QOS)
             self.clock_msg = ClockMsg()
         self.effort_sub = self.subscribe(spec.EFFORT, self.effort_callback)
@@ -72,13 +70,9 @@ class Simulator(StackNode):
             save_position=None if state_file is None else state_file.save,
         )
         log = NodeLog(self)
-        if not self.lockstep:
-            self.clock = WallClock(world, p, out, log)
-        elif p["real_time_factor"] > 0:
-            self.clock = PacedClock(world, p, out, log, recorded=recorded())
-        else:
-            self.clock = SteppedClock(world, p, out, log, recorded=recorded())
-        if self.lockstep:
+        sim_time = {} if self.mode is ClockMode.WALL else {"recorded": recorded()}
+        self.clock = tick_source_class(self.get_name(), self.mode)(world, p, out, log, **sim_time)
+        if self.mode.world_waits:
             if recorded():
                 self.subscribe(spec.RECORDER_CLOCK, self.recorder_clock_callback)
             self.start_poll = self.create_timer(
@@ -91,7 +85,7 @@ class Simulator(StackNode):
 
     def subscribe(self, port: spec.Port, callback: Any) -> Any:
         """A reader of ``port`` with the QoS its class has in this clock mode."""
-        qos = profile(port.qos, lockstep=self.lockstep)
+        qos = profile(port.qos, world_waits=self.mode.world_waits)
         return self.create_subscription(message_class(port.msg_type), port.topic, callback, qos)
 
     def check_params(self, params: dict) -> None:
