@@ -102,6 +102,16 @@ class HostMisses:
             (Path(counts_dir) / HOST_MISSED_FILE).write_text(json.dumps(host_made))
 
 
+def take(ticks: TimerTicks | PairedTicks, port: str, value: Any) -> None:
+    """A reading or a reference sample as the clock takes them; the e-stop and the brakes at once (time unused)."""
+    if port == "reading":
+        ticks.take_reading(value)
+    elif port == "reference":
+        ticks.take_reference(value)
+    else:
+        ticks.block.take(0.0, {port: value})
+
+
 class TimerTicks:
     """The wall clock: a timer's ticks, or the readings' with the timer covering their absence."""
 
@@ -117,7 +127,10 @@ class TimerTicks:
         self.set_timer_period(timer_period_s(self.params))
 
     def take(self, port: str, value: Any) -> None:
-        (self.take_reading if port == "reading" else self.take_reference)(value)
+        if port == "command_receipts":  # timed on arrival: the command path's delay, for the latency guard
+            self.block.take(clock_s(self.node), {port: value})
+        else:
+            take(self, port, value)
 
     def set_timer_period(self, period_s: float) -> None:
         if period_s == self.timer_period:
@@ -189,7 +202,7 @@ class PairedTicks:
         self.node.create_subscription(ClockMsg, spec.CLOCK.topic, self.clock_callback, LATCHED_QOS)
 
     def take(self, port: str, value: Any) -> None:
-        (self.take_reading if port == "reading" else self.take_reference)(value)
+        take(self, port, value)
 
     def clock_callback(self, msg: ClockMsg) -> None:
         clock_s = max(self.clock_s, stamp_to_s(msg.clock))

@@ -42,12 +42,13 @@ class PlannerTimer:
         return clock_s(self.node)
 
     def start(self) -> None:
+        self.publish(self.block.start())
         self.timer = self.node.create_timer(1.0 / self.block.params["publish_rate_hz"], self.tick)
 
     def retime(self) -> None:
         """The block's ``publish_rate_hz`` changed."""
         self.node.destroy_timer(self.timer)
-        self.start()
+        self.timer = self.node.create_timer(1.0 / self.block.params["publish_rate_hz"], self.tick)
 
     def tick(self) -> None:
         now_s = self.now_s()
@@ -79,6 +80,7 @@ class PlannerGrid:
         return self.clock_s
 
     def start(self) -> None:
+        self.publish(self.block.start())
         self.node.create_subscription(ClockMsg, spec.CLOCK.topic, self.clock_callback, CONTROL_QOS)
         # Before the world's first clock the time is 0: poll (on the wall clock) for the controller.
         self.start_poll = self.node.create_timer(

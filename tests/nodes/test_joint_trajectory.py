@@ -143,7 +143,7 @@ def test_the_planner_node_blends_takes_a_stamp_and_gives_way_to_a_shape_change(r
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
-    from robot_controller.ros.messages import clock_s, s_to_stamp
+    from robot_controller.ros.messages import clock_s, decode, s_to_stamp
 
     rclpy.init(args=[], domain_id=ros_domain)
     try:
@@ -156,7 +156,7 @@ def test_the_planner_node_blends_takes_a_stamp_and_gives_way_to_a_shape_change(r
             msg.points.append(JointTrajectoryPoint(positions=[0.4]))
             msg.points[0].time_from_start.sec = 2
             msg.header.stamp = s_to_stamp(now + 1.0)  # in the future: its time 0 is then
-            node.take("waypoints", msg)
+            node.ticks.take("waypoints", decode(msg))
             assert node.block.waypoints is not None
             assert node.block.waypoints.start_delay_s == pytest.approx(1.0, abs=0.1)
             # From the sine's state at receipt (the sine moved on for the microseconds in between).
@@ -164,7 +164,7 @@ def test_the_planner_node_blends_takes_a_stamp_and_gives_way_to_a_shape_change(r
                 np.testing.assert_allclose(got, want, atol=0.01)
             assert node.block.reference_at(node.block.origin_s + 10.0)[0].tolist() == [0.4]
             msg.joint_names = ["joint1", "joint1"]
-            node.take("waypoints", msg)  # refused: the one in force stays
+            node.ticks.take("waypoints", decode(msg))  # refused: the one in force stays
             assert node.block.reference_at(node.block.origin_s + 10.0)[0].tolist() == [0.4]
             assert node.set_parameters_atomically([Parameter("mode", value="hold")]).successful
             assert node.block.waypoints is None and node.block.origin_s == node.block.start_s

@@ -67,8 +67,9 @@ def test_on_the_sims_clock_each_grid_points_sample_goes_out_a_tick_early(ros_dom
         node = TrajectoryPlanner()
         try:
             sent = []  # (the sim's clock when it went out, its sample time)
-            node.pub.open = True  # its consumers matched
-            node.pub.publish = lambda msg: sent.append((node.ticks.clock_s, msg.data[-1]))
+            gate = node.publishers_by_port["reference"][0]
+            gate.open = True  # its consumers matched
+            gate.publish = lambda msg: sent.append((node.ticks.clock_s, msg.data[-1]))
             node.ticks.on_grid(node.ticks.clock_s)  # the start poll, before the sim's first clock: time 0
             for k in range(1, 12):
                 node.ticks.clock_callback(Clock(clock=s_to_stamp(k * 0.01)))  # the sim ticks at 100 Hz

@@ -23,6 +23,7 @@ of the last point: never on an estimate from before a stall.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,7 +44,7 @@ from robot_controller.core.reference.tolerances import (
     goal_tolerances,
 )
 from robot_controller.ros.messages import decode
-from robot_controller.ros.stack_node import StackNode
+from robot_controller.ros.stack_node import StackNode as Node
 
 
 def _action_type():
@@ -76,10 +77,12 @@ def _point(positions, velocities=(), time_s: float = 0.0) -> JointTrajectoryPoin
 class FollowJointTrajectoryServer:
     """The action server, beside the planner block in its node (``node.action``)."""
 
-    def __init__(self, node: StackNode, planner: Planner) -> None:
-        """``node``: the planner's node (its clock ``now_s``, parameters, log, and ``listen_to_arm``); ``planner``:
-        the block (its check_goal, take, install, stop, reference_at, and its ``arm`` watch)."""
-        self.node = node
+    def __init__(
+        self, node: Node, planner: Planner, *, now_s: Callable[[], float], listen: Callable[[bool], None]
+    ) -> None:
+        """``node``: the planner's node (its parameters, log); ``planner``: the block (its check_goal, take, install,
+        stop, reference_at, and its ``arm`` watch); ``now_s``: the planner's clock; ``listen``: hear the arm or not."""
+        self.node, self.now_s, self.listen = node, now_s, listen
         self.planner = planner
         self.action = _action_type()
         self.joint_names = list(planner.limits.joint_names)
@@ -120,7 +123,7 @@ class FollowJointTrajectoryServer:
     def rejection(self, goal) -> str | None:
         if self.watch.estop:
             return "the e-stop is engaged: release it first"
-        checked = self.planner.check_goal(decode(goal.trajectory), self.node.now_s())
+        checked = self.planner.check_goal(decode(goal.trajectory), self.now_s())
         if checked is not None:
             return checked[1]
         tolerances = self.tolerances(goal)
@@ -129,7 +132,7 @@ class FollowJointTrajectoryServer:
     # Goals.
     async def execute(self, handle: ServerGoalHandle):
         planner = self.planner
-        now_s = self.node.now_s()
+        now_s = self.now_s()
         goal = handle.request
         taken = planner.take(decode(goal.trajectory), now_s)
         if isinstance(taken, tuple):
@@ -143,7 +146,7 @@ class FollowJointTrajectoryServer:
             return self.action.Result(error_code=INVALID_GOAL, error_string=tolerances)
         self.end_active("aborted", INVALID_GOAL, "preempted by a new goal", next_goal=True)
         planner.install(taken, now_s)
-        self.node.listen_to_arm(True)
+        self.listen(True)
         self.watch.new_goal()
         done = Future()
         end_s = now_s + taken.trajectory.duration_s
@@ -155,7 +158,7 @@ class FollowJointTrajectoryServer:
         (``next_goal``: one that preempts it follows, and hears the arm as it did)."""
         active, self.active = self.active, None
         if not next_goal:
-            self.node.listen_to_arm(False)
+            self.listen(False)
         if active is None or active.done.done():
             return
         if how == "canceled" and active.handle.is_cancel_requested:

@@ -34,7 +34,7 @@ def test_the_controller_declares_checks_and_applies_its_laws_parameters(ros_doma
         assert not refused.successful and "law.natural_frequency_hz: must be <= 30, got 99" in refused.reason
         took = node.set_parameters([Parameter("law.natural_frequency_hz", Parameter.Type.DOUBLE, 6.0)])[0]
         assert took.successful, took.reason
-        node.tick(0.0)  # the next tick takes it over first
+        node.extras.tick(0.0)  # the next tick takes it over first
         assert node.block.controller.plugin.law.params["natural_frequency_hz"] == 6.0
         assert "natural_frequency_hz=6" in node.get_parameter("law_in_force").value
         changed = node.set_parameters([Parameter("controller_type", Parameter.Type.STRING, "pid")])[0]
