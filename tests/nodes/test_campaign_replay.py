@@ -1,4 +1,4 @@
-"""One run of a campaign replayed through the real ROS graph in lockstep: the run's draws and noise seed reach the
+"""One run of a campaign replayed through the real ROS graph on sim time: the run's draws and noise seed reach the
 nodes, and the graph's tracking is the campaign's (in-process) within 5 %."""
 
 import json
@@ -41,7 +41,7 @@ def test_a_replayed_run_has_its_draws_and_the_campaigns_figures(tmp_path, ros_do
     row = next(r for r in pq.read_table(tmp_path / "c" / "results.parquet").to_pylist() if r["run_id"] == 1)
     # A world the controller does not know may start beyond the band: the replayed run then says FAILED, exit 1.
     said = cli("campaign", "replay", tmp_path / "c", 1, "--out", tmp_path / "r", codes=(0, 1))
-    assert "the campaign's (in process) beside the graph's (lockstep)" in said, said
+    assert "the campaign's (in process) beside the graph's (sim time)" in said, said
     ran = yaml.safe_load((tmp_path / "r" / "params.yaml").read_text())
     sensor = ran["sensor_node"]["ros__parameters"]
     assert sensor["delay_s"] == pytest.approx(row["sensor_node.delay_s"])
