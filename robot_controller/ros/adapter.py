@@ -63,6 +63,10 @@ class Extras:
         """The QoS ``port`` is heard with from the start, or None: not heard then (the extras may listen later)."""
         return profile(port.qos, world_waits=self.node.mode.world_waits)
 
+    def consumer(self, port: spec.Port) -> bool:
+        """Whether an output in the run's partition is a consumer's (its gate waits for one), not telemetry."""
+        return port.qos != "control"  # its QoS class is a reader's that acts on it
+
     def watched(self, port: spec.Port) -> bool:
         """Whether a second publisher of ``port`` is warned of."""
         return port.writer != spec.ANYONE
@@ -100,13 +104,13 @@ class BlockNode(StackNode):
         super().__init__(node_name, **extras.node_options)
         block = self.block
         self.publishers_by_port: dict[str, tuple[Any, Any]] = {}  # port → (publisher, its reused message)
+        self.subscriptions_by_port: dict[str, Any] = {}
         for name in block.outputs:
             port = spec.port(name)
             msg_type = message_class(port.msg_type)
             qos = profile(port.writer_qos, world_waits=self.mode.world_waits)
             if port.partition:
-                # A consumer acts on it (its QoS class is a reader's that acts); telemetry's reader only watches.
-                publisher = self.gated_publisher(msg_type, port.topic, consumer=port.qos != "control", qos=qos)
+                publisher = self.gated_publisher(msg_type, port.topic, consumer=self.extras.consumer(port), qos=qos)
             else:
                 publisher = self.create_publisher(msg_type, port.topic, qos)
             self.publishers_by_port[name] = (publisher, self.extras.message(port))
@@ -114,7 +118,7 @@ class BlockNode(StackNode):
             port = spec.port(name)
             qos = self.extras.reader_qos(port)
             if qos is not None:
-                self.hear(port, qos)
+                self.subscriptions_by_port[name] = self.hear(port, qos)
             if self.extras.watched(port):
                 self.watch_single_publisher(port.topic, port.writer)
         self.ticks = self.extras.make_ticks(tick_source_class(node_name, self.mode))

@@ -29,6 +29,7 @@ from robot_controller.blocks.block import Log
 from robot_controller.blocks.world import World
 from robot_controller.parameters.schema.simulator import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import scheduling
+from robot_controller.ros.clocks import inputs
 from robot_controller.ros.clocks.freezes import FreezeLog
 from robot_controller.ros.clocks.outlets import Outlets
 from robot_controller.ros.clocks.stepped import SteppedClock
@@ -214,6 +215,12 @@ class PacedClock:
         end_ns = self.ticks.end_ns
         margin_ns = round(LOCKSTEP_END_MARGIN_S * 1e9)
         return end_ns is not None and self.world.time_ns > end_ns - margin_ns
+
+    def take(self, port: str, value: Any) -> None:
+        inputs.take(self, port, value)
+
+    def finish(self) -> None:
+        inputs.finish(self)
 
     def stop(self, counts_dir: str) -> None:
         """End the thread; say and leave (in ``counts_dir``, if any) the world's figures."""

@@ -14,6 +14,7 @@ import numpy as np
 from robot_controller.blocks.block import Log
 from robot_controller.blocks.world import World
 from robot_controller.core.model import steps_per_period
+from robot_controller.ros.clocks import inputs
 from robot_controller.ros.clocks.outlets import Outlets
 
 #: Sim seconds the recorder may be behind: under a third of what the queues hold, and over what
@@ -109,6 +110,12 @@ class SteppedClock:
         self.published += 1
         self.out.write_state(stamp_ns)
         self.out.write_clock(stamp_ns)
+
+    def take(self, port: str, value: Any) -> None:
+        inputs.take(self, port, value)
+
+    def finish(self) -> None:
+        inputs.finish(self)
 
     def stop(self, counts_dir: str) -> None:
         """Nothing runs on its own."""

@@ -18,6 +18,7 @@ from robot_controller.blocks import spec
 from robot_controller.blocks.block import Log
 from robot_controller.blocks.world import World
 from robot_controller.ros import scheduling
+from robot_controller.ros.clocks import inputs
 from robot_controller.ros.clocks.freezes import FreezeLog
 from robot_controller.ros.clocks.outlets import Outlets
 from robot_controller.ros.process import stop_requested
@@ -197,6 +198,12 @@ class WallClock:
             self.anchor_ros_ns += shift_ns
             due = MAX_CATCH_UP_STEPS
         world.advance(int(due))
+
+    def take(self, port: str, value: Any) -> None:
+        inputs.take(self, port, value)
+
+    def finish(self) -> None:
+        inputs.finish(self)
 
     def stop(self, counts_dir: str) -> None:
         """End the thread; say how often the host froze the loop, which on the wall clock counts against it."""
