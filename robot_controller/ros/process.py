@@ -160,7 +160,7 @@ def run(node_factories: Callable[[], Node] | list[Callable[[], Node]], args: lis
         if action_executor is not None:
             action_executor.shutdown(timeout_sec=1.0)
         executor.shutdown(timeout_sec=1.0)
-        # The stack's nodes (``ros.stack_node``; a plain rclpy node has no last words or gates).
+        # The stack's nodes (``ros.adapter``; a plain rclpy node has no last words or gates).
         stack_nodes = [node for node in nodes if hasattr(node, "write_publish_counts")]
         for node in stack_nodes:
             node.finish()

@@ -18,9 +18,9 @@ HANGING_NODE = textwrap.dedent(
     """
     import re
     from robot_controller.ros.process import request_exit, run
-    from robot_controller.ros.stack_node import StackNode
+    from robot_controller.ros.adapter import BlockNode
 
-    class HangsOnTheWayOut(StackNode):
+    class HangsOnTheWayOut(BlockNode):  # a subclass for the test's hang only
         def __init__(self):
             super().__init__("sensor_node")
             self.create_timer(0.05, lambda: request_exit(0))

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
+from rclpy.node import Node
 from rclpy.task import Future
 from trajectory_msgs.msg import JointTrajectoryPoint
 
@@ -44,7 +45,6 @@ from robot_controller.core.reference.tolerances import (
     goal_tolerances,
 )
 from robot_controller.ros.messages import decode
-from robot_controller.ros.stack_node import StackNode as Node
 
 
 def _action_type():
