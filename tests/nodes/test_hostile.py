@@ -194,7 +194,12 @@ def test_parameters_that_would_break_the_loop_are_refused_with_a_reason(tmp_path
         assert not result.successful and "not settable" in result.reason
         pid = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="pid")
         assert set_parameter(probe, "pid_controller", "controller_type", pid).successful
+        # The change takes over at the controller's next tick (a timer's, with no readings here): shown from then on.
+        deadline = time.monotonic() + 5.0
         law = get_parameter(probe, "pid_controller", "law_in_force").string_value
+        while not law.startswith("PID") and time.monotonic() < deadline:
+            time.sleep(0.05)
+            law = get_parameter(probe, "pid_controller", "law_in_force").string_value
         assert law.startswith("PID: Kp=") and "unused" not in law, law
         assert all(process.poll() is None for process in nodes.values())
     finally:
