@@ -1,6 +1,6 @@
 """A plain ROS client of the arm, as MoveIt or any control_msgs user is: none of our DDS profile, our partitions or
 our code. It learns the joints from ``/joint_states``, reads ``/robot_description``, then sends
-FollowJointTrajectory goals and prints one JSON object of what it got (tests/nodes/test_follow_joint_trajectory.py).
+FollowJointTrajectory goals and prints one JSON object of what it got (tests/scenarios/test_follow_joint_trajectory.py).
 
 Usage: ``python follow_joint_trajectory_client.py [--quick]`` on the run's ROS_DOMAIN_ID; ``--quick``: only the
 3-point goal. Every target is an offset from where the arm is when the client starts (so it suits any arm whose

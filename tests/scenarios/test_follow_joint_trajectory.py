@@ -1,6 +1,6 @@
 """The arm as a plain ROS client sees it: FollowJointTrajectory on ``/joint_trajectory_controller/
 follow_joint_trajectory``, ``/joint_states`` and ``/robot_description``, from a process that knows nothing of the
-run's DDS profile or partition (tests/nodes/follow_joint_trajectory_client.py, started without
+run's DDS profile or partition (tests/scenarios/follow_joint_trajectory_client.py, started without
 FASTRTPS_DEFAULT_PROFILES_FILE on the run's ROS_DOMAIN_ID). A goal succeeds with feedback, a new goal preempts the
 one in force, a cancel stops and holds, an unknown joint is rejected and an impossible path tolerance ends with JTC's
 error code; the run's own recording says where the reference and the arm were meanwhile. Goals are judged as JTC judges
