@@ -124,7 +124,7 @@ class Recorder:
                 return
 
     def say_clock(self) -> None:
-        """Lockstep: publish the tick taken last (every progress period, not every batch)."""
+        """On sim time: publish the tick taken last (every progress period, not every batch)."""
         if self.clock_pub is None:
             return
         msg = Clock()
