@@ -141,7 +141,7 @@ def _free_port() -> int:
 @pytest.fixture
 def ray_head(tmp_path):
     """A real Ray head with two CPUs on this host, started here (its own session) and ended by its process group."""
-    pytest.importorskip("ray")
+    pytest.importorskip("ray", reason="ray (a dependency, for campaigns on a cluster) is not importable here")
     port = _free_port()
     ray_bin = Path(sys.executable).with_name("ray")
     temp = Path("/tmp") / f"ray-test-{os.getpid()}"  # Ray's socket paths must stay short
@@ -177,7 +177,7 @@ def test_a_ray_cluster_gives_the_local_pools_rows(local, spec_file, ray_head, tm
 
 
 def test_no_cluster_at_the_address_is_one_line(spec_file, tmp_path):
-    pytest.importorskip("ray")
+    pytest.importorskip("ray", reason="ray (a dependency, for campaigns on a cluster) is not importable here")
     process = campaign(spec_file, "--out", tmp_path / "c", "--ray", f"127.0.0.1:{_free_port()}")
     out, _ = process.communicate(timeout=120)
     assert process.returncode == 1 and "no Ray cluster to connect to" in out, out
