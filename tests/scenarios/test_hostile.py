@@ -106,13 +106,18 @@ def test_a_command_stamped_long_ago_is_dropped_by_the_drive(tmp_path, ros_domain
     # The drive's age check is the wall clock's (--wall-clock: the hardware-strict drive); a paced world's
     # split runs keep the wall clock, and on one host no command comes late.
     code, output = run_with_peer(out, ros_domain, "late_link", late_link, "10", "--wall-clock")
-    assert code == 0, run_said(output)
+    metrics = json.loads((out / "metrics.json").read_text())
+    # On the wall clock a host freeze longer than the watchdog's timeout brakes the arm as the hardware would:
+    # a fault the verdict counts, judged here against what the host did.
+    if metrics["host_freezes"] == 0:
+        assert code == 0, run_said(output)
+    else:
+        assert all("brakes" in r or "stops nobody" in r for r in metrics["verdict_reasons"]), run_said(output)
     # Dropped as late, said (throttled: after a host freeze made the controller's own command late first, the
     # peer's are counted under that warning), and heard: the bag holds the peer's 50 beside what the nodes sent.
     assert "a late command is no command" in output, run_said(output)
     published = json.loads((out / "published.json").read_text())["/joint_commands"]
     assert report.read_recording(out / "bag").counts["/joint_commands"] - published >= 40, run_said(output)
-    metrics = json.loads((out / "metrics.json").read_text())
     # Obeyed, 50 full-torque commands swing the arm by tenths of a radian. On the wall clock a host freeze
     # costs tracking too: judged against what the host did.
     limit = 0.01 if metrics["host_freezes"] == 0 else 0.03
