@@ -18,9 +18,9 @@ from robot_controller import parameters as cfg
 from robot_controller.blocks import controller_log_line as log_line
 from robot_controller.blocks import spec
 from robot_controller.blocks.block import Log
-from robot_controller.blocks.controller_reports import LAW_STOPPED_EXIT_CODE, Levels, Reports, StartWaits
+from robot_controller.blocks.controller_reports import LAW_STOPPED_EXIT_CODE, Reports, StartWaits
 from robot_controller.blocks.controller_timing import Diagnostics, LoopTiming
-from robot_controller.blocks.values import Array, JointSample, check_joint_state, check_trajectory, tick_label
+from robot_controller.blocks.values import Array, JointSample, check_joint_state, brakes_label, check_trajectory, tick_label
 from robot_controller.core.controller import (
     ControllerConfig,
     JointController,
@@ -30,8 +30,7 @@ from robot_controller.core.controller import (
     law_config,
 )
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.laws import parameters as law_parameters
-from robot_controller.core.laws import registry
+from robot_controller.core.laws import law_parameters, registry
 from robot_controller.core.laws.containment import BLOCKED_S
 from robot_controller.parameters.builders import arm_model, model_overridden
 
@@ -42,8 +41,6 @@ GAIN_KEYS = frozenset({"controller_type", "lqr_q", "lqr_r", "kp", "ki", "kd", "c
 # After a failed law's stop on the wall clock, state goes on this long (s; the brakes engaging are recorded) before
 # the block asks to end. Where the world waits it ends at once: without commands the world's time stops.
 LAW_STOPPED_LINGER_S = 0.5
-#: The brakes' label: ``engaged:`` and why they hold (``start``, ``drive_timeout``, …).
-BRAKES_LABEL_PREFIX = "engaged:"
 
 MarginOf = Callable[[ControllerConfig], "int | None"]  # a configuration → its delay margin, control periods
 
@@ -118,7 +115,7 @@ class Controller:
         host may run it in a process of its own, ``nodes.pid_controller.designer``); in this thread without one.
         :param run_wait: on the wall clock, how long (s) the host has kept this thread from running so far (run-queue
         wait, steal: ``ros.loop_processes.thread_kept_s``), which a law's budget does not count; None: none known."""
-        self.log = Levels(log)
+        self.log = log
         self.world_waits = world_waits
         # The arm model: the URDF's, or the model_* values over it (read-only: fixed at start).
         self.dynamics = arm_model(params)
@@ -273,7 +270,7 @@ class Controller:
         if values.size != self.joint_count or not np.all(np.isfinite(values)):
             return
         engaged = bool(np.any(values > 0.5))
-        if self.world_waits and engaged and value.label == BRAKES_LABEL_PREFIX + "start":
+        if self.world_waits and engaged and value.label == brakes_label({"start"}):
             return
         self.controller.brakes(engaged)
 

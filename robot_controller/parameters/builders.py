@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.laws.parameters import PREFIX as LAW_PREFIX
+from robot_controller.core.laws.law_parameters import PREFIX as LAW_PREFIX
 from robot_controller.core.laws.pid import PidConfig
 from robot_controller.core.model import SensorConfig
 from robot_controller.parameters.schema import has, spec_of, world_waits

@@ -12,7 +12,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.laws import parameters as law_parameters
+from robot_controller.core.laws import law_parameters
 from robot_controller.core.model import joint_limits, urdf_velocity_limits
 from robot_controller.core.model.plant_variation import PlantVariation
 from robot_controller.parameters import law_params

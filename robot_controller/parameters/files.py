@@ -11,7 +11,7 @@ import yaml
 
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.laws import parameters as law_params
+from robot_controller.core.laws import law_parameters as law_params
 from robot_controller.parameters.schema import LOOP_WIDE, NODES, REPORTED, ROS_BUILTIN, SCHEMA, defaults, has, spec_of
 
 Params = dict[str, dict[str, Any]]

@@ -1,15 +1,14 @@
 """A law's declared parameters as ``pid_controller`` node parameters ``law.NAME``: which keys
 exist depends on ``controller_type``, so they are not in the schema; :func:`law_specs` makes
 one :class:`LawParamSpec` per declared parameter, checked by the law's own rules
-(:mod:`robot_controller.core.laws.parameters`). The nodes declare them and ``params`` lists them."""
+(:mod:`robot_controller.core.laws.law_parameters`). The nodes declare them and ``params`` lists them."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Any
 
-from robot_controller.core.laws import Parameter, registry
-from robot_controller.core.laws import parameters as law_parameters
+from robot_controller.core.laws import Parameter, law_parameters, registry
 from robot_controller.parameters.spec import ParamSpec
 
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws.interface import Arm, ControlLaw, Reference, State
-from robot_controller.core.laws.parameters import values as parameter_values
+from robot_controller.core.laws.law_parameters import values as parameter_values
 from robot_controller.core.laws.registry import resolve
 
 # Consecutive updates over the budget that make a fault.

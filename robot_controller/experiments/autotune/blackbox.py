@@ -15,8 +15,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller.blocks.wiring import LoopResult
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.laws import parameters as law_parameters
-from robot_controller.core.laws import registry
+from robot_controller.core.laws import law_parameters, registry
 from robot_controller.core.metrics import WARMUP_S
 from robot_controller.experiments.autotune.margins import MAX_TIME_CONSTANT_S, MIN_DELAY_PERIODS, MIN_GAIN_MARGIN_DB
 from robot_controller.experiments.autotune.search import FAILED, ROBUST, SEED, UNCHECKED, SearchPlan, SearchResult

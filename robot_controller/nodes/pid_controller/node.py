@@ -16,7 +16,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from robot_controller import parameters as cfg
 from robot_controller.blocks import registry, spec
 from robot_controller.blocks.block import Block
-from robot_controller.core.laws import parameters as law_parameters
+from robot_controller.core.laws import law_parameters
 from robot_controller.nodes.pid_controller import live_gains
 from robot_controller.nodes.pid_controller.designer import Designer
 from robot_controller.parameters import law_params

@@ -125,7 +125,7 @@ def test_a_declared_default_outside_its_own_range_is_the_laws_bug():
     class Bad(ControlLaw):
         parameters = (Parameter("gain", 5.0, "", minimum=10.0),)
 
-    from robot_controller.core.laws import parameters
+    from robot_controller.core.laws import law_parameters as parameters
 
     with pytest.raises(ConfigError, match="law.gain: must be >= 10"):
         parameters.values(Bad, {}, 1)
