@@ -21,8 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robot_controller.blocks import spec
-from robot_controller.blocks.brakes import BRAKES_LABEL_PREFIX
-from robot_controller.blocks.values import Array, JointSample
+from robot_controller.blocks.values import Array, JointSample, brake_reasons
 from robot_controller.core.controller import state_layout
 
 #: Controller states that end a goal: the loop is stopping or stopped, whatever the reference does.
@@ -45,14 +44,6 @@ class Estimate:
     reference: np.ndarray
     measured: np.ndarray
     status: str
-
-
-def brake_reasons(label: str) -> set[str] | None:
-    """Why the brakes hold, as their state's label says (None: it does not say)."""
-    if not label.startswith(BRAKES_LABEL_PREFIX):
-        return None
-    said = label[len(BRAKES_LABEL_PREFIX) :]
-    return set(said.split(",")) if said else set()
 
 
 class ArmWatch:

@@ -17,6 +17,11 @@ class Log(Protocol):
     def warn(self, key: str, message: str) -> None:
         """A warning, rate-limited per ``key`` by the host (a flood of bad messages says one line)."""
 
+    def warning(self, message: str) -> None:
+        """A warning said every time."""
+
+    def error(self, message: str) -> None: ...
+
 
 class Block(Protocol):
     #: the ports it reads, by ``blocks.spec`` name
@@ -47,7 +52,7 @@ class Block(Protocol):
 
 
 class Lines:
-    """A ``Log`` that keeps every line (in process; warnings once per key)."""
+    """A ``Log`` that keeps every line (in process; warnings once per key, or per line)."""
 
     def __init__(self) -> None:
         self.lines: list[str] = []
@@ -60,3 +65,9 @@ class Lines:
         if key not in self._warned:
             self._warned.add(key)
             self.lines.append(message)
+
+    def warning(self, message: str) -> None:
+        self.warn(message, message)
+
+    def error(self, message: str) -> None:
+        self.warn(message, message)

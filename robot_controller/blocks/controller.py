@@ -20,7 +20,14 @@ from robot_controller.blocks import spec
 from robot_controller.blocks.block import Log
 from robot_controller.blocks.controller_reports import LAW_STOPPED_EXIT_CODE, Reports, StartWaits
 from robot_controller.blocks.controller_timing import Diagnostics, LoopTiming
-from robot_controller.blocks.values import Array, JointSample, check_joint_state, brakes_label, check_trajectory, tick_label
+from robot_controller.blocks.values import (
+    Array,
+    JointSample,
+    brakes_label,
+    check_joint_state,
+    check_trajectory,
+    tick_label,
+)
 from robot_controller.core.controller import (
     ControllerConfig,
     JointController,
@@ -273,13 +280,6 @@ class Controller:
         if self.world_waits and engaged and value.label == brakes_label({"start"}):
             return
         self.controller.brakes(engaged)
-
-    def reference_ready(self, t_s: float) -> bool:
-        """Whether every reference sample due by ``t_s`` is in."""
-        return self.controller.reference_ready(t_s)
-
-    def has_reference(self) -> bool:
-        return self.controller.has_reference()
 
     # -- the tick --------------------------------------------------------------------------------------------------
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
@@ -26,28 +26,6 @@ SATURATION_SAID_AFTER_S = 0.2
 ADAPTATION_SAID_EVERY_S = 1.0
 #: The exit code of a controller whose own law failed and whose stop is over (the launcher names it).
 LAW_STOPPED_EXIT_CODE = 3
-
-
-class LevelledLog(Protocol):
-    """A ``Log`` with the levels a controller's lines need: a warning and an error said every time."""
-
-    def info(self, message: str) -> None: ...
-
-    def warn(self, key: str, message: str) -> None: ...
-
-    def warning(self, message: str) -> None: ...
-
-    def error(self, message: str) -> None: ...
-
-
-class Levels:
-    """``log`` with ``warning`` and ``error``: its own if it has them, else its rate-limited ``warn`` keyed by the
-    line (an in-process ``blocks.block.Lines`` keeps each distinct line once)."""
-
-    def __init__(self, log: Log) -> None:
-        self.info, self.warn = log.info, log.warn
-        self.warning = getattr(log, "warning", None) or (lambda message: log.warn(message, message))
-        self.error = getattr(log, "error", None) or (lambda message: log.warn(message, message))
 
 
 class SaturationWatch:
@@ -115,7 +93,7 @@ class Reports:
 
     def __init__(
         self,
-        log: LevelledLog,
+        log: Log,
         controller: JointController,
         joint_names: Sequence[str],
         joint_units: Sequence[str],

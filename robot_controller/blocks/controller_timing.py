@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from robot_controller.blocks.controller_reports import LevelledLog
+from robot_controller.blocks.block import Log
 from robot_controller.core import metrics
 from robot_controller.core.controller import JointController
 
@@ -36,7 +36,7 @@ class LoopTiming:
     """How late and how regular the controller's loop is; ``world_waits``: the world waits for each command, a tick
     takes no time on its clock and the drive's receipts say nothing."""
 
-    def __init__(self, controller: JointController, log: LevelledLog, world_waits: bool) -> None:
+    def __init__(self, controller: JointController, log: Log, world_waits: bool) -> None:
         self.controller = controller
         self.log = log
         self.world_waits = world_waits

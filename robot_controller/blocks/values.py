@@ -135,6 +135,23 @@ def labelled_tick_s(label: str) -> float | None:
         return None
 
 
+#: The brakes' label: ``engaged:`` and why they hold, comma-separated (``start``, ``drive_timeout``, ``requested``,
+#: ``estop``; nothing when released).
+BRAKES_LABEL_PREFIX = "engaged:"
+
+
+def brakes_label(reasons: set[str]) -> str:
+    return BRAKES_LABEL_PREFIX + ",".join(sorted(reasons))
+
+
+def brake_reasons(label: str) -> set[str] | None:
+    """Why the brakes hold, as their label says (None: it does not say)."""
+    if not label.startswith(BRAKES_LABEL_PREFIX):
+        return None
+    said = label[len(BRAKES_LABEL_PREFIX) :]
+    return set(said.split(",")) if said else set()
+
+
 @dataclass(frozen=True)
 class WaypointRequest:
     """A ``JointTrajectory`` as the planner takes it: joints, then per point its time and values (empty rows where a

@@ -1,6 +1,6 @@
 """The world (the graph's ``simulator``, the Gazebo role): MuJoCo steps the arm from its URDF at ``physics_rate_hz`` on
 the effort in force (port ``effort``: clamped to the URDF's limits, ignored while the e-stop holds), with its holding
-brakes (``blocks.brakes``) and an external disturbance (``blocks.external_torque``); it writes its true state (port
+brakes (:class:`Brakes`) and an external disturbance (``blocks.external_torque``); it writes its true state (port
 ``true_state``, stamped with its physics time, the effort applied), the brakes' state and the disturbance applied.
 
 The world never decides when physics runs: its host's clock does (``ros.clocks``: the wall clock, the paced world,
@@ -18,9 +18,8 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.blocks import spec
 from robot_controller.blocks.block import Log
-from robot_controller.blocks.brakes import Brakes
 from robot_controller.blocks.external_torque import ExternalTorque
-from robot_controller.blocks.values import Array, JointSample, check_effort
+from robot_controller.blocks.values import Array, JointSample, brakes_label, check_effort
 from robot_controller.core.model import MujocoPlant, PlantVariation, steps_per_period
 
 #: What the world writes, in order: (port, value) pairs.
@@ -28,6 +27,37 @@ Written = list[tuple[str, Any]]
 
 #: Parameters read once: a change applies on restart.
 ON_RESTART = {"physics_rate_hz", "publish_rate_hz", "initial_position", "control_rate_hz"}
+
+
+class Brakes:
+    """The holding brakes: on before the first effort (``start``), on the drive's request (``requested``), on the
+    e-stop (``estop``) and when efforts stop coming (``drive_timeout``: the loop's clock judges when); engaged on every
+    joint at once while any reason holds. A braked joint gets no actuator torque and is held by its brake's dry
+    friction of ``holding_torque_nm`` (N·m)."""
+
+    def __init__(self, plant: MujocoPlant, holding_torque_nm: float) -> None:
+        self.plant = plant
+        self.joint_count = len(plant.joint_names)
+        self.holding_torque_nm = holding_torque_nm
+        self.reasons: set[str] = {"start"}
+        plant.set_brakes(np.ones(self.joint_count, dtype=bool), holding_torque_nm)
+
+    @property
+    def engaged(self) -> bool:
+        return bool(self.reasons)
+
+    def set(self, reason: str, on: bool) -> bool:
+        """Add or remove one reason; whether the brakes engaged or released by it."""
+        before = self.engaged
+        (self.reasons.add if on else self.reasons.discard)(reason)
+        if self.engaged == before:
+            return False
+        self.plant.set_brakes(np.full(self.joint_count, self.engaged), self.holding_torque_nm)
+        return True
+
+    def value(self) -> Array:
+        """Port ``brakes``: 1 per engaged joint, the reasons in the label."""
+        return Array(np.full(self.joint_count, 1.0 if self.reasons else 0.0), brakes_label(self.reasons))
 
 
 class World:
@@ -109,7 +139,7 @@ class World:
         return "estop" in self.brakes.reasons
 
     def braked_for(self, reason: str) -> bool:
-        """Whether ``reason`` (``blocks.brakes.REASONS``) holds the brakes."""
+        """Whether ``reason`` (:class:`Brakes`) holds the brakes."""
         return reason in self.brakes.reasons
 
     def position(self) -> np.ndarray:

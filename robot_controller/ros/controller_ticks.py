@@ -262,7 +262,7 @@ class PairedTicks:
     def try_tick(self) -> None:
         """Tick if the measured tick's reference sample is in."""
         tick_s = self.tick_s
-        if tick_s is None or not self.block.reference_ready(tick_s):
+        if tick_s is None or not self.block.controller.reference_ready(tick_s):
             return
         self.tick_s = None
         self._tick(tick_s)
@@ -281,7 +281,7 @@ class PairedTicks:
                 self.tick_without_reading()
             return
         block = self.block
-        if not block.has_reference():
+        if not block.controller.has_reference():
             # Nothing to fall back on before the first sample: wait (the launcher ends a stalled run).
             block.waits.waiting(
                 "reference",

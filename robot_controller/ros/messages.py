@@ -18,11 +18,12 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from trajectory_msgs.msg import JointTrajectory
 
-from robot_controller.blocks.brakes import BRAKES_LABEL_PREFIX, brakes_label  # noqa: F401 (the world writes it)
+from robot_controller.blocks import values
 from robot_controller.blocks.values import (  # noqa: F401 (the checks: the shell checks with them too)
     Array,
     JointSample,
     WaypointRequest,
+    brakes_label,
     check_effort,
     check_joint_state,
     check_trajectory,
@@ -35,10 +36,7 @@ from robot_controller.blocks.values import (  # noqa: F401 (the checks: the shel
 
 def brake_reasons(msg: Float64MultiArray) -> set[str] | None:
     """Why ``msg``'s brakes hold, as its label says (None: it does not say)."""
-    if not msg.layout.dim or not msg.layout.dim[0].label.startswith(BRAKES_LABEL_PREFIX):
-        return None
-    said = msg.layout.dim[0].label[len(BRAKES_LABEL_PREFIX) :]
-    return set(said.split(",")) if said else set()
+    return values.brake_reasons(msg.layout.dim[0].label) if msg.layout.dim else None
 
 
 def stamp_to_s(stamp: Any) -> float:

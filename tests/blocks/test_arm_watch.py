@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 
 from robot_controller.blocks.arm_watch import FIRST_HEARD_S, STALE_PERIODS, ArmWatch
-from robot_controller.blocks.brakes import brakes_label
-from robot_controller.blocks.values import Array, JointSample
+from robot_controller.blocks.values import Array, JointSample, brakes_label
 from robot_controller.core.controller import state_layout
 
 PERIOD_S = 0.01  # the controller's, 100 Hz; the planner's too
