@@ -11,16 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-#: The QoS classes a port may name; ``ros.qos.profile`` maps each to its profile (docs/design.md's QoS table).
-QOS_CLASSES = (
-    "control",  # reliable, keep 1000: every writer by default, and readers that must keep every message
-    "latest",  # reliable, keep 1: a reader acting on the newest message only
-    "loop",  # a periodic loop topic's acting reader: ``latest`` on the wall clock, every message where the world waits
-    "readings",  # the sensor's readings: ``loop``, transient local where the world waits (a late reader gets tick 0)
-    "latched",  # reliable, transient local, keep 1: a state a late reader gets at once
-    "readings_writer",  # the sensor's writer: ``control``, transient local where the world waits
-    "clock",  # reliable, transient local, keep 1000: the simulator's ticks
-)
+#: The QoS classes a port may name; ``ros.qos.profile`` maps each to its profile in each clock mode, and says why.
+QOS_CLASSES = ("control", "latest", "loop", "readings", "latched", "readings_writer", "clock")
 
 #: When the recorder records a port.
 NEVER, ALWAYS, SIM_TIME = "never", "always", "sim_time"
@@ -42,7 +34,7 @@ class Port:
     writer_qos: str = "control"  #: the QoS class of its writer
     partition: bool = False  #: in the run's DDS partition (a foreign writer is never heard)
     public: bool = False  #: in the partition, and written in the default one too (any ROS client may hear it)
-    recorded: str = NEVER  #: when the recorder records it (:data:`ALWAYS`, :data:`SIM_TIME`: on sim time only)
+    recorded: str = ALWAYS  #: when the recorder records it (:data:`SIM_TIME`: on sim time only; :data:`NEVER`)
     scored: bool = False  #: read back from the bag by scoring
 
     def topic_for(self, controller_name: str) -> str:
@@ -79,12 +71,11 @@ _BOOL = "std_msgs/msg/Bool"
 _JOINT_TRAJECTORY = "trajectory_msgs/msg/JointTrajectory"
 _STRING = "std_msgs/msg/String"
 _CLOCK = "rosgraph_msgs/msg/Clock"
+_DIAGNOSTICS = "diagnostic_msgs/msg/DiagnosticArray"
 
 # The loop.
 #: ``[q…, q̇…, q̈…, time_s]``, the reference (the tutorial's ``[q…, q̇…]`` accepted too)
-REFERENCE = Port(
-    "reference", "/trajectory", _FLOATS, "trajectory_planner", "loop", partition=True, recorded=ALWAYS, scored=True
-)
+REFERENCE = Port("reference", "/trajectory", _FLOATS, "trajectory_planner", "loop", partition=True, scored=True)
 #: the sensor's noisy readings, stamped with the sample time
 READING = Port(
     "reading",
@@ -95,110 +86,72 @@ READING = Port(
     "readings_writer",
     partition=True,
     public=True,
-    recorded=ALWAYS,
     scored=True,
 )
 #: the controller's torque, N·m per joint (its tick's stamp in the layout's first dimension)
-COMMAND = Port("command", "/joint_commands", _FLOATS, "pid_controller", "loop", partition=True, recorded=ALWAYS)
+COMMAND = Port("command", "/joint_commands", _FLOATS, "pid_controller", "loop", partition=True)
 #: the drive's torque applied to the world, N·m per joint
-EFFORT = Port("effort", "/sim/effort", _FLOATS, "motor_node", "loop", partition=True, recorded=ALWAYS)
+EFFORT = Port("effort", "/sim/effort", _FLOATS, "motor_node", "loop", partition=True)
 #: the world's true state (q, q̇, applied effort), stamped with its physics time
-TRUE_STATE = Port(
-    "true_state", "/sim/joint_states", _JOINT_STATE, "simulator", "loop", partition=True, recorded=ALWAYS, scored=True
-)
+TRUE_STATE = Port("true_state", "/sim/joint_states", _JOINT_STATE, "simulator", "loop", partition=True, scored=True)
 #: every term of the controller's tick (``core.controller.state_layout``)
-STATE = Port("state", "/controller/state", _FLOATS, "pid_controller", partition=True, recorded=ALWAYS, scored=True)
+STATE = Port("state", "/controller/state", _FLOATS, "pid_controller", partition=True, scored=True)
 
 # Telemetry and safety.
 #: the controller's timing over the last second
-DIAGNOSTICS = Port(
-    "diagnostics",
-    "/diagnostics",
-    "diagnostic_msgs/msg/DiagnosticArray",
-    "pid_controller",
-    partition=True,
-    recorded=ALWAYS,
-)
+DIAGNOSTICS = Port("diagnostics", "/diagnostics", _DIAGNOSTICS, "pid_controller", partition=True)
 #: rows of ``[receipt_time_s, command…]``, once a second
 COMMAND_RECEIPTS = Port(
-    "command_receipts", "/motor/command_receipts", _FLOATS, "motor_node", partition=True, recorded=ALWAYS, scored=True
+    "command_receipts", "/motor/command_receipts", _FLOATS, "motor_node", partition=True, scored=True
 )
 #: 1 = a joint's brake engaged; why, in the label (``engaged:drive_timeout``)
-BRAKES = Port("brakes", "/sim/brakes", _FLOATS, "simulator", "latest", partition=True, recorded=ALWAYS, scored=True)
+BRAKES = Port("brakes", "/sim/brakes", _FLOATS, "simulator", "latest", partition=True, scored=True)
 #: the drive's brake request (a state, latched)
-BRAKE_REQUEST = Port(
-    "brake_request", "/sim/brake", _BOOL, "motor_node", "latched", "latched", partition=True, recorded=ALWAYS
-)
+BRAKE_REQUEST = Port("brake_request", "/sim/brake", _BOOL, "motor_node", "latched", "latched", partition=True)
 #: true = stop; outside every partition: a stop is heard from anyone
-ESTOP = Port("estop", "/estop", _BOOL, ANYONE, "latest", recorded=ALWAYS)
+ESTOP = Port("estop", "/estop", _BOOL, ANYONE, "latest")
 #: ``[torque_nm…, duration_s]``, an external torque asked for
-DISTURBANCE = Port("disturbance", "/sim/disturbance", _FLOATS, ANYONE, "latest", partition=True, recorded=ALWAYS)
+DISTURBANCE = Port("disturbance", "/sim/disturbance", _FLOATS, ANYONE, "latest", partition=True)
 #: ``[torque_nm…, time_s]`` while an external torque acts, one zero row after
 DISTURBANCE_APPLIED = Port(
-    "disturbance_applied",
-    "/sim/disturbance_applied",
-    _FLOATS,
-    "simulator",
-    partition=True,
-    recorded=ALWAYS,
-    scored=True,
+    "disturbance_applied", "/sim/disturbance_applied", _FLOATS, "simulator", partition=True, scored=True
 )
 #: the sim's time, as fast as it goes (``--sim-time``) and in the paced world (clients on ``use_sim_time`` hear it)
 CLOCK = Port("clock", "/clock", _CLOCK, "simulator", "latched", "clock", partition=True, public=True, recorded=SIM_TIME)
 #: sim time: the tick the recorder has taken (the simulator holds while it lags)
-RECORDER_CLOCK = Port("recorder_clock", "/recorder/clock", _CLOCK, "recorder", "clock", "clock")
+RECORDER_CLOCK = Port("recorder_clock", "/recorder/clock", _CLOCK, "recorder", "clock", "clock", recorded=NEVER)
 
 # The arm's face to ROS clients.
 #: a waypoint trajectory replacing the planner's motion, in the run's partition (the project's tools)
 WAYPOINTS = Port(
-    "waypoints",
-    "/trajectory_planner/joint_trajectory",
-    _JOINT_TRAJECTORY,
-    ANYONE,
-    "latest",
-    partition=True,
-    recorded=ALWAYS,
+    "waypoints", "/trajectory_planner/joint_trajectory", _JOINT_TRAJECTORY, ANYONE, "latest", partition=True
 )
 #: the same, as JointTrajectoryController's topic, outside every partition
 CONTROLLER_WAYPOINTS = Port(
-    "controller_waypoints", "/{controller_name}/joint_trajectory", _JOINT_TRAJECTORY, ANYONE, "latest"
+    "controller_waypoints", "/{controller_name}/joint_trajectory", _JOINT_TRAJECTORY, ANYONE, "latest", recorded=NEVER
 )
 #: the arm's URDF, latched (as robot_state_publisher's)
-ROBOT_DESCRIPTION = Port("robot_description", "/robot_description", _STRING, "sensor_node", "latched", "latched")
+ROBOT_DESCRIPTION = Port(
+    "robot_description", "/robot_description", _STRING, "sensor_node", "latched", "latched", recorded=NEVER
+)
 #: every node's log lines (rclpy's): where a rejected goal's reason is read back
-ROSOUT = Port("rosout", "/rosout", "rcl_interfaces/msg/Log", ANYONE)
+ROSOUT = Port("rosout", "/rosout", "rcl_interfaces/msg/Log", ANYONE, recorded=NEVER)
 
 # The launchers' clock exchange across hosts (``nodes.graph_watch``).
-CLOCK_PROBE_REQUEST = Port("clock_probe_request", "/clock_probe/request", _STRING, "graph_watch", partition=True)
-CLOCK_PROBE_REPLY = Port("clock_probe_reply", "/clock_probe/reply", _STRING, "graph_watch", partition=True)
+CLOCK_PROBE_REQUEST = Port(
+    "clock_probe_request", "/clock_probe/request", _STRING, "graph_watch", partition=True, recorded=NEVER
+)
+CLOCK_PROBE_REPLY = Port(
+    "clock_probe_reply", "/clock_probe/reply", _STRING, "graph_watch", partition=True, recorded=NEVER
+)
 
 #: Bags from before the command receipts: the motor's latency, s (read if there, written no more).
-LEGACY_COMMAND_LATENCY = Port("command_latency", "/motor/command_latency", _FLOATS, "motor_node", scored=True)
-
-PORTS = (
-    REFERENCE,
-    READING,
-    COMMAND,
-    EFFORT,
-    TRUE_STATE,
-    STATE,
-    DIAGNOSTICS,
-    COMMAND_RECEIPTS,
-    BRAKES,
-    BRAKE_REQUEST,
-    ESTOP,
-    DISTURBANCE,
-    DISTURBANCE_APPLIED,
-    WAYPOINTS,
-    CLOCK,
-    RECORDER_CLOCK,
-    CONTROLLER_WAYPOINTS,
-    ROBOT_DESCRIPTION,
-    ROSOUT,
-    CLOCK_PROBE_REQUEST,
-    CLOCK_PROBE_REPLY,
-    LEGACY_COMMAND_LATENCY,
+LEGACY_COMMAND_LATENCY = Port(
+    "command_latency", "/motor/command_latency", _FLOATS, "motor_node", scored=True, recorded=NEVER
 )
+
+#: Every port, in the order declared.
+PORTS = tuple(value for value in tuple(globals().values()) if isinstance(value, Port))
 
 #: the simulator's e-stop button (true = stop), as ``robot-controller estop`` presses it
 ESTOP_SERVICE = Service("estop_button", "/simulator/estop", "std_srvs/srv/SetBool", "simulator")
