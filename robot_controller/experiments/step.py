@@ -47,15 +47,29 @@ def step_figures(
     offset: float | np.ndarray = 0.0,
     after_s: float | None = STEP_AFTER_S,
 ) -> dict[str, Any]:
-    """Step-response figures on the TRUE angle from the tick where the reference starts to move, over the
-    ``after_s`` s after it (None: to the end; a recording runs on while the nodes stop, a different time each
-    run); on a chain, the worst joint's, with ``<figure>_per_joint``.
+    """:func:`tick_step_figures` of a recording."""
+    s = recording.state
+    return tick_step_figures(
+        s["time_s"], s["reference"], recording.true_at_ticks(), s["command"], amplitude, offset, after_s
+    )
+
+
+def tick_step_figures(
+    t: np.ndarray,
+    reference: np.ndarray,
+    true: np.ndarray,
+    command: np.ndarray,
+    amplitude: float,
+    offset: float | np.ndarray = 0.0,
+    after_s: float | None = None,
+) -> dict[str, Any]:
+    """Step-response figures on the TRUE angle at each tick, from the tick where the reference starts to move,
+    over the ``after_s`` s after it (None: to the end; a recording runs on while the nodes stop, a different
+    time each run); on a chain, the worst joint's, with ``<figure>_per_joint``.
 
     :param amplitude: rad, every joint's step from its ``offset`` (rad, one or one per joint)
+    :raises ValueError: the run holds no step
     """
-    s = recording.state
-    t = s["time_s"]
-    reference = s["reference"]
     joint_count = reference.shape[1]
     offsets = np.broadcast_to(np.asarray(offset, dtype=float), (joint_count,))
     # The step starts after the last sample at rest (the reference may first blend in from where the joint was).
@@ -65,7 +79,6 @@ def step_figures(
     if at_rest[-1] == len(t) - 1:
         raise ValueError("the reference never moved: no step in this recording")
     step_time = t[at_rest[-1]]
-    true = recording.true_at_ticks()
     ok = np.all(np.isfinite(true), axis=1)
     if after_s is not None:
         ok &= t < step_time + after_s - 1e-9
@@ -76,7 +89,7 @@ def step_figures(
             initial=offsets[j],
             target=offsets[j] + amplitude,
             step_time_s=step_time,
-            torque=s["command"][ok & (t >= step_time), j],
+            torque=command[ok & (t >= step_time), j],
         )
         for j in range(joint_count)
     ]

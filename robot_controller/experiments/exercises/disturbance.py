@@ -11,7 +11,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.experiments import laws
-from robot_controller.experiments.compare.contenders import Contender
+from robot_controller.experiments.compare import Contender
 from robot_controller.experiments.reporting import Progress, cells, pyplot, save, table, write_report, write_results
 from robot_controller.experiments.runs import SEED
 from robot_controller.experiments.step import run_and_score
@@ -53,7 +53,7 @@ def law_contender(spec: str) -> Contender:
 def contender_params(contender: Contender, seed: int, duration_s: float, torque_nm: float = TORQUE_NM) -> cfg.Params:
     push = {"disturbance_torque_nm": [torque_nm], "disturbance_start_s": START_S, "disturbance_duration_s": duration_s}
     run = {"sensor_node": {"seed": seed}, "simulator": push}
-    return cfg.merge(cfg.load_stack(contender.preset), {"pid_controller": contender.overrides}, run)
+    return cfg.merge(contender.params(), run)
 
 
 def deviation_figures(

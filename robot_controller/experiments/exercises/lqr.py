@@ -10,7 +10,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.core.laws import robustness
-from robot_controller.experiments.compare.contenders import Contender
+from robot_controller.experiments.compare import Contender
 from robot_controller.experiments.exercises.lqr_report import plot, report_text
 from robot_controller.experiments.loop_model import law_gains, plant_loop
 from robot_controller.experiments.reporting import Progress, write_report, write_results
@@ -35,10 +35,6 @@ def _plan(quick: bool) -> dict[str, Any]:
 
 def steps(quick: bool = False) -> int:
     return 2 * len(_plan(quick)["contenders"])
-
-
-def contender_params(contender: Contender) -> cfg.Params:
-    return cfg.merge(cfg.load_stack(contender.preset), {"pid_controller": contender.overrides})
 
 
 def loop_analysis(params: cfg.Params) -> dict[str, Any]:
@@ -67,7 +63,7 @@ def run(out: Path, *, quick: bool = False, progress: Progress = print, seed: int
     sines: list[Response] = []
     analyses: dict[str, dict[str, Any]] = {}
     for contender in plan["contenders"]:
-        params = contender_params(contender)
+        params = contender.params()
         analysis = loop_analysis(params)
         analyses[contender.name] = analysis
         name = contender.name
