@@ -16,9 +16,9 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.batch import ArmConstants, run_batch
+from robot_controller.core.batch import run_batch
 from robot_controller.core.laws.pid import PidConfig
-from robot_controller.core.model import ArmDynamics
+from robot_controller.core.model import ArmDynamics, JointArmModel
 from robot_controller.core.reference import make_trajectory
 from robot_controller.experiments import inprocess
 from robot_controller.runner import forking, launcher, plan
@@ -142,7 +142,7 @@ def batch_sim_s_per_s(batch: int, duration_s: float) -> tuple[float, float]:
     params = cfg.load_stack()
     start = time.perf_counter()
     rms = run_batch(
-        constants=ArmConstants.from_dynamics(ArmDynamics(resources.default_urdf())),
+        model=JointArmModel.over_urdf(ArmDynamics(resources.default_urdf())),
         pid_config=pid,
         trajectory=make_trajectory("sine", joint_count=1),
         sensor=cfg.sensor_config(params["sensor_node"]),

@@ -1,16 +1,15 @@
-"""An arm model from per-joint parameters, for when the URDF is not the arm.
+"""An arm model from per-joint parameters, for when the URDF is not the arm, and for a batch of arms.
 
-The controller's model-based parts ask an arm model ``torque(q, v, a)``, ``gravity(q)``,
-``acceleration(q, v, tau)``, ``predict(q, v, tau, horizon_s)``, ``mass_matrix(q)``, ``damping``,
-``joint_names`` and ``effort_limit``: :class:`~robot_controller.core.model.ArmDynamics` answers
-from the URDF through MuJoCo, :class:`JointArmModel` for independent revolute joints, each
+:class:`JointArmModel` answers what the controller's model-based parts ask of
+:class:`~robot_controller.core.model.ArmDynamics` (``torque``, ``gravity``, ``acceleration``,
+``predict``, ``mass_matrix``, ``damping``, ``joint_names``, ``effort_limit``) for independent
+revolute joints, each
 
     tau = I·a + b·v + f_c·sign(v) + G·cos(q)
 
 (inertia kg·m², viscous damping N·m·s/rad, Coulomb friction N·m, gravity torque N·m with the
-link horizontal at q = 0). Exact on one joint; on a chain it leaves out the coupling. The values
-come from identification through the ``pid_controller`` parameters ``model_*``; any left empty
-is the URDF's.
+link horizontal at q = 0). Exact on one joint; on a chain it leaves out the coupling. Its arrays
+broadcast: ``(batch, joints)`` states step many arms at once (:mod:`robot_controller.core.batch`).
 """
 
 from __future__ import annotations
@@ -24,22 +23,16 @@ from robot_controller.core.model.arm_dynamics import step_count
 
 # The model parameters, in the order of the regression (identification) and of the parameters.
 PARAMETERS = ("inertia", "damping", "coulomb_friction", "gravity_torque")
+UNITS = {"inertia": "kg·m²", "damping": "N·m·s/rad", "coulomb_friction": "N·m", "gravity_torque": "N·m"}
 
 
 class JointArmModel:
-    """Independent revolute joints with identified (or given) inertia, damping,
-    Coulomb friction and gravity torque; the same interface the controller
-    uses from :class:`~robot_controller.core.model.ArmDynamics`.
+    """Independent revolute joints with identified (or given) inertia, damping (>= 0), Coulomb friction (>= 0)
+    and gravity torque (``gravity_torque``·cos q), one value per joint of ``joint_names``.
 
-    :param joint_names: the joints, in order (the URDF's)
-    :param inertia: per joint, kg·m² (> 0)
-    :param damping: per joint, N·m·s/rad (>= 0)
-    :param coulomb_friction: per joint, N·m (>= 0)
-    :param gravity_torque: per joint, N·m: gravity torque = gravity_torque·cos(q)
-    :param effort_limit: per joint, N·m: forward dynamics limit the torque to it,
-        as the drive does (infinite for none)
-    :param source: per parameter, where its values came from (for the log), e.g.
-        ``{"inertia": "parameter", "damping": "URDF"}``
+    :param effort_limit: per joint, N·m: ``acceleration`` and ``predict`` limit the torque to it, as the drive
+        does (infinite for none)
+    :param source: per parameter, where its values came from (for the log), e.g. ``{"inertia": "parameter"}``
     """
 
     def __init__(
@@ -53,7 +46,7 @@ class JointArmModel:
         source: dict[str, str] | None = None,
     ) -> None:
         self.joint_names = list(joint_names)
-        self.joint_units = ["rad"] * len(self.joint_names)  #: revolute joints
+        self.joint_units = ["rad"] * len(self.joint_names)
         n = len(self.joint_names)
 
         def joints(name: str, values: np.ndarray) -> np.ndarray:
@@ -63,14 +56,14 @@ class JointArmModel:
             return array
 
         self.inertia = joints("inertia", inertia)
-        self._damping = joints("damping", damping)
+        self.damping = joints("damping", damping)
         self.coulomb_friction = joints("coulomb_friction", coulomb_friction)
         self.gravity_torque = joints("gravity_torque", gravity_torque)
         if np.any(self.inertia <= 0):
             raise ConfigError(f"inertia: must be > 0 kg·m², got {self.inertia.tolist()}")
-        if np.any(self._damping < 0) or np.any(self.coulomb_friction < 0):
+        if np.any(self.damping < 0) or np.any(self.coulomb_friction < 0):
             raise ConfigError(
-                f"damping and coulomb_friction: must be >= 0, got {self._damping.tolist()} "
+                f"damping and coulomb_friction: must be >= 0, got {self.damping.tolist()} "
                 f"and {self.coulomb_friction.tolist()}"
             )
         self.effort_limit = (
@@ -79,80 +72,47 @@ class JointArmModel:
         self.source = dict(source or {name: "given" for name in PARAMETERS})
 
     @classmethod
-    def over_urdf(
-        cls,
-        dynamics,
-        *,
-        inertia: np.ndarray | None = None,
-        damping: np.ndarray | None = None,
-        coulomb_friction: np.ndarray | None = None,
-        gravity_torque: np.ndarray | None = None,
-    ) -> JointArmModel:
-        """The model with the given values, and the URDF's (``dynamics``, an
-        :class:`~robot_controller.core.model.ArmDynamics`) for those left None:
-        the inertia and gravity torque with every joint at 0 (the diagonal of
-        the mass matrix; gravity's torque there, the link horizontal), the
-        joint's damping and friction (``<dynamics damping friction>``).
-        Joint names and effort limits are always the URDF's."""
+    def over_urdf(cls, dynamics, **given: np.ndarray | None) -> JointArmModel:
+        """The model with the values ``given`` (by :data:`PARAMETERS`' names), the URDF's (``dynamics``, an
+        :class:`~robot_controller.core.model.ArmDynamics`) for those left out or None: the inertia and gravity
+        torque with every joint at 0 (the diagonal of the mass matrix; the link horizontal), the joint's damping
+        and friction. Joint names and effort limits are always the URDF's."""
         n = len(dynamics.joint_names)
         zero = np.zeros(n)
         dofs = dynamics.model.jnt_dofadr[:n]
         urdf = {
             "inertia": lambda: np.diag(dynamics.mass_matrix(zero)),
-            "damping": lambda: np.asarray(dynamics.damping, dtype=float)[dofs],
+            "damping": lambda: dynamics.damping[dofs],
             "coulomb_friction": lambda: dynamics.model.dof_frictionloss[dofs].copy(),
-            "gravity_torque": lambda: np.asarray(dynamics.gravity(zero), dtype=float)[dofs],
+            "gravity_torque": lambda: dynamics.gravity(zero)[dofs],
         }
-        given = {
-            "inertia": inertia,
-            "damping": damping,
-            "coulomb_friction": coulomb_friction,
-            "gravity_torque": gravity_torque,
-        }
-        values = {name: urdf[name]() if given[name] is None else given[name] for name in PARAMETERS}
-        source = {name: "URDF" if given[name] is None else "parameter" for name in PARAMETERS}
+        values = {name: urdf[name]() if given.get(name) is None else given[name] for name in PARAMETERS}
+        source = {name: "URDF" if given.get(name) is None else "parameter" for name in PARAMETERS}
         return cls(dynamics.joint_names, effort_limit=dynamics.effort_limit, source=source, **values)
-
-    # --- the interface the controller uses ----------------------------------------------
-
-    @property
-    def damping(self) -> np.ndarray:
-        """Viscous joint damping, N·m·s/rad."""
-        return self._damping.copy()
 
     def mass_matrix(self, position: np.ndarray) -> np.ndarray:
         """Diagonal: the joints are independent."""
         return np.diag(self.inertia)
 
     def gravity(self, position: np.ndarray) -> np.ndarray:
-        """Gravity's torque on each joint at ``position`` (rad), N·m (the torque that holds the arm there)."""
-        return self.gravity_torque * np.cos(np.asarray(position, dtype=float))
+        """The torque (N·m) that holds the arm at ``position`` (rad)."""
+        return self.gravity_torque * np.cos(position)
 
     def torque(self, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         """Inverse dynamics: the torque (N·m) that gives ``acceleration`` (rad/s²) at ``(position, velocity)``."""
         velocity = np.asarray(velocity, dtype=float)
         return (
             self.inertia * np.asarray(acceleration, dtype=float)
-            + self._damping * velocity
+            + self.damping * velocity
             + self.coulomb_friction * np.sign(velocity)
             + self.gravity(position)
         )
 
-    def _net(
-        self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, external_nm: np.ndarray | None = None
-    ) -> np.ndarray:
-        """Torque left for acceleration and friction: applied (within the effort limit) + external
-        − damping − gravity."""
-        torque = np.clip(np.asarray(torque, dtype=float), -self.effort_limit, self.effort_limit)
-        if external_nm is not None:
-            torque = torque + external_nm
-        return torque - self._damping * velocity - self.gravity(position)
-
     def acceleration(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray) -> np.ndarray:
-        """Forward dynamics: joint acceleration (rad/s²) under ``torque`` (N·m) at ``(q, v)``.
-        At rest, friction holds up to ``coulomb_friction`` (stiction)."""
+        """Forward dynamics: joint acceleration (rad/s²) under ``torque`` (N·m, within the effort limit) at
+        ``(q, v)``. At rest, friction holds up to ``coulomb_friction`` (stiction)."""
         velocity = np.asarray(velocity, dtype=float)
-        net = self._net(position, velocity, torque)
+        net = np.clip(torque, -self.effort_limit, self.effort_limit) - self.damping * velocity - self.gravity(position)
         friction = np.where(
             velocity != 0.0,
             self.coulomb_friction * np.sign(velocity),
@@ -169,34 +129,32 @@ class JointArmModel:
         max_step_s: float = 0.002,
         external_nm: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """State ``horizon_s`` seconds ahead under constant ``torque`` (limited to
-        the effort limit) and ``external_nm`` (not limited), semi-implicit
-        Euler, implicit in the damping, as ``ArmDynamics.predict`` and MuJoCo's
-        physics. Friction acts on each step's new velocity: it stops a joint
-        within the step rather than reversing it."""
-        position = np.array(position, dtype=float)
-        velocity = np.array(velocity, dtype=float)
-        steps = step_count(horizon_s, max_step_s)
-        h = horizon_s / steps
-        # Implicit damping: inertia·(v' − v)/h = net force with −damping·v' in place of −damping·v.
-        effective_inertia = self.inertia + h * self._damping
-        stop = self.coulomb_friction * h / effective_inertia  # the speed friction takes away in one step
-        for _ in range(steps):
-            free = velocity + self._net(position, velocity, torque, external_nm) * h / effective_inertia
-            velocity = np.where(np.abs(free) <= stop, 0.0, free - stop * np.sign(free))
-            position = position + velocity * h
-        return position, velocity
+        """State ``horizon_s`` seconds ahead under constant ``torque`` (limited to the effort limit) and
+        ``external_nm`` (not limited), in equal steps of at most ``max_step_s`` (:meth:`steps`)."""
+        force = np.clip(torque, -self.effort_limit, self.effort_limit)
+        if external_nm is not None:
+            force = force + external_nm
+        count = step_count(horizon_s, max_step_s)
+        return self.steps(np.asarray(position, float), np.asarray(velocity, float), force, horizon_s / count, count)
 
-    # --- for logs ---------------------------------------------------------------------
+    def steps(
+        self, position: np.ndarray, velocity: np.ndarray, force: np.ndarray, h: float, count: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``count`` semi-implicit Euler steps of ``h`` s under ``force`` (N·m), implicit in the damping as
+        MuJoCo's physics: ``I·(v' − v)/h = force − b·v' − G·cos q``. Friction acts on each step's new velocity:
+        it stops a joint within the step rather than reversing it."""
+        damped = self.inertia + h * self.damping
+        stop = self.coulomb_friction * h / damped if np.any(self.coulomb_friction) else None
+        for _ in range(count):
+            velocity = (velocity * self.inertia + h * (force - self.gravity_torque * np.cos(position))) / damped
+            if stop is not None:
+                velocity = np.where(np.abs(velocity) <= stop, 0.0, velocity - stop * np.sign(velocity))
+            position = position + h * velocity
+        return position, velocity
 
     def describe(self) -> str:
         """One line: the values in force and where each came from."""
-
-        def values(name: str) -> str:
-            return "[" + ", ".join(f"{v:.4g}" for v in getattr(self, name)) + "]"
-
-        units = {"inertia": "kg·m²", "damping": "N·m·s/rad", "coulomb_friction": "N·m", "gravity_torque": "N·m"}
         return "arm model: " + ", ".join(
-            f"{name} {values('_damping' if name == 'damping' else name)} {units[name]} ({self.source[name]})"
+            f"{name} [{', '.join(f'{v:.4g}' for v in getattr(self, name))}] {UNITS[name]} ({self.source[name]})"
             for name in PARAMETERS
         )

@@ -13,11 +13,11 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.batch import ArmConstants, run_batch
+from robot_controller.core.batch import run_batch
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import lqr
 from robot_controller.core.laws.pid import PidConfig
-from robot_controller.core.model import ArmDynamics
+from robot_controller.core.model import ArmDynamics, JointArmModel
 from robot_controller.core.reference import make_trajectory
 from robot_controller.experiments.autotune.margins import (
     MIN_DELAY_PERIODS,
@@ -50,7 +50,7 @@ class AnalyticProblem:
         self.A, self.B, _ = plant_loop(params)
         self.law = law_gains(params)  # the PID settings in force (for an LQR: with its designed gains)
         plant = ArmDynamics(resources.resolve_urdf(params["simulator"]["urdf_path"]))
-        self.constants = ArmConstants.from_dynamics(plant)
+        self.arm_model = JointArmModel.over_urdf(plant)
         model = controller_model(params)  # what the controller designs an LQR with
         self.model_inertia = float(model.mass_matrix(np.zeros(1))[0, 0])
         self.model_damping = float(model.damping[0])
@@ -142,14 +142,14 @@ class AnalyticProblem:
         pid = replace(self.law, kp=gains[:, 0:1], ki=gains[:, 1:2], kd=gains[:, 2:3])
         harness = {"trajectory": self.sine, "sensor": self.sensor, "duration_s": duration_s, "kalman": self.kalman}
         harness.update(control_period_s=self.dt, torque_max=self.torque_max, feedforward=self.feedforward)
-        return batch_tracking_rms(self.constants, pid, rng=np.random.default_rng(seed), **harness)
+        return batch_tracking_rms(self.arm_model, pid, rng=np.random.default_rng(seed), **harness)
 
 
 def batch_tracking_rms(
-    constants: ArmConstants, pid_config: PidConfig, *, common_noise: bool = True, **options: Any
+    model: JointArmModel, pid_config: PidConfig, *, common_noise: bool = True, **options: Any
 ) -> np.ndarray:
     """The search's harness: ``core.batch.run_batch`` with common random numbers by default."""
-    return run_batch(constants=constants, pid_config=pid_config, common_noise=common_noise, **options)
+    return run_batch(model=model, pid_config=pid_config, common_noise=common_noise, **options)
 
 
 def before_after(

@@ -10,6 +10,7 @@ from robot_controller.core.laws import FeedforwardMode, feedforward_torque
 from robot_controller.core.model import (
     Actuator,
     ArmDynamics,
+    JointArmModel,
     MujocoPlant,
     can_collide,
     load_model,
@@ -101,27 +102,24 @@ def test_prediction_through_the_model_matches_the_plant():
     np.testing.assert_allclose(v, plant.state()[1], atol=1e-2)
 
 
-def test_analytic_arm_matches_mujoco():
-    from robot_controller.core.batch import AnalyticArmBatch, ArmConstants
-
+def test_the_joint_model_over_the_urdf_steps_a_batch_as_mujoco():
     dyn = ArmDynamics(URDF)
-    constants = ArmConstants.from_dynamics(dyn)
-    assert constants.inertia == pytest.approx(INERTIA) and constants.gravity_torque == pytest.approx(
+    model = JointArmModel.over_urdf(dyn)
+    assert model.inertia[0] == pytest.approx(INERTIA) and model.gravity_torque[0] == pytest.approx(
         MASS * G * LENGTH / 2
     )
     plant = MujocoPlant(URDF, 0.001)
     plant.reset(np.array([0.4]), np.array([-0.5]))
-    batch = AnalyticArmBatch(constants, batch=3)
-    batch.q[:], batch.v[:] = 0.4, -0.5
+    q, v = np.full((3, 1), 0.4), np.full((3, 1), -0.5)  # a batch of three arms
     for k in range(2000):
         # gravity held, plus a push that swings the arm well inside the joint limits
-        torque = constants.torque(plant.state()[0], np.zeros(1), np.zeros(1)) + 0.3 * np.sin(0.005 * k)
+        torque = model.torque(plant.state()[0], np.zeros(1), np.zeros(1)) + 0.3 * np.sin(0.005 * k)
         plant.step(torque, 1)
-        batch.step(np.full((3, 1), torque[0]), 1)
+        q, v = model.steps(q, v, np.full((3, 1), torque[0]), 0.001, 1)
     assert abs(plant.state()[0][0] - 0.4) > 0.2  # it really moved
-    np.testing.assert_allclose(batch.q[:, 0], plant.state()[0][0], atol=1e-9)
+    np.testing.assert_allclose(q[:, 0], plant.state()[0][0], atol=1e-9)
     np.testing.assert_allclose(
-        constants.torque(np.array([0.7]), np.array([1.0]), np.array([2.0])),
+        model.torque(np.array([0.7]), np.array([1.0]), np.array([2.0])),
         dyn.torque(np.array([0.7]), np.array([1.0]), np.array([2.0])),
         rtol=1e-9,
     )
