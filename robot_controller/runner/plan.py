@@ -14,7 +14,7 @@ from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 from robot_controller.nodes.world_state import WORLD_STATE_ENV
 from robot_controller.parameters import consistency
-from robot_controller.parameters.schema.simulator import LOCKSTEP_END_MARGIN_S
+from robot_controller.parameters.schema import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import partition, scheduling
 from robot_controller.ros.publishing import COUNTS_DIR_ENV, RECORDED_ENV
 from robot_controller.runner.options import NODE_ORDER, RunOptions, check_nodes

@@ -27,7 +27,7 @@ import numpy as np
 from robot_controller.blocks import spec
 from robot_controller.blocks.block import Log
 from robot_controller.blocks.world import World
-from robot_controller.parameters.schema.simulator import LOCKSTEP_END_MARGIN_S
+from robot_controller.parameters.schema import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import scheduling
 from robot_controller.ros.clocks import inputs
 from robot_controller.ros.clocks.freezes import FreezeLog
