@@ -49,12 +49,9 @@ def disturb(torque_nm: float, duration_s: float, joint: str | None, *, wait_s: f
     with graph.open_graph("disturb") as g:
         from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-        publisher = g.node.create_publisher(Float64MultiArray, TOPIC, graph.reliable_qos(1))
-        state = g.first_joint_state(spec.TRUE_STATE.topic, NAMES_TIMEOUT_S)
-        if state is not None:
-            names, source = list(state.name), "the running simulator's"
-        else:
-            names, source = graph.reference_arm_joints(), "the reference arm's"
+        publisher = g.node.create_publisher(Float64MultiArray, TOPIC, graph.qos(1))
+        names, state = g.arm_joints(spec.TRUE_STATE.topic, NAMES_TIMEOUT_S)
+        source = "the running simulator's" if state is not None else "the reference arm's"
         torque = torques_for(names, torque_nm, joint)
         if isinstance(torque, str):
             raise ToolError(f"{torque} ({source})", 2)

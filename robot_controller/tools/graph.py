@@ -151,8 +151,18 @@ class Graph:
         finally:
             self.node.destroy_client(client)
 
-    def first_joint_state(self, topic: str, timeout_s: float) -> Any | None:
-        """The first ``JointState`` on ``topic`` that names its joints within ``timeout_s``, or None."""
+    def arm_joints(self, topic: str, timeout_s: float) -> tuple[list[str], Any | None]:
+        """The running arm's joint names and the ``JointState`` they came from (the first on ``topic`` that names its
+        joints within ``timeout_s``), else the reference arm's and None."""
+        state = self._first_joint_state(topic, timeout_s)
+        if state is not None:
+            return list(state.name), state
+        from robot_controller import resources
+        from robot_controller.core.model import joint_names, load_model
+
+        return joint_names(load_model(resources.default_urdf())), None
+
+    def _first_joint_state(self, topic: str, timeout_s: float) -> Any | None:
         from rclpy.qos import qos_profile_sensor_data
         from sensor_msgs.msg import JointState
 
@@ -219,20 +229,13 @@ def wait_until_heard(node: Any, publisher: Any, topic: str, listener: str, *, si
         time.sleep(0.05)
 
 
-def reliable_qos(depth: int) -> Any:
-    """Reliable, volatile, the last ``depth`` messages kept."""
+def qos(depth: int, *, best_effort: bool = False, latched: bool = False) -> Any:
+    """Reliable (or best effort), volatile (or transient local), the last ``depth`` messages kept."""
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    reliable, volatile = ReliabilityPolicy.RELIABLE, DurabilityPolicy.VOLATILE
-    return QoSProfile(reliability=reliable, durability=volatile, history=HistoryPolicy.KEEP_LAST, depth=depth)
-
-
-def reference_arm_joints() -> list[str]:
-    """The joint names of the package's reference arm (when the running arm's are not heard)."""
-    from robot_controller import resources
-    from robot_controller.core.model import joint_names, load_model
-
-    return joint_names(load_model(resources.default_urdf()))
+    reliability = ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE
+    durability = DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE
+    return QoSProfile(reliability=reliability, durability=durability, history=HistoryPolicy.KEEP_LAST, depth=depth)
 
 
 @contextlib.contextmanager

@@ -35,12 +35,9 @@ INTERRUPTED = 130  # Ctrl-C: the goal canceled, or its fate unknown
 
 #: control_msgs/FollowJointTrajectory's result codes by value.
 ERROR_CODE_NAMES = {
-    tolerances.SUCCESSFUL: "SUCCESSFUL",
-    tolerances.INVALID_GOAL: "INVALID_GOAL",
-    tolerances.INVALID_JOINTS: "INVALID_JOINTS",
-    tolerances.OLD_HEADER_TIMESTAMP: "OLD_HEADER_TIMESTAMP",
-    tolerances.PATH_TOLERANCE_VIOLATED: "PATH_TOLERANCE_VIOLATED",
-    tolerances.GOAL_TOLERANCE_VIOLATED: "GOAL_TOLERANCE_VIOLATED",
+    getattr(tolerances, name): name
+    for name in "SUCCESSFUL INVALID_GOAL INVALID_JOINTS OLD_HEADER_TIMESTAMP PATH_TOLERANCE_VIOLATED "
+    "GOAL_TOLERANCE_VIOLATED".split()
 }
 
 
@@ -167,7 +164,7 @@ def _hear_rejections(g: graph.Graph) -> list[str]:
         if msg.name.endswith("trajectory_planner") and msg.msg.startswith(tolerances.GOAL_REJECTED_LOG):
             reasons.append(msg.msg[len(tolerances.GOAL_REJECTED_LOG) :])
 
-    g.node.create_subscription(Log, graph_spec.ROSOUT.topic, heard, graph.reliable_qos(100))
+    g.node.create_subscription(Log, graph_spec.ROSOUT.topic, heard, graph.qos(100))
     return reasons
 
 
@@ -221,12 +218,10 @@ def goto(
     """Move the running arm's joints to ``positions`` (rad), at rest after ``time_s`` (None: a safe default), as a
     goal to ``controller``'s FollowJointTrajectory action; wait for its result."""
     with graph.open_graph("goto") as g:
-        unknown = joints is None or time_s is None
-        state = g.first_joint_state(graph_spec.READING.topic, STATE_TIMEOUT_S) if unknown else None
-        if joints is not None:
-            names = list(joints)
-        else:
-            names = list(state.name) if state is not None else graph.reference_arm_joints()
+        names, state = list(joints or []), None
+        if joints is None or time_s is None:
+            heard, state = g.arm_joints(graph_spec.READING.topic, STATE_TIMEOUT_S)
+            names = names or heard
         if time_s is None:
             time_s = trajectory_file.GOTO_UNKNOWN_S
             at = {} if state is None else dict(zip(state.name, state.position, strict=False))

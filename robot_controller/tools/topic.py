@@ -73,14 +73,12 @@ def _topic_class(g: graph.Graph, topic: str) -> type:
 def _echo_qos(g: graph.Graph, topic: str) -> Any:
     """As ros2 topic echo chooses: reliable and transient-local only if every publisher is, so that the reader
     matches them all (a reliable reader misses best-effort writers)."""
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 
     publishers = g.node.get_publishers_info_by_topic(topic)
     best_effort = any(p.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for p in publishers)
     latched = bool(publishers) and all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers)
-    reliability = ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE
-    durability = DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=ECHO_DEPTH, reliability=reliability, durability=durability)
+    return graph.qos(ECHO_DEPTH, best_effort=best_effort, latched=latched)
 
 
 def is_message(value: Any) -> bool:
@@ -186,7 +184,8 @@ def topic_hz(topic: str, window: int = DEFAULT_WINDOW, duration_s: float | None 
             # DDS's reception time, when it gives one: what the topic did, not when the executor got to it.
             rate.heard(info.get("received_timestamp") or time.time_ns())
 
-        g.node.create_subscription(msg_type, topic, heard, _hz_qos(), raw=True)
+        # Best effort, as ros2 topic hz's sensor-data profile: matches every publisher and never holds one back.
+        g.node.create_subscription(msg_type, topic, heard, graph.qos(HZ_DEPTH, best_effort=True), raw=True)
         end = None if duration_s is None else time.monotonic() + duration_s
         next_report = None
         while end is None or time.monotonic() < end:
@@ -211,11 +210,3 @@ def _print_report(rate: RateWindow) -> None:
     text = rate.report()
     if text is not None:
         print(text, flush=True)
-
-
-def _hz_qos() -> Any:
-    """Best effort, as ros2 topic hz's sensor-data profile: matches every publisher and never holds one back."""
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
-    best_effort, volatile = ReliabilityPolicy.BEST_EFFORT, DurabilityPolicy.VOLATILE
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=HZ_DEPTH, reliability=best_effort, durability=volatile)

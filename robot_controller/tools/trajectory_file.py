@@ -52,10 +52,16 @@ class TrajectorySpec:
         return self.points[-1].time_from_start_s
 
 
-def _unknown(key: Any, known: Sequence[str], where: str) -> str:
-    close = difflib.get_close_matches(str(key), known, n=1)
-    hint = f" (did you mean {close[0]!r}?)" if close else f" (expected {', '.join(known)})"
-    return f"{where}{key!r}: unknown key{hint}"
+def _check_keys(raw: dict, known: Sequence[str], required: Sequence[str], where: str) -> None:
+    """Every key of ``raw`` known (a close one suggested), every one ``required`` there."""
+    for key in raw:
+        if key not in known:
+            close = difflib.get_close_matches(str(key), known, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else f" (expected {', '.join(known)})"
+            raise TrajectoryFileError(f"{where}{key!r}: unknown key{hint}")
+    for key in required:
+        if key not in raw:
+            raise TrajectoryFileError(f"{where}{key}: missing")
 
 
 def _is_finite_number(value: Any) -> bool:
@@ -79,12 +85,7 @@ def _point(raw: Any, k: int, joints: int, previous_s: float | None) -> Point:
     where = f"points[{k}]"
     if not isinstance(raw, dict):
         raise TrajectoryFileError(f"{where}: expected a mapping with time_from_start and positions")
-    for key in raw:
-        if key not in POINT_KEYS:
-            raise TrajectoryFileError(_unknown(key, POINT_KEYS, f"{where}."))
-    for key in ("time_from_start", "positions"):
-        if key not in raw:
-            raise TrajectoryFileError(f"{where}.{key}: missing")
+    _check_keys(raw, POINT_KEYS, ("time_from_start", "positions"), f"{where}.")
     t = raw["time_from_start"]
     if not _is_finite_number(t) or t < 0:
         raise TrajectoryFileError(f"{where}.time_from_start: expected a finite number of seconds >= 0, got {t!r}")
@@ -100,12 +101,7 @@ def parse(document: Any) -> TrajectorySpec:
     """A loaded YAML document as a trajectory (``TrajectoryFileError`` naming the key)."""
     if not isinstance(document, dict):
         raise TrajectoryFileError("expected a mapping with joint_names and points")
-    for key in document:
-        if key not in TOP_KEYS:
-            raise TrajectoryFileError(_unknown(key, TOP_KEYS, ""))
-    for key in TOP_KEYS:
-        if key not in document:
-            raise TrajectoryFileError(f"{key}: missing")
+    _check_keys(document, TOP_KEYS, TOP_KEYS, "")
     names = document["joint_names"]
     if not isinstance(names, list) or not names or not all(isinstance(n, str) and n for n in names):
         raise TrajectoryFileError(f"joint_names: expected a list of joint names, got {names!r}")
