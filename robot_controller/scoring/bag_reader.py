@@ -56,6 +56,10 @@ class Recording:
     #: inertia adaptation's ``adapted_armature_kgm2``): one row per row of ``state`` (NaN where a message did not
     #: carry the block); empty for a built-in law without the adaptation
     law_terms: dict[str, np.ndarray] = field(default_factory=dict)
+    #: the motor's command receipts, rows ``[receipt_time_s, command…]``, and the controller's diagnostics
+    #: ``(stamp_s, jitter_p99_ms)``: what the view draws beside the scored signals
+    receipts: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    diagnostics: list[tuple[float, float]] = field(default_factory=list)
 
     def true_at_ticks(self) -> np.ndarray:
         """The TRUE position at each controller tick (:func:`robot_controller.core.metrics.true_position_at`)."""
@@ -170,11 +174,20 @@ def read_recording(bag_dir: Path) -> Recording:
     latency = [
         v for _, m in decoded[spec.LEGACY_COMMAND_LATENCY.topic] for v in m.data
     ]  # bags from before the receipts
-    if receipts:
-        latency = motor_latency_s(state, np.concatenate(receipts).reshape(-1, 1 + joint_count)).tolist()
+    receipts = np.concatenate(receipts).reshape(-1, 1 + joint_count) if receipts else np.zeros((0, 1 + joint_count))
+    if len(receipts):
+        latency = motor_latency_s(state, receipts).tolist()
 
     def stamp(msg: Any) -> float:
         return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+    diagnostics = []
+    for _, msg in decoded[spec.DIAGNOSTICS.topic]:
+        for status in msg.status:
+            try:
+                diagnostics.append((stamp(msg), float({kv.key: kv.value for kv in status.values}["jitter_p99_ms"])))
+            except (KeyError, ValueError):
+                pass
 
     def rows(values: list[np.ndarray]) -> np.ndarray:
         return np.vstack(values) if values else np.zeros((0, joint_count))
@@ -201,11 +214,13 @@ def read_recording(bag_dir: Path) -> Recording:
         malformed=malformed,
         recorded_joint_names=_joint_names_of(true, joint_count),
         law_terms=law_terms,
+        receipts=receipts,
+        diagnostics=diagnostics,
     )
 
 
-#: What scoring reads back (``blocks.spec``'s scored ports).
-WANTED_TOPICS = spec.scored_topics()
+#: What scoring reads back (``blocks.spec``'s scored ports), and the diagnostics the view draws.
+WANTED_TOPICS = (*spec.scored_topics(), spec.DIAGNOSTICS.topic)
 
 
 def _brake_reasons(msg: Any) -> frozenset[str]:

@@ -13,25 +13,12 @@ from robot_controller import resources
 from robot_controller.core import metrics
 from robot_controller.core.controller import state_layout
 from robot_controller.core.model.mujoco_model import joint_units, load_model
-
-# What scores a run reads first; importable from here too.
-from robot_controller.scoring.bag_reader import Recording, motor_latency_s, read_recording
-
-__all__ = [
-    "Recording",
-    "adapted_armature",
-    "arm_units",
-    "brake_metrics",
-    "braked_at",
-    "json_safe",
-    "motor_latency_s",
-    "read_recording",
-    "reference_in_force",
-    "reference_in_force_at",
-    "score",
-    "tracking_on_sim_timeline",
-    "write_metrics",
-]
+from robot_controller.scoring import summary
+from robot_controller.scoring.bag_reader import (  # noqa: F401 - what scores a run reads first, importable here
+    Recording,
+    motor_latency_s,
+    read_recording,
+)
 
 
 def arm_units(urdf_path: str) -> list[str]:
@@ -90,12 +77,9 @@ def score(
     stops_end_s = min(end_s, ticks[0] + judged_s) if judged_s is not None else end_s
     status = s["status"][ticks <= stops_end_s + 1e-9]
     # Ticks spent handling a fault (stops, torque off, re-acquiring, e-stop): not tracking, so counted apart.
-    faults = ("watchdog", "sensor_lost", "reacquiring", "reference_lost", "stopped", "law_fault", "law_stopped")
-    for name in (*faults, "late", "late_stopped"):
+    for name in (*summary.FAULT_TICKS, "reacquiring"):
         out[f"{name}_ticks"] = int(np.count_nonzero(status == state_layout.STATUS_CODES[name]))
-    out.update(
-        brake_metrics(recording, ticks[0], min(stops_end_s, ticks[-1]), 2 * nominal_period_s)
-    )  # ended early: to its end
+    out.update(brake_metrics(recording, ticks[0], min(stops_end_s, ticks[-1]), 2 * nominal_period_s))
     out["adapted_armature_kgm2"] = adapted_armature(recording.law_terms, recording.joint_count, keep)
     out["saturated_ticks"] = int(np.count_nonzero(np.any(s["saturated"] > 0.5, axis=1)))
     out["saturated_ticks_per_joint"] = np.count_nonzero(s["saturated"] > 0.5, axis=0).tolist()
@@ -132,8 +116,7 @@ def reference_in_force(recording: Recording, nominal_period_s: float = 0.01) -> 
     """The reference in force at every true-state sample of ``recording`` (:func:`reference_in_force_at`), and
     whether one is: none while the drive's brakes hold the arm (category 0: torque off, the joint locked), which is a
     stop, counted apart (``brake_engagements``), not tracking."""
-    s = recording.state
-    t = recording.true_time_s
+    s, t = recording.state, recording.true_time_s
     in_force, valid = reference_in_force_at(s["time_s"], s["reference"], s["status"], t, nominal_period_s)
     return in_force, valid & ~braked_at(recording, t)
 

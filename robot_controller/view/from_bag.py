@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robot_controller import resources
-from robot_controller.blocks import spec
 from robot_controller.view import layout
 from robot_controller.view import serve as serving
 from robot_controller.view.arm import Arm
@@ -34,40 +33,11 @@ def run_setup(run_dir: Path) -> tuple[Path, float]:
     return urdf, 1.0 / rate
 
 
-def _telemetry(bag_dir: Path) -> tuple[list[tuple[float, float]], list[np.ndarray]]:
-    """The diagnostics (stamp, jitter p99 ms) and the drive's command receipts' rows: what scoring does not read."""
-    from rosbags.rosbag2 import Reader
-    from rosbags.typesys import Stores, get_typestore
-
-    typestore = get_typestore(Stores.ROS2_JAZZY)
-    diagnostics, receipts = [], []
-    with Reader(bag_dir) as reader:
-        wanted = [c for c in reader.connections if c.topic in (spec.DIAGNOSTICS.topic, spec.COMMAND_RECEIPTS.topic)]
-        for connection, _, raw in reader.messages(connections=wanted):
-            try:
-                msg = typestore.deserialize_cdr(raw, connection.msgtype)
-            except Exception:  # noqa: BLE001 - a malformed message is skipped, as scoring does
-                continue
-            if connection.topic == spec.COMMAND_RECEIPTS.topic:
-                receipts.append(np.asarray(msg.data, dtype=float))
-                continue
-            stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-            for status in msg.status:
-                values = {kv.key: kv.value for kv in status.values}
-                try:
-                    diagnostics.append((stamp, float(values["jitter_p99_ms"])))
-                except (KeyError, ValueError):
-                    pass
-    return diagnostics, receipts
-
-
 @dataclass
 class SavedRun:
     arm: Arm
     period_s: float
     recording: Recording
-    diagnostics: list[tuple[float, float]]
-    receipts: list[np.ndarray]
 
 
 def load_run(run_dir: Path) -> SavedRun:
@@ -82,8 +52,7 @@ def load_run(run_dir: Path) -> SavedRun:
     arm = Arm(urdf)
     if len(arm.joint_names) != recording.joint_count:
         raise ValueError(f"{run_dir}: the bag has {recording.joint_count} joint(s), {urdf} {len(arm.joint_names)}")
-    diagnostics, receipts = _telemetry(run_dir / "bag")
-    return SavedRun(arm, period, recording, diagnostics, receipts)
+    return SavedRun(arm, period, recording)
 
 
 def log_run(rec, run: SavedRun) -> None:
@@ -104,9 +73,8 @@ def log_run(rec, run: SavedRun) -> None:
         feed.measured(t, q)
     for t, q in zip(recording.planned_time_s, recording.planned_position, strict=False):
         feed.planned(t, q)
-    for block in run.receipts:
-        feed.receipts(block)  # a block of another width is dropped
-    for t, jitter in run.diagnostics:
+    feed.receipts(recording.receipts)
+    for t, jitter in recording.diagnostics:
         feed.diagnostics(t, jitter)
     feed.flush(final=True)
 
