@@ -1,6 +1,7 @@
 """The loop's signals turned into what the view logs, at a rate a browser takes: ``ViewFeed`` collects raw samples
-(live topics or a bag's arrays); ``flush`` thins them (``thinning``: series at most ``SERIES_HZ``, poses ``POSE_HZ``,
-errors and timing keep each bucket's largest) into rerun columns held by an ``Outlet`` per recording stream."""
+(live topics or a bag's arrays); ``flush`` thins them (``Decimator``: series at most ``SERIES_HZ``, poses ``POSE_HZ``,
+by time buckets, errors and timing keeping each bucket's largest so that a spike is never thinned away) into rerun
+columns held by an ``Outlet`` per recording stream (the live browser, the saved file)."""
 
 from __future__ import annotations
 
@@ -13,8 +14,6 @@ from robot_controller.core.controller import state_layout
 from robot_controller.scoring import bag_reader, report
 from robot_controller.view import layout
 from robot_controller.view.arm import Arm
-from robot_controller.view.outlet import Outlet
-from robot_controller.view.thinning import Decimator
 
 SERIES_HZ = 50.0
 POSE_HZ = 20.0
@@ -22,6 +21,85 @@ MAX_PENDING = 5000  # per input: 50 s of a 100 Hz topic
 TICK_TAIL = 400  # controller ticks kept to pair true samples and motor receipts with (4 s at 100 Hz)
 OTHER_CLOCK_S = 60.0  # a diagnostics stamp this far outside the ticks' span is on another clock
 STATUS_NAMES = {code: name for name, code in state_layout.STATUS_CODES.items()}
+
+
+class Decimator:
+    """At most ``rate_hz`` samples a second of one series, by time buckets, one sample each (the newest bucket is
+    held back until a later sample starts the next one, or ``final``)."""
+
+    def __init__(self, rate_hz: float, *, extreme: bool = False) -> None:
+        self.period = 1.0 / rate_hz
+        self.extreme = extreme
+        self.t = np.zeros(0)
+        self.v: np.ndarray | None = None
+
+    def take(self, t: np.ndarray, v: np.ndarray, *, final: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        t = np.concatenate([self.t, np.asarray(t, dtype=float)])
+        v = np.asarray(v, dtype=float) if self.v is None else np.concatenate([self.v, np.asarray(v, dtype=float)])
+        if len(t) == 0:
+            self.t, self.v = t, v
+            return t, v
+        bucket = np.floor(t / self.period)
+        done = np.ones(len(t), bool) if final else bucket < bucket[-1]
+        self.t, self.v = t[~done], v[~done]
+        t, v, bucket = t[done], v[done], bucket[done]
+        if len(t) == 0:
+            return t, v
+        starts = np.flatnonzero(np.r_[True, bucket[1:] != bucket[:-1]])
+        if not self.extreme:
+            return t[starts], v[starts]
+        magnitude = np.abs(v) if v.ndim == 1 else np.max(np.abs(v), axis=1)
+        magnitude = np.where(np.isfinite(magnitude), magnitude, -1.0)
+        ends = np.r_[starts[1:], len(t)]
+        pick = np.array([s + int(np.argmax(magnitude[s:e])) for s, e in zip(starts, ends, strict=False)])
+        return t[pick], v[pick]
+
+
+class Outlet:
+    """Columns for one recording stream, held per entity and sent every ``period_s`` (one chunk per entity each time:
+    few, larger chunks keep a file small, a browser quick and the sender's CPU low; ``0`` sends at every flush). The
+    arm's poses go every ``pose_period_s`` (default: the same)."""
+
+    def __init__(self, rec, period_s: float = 0.0, pose_period_s: float | None = None) -> None:
+        self.rec = rec
+        self.period_s = period_s
+        self.pose_period_s = period_s if pose_period_s is None else pose_period_s
+        self.next_send = self.next_pose_send = 0.0
+        self.scalars: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
+        self.arm: Arm | None = None
+        self.poses: list[tuple[np.ndarray, np.ndarray]] = []  #: (t (m,), q (m, poses, joints))
+
+    def add_scalars(self, path: str, t: np.ndarray, v: np.ndarray) -> None:
+        self.scalars.setdefault(path, []).append((t, v))
+
+    def add_poses(self, arm: Arm, t: np.ndarray, q: np.ndarray) -> None:
+        self.arm = arm
+        self.poses.append((t, q))
+
+    def text(self, path: str, t: float, text: str, level: str) -> None:
+        import rerun as rr
+
+        self.rec.set_time(layout.TIMELINE, duration=t)
+        self.rec.log(path, rr.TextLog(text, level=level))
+
+    def pump(self, now: float, *, force: bool = False) -> None:
+        """Send what is held if its period has passed since the last send (or ``force``)."""
+        import rerun as rr
+
+        if force or now >= self.next_send:
+            self.next_send = now + self.period_s
+            for path, parts in self.scalars.items():
+                t, v = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+                time = [rr.TimeColumn(layout.TIMELINE, duration=t)]
+                self.rec.send_columns(path, indexes=time, columns=rr.Scalars.columns(scalars=v))
+            self.scalars.clear()
+        if (force or now >= self.next_pose_send) and self.poses:
+            self.next_pose_send = now + self.pose_period_s
+            t, q = np.concatenate([p[0] for p in self.poses]), np.concatenate([p[1] for p in self.poses])
+            time = [rr.TimeColumn(layout.TIMELINE, duration=t)]
+            for path, columns in self.arm.pose_columns(layout.ARM, q):
+                self.rec.send_columns(path, indexes=time, columns=columns)
+            self.poses.clear()
 
 
 def reference_in_force(
