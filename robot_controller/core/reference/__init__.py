@@ -2,13 +2,14 @@
 paths, and whether the arm can follow them."""
 
 from robot_controller.core.reference.crossfade import Crossfade, crossfade
-from robot_controller.core.reference.feasibility_check import (
+from robot_controller.core.reference.feasibility import (
     Feasibility,
     InverseDynamics,
+    Plan,
     check_feasibility,
     peak_torque,
+    plan_trajectory,
 )
-from robot_controller.core.reference.feasibility_plan import Plan, plan_trajectory
 from robot_controller.core.reference.joint_trajectory import (
     MAX_START_DELAY_S,
     START_TOLERANCE_RAD,

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_controller.core.reference.feasibility_check import InverseDynamics
+from robot_controller.core.reference.feasibility import InverseDynamics
 from robot_controller.core.reference.trajectory import Sample
 
 Motion = Callable[[float], Sample]  #: ``(position, velocity, acceleration)`` at a time on the planner's clock, s
