@@ -1,12 +1,9 @@
-"""Whether and how a tick may command, and what it reports. Once per tick the controller
-supervises its inputs: the sensor readings (a stale one refused, the sensor's silence), the tick
-clock (the period the law integrates over, pauses of the controller itself), the verdict on both
-(:func:`check_health`: track, stop on the model, or command nothing) and the latency guard
-(:class:`LatencyGuard`: signals later than the gains' delay margin survive stop the motion). The
-tick reports its :class:`Status`, where its reference came from (:class:`ReferenceSource`; a
-reference the controller made up or rewrote is always named, never passed off as the planner's)
-and the command with its terms (:class:`ControlOutput`). Times in seconds on the controller's clock
-(a command receipt on the drive's: across hosts the clocks agree).
+"""Whether and how a tick may command, and what it reports: the readings (a stale one refused, the
+sensor's silence), the tick clock (pauses of the controller itself), the verdict on both
+(:func:`check_health`), the latency guard (:class:`LatencyGuard`), the tick's :class:`Status` and
+:class:`ReferenceSource` (a reference the controller made up is always named, never passed off as the
+planner's), and :class:`ControlOutput`. Times in s on the controller's clock (a command receipt on the
+drive's: across hosts the clocks agree).
 """
 
 from __future__ import annotations
@@ -109,9 +106,8 @@ REACQUIRE_GAP_PERIODS = 5
 
 
 class Readings:
-    """The latest accepted sensor reading: position (rad) and velocity
-    (rad/s), the time it was taken (``stamp_s``) and the time it arrived
-    (``received_s``, what the watchdog counts silence from)."""
+    """The latest accepted reading, when it was taken (``stamp_s``) and when it arrived (``received_s``, what
+    the watchdog counts silence from)."""
 
     def __init__(self) -> None:
         self.latest: tuple[np.ndarray, np.ndarray] | None = None  #: (position rad, velocity rad/s)
@@ -121,9 +117,8 @@ class Readings:
     def accept(
         self, stamp_s: float, received_s: float, position: np.ndarray, velocity: np.ndarray, max_age_s: float
     ) -> str | None:
-        """Keep the reading unless it is more than ``max_age_s`` old when it
-        arrives (or stamped that far ahead): after a pause, a sensor's first
-        sample can be from before it, and acting on it swings the arm. Returns
+        """Keep the reading unless it is more than ``max_age_s`` old when it arrives (or stamped that far ahead):
+        after a pause, a sensor's first sample can be from before it, and acting on it swings the arm. Returns
         why it was refused (it is then no sign of life either), or None."""
         age_s = received_s - stamp_s
         if abs(age_s) > max_age_s:
@@ -139,10 +134,8 @@ class Readings:
         return now_s - self.received_s
 
     def excuse_pause(self, gap_s: float, period_s: float, max_age_s: float) -> None:
-        """This process was paused for ``gap_s`` seconds (the whole machine
-        stalls at times). If the pause is shorter than a reading may be old,
-        the readings it held back are on their way: that time is not the
-        sensor's silence, so move the last arrival on by the pause."""
+        """This process was paused for ``gap_s`` s. If that is shorter than a reading may be old, the readings
+        it held back are on their way: that time is not the sensor's silence."""
         if gap_s <= max_age_s:
             self.received_s += gap_s - period_s
 
@@ -185,12 +178,9 @@ class Health:
 
 
 def check_health(readings: Readings, now_s: float, halted: bool, braked: bool, config: ControllerConfig) -> Health:
-    """Judge the inputs at ``now_s`` (s), most severe first: no reading ever,
-    the e-stop, readings missing past ``sensor_timeout_s`` (category 1: torque
-    off, the brake holds), missing past ``watchdog_periods`` (category 2: a
-    controlled stop on the arm model). The drive's brakes do not stop the
-    tick, but whatever is commanded while they hold does not move the arm,
-    so the reference starts again from the measurement (``restart``)."""
+    """Judge the inputs at ``now_s``, most severe first: no reading ever, the e-stop, readings missing past
+    ``sensor_timeout_s`` (category 1), past ``watchdog_periods`` (category 2, on the model). Under the drive's
+    brakes a command does not move the arm, so the reference starts again from the measurement (``restart``)."""
     if readings.latest is None:
         return _NO_MEASUREMENT
     if halted:
@@ -238,9 +228,8 @@ class LatencyState:
 
 
 class LatencyGuard:
-    """``tolerated_s``: the delay margin in seconds (margin periods × control period);
-    ``compensated_s``: how much of a reading's age the controller accounts for (0 without
-    latency compensation)."""
+    """``tolerated_s``: the delay margin, s; ``compensated_s``: how much of a reading's age the controller
+    accounts for (0 without latency compensation)."""
 
     def __init__(self, tolerated_s: float, compensated_s: float) -> None:
         self.tolerated_s = tolerated_s
@@ -252,8 +241,7 @@ class LatencyGuard:
 
     @classmethod
     def for_margin(cls, margin_periods: int | None, period_s: float, compensated_s: float) -> LatencyGuard | None:
-        """The guard for a delay margin of ``margin_periods`` control periods of ``period_s`` (None when
-        it is not known: no guard)."""
+        """The guard for ``margin_periods`` control periods of ``period_s`` (None when unknown: no guard)."""
         if margin_periods is None:
             return None
         return cls(margin_periods * period_s, compensated_s)
@@ -273,8 +261,7 @@ class LatencyGuard:
         return readings + (median(recent) if len(recent) >= MIN_SAMPLES else 0.0)
 
     def update(self, now_s: float) -> LatencyState:
-        """The verdict at ``now_s``: late above the margin, on time again after
-        ``CLEAR_AFTER_S`` within half of it."""
+        """Late above the margin, on time again after ``CLEAR_AFTER_S`` within half of it."""
         delay = self.delay_s(now_s)
         was_late = self._late
         if delay > self.tolerated_s:
@@ -296,8 +283,7 @@ def delay_margin_periods(
     config: ControllerConfig,
     inertia: np.ndarray | None = None,
 ) -> int | None:
-    """The smallest of :func:`joint_delay_margins` (on ``inertia``, kg·m² per joint; None: the nominal model's): the
-    worst joint's (None without the arm model)."""
+    """The worst joint's :func:`joint_delay_margins` (None without the arm model)."""
     margins = joint_delay_margins(gains, dynamics, joint_count, config, inertia)
     return None if margins is None else min(margins)
 
@@ -311,16 +297,14 @@ def joint_delay_margins(
     up_to: int = 50,
     joints: Sequence[int] | None = None,
 ) -> list[int] | None:
-    """Per joint, whole control periods of delay nobody accounts for (a late command, a reading
-    stamped on arrival) the feedback with ``gains`` survives, the arm linearised at rest at
-    the design pose (:func:`robustness.delay_margin_periods`). With the disturbance observer, the
-    loop through the filter and the observer (:func:`robustness.observer_delay_margin_periods`),
-    for the filter as it is while the readings agree with it and as it becomes when they do not
-    (``KalmanConfig.at_mismatch``: late readings disagree), the worse. None without the arm model.
+    """Per joint, whole control periods of unaccounted delay (a late command, a reading stamped on arrival) the
+    feedback with ``gains`` survives, the arm linearised at rest at the design pose. With the disturbance
+    observer, through the filter and the observer, the worse of the filter while readings agree and at the
+    mismatch (late readings disagree). None without the arm model.
 
     :param inertia: kg·m² per joint the loop is linearised with (None: the nominal model's at the design pose; the
         inertia adaptation's gains are judged on the inertia it learnt)
-    :param up_to: count no further than this many periods (a check against a minimum is cheap: 2 eigenvalue problems)
+    :param up_to: count no further than this many periods
     :param joints: only these joints' margins (None: every joint)
     """
     if dynamics is None:
@@ -350,11 +334,8 @@ def joint_delay_margins(
 def check_delay_margin(
     config: ControllerConfig, dynamics: ArmDynamics | None, joint_count: int, gains: PidConfig | None = None
 ) -> None:
-    """Refuse (``ConfigError``, naming the joint) a built-in law whose gains leave a joint fewer than
-    ``min_delay_margin_periods`` control periods of delay margin: unstable, or so with a little delay.
-
-    :param gains: the built-in law's gains as a controller built from ``config`` designed them (None: designed here)
-    """
+    """Refuse (``ConfigError``, naming the joint) a built-in law whose gains (None: designed here) leave a
+    joint fewer than ``min_delay_margin_periods`` control periods of delay margin."""
     needed = config.min_delay_margin_periods
     if needed <= 0:
         return
