@@ -1,24 +1,21 @@
-"""The controller (the graph's ``pid_controller``: the law ``controller_type`` selects): from its ports ``reading``,
-``reference``, ``estop``, ``brakes`` (the drive's status word) and ``command_receipts`` to ``command``, ``state`` and
-``diagnostics``. It holds the ``JointController`` (every decision about torque) and says what its tick did. Its host's
-clock decides when it ticks (``step``); what arrives between ticks is taken with ``take``. A gain change, checked
-(its law designed) on any thread, is handed over and takes effect at the start of the next tick."""
+"""The controller (the graph's ``pid_controller``): it holds the ``JointController`` (every decision about torque)
+and says what its tick did. Its host's clock decides when it ticks (``step``); what arrives between ticks is taken
+with ``take``. A gain change, checked (its law designed) on any thread, takes effect at the start of the next tick."""
 
 from __future__ import annotations
 
 import threading
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.blocks import controller_log_line as log_line
 from robot_controller.blocks import spec
 from robot_controller.blocks.block import Log
-from robot_controller.blocks.controller_reports import LAW_STOPPED_EXIT_CODE, Reports, StartWaits
+from robot_controller.blocks.controller_reports import LAW_STOPPED_EXIT_CODE, LogSchedule, Reports, StartWaits, log_line
 from robot_controller.blocks.controller_timing import Diagnostics, LoopTiming
 from robot_controller.blocks.values import (
     Array,
@@ -53,10 +50,9 @@ MarginOf = Callable[[ControllerConfig], "int | None"]  # a configuration → its
 
 
 def designed_margin(config: ControllerConfig, dynamics: Any, joint_count: int) -> int | None:
-    """Design ``config``'s built-in law and return its delay margin in control periods (the worst joint's; None
-    without the arm model, or for a law of one's own, whose feedback is not known here). ``ConfigError``, with its
-    reason, for a design that does not stabilise or leaves less than ``min_delay_margin_periods``. One design and
-    one margin: a margin takes tens of ms per joint."""
+    """``config``'s built-in law designed, its delay margin in control periods (the worst joint's; None for a law of
+    one's own, whose feedback is not known here); ``ConfigError`` for a design that does not stabilise or leaves less
+    than ``min_delay_margin_periods``. One design and one margin: a margin takes tens of ms per joint."""
     margin = delay_margin_periods(law_config(config, dynamics, joint_count), dynamics, joint_count, config)
     if margin is not None and margin < config.min_delay_margin_periods:
         check_delay_margin(config, dynamics, joint_count)  # refuses, naming the joint (only now computed per joint)
@@ -69,30 +65,8 @@ class GainChange:
 
     config: ControllerConfig
     params: dict[str, Any]
-    changed: set[str] = field(default_factory=set)
-    margin: int | None = None
-
-
-class Handover:
-    """The newest accepted change, offered by the checking thread and taken by the loop's at a tick. A change offered
-    before the last was taken replaces it: its configuration is whole, and what either changed is said."""
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()  # held for an assignment or two: the loop never waits on a design
-        self._pending: GainChange | None = None
-
-    def offer(self, change: GainChange) -> None:
-        with self._lock:
-            if self._pending is not None:
-                change.changed |= self._pending.changed
-            self._pending = change
-
-    def take(self) -> GainChange | None:
-        if self._pending is None:  # nearly every tick: no lock taken
-            return None
-        with self._lock:
-            change, self._pending = self._pending, None
-        return change
+    changed: set[str]
+    margin: int | None
 
 
 def _same(params: Mapping[str, Any], other: Mapping[str, Any]) -> bool:
@@ -116,15 +90,14 @@ class Controller:
         run_wait: Callable[[], float] | None = None,
     ) -> None:
         """:param world_waits: each command acts from its tick and the world waits for it (sim time, the paced
-        world): the law is held to its budget on its thread's CPU time, there is no latency guard, the start's
-        brakes are not heard (their release is a race) and a failed law's stop ends the block at once.
-        :param margin_of: designs a configuration's law and finds its delay margin (:func:`designed_margin`; a
-        host may run it in a process of its own, ``nodes.pid_controller.designer``); in this thread without one.
+        world): no latency guard, the start's brakes are not heard (their release is a race) and a failed law's stop
+        ends the block at once.
+        :param margin_of: :func:`designed_margin`, or a host's stand-in running it in a process of its own
+        (``nodes.pid_controller.designer``).
         :param run_wait: on the wall clock, how long (s) the host has kept this thread from running so far (run-queue
-        wait, steal: ``ros.loop_processes.thread_kept_s``), which a law's budget does not count; None: none known."""
+        wait, steal), which a law's budget does not count."""
         self.log = log
         self.world_waits = world_waits
-        # The arm model: the URDF's, or the model_* values over it (read-only: fixed at start).
         self.dynamics = arm_model(params)
         self.joint_names = list(self.dynamics.joint_names)
         self.joint_count = len(self.joint_names)
@@ -149,7 +122,10 @@ class Controller:
         if world_waits and self.controller.plugin is not None:
             self.controller.plugin.abandon_s = BLOCKED_S
         self.params = dict(params)
-        self.gain_changes = Handover()
+        # The newest accepted change, offered by the checking thread, taken by the loop's at a tick; the lock is held
+        # for an assignment or two: the loop never waits on a design.
+        self._lock = threading.Lock()
+        self._pending: GainChange | None = None
         self.reports = Reports(self.log, self.controller, self.joint_names, self.dynamics.joint_units, world_waits)
         self.timing = LoopTiming(self.controller, self.log, world_waits)
         self.waits = StartWaits(self.log)
@@ -161,17 +137,14 @@ class Controller:
         self.law_stopped_since: float | None = None
         self.exit_code: int | None = None  #: set once the block has ended (a failed law's stop is over)
         self.mismatch_since: float | None = None
-        self.log_schedule = log_line.LogSchedule(params["log_period_s"])
+        self.log_schedule = LogSchedule(params["log_period_s"])
         self.reports.log_gains(self.checked.margin, params["control_rate_hz"])
-
-    # -- parameters ------------------------------------------------------------------------------------------------
 
     def check_params(self, params: Mapping[str, Any]) -> None:
         """The law designed before the change is accepted (an LQR that does not stabilise is refused, not found when
-        applying it); ``checked`` is what ``set_params`` hands over. The values the block runs on are not checked
-        again (a host's start checks what the block was made with)."""
+        applying it); ``checked`` is what ``set_params`` hands over. The values running are not designed again."""
         if self.controller is not None and _same(params, self.params):
-            self.checked = GainChange(self.controller.config, dict(params), margin=self.checked.margin)
+            self.checked = GainChange(self.controller.config, dict(params), set(), self.checked.margin)
             return
         config = cfg.controller_config(params, self.joint_count)
         running = self.controller
@@ -182,20 +155,24 @@ class Controller:
             )
         if config.plugin_law:  # per-joint lengths and the like, as the law will be given them
             law_parameters.values(registry.resolve(config.controller_type), config.law_parameters, self.joint_count)
-        self.checked = GainChange(config, dict(params), margin=self._margin_of(config))
+        self.checked = GainChange(config, dict(params), set(), self._margin_of(config))
 
     def set_params(self, params: Mapping[str, Any], changed: set[str]) -> None:
-        """Take checked values (on any thread): the loop takes them over at its next tick."""
-        checked = self.checked
-        self.gain_changes.offer(GainChange(checked.config, dict(params), set(changed), checked.margin))
+        """Take checked values (on any thread) for the loop's next tick; a change not yet taken is replaced, its
+        configuration being whole, and what either changed is said."""
+        change = GainChange(self.checked.config, dict(params), set(changed), self.checked.margin)
+        with self._lock:
+            if self._pending is not None:
+                change.changed |= self._pending.changed
+            self._pending = change
 
     def take_gain_change(self) -> None:
         """At the start of a tick: the newest accepted change, if any, takes over (bumpless: the PID keeps its I term
-        in N·m). Its law was designed and checked when it was accepted; should the controller refuse it even so,
-        the law in force stays, said once."""
-        change = self.gain_changes.take()
-        if change is None:
+        in N·m); should the controller refuse it even so, the law in force stays, said."""
+        if self._pending is None:  # nearly every tick: no lock taken
             return
+        with self._lock:
+            change, self._pending = self._pending, None
         try:
             self.controller.set_config(change.config)
         except ConfigError as exc:
@@ -204,8 +181,6 @@ class Controller:
         self.params = change.params
         if change.changed & GAIN_KEYS or any(law_parameters.is_law_key(name) for name in change.changed):
             self.reports.log_gains(change.margin, change.params["control_rate_hz"])
-
-    # -- inputs ----------------------------------------------------------------------------------------------------
 
     def start(self) -> dict[str, Any]:
         return {}
@@ -269,10 +244,8 @@ class Controller:
         self.controller.set_reference(t_s, *checked)
 
     def _take_brakes(self, value: Array) -> None:
-        # While the brakes hold, what is commanded does not move the arm: the reference starts again from the
-        # measurement. Where the world waits, not the start's: the tick at which the first effort's release arrives
-        # is a race, and a run without faults is the same to the bit every time (the paced world's drive-timeout
-        # brakes and an e-stop's are heard, at a tick that is a race: a fault's).
+        # While the brakes hold, the reference starts again from the measurement. Where the world waits, not for the
+        # start's: the tick their release arrives at is a race, and a run without faults is the same to the bit.
         values = np.asarray(value.data, dtype=float)
         if values.size != self.joint_count or not np.all(np.isfinite(values)):
             return
@@ -280,8 +253,6 @@ class Controller:
         if self.world_waits and engaged and value.label == brakes_label({"start"}):
             return
         self.controller.brakes(engaged)
-
-    # -- the tick --------------------------------------------------------------------------------------------------
 
     def step(self, t_s: float, inputs: Mapping[str, Any]) -> dict[str, Any]:
         """Take ``inputs`` at ``t_s``, then tick: the torque (``command``, labelled with its tick) if this tick
@@ -314,14 +285,13 @@ class Controller:
         reports.say_adaptation(t_s)
         outputs["state"] = Array(np.asarray(reports.state_row(out)))
         if self.log_schedule.due(t_s, self.params["log_period_s"]):
-            self.log.info(log_line.line(out.reference, out.measured, out.error, out.command))
+            self.log.info(log_line(out.reference, out.measured, out.error, out.command))
         if out.status is Status.LAW_STOPPED:
             self._end_after_law_stop(t_s)
         return outputs
 
     def _end_after_law_stop(self, t_s: float) -> None:
-        """The failed law's stop is over and the brakes hold: the block ends (its ``exit_code`` says why), at once
-        where the world waits, after LAW_STOPPED_LINGER_S of state on the wall clock."""
+        """The failed law's stop is over: the block ends (``exit_code``)."""
         if self.law_stopped_since is None:
             self.law_stopped_since = t_s
         if self.world_waits or t_s - self.law_stopped_since >= LAW_STOPPED_LINGER_S:

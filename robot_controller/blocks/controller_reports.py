@@ -1,12 +1,13 @@
 """What the controller block says: the law and gains in force, a line per change of the loop's state, a failed law's
-line, a joint cut by its limit, the inertia adaptation's gain changes, the start's waits, and every term of each
-tick as the row of its port ``state`` (``core.controller.state_layout``). Times are the tick's (``t_s``) unless a
-method is given another clock."""
+line, a joint cut by its limit, the inertia adaptation's gain changes, the start's waits, the tutorial's
+once-a-period line, and every term of each tick as the row of its port ``state`` (``core.controller.state_layout``).
+Times are the tick's unless a method is given another clock."""
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+import math
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -49,16 +50,15 @@ class SaturationWatch:
 
 class StartWaits:
     """What the controller waits for at start (its first reading; where the world waits, its first reference
-    sample): said once as information, for that is how every start begins; a warning once the wait has lasted
-    ``START_PATIENCE_S``, for then the node it waits for is not running or not heard (another domain, partition or
-    arm), something to act on. Timed on the clock its caller gives (a wall clock: sim time stands still then)."""
+    sample): said once as information, for every start begins so; a warning once the wait has lasted
+    ``START_PATIENCE_S``, for then the node it waits for is not running or not heard. Timed on the clock its caller
+    gives (a wall clock: sim time stands still then)."""
 
     def __init__(self, log: Log) -> None:
         self.log = log
         self.since: dict[str, float] = {}  # s each wait began
 
     def waiting(self, key: str, what: str, now_s: float) -> None:
-        """Another tick waiting for ``what`` (``key`` names the wait) at ``now_s``."""
         if key not in self.since:
             self.since[key] = now_s
             self.log.info(f"waiting for {what}")
@@ -70,8 +70,7 @@ class StartWaits:
 
 
 def law_in_force_line(controller: Any, margin: int | None, rate_hz: float) -> str:
-    """The controller's law line and ``margin``, the delay margin last checked in full (None: a law of one's own,
-    whose feedback is not known here)."""
+    """The controller's law line and ``margin``, the delay margin last checked in full (None: a law of one's own)."""
     in_force = controller.law_in_force()
     if margin is not None:
         periods = "control period" if margin == 1 else "control periods"
@@ -109,15 +108,9 @@ class Reports:
         self.faults_seen = False  # "again" only after a fault: the start's blend ends "on the trajectory"
         self.saturation = SaturationWatch(self.joint_count)
         plugin = controller.plugin
-        # The law's extra terms on the state, after the standard blocks (state_layout).
-        self.extra_terms = tuple(
-            name
-            for name in (plugin.extra_terms if plugin is not None else ())
-            if name not in state_layout.FIELDS
-            and name not in state_layout.HEADER
-            and name != state_layout.ADAPTED_ARMATURE
-        )
-        # Then the armature the inertia adaptation has learnt (None: no adaptation, no block).
+        # The law's extra terms on the state after the standard blocks, then the armature the inertia adaptation learnt.
+        taken = {*state_layout.FIELDS, *state_layout.HEADER, state_layout.ADAPTED_ARMATURE}
+        self.extra_terms = tuple(name for name in (plugin.extra_terms if plugin else ()) if name not in taken)
         self.inertia = controller.inertia
         adaptation = () if self.inertia is None else (state_layout.ADAPTED_ARMATURE,)
         #: the state row's blocks, (label, size) each: its layout
@@ -230,35 +223,86 @@ class Reports:
             )
 
     def state_row(self, out: ControlOutput) -> list[float]:
-        """Every term of the tick, as ``state_layout`` lays them out."""
-        terms = out.terms
-        return state_layout.encode(
-            out.time_s,
-            out.status.value,
-            self.controller.measurement_stamp_s,
-            self.joint_count,
-            {
-                "reference": out.reference,
-                "measured": out.measured,
-                "error": out.error,
-                "p": terms.p,
-                "i": terms.i,
-                "d": terms.d,
-                "feedforward": terms.feedforward,
-                "command": terms.command,
-                "saturated": terms.saturated,
-            },
-            self.law_term_blocks(out),
-        )
+        """Every term of the tick, as ``state_layout`` lays them out (the PID's terms from ``out.terms``)."""
+        values = {name: getattr(out if hasattr(out, name) else out.terms, name) for name in state_layout.FIELDS}
+        stamp_s = self.controller.measurement_stamp_s
+        return state_layout.encode(out.time_s, out.status.value, stamp_s, self.joint_count, values, self.law_terms(out))
 
-    def law_term_blocks(self, out: ControlOutput) -> tuple[np.ndarray, ...]:
+    def law_terms(self, out: ControlOutput) -> tuple[np.ndarray, ...]:
         """The law's extra terms in the layout's order (zeros on a tick the law did not run), then the armature the
         inertia adaptation has learnt, if it is on."""
-        blocks: tuple[np.ndarray, ...] = ()
-        if self.extra_terms:
-            reported = out.law_terms or {}
-            zeros = np.zeros(self.joint_count)
-            blocks = tuple(reported.get(name, zeros) for name in self.extra_terms)
-        if self.inertia is not None:
-            blocks += (self.inertia.armature,)
-        return blocks
+        reported, zeros = out.law_terms or {}, np.zeros(self.joint_count)
+        blocks = tuple(reported.get(name, zeros) for name in self.extra_terms)
+        return blocks if self.inertia is None else (*blocks, self.inertia.armature)
+
+
+#: How far (in logging periods) the instant of the line moves from one period to the next: not a simple fraction,
+#: so that no short trajectory period is sampled at a few phases only.
+PHASE_STEP = 0.13
+#: The latest a line comes in its period (a fraction of it): a late tick still says it within its period.
+LATEST_PHASE = 0.9
+TIME_EPS_S = 1e-9  # ticks land on a period's instant within rounding
+
+
+def phase_in_period(k: int) -> float:
+    """Where in its logging period (0 … ``LATEST_PHASE``) the ``k``-th line is said: ``k * PHASE_STEP`` folded
+    back at each end."""
+    walked = math.fmod(k * PHASE_STEP, 2.0 * LATEST_PHASE)
+    return walked if walked <= LATEST_PHASE else 2.0 * LATEST_PHASE - walked
+
+
+class LogSchedule:
+    """When the tutorial's once-a-period line (:func:`log_line`) is said: once in each logging period, as the
+    tutorial's is, but not at the same instant of each: a trajectory whose period divides the logging period (the
+    0.5 Hz sine against a line a second) would be seen at one phase only (in sim time, its zero crossing every time: the
+    arm looks dead). The instant moves ``PHASE_STEP`` of a period later each period, and back once it nears the
+    period's end, so lines are never closer than ``1 - PHASE_STEP`` periods apart and a periodic motion is seen across
+    its range. The first is at the first tick.
+
+    :param period_s: the logging period (``log_period_s``), s
+    """
+
+    def __init__(self, period_s: float) -> None:
+        self.period_s = period_s
+        self.start_s: float | None = None  # when period 0 began (the first tick, or a restart)
+        self.index = 0  # the period whose line is due next
+
+    def due(self, now_s: float, period_s: float | None = None) -> bool:
+        """Whether the line is said at this tick (``now_s``, s); ``period_s``: the period in force now (a changed
+        one starts afresh from the last line said)."""
+        if period_s is not None and period_s != self.period_s:
+            if self.start_s is not None:
+                self.start_s = self.said_at_s()
+                self.index = 1
+            self.period_s = period_s
+        if self.start_s is None:
+            self.start_s = now_s
+        if now_s < self.instant_s(self.index) - TIME_EPS_S:
+            return False
+        if self.instant_s(self.index + 1) <= now_s + TIME_EPS_S:
+            # A gap in the ticks (a frozen host) spans more than one line's instant: one line, now, and the
+            # periods start afresh from it.
+            self.start_s, self.index = now_s, 0
+        self.index += 1
+        return True
+
+    def instant_s(self, k: int) -> float:
+        """When the ``k``-th line is due, s."""
+        return self.start_s + (k + phase_in_period(k)) * self.period_s
+
+    def said_at_s(self) -> float:
+        """When the last line was due (the first period's start before any)."""
+        return self.instant_s(self.index - 1) if self.index > 0 else self.start_s
+
+
+Values = Iterable[float]
+
+
+def log_line(reference: Values, measured: Values, error: Values, command: Values) -> str:
+    """``target=…, actual=…, error=…, torque=…`` (``actual``: the controller's estimate), three decimals, a value per
+    joint separated by commas."""
+    return f"target={_fmt(reference)}, actual={_fmt(measured)}, error={_fmt(error)}, torque={_fmt(command)}"
+
+
+def _fmt(values: Values) -> str:
+    return ",".join(f"{v:.3f}" for v in values)

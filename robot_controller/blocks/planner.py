@@ -1,16 +1,14 @@
-"""The planner (the graph's ``trajectory_planner``): the reference (port ``reference``), ``[positions…,
-velocities…, accelerations…, sample_time_s]``, the motion in force sampled at each step (``sample_time_s``: the step's
-time, so the controller evaluates it at its own tick). Its time 0 is its first step. When it is stepped is its host's
-clock's affair: a timer on the wall clock, the sim's ticks on its period's grid in sim time.
+"""The planner (the graph's ``trajectory_planner``): the reference ``[positions…, velocities…, accelerations…,
+sample_time_s]``, the motion in force sampled at each step (``sample_time_s``: the step's time, so the controller
+evaluates it at its own tick). Its time 0 is its first step.
 
 Every trajectory is checked against the joints' ranges, the arm model and ``torque_max`` less ``feasibility_margin``
-(``core.reference``; ``feasibility``: scale, refuse or ignore), at start and on every live change, which is blended in
-from the reference in force (``core.reference.crossfade``). A joint trajectory (ports ``waypoints`` and
-``controller_waypoints``, or a FollowJointTrajectory goal through :meth:`Planner.take`) is checked against the URDF's
-limits too, joined onto the reference in force (first stopping within ``stop_deceleration`` if joining directly would
-swing past its first point), timed from its stamp if set and not past, and held at its last point until the next one
-or a change of the shape, which brings the parameters' motion back. What the arm does (ports ``reading``, ``state``,
-``brakes``, ``estop``) goes to its ``arm`` watch (``blocks.arm_watch``), which judges a goal in force."""
+(``feasibility``: scale, refuse or ignore), at start and on every live change, which is blended in from the reference
+in force. A joint trajectory (ports ``waypoints`` and ``controller_waypoints``, or a FollowJointTrajectory goal through
+:meth:`Planner.take`) is checked against the URDF's limits too, joined onto the reference in force (first stopping
+within ``stop_deceleration`` if joining directly would swing past its first point), timed from its stamp if set and
+not past, and held at its last point until the next one or a change of the shape, which brings the parameters' motion
+back. What the arm does goes to its ``arm`` watch (``blocks.arm_watch``), which judges a goal in force."""
 
 from __future__ import annotations
 
@@ -27,7 +25,7 @@ from robot_controller.blocks.block import Log
 from robot_controller.blocks.values import Array, WaypointRequest
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.metrics import EFFORT_UNITS, in_units
-from robot_controller.core.model import joint_limits, urdf_velocity_limits
+from robot_controller.core.model import joint_limits
 from robot_controller.core.reference import (
     Accepted,
     Crossfade,
@@ -62,9 +60,8 @@ class Planner:
 
     def __init__(self, params: Mapping[str, Any], log: Log, *, world_waits: bool = False) -> None:
         """:param world_waits: the world's brakes hold from its start until the first effort (its arm watch does
-        not count them); the reference is the same on every clock (its host steps it)"""
+        not count them)"""
         self.log = log
-        # The arm model: the URDF's, or the model_* values over it (read-only: fixed at start).
         self.dynamics = arm_model(params)
         if len(self.dynamics.joint_names) != params["joint_count"]:
             raise ConfigError(
@@ -76,7 +73,6 @@ class Planner:
             raise ConfigError(
                 f"controller_name {params['controller_name']!r}: a letter, then letters, digits or '_' (a ROS name)"
             )
-        # Position and velocity limits (read-only URDF: fixed at start).
         self.limits = joint_limits(resources.resolve_urdf(params["urdf_path"]))
         self.params = dict(params)
         self._plan_key: tuple | None = None
@@ -88,12 +84,10 @@ class Planner:
         self.waypoints: Trajectory | None = None  #: a joint trajectory (or a goal's stop) in force, if any
         self.origin_s = 0.0  #: when the motion in force has its time 0 (the start, or a joint trajectory's receipt)
         self.crossfade: Crossfade | None = None  #: a live change being blended in
-        #: told (with what replaced it) when the motion in force gives way to the topic's or the parameters' (the
-        #: action server ends its goal)
+        #: told (with what replaced it) when the motion in force gives way to another (the action server ends its goal)
         self.replaced: list[Callable[[str], None]] = []
         self.arm = ArmWatch(self.limits.joint_names, 1.0 / params["publish_rate_hz"], world_waits=world_waits)
 
-    # The block.
     def start(self) -> dict[str, Any]:
         """Say the plan's warning (slowed, or run as it is), once the host is ready to speak."""
         self.trajectory = self._make(self.params)
@@ -146,13 +140,11 @@ class Planner:
             f"{p['frequency_hz']:g} Hz, published at {p['publish_rate_hz']:g} Hz" + clock + self._slowed()
         )
 
-    # The parameters' motion.
     def _planned(self, params: Mapping[str, Any]) -> Plan:
         """The trajectory the values describe, slowed if it must be (``ConfigError`` if it is refused)."""
         key = tuple(sorted((name, repr(value)) for name, value in params.items()))  # checked once per change
         if key != self._plan_key:
             trajectory = make_trajectory(params["mode"], **cfg.trajectory_kwargs(params))
-            urdf = resources.resolve_urdf(params["urdf_path"])
             self._plan = plan_trajectory(
                 trajectory,
                 self.dynamics,
@@ -161,7 +153,7 @@ class Planner:
                 policy=params["feasibility"],
                 what=params["mode"],
                 joint_names=self.dynamics.joint_names,
-                velocity_limit=urdf_velocity_limits(urdf, self.dynamics.joint_names),
+                velocity_limit=self.limits.velocity,
                 position_range=(self.limits.lower, self.limits.upper),
             )
             self._plan_key = key
@@ -194,7 +186,6 @@ class Planner:
             f"({gap[j]:.3g} {self.dynamics.joint_units[j]} away)"
         )
 
-    # The motion in force.
     def motion_in_force(self) -> Motion:
         """The reference as a function of the planner's time (s): the blend under way, a joint trajectory's, else
         the parameters' motion."""
@@ -213,7 +204,6 @@ class Planner:
         for listener in self.replaced:
             listener(by)
 
-    # Joint trajectories.
     def take_waypoints(self, request: WaypointRequest, now_s: float) -> None:
         """A joint trajectory from the topic: in force from ``now_s`` if it can be taken, else said (at most once
         per 2 s: the topic has no answer) and the motion goes on."""

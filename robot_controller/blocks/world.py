@@ -1,7 +1,11 @@
 """The world (the graph's ``simulator``, the Gazebo role): MuJoCo steps the arm from its URDF at ``physics_rate_hz`` on
 the effort in force (port ``effort``: clamped to the URDF's limits, ignored while the e-stop holds), with its holding
-brakes (:class:`Brakes`) and an external disturbance (``blocks.external_torque``); it writes its true state (port
-``true_state``, stamped with its physics time, the effort applied), the brakes' state and the disturbance applied.
+brakes and an external disturbance (``blocks.external_torque``); it writes its true state (port ``true_state``,
+stamped with its physics time, the effort applied), the brakes' state and the disturbance applied.
+
+The brakes hold before the first effort (``start``), on the drive's request (``requested``), on the e-stop (``estop``)
+and when efforts stop coming (``drive_timeout``: the loop's clock judges when); engaged on every joint at once while
+any reason holds, a braked joint gets no actuator torque and is held by its brake's dry friction.
 
 The world never decides when physics runs: its host's clock does (``ros.clocks``: the wall clock, the paced world,
 sim time as fast as it goes; in process, ``step``), through :meth:`World.advance` and the ``take_*`` methods. Each
@@ -29,37 +33,6 @@ Written = list[tuple[str, Any]]
 ON_RESTART = {"physics_rate_hz", "publish_rate_hz", "initial_position", "control_rate_hz"}
 
 
-class Brakes:
-    """The holding brakes: on before the first effort (``start``), on the drive's request (``requested``), on the
-    e-stop (``estop``) and when efforts stop coming (``drive_timeout``: the loop's clock judges when); engaged on every
-    joint at once while any reason holds. A braked joint gets no actuator torque and is held by its brake's dry
-    friction of ``holding_torque_nm`` (N·m)."""
-
-    def __init__(self, plant: MujocoPlant, holding_torque_nm: float) -> None:
-        self.plant = plant
-        self.joint_count = len(plant.joint_names)
-        self.holding_torque_nm = holding_torque_nm
-        self.reasons: set[str] = {"start"}
-        plant.set_brakes(np.ones(self.joint_count, dtype=bool), holding_torque_nm)
-
-    @property
-    def engaged(self) -> bool:
-        return bool(self.reasons)
-
-    def set(self, reason: str, on: bool) -> bool:
-        """Add or remove one reason; whether the brakes engaged or released by it."""
-        before = self.engaged
-        (self.reasons.add if on else self.reasons.discard)(reason)
-        if self.engaged == before:
-            return False
-        self.plant.set_brakes(np.full(self.joint_count, self.engaged), self.holding_torque_nm)
-        return True
-
-    def value(self) -> Array:
-        """Port ``brakes``: 1 per engaged joint, the reasons in the label."""
-        return Array(np.full(self.joint_count, 1.0 if self.reasons else 0.0), brakes_label(self.reasons))
-
-
 class World:
     inputs = ("effort", "brake_request", "estop", "disturbance")
     outputs = ("true_state", "brakes", "disturbance_applied")
@@ -67,8 +40,7 @@ class World:
     def __init__(
         self, params: Mapping[str, Any], log: Log, *, world_waits: bool = False, plant: MujocoPlant | None = None
     ) -> None:
-        """:param world_waits: the loop's clock waits for each effort (the world's physics runs only when its clock
-            steps it, whatever the mode: the world itself never branches on it)
+        """:param world_waits: the loop's clock waits for each effort (the world itself never branches on it)
         :param plant: the arm to use as it is (an in-process loop's, already set up); None: the parameters' (the
             URDF, its variation, at ``initial_position``)"""
         self.log = log
@@ -84,13 +56,12 @@ class World:
         self.effort = np.zeros(self.joint_count)  #: N·m per joint, in force until the next
         self.steps_done = 0  #: physics steps since time 0
         self.physics_dt_ns = round(self.plant.physics_dt * 1e9)
-        self.brakes = Brakes(self.plant, params["brake_torque_nm"])
+        self.brake_reasons: set[str] = {"start"}  #: why the brakes hold (none: released)
+        plant.set_brakes(np.ones(self.joint_count, dtype=bool), params["brake_torque_nm"])
         self.push = ExternalTorque(self.plant, params, log)
         self.request_heard = False  #: the drive's brake request has been heard (a state it latches)
         if not self.variation.nominal:
             log.info(f"the plant differs from its URDF: {self.variation.describe()}")
-
-    # --- the Block protocol (the in-process loop) -----------------------------------------------------------------
 
     def start(self) -> dict[str, Any]:
         return {}  # the brakes' state goes out on its first change (a wall clock repeats it)
@@ -118,8 +89,6 @@ class World:
         if changed & ON_RESTART:
             self.log.warn("on_restart", "physics and publish rates and the initial position apply on restart")
 
-    # --- what the clocks call ---------------------------------------------------------------------------------------
-
     @property
     def time_ns(self) -> int:
         """Physics time, ns (exact: whole steps)."""
@@ -131,24 +100,23 @@ class World:
 
     @property
     def physics_dt(self) -> float:
-        """s per physics step."""
         return self.plant.physics_dt
 
     @property
     def estopped(self) -> bool:
-        return "estop" in self.brakes.reasons
+        return "estop" in self.brake_reasons
 
     def braked_for(self, reason: str) -> bool:
-        """Whether ``reason`` (:class:`Brakes`) holds the brakes."""
-        return reason in self.brakes.reasons
+        return reason in self.brake_reasons
 
     def position(self) -> np.ndarray:
         """Each joint's position now, rad (m)."""
         return self.plant.state()[0]
 
     def brakes_state(self) -> Written:
-        """Port ``brakes`` as it is (a clock repeats it for late listeners)."""
-        return [("brakes", self.brakes.value())]
+        """Port ``brakes``: 1 per engaged joint, the reasons in the label (a clock repeats it for late listeners)."""
+        engaged = np.full(self.joint_count, 1.0 if self.brake_reasons else 0.0)
+        return [("brakes", Array(engaged, brakes_label(self.brake_reasons)))]
 
     def respawn(self, position: np.ndarray) -> None:
         """Start where an earlier world left the arm (a respawned simulator): braked until the first effort."""
@@ -159,7 +127,7 @@ class World:
         )
 
     def take(self, inputs: Mapping[str, Any]) -> Written:
-        """Every input that arrived, in port order (an effort is checked here: :meth:`check_effort`)."""
+        """Every input that arrived, in port order."""
         written: Written = []
         for name in self.inputs:
             if name not in inputs:
@@ -203,22 +171,27 @@ class World:
         if self.estopped:
             self.log.warn("estop_effort", "e-stop: efforts ignored until it is released")
             return []
-        released = self.brakes.set("start", False) | self.brakes.set("drive_timeout", False)
-        self.effort = np.zeros(self.joint_count) if self.brakes.engaged else effort
-        return [("brakes", self.brakes.value())] if released else []
+        written = self.set_brake("start", False) + self.set_brake("drive_timeout", False)
+        self.effort = np.zeros(self.joint_count) if self.brake_reasons else effort
+        return written
 
     def set_brake(self, reason: str, on: bool) -> Written:
-        """Add or remove one reason for the brakes; engaged, they cut the effort."""
-        if not self.brakes.set(reason, on):
+        """Add or remove one reason for the brakes; the brakes' state if they engaged (cutting the effort) or
+        released by it."""
+        before = bool(self.brake_reasons)
+        (self.brake_reasons.add if on else self.brake_reasons.discard)(reason)
+        engaged = bool(self.brake_reasons)
+        if engaged == before:
             return []
-        if self.brakes.engaged:
+        self.plant.set_brakes(np.full(self.joint_count, engaged), self.params["brake_torque_nm"])
+        if engaged:
             self.effort = np.zeros(self.joint_count)
-        return [("brakes", self.brakes.value())]
+        return self.brakes_state()
 
     def take_brake_request(self, on: bool) -> Written:
         """Port ``brake_request``: the drive's request (a state)."""
         self.request_heard = True
-        if on != ("requested" in self.brakes.reasons):
+        if on != ("requested" in self.brake_reasons):
             said = "brake requested by the motor: torque off, brakes on" if on else "motor released its brake request"
             self.log.warn(f"brake_request_{on}", said)  # each way its own line
         return self.set_brake("requested", on)
@@ -239,7 +212,7 @@ class World:
 
     def take_disturbance(self, value: Array, *, physics_running: bool = True) -> None:
         """Port ``disturbance``: applied from now (``physics_running``: the clock runs physics already)."""
-        self.push.take(value, braked=self.brakes.engaged, physics_running=physics_running)
+        self.push.take(value, braked=bool(self.brake_reasons), physics_running=physics_running)
 
     def advance(self, steps: int) -> None:
         """Run ``steps`` physics steps on the effort in force (the parameters' disturbance starting if due)."""
@@ -252,7 +225,7 @@ class World:
         """The true state now, stamped ``stamp_s`` (the effort applied: zero while braked), and the disturbance
         applied in the last physics step if there is one to say."""
         position, velocity = self.plant.state()
-        effort = np.zeros(self.joint_count) if self.brakes.engaged else self.effort.copy()
+        effort = np.zeros(self.joint_count) if self.brake_reasons else self.effort.copy()
         written: Written = [("true_state", JointSample(stamp_s, self.joint_names, position, velocity, effort))]
         applied = self.push.applied(stamp_s)
         if applied is not None:

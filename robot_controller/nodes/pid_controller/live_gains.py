@@ -1,6 +1,6 @@
 """A live gain change that never stalls the loop. The controller's parameter services answer on a thread of their
 own (:class:`ParameterServices`), where a change is checked, its law designed in the designer's process
-(:mod:`.designer`), and handed over (``blocks.controller.Handover``) for the loop to take at the start of its next
+(:mod:`.designer`), and handed over (``Controller.set_params``) for the loop to take at the start of its next
 tick. Checking a change means designing its law and finding its delay margin, tens of ms on
 one joint and hundreds on the Panda: on the loop's thread that left readings unanswered until the drive braked."""
 
