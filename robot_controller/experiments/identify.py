@@ -1,0 +1,320 @@
+"""Identification of the real arm (``robot-controller identify``): one sim-time run of the stack with the planner in
+``chirp`` mode (sweeping ``start_hz`` to ``end_hz`` over the run), the model fitted to the TRUE joint state and the
+applied torque, leaving out the samples the model lacks (brakes held, a push, the torque saturated): each joint's
+four numbers (inertia, damping, Coulomb friction, gravity torque) as the controller's ``model_*`` overlay, or on a
+chain a payload on the last link (four numbers per joint would fold the coupling into wrong values) as its
+``model_payload``; written into ``out`` as ``identified.yaml``, ``identification.json``, ``identification.md`` and
+``run/``."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robot_controller import parameters as cfg
+from robot_controller import resources
+from robot_controller.core.model import PARAMETERS, JointArmModel, JointFit
+from robot_controller.core.model import identify as fit_joints
+from robot_controller.experiments.step import run_and_score
+from robot_controller.parameters.builders import MODEL_KEYS
+from robot_controller.parameters.torque_limits import torque_limit as node_torque_limit
+from robot_controller.scoring import report
+
+# The excitation: a chirp within the reference sine's range and speed (4× the arm's inertia follows it in 10 N·m).
+AMPLITUDE_RAD = 0.8
+START_HZ = 0.1
+END_HZ = 0.5
+
+
+def excitation_params(
+    params: cfg.Params,
+    duration_s: float,
+    *,
+    amplitude_rad: float = AMPLITUDE_RAD,
+    start_hz: float = START_HZ,
+    end_hz: float = END_HZ,
+) -> cfg.Params:
+    """``params`` with the planner in chirp mode, one sweep over ``duration_s``; on a chain of joints at the planner's
+    own amplitudes (each within its joint's range about the robot's home pose), on one joint ``amplitude_rad``."""
+    planner = params["trajectory_planner"]
+    amplitude = [float(amplitude_rad)] if planner["joint_count"] == 1 else list(planner["amplitude"])
+    chirp = {"mode": "chirp", "amplitude": amplitude, "frequency_hz": float(start_hz)}
+    chirp.update(end_frequency_hz=float(end_hz), sweep_time_s=float(duration_s))
+    return cfg.merge(params, {"trajectory_planner": chirp})
+
+
+def _step_at(times_s: np.ndarray, event_times_s: np.ndarray, values: np.ndarray, joint_count: int) -> np.ndarray:
+    """The latest of ``values`` (a row per event, a column per joint) at each of ``times_s``, as booleans (0 before)."""
+    out = np.zeros((len(times_s), joint_count), dtype=bool)
+    if len(event_times_s) == 0:
+        return out
+    order = np.argsort(event_times_s, kind="stable")
+    index = np.searchsorted(event_times_s[order], times_s, side="right") - 1
+    known = index >= 0
+    out[known] = np.asarray(values)[order][index[known]] != 0
+    return out
+
+
+def held_or_pushed(recording: Any) -> np.ndarray:
+    """Per true-state sample and joint: a brake engaged or a disturbance acting (not in the model, so left out)."""
+    t, n = recording.true_time_s, recording.joint_count
+    mask = _step_at(t, recording.brakes_time_s, recording.brakes, n)
+    if len(getattr(recording, "disturbance_time_s", ())):
+        mask |= _step_at(t, recording.disturbance_time_s, recording.disturbance, n)
+    return mask
+
+
+def fit_inputs(params: cfg.Params, recording: Any, joint_count: int) -> tuple[tuple, dict[str, np.ndarray]]:
+    """What a fit takes from a run: the TRUE time, position, velocity and applied torque, and what to leave out."""
+    motion = (recording.true_time_s, recording.true_position, recording.true_velocity, recording.true_effort)
+    return motion, {"effort_limit": torque_limit(params, joint_count), "braked": held_or_pushed(recording)}
+
+
+def torque_limit(params: cfg.Params, joint_count: int) -> np.ndarray:
+    """The torque a recorded effort saturates at: the least of both ``torque_max`` and the arm's effort limit."""
+    from robot_controller.core.model import effort_limits, load_model
+
+    limit = effort_limits(load_model(resources.resolve_urdf(params["simulator"]["urdf_path"])))
+    for node in ("motor_node", "pid_controller"):
+        limit = np.minimum(limit, node_torque_limit(params[node], joint_count))
+    return limit
+
+
+def joint_names(params: cfg.Params) -> list[str]:
+    """The simulated arm's joints, in the URDF's order."""
+    from robot_controller.core.model import joint_names, load_model
+
+    return joint_names(load_model(resources.resolve_urdf(params["simulator"]["urdf_path"])))
+
+
+UNITS = {"inertia": "kg_m2", "damping": "nm_s_per_rad", "coulomb_friction": "nm", "gravity_torque": "nm"}
+READABLE_UNITS = {"inertia": "kg·m²", "damping": "N·m·s/rad", "coulomb_friction": "N·m", "gravity_torque": "N·m"}
+
+
+def urdf_model(params: cfg.Params) -> JointArmModel:
+    """The controller's URDF as the same four numbers per joint (what identification corrects)."""
+    from robot_controller.core.model import ArmDynamics
+
+    return JointArmModel.over_urdf(ArmDynamics(resources.resolve_urdf(params["pid_controller"]["urdf_path"])))
+
+
+def overlay(fits: list[JointFit]) -> cfg.Params:
+    """The parameter overlay: the controller's ``model_*`` values, one per joint."""
+    return {
+        "pid_controller": {
+            key: [float(f"{getattr(fit, name):.6g}") for fit in fits]
+            for key, name in zip(MODEL_KEYS, PARAMETERS, strict=True)
+        }
+    }
+
+
+def flat_results(joint_names: list[str], fits: list[JointFit]) -> dict[str, Any]:
+    """Per joint: value, standard error, residual RMS, samples (flat keys, units in the names)."""
+    out: dict[str, Any] = {}
+    for name, fit in zip(joint_names, fits, strict=True):
+        for parameter in PARAMETERS:
+            out[f"{name}_{parameter}_{UNITS[parameter]}"] = float(getattr(fit, parameter))
+            out[f"{name}_{parameter}_stderr_{UNITS[parameter]}"] = float(getattr(fit, f"{parameter}_stderr"))
+        out[f"{name}_residual_rms_nm"] = fit.residual_rms_nm
+        out[f"{name}_samples"] = fit.samples
+        for why in ("braked", "saturated", "slow", "other"):
+            out[f"{name}_excluded_{why}"] = getattr(fit, f"excluded_{why}")
+    return out
+
+
+def markdown(joint_names: list[str], fits: list[JointFit], urdf: JointArmModel, facts: dict[str, Any]) -> str:
+    lines = [
+        "# Identification",
+        "",
+        f"{facts['duration_s']:g} sim s, sim time, seed {facts['seed']}: chirp {facts['amplitude_rad']:g} rad "
+        f"from {facts['start_hz']:g} to {facts['end_hz']:g} Hz; fitted on the true joint state and the "
+        "applied torque, tau = I·a + b·v + f_c·sign(v) + G·cos(q). Tracking during the run "
+        f"(the controller as configured): {facts['tracking_rms_rad'] * 1e3:.2f} mrad RMS, "
+        f"peak torque {facts['peak_torque_nm']:.2f} N·m.",
+        "",
+        "| joint | parameter | identified | ± standard error | controller's URDF | identified / URDF |",
+        "|---|---|---|---|---|---|",
+    ]
+    urdf_values = {parameter: getattr(urdf, parameter) for parameter in PARAMETERS}
+    for j, (name, fit) in enumerate(zip(joint_names, fits, strict=True)):
+        for parameter in PARAMETERS:
+            value, err, ref = getattr(fit, parameter), getattr(fit, f"{parameter}_stderr"), urdf_values[parameter][j]
+            ratio = f"{value / ref:.2f}" if ref != 0 else "n/a"
+            lines.append(
+                f"| {name} | {parameter.replace('_', ' ')} [{READABLE_UNITS[parameter]}] | {value:.4g} "
+                f"| {err:.2g} | {ref:.4g} | {ratio} |"
+            )
+    lines += [
+        "",
+        "| joint | residual RMS [N·m] | samples used | left out: braked or torque off | saturated "
+        "| slow or reversing | other |",
+        "|---|---|---|---|---|---|---|",
+        *(
+            f"| {name} | {fit.residual_rms_nm:.3g} | {fit.samples} | {fit.excluded_braked} "
+            f"| {fit.excluded_saturated} | {fit.excluded_slow} | {fit.excluded_other} |"
+            for name, fit in zip(joint_names, fits, strict=True)
+        ),
+        "",
+        "Standard errors are the least-squares fit's (σ²·(XᵀX)⁻¹); the residuals of the "
+        "filtered regression are correlated, so they are optimistic.",
+        "",
+        "Use: `--config <your arm's file> --config identified.yaml` (the overlay holds only the "
+        "controller's `model_*` values).",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def identify_joints(
+    params: cfg.Params,
+    out: Path,
+    recording: Any,
+    joint_names: list[str],
+    facts: dict[str, Any],
+    progress: Callable[[str], None],
+) -> dict[str, Any]:
+    """Fit each joint's four numbers to the recording; write the overlay and the reports."""
+    motion, left_out = fit_inputs(params, recording, len(joint_names))
+    fits = fit_joints(*motion, **left_out)
+    run_keys = ("tracking_rms_rad", "peak_torque_nm", "saturated_ticks")
+    results = {
+        **flat_results(joint_names, fits),
+        **{f"excitation_{k}": v for k, v in facts.items() if k not in run_keys},
+        **{f"run_{k}": facts[k] for k in run_keys},
+        "simulator_urdf": params["simulator"]["urdf_path"] or "(reference arm)",
+        "controller_urdf": params["pid_controller"]["urdf_path"] or "(reference arm)",
+    }
+    cfg.write_params_file(overlay(fits), out / "identified.yaml")
+    report.write_metrics(out / "identification.json", results)
+    (out / "identification.md").write_text(markdown(joint_names, fits, urdf_model(params), facts))
+    for name, fit in zip(joint_names, fits, strict=True):
+        progress(
+            f"identify: {name}: "
+            + ", ".join(
+                f"{p} {getattr(fit, p):.4g} ± {getattr(fit, p + '_stderr'):.2g} {READABLE_UNITS[p]}" for p in PARAMETERS
+            )
+            + f"; residual {fit.residual_rms_nm:.3g} N·m RMS over {fit.samples} samples"
+        )
+    progress(f"identify: wrote {out / 'identified.yaml'}, identification.json, identification.md")
+    return results
+
+
+def identify_payload(
+    params: cfg.Params,
+    out: Path,
+    recording: Any,
+    scored: dict[str, Any],
+    duration_s: float,
+    seed: int,
+    progress: Callable[[str], None],
+) -> dict[str, Any]:
+    """A chain of joints: fit a payload on the last link to the recording, write the overlay and reports."""
+    from robot_controller.core.model import fit_payload
+
+    motion, left_out = fit_inputs(params, recording, recording.joint_count)
+    fit = fit_payload(resources.resolve_urdf(params["pid_controller"]["urdf_path"]), *motion, **left_out)
+    mass, (x, y, z) = fit.payload.mass_kg, fit.payload.com_m
+    # No mass above its noise: the arm carries nothing the URDF lacks, and the overlay says so.
+    overlay = fit.payload.as_values() if fit.found else [0.0, 0.0, 0.0, 0.0]
+    results: dict[str, Any] = {"fitted": "payload", "payload_found": fit.found, "payload_mass_kg": mass}
+    centre = (x, y, z) if fit.found else (None, None, None)  # with no payload found its centre means nothing
+    results.update(zip(("payload_x_m", "payload_y_m", "payload_z_m"), centre, strict=True))
+    stderr_keys = ("mass_kg", "x_m", "y_m", "z_m")
+    results.update({f"payload_{name}_stderr": float(err) for name, err in zip(stderr_keys, fit.stderr, strict=True)})
+    results.update(payload_unidentifiable=list(fit.unidentifiable) if fit.found else [])
+    results.update(residual_rms_nm=fit.residual_rms_nm, residual_rms_urdf_alone_nm=fit.residual_rms_without_nm)
+    results.update(samples=fit.samples, excitation_duration_s=float(duration_s), excitation_seed=int(seed))
+    results.update(run_tracking_rms_rad=scored.get("tracking_rms_rad"), run_peak_torque_nm=scored.get("peak_torque_nm"))
+    results.update(
+        simulator_urdf=params["simulator"]["urdf_path"], controller_urdf=params["pid_controller"]["urdf_path"]
+    )
+    payload = {"model_payload": [float(f"{v:.6g}") for v in overlay]}
+    cfg.write_params_file({"pid_controller": payload}, out / "identified.yaml")
+    report.write_metrics(out / "identification.json", results)
+    labels = ("mass [kg]", "x [m]", "y [m]", "z [m]")
+    rows = zip(labels, fit.payload.as_values(), fit.stderr, strict=True)
+    none_found = [
+        "No payload found: the mass is not above three standard errors, or under 10 g. The "
+        "overlay sets `model_payload` to no load ([0, 0, 0, 0]).",
+        "",
+    ]
+    lines = [
+        "# Identification: a payload on the last link",
+        "",
+        f"{duration_s:g} sim s, sim time, seed {seed}: a chirp through every joint; fitted on the true "
+        "joint state and the applied torque, by the URDF's inverse dynamics with a point mass welded to "
+        "the last joint's link (MuJoCo's mj_inverse, every joint at once). Tracking during the run (the "
+        f"controller as configured): {(scored.get('tracking_rms_rad') or float('nan')) * 1e3:.2f} mrad "
+        "RMS on the worst joint.",
+        "",
+        "| parameter | identified | ± standard error |",
+        "|---|---|---|",
+        *(_row(name, value, err, shown=fit.found or name.startswith("mass")) for name, value, err in rows),
+        "",
+        *([] if fit.found else none_found),
+        f"Torque left unexplained: {fit.residual_rms_nm:.3g} N·m RMS with the payload, "
+        f"{fit.residual_rms_without_nm:.3g} N·m with the URDF alone, over {fit.samples} intervals "
+        "(every joint).",
+        "",
+        "Use: `--config identified.yaml` after your other files (it sets only the controller's "
+        "`model_payload`; `run` passes it on to the planner).",
+        "",
+    ]
+    (out / "identification.md").write_text("\n".join(lines))
+    unexplained = (
+        f"torque unexplained {fit.residual_rms_nm:.3g} N·m RMS (the URDF alone: {fit.residual_rms_without_nm:.3g})"
+    )
+    if not fit.found:
+        progress(f"identify: no payload found on the last link ({mass:.2g} ± {fit.stderr[0]:.2g} kg); {unexplained}")
+    else:
+        unseen = f"; {', '.join(fit.unidentifiable)} not identifiable (no joint's torque depends on it): set to 0"
+        found = f"identify: payload {mass:.3f} kg at ({x:.3f}, {y:.3f}, {z:.3f}) m on the last link; {unexplained}"
+        progress(found + (unseen if fit.unidentifiable else ""))
+    progress(f"identify: wrote {out / 'identified.yaml'}, identification.json, identification.md")
+    return results
+
+
+def _row(name: str, value: float, stderr: float, *, shown: bool) -> str:
+    """One parameter's row of the report; ``shown`` False: no payload was found, so it has no value."""
+    if not shown:
+        return f"| {name} | — (no payload) | — |"
+    if not np.isfinite(stderr):
+        return f"| {name} | {value:.4g} (not identifiable: no joint's torque depends on it) | — |"
+    return f"| {name} | {value:.4g} | {stderr:.2g} |"
+
+
+def identify(
+    params: cfg.Params,
+    out: Path,
+    *,
+    duration_s: float = 20.0,
+    seed: int = 0,
+    progress: Callable[[str], None] = print,
+    amplitude_rad: float = AMPLITUDE_RAD,
+    start_hz: float = START_HZ,
+    end_hz: float = END_HZ,
+    domain_id: int | None = None,
+) -> dict[str, Any]:
+    """Excite the arm through the whole stack, fit its model, write the results into ``out``.
+
+    :returns: what ``identification.json`` holds
+    """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    run_params = excitation_params(params, duration_s, amplitude_rad=amplitude_rad, start_hz=start_hz, end_hz=end_hz)
+    run_params["sensor_node"]["seed"] = seed
+    chirp = f"{duration_s:g} sim s of a chirp, {amplitude_rad:g} rad, {start_hz:g} → {end_hz:g} Hz"
+    run_dir = out / "run"
+    progress(f"identify: {chirp} (sim time, run in {run_dir})")
+    scored, recording = run_and_score(run_params, run_dir, duration_s=duration_s, sim_time=True, domain_id=domain_id)
+    names = joint_names(run_params)
+    progress(f"identify: fitting {len(recording.true_time_s)} samples of {', '.join(names)}")
+    if len(names) > 1:
+        return identify_payload(run_params, out, recording, scored, duration_s, seed, progress)
+    facts = {"duration_s": float(duration_s), "seed": int(seed), "amplitude_rad": float(amplitude_rad)}
+    facts.update(start_hz=float(start_hz), end_hz=float(end_hz))
+    facts.update({key: scored.get(key) for key in ("tracking_rms_rad", "peak_torque_nm", "saturated_ticks")})
+    return identify_joints(run_params, out, recording, names, facts, progress)
