@@ -3,19 +3,27 @@ resolved at once (a bad spec is one ``ConfigError`` line before anything runs), 
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from robot_controller import parameters as cfg
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import registry
 
 
-def controller_type(spec: str) -> str:
-    """``spec`` checked (its class loads) and as the nodes get it: a file's path absolute."""
-    spec = spec.strip()
+def controller_type(spec: object, base: Path | None = None, where: str = "--controller") -> str:
+    """``spec`` checked (its class loads) and as the nodes get it: a file's path absolute from ``base`` (default the
+    current directory).
+
+    :raises ConfigError: ``where``, then why
+    """
+    if not isinstance(spec, str) or not spec.strip():
+        raise ConfigError(f"{where}: expected pid, lqr, an installed law or path/to/file.py:Class, got {spec!r}")
+    spec = registry.with_absolute_path(spec.strip(), base)
     try:
         registry.resolve(spec)
     except ConfigError as exc:
-        raise ConfigError("--controller: " + str(exc).removeprefix("controller_type: ")) from None
-    return registry.with_absolute_path(spec)
+        raise ConfigError(f"{where}: " + str(exc).removeprefix("controller_type: ")) from None
+    return spec
 
 
 def with_controller(params: cfg.Params, spec: str | None) -> cfg.Params:

@@ -10,9 +10,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from robot_controller.core.errors import ConfigError
+from robot_controller.experiments import laws
 from robot_controller.experiments.campaign import draws, executors, fingerprint
 from robot_controller.experiments.campaign.one_run import Task
-from robot_controller.experiments.campaign.spec import CampaignSpec, controller_spec
+from robot_controller.experiments.campaign.spec import CampaignSpec
 from robot_controller.experiments.campaign.store import ResultStore
 
 
@@ -24,16 +26,9 @@ class CampaignContender:
 
 def contenders(spec: CampaignSpec, names: list[str] | None) -> tuple[CampaignContender, ...]:
     """``--controllers A,B``: each checked (its class loads), labelled by its class name; None: the spec's own."""
-    from robot_controller.core.errors import ConfigError
-    from robot_controller.experiments.laws import label
-
     if not names:
         return (CampaignContender("", None),)
-
-    def refuse(why: str) -> ConfigError:
-        return ConfigError(f"--controllers: {why}")
-
-    chosen = tuple(CampaignContender(label(n), controller_spec(n, Path.cwd(), refuse)) for n in names)
+    chosen = tuple(CampaignContender(laws.label(n), laws.controller_type(n, where="--controllers")) for n in names)
     if len({c.label for c in chosen}) != len(chosen):
         raise ConfigError(f"--controllers: two controllers share a name: {','.join(names)}")
     return chosen

@@ -13,6 +13,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller.core.controller.supervision import Status
 from robot_controller.experiments.campaign import draws as drawing
+from robot_controller.experiments.campaign.spec import FIGURES
 
 #: The statuses of a tick the controller spends stopping or stopped rather than tracking.
 STOP_STATUSES = frozenset(
@@ -29,8 +30,6 @@ STOP_STATUSES = frozenset(
 )
 #: An applied torque this close to its limit (as a fraction of it) counts as saturated.
 SATURATED_FRACTION = 0.999
-#: The tracking figures a row keeps (the worst joint's), each also of the start (``start_tracking_max_*``).
-TRACKING = ("tracking_rms_rad", "tracking_max_rad", "tracking_rms_m", "tracking_max_m")
 #: The row's columns that are the host's, not the run's: left out when two campaigns' figures are compared.
 HOST_COLUMNS = ("wall_s", "cpu_s", "attempts", "first_failure")
 
@@ -94,7 +93,7 @@ def figures(params: cfg.Params, duration_s: float, seed: int) -> dict[str, Any]:
     limit = torque_limit(params["motor_node"], n)
     effort = np.abs(result.command)  # what the controller asked (a run's peak_torque_nm is of its commands)
     out: dict[str, Any] = {"status": "ok", "reason": ""}
-    for key in (*TRACKING, *(f"start_{key}" for key in TRACKING if "_max" in key)):
+    for key in FIGURES:  # the worst joint's tracking, and of the start (the others are set below)
         if key in tracking:
             out[key] = float(tracking[key])
     worst = int(np.argmax(tracking["tracking_rms_per_joint"]))

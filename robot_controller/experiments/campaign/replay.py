@@ -12,18 +12,11 @@ import yaml
 from robot_controller import parameters as cfg
 from robot_controller.core.errors import ConfigError
 from robot_controller.experiments.campaign import draws
-from robot_controller.experiments.campaign.spec import CampaignSpec, parse_spec
+from robot_controller.experiments.campaign.spec import FIGURES, CampaignSpec, parse_spec
 from robot_controller.experiments.campaign.store import CAMPAIGN, RESULTS, read_rows
 
 #: The figures set side by side: the campaign's name, the run's metrics.json name.
-COMPARED = (
-    ("tracking_rms_rad", "tracking_rms_rad"),
-    ("tracking_max_rad", "tracking_max_rad"),
-    ("start_tracking_max_rad", "start_tracking_max_rad"),
-    ("tracking_rms_m", "tracking_rms_m"),
-    ("tracking_max_m", "tracking_max_m"),
-    ("peak_effort", "peak_torque_nm"),
-)
+COMPARED = tuple((key, key) for key in FIGURES[:5]) + (("peak_effort", "peak_torque_nm"),)
 
 
 def campaign_of(folder: Path) -> tuple[CampaignSpec, dict[str, Any]]:

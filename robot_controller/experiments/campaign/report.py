@@ -10,19 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from robot_controller.experiments.campaign.spec import CampaignSpec
+from robot_controller.experiments.campaign.spec import FIGURES, CampaignSpec
+from robot_controller.experiments.reporting import pyplot
 
-#: The figures whose distributions are drawn, in order (those the rows have).
-DISTRIBUTED = (
-    "tracking_rms_rad",
-    "tracking_max_rad",
-    "start_tracking_max_rad",
-    "tracking_rms_m",
-    "tracking_max_m",
-    "start_tracking_max_m",
-    "peak_effort_ratio",
-)
-DISTRIBUTED += ("saturated_ticks", "faults")
 WORST_SHOWN = 5
 #: z of a two-sided 95 % interval.
 Z95 = 1.959963984540054
@@ -134,7 +124,7 @@ def _figures_table(groups: dict[str, list[dict]], target: str) -> list[str]:
     lines += ["| controller | figure | median | p95 | max | mean |", "|---|---|---:|---:|---:|---:|"]
     for name, rows in groups.items():
         ok = [r for r in rows if r.get("status") == "ok"]
-        for key in DISTRIBUTED:
+        for key in FIGURES:
             values = [r[key] for r in ok if r.get(key) is not None]
             if values:
                 lines.append(f"| {name or 'default'} | {key} | " + _quantiles(values)[2:])
@@ -234,12 +224,8 @@ def _listed(title: str, entries: list[tuple[dict, str]]) -> list[str]:
 
 
 def plot_distributions(groups: dict[str, list[dict]], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    keys = [k for k in DISTRIBUTED if any(r.get(k) is not None for rows in groups.values() for r in rows)]
+    plt = pyplot()
+    keys = [k for k in FIGURES if any(r.get(k) is not None for rows in groups.values() for r in rows)]
     fig, axes = plt.subplots(1, len(keys), figsize=(3.2 * len(keys), 3), squeeze=False)
     for ax, key in zip(axes[0], keys, strict=True):
         for name, rows in groups.items():
@@ -257,11 +243,7 @@ def plot_distributions(groups: dict[str, list[dict]], path: Path) -> None:
 
 def plot_sensitivity(ranked_by_group: dict[str, tuple[list[dict], list[dict]]], target: str, path: Path) -> None:
     """The figure against each of the (up to) three strongest draws, one panel each."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     first = next(iter(ranked_by_group.values()))[1][:3]
     fig, axes = plt.subplots(1, max(1, len(first)), figsize=(4 * max(1, len(first)), 3.2), squeeze=False)
     for ax, s in zip(axes[0], first, strict=False):

@@ -30,7 +30,7 @@ import yaml
 
 from robot_controller import parameters as cfg
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.laws import registry
+from robot_controller.experiments import laws
 
 KINDS = ("uniform", "normal", "loguniform", "choice")
 TOP_KEYS = ("robot", "controller", "config", "duration_s", "runs", "seed", "vary", "pass", "run_timeout_s")
@@ -41,13 +41,13 @@ RUN_TIMEOUT_BASE_S = 60.0
 RUN_TIMEOUT_PER_S = 10.0
 #: What a campaign sets itself: a draw of these would be overwritten (or would make the run another experiment).
 NOT_VARIED = {"sensor_node.seed": "each run's noise seed is derived from the campaign's seed and its run id"}
-#: The figures a ``pass:`` entry may bound (each run's at most that); one_run writes them.
-PASS_METRICS = (
+#: The figures one_run writes of each run, in the report's order: a ``pass:`` entry may bound any of them.
+FIGURES = (
     "tracking_rms_rad",
     "tracking_max_rad",
+    "start_tracking_max_rad",
     "tracking_rms_m",
     "tracking_max_m",
-    "start_tracking_max_rad",
     "start_tracking_max_m",
     "peak_effort_ratio",
     "saturated_ticks",
@@ -98,10 +98,8 @@ class CampaignSpec:
     def base_params(self, controller: str | None = None) -> cfg.Params:
         """The stack every run starts from: the robot's, the config over it, the controller (``controller`` or the
         spec's)."""
-        from robot_controller.experiments.laws import with_controller
-
         params = cfg.load_stack("default", [self.config] if self.config else None, self.robot)
-        return with_controller(params, controller or self.controller)
+        return laws.with_controller(params, controller or self.controller)
 
 
 def default_run_timeout_s(duration_s: float) -> float:
@@ -162,7 +160,7 @@ def parse_spec(raw: Any, path: Path, text: str = "") -> CampaignSpec:
             raise refuse("config", f"{config}: no such file")
     controller = raw.get("controller")
     if controller is not None:
-        controller = controller_spec(controller, path.parent, lambda why: refuse("controller", why))
+        controller = laws.controller_type(controller, path.parent, f"{path}: controller")
     spec = CampaignSpec(robot, controller, config, float(duration_s), runs, seed, ())
     try:
         params = spec.base_params()  # the robot, the config file and the law: each refused in its own words
@@ -191,18 +189,6 @@ def parse_spec(raw: Any, path: Path, text: str = "") -> CampaignSpec:
         path.resolve(),
         None if timeout_s is None else float(timeout_s),
     )
-
-
-def controller_spec(spec: Any, base: Path, refuse) -> str:
-    """A law's spec checked (its class loads) and as the nodes take it: a file's path absolute from ``base``."""
-    if not isinstance(spec, str) or not spec.strip():
-        raise refuse(f"expected pid, lqr, an installed law or path/to/file.py:Class, got {spec!r}")
-    spec = registry.with_absolute_path(spec.strip(), base)
-    try:
-        registry.resolve(spec)
-    except ConfigError as exc:
-        raise refuse(str(exc).removeprefix("controller_type: ")) from None
-    return spec
 
 
 def _vary(key: str, body: Any, refuse) -> Vary:
@@ -280,9 +266,9 @@ def _pass_bounds(raw: Any, refuse) -> dict[str, float]:
         )
     bounds = {}
     for metric, bound in raw.items():
-        if metric not in PASS_METRICS:
-            hint = difflib.get_close_matches(str(metric), PASS_METRICS, n=1)
-            why = "not a run's figure" + (f" (did you mean {hint[0]!r}?)" if hint else f"; figures are {PASS_METRICS}")
+        if metric not in FIGURES:
+            hint = difflib.get_close_matches(str(metric), FIGURES, n=1)
+            why = "not a run's figure" + (f" (did you mean {hint[0]!r}?)" if hint else f"; figures are {FIGURES}")
             raise refuse(f"pass.{metric}", why)
         if not _is_number(bound) or bound < 0:
             raise refuse(f"pass.{metric}", f"expected the largest passing value, a number >= 0, got {bound!r}")
