@@ -321,10 +321,6 @@ class BlockNode(Node):
                 f"publishers{topic}", f"{topic} has publishers other than {expected}: {others}; " + consequence
             )
 
-    def drop(self, topic: str, reason: str) -> None:
-        """Say (rate-limited) that a message on ``topic`` is dropped, and why (its check's ``reason``)."""
-        self.warn_throttled(topic, f"{topic} dropped: {reason}")
-
     def warn_throttled(self, key: str, message: str) -> None:
         """Warn at most once per ``WARN_PERIOD_S`` per ``key``, counting what was suppressed."""
         now = time.monotonic()

@@ -1,10 +1,6 @@
-"""Messages in and out, the shell's translation between ROS messages and arrays: checks on
-incoming data before any maths (each returns the clean arrays or a reason, a short sentence for a
-rate-limited warning), and time: ``builtin_interfaces/Time`` to and from seconds, a node's clock
-in seconds, and the tick a command (port ``command``) was computed for, in its first dimension's
-label ``tick_ns:<ROS time in ns>`` (``Float64MultiArray`` has no header; the tutorial's nodes
-ignore the layout).
-"""
+"""Messages in and out, the shell's translation between ROS messages and the values blocks take
+(``blocks.values``, where the checks on incoming data live), and time: ``builtin_interfaces/Time`` in seconds, a
+node's clock in seconds."""
 
 from __future__ import annotations
 
@@ -13,55 +9,15 @@ from typing import Any
 
 import numpy as np
 from rclpy.node import Node
-from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from trajectory_msgs.msg import JointTrajectory
 
-from robot_controller.blocks import values
-from robot_controller.blocks.values import (  # noqa: F401 (the checks: the shell checks with them too)
-    Array,
-    JointSample,
-    WaypointRequest,
-    brakes_label,
-    check_effort,
-    check_joint_state,
-    check_trajectory,
-    labelled_tick_s,
-    tick_label,
-)
-
-# --- time ---------------------------------------------------------------------------
-
-
-def brake_reasons(msg: Float64MultiArray) -> set[str] | None:
-    """Why ``msg``'s brakes hold, as its label says (None: it does not say)."""
-    return values.brake_reasons(msg.layout.dim[0].label) if msg.layout.dim else None
+from robot_controller.blocks.values import Array, JointSample, WaypointRequest
 
 
 def stamp_to_s(stamp: Any) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
-
-
-def s_to_stamp(time_s: float) -> Any:
-    """A ``builtin_interfaces/Time`` for ``time_s`` seconds (to the nearest ns)."""
-    return Time(nanoseconds=round(time_s * 1e9)).to_msg()
-
-
-def stamp_command(msg: Float64MultiArray, tick_s: float) -> None:
-    """Mark ``msg`` (its ``data`` already set) as computed for the tick at ``tick_s`` (ROS time, s)."""
-    size = len(msg.data)
-    label = tick_label(tick_s)
-    if msg.layout.dim:
-        dim = msg.layout.dim[0]
-        dim.label, dim.size, dim.stride = label, size, size
-    else:
-        msg.layout.dim = [MultiArrayDimension(label=label, size=size, stride=size)]
-
-
-def command_tick_s(msg: Float64MultiArray) -> float | None:
-    """The tick (ROS time, s) ``msg`` says it was computed for, or None if it does not say."""
-    return labelled_tick_s(msg.layout.dim[0].label) if msg.layout.dim else None
 
 
 def clock_s(node: Node) -> float:
@@ -69,9 +25,6 @@ def clock_s(node: Node) -> float:
     handle = node.get_clock().handle
     with handle:
         return handle.get_now().nanoseconds * 1e-9
-
-
-# --- port values ------------------------------------------------------------------
 
 
 def message_class(msg_type: str) -> Any:

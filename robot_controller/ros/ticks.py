@@ -16,7 +16,8 @@ from typing import Any, Protocol
 from rclpy.node import Node
 
 from robot_controller.blocks.block import Block
-from robot_controller.ros.messages import clock_s, labelled_tick_s
+from robot_controller.blocks.values import labelled_tick_s
+from robot_controller.ros.messages import clock_s
 
 Publish = Callable[[Mapping[str, Any]], None]
 

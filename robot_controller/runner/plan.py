@@ -12,7 +12,7 @@ from pathlib import Path
 from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.errors import ConfigError
-from robot_controller.nodes.world_state import WORLD_STATE_ENV
+from robot_controller.nodes.simulator import WORLD_STATE_ENV
 from robot_controller.parameters import consistency
 from robot_controller.parameters.schema import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import partition, scheduling

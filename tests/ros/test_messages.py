@@ -1,18 +1,29 @@
 """Messages in and out: checks on incoming joint states, trajectory samples and efforts, and the
 tick stamp a command carries in its layout (no ROS graph: the message classes alone)."""
 
+import numpy as np
 import pytest
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from robot_controller.ros.messages import (
+from robot_controller.blocks.values import (
+    Array,
     brake_reasons,
     brakes_label,
     check_effort,
     check_joint_state,
     check_trajectory,
-    command_tick_s,
-    stamp_command,
+    labelled_tick_s,
+    tick_label,
 )
+from robot_controller.ros.messages import decode, encode
+
+
+def command_tick_s(msg: Float64MultiArray) -> float | None:
+    return labelled_tick_s(decode(msg).label)
+
+
+def msg_brake_reasons(msg: Float64MultiArray) -> set[str] | None:
+    return brake_reasons(decode(msg).label)
 
 
 @pytest.mark.parametrize(
@@ -45,11 +56,10 @@ def test_trajectory_and_effort_checks():
 
 
 def test_a_stamped_command_says_its_tick_and_keeps_its_data():
-    msg = Float64MultiArray(data=[1.5, -2.0])
-    stamp_command(msg, 1_795_756_083.344798)
+    msg = encode(Array(np.array([1.5, -2.0]), tick_label(1_795_756_083.344798)), Float64MultiArray())
     assert command_tick_s(msg) == pytest.approx(1_795_756_083.344798, abs=1e-6)  # a float's resolution there
     assert list(msg.data) == [1.5, -2.0] and msg.layout.dim[0].size == 2
-    stamp_command(msg, 12.0)  # the message is reused tick after tick
+    encode(Array(np.array([1.5, -2.0]), tick_label(12.0)), msg)  # the message is reused tick after tick
     assert command_tick_s(msg) == 12.0 and len(msg.layout.dim) == 1
 
 
@@ -65,9 +75,9 @@ def test_a_command_without_the_stamp_says_nothing():
 def test_the_brakes_say_why_they_hold_and_a_label_not_ours_says_nothing():
     msg = Float64MultiArray(data=[1.0])
     msg.layout.dim = [MultiArrayDimension(label=brakes_label({"start", "estop"}), size=1, stride=1)]
-    assert brake_reasons(msg) == {"start", "estop"}
+    assert msg_brake_reasons(msg) == {"start", "estop"}
     msg.layout.dim[0].label = brakes_label(set())
-    assert brake_reasons(msg) == set()
+    assert msg_brake_reasons(msg) == set()
     msg.layout.dim[0].label = "engaged"  # an older simulator's
-    assert brake_reasons(msg) is None
-    assert brake_reasons(Float64MultiArray(data=[0.0])) is None
+    assert msg_brake_reasons(msg) is None
+    assert msg_brake_reasons(Float64MultiArray(data=[0.0])) is None

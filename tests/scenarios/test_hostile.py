@@ -16,7 +16,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from robot_controller import parameters as cfg
-from robot_controller.ros.messages import stamp_command
+from robot_controller.blocks.values import Array, tick_label
+from robot_controller.ros.messages import encode
 from robot_controller.scoring import report
 from tests import rostools
 from tests.rostools import RosProbe, get_parameter, run_said, set_parameter, wait_for
@@ -98,8 +99,7 @@ def test_a_command_stamped_long_ago_is_dropped_by_the_drive(tmp_path, ros_domain
         # Half a second of them: the drive keeps the newest command only, and on a loaded machine the
         # controller's next one can replace a few of the peer's before the drive takes them.
         for _ in range(50):
-            stale = Float64MultiArray(data=[10.0])
-            stamp_command(stale, time.time() - 0.2)
+            stale = encode(Array(np.array([10.0]), tick_label(time.time() - 0.2)), Float64MultiArray())
             commands.publish(stale)
             time.sleep(0.01)
 

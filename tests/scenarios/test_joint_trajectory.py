@@ -140,10 +140,11 @@ def test_with_no_server_the_goal_is_not_sent(ros_domain):
 def test_the_planner_node_blends_takes_a_stamp_and_gives_way_to_a_shape_change(ros_domain):
     import rclpy
     from rclpy.parameter import Parameter
+    from rclpy.time import Time
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
-    from robot_controller.ros.messages import clock_s, decode, s_to_stamp
+    from robot_controller.ros.messages import clock_s, decode
 
     rclpy.init(args=[], domain_id=ros_domain)
     try:
@@ -155,7 +156,7 @@ def test_the_planner_node_blends_takes_a_stamp_and_gives_way_to_a_shape_change(r
             msg = JointTrajectory(joint_names=["joint1"])
             msg.points.append(JointTrajectoryPoint(positions=[0.4]))
             msg.points[0].time_from_start.sec = 2
-            msg.header.stamp = s_to_stamp(now + 1.0)  # in the future: its time 0 is then
+            msg.header.stamp = Time(nanoseconds=round((now + 1.0) * 1e9)).to_msg()  # in the future: its time 0 is then
             node.ticks.take("waypoints", decode(msg))
             assert node.block.waypoints is not None
             assert node.block.waypoints.start_delay_s == pytest.approx(1.0, abs=0.1)

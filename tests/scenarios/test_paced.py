@@ -146,7 +146,7 @@ def paced_at_100_hz():
     import threading
     from types import SimpleNamespace
 
-    from robot_controller.ros.clocks.freezes import FreezeLog
+    from robot_controller.ros.clocks.host import FreezeLog, Pacing
     from robot_controller.ros.clocks.paced import PacedClock
 
     paced = object.__new__(PacedClock)  # the decisions only: no world, no host, no thread
@@ -162,7 +162,7 @@ def paced_at_100_hz():
     paced.loop, paced.wait_usage = StandInLoop(), None
     paced.freezes = FreezeLog()
     paced.effort_arrived = threading.Condition(paced.lock)
-    paced.stopping = threading.Event()
+    paced.pacing = Pacing(paced.log)
     return paced
 
 
@@ -291,7 +291,7 @@ def test_a_loop_slower_than_a_period_is_waited_for_again_once_its_stale_effort_s
 
 
 def test_freezes_are_counted_with_their_longest_and_total():
-    from robot_controller.ros.clocks.freezes import FreezeLog
+    from robot_controller.ros.clocks.host import FreezeLog
 
     freezes = FreezeLog()
     freezes.note(60_000_000)

@@ -56,10 +56,10 @@ def test_a_live_change_blends_from_the_reference_in_force(planner):
 
 def test_on_the_sims_clock_each_grid_points_sample_goes_out_a_tick_early(ros_domain):
     import rclpy
+    from rclpy.time import Time
     from rosgraph_msgs.msg import Clock
 
     from robot_controller.nodes.trajectory_planner import TrajectoryPlanner
-    from robot_controller.ros.messages import s_to_stamp
 
     args = ["trajectory_planner", "--ros-args", "-p", "lockstep:=true", "-p", "publish_rate_hz:=20.0"]
     rclpy.init(args=args, domain_id=ros_domain)
@@ -71,8 +71,8 @@ def test_on_the_sims_clock_each_grid_points_sample_goes_out_a_tick_early(ros_dom
             gate.open = True  # its consumers matched
             gate.publish = lambda msg: sent.append((node.ticks.clock_s, msg.data[-1]))
             node.ticks.on_grid(node.ticks.clock_s)  # the start poll, before the sim's first clock: time 0
-            for k in range(1, 12):
-                node.ticks.clock_callback(Clock(clock=s_to_stamp(k * 0.01)))  # the sim ticks at 100 Hz
+            for k in range(1, 12):  # the sim ticks at 100 Hz
+                node.ticks.clock_callback(Clock(clock=Time(nanoseconds=k * 10_000_000).to_msg()))
             assert np.array(sent) == pytest.approx(np.array([[0.0, 0.0], [0.04, 0.05], [0.09, 0.1]]))
             assert node.block.start_s == 0.0
         finally:

@@ -28,10 +28,7 @@ from robot_controller.blocks import spec
 from robot_controller.blocks.block import Log
 from robot_controller.blocks.world import World
 from robot_controller.parameters.schema import LOCKSTEP_END_MARGIN_S
-from robot_controller.ros import scheduling
-from robot_controller.ros.clocks import inputs
-from robot_controller.ros.clocks.freezes import FreezeLog
-from robot_controller.ros.clocks.outlets import Outlets
+from robot_controller.ros.clocks.host import FreezeLog, Outlets, Pacing, take
 from robot_controller.ros.clocks.stepped import SteppedClock
 from robot_controller.ros.loop_processes import LoopProcesses, Sample, host_kept_waiting, process_run_wait_s
 from robot_controller.ros.publishing import COUNTS_DIR_ENV
@@ -70,18 +67,13 @@ class PacedClock:
         self.loop = LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
         self.wait_usage: Sample | None = None  #: the loop's usage when the world began to wait for a tick's effort
         self.effort_arrived = threading.Condition(self.lock)
-        self.stopping = threading.Event()
-        self.thread: threading.Thread | None = None
+        self.pacing = Pacing(log)
 
     def describe(self, params: Mapping[str, Any]) -> str:
         return f"{self.ticks.describe(params)}, paced at {params['real_time_factor']:g}× the wall clock"
 
     def start(self) -> None:
-        rt_priority = scheduling.realtime_thread_requested()
-        if rt_priority is not None:
-            scheduling.install_rt_budget()  # its SIGXCPU handler: from the main thread only
-        self.thread = threading.Thread(target=self.pace, args=(rt_priority,), name="paced world", daemon=True)
-        self.thread.start()
+        self.pacing.start(self.pace, "paced world")
 
     def try_start(self) -> bool:
         return self.ticks.try_start()
@@ -113,11 +105,9 @@ class PacedClock:
             self.effort_in = True
             self.effort_arrived.notify()
 
-    def pace(self, rt_priority: int | None) -> None:
-        if rt_priority is not None:
-            self.log.info(scheduling.make_current_thread_realtime(rt_priority))
+    def pace(self) -> None:
         deadline_ns = time.monotonic_ns() + self.period_ns
-        while not self.stopping.is_set():
+        while not self.pacing.stopping.is_set():
             remaining_ns, run_wait_s = deadline_ns - time.monotonic_ns(), process_run_wait_s()
             if remaining_ns > 0:
                 time.sleep(remaining_ns * 1e-9)
@@ -152,7 +142,7 @@ class PacedClock:
         if not self.effort_in:
             self.wait_usage = self.loop.usage()
         waited_ns, last_ns = 0, since_ns
-        while not self.effort_in and waited_ns < budget_ns and not self.stopping.is_set():
+        while not self.effort_in and waited_ns < budget_ns and not self.pacing.stopping.is_set():
             run_wait_s, slice_ns = process_run_wait_s(), min(self.period_ns, budget_ns - waited_ns)
             self.effort_arrived.wait(slice_ns * 1e-9)
             now_ns = time.monotonic_ns()
@@ -217,26 +207,17 @@ class PacedClock:
         return end_ns is not None and self.world.time_ns > end_ns - margin_ns
 
     def take(self, port: str, value: Any) -> None:
-        inputs.take(self, port, value)
+        take(self, port, value)
 
     def finish(self) -> None:
-        inputs.finish(self)
-
-    def stop(self, counts_dir: str) -> None:
-        """End the thread; say and leave (in ``counts_dir``, if any) the world's figures."""
-        if self.stopping.is_set():
+        """End the thread; say and leave the world's figures."""
+        if not self.pacing.stop():
             return
-        self.stopping.set()
-        if self.thread is not None and self.thread.is_alive():
-            self.thread.join(timeout=1.0)
         self.freezes.say_and_leave(
             self.log,
-            counts_dir,
             "the world paused with it",
             late_efforts=self.late_efforts,
             late_efforts_host=self.late_for_host,
             stale_efforts=self.stale_efforts,
         )
-
-    def report(self) -> None:
-        self.ticks.report()
+        self.ticks.finish()

@@ -14,8 +14,7 @@ import numpy as np
 from robot_controller.blocks.block import Log
 from robot_controller.blocks.world import World
 from robot_controller.core.model import steps_per_period
-from robot_controller.ros.clocks import inputs
-from robot_controller.ros.clocks.outlets import Outlets
+from robot_controller.ros.clocks.host import Outlets, take
 
 #: Sim seconds the recorder may be behind: under a third of what the queues hold, and over what
 #: the loop runs between its reports (0.1 s wall, 1-2 sim s) so a recorder keeping up never holds it.
@@ -42,6 +41,7 @@ class SteppedClock:
         self.ended = False
         self.steps_per_tick = steps_per_period(world.physics_dt, 1.0 / params["control_rate_hz"])
         self.waiting_for_effort = False
+        self.finished = False
 
     def describe(self, params: Mapping[str, Any]) -> str:
         return f"sim time at {params['control_rate_hz']:g} Hz on the clock"
@@ -72,6 +72,7 @@ class SteppedClock:
     def accept(self, effort: np.ndarray) -> None:
         """The tick's effort, in force from now (lock held)."""
         self.waiting_for_effort = False
+        self.finished = False
         self.out.write(self.world.take_effort(effort))
         self.efforts_applied += 1
 
@@ -112,15 +113,13 @@ class SteppedClock:
         self.out.write_clock(stamp_ns)
 
     def take(self, port: str, value: Any) -> None:
-        inputs.take(self, port, value)
+        take(self, port, value)
 
     def finish(self) -> None:
-        inputs.finish(self)
-
-    def stop(self, counts_dir: str) -> None:
-        """Nothing runs on its own."""
-
-    def report(self) -> None:
+        """Say what the clock did (once)."""
+        if self.finished:
+            return
+        self.finished = True
         self.log.info(
             f"sim time: {self.published} ticks published, {self.efforts_applied} "
             f"efforts applied, t = {self.world.time_s:.3f} s"

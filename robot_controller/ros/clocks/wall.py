@@ -18,9 +18,7 @@ from robot_controller.blocks import spec
 from robot_controller.blocks.block import Log
 from robot_controller.blocks.world import World
 from robot_controller.ros import scheduling
-from robot_controller.ros.clocks import inputs
-from robot_controller.ros.clocks.freezes import FreezeLog
-from robot_controller.ros.clocks.outlets import Outlets
+from robot_controller.ros.clocks.host import FreezeLog, Outlets, Pacing, take
 from robot_controller.ros.process import stop_requested
 
 # Catch up at most this many physics steps in one call; beyond, the sim runs slower than real time.
@@ -41,8 +39,7 @@ class WallClock:
         self.anchor_ros_ns = 0
         self.behind_warned = False
         self.freezes = FreezeLog()  # wake-ups later than a whole period: the host's (or this process's) freezes
-        self.stopping = threading.Event()
-        self.thread: threading.Thread | None = None
+        self.pacing = Pacing(log)
         self.period_ns = round(1e9 / params["publish_rate_hz"])
         self.wait_for_first_command = params["wait_for_first_command"]
         self.drive_timeout_s = params["drive_timeout_s"]
@@ -64,13 +61,9 @@ class WallClock:
     def start(self) -> None:
         if not self.wait_for_first_command:
             self.begin()
-        rt_priority = scheduling.realtime_thread_requested()
-        if rt_priority is not None:
-            scheduling.install_rt_budget()
         # A short GIL switch interval: the pacing thread must not wait long for a callback on the executor thread.
         sys.setswitchinterval(0.0005)
-        self.thread = threading.Thread(target=self.pace, args=(rt_priority,), name="pacing", daemon=True)
-        self.thread.start()
+        self.pacing.start(self.pace, "pacing")
 
     def try_start(self) -> bool:
         return True  # nothing waits for the graph: the thread publishes once the audience matched
@@ -114,15 +107,13 @@ class WallClock:
                 self.log.info("efforts back: brakes released")
             self.out.write(world.take_effort(effort))
 
-    def pace(self, rt_priority: int | None) -> None:
+    def pace(self) -> None:
         """The pacing thread: sleep to each absolute deadline, step, publish."""
         world = self.world
-        if rt_priority is not None:
-            self.log.info(scheduling.make_current_thread_realtime(rt_priority))
         period_ns = self.period_ns
         deadline_ns = time.monotonic_ns() + period_ns
         last_wakeup_ns = time.monotonic_ns()
-        while not self.stopping.is_set():
+        while not self.pacing.stopping.is_set():
             remaining_ns = deadline_ns - time.monotonic_ns()
             if remaining_ns > 0:
                 time.sleep(remaining_ns * 1e-9)
@@ -150,8 +141,8 @@ class WallClock:
             base = anchor if anchor is not None else deadline_ns
             if now_ns - deadline_ns >= period_ns:
                 self.freezes.note(now_ns - deadline_ns)
-            if rt_priority is not None and scheduling.demoted.is_set():
-                rt_priority = None
+            if self.pacing.realtime and scheduling.demoted.is_set():
+                self.pacing.realtime = False
                 self.log.warn(
                     "demoted", "pacing thread used its real-time CPU budget without sleeping: back to normal scheduling"
                 )
@@ -200,20 +191,9 @@ class WallClock:
         world.advance(int(due))
 
     def take(self, port: str, value: Any) -> None:
-        inputs.take(self, port, value)
+        take(self, port, value)
 
     def finish(self) -> None:
-        inputs.finish(self)
-
-    def stop(self, counts_dir: str) -> None:
         """End the thread; say how often the host froze the loop, which on the wall clock counts against it."""
-        if self.stopping.is_set():
-            return
-        self.stopping.set()
-        if self.thread is not None and self.thread.is_alive():
-            self.thread.join(timeout=1.0)
-        meaning = "on the wall clock the late commands and brakes then were the host's"
-        self.freezes.say_and_leave(self.log, counts_dir, meaning)
-
-    def report(self) -> None:
-        """Nothing to add: the freezes are said at :meth:`stop`."""
+        if self.pacing.stop():
+            self.freezes.say_and_leave(self.log, "on the wall clock the late commands and brakes then were the host's")

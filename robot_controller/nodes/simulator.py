@@ -1,13 +1,16 @@
-"""The simulator node: the world block (``blocks.world``) hosted by the adapter (``ros.adapter``), stepped by the
-world's clock (``ros.clocks``, chosen once by ``ros.ticks``); beside it, its true state stamped to the ns, the sim's
-clock where the world waits, the e-stop button (a service), the recorder's clock followed and the start held until
-the graph is ready, and a respawn's saved position."""
+"""simulator: the physics world (the Gazebo role), the world block (``blocks.world``) hosted by the adapter
+(``ros.adapter``) and stepped by the world's clock (``ros.clocks``, chosen once by ``ros.ticks``); beside it, its true
+state stamped to the ns, the sim's clock where the world waits, the e-stop button (a service), the recorder's clock
+followed and the start held until the graph is ready, and the arm's position in a memory-mapped file (written on every
+pacing tick, no system call), so that a respawned simulator finds the arm where it was."""
 
 from __future__ import annotations
 
 import os
+from pathlib import Path
 from typing import Any
 
+import numpy as np
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
@@ -17,9 +20,8 @@ from std_srvs.srv import SetBool
 from robot_controller.blocks import spec
 from robot_controller.blocks.block import Block
 from robot_controller.blocks.world import World, Written
-from robot_controller.nodes.world_state import WORLD_STATE_ENV, WorldState
 from robot_controller.ros.adapter import BlockNode, Extras, NodeLog
-from robot_controller.ros.clocks.outlets import Outlets
+from robot_controller.ros.clocks.host import Outlets
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import recorded
 from robot_controller.ros.qos import CLOCK_QOS
@@ -27,6 +29,38 @@ from robot_controller.ros.ticks import ClockMode
 
 #: How often, s (steady clock), sim time looks whether the graph is ready for tick 0.
 START_POLL_S = 0.05
+
+# Set by the launcher (with --respawn) to the file's path.
+WORLD_STATE_ENV = "ROBOT_CONTROLLER_WORLD_STATE"
+
+# [valid flag, position per joint]
+_VALID = 1.0
+
+
+class WorldState:
+    def __init__(self, array: np.memmap, resumed: np.ndarray | None) -> None:
+        self._array = array
+        self.resumed = resumed  #: the positions found at start (a respawn), or None
+
+    @classmethod
+    def open(cls, path: str, joint_count: int) -> WorldState | None:
+        """The state file at ``path`` (None: no path); one left by an earlier simulator gives ``resumed``."""
+        if not path:
+            return None
+        file = Path(path)
+        size = (1 + joint_count) * 8
+        resumed = None
+        if file.is_file() and file.stat().st_size == size:
+            previous = np.fromfile(file, dtype=np.float64)
+            if previous[0] == _VALID and np.all(np.isfinite(previous[1:])):
+                resumed = previous[1:].copy()
+        else:
+            file.write_bytes(b"\0" * size)
+        return cls(np.memmap(file, dtype=np.float64, mode="r+", shape=(1 + joint_count,)), resumed)
+
+    def save(self, position: np.ndarray) -> None:
+        self._array[1:] = position
+        self._array[0] = _VALID
 
 
 class WorldExtras(Extras):
@@ -134,7 +168,6 @@ class WorldExtras(Extras):
 
     def destroy(self) -> None:
         self.node.ticks.finish()
-        self.node.ticks.report()
 
 
 def Simulator() -> BlockNode:  # noqa: N802 (made as a node class is, by ``ros.process.run``)
@@ -143,3 +176,7 @@ def Simulator() -> BlockNode:  # noqa: N802 (made as a node class is, by ``ros.p
 
 def main(args: list[str] | None = None) -> int:
     return run(Simulator, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
