@@ -21,11 +21,7 @@ def plant_loop(params: cfg.Params) -> tuple[np.ndarray, np.ndarray, float]:
     return A, B, dt
 
 
-def controller_model(params: cfg.Params):
-    """The arm model the controller designs and predicts with: the URDF's, or its ``model_*`` parameters over it."""
-    return arm_model(params["pid_controller"])
-
-
 def law_gains(params: cfg.Params):
-    """The PID settings the controller runs with (for an LQR, its designed gains on the controller's own arm model)."""
-    return law_config(cfg.controller_config(params["pid_controller"], 1), controller_model(params), 1)
+    """The PID settings the controller runs with (for an LQR, its designed gains on the controller's own arm model:
+    the URDF's, or its ``model_*`` parameters over it)."""
+    return law_config(cfg.controller_config(params["pid_controller"], 1), arm_model(params["pid_controller"]), 1)

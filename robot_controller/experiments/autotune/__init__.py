@@ -2,7 +2,7 @@
 every tuned loop keeps (``margins``), a built-in law's problem on the batch harness (``analytic``) and a
 law of one's own on the in-process loop (``blackbox``), each with its report; the verb (``procedure``)."""
 
-from robot_controller.experiments.autotune.analytic import AnalyticProblem, batch_tracking_rms
+from robot_controller.experiments.autotune.analytic import AnalyticProblem
 from robot_controller.experiments.autotune.blackbox import CASES, BlackBoxProblem
 from robot_controller.experiments.autotune.margins import describe_margins
 from robot_controller.experiments.autotune.procedure import steps, tune
@@ -14,7 +14,6 @@ __all__ = [
     "BlackBoxProblem",
     "SearchPlan",
     "SearchResult",
-    "batch_tracking_rms",
     "describe_margins",
     "search",
     "steps",

@@ -16,7 +16,6 @@ from robot_controller import resources
 from robot_controller.core.batch import run_batch
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import lqr
-from robot_controller.core.laws.pid import PidConfig
 from robot_controller.core.model import ArmDynamics, JointArmModel
 from robot_controller.core.reference import make_trajectory
 from robot_controller.experiments.autotune.margins import (
@@ -27,8 +26,9 @@ from robot_controller.experiments.autotune.margins import (
     screen,
 )
 from robot_controller.experiments.autotune.search import FAILED, ROBUST, SEED, SearchPlan, SearchResult
-from robot_controller.experiments.loop_model import controller_model, law_gains, plant_loop
+from robot_controller.experiments.loop_model import law_gains, plant_loop
 from robot_controller.experiments.runs import run_sim_time
+from robot_controller.parameters.builders import arm_model
 
 #: The search box, log10 of each parameter. PID: Kp N·m/rad, Ki N·m/(rad·s), Kd N·m·s/rad.
 PID_BOX = {"kp": (0.0, 3.5), "ki": (-1.0, 3.5), "kd": (-2.0, 1.7)}
@@ -51,7 +51,7 @@ class AnalyticProblem:
         self.law = law_gains(params)  # the PID settings in force (for an LQR: with its designed gains)
         plant = ArmDynamics(resources.resolve_urdf(params["simulator"]["urdf_path"]))
         self.arm_model = JointArmModel.over_urdf(plant)
-        model = controller_model(params)  # what the controller designs an LQR with
+        model = arm_model(ctrl)  # what the controller designs an LQR with
         self.model_inertia = float(model.mass_matrix(np.zeros(1))[0, 0])
         self.model_damping = float(model.damping[0])
         self.torque_max = float(min(np.min(ctrl["torque_max"]), np.min(motor["torque_max"])))
@@ -118,6 +118,10 @@ class AnalyticProblem:
             out[row] = (K[1], K[0], K[2])
         return out
 
+    def before_gains(self) -> np.ndarray:
+        """Kp, Ki, Kd in force (an LQR's designed)."""
+        return np.array([self.law.kp[0], self.law.ki[0], self.law.kd[0]], dtype=float)
+
     def start(self) -> np.ndarray:
         """The configured values' search coordinates."""
         ctrl = self.params["pid_controller"]
@@ -142,14 +146,8 @@ class AnalyticProblem:
         pid = replace(self.law, kp=gains[:, 0:1], ki=gains[:, 1:2], kd=gains[:, 2:3])
         harness = {"trajectory": self.sine, "sensor": self.sensor, "duration_s": duration_s, "kalman": self.kalman}
         harness.update(control_period_s=self.dt, torque_max=self.torque_max, feedforward=self.feedforward)
-        return batch_tracking_rms(self.arm_model, pid, rng=np.random.default_rng(seed), **harness)
-
-
-def batch_tracking_rms(
-    model: JointArmModel, pid_config: PidConfig, *, common_noise: bool = True, **options: Any
-) -> np.ndarray:
-    """The search's harness: ``core.batch.run_batch`` with common random numbers by default."""
-    return run_batch(model=model, pid_config=pid_config, common_noise=common_noise, **options)
+        rng = np.random.default_rng(seed)  # common random numbers: every gain set meets the same noise
+        return run_batch(model=self.arm_model, pid_config=pid, rng=rng, common_noise=True, **harness)
 
 
 def before_after(
@@ -164,8 +162,7 @@ def before_after(
 ) -> dict[str, Any]:
     """``tune.json``'s figures: the search, each margin and the batch RMS before and after, and one
     seeded sine run on sim time each on the real graph (in ``out/real_before``, ``out/real_after``)."""
-    before_gains = np.array([problem.law.kp[0], problem.law.ki[0], problem.law.kd[0]], dtype=float)
-    after_gains = problem.gains_of_values(result.best_values)[0]
+    before_gains, after_gains = problem.before_gains(), problem.gains_of_values(result.best_values)[0]
     batch = problem.tracking_rms(np.vstack([before_gains, after_gains]), plan.duration_s, seed)
     values: dict[str, Any] = {
         "controller_type_lqr": int(problem.controller_type == "lqr"),

@@ -28,15 +28,13 @@ def yaml_header(problem: AnalyticProblem, result: SearchResult) -> str:
         f"margin >= {MIN_GAIN_MARGIN_DB:g} dB, phase margin >= {MIN_PHASE_MARGIN_DEG:g} deg, delay margin >= "
         f"{MIN_DELAY_PERIODS} control periods, no lower gain limit, slowest pole within "
         f"{MAX_TIME_CONSTANT_S:g} s.\n"
-        "# Use over the same preset and files it was tuned with: "
-        "robot-controller run [--preset P] [--config F ...] --config tuned.yaml\n"
     )
 
 
 def plot(path: Path, result: SearchResult) -> None:
     plt = pyplot()
     problem = result.problem
-    before = np.array([problem.law.kp[0], problem.law.ki[0], problem.law.kd[0]], dtype=float)
+    before = problem.before_gains()
     best_gains = problem.gains_of_values(result.best_values)[0]
     robust = result.history.verdict == ROBUST
     gains, rms = result.history.detail[robust], result.history.rms[robust]

@@ -33,8 +33,6 @@ def yaml_header(problem: BlackBoxProblem, result: SearchResult) -> str:
         f"chosen on the in-process loop (sine RMS {result.best_rms:.3g} rad) where a push still dies away "
         f"within {SETTLE_S:g} s with the readings {MIN_DELAY_PERIODS} periods late, with the drive's gain "
         f"±{MIN_GAIN_MARGIN_DB:g} dB, and as configured.\n"
-        "# Use over the same preset and files it was tuned with: "
-        "robot-controller run [--preset P] [--config F ...] --config tuned.yaml\n"
     )
 
 

@@ -44,7 +44,9 @@ def tune(
     search_s = time.perf_counter() - started
     tuned_path = out / "tuned.yaml"
     cfg.write_params_file({"pid_controller": problem.tuned_overlay(result.best_values)}, tuned_path)
-    tuned_path.write_text(writer.yaml_header(problem, result) + tuned_path.read_text())
+    use = "# Use over the same preset and files it was tuned with: "
+    use += "robot-controller run [--preset P] [--config F ...] --config tuned.yaml\n"
+    tuned_path.write_text(writer.yaml_header(problem, result) + use + tuned_path.read_text())
     values = {"quick": int(quick), "seed": seed} | figures.before_after(
         problem, result, plan, seed=seed, search_s=search_s, out=out, progress=progress
     )

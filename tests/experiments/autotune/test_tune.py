@@ -56,19 +56,15 @@ def test_the_tuning_harness_is_the_batch_harness():
     gains = np.array([[30.0, 27.0, 2.1], [15.0, 0.4, 3.4], [50.0, 10.0, 5.0]])
     pid = replace(problem.law, kp=gains[:, 0:1], ki=gains[:, 1:2], kd=gains[:, 2:3])
     kwargs = {"trajectory": problem.sine, "sensor": problem.sensor, "duration_s": 3.0}
-    expected = run_batch(model=problem.arm_model, pid_config=pid, rng=np.random.default_rng(4), **kwargs)
-    ours = autotune.batch_tracking_rms(
-        problem.arm_model, pid, rng=np.random.default_rng(4), common_noise=False, **kwargs
+    ours = problem.tracking_rms(gains, 3.0, seed=4)
+    harness = {"control_period_s": problem.dt, "torque_max": problem.torque_max, "feedforward": problem.feedforward}
+    rng = np.random.default_rng(4)
+    expected = run_batch(
+        model=problem.arm_model, pid_config=pid, rng=rng, kalman=problem.kalman, common_noise=True, **harness, **kwargs
     )
     np.testing.assert_array_equal(ours, expected)
     # common random numbers: the same gains give the same figure wherever they sit in the batch
-    twice = autotune.batch_tracking_rms(
-        problem.arm_model,
-        replace(pid, kp=gains[[0, 0], 0:1], ki=gains[[0, 0], 1:2], kd=gains[[0, 0], 2:3]),
-        rng=np.random.default_rng(4),
-        kalman=problem.kalman,
-        **kwargs,
-    )
+    twice = problem.tracking_rms(gains[[0, 0]], 3.0, seed=4)
     assert twice[0] == twice[1]
 
 
