@@ -1,9 +1,7 @@
-"""The joint controller the ``pid_controller`` node runs, called once per tick: :meth:`JointController.update` keeps
-the latest reference and reading with their arrival times, advances the tick clock, checks the inputs' health
-(:mod:`~robot_controller.core.controller.supervision`), estimates the arm's state at the tick
-(:mod:`~robot_controller.core.controller.tick_state`), takes the reference at the tick
-(:mod:`~robot_controller.core.controller.reference_in_force`) and runs the law in force (the built-in one, or a
-user's :class:`~robot_controller.core.laws.ContainedLaw`, called alike), or a stop: one torque command."""
+"""The joint controller the ``pid_controller`` node runs, once per tick (:meth:`JointController.update`): the inputs'
+health (:mod:`.supervision`), the arm's state at the tick (:mod:`.tick_state`), the reference at the tick
+(:mod:`.reference_in_force`), then the law in force (built in, or a user's :class:`ContainedLaw`, called alike) or a
+stop: one torque command."""
 
 from __future__ import annotations
 
@@ -128,14 +126,9 @@ class JointController:
         return self.law if self.law is not self.stop_law else None
 
     @property
-    def builtin(self) -> BuiltinLaw:
-        """The built-in law (the law in force, or the one a plugin law's stops run on)."""
-        return self.stop_law
-
-    @property
     def pid(self) -> Pid:
         """The built-in law's PID."""
-        return self.builtin.pid
+        return self.stop_law.pid
 
     @property
     def law_fault(self) -> LawFault | None:
@@ -162,7 +155,7 @@ class JointController:
         factors); for a plugin law, its name and parameters, and the built-in law its stops run on."""
         sigma = self.config.estimator.disturbance_noise_std if self.config.observes_disturbance else None
         observer = "" if sigma is None else f", disturbance observer (σ {sigma:g} N·m/√s, estimate subtracted)"
-        builtin = self.builtin.describe(observer) + ("" if self.inertia is None else self.inertia.describe())
+        builtin = self.stop_law.describe(observer) + ("" if self.inertia is None else self.inertia.describe())
         return builtin if self.plugin is None else f"{self.plugin.describe()}; stops on the built-in {builtin}"
 
     def delay_margin_periods(self) -> int | None:
@@ -197,7 +190,7 @@ class JointController:
             self._state.kalman.disturbance_limit = np.broadcast_to(limit, (self.joint_count,)).copy()
         builtin_in_force = self.law is self.stop_law
         self.config = config
-        if config.builtin_law != self.builtin.kind:
+        if config.builtin_law != self.stop_law.kind:
             self.stop_law = self._builtin(config)
         else:
             self.stop_law.set_params(config.law_params())
@@ -311,7 +304,6 @@ class JointController:
         return self._apply_law(now_s, position, velocity, reference)
 
     def _estimate_at_tick(self, now_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """The arm's ``(position rad, velocity rad/s)`` at ``now_s``: the reading, filtered, advanced to the tick."""
         return self._state.at_tick(now_s, self._readings, self.config.latency_compensation)
 
     def _restart_from_measurement(self, now_s: float, braked: bool = False) -> None:
@@ -327,10 +319,9 @@ class JointController:
         self._reference.try_reacquire(now_s, position, velocity, self.config)
 
     def _stop(self, now_s: float, source: ReferenceSource, on_model: bool = True) -> ControlOutput:
-        """The controlled stop from ``source`` (see :data:`STOPS`): the reference brought to rest within
-        the torque limit, with the law on the model's prediction under its own torques (``on_model``:
-        open loop, which a delay cannot make oscillate) or on the estimate, held at rest for the stop's
-        hold, then no commands (category 1: the drive's timeout brakes the arm)."""
+        """The controlled stop from ``source`` (:data:`STOPS`), the law on the model's prediction under its own
+        torques (``on_model``: open loop, which a delay cannot make oscillate) or on the estimate, held at rest
+        for the stop's hold, then no commands (category 1: the drive's timeout brakes the arm)."""
         hold_s, stopped = STOPS[source]
         rest_s = self._rest_s.get(source)
         if rest_s is not None and now_s - rest_s >= hold_s:
@@ -347,9 +338,8 @@ class JointController:
     def _apply_law(
         self, now_s: float, position: np.ndarray, velocity: np.ndarray, reference: Reference
     ) -> ControlOutput:
-        """The law in force's torque within the torque limit; remembered for the estimator and the
-        model's predictions. A plugin law that fails is answered at once: this tick starts the stop
-        on the built-in law."""
+        """The law in force's torque, remembered for the estimator; a plugin law that fails on this tick is
+        answered at once with the stop on the built-in law."""
         disturbance = self._state.disturbance()
         state = self._law_state(position, velocity, disturbance)
         law = self.stop_law if self.law_fault is not None else self.law
@@ -380,8 +370,7 @@ class JointController:
         return State(position, velocity, *measured, np.zeros(self.joint_count) if disturbance is None else disturbance)
 
     def _no_command(self, now_s: float, status: Status) -> ControlOutput:
-        """A tick that commands nothing: zero torque, remembered as issued; the reported reference
-        and measurement are the arm's last known position (zero before any)."""
+        """Zero torque, remembered as issued; reported at the arm's last known position (zero before any)."""
         if status is Status.NO_MEASUREMENT:
             position = np.zeros(self.joint_count)
         elif status is Status.STOPPED:

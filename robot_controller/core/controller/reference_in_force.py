@@ -1,12 +1,8 @@
-"""The reference in force at a tick. The planner's samples as the controller receives them
-(:class:`PlannerReference`: the latest due and its time base, the trajectory at a tick, held or
-extrapolated, and over the period the command is held for), and every way the reference departs
-from them (:class:`ReferenceAtTick`): a hold (before the first sample, or after a fault until a
-fresh one comes), a controlled stop (IEC 60204-1 category 2) when the planner goes quiet, the
-readings go missing, the loop is late or a plugin law fails, and a blend from where the arm is
-back onto the trajectory. Each reference is named with its status and source: a held or
-rewritten reference is never passed off as the planner's. Positions rad, velocities rad/s,
-accelerations rad/s², times s."""
+"""The reference in force at a tick: the planner's samples as they arrive (:class:`PlannerReference`: held or
+extrapolated to the tick, and over the period the command is held for), and every way the reference departs from
+them (:class:`ReferenceAtTick`): a hold (before the first sample, or after a fault until a fresh one comes), a
+controlled stop (category 2) when the planner goes quiet, the readings go missing, the loop is late or a plugin law
+fails, and a blend from where the arm is back onto the trajectory, each named with its status and source."""
 
 from __future__ import annotations
 
@@ -31,8 +27,7 @@ MAX_UPCOMING = 100
 
 
 def _minmod(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Per element, the smaller in magnitude of ``a`` and ``b`` where they agree
-    in sign, else 0 (the slope limiter of numerical schemes)."""
+    """Per element, the smaller in magnitude of ``a`` and ``b`` where they agree in sign, else 0 (a slope limiter)."""
     sign = np.sign(a)
     limited = sign * np.minimum(np.abs(a), np.abs(b))
     limited[sign != np.sign(b)] = 0.0
@@ -73,9 +68,8 @@ class PlannerReference:
         acceleration: np.ndarray,
         sample_time_s: float | None = None,
     ) -> None:
-        """A new sample. Its time base is ``sample_time_s`` when the planner sent
-        one, otherwise the time it arrived; one stamped ahead of ``received_s``
-        (by at most MAX_AHEAD_S) waits for :meth:`advance_to` its time."""
+        """A new sample, timed ``sample_time_s`` (None: its arrival); one stamped ahead of ``received_s`` (by at
+        most MAX_AHEAD_S) waits for :meth:`advance_to` its time."""
         time_s = received_s if sample_time_s is None else sample_time_s
         if TIME_EPS_S < time_s - received_s <= MAX_AHEAD_S:
             self._upcoming.append((time_s, position, velocity, acceleration))
@@ -103,9 +97,8 @@ class PlannerReference:
         self.time_s = time_s
 
     def hold_here(self, position: np.ndarray, now_s: float) -> None:
-        """Before the planner has spoken, stand in a sample at rest at ``position``
-        dated ``now_s`` (what a controlled stop starts from then). It counts for
-        :meth:`ready`, and as the previous sample when the first real one comes."""
+        """Before the planner has spoken, a sample at rest at ``position`` dated ``now_s`` (what a stop starts from
+        then); it counts for :meth:`ready`, and as the previous sample when the first real one comes."""
         zeros = np.zeros(np.shape(position))
         self.sample = (position.copy(), zeros.copy(), zeros.copy())
         self.time_s = now_s
@@ -123,16 +116,14 @@ class PlannerReference:
         return self.period_s is not None and self.time_s + self.period_s > tick_s + TIME_EPS_S
 
     def timeout_s(self, control_period_s: float) -> float:
-        """Age (s) past which the latest sample is stale: REFERENCE_TIMEOUT_PERIODS
-        of the planner's period (the control period until it is learned), at
-        least MAX_EXTRAPOLATION_S."""
+        """Age (s) past which the latest sample is stale: REFERENCE_TIMEOUT_PERIODS planner periods (control
+        periods until it is learned), at least MAX_EXTRAPOLATION_S."""
         period = self.period_s if self.period_s is not None else control_period_s
         return max(REFERENCE_TIMEOUT_PERIODS * period, MAX_EXTRAPOLATION_S)
 
     def at(self, now_s: float, extrapolate: bool, control_period_s: float) -> TrajectoryPoint:
-        """The trajectory at ``now_s``: the latest sample held or, with
-        ``extrapolate``, advanced to ``now_s`` on its velocity and acceleration
-        (by at most MAX_EXTRAPOLATION_S). Needs a sample."""
+        """The latest sample held or, with ``extrapolate``, advanced to ``now_s`` on its velocity and acceleration
+        (by at most MAX_EXTRAPOLATION_S)."""
         position, velocity, acceleration = self.sample
         fresh = now_s - self.time_s <= self.timeout_s(control_period_s)
         source = ReferenceSource.TRAJECTORY
@@ -147,13 +138,10 @@ class PlannerReference:
     def over_period(
         self, now_s: float, period_s: float, extrapolate: bool
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The trajectory ``(position, velocity, acceleration)`` a torque held over
-        the control period ``[now_s, now_s + period_s]`` is to be computed for:
-        at the middle of the period, where the model's torque equals its average
-        over the period to second order (the torque at ``now_s`` lags the motion
-        by half a period). With ``extrapolate``, the latest sample advanced
-        there on its velocity, acceleration and :attr:`jerk`; without, the
-        sample as held, as :meth:`at` holds it. Needs a sample."""
+        """The trajectory a torque held over ``[now_s, now_s + period_s]`` is computed for: at the middle of the
+        period, where the model's torque equals its average over the period to second order (the torque at
+        ``now_s`` lags the motion by half a period); with ``extrapolate``, advanced there on the sample's velocity,
+        acceleration and :attr:`jerk`, else the sample as held."""
         position, velocity, acceleration = self.sample
         if not extrapolate:
             return position, velocity, acceleration
@@ -186,8 +174,7 @@ class ReferenceAtTick:
     # --- re-acquisition -------------------------------------------------------------
 
     def request_reacquire(self) -> None:
-        """The arm moved (or may have) without this controller: once it is
-        tracking again, lead it from where it is then, not where it was."""
+        """The arm moved (or may have) without this controller: lead it from where it is once tracking again."""
         self._needs_reacquire = True
 
     @property
@@ -197,10 +184,8 @@ class ReferenceAtTick:
     def try_reacquire(
         self, now_s: float, arm_position: np.ndarray, arm_velocity: np.ndarray, config: ControllerConfig
     ) -> bool:
-        """Leave the sensor-loss stop and, if the planner's trajectory is fresh,
-        start a blend from the arm's ``(position, velocity)`` onto it (within
-        ``reacquire_acceleration``). False while there is no fresh trajectory to
-        lead the arm onto: :meth:`at_tick` holds it meanwhile."""
+        """Leave the sensor-loss stop and, if the planner's trajectory is fresh, start a blend from the arm onto it
+        (within ``reacquire_acceleration``). False while there is none: :meth:`at_tick` holds the arm meanwhile."""
         self._stops.pop(ReferenceSource.SENSOR_STOP, None)
         self._stops.pop(ReferenceSource.LATE_STOP, None)
         planner = self.planner
@@ -222,17 +207,15 @@ class ReferenceAtTick:
     # --- the reference at the tick ------------------------------------------------------
 
     def at_tick(self, now_s: float, arm_position: np.ndarray, config: ControllerConfig) -> Reference:
-        """The reference while the readings are healthy: a hold while a
-        re-acquisition waits for a fresh trajectory, otherwise
-        :meth:`from_trajectory`."""
+        """A hold while a re-acquisition waits for a fresh trajectory, otherwise :meth:`from_trajectory`."""
         if self._needs_reacquire:
             return self._hold(arm_position)
         self._hold_position = None  # a later hold starts where the arm is then
         return self.from_trajectory(now_s, arm_position, config)
 
     def _hold(self, arm_position: np.ndarray) -> Reference:
-        """Hold the arm where it was when the hold began, at rest. HOLDING before
-        the planner's first sample, REACQUIRING (waiting for a fresh one) after."""
+        """Hold the arm where it was when the hold began: HOLDING before the planner's first sample, REACQUIRING
+        after."""
         if self._hold_position is None:
             self._hold_position = arm_position
         zeros = np.zeros(self.joint_count)
@@ -240,10 +223,8 @@ class ReferenceAtTick:
         return self._named(Reference(self._hold_position, zeros, zeros), status, ReferenceSource.HOLD_POSITION)
 
     def from_trajectory(self, now_s: float, arm_position: np.ndarray, config: ControllerConfig) -> Reference:
-        """The trajectory at ``now_s`` (held or extrapolated); while re-acquiring,
-        plus the blend's fading offset; a controlled stop of the last reference
-        used if the planner went quiet, and a blend from that stop when it
-        returns. Before the planner's first sample: a hold at ``arm_position``."""
+        """The trajectory at ``now_s``, plus the blend's fading offset while re-acquiring; a controlled stop if
+        the planner went quiet, and a blend from it when it returns. Before its first sample: a hold."""
         planner = self.planner
         if planner.sample is None:
             planner.hold_here(arm_position, now_s)
@@ -296,11 +277,9 @@ class ReferenceAtTick:
         config: ControllerConfig,
         start: Reference | None = None,
     ) -> Reference:
-        """A controlled stop (category 2): from ``start`` or, at the first tick of the stop, from where
-        the reference is then (no jump in it), decelerate to rest at ``stop_deceleration`` and hold
-        there. ``source``: SENSOR_STOP (readings missing, until re-acquisition), LATE_STOP (the loop's
-        delay past its margin, likewise) or LAW_STOP (the plugin law failed: for good; it starts from
-        the reference of the tick it failed on, or the last one used)."""
+        """A controlled stop (category 2) from ``start`` or from where the reference is at its first tick, to rest at
+        ``stop_deceleration``, held. ``source``: SENSOR_STOP or LATE_STOP (until re-acquisition), LAW_STOP (for
+        good; from the reference of the tick the law failed on, or the last one used)."""
         if source not in self._stops:
             if start is None and source is ReferenceSource.LAW_STOP:
                 start = Reference(*(self._last or (np.zeros(self.joint_count),) * 3))

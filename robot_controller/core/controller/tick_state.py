@@ -1,9 +1,6 @@
-"""The arm's state at the tick time, from a reading taken earlier: filtered (optional Kalman
-filter), then advanced from the reading's stamp to the tick through the arm model under the
-torques this controller issued (latency compensation), or coasted on the model alone while
-readings are missing. With the disturbance observer, every such prediction includes the
-external torque it estimates (the command subtracts it). Positions rad, velocities rad/s,
-torques N·m, times s."""
+"""The arm's state at the tick, from a reading taken earlier: filtered, then advanced from its stamp to the tick
+on the arm model under the torques this controller issued (latency compensation), or coasted on the model while
+readings are missing; with the disturbance observer, the estimated external torque included."""
 
 from __future__ import annotations
 
@@ -63,17 +60,15 @@ def make_state(
     pid: Callable[[], Pid],
     config_in_force: Callable[[], ControllerConfig] | None = None,
 ) -> StateAtTick:
-    """The controller's state at its ticks: its filter (:func:`make_estimator`) and, with the disturbance observer,
-    the model's and the gains' inertia kept the arm's (:class:`InertiaAdaptation`; ``config_in_force`` gives the
-    configuration its gains are checked with, None: ``config``)."""
+    """The controller's state at its ticks: its filter and, with the observer, the :class:`InertiaAdaptation`
+    (``config_in_force``: the configuration its gains are checked with, None: ``config``)."""
     state = StateAtTick(joint_count, dynamics, make_estimator(config, dynamics, joint_count))
     state.inertia = InertiaAdaptation.build(config, dynamics, joint_count, pid, config_in_force)
     return state
 
 
 class StateAtTick:
-    """Estimates the arm's ``(position, velocity)`` at a tick, and remembers the
-    commands issued (for the filter's input and the model's prediction)."""
+    """The arm's ``(position, velocity)`` at a tick, and the commands issued (the filter's and the model's input)."""
 
     def __init__(self, joint_count: int, dynamics: ArmDynamics | None, kalman: JointKalmanFilter | None) -> None:
         self.joint_count = joint_count
@@ -98,8 +93,7 @@ class StateAtTick:
         self.latest = None
 
     def reset_filter(self) -> None:
-        """Re-initialise the filter only (its disturbance estimate back to 0); the
-        latest estimate is kept for reporting."""
+        """Re-initialise the filter only; the latest estimate is kept for reporting."""
         if self.kalman is not None:
             self.kalman.reset()
         if self.inertia is not None:  # the filter's evidence is gone: so is the estimate's
@@ -108,13 +102,9 @@ class StateAtTick:
         self._disturbance_average, self._coasting = None, False
 
     def at_tick(self, now_s: float, readings: Readings, latency_compensation: bool) -> tuple[np.ndarray, np.ndarray]:
-        """The arm's state at ``now_s``: the reading, filtered, then (with
-        ``latency_compensation``) brought from its stamp up to now — position
-        AND velocity, through the arm model under the torque being applied, so
-        a stale velocity does not eat the D term's phase margin. With the
-        filter, the velocity returned is the one at the tick's instant
-        (:meth:`JointKalmanFilter.velocity_at_instant`); :attr:`latest` keeps
-        the model's own."""
+        """The reading, filtered, then (with ``latency_compensation``) brought from its stamp to ``now_s``, position
+        and velocity, on the model under the torque applied, so a stale velocity does not eat the D term's phase
+        margin. With the filter, the velocity at the tick's instant is returned; :attr:`latest` keeps the model's."""
         position, velocity = readings.latest
         if self.kalman is not None:
             if readings.stamp_s != self._filtered_stamp_s:
@@ -155,9 +145,8 @@ class StateAtTick:
         self._average_s = now_s
 
     def coast(self, now_s: float, readings: Readings) -> tuple[np.ndarray, np.ndarray]:
-        """While readings are missing: the latest estimate (or reading) carried on
-        to ``now_s`` on the arm model under the last command issued (the Kalman
-        filter's predict step, open loop). Without a model it stays put."""
+        """While readings are missing: the latest estimate (or reading) carried on to ``now_s`` on the model under
+        the last command, open loop. Without a model it stays put."""
         if self.latest is None:
             self.latest = (readings.latest[0], readings.latest[1], now_s)
         if not self._coasting:
@@ -171,8 +160,7 @@ class StateAtTick:
         return position, velocity
 
     def disturbance(self) -> np.ndarray | None:
-        """The filter's estimate of the external torque on each joint (N·m),
-        or None without a disturbance observer."""
+        """The observer's external torque per joint (N·m), or None without one."""
         if self.kalman is None or not self.kalman.estimates_disturbance:
             return None
         return self.kalman.disturbance
@@ -180,8 +168,7 @@ class StateAtTick:
     def _model(
         self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float
     ) -> tuple[np.ndarray, np.ndarray]:
-        """The arm model ``horizon_s`` ahead under ``torque``: with the disturbance
-        observer, the filter's (the estimated external torque included)."""
+        """The arm model ``horizon_s`` ahead under ``torque`` (with the observer, its torque included)."""
         if self.kalman is not None and self.kalman.estimates_disturbance:
             return self.kalman.predict(position, velocity, torque, horizon_s)
         return self.dynamics.predict(position, velocity, torque, horizon_s)
@@ -194,9 +181,8 @@ class StateAtTick:
     def reading_alone(
         now_s: float, readings: Readings, latency_compensation: bool, held: bool = False
     ) -> tuple[np.ndarray, np.ndarray]:
-        """The reading brought to ``now_s`` on its own velocity only (with
-        ``latency_compensation``): after a fault the last commands are no guide.
-        ``held``: the drive's brakes hold the arm: where the reading put it, at rest."""
+        """The reading brought to ``now_s`` on its own velocity (with ``latency_compensation``): after a fault the
+        last commands are no guide. ``held``: the brakes hold the arm where the reading put it, at rest."""
         position, velocity = readings.latest
         if held:
             return position, np.zeros_like(position)
@@ -229,9 +215,8 @@ class StateAtTick:
         return np.zeros(self.joint_count)
 
     def command_change(self, from_s: float, to_s: float) -> np.ndarray:
-        """How much the command changed (N·m per joint, root of the sum of
-        squares of each change) with the commands issued in ``[from_s, to_s)``,
-        against the one in force before."""
+        """How much the commands issued in ``[from_s, to_s)`` changed the command (N·m per joint, root sum of
+        squares of each change)."""
         squared = np.zeros(self.joint_count)
         before: np.ndarray | None = None
         for issued_s, command in self._commands:
@@ -246,8 +231,7 @@ class StateAtTick:
     def predict(
         self, position: np.ndarray, velocity: np.ndarray, from_s: float, to_s: float
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Integrate the arm model from ``from_s`` to ``to_s`` under the commands
-        this controller issued in between (each acting from its tick on)."""
+        """The arm model from ``from_s`` to ``to_s`` under the commands issued in between, each from its tick."""
         assert self.dynamics is not None
         if to_s <= from_s:  # nothing to integrate (a reading stamped at the tick)
             return position, velocity

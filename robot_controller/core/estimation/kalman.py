@@ -44,12 +44,9 @@ def inverse_2x2(A: np.ndarray) -> np.ndarray:
 def process_noise(
     config: KalmanConfig, dt: float, acceleration_per_nm=None, disturbance_noise_std=None, acceleration_noise_std=None
 ) -> np.ndarray:
-    """The process noise over ``dt`` s: ``(2, 2)`` on ``[q, v]`` from the white unmodelled acceleration;
-    with ``acceleration_per_nm`` (the observer) ``(n, 3, 3)`` on ``[q, v, d]``, adding ``d``'s random walk.
-    :param acceleration_per_nm: rad/s² per N·m on each joint's own axis, (n,)
-    :param disturbance_noise_std: per joint, N·m/√s (None: the config's)
-    :param acceleration_noise_std: per joint, rad/s² (None: the config's)
-    """
+    """The process noise over ``dt`` s: ``(2, 2)`` on ``[q, v]`` from the white unmodelled acceleration; with
+    ``acceleration_per_nm`` (rad/s² per N·m on each joint's own axis: the observer) ``(n, 3, 3)`` on ``[q, v, d]``,
+    adding ``d``'s random walk. The σs per joint, None: the config's."""
     G = (0.5 * dt * dt, dt)
     if acceleration_per_nm is None:
         return np.outer(G, G) * config.acceleration_noise_std**2
@@ -67,8 +64,8 @@ def process_noise(
 
 @lru_cache(maxsize=64)  # a filter's periods are a handful of roundings of one period
 def _noise_templates(dt: float) -> np.ndarray:
-    """The process noise's four parts over ``dt`` s, (4, 9), read only: the white acceleration (``G·Gᵀ``,
-    G = [dt²/2, dt]), and ``d``'s random walk in ``[q, v]``, between ``[q, v]`` and ``d``, and in ``d``."""
+    """The process noise's four parts over ``dt`` s, (4, 9), read only: the white acceleration, and ``d``'s random
+    walk in ``[q, v]``, between ``[q, v]`` and ``d``, and in ``d``."""
     g0, g1 = 0.5 * dt * dt, dt
     qq, qv, vv = dt**5 / 20, dt**4 / 8, dt**3 / 3
     qd, vd = dt**3 / 6, dt**2 / 2
@@ -86,8 +83,7 @@ def _noise_templates(dt: float) -> np.ndarray:
 
 @lru_cache(maxsize=64)
 def timing_noise_template(dt: float) -> np.ndarray:
-    """``G·Gᵀ`` over ``dt`` s, G = [dt, 1] (2, 2), read only: a velocity step of unknown size at the
-    start of the period, in ``[q, v]``."""
+    """``G·Gᵀ``, G = [dt, 1], read only: a velocity step of unknown size at the start of the period."""
     G = np.array([dt, 1.0])
     template = np.outer(G, G)
     template.flags.writeable = False
@@ -95,17 +91,14 @@ def timing_noise_template(dt: float) -> np.ndarray:
 
 
 def clearly_within(distance_sq: np.ndarray, sigma: float) -> bool:
-    """Whether every joint's surprise is clearly within ``sigma`` σ (squared distance below
-    ``innovation.CLEAR_SHARE``·σ²): then so is any part of it, and neither of innovation's tests can hold."""
+    """Whether every joint's surprise is clearly within ``sigma`` σ: then neither of innovation's tests can hold."""
     return all((distance_sq < innovation.CLEAR_SHARE * sigma * sigma).tolist())
 
 
 class JointKalmanFilter:
-    """Predict with the arm model, correct with each reading.
-
-    The state is ``x`` (n, m): per joint ``q, v`` (and ``d``). Its covariance is one matrix over
-    every joint's state (``P[0]``, nm × nm, joint by joint), as each joint's prediction leans on the
-    others' states; with ``independent_joints``, one m × m per joint (``P``, n × m × m).
+    """Predict with the arm model, correct with each reading. The state is ``x`` (n, m): per joint ``q, v`` (and
+    ``d``); its covariance one matrix over every joint's state (``P[0]``), as each joint's prediction leans on the
+    others'; with ``independent_joints``, one m × m per joint.
 
     :param predictor: the arm model's ``predict`` (q, v, torque, horizon_s, max_step_s, external_nm)
     :param transition: the model's ``(q, v, torque, horizon_s, max_step_s) → ∂[q(T); v(T)]/∂[q; v]``
@@ -113,11 +106,10 @@ class JointKalmanFilter:
     :param estimate_disturbance: add the external torque ``d`` to the state (the observer)
     :param mass_matrix: the arm's M(q) (what ``d`` accelerates; the observer needs it)
     :param disturbance_limit: N·m per joint, the bound on ``|d|`` (none if None)
-    :param torque_scale: per joint, the factor on the observer's torque σs: the joint's inertia over the
-        one they were chosen for (None: 1)
-    :param payload_torque_std: per joint, N·m/√s added (in variance) to the mismatch σ of ``d``: how fast
-        the torque of a payload the model lacks changes as the arm turns it (None: nothing)
-    :param independent_joints: the joints do not act on one another (separate one-joint arms)
+    :param torque_scale: per joint, the factor on the observer's torque σs (the joint's inertia over the one
+        they were chosen for)
+    :param payload_torque_std: per joint, N·m/√s added to the mismatch σ of ``d``: how fast the torque of a
+        payload the model lacks changes as the arm turns it
     """
 
     def __init__(
@@ -207,14 +199,13 @@ class JointKalmanFilter:
 
     @property
     def disturbance(self) -> np.ndarray:
-        """The estimated external torque on each joint, N·m: the one that gives the unexplained
-        accelerations, ``M(q)·α`` (0 without the observer or a state)."""
+        """The estimated external torque on each joint, ``M(q)·α``, N·m (0 without the observer or a state)."""
         torque = self._disturbance_torque()
         return np.zeros(self.joint_count) if torque is None else torque.copy()
 
     def _disturbance_torque(self) -> np.ndarray | None:
-        """``M(q)·α``, ``α_j = d_j·(M⁻¹)_jj``, N·m (None without the observer or a state); worked out
-        once for each state and mass matrix (not to be written to)."""
+        """``M(q)·α``, ``α_j = d_j·(M⁻¹)_jj``, N·m (None without the observer or a state); worked out once per
+        state and mass matrix (not to be written to)."""
         if not self.estimates_disturbance or self.x is None or self._mass is None:
             return None
         if self._external is None:
@@ -235,13 +226,9 @@ class JointKalmanFilter:
         torque: np.ndarray,
         torque_change: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Take a reading; returns the filtered ``(position, velocity)``.
-
-        :param time_s: the reading's stamp, s
-        :param torque: N·m per joint, what acted since the last reading
-        :param torque_change: N·m per joint, how much the command changed about the start of
-            that span, when the instant it took effect is uncertain (``command_timing_uncertainty_s``)
-        """
+        """Take a reading stamped ``time_s``, ``torque`` (N·m) having acted since the last; returns the filtered
+        ``(position, velocity)``. ``torque_change``: how much the command changed about the start of that span,
+        when the instant it took effect is uncertain (``command_timing_uncertainty_s``)."""
         n, m = self.joint_count, self.size
         g, k = self._groups, self._per_group
         observer = self.estimates_disturbance
@@ -330,9 +317,8 @@ class JointKalmanFilter:
         return x[:, 0].copy(), x[:, 1].copy()
 
     def _transition(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> np.ndarray:
-        """The model linearised at ``(q, v)`` over ``dt`` (per group, km × km): one model step's slopes
-        (gravity's stiffness, the damping, the coupling) carried over the period's steps; ``d`` moves
-        its own joint as a torque there would."""
+        """The model linearised at ``(q, v)`` over ``dt`` (per group, km × km); ``d`` moves its own joint as a
+        torque there would."""
         F, at = self._F, self._index
         slopes = self.transition(q, v, torque, dt, self.config.model_step_s)
         if self._groups == 1:
@@ -347,9 +333,8 @@ class JointKalmanFilter:
         return F
 
     def _start(self, joints: np.ndarray, z: np.ndarray) -> None:
-        """Start ``joints`` (bool per joint) afresh from the reading ``z`` (n, 2): ``d`` 0, no correlation
-        with the other joints, and no jump taken until the readings have agreed with the filter a while
-        (after a fault the first readings can be far from any model)."""
+        """Start ``joints`` afresh from the reading ``z``: ``d`` 0, no correlation with the other joints, and no
+        jump taken until the readings have agreed a while (after a fault they can be far from any model)."""
         m, k = self.size, self._per_group
         self.x[joints] = 0.0
         self.x[joints, :2] = z[joints]
@@ -378,8 +363,7 @@ class JointKalmanFilter:
     def predict(
         self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float
     ) -> tuple[np.ndarray, np.ndarray]:
-        """The state ``horizon_s`` seconds ahead under the actuator's ``torque`` (N·m) and the
-        external torque as estimated now (a latency compensation, or a coast on the model)."""
+        """The state ``horizon_s`` s ahead under ``torque`` (N·m) and the external torque as estimated now."""
         q, v = np.array(position, dtype=float), np.array(velocity, dtype=float)
         if horizon_s <= 0:
             return q, v
@@ -387,9 +371,8 @@ class JointKalmanFilter:
         return self.predictor(q, v, torque, horizon_s, max_step_s=step, external_nm=external)
 
     def velocity_at_instant(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray) -> np.ndarray:
-        """The velocity (rad/s) at the instant of the state ``(position, velocity)`` under ``torque`` (N·m)
-        and the estimated external torque: the mean of the model step's that ended there (the state's
-        own) and the one that starts there (what a reference's velocity at that instant compares with)."""
+        """The velocity at the state's instant: the mean of the model step's that ended there (the state's own)
+        and the one that starts there (what a reference's velocity at that instant compares with)."""
         h = self.config.model_step_s
         _, ahead = self.predictor(position, velocity, torque, h, max_step_s=h, external_nm=self._disturbance_torque())
         return 0.5 * (velocity + ahead)

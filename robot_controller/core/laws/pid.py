@@ -1,14 +1,10 @@
-"""The built-in PID law: its settings (:class:`PidConfig`, checked when built), one step
-(:class:`Pid`) and what a step reports (:class:`PidTerms`), and the law the controller runs it as
-(:class:`BuiltinLaw`, a :class:`~robot_controller.core.laws.interface.ControlLaw` like a user's):
-model feedforward for the reference over the period, less the observer's estimate of an external
-torque, plus feedback (decoupled on a chain, :func:`decoupling_map`). The LQR is the same law with
-designed gains (:mod:`~robot_controller.core.laws.lqr`).
+"""The built-in PID law: its settings (:class:`PidConfig`), one step (:class:`Pid`, reporting :class:`PidTerms`),
+and the law the controller runs it as (:class:`BuiltinLaw`, a ``ControlLaw`` like a user's): model feedforward for
+the reference over the period, less the observer's external torque, plus feedback (decoupled on a chain). The LQR
+is the same law with designed gains (:mod:`.lqr`).
 
-All quantities are arrays with one entry per joint (shape ``(n,)``) and broadcast, so a batch of
-gain sets (shape ``(batch, n)``) runs through the same code. Units: positions rad, velocities
-rad/s, torques N·m, time s; gains Kp N·m/rad, Ki N·m/(rad·s), Kd N·m·s/rad. The integral is stored
-as the I term itself (N·m), so a new ``ki`` while running does not kick the output (bumpless).
+Arrays have one entry per joint and broadcast, so a batch of gain sets ``(batch, n)`` runs through the same code.
+The integral is stored as the I term itself (N·m), so a new ``ki`` while running does not kick the output.
 """
 
 from __future__ import annotations
@@ -50,31 +46,19 @@ class DerivativeSource(StrEnum):
 
 @dataclass
 class PidConfig:
-    """Gains and options of :class:`Pid`, every one given: the defaults are the parameter schema's
-    (``parameters.builders`` makes this from a node's values).
+    """Gains and options of :class:`Pid`, every one given (the defaults are the parameter schema's); per joint
+    where an array."""
 
-    :param kp: proportional gain, N·m/rad, per joint
-    :param ki: integral gain, N·m/(rad·s), per joint
-    :param kd: derivative gain, N·m·s/rad, per joint
-    :param output_limit: symmetric torque limit, N·m (> 0), per joint
-    :param integral_limit: clamp on ∫e dt, rad·s (used by ``clamp``)
-    :param anti_windup: an :class:`AntiWindup` mode
-    :param back_calculation_time_s: tracking time constant Tt of back-calculation, s
-    :param derivative_source: a :class:`DerivativeSource`
-    :param derivative_filter_time_s: first-order low-pass time constant on the D signal, s (0 = off)
-    :param slew_rate_limit: max |du/dt|, N·m/s (0 = off)
-    """
-
-    kp: np.ndarray
-    ki: np.ndarray
-    kd: np.ndarray
-    output_limit: np.ndarray
-    integral_limit: np.ndarray
+    kp: np.ndarray  #: N·m/rad
+    ki: np.ndarray  #: N·m/(rad·s)
+    kd: np.ndarray  #: N·m·s/rad
+    output_limit: np.ndarray  #: N·m (> 0), symmetric
+    integral_limit: np.ndarray  #: rad·s, the clamp on ∫e dt (``clamp``)
     anti_windup: AntiWindup
-    back_calculation_time_s: float
+    back_calculation_time_s: float  #: s, back-calculation's tracking time constant Tt
     derivative_source: DerivativeSource
-    derivative_filter_time_s: float
-    slew_rate_limit: float
+    derivative_filter_time_s: float  #: s, the D signal's first-order low-pass (0: off)
+    slew_rate_limit: float  #: N·m/s, max |du/dt| (0: off)
 
     def __post_init__(self) -> None:
         for name in ("kp", "ki", "kd", "output_limit", "integral_limit"):
@@ -113,14 +97,9 @@ class PidTerms:
 
 
 class Pid:
-    """A discrete PID law, called once per control period with explicit ``dt``.
-
-    ``u = ff + kp·e + I + kd·D``, saturated to ``±output_limit`` and, if set,
-    slew-rate limited. ``e = r − y``. Non-finite inputs give a zero command
-    and leave the state untouched: the arm never gets a non-finite torque.
-    The LQR runs on it too: state feedback on ``[∫e, e, ė]`` is a PID whose
-    gains come from a Riccati design (:mod:`~robot_controller.core.laws.lqr`).
-    """
+    """A discrete PID law, called once per control period with explicit ``dt``: ``u = ff + kp·e + I + kd·D``,
+    ``e = r − y``, saturated to ``±output_limit`` and, if set, slew-rate limited. Non-finite inputs give a zero
+    command and leave the state untouched: the arm never gets a non-finite torque."""
 
     def __init__(self, config: PidConfig) -> None:
         self.config = config
@@ -154,11 +133,8 @@ class Pid:
         feedforward: np.ndarray | float = 0.0,
         feedback_map: np.ndarray | None = None,
     ) -> PidTerms:
-        """Advance one control period of ``dt`` seconds and return the command and its terms.
-
-        :param feedback_map: n × n; the feedback torques (P + I + D, each joint's own) pass through it
-            before the feedforward is added and the command limited; the terms reported are the joints' own
-        """
+        """Advance one control period of ``dt`` s. ``feedback_map`` (n × n): the feedback torques pass through it
+        before the feedforward is added and the command limited; the terms reported are the joints' own."""
         c = self.config
         shape = np.shape(reference_position)
         if shape != c.kp.shape:
@@ -259,9 +235,8 @@ def feedforward_torque(
 
 
 def decoupling_map(decoupling: bool, dynamics: ArmDynamics | None, position: np.ndarray) -> np.ndarray | None:
-    """``M(q)·diag(M(q))⁻¹`` at ``position``: the torques that give each joint the acceleration its
-    own gains ask for (``τ_j / M_jj``) on a chain whose inertias couple (the feedback half of
-    computed-torque control). None when ``decoupling`` is off, on one joint or without the arm model."""
+    """``M(q)·diag(M(q))⁻¹``: the torques that give each joint the acceleration its own gains ask for on a chain
+    whose inertias couple (computed-torque feedback). None when off, on one joint or without the arm model."""
     if not decoupling or dynamics is None or np.size(position) < 2:
         return None
     mass = dynamics.mass_matrix(position)
@@ -277,18 +252,16 @@ PAYLOAD_INERTIA_RATIO = 4.0
 def design_inertia(
     dynamics: ArmDynamics, joint_count: int, design_position: tuple[float, ...] | None = None, payload_kg: float = 0.0
 ) -> np.ndarray:
-    """Each joint's own inertia (the mass matrix's diagonal, kg·m²) at the design pose (rad per joint; None: every
-    joint at 0, or the nearest end of its range where 0 is outside it) on the nominal model (without the armature
-    learnt at run time, ``dynamics.learnt_armature``): each joint's gains are designed for it.
-    With ``payload_kg`` (a rated payload the model lacks), with that load at its worst place within reach
-    (:func:`payload.inertia_bound`), at most PAYLOAD_INERTIA_RATIO × the arm's own."""
+    """Each joint's own inertia (M's diagonal, kg·m²) at the design pose (None: every joint at 0, or the nearest
+    end of its range) on the nominal model: each joint's gains are designed for it. With ``payload_kg`` (a rated
+    payload the model lacks) at its worst place within reach, at most PAYLOAD_INERTIA_RATIO × the arm's own."""
     model = getattr(dynamics, "model", None)  # a MuJoCo model knows the joints' ranges
     pose = np.zeros(joint_count) if design_position is None else np.asarray(design_position, dtype=float)
     if design_position is None and model is not None:
         limited = model.jnt_limited[:joint_count].astype(bool)
         pose = np.where(limited, np.clip(pose, *model.jnt_range[:joint_count].T), pose)
-    # The NOMINAL model's: what the controller learnt at run time (armature it added, InertiaAdaptation) is taken away,
-    # so a redesign never compounds with the scaling the adaptation puts on the gains it designs.
+    # The nominal model's (the armature learnt at run time taken away): a redesign never compounds with the
+    # scaling the inertia adaptation puts on the gains.
     inertia = np.diag(dynamics.mass_matrix(pose)) - getattr(dynamics, "learnt_armature", 0.0)
     if payload_kg > 0 and model is not None:
         inertia = np.minimum(inertia + payload.inertia_bound(model, payload_kg, pose), PAYLOAD_INERTIA_RATIO * inertia)
@@ -303,9 +276,8 @@ def inertia_scaled(
     design_position: tuple[float, ...] | None,
     scaled: tuple[str, ...],
 ) -> PidConfig:
-    """``pid`` with the gains named in ``scaled`` (each given as one value, for a joint of
-    ``reference_inertia`` kg·m²) times each joint's inertia at the design pose over it: the reference
-    joint's closed loop on every joint, as the LQR's torque weight gives (:func:`design_inertia`)."""
+    """``pid`` with the gains named in ``scaled`` (one value each, for a joint of ``reference_inertia`` kg·m²)
+    times each joint's design inertia over it: the reference joint's closed loop on every joint."""
     if not scaled or reference_inertia <= 0 or dynamics is None:
         return pid
     ratio = design_inertia(dynamics, joint_count, design_position) / reference_inertia
@@ -330,8 +302,7 @@ class BuiltinLaw(ControlLaw):
         self._last_s: float | None = None
 
     def gains(self) -> PidConfig:
-        """The PID settings this law runs with (the LQR's: designed; gains given as one value: scaled
-        per joint, :func:`inertia_scaled`); ``ConfigError`` if none."""
+        """The PID settings this law runs with (the LQR's: designed; one value each: scaled per joint)."""
         p, arm = self.params, self.arm
         inertia, pose = p.get("reference_inertia", 0.0), p.get("design_position")
         return inertia_scaled(p["pid"], arm.model, arm.joint_count, inertia, pose, p.get("scaled_gains", ()))
@@ -346,8 +317,8 @@ class BuiltinLaw(ControlLaw):
         self._last_s = None
 
     def update(self, time_s: float, state: State, reference: Reference) -> np.ndarray:
-        """Feedforward for ``reference.ahead`` less ``state.disturbance``, plus the PID's feedback over
-        the time since the last update (the period on the first, at most MAX_STEP_PERIODS)."""
+        """Feedforward for ``reference.ahead`` less ``state.disturbance``, plus the PID's feedback over the time
+        since the last update (at most MAX_STEP_PERIODS)."""
         dt_s = self.period_s
         if self._last_s is not None and time_s > self._last_s:
             dt_s = min(time_s - self._last_s, MAX_STEP_PERIODS * self.period_s)
@@ -370,9 +341,8 @@ class BuiltinLaw(ControlLaw):
         return {} if self._terms is None else dict(vars(self._terms))  # command, p, i, d, feedforward, saturated
 
     def describe(self, observer: str = "") -> str:
-        """One line for a log or a status topic: the law, the gains in force with their units, the
-        torque limit, the feedforward and ``observer`` (a clause on the disturbance observer). In LQR
-        mode it says so, and that the kp/ki/kd parameters are unused (the design replaced them)."""
+        """One line: the law, the gains in force, the torque limit, the feedforward and ``observer`` (a clause on
+        the disturbance observer); under LQR, that the kp/ki/kd parameters are unused."""
         gains, p = self.pid.config, self.params
         units = getattr(self.arm.model, "joint_units", None) or ["rad"] * self.arm.joint_count
 

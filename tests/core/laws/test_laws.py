@@ -263,5 +263,5 @@ def test_the_builtin_laws_run_through_the_same_interface():
     from robot_controller.core.laws.interface import Reference, State
 
     zeros = np.zeros(1)
-    torque = c.builtin.update(0.0, State(zeros, zeros, zeros, zeros, zeros), Reference(zeros + 0.1, zeros, zeros))
+    torque = c.stop_law.update(0.0, State(zeros, zeros, zeros, zeros, zeros), Reference(zeros + 0.1, zeros, zeros))
     assert torque.shape == (1,) and torque[0] > 0
