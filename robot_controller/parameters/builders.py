@@ -36,7 +36,6 @@ def given(value: Any) -> bool:
 
 
 def model_overridden(values: Mapping[str, Any]) -> bool:
-    """Whether any of the controller's ``model_*`` parameters is set."""
     return any(given(values.get(key)) for key in MODEL_KEYS)
 
 
@@ -85,10 +84,9 @@ def from_values(
     joint_count: int | None = None,
     **derived: Any,
 ) -> T:
-    """A config dataclass made from ``node``'s parameter values: each field from the parameter named as it is
-    (``prefix`` + its name; a per-joint one as one value for each of ``joint_count`` joints), unless ``derived``
-    holds it. A field with no parameter and none derived keeps the dataclass's default, which only a value that is
-    no parameter has: the schema's defaults are the one set. A field missing is a ``TypeError`` (a bug)."""
+    """A config dataclass from ``node``'s parameter values: each field from the parameter ``prefix`` + its name (a
+    per-joint one with a value for each of ``joint_count`` joints) unless ``derived`` holds it; else the dataclass's
+    default, which only a value that is no parameter has: the schema's defaults are the one set."""
     names = {f.name for f in fields(cls)}  # type: ignore[arg-type]
     assert set(derived) <= names, f"{cls.__name__} has no field {sorted(set(derived) - names)}"
     kwargs = dict(derived)
@@ -110,8 +108,7 @@ def pid_config(values: Mapping[str, Any], joint_count: int) -> PidConfig:
 
 
 def controller_config(values: Mapping[str, Any], joint_count: int) -> ControllerConfig:
-    """The controller's config from its parameter values (``node_defaults("pid_controller")`` for the schema's):
-    each field from the parameter of its name, the few below worked out from theirs."""
+    """The controller's config: each field from the parameter of its name, the few below worked out from theirs."""
     from robot_controller.core.controller import ControllerConfig
 
     return from_values(

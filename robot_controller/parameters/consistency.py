@@ -15,9 +15,8 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import law_parameters
 from robot_controller.core.model import joint_limits, urdf_velocity_limits
 from robot_controller.core.model.plant_variation import PlantVariation
-from robot_controller.parameters import law_params
+from robot_controller.parameters import files, law_params
 from robot_controller.parameters.builders import ARM_MODEL_KEYS, arm_model, given
-from robot_controller.parameters.schema import LOOP_WIDE
 from robot_controller.parameters.torque_limits import torque_limit
 
 if TYPE_CHECKING:  # MuJoCo and the trajectories: imported when used
@@ -47,7 +46,7 @@ def check_stack(params: cfg.Params) -> None:
     _check_per_joint(params, joint_count)
     PlantVariation.from_params(params["simulator"], "simulator: ")  # payload or payload_kg, not both
     _check_rates(params)
-    _check_loop_wide(params)
+    files.one_value_for_the_loop(params, [("", params)])  # as load_stack gives them: one value each
     _check_limits(params, arms["simulator"])
     _check_planner_matches(params, joint_count)
     _check_controller(params, joint_count)
@@ -120,15 +119,6 @@ def _check_rates(params: cfg.Params) -> None:
             steps_per_period(physics_dt, control_period_s)
         except Exception as exc:  # noqa: BLE001 - TimingError
             raise ConfigError(f"pid_controller: control_rate_hz {ctrl['control_rate_hz']:g}: {exc}") from None
-
-
-def _check_loop_wide(params: cfg.Params) -> None:
-    """One value of each loop-wide parameter for every node (``load_stack`` gives each the same)."""
-    for key, nodes in LOOP_WIDE.items():
-        values = {node: params[node][key] for node in nodes}
-        if len(set(values.values())) > 1:
-            said = " but ".join(f"{node}.{key} {value:g}" for node, value in values.items())
-            raise ConfigError(f"{said}: the loop has one {key}; set it once (on one node, or under /**)")
 
 
 def _check_limits(params: cfg.Params, arm: tuple[list[str], np.ndarray, np.ndarray]) -> None:
@@ -212,10 +202,8 @@ def with_controller_model(params: cfg.Params) -> cfg.Params:
 
 def trajectory_plan(params: cfg.Params) -> Plan:
     """The trajectory the run follows: the planner's, checked against the controller's arm model (the ROS planner's
-    too: :func:`check_stack` refuses a difference) and slowed, refused or left as its ``feasibility`` says.
-
-    :raises ConfigError: ``trajectory_planner: …``, one line, when it is refused
-    """
+    too: :func:`check_stack` refuses a difference) and slowed, refused (``ConfigError``) or left as its
+    ``feasibility`` says."""
     from robot_controller.core.reference import make_trajectory, plan_trajectory
 
     planner = params["trajectory_planner"]

@@ -18,10 +18,8 @@ Params = dict[str, dict[str, Any]]
 
 
 def read_params_file(path: str | Path) -> Params:
-    """Read a ROS 2 parameter file into ``{node: {param: value}}``, validated (``/**`` applies to every node).
-
-    :raises ConfigError: naming the file, the key and the problem
-    """
+    """A ROS 2 parameter file as ``{node: {param: value}}``, validated (``/**`` applies to every node); a
+    ``ConfigError`` names the file, the key and the problem."""
     path = Path(path)
     try:
         raw = yaml.safe_load(path.read_text())
@@ -132,17 +130,16 @@ def load_stack(
 
 def one_value_for_the_loop(params: Params, layers: list[tuple[str, Params]]) -> None:
     """Each loop-wide parameter (``LOOP_WIDE``) set on every node that declares it, to the value of the last layer
-    that sets it on any of them: a file that sets pid_controller's control_rate_hz sets the simulator's too.
-
-    :raises ConfigError: a layer gives two nodes different values, naming it and the key
-    """
+    that sets it on any of them (a file that sets pid_controller's control_rate_hz sets the simulator's too);
+    ``ConfigError`` if a layer (named ``where``, or "") gives two nodes different values."""
     for key, nodes in LOOP_WIDE.items():
         value = None
         for where, layer in layers:
             given = {node: layer[node][key] for node in nodes if key in layer.get(node, {})}
             if len(set(given.values())) > 1:
                 said = " but ".join(f"{node}.{key} {v:g}" for node, v in given.items())
-                raise ConfigError(f"{where}: {said}: the loop has one {key}; set it once (on one node, or under /**)")
+                prefix = f"{where}: " if where else ""
+                raise ConfigError(f"{prefix}{said}: the loop has one {key}; set it once (on one node, or under /**)")
             value = next(iter(given.values()), value)
         for node in nodes:
             params[node][key] = value
@@ -174,7 +171,7 @@ class _NoAliasDumper(yaml.SafeDumper):
 
 
 def write_params_file(params: Params, path: str | Path) -> Path:
-    """Write ``params`` as a ROS 2 parameter file that ``--params-file`` reads."""
+    """``params`` as a ROS 2 parameter file that ``--params-file`` reads."""
     path = Path(path)
     path.write_text(params_yaml(params))
     return path

@@ -1,7 +1,6 @@
-"""A law's declared parameters as ``pid_controller`` node parameters ``law.NAME``: which keys
-exist depends on ``controller_type``, so they are not in the schema; :func:`law_specs` makes
-one :class:`LawParamSpec` per declared parameter, checked by the law's own rules
-(:mod:`robot_controller.core.laws.law_parameters`). The nodes declare them and ``params`` lists them."""
+"""A law's declared parameters as ``pid_controller`` node parameters ``law.NAME``: which exist depends on
+``controller_type``, so they are not in the schema; each is checked by the law's own rules
+(:mod:`robot_controller.core.laws.law_parameters`)."""
 
 from __future__ import annotations
 
@@ -30,8 +29,8 @@ class LawParamSpec(ParamSpec):
 
 
 def law_specs(controller_type: str) -> tuple[LawParamSpec, ...]:
-    """The ``law.*`` parameters of the law ``controller_type`` names (none for a built-in law);
-    ``ConfigError`` naming ``controller_type`` if it names no law."""
+    """The ``law.*`` parameters of the law ``controller_type`` names (none for a built-in law; ``ConfigError`` if it
+    names no law)."""
     if registry.is_builtin(controller_type):
         return ()
     law_class = registry.resolve(controller_type)

@@ -1,5 +1,4 @@
-"""Limits a node takes from its URDF when its parameters leave them empty:
-each joint's effort limit as ``torque_max``."""
+"""Each joint's URDF effort limit as a node's ``torque_max`` where its parameters leave it empty."""
 
 from __future__ import annotations
 
@@ -27,8 +26,7 @@ def _urdf_effort_limits(urdf_path: str) -> tuple[tuple[str, ...], tuple[float, .
 
 
 def torque_limit(values: Mapping[str, Any], joint_count: int) -> np.ndarray:
-    """A node's ``torque_max`` per joint (N·m): as set, or each joint's URDF
-    effort limit when it is empty. A joint without one must be given a value."""
+    """A node's ``torque_max`` per joint (N·m): as set, or each joint's URDF effort limit when it is empty."""
     if np.size(values["torque_max"]) > 0:
         return per_joint("torque_max", values["torque_max"], joint_count)
     names, limits = _urdf_effort_limits(values["urdf_path"])
@@ -41,8 +39,8 @@ def torque_limit(values: Mapping[str, Any], joint_count: int) -> np.ndarray:
 
 
 def fill_torque_limits(params: dict[str, dict[str, Any]]) -> None:
-    """Write each empty ``torque_max`` out as its node's URDF effort limits, so the run's
-    ``params.yaml`` and every check see the numbers in force."""
+    """Each empty ``torque_max`` written out as its node's URDF effort limits: the run's ``params.yaml`` and every
+    check see the numbers in force."""
     for node in TORQUE_LIMITED:
         values = params.get(node, {})
         if "torque_max" in values and np.size(values["torque_max"]) == 0:

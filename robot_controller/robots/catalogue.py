@@ -1,10 +1,6 @@
-"""The robots ``--robot`` selects, each a parameter layer: a URDF, a home pose and a default sine
-about it that the arm follows within its limits; four built in, any other from its description.
-
-The layer goes over the schema's defaults and under the preset and the user's ``--config`` files.
-It sets no torque limit: an empty ``torque_max`` is each joint's URDF effort limit
-(``parameters.torque_limits``), whichever URDF a node is given.
-"""
+"""The robots ``--robot`` selects, each a parameter layer over the schema's defaults and under the preset and the
+user's files: a URDF, a home pose and a default sine about it within its limits; four built in, any other from its
+description. It sets no torque limit: an empty ``torque_max`` is each joint's URDF effort limit."""
 
 from __future__ import annotations
 
@@ -20,12 +16,9 @@ from robot_controller.robots.description import describe
 
 @dataclass(frozen=True)
 class Robot:
-    """:param urdf: returns the robot's URDF file (empty path: the package's reference arm)
-    :param home_position: rad per joint (m for a prismatic one), where the arm starts and the trajectory is centred
-    :param amplitude: rad per joint (m for a prismatic one), of the default sine about the home pose
-    :param frequency_hz: of the default sine
-    :param note: what was changed to load its description (fingers held still, meshes dropped), or ``""``
-    """
+    """``urdf`` returns its URDF file ("": the reference arm); ``home_position`` (where it starts and the trajectory
+    is centred) and the default sine's ``amplitude`` are rad per joint (m on a slide); ``note``: what was changed to
+    load its description (fingers held still, meshes dropped)."""
 
     name: str
     summary: str
@@ -40,7 +33,6 @@ class Robot:
     tracking_band_rad: float = 0.02
 
     def layer(self) -> dict[str, dict[str, Any]]:
-        """The robot's parameters, as a layer of ``{node: {param: value}}``."""
         if not (urdf := self.urdf()):
             return {}  # the schema's defaults are the reference arm's
         home = list(self.home_position)
@@ -132,5 +124,4 @@ def arm_name(name: str, urdf_path: str) -> str:
 
 
 def urdf_of(name: str) -> Path:
-    """The URDF file of robot ``name``."""
     return resources.resolve_urdf(robot(name).urdf())

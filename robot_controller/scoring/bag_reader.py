@@ -62,7 +62,6 @@ class Recording:
     diagnostics: list[tuple[float, float]] = field(default_factory=list)
 
     def true_at_ticks(self) -> np.ndarray:
-        """The TRUE position at each controller tick (:func:`robot_controller.core.metrics.true_position_at`)."""
         return metrics.true_position_at(self.state["time_s"], self.true_time_s, self.true_position, self.true_velocity)
 
     def raw_reading_at(self, stamps_s: np.ndarray) -> np.ndarray:
@@ -84,15 +83,15 @@ class Recording:
 
     @property
     def joint_names(self) -> list[str]:
-        """The joints' names, in column order (``joint1``, ``joint2``… if the bag has none that fit)."""
+        """In column order (``joint1``, ``joint2``… if the bag has none that fit)."""
         if len(self.recorded_joint_names) == self.joint_count:
             return list(self.recorded_joint_names)
         return [f"joint{k + 1}" for k in range(self.joint_count)]
 
 
 def read_recording(bag_dir: Path) -> Recording:
-    """Read a run's bag. A message that cannot be decoded, or whose sizes do not fit the run (anyone on
-    the domain could have published it), is skipped and counted in ``malformed``."""
+    """A message that cannot be decoded, or whose sizes do not fit the run (anyone on the domain could have
+    published it), is skipped and counted in ``malformed``."""
     bag_dir = Path(bag_dir)
     if bag_recovery.needs_recovery(bag_dir):
         # The recorder was killed: rebuild the bag from its complete chunks first.
@@ -259,18 +258,14 @@ def _joint_names_of(true: list[tuple[int, Any]], joint_count: int) -> list[str]:
 
 
 def motor_latency_s(state: dict[str, np.ndarray], receipts: np.ndarray) -> np.ndarray:
-    """Sensor stamp → command at the motor (s), per command the motor received (:func:`motor_latency`)."""
+    """Sensor stamp → command at the motor (s), per command the motor received."""
     return motor_latency(state["command"], state["measurement_stamp_s"], receipts)[1]
 
 
 def motor_latency(commands: np.ndarray, stamps_s: np.ndarray, receipts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each receipt's time and its latency from the reading to the motor (s).
-
-    :param commands: each controller tick's command (N·m per joint), in tick order
-    :param stamps_s: each tick's measurement stamp, s
-    :param receipts: rows ``[receipt_time_s, command…]`` (the motor's), each paired with the latest
-        tick that issued the same command from a reading taken before the receipt
-    """
+    """Each receipt's time and its latency from the reading to the motor (s): a receipt row ``[receipt_time_s,
+    command…]`` is paired with the latest tick (its command and measurement stamp) that issued the same command from
+    a reading taken before the receipt."""
     stamps_by_command: dict[tuple[float, ...], list[float]] = {}
     for command, stamp in zip(map(tuple, np.asarray(commands).tolist()), np.asarray(stamps_s).tolist(), strict=True):
         stamps_by_command.setdefault(command, []).append(stamp)

@@ -17,7 +17,6 @@ class Scan:
     schemas: dict[int, str] = field(default_factory=dict)  #: schema id → message type name
     channels: dict[int, tuple[str, int]] = field(default_factory=dict)  #: channel id → (topic, schema id)
     messages: list[tuple[int, int, bytes]] = field(default_factory=list)  #: (channel id, log time ns, CDR)
-    complete: bool = False  #: the file ended with a footer
 
 
 def needs_recovery(bag_dir: Path) -> bool:
@@ -69,7 +68,6 @@ def _records(view: memoryview, out: Scan) -> None:
                 raise ValueError(f"compressed chunks ({compression}) are not recovered")
             _records(content[position + 8 : position + 8 + records_length], out)
         elif opcode == OP_FOOTER:
-            out.complete = True
             return
         offset = end
 

@@ -38,14 +38,12 @@ def score(
 ) -> dict[str, Any]:
     """The run's metrics: tracking on the TRUE position, rates, latency, message counts.
 
-    :param units: each joint's position unit, ``"rad"`` or ``"m"`` (default all ``"rad"``): the figures'
-        names and headlines follow them (:func:`robot_controller.core.metrics.joint_errors`)
-    :param window_s: keep only the first ``window_s`` s of ticks and leave out what depends on when
-        the recorder heard a message: on sim time, the same seed then gives the same figures exactly
-    :param receipts: the figures of when the recorder heard each message (latency to the motor, each topic's
-        count and rate) all the same (default: only without ``window_s``); a paced world's run has them
+    :param units: each joint's position unit, ``"rad"`` or ``"m"`` (default all ``"rad"``): the figures' names follow
+    :param window_s: only the first ``window_s`` s of ticks, without what depends on when the recorder heard a message:
+        on sim time, the same seed then gives the same figures exactly
+    :param receipts: those figures all the same (default: only without ``window_s``); a paced world's run has them
     :param judged_s: the run's own span from its first tick (None: the whole recording): the stops and brakes of its
-        shutdown after it (a split run's controller outliving the sensor's side) are left out of their counts
+        shutdown after it (a split run's controller outliving the sensor's side) are not counted
     """
     s = recording.state
     keep = None
@@ -101,8 +99,8 @@ def score(
 
 
 def adapted_armature(law_terms: dict[str, np.ndarray], joint_count: int, keep: Any = None) -> list[float]:
-    """kg·m² per joint, the armature the inertia adaptation had learnt at the run's end: the last finite row of its
-    block on the controller's state among the ticks ``keep`` selects (None: all); zeros without one (adaptation off)."""
+    """kg·m² per joint, the armature the inertia adaptation had learnt by the last of the ticks ``keep`` selects (None:
+    all); zeros with the adaptation off."""
     rows = law_terms.get(state_layout.ADAPTED_ARMATURE)
     if rows is None:
         rows = np.zeros((0, joint_count))
@@ -113,9 +111,8 @@ def adapted_armature(law_terms: dict[str, np.ndarray], joint_count: int, keep: A
 
 
 def reference_in_force(recording: Recording, nominal_period_s: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
-    """The reference in force at every true-state sample of ``recording`` (:func:`reference_in_force_at`), and
-    whether one is: none while the drive's brakes hold the arm (category 0: torque off, the joint locked), which is a
-    stop, counted apart (``brake_engagements``), not tracking."""
+    """The reference in force at every true-state sample (:func:`reference_in_force_at`), and whether one is: none
+    while the brakes hold the arm, a stop counted apart (``brake_engagements``), not tracking."""
     s, t = recording.state, recording.true_time_s
     in_force, valid = reference_in_force_at(s["time_s"], s["reference"], s["status"], t, nominal_period_s)
     return in_force, valid & ~braked_at(recording, t)
@@ -131,9 +128,8 @@ def braked_at(recording: Recording, t: np.ndarray) -> np.ndarray:
 
 
 def brake_metrics(recording: Recording, start_s: float, end_s: float, grace_s: float = 0.02) -> dict[str, Any]:
-    """How often the brakes went on between ``start_s`` and ``end_s`` (a stall of the loop, an e-stop: the drive's
-    category 0 stop; ``grace_s`` past the end too: the stop that ended a failed run), and for how long in all (s, the
-    simulator's time); of those, the ones an e-stop held at some time (``…_estop``): asked for, not the loop's."""
+    """How often the brakes went on between ``start_s`` and ``end_s`` (and ``grace_s`` past it: the stop that ended a
+    failed run), and for how long in all (sim s); of those, the ones an e-stop held (``…_estop``): asked for."""
     t, held = recording.brakes_time_s, np.any(recording.brakes > 0.5, axis=1)
     if not len(t):
         return {"brake_engagements": 0, "braked_s": 0.0, "brake_engagements_estop": 0, "braked_s_estop": 0.0}
@@ -162,14 +158,10 @@ def _reasons_of(recording: Recording, count: int) -> list[frozenset[str]]:
 def reference_in_force_at(
     ticks: np.ndarray, reference: np.ndarray, status: np.ndarray, t: np.ndarray, nominal_period_s: float = 0.01
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The controller's reference in force at each time ``t`` (rad per joint), and whether one is.
-
-    Interpolated between ticks a period apart; across a longer gap (a stalled controller) the last one is carried on
-    at its speed for ``CARRY_S``, then held: a stall cannot hide. None before the first tick or where the controller
-    commands nothing (``IDLE_STATUSES``).
-
-    :param ticks: the controller's state's tick times, s; ``reference`` and ``status`` are its too
-    """
+    """The controller's reference in force at each time ``t`` (rad per joint), and whether one is: interpolated
+    between ticks a period apart; across a longer gap (a stalled controller) the last one carried on at its speed for
+    ``CARRY_S``, then held, so a stall cannot hide. None before the first tick or where the controller commands
+    nothing (``IDLE_STATUSES``)."""
     index = np.clip(np.searchsorted(ticks, t, side="right") - 1, 0, len(ticks) - 1)
     following = np.clip(index + 1, 0, len(ticks) - 1)
     span = ticks[following] - ticks[index]
@@ -199,11 +191,8 @@ def tracking_on_sim_timeline(
     prefix: str = "tracking",
     leave_out: np.ndarray | None = None,
 ) -> dict[str, Any]:
-    """Tracking on the simulator's timeline: every true-state sample from ``start_s`` to ``end_s`` against the reference
-    in force at that time (:func:`reference_in_force`), per joint and the worst joint's.
-
-    :param leave_out: per true-state sample, whether to leave it out (a push and the settle after it)
-    """
+    """Every true-state sample from ``start_s`` to ``end_s`` but those ``leave_out`` marks (a push and the settle
+    after it) against the reference in force then, per joint and the worst joint's."""
     t, q = recording.true_time_s, recording.true_position
     in_force, valid = reference_in_force(recording, nominal_period_s)
     window = (t >= start_s - 1e-9) & (t <= end_s + 1e-9) & valid
@@ -255,7 +244,7 @@ IDLE_STATUSES = ("no_measurement", "sensor_lost", "stopped", "law_stopped", "lat
 
 
 def json_safe(value: Any) -> Any:
-    """NaN (a figure that could not be measured, e.g. a step that never settled) as null: strict JSON."""
+    """NaN (a figure that could not be measured) as null: strict JSON."""
     if isinstance(value, float) and not np.isfinite(value):
         return None
     if isinstance(value, dict):

@@ -44,7 +44,7 @@ class ScoredRun:
         return self.metrics | self.verdict.as_metrics() | {"tracking_band_rad": self.band_rad}
 
     def rows(self, out: Path | None = None) -> list[summary.Row]:
-        """The summary's rows (:func:`summary.run_rows`); ``out``: the run's directory, as the user named it."""
+        """``out``: the run's directory, as the user named it."""
         figures = self.facts | self.judged | self.timing
         return summary.run_rows(figures, effort_limits=self.effort_limits, out=None if out is None else str(out))
 
@@ -63,7 +63,7 @@ class ScoredRun:
 
 
 def effort_limits(params: dict[str, Any], joint_count: int) -> list[float] | None:
-    """The controller's effort limit per joint (``torque_max``, N·m or N), None if it cannot be read."""
+    """The controller's ``torque_max`` per joint (N·m or N), None if it cannot be read."""
     from robot_controller.core.errors import ConfigError
     from robot_controller.parameters.torque_limits import torque_limit
 
@@ -74,17 +74,15 @@ def effort_limits(params: dict[str, Any], joint_count: int) -> list[float] | Non
 
 
 def has_ticks(result: RunResult) -> bool:
-    """Whether the run's bag holds any controller tick: something to score."""
+    """Whether the run's bag holds a controller tick to score."""
     from robot_controller.blocks import spec
 
     return bool(result.message_counts.get(spec.STATE.topic))
 
 
 def score_launched(checked: CheckedRun, result: RunResult) -> ScoredRun:
-    """The scored run of what :func:`robot_controller.runner.launcher.launch` ran from ``checked``.
-
-    :raises ValueError: the recording cannot be scored (no controller tick, a torn bag)
-    """
+    """What :func:`robot_controller.runner.launcher.launch` ran from ``checked``, scored; ``ValueError`` if its
+    recording cannot be (no controller tick, a torn bag)."""
     from robot_controller import robots
 
     options, params = checked.options, checked.params
@@ -137,12 +135,9 @@ def score_launched(checked: CheckedRun, result: RunResult) -> ScoredRun:
 
 
 def rescore(run_dir: Path) -> ScoredRun:
-    """A saved run re-scored from its bag and judged as it judged itself: by the band, clock, duration, units,
-    host's share of its misses and failure its ``metrics.json`` saved (none saved: the whole recording, every joint
-    revolute, the default robot's band).
-
-    :raises FileNotFoundError, ValueError: no bag there, or one that cannot be scored
-    """
+    """A saved run re-scored from its bag and judged by what its ``metrics.json`` saved (band, clock, duration,
+    units, the host's share of its misses, failure; none saved: the whole recording, revolute joints, the default
+    band). ``FileNotFoundError``, ``ValueError``: no bag there, or one that cannot be scored."""
     from robot_controller import robots
 
     recording = report.read_recording(run_dir / "bag")

@@ -44,18 +44,14 @@ TUTORIAL_CLAIM_RAD = 0.005
 
 
 def verdict(failure: str | None) -> str:
-    """``ok``, or ``FAILED: <why>``."""
     return "ok" if failure is None else f"FAILED: {failure}"
 
 
 def run_rows(
     values: dict[str, Any], *, effort_limits: Sequence[float] | None = None, out: str | None = None
 ) -> list[Row]:
-    """The rows of a run's end from its metrics (``metrics.json``'s keys, a sim-time run's ``timing.json`` too).
-
-    :param effort_limits: the controller's ``torque_max`` per joint (N·m, or N on a prismatic joint), if known
-    :param out: the run's directory, as the user named it
-    """
+    """The rows of a run's end from ``metrics.json``'s keys (a sim-time run's ``timing.json``'s too), with the
+    controller's ``torque_max`` per joint if known and the run's directory ``out`` as the user named it."""
     rows = [("run", _run_line(values)), ("tracking", tracking_line(values))]
     if start := start_line(values):
         rows.append(("start", start))
@@ -154,8 +150,7 @@ def faults_rows(entries: Sequence[dict[str, Any]], failed: Sequence[str], goal: 
 
 
 def lines(verdict_line: str | None, rows: Sequence[Row]) -> list[str]:
-    """The end as plain lines: the verdict, the rows with their labels aligned, and a FAILED verdict again last
-    (None: the rows alone)."""
+    """The verdict, the rows with their labels aligned, and a FAILED verdict again last (None: the rows alone)."""
     width = max((len(label) for label, _ in rows), default=0) + 2
     body = [f"{label:<{width}}{text}" for label, text in rows]
     if verdict_line is None:
@@ -229,11 +224,8 @@ def effort_line(
     peaks: Sequence[float] | None = None,
     note: str = "",
 ) -> str | None:
-    """The peak effort against its limit; on a chain, of the joint nearest its limit.
-
-    :param peaks: each joint's peak (default the run's, ``peak_effort_per_joint``)
-    :param note: said after the figure (what it spans), before the ticks saturated
-    """
+    """The peak effort against its limit; on a chain, of the joint nearest its limit. ``peaks``: each joint's
+    (default ``peak_effort_per_joint``); ``note``: what it spans, said before the ticks saturated."""
     names, units = _joints(values)
     peaks = peaks or values.get("peak_effort_per_joint") or values.get("peak_torque_nm_per_joint")
     if not peaks or len(peaks) != len(names):

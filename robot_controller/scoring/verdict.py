@@ -34,10 +34,10 @@ class Verdict:
 
 
 def judge(values: dict[str, Any], *, band_rad: float, failure: str | None = None) -> Verdict:
-    """The verdict of a run from its figures (``metrics.json``'s keys).
+    """The verdict of a run from ``metrics.json``'s keys.
 
-    :param band_rad: rad (m on a prismatic joint), the largest |reference in force − true position| allowed on every
-        joint, the start included (a push someone asked for, and ``PUSH_SETTLE_S`` after it, are left out)
+    :param band_rad: rad (m on a slide), the largest |reference in force − true position| allowed on every joint, the
+        start included (a push someone asked for, and ``PUSH_SETTLE_S`` after it, left out)
     :param failure: why the run itself failed (a node died, the law failed), said first
     """
     if failure:  # the stops and the brakes that followed are its own: said once, as the run's failure

@@ -34,14 +34,8 @@ def torques_for(names: list[str], torque_nm: float, joint: str | None) -> np.nda
 
 @graph.command("disturb", interrupted=INTERRUPTED)
 def disturb(torque_nm: float, duration_s: float, joint: str | None, *, wait_s: float = MATCH_TIMEOUT_S) -> int:
-    """Send one disturbance to the running simulator.
-
-    Exit 0 once sent, 1 if no simulator is listening, 2 for a request the simulator would drop.
-
-    :param torque_nm: N·m on ``joint`` (zero on the others; every joint if None)
-    :param duration_s: s of the simulator's time
-    :param wait_s: s to wait for the simulator to match
-    """
+    """Send ``torque_nm`` on ``joint`` (every joint if None) for ``duration_s`` of sim time to the running simulator,
+    waiting up to ``wait_s`` for it to match: exit 0 once sent, 1 if none listens, 2 for a request it would drop."""
     from robot_controller.core.model import MAX_DISTURBANCE_NM, check_disturbance
 
     if not (np.isfinite(torque_nm) and np.isfinite(duration_s)):

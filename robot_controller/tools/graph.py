@@ -65,7 +65,7 @@ def _remove_profile(directory: Path) -> None:
 
 
 def absolute(name: str) -> str:
-    """``arm/state`` → ``/arm/state`` (the tools' node lives in the root namespace)."""
+    """``arm/state`` → ``/arm/state``: the tools' node lives in the root namespace."""
     return "/" + name.strip().lstrip("/")
 
 
@@ -128,7 +128,7 @@ class Graph:
 
     def call(self, srv_type: type, service: str, request: Any, *, what: str, wait_s: float | None = None) -> Any:
         """One service call with a timeout; an unanswered request is withdrawn and sent again (DDS may match the
-        request path before the response path). ``what`` names the server in messages."""
+        request path before the response path). ``what`` names the server."""
         client = self.node.create_client(srv_type, service)
         try:
             deadline = time.monotonic() + (DISCOVERY_TIMEOUT_S if wait_s is None else wait_s)
@@ -211,11 +211,8 @@ def matching(node: Any, publisher: Any, topic: str, listener: str) -> tuple[int,
 
 
 def wait_until_heard(node: Any, publisher: Any, topic: str, listener: str, *, since: float, wait_s: float) -> bool:
-    """Whether ``listener`` came to hear ``publisher`` on ``topic`` (:func:`matching`, settled) in time.
-
-    :param since: when the wait began (``time.monotonic()``), s
-    :param wait_s: how long after ``since`` to wait, s
-    """
+    """Whether ``listener`` came to hear ``publisher`` on ``topic`` (:func:`matching`, settled) within ``wait_s`` of
+    ``since`` (``time.monotonic()``)."""
     seen, seen_since = None, since
     while True:
         now = time.monotonic()
@@ -288,7 +285,7 @@ def open_graph(tool: str) -> Iterator[Graph]:
 
 @contextlib.contextmanager
 def _sigint_as(handler: Any) -> Iterator[None]:
-    """SIGINT handled by ``handler`` for the block (in the main thread; elsewhere left as it is)."""
+    """SIGINT handled by ``handler`` for the block (in the main thread only)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return

@@ -1,12 +1,9 @@
-"""``goto Q… [--time S] [--joints NAMES] [--controller NAME]`` and ``trajectory FILE.yaml [--controller NAME]``: one
-``JointTrajectory`` as a ``control_msgs/FollowJointTrajectory`` goal to the planner's action server
-(``blocks.spec.FOLLOW_JOINT_TRAJECTORY``, as ros2_controllers' JointTrajectoryController serves it), which joins
-it onto the reference in force or ends it at once with the reason. The tool waits for the goal's result (its duration
-plus ``RESULT_MARGIN_S``) and says it in one line: exit 0 once it succeeded, 2 if it was rejected, aborted (JTC's error
-code and the reason: refused, out of tolerance, preempted, a fault) or canceled by another client, 1 if no server
-answered or no result came (what is unknown is said). A rejected goal's reason is the planner's log line for it, heard
-on the log topic (port ``rosout``; the action's answer carries none). Ctrl-C while waiting cancels the goal: the arm
-stops and holds; the cancel's outcome is said, exit 130."""
+"""``goto`` and ``trajectory``: one ``JointTrajectory`` as a ``FollowJointTrajectory`` goal to the planner's action
+server (as ros2_controllers' JointTrajectoryController serves it), its result awaited (its duration plus
+``RESULT_MARGIN_S``) and said in one line: exit 0 once it succeeded, 2 if rejected, aborted (JTC's error code and the
+reason) or canceled by another client, 1 if no server answered or no result came (what is unknown is said). A
+rejected goal's reason is the planner's log line for it, heard on the log topic (the action's answer carries none).
+Ctrl-C while waiting cancels the goal: the arm stops and holds; the cancel's outcome is said, exit 130."""
 
 from __future__ import annotations
 
@@ -42,7 +39,7 @@ ERROR_CODE_NAMES = {
 
 
 def action_name(controller: str) -> str:
-    """The FollowJointTrajectory action of the controller named ``controller`` (the planner's ``controller_name``)."""
+    """The FollowJointTrajectory action of the planner's ``controller_name``."""
     return graph_spec.FOLLOW_JOINT_TRAJECTORY.action_for(controller.strip("/"))
 
 
@@ -61,10 +58,8 @@ def to_message(spec: TrajectorySpec) -> Any:
 
 
 def verdict(status: int, error_code: int, error_string: str) -> tuple[str, int]:
-    """A goal's end in words, and the tool's exit code: 0 succeeded, 2 aborted or canceled, 1 any other status.
-
-    :param status: the result's ``action_msgs/GoalStatus`` status
-    """
+    """A goal's end (its ``GoalStatus`` status) in words, and the exit code: 0 succeeded, 2 aborted or canceled, 1
+    any other status."""
     from action_msgs.msg import GoalStatus
 
     reason = error_string or "no reason given"
@@ -154,8 +149,8 @@ def _follow(g: graph.Graph, spec: TrajectorySpec, prog: str, what: str, controll
 
 
 def _hear_rejections(g: graph.Graph) -> list[str]:
-    """The list the planner's reasons for rejecting a goal go into, from its log lines on the log topic heard from now
-    (matched before the goal is sent: waiting for the server takes longer than discovery)."""
+    """The list the planner's logged reasons for rejecting a goal go into, heard from now (matched before the goal is
+    sent: waiting for the server takes longer than discovery)."""
     from rcl_interfaces.msg import Log
 
     reasons: list[str] = []
@@ -177,8 +172,8 @@ def _wait_for(reasons: list[str], timeout_s: float) -> str | None:
 
 
 def _cancel(sent: Any, result: Any | None) -> str:
-    """Cancel the goal ``sent`` (once its acceptance is heard) and say how it ended. A second Ctrl-C ends the tool
-    without a word (the command's interrupted exit)."""
+    """Cancel the goal ``sent`` (once its acceptance is heard) and say how it ended (a second Ctrl-C ends the tool
+    without a word)."""
     from action_msgs.srv import CancelGoal
 
     handle = sent.result() if sent.done() else _wait(sent, ANSWER_TIMEOUT_S)

@@ -120,11 +120,7 @@ def parse(document: Any) -> TrajectorySpec:
 
 
 def load(path: Path) -> TrajectorySpec:
-    """The trajectory in the YAML file at ``path``.
-
-    :raises TrajectoryFileError: one line, starting with the path
-    :raises OSError: a file that cannot be read
-    """
+    """The trajectory in the YAML file at ``path`` (``TrajectoryFileError``: one line, starting with the path)."""
     text = Path(path).read_text()
     try:
         document = yaml.safe_load(text)

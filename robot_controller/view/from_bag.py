@@ -41,10 +41,7 @@ class SavedRun:
 
 
 def load_run(run_dir: Path) -> SavedRun:
-    """What the view of ``run_dir`` shows, read from its bag and parameters.
-
-    :raises ValueError: the bag holds nothing to show, or does not fit the run's URDF
-    """
+    """What the view of ``run_dir`` shows (``ValueError``: nothing, or a bag that does not fit the run's URDF)."""
     from robot_controller.scoring.report import read_recording
 
     urdf, period = run_setup(run_dir)
@@ -56,7 +53,7 @@ def load_run(run_dir: Path) -> SavedRun:
 
 
 def log_run(rec, run: SavedRun) -> None:
-    """Log a saved run to ``rec``: the scene, the styles, every series."""
+    """The scene, the styles and every series of a saved run, to ``rec``."""
     from robot_controller.core.controller import state_layout
 
     arm, recording = run.arm, run.recording
@@ -81,12 +78,8 @@ def log_run(rec, run: SavedRun) -> None:
 
 def build_view_from_bag(run_dir: Path, port: int = serving.DEFAULT_PORT, serve: bool = False) -> Path:
     """Write ``run_dir/view.rrd`` from the run's bag and return its path; if ``serve``, serve it at
-    ``http://127.0.0.1:PORT`` until Ctrl-C (or SIGTERM).
-
-    :raises ConfigError: ``port`` cannot be served on (checked before anything is written)
-    :raises ValueError: the bag holds nothing to show (nothing is written)
-    :raises FileNotFoundError: ``run_dir`` has no bag
-    """
+    ``http://127.0.0.1:PORT`` until Ctrl-C (or SIGTERM). A port that cannot be served on (``ConfigError``) or a bag
+    with nothing to show (``ValueError``) writes nothing."""
     run_dir = Path(run_dir)
     if not (run_dir / "bag").is_dir():
         raise FileNotFoundError(f"{run_dir}: no bag/ (not a run directory?)")

@@ -29,7 +29,7 @@ def free_port() -> int:
 
 
 def check_port(port: int) -> None:
-    """:raises ConfigError: ``port`` is not a port this process can serve on (in use, out of range)."""
+    """``ConfigError`` if this process cannot serve on ``port`` (in use, out of range)."""
     if not 1 <= port <= 65535:
         raise ConfigError(f"view port {port}: must be 1–65535")
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
@@ -57,12 +57,8 @@ def open_recording(recording_id: str | None = None):
 def set_sinks(
     rec, *, rrd: Path | None, serve: bool, blueprint, write_footer: bool = True, newest_first: bool = False
 ) -> str | None:
-    """Send ``rec`` to a file and a local gRPC server; the server's ``rerun+http://…/proxy`` address.
-
-    :param rrd: the file (None: none)
-    :param serve: whether to serve it (None is returned if not)
-    :param newest_first: a browser that connects late gets the present first, then the past
-    """
+    """Send ``rec`` to the file ``rrd`` (if any) and, if ``serve``, a local gRPC server, whose ``rerun+http://…/proxy``
+    address is returned (``newest_first``: a browser that connects late gets the present first, then the past)."""
     import rerun as rr
 
     sinks, uri = [], None
@@ -85,7 +81,7 @@ COPY_CHUNK = 64 * 1024
 
 
 def data_url(host: str) -> str:
-    """The address the viewer reads its data from, on the gateway ``host`` (``name:port``) as the browser reaches it."""
+    """Where the viewer reads its data, on the gateway ``host`` (``name:port``) as the browser reaches it."""
     return f"rerun+http://{host}/proxy"
 
 
