@@ -1,16 +1,13 @@
-"""What a FollowJointTrajectory goal hears of the arm while it is in force: the controller's state (its estimate, the
-reference it compared it with, its status), the sensor's readings, the world's brakes, the e-stop; and from them
-whether the arm can still be judged, or why the goal must end. Values in (ports ``state``, ``reading``, ``brakes``,
-``estop``), each with the planner's time at receipt; no ROS.
+"""What a FollowJointTrajectory goal hears of the arm while it is in force (ports ``state``, ``reading``, ``brakes``,
+``estop``, each with the planner's time at receipt), and from it whether the arm can still be judged, or why the goal
+must end.
 
 The brakes are heard all the time, every message kept, so an engagement released before the planner looks is still
 seen; an engagement during a goal ends it even if released since, as the arm stood braked meanwhile (a goal that
 starts while they hold ends at once). The controller's state is stale once the planner has heard none for
 ``STALE_PERIODS`` of the controller's period (seen in the stamps of its state), at two checks in a row: a planner
 held up checks once before it takes what arrived meanwhile. A controller that publishes no state (the tutorial's) is
-judged on the readings the same way. Ages are the planner's own clock at receipt, never a stamp from another
-process's clock.
-"""
+judged on the readings the same way. Ages are the planner's own clock at receipt, never another process's stamp."""
 
 from __future__ import annotations
 
@@ -89,8 +86,8 @@ class ArmWatch:
             return
         order = [names.index(name) for name in self.joint_names]
         position = np.asarray(sample.position, dtype=float)[order]
-        velocity = np.asarray(sample.velocity, dtype=float)[order] if len(sample.velocity) == len(names) else None
-        self.measured = (now_s, position, velocity if velocity is not None else np.zeros_like(position))
+        velocity = sample.velocity if len(sample.velocity) == len(names) else np.zeros(len(names))
+        self.measured = (now_s, position, np.asarray(velocity, dtype=float)[order])
 
     def controller_state(self, state: Array, now_s: float) -> None:
         n = len(self.joint_names)
@@ -127,11 +124,16 @@ class ArmWatch:
             return f"the controller reports {estimate.status}: the loop stops"
         return self._silence(now_s)
 
+    def _heard(self) -> tuple[float | None, str]:
+        """When the arm was last heard (None: not yet), and on what: the controller's state, else the readings."""
+        if self.estimate is not None:
+            return self.estimate.received_s, f"the controller's state ({spec.STATE.topic})"
+        if self.measured is not None:
+            return self.measured[0], f"the arm's readings ({spec.READING.topic})"
+        return None, ""
+
     def _silence(self, now_s: float) -> str | None:
-        heard = self.estimate.received_s if self.estimate is not None else None
-        source = f"the controller's state ({spec.STATE.topic})"
-        if heard is None and self.measured is not None:
-            heard, source = self.measured[0], f"the arm's readings ({spec.READING.topic})"
+        heard, source = self._heard()
         if heard is None:
             waited = now_s - self.since_s
             return None if waited <= FIRST_HEARD_S else f"nothing heard of the arm in {waited:.2f} s"
@@ -150,7 +152,5 @@ class ArmWatch:
 
     def fresh(self, now_s: float) -> bool:
         """Whether what the arm is judged on was heard within the stale limit."""
-        heard = self.estimate.received_s if self.estimate is not None else None
-        if heard is None and self.measured is not None:
-            heard = self.measured[0]
+        heard = self._heard()[0]
         return heard is not None and now_s - heard <= self.stale_after_s()

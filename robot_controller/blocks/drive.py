@@ -35,8 +35,7 @@ class Drive:
         timely, and the first starts the drive (waiting for more, it would wait for ever)."""
         self.log = log
         model = load_model(resources.resolve_urdf(params["urdf_path"]))
-        self.joint_names = joint_names(model)
-        self.joint_count = len(self.joint_names)
+        self.joint_count = len(joint_names(model))
         self.effort_limit = effort_limits(model)
         self.effort_units = [EFFORT_UNITS[unit] for unit in joint_units(model)]  # N·m, or N on a prismatic joint
         self.params = dict(params)
@@ -85,11 +84,10 @@ class Drive:
             out.update(self.take_command(t_s, inputs["command"]))
         if not inputs:
             out.update(self.check_timeout(t_s))
-        if self.next_receipts_s is None:
+        if self.next_receipts_s is None or t_s >= self.next_receipts_s:
+            if self.next_receipts_s is not None:
+                out.update(self.finish())
             self.next_receipts_s = t_s + RECEIPTS_PERIOD_S
-        elif t_s >= self.next_receipts_s:
-            self.next_receipts_s = t_s + RECEIPTS_PERIOD_S
-            out.update(self.flush_receipts())
         return out
 
     def take_command(self, now_s: float, command: Array) -> dict[str, Any]:
@@ -100,13 +98,13 @@ class Drive:
         if self.estop:
             return {}
         tick_s = labelled_tick_s(command.label)
-        self.receipts.append(now_s)  # a late command too: its delay is what the controller must learn
-        self.receipts.extend(command.data.tolist())
-        if tick_s is not None and now_s - tick_s > self.params["max_command_age_s"]:
+        self.receipts += [now_s, *command.data.tolist()]  # a late command too: its delay is what the controller learns
+        max_age_s = self.params["max_command_age_s"]
+        if tick_s is not None and now_s - tick_s > max_age_s:
             self.log.warn(
                 "late_command",
                 f"command dropped: issued {(now_s - tick_s) * 1e3:.0f} ms ago "
-                f"(max_command_age_s {self.params['max_command_age_s']:g}): a late command is no command",
+                f"(max_command_age_s {max_age_s:g}): a late command is no command",
             )
             self.timely_run = 0
             return {}
@@ -124,14 +122,13 @@ class Drive:
         dt = 0.0 if self.last_command_s is None else now_s - self.last_command_s
         self.last_command_s = now_s
         self.excused_s = 0.0
-        applied = self.actuator.apply(checked, dt)
         # The tick goes on: a paced world drops an effort come too late.
-        out["effort"] = Array(applied, "" if tick_s is None else tick_label(tick_s))
+        out["effort"] = Array(self.actuator.apply(checked, dt), "" if tick_s is None else tick_label(tick_s))
         return out
 
     def check_timeout(self, now_s: float) -> dict[str, Any]:
-        last_check_s = now_s if self.last_check_s is None else self.last_check_s
-        own_gap_s, self.last_check_s = now_s - last_check_s, now_s
+        own_gap_s = 0.0 if self.last_check_s is None else now_s - self.last_check_s
+        self.last_check_s = now_s
         if self.stopped_for is not None or self.last_command_s is None:
             return {}  # already stopped, or no command yet (the brakes are on from start-up)
         timeout_s = self.params["command_timeout_s"]
@@ -164,12 +161,9 @@ class Drive:
         self.last_command_s = None
         return {"brake_request": False}
 
-    def flush_receipts(self) -> dict[str, Any]:
+    def finish(self) -> dict[str, Any]:
+        """The receipts since the last (at the end too: the last second's)."""
         if not self.receipts:
             return {}
         receipts, self.receipts = np.asarray(self.receipts), []
         return {"command_receipts": Array(receipts, "commands", row=("receipt_time_s,command", 1 + self.joint_count))}
-
-    def finish(self) -> dict[str, Any]:
-        """What it writes at the end: the last second's receipts."""
-        return self.flush_receipts()

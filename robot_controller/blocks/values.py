@@ -21,36 +21,22 @@ class JointSample:
     effort: np.ndarray | None = None  #: N·m applied (N), if said
 
 
-Checked = tuple[np.ndarray, np.ndarray] | str
-
-
 def check_joint_state(
     names: Sequence[str], position: Sequence[float], velocity: Sequence[float], expected_names: Sequence[str]
-) -> Checked:
-    """Validate a joint state against the arm's joints; reorder by name.
-
-    Messages without names are accepted when their arrays have exactly one
-    entry per joint (in the arm's order), as the tutorial's sensor sends them
-    named; unknown or missing names are refused.
-    """
+) -> tuple[np.ndarray, np.ndarray] | str:
+    """Copies of ``position`` and ``velocity`` in the order of ``expected_names`` (the arm's joints), or the reason
+    they cannot be used. Without names (as the tutorial's sensor sends them), one value per joint in the arm's order."""
     n = len(expected_names)
     position = np.asarray(position, dtype=float)
     velocity = np.asarray(velocity, dtype=float)
     if position.size == 0:
         return "empty position array"
-    same_names = names is expected_names or list(names) == list(expected_names)
-    if len(names) == n and position.size == n and velocity.size == n and same_names:
-        # Every reading of a well-configured graph: already in the arm's order (copies, as the reorder gives).
-        if not (np.isfinite(position).all() and np.isfinite(velocity).all()):
-            return "non-finite position or velocity"
-        return position.copy(), velocity.copy()
     if len(names) == 0:
         if position.size != n or velocity.size != n:
             return f"expected {n} position and velocity values, got {position.size} and {velocity.size}"
-        order = np.arange(n)
-    else:
-        if len(names) != position.size or len(names) != velocity.size:
-            return f"name, position and velocity lengths differ " f"({len(names)}, {position.size}, {velocity.size})"
+    elif len(names) != position.size or len(names) != velocity.size:
+        return f"name, position and velocity lengths differ ({len(names)}, {position.size}, {velocity.size})"
+    elif not (names is expected_names or list(names) == list(expected_names)):  # (a well-configured graph's are)
         index = {name: k for k, name in enumerate(names)}
         unknown = [name for name in names if name not in expected_names]
         if unknown:
@@ -58,24 +44,20 @@ def check_joint_state(
         missing = [name for name in expected_names if name not in index]
         if missing:
             return f"missing joint(s) {missing}"
-        order = np.array([index[name] for name in expected_names])
-    position, velocity = position[order], velocity[order]
+        order = [index[name] for name in expected_names]
+        position, velocity = position[order], velocity[order]
     if not (np.isfinite(position).all() and np.isfinite(velocity).all()):
         return "non-finite position or velocity"
-    return position, velocity
+    return position.copy(), velocity.copy()
 
 
 TrajectorySample = tuple[np.ndarray, np.ndarray, np.ndarray, float | None]
 
 
 def check_trajectory(data: Sequence[float], joint_count: int) -> TrajectorySample | str:
-    """Validate a reference array into ``(p, v, a, sample_time_s or None)``.
-
-    Accepted: ``[p…, v…, a…]`` (one block per quantity, one value per
-    joint); the same followed by the sample time in seconds (our planner,
-    so the controller knows when the sample was taken); or the tutorial's
-    ``[p…, v…]``.
-    """
+    """A reference array as ``(p, v, a, sample_time_s or None)``, or the reason it cannot be used: ``[p…, v…, a…]``
+    (one value per joint each), the same followed by the sample time in s (our planner's), or the tutorial's
+    ``[p…, v…]``."""
     data = np.asarray(data, dtype=float)
     n = joint_count
     sample_time: float | None = None
@@ -148,8 +130,7 @@ def brake_reasons(label: str) -> set[str] | None:
     """Why the brakes hold, as their label says (None: it does not say)."""
     if not label.startswith(BRAKES_LABEL_PREFIX):
         return None
-    said = label[len(BRAKES_LABEL_PREFIX) :]
-    return set(said.split(",")) if said else set()
+    return set(filter(None, label[len(BRAKES_LABEL_PREFIX) :].split(",")))
 
 
 @dataclass(frozen=True)

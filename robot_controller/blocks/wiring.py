@@ -5,7 +5,7 @@ ticks): each value reaches its reader at the tick it was written, as in the grap
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,6 +19,8 @@ from robot_controller.core.model import steps_per_period
 
 # Ticks that command nothing once a controlled stop is over: the drive brakes the arm.
 BRAKING_STATUSES = (Status.SENSOR_LOST, Status.LAW_STOPPED)
+#: What the loop records at each tick, one ``(ticks, joints)`` array each.
+RECORDED = ("reference", "measured", "true_position", "true_velocity", "command", "applied")
 
 
 @dataclass
@@ -32,21 +34,16 @@ class LoopResult:
     true_velocity: np.ndarray
     command: np.ndarray
     applied: np.ndarray
-    joint_names: list[str] = field(default_factory=list)  #: the columns' joints (the plant's order)
-    joint_units: list[str] | None = None  #: "rad" or "m" per joint (None: every joint revolute)
-    law_fault: str | None = None  #: what a plugin law did wrong (its one line), if it did
-    #: kg·m² per joint, the armature the inertia adaptation had learnt at the end (None: zeros, no adaptation)
-    adapted_armature_kgm2: list[float] | None = None
+    joint_names: list[str]  #: the columns' joints (the plant's order)
+    joint_units: list[str]  #: "rad" or "m" per joint
+    law_fault: str | None  #: what a plugin law did wrong (its one line), if it did
+    adapted_armature_kgm2: list[float]  #: kg·m² per joint, what the inertia adaptation had learnt at the end
 
     def tracking_metrics(self, warmup_s: float = metrics.WARMUP_S) -> dict[str, Any]:
-        """Tracking per joint and the worst joint's (:func:`metrics.tracking_metrics`, in each joint's
-        unit), with ``joint_names``, as ``metrics.json`` has them."""
+        """Tracking per joint and the worst joint's, with ``joint_names``, as ``metrics.json`` has them."""
         q = self.reference, self.true_position, self.measured
         out = metrics.tracking_metrics(self.tick_time_s, *q, warmup_s=warmup_s, units=self.joint_units)
-        n = self.reference.shape[1]
-        names = self.joint_names or [f"joint{k + 1}" for k in range(n)]
-        armature = self.adapted_armature_kgm2 if self.adapted_armature_kgm2 is not None else [0.0] * n
-        return {"joint_names": list(names), **out, "adapted_armature_kgm2": list(armature)}
+        return {"joint_names": list(self.joint_names), **out, "adapted_armature_kgm2": list(self.adapted_armature_kgm2)}
 
 
 def run_loop(
@@ -67,11 +64,8 @@ def run_loop(
     period has come round, the sensor block reads the world's true state, the controller computes, the drive block
     turns the command into the effort the world holds over the next control period of physics steps.
 
-    :param world: the world block (``blocks.world``), stepped here as the graph's sim-time clock steps it
-    :param planner: the planner block, stepped on its period's grid; its reference taken at the tick (its sample
-        time not said: it is the tick's)
-    :param sensor: the sensor block (``blocks.registry.make("sensor_node", …)``), its readings the controller's
-    :param drive: the drive block, stepped at each tick with the tick's command
+    :param world: stepped here as the graph's sim-time clock steps it
+    :param planner: stepped on its period's grid; its reference taken at the tick (its sample time: the tick's)
     :param measurement_delay_s: what the graph's transport adds between physics and sensor: the sensor reads the
         true state that many seconds old, stamped with its own time
     :param delay_unstamped: stamped when it arrives instead, so the controller cannot compensate
@@ -83,18 +77,12 @@ def run_loop(
     names, n = list(world.joint_names), len(world.joint_names)
     delay_steps = int(round(measurement_delay_s / world.physics_dt))
     history: list[tuple[float, np.ndarray, np.ndarray]] = []  # (time, q, v) per physics step
-    record = {
-        name: np.zeros((ticks, n))
-        for name in ("reference", "measured", "true_position", "true_velocity", "command", "applied")
-    }
+    rows = np.zeros((len(RECORDED), ticks, n))
     times = np.arange(ticks) * control_period_s
     braked = False
     position = np.zeros(n)
     effort = np.zeros(n)
     true_state = dict(world.sample(0.0))["true_state"]
-    # (The record's rows by name, bound once: six dict lookups a tick less.)
-    reference_rows, measured_rows, true_position_rows = record["reference"], record["measured"], record["true_position"]
-    true_velocity_rows, command_rows, applied_rows = record["true_velocity"], record["command"], record["applied"]
     for k, t in enumerate(times.tolist()):  # Python floats: the controller's scalar time arithmetic is cheaper
         if k % planner_every == 0:
             sample = planner.step(t, {})["reference"].data
@@ -136,18 +124,13 @@ def run_loop(
         else:
             world.advance(n_steps)
         true_state = dict(world.sample(world.time_s))["true_state"]
-        reference_rows[k] = out.reference
-        measured_rows[k] = position
-        true_position_rows[k] = true_position
-        true_velocity_rows[k] = true_velocity
-        command_rows[k] = command
-        applied_rows[k] = effort
+        rows[:, k] = out.reference, position, true_position, true_velocity, command, effort
     fault, inertia = controller.law_fault, getattr(controller, "inertia", None)  # (a stand-in may have none)
     return LoopResult(
         tick_time_s=times,
         joint_names=names,
         joint_units=list(world.plant.joint_units),
         law_fault=None if fault is None else fault.line(),
-        adapted_armature_kgm2=None if inertia is None else inertia.armature.tolist(),
-        **record,
+        adapted_armature_kgm2=[0.0] * n if inertia is None else inertia.armature.tolist(),
+        **dict(zip(RECORDED, rows, strict=True)),
     )
