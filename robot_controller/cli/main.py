@@ -11,13 +11,10 @@ import traceback
 from importlib.metadata import entry_points
 from pathlib import Path
 
-import robot_controller.cli.campaign as campaign
 import robot_controller.cli.docs as docs
 import robot_controller.cli.experiments as experiments
 import robot_controller.cli.graph as graph
-import robot_controller.cli.params as params
 import robot_controller.cli.run as run
-import robot_controller.cli.score as score
 from robot_controller.cli.args import Parser, UsageError
 from robot_controller.core.errors import ConfigError, RunFailed
 
@@ -31,11 +28,11 @@ def build_parser() -> Parser:
     )
     sub = parser.add_subparsers(dest="verb", required=True, parser_class=Parser)
     run.register(sub)
-    score.register(sub)
-    params.register(sub)
+    run.register_saved(sub)
+    docs.register_params(sub)
     docs.register(sub, parser)
     experiments.register(sub)
-    campaign.register(sub)
+    experiments.register_campaign(sub)
     graph.register(sub)
     for entry in sorted(entry_points(group=VERB_ENTRY_POINTS), key=lambda e: e.name):
         try:

@@ -41,8 +41,7 @@ def output_dir(out: Path | None, default: Path) -> Path:
 
 
 def say_arm(robot: str) -> None:
-    """Once per verb that runs the loop: what loading ``robot``'s description changed (fingers held still,
-    meshes dropped), if anything."""
+    """What loading ``robot``'s description changed (fingers held still, meshes dropped), if anything."""
     from robot_controller import robots
     from robot_controller.runner import launcher
 
@@ -51,7 +50,7 @@ def say_arm(robot: str) -> None:
 
 
 def typed_command(argv: list[str] | None = None) -> str:
-    """The command as the user typed it (``argv``: default this process's), for a run's ``summary.md``."""
+    """The command as the user typed it, for a run's ``summary.md``."""
     argv = sys.argv if argv is None else argv
     program = Path(argv[0]).name if argv else "robot-controller"
     if program == "__main__.py":  # python -m robot_controller.cli
@@ -60,9 +59,8 @@ def typed_command(argv: list[str] | None = None) -> str:
 
 
 def print_summary(verdict_line: str | None, rows: list[tuple[str, str]]) -> None:
-    """The end of a verb (:func:`robot_controller.scoring.summary.lines`): its verdict first, green ``ok`` or
-    red ``FAILED: why``, the rows, and a FAILED verdict again last, where the final screen shows it (None: the
-    rows alone, as a re-score says them)."""
+    """The end of a verb (:func:`robot_controller.scoring.summary.lines`), its verdict green ``ok`` or red
+    ``FAILED: why``."""
     from rich.console import Console
     from rich.text import Text
 
@@ -109,8 +107,8 @@ def run_experiment(
     hint: str | None = None,
     show: Callable[[], None] | None = None,
 ) -> int:
-    """``body(progress)`` with a progress line, then the report it wrote (or what ``show`` prints instead) and a
-    ``hint`` on using what it wrote. An experiment that fails is one line, exit 1; Ctrl-C ends it with 130."""
+    """``body(progress)`` with a progress line, then the report it wrote (or ``show()``) and a ``hint`` on using it.
+    An experiment that fails is one line, exit 1; Ctrl-C ends it with 130."""
     try:
         with StepProgress(verb, steps) as progress:
             body(progress)

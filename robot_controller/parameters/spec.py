@@ -1,6 +1,5 @@
-"""One parameter's definition and the check of a value against it; ``per_joint``,
-the one way a per-joint value (a number for all joints, or one per joint)
-becomes an array."""
+"""One parameter's definition and the check of a value against it; ``per_joint``, the one way a per-joint value (a
+number for all joints, or one per joint) becomes an array."""
 
 from __future__ import annotations
 
