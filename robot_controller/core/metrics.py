@@ -18,13 +18,9 @@ GAP_PERIODS = 5
 def true_position_at(
     times_s: np.ndarray, true_time_s: np.ndarray, true_position: np.ndarray, true_velocity: np.ndarray | None = None
 ) -> np.ndarray:
-    """The true joint position at arbitrary times, shape ``(len(times_s), n)``.
-
-    With velocities, a cubic Hermite spline (exact to third order between
-    samples); otherwise linear interpolation. NaN across a gap of more than
-    ``GAP_PERIODS`` typical sample spacings (the simulator was not running):
-    what the arm did there is unknown, not a curve to invent.
-    """
+    """The true joint position at ``times_s``, ``(len(times_s), n)``: a cubic Hermite spline with velocities, else
+    linear; NaN across a gap of more than ``GAP_PERIODS`` typical spacings (the simulator was not running: what
+    the arm did there is unknown, not a curve to invent)."""
     true_time_s = np.asarray(true_time_s, dtype=float)
     true_position = np.asarray(true_position, dtype=float).reshape(len(true_time_s), -1)
     order = np.argsort(true_time_s, kind="stable")
@@ -56,14 +52,9 @@ def tracking_metrics(
     warmup_s: float = WARMUP_S,
     units: list[str] | None = None,
 ) -> dict[str, Any]:
-    """Tracking errors after ``warmup_s`` from the first tick (``units``: as :func:`joint_errors`), and the largest
-    before it (``start_tracking_max_*``: the start, which a verdict judges too).
-
-    ``tracking_*`` compare the reference with the TRUE position at each
-    control tick; ``measured_rms_rad`` compares it with what the sensor said.
-    Each is computed per joint (``*_per_joint``, lists in joint order) and
-    the headline figure is the worst joint's (see :func:`joint_errors`).
-    """
+    """Tracking errors after ``warmup_s`` from the first tick, and the largest before it (``start_tracking_max_*``,
+    which a verdict judges too): ``tracking_*`` against the TRUE position at each tick, ``measured_rms_*`` against
+    what the sensor said, per joint and the worst joint's (:func:`joint_errors`)."""
     t = np.asarray(tick_time_s, dtype=float)
     ref = np.asarray(reference_position, dtype=float).reshape(len(t), -1)
     true = np.asarray(true_position_at_tick, dtype=float).reshape(len(t), -1)
@@ -84,14 +75,9 @@ def tracking_metrics(
 
 
 def joint_errors(error: np.ndarray, prefix: str = "tracking", units: list[str] | None = None) -> dict[str, Any]:
-    """RMS and largest |error| of each joint, and the worst joint's as the headline.
-
-    :param error: one row per sample, one column per joint, in each joint's unit
-    :param units: each joint's position unit, ``"rad"`` or ``"m"`` (a prismatic joint); default all ``"rad"``
-    :returns: ``{prefix}_rms_per_joint``, ``{prefix}_max_per_joint`` (lists in joint order, each in its
-        joint's unit) and the worst joint's of each unit (:func:`by_unit`): ``{prefix}_rms_rad``,
-        ``{prefix}_max_rad``, so one badly tracked joint is never averaged away by good ones.
-    """
+    """RMS and largest |error| (rows: samples, columns: joints) of each joint (``{prefix}_rms_per_joint``,
+    ``{prefix}_max_per_joint``) and the worst joint's of each unit (``units``: ``"rad"`` or ``"m"`` per joint,
+    default all ``"rad"``; :func:`by_unit`), so one badly tracked joint is never averaged away by good ones."""
     error = np.asarray(error, dtype=float)
     error = error.reshape(len(error), -1)
     # Column by column: each a contiguous 1-D reduction, as the whole array of one joint is.

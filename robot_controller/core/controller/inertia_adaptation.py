@@ -1,23 +1,14 @@
 """The controller kept on the arm's real inertia (:class:`InertiaAdaptation`): the inertia each joint has beyond its
-model (:class:`~robot_controller.core.estimation.inertia.InertiaEstimate`) is added to the controller's model as
-rotor inertia (MuJoCo's armature: the filter's prediction, the observer, the feedforward and the decoupling all read
-it), and the built-in law's gains are raised with each joint's design inertia, so the loop keeps its bandwidth.
+model (:class:`InertiaEstimate`) is added to the controller's model as rotor inertia (MuJoCo's armature, which the
+filter, the observer, the feedforward and the decoupling all read), and the built-in law's gains are raised with
+each joint's design inertia, so the loop keeps its bandwidth. Why both: a Panda wrist with 0.1 kg·m² of armature
+(16 times its own) makes the observer on the lighter model oscillate (115 mrad); told the armature, the gains
+designed for the lighter joint leave its friction's reversals 13 mrad; with the gains scaled, 3.5.
 
-Why both: a Panda wrist with 0.1 kg·m² of armature (16 times its own 0.0067) makes the observer on the lighter model
-oscillate (115 mrad); told the armature the filter tracks again, but the gains designed for the lighter joint leave
-its friction's reversals 13 mrad; with the gains scaled, 3.5.
-
-What keeps it from running away:
-
-- the gains are always the design on the NOMINAL model (``ArmDynamics.learnt_armature`` is taken away from every
-  design, :func:`~robot_controller.core.laws.pid.design_inertia`) times one factor per joint: a redesign by hand
-  never compounds with the factor;
-- every factor is checked against the delay margin (``min_delay_margin_periods``) on the inertia learnt, and cut
-  back until the margin holds;
-- the estimate is bounded per joint (a multiple of its own inertia) and learns only from readings the observer's
-  torque can be the arm's inertia in: not while an external torque acts (a push the filter took as a jump, until its
-  torque is gone; one held), a command at the torque limit, a restart of the filter (a collision, the brakes, an
-  e-stop: every stop restarts it), each of which restarts its evidence."""
+It cannot run away: the gains are always the design on the nominal model times one factor per joint (a redesign
+never compounds with the factor); every factor is cut back until the delay margin holds on the inertia learnt; the
+estimate is bounded per joint and learns only from readings where the observer's torque can be the arm's inertia
+(not while a push acts, at the torque limit, or after a restart of the filter)."""
 
 from __future__ import annotations
 
@@ -53,13 +44,9 @@ MARGIN_STEPS = 6
 
 
 class InertiaAdaptation:
-    """:param dynamics: the controller's MuJoCo model (``ArmDynamics``): its ``model.dof_armature`` is written to, and
-        ``learnt_armature`` says how much of it is learnt
-    :param own_inertia: kg·m² per joint, the model's own at the design pose (before anything is added)
-    :param payload_bound: kg·m² per joint, what the rated payload may add there (the gains' design allows for it)
-    :param pid: gives the built-in law's PID, whose gains are scaled
-    :param config: gives the controller's configuration in force (the delay margin asked for, the torque limit)
-    """
+    """``dynamics``' ``model.dof_armature`` is written to (``learnt_armature``: how much of it is learnt);
+    ``own_inertia`` and ``payload_bound`` (kg·m² per joint, at the design pose) are what the gains are designed for;
+    ``pid`` and ``config`` give the PID whose gains are scaled and the configuration in force."""
 
     def __init__(
         self,
@@ -96,9 +83,8 @@ class InertiaAdaptation:
         pid: Callable[[], Pid],
         config_in_force: Callable[[], ControllerConfig] | None = None,
     ) -> InertiaAdaptation | None:
-        """For a controller with the disturbance observer on a coupled MuJoCo model, where the world waits for each
-        command (on the wall clock the filter disagrees with its readings by design, and nothing would tell an
-        inertia from the command's jitter); None otherwise."""
+        """For the disturbance observer on a MuJoCo model where the world waits (on the wall clock nothing would tell
+        an inertia from the command's jitter); None otherwise."""
         model = getattr(dynamics, "model", None)
         if model is None or not (config.inertia_adaptation and config.observes_disturbance and config.world_waits):
             return None
@@ -165,9 +151,8 @@ class InertiaAdaptation:
         self._set(pid, self._within_margin(wanted, self._own + extra, redesigned))
 
     def _blocked(self, time_s: float, kalman: JointKalmanFilter, torque: np.ndarray) -> bool:
-        """Whether the observer's torque cannot be the arm's inertia at this reading: the filter took a jump (a push,
-        a collision) or restarted a joint, and the torque's slow part (over PUSH_AVERAGE_S: an inertia's is an
-        oscillation's, which averages out) is still away from where it was before."""
+        """Whether the observer's torque cannot be the arm's inertia: the filter took a jump or restarted a joint,
+        and the torque's slow part (an inertia's averages out) is still away from where it was before."""
         counts = np.concatenate([kalman.jump_count, kalman.restart_count])
         jumped = self._jumps is not None and not np.array_equal(counts, self._jumps)
         self._jumps = counts
@@ -188,9 +173,8 @@ class InertiaAdaptation:
         return True
 
     def _within_margin(self, wanted: np.ndarray, inertia: np.ndarray, every: bool = False) -> np.ndarray:
-        """``wanted`` with each joint whose scaled gains would leave it less than ``min_delay_margin_periods`` on
-        ``inertia`` (kg·m², the inertia learnt) cut back towards 1 until the margin holds: the joints whose factor
-        changes (``every``: all, for a new design)."""
+        """``wanted`` with each changed joint's factor (``every``: all) cut back towards 1 until its delay margin on
+        ``inertia`` holds."""
         config, designed = self._config(), self._designed
         needed = config.min_delay_margin_periods
         changed = np.flatnonzero((wanted != self._scale) | every)

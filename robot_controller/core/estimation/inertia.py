@@ -1,14 +1,8 @@
-"""The inertia each joint has beyond its arm model (a geared motor's rotor: armature), estimated while the arm moves
-from what the disturbance observer sees (:class:`InertiaEstimate`).
-
-A joint heavier than its model by δ accelerates less than the model says, and the observer explains the difference
-as an external torque ``d = −δ·a`` on that joint's own axis. Along the sine the arm follows, ``a`` is proportional to
-the position, so a gravity torque the model has wrong looks just like an inertia: only the faster part of the motion
-(the loop's own corrections, and an oscillation if the model is far enough off to cause one) tells them apart. The
-fit is therefore a least-squares one of the observer's torque on the acceleration (and on the sign of the velocity,
-friction's reversals) with their slow parts taken away; it moves only while the joint's readings disagree with the
-filter, so an arm that agrees with its model is never touched, and only while the fit explains what the observer
-sees (:class:`InertiaEstimate` says when it learns, keeps and forgets)."""
+"""The inertia each joint has beyond its arm model (a geared motor's rotor: armature), estimated from what the
+disturbance observer sees (:class:`InertiaEstimate`). A joint heavier than its model by δ shows as ``d = −δ·a``; along
+a sine ``a`` is proportional to the position, so a wrong gravity torque looks like an inertia, and only the faster
+part of the motion tells them apart: the fit is a least-squares one of the observer's torque on the acceleration
+(and friction's sign) with their slow parts taken away."""
 
 from __future__ import annotations
 
@@ -47,19 +41,10 @@ FORGET_S = 30.0
 
 
 class InertiaEstimate:
-    """Per joint, the inertia (kg·m²; kg on a slide) the arm has beyond its model, between 0 and
-    ``MAX_EXTRA_RATIO`` × the joint's own: the model's can be raised (a rotor added), never lowered below the URDF's
-    links.
-
-    It moves only on evidence: the joint excited by the motion, its readings disagreeing with the filter, and the
-    fit explaining at least MIN_EXPLAINED of what the observer sees; it is kept while the joint moves and its readings
-    agree (the model with it explains them), and decays over FORGET_S otherwise. A reading the caller marks
-    ``blocked`` (a push, a held or saturated torque, a restart of the filter, the brakes) restarts the evidence: the
-    signals and averages begin again, and nothing moves for SETTLE_S.
-
-    :param own_inertia: kg·m² per joint, the model's own (what the dead zone and the bound are shares of)
-    :param max_ratio: the bound, a multiple of ``own_inertia``
-    """
+    """Per joint, the inertia (kg·m²) the arm has beyond its model, between 0 and ``max_ratio`` × ``own_inertia``
+    (never below the URDF's links). It moves only on evidence: the joint excited, its readings disagreeing with the
+    filter, the fit explaining at least MIN_EXPLAINED; it is kept while the joint moves and its readings agree,
+    and decays over FORGET_S otherwise. A ``blocked`` reading restarts the evidence (nothing moves for SETTLE_S)."""
 
     def __init__(self, own_inertia: np.ndarray, max_ratio: float = MAX_EXTRA_RATIO) -> None:
         own = np.asarray(own_inertia, dtype=float)
@@ -75,8 +60,7 @@ class InertiaEstimate:
         self._sums = np.zeros((joint_count, 6))  #: per joint, averaged a², a·s, s², a·d, s·d, d² (the fast parts)
 
     def restart(self) -> None:
-        """Forget the evidence (the estimate stays, and decays unless new evidence supports it): the signals and
-        their averages start again with the next reading."""
+        """Forget the evidence (the estimate stays, and decays unless new evidence supports it)."""
         self._last = self._slow = None
         self._sums[:] = 0.0
 
@@ -89,10 +73,8 @@ class InertiaEstimate:
         blocked: bool = False,
         paused: bool = False,
     ) -> np.ndarray:
-        """Take the filter's velocity (rad/s) and the observer's torque on each joint's own axis (N·m) after a
-        reading at ``time_s``; ``disagreeing`` per joint: its readings disagree with the filter; ``blocked``: the
-        observer's torque is not the arm's inertia now (see the class); ``paused``: nothing moves on this reading (a
-        command at the torque limit), the evidence goes on. Returns ``extra``."""
+        """Take the filter's velocity and the observer's torque per joint after a reading at ``time_s``; ``paused``:
+        nothing moves on this reading (a command at the torque limit), the evidence goes on. Returns ``extra``."""
         previous_s, self._time_s = self._time_s, time_s
         elapsed = 0.0 if previous_s is None else min(max(time_s - previous_s, 0.0), MAX_GAP_S)
         velocity = np.asarray(velocity, dtype=float)

@@ -1,16 +1,11 @@
-"""A user's law, contained: a :class:`ControlLaw` itself, so the controller runs it as it runs the
-built-in law (``update(time, state, reference)``, ``reset``, ``set_params``, ``terms``), each call
-to the user's law checked. Its torque is held here to the torque limit and the slew rate, and its
-terms are gathered for the controller's state. The first thing it gets wrong becomes its ``fault``
-(a :class:`LawFault`) instead of a torque: it raises, returns anything but one finite number per
-joint, takes longer than its budget on OVERRUN_TICKS ticks running (one long call alone is the
-machine's doing, a slow law is slow on every tick; measured on ``clock`` on the law's thread: its CPU
-time where the world waits for the law, or seconds of wall time less what ``run_wait`` says its thread
-waited for a CPU meanwhile, the host's share; not at all without a clock), is still running when the
-controller stops waiting for it (timed, its calls run on a :class:`LawWorker`: a control period past its
-budget, or ``abandon_s`` of wall time where the world waits, sooner once the call has used a control
-period past its budget of CPU time), or lets the arm run away from the reference (``error_max_rad``).
-The controller answers a fault with a controlled stop on its built-in law; the law is never called again."""
+"""A user's law, contained: a :class:`ControlLaw` itself, so the controller runs it as the built-in law, each call
+to the user's law checked, its torque held to the torque limit and the slew rate. The first thing it gets wrong
+becomes its ``fault`` (a :class:`LawFault`) instead of a torque: it raises, returns anything but one finite number
+per joint, takes longer than its budget on OVERRUN_TICKS ticks running (one long call alone is the machine's doing;
+measured on ``clock`` on the law's thread less the time it waited for a CPU), is still running when the controller
+stops waiting for it (timed, its calls run on a :class:`LawWorker`), or lets the arm run away from the reference
+(``error_max_rad``). The controller answers with a controlled stop on its built-in law; the law is never called
+again."""
 
 from __future__ import annotations
 
@@ -175,9 +170,8 @@ class ContainedLaw(ControlLaw):
         run_wait: Callable[[], float] | None = None,
         abandon_s: float | None = None,
     ) -> ContainedLaw:
-        """The law ``spec`` names, built with the values ``given`` for its parameters and contained (its
-        time checked on ``clock``, less ``run_wait``'s; None: not checked; a call abandoned as
-        :attr:`abandon_s` says); ``ConfigError`` in one line if it cannot be built."""
+        """The law ``spec`` names, built with the values ``given`` and contained; ``ConfigError`` in one line if it
+        cannot be built."""
         if arm.model is None:
             raise ConfigError("controller_type: a law of one's own needs the arm model (urdf_path)")
         law_class = resolve(spec)
@@ -198,9 +192,8 @@ class ContainedLaw(ControlLaw):
         error_max_rad: float,
         stop_deceleration_rad_s2: float,
     ) -> None:
-        """The torque limit (N·m per joint), the slew rate (N·m/s, 0: none), the law's time per update
-        (s), how far it may let the arm run away (rad, 0: no check) and the deceleration of the stop
-        that check counts with (rad/s²)."""
+        """What the law is held to: the torque limit (N·m per joint), slew rate (N·m/s, 0: none), time per update
+        (s), runaway distance (rad, 0: no check) and the stop's deceleration that check counts with (rad/s²)."""
         self.output_limit, self.slew_rate_limit = np.array(output_limit, dtype=float), slew_rate_limit
         self.budget_s, self.error_max_rad = budget_s, error_max_rad
         self.stop_deceleration_rad_s2 = stop_deceleration_rad_s2
@@ -223,8 +216,7 @@ class ContainedLaw(ControlLaw):
             self._call(self.tick_s, "set_params", lambda: setter(self.params))
 
     def update(self, time_s: float, state: State, reference: Reference) -> np.ndarray:
-        """The law's torque per joint within the torque limit and slew rate; zeros once it has made a
-        fault (``fault`` says which: it is never called again)."""
+        """The law's torque within the torque limit and slew rate; zeros once it has made a fault."""
         self.tick_s = time_s
         torque = self._checked_torque(time_s, state, reference)
         if torque is None:
@@ -254,8 +246,8 @@ class ContainedLaw(ControlLaw):
         return command
 
     def terms(self) -> Mapping[str, np.ndarray]:
-        """The last update's ``command``, ``p``, ``i``, ``d``, ``feedforward`` and ``saturated`` (the
-        standard blocks) and the law's :attr:`extra_terms`, per joint."""
+        """The last update's standard blocks (``command``, ``p``, ``i``, ``d``, ``feedforward``, ``saturated``) and
+        the law's :attr:`extra_terms`, per joint."""
         return self._terms
 
     def describe(self) -> str:
