@@ -10,7 +10,7 @@ from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from robot_controller.nodes.recorder import Recorder
-from robot_controller.scoring import bag_recovery
+from robot_controller.scoring import bag_reader
 
 TYPE = "std_msgs/msg/Float64MultiArray"
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
@@ -49,9 +49,9 @@ def values_in(bag) -> list[float]:
 
 def test_a_killed_recorders_bag_is_read_back_up_to_its_last_whole_chunk(tmp_path):
     bag, _ = killed_bag(tmp_path, chunks=[30, 20], open_tail=7)
-    assert bag_recovery.needs_recovery(bag)
-    assert bag_recovery.recover(bag) == 50
-    assert not bag_recovery.needs_recovery(bag) and (tmp_path / "bag.torn" / "bag.mcap").is_file()
+    assert bag_reader.needs_recovery(bag)
+    assert bag_reader.recover(bag) == 50
+    assert not bag_reader.needs_recovery(bag) and (tmp_path / "bag.torn" / "bag.mcap").is_file()
     assert values_in(bag) == [float(k) for k in range(50)]
 
 
@@ -61,11 +61,11 @@ def test_a_bag_torn_inside_its_last_chunk_keeps_the_chunks_before_it(tmp_path, t
     mcap = bag / "bag.mcap"
     # The kill came while the chunk of 40 was being written, ``torn_at`` of the way through.
     mcap.write_bytes(mcap.read_bytes()[: first + int(torn_at * (second - first))])
-    assert bag_recovery.recover(bag) == 30
+    assert bag_reader.recover(bag) == 30
     assert values_in(bag) == [float(k) for k in range(30)]
 
 
 def test_a_closed_bag_needs_no_recovery(tmp_path):
     killed_bag(tmp_path, chunks=[5], open_tail=0)
-    assert bag_recovery.needs_recovery(tmp_path / "bag")
-    assert not bag_recovery.needs_recovery(tmp_path / "live")
+    assert bag_reader.needs_recovery(tmp_path / "bag")
+    assert not bag_reader.needs_recovery(tmp_path / "live")
