@@ -193,21 +193,17 @@ class BlackBoxProblem:
         """``tuned.yaml``'s ``pid_controller`` parameters: the law and these values."""
         return {"controller_type": self.spec} | self.overlay(values)
 
-    def with_values(self, values: np.ndarray, without_observer: bool = False) -> cfg.Params:
-        """The stack with these values; ``without_observer``: no disturbance observer (:data:`WITHOUT_OBSERVER`)."""
-        extra = WITHOUT_OBSERVER if without_observer else {}
-        return cfg.merge(self.params, {"pid_controller": self.overlay(values) | extra})
-
     def run(
         self, values: np.ndarray, duration_s: float, seed: int, without_observer: bool = False, **options: Any
     ) -> LoopResult | None:
-        """The in-process loop with these values (None if the law refuses them at start)."""
+        """The in-process loop with these values (None if the law refuses them at start); ``without_observer``: no
+        disturbance observer (:data:`WITHOUT_OBSERVER`)."""
         from robot_controller.experiments import inprocess
 
+        overlay = self.overlay(values) | (WITHOUT_OBSERVER if without_observer else {})
+        params = cfg.merge(self.params, {"pid_controller": overlay})
         try:
-            return inprocess.simulate(
-                self.with_values(values, without_observer), duration_s=duration_s, seed=seed, **options
-            )
+            return inprocess.simulate(params, duration_s=duration_s, seed=seed, **options)
         except ConfigError:  # e.g. a design the law itself refuses for these values
             return None
 

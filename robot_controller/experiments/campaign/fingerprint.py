@@ -10,6 +10,7 @@ import inspect
 import json
 from pathlib import Path
 
+from robot_controller import resources
 from robot_controller.experiments.campaign.spec import CampaignSpec
 
 SPEC = "the spec's runs (robot, duration_s, runs, seed, vary or controllers)"
@@ -39,7 +40,7 @@ def parts(spec: CampaignSpec, controllers: tuple[str, ...]) -> dict[str, str]:
         law_file = _law_file(params["pid_controller"]["controller_type"])
         if law_file is not None:
             files.append(("the law file", law_file))
-        files.append(("the URDF", _urdf(params["simulator"]["urdf_path"])))
+        files.append(("the URDF", resources.resolve_urdf(params["simulator"]["urdf_path"]).resolve()))
     for what, path in files:
         out[f"{what} {path}"] = _file_digest(path)
     out[CODE] = code_version()
@@ -74,7 +75,6 @@ def code_version() -> str:
     import mujoco
 
     import robot_controller
-    from robot_controller import resources
 
     package = Path(robot_controller.__file__).resolve().parent
     files = [(package, p) for p in sorted(package.rglob("*.py"))]
@@ -106,12 +106,6 @@ def _law_file(controller_type: str) -> Path | None:
         return None
     path = Path(source).resolve()
     return None if path.is_relative_to(Path(robot_controller.__file__).resolve().parent) else path
-
-
-def _urdf(urdf_path: str) -> Path:
-    from robot_controller import resources
-
-    return resources.resolve_urdf(urdf_path).resolve()
 
 
 def _file_digest(path: Path) -> str:

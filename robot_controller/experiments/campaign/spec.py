@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import difflib
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -66,14 +66,6 @@ class Vary:
     minimum: float | None = None  #: the parameter's own bounds: a normal draw is clipped to them
     maximum: float | None = None
 
-    @property
-    def node(self) -> str:
-        return self.key.partition(".")[0]
-
-    @property
-    def name(self) -> str:
-        return self.key.partition(".")[2]
-
 
 @dataclass(frozen=True)
 class CampaignSpec:
@@ -88,23 +80,20 @@ class CampaignSpec:
     joint_count: int = 1
     text: str = ""  #: the file as read (kept beside the results)
     path: Path = Path("campaign.yaml")  #: where it was read (a relative config is beside it)
-    run_timeout_s: float | None = None  #: a run's wall-time limit, s (None: :func:`default_run_timeout_s`)
+    run_timeout_s: float | None = None  #: a run's wall-time limit, s (None: the default, :attr:`timeout_s`)
 
     @property
     def timeout_s(self) -> float:
         """A run's wall-time limit, s: past it, its process is killed (the run is recorded as timed out)."""
-        return self.run_timeout_s if self.run_timeout_s is not None else default_run_timeout_s(self.duration_s)
+        if self.run_timeout_s is not None:
+            return self.run_timeout_s
+        return RUN_TIMEOUT_BASE_S + RUN_TIMEOUT_PER_S * self.duration_s
 
     def base_params(self, controller: str | None = None) -> cfg.Params:
         """The stack every run starts from: the robot's, the config over it, the controller (``controller`` or the
         spec's)."""
         params = cfg.load_stack("default", [self.config] if self.config else None, self.robot)
         return laws.with_controller(params, controller or self.controller)
-
-
-def default_run_timeout_s(duration_s: float) -> float:
-    """A run's wall-time limit when the spec gives none, s."""
-    return RUN_TIMEOUT_BASE_S + RUN_TIMEOUT_PER_S * duration_s
 
 
 def load_spec(path: str | Path) -> CampaignSpec:
@@ -171,24 +160,11 @@ def parse_spec(raw: Any, path: Path, text: str = "") -> CampaignSpec:
     if not isinstance(varied, dict) or not varied:
         raise refuse("vary", "expected a mapping of node.parameter to a distribution, e.g. {uniform: [0, 0.01]}")
     vary = tuple(_vary(str(key), body, refuse) for key, body in varied.items())
-    bounds = _pass_bounds(raw.get("pass"), refuse)
     timeout_s = raw.get("run_timeout_s")
     if timeout_s is not None and not (_is_number(timeout_s) and timeout_s > 0):
         raise refuse("run_timeout_s", f"expected a run's wall-time limit, seconds > 0, got {timeout_s!r}")
-    return CampaignSpec(
-        robot,
-        controller,
-        config,
-        float(duration_s),
-        runs,
-        seed,
-        vary,
-        bounds,
-        joint_count,
-        text,
-        path.resolve(),
-        None if timeout_s is None else float(timeout_s),
-    )
+    spec = replace(spec, vary=vary, pass_bounds=_pass_bounds(raw.get("pass"), refuse), joint_count=joint_count)
+    return replace(spec, text=text, path=path.resolve(), run_timeout_s=None if timeout_s is None else float(timeout_s))
 
 
 def _vary(key: str, body: Any, refuse) -> Vary:
