@@ -20,7 +20,6 @@ from robot_controller.runner import forking, supervise
 from robot_controller.runner.plan import CheckedRun, plan
 from robot_controller.runner.processes import ProcessGroup, say
 from robot_controller.runner.supervise import RunResult, Watcher, run_loop
-from robot_controller.scoring import bag_recovery
 
 __all__ = ["RunResult", "launch", "say"]
 
@@ -92,7 +91,9 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
             # Their counts were written and their messages acknowledged: the run is whole.
             say(f"WARNING: the DDS teardown of {', '.join(hung)} hung after its work was done (ended by its alarm)")
         bad = {n: c for n, c in codes.items() if c not in (0, -signal.SIGINT, 130, -TEARDOWN_HUNG_SIGNAL)}
-        if salvaged := run.records and bag_recovery.needs_recovery(run.bag_dir):
+        from robot_controller.scoring import bag_reader  # rosbags: preloaded while the nodes ran
+
+        if salvaged := run.records and bag_reader.needs_recovery(run.bag_dir):
             result.failure = result.failure or _salvage(run.bag_dir, bad.pop("recorder", None))
         if bad and result.failure is None:  # the run's data was complete: a warning
             said = ", ".join(f"{n} ({c})" for n, c in bad.items())
@@ -142,7 +143,9 @@ def _salvage(bag_dir: Path, code: int | None) -> str | None:
     """The recorder ended (``code``) before closing its bag: its messages up to its last whole chunk into a
     complete bag, said in one line; a failure line if even that cannot be read."""
     try:
-        count = bag_recovery.recover(bag_dir)
+        from robot_controller.scoring.bag_reader import recover
+
+        count = recover(bag_dir)
     except (OSError, ValueError) as exc:
         return f"the recorder's bag could not be salvaged: {exc}"
     say(
