@@ -7,7 +7,6 @@ are quiet (still reporting), closes the bag, then tears DDS down under an alarm.
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import struct
 import sys
@@ -19,6 +18,7 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from robot_controller.blocks import spec
+from robot_controller.ros.messages import message_class
 from robot_controller.ros.process import make_executor, own_context, work_done_teardown_left
 from robot_controller.ros.publishing import RECORDER_NODE
 from robot_controller.ros.qos import CLOCK_QOS, CONTROL_QOS
@@ -42,12 +42,6 @@ PROGRESS_PREFIX = "@progress "
 def topics_for(sim_time: bool) -> dict[str, tuple[type, str]]:
     """topic → (ROS message class, rosbag2 type name): every port ``blocks.spec`` records (``sim_time``: sim time)."""
     return {p.topic: (message_class(p.msg_type), p.msg_type) for p in spec.recorded_ports(sim_time)}
-
-
-def message_class(type_name: str) -> type:
-    """The rclpy message class of a ROS type name, ``package/msg/Name``."""
-    package, _, name = type_name.split("/")
-    return getattr(importlib.import_module(f"{package}.msg"), name)
 
 
 #: The sim's next tick is at most a control period past the last (10 Hz at the slowest): later is no tick of its.

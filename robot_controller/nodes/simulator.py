@@ -13,8 +13,6 @@ from typing import Any
 import numpy as np
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import SetBool
 
 from robot_controller.blocks import spec
@@ -73,14 +71,9 @@ class WorldExtras(Extras):
     def consumer(self, port: spec.Port) -> bool:
         return port.name == "true_state"  # the brakes and the push applied are telemetry
 
-    def message(self, port: spec.Port) -> Any:
+    def layout(self, port: spec.Port) -> list[tuple[str, int]] | None:
         n = self.node.block.joint_count
-        if port.name == "true_state":
-            return JointState(name=self.node.block.joint_names)
-        msg = Float64MultiArray()
-        dims = [("engaged", n)] if port.name == "brakes" else [("torque_nm", n), ("time_s", 1)]
-        msg.layout.dim = [MultiArrayDimension(label=label, size=size, stride=size) for label, size in dims]
-        return msg
+        return {"brakes": [("engaged", n)], "disturbance_applied": [("torque_nm", n), ("time_s", 1)]}.get(port.name)
 
     def make_ticks(self, source: type) -> Any:
         node, world = self.node, self.node.block
@@ -91,7 +84,8 @@ class WorldExtras(Extras):
         if node.mode.world_waits:
             self.clock_pub = node.gated_publisher(ClockMsg, spec.CLOCK.topic, consumer=False, qos=CLOCK_QOS)
             self.clock_msg = ClockMsg()
-        self.state_pub = node.publishers_by_port["true_state"][0]
+        self.state_pub, state_msg = node.publishers_by_port["true_state"]
+        state_msg.name = world.joint_names
         out = Outlets(
             write=self.write_values,
             write_state=self.write_state,
@@ -142,13 +136,8 @@ class WorldExtras(Extras):
 
     def write_values(self, written: Written) -> None:
         for name, value in written:
-            if name not in ("brakes", "disturbance_applied"):
-                continue
-            publisher, msg = self.node.publishers_by_port[name]
-            msg.data = value.data.tolist()
-            if name == "brakes":
-                msg.layout.dim[0].label = value.label
-            publisher.publish(msg)
+            if name in ("brakes", "disturbance_applied"):
+                self.node.publish({name: value})
 
     def write_state(self, stamp_ns: int) -> None:
         """The true state stamped ``stamp_ns`` (exact: a wall clock's stamp is too large for a float's ns)."""

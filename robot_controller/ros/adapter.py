@@ -20,6 +20,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from std_msgs.msg import MultiArrayDimension
 
 from robot_controller import parameters as cfg
 from robot_controller.blocks import registry, spec
@@ -92,13 +93,10 @@ class Extras:
         """Whether a second publisher of ``port`` is warned of."""
         return port.writer != spec.ANYONE
 
-    def message(self, port: spec.Port) -> Any:
-        """The reused message of an output, laid out once."""
-        return message_class(port.msg_type)()
-
-    def write(self, name: str, value: Any, msg: Any) -> Any:
-        """``value`` of output ``name`` written into its message."""
-        return encode(value, msg)
+    def layout(self, port: spec.Port) -> list[tuple[str, int]] | None:
+        """An array output's layout, (label, size) per dimension, laid out once: its values then fill in the data
+        (and a first label they say); None: each value lays out its message."""
+        return None
 
     def make_ticks(self, source: type) -> Any:
         node = self.node
@@ -152,6 +150,7 @@ class BlockNode(Node):
     def _ports(self, block: Block) -> None:
         """Each output a (gated) publisher, each input heard from the start a subscription, as the spec says."""
         self.publishers_by_port: dict[str, tuple[Any, Any]] = {}  # port → (publisher, its reused message)
+        self.laid_out: set[str] = set()  # outputs whose layout is fixed
         self.subscriptions_by_port: dict[str, Any] = {}
         for name in block.outputs:
             port = spec.port(name)
@@ -161,7 +160,11 @@ class BlockNode(Node):
                 publisher = self.gated_publisher(msg_type, port.topic, consumer=self.extras.consumer(port), qos=qos)
             else:
                 publisher = self.create_publisher(msg_type, port.topic, qos)
-            self.publishers_by_port[name] = (publisher, self.extras.message(port))
+            msg = msg_type()
+            if layout := self.extras.layout(port):
+                msg.layout.dim = [MultiArrayDimension(label=label, size=size, stride=size) for label, size in layout]
+                self.laid_out.add(name)
+            self.publishers_by_port[name] = (publisher, msg)
         for name in block.inputs:
             port = spec.port(name)
             qos = self.extras.reader_qos(port)
@@ -182,7 +185,13 @@ class BlockNode(Node):
     def publish(self, outputs: Mapping[str, Any]) -> None:
         for name, value in outputs.items():
             publisher, msg = self.publishers_by_port[name]
-            publisher.publish(self.extras.write(name, value, msg))
+            if name in self.laid_out:
+                msg.data = value.data.tolist()
+                if value.label:
+                    msg.layout.dim[0].label = value.label
+            else:
+                encode(value, msg)
+            publisher.publish(msg)
 
     def finish(self) -> None:
         """Last words, once the executor has stopped: the clock's, then the extras'."""

@@ -1,16 +1,15 @@
-"""The planner node: the planner block (``blocks.planner``) hosted by the adapter (``ros.adapter``), stepped by its
-clock (``ros.planner_ticks``); beside it, the FollowJointTrajectory action (``follow_joint_trajectory``), its
-waypoint topics under ``controller_name``, and what the arm does heard (the brakes and the e-stop always, the
-readings and the controller's state only while a goal is in force)."""
+"""trajectory_planner: the reference (port ``reference``), and the arm's face to ROS clients as ros2_controllers'
+JointTrajectoryController shows it. The planner block (``blocks.planner``) hosted by the adapter (``ros.adapter``),
+stepped by its clock (``ros.planner_ticks``); beside it, the FollowJointTrajectory action (``follow_joint_trajectory``),
+its waypoint topics under ``controller_name`` (port ``controller_waypoints``), and what the arm does heard (the brakes
+and the e-stop always, the readings and the controller's state only while a goal is in force)."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayout
-
 from robot_controller.blocks import spec
-from robot_controller.nodes.trajectory_planner.follow_joint_trajectory import FollowJointTrajectoryServer
+from robot_controller.nodes.follow_joint_trajectory import FollowJointTrajectoryServer
 from robot_controller.ros.adapter import BlockNode, Extras
 from robot_controller.ros.process import run
 from robot_controller.ros.qos import CONTROL_QOS, ESTOP_QOS, LATEST_QOS
@@ -35,16 +34,9 @@ class PlannerExtras(Extras):
     def watched(self, port: spec.Port) -> bool:
         return False
 
-    def message(self, port: spec.Port) -> Any:
+    def layout(self, port: spec.Port) -> list[tuple[str, int]]:
         n = self.node.params["joint_count"]
-        dims = [("position", n), ("velocity", n), ("acceleration", n), ("time_s", 1)]
-        return Float64MultiArray(
-            layout=MultiArrayLayout(dim=[MultiArrayDimension(label=k, size=s, stride=s) for k, s in dims])
-        )
-
-    def write(self, name: str, value: Any, msg: Any) -> Any:
-        msg.data = value.data.tolist()
-        return msg
+        return [("position", n), ("velocity", n), ("acceleration", n), ("time_s", 1)]
 
     def make_ticks(self, source: type) -> Any:
         node = self.node

@@ -1,8 +1,9 @@
-"""The controller's node (``pid_controller``, the name the tutorial and users' files know): the controller block
-(``blocks.controller``) hosted by the adapter (``ros.adapter``), stepped by its clock (``ros.controller_ticks``);
-beside it, its parameter services on a thread of their own (``live_gains``), a change's law designed in a process of
-its own (``designer``), the law in force reported as a parameter and its diagnostics on a timer. Every decision about
-torque is the block's core's."""
+"""pid_controller (the name the tutorial and users' files know): the law ``controller_type`` selects at
+``control_rate_hz``, from the ports ``reading`` and ``reference`` to ``command``, ``state`` and ``diagnostics``; the
+controller block (``blocks.controller``) hosted by the adapter (``ros.adapter``), stepped by its clock
+(``ros.controller_ticks``); beside it, its parameter services on a thread of their own and a change's law designed in a
+process of its own (``live_gains``), the law in force reported as a parameter and its diagnostics on a timer. Every
+decision about torque is the block's core's."""
 
 from __future__ import annotations
 
@@ -11,14 +12,13 @@ from pathlib import Path
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller import parameters as cfg
 from robot_controller.blocks import registry, spec
 from robot_controller.blocks.block import Block
 from robot_controller.core.laws import law_parameters
-from robot_controller.nodes.pid_controller import live_gains
-from robot_controller.nodes.pid_controller.designer import Designer
+from robot_controller.nodes import live_gains
+from robot_controller.nodes.live_gains import Designer
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model
 from robot_controller.ros.adapter import BlockNode, Extras, NodeLog
@@ -78,19 +78,8 @@ class ControllerExtras(Extras):
     def watched(self, port: spec.Port) -> bool:
         return port.name in ("reading", "reference")
 
-    def message(self, port: spec.Port) -> Any:
-        if port.name != "state":
-            return super().message(port)
-        msg = Float64MultiArray()
-        blocks = self.node.block.state_blocks
-        msg.layout.dim = [MultiArrayDimension(label=label, size=size, stride=size) for label, size in blocks]
-        return msg
-
-    def write(self, name: str, value: Any, msg: Any) -> Any:
-        if name != "state":
-            return super().write(name, value, msg)  # the command labelled with its tick
-        msg.data = value.data.tolist()
-        return msg
+    def layout(self, port: spec.Port) -> list[tuple[str, int]] | None:
+        return list(self.node.block.state_blocks) if port.name == "state" else None  # the command: by its tick
 
     def make_ticks(self, source: type) -> Any:
         return source(self.node, self.node.block, self.tick)
@@ -158,3 +147,7 @@ def ControllerNode() -> BlockNode:  # noqa: N802 (made as a node class is, by ``
 
 def main(args: list[str] | None = None) -> int:
     return run(ControllerNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
