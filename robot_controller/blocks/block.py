@@ -31,24 +31,19 @@ class Block(Protocol):
 
     def start(self) -> dict[str, Any]:
         """What it writes once, before any step (a latched description)."""
-        ...
 
     def step(self, t_s: float, inputs: Mapping[str, Any]) -> dict[str, Any]:
         """Take the values that arrived (port → value; empty when woken with none) at ``t_s`` s of the host's
         clock; return what it writes now (port → value)."""
-        ...
 
     def wake_period_s(self) -> float | None:
         """How often it asks to be stepped with no input (a drive's timeout check); None: only on inputs."""
-        ...
 
     def check_params(self, params: Mapping[str, Any]) -> None:
         """Raise ``ConfigError`` (its reason) if this combination of values cannot run."""
-        ...
 
     def set_params(self, params: Mapping[str, Any], changed: set[str]) -> None:
         """Take new values (already checked) while running."""
-        ...
 
 
 class Lines:
@@ -69,5 +64,4 @@ class Lines:
     def warning(self, message: str) -> None:
         self.warn(message, message)
 
-    def error(self, message: str) -> None:
-        self.warn(message, message)
+    error = warning

@@ -106,11 +106,9 @@ class Controller:
             self.log.info(self.dynamics.describe())
         self.controller: JointController | None = None
         self.check_params(params)
-        # A law of one's own is held to its law_budget_s on the time it used. Where the world waits for it: its
-        # thread's CPU time, a call abandoned once blocked for BLOCKED_S of wall time (a law kept from a CPU is not
-        # blocked) or once it has computed a period past its budget. On the wall clock: wall time less what the
-        # host took from its thread (run-queue wait, steal). There the loop's delay is watched against the gains'
-        # delay margin (core.latency).
+        # A law of one's own is held to its law_budget_s: where the world waits, on its thread's CPU time (a call
+        # blocked for BLOCKED_S of wall time is abandoned); on the wall clock, on wall time less what the host took
+        # from its thread, and the loop's delay is watched against the gains' delay margin.
         self.controller = JointController(
             self.checked.config,
             self.joint_count,

@@ -125,20 +125,17 @@ class Reports:
         self.law_fault_line: str | None = None
 
     def log_gains(self, margin: int | None, rate_hz: float) -> None:
-        """The law and gains in force (LQR's are designed, not the kp/ki/kd parameters) and ``margin``, the control
-        periods of unaccounted delay they survive (found when the change was checked: tens of ms per joint), in the
-        log and as ``law_in_force``."""
+        """The law and gains in force and ``margin``, the control periods of unaccounted delay they survive (found
+        when the change was checked), in the log and as ``law_in_force``."""
         self.margin, self.rate_hz = margin, rate_hz
         self.law_in_force = law_in_force_line(self.controller, margin, rate_hz)
         world = ", on sim time" if self.world_waits else ""
         self.log.info(f"{self.law_in_force}; at {rate_hz:g} Hz on {self.joint_names}" + world)
 
     def say_adaptation(self, now_s: float) -> None:
-        """The inertia adaptation's gain changes since they were last said (a factor moved over SAID_STEP, 10 %),
-        one log line for all the steps in an interval, and ``law_in_force`` stated again with them; at most once
-        every ``ADAPTATION_SAID_EVERY_S`` of the tick's clock, so a tick costs one comparison. The delay margin
-        stated stays the one last checked in full (a check takes up to a second on a 7-joint arm), with the
-        ``min_delay_margin_periods`` each adaptive factor has been checked to keep."""
+        """The inertia adaptation's gain changes since they were last said (a factor moved over SAID_STEP), one line
+        for all the steps in an interval of ``ADAPTATION_SAID_EVERY_S``, and ``law_in_force`` stated again with them.
+        The delay margin stated stays the one last checked in full (up to a second on a 7-joint arm)."""
         if self.inertia is None or now_s < self.next_adaptation_s:
             return
         self.next_adaptation_s = now_s + ADAPTATION_SAID_EVERY_S

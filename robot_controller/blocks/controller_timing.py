@@ -33,8 +33,8 @@ class Diagnostics:
 
 
 class LoopTiming:
-    """How late and how regular the controller's loop is; ``world_waits``: the world waits for each command, a tick
-    takes no time on its clock and the drive's receipts say nothing."""
+    """How late and how regular the controller's loop is; where the world waits for each command, a tick takes no time
+    on its clock and the drive's receipts say nothing."""
 
     def __init__(self, controller: JointController, log: Log, world_waits: bool) -> None:
         self.controller = controller
@@ -46,7 +46,6 @@ class LoopTiming:
         self.next_late_line = -np.inf  # s
 
     def note_tick(self, now_s: float, command: tuple[float, ...] | None) -> None:
-        """A tick at ``now_s`` that issued ``command`` (None: it commanded nothing)."""
         self.window_ticks.append(now_s)
         if not self.world_waits:
             if command is not None:
@@ -54,8 +53,8 @@ class LoopTiming:
             self.window_latency.append(now_s - self.controller.measurement_stamp_s)
 
     def take_receipts(self, data: np.ndarray, joint_count: int) -> None:
-        """The drive's receipts, rows ``[receipt_time_s, command…]``: each paired with the latest tick that issued
-        the same command before it, their difference is the command path's delay."""
+        """The drive's receipts, rows ``[receipt_time_s, command…]``, each paired with the latest tick that issued
+        the same command before it: the command path's delay."""
         row = 1 + joint_count
         data = np.asarray(data, dtype=float).tolist()
         if not data or len(data) % row:

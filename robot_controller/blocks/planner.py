@@ -220,13 +220,9 @@ class Planner:
         prepared = self._points(request, now_s)
         if isinstance(prepared[0], int):
             return prepared
-        names, times, positions, velocities, accelerations, delay = prepared
+        *points, delay = prepared
         accepted = accept_joint_trajectory(
-            names,
-            times,
-            positions,
-            velocities,
-            accelerations,
+            *points,
             start=self.reference_at(now_s),
             limits=self.limits,
             dynamics=self.dynamics,
@@ -270,9 +266,8 @@ class Planner:
         return path.duration_s
 
     def check_goal(self, request: WaypointRequest, now_s: float) -> Refusal | None:
-        """Why ``request`` cannot be taken, as JTC's goal callback says it (its error code and the reason), or None:
-        its joints, points, times and values against the URDF's limits, and its stamp. Its join onto the reference
-        in force (the path between the points, the torque) is checked when it is taken."""
+        """Why ``request`` cannot be taken, as JTC's goal callback says it (its error code and the reason), or None;
+        its join onto the reference in force (the path between the points, the torque) is checked when it is taken."""
         prepared = self._points(request, now_s)
         return prepared if isinstance(prepared[0], int) else None
 

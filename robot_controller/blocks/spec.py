@@ -1,11 +1,7 @@
-"""The graph spec: every port of the loop and every ROS interface the product serves or uses, with its topic (or
-service, or action) name, message type, QoS class, whether it is in the run's DDS partition, whether the recorder
-records it and scoring reads it back, and who writes it. This is the one module that spells a topic name: nodes, tools,
-the recorder, the partition's profile and the bag reader take them from here (``spec.READING.topic``), so a topic is
-renamed, re-typed or recorded in one line. Plain data: no ROS in it, so the core, scoring and tests read it as well.
-
-The names (``/joint_states``, ``/trajectory``, …) are the tutorial's and ros2_controllers'; users' clients depend on
-them, so they never change."""
+"""The graph spec: every port of the loop and every ROS interface the product serves or uses. This is the one module
+that spells a topic name (``spec.READING.topic``), so a topic is renamed, re-typed or recorded in one line. Plain data:
+no ROS in it, so the core, scoring and tests read it as well. The names (``/joint_states``, ``/trajectory``, …) are the
+tutorial's and ros2_controllers'; users' clients depend on them, so they never change."""
 
 from __future__ import annotations
 

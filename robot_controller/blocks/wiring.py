@@ -60,9 +60,9 @@ def run_loop(
     delay_unstamped: bool = False,
     command_gain: float = 1.0,
 ) -> LoopResult:
-    """Run ``duration_s`` seconds of the loop and return what happened at each tick: the planner publishes if its
-    period has come round, the sensor block reads the world's true state, the controller computes, the drive block
-    turns the command into the effort the world holds over the next control period of physics steps.
+    """``duration_s`` seconds of the loop, each tick: the planner publishes if its period has come round, the sensor
+    reads the world's true state, the controller computes, the drive turns the command into the effort the world
+    holds over the next control period.
 
     :param world: stepped here as the graph's sim-time clock steps it
     :param planner: stepped on its period's grid; its reference taken at the tick (its sample time: the tick's)

@@ -1,15 +1,12 @@
 """The world (the graph's ``simulator``, the Gazebo role): MuJoCo steps the arm from its URDF at ``physics_rate_hz`` on
-the effort in force (port ``effort``: clamped to the URDF's limits, ignored while the e-stop holds), with its holding
-brakes and an external disturbance (:class:`ExternalTorque`); it writes its true state (port ``true_state``,
-stamped with its physics time, the effort applied), the brakes' state and the disturbance applied.
+the effort in force (clamped to the URDF's limits, ignored while the e-stop holds), with its holding brakes and an
+external disturbance (:class:`ExternalTorque`). The brakes hold before the first effort (``start``), on the drive's
+request (``requested``), on the e-stop (``estop``) and when efforts stop coming (``drive_timeout``: the loop's clock
+judges when); engaged on every joint at once while any reason holds, a braked joint gets no actuator torque and is
+held by its brake's dry friction.
 
-The brakes hold before the first effort (``start``), on the drive's request (``requested``), on the e-stop (``estop``)
-and when efforts stop coming (``drive_timeout``: the loop's clock judges when); engaged on every joint at once while
-any reason holds, a braked joint gets no actuator torque and is held by its brake's dry friction.
-
-The world never decides when physics runs: its host's clock does (``ros.clocks``: the wall clock, the paced world,
-sim time as fast as it goes; in process, ``step``), through :meth:`World.advance` and the ``take_*`` methods. Each
-method returns what the world writes by it, in order: ``[(port, value), …]``."""
+The world never decides when physics runs: its host's clock does (``ros.clocks``; in process, ``step``), through
+:meth:`World.advance` and the ``take_*`` methods, each returning what the world writes by it: ``[(port, value), …]``."""
 
 from __future__ import annotations
 
@@ -138,9 +135,8 @@ class World:
     def __init__(
         self, params: Mapping[str, Any], log: Log, *, world_waits: bool = False, plant: MujocoPlant | None = None
     ) -> None:
-        """:param world_waits: the loop's clock waits for each effort (the world itself never branches on it)
-        :param plant: the arm to use as it is (an in-process loop's, already set up); None: the parameters' (the
-            URDF, its variation, at ``initial_position``)"""
+        """:param plant: the arm to use as it is (an in-process loop's, already set up); None: the parameters' (the
+        URDF, its variation, at ``initial_position``)"""
         self.log = log
         self.params = dict(params)
         self.variation = PlantVariation.from_params(params)
