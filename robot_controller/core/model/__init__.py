@@ -2,7 +2,7 @@
 identification, and the simulated drive and encoder."""
 
 from robot_controller.core.model.actuator import Actuator
-from robot_controller.core.model.arm_dynamics import ArmDynamics, matrix_power, step_count
+from robot_controller.core.model.arm_dynamics import ArmDynamics, matrix_power
 from robot_controller.core.model.arm_model import PARAMETERS, JointArmModel
 from robot_controller.core.model.identification import IdentificationError, JointFit, identify
 from robot_controller.core.model.joint_limits import JointLimits, joint_limits, urdf_velocity_limits
@@ -20,7 +20,7 @@ from robot_controller.core.model.mujoco_plant import (
     check_disturbance,
 )
 from robot_controller.core.model.payload import Payload
-from robot_controller.core.model.payload_identification import PayloadFit, fit_payload
+from robot_controller.core.model.payload_identification import fit_payload
 from robot_controller.core.model.plant import Plant
 from robot_controller.core.model.plant_variation import PlantVariation
 from robot_controller.core.model.sensor_model import DelayLine, SensorConfig, measure
@@ -37,7 +37,6 @@ __all__ = [
     "JointLimits",
     "MujocoPlant",
     "Payload",
-    "PayloadFit",
     "Plant",
     "PlantVariation",
     "Predictor",
@@ -53,7 +52,6 @@ __all__ = [
     "load_model",
     "matrix_power",
     "measure",
-    "step_count",
     "steps_per_period",
     "transition_by_differences",
     "urdf_velocity_limits",

@@ -1,5 +1,6 @@
-"""The arm's multibody dynamics for the controller (:class:`ArmDynamics`), from the
-same URDF as the plant on a private ``MjData``."""
+"""The arm's multibody dynamics for the controller (:class:`ArmDynamics`), from the same URDF as the plant on a
+private ``MjData``: the arm model every model-based part asks (:class:`~.arm_model.JointArmModel` answers the same
+questions for independent joints)."""
 
 from __future__ import annotations
 
@@ -25,8 +26,7 @@ def step_count(horizon_s: float, max_step_s: float) -> int:
 
 
 def matrix_power(a: np.ndarray, k: int) -> np.ndarray:
-    """``np.linalg.matrix_power(a, k)`` for a square ``a`` and ``k >= 1``: the same products in the
-    same order (binary powering), by ``ndarray.dot``, without its checks and dispatch."""
+    """``np.linalg.matrix_power(a, k)`` (``k >= 1``): the same products in the same order, without its checks."""
     if k == 3:
         return a.dot(a).dot(a)
     power = result = None
@@ -39,20 +39,11 @@ def matrix_power(a: np.ndarray, k: int) -> np.ndarray:
 
 
 class ArmDynamics:
-    """The arm's multibody dynamics from the same URDF, on a private ``MjData``:
-    what the controller's model-based parts ask of it, coupling between the
-    joints included.
-
-    ``torque(q, v, a)`` is the joint torque that produces acceleration ``a``
-    at state ``(q, v)``: M(q)·a + Coriolis + damping·v + gravity, from
-    MuJoCo's ``mj_inverse``; given the plant's ``step_s``, over one step of its
-    integrator wherever a joint's damping acts within a step (step·D over
-    ``STIFF_DAMPING_SHARE`` of its inertia: implicit in damping, such a wrist
-    takes (M + step·D)·a, not M·a), in continuous time elsewhere (the same
-    to that share). ``predict`` steps the arm as the
-    plant does (``mj_step``: the same integrator, so the same numbers), and
-    ``step_jacobian`` linearises one such step (``mjd_transitionFD``).
-    """
+    """The arm's coupled dynamics. ``torque(q, v, a)``: M(q)·a + Coriolis + damping·v + gravity (``mj_inverse``),
+    over one step of the plant's integrator (``step_s``) wherever a joint's damping acts within a step (step·D over
+    ``STIFF_DAMPING_SHARE`` of its inertia: implicit in damping, such a wrist takes (M + step·D)·a), in continuous
+    time elsewhere. ``predict`` steps the arm as the plant does (``mj_step``: the same numbers), ``step_jacobian``
+    linearises one such step (``mjd_transitionFD``)."""
 
     def __init__(self, urdf_path: str | Path, payload: Payload | None = None, step_s: float | None = None) -> None:
         self.model = load_model(urdf_path, payload=payload)
@@ -103,8 +94,7 @@ class ArmDynamics:
         return self.torque(position, zero, zero)
 
     def acceleration(self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray) -> np.ndarray:
-        """Forward dynamics: joint acceleration (rad/s²) under ``torque`` at state ``(q, v)``
-        (limited to the URDF's effort limit, as :class:`MujocoPlant` applies it)."""
+        """Forward dynamics under ``torque`` (within the effort limit, as the plant applies it), rad/s²."""
         self._load(position, velocity, torque, None)
         mujoco.mj_forward(self.model, self._data)
         self._qfrc_applied.fill(0.0)
@@ -129,11 +119,9 @@ class ArmDynamics:
         max_step_s: float = 0.002,
         external_nm: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """State ``horizon_s`` seconds ahead under constant ``torque`` (limited to
-        the effort limit) and an ``external_nm`` torque (not limited), in equal
-        steps of at most ``max_step_s``: MuJoCo's own steps, as
-        :class:`MujocoPlant` takes them (semi-implicit Euler, implicit in the
-        joint damping, so the filter's model has no h·D/M bias in acceleration)."""
+        """State ``horizon_s`` s ahead under constant ``torque`` (within the effort limit) and ``external_nm`` (not
+        limited), in equal steps of at most ``max_step_s``: MuJoCo's own, implicit in the damping as the plant's,
+        so the filter's model has no h·D/M bias in acceleration."""
         steps = step_count(horizon_s, max_step_s)
         self._option.timestep = horizon_s / steps
         self._load(position, velocity, torque, external_nm)
@@ -144,10 +132,7 @@ class ArmDynamics:
     def step_jacobian(
         self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, step_s: float
     ) -> np.ndarray:
-        """How one step of ``step_s`` moves the state ``[q; v]`` (2n × 2n): the
-        step's slopes in every joint's position and velocity (gravity's
-        stiffness, damping, Coriolis and the coupling between joints), by
-        MuJoCo's finite differences in C."""
+        """How one step of ``step_s`` moves the state ``[q; v]`` (2n × 2n), by MuJoCo's finite differences."""
         n = self.model.nv
         self._option.timestep = step_s
         self._load(position, velocity, torque, None)
@@ -159,11 +144,10 @@ class ArmDynamics:
     def transition(
         self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float, max_step_s: float
     ) -> np.ndarray:
-        """How ``horizon_s`` of :meth:`predict`'s steps move the state ``[q; v]`` (2n × 2n): one
-        step's slopes at ``(q, v)`` (:meth:`step_jacobian`) carried over the horizon's steps. Where
-        damping or dry friction resists within a step (:attr:`resists_within_step`), 2n × 3n: then also
-        how a push ``M(q)·α`` moves it, per rad/s² of ``α`` on each joint (a free mass's ``[h²/2; h]``
-        would overstate it there), so an observer's torque moves the state as the model does."""
+        """How ``horizon_s`` of :meth:`predict`'s steps move ``[q; v]`` (2n × 2n): one step's slopes carried over
+        the steps. Where damping or dry friction resists within a step, 2n × 3n: also how a push ``M(q)·α`` moves
+        it per rad/s² on each joint (a free mass's ``[h²/2; h]`` would overstate it), so an observer's torque moves
+        the state as the model does."""
         steps, n = step_count(horizon_s, max_step_s), self.model.nv
         step = self.step_jacobian(position, velocity, torque, horizon_s / steps)
         if not self.resists_within_step:
@@ -180,9 +164,7 @@ class ArmDynamics:
         return matrix_power(carried, steps)[: 2 * n]
 
     def mass_matrix(self, position: np.ndarray) -> np.ndarray:
-        """M(q) at ``position`` (kg·m²): MuJoCo's position stages that build it
-        (kinematics, the bodies' inertias, composite rigid bodies), not the whole
-        forward pass, which gives the same matrix."""
+        """M(q), kg·m²: only the position stages that build it (the whole forward pass gives the same matrix)."""
         d = self._data
         self._qpos[:] = position
         mujoco.mj_kinematics(self.model, d)
@@ -193,10 +175,9 @@ class ArmDynamics:
         return matrix
 
     def adjusted(self, *, inertia=None, damping=None, coulomb_friction=None) -> ArmDynamics:
-        """This coupled model with per-joint values in place of the URDF's (None: the URDF's), changed in
-        place and returned: ``damping`` N·m·s/rad, ``coulomb_friction`` N·m, ``inertia`` kg·m² each joint's
-        own at q = 0 (the diagonal of M(0)), made up by rotor inertia (armature): a coupled model can add
-        inertia about a joint, not take a link's away."""
+        """This model, changed in place, with per-joint values over the URDF's (None: the URDF's): ``damping``
+        N·m·s/rad, ``coulomb_friction`` N·m, ``inertia`` kg·m² at q = 0 (M(0)'s diagonal), made up by rotor inertia:
+        a coupled model can add inertia about a joint, not take a link's away."""
         dofs = self.model.jnt_dofadr[: len(self.joint_names)]
         if inertia is not None:
             extra = np.asarray(inertia, float) - np.diag(self.mass_matrix(np.zeros(len(dofs))))
