@@ -70,6 +70,17 @@ def pyplot():
     return plt
 
 
+def label_axes(ax, xlabel: str | None = None, ylabel: str | None = None, legend: int | None = 8) -> None:
+    """Axis labels, a light grid and the legend (``legend``: its font size; None: no legend)."""
+    if xlabel is not None:
+        ax.set_xlabel(xlabel)
+    if ylabel is not None:
+        ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3)
+    if legend is not None:
+        ax.legend(fontsize=legend)
+
+
 def save(fig, path: Path, title: str) -> None:
     """``fig`` with its title, written to ``path`` and closed."""
     fig.suptitle(title)

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
+from robot_controller.experiments.reporting import label_axes
 from robot_controller.experiments.step import run_and_score, step_figures, step_params
 from robot_controller.scoring import report
 
@@ -124,9 +125,6 @@ def plot_steps(
         ax.plot(response.time_s, response.position, lw=1.2, label=response.label)
     if band is not None:
         ax.axhspan(*band, color="0.88", lw=0, zorder=0)
-    ax.set_xlabel("time since the step [s]")
-    ax.set_ylabel("joint angle, true [rad]")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    label_axes(ax, "time since the step [s]", "joint angle, true [rad]", legend=7)
     if title:
         ax.set_title(title, fontsize=10)

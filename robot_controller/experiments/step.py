@@ -10,7 +10,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller.core import metrics
 from robot_controller.core.errors import RunFailed
-from robot_controller.experiments.reporting import pyplot, save
+from robot_controller.experiments.reporting import label_axes, pyplot, save
 from robot_controller.runner import launcher, plan
 from robot_controller.runner.options import RunOptions
 from robot_controller.scoring import plots, report, scored_run
@@ -123,16 +123,12 @@ def plot_step(
             ax_q.plot(t, s["measured"][:, 0], ".", ms=2, alpha=0.4, label="estimate the law used")
             ax_u.plot(t, s["feedforward"][:, 0], lw=0.8, label="feedforward")
     position, _, effort = plots.headings(units)
-    ax_q.set_ylabel(position)
+    label_axes(ax_q, ylabel=position)
     if limit_nm is not None:
         for value in np.unique(np.atleast_1d(limit_nm)):
             ax_u.axhline(value, color="r", lw=0.6)
             ax_u.axhline(-value, color="r", lw=0.6)
-    ax_u.set_ylabel(effort)
-    ax_u.set_xlabel("time [s]")
-    for ax in (ax_q, ax_u):
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+    label_axes(ax_u, "time [s]", effort)
     save(fig, path, title)
 
 

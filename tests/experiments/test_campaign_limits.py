@@ -189,7 +189,7 @@ def test_a_run_stuck_in_c_is_killed_at_its_limit_tried_again_and_recorded_as_tim
 
 
 def test_a_run_that_fails_is_tried_once_more_and_keeps_both_reasons(monkeypatch):
-    from robot_controller.experiments.campaign import limits, one_run
+    from robot_controller.experiments.campaign import executors, one_run
 
     tries = []
 
@@ -200,9 +200,9 @@ def test_a_run_that_fails_is_tried_once_more_and_keeps_both_reasons(monkeypatch)
             return {**row, "status": "failed", "reason": "RuntimeError: the first try"}
         return {**row, "status": "ok", "reason": ""}
 
-    monkeypatch.setattr(limits, "attempt", flaky)
+    monkeypatch.setattr(executors, "attempt", flaky)
     task = one_run.Task(7, "", {}, {}, 1, 1.0)
-    row = limits.run(task)
+    row = executors.run(task)
     assert tries == [7, 7] and row["status"] == "ok"
     assert row["attempts"] == 2 and row["first_failure"] == "RuntimeError: the first try"
 
@@ -240,19 +240,19 @@ def test_resuming_after_the_law_file_changed_is_refused_in_one_line(laws, tmp_pa
 
 
 def test_the_fingerprint_names_each_part_that_changed(laws, tmp_path):
-    from robot_controller.experiments.campaign import fingerprint
+    from robot_controller.experiments.campaign import store
     from robot_controller.experiments.campaign.spec import load_spec
 
     config = laws.parent / "arm.yaml"
     config.write_text("pid_controller:\n  ros__parameters:\n    kp: 40.0\n")
     spec = load_spec(spec_file(laws.parent, "Tracks", config="arm.yaml"))
-    before = fingerprint.parts(spec, (spec.controller,))
+    before = store.parts(spec, (spec.controller,))
     assert any(what.startswith("the URDF ") for what in before)
     config.write_text("pid_controller:\n  ros__parameters:\n    kp: 41.0\n")
-    after = fingerprint.parts(replace(spec, seed=7), (spec.controller,))
-    said = fingerprint.changed(before, after)
-    assert said == [fingerprint.SPEC + " changed", f"the config file {config.resolve()}: its contents changed"]
-    other_code = {**after, fingerprint.CODE: "0.0.1 (source 0, mujoco 3)"}
-    assert fingerprint.changed(other_code, after) == [
-        f"robot_controller: 0.0.1 (source 0, mujoco 3) then, {after[fingerprint.CODE]} now"
+    after = store.parts(replace(spec, seed=7), (spec.controller,))
+    said = store.changed(before, after)
+    assert said == [store.SPEC + " changed", f"the config file {config.resolve()}: its contents changed"]
+    other_code = {**after, store.CODE: "0.0.1 (source 0, mujoco 3)"}
+    assert store.changed(other_code, after) == [
+        f"robot_controller: 0.0.1 (source 0, mujoco 3) then, {after[store.CODE]} now"
     ]

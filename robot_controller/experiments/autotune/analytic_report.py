@@ -17,7 +17,7 @@ from robot_controller.experiments.autotune.margins import (
     MIN_PHASE_MARGIN_DEG,
 )
 from robot_controller.experiments.autotune.search import ROBUST, SearchResult
-from robot_controller.experiments.reporting import fmt, pyplot, save, table
+from robot_controller.experiments.reporting import fmt, label_axes, pyplot, save, table
 
 
 def yaml_header(problem: AnalyticProblem, result: SearchResult) -> str:
@@ -51,10 +51,7 @@ def plot(path: Path, result: SearchResult) -> None:
         ax.plot(best_gains[x], best_gains[y], "r*", ms=14, label="after")
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel(ylabel)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        label_axes(ax, xlabel, ylabel)
     fig.colorbar(points, ax=axes[-1], label="log10 sine RMS [rad] (batch)")
     save(fig, path, f"Gain sets that met every margin ({int(np.count_nonzero(finite))}), coloured by tracking error")
 

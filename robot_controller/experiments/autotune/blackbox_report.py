@@ -24,7 +24,7 @@ from robot_controller.experiments.autotune.blackbox import (
 )
 from robot_controller.experiments.autotune.margins import MAX_TIME_CONSTANT_S, MIN_DELAY_PERIODS, MIN_GAIN_MARGIN_DB
 from robot_controller.experiments.autotune.search import FAILED, ROBUST, UNCHECKED, SearchResult
-from robot_controller.experiments.reporting import fmt, pyplot, save, table
+from robot_controller.experiments.reporting import fmt, label_axes, pyplot, save, table
 
 
 def yaml_header(problem: BlackBoxProblem, result: SearchResult) -> str:
@@ -57,9 +57,7 @@ def plot(path: Path, result: SearchResult) -> None:
         ax.axvline(result.best_values[j], color="tab:green", lw=1.2, label="after")
         ax.set_xscale("log" if knob.log else "linear")
         ax.set_yscale("log")
-        ax.set_xlabel(knob.name)
-        ax.set_ylabel("sine RMS, in process [mrad]")
-        ax.grid(alpha=0.3)
+        label_axes(ax, knob.name, "sine RMS, in process [mrad]", legend=None)
     axes[0].legend(fontsize=8)
     save(fig, path, f"tune --controller {result.problem.spec}: every candidate run")
 

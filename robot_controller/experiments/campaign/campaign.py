@@ -12,10 +12,10 @@ from typing import Any
 
 from robot_controller.core.errors import ConfigError
 from robot_controller.experiments import laws
-from robot_controller.experiments.campaign import draws, executors, fingerprint
+from robot_controller.experiments.campaign import draws, executors
 from robot_controller.experiments.campaign.one_run import Task
 from robot_controller.experiments.campaign.spec import CampaignSpec
-from robot_controller.experiments.campaign.store import ResultStore
+from robot_controller.experiments.campaign.store import ResultStore, parts
 
 
 @dataclass(frozen=True)
@@ -57,7 +57,7 @@ def tasks(
 def open_store(spec: CampaignSpec, out: Path, controllers: list[str] | None = None) -> ResultStore:
     """``out``'s rows of this campaign (none yet, or those of a resume).
 
-    :raises ConfigError: ``out`` holds another campaign's, in one line naming what differs (:mod:`.fingerprint`)
+    :raises ConfigError: ``out`` holds another campaign's, in one line naming what differs (:func:`.store.changed`)
     """
     chosen = contenders(spec, controllers)
     labels = tuple(c.spec or spec.controller or "" for c in chosen)
@@ -67,7 +67,7 @@ def open_store(spec: CampaignSpec, out: Path, controllers: list[str] | None = No
         "controllers": [c.label for c in chosen],
         "controller_types": list(labels),
     }
-    return ResultStore(out, fingerprint.parts(spec, labels), about)
+    return ResultStore(out, parts(spec, labels), about)
 
 
 def run_campaign(

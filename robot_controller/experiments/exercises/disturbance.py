@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.experiments import laws
+from robot_controller.experiments import laws, reporting
 from robot_controller.experiments.compare import Contender
 from robot_controller.experiments.reporting import Progress, cells, pyplot, save, table, write_report, write_results
 from robot_controller.experiments.runs import SEED
@@ -146,16 +146,12 @@ def _plot(path: Path, traces: dict[str, tuple[tuple[np.ndarray, np.ndarray], tup
         ax_all.plot(t, error * 1e3, lw=0.9, label=name)
         near = (t_effect >= START_S - 0.2) & (t_effect <= START_S + 1.0)
         ax_zoom.plot(t_effect[near] - START_S, effect[near] * 1e3, lw=1.1, label=name)
-    ax_all.set_ylabel("reference − true [mrad]")
-    ax_zoom.set_ylabel("the push's own effect [mrad]")
-    for ax in (ax_all, ax_zoom):
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+    reporting.label_axes(ax_all, "physics time [s] (the pushed runs)", "reference − true [mrad]")
+    zoom = "time since the disturbance [s] (pushed run's error − the undisturbed run's, same noise)"
+    reporting.label_axes(ax_zoom, zoom, "the push's own effect [mrad]")
     ax_all.axvline(START_S, color="r", lw=0.7)
-    ax_all.set_xlabel("physics time [s] (the pushed runs)")
     ax_zoom.axvline(0.0, color="r", lw=0.7)
     ax_zoom.axhspan(-RECOVERED_RAD * 1e3, RECOVERED_RAD * 1e3, color="0.88", lw=0, zorder=0)
-    ax_zoom.set_xlabel("time since the disturbance [s] (pushed run's error − the undisturbed run's, same noise)")
     save(fig, path, f"Exercise 2: a {TORQUE_NM:g} N·m step disturbance at t = {START_S:g} s (real graph, sim time)")
 
 

@@ -11,6 +11,7 @@ import numpy as np
 from robot_controller import parameters as cfg
 from robot_controller.blocks import spec
 from robot_controller.core.laws.pid import AntiWindup
+from robot_controller.experiments import reporting
 from robot_controller.experiments.reporting import Progress, cells, pyplot, save, table, write_report, write_results
 from robot_controller.experiments.runs import SEED, Response, plot_steps, step_run, store
 
@@ -97,9 +98,7 @@ def _plot(path: Path, responses: list[Response]) -> None:
     for ax, label in ((ax_i, "integral term I [N·m]"), (ax_u, "command [N·m]")):
         ax.axhline(TORQUE_MAX_NM, color="r", lw=0.6)
         ax.axhline(-TORQUE_MAX_NM, color="r", lw=0.6)
-        ax.set_ylabel(label)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        reporting.label_axes(ax, ylabel=label, legend=7)
     ax_u.set_xlabel("time since the step [s]")
     ax_q.set_xlabel("")
     save(fig, path, "Exercise 3: saturation at 2 N·m, with and without anti-windup (real graph, sim time)")

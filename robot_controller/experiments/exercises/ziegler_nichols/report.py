@@ -18,7 +18,7 @@ from robot_controller.experiments.exercises.ziegler_nichols.settings import (
     STAGE_STEP_RAD,
     SUSTAINED_GROWTH_PER_S,
 )
-from robot_controller.experiments.reporting import cells, fmt, pyplot, save, table
+from robot_controller.experiments.reporting import cells, fmt, label_axes, pyplot, save, table
 from robot_controller.experiments.runs import Response, plot_steps
 
 
@@ -61,12 +61,8 @@ def plot_sine(path: Path, sine: Response, tutorial: Response | None) -> None:
     for response in [sine] + ([tutorial] if tutorial else []):
         ax_q.plot(response.time_s, response.position, lw=1.1, label=response.label)
         ax_e.plot(response.time_s, response.reference - response.position, lw=1.0, label=response.label)
-    ax_q.set_ylabel("joint angle, true [rad]")
-    ax_e.set_ylabel("reference − true [rad]")
-    ax_e.set_xlabel("time [s]")
-    for ax in (ax_q, ax_e):
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+    label_axes(ax_q, ylabel="joint angle, true [rad]")
+    label_axes(ax_e, "time [s]", "reference − true [rad]")
     save(fig, path, "The gains chosen on the sine (1 rad, 0.5 Hz)")
 
 
