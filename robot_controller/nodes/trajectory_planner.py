@@ -1,6 +1,6 @@
 """trajectory_planner: the reference (port ``reference``), and the arm's face to ROS clients as ros2_controllers'
 JointTrajectoryController shows it. The planner block (``blocks.planner``) hosted by the adapter (``ros.adapter``),
-stepped by its clock (``ros.planner_ticks``); beside it, the FollowJointTrajectory action (``follow_joint_trajectory``),
+stepped by its clock (``ros.ticks``); beside it, the FollowJointTrajectory action (``follow_joint_trajectory``),
 its waypoint topics under ``controller_name`` (port ``controller_waypoints``), and what the arm does heard (the brakes
 and the e-stop always, the readings and the controller's state only while a goal is in force)."""
 
