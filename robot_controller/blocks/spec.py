@@ -29,9 +29,13 @@ class Port:
     qos: str = "control"  #: the QoS class of the reader that acts on it (:data:`QOS_CLASSES`)
     writer_qos: str = "control"  #: the QoS class of its writer
     partition: bool = False  #: in the run's DDS partition (a foreign writer is never heard)
-    public: bool = False  #: in the partition, and written in the default one too (any ROS client may hear it)
+    public: bool = False  #: in the partition (whatever ``partition`` says), written in the default one too
     recorded: str = ALWAYS  #: when the recorder records it (:data:`SIM_TIME`: on sim time only; :data:`NEVER`)
     scored: bool = False  #: read back from the bag by scoring
+
+    def __post_init__(self) -> None:
+        if self.public:
+            object.__setattr__(self, "partition", True)
 
     def topic_for(self, controller_name: str) -> str:
         """The topic for the planner parameter ``controller_name`` (the topic itself if it names none)."""
@@ -74,15 +78,7 @@ _DIAGNOSTICS = "diagnostic_msgs/msg/DiagnosticArray"
 REFERENCE = Port("reference", "/trajectory", _FLOATS, "trajectory_planner", "loop", partition=True, scored=True)
 #: the sensor's noisy readings, stamped with the sample time
 READING = Port(
-    "reading",
-    "/joint_states",
-    _JOINT_STATE,
-    "sensor_node",
-    "readings",
-    "readings_writer",
-    partition=True,
-    public=True,
-    scored=True,
+    "reading", "/joint_states", _JOINT_STATE, "sensor_node", "readings", "readings_writer", public=True, scored=True
 )
 #: the controller's torque, N·m per joint (its tick's stamp in the layout's first dimension)
 COMMAND = Port("command", "/joint_commands", _FLOATS, "pid_controller", "loop", partition=True)
@@ -113,7 +109,7 @@ DISTURBANCE_APPLIED = Port(
     "disturbance_applied", "/sim/disturbance_applied", _FLOATS, "simulator", partition=True, scored=True
 )
 #: the sim's time, as fast as it goes (``--sim-time``) and in the paced world (clients on ``use_sim_time`` hear it)
-CLOCK = Port("clock", "/clock", _CLOCK, "simulator", "latched", "clock", partition=True, public=True, recorded=SIM_TIME)
+CLOCK = Port("clock", "/clock", _CLOCK, "simulator", "latched", "clock", public=True, recorded=SIM_TIME)
 #: sim time: the tick the recorder has taken (the simulator holds while it lags)
 RECORDER_CLOCK = Port("recorder_clock", "/recorder/clock", _CLOCK, "recorder", "clock", "clock", recorded=NEVER)
 
