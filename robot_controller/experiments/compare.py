@@ -72,6 +72,13 @@ CONTENDERS = (
 NAMED = {c.name: c for c in CONTENDERS} | {"default": Contender("default", "the default preset", "default", {})}
 
 
+def law_contender(spec: str) -> Contender:
+    """A law (``--controller SPEC``) with the default stack, named by its class."""
+    return Contender(
+        laws.label(spec), f"{spec} with the default stack", "default", {"controller_type": laws.controller_type(spec)}
+    )
+
+
 def contenders(names: Sequence[str] | None = None) -> tuple[Contender, ...]:
     """The contenders ``names`` (``--controllers``) name, in order; every contender for None.
 
@@ -84,10 +91,7 @@ def contenders(names: Sequence[str] | None = None) -> tuple[Contender, ...]:
         if name in NAMED:
             contender = NAMED[name]
         elif laws.is_law(name):
-            spec = laws.controller_type(name)
-            contender = Contender(
-                laws.label(name), f"{name} with the default stack", "default", {"controller_type": spec}
-            )
+            contender = law_contender(name)
         else:
             raise ConfigError(
                 f"--controllers: {name!r} is neither a configuration ({', '.join(NAMED)}) nor a law "

@@ -4,14 +4,15 @@ with the same sensor noise: their difference is the push's own effect."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from robot_controller import parameters as cfg
-from robot_controller.experiments import laws, reporting
-from robot_controller.experiments.compare import Contender
+from robot_controller.experiments import reporting
+from robot_controller.experiments.compare import Contender, law_contender
 from robot_controller.experiments.reporting import Progress, cells, pyplot, save, table, write_report, write_results
 from robot_controller.experiments.runs import SEED
 from robot_controller.experiments.step import run_and_score
@@ -41,13 +42,6 @@ RUNS_PER_CONTENDER = 2  #: pushed and undisturbed, a progress step each
 
 def steps(quick: bool = False) -> int:
     return RUNS_PER_CONTENDER * len(_plan(quick)["contenders"])
-
-
-def law_contender(spec: str) -> Contender:
-    """``--controller SPEC``'s contender: that law with the default stack, named by its class."""
-    name = laws.label(spec)
-    name = f"law_{name}" if name in {c.name for c in CONTENDERS} else name
-    return Contender(name, f"{spec} with the default stack", "default", {"controller_type": laws.controller_type(spec)})
 
 
 def contender_params(contender: Contender, seed: int, duration_s: float, torque_nm: float = TORQUE_NM) -> cfg.Params:
@@ -108,7 +102,10 @@ def run(
     """``controller`` (``--controller SPEC``): that law runs too, after the others, with the default stack."""
     plan = _plan(quick)
     if controller is not None:
-        plan["contenders"] = (*plan["contenders"], law_contender(controller))
+        law = law_contender(controller)
+        if law.name in {c.name for c in CONTENDERS}:
+            law = replace(law, name=f"law_{law.name}")
+        plan["contenders"] = (*plan["contenders"], law)
     out.mkdir(parents=True, exist_ok=True)
     duration_s = START_S + plan["after_s"]
     results: dict[str, Any] = {"quick": int(quick), "seed": seed, "torque_nm": TORQUE_NM, "start_s": START_S}
