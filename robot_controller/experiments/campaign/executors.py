@@ -26,6 +26,10 @@ from robot_controller.runner.forking import die_with_parent
 
 #: Tries of a run beyond its first, when it fails or times out.
 RETRIES = 1
+#: Tasks in flight per worker: enough that none waits for the next, few enough that rows stream in order.
+IN_FLIGHT_PER_WORKER = 2
+#: How often a local worker checks that the campaign that started it is still there, s.
+PARENT_POLL_S = 0.25
 
 
 def run(task: Task) -> dict[str, Any]:
@@ -54,7 +58,7 @@ def attempt(task: Task) -> dict[str, Any]:
         code = 1
         try:
             os.close(read_fd)
-            _die_with(os.getppid())
+            die_with_parent(signal.SIGKILL, os.getppid())  # a killed campaign leaves no run behind
             data = pickle.dumps(one_run.run(task))
             with os.fdopen(write_fd, "wb") as pipe:
                 pipe.write(data)
@@ -98,12 +102,6 @@ def _read(fd: int, deadline: float) -> tuple[bytes, bool]:
         os.close(fd)
 
 
-def _die_with(parent: int) -> None:
-    """In the child: be killed when the worker that forked it ends (a killed campaign leaves no run behind, even one
-    stuck in C code)."""
-    die_with_parent(signal.SIGKILL, parent)
-
-
 def _exit_said(status: int) -> str:
     if os.WIFSIGNALED(status):
         number = os.WTERMSIG(status)
@@ -112,12 +110,6 @@ def _exit_said(status: int) -> str:
         except ValueError:
             return f"signal {number}"
     return f"exit code {os.waitstatus_to_exitcode(status)}"
-
-
-#: Tasks in flight per worker: enough that none waits for the next, few enough that rows stream in order.
-IN_FLIGHT_PER_WORKER = 2
-#: How often a local worker checks that the campaign that started it is still there, s.
-PARENT_POLL_S = 0.25
 
 
 def default_workers() -> int:
