@@ -4,14 +4,12 @@ core's configs built from values (``builders``) and the whole-configuration chec
 from robot_controller.parameters.builders import (
     controller_config,
     kalman_config,
-    pid_config,
     sensor_config,
     trajectory_kwargs,
 )
 from robot_controller.parameters.files import (
     Params,
     available_presets,
-    check_complete,
     load_stack,
     merge,
     params_yaml,
@@ -20,9 +18,7 @@ from robot_controller.parameters.files import (
 )
 from robot_controller.parameters.schema import (
     NODES,
-    ROS_BUILTIN,
     SCHEMA,
-    URDF,
     WORLD_WAITS,
     defaults,
     has,
@@ -34,14 +30,11 @@ from robot_controller.parameters.spec import ParamSpec, per_joint
 
 __all__ = [
     "NODES",
-    "ROS_BUILTIN",
     "SCHEMA",
-    "URDF",
     "WORLD_WAITS",
     "ParamSpec",
     "Params",
     "available_presets",
-    "check_complete",
     "controller_config",
     "defaults",
     "has",
@@ -51,7 +44,6 @@ __all__ = [
     "node_defaults",
     "params_yaml",
     "per_joint",
-    "pid_config",
     "read_params_file",
     "sensor_config",
     "spec_of",

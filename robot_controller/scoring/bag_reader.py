@@ -19,6 +19,7 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
 from robot_controller.blocks import spec
+from robot_controller.blocks.values import brake_reasons
 from robot_controller.core import metrics
 from robot_controller.core.controller import state_layout
 
@@ -228,9 +229,7 @@ WANTED_TOPICS = (*spec.scored_topics(), spec.DIAGNOSTICS.topic)
 
 def _brake_reasons(msg: Any) -> frozenset[str]:
     """Why the brakes' state says they hold (``engaged:estop,requested``); empty if its label does not say."""
-    label = msg.layout.dim[0].label if msg.layout.dim else ""
-    prefix = "engaged:"  # ros.messages.BRAKES_LABEL_PREFIX, not imported: scoring runs without rclpy
-    return frozenset(filter(None, label[len(prefix) :].split(","))) if label.startswith(prefix) else frozenset()
+    return frozenset(brake_reasons(msg.layout.dim[0].label if msg.layout.dim else "") or ())
 
 
 def _joint_count_of(decoded: dict[str, list[tuple[int, Any]]]) -> int:

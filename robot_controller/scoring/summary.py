@@ -57,12 +57,12 @@ def run_rows(
         rows.append(("start", start))
     if pushed := _pushed_line(values):
         rows.append(("pushes", pushed))
-    if values.get("preset") == "tutorial" and _finite(rms := values.get("tracking_rms_rad")):
+    if values.get("preset") == "tutorial" and finite(rms := values.get("tracking_rms_rad")):
         claim = f"the tutorial claims ~{TUTORIAL_CLAIM_RAD * 1e3:g} mrad; its controller as written tracks at "
         rows.append(("tutorial", claim + f"{rms * 1e3:.3g} mrad RMS"))
     if effort := effort_line(values, effort_limits, note=", start-up included"):
         rows.append(("peak effort", effort))
-    if values.get("clock") in ("wall", "sim_paced") and _finite(values.get("control_rate_hz")):
+    if values.get("clock") in ("wall", "sim_paced") and finite(values.get("control_rate_hz")):
         rows.append(("rate", _rate_line(values)))
     rows += _trouble_rows(values)
     if out is not None:
@@ -77,7 +77,7 @@ def step_rows(values: dict[str, Any], *, robot: str, effort_limits: Sequence[flo
 
     def judged(key: str, text: str, unit: str) -> str:
         value, target = values.get(key), targets.get(key)
-        if target is None or (_finite(value) and value <= target):
+        if target is None or (finite(value) and value <= target):
             return text
         return f"{text}  {MISSED} ≤ {target:g} {unit}"
 
@@ -89,7 +89,7 @@ def step_rows(values: dict[str, Any], *, robot: str, effort_limits: Sequence[flo
         ),
         ("overshoot", judged("overshoot_pct", f"{_num(values.get('overshoot_pct'), '.2f')} %", "%")),
         ("rise 10–90 %", f"{_num(values.get('rise_time_s'), '.3f')} s"),
-        ("settling 2 %", judged("settling_time_s", "never" if not _finite(settling) else f"{settling:.3f} s", "s")),
+        ("settling 2 %", judged("settling_time_s", "never" if not finite(settling) else f"{settling:.3f} s", "s")),
         ("steady state", f"{_num(_milli(values.get('steady_state_error_rad')), '.3g')} mrad from the target"),
     ]
     # The step's own peaks (from the step on), not the run's.
@@ -116,8 +116,8 @@ def compare_missed(table: dict[str, dict[str, Any]], robot: str) -> list[str]:
     for name, row in table.items():
         for key, (target_key, said, scale, unit) in COMPARE_TARGETS.items():
             mean, target = (row.get(key) or {}).get("mean"), REFERENCE_TARGETS[target_key]
-            if key in row and not (_finite(mean) and mean <= target):
-                shown = "never settled" if not _finite(mean) else f"{mean * scale:.3g} {unit}"
+            if key in row and not (finite(mean) and mean <= target):
+                shown = "never settled" if not finite(mean) else f"{mean * scale:.3g} {unit}"
                 missed.append(f"{MISSED}: {name}: {said} {shown} (target ≤ {target * scale:g} {unit})")
     return missed
 
@@ -126,7 +126,7 @@ def faults_rows(entries: Sequence[dict[str, Any]], failed: Sequence[str], goal: 
     """The fault bench's rows (its cases: ``faults.json``'s ``cases``); ``failed``: a line per case that missed."""
     n = len(entries)
     deviations = [(e.get(f"max_deviation_{u}"), e["case"], u) for e in entries for u in ("rad", "m")]
-    deviations = [d for d in deviations if _finite(d[0])]
+    deviations = [d for d in deviations if finite(d[0])]
     rows = [("cases", f"{n}: {', '.join(dict.fromkeys(e['case'] for e in entries))}" if n <= 3 else str(n))]
     # Freezes strike the paced world unless --wall-clock; kills are respawned on the wall clock.
     worlds = collections.Counter(e.get("world", "wall clock") for e in entries)
@@ -136,7 +136,7 @@ def faults_rows(entries: Sequence[dict[str, Any]], failed: Sequence[str], goal: 
         milli = "mrad" if unit == "rad" else "mm"
         rows.append(("worst deviation", f"{worst * 1e3:.3g} {milli} ({case}), goal ≤ {goal * 1e3:g} {milli}"))
     rows.append(("brakes engaged", f"in {sum(bool(e.get('brake_engaged')) for e in entries)} of {n} cases"))
-    back = [(e["reacquire_s"], e["case"]) for e in entries if _finite(e.get("reacquire_s"))]
+    back = [(e["reacquire_s"], e["case"]) for e in entries if finite(e.get("reacquire_s"))]
     if back:
         slowest, case = max(back)
         not_back = n - len(back)
@@ -193,15 +193,15 @@ def start_line(values: dict[str, Any]) -> str | None:
     """The start's transient, which the tracking line leaves out: its largest error, when it ended, the band."""
     names, units = _joints(values)
     peak = values.get("start_tracking_max_per_joint")
-    if not peak or len(peak) != len(names) or not any(_finite(p) for p in peak):
+    if not peak or len(peak) != len(names) or not any(finite(p) for p in peak):
         return None
     worst = _worst(peak, None)
     milli = "mrad" if units[worst] == "rad" else "mm"
     on = f" on {names[worst]}" if len(names) > 1 else ""
     text = f"max {_num(_milli(peak[worst]), '.3g')} {milli}{on} in the first {WARMUP_S:g} s"
-    if _finite(ended := values.get("start_transient_end_s")) and values.get("scored_samples"):
+    if finite(ended := values.get("start_transient_end_s")) and values.get("scored_samples"):
         text += ", no worse than after it" + (f" from {ended:.2f} s" if ended > 0 else "")
-    if _finite(band := values.get("tracking_band_rad")):
+    if finite(band := values.get("tracking_band_rad")):
         text += f" (band {band * 1e3:g} {milli})"
     return text
 
@@ -230,11 +230,11 @@ def effort_line(
     peaks = peaks or values.get("peak_effort_per_joint") or values.get("peak_torque_nm_per_joint")
     if not peaks or len(peaks) != len(names):
         peaks = [values.get("peak_torque_nm")] * len(names)
-    if not any(_finite(p) for p in peaks):
+    if not any(finite(p) for p in peaks):
         return None
     limits = list(limits) if limits is not None and len(limits) == len(peaks) else None
     scale = limits if limits is not None else [1.0] * len(peaks)
-    j = _worst([p / s if _finite(p) and s > 0 else float("nan") for p, s in zip(peaks, scale, strict=True)], None)
+    j = _worst([p / s if finite(p) and s > 0 else float("nan") for p, s in zip(peaks, scale, strict=True)], None)
     unit = EFFORT_UNITS.get(units[j], "N·m")
     text = f"{peaks[j]:.3g} {unit}"
     if limits is not None:
@@ -253,7 +253,7 @@ def _run_line(values: dict[str, Any]) -> str:
     text = f"{who}: {_num(values.get('duration_s'), 'g')} s {CLOCKS.get(clock, '')}".rstrip()
     if values.get("interrupted"):
         text += ", interrupted (what was recorded is scored)"
-    if clock == "sim_lockstep" and _finite(factor := values.get("real_time_factor")):
+    if clock == "sim_lockstep" and finite(factor := values.get("real_time_factor")):
         text += f", {factor:.1f}× real time"
     return text
 
@@ -262,7 +262,7 @@ def _rate_line(values: dict[str, Any]) -> str:
     text = f"{values['control_rate_hz']:.1f} Hz, {_count(values.get('missed_cycles', 0), 'missed cycle')}"
     if host_missed := values.get("missed_cycles_host"):
         text += f" ({host_missed} more the host made, not counted)"
-    if values.get("clock") == "wall" and _finite(values.get("jitter_p99_ms")):
+    if values.get("clock") == "wall" and finite(values.get("jitter_p99_ms")):
         text += f", jitter p99 {values['jitter_p99_ms']:.2f} ms"
     if late := values.get("late_efforts"):
         text += f", {_count(late, 'late effort')} (the world waited for the loop)"
@@ -325,20 +325,20 @@ def _per_joint(values: dict[str, Any], name: str, units: list[str]) -> list[Any]
 def _worst(figures: Sequence[Any], among: Sequence[int] | None) -> int:
     """The index of the largest finite figure of ``among`` (default all); the first if none is finite."""
     among = list(among if among is not None else range(len(figures)))
-    finite = [j for j in among if _finite(figures[j])]
-    return max(finite, key=lambda j: figures[j]) if finite else among[0]
+    candidates = [j for j in among if finite(figures[j])]
+    return max(candidates, key=lambda j: figures[j]) if candidates else among[0]
 
 
-def _finite(value: Any) -> bool:
+def finite(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def _milli(value: Any) -> Any:
-    return value * 1e3 if _finite(value) else value
+    return value * 1e3 if finite(value) else value
 
 
 def _num(value: Any, spec: str) -> str:
-    return format(value, spec) if _finite(value) else "n/a"
+    return format(value, spec) if finite(value) else "n/a"
 
 
 def _count(n: int, noun: str) -> str:

@@ -5,12 +5,12 @@ It reads ``metrics.json``'s figures only, so ``score`` judges a saved run the sa
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from robot_controller.core.metrics import WARMUP_S
+from robot_controller.scoring.summary import finite
 
 #: Controller states that are a stop nobody asked for (``{name}_ticks``); ``stopped`` is the e-stop's, asked for.
 UNASKED_STOPS = ("watchdog", "sensor_lost", "reference_lost", "law_fault", "law_stopped", "late", "late_stopped")
@@ -81,9 +81,5 @@ def _beyond(peaks: Sequence[float], band: float, names: list[str], units: list[s
     ]
 
 
-def _finite(value: Any) -> bool:
-    return isinstance(value, (int, float)) and math.isfinite(value)
-
-
 def _all_finite(values: Any) -> bool:
-    return bool(values) and all(_finite(v) for v in values)
+    return bool(values) and all(finite(v) for v in values)
