@@ -27,48 +27,24 @@ if TYPE_CHECKING:
 
 @dataclass
 class ControllerConfig:
-    """Options around the control law, every one given: the defaults are the parameter schema's
-    (``parameters.builders`` makes this from the controller's values).
-
-    :param pid: gains and limits of the law
-    :param feedforward: a :class:`FeedforwardMode`
-    :param control_period_s: nominal period, s
-    :param reference_extrapolation: evaluate the latest reference sample at
-        the tick time using its velocity and acceleration, instead of holding it
-    :param latency_compensation: advance the measurement from its stamp to the
-        tick time through the arm model (or its own velocity without a model)
-    :param watchdog_periods: control periods without a valid measurement
-        before the command drops to zero
-    :param disturbance_observer: with the Kalman filter (``estimator``), also
-        estimate an external torque on each joint and subtract it from the
-        command (within the torque limit); no effect without the filter
-    """
+    """Options around the control law, every one given: each field is the ``pid_controller`` parameter of its name
+    (the schema describes it and holds its default; ``parameters.builders`` makes this from the values), but for
+    ``pid`` (the law's gains and limits), ``estimator`` (None: no filter), ``control_period_s`` (of
+    ``control_rate_hz``) and the three the builder derives."""
 
     pid: PidConfig
-    #: "pid"; "lqr" (the PID's gains replaced by a discrete LQR design); or a law of one's own: an
-    #: installed plugin's name, ``module:Class`` or ``path/to/file.py:Class`` (core.laws)
     controller_type: str
-    #: s of wall time a plugin law's update may take (checked only where the controller is given a clock)
     law_budget_s: float
-    #: rad a plugin law may let the arm run away from the reference on a joint (ContainedLaw.check_runaway; 0: off)
     law_error_max_rad: float
-    #: the built-in law ("pid" or "lqr", with this config's gains) that brings the arm to rest when a plugin law fails
     stop_law: str
-    lqr_q: tuple[float, float, float]  #: weights on ∫e, e, ė
-    lqr_r: float  #: weight on the feedback torque
-    #: kg·m², the joint inertia lqr_r and the filter's torque σs are for; each joint's LQR weight is
-    #: lqr_r·(this/its inertia)², its observer's σs ×(its inertia/this): the same closed loop on every
-    #: joint; 0: the values as they are on every joint
+    lqr_q: tuple[float, float, float]
+    lqr_r: float
     reference_inertia: float
-    #: kg, the most the arm may carry on its last link that its model does not know (0: none allowed for)
     rated_payload_kg: float
-    estimator: KalmanConfig | None  #: a Kalman filter on the reading, or none
-    disturbance_observer: bool  #: the filter estimates an external torque, the law subtracts it
-    #: with the observer, where the world waits: each joint's inertia beyond the model is estimated, put in the model
-    #: and gains
+    estimator: KalmanConfig | None
+    disturbance_observer: bool
     inertia_adaptation: bool
     feedforward: FeedforwardMode
-    #: on a chain of joints, the feedback torques through M(q)·diag(M(q))⁻¹ (computed-torque feedback)
     feedback_decoupling: bool
     control_period_s: float
     reference_extrapolation: bool
@@ -77,18 +53,12 @@ class ControllerConfig:
     #: went on without this controller's commands did so braked (the drive's timeout), until the next command
     world_waits: bool
     watchdog_periods: int
-    sensor_timeout_s: float  #: readings missing this long end the controlled stop: torque off, brake
-    #: s; a reading older than this when it arrives (or stamped this far ahead) is refused: after a
-    #: pause, a sensor's first sample can be from before it, and acting on it swings the arm
+    sensor_timeout_s: float
     max_reading_age_s: float
-    stop_deceleration: float  #: rad/s², controlled stops (sensor or planner lost)
-    reacquire_acceleration: float  #: rad/s², the blend back onto the trajectory after a fault
-    #: rad per joint, the pose the LQR gains and the delay margin are designed at (each joint's inertia
-    #: there: a wrist has a hundredth of a shoulder's); None: every joint at 0
-    design_position: tuple[float, ...] | None
-    #: control periods of delay margin the built-in law must leave every joint (:func:`check_delay_margin`; 0: no check)
+    stop_deceleration: float
+    reacquire_acceleration: float
+    design_position: tuple[float, ...] | None  #: None: every joint at 0
     min_delay_margin_periods: int
-    # Not parameters but what the builder derives from them: none by default.
     #: a plugin law's parameter values, by the names it declares (checked against them when it is built)
     law_parameters: dict[str, Any] = field(default_factory=dict)
     #: the gains (of kp, ki, kd) given as one value on a chain: for a joint of reference_inertia, scaled per joint

@@ -11,24 +11,13 @@ from itertools import chain
 
 import numpy as np
 
+from robot_controller.core.controller.supervision import Status
+
 HEADER = ("time_s", "status", "measurement_stamp_s")
 FIELDS = ("reference", "measured", "error", "p", "i", "d", "feedforward", "command", "saturated")
 #: the extra block, after a law's own, of the armature the inertia adaptation has learnt (kg·m² per joint), when on
 ADAPTED_ARMATURE = "adapted_armature_kgm2"
-STATUS_CODES = {
-    "ok": 0,
-    "holding": 1,
-    "no_measurement": 2,
-    "watchdog": 3,
-    "sensor_lost": 4,
-    "reacquiring": 5,
-    "reference_lost": 6,
-    "stopped": 7,
-    "law_fault": 8,
-    "law_stopped": 9,
-    "late": 10,
-    "late_stopped": 11,
-}
+STATUS_CODES = {status.value: code for code, status in enumerate(Status)}
 
 
 def encode(

@@ -29,6 +29,8 @@ if TYPE_CHECKING:
 
 
 class Status(StrEnum):
+    """A tick's status; its code on the state topic is its place here (``state_layout.STATUS_CODES``)."""
+
     OK = "ok"
     HOLDING = "holding"  #: no reference yet: holding the first measured position
     NO_MEASUREMENT = "no_measurement"  #: no valid sensor message yet: no command
