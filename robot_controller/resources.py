@@ -1,8 +1,5 @@
-"""Where the package's data (config, robot description) lives.
-
-In a source checkout or editable install it sits beside the package; after a
-colcon build it is under the ament share directory.
-"""
+"""Where the package's data (config, robot description) lives: beside the package in a source checkout or editable
+install, under the ament share directory after a colcon build."""
 
 from __future__ import annotations
 

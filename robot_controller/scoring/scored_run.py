@@ -182,12 +182,11 @@ def _count(saved: dict[str, Any], key: str) -> int:
 
 
 def _saved_effort_limits(run_dir: Path, joint_count: int) -> list[float] | None:
-    """The controller's ``torque_max`` from the run's ``params.yaml``, if it holds one per joint."""
-    import yaml
+    """The controller's ``torque_max`` from the run's ``params.yaml``, if it can be read."""
+    from robot_controller import parameters as cfg
+    from robot_controller.core.errors import ConfigError
 
     try:
-        limits = yaml.safe_load((run_dir / "params.yaml").read_text())["pid_controller"]["ros__parameters"]
-        limits = [float(x) for x in limits["torque_max"]]
-    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError):
+        return effort_limits(cfg.read_params_file(run_dir / "params.yaml"), joint_count)
+    except ConfigError:
         return None
-    return limits if len(limits) == joint_count else None
