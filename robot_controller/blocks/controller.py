@@ -16,7 +16,7 @@ from robot_controller import parameters as cfg
 from robot_controller.blocks import spec
 from robot_controller.blocks.block import Log
 from robot_controller.blocks.controller_reports import LAW_STOPPED_EXIT_CODE, LogSchedule, Reports, StartWaits, log_line
-from robot_controller.blocks.controller_timing import Diagnostics, LoopTiming
+from robot_controller.blocks.controller_timing import LoopTiming
 from robot_controller.blocks.values import (
     Array,
     JointSample,
@@ -294,17 +294,3 @@ class Controller:
             self.law_stopped_since = t_s
         if self.world_waits or t_s - self.law_stopped_since >= LAW_STOPPED_LINGER_S:
             self.exit_code = LAW_STOPPED_EXIT_CODE
-
-    def diagnostics(self, t_s: float) -> dict[str, Diagnostics]:
-        """The loop's health over the period since the last (port ``diagnostics``)."""
-        return {"diagnostics": self.timing.diagnostics(t_s)}
-
-    @property
-    def law_in_force(self) -> str:
-        """The law and gains in force, as designed (its host shows it as the read-only parameter ``law_in_force``)."""
-        return self.reports.law_in_force
-
-    @property
-    def law_fault_line(self) -> str | None:
-        """A failed law's line, once said."""
-        return self.reports.law_fault_line

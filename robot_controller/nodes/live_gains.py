@@ -1,6 +1,6 @@
 """A live gain change that never stalls the loop. The controller's parameter services answer on a thread of their
 own (:class:`ParameterServices`), where a change is checked, its law designed and its delay margin found in a process
-of its own (:class:`Designer`), and handed over (``blocks.controller.Handover``) for the loop to take at the start of
+of its own (:class:`Designer`), and handed over (``Controller.set_params``) for the loop to take at the start of
 its next tick. Designing a law and finding its margin is small numpy steps for tens of ms per joint (hundreds on the
 Panda): on the loop's thread, or on a thread of the node's process holding the interpreter against it, that left
 readings unanswered until the drive braked."""

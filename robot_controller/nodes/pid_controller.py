@@ -99,15 +99,15 @@ class ControllerExtras(Extras):
         outputs = block.step(t_s, {})
         self.node.publish(outputs)
         self.report_law()
-        if block.law_fault_line is not None and not self.law_fault_left:
-            self.leave_law_fault(block.law_fault_line)
+        if block.reports.law_fault_line is not None and not self.law_fault_left:
+            self.leave_law_fault(block.reports.law_fault_line)
         if block.exit_code is not None:
             request_exit(block.exit_code)
         return outputs
 
     def report_law(self) -> None:
         """The law and gains in force as the read-only parameter ``law_in_force``, when they change."""
-        in_force = self.node.block.law_in_force
+        in_force = self.node.block.reports.law_in_force
         if in_force != self.reported_law:
             self.reported_law = in_force
             self.node.report("law_in_force", in_force, "the control law and its gains in force, as designed")
@@ -123,7 +123,7 @@ class ControllerExtras(Extras):
                 pass  # the launcher then only knows the node's exit code
 
     def publish_diagnostics(self) -> None:
-        said = self.node.block.diagnostics(clock_s(self.node))["diagnostics"]
+        said = self.node.block.timing.diagnostics(clock_s(self.node))
         status = DiagnosticStatus(name=said.name, hardware_id="robot_controller")
         status.level, status.message = LEVELS[said.level], said.message
         status.values = [KeyValue(key=k, value=f"{v:.6g}") for k, v in said.values.items()]

@@ -63,14 +63,14 @@ def test_the_block_commands_what_the_core_s_controller_commands_to_the_bit():
 
 def test_a_gain_change_takes_effect_at_the_next_tick_and_the_law_says_itself_again():
     block, log = controller(controller_type="pid", kp=[40.0])
-    before = block.law_in_force
+    before = block.reports.law_in_force
     changed = dict(block.params, kp=[80.0])
     block.check_params(changed)
     block.set_params(changed, {"kp"})
-    assert block.law_in_force == before and block.controller.config.pid.kp[0] == 40.0  # not before a tick
+    assert block.reports.law_in_force == before and block.controller.config.pid.kp[0] == 40.0  # not before a tick
     block.step(0.0, {"reading": reading(0.0, 0.0), "reference": reference(0.0)})
-    assert block.controller.config.pid.kp[0] == 80.0 and block.law_in_force != before
-    assert block.law_in_force in " ".join(log.lines)
+    assert block.controller.config.pid.kp[0] == 80.0 and block.reports.law_in_force != before
+    assert block.reports.law_in_force in " ".join(log.lines)
 
 
 def test_a_change_whose_law_does_not_stabilise_is_refused_when_checked():
