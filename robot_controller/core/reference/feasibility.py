@@ -126,21 +126,13 @@ def sample_times(trajectory: Trajectory) -> np.ndarray:
         return np.linspace(0.0, window_s, count, endpoint=False)
     if isinstance(trajectory, MinTimeStep):
         start = trajectory.step_time_s
-        move = np.linspace(start, start + _move_time_s(trajectory), MIN_SAMPLES + 1)
+        move = np.linspace(start, start + trajectory.move_time_s, MIN_SAMPLES + 1)
         return np.concatenate(([0.0], move))
     if isinstance(trajectory, Step):
         return np.array([0.0, trajectory.step_time_s])
     if isinstance(trajectory, Hold):
         return np.zeros(1)
     raise TypeError(f"no feasibility check for a {type(trajectory).__name__}")
-
-
-def _move_time_s(step: MinTimeStep) -> float:
-    """How long the slowest joint's move takes (as :class:`MinTimeStep` shapes it)."""
-    half = np.sqrt(np.abs(step.amplitude) / step.max_acceleration)
-    if step.grid_s > 0:
-        half = np.ceil(half / step.grid_s - 1e-9) * step.grid_s
-    return float(2.0 * np.max(half))
 
 
 def _scalable(trajectory: Trajectory) -> bool:
@@ -252,7 +244,7 @@ def describe_scaling(original: Trajectory, scaled: Trajectory) -> str:
     if isinstance(original, MinTimeStep) and isinstance(scaled, MinTimeStep):
         return (
             f"max_acceleration {original.max_acceleration:.3g}→{scaled.max_acceleration:.3g} rad/s² "
-            f"(move {_move_time_s(original):.3g}→{_move_time_s(scaled):.3g} s)"
+            f"(move {original.move_time_s:.3g}→{scaled.move_time_s:.3g} s)"
         )
     return "unchanged"
 

@@ -62,13 +62,10 @@ class Step:
 
 @dataclass(frozen=True)
 class MinTimeStep:
-    """A step shaped into the fastest move within an acceleration limit:
-    full acceleration to the midpoint, full deceleration after (bang-bang),
-    so the arm can follow it inside its torque limit and stop without
-    overshoot. Duration ``2·sqrt(|amplitude| / max_acceleration)``, rounded
-    up to a whole number of ``grid_s`` per half, so that the acceleration
-    switches on a sample instant and is constant over every sample period
-    (a torque held over a period then matches it exactly)."""
+    """A step shaped into the fastest move within an acceleration limit (bang-bang), so the arm can follow it
+    inside its torque limit and stop without overshoot. Each half lasts ``sqrt(|amplitude| / max_acceleration)``
+    rounded up to whole ``grid_s``, so the acceleration switches on a sample instant and is constant over every
+    sample period (a torque held over a period then matches it exactly)."""
 
     amplitude: np.ndarray
     step_time_s: float
@@ -76,12 +73,23 @@ class MinTimeStep:
     max_acceleration: float
     grid_s: float = 0.0
 
+    @cached_property
+    def half_s(self) -> np.ndarray:
+        """Per joint, how long each half of its move takes, s."""
+        half = np.sqrt(np.abs(self.amplitude) / self.max_acceleration)
+        if self.grid_s > 0:
+            half = np.ceil(half / self.grid_s - 1e-9) * self.grid_s
+        return half
+
+    @property
+    def move_time_s(self) -> float:
+        """How long the slowest joint's move takes, s."""
+        return float(2.0 * np.max(self.half_s))
+
     def sample(self, t: float) -> Sample:
         distance = np.abs(self.amplitude)
         direction = np.sign(self.amplitude)
-        half = np.sqrt(distance / self.max_acceleration)  # per joint
-        if self.grid_s > 0:
-            half = np.ceil(half / self.grid_s - 1e-9) * self.grid_s
+        half = self.half_s
         a = np.divide(distance, half * half, out=np.zeros_like(distance), where=half > 0)
         tau = t - self.step_time_s
         if tau < 0:
@@ -113,16 +121,9 @@ class Square:
 
 @dataclass(frozen=True)
 class Chirp:
-    """A linear chirp from ``frequency_hz`` to ``end_frequency_hz`` over
-    ``sweep_time_s``, then back over the next ``sweep_time_s``, and so on: the
-    frequency goes up and down in a triangle, and the phase runs on.
-
-    Every sweep covers the same band at the same rate, and the first is the
-    chirp as it always was. At each turn the position and the velocity are
-    continuous; only the acceleration's sweep-rate term ``A·2π·df/dt·cos(phase)``
-    changes sign (a finite step, like a shaped step's). A sweep after a turn starts
-    at the phase the sweeps before it ran through.
-    """
+    """A linear chirp from ``frequency_hz`` to ``end_frequency_hz`` over ``sweep_time_s``, then back, and so on: the
+    frequency a triangle, the phase running on. At each turn position and velocity are continuous; only the
+    acceleration's sweep-rate term ``A·2π·df/dt·cos(phase)`` changes sign (a finite step, like a shaped step's)."""
 
     amplitude: np.ndarray
     frequency_hz: float
@@ -167,18 +168,10 @@ class Hold:
 
 
 def time_scaled(trajectory: Trajectory, factor: float) -> Trajectory:
-    """The same motion slowed in time by ``factor`` (≥ 1 slows it): positions
-    are passed through in ``factor`` times the time, so velocities are divided
-    by ``factor`` and accelerations by ``factor²``.
-
-    Sine and square: frequency ÷ factor. Chirp: both frequencies ÷ factor and
-    the sweep × factor (its turns come ``factor`` times later too).
-    Minimum-time step: ``max_acceleration`` ÷ factor² (the move starts at the
-    same ``step_time_s``; its sample-grid rounding stays).
-    A jump step and a hold have no motion to slow and come back unchanged.
-
-    :raises ConfigError: a factor that is not a finite number > 0
-    """
+    """The same motion passed through in ``factor`` times the time (velocities ÷ factor, accelerations
+    ÷ factor²): a sine's or square's frequency ÷ factor; a chirp's frequencies ÷ factor and sweep × factor; a
+    minimum-time step's ``max_acceleration`` ÷ factor² (its start and grid rounding stay). A jump step and a
+    hold have no motion to slow."""
     if not np.isfinite(factor) or factor <= 0:
         raise ConfigError(f"time scale: must be a finite number > 0, got {factor}")
     if factor == 1.0:
@@ -213,10 +206,7 @@ def make_trajectory(
     max_acceleration: float = 60.0,
     sample_period_s: float = 0.0,
 ) -> Trajectory:
-    """Build a trajectory by name; scalars broadcast to ``joint_count`` joints.
-
-    :raises ConfigError: unknown mode, wrong array length or a non-finite value
-    """
+    """A trajectory by name, scalars broadcast to ``joint_count`` joints (``ConfigError`` on a bad value)."""
     amp = per_joint("amplitude", amplitude, joint_count)
     off = per_joint("offset", offset, joint_count)
     for name, value in (
