@@ -1,11 +1,9 @@
 """The ROS node that hosts a block (``blocks.block``): each of its ports a topic as the graph spec (``blocks.spec``)
-declares it, the values it writes published through gates that wait for their audience, its parameters the node's
-schema's (each change validated as a whole before it is accepted), its lines the node's log (warnings
-rate-limited), a watch on who else publishes its inputs, and its clock (``ros.ticks``) chosen once from its
-parameters. What a node serves beside its block (an action server, parameter services on a thread, a designer
-process) is given to it as its :class:`Extras`. The node's name is the graph's (``sensor_node``,
-``pid_controller``, …): the tutorial's clients and users' config files know the nodes by it, whatever block runs
-inside."""
+declares it, its outputs published through gates that wait for their audience, its parameters the node's schema's
+(each change validated as a whole), its lines the node's log (warnings rate-limited), a watch on who else publishes
+its inputs, and its clock (``ros.ticks``). What a node serves beside its block is given to it as its
+:class:`Extras`. The node's name is the graph's (``sensor_node``, ``pid_controller``, …): the tutorial's clients
+and users' config files know the nodes by it, whatever block runs inside."""
 
 from __future__ import annotations
 
@@ -62,8 +60,7 @@ class NodeLog:
 
 class Extras:
     """What a node serves beside its block, and where its ports differ from the spec's defaults: by default nothing
-    (the sensor's and the drive's). A node's own extras override what they change; they hold the node, never the
-    other way round."""
+    (the sensor's and the drive's). A node's own extras override what they change."""
 
     #: rclpy ``Node`` keyword arguments (the controller serves its parameter services on a thread of its own)
     node_options: Mapping[str, Any] = {}
@@ -116,8 +113,8 @@ class Extras:
 
 
 class BlockNode(Node):
-    """A node of the graph running the block its parameters choose (``blocks.registry``), stepped by its clock: the
-    parameters of ``parameters.SCHEMA[node_name]`` (and its extras')."""
+    """A node of the graph running the block its parameters choose (``blocks.registry``), with the parameters of
+    ``parameters.SCHEMA[node_name]`` (and its extras')."""
 
     def __init__(self, node_name: str, extras: type[Extras] = Extras) -> None:
         super().__init__(node_name, **extras.node_options)
@@ -148,7 +145,6 @@ class BlockNode(Node):
         self.extras.start()
 
     def _ports(self, block: Block) -> None:
-        """Each output a (gated) publisher, each input heard from the start a subscription, as the spec says."""
         self.publishers_by_port: dict[str, tuple[Any, Any]] = {}  # port → (publisher, its reused message)
         self.laid_out: set[str] = set()  # outputs whose layout is fixed
         self.subscriptions_by_port: dict[str, Any] = {}
@@ -174,7 +170,6 @@ class BlockNode(Node):
                 self.watch_single_publisher(port.topic, port.writer)
 
     def hear(self, port: spec.Port, qos: Any) -> Any:
-        """A subscription handing ``port``'s values to the node's clock."""
         return self.create_subscription(
             message_class(port.msg_type),
             self.extras.topic(port),
@@ -194,7 +189,7 @@ class BlockNode(Node):
             publisher.publish(msg)
 
     def finish(self) -> None:
-        """Last words, once the executor has stopped: the clock's, then the extras'."""
+        """Last words, once the executor has stopped."""
         self.ticks.finish()
         self.extras.finish()
 
@@ -214,7 +209,6 @@ class BlockNode(Node):
             self.specs[param.name] = param
 
     def _validated(self, values: dict[str, Any]) -> dict[str, Any]:
-        """The values checked one by one and together; any failure is a ``ConfigError`` with its reason."""
         try:
             out = {name: self.specs[name].validate(value) for name, value in values.items()}
             self.block.check_params(out)
@@ -275,13 +269,11 @@ class BlockNode(Node):
             self._reporting = None
 
     def gated_publisher(self, msg_type: Any, topic: str, *, consumer: bool = True, qos: Any = None) -> GatedPublisher:
-        """A publisher that holds its messages until its audience has matched (``ros.publishing``)."""
         gated = GatedPublisher(self, msg_type, topic, world_waits=self.mode.world_waits, consumer=consumer, qos=qos)
         self._gated_publishers.append(gated)
         return gated
 
     def wait_until_acknowledged(self, timeout_s: float = ACK_WAIT_S) -> None:
-        """Wait (at most ``timeout_s`` in all) until the readers have acknowledged what the gates published."""
         deadline = time.monotonic() + timeout_s
         for gated in self._gated_publishers:
             left_s = deadline - time.monotonic()
@@ -294,7 +286,6 @@ class BlockNode(Node):
                 return
 
     def write_publish_counts(self) -> None:
-        """Write how many messages the node's gates published, per topic, for the launcher."""
         write_publish_counts(self.schema_name, self._gated_publishers)
 
     def watch_single_publisher(self, topic: str, expected: str) -> None:
@@ -331,7 +322,6 @@ class BlockNode(Node):
             )
 
     def warn_throttled(self, key: str, message: str) -> None:
-        """Warn at most once per ``WARN_PERIOD_S`` per ``key``, counting what was suppressed."""
         now = time.monotonic()
         last, suppressed = self._warned_at.get(key, (-float("inf"), 0))
         if now - last >= WARN_PERIOD_S:

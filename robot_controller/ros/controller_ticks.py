@@ -5,8 +5,8 @@
 - :class:`PairedTicks`, where the world waits for each command (sim time, the paced world): each reading is a tick at
   the world's clock (port ``clock``) it pairs with, stepped once the reference sample due by then is in.
 
-A clock holds the block and a ``tick(t_s)`` that steps it and publishes what it wrote; it asks the block only what a
-clock needs (its last tick, whether its reference is ready), and uses the node for ROS alone (timers, its clock)."""
+A clock holds the block and a ``tick(t_s)`` that steps it and publishes what it wrote; it uses the node for ROS alone
+(timers, its clock)."""
 
 from __future__ import annotations
 
@@ -45,8 +45,8 @@ READING_WAIT_S = 1.0
 
 
 def timer_period_s(params: dict[str, Any]) -> float:
-    """The timer ticks the loop (``trigger: timer``), or with readings driving it watches for their absence, twice per
-    watchdog window (while they are missing it ticks the loop)."""
+    """The timer ticks the loop (``trigger: timer``), or, readings driving it, watches twice per watchdog window for
+    their absence."""
     period_s = 1.0 / params["control_rate_hz"]
     if params["trigger"] == "measurement":
         return period_s * max(1.0, params["watchdog_periods"] / 2)
@@ -54,8 +54,8 @@ def timer_period_s(params: dict[str, Any]) -> float:
 
 
 class HostMisses:
-    """On the wall clock, which missed cycles and watchdog ticks the host caused (the loop kept from a CPU by other
-    programs, or the CPUs stolen): left for ``metrics.json``, which counts those within the ticks it scores."""
+    """On the wall clock, which missed cycles and watchdog ticks the host caused (``loop_processes``): left for
+    ``metrics.json``, which counts those within the ticks it scores."""
 
     def __init__(self, control_period_s: Callable[[], float], watchdog_periods: Callable[[], int]) -> None:
         self.control_period_s, self.watchdog_periods = control_period_s, watchdog_periods
@@ -70,14 +70,12 @@ class HostMisses:
         self.watchdog_for_host: list[float] = []  #: when (tick s) each watchdog tick the host made fell
 
     def note_reading(self, now_s: float) -> None:
-        """A reading was accepted at ``now_s`` (s): the watchdog's silence starts again."""
         self.reading_s, self.reading_unsampled = now_s, True
 
     def note_tick(self, now_s: float, watchdog: bool = False) -> None:
-        """Count the period that ends at ``now_s`` as the host's miss if the host took from the loop's processes
-        all it ran over (they waited that long for a CPU other programs used, or the CPUs were stolen: processes of
-        the loop keeping each other waiting are its own fault, ``loop_processes.host_kept_waiting``). A
-        watchdog tick is the host's on the same terms, over the reading's silence past the watchdog's window."""
+        """Count the period that ends at ``now_s`` as the host's miss if the host took from the loop all it ran over
+        (``loop_processes.host_kept_waiting``); a watchdog tick on the same terms, over the readings' silence past
+        the watchdog's window."""
         usage = self.loop.usage()
         if self.reading_unsampled:
             self.usage_at_reading, self.reading_unsampled = usage, False
@@ -95,7 +93,6 @@ class HostMisses:
         self.last_tick = (now_s, usage)
 
     def leave(self) -> None:
-        """At the end: when each missed cycle and watchdog tick the host made fell (the run's scratch folder)."""
         counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
         if counts_dir:
             host_made = {"ends_s": self.missed_for_host, "watchdog_s": self.watchdog_for_host}

@@ -1,14 +1,10 @@
 """Where the loop's processes spent a stretch of wall time: running, or kept from running by the host.
 
 Each stack node leaves its pid in the run's scratch folder (``COUNTS_DIR_ENV``). Over a late effort's wait (the
-paced world) or a missed cycle (the controller, on the wall clock) this reads how long the loop's threads
-(Python's, where executors and pacing run, and Fast DDS's receivers) waited for a CPU
-(``/proc/<pid>/task/<tid>/schedstat``'s run delay), how long the hypervisor took the host's CPUs (``/proc/stat``'s
-steal, in 10 ms steps) and how much CPU time everything but the loop's processes used (``/proc/stat``'s busy time
-less theirs, ``/proc/<pid>/stat``). A wait the host filled is the host's, not the loop's own miss: the steal, and
-the loop's run-queue wait as far as other programs used the CPUs meanwhile; processes of the loop that keep each
-other waiting overload their own cores, the loop's fault. Linux only; elsewhere nothing is measured and every miss
-is the loop's."""
+paced world) or a missed cycle (the controller, on the wall clock) this reads the loop's threads' run-queue wait
+(``schedstat``), the hypervisor's steal and the CPU time everything else used (``/proc/stat`` less the loop's). A
+wait the host filled is the host's, not the loop's own miss; processes of the loop that keep each other waiting
+overload their own cores, the loop's fault. Linux only; elsewhere every miss is the loop's."""
 
 from __future__ import annotations
 
@@ -25,7 +21,6 @@ _CPUS = os.cpu_count() or 1
 
 
 def leave_pid(counts_dir: str, node_name: str) -> None:
-    """Leave this process's pid for the paced world (nothing without a scratch folder)."""
     if not counts_dir:
         return
     try:
@@ -36,8 +31,7 @@ def leave_pid(counts_dir: str, node_name: str) -> None:
 
 @dataclass(frozen=True)
 class Usage:
-    """Over a stretch of time, ns: the loop's threads' CPU time and run-queue wait, the host's steal, and the CPU
-    time everything but the loop's processes used."""
+    """Over a stretch of time, ns."""
 
     cpu_ns: int
     run_wait_ns: int
@@ -47,18 +41,17 @@ class Usage:
 
 @dataclass(frozen=True)
 class Sample:
-    """At one instant: each watched thread's (pid, CPU time ns, run-queue wait ns), by thread id, the host's steal
-    over all its CPUs, and the CPU time of everything but the loop's processes (all CPUs' busy time less theirs), ns
-    (counters: only their differences mean anything)."""
+    """At one instant, ns: each watched thread's (pid, CPU time, run-queue wait) by thread id, the host's steal over
+    all its CPUs, the CPU time of everything but the loop's processes (counters: only differences mean anything)."""
 
     threads: dict[int, tuple[int, int, int]]
     steal_ns: int
     others_ns: int = 0
 
     def __sub__(self, earlier: Sample) -> Usage:
-        """What happened since ``earlier``, over the threads both saw, in wall time: each process a hop of the
-        loop, waiting as long as its longest-waiting thread (threads of one process wait side by side); the steal
-        a CPU's share, less one step of its counter (what it certainly was); so is the others' CPU time, whole."""
+        """What happened since ``earlier``, over the threads both saw: each process waits as long as its
+        longest-waiting thread (they wait side by side); the steal a CPU's share and the others' CPU time, each less
+        one step of its counter (what it certainly was)."""
         cpu_ns, wait_by_pid = 0, {}
         for tid in self.threads.keys() & earlier.threads.keys():
             pid, cpu_now, wait_now = self.threads[tid]
@@ -71,8 +64,7 @@ class Sample:
 
 
 def thread_run_wait_s() -> float:
-    """How long the calling thread has waited for a CPU since it started, s (its schedstat run delay); 0 where that
-    cannot be read, so that nothing is excused."""
+    """How long the calling thread has waited for a CPU since it started, s; 0 where unreadable: nothing excused."""
     try:
         with open("/proc/thread-self/schedstat", "rb") as f:
             return int(f.read().split()[1]) * 1e-9
@@ -81,8 +73,8 @@ def thread_run_wait_s() -> float:
 
 
 def process_run_wait_s() -> float:
-    """How long the calling thread and this process's main thread (its executor's, which may hold the interpreter's
-    lock the calling thread waits for) have waited for a CPU, s, summed; 0 where that cannot be read."""
+    """The calling thread's and the main thread's (the executor's, which may hold the interpreter's lock the calling
+    thread waits for) waits for a CPU, s, summed."""
     try:
         with open("/proc/self/schedstat", "rb") as f:  # the thread group's leader: the main thread
             main_s = int(f.read().split()[1]) * 1e-9
@@ -92,9 +84,8 @@ def process_run_wait_s() -> float:
 
 
 def thread_kept_s() -> float:
-    """How long the host has kept the calling thread from running, s: its run-queue wait (:func:`thread_run_wait_s`)
-    and a CPU's share of the hypervisor's steal (``/proc/stat``, all CPUs, since boot). Only differences mean
-    anything."""
+    """How long the host has kept the calling thread from running, s: its run-queue wait and a CPU's share of the
+    hypervisor's steal since boot."""
     try:
         with open("/proc/stat", "rb") as f:
             steal_ticks = int(f.readline().split()[8])
@@ -104,9 +95,8 @@ def thread_kept_s() -> float:
 
 
 def host_kept_waiting(used: Usage, late_ns: int) -> bool:
-    """Whether, over a wait ``late_ns`` past the effort's due time, the host took at least that long from the
-    loop: the hypervisor's steal, and the loop's wait for a CPU as far as other programs used the CPUs meanwhile
-    (a loop whose processes keep each other waiting overloads its own cores). Then the host made it late."""
+    """Whether the host took at least ``late_ns`` from the loop over ``used``: the steal, and the loop's wait for a
+    CPU as far as other programs used the CPUs meanwhile."""
     return min(used.run_wait_ns, used.others_ns) + used.steal_ns >= late_ns
 
 
@@ -116,8 +106,8 @@ def _watched(comm: str) -> bool:
 
 
 class LoopProcesses:
-    """The loop's processes (every stack node, this one too) as found in ``counts_dir``, and their threads on
-    the loop's path, each read through a file kept open (a few microseconds a read)."""
+    """The loop's processes as found in ``counts_dir`` and their threads on the loop's path, each read through a
+    file kept open (a few microseconds a read)."""
 
     def __init__(self, counts_dir: str) -> None:
         self.counts_dir = Path(counts_dir) if counts_dir else None
@@ -128,8 +118,7 @@ class LoopProcesses:
         self.process_files: dict[int, int] = {}  #: pid → its open /proc/<pid>/stat
 
     def _find(self) -> None:
-        """List the threads again (once a second: threads start late, and a respawned node has a new pid); only
-        a thread not seen before has its name read."""
+        """List the threads again (once a second: threads start late, a respawned node has a new pid)."""
         self.found_at = time.monotonic()
         if self.counts_dir is None:
             return
@@ -157,7 +146,6 @@ class LoopProcesses:
                     continue
 
     def usage(self) -> Sample | None:
-        """Each watched thread's figures now, or None where none can be read (not Linux, no scratch folder)."""
         if time.monotonic() - self.found_at > REFIND_S:
             self._find()
         threads = {}
@@ -194,8 +182,7 @@ class LoopProcesses:
             self.stat_file = None
 
     def _host_ns(self) -> tuple[int, int]:
-        """Every CPU's busy time (user, nice, system, irq, softirq) and the hypervisor's steal since boot, ns
-        (``/proc/stat``'s first line, in clock ticks)."""
+        """Every CPU's busy time (user, nice, system, irq, softirq) and the steal since boot, ns."""
         try:
             if self.stat_file is None:
                 self.stat_file = os.open("/proc/stat", os.O_RDONLY)
@@ -207,8 +194,7 @@ class LoopProcesses:
         return (fields[0] + fields[1] + fields[2] + fields[5] + fields[6]) * _TICK_NS, fields[7] * _TICK_NS
 
     def _loop_cpu_ns(self) -> int:
-        """The CPU time the loop's processes have used, every thread of theirs, ns (``/proc/<pid>/stat``'s utime and
-        stime, in clock ticks, as ``/proc/stat`` counts)."""
+        """The CPU time the loop's processes have used, ns (utime and stime)."""
         total = 0
         for pid, fd in list(self.process_files.items()):
             try:

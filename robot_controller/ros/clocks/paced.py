@@ -1,18 +1,15 @@
 """The paced world (sim time with ``real_time_factor`` > 0; the default ``run``): sim-time ticks (``stepped``)
 on a world clock that keeps pace with the wall clock and pauses with the host, as Gazebo's real-time factor does.
 
-Tick k's effort acts over the period after it, exactly as in sim time as fast as it goes, so a run is that run to the
-bit however busy the host: the world steps at the period's deadline on the monotonic clock, or when the effort
-arrives, waiting for it up to ``drive_timeout_s`` of this process's own running time. An effort later than a
-period past its deadline is the loop's miss (``late_efforts``: the world waited for it), unless the host took
-that much time from the loop meanwhile (its processes waited for a CPU, or the hypervisor stole it:
-``late_efforts_host``, ``ros/loop_processes``); none within the drive timeout brakes the arm (category 0), and
-the world goes on without waiting while the brakes hold. An effort computed for a tick more than a period
-before the world's (``STALE_PERIODS``: one held up while the brakes took the arm) is dropped, never applied nor
-releasing them (``stale_efforts``): it answers a world that has moved on; it shows the loop alive, so the next
-tick waits for its effort again. Time this process did not run (a wake-up or a wait more than a period late) is a
-freeze of the host, or of the simulator alone: the world paused with it, and that time counts against nobody; the
-rest of a wait counts against the loop, whatever the simulator did meanwhile."""
+Tick k's effort acts over the period after it, as in sim time, so a run is that run to the bit however busy the
+host: the world steps at the period's deadline on the monotonic clock, or when the effort arrives, waiting for it up
+to ``drive_timeout_s`` of this process's own running time. An effort later than a period past its deadline is the
+loop's miss (``late_efforts``), unless the host took that much time from the loop meanwhile (``late_efforts_host``,
+``ros/loop_processes``); none within the drive timeout brakes the arm (category 0), and the world goes on without
+waiting while the brakes hold. An effort computed for a tick more than a period before the world's is stale:
+dropped, never applied nor releasing the brakes (``stale_efforts``); it shows the loop alive, so the next tick waits
+for its effort again. Time this process did not run (a wake-up or a wait more than a period late) is a freeze of the
+host, or of the simulator alone, and counts against nobody; the rest of a wait counts against the loop."""
 
 from __future__ import annotations
 
@@ -85,13 +82,13 @@ class PacedClock:
         """No time passes between ticks."""
 
     def take_effort(self, effort: np.ndarray, tick_ns: int | None = None) -> None:
-        """The latest effort is the one in force from the next step (one after the drive timeout too: it releases
-        the brakes), unless computed for a tick (``tick_ns``, world ns; None: not said) that is stale."""
+        """The latest effort is in force from the next step (after the drive timeout too: it releases the brakes),
+        unless computed for a tick (``tick_ns``, world ns) that is stale."""
         with self.lock:
             world_ns = self.world.time_ns
             if tick_ns is not None and world_ns - tick_ns > self.stale_ns:
-                # The loop is alive, only slow: the next tick waits for its effort again, as before the brakes
-                # (moving on without waiting, the world would leave a loop slower than a period braked for good).
+                # The loop is alive, only slow: the next tick waits for its effort again (moving on without
+                # waiting, the world would leave a loop slower than a period braked for good).
                 self.loop_heard = True
                 if not self.past_the_run():  # in the margin after the run the nodes may stop: say nothing
                     self.stale_efforts += 1
@@ -121,19 +118,17 @@ class PacedClock:
                 deadline_ns = self.tick(deadline_ns, time.monotonic_ns(), waited_ns)
 
     def host_froze(self, gap_ns: int, run_wait_s: float) -> bool:
-        """Whether this thread's gap of ``gap_ns``, since its process's run-queue wait was ``run_wait_s``, may be a
-        freeze of the whole host (every process stopped together, or the hypervisor's pause): neither this thread
-        nor the main thread (the executor's, which may hold the interpreter's lock this one waits for) was kept
-        waiting for a CPU for half of it, as a busy host keeps them, and no process of the loop is still stopped."""
+        """Whether this thread's gap of ``gap_ns`` may be a freeze of the whole host (everything stopped together,
+        or the hypervisor's pause): this process was not kept waiting for a CPU for half of it since its run-queue
+        wait was ``run_wait_s``, as a busy host keeps it, and no process of the loop is still stopped."""
         return (process_run_wait_s() - run_wait_s) * 1e9 < gap_ns / 2 and not self.loop.any_stopped()
 
     def wait_for_effort(self, since_ns: int, host_froze: bool = False) -> int:
         """Wait (lock held) for the tick's effort, up to the drive timeout of this process's own running time (none
-        before the first effort, nor while the brakes hold for its absence unless a stale effort has come since: the
-        loop is alive); the time waited, ns. A gap of this process (woken over two periods late) is not counted:
-        only the simulator's own time is excused, never the rest of a controller's stall. A freeze of the whole host
-        (``host_froze``: before the wait) that began before the effort was late adds a drive timeout: the loop's
-        messages may then wait for DDS's repair (its 50 ms heartbeat), and the world, waiting, stays still."""
+        before the first effort, nor while the brakes hold for its absence unless a stale effort showed the loop
+        alive); the time waited, ns. A gap of this process (woken over two periods late) is not counted. A freeze
+        of the whole host (``host_froze``) that began before the effort was late adds a drive timeout: the loop's
+        messages may then wait for DDS's repair (its 50 ms heartbeat)."""
         ticks = self.ticks
         braked_for_absence = self.world.braked_for("drive_timeout") and not self.loop_heard
         if not ticks.efforts_applied or ticks.ended or braked_for_absence:
@@ -157,7 +152,7 @@ class PacedClock:
 
     def tick(self, deadline_ns: int, now_ns: int, waited_ns: int) -> int:
         """The tick due at ``deadline_ns``, at ``now_ns`` after waiting ``waited_ns`` for its effort (lock held); the
-        next deadline (on the grid, or now if the world waited past it: it does not catch up)."""
+        next deadline (on the grid, or now if the world waited past it)."""
         ticks = self.ticks
         if ticks.ended or not ticks.published or ticks.efforts_applied == 0:
             return now_ns + self.period_ns  # not started, or ended: the world waits for its first effort
@@ -194,14 +189,12 @@ class PacedClock:
         return max(deadline_ns + self.period_ns, now_ns)
 
     def host_made_it_late(self, waited_ns: int) -> bool:
-        """Whether the host took from the loop, while the world waited ``waited_ns`` for an effort, all the time
-        the effort was late by: without it the effort would have come within a period."""
         if self.wait_usage is None or (now := self.loop.usage()) is None:
             return False  # nothing measured: the loop's own
         return host_kept_waiting(now - self.wait_usage, waited_ns - self.late_ns)
 
     def past_the_run(self) -> bool:
-        """In the margin after the run's duration, where the launcher may stop the nodes (lock held)."""
+        """In the margin after the run's duration, where the launcher may stop the nodes."""
         end_ns = self.ticks.end_ns
         margin_ns = round(LOCKSTEP_END_MARGIN_S * 1e9)
         return end_ns is not None and self.world.time_ns > end_ns - margin_ns

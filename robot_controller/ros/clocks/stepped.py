@@ -27,12 +27,12 @@ class SteppedClock:
     physics_running = True  #: physics runs from tick 0 (its time moves only with the efforts)
 
     def __init__(self, world: World, params: Mapping[str, Any], out: Outlets, log: Log, *, recorded: bool) -> None:
-        """:param recorded: a recorder records the run: the clock holds a tick while it lags"""
         self.world, self.out, self.log = world, out, log
         self.lock = threading.Lock()  #: the world: a paced world's thread vs the executor's callbacks
         self.efforts_applied = 0
         self.published = 0
-        self.recorder_clock_ns: int | None = 0 if recorded else None  #: the tick the recorder has taken
+        #: the tick the recorder has taken (None: not recorded); a tick is held while it lags
+        self.recorder_clock_ns: int | None = 0 if recorded else None
         self.held_for_recorder = False
         self.holds_for_recorder = 0
         self.resume_for_recorder = True  #: the recorder's report publishes a held tick (a paced world's thread does)
@@ -70,7 +70,6 @@ class SteppedClock:
             self.advance()
 
     def accept(self, effort: np.ndarray) -> None:
-        """The tick's effort, in force from now (lock held)."""
         self.waiting_for_effort = False
         self.finished = False
         self.out.write(self.world.take_effort(effort))
@@ -97,7 +96,6 @@ class SteppedClock:
         return self.recorder_clock_ns is not None and lag_ns > RECORDER_LAG_MAX_S * 1e9
 
     def recorder_at(self, clock_ns: int) -> None:
-        """The recorder has taken the tick at ``clock_ns``."""
         self.recorder_clock_ns = max(self.recorder_clock_ns or 0, clock_ns)
         if self.resume_for_recorder and self.held_for_recorder and not self.recorder_behind():
             with self.lock:

@@ -55,7 +55,6 @@ class WallClock:
 
     @property
     def physics_running(self) -> bool:
-        """The physics runs (it has a time 0)."""
         return self.anchor_mono_ns is not None
 
     def start(self) -> None:
@@ -72,7 +71,6 @@ class WallClock:
         """The recorder follows the wall clock: nothing to hold."""
 
     def begin(self) -> None:
-        """Physics time 0 is now."""
         self.anchor_mono_ns = time.monotonic_ns()
         self.anchor_ros_ns = self.out.ros_now_ns()
 
@@ -149,7 +147,7 @@ class WallClock:
             deadline_ns = base + ((max(deadline_ns, now_ns) - base) // period_ns + 1) * period_ns
 
     def excuse_own_gap(self, gap_ns: int) -> None:
-        """Account for a pause of this process between two wake-ups ``gap_ns`` apart (lock held, physics running)."""
+        """A pause of this process between two wake-ups ``gap_ns`` apart (lock held, physics running)."""
         if gap_ns <= 2 * self.period_ns:
             return
         if gap_ns <= MAX_EXCUSED_GAP_NS:
@@ -175,7 +173,6 @@ class WallClock:
             )
 
     def advance(self, until_mono_ns: int) -> None:
-        """Step the physics that the clock says is due by ``until_mono_ns`` (lock held)."""
         world = self.world
         due = (until_mono_ns - self.anchor_mono_ns) // world.physics_dt_ns - world.steps_done
         if due <= 0:
