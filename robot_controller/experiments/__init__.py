@@ -1,2 +1,2 @@
-"""Experiments and benches built on runs: step, compare, bench, faults, floods,
-the in-process loop."""
+"""Experiments built on runs: step, compare, faults, tune, identify, campaigns, the tutorial's exercises, and the
+in-process loop they share."""

@@ -23,6 +23,7 @@ from robot_controller import parameters as cfg
 from robot_controller.core.errors import ConfigError
 from robot_controller.experiments import laws
 from robot_controller.experiments.reporting import pyplot
+from robot_controller.experiments.reporting import table as markdown_table
 from robot_controller.experiments.step import (
     STEP_AFTER_S,
     check_step,
@@ -239,19 +240,19 @@ def render_compare(
         "the fastest move within 60 rad/s² (slowed if the torque needs it). Figures on the TRUE joint angle, the "
         "worst joint's; mean ± standard deviation over seeds.",
         "",
-        "| controller | " + " | ".join(c[1] for c in columns) + " |",
-        "|---|" + "---|" * len(columns),
     ]
+    rows = []
     for name, row in table.items():
-        cells = []
+        cells = [f"**{name}**: {names[name]}"]
         for key, _, fmt in columns:
             stats = row[key]
             if not np.isfinite(stats["mean"]):
                 cells.append(f"never, in {STEP_AFTER_S:g} s" if "settling" in key else "n/a")
             else:
                 cells.append(f"{fmt.format(stats['mean'])} ± {fmt.format(stats['std'])}")
-        lines.append(f"| **{name}**: {names[name]} | " + " | ".join(cells) + " |")
+        rows.append(cells)
     lines += [
+        markdown_table(["controller", *(c[1] for c in columns)], rows),
         "",
         "Targets on the reference arm (one_dof): sine RMS ≤ 0.0015 rad; step overshoot ≤ 2 %, settling ≤ 0.25 s, "
         "|torque| ≤ 10 N·m throughout.",

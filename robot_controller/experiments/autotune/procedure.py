@@ -47,9 +47,9 @@ def tune(
     use = "# Use over the same preset and files it was tuned with: "
     use += "robot-controller run [--preset P] [--config F ...] --config tuned.yaml\n"
     tuned_path.write_text(writer.yaml_header(problem, result) + use + tuned_path.read_text())
-    values = {"quick": int(quick), "seed": seed} | figures.before_after(
-        problem, result, plan, seed=seed, search_s=search_s, out=out, progress=progress
-    )
+    values = {"quick": int(quick), "seed": seed, "search_wall_s": search_s}
+    values.update(candidates_evaluated=result.evaluated, candidates_robust=result.robust)
+    values |= figures.before_after(problem, result, plan, seed=seed, out=out, progress=progress)
     values["wall_s"] = time.perf_counter() - started
     report.write_metrics(out / "tune.json", values)
     writer.plot(out / "tune.png", result)
