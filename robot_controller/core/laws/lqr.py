@@ -1,13 +1,6 @@
-"""Discrete LQR with integral action for the arm, designed at the control rate.
-
-Feedforward (inverse dynamics) carries the reference motion and gravity, so
-the feedback acts on the tracking error of the arm linearised about the
-reference: ``J ë + b ė = u_fb`` per joint. The design state is
-``[∫e dt, e, ė]`` with ``e = q − r``, discretised exactly (zero-order hold)
-at the control period; ``u_fb = −K x``, checked to stabilise the loop. With
-feedforward carrying the motion, that feedback is a PID on the velocity error
-with the designed gains (:func:`designed_gains`).
-"""
+"""Discrete LQR with integral action, designed at the control rate. Feedforward carries the reference motion
+and gravity, so the feedback acts on the tracking error, ``J ë + b ė = u_fb`` per joint, over ``[∫e dt, e, ė]``
+(zero-order hold): ``u_fb = −K x`` is a PID on the velocity error with the designed gains."""
 
 from __future__ import annotations
 
@@ -64,9 +57,8 @@ def design(inertia: float, damping: float, dt: float, q_weights: np.ndarray, r_w
 
 
 def torque_weight(lqr_r: float, reference_inertia_kgm2: float, inertia_kgm2: float) -> float:
-    """A joint's torque weight: ``lqr_r`` scaled so that an acceleration costs the same on every
-    joint (``lqr_r`` as it is for a joint of the reference inertia, or everywhere when that is 0):
-    the gains come out in proportion to each joint's inertia and every joint's error dies away alike."""
+    """``lqr_r`` scaled so an acceleration costs the same on every joint (as it is for a joint of the reference
+    inertia, or everywhere when that is 0): every joint's error dies away alike."""
     if reference_inertia_kgm2 <= 0:
         return lqr_r
     return lqr_r * (reference_inertia_kgm2 / inertia_kgm2) ** 2
@@ -83,12 +75,8 @@ def designed_gains(
     design_position: tuple[float, ...] | None = None,
     payload_kg: float = 0.0,
 ) -> PidConfig:
-    """``pid`` with its gains replaced by each joint's LQR design at ``period_s`` (D on the velocity error).
-
-    :param reference_inertia: kg·m², the joint inertia ``lqr_r`` is for (0: ``lqr_r`` on every joint)
-    :param design_position: rad per joint, the pose the inertias are taken at
-    :param payload_kg: a rated payload the model lacks, which the inertias allow for (:func:`design_inertia`)
-    """
+    """``pid`` with its gains replaced by each joint's LQR design at ``period_s`` (D on the velocity error), on
+    the inertias at ``design_position`` allowing for ``payload_kg`` (:func:`design_inertia`)."""
     if dynamics is None:
         raise ConfigError("controller_type lqr: needs the arm model (urdf_path)")
     inertia = design_inertia(dynamics, joint_count, design_position, payload_kg)

@@ -1,18 +1,11 @@
 """Stability margins of the discrete control loop: gain, phase and delay.
 
-The loop is the one :mod:`~robot_controller.core.laws.lqr` designs on: each joint linearised as
-``J ë + b ė = u``, discretised with a zero-order hold over ``x = [∫e dt, e, ė]``, with the
-feedback ``u = −K x``, ``K = [Ki, Kp, Kd]`` (a PID and an LQR alike). Broken at the plant input,
-``L(z) = K (z I − A)⁻¹ B``; the margins are read on the unit circle ``z = e^{jθ}``, ``θ = ω·dt``:
-
-- gain margin: how far the loop gain may grow before the Nyquist curve, crossing the negative real
-  axis at ``−a`` (``a < 1``), passes through −1; beyond −1 (``a > 1``), how far it may shrink
-  (a *lower* gain margin, which loops with an integrator can have);
-- phase margin: ``180° + arg L`` where ``|L| = 1`` (the gain crossover);
-- delay margin: the phase margin over the crossover frequency, s (a delay adds phase only);
-  in whole periods, :func:`delay_margin_periods` counts them on the delayed loop itself.
-
-The margins say something only of a loop stable to begin with: the spectral radius comes first.
+The loop is the one :mod:`.lqr` designs on: each joint ``J ë + b ė = u``, zero-order hold over
+``x = [∫e dt, e, ė]``, feedback ``u = −K x``, ``K = [Ki, Kp, Kd]`` (a PID and an LQR alike). Broken at the
+plant input, ``L(z) = K (z I − A)⁻¹ B``, read on the unit circle ``z = e^{jθ}``, ``θ = ω·dt``: the gain margin
+up (and, beyond −1, down: loops with an integrator can have a lower one), the phase margin at ``|L| = 1``, the
+delay margin (phase margin over the crossover, s; in whole periods :func:`delay_margin_periods` counts them on
+the delayed loop itself). They say something only of a loop stable to begin with: the spectral radius first.
 """
 
 from __future__ import annotations
@@ -21,15 +14,13 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
-#: Frequencies the unit circle is sampled at, per loop: log-spaced from
-#: θ = 1e-5 rad (the loop has poles at z = 1) up to π, the Nyquist frequency.
+#: Frequencies the unit circle is sampled at, log-spaced from θ = 1e-5 rad (the loop has poles at z = 1) to π.
 GRID_POINTS = 2048
 
 
 @dataclass(frozen=True)
 class Margins:
-    """The margins of one loop. A margin the loop does not have is ``inf``
-    (its frequency NaN); all are NaN if the closed loop is unstable."""
+    """The margins of one loop: ``inf`` for one it does not have (its frequency NaN), all NaN if it is unstable."""
 
     stable: bool  #: closed-loop spectral radius below 1
     spectral_radius: float
@@ -59,8 +50,7 @@ def frequency_grid(points: int = GRID_POINTS) -> np.ndarray:
 
 
 def loop_response(A: np.ndarray, B: np.ndarray, K: np.ndarray, theta: np.ndarray) -> np.ndarray:
-    """``L(e^{jθ}) = K (e^{jθ} I − A)⁻¹ B`` for each θ. ``K`` may be one gain
-    row ``(1, n)`` or a batch ``(m, n)``: returns shape ``(m, len(theta))``."""
+    """``L(e^{jθ}) = K (e^{jθ} I − A)⁻¹ B`` for each θ and each gain row of ``K``: ``(m, len(theta))``."""
     A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float).reshape(-1, 1)
     K = np.atleast_2d(np.asarray(K, dtype=float))
     n = A.shape[0]
@@ -78,8 +68,7 @@ def spectral_radius(A: np.ndarray, B: np.ndarray, K: np.ndarray) -> np.ndarray:
 
 
 def stable_with_delay(A: np.ndarray, B: np.ndarray, K: np.ndarray, delay: int) -> np.ndarray:
-    """Whether ``x[k+1] = A x[k] − B K x[k−delay]`` is stable (spectral radius of the system over
-    the state and the last ``delay`` states below 1), per gain row of ``K``."""
+    """Whether ``x[k+1] = A x[k] − B K x[k−delay]`` is stable, per gain row of ``K``."""
     A = np.asarray(A, dtype=float)
     B = np.asarray(B, dtype=float).reshape(-1, 1)
     K = np.atleast_2d(np.asarray(K, dtype=float))
@@ -92,13 +81,8 @@ def stable_with_delay(A: np.ndarray, B: np.ndarray, K: np.ndarray, delay: int) -
 
 
 def delay_margin_periods(A: np.ndarray, B: np.ndarray, K: np.ndarray, max_periods: int = 50) -> np.ndarray:
-    """Whole control periods of delay the loop ``u = −K x`` on ``x[k+1] = A x[k] + B u[k]`` survives,
-    per gain row of ``K``: the largest ``d`` for which every delay up to it is stable
-    (:func:`stable_with_delay`); 0: not even one period; ``max_periods``: at least that many.
-
-    :param K: one gain row ``(1, n)`` or a batch ``(m, n)``
-    :return: int array of shape ``(m,)``
-    """
+    """Whole control periods of delay the loop ``u = −K x`` on ``x[k+1] = A x[k] + B u[k]`` survives, per gain
+    row of ``K``: the largest ``d`` for which every delay up to it is stable (``max_periods``: at least that)."""
     K = np.atleast_2d(np.asarray(K, dtype=float))
     margin = np.full(len(K), max_periods)
     alive = np.arange(len(K))
@@ -117,19 +101,10 @@ def observer_delay_margin_periods(
     period_s: float,
     max_periods: int = 50,
 ) -> int:
-    """Whole periods of delay one joint's loop survives with a Kalman filter and its disturbance
-    observer in it (the arm at rest; readings ``d`` periods old taken for the present).
-
-    Each tick the filter predicts with the command it issued last and corrects with its
-    steady-state gain; the PID (I term as :class:`~robot_controller.core.laws.pid.Pid` keeps it,
-    D on the velocity error) and the estimate ``−d̂`` make the command, held over the period.
-
-    :param gains: Ki, Kp, Kd of the PID on the filtered state
-    :param filter_gains: ``(F, Bf, L)``, the filter's steady-state model and gain on
-        ``[q, q̇, d]`` (:func:`~robot_controller.core.estimation.steady_state_gain`)
-    :param period_s: control period, s
-    :return: the largest stable delay (0: not even one period, or not stable at all)
-    """
+    """Whole periods of delay one joint's loop survives with a Kalman filter and its disturbance observer in it
+    (at rest; readings ``d`` periods old taken for the present): each tick the filter (``filter_gains``: its
+    steady-state ``(F, Bf, L)`` on ``[q, q̇, d]``) predicts with the last command and corrects; the PID (``gains``
+    Ki, Kp, Kd; D on the velocity error) and ``−d̂`` make the command. 0: not one period, or not stable at all."""
     ki, kp, kd = gains
     F, Bf, L = filter_gains
     Ap, Bp = F[:2, :2], Bf[:2]
@@ -158,8 +133,7 @@ def observer_delay_margin_periods(
 
 
 def _sign_changes(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Rows, columns and the interpolation fraction of every sign change
-    between consecutive columns (value k to k+1; zero-crossings included once)."""
+    """Rows, columns and interpolation fraction of every sign change between consecutive columns."""
     a, b = values[:, :-1], values[:, 1:]
     rows, cols = np.nonzero(((a < 0) & (b >= 0)) | ((a > 0) & (b <= 0)))
     va, vb = a[rows, cols], b[rows, cols]
@@ -170,11 +144,8 @@ def _sign_changes(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
 def margins_batch(
     A: np.ndarray, B: np.ndarray, K: np.ndarray, dt: float, theta: np.ndarray | None = None
 ) -> dict[str, np.ndarray]:
-    """The margins of many gain rows of ``K`` at once, for searches: arrays
-    ``stable``, ``spectral_radius``, ``gain_margin_db``, ``gain_margin_low_db``,
-    ``phase_margin_deg``, ``delay_margin_s``, ``crossover_rad_s``,
-    ``phase_crossover_rad_s``, one entry per row (crossings interpolated
-    linearly between grid points; :func:`margins` for one loop)."""
+    """The :class:`Margins` of many gain rows of ``K`` at once, for searches: one array per field, one entry per
+    row (crossings interpolated linearly between grid points)."""
     K = np.atleast_2d(np.asarray(K, dtype=float))
     theta = frequency_grid() if theta is None else np.asarray(theta, dtype=float)
     m = len(K)
@@ -226,8 +197,7 @@ def _wrap_deg(angle: np.ndarray) -> np.ndarray:
 
 
 def margins(A: np.ndarray, B: np.ndarray, K: np.ndarray, dt: float, points: int = 16384) -> Margins:
-    """The margins of the loop ``u = −K x`` on ``x[k+1] = A x[k] + B u[k]``
-    at the control period ``dt`` (s), on a fine grid of the unit circle."""
+    """The margins of one loop at the control period ``dt`` (s), on a fine grid of the unit circle."""
     values = margins_batch(A, B, np.atleast_2d(K)[:1], dt, frequency_grid(points))
     return Margins(bool(values["stable"][0]), *(float(values[f.name][0]) for f in fields(Margins)[1:]))
 
@@ -245,9 +215,8 @@ def poles(A: np.ndarray, B: np.ndarray, K: np.ndarray) -> np.ndarray:
 
 
 def pole_summary(z: complex, dt: float) -> tuple[float, float]:
-    """A discrete pole as the continuous one it samples (``s = ln z / dt``):
-    natural frequency (rad/s) and damping ratio. A pole on the negative real
-    axis has no continuous equivalent: NaN, NaN."""
+    """A discrete pole's natural frequency (rad/s) and damping ratio as the continuous one it samples
+    (``s = ln z / dt``); NaN, NaN on the negative real axis (no continuous equivalent)."""
     if abs(z) == 0 or (abs(z.imag) < 1e-12 and z.real < 0):
         return float("nan"), float("nan")
     s = np.log(complex(z)) / dt
