@@ -26,6 +26,11 @@ from robot_controller import resources
 from robot_controller.core.errors import ConfigError
 from robot_controller.experiments.campaign.spec import CampaignSpec
 
+RESULTS = "results.parquet"
+CAMPAIGN = "campaign.json"
+PARTS = "parts"
+#: How often the whole table is rewritten while runs finish, s (each run is safe in its part file meanwhile).
+COMPACT_EVERY_S = 2.0
 SPEC = "the spec's runs (robot, duration_s, runs, seed, vary or controllers)"
 CODE = "robot_controller"
 #: The folders beside the package whose files are its data (presets, robot descriptions).
@@ -130,13 +135,6 @@ def _file_digest(path: Path) -> str:
 
 def _digest(data: str | bytes) -> str:
     return hashlib.sha256(data.encode() if isinstance(data, str) else data).hexdigest()[:16]
-
-
-RESULTS = "results.parquet"
-CAMPAIGN = "campaign.json"
-PARTS = "parts"
-#: How often the whole table is rewritten while runs finish, s (each run is safe in its part file meanwhile).
-COMPACT_EVERY_S = 2.0
 
 
 class ResultStore:
