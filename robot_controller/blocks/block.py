@@ -1,12 +1,16 @@
 """What a block is: one part of the loop (planner, controller, drive, world, sensor) with no ROS in it. It declares
 the ports it reads and writes (named in ``blocks.spec``), keeps its own state and is stepped with the values that
 arrived, at a time its host's clock gives; it never reads its host's fields, and never asks which clock that is.
-The same block runs in a ROS node (``ros.adapter``) and in process (``blocks.wiring``)."""
+The same block runs in a ROS node (``ros.adapter``) and in process (``blocks.wiring``), made from the graph spec's
+``BLOCKS`` by the name its node's ``block`` parameter gives."""
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Mapping
 from typing import Any, Protocol
+
+from robot_controller.blocks import spec
 
 
 class Log(Protocol):
@@ -44,6 +48,18 @@ class Block(Protocol):
 
     def set_params(self, params: Mapping[str, Any], changed: set[str]) -> None:
         """Take new values (already checked) while running."""
+
+
+def block_class(node_name: str, params: Mapping[str, Any]) -> type:
+    """The class of the block ``node_name`` runs with ``params`` (its ``block``; the spec's first without one)."""
+    choices = spec.BLOCKS[node_name]
+    module, _, name = choices[params.get("block") or next(iter(choices))].partition(":")
+    return getattr(importlib.import_module(module), name)
+
+
+def make_block(node_name: str, params: Mapping[str, Any], log: Log, world_waits: bool) -> Block:
+    """The block ``node_name`` runs; ``world_waits``: the loop's clock waits for each effort (the sim's clock)."""
+    return block_class(node_name, params)(params, log, world_waits=world_waits)
 
 
 class Lines:

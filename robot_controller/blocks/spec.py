@@ -187,7 +187,7 @@ def scored_topics() -> tuple[str, ...]:
 
 
 #: The blocks each node of the graph may run, by the name its ``block`` parameter gives (the first without one):
-#: ``module:Class`` (``blocks.registry`` imports only the one chosen).
+#: ``module:Class`` (``blocks.block.make_block`` imports only the one chosen).
 BLOCKS: dict[str, dict[str, str]] = {
     "motor_node": {"drive": "robot_controller.blocks.drive:Drive"},
     "pid_controller": {"controller": "robot_controller.blocks.controller:Controller"},

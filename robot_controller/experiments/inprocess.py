@@ -12,8 +12,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.blocks import registry
-from robot_controller.blocks.block import Lines
+from robot_controller.blocks.block import Lines, make_block
 from robot_controller.blocks.wiring import LoopResult, run_loop
 from robot_controller.blocks.world import World
 from robot_controller.core.controller import JointController
@@ -81,10 +80,10 @@ def prepare(
     controller_config = cfg.controller_config({**ctrl, cfg.WORLD_WAITS: True}, n)  # each command acts from its tick
     controller = contained_controller(controller_config, n, dynamics)
     # The graph's sensor and drive, as their nodes' configuration chooses them; the loop's clock waits for each.
-    sensor_block = registry.make("sensor_node", dict(sensor, seed=seed), Lines(), world_waits=True)
-    drive_block = registry.make("motor_node", motor, Lines(), world_waits=True)
+    sensor_block = make_block("sensor_node", dict(sensor, seed=seed), Lines(), world_waits=True)
+    drive_block = make_block("motor_node", motor, Lines(), world_waits=True)
     planner_params = consistency.with_controller_model(params)["trajectory_planner"]  # as ``run`` gives them
-    planner_block = registry.make("trajectory_planner", planner_params, Lines(), world_waits=True)
+    planner_block = make_block("trajectory_planner", planner_params, Lines(), world_waits=True)
     planner_block.start()
     return partial(
         run_loop,

@@ -14,8 +14,8 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from robot_controller import parameters as cfg
-from robot_controller.blocks import registry, spec
-from robot_controller.blocks.block import Block
+from robot_controller.blocks import spec
+from robot_controller.blocks.block import Block, block_class
 from robot_controller.core.laws import law_parameters
 from robot_controller.nodes import live_gains
 from robot_controller.nodes.live_gains import Designer
@@ -61,7 +61,7 @@ class ControllerExtras(Extras):
         # its armature into the loop's own, and MuJoCo's data is not shared between threads).
         design_model = arm_model(params)
         self.designer = Designer(design_model, len(design_model.joint_names))
-        return registry.block_class(self.node.get_name(), params)(
+        return block_class(self.node.get_name(), params)(
             params,
             NodeLog(self.node),
             world_waits=world_waits,

@@ -21,8 +21,8 @@ from rclpy.parameter import Parameter
 from std_msgs.msg import MultiArrayDimension
 
 from robot_controller import parameters as cfg
-from robot_controller.blocks import registry, spec
-from robot_controller.blocks.block import Block
+from robot_controller.blocks import spec
+from robot_controller.blocks.block import Block, make_block
 from robot_controller.core.errors import ConfigError
 from robot_controller.ros.loop_processes import leave_pid
 from robot_controller.ros.messages import decode, encode, message_class
@@ -73,7 +73,7 @@ class Extras:
         return ()
 
     def make_block(self, params: dict[str, Any], world_waits: bool) -> Block:
-        return registry.make(self.node.get_name(), params, NodeLog(self.node), world_waits)
+        return make_block(self.node.get_name(), params, NodeLog(self.node), world_waits)
 
     def topic(self, port: spec.Port) -> str:
         return port.topic
@@ -113,7 +113,7 @@ class Extras:
 
 
 class BlockNode(Node):
-    """A node of the graph running the block its parameters choose (``blocks.registry``), with the parameters of
+    """A node of the graph running the block its parameters choose (``blocks.block.make_block``), with the parameters of
     ``parameters.SCHEMA[node_name]`` (and its extras')."""
 
     def __init__(self, node_name: str, extras: type[Extras] = Extras) -> None:

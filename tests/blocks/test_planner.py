@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from robot_controller import parameters as cfg
-from robot_controller.blocks import registry
-from robot_controller.blocks.block import Lines
+from robot_controller.blocks.block import Lines, make_block
 from robot_controller.blocks.planner import Planner
 from robot_controller.blocks.values import WaypointRequest
 from robot_controller.core.errors import ConfigError
@@ -29,7 +28,7 @@ def to(position: float, time_s: float = 1.0, stamp_s: float = 0.0, joints=("join
 
 
 def test_the_graph_spec_names_it_for_the_planner_node():
-    block = registry.make("trajectory_planner", cfg.load_stack()["trajectory_planner"], Lines(), world_waits=False)
+    block = make_block("trajectory_planner", cfg.load_stack()["trajectory_planner"], Lines(), world_waits=False)
     assert isinstance(block, Planner) and block.inputs[:2] == ("waypoints", "controller_waypoints")
     assert block.wake_period_s() == pytest.approx(PERIOD_S)  # publish_rate_hz 100
 
