@@ -1,6 +1,5 @@
-"""References for the moments a loop is not simply tracking: a controlled stop when an input is lost (IEC 60204-1
-category 2: stop, keep holding) and a blend back onto the trajectory when it returns, per joint and limited in
-acceleration so the torque they ask for stays within reach. Pure functions of time."""
+"""References for when a loop is not simply tracking: a controlled stop when an input is lost (category 2) and a
+blend back onto the trajectory when it returns, per joint, limited in acceleration. Pure functions of time."""
 
 from __future__ import annotations
 
@@ -61,9 +60,8 @@ MIN_BLEND_S = 0.2
 
 @dataclass(frozen=True)
 class Blend:
-    """An offset from the trajectory (``offset_position``/``offset_velocity``: arm minus trajectory at the start) that
-    fades out: a quintic reaching zero (position, velocity and acceleration) after ``duration_s``, chosen so its own
-    acceleration stays within ``max_acceleration``: the arm is led back, never yanked."""
+    """An offset from the trajectory (arm minus trajectory at the start) that fades out along a quintic over
+    ``duration_s``, its acceleration within ``max_acceleration``: the arm is led back, never yanked."""
 
     start_s: float
     offset_position: np.ndarray

@@ -1,7 +1,7 @@
 """Control laws: the interface every law implements, the built-in PID and LQR among them
 (:mod:`.interface`, :mod:`.pid` with its model feedforward, :mod:`.lqr`), their
 stability and delay margins (:mod:`.robustness`), how ``controller_type`` names one
-(:mod:`.registry`) and its parameters are checked (:mod:`.parameters`), and how the controller
+(:mod:`.registry`) and its parameters are checked (:mod:`.law_parameters`), and how the controller
 contains a user's law, a law itself that checks every call (:mod:`.containment`). A law of
 one's own needs only ``from robot_controller.core.laws import ControlLaw, Parameter``."""
 

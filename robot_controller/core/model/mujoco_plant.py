@@ -22,9 +22,9 @@ MAX_DISTURBANCE_S = 60.0
 
 
 def check_disturbance(data, joint_count: int) -> tuple[np.ndarray, float] | str:
-    """Validate a disturbance's array (port ``disturbance``) ``[torque_nm…, duration_s]`` (one torque per joint) into
-    ``(torque, duration_s)``, or a reason to drop it. A torque beyond ``MAX_DISTURBANCE_NM`` is returned
-    as sent: the caller caps it (and says so). A duration of 0 ends the current one."""
+    """``[torque_nm…, duration_s]`` (one torque per joint) as ``(torque, duration_s)``, or a reason to drop it. A
+    torque beyond ``MAX_DISTURBANCE_NM`` is returned as sent: the caller caps it (and says so). 0 s ends the current
+    one."""
     data = np.asarray(data, dtype=float).ravel()
     if data.size != joint_count + 1:
         return (
@@ -42,18 +42,10 @@ def check_disturbance(data, joint_count: int) -> tuple[np.ndarray, float] | str:
 
 
 class MujocoPlant:
-    """The arm simulated by MuJoCo; torque is applied as generalised force on each joint.
-
-    Two torques act on a joint, summed into MuJoCo's ``qfrc_applied``: the actuator's (``step``'s argument,
-    limited to the URDF's effort limit, none on a braked joint) and an external disturbance
-    (``set_disturbance``: a push on the arm, neither limited by the drive nor cut by a brake). A brake holds
-    against it as against gravity: a joint at rest stays locked; a moving one is slowed by the holding torque.
-
-    :param physics_dt: physics step, s (1 ms in the reference scenario)
-    :param payload: a load on the last joint's link the URDF does not have
-    :param variation: what else the arm has that its URDF does not (friction, damping, armature, link masses),
-        and a payload if ``payload`` is None
-    """
+    """The arm simulated by MuJoCo. Two torques act on a joint: the actuator's (``step``'s, within the URDF's
+    effort limit, none on a braked joint) and an external disturbance (``set_disturbance``: a push, neither limited
+    by the drive nor cut by a brake). A brake holds against it as against gravity: a joint at rest stays locked.
+    ``payload`` and ``variation``: what the arm has that its URDF does not."""
 
     def __init__(
         self,
@@ -132,9 +124,8 @@ class MujocoPlant:
             self._hold_braked_joints()
 
     def set_disturbance(self, torque: np.ndarray, duration_s: float) -> None:
-        """Apply an external ``torque`` (N·m per joint) for the next ``duration_s`` of physics time (whole
-        steps), replacing any current one; 0 s ends it. Not limited by the effort limit (the caller bounds
-        it), and applied to a braked joint too: the brake holds against it."""
+        """Apply an external ``torque`` (N·m per joint, the caller bounds it) for the next ``duration_s`` of physics
+        time (whole steps), replacing any current one; 0 s ends it."""
         torque = np.asarray(torque, dtype=float).reshape(self.joint_count)
         steps = int(round(max(0.0, float(duration_s)) / self.physics_dt))
         self._disturbance = torque.copy() if steps > 0 else np.zeros(self.joint_count)
@@ -165,9 +156,8 @@ class MujocoPlant:
                 qpos[adr], qvel[dof] = self._locked_at[j], 0.0
 
     def set_brakes(self, engaged: np.ndarray, holding_torque_nm: float) -> None:
-        """Engage or release each joint's holding brake: dry friction of ``holding_torque_nm`` (MuJoCo's
-        friction loss) that holds the arm against gravity and stops a moving one at (holding torque − load)
-        / inertia (about 570 rad/s² on the reference arm)."""
+        """Engage or release each joint's holding brake: dry friction of ``holding_torque_nm`` that holds the arm
+        against gravity and stops a moving one at (holding torque − load) / inertia."""
         engaged = np.asarray(engaged, dtype=bool)
         dofs = self.model.jnt_dofadr[: self.joint_count]
         self.model.dof_frictionloss[dofs] = np.where(engaged, holding_torque_nm, self._free_frictionloss)

@@ -1,10 +1,6 @@
-"""The plant the controller does not know: joint friction, damping, rotor inertia, link masses and a payload
-that the simulated arm has and its URDF (so the controller's model) lacks. Built from the simulator's parameters
-(:meth:`PlantVariation.from_params`) and applied to the plant's compiled model alone (:meth:`PlantVariation.apply`):
-the controller's model loads the URDF by itself and never sees them.
-
-Each is added to what the URDF says (its ``<dynamics friction damping>``; MuJoCo's ``armature`` has no URDF field)
-or, for the masses, multiplies it; the defaults change nothing."""
+"""The plant the controller does not know: joint friction, damping, rotor inertia, link masses and a payload the
+simulated arm has and its URDF (so the controller's model) lacks, applied to the plant's compiled model alone. Each
+is added to what the URDF says, or for the masses multiplies it; the defaults change nothing."""
 
 from __future__ import annotations
 
@@ -36,21 +32,14 @@ STICTION_IMPEDANCE = 0.99
 
 @dataclass(frozen=True)
 class PlantVariation:
-    """Per joint: one value for every joint, or one per joint.
+    """Per joint: one value for every joint, or one per joint."""
 
-    :param joint_friction_nm: Coulomb (dry) friction, N·m (N on a slide), MuJoCo's ``frictionloss``
-    :param joint_damping_nms: viscous damping, N·m·s/rad
-    :param armature_kgm2: rotor inertia reflected through the gears (rotor inertia × ratio²), kg·m², on the joint
-    :param link_mass_scale: each link's mass and inertia times this, the links a joint moves taking its value
-        (a link past the last joint that carries no joint of its own, a hand, takes the last joint's)
-    :param payload: a point mass on the last joint's link
-    """
-
-    joint_friction_nm: tuple[float, ...] = (0.0,)
-    joint_damping_nms: tuple[float, ...] = (0.0,)
-    armature_kgm2: tuple[float, ...] = (0.0,)
+    joint_friction_nm: tuple[float, ...] = (0.0,)  #: Coulomb friction, N·m (MuJoCo's ``frictionloss``)
+    joint_damping_nms: tuple[float, ...] = (0.0,)  #: viscous, N·m·s/rad
+    armature_kgm2: tuple[float, ...] = (0.0,)  #: rotor inertia reflected through the gears, kg·m²
+    #: each link's mass and inertia times this, the links a joint moves taking its value (a hand, the last's)
     link_mass_scale: tuple[float, ...] = (1.0,)
-    payload: Payload | None = None
+    payload: Payload | None = None  #: a point mass on the last joint's link
 
     def __post_init__(self) -> None:
         for name in ("joint_friction_nm", "joint_damping_nms", "armature_kgm2"):
@@ -60,8 +49,7 @@ class PlantVariation:
     @classmethod
     def from_params(cls, params: Mapping[str, Any], prefix: str = "") -> PlantVariation:
         """From the simulator's parameters (a key left out keeps its default); ``prefix`` goes before every key
-        a refusal names (``"simulator."``). Refuses ``payload`` set beside ``payload_kg``/``payload_offset_m``:
-        two descriptions of one load."""
+        a refusal names (``"simulator."``)."""
         values = {name: _tuple(prefix + name, params[name]) for name in KEYS[:4] if name in params}
         try:
             variation = cls(**values, payload=_payload(params, prefix))
@@ -85,9 +73,7 @@ class PlantVariation:
         return out
 
     def apply(self, model: mujoco.MjModel) -> None:
-        """Change ``model`` (compiled, its payload body already added) in place: friction, damping and armature
-        added on each joint's degree of freedom, masses and inertias scaled. The payload is not here: it is a body
-        :func:`~robot_controller.core.model.mujoco_model.load_model` adds before compiling."""
+        """Change the compiled ``model`` in place (its payload is a body ``load_model`` adds before compiling)."""
         count = model.njnt
         values = self.per_joint(count)
         dofs = model.jnt_dofadr[:count]

@@ -13,21 +13,13 @@ from robot_controller.core.errors import ConfigError
 
 @dataclass(frozen=True)
 class SensorConfig:
-    """Noise and imperfections of the joint sensor, every one given: the defaults are the parameter
-    schema's (``parameters.builders.sensor_config``).
+    """Noise and imperfections of the joint sensor, every one given (the defaults are the parameter schema's)."""
 
-    :param position_noise_std: Gaussian σ on position, rad
-    :param velocity_noise_std: Gaussian σ on velocity, rad/s
-    :param position_bias: constant offset added to position, rad
-    :param quantization: position resolution, rad (0 = continuous)
-    :param delay_s: how old each reading is when published, s; its stamp says
-        so (the sample's time), as a hardware-timestamped encoder's does
-    """
-
-    position_noise_std: float
-    velocity_noise_std: float
-    position_bias: float
-    quantization: float
+    position_noise_std: float  #: rad, Gaussian
+    velocity_noise_std: float  #: rad/s, Gaussian
+    position_bias: float  #: rad, added to position
+    quantization: float  #: rad, position resolution (0: continuous)
+    #: s, how old each reading is when published; its stamp says so, as a hardware-timestamped encoder's does
     delay_s: float
 
     def __post_init__(self) -> None:

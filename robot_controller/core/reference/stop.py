@@ -38,10 +38,9 @@ def rest_position(start: Sample, duration_s: float) -> np.ndarray:
 def stop_path(
     start: Sample, deceleration: float, position_range: tuple[np.ndarray, np.ndarray] | None = None
 ) -> QuinticPath:
-    """The reference from ``start`` to rest within ``deceleration`` (rad/s²), then held, never turning back: on a
-    joint already slowing down (its acceleration against its velocity, or at rest) the stop keeps only the part of the
-    acceleration that cannot reverse it (an acceleration step instead: at a sine's peak the stop holds where it is).
-    ``position_range`` (lower, upper per joint): a stop that would rest beyond it is shortened to rest within it."""
+    """The reference from ``start`` to rest within ``deceleration`` (rad/s²), then held, never turning back (a joint
+    already slowing keeps only the part of its acceleration that cannot reverse it); a stop that would rest beyond
+    ``position_range`` (lower, upper per joint) is shortened to rest within it."""
     p0, v0, a0 = (np.asarray(x, dtype=float) for x in start)
     duration = stop_time_s(v0, a0, deceleration)
     slowing = a0 * v0 <= 0.0
@@ -61,8 +60,7 @@ def stop_path(
 
 
 def _within(start: Sample, duration_s: float, lower: np.ndarray, upper: np.ndarray) -> float:
-    """The longest stop no longer than ``duration_s`` whose rest is within [lower, upper] (or as near as the start
-    allows), found by bisection: the rest moves from the start (within the range) as the stop lengthens."""
+    """The longest stop no longer than ``duration_s`` whose rest is within [lower, upper], by bisection."""
 
     def inside(duration: float) -> bool:
         rest = rest_position(start, duration)
