@@ -70,7 +70,6 @@ class ArmWatch:
         self.braked = self.brakes_now
 
     def take(self, port: str, value, now_s: float) -> None:
-        """A value heard on ``port`` at ``now_s`` (the planner's clock)."""
         if port == "reading":
             self.joint_states(value, now_s)
         elif port == "state":

@@ -220,7 +220,7 @@ class Reports:
             )
 
     def state_row(self, out: ControlOutput) -> list[float]:
-        """Every term of the tick, as ``state_layout`` lays them out (the PID's terms from ``out.terms``)."""
+        """Every term of the tick, as ``state_layout`` lays them out."""
         values = {name: getattr(out if hasattr(out, name) else out.terms, name) for name in state_layout.FIELDS}
         stamp_s = self.controller.measurement_stamp_s
         return state_layout.encode(out.time_s, out.status.value, stamp_s, self.joint_count, values, self.law_terms(out))
@@ -284,7 +284,6 @@ class LogSchedule:
         return True
 
     def instant_s(self, k: int) -> float:
-        """When the ``k``-th line is due, s."""
         return self.start_s + (k + phase_in_period(k)) * self.period_s
 
     def said_at_s(self) -> float:

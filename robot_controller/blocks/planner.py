@@ -195,7 +195,6 @@ class Planner:
         return lambda time_s: motion.sample(time_s - origin_s)
 
     def reference_at(self, now_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The reference in force at ``now_s``."""
         if self.crossfade is not None and self.crossfade.done(now_s):
             self.crossfade = None
         return self.motion_in_force()(now_s)

@@ -159,7 +159,6 @@ ACTIONS = (FOLLOW_JOINT_TRAJECTORY,)
 
 
 def port(name: str) -> Port:
-    """The port named ``name``, or KeyError naming the known ones."""
     for candidate in PORTS:
         if candidate.name == name:
             return candidate
@@ -182,7 +181,6 @@ def recorded_ports(sim_time: bool) -> tuple[Port, ...]:
 
 
 def scored_topics() -> tuple[str, ...]:
-    """What scoring reads back from a bag."""
     return tuple(p.topic for p in PORTS if p.scored)
 
 

@@ -59,7 +59,6 @@ class ExternalTorque:
         self.reported = False  #: the last disturbance applied was not zero
 
     def take(self, value: Array, *, braked: bool, physics_running: bool) -> None:
-        """Port ``disturbance``: checked, capped, applied from now."""
         checked = check_disturbance(value.data, len(self.plant.joint_names))
         if isinstance(checked, str):
             self.log.warn(spec.DISTURBANCE.topic, f"{spec.DISTURBANCE.topic} dropped: {checked}")
@@ -221,7 +220,6 @@ class World:
         )
 
     def take(self, inputs: Mapping[str, Any]) -> Written:
-        """Every input that arrived, in port order."""
         written: Written = []
         for name in self.inputs:
             if name not in inputs:
