@@ -24,6 +24,7 @@ import numpy as np
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws.interface import Arm, ControlLaw, Reference, State
 from robot_controller.core.laws.law_parameters import values as parameter_values
+from robot_controller.core.laws.pid import limited
 from robot_controller.core.laws.registry import resolve
 
 # Consecutive updates over the budget that make a fault.
@@ -223,10 +224,7 @@ class ContainedLaw(ControlLaw):
             return np.zeros(self.joint_count)
         dt_s = self.period_s if self._last_s is None or time_s <= self._last_s else time_s - self._last_s
         self._last_s = time_s
-        command = np.minimum(np.maximum(torque, -self.output_limit), self.output_limit)  # np.clip, without its wrapper
-        if self.slew_rate_limit > 0 and self._previous_command is not None:
-            step = self.slew_rate_limit * dt_s
-            command = np.minimum(np.maximum(command, self._previous_command - step), self._previous_command + step)
+        command = limited(torque, self.output_limit, self.slew_rate_limit * dt_s, self._previous_command)
         self._previous_command = command
         if self.error_max_rad > 0 and self.check_runaway(
             time_s, state, reference, command - self.arm.gravity(state.position)

@@ -177,11 +177,11 @@ class Pid:
             i_limit = c.ki * c.integral_limit
             i_candidate = np.minimum(np.maximum(i_candidate, -i_limit), i_limit)  # np.clip, without its wrapper
         unsaturated = feedforward + _mapped(feedback_map, p_term + i_candidate + d_term)
-        limited = self._limit(unsaturated, dt)
-        saturated = np.abs(limited - unsaturated) > 1e-12
-        command = limited  # the command, unless the anti-windup below changes the I term
+        max_step = c.slew_rate_limit * dt
+        command = limited(unsaturated, c.output_limit, max_step, self._prev_command)
+        saturated = np.abs(command - unsaturated) > 1e-12
         if c.anti_windup is AntiWindup.BACK_CALCULATION:
-            i_candidate = i_candidate + (limited - unsaturated) * dt / c.back_calculation_time_s
+            i_candidate = i_candidate + (command - unsaturated) * dt / c.back_calculation_time_s
             command = None
         elif c.anti_windup is AntiWindup.CONDITIONAL_INTEGRATION and np.count_nonzero(saturated):
             # Integrate only where it pulls the output back inside the limit.
@@ -191,19 +191,20 @@ class Pid:
         self._i_term = np.asarray(i_candidate, dtype=float)
 
         if command is None:
-            command = self._limit(feedforward + _mapped(feedback_map, p_term + self._i_term + d_term), dt)
+            feedback = _mapped(feedback_map, p_term + self._i_term + d_term)
+            command = limited(feedforward + feedback, c.output_limit, max_step, self._prev_command)
         if np.count_nonzero(np.isfinite(command)) != command.size:
             command = np.where(np.isfinite(command), command, 0.0)
         self._prev_command = command
         return PidTerms(command, p_term, self._i_term, d_term, feedforward, saturated)  # (I: replaced, never written)
 
-    def _limit(self, command: np.ndarray, dt: float) -> np.ndarray:
-        limit = self.config.output_limit
-        out = np.minimum(np.maximum(command, -limit), limit)  # np.clip, without its wrapper
-        if self.config.slew_rate_limit > 0 and self._prev_command is not None:
-            max_step = self.config.slew_rate_limit * dt
-            out = np.minimum(np.maximum(out, self._prev_command - max_step), self._prev_command + max_step)
-        return out
+
+def limited(command: np.ndarray, limit: np.ndarray, max_step: float, previous: np.ndarray | None) -> np.ndarray:
+    """``command`` within ``±limit`` and, if ``max_step`` > 0, within ``max_step`` of ``previous`` (None: none)."""
+    out = np.minimum(np.maximum(command, -limit), limit)  # np.clip, without its wrapper
+    if max_step > 0 and previous is not None:
+        out = np.minimum(np.maximum(out, previous - max_step), previous + max_step)
+    return out
 
 
 def _mapped(feedback_map: np.ndarray | None, feedback: np.ndarray) -> np.ndarray:
