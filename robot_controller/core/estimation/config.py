@@ -15,20 +15,12 @@ DISTURBANCE_PRIOR_STD_NM = 2.0
 
 @dataclass(frozen=True)
 class KalmanConfig:
-    """The filter's tuning, every value given: the defaults are the parameter schema's
-    (``parameters.builders.kalman_config``).
+    """The filter's tuning, every value given (the defaults are the parameter schema's)."""
 
-    :param position_noise_std: measurement σ on position, rad
-    :param velocity_noise_std: measurement σ on velocity, rad/s
-    :param acceleration_noise_std: σ of the unmodelled acceleration, rad/s²
-    :param disturbance_noise_std: how fast the external torque may change, N·m/√s
-        (σ of its random walk; used only when the filter estimates it)
-    """
-
-    position_noise_std: float
-    velocity_noise_std: float
-    acceleration_noise_std: float
-    disturbance_noise_std: float
+    position_noise_std: float  #: rad, the reading's σ
+    velocity_noise_std: float  #: rad/s, the reading's σ
+    acceleration_noise_std: float  #: rad/s², σ of the unmodelled acceleration
+    disturbance_noise_std: float  #: N·m/√s, σ of the external torque's random walk (the observer's)
     #: a reading this many σ from the prediction, among readings that agree with the filter, is a
     #: sudden external torque: the observer allows its torque a jump (σ DISTURBANCE_PRIOR_STD_NM)
     #: that period; between jumps it changes only slowly (disturbance_noise_std). 0: never.

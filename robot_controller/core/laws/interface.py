@@ -1,12 +1,7 @@
-"""What a control law is: the small interface every law implements, the
-built-in PID and LQR included.
-
-A law is a class. The framework builds it once with the arm model, the
-control period and its parameters; calls :meth:`ControlLaw.reset` whenever
-the loop (re)starts from a measurement; and calls :meth:`ControlLaw.update`
-once per tick for a torque per joint. Everything around that (timing, the
-watchdog, stamps and latency compensation, the state estimate, the torque
-and slew limits, controlled stops, the e-stop, logging, metrics) is the
+"""What a control law is: the small interface every law implements, the built-in PID and LQR included. The
+framework builds a law once with the arm, the control period and its parameters, calls :meth:`ControlLaw.reset`
+whenever the loop (re)starts from a measurement, and :meth:`ControlLaw.update` once per tick for a torque per
+joint; everything around that (timing, the watchdog, the state estimate, limits, stops, logging) is the
 framework's. Units: rad, rad/s, rad/s², N·m, s.
 """
 
@@ -21,14 +16,10 @@ import numpy as np
 
 @dataclass(frozen=True)
 class Parameter:
-    """One parameter a law declares. It becomes the ROS parameter ``law.NAME`` of
-    ``pid_controller``: listed by ``robot-controller params``, set from ``--config``
-    and live with ``robot-controller param set pid_controller law.NAME VALUE``,
-    checked against the range given here.
-
-    ``default`` is a number, a bool, a string, or a list of numbers (one per joint,
-    or one for all when ``per_joint``). ``gain``: ``tune`` searches it (numbers only;
-    needs ``minimum`` and ``maximum``)."""
+    """One parameter a law declares: the ``pid_controller`` parameter ``law.NAME`` (``robot-controller params``
+    lists it; ``--config`` and ``param set`` set it, checked against this range). ``default``: a number, a bool, a
+    string, or a list of numbers (one per joint, or one for all when ``per_joint``). ``gain``: ``tune`` searches it
+    (numbers only; needs ``minimum`` and ``maximum``)."""
 
     name: str
     default: Any
@@ -40,8 +31,7 @@ class Parameter:
 
 
 class ArmModel(Protocol):
-    """The arm as a law sees it (the controller's model of it, from its URDF and
-    any ``model_*`` overrides): one entry per joint, in the URDF's order."""
+    """The arm as a law sees it (the controller's model, from its URDF and any ``model_*``), in the URDF's order."""
 
     joint_names: list[str]
 
@@ -60,8 +50,7 @@ class ArmModel(Protocol):
 
 @dataclass(frozen=True)
 class Arm:
-    """What a law's constructor receives about the arm: its dynamics (``model``,
-    with ``mass_matrix``, ``gravity`` and ``torque`` = inverse dynamics) and its limits."""
+    """What a law's constructor receives about the arm: its ``model`` and its limits."""
 
     model: ArmModel
     joint_names: tuple[str, ...]
@@ -83,10 +72,8 @@ class Arm:
 
 
 class State(NamedTuple):
-    """The arm at the tick, per joint: the framework's estimate (filtered and
-    advanced to the tick when the estimator and latency compensation are on)
-    and the raw reading it came from. (Named tuples, ``State`` and ``Reference``:
-    the controller builds one of each every tick, and a tuple is built fastest.)"""
+    """The arm at the tick, per joint: the framework's estimate and the reading it came from. (Named tuples, this
+    and ``Reference``: the controller builds one of each every tick, and a tuple is built fastest.)"""
 
     position: np.ndarray  #: rad, estimated at the tick
     velocity: np.ndarray  #: rad/s, estimated at the tick
@@ -98,9 +85,8 @@ class State(NamedTuple):
 
 
 class Reference(NamedTuple):
-    """Where the arm should be at the tick, per joint. It is the planner's,
-    or the framework's own during a hold, a controlled stop or the blend back
-    onto the trajectory: a law tracks it the same way either way."""
+    """Where the arm should be at the tick, per joint: the planner's, or the framework's own during a hold, a stop
+    or the blend back onto the trajectory; a law tracks it the same way either way."""
 
     position: np.ndarray  #: rad
     velocity: np.ndarray  #: rad/s
@@ -116,14 +102,10 @@ class Reference(NamedTuple):
 
 
 class ControlLaw:
-    """Subclass this, override :meth:`update` (and :meth:`reset` if the law keeps
-    state), and name it in ``controller_type`` as ``path/to/file.py:Class``,
-    ``package.module:Class`` or an installed plugin's name.
-
-    ``parameters``: what the law declares (:class:`Parameter`); their values are
-    in ``self.params`` by name. ``state_terms``: names of extra per-joint terms
-    the law reports through :meth:`terms` for the controller's state; ``p``, ``i``,
-    ``d`` and ``feedforward`` fill the standard blocks.
+    """Subclass this, override :meth:`update` (and :meth:`reset` if the law keeps state), and name it in
+    ``controller_type`` as ``path/to/file.py:Class``, ``package.module:Class`` or an installed plugin's name.
+    ``parameters``: what it declares (values in ``self.params`` by name); ``state_terms``: extra per-joint terms
+    it reports through :meth:`terms` (``p``, ``i``, ``d`` and ``feedforward`` fill the standard blocks).
     """
 
     parameters: ClassVar[tuple[Parameter, ...]] = ()
@@ -142,8 +124,7 @@ class ControlLaw:
         raise NotImplementedError(f"{type(self).__name__}.update")
 
     def set_params(self, params: Mapping[str, Any]) -> None:
-        """New parameter values while running (already checked against their
-        ranges); the next tick uses them. Override to make the change bumpless."""
+        """New parameter values while running (already checked); override to make the change bumpless."""
         self.params = dict(params)
 
     def terms(self) -> Mapping[str, np.ndarray]:

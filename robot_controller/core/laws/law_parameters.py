@@ -1,8 +1,6 @@
-"""A law's parameters, as its class declares them and as ``pid_controller``'s parameters
-``law.NAME``: each value checked against its declaration (type, range, one per joint), a
-law's values (its defaults with the values given over them), and what a stack's parameter
-files may give. Every refusal names the parameter as ROS knows it, ``law.NAME``. The node
-parameters' specs for a law are :mod:`robot_controller.parameters.law_params`'s."""
+"""A law's declared parameters as ``pid_controller``'s ``law.NAME``: each value checked against its declaration
+(type, range, one per joint), a law's values (its defaults with the values given over them), and what a stack's
+parameter files may give. Every refusal names ``law.NAME``. Their node parameter specs: ``parameters.law_params``."""
 
 from __future__ import annotations
 
@@ -110,8 +108,7 @@ def is_law_key(name: str) -> bool:
 
 
 def plain_value(name: str, value: Any) -> Any:
-    """What a parameter file may give a ``law.*`` key before the law is known: a number, a
-    bool, a string or a list of numbers (checked against the law's declaration later)."""
+    """What a parameter file may give a ``law.*`` key before the law is known (checked against the law later)."""
     if isinstance(value, (bool, int, float, str)):
         return value
     if isinstance(value, (list, tuple)) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
@@ -120,8 +117,8 @@ def plain_value(name: str, value: Any) -> Any:
 
 
 def check_values(values: dict[str, Any], where: str = NODE) -> None:
-    """The ``law.*`` values of a controller's parameters against the law ``controller_type`` names:
-    one it does not declare, or a value its declaration refuses, is a ``ConfigError`` naming ``where``."""
+    """The ``law.*`` values of a controller's parameters against the law ``controller_type`` names (a
+    ``ConfigError`` naming ``where``)."""
     try:
         parameters = declared_by(values["controller_type"])
     except ConfigError as exc:
@@ -147,12 +144,9 @@ def _unknown(name: str, controller_type: str, parameters: dict[str, Parameter]) 
 
 
 def settle(params: dict[str, dict[str, Any]], sources: list[tuple[Path, dict[str, dict[str, Any]]]] = ()) -> None:
-    """In place, on a whole stack's parameters: the controller's ``controller_type`` made absolute
-    if it names a file; each ``law.*`` value in ``sources`` (a file and what it gave) checked against
-    the law, naming that file; then the law's defaults for every ``law.*`` not given.
-
-    :raises ConfigError: one line naming the file (if any), the key and the problem
-    """
+    """In place, on a whole stack's parameters: ``controller_type`` made absolute if it names a file; each ``law.*``
+    value in ``sources`` (a file and what it gave) checked against the law, naming that file; then the law's
+    defaults for every ``law.*`` not given."""
     ctrl = params.get(NODE)
     if ctrl is None or "controller_type" not in ctrl:
         return

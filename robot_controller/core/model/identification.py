@@ -87,21 +87,11 @@ def identify(
     window: int = SMOOTHING_WINDOW,
     order: int = SMOOTHING_ORDER,
 ) -> list[JointFit]:
-    """Fit each joint's model to a recorded motion.
-
-    :param time_s: sample times, s, increasing, shape ``(N,)``
-    :param position: rad, ``(N, n)`` (or ``(N,)`` for one joint)
-    :param velocity: rad/s, like ``position``
-    :param torque: the applied torque, N·m, like ``position``; row k is the
-        torque that acted from sample k-1 to sample k
-    :param effort_limit: per joint (or one for all), N·m: a torque at it is saturated and left out (None: nothing is)
-    :param braked: per sample and joint (or per sample), True where a brake
-        held the joint (those intervals are left out)
-    :param min_speed: intervals slower than this (rad/s), or reversing, are left out
-    :param window: Savitzky–Golay window, samples (odd; 1 = no smoothing)
-    :param order: Savitzky–Golay polynomial order
-    :raises IdentificationError: when a joint's data cannot pin the model down
-    """
+    """Fit each joint's :class:`~.arm_model.JointArmModel` to a recorded motion: ``position``, ``velocity`` and the
+    applied ``torque`` ``(N, n)`` (row k: the torque from sample k-1 to k) at increasing ``time_s``. Left out:
+    intervals at ``effort_limit`` (saturated), ``braked``, slower than ``min_speed`` or reversing. ``window`` and
+    ``order``: the Savitzky–Golay smoothing (window 1: none). ``IdentificationError`` when the data cannot pin a
+    joint's model down."""
     time_s = np.asarray(time_s, dtype=float).reshape(-1)
     position, velocity, torque = (
         np.asarray(x, dtype=float).reshape(len(time_s), -1) for x in (position, velocity, torque)
