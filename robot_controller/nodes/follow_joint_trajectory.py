@@ -1,24 +1,20 @@
 """The planner's FollowJointTrajectory action server (``blocks.spec.FOLLOW_JOINT_TRAJECTORY``), served as
 ros2_controllers' JointTrajectoryController serves it, so MoveIt and any action client can drive the arm.
 
-A goal is checked in the goal callback as JTC checks it (joint names, points, times, values, the URDF's limits, its
-tolerances, its stamp; the planner block's ``check_goal``): one that fails is REJECTED, the reason said in one warning
-line ("goal rejected: …", which ``robot-controller goto`` reads back from the log topic: the action's answer carries
-no reason). An accepted goal's trajectory is then joined onto the reference in force (the planner block's ``take``);
-if the join cannot be taken (its path between the points, its torque) the goal ends at once,
-aborted with JTC's error code and the reason, and the motion in force goes on. A taken goal preempts the one in force
-(aborted: "preempted"). At every tick the goal's feedback carries desired, actual and error, and its tolerances are
-checked (``core.reference.tolerances``): outside a path tolerance, or not within the goal tolerance in time, the goal
-aborts and the reference stops (``stop_deceleration``, within the joints' range) and holds. A cancel stops and holds
-the same way, and the goal ends CANCELED once the reference is at rest. An e-stop, the brakes, the controller
-reporting a fault, or its state gone stale (the block's ``blocks.arm_watch``) abort the goal with the reason.
+A goal is checked in the goal callback as JTC checks it (the planner block's ``check_goal``): one that fails is
+REJECTED, the reason said in one warning line ("goal rejected: …", which ``robot-controller goto`` reads back from
+the log topic: the action's answer carries no reason). An accepted goal's trajectory is joined onto the reference in
+force (the block's ``take``); if the join cannot be taken the goal is aborted at once with JTC's error code and the
+reason, and the motion in force goes on. A taken goal preempts the one in force. At every tick the feedback carries
+desired, actual and error, and the tolerances are checked (``core.reference.tolerances``): outside a path tolerance,
+or not within the goal tolerance in time, the goal aborts and the reference stops (``stop_deceleration``) and holds.
+A cancel stops and holds the same way, the goal CANCELED once at rest. An e-stop, the brakes, a controller fault or
+its state gone stale (``blocks.arm_watch``) abort the goal with the reason.
 
-"Actual" is the controller's estimate on its state (port ``state``; the measurement its law closes on: the noisy
-sensor's readings would trip a tight tolerance on noise alone), with the reference it was compared with at that tick;
-a controller that publishes none (the tutorial's) is judged on the readings (port ``reading``). Velocities are the
-readings'.
-The goal succeeds only on a fresh state heard after the trajectory's end with every joint within its goal tolerance
-of the last point: never on an estimate from before a stall.
+"Actual" is the controller's estimate on its state (port ``state``: the noisy readings would trip a tight tolerance
+on noise alone); a controller that publishes none (the tutorial's) is judged on the readings. Velocities are the
+readings'. The goal succeeds only on a fresh state heard after the trajectory's end with every joint within its goal
+tolerance of the last point: never on an estimate from before a stall.
 """
 
 from __future__ import annotations
@@ -55,14 +51,12 @@ def _action_type():
 
 @dataclass
 class ActiveGoal:
-    """A goal in force: its handle, the future its ``execute`` awaits, when its trajectory ends (planner's clock, s),
-    where it ends, its tolerances, and whether the reference is stopping for its end (``ending``: canceled or
-    aborted)."""
+    """A goal in force, and whether the reference is stopping for its end (``ending``: canceled or aborted)."""
 
     handle: ServerGoalHandle
     done: Future
     origin_s: float  #: when the goal was taken (its trajectory's time 0)
-    end_s: float
+    end_s: float  #: when its trajectory ends (planner's clock, s)
     target: np.ndarray  #: the last point, the arm's order
     tolerances: Tolerances
     ending: tuple[str, int, str] | None = None  #: (canceled|aborted, error code, reason) once the stop is under way
@@ -80,8 +74,6 @@ class FollowJointTrajectoryServer:
     def __init__(
         self, node: Node, planner: Planner, *, now_s: Callable[[], float], listen: Callable[[bool], None]
     ) -> None:
-        """``node``: the planner's node (its parameters, log); ``planner``: the block (its check_goal, take, install,
-        stop, reference_at, and its ``arm`` watch); ``now_s``: the planner's clock; ``listen``: hear the arm or not."""
         self.node, self.now_s, self.listen = node, now_s, listen
         self.planner = planner
         self.action = _action_type()

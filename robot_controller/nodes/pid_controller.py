@@ -7,8 +7,6 @@ decision about torque is the block's core's."""
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -25,7 +23,7 @@ from robot_controller.ros.adapter import BlockNode, Extras, NodeLog
 from robot_controller.ros.loop_processes import thread_kept_s
 from robot_controller.ros.messages import clock_s
 from robot_controller.ros.process import LAW_FAULT_FILE, request_exit, run
-from robot_controller.ros.publishing import COUNTS_DIR_ENV
+from robot_controller.ros.publishing import leave
 
 # The receipts come once a second, each message a second's rows: keep a few, never a backlog.
 COMMAND_RECEIPTS_QOS = 5
@@ -115,12 +113,7 @@ class ControllerExtras(Extras):
     def leave_law_fault(self, line: str) -> None:
         """The failed law's line in the run's folder, for the launcher to name."""
         self.law_fault_left = True
-        counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
-        if counts_dir:
-            try:
-                (Path(counts_dir) / LAW_FAULT_FILE).write_text(line + "\n")
-            except OSError:
-                pass  # the launcher then only knows the node's exit code
+        leave(LAW_FAULT_FILE, line + "\n")  # lost, the launcher knows the node's exit code only
 
     def publish_diagnostics(self) -> None:
         said = self.node.block.timing.diagnostics(clock_s(self.node))

@@ -5,20 +5,20 @@ effort with short queues (a slow viewer loses samples, holds no one up), feeding
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
-import threading
 import time
 import uuid
 from pathlib import Path
 
 import numpy as np
+import rclpy
 from rosbags.typesys import Stores, get_typestore
 
 from robot_controller.blocks import spec
 from robot_controller.core.controller import state_layout
 from robot_controller.ros import scheduling
 from robot_controller.ros.messages import stamp_to_s
+from robot_controller.ros.process import make_executor, own_context
 from robot_controller.ros.publishing import VIEWER_NODE
 from robot_controller.ros.qos import OBSERVER_QOS
 
@@ -135,15 +135,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(None if argv is None else argv[1:])  # argv[0] is the program, as for rclpy
     # The observers' nice value (and its scheduling group's), before any thread starts: threads inherit it.
     scheduling.apply_in_child(scheduling.Placement(nice=scheduling.OBSERVER_NICE))
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
-
-    import rclpy
-    from rclpy.signals import SignalHandlerOptions
+    context, stop = own_context()
 
     from robot_controller import resources
-    from robot_controller.ros.process import make_executor
     from robot_controller.view import layout
     from robot_controller.view import serve as serving
     from robot_controller.view.arm import Arm
@@ -151,8 +145,6 @@ def main(argv: list[str] | None = None) -> int:
 
     arm = Arm(resources.resolve_urdf(args.urdf))
     # Listening first (what arrives waits in the readers' short queues), then rerun and its servers.
-    context = rclpy.Context()
-    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     viewer = Viewer(context, arm.joint_names)
     # One recording, two streams: to the browser every flush, to the file in larger chunks.
     recording_id = str(uuid.uuid4())

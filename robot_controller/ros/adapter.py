@@ -27,7 +27,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.ros.loop_processes import leave_pid
 from robot_controller.ros.messages import decode, encode, message_class
 from robot_controller.ros.partition import PARTITION_ENV
-from robot_controller.ros.publishing import COUNTS_DIR_ENV, GatedPublisher, write_publish_counts
+from robot_controller.ros.publishing import GatedPublisher, write_publish_counts
 from robot_controller.ros.qos import profile
 from robot_controller.ros.ticks import clock_mode, tick_source_class
 
@@ -138,7 +138,7 @@ class BlockNode(Node):
         self._gated_publishers: list[GatedPublisher] = []
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._post_set_parameters)
-        leave_pid(os.environ.get(COUNTS_DIR_ENV, ""), node_name)  # the paced world tells the host's waits by it
+        leave_pid(node_name)  # the paced world tells the host's waits by it
         self._ports(self.block)
         self.ticks = self.extras.make_ticks(tick_source_class(node_name, self.mode))
         self.ticks.start()

@@ -11,10 +11,8 @@ A clock holds the block and a ``tick(t_s)`` that steps it and publishes what it 
 from __future__ import annotations
 
 import json
-import os
 import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -30,7 +28,7 @@ from robot_controller.core.controller import Status
 from robot_controller.ros.loop_processes import LoopProcesses, Sample, host_kept_waiting
 from robot_controller.ros.messages import clock_s, stamp_to_s
 from robot_controller.ros.process import HOST_MISSED_FILE
-from robot_controller.ros.publishing import COUNTS_DIR_ENV
+from robot_controller.ros.publishing import leave, run_folder
 from robot_controller.ros.qos import LATCHED_QOS
 
 Tick = Callable[[float], dict[str, Any]]
@@ -59,7 +57,7 @@ class HostMisses:
 
     def __init__(self, control_period_s: Callable[[], float], watchdog_periods: Callable[[], int]) -> None:
         self.control_period_s, self.watchdog_periods = control_period_s, watchdog_periods
-        self.loop = LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
+        self.loop = LoopProcesses(run_folder())
         self.last_tick: tuple[float, Sample | None] | None = None  #: (time s, the loop's usage) at the last tick
         self.missed_for_host: list[float] = []  #: when (tick s) each missed period the host made ended
         # The watchdog's silence, timed from the latest accepted reading's arrival (s) and the loop's usage at the
@@ -93,18 +91,19 @@ class HostMisses:
         self.last_tick = (now_s, usage)
 
     def leave(self) -> None:
-        counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
-        if counts_dir:
-            host_made = {"ends_s": self.missed_for_host, "watchdog_s": self.watchdog_for_host}
-            (Path(counts_dir) / HOST_MISSED_FILE).write_text(json.dumps(host_made))
+        host_made = {"ends_s": self.missed_for_host, "watchdog_s": self.watchdog_for_host}
+        leave(HOST_MISSED_FILE, json.dumps(host_made))
 
 
 def take(ticks: TimerTicks | PairedTicks, port: str, value: Any) -> None:
-    """A reading or a reference sample as the clock takes them; the e-stop and the brakes at once (time unused)."""
+    """A reading or a reference sample as the clock takes them; a receipt timed on arrival (the command path's delay,
+    for the latency guard on the wall clock); the e-stop and the brakes at once (time unused)."""
     if port == "reading":
         ticks.take_reading(value)
     elif port == "reference":
         ticks.take_reference(value)
+    elif port == "command_receipts":
+        ticks.block.take(clock_s(ticks.node), {port: value})
     else:
         ticks.block.take(0.0, {port: value})
 
@@ -124,10 +123,7 @@ class TimerTicks:
         self.set_timer_period(timer_period_s(self.params))
 
     def take(self, port: str, value: Any) -> None:
-        if port == "command_receipts":  # timed on arrival: the command path's delay, for the latency guard
-            self.block.take(clock_s(self.node), {port: value})
-        else:
-            take(self, port, value)
+        take(self, port, value)
 
     def set_timer_period(self, period_s: float) -> None:
         if period_s == self.timer_period:

@@ -14,19 +14,16 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from robot_controller.ros.publishing import leave
+
 PID_FILE_PREFIX = "pid."
 REFIND_S = 1.0  #: how often the loop's threads are listed again, s
 _TICK_NS = 1_000_000_000 // (os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100)
 _CPUS = os.cpu_count() or 1
 
 
-def leave_pid(counts_dir: str, node_name: str) -> None:
-    if not counts_dir:
-        return
-    try:
-        Path(counts_dir, f"{PID_FILE_PREFIX}{node_name}").write_text(str(os.getpid()))
-    except OSError:
-        pass  # the figures lose this node's waits; the run does not
+def leave_pid(node_name: str) -> None:
+    leave(f"{PID_FILE_PREFIX}{node_name}", str(os.getpid()))
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,7 @@ import json
 import os
 import time
 from collections import deque
+from pathlib import Path
 from typing import Any
 
 from rclpy.clock import Clock, ClockType
@@ -30,6 +31,20 @@ COUNTS_DIR_ENV = "ROBOT_CONTROLLER_COUNTS_DIR"
 
 def recorded() -> bool:
     return os.environ.get(RECORDED_ENV, "") == "1"
+
+
+def run_folder() -> str:
+    """The run's scratch folder (``COUNTS_DIR_ENV``), or "" for a node started without the launcher."""
+    return os.environ.get(COUNTS_DIR_ENV, "")
+
+
+def leave(file_name: str, text: str) -> None:
+    """``text`` in the run's scratch folder, for the launcher (nothing without one; a failure loses only it)."""
+    if run_folder():
+        try:
+            Path(run_folder(), file_name).write_text(text)
+        except OSError:
+            pass
 
 
 # Discovery is two-sided: a writer can see a reader before the reader knows the writer, and the
@@ -97,14 +112,7 @@ class GatedPublisher:
 
 def write_publish_counts(node_name: str, gates: list[GatedPublisher]) -> None:
     """How many messages ``gates`` published, per topic, for the launcher to check the bag against."""
-    counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
-    if not counts_dir:
-        return
     counts: dict[str, int] = {}
     for gated in gates:
         counts[gated.topic] = counts.get(gated.topic, 0) + gated.count
-    try:
-        with open(os.path.join(counts_dir, f"{node_name}.json"), "w") as f:
-            json.dump(counts, f)
-    except OSError:
-        pass
+    leave(f"{node_name}.json", json.dumps(counts))

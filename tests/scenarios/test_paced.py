@@ -212,13 +212,15 @@ def test_an_effort_the_host_kept_waiting_is_not_the_loops_miss_and_one_it_did_no
     assert late_by_25_ms(start, Sample(start.threads, 10 * ms)) == (1, 0)
 
 
-def test_the_loops_processes_are_read_from_the_pids_its_nodes_leave(tmp_path):
+def test_the_loops_processes_are_read_from_the_pids_its_nodes_leave(tmp_path, monkeypatch):
     import os
 
     from robot_controller.ros.loop_processes import LoopProcesses, leave_pid
+    from robot_controller.ros.publishing import COUNTS_DIR_ENV
 
     assert LoopProcesses(str(tmp_path)).usage() is None  # no node has left its pid: nothing measured
-    leave_pid(str(tmp_path), "pid_controller")
+    monkeypatch.setenv(COUNTS_DIR_ENV, str(tmp_path))
+    leave_pid("pid_controller")
     loop = LoopProcesses(str(tmp_path))
     before = loop.usage()
     sum(range(2_000_000))  # this process's main thread runs a while

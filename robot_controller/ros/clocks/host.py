@@ -6,11 +6,9 @@ process's, freezes), said at the end and left for ``metrics.json``."""
 from __future__ import annotations
 
 import json
-import os
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from robot_controller.blocks.block import Log
@@ -18,7 +16,7 @@ from robot_controller.blocks.values import labelled_tick_s
 from robot_controller.blocks.world import Written
 from robot_controller.ros import scheduling
 from robot_controller.ros.process import WORLD_CLOCK_FILE
-from robot_controller.ros.publishing import COUNTS_DIR_ENV
+from robot_controller.ros.publishing import leave
 
 #: How the world's figures read in its closing line.
 SAID = {
@@ -133,6 +131,4 @@ class FreezeLog:
                 f"the host froze this simulator {self.count} time(s) (longest {self.max_ms:.0f} ms, "
                 f"{self.total_ms:.0f} ms in all): {meaning}" + (f"; {said}" if said else "")
             )
-        counts_dir = os.environ.get(COUNTS_DIR_ENV, "")
-        if counts_dir:
-            (Path(counts_dir) / WORLD_CLOCK_FILE).write_text(json.dumps({**self.figures(), **more}))
+        leave(WORLD_CLOCK_FILE, json.dumps({**self.figures(), **more}))

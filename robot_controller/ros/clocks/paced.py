@@ -13,7 +13,6 @@ host, or of the simulator alone, and counts against nobody; the rest of a wait c
 
 from __future__ import annotations
 
-import os
 import threading
 import time
 from collections.abc import Mapping
@@ -28,7 +27,7 @@ from robot_controller.parameters.schema import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros.clocks.host import FreezeLog, Outlets, Pacing, take
 from robot_controller.ros.clocks.stepped import SteppedClock
 from robot_controller.ros.loop_processes import LoopProcesses, Sample, host_kept_waiting, process_run_wait_s
-from robot_controller.ros.publishing import COUNTS_DIR_ENV
+from robot_controller.ros.publishing import run_folder
 
 #: An effort this long (control periods) past its tick's deadline is the loop's miss: the world waited for it.
 LATE_PERIODS = 1.0
@@ -61,7 +60,7 @@ class PacedClock:
         self.stale_ns = round(STALE_PERIODS * 1e9 / rate_hz)  #: world ns
         self.stale_efforts = 0  #: efforts dropped: computed for a tick more than ``stale_ns`` before the world's
         self.loop_heard = False  #: a stale effort came while the drive timeout's brakes hold: wait for the next
-        self.loop = LoopProcesses(os.environ.get(COUNTS_DIR_ENV, ""))
+        self.loop = LoopProcesses(run_folder())
         self.wait_usage: Sample | None = None  #: the loop's usage when the world began to wait for a tick's effort
         self.effort_arrived = threading.Condition(self.lock)
         self.pacing = Pacing(log)
