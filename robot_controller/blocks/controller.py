@@ -124,7 +124,7 @@ class Controller:
         # for an assignment or two: the loop never waits on a design.
         self._lock = threading.Lock()
         self._pending: GainChange | None = None
-        self.reports = Reports(self.log, self.controller, self.joint_names, self.dynamics.joint_units, world_waits)
+        self.reports = Reports(self.log, self.controller, world_waits)
         self.timing = LoopTiming(self.controller, self.log, world_waits)
         self.waits = StartWaits(self.log)
         self.state_blocks = self.reports.state_blocks  #: the state row's (label, size) blocks

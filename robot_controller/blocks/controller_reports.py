@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
@@ -90,18 +90,11 @@ class Reports:
     """The controller's lines and its state row. ``law_in_force`` is the line its host shows as the read-only
     parameter of that name; ``law_fault_line`` the failed law's line, once said."""
 
-    def __init__(
-        self,
-        log: Log,
-        controller: JointController,
-        joint_names: Sequence[str],
-        joint_units: Sequence[str],
-        world_waits: bool,
-    ) -> None:
+    def __init__(self, log: Log, controller: JointController, world_waits: bool) -> None:
         self.log = log
         self.controller = controller
-        self.joint_names = list(joint_names)
-        self.joint_units = list(joint_units)
+        self.joint_names = list(controller.dynamics.joint_names)
+        self.joint_units = list(controller.dynamics.joint_units)
         self.joint_count = len(self.joint_names)
         self.world_waits = world_waits
         self.last_status: Status | None = None
