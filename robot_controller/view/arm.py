@@ -141,10 +141,8 @@ class Arm:
             rec.log(f"{root}/{path}", hub, static=True)
 
     def pose_columns(self, root: str, q: np.ndarray) -> list[tuple[str, object]]:
-        """``(entity path, columns)`` pairs for ``send_columns`` placing every geom in ``m`` rows of poses.
-
-        :param q: ``(m, P, n)``: P poses (the true one first) of n joints, rad
-        """
+        """``(entity path, columns)`` pairs for ``send_columns`` placing every geom in the rows of ``q`` ``(m, P, n)``:
+        P poses (the true one first) of n joints."""
         import rerun as rr
 
         q = np.asarray(q, dtype=float)
