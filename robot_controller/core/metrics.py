@@ -185,16 +185,10 @@ def step_metrics(
     settling_band: float = 0.02,
     torque: np.ndarray | None = None,
 ) -> dict[str, float]:
-    """Step-response figures of one joint's position (as python-control's ``step_info``).
-
-    :param initial: position before the step, rad
-    :param target: commanded final position, rad
-    :param step_time_s: when the step was commanded, s
-    :param settling_band: settling band as a fraction of the step size (2 %)
-    :returns: ``overshoot_pct``, ``rise_time_s`` (10–90 %), ``settling_time_s``
-        (after ``step_time_s``, last exit from the band), ``steady_state_error_rad``
-        (mean |target − y| over the last 10 % of the record), ``peak_torque_nm``
-    """
+    """Step-response figures of one joint's position from ``initial`` to ``target`` commanded at ``step_time_s``
+    (as python-control's ``step_info``): ``overshoot_pct``, ``rise_time_s`` (10–90 %), ``settling_time_s`` (last exit
+    from ``settling_band``, a fraction of the step), ``steady_state_error_rad`` (mean |target − y| over the last
+    10 % of the record), ``peak_torque_nm``."""
     t = np.asarray(time_s, dtype=float)
     y = np.asarray(position, dtype=float)
     after = t >= step_time_s

@@ -47,14 +47,10 @@ def noise_in_force(
 def looks_like_a_jump(
     surprise: np.ndarray, S_inv: np.ndarray, distance_sq: np.ndarray, step: np.ndarray, sigma: float
 ) -> np.ndarray:
-    """Per joint, whether a reading's surprise (n, 2: position, velocity) is that of a torque
-    step at the start of the period (a generalised likelihood ratio test): the part of the
-    squared distance a step explains exceeds ``sigma``², and what is left is no more than
-    noise. A late reading, surprising mostly in position, is not taken for a push.
-
-    :param step: (n, 2), how much a step of 1 N·m moves the reading over the period
-        (``b·dt²/2`` in position, ``b·dt`` in velocity)
-    """
+    """Per joint, whether a reading's surprise (n, 2) is that of a torque step at the start of the period (a
+    generalised likelihood ratio test, ``step``: how much 1 N·m moves the reading): the part of the squared distance
+    a step explains exceeds ``sigma``², and what is left is noise. A late reading, surprising mostly in position,
+    is not taken for a push."""
     along = quadratic(step, S_inv, surprise)
     weight = quadratic(step, S_inv, step)
     explained = along**2 / weight
@@ -62,15 +58,10 @@ def looks_like_a_jump(
 
 
 def beyond_any_disturbance(surprise: np.ndarray, S: np.ndarray, velocity_per_nm: np.ndarray, limit: np.ndarray):
-    """Per joint, whether the reading's velocity is further from the prediction than any
-    external torque within ``limit`` could have moved it over the period, with BEYOND_SIGMA
-    of noise to spare (a brake that held the arm, a hard contact, a reading from before a
-    fault). Such a reading says nothing of a torque that goes on acting: the filter starts
-    again from it rather than command against a force that is gone.
-
-    :param velocity_per_nm: rad/s per N·m acting for the period, per joint
-    :param limit: N·m per joint
-    """
+    """Per joint, whether the reading's velocity is further from the prediction than any external torque within
+    ``limit`` (N·m; ``velocity_per_nm`` over the period) could have moved it, with BEYOND_SIGMA to spare (a brake
+    that held the arm, a hard contact). Such a reading says nothing of a torque that goes on acting: the filter
+    starts again from it rather than command against a force that is gone."""
     reach = limit * velocity_per_nm + BEYOND_SIGMA * np.sqrt(S[:, 1, 1])
     return np.abs(surprise[:, 1]) > reach
 

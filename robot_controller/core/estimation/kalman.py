@@ -100,12 +100,12 @@ class JointKalmanFilter:
     ``d``); its covariance one matrix over every joint's state (``P[0]``), as each joint's prediction leans on the
     others'; with ``independent_joints``, one m × m per joint.
 
-    :param predictor: the arm model's ``predict`` (q, v, torque, horizon_s, max_step_s, external_nm)
-    :param transition: the model's ``(q, v, torque, horizon_s, max_step_s) → ∂[q(T); v(T)]/∂[q; v]``
-        (2n × 2n; n × 2 × 2 with ``independent_joints``); None: by finite differences of ``predictor``
-    :param estimate_disturbance: add the external torque ``d`` to the state (the observer)
-    :param mass_matrix: the arm's M(q) (what ``d`` accelerates; the observer needs it)
-    :param disturbance_limit: N·m per joint, the bound on ``|d|`` (none if None)
+    :param predictor: the arm model's ``predict``
+    :param transition: the model's ``transition`` (n × 2 × 2 with ``independent_joints``); None: by finite
+        differences of ``predictor``
+    :param estimate_disturbance: add the external torque ``d`` to the state (the observer, which needs
+        ``mass_matrix``)
+    :param disturbance_limit: N·m per joint, the bound on ``|d|``
     :param torque_scale: per joint, the factor on the observer's torque σs (the joint's inertia over the one
         they were chosen for)
     :param payload_torque_std: per joint, N·m/√s added to the mismatch σ of ``d``: how fast the torque of a

@@ -12,14 +12,9 @@ from robot_controller.core.estimation.kalman import process_noise
 def steady_state_gain(
     config: KalmanConfig, inertia: float, damping: float, period_s: float, estimate_disturbance: bool
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One joint's filter at rest on the linear arm (``inertia·q̈ + damping·q̇ = τ (+ d)``, no
-    gravity), in steady state: its transition ``F`` and torque input ``B`` over the period
-    (zero-order hold) and the Kalman gain ``L`` (m × 2; m = 3 with the observer).
-
-    :param inertia: kg·m²
-    :param damping: N·m·s/rad
-    :param period_s: the readings' period, s
-    """
+    """One joint's filter at rest on ``inertia·q̈ + damping·q̇ = τ (+ d)`` in steady state: its transition ``F``
+    and torque input ``B`` over ``period_s`` (zero-order hold) and the Kalman gain ``L`` (m × 2; m = 3 with the
+    observer)."""
     from scipy.linalg import solve_discrete_are
 
     from robot_controller.core.laws.lqr import discretise  # [∫e, e, ė]: its lower block is [q, v]

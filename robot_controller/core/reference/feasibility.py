@@ -6,12 +6,10 @@ The torque a path needs is the arm model's inverse dynamics along it (``dynamics
 densely over what repeats or happens once: one period of a sine or square, a chirp's sweep up and back down, the
 move of a step, the position of a hold. A fraction ``margin`` of the limit is kept free for the feedback law.
 
-Slowing a path in time by ``k`` (:func:`~robot_controller.core.reference.trajectory.time_scaled`)
-divides its velocities by ``k`` and its accelerations by ``k²``; the positions, and so gravity,
-stay. The smallest ``k`` that fits is found by bisection on the inverse dynamics itself, then
-checked on the scaled trajectory. If gravity alone along the path exceeds the usable torque, no
-``k`` helps, and the result says so. A jump (an unshaped step, a square wave) has no finite
-acceleration to check: only holding its levels is.
+Slowing a path by ``k`` (``time_scaled``) divides its velocities by ``k`` and accelerations by ``k²``; gravity
+stays. The smallest ``k`` that fits is found by bisection on the inverse dynamics, then checked on the scaled
+trajectory; if gravity alone exceeds the usable torque, no ``k`` helps. A jump (an unshaped step, a square wave)
+has no finite acceleration to check: only holding its levels is.
 """
 
 from __future__ import annotations

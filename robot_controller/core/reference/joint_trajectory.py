@@ -343,14 +343,9 @@ def accept_joint_trajectory(
     torque_policy: str = "refuse",
     stop_deceleration: float | None = None,
 ) -> Accepted | str:
-    """Check a trajectory, blend it from ``start`` and check the motion: an :class:`Accepted`,
-    or a one-line reason.
-
-    :param dynamics: the arm model (anything with ``torque(q, v, a)``)
-    :param torque_limit_nm: per joint; the path may use ``(1 - margin)`` of it
-    :param torque_policy: ``refuse`` a path that needs more, or ``warn`` and take it
-    :param stop_deceleration: rad/s², to stop first rather than swing past the first point (``blend``)
-    """
+    """Check a trajectory, blend it from ``start`` and check the motion on the arm model ``dynamics`` against
+    ``(1 - margin)`` of ``torque_limit_nm`` (``torque_policy``: ``refuse`` a path that needs more, or ``warn``):
+    an :class:`Accepted`, or a one-line reason."""
     waypoints = check_waypoints(joint_names, times_s, positions, velocities, accelerations, limits)
     if isinstance(waypoints, str):
         return waypoints

@@ -1,10 +1,6 @@
-"""A path through knots: piecewise quintic in time (position, velocity and acceleration
-continuous), held at the last knot after it. Times in s from the path's start.
-
-Where a trajectory gives only positions, or no accelerations, :func:`knot_velocities` and
-:func:`knot_accelerations` choose them: velocity 0 where the motion turns, else the weighted
-harmonic mean of the two slopes (Fritsch–Butland, as in PCHIP: monotone between the points);
-acceleration the central difference of the knot velocities; both 0 at the last knot.
+"""A path through knots: piecewise quintic in time (position, velocity and acceleration continuous), held at
+the last knot. Where a trajectory gives only positions, or no accelerations, :func:`knot_velocities` (Fritsch–Butland,
+as in PCHIP: monotone between the points) and :func:`knot_accelerations` choose them.
 """
 
 from __future__ import annotations
