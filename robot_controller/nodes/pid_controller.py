@@ -19,7 +19,7 @@ from robot_controller.nodes import live_gains
 from robot_controller.nodes.live_gains import Designer
 from robot_controller.parameters import law_params
 from robot_controller.parameters.builders import arm_model
-from robot_controller.ros.adapter import BlockNode, Extras, NodeLog
+from robot_controller.ros.adapter import BlockNode, Extras
 from robot_controller.ros.loop_processes import thread_kept_s
 from robot_controller.ros.messages import clock_s
 from robot_controller.ros.process import LAW_FAULT_FILE, request_exit, run
@@ -61,7 +61,7 @@ class ControllerExtras(Extras):
         self.designer = Designer(design_model, len(design_model.joint_names))
         return block_class(self.node.get_name(), params)(
             params,
-            NodeLog(self.node),
+            self.node,
             world_waits=world_waits,
             margin_of=self.designer.margin,
             run_wait=thread_kept_s,  # what the host took from the loop's thread is not the law's time

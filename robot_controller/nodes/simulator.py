@@ -18,7 +18,7 @@ from std_srvs.srv import SetBool
 from robot_controller.blocks import spec
 from robot_controller.blocks.block import Block
 from robot_controller.blocks.world import World, Written
-from robot_controller.ros.adapter import BlockNode, Extras, NodeLog
+from robot_controller.ros.adapter import BlockNode, Extras
 from robot_controller.ros.clocks.host import Outlets
 from robot_controller.ros.process import run
 from robot_controller.ros.publishing import recorded
@@ -63,7 +63,7 @@ class WorldState:
 
 class WorldExtras(Extras):
     def make_block(self, params: dict[str, Any], world_waits: bool) -> Block:
-        return World(params, NodeLog(self.node), world_waits=world_waits)
+        return World(params, self.node, world_waits=world_waits)
 
     def watched(self, port: spec.Port) -> bool:
         return port.name == "effort"
@@ -97,7 +97,7 @@ class WorldExtras(Extras):
             save_position=None if state_file is None else state_file.save,
         )
         sim_time = {} if node.mode is ClockMode.WALL else {"recorded": recorded()}
-        return source(world, node.params, out, NodeLog(node), **sim_time)
+        return source(world, node.params, out, node, **sim_time)
 
     def start(self) -> None:
         node = self.node

@@ -39,25 +39,6 @@ PUBLISHER_CHECK_PERIOD_S = 1.0
 UNKNOWN_NODE_NAME = "_NODE_NAME_UNKNOWN_"  # what rmw reports for a writer of no known node
 
 
-class NodeLog:
-    """A block's lines in its node's log: warnings rate-limited per key, or said every time, and errors."""
-
-    def __init__(self, node: Node) -> None:
-        self.node = node
-
-    def info(self, message: str) -> None:
-        self.node.get_logger().info(message)
-
-    def warn(self, key: str, message: str) -> None:
-        self.node.warn_throttled(key, message)
-
-    def warning(self, message: str) -> None:
-        self.node.get_logger().warning(message)
-
-    def error(self, message: str) -> None:
-        self.node.get_logger().error(message)
-
-
 class Extras:
     """What a node serves beside its block, and where its ports differ from the spec's defaults: by default nothing
     (the sensor's and the drive's). A node's own extras override what they change."""
@@ -73,7 +54,7 @@ class Extras:
         return ()
 
     def make_block(self, params: dict[str, Any], world_waits: bool) -> Block:
-        return make_block(self.node.get_name(), params, NodeLog(self.node), world_waits)
+        return make_block(self.node.get_name(), params, self.node, world_waits)
 
     def topic(self, port: spec.Port) -> str:
         return port.topic
@@ -317,11 +298,19 @@ class BlockNode(Node):
                 )
             else:
                 consequence = "obeyed like it: this node is not in a run's partition, so it hears every publisher"
-            self.warn_throttled(
-                f"publishers{topic}", f"{topic} has publishers other than {expected}: {others}; " + consequence
-            )
+            self.warn(f"publishers{topic}", f"{topic} has publishers other than {expected}: {others}; " + consequence)
 
-    def warn_throttled(self, key: str, message: str) -> None:
+    # The block's log (``blocks.block.Log``): the node's, its warnings rate-limited per key.
+    def info(self, message: str) -> None:
+        self.get_logger().info(message)
+
+    def warning(self, message: str) -> None:
+        self.get_logger().warning(message)
+
+    def error(self, message: str) -> None:
+        self.get_logger().error(message)
+
+    def warn(self, key: str, message: str) -> None:
         now = time.monotonic()
         last, suppressed = self._warned_at.get(key, (-float("inf"), 0))
         if now - last >= WARN_PERIOD_S:
