@@ -1,15 +1,7 @@
-"""An arm model from per-joint parameters, for when the URDF is not the arm, and for a batch of arms.
-
-:class:`JointArmModel` answers what the controller's model-based parts ask of
-:class:`~robot_controller.core.model.ArmDynamics` (``torque``, ``gravity``, ``acceleration``,
-``predict``, ``mass_matrix``, ``damping``, ``joint_names``, ``effort_limit``) for independent
-revolute joints, each
-
-    tau = I·a + b·v + f_c·sign(v) + G·cos(q)
-
-(inertia kg·m², viscous damping N·m·s/rad, Coulomb friction N·m, gravity torque N·m with the
-link horizontal at q = 0). Exact on one joint; on a chain it leaves out the coupling. Its arrays
-broadcast: ``(batch, joints)`` states step many arms at once (:mod:`robot_controller.core.batch`).
+"""An arm model from per-joint parameters (:class:`JointArmModel`), for when the URDF is not the arm, and for a
+batch of arms: what the model-based parts ask of :class:`~.arm_dynamics.ArmDynamics`, for independent revolute
+joints, each ``tau = I·a + b·v + f_c·sign(v) + G·cos(q)`` (q = 0 horizontal). Exact on one joint; on a chain it
+leaves out the coupling. Its arrays broadcast: ``(batch, joints)`` states step many arms at once.
 """
 
 from __future__ import annotations

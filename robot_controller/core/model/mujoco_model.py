@@ -1,11 +1,5 @@
-"""The URDF compiled into a MuJoCo model, and what the stack reads from it: the
-joints' names, their effort limits, and how many physics steps make a control period.
-
-MuJoCo loads the URDF as it is (``MjSpec.from_file``), so there is no second,
-hand-written model to drift from the robot description. The simulated plant
-(:mod:`robot_controller.core.model.mujoco_plant`) and the controller's arm model
-(:mod:`robot_controller.core.model.arm_dynamics`) load the same file through here.
-"""
+"""The URDF compiled into a MuJoCo model as it is (``MjSpec.from_file``: no second, hand-written model to drift
+from the robot description), for the plant and the controller's model alike, and what the stack reads from it."""
 
 from __future__ import annotations
 

@@ -1,10 +1,8 @@
 """Bringing a moving reference to rest within a deceleration: a cancelled goal's controlled stop, and the stop a new
-trajectory makes first when joining it directly would overshoot its first point.
-
-The stop is one quintic from the reference in force (position, velocity, acceleration) to rest: with the end at
-``p0 + v0·T/2 + a0·T²/20`` its velocity falls monotonically (for ``a0`` = 0) and its deceleration peaks at
-``1.875·|v0|/T``, so ``T`` follows from the deceleration allowed. Given the joints' range, a stop that would come to
-rest beyond it is made shorter (harder), to rest at the limit: the range is the arm's, the deceleration a preference.
+trajectory makes first when joining it directly would overshoot its first point. One quintic to rest at
+``p0 + v0·T/2 + a0·T²/20``: its deceleration peaks at ``1.875·|v0|/T``, so ``T`` follows from the deceleration
+allowed; a stop that would rest beyond the joints' range is made harder instead (the range is the arm's, the
+deceleration a preference).
 """
 
 from __future__ import annotations
