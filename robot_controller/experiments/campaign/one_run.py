@@ -44,7 +44,7 @@ class Task:
     drawn: dict[str, Any]
     seed: int
     duration_s: float
-    timeout_s: float = math.inf  #: the run's wall-time limit, s (``limits`` holds it to it)
+    timeout_s: float = math.inf  #: the run's wall-time limit, s (``executors`` holds it to it)
 
 
 def head(task: Task) -> dict[str, Any]:
