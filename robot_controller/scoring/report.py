@@ -135,7 +135,8 @@ def brake_metrics(recording: Recording, start_s: float, end_s: float, grace_s: f
         return {"brake_engagements": 0, "braked_s": 0.0, "brake_engagements_estop": 0, "braked_s_estop": 0.0}
     # Each span the brakes held without a break, and whether an e-stop held it at some time.
     span_id = np.cumsum(held & ~np.concatenate(([False], held[:-1])))
-    estop = np.array([held[k] and "estop" in reasons for k, reasons in enumerate(_reasons_of(recording, len(t)))])
+    reasons = recording.brakes_reasons if len(recording.brakes_reasons) == len(t) else [frozenset()] * len(t)
+    estop = np.array([held[k] and "estop" in said for k, said in enumerate(reasons)])
     estop_spans = set(span_id[estop].tolist())
     by_estop = np.isin(span_id, list(estop_spans)) & held
     engaged = np.flatnonzero(held[1:] & ~held[:-1]) + 1
@@ -148,11 +149,6 @@ def brake_metrics(recording: Recording, start_s: float, end_s: float, grace_s: f
         "brake_engagements_estop": int(np.count_nonzero(by_estop[engaged])),
         "braked_s_estop": float(np.sum(spans[by_estop])),
     }
-
-
-def _reasons_of(recording: Recording, count: int) -> list[frozenset[str]]:
-    reasons = list(recording.brakes_reasons)
-    return reasons if len(reasons) == count else [frozenset()] * count
 
 
 def reference_in_force_at(

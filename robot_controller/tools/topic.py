@@ -81,13 +81,9 @@ def _echo_qos(g: graph.Graph, topic: str) -> Any:
     return graph.qos(ECHO_DEPTH, best_effort=best_effort, latched=latched)
 
 
-def is_message(value: Any) -> bool:
-    return hasattr(type(value), "get_fields_and_field_types")
-
-
 def message_to_plain(value: Any) -> Any:
     """A message as dicts (in field order), lists and Python scalars, as ros2cli sees it."""
-    if is_message(value):
+    if hasattr(type(value), "get_fields_and_field_types"):  # a message
         return {name: message_to_plain(getattr(value, name)) for name in value.get_fields_and_field_types()}
     if isinstance(value, list | tuple):
         return [message_to_plain(v) for v in value]

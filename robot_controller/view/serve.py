@@ -80,11 +80,6 @@ HOP_BY_HOP = {"connection", "keep-alive", "proxy-connection", "te", "trailer", "
 COPY_CHUNK = 64 * 1024
 
 
-def data_url(host: str) -> str:
-    """Where the viewer reads its data, on the gateway ``host`` (``name:port``) as the browser reaches it."""
-    return f"rerun+http://{host}/proxy"
-
-
 class _Gateway(BaseHTTPRequestHandler):
     """One port for the page, its files and its data: ``/`` with no ``url`` opens the viewer on this port's data;
     gRPC-web calls go to the gRPC server, the rest to the web server; replies are streamed as they come."""
@@ -94,9 +89,9 @@ class _Gateway(BaseHTTPRequestHandler):
     def do_GET(self) -> None:  # noqa: N802 - http.server's name
         path, _, query = self.path.partition("?")
         if path in ("", "/", "/index.html") and "url" not in urllib.parse.parse_qs(query):
-            host = self.headers.get("Host") or f"{HOST}:{self.server.server_address[1]}"
+            host = self.headers.get("Host") or f"{HOST}:{self.server.server_address[1]}"  # as the browser named it
             self.send_response(302)
-            self.send_header("Location", f"/?url={urllib.parse.quote(data_url(host), safe='')}")
+            self.send_header("Location", f"/?url={urllib.parse.quote(f'rerun+http://{host}/proxy', safe='')}")
             self.send_header("Cache-Control", "no-store")
             self.send_header("Content-Length", "0")
             self.end_headers()
