@@ -88,29 +88,16 @@ def write_run_profile(path: Path, partition: str, base: Path | None = None, peer
     """The stack's Fast DDS profile (``config/fastdds.xml``) with every loop topic in ``partition`` (written in the
     default one too for :data:`PUBLISHED_TOO`). ``peers``: a run across hosts: UDPv4 only, those addresses as initial
     peers (module docstring)."""
-    return _write(
-        path,
-        base,
-        writer_partitions=partition,
-        reader_partitions=partition,
-        peers=peers,
-        public_writers=f";{partition}",
-    )
+    return _write(path, base, partition, peers=peers, public_writers=f";{partition}")
 
 
 def write_observer_profile(path: Path, base: Path | None = None) -> Path:
     """A profile for a process that should hear every run and the default partition alike."""
-    return _write(path, base, writer_partitions=_EVERY_PARTITION, reader_partitions=_EVERY_PARTITION)
+    return _write(path, base, _EVERY_PARTITION)
 
 
 def _write(
-    path: Path,
-    base: Path | None,
-    *,
-    writer_partitions: str,
-    reader_partitions: str,
-    peers: list[str] | None = None,
-    public_writers: str | None = None,
+    path: Path, base: Path | None, partitions: str, *, peers: list[str] | None = None, public_writers: str | None = None
 ) -> Path:
     ET.register_namespace("", _NS)
     tree = ET.parse(base or resources.fastdds_profiles())
@@ -118,7 +105,7 @@ def _write(
     if peers:
         _udp_only(root, peers)
     # A topic's profile replaces the default one (unset fields take Fast DDS's defaults): start from a copy of it.
-    for kind, partitions in (("data_writer", writer_partitions), ("data_reader", reader_partitions)):
+    for kind in ("data_writer", "data_reader"):
         default = next((e for e in root.findall(f"{{{_NS}}}{kind}") if e.get("is_default_profile") == "true"), None)
         for topic in LOOP_TOPICS:
             profile = copy.deepcopy(default) if default is not None else ET.Element(f"{{{_NS}}}{kind}")

@@ -17,8 +17,7 @@ from robot_controller.nodes import recorder as rec
 from robot_controller.ros.process import LAW_STOPPED_EXIT_CODE
 from robot_controller.runner.options import NODE_ORDER
 from robot_controller.runner.plan import RunPlan
-from robot_controller.runner.processes import Child, ProcessGroup, say
-from robot_controller.runner.usage import USAGE_WARMUP_S, UsageMeter
+from robot_controller.runner.processes import USAGE_WARMUP_S, Child, ProcessGroup, UsageMeter, say
 
 RECORDER_READY_TIMEOUT_S = 30.0
 CLOCK_WAIT_S = 10.0  #: a split run: the other launcher's clock is measured this long after the graph is complete
