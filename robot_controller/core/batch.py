@@ -63,7 +63,7 @@ def run_batch(
     filter_ = None
     if kalman is not None:
         config = replace(kalman, model_step_s=physics_dt)
-        filter_ = JointKalmanFilter(config, batch, model.predict, independent_joints=True)
+        filter_ = JointKalmanFilter(config, batch, model.predict, transition=model.transition, independent_joints=True)
     n_steps = int(round(control_period_s / physics_dt))
     applied = np.zeros((batch, 1))
     squared = np.zeros((batch, 1))

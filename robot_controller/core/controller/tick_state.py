@@ -44,7 +44,7 @@ def make_estimator(
         config.estimator,
         joint_count,
         dynamics.predict,
-        transition=getattr(dynamics, "transition", None),
+        transition=dynamics.transition,
         estimate_disturbance=config.observes_disturbance,
         mass_matrix=dynamics.mass_matrix,
         disturbance_limit=config.pid.output_limit,

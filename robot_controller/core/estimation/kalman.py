@@ -24,7 +24,11 @@ from numpy._core.multiarray import c_einsum  # np.einsum's own C function, witho
 import robot_controller.core.estimation.innovation as innovation
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation.config import DISTURBANCE_PRIOR_STD_NM, KalmanConfig, StateIndex
-from robot_controller.core.model import Predictor, Transition, transition_by_differences
+
+# (q, v, torque, horizon_s, max_step_s=, external_nm=) → predicted (q, v): an arm model's ``predict``
+Predictor = Callable[..., tuple[np.ndarray, np.ndarray]]
+# (q, v, torque, horizon_s, max_step_s) → ∂[q(T); v(T)]/∂[q; v]: an arm model's ``transition``
+Transition = Callable[[np.ndarray, np.ndarray, np.ndarray, float, float], np.ndarray]
 
 # q → the arm's mass matrix M(q), (n, n), kg·m²
 MassMatrix = Callable[[np.ndarray], np.ndarray]
@@ -101,8 +105,8 @@ class JointKalmanFilter:
     others'; with ``independent_joints``, one m × m per joint.
 
     :param predictor: the arm model's ``predict``
-    :param transition: the model's ``transition`` (n × 2 × 2 with ``independent_joints``); None: by finite
-        differences of ``predictor``
+    :param transition: the arm model's ``transition``: 2n × 2n (or 2n × 3n, how a push moves the state too), or
+        n × 2 × 2 for independent joints
     :param estimate_disturbance: add the external torque ``d`` to the state (the observer, which needs
         ``mass_matrix``)
     :param disturbance_limit: N·m per joint, the bound on ``|d|``
@@ -118,7 +122,7 @@ class JointKalmanFilter:
         joint_count: int,
         predictor: Predictor,
         *,
-        transition: Transition | None = None,
+        transition: Transition,
         estimate_disturbance: bool = False,
         mass_matrix: MassMatrix | None = None,
         disturbance_limit: np.ndarray | None = None,
@@ -130,7 +134,7 @@ class JointKalmanFilter:
             raise ConfigError("disturbance_observer: needs the arm model's mass matrix")
         self.config = config
         self.predictor = predictor
-        self.transition = transition or transition_by_differences(predictor, independent_joints)
+        self.transition = transition
         self.joint_count = n = joint_count
         self.estimates_disturbance = bool(estimate_disturbance)
         self.mass_matrix = mass_matrix
@@ -321,7 +325,7 @@ class JointKalmanFilter:
         torque there would."""
         F, at = self._F, self._index
         slopes = self.transition(q, v, torque, dt, self.config.model_step_s)
-        if self._groups == 1:
+        if slopes.ndim == 2:  # the arm's, coupled
             F[(0, *at.model_slopes)] = slopes[:, : slopes.shape[0]]  # [q; v] by [q; v]
         else:
             F[:, :2, :2] = slopes

@@ -6,7 +6,6 @@ from robot_controller.core.model.arm_dynamics import ArmDynamics, matrix_power
 from robot_controller.core.model.arm_model import PARAMETERS, JointArmModel
 from robot_controller.core.model.identification import IdentificationError, JointFit, identify
 from robot_controller.core.model.joint_limits import JointLimits, joint_limits, urdf_velocity_limits
-from robot_controller.core.model.linearisation import Predictor, Transition, transition_by_differences
 from robot_controller.core.model.mujoco_model import (
     can_collide,
     effort_limits,
@@ -39,9 +38,7 @@ __all__ = [
     "Payload",
     "Plant",
     "PlantVariation",
-    "Predictor",
     "SensorConfig",
-    "Transition",
     "can_collide",
     "check_disturbance",
     "effort_limits",
@@ -53,6 +50,5 @@ __all__ = [
     "matrix_power",
     "measure",
     "steps_per_period",
-    "transition_by_differences",
     "urdf_velocity_limits",
 ]

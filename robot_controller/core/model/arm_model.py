@@ -144,6 +144,27 @@ class JointArmModel:
             position = position + h * velocity
         return position, velocity
 
+    def transition(
+        self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float, max_step_s: float
+    ) -> np.ndarray:
+        """Per joint, how ``horizon_s`` of :meth:`predict`'s steps move ``[q, v]`` (joints × 2 × 2): one step's slopes
+        at ``(q, v)`` (none where friction stops the joint within it) carried over the horizon's steps."""
+        count = step_count(horizon_s, max_step_s)
+        h = horizon_s / count
+        damped = self.inertia + h * self.damping
+        q, v = np.asarray(position, float), np.asarray(velocity, float)
+        by_q = h * self.gravity_torque * np.sin(q) / damped
+        by_v = np.broadcast_to(self.inertia / damped, by_q.shape)
+        if np.any(self.coulomb_friction):
+            force = np.clip(torque, -self.effort_limit, self.effort_limit)
+            free = (v * self.inertia + h * (force - self.gravity_torque * np.cos(q))) / damped
+            moving = np.abs(free) > self.coulomb_friction * h / damped
+            by_q, by_v = by_q * moving, by_v * moving
+        step = np.empty((by_q.size, 2, 2))
+        step[:, 0, 0], step[:, 0, 1] = 1.0 + h * by_q.ravel(), h * by_v.ravel()
+        step[:, 1, 0], step[:, 1, 1] = by_q.ravel(), by_v.ravel()
+        return np.linalg.matrix_power(step, count)
+
     def describe(self) -> str:
         """One line: the values in force and where each came from."""
         return "arm model: " + ", ".join(

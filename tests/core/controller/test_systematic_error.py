@@ -135,7 +135,7 @@ def test_the_controller_feeds_forward_the_reference_over_the_period():
 def test_the_filters_model_steps_like_the_plant():
     dynamics = ArmDynamics(resources.default_urdf())
     plant = MujocoPlant(resources.default_urdf(), 0.001)
-    kf = JointKalmanFilter(configs.kalman(), 1, dynamics.predict)
+    kf = JointKalmanFilter(configs.kalman(), 1, dynamics.predict, transition=dynamics.transition)
     previous_torque, worst = np.zeros(1), 0.0
     for k in range(300):
         q, v = plant.state()
@@ -159,9 +159,8 @@ def test_the_velocity_at_the_instant_is_the_one_the_position_moves_at():
     plant.step(torque, 1)
     after, _ = plant.state()
     central = (after - before) / 0.002
-    at_instant = JointKalmanFilter(configs.kalman(), 1, dynamics.predict).velocity_at_instant(
-        position, velocity, torque
-    )
+    kf = JointKalmanFilter(configs.kalman(), 1, dynamics.predict, transition=dynamics.transition)
+    at_instant = kf.velocity_at_instant(position, velocity, torque)
     assert abs(at_instant[0] - central[0]) < 5e-5
     assert abs(velocity[0] - central[0]) > 5e-3  # the plant's own is half a step behind
 

@@ -25,7 +25,12 @@ def dynamics() -> ArmDynamics:
 
 def observer(dynamics: ArmDynamics, **config) -> JointKalmanFilter:
     return JointKalmanFilter(
-        configs.kalman(**config), 1, dynamics.predict, estimate_disturbance=True, mass_matrix=dynamics.mass_matrix
+        configs.kalman(**config),
+        1,
+        dynamics.predict,
+        transition=dynamics.transition,
+        estimate_disturbance=True,
+        mass_matrix=dynamics.mass_matrix,
     )
 
 
@@ -114,6 +119,7 @@ def test_a_command_change_whose_instant_is_uncertain_widens_the_velocity(dynamic
             configs.kalman(command_timing_uncertainty_s=uncertainty_s),
             1,
             dynamics.predict,
+            transition=dynamics.transition,
             mass_matrix=dynamics.mass_matrix,
         )
         for k in range(50):
@@ -146,6 +152,7 @@ def test_a_reading_no_torque_within_the_limit_explains_restarts_the_filter(dynam
         configs.kalman(),
         1,
         dynamics.predict,
+        transition=dynamics.transition,
         estimate_disturbance=True,
         mass_matrix=dynamics.mass_matrix,
         disturbance_limit=np.array([10.0]),

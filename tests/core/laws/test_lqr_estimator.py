@@ -73,7 +73,9 @@ def test_kalman_velocity_error_is_below_the_raw_readings():
     dynamics = ArmDynamics(resources.default_urdf())
     plant = MujocoPlant(resources.default_urdf(), 0.001)
     sensor = configs.sensor(position_noise_std=0.005, velocity_noise_std=0.02)
-    kf = JointKalmanFilter(configs.kalman(acceleration_noise_std=2.0), 1, dynamics.predict)
+    kf = JointKalmanFilter(
+        configs.kalman(acceleration_noise_std=2.0), 1, dynamics.predict, transition=dynamics.transition
+    )
     rng = np.random.default_rng(1)
     raw_errors, filtered_errors = [], []
     previous_torque = np.zeros(1)
