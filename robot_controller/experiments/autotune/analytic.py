@@ -27,7 +27,7 @@ from robot_controller.experiments.autotune.margins import (
 )
 from robot_controller.experiments.autotune.search import FAILED, ROBUST, SEED, SearchPlan, SearchResult
 from robot_controller.experiments.loop_model import law_gains, plant_loop
-from robot_controller.experiments.runs import run_sim_time
+from robot_controller.experiments.step import run_sim_time
 from robot_controller.parameters.builders import arm_model
 
 #: The search box, log10 of each parameter. PID: Kp N·m/rad, Ki N·m/(rad·s), Kd N·m·s/rad.

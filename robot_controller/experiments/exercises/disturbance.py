@@ -14,8 +14,7 @@ from robot_controller import parameters as cfg
 from robot_controller.experiments import reporting
 from robot_controller.experiments.compare import Contender, law_contender
 from robot_controller.experiments.reporting import Progress, cells, pyplot, save, table, write_report, write_results
-from robot_controller.experiments.runs import SEED
-from robot_controller.experiments.step import run_and_score
+from robot_controller.experiments.step import SEED, run_and_score
 from robot_controller.scoring import report
 
 TORQUE_NM = 2.0

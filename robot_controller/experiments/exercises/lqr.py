@@ -15,7 +15,7 @@ from robot_controller.experiments import reporting
 from robot_controller.experiments.compare import Contender
 from robot_controller.experiments.loop_model import law_gains, plant_loop
 from robot_controller.experiments.reporting import cells, fmt, label_axes, pyplot, save, table
-from robot_controller.experiments.runs import SEED, Response, plot_steps, sine_params, sine_run, step_run, store
+from robot_controller.experiments.step import SEED, Response, plot_steps, sine_params, sine_run, step_run, store
 
 STEP_RAD = 0.5
 

@@ -13,7 +13,7 @@ from robot_controller.blocks import spec
 from robot_controller.core.laws.pid import AntiWindup
 from robot_controller.experiments import reporting
 from robot_controller.experiments.reporting import Progress, cells, pyplot, save, table, write_report, write_results
-from robot_controller.experiments.runs import SEED, Response, plot_steps, step_run, store
+from robot_controller.experiments.step import SEED, Response, plot_steps, step_run, store
 
 PRESET = "tutorial"
 TORQUE_MAX_NM = 2.0

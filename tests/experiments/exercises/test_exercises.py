@@ -10,7 +10,7 @@ from robot_controller import parameters as cfg
 from robot_controller.experiments.exercises import EXERCISES, steps
 from robot_controller.experiments.exercises.ziegler_nichols import oscillation
 from robot_controller.experiments.loop_model import law_gains
-from robot_controller.experiments.runs import Response
+from robot_controller.experiments.step import Response
 
 ros = pytest.mark.ros
 

@@ -30,7 +30,7 @@ from robot_controller.experiments.exercises.ziegler_nichols.settings import (
 )
 from robot_controller.experiments.loop_model import plant_loop
 from robot_controller.experiments.reporting import Progress, write_report, write_results
-from robot_controller.experiments.runs import SEED, Response, sine_params, sine_run, step_run, store
+from robot_controller.experiments.step import SEED, Response, sine_params, sine_run, step_run, store
 
 __all__ = ["choose_ki", "model_ultimate", "oscillation", "run", "steps"]
 

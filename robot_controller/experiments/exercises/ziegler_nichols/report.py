@@ -19,7 +19,7 @@ from robot_controller.experiments.exercises.ziegler_nichols.settings import (
     SUSTAINED_GROWTH_PER_S,
 )
 from robot_controller.experiments.reporting import cells, fmt, label_axes, pyplot, save, table
-from robot_controller.experiments.runs import Response, plot_steps
+from robot_controller.experiments.step import Response, plot_steps
 
 
 def plot_stages(
