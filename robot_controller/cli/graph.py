@@ -10,15 +10,14 @@ from pathlib import Path
 
 from robot_controller.blocks import spec
 from robot_controller.cli.args import Parser, joint_list, positive_int, positive_seconds, verb
-from robot_controller.tools import param, topic  # no ROS until a verb runs
+from robot_controller.tools import disturb, param, send_trajectory, topic  # no ROS until a verb runs
 
 
 def register(sub) -> None:
     p = verb(sub, "estop", "emergency stop of the running graph: torque off, brakes on, latched", _estop)
     p.add_argument("--release", action="store_true", help="release the e-stop; the loop re-acquires")
-    p = verb(
-        sub, "disturb", f"push the running arm: an external torque for a while ({spec.DISTURBANCE.topic})", _disturb
-    )
+    disturb_help = f"push the running arm: an external torque for a while ({spec.DISTURBANCE.topic})"
+    p = verb(sub, "disturb", disturb_help, lambda a: disturb.disturb(a.torque, a.duration, a.joint))
     p.add_argument("--torque", type=float, required=True, help="N·m")
     p.add_argument("--duration", type=positive_seconds, default=0.5, help="s (default 0.5)")
     p.add_argument("--joint", help="joint name (default: every joint)")
@@ -26,7 +25,9 @@ def register(sub) -> None:
         "move the running arm to joint positions, at rest after --time: a FollowJointTrajectory goal, its result "
         "awaited (exit 0 succeeded; 2 refused, aborted or canceled; 1 unknown; Ctrl-C cancels it)"
     )
-    p = verb(sub, "goto", goto_help, _goto)
+    p = verb(
+        sub, "goto", goto_help, lambda a: send_trajectory.goto(a.positions, a.time, a.joints, controller=a.controller)
+    )
     p.add_argument("positions", type=float, nargs="+", metavar="Q", help="rad, one per joint")
     p.add_argument("--time", type=positive_seconds, help="s to get there (default: from the distance, at least 1)")
     p.add_argument(
@@ -37,7 +38,7 @@ def register(sub) -> None:
         "follow a joint trajectory from a YAML file (joint_names, points): a FollowJointTrajectory goal, its result "
         "awaited (exit codes as goto's; Ctrl-C cancels it)"
     )
-    p = verb(sub, "trajectory", file_help, _send_file)
+    p = verb(sub, "trajectory", file_help, lambda a: send_trajectory.send_file(a.file, controller=a.controller))
     p.add_argument("file", type=Path, help="YAML: joint_names: [...], points: [{time_from_start, positions}, ...]")
     _trajectory_controller_option(p)
     topics = sub.add_parser("topic", help="ros2 topic's habits: list, echo, hz").add_subparsers(
@@ -73,8 +74,7 @@ def register(sub) -> None:
     p.add_argument("node")
 
 
-# The planner's controller_name default and form (a ROS name segment), checked before any ROS is loaded.
-TRAJECTORY_CONTROLLER = "joint_trajectory_controller"
+# The planner's controller_name's form (a ROS name segment), checked before any ROS is loaded.
 _CONTROLLER_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 
 
@@ -88,28 +88,10 @@ def _trajectory_controller_option(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--controller",
         type=_controller_name,
-        default=TRAJECTORY_CONTROLLER,
+        default=send_trajectory.CONTROLLER,
         metavar="NAME",
         help=f"the planner's controller_name: the goal goes to {spec.FOLLOW_JOINT_TRAJECTORY.action_for('NAME')}",
     )
-
-
-def _disturb(a: argparse.Namespace) -> int:
-    from robot_controller.tools.disturb import disturb
-
-    return disturb(a.torque, a.duration, a.joint)
-
-
-def _goto(a: argparse.Namespace) -> int:
-    from robot_controller.tools.send_trajectory import goto
-
-    return goto(a.positions, a.time, a.joints, controller=a.controller)
-
-
-def _send_file(a: argparse.Namespace) -> int:
-    from robot_controller.tools.send_trajectory import send_file
-
-    return send_file(a.file, controller=a.controller)
 
 
 def _estop(a: argparse.Namespace) -> int:
