@@ -2,20 +2,6 @@
 every tuned loop keeps (``margins``), a built-in law's problem on the batch harness (``analytic``) and a
 law of one's own on the in-process loop (``blackbox``), each with its report; the verb (``procedure``)."""
 
-from robot_controller.experiments.autotune.analytic import AnalyticProblem
-from robot_controller.experiments.autotune.blackbox import CASES, BlackBoxProblem
-from robot_controller.experiments.autotune.margins import describe_margins
 from robot_controller.experiments.autotune.procedure import steps, tune
-from robot_controller.experiments.autotune.search import SearchPlan, SearchResult, search
 
-__all__ = [
-    "CASES",
-    "AnalyticProblem",
-    "BlackBoxProblem",
-    "SearchPlan",
-    "SearchResult",
-    "describe_margins",
-    "search",
-    "steps",
-    "tune",
-]
+__all__ = ["steps", "tune"]

@@ -14,6 +14,10 @@ from robot_controller import cli
 from robot_controller import parameters as cfg
 from robot_controller.core.batch import run_batch
 from robot_controller.experiments import autotune, laws
+from robot_controller.experiments.autotune.analytic import AnalyticProblem
+from robot_controller.experiments.autotune.blackbox import CASES, BlackBoxProblem
+from robot_controller.experiments.autotune.margins import describe_margins
+from robot_controller.experiments.autotune.search import search
 from robot_controller.experiments.loop_model import law_gains
 
 ros = pytest.mark.ros
@@ -39,10 +43,10 @@ def test_tune_writes_a_robust_parameter_file(tmp_path, ros_domain):
 
 
 def test_the_lqr_weights_tuned_keep_the_margins_and_design_what_was_checked():
-    problem = autotune.AnalyticProblem(cfg.load_stack("default"))
-    result = autotune.search(problem, problem.plan(quick=True))
+    problem = AnalyticProblem(cfg.load_stack("default"))
+    result = search(problem, problem.plan(quick=True))
     best_gains = problem.gains_of_values(result.best_values)[0]
-    margins = autotune.describe_margins(problem, best_gains)
+    margins = describe_margins(problem, best_gains)
     assert margins["meets_constraints"] == 1
     overlay = result.problem.overlay(result.best_values)
     designed = law_gains(cfg.merge(cfg.load_stack("default"), {"pid_controller": overlay}))
@@ -52,7 +56,7 @@ def test_the_lqr_weights_tuned_keep_the_margins_and_design_what_was_checked():
 
 
 def test_the_tuning_harness_is_the_batch_harness():
-    problem = autotune.AnalyticProblem(cfg.load_stack("default"))
+    problem = AnalyticProblem(cfg.load_stack("default"))
     gains = np.array([[30.0, 27.0, 2.1], [15.0, 0.4, 3.4], [50.0, 10.0, 5.0]])
     pid = replace(problem.law, kp=gains[:, 0:1], ki=gains[:, 1:2], kd=gains[:, 2:3])
     kwargs = {"trajectory": problem.sine, "sensor": problem.sensor, "duration_s": 3.0}
@@ -71,8 +75,8 @@ def test_the_tuning_harness_is_the_batch_harness():
 def test_robustness_cases_see_a_pd_too_fast_for_two_periods_of_delay():
     """PDWithGravity on the 1-joint arm: a discrete PD with two periods of delay is unstable above about
     4.5 Hz (ζ 0.88; the sampled loop's poles), so the delay case rejects 8 Hz and passes 3 Hz."""
-    problem = autotune.BlackBoxProblem(laws.with_controller(cfg.load_stack(), PD))
-    delay = autotune.CASES[0]
+    problem = BlackBoxProblem(laws.with_controller(cfg.load_stack(), PD))
+    delay = CASES[0]
     assert delay.name == "delay"
     assert not problem.push_decay(np.array([8.0, 1.0]), delay)["ok"]
     assert problem.push_decay(np.array([3.0, 1.0]), delay)["ok"]
