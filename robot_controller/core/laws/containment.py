@@ -62,10 +62,9 @@ def _outcome(call: Callable[[], Any]) -> tuple[Any, str | None]:
 
 
 class LawWorker:
-    """A thread running a law's calls one at a time, so the controller can stop waiting for one that
-    blocks (sleeps, loops, deadlocks). An abandoned call is asked to end at its next Python instruction;
-    one blocked in C code runs on, and one holding the GIL there stalls every thread: a thread cannot be
-    killed. The thread ends once the worker is no longer referenced (a loop run in process after loop)."""
+    """A thread running a law's calls one at a time, so the controller can stop waiting for one that blocks. An
+    abandoned call is asked to end at its next Python instruction; one blocked in C code runs on (a thread cannot be
+    killed). The thread ends once the worker is no longer referenced."""
 
     def __init__(self, name: str) -> None:
         self._calls: queue.SimpleQueue = queue.SimpleQueue()
@@ -80,9 +79,8 @@ class LawWorker:
     def run(
         self, call: Callable[[], Any], timeout_s: float, cpu_limit_s: float | None = None
     ) -> tuple[Any, str | None] | None:
-        """:func:`_outcome` of ``call``, or None if it is still running after ``timeout_s`` of wall time, or
-        once it has used ``cpu_limit_s`` of its thread's CPU time (None: not checked): abandoned. A call
-        kept from a CPU uses none; one that loops uses it all."""
+        """:func:`_outcome` of ``call``, or None (abandoned) if it is still running after ``timeout_s`` of wall time
+        or ``cpu_limit_s`` of its thread's CPU time (a call kept from a CPU uses none; one that loops uses it all)."""
         self._done.clear()
         deadline_s = time.monotonic() + timeout_s
         started_cpu_s = 0.0 if cpu_limit_s is None else self.cpu_s()
@@ -279,10 +277,9 @@ class ContainedLaw(ControlLaw):
     def check_runaway(
         self, time_s: float, state: State, reference: Reference, net_torque: np.ndarray
     ) -> LawFault | None:
-        """A fault once the arm moves away from the reference, further than ``error_max_rad`` counting
-        the way it would still go before a stop at ``stop_deceleration_rad_s2`` turned it, while the
-        law's ``net_torque`` (its command less gravity's, N·m) pushes it on. A law braking an
-        overshoot, or bringing the arm back to a reference that jumped, is doing its work."""
+        """A fault once the arm moves away from the reference further than ``error_max_rad`` (counting the way a
+        stop at ``stop_deceleration_rad_s2`` would still go) while the law's ``net_torque`` (less gravity's) pushes
+        it on. A law braking an overshoot, or bringing the arm back to a reference that jumped, is doing its work."""
         if self.error_max_rad <= 0 or self.fault is not None:
             return self.fault
         error = np.asarray(state.position, dtype=float) - np.asarray(reference.position, dtype=float)
@@ -323,8 +320,7 @@ class ContainedLaw(ControlLaw):
         return out
 
     def _call(self, time_s: float | None, method: str, call: Callable[[], Any]) -> Any:
-        """``call()``'s value, or the law's fault; timed, a call the worker stops waiting for is a fault at once
-        (abandoned), shorter overruns count as :data:`OVERRUN_TICKS` says."""
+        """``call()``'s value, or the law's fault (timed: abandoned at once, shorter overruns by OVERRUN_TICKS)."""
         if self.fault is not None:
             return self.fault
         timed = self.clock is not None and method == "update"
@@ -365,8 +361,8 @@ class ContainedLaw(ControlLaw):
         return value
 
     def _timed(self, call: Callable[[], Any], spent_s: list[float]) -> Callable[[], Any]:
-        """``call``, leaving in ``spent_s`` how long it took on ``clock`` less the time its thread waited for a
-        CPU meanwhile (``run_wait``, read on that thread: a law preempted by the host is not slow)."""
+        """``call``, leaving in ``spent_s`` its time on ``clock`` less its thread's wait for a CPU (``run_wait``, read
+        on that thread: a law preempted by the host is not slow)."""
         assert self.clock is not None
         clock, run_wait = self.clock, self.run_wait or (lambda: 0.0)
 
