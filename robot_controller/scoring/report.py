@@ -12,6 +12,7 @@ import numpy as np
 from robot_controller import resources
 from robot_controller.core import metrics
 from robot_controller.core.controller import state_layout
+from robot_controller.core.controller.supervision import Status
 from robot_controller.core.model.mujoco_model import joint_units, load_model
 from robot_controller.scoring import summary
 from robot_controller.scoring.bag_reader import (  # noqa: F401 - what scores a run reads first, importable here
@@ -235,8 +236,8 @@ PUSH_SETTLE_S = 1.0
 GAP_PERIODS = 5
 # How long a drive goes on acting on the last command it got (motor command_timeout_s).
 CARRY_S = 0.05
-# Controller states that command no torque (core.controller.Status.commanding is False).
-IDLE_STATUSES = ("no_measurement", "sensor_lost", "stopped", "law_stopped", "late_stopped")
+# Controller states that command no torque.
+IDLE_STATUSES = tuple(status.value for status in Status if not status.commanding)
 
 
 def json_safe(value: Any) -> Any:

@@ -10,10 +10,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from robot_controller.core.metrics import WARMUP_S
-from robot_controller.scoring.summary import finite
+from robot_controller.scoring.summary import FAULT_TICKS, finite
 
 #: Controller states that are a stop nobody asked for (``{name}_ticks``); ``stopped`` is the e-stop's, asked for.
-UNASKED_STOPS = ("watchdog", "sensor_lost", "reference_lost", "law_fault", "law_stopped", "late", "late_stopped")
+UNASKED_STOPS = tuple(name for name in FAULT_TICKS if name != "stopped")
 
 
 @dataclass(frozen=True)
