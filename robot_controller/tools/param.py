@@ -116,12 +116,12 @@ def _names(g: graph.Graph, node: str) -> list[str]:
     return sorted(response.result.names)
 
 
-def _values(g: graph.Graph, node: str, names: list[str]) -> list[Any]:
-    """The ParameterValue of each name; ``ToolError`` if the node does not have one of them."""
+def _values(g: graph.Graph, node: str, names: list[str], *, strict: bool = True) -> list[Any]:
+    """The ParameterValue of each name; ``ToolError`` if the node does not have one of them (``strict``; else none)."""
     from rcl_interfaces.srv import GetParameters
 
     response = g.call(GetParameters, f"{node}/get_parameters", GetParameters.Request(names=names), what=node)
-    if len(response.values) != len(names):  # rclpy answers nothing at all if one is not declared
+    if strict and len(response.values) != len(names):  # rclpy answers nothing at all if one is not declared
         missing = names[0] if len(names) == 1 else "one of " + ", ".join(names)
         raise ToolError(f"{node}: parameter {missing} not set")
     return list(response.values)
@@ -152,14 +152,14 @@ def param_get(node: str, name: str) -> int:
 def param_set(node: str, name: str, value_text: str) -> int:
     """``ros2 param set /node name value``: ``Set parameter successful``, or ``Setting parameter failed: <the node's
     reason>`` on stderr and exit 1."""
-    from rcl_interfaces.msg import Parameter, ParameterType
-    from rcl_interfaces.srv import GetParameters, SetParameters
+    from rcl_interfaces.msg import Parameter
+    from rcl_interfaces.srv import SetParameters
 
     node = graph.absolute(node)
     with graph.open_graph("param set") as g:
-        current = g.call(GetParameters, f"{node}/get_parameters", GetParameters.Request(names=[name]), what=node)
-        current_type = current.values[0].type if current.values else ParameterType.PARAMETER_NOT_SET
-        if current_type == ParameterType.PARAMETER_NOT_SET:  # undeclared (rclpy's own reason names none)
+        current = _values(g, node, [name], strict=False)
+        current_type = current[0].type if current else NOT_SET
+        if current_type == NOT_SET:  # undeclared (rclpy's own reason names none)
             close = difflib.get_close_matches(name, _names(g, node), n=3)
             hint = f" (did you mean {', '.join(close)}?)" if close else f" (`param list {node}` lists them)"
             print(f"Setting parameter failed: {node} has no parameter {name}{hint}", file=sys.stderr, flush=True)
