@@ -334,7 +334,8 @@ def _replay(a: argparse.Namespace) -> int:
     from robot_controller import parameters as cfg
     from robot_controller.cli.output import output_dir
     from robot_controller.cli.run import run
-    from robot_controller.experiments.campaign import draws, replay
+    from robot_controller.experiments.campaign import replay
+    from robot_controller.experiments.campaign.spec import run_seed
     from robot_controller.runner.options import RunOptions
 
     folder = Path(a.target[1])
@@ -346,7 +347,7 @@ def _replay(a: argparse.Namespace) -> int:
         duration_s=spec.duration_s,
         robot=spec.robot,
         config=configs,
-        seed=draws.run_seed(spec.seed, run_id),
+        seed=run_seed(spec.seed, run_id),
         sim_time=True,
     )
     code = run(options, out)

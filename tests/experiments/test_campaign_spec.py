@@ -7,8 +7,8 @@ import pytest
 import yaml
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.experiments.campaign import draws, report
-from robot_controller.experiments.campaign.spec import load_spec, parse_spec
+from robot_controller.experiments.campaign import report
+from robot_controller.experiments.campaign.spec import columns, draw, load_spec, parse_spec, run_seed
 
 GOOD = {
     "robot": "one_dof",
@@ -93,9 +93,9 @@ def test_per_joint_draws_one_value_per_joint_of_the_robot(tmp_path):
     spec = spec_of(
         tmp_path, robot="planar2", vary={"simulator.initial_position": {"uniform": [0, 0.1], "per_joint": True}}
     )
-    drawn = draws.draw(spec, 0)["simulator.initial_position"]
+    drawn = draw(spec, 0)["simulator.initial_position"]
     assert len(drawn) == 2 and drawn[0] != drawn[1]
-    assert set(draws.columns({"simulator.initial_position": drawn})) == {
+    assert set(columns({"simulator.initial_position": drawn})) == {
         "simulator.initial_position[0]",
         "simulator.initial_position[1]",
     }
@@ -104,16 +104,16 @@ def test_per_joint_draws_one_value_per_joint_of_the_robot(tmp_path):
 def test_run_k_draws_the_same_whatever_came_before_and_a_new_key_leaves_the_others(tmp_path):
     spec = spec_of(tmp_path)
     again = parse_spec(yaml.safe_load(spec.text), spec.path, spec.text)
-    assert [draws.draw(spec, k) for k in (3, 0, 2)] == [draws.draw(again, k) for k in (3, 0, 2)]
-    assert draws.draw(spec, 0) != draws.draw(spec, 1)
-    assert draws.run_seed(spec.seed, 5) == draws.run_seed(7, 5) != draws.run_seed(7, 6)
+    assert [draw(spec, k) for k in (3, 0, 2)] == [draw(again, k) for k in (3, 0, 2)]
+    assert draw(spec, 0) != draw(spec, 1)
+    assert run_seed(spec.seed, 5) == run_seed(7, 5) != run_seed(7, 6)
     fewer = spec_of(tmp_path, vary={"sensor_node.delay_s": GOOD["vary"]["sensor_node.delay_s"]})
-    assert draws.draw(fewer, 2)["sensor_node.delay_s"] == draws.draw(spec, 2)["sensor_node.delay_s"]
+    assert draw(fewer, 2)["sensor_node.delay_s"] == draw(spec, 2)["sensor_node.delay_s"]
 
 
 def test_draws_keep_to_their_ranges_and_a_normal_draw_to_the_parameters(tmp_path):
     spec = spec_of(tmp_path)
-    values = [draws.draw(spec, k) for k in range(200)]
+    values = [draw(spec, k) for k in range(200)]
     assert all(0 <= v["sensor_node.delay_s"] <= 0.02 for v in values)
     assert all(0.001 <= v["sensor_node.position_noise_std"] <= 0.01 for v in values)
     lags = [v["motor_node.lag_time_constant_s"] for v in values]
@@ -131,7 +131,7 @@ def test_sensitivity_ranks_the_parameter_that_drives_the_figure_first(tmp_path):
     spec = spec_of(tmp_path, vary={k: GOOD["vary"][k] for k in list(GOOD["vary"])[:3]})
     rows = []
     for k in range(40):
-        drawn = draws.draw(spec, k)
+        drawn = draw(spec, k)
         rows.append(
             {
                 **drawn,

@@ -12,9 +12,9 @@ from typing import Any
 
 from robot_controller.core.errors import ConfigError
 from robot_controller.experiments import laws
-from robot_controller.experiments.campaign import draws, executors
+from robot_controller.experiments.campaign import executors
 from robot_controller.experiments.campaign.one_run import Task
-from robot_controller.experiments.campaign.spec import CampaignSpec
+from robot_controller.experiments.campaign.spec import CampaignSpec, draw, run_seed
 from robot_controller.experiments.campaign.store import ResultStore, parts
 
 
@@ -46,8 +46,8 @@ def tasks(
     stacks = {c.label: spec.base_params(c.spec) for c in chosen}
     out = []
     for run_id in range(spec.runs):
-        drawn = draws.draw(spec, run_id)
-        seed = draws.run_seed(spec.seed, run_id)
+        drawn = draw(spec, run_id)
+        seed = run_seed(spec.seed, run_id)
         for c in chosen:
             if (c.label, run_id) not in done:
                 out.append(Task(run_id, c.label, stacks[c.label], drawn, seed, spec.duration_s, timeout_s))

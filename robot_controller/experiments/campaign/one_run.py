@@ -12,8 +12,7 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller.core.controller.supervision import Status
-from robot_controller.experiments.campaign import draws as drawing
-from robot_controller.experiments.campaign.spec import FIGURES
+from robot_controller.experiments.campaign.spec import FIGURES, columns, layer
 
 #: The statuses of a tick the controller spends stopping or stopped rather than tracking.
 STOP_STATUSES = frozenset(
@@ -50,7 +49,7 @@ class Task:
 def head(task: Task) -> dict[str, Any]:
     """The columns that name the run: ``run_id``, ``controller``, ``seed`` and every drawn value."""
     row: dict[str, Any] = {"run_id": task.run_id, "controller": task.controller, "seed": task.seed}
-    row.update(drawing.columns(task.drawn))
+    row.update(columns(task.drawn))
     return row
 
 
@@ -69,11 +68,11 @@ def run(task: Task) -> dict[str, Any]:
 
 def run_params(params: cfg.Params, drawn: dict[str, Any], seed: int) -> cfg.Params:
     """The stack of one run: the draws over the campaign's stack, each value checked by its schema, the seed."""
-    layer = drawing.layer(drawn)
-    for node, values in layer.items():
+    drawn_layer = layer(drawn)
+    for node, values in drawn_layer.items():
         for name, value in values.items():
             values[name] = cfg.spec_of(node, name).validate(value)
-    return cfg.merge(params, layer, {"sensor_node": {"seed": seed}})
+    return cfg.merge(params, drawn_layer, {"sensor_node": {"seed": seed}})
 
 
 def figures(params: cfg.Params, duration_s: float, seed: int) -> dict[str, Any]:

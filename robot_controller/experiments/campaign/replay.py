@@ -11,8 +11,7 @@ import yaml
 
 from robot_controller import parameters as cfg
 from robot_controller.core.errors import ConfigError
-from robot_controller.experiments.campaign import draws
-from robot_controller.experiments.campaign.spec import FIGURES, CampaignSpec, parse_spec
+from robot_controller.experiments.campaign.spec import FIGURES, CampaignSpec, draw, layer, parse_spec, run_seed
 from robot_controller.experiments.campaign.store import CAMPAIGN, RESULTS, read_rows
 
 #: The figures set side by side: the campaign's name, the run's metrics.json name.
@@ -51,11 +50,11 @@ def replay_row(folder: Path, run_id: int, controller: str | None) -> tuple[Campa
 
 def replay_layer(spec: CampaignSpec, run_id: int, controller_type: str | None) -> cfg.Params:
     """The parameter layer that makes a run of the graph run ``run_id``: its draws, its noise seed, the controller."""
-    layer = draws.layer(draws.draw(spec, run_id))
-    layer.setdefault("sensor_node", {})["seed"] = draws.run_seed(spec.seed, run_id)
+    overlay = layer(draw(spec, run_id))
+    overlay.setdefault("sensor_node", {})["seed"] = run_seed(spec.seed, run_id)
     if controller_type is not None:
-        layer.setdefault("pid_controller", {})["controller_type"] = controller_type
-    return layer
+        overlay.setdefault("pid_controller", {})["controller_type"] = controller_type
+    return overlay
 
 
 def compared(row: dict[str, Any], metrics: dict[str, Any]) -> list[tuple[str, float, float, float]]:
