@@ -13,7 +13,6 @@ from pathlib import Path
 
 from robot_controller.blocks import spec
 from robot_controller.cli.args import (
-    UsageError,
     node_list,
     out_option,
     peer_list,
@@ -152,7 +151,5 @@ def score(run_dir: Path, *, as_json: bool = False, every_figure: bool = False) -
 def view(run_dir: Path, *, port: int, serve: bool) -> int:
     from robot_controller.view.from_bag import build_view_from_bag
 
-    if not (run_dir / "bag").is_dir():
-        raise UsageError(f"{run_dir}: no bag/ here (not a run directory)")
     build_view_from_bag(run_dir, port, serve)
     return 0

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robot_controller import resources
+from robot_controller.core.errors import ConfigError
 from robot_controller.view import layout
 from robot_controller.view import serve as serving
 from robot_controller.view.arm import Arm
@@ -78,11 +79,11 @@ def log_run(rec, run: SavedRun) -> None:
 
 def build_view_from_bag(run_dir: Path, port: int = serving.DEFAULT_PORT, serve: bool = False) -> Path:
     """Write ``run_dir/view.rrd`` from the run's bag and return its path; if ``serve``, serve it at
-    ``http://127.0.0.1:PORT`` until Ctrl-C (or SIGTERM). A port that cannot be served on (``ConfigError``) or a bag
-    with nothing to show (``ValueError``) writes nothing."""
+    ``http://127.0.0.1:PORT`` until Ctrl-C (or SIGTERM). No bag, a port that cannot be served on (``ConfigError``) or a
+    bag with nothing to show (``ValueError``) writes nothing."""
     run_dir = Path(run_dir)
     if not (run_dir / "bag").is_dir():
-        raise FileNotFoundError(f"{run_dir}: no bag/ (not a run directory?)")
+        raise ConfigError(f"{run_dir}: no bag/ here (not a run directory)")
     if serve:
         serving.check_port(port)
     run = load_run(run_dir)
