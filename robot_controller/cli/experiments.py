@@ -334,14 +334,14 @@ def _replay(a: argparse.Namespace) -> int:
     from robot_controller import parameters as cfg
     from robot_controller.cli.output import output_dir
     from robot_controller.cli.run import run
-    from robot_controller.experiments.campaign import replay
+    from robot_controller.experiments.campaign import campaign
     from robot_controller.experiments.campaign.spec import run_seed
     from robot_controller.runner.options import RunOptions
 
     folder = Path(a.target[1])
-    spec, row, controller_type = replay.replay_row(folder, run_id, a.controller)
+    spec, row, controller_type = campaign.replay_row(folder, run_id, a.controller)
     out = output_dir(a.out, a.out)
-    layer_file = cfg.write_params_file(replay.replay_layer(spec, run_id, controller_type), out / "replay.yaml")
+    layer_file = cfg.write_params_file(campaign.replay_layer(spec, run_id, controller_type), out / "replay.yaml")
     configs = ((spec.config,) if spec.config else ()) + (layer_file,)
     options = RunOptions(
         duration_s=spec.duration_s,
@@ -357,6 +357,6 @@ def _replay(a: argparse.Namespace) -> int:
     import json
 
     print(f"run {run_id} of {folder}: the campaign's (in process) beside the graph's (sim time)")
-    for name, ours, theirs, diff in replay.compared(row, json.loads(metrics_path.read_text())):
+    for name, ours, theirs, diff in campaign.compared(row, json.loads(metrics_path.read_text())):
         print(f"  {name:<18} {ours:10.5g} {theirs:10.5g}  {diff:+.1%}")
     return code
