@@ -28,7 +28,3 @@ EXERCISES: dict[str, Exercise] = {
     )
 }
 
-
-def steps(name: str, quick: bool = False) -> int:
-    """How many progress steps ``EXERCISES[name].run`` takes (``quick`` or full)."""
-    return EXERCISES[name].steps(quick)

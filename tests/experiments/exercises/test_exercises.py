@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from robot_controller import parameters as cfg
-from robot_controller.experiments.exercises import EXERCISES, steps
+from robot_controller.experiments.exercises import EXERCISES
 from robot_controller.experiments.exercises.ziegler_nichols import oscillation
 from robot_controller.experiments.loop_model import law_gains
 from robot_controller.experiments.step import Response
@@ -18,7 +18,7 @@ ros = pytest.mark.ros
 def run_quick(name, out):
     calls = []
     results = EXERCISES[name].run(out, quick=True, progress=calls.append)
-    assert len(calls) == steps(name, quick=True), calls  # one progress step each, as announced
+    assert len(calls) == EXERCISES[name].steps(True), calls  # one progress step each, as announced
     assert (out / "report.md").read_text().startswith("# Exercise")
     assert any(path.stat().st_size > 10_000 for path in out.glob("*.png"))
     stored = json.loads((out / "results.json").read_text())
