@@ -151,13 +151,14 @@ def exercise(a: argparse.Namespace) -> int:
 
 
 def tune(a: argparse.Namespace) -> int:
+    from robot_controller.core.laws import registry
     from robot_controller.experiments import autotune, laws
     from robot_controller.parameters import consistency
 
     params = laws.with_controller(RunOptions.from_args(a).params(), a.controller)
     consistency.check_stack(params)
     controller_type = params["pid_controller"]["controller_type"]
-    if not laws.is_plugin(controller_type) and params["trajectory_planner"]["joint_count"] > 1:
+    if registry.is_builtin(controller_type.strip()) and params["trajectory_planner"]["joint_count"] > 1:
         raise UsageError(
             f"--robot {a.robot}: tune designs one joint's gains; on a chain of joints the LQR's weights serve "
             "every joint, each scaled by its own inertia (lqr_q, lqr_r, reference_inertia)"

@@ -38,11 +38,6 @@ def is_law(name: str) -> bool:
     return ":" in name or name in registry.installed_laws()
 
 
-def is_plugin(spec: str) -> bool:
-    """A law of one's own, not the built-in ``pid`` or ``lqr``."""
-    return not registry.is_builtin(spec.strip())
-
-
 def label(spec: str) -> str:
     """A short name for ``spec``: the class name of ``…:Class``, else the spec."""
     return spec.strip().rpartition(":")[2]
