@@ -40,6 +40,7 @@ from robot_controller.core.laws import (
     registry,
 )
 from robot_controller.core.model import ArmDynamics
+from robot_controller.core.model.mujoco_model import position_ranges
 
 # How long the arm is held at rest after a controlled stop before the torque goes off and the brakes hold (category 2,
 # then 1), and the status then: on the built-in law after a plugin law failed; on the model (open loop it drifts: held
@@ -97,11 +98,8 @@ class JointController:
     def _arm(self, config: ControllerConfig) -> Arm:
         """What a law is told about the arm: the controller's model of it (None: no model) and its limits."""
         dynamics, joint_count = self.dynamics, self.joint_count
-        limits = np.tile([-np.inf, np.inf], (joint_count, 1))
         model = getattr(dynamics, "model", None)  # a MuJoCo model knows the joints' ranges
-        if model is not None:
-            limited = model.jnt_limited[:joint_count].astype(bool)
-            limits[limited] = model.jnt_range[:joint_count][limited]
+        limits = np.tile([-np.inf, np.inf], (joint_count, 1)) if model is None else position_ranges(model)[:joint_count]
         names = tuple(dynamics.joint_names if dynamics is not None else (f"joint {j + 1}" for j in range(joint_count)))
         return Arm(dynamics, names, np.array(config.pid.output_limit, dtype=float), limits)
 

@@ -21,6 +21,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws.interface import Arm, ControlLaw, Reference, State
 from robot_controller.core.metrics import in_units
 from robot_controller.core.model import payload
+from robot_controller.core.model.mujoco_model import position_ranges
 
 if TYPE_CHECKING:
     from robot_controller.core.model import ArmDynamics
@@ -259,8 +260,7 @@ def design_inertia(
     model = getattr(dynamics, "model", None)  # a MuJoCo model knows the joints' ranges
     pose = np.zeros(joint_count) if design_position is None else np.asarray(design_position, dtype=float)
     if design_position is None and model is not None:
-        limited = model.jnt_limited[:joint_count].astype(bool)
-        pose = np.where(limited, np.clip(pose, *model.jnt_range[:joint_count].T), pose)
+        pose = np.clip(pose, *position_ranges(model)[:joint_count].T)
     # The nominal model's (the armature learnt at run time taken away): a redesign never compounds with the
     # scaling the inertia adaptation puts on the gains.
     inertia = np.diag(dynamics.mass_matrix(pose)) - getattr(dynamics, "learnt_armature", 0.0)

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
-from robot_controller.core.model.mujoco_model import joint_names, load_model
+from robot_controller.core.model.mujoco_model import joint_names, load_model, position_ranges
 
 
 @dataclass(frozen=True)
@@ -62,8 +62,5 @@ def joint_limits(urdf_path: str | Path) -> JointLimits:
     """
     model = load_model(urdf_path)
     names = joint_names(model)
-    n = len(names)
-    limited = model.jnt_limited[:n].astype(bool)
-    lower = np.where(limited, model.jnt_range[:n, 0], -np.inf)
-    upper = np.where(limited, model.jnt_range[:n, 1], np.inf)
+    lower, upper = position_ranges(model).T
     return JointLimits(tuple(names), lower, upper, urdf_velocity_limits(urdf_path, names))

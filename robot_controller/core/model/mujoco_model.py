@@ -60,6 +60,12 @@ def joint_units(model: mujoco.MjModel) -> list[str]:
     return ["m" if kind == mujoco.mjtJoint.mjJNT_SLIDE else "rad" for kind in model.jnt_type[: model.njnt]]
 
 
+def position_ranges(model: mujoco.MjModel) -> np.ndarray:
+    """Each joint's position range, (joints, 2): lower, upper (rad, or m on a slide); ±inf where the URDF sets none."""
+    n = model.njnt
+    return np.where(model.jnt_limited[:n, None].astype(bool), model.jnt_range[:n], [-np.inf, np.inf])
+
+
 def steps_per_period(physics_dt: float, period_s: float) -> int:
     """Whole number of physics steps in one period; refuse ratios that are not whole."""
     ratio = period_s / physics_dt
