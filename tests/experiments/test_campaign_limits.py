@@ -189,19 +189,19 @@ def test_a_run_stuck_in_c_is_killed_at_its_limit_tried_again_and_recorded_as_tim
 
 
 def test_a_run_that_fails_is_tried_once_more_and_keeps_both_reasons(monkeypatch):
-    from robot_controller.experiments.campaign import executors, one_run
+    from robot_controller.experiments.campaign import executors
 
     tries = []
 
     def flaky(task):
         tries.append(task.run_id)
-        row = one_run.head(task)
+        row = executors.head(task)
         if len(tries) == 1:
             return {**row, "status": "failed", "reason": "RuntimeError: the first try"}
         return {**row, "status": "ok", "reason": ""}
 
     monkeypatch.setattr(executors, "attempt", flaky)
-    task = one_run.Task(7, "", {}, {}, 1, 1.0)
+    task = executors.Task(7, "", {}, {}, 1, 1.0)
     row = executors.run(task)
     assert tries == [7, 7] and row["status"] == "ok"
     assert row["attempts"] == 2 and row["first_failure"] == "RuntimeError: the first try"

@@ -17,7 +17,7 @@ import pyarrow.parquet as pq
 import pytest
 import yaml
 
-from robot_controller.experiments.campaign.one_run import HOST_COLUMNS
+from robot_controller.experiments.campaign.executors import HOST_COLUMNS
 
 RUNS = 12
 SPEC = {

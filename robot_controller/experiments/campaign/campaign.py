@@ -19,7 +19,7 @@ from robot_controller import parameters as cfg
 from robot_controller.core.errors import ConfigError
 from robot_controller.experiments import laws
 from robot_controller.experiments.campaign import executors
-from robot_controller.experiments.campaign.one_run import Task
+from robot_controller.experiments.campaign.executors import Task
 from robot_controller.experiments.campaign.spec import FIGURES, CampaignSpec, draw, layer, parse_spec, run_seed
 from robot_controller.experiments.campaign.store import CAMPAIGN, RESULTS, ResultStore, parts, read_rows
 

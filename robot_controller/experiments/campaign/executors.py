@@ -1,6 +1,7 @@
-"""Where a campaign's runs run, each held to its wall-time limit: local worker processes, or the tasks of a Ray cluster
-the user started. Both take the same tasks and yield the same rows (each run's figures depend on its task alone), as
-the runs finish.
+"""One run of a campaign and where it runs. The run: its draws over the campaign's stack, the in-process loop (the
+nodes' core code, no ROS) for the campaign's duration, and its row of figures; a run that raises is a row too, failed
+with its reason. Where: local worker processes, or the tasks of a Ray cluster the user started; both take the same
+tasks and yield the same rows (each run's figures depend on its task alone), as the runs finish.
 
 Either way a worker runs each run in a child process forked from it (:func:`attempt`): a run stuck in C code that holds
 the GIL stalls every thread of its process, so no thread can stop it, but a process can be killed. A run past its
@@ -10,26 +11,142 @@ signal; either is tried once more (:func:`run`). The worker itself never blocks,
 from __future__ import annotations
 
 import logging
+import math
 import os
 import pickle
 import select
 import signal
 import time
 from collections.abc import Iterable, Iterator
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
+import numpy as np
+
+from robot_controller import parameters as cfg
+from robot_controller.core.controller.supervision import Status
 from robot_controller.core.errors import ConfigError, RunFailed
-from robot_controller.experiments.campaign import one_run
-from robot_controller.experiments.campaign.one_run import Task
+from robot_controller.experiments.campaign.spec import FIGURES, columns, layer
 from robot_controller.runner.forking import die_with_parent
 
+#: The statuses of a tick the controller spends stopping or stopped rather than tracking.
+STOP_STATUSES = frozenset(
+    (
+        Status.WATCHDOG,
+        Status.SENSOR_LOST,
+        Status.REFERENCE_LOST,
+        Status.STOPPED,
+        Status.LAW_FAULT,
+        Status.LAW_STOPPED,
+        Status.LATE,
+        Status.LATE_STOPPED,
+    )
+)
+#: An applied torque this close to its limit (as a fraction of it) counts as saturated.
+SATURATED_FRACTION = 0.999
+#: The row's columns that are the host's, not the run's: left out when two campaigns' figures are compared.
+HOST_COLUMNS = ("wall_s", "cpu_s", "attempts", "first_failure")
 #: Tries of a run beyond its first, when it fails or times out.
 RETRIES = 1
 #: Tasks in flight per worker: enough that none waits for the next, few enough that rows stream in order.
 IN_FLIGHT_PER_WORKER = 2
 #: How often a local worker checks that the campaign that started it is still there, s.
 PARENT_POLL_S = 0.25
+
+
+@dataclass(frozen=True)
+class Task:
+    """What a worker needs for one run (pickled to a process or a Ray worker)."""
+
+    run_id: int
+    controller: str  #: the label of the compared controller ("" for the spec's only one)
+    params: cfg.Params  #: the campaign's stack with this controller
+    drawn: dict[str, Any]
+    seed: int
+    duration_s: float
+    timeout_s: float = math.inf  #: the run's wall-time limit, s (``executors`` holds it to it)
+
+
+def head(task: Task) -> dict[str, Any]:
+    """The columns that name the run: ``run_id``, ``controller``, ``seed`` and every drawn value."""
+    row: dict[str, Any] = {"run_id": task.run_id, "controller": task.controller, "seed": task.seed}
+    row.update(columns(task.drawn))
+    return row
+
+
+def in_process_row(task: Task) -> dict[str, Any]:
+    """Task's row: ``run_id``, ``controller``, ``seed``, every drawn value, every figure, ``status`` and ``reason``."""
+    row = head(task)
+    start, cpu_start = time.perf_counter(), time.process_time()
+    try:
+        row.update(figures(run_params(task.params, task.drawn, task.seed), task.duration_s, task.seed))
+    except Exception as exc:  # noqa: BLE001 - a world the stack refuses or a loop that breaks: a row, not a crash
+        row.update(status="failed", reason=" ".join(f"{type(exc).__name__}: {exc}".split())[:300])
+    row["wall_s"] = time.perf_counter() - start
+    row["cpu_s"] = time.process_time() - cpu_start  # beside wall_s: how much of the core the host gave the run
+    return row
+
+
+def run_params(params: cfg.Params, drawn: dict[str, Any], seed: int) -> cfg.Params:
+    """The stack of one run: the draws over the campaign's stack, each value checked by its schema, the seed."""
+    drawn_layer = layer(drawn)
+    for node, values in drawn_layer.items():
+        for name, value in values.items():
+            values[name] = cfg.spec_of(node, name).validate(value)
+    return cfg.merge(params, drawn_layer, {"sensor_node": {"seed": seed}})
+
+
+def figures(params: cfg.Params, duration_s: float, seed: int) -> dict[str, Any]:
+    """The figures of one in-process run of ``params``: the worst joint's tracking (RMS and largest, on the true
+    angle), the peak commanded effort (and against the limit), the ticks the drive's torque is at its limit, the
+    controller's stops."""
+    from robot_controller.experiments import inprocess
+    from robot_controller.parameters.torque_limits import torque_limit
+
+    loop = inprocess.prepare(params, duration_s=duration_s, seed=seed)  # the sensor block delays its readings
+    watched = _StatusWatch(loop.keywords["controller"])
+    result = loop(controller=watched)
+    if not np.all(np.isfinite(result.true_position)):
+        raise RuntimeError("the arm's state went non-finite (the physics diverged)")
+    tracking = result.tracking_metrics()
+    n = result.applied.shape[1]
+    limit = torque_limit(params["motor_node"], n)
+    effort = np.abs(result.command)  # what the controller asked (a run's peak_torque_nm is of its commands)
+    out: dict[str, Any] = {"status": "ok", "reason": ""}
+    for key in FIGURES:  # the worst joint's tracking, and of the start (the others are set below)
+        if key in tracking:
+            out[key] = float(tracking[key])
+    worst = int(np.argmax(tracking["tracking_rms_per_joint"]))
+    out["worst_joint"] = tracking["joint_names"][worst]
+    out["peak_effort"] = float(effort.max())
+    out["peak_effort_ratio"] = float((effort.max(axis=0) / limit).max())
+    at_limit = np.abs(result.applied) >= SATURATED_FRACTION * limit  # the drive's torque, at its limit
+    out["saturated_ticks"] = int(np.count_nonzero(np.any(at_limit, axis=1)))
+    out["stopped_ticks"] = watched.stopped_ticks
+    out["faults"] = watched.stops + (1 if result.law_fault and not watched.stops else 0)
+    out["law_fault"] = result.law_fault or ""
+    return out
+
+
+class _StatusWatch:
+    """The controller as the loop uses it, counting the ticks it spends stopping and how often a stop begins."""
+
+    def __init__(self, controller) -> None:
+        self._controller = controller
+        self.stopped_ticks = 0
+        self.stops = 0
+        self._stopping = False
+
+    def update(self, now_s: float):
+        out = self._controller.update(now_s)
+        stopping = out.status in STOP_STATUSES
+        self.stopped_ticks += stopping
+        self.stops += stopping and not self._stopping
+        self._stopping = stopping
+        return out
+
+    def __getattr__(self, name: str):
+        return getattr(self._controller, name)
 
 
 def run(task: Task) -> dict[str, Any]:
@@ -59,7 +176,7 @@ def attempt(task: Task) -> dict[str, Any]:
         try:
             os.close(read_fd)
             die_with_parent(signal.SIGKILL, os.getppid())  # a killed campaign leaves no run behind
-            data = pickle.dumps(one_run.run(task))
+            data = pickle.dumps(in_process_row(task))
             with os.fdopen(write_fd, "wb") as pipe:
                 pipe.write(data)
             code = 0
@@ -73,7 +190,7 @@ def attempt(task: Task) -> dict[str, Any]:
     wall_s = time.monotonic() - start
     if finished and data:
         return pickle.loads(data)
-    row = one_run.head(task)
+    row = head(task)
     if not finished:
         why = f"timed out: still running after {task.timeout_s:g} s of wall time (run_timeout_s); its process killed"
         row.update(status="timed_out", reason=why)

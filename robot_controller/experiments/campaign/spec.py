@@ -45,7 +45,7 @@ RUN_TIMEOUT_BASE_S = 60.0
 RUN_TIMEOUT_PER_S = 10.0
 #: What a campaign sets itself: a draw of these would be overwritten (or would make the run another experiment).
 NOT_VARIED = {"sensor_node.seed": "each run's noise seed is derived from the campaign's seed and its run id"}
-#: The figures one_run writes of each run, in the report's order: a ``pass:`` entry may bound any of them.
+#: The figures each run's row holds (executors.in_process_row), in the report's order: ``pass:`` may bound them.
 FIGURES = (
     "tracking_rms_rad",
     "tracking_max_rad",
