@@ -27,4 +27,3 @@ EXERCISES: dict[str, Exercise] = {
         ("lqr", "PID against LQR: gains, closed-loop poles and margins, sine and step", lqr),
     )
 }
-
