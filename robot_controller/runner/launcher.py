@@ -118,7 +118,6 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
 
 
 def _interrupted(result: RunResult, link: supervise.RecorderLink, sim_time_recorded: bool) -> None:
-    """Ctrl-C or SIGTERM: the run stops, and what was recorded is kept and scored."""
     result.interrupted = True
     # A second Ctrl-C must not cut the stop short: the bag and the metrics come next.
     said = []

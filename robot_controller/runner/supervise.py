@@ -40,8 +40,7 @@ class RecorderLink:
         self.counts = {topic: 0 for topic in topics}
         self.oversize: dict[str, int] = {}  #: messages the recorder dropped as too large, per topic
         self.clock_s = 0.0
-        #: when (CLOCK_MONOTONIC s, the same in every process) the recorder took ``clock_s``: the
-        #: sim-time real-time factor is timed on these, not on when its report came (every 0.1 s)
+        #: when (CLOCK_MONOTONIC s, the same in every process) the recorder took ``clock_s``, not when it said so
         self.clock_taken_s = 0.0
         #: ``(clock_taken_s, clock_s)`` at each new tick reported: maps an instant to the world's time
         self.clock_marks: list[tuple[float, float]] = []
@@ -53,7 +52,6 @@ class RecorderLink:
             progress = json.loads(line[len(rec.PROGRESS_PREFIX) :])
             self.counts, self.clock_s = progress["counts"], progress["clock_s"]
             self.clock_taken_s = progress.get("clock_taken_s", 0.0)
-            # (a report before the first tick has no time it was taken: 0)
             if self.clock_taken_s and (not self.clock_marks or self.clock_marks[-1][1] != self.clock_s):
                 self.clock_marks.append((self.clock_taken_s, self.clock_s))
             self.oversize = progress.get("oversize", {})
@@ -113,7 +111,7 @@ class GraphLink:
 def wait_graph(
     graph: GraphLink, group: ProcessGroup, expected: tuple[str, ...], remote: tuple[str, ...], timeout_s: float
 ) -> str | None:
-    """Wait until every node of ``expected`` is in the graph, naming the missing; a failure line after ``timeout_s``."""
+    """Wait until every node of ``expected`` is in the graph, naming the missing; a failure line after timing out."""
     start = time.monotonic()
     next_say = start + 1.0
     while missing := graph.missing(expected):
@@ -206,7 +204,7 @@ def died(dead: list[tuple[str, int]]) -> str:
 
 @dataclass
 class RunResult:
-    """What a run did, filled in as it goes (``run_loop``, then ``launch``)."""
+    """What a run did, filled in as it goes."""
 
     bag_dir: Path
     recorded: bool  #: False: part of the graph without the simulator (nothing to score)
