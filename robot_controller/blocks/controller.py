@@ -93,7 +93,7 @@ class Controller:
         world): no latency guard, the start's brakes are not heard (their release is a race) and a failed law's stop
         ends the block at once.
         :param margin_of: :func:`designed_margin`, or a host's stand-in running it in a process of its own
-        (``nodes.pid_controller.designer``).
+        (``nodes.live_gains``).
         :param run_wait: on the wall clock, how long (s) the host has kept this thread from running so far (run-queue
         wait, steal), which a law's budget does not count."""
         self.log = log
