@@ -78,11 +78,13 @@ def run_loop(
     delay_steps = int(round(measurement_delay_s / world.physics_dt))
     history: list[tuple[float, np.ndarray, np.ndarray]] = []  # (time, q, v) per physics step
     rows = np.zeros((len(RECORDED), ticks, n))
+    # Each record's rows bound once: a row written from its array, not a tuple of six converted each tick.
+    reference_rows, measured_rows, true_position_rows, true_velocity_rows, command_rows, applied_rows = rows
     times = np.arange(ticks) * control_period_s
     braked = False
     position = np.zeros(n)
     effort = np.zeros(n)
-    true_state = dict(world.sample(0.0))["true_state"]
+    true_state = world.true_state(0.0)
     for k, t in enumerate(times.tolist()):  # Python floats: the controller's scalar time arithmetic is cheaper
         if k % planner_every == 0:
             sample = planner.step(t, {})["reference"].data
@@ -119,12 +121,17 @@ def run_loop(
             for step in range(1, n_steps + 1):
                 world.advance(1)
                 if step < n_steps:
-                    state = dict(world.sample(t + step * world.physics_dt))["true_state"]
+                    state = world.true_state(t + step * world.physics_dt)
                     history.append((state.stamp_s, state.position, state.velocity))
         else:
             world.advance(n_steps)
-        true_state = dict(world.sample(world.time_s))["true_state"]
-        rows[:, k] = out.reference, position, true_position, true_velocity, command, effort
+        true_state = world.true_state(world.time_s)
+        reference_rows[k] = out.reference
+        measured_rows[k] = position
+        true_position_rows[k] = true_position
+        true_velocity_rows[k] = true_velocity
+        command_rows[k] = command
+        applied_rows[k] = effort
     fault, inertia = controller.law_fault, getattr(controller, "inertia", None)  # (a stand-in may have none)
     return LoopResult(
         tick_time_s=times,

@@ -35,6 +35,10 @@ Written = list[tuple[str, Any]]
 ON_RESTART = {"physics_rate_hz", "publish_rate_hz", "initial_position", "control_rate_hz"}
 
 
+def _within(value: float, limit: float) -> bool:
+    return abs(value) <= limit
+
+
 class ExternalTorque:
     """The push on the arm: a torque on each joint beside the actuator's (not cut by the brakes; capped at
     ``MAX_DISTURBANCE_NM``) for a span of physics time, asked for on port ``disturbance`` (``[torque_nm…,
@@ -47,11 +51,11 @@ class ExternalTorque:
         self.log = log
         n = len(plant.joint_names)
         torque = cfg.per_joint("disturbance_torque_nm", params["disturbance_torque_nm"], n)
-        #: the parameters' one: (torque, start_s, duration_s), None once started (or if there is none)
+        torque = np.clip(torque, -MAX_DISTURBANCE_NM, MAX_DISTURBANCE_NM)
+        #: the parameters' one: (torque, start_s, duration_s), None once started (or if there is none: a zero torque
+        #: would start nothing, and the physics steps need not ask when it is due)
         self.scheduled: tuple[np.ndarray, float, float] | None = (
-            np.clip(torque, -MAX_DISTURBANCE_NM, MAX_DISTURBANCE_NM),
-            params["disturbance_start_s"],
-            params["disturbance_duration_s"],
+            (torque, params["disturbance_start_s"], params["disturbance_duration_s"]) if torque.any() else None
         )
         self.on = False  #: one is being applied (for the line when it ends)
         self.started_s = 0.0  #: physics time it started and ends at
@@ -78,8 +82,7 @@ class ExternalTorque:
             return
         torque, _, duration_s = self.scheduled
         self.scheduled = None
-        if np.any(torque != 0.0):
-            self.start(torque, duration_s, braked=False, physics_running=True)
+        self.start(torque, duration_s, braked=False, physics_running=True)
 
     def start(self, torque: np.ndarray, duration_s: float, *, braked: bool, physics_running: bool) -> None:
         """Apply ``torque`` (N·m per joint) for ``duration_s`` of physics time from now."""
@@ -147,6 +150,7 @@ class World:
         self.joint_names = list(self.plant.joint_names)
         self.joint_count = len(self.joint_names)
         self.effort = np.zeros(self.joint_count)  #: N·m per joint, in force until the next
+        self._effort_limits: list[float] = self.plant.effort_limit.tolist()  # N·m per joint, as Python's floats
         self.steps_done = 0  #: physics steps since time 0
         self.physics_dt_ns = round(self.plant.physics_dt * 1e9)
         self.brake_reasons: set[str] = {"start"}  #: why the brakes hold (none: released)
@@ -243,8 +247,10 @@ class World:
         """Port ``effort``'s value as torques, clamped to the URDF's effort limits; None (and a warning) if bad."""
         limit = self.plant.effort_limit
         data = value.data
-        if data.shape == limit.shape and (np.abs(data) <= limit).all():
-            return data  # every effort of a sound drive: finite and within the limits (a NaN fails the comparison)
+        # Every effort of a sound drive: finite and within the limits (a NaN fails the comparison), judged on Python's
+        # floats (one per joint: cheaper than numpy's).
+        if data.shape == limit.shape and all(map(_within, data.tolist(), self._effort_limits)):
+            return data
         checked = check_effort(data, self.joint_count)
         if isinstance(checked, str):
             self.log.warn(spec.EFFORT.topic, f"{spec.EFFORT.topic} dropped: {checked}")
@@ -260,10 +266,12 @@ class World:
     def take_effort(self, effort: np.ndarray) -> Written:
         """The effort in force from now (zero while a brake holds; ignored while the e-stop does): it releases the
         start's and the drive timeout's brakes."""
-        if self.estopped:
-            self.log.warn("estop_effort", "e-stop: efforts ignored until it is released")
-            return []
-        written = self.set_brake("start", False) + self.set_brake("drive_timeout", False)
+        written: Written = []
+        if self.brake_reasons:  # (released, as on every tick of a running arm, there is nothing to release)
+            if self.estopped:
+                self.log.warn("estop_effort", "e-stop: efforts ignored until it is released")
+                return []
+            written = self.set_brake("start", False) + self.set_brake("drive_timeout", False)
         self.effort = np.zeros(self.joint_count) if self.brake_reasons else effort
         return written
 
@@ -313,12 +321,18 @@ class World:
         self.steps_done += steps
         self.push.note_end()
 
-    def sample(self, stamp_s: float) -> Written:
-        """The true state now, stamped ``stamp_s`` (the effort applied: zero while braked), and the disturbance
-        applied in the last physics step if there is one to say."""
+    def true_state(self, stamp_s: float) -> JointSample:
+        """The true state now, stamped ``stamp_s``, with the effort applied (zero while braked): port
+        ``true_state``'s value, for a host that reads nothing else of the world's (the in-process loop)."""
         position, velocity = self.plant.state()
-        effort = np.zeros(self.joint_count) if self.brake_reasons else self.effort.copy()
-        written: Written = [("true_state", JointSample(stamp_s, self.joint_names, position, velocity, effort))]
+        # The effort in force is replaced by each take, never written into: the sample may hold it as it is.
+        effort = np.zeros(self.joint_count) if self.brake_reasons else self.effort
+        return JointSample(stamp_s, self.joint_names, position, velocity, effort)
+
+    def sample(self, stamp_s: float) -> Written:
+        """The true state now, stamped ``stamp_s`` (:meth:`true_state`), and the disturbance applied in the last
+        physics step if there is one to say."""
+        written: Written = [("true_state", self.true_state(stamp_s))]
         applied = self.push.applied(stamp_s)
         if applied is not None:
             written.append(("disturbance_applied", applied))
