@@ -69,7 +69,7 @@ class InertiaAdaptation:
         self._scale = np.ones(n)  #: their factor on the designed ones
         self._said = np.ones(n)  #: the factor last said in a note
         self._notes: list[str] = []
-        self._jumps: np.ndarray | None = None  #: the filter's jump and restart counts at the last reading
+        self._jumps: list[int] | None = None  #: the filter's jump and restart counts at the last reading
         self._before_push: np.ndarray | None = None  #: the observer's torque before the last jump, while it acts
         #: the observer's torque averaged over PUSH_AVERAGE_S, and when
         self._slow_torque: tuple[np.ndarray, float] | None = None
@@ -134,11 +134,11 @@ class InertiaAdaptation:
         torque = kalman.disturbance
         blocked = self._blocked(time_s, kalman, torque)
         limit = np.asarray(self._config().pid.output_limit, float)
-        saturated = command is not None and bool(np.any(np.abs(command) >= limit * (1.0 - 1e-9)))
-        before = self.estimate.extra.copy()
+        saturated = command is not None and bool((np.abs(command) >= limit * (1.0 - 1e-9)).any())
+        before = self.estimate.extra  # (the estimate's update makes a new array)
         extra = self.estimate.update(time_s, kalman.x[:, 1], torque, kalman.disagreeing, blocked, saturated)
         pid = self._pid()
-        if np.array_equal(extra, before) and pid.config is self._scaled:
+        if pid.config is self._scaled and (extra == before).all():
             return  # (an arm that agrees with its model: never anything to do)
         self._model.dof_armature[self._dofs] = self._armature + extra
         self._dynamics.learnt_armature = extra.copy()
@@ -153,8 +153,8 @@ class InertiaAdaptation:
     def _blocked(self, time_s: float, kalman: JointKalmanFilter, torque: np.ndarray) -> bool:
         """Whether the observer's torque cannot be the arm's inertia: the filter took a jump or restarted a joint,
         and the torque's slow part (an inertia's averages out) is still away from where it was before."""
-        counts = np.concatenate([kalman.jump_count, kalman.restart_count])
-        jumped = self._jumps is not None and not np.array_equal(counts, self._jumps)
+        counts = kalman.jump_count.tolist() + kalman.restart_count.tolist()
+        jumped = self._jumps is not None and counts != self._jumps
         self._jumps = counts
         last = self._slow_torque
         if last is None:

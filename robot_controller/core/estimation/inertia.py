@@ -39,6 +39,9 @@ MIN_EXPLAINED = 0.25
 #: long beside ADAPT_S, so a true rotor, confirmed whenever the joint moves, is kept through a pause
 FORGET_S = 30.0
 
+# The fit's products of the fast parts [a, s, d], in the sums' order: a², a·s, s², a·d, s·d, d².
+_FIRST, _SECOND = np.array([0, 0, 1, 0, 1, 2]), np.array([0, 1, 1, 2, 2, 2])
+
 
 class InertiaEstimate:
     """Per joint, the inertia (kg·m²) the arm has beyond its model, between 0 and ``max_ratio`` × ``own_inertia``
@@ -87,13 +90,16 @@ class InertiaEstimate:
                 self._sums[:] = 0.0
             return self._forget(elapsed, np.zeros(len(self.extra), dtype=bool))
         dt = time_s - last[0]
-        signals = np.column_stack([(velocity - last[1]) / dt, np.tanh(velocity / FRICTION_SPEED), torque])
+        signals = np.empty((len(velocity), 3))  # (assigned by column: column_stack costs more than the arithmetic)
+        signals[:, 0] = (velocity - last[1]) / dt
+        signals[:, 1] = np.tanh(velocity / FRICTION_SPEED)
+        signals[:, 2] = torque
         if self._slow is None:
             self._slow, self._since_s = signals.copy(), time_s
         self._slow += min(1.0, dt / HIGHPASS_S) * (signals - self._slow)
-        a, s, d = (signals - self._slow).T
+        fast = signals - self._slow
         w = min(1.0, dt / WINDOW_S)
-        self._sums += w * (np.column_stack([a * a, a * s, s * s, a * d, s * d, d * d]) - self._sums)
+        self._sums += w * (fast[:, _FIRST] * fast[:, _SECOND] - self._sums)
         aa, a_s, ss, ad, sd, dd = self._sums.T
         # d = −δ·a − f·s: the 2 × 2 normal equations per joint (a little ridge keeps a still joint's solvable).
         aa, ss = aa + 1e-6, ss + 1e-6
