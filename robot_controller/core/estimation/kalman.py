@@ -274,10 +274,12 @@ class JointKalmanFilter:
         at = self._index
         if at.block_shape == (m, m):  # each joint its own group: its process noise is the whole block
             P_pred += Q
-        else:
-            P_pred[(slice(None), *at.blocks)] += Q.reshape(g, *at.block_shape)  # each joint's own process noise
+            own = P_pred[(slice(None), *at.own_readings)]
+        else:  # one group (matmul's product is contiguous: the flat array is a view)
+            P_pred.reshape(-1)[at.flat_blocks] += Q.reshape(-1)  # each joint's own process noise
+            own = P_pred.take(at.flat_own_readings)
         surprise = z - x_pred[:, :2]  # the innovation, per joint
-        S_joint = P_pred[(slice(None), *at.own_readings)].reshape(n, 2, 2) + self.R
+        S_joint = own.reshape(n, 2, 2) + self.R
         S_inv = inverse_2x2(S_joint)
         distance_sq = c_einsum("ni,nij,nj->n", surprise, S_inv, surprise)  # (innovation.quadratic)
         jumped = None
@@ -299,11 +301,12 @@ class JointKalmanFilter:
                 innovation.allow_jumps(P_pred, jumped, jump_std, b, dt, self._per_group)
                 self.jump_count += jumped
         self._distance_sq_average = innovation.updated_average(self._distance_sq_average, distance_sq, jumped, dt)
-        P_read = P_pred[:, at.read, :]  # (g, 2k, km)
+        P_read = P_pred[:, at.read, :] if k == 1 else P_pred.take(at.read, axis=1)  # (g, 2k, km)
         if k == 1 and jumped is None:  # S is each joint's own block, inverted above
             K = np.matmul(S_inv, P_read).transpose(0, 2, 1)  # (g, m, 2)
         else:
-            S = P_pred[(slice(None), *at.readings)] + self._R_all
+            S = P_pred[(slice(None), *at.readings)] if k == 1 else P_pred.take(at.flat_readings).reshape(1, 2 * k, -1)
+            S += self._R_all
             K = (inverse_2x2(S) @ P_read if k == 1 else np.linalg.solve(S, P_read)).transpose(0, 2, 1)
         gain = np.matmul(K, surprise.reshape(g, 2 * k, 1))[:, :, 0]
         self.x = x = (x_pred.reshape(g, k * m) + gain).reshape(n, m)
@@ -325,15 +328,19 @@ class JointKalmanFilter:
         torque there would."""
         F, at = self._F, self._index
         slopes = self.transition(q, v, torque, dt, self.config.model_step_s)
+        read, flat = slopes.shape[-2], F.reshape(-1)  # (flat places: the coupled arm's slopes are one group's)
         if slopes.ndim == 2:  # the arm's, coupled
-            F[(0, *at.model_slopes)] = slopes[:, : slopes.shape[0]]  # [q; v] by [q; v]
+            flat[at.flat_model_slopes] = slopes[:, :read].reshape(-1)  # [q; v] by [q; v]
         else:
             F[:, :2, :2] = slopes
         if self.estimates_disturbance:
             b = np.zeros(self.joint_count) if self._own_inverse_mass is None else self._own_inverse_mass
-            F[at.q_by_d], F[at.v_by_d] = 0.5 * b * dt * dt, b * dt
+            if self._per_group == 1:  # every group's
+                F[at.q_by_d], F[at.v_by_d] = 0.5 * b * dt * dt, b * dt
+            else:
+                flat[at.flat_q_by_d], flat[at.flat_v_by_d] = 0.5 * b * dt * dt, b * dt
             if slopes.shape[-1] > slopes.shape[-2]:  # the model's own slopes per rad/s² pushed on each joint
-                F[0, at.model_slopes[0], at.d] = slopes[:, slopes.shape[0] :] * b
+                flat[at.flat_model_by_d] = (slopes[:, read:] * b).reshape(-1)
         return F
 
     def _start(self, joints: np.ndarray, z: np.ndarray) -> None:
