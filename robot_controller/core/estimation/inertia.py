@@ -107,7 +107,8 @@ class InertiaEstimate:
         beyond = -(ss * ad - a_s * sd) / det
         friction = -(aa * sd - a_s * ad) / det
         # The least-squares fit's share of the torque's energy: (−δ·ad − f·sd) / dd, within [0, 1].
-        self.explained = np.clip((-beyond * ad - friction * sd) / np.maximum(dd, 1e-12), 0.0, 1.0)
+        explained = (-beyond * ad - friction * sd) / np.maximum(dd, 1e-12)
+        self.explained = np.minimum(np.maximum(explained, 0.0), 1.0)  # np.clip, without its wrapper
         if paused or time_s - self._since_s < SETTLE_S:
             return self._forget(dt, np.zeros(len(self.extra), dtype=bool))
         excited = self._sums[:, 0] > MIN_EXCITATION
@@ -123,5 +124,5 @@ class InertiaEstimate:
     def _forget(self, dt: float, supported: np.ndarray) -> np.ndarray:
         """Decay what nothing supports over FORGET_S; keep the estimate within [0, bound]."""
         decayed = self.extra * np.exp(-dt / FORGET_S)
-        self.extra = np.clip(np.where(supported, self.extra, decayed), 0.0, self.bound)
+        self.extra = np.minimum(np.maximum(np.where(supported, self.extra, decayed), 0.0), self.bound)  # (np.clip)
         return self.extra
