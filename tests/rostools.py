@@ -176,3 +176,14 @@ def run_said(output: str, limit: int = 6000) -> str:
     a node's traceback or hang report comes before the table and would be cut off."""
     lines = [line for line in output.splitlines() if not line.lstrip().startswith(_TABLE_EDGES)]
     return "\n".join(lines)[-limit:]
+
+
+def assert_ok_unless_the_host_froze(code: int, metrics: dict, output: str) -> None:
+    """A run's exit 0, judged against what the host did: where the host froze and the world braked for an effort
+    that came late then (the defined reaction, as hardware would), the verdict's reasons may be only the brakes, the
+    stops and the start that braking cost; anything else still fails."""
+    if metrics.get("host_freezes", 0) == 0 or metrics.get("brake_engagements", 0) == 0:
+        assert code == 0, run_said(output)
+        return
+    allowed = ("the brakes", "stops nobody", "in its first")
+    assert all(reason.startswith(allowed) for reason in metrics["verdict_reasons"]), run_said(output)
