@@ -12,7 +12,7 @@ import numpy as np
 
 from robot_controller import resources
 from robot_controller.blocks.block import Log
-from robot_controller.blocks.values import Array, check_effort, labelled_tick_s
+from robot_controller.blocks.values import Array, check_effort, labelled_tick_s, tick_label
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.metrics import EFFORT_UNITS, in_units
 from robot_controller.core.model import Actuator, effort_limits, joint_names, load_model
@@ -77,14 +77,13 @@ class Drive:
         self.actuator = self._make_actuator(params)
 
     def step(self, t_s: float, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        if "estop" in inputs:
+            out.update(self.take_estop(bool(inputs["estop"])))
+        if "command" in inputs:
+            out.update(self.take_command(t_s, inputs["command"]))
         if not inputs:
-            out = self.check_timeout(t_s)
-        elif "estop" in inputs:
-            out = self.take_estop(bool(inputs["estop"]))
-            if "command" in inputs:
-                out.update(self.take_command(t_s, inputs["command"]))
-        else:  # a command alone, each tick's: its own dict is the step's
-            out = self.take_command(t_s, inputs["command"]) if "command" in inputs else {}
+            out.update(self.check_timeout(t_s))
         if self.next_receipts_s is None or t_s >= self.next_receipts_s:
             if self.next_receipts_s is not None:
                 out.update(self.finish())
@@ -124,8 +123,7 @@ class Drive:
         self.last_command_s = now_s
         self.excused_s = 0.0
         # The tick goes on: a paced world drops an effort come too late.
-        # (Its label, the tick it was computed for, the command's own: not formatted again.)
-        out["effort"] = Array(self.actuator.apply(checked, dt), "" if tick_s is None else command.label)
+        out["effort"] = Array(self.actuator.apply(checked, dt), "" if tick_s is None else tick_label(tick_s))
         return out
 
     def check_timeout(self, now_s: float) -> dict[str, Any]:

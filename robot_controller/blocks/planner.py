@@ -99,12 +99,12 @@ class Planner:
     def step(self, t_s: float, inputs: Mapping[str, Any]) -> dict[str, Any]:
         """Take the joint trajectories and what the arm does that arrived at ``t_s``; stepped with none, sample the
         reference at ``t_s``."""
+        for name, value in inputs.items():
+            if name in WAYPOINT_PORTS:
+                self.take_waypoints(value, t_s)
+            else:
+                self.arm.take(name, value, t_s)
         if inputs:
-            for name, value in inputs.items():
-                if name in WAYPOINT_PORTS:
-                    self.take_waypoints(value, t_s)
-                else:
-                    self.arm.take(name, value, t_s)
             return {}
         if self.start_s is None:
             self.start_s = self.origin_s = t_s
@@ -195,14 +195,9 @@ class Planner:
         return lambda time_s: motion.sample(time_s - origin_s)
 
     def reference_at(self, now_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The motion in force (:meth:`motion_in_force`) at ``now_s``, sampled without making it a function (each
-        step's)."""
-        if self.crossfade is not None:
-            if not self.crossfade.done(now_s):
-                return self.crossfade.at(now_s)
+        if self.crossfade is not None and self.crossfade.done(now_s):
             self.crossfade = None
-        motion = self.waypoints if self.waypoints is not None else self.trajectory
-        return motion.sample(now_s - self.origin_s)
+        return self.motion_in_force()(now_s)
 
     def _tell_replaced(self, by: str) -> None:
         for listener in self.replaced:

@@ -21,12 +21,6 @@ class JointSample:
     effort: np.ndarray | None = None  #: N·m applied (N), if said
 
 
-def all_finite(values: np.ndarray) -> bool:
-    """``np.isfinite(values).all()``, on Python's floats: for the few values a port carries (one per joint, each
-    tick) cheaper than a numpy reduction."""
-    return all(map(math.isfinite, values.ravel().tolist()))
-
-
 def check_joint_state(
     names: Sequence[str], position: Sequence[float], velocity: Sequence[float], expected_names: Sequence[str]
 ) -> tuple[np.ndarray, np.ndarray] | str:
@@ -52,7 +46,7 @@ def check_joint_state(
             return f"missing joint(s) {missing}"
         order = [index[name] for name in expected_names]
         position, velocity = position[order], velocity[order]
-    if not (all_finite(position) and all_finite(velocity)):
+    if not (np.isfinite(position).all() and np.isfinite(velocity).all()):
         return "non-finite position or velocity"
     return position.copy(), velocity.copy()
 
@@ -80,7 +74,7 @@ def check_trajectory(data: Sequence[float], joint_count: int) -> TrajectorySampl
             f"expected {3 * n} values ([position, velocity, acceleration] per joint) "
             f"or {3 * n + 1} (with the sample time), got {np.asarray(data).size + (sample_time is not None)}"
         )
-    if not all_finite(data) or (sample_time is not None and not math.isfinite(sample_time)):
+    if not np.isfinite(data).all() or (sample_time is not None and not math.isfinite(sample_time)):
         return "non-finite value in trajectory"
     return p, v, a, sample_time
 
@@ -89,7 +83,7 @@ def check_effort(data: Sequence[float], joint_count: int) -> np.ndarray | str:
     data = np.asarray(data, dtype=float)
     if data.size != joint_count:
         return f"expected {joint_count} torque value(s), got {data.size}"
-    if not all_finite(data):
+    if not np.isfinite(data).all():
         return "non-finite torque"
     return data
 
