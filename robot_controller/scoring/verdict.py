@@ -1,5 +1,6 @@
-"""A run's verdict: ``ok`` only if it tracked within its band from its first tick, no brake held the arm for a fault,
-and no stop came that nobody asked for. An e-stop is asked for: said as the user's, never as the loop's.
+"""A run's verdict: ``ok`` only if it tracked within its band from its first tick over all of its duration, no brake
+held the arm for a fault, and no stop came that nobody asked for. An e-stop is asked for: said as the user's, never
+as the loop's.
 
 It reads ``metrics.json``'s figures only, so ``score`` judges a saved run the same way."""
 
@@ -11,6 +12,10 @@ from typing import Any
 
 from robot_controller.core.metrics import WARMUP_S
 from robot_controller.scoring.summary import FAULT_TICKS, finite
+
+#: A recording may end this much before the run's duration (s, or this share of it if more): the last tick's period,
+#: or the tail a stopping recorder loses. Shorter, the rest of the run was never seen, so it cannot be called ok.
+RECORDING_SLACK_S, RECORDING_SLACK_SHARE = 0.25, 0.05
 
 #: Controller states that are a stop nobody asked for (``{name}_ticks``); ``stopped`` is the e-stop's, asked for.
 UNASKED_STOPS = tuple(name for name in FAULT_TICKS if name != "stopped")
@@ -54,6 +59,13 @@ def judge(values: dict[str, Any], *, band_rad: float, failure: str | None = None
         reasons += [r + pushed for r in _beyond(settled, band_rad, names, units, "tracking")]
     if _all_finite(start):
         reasons += _beyond(start, band_rad, names, units, f"in its first {WARMUP_S:g} s")
+    recorded_s, duration_s = values.get("recorded_duration_s"), values.get("duration_s")
+    if (
+        recorded_s is not None
+        and duration_s
+        and duration_s - recorded_s > max(RECORDING_SLACK_S, RECORDING_SLACK_SHARE * duration_s)
+    ):
+        reasons.append(f"its recording covers {recorded_s:.2f} s of its {duration_s:g} s: the rest is not judged")
     faults = values.get("brake_engagements", 0) - values.get("brake_engagements_estop", 0)
     if faults > 0:
         braked = values.get("braked_s", 0.0) - values.get("braked_s_estop", 0.0)

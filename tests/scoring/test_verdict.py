@@ -81,3 +81,11 @@ def test_a_run_that_failed_is_said_by_its_failure_alone():
     values = _run(law_fault_ticks=51, brake_engagements=1, braked_s=2.0)
     verdict = judge(values, band_rad=BAND, failure="the control law failed: boom")
     assert verdict.line == "FAILED: the control law failed: boom"
+
+
+def test_a_run_its_recording_covers_only_in_part_is_never_ok():
+    """A bag torn 2.24 s into a 10 s run (its folder removed under the recorder) once scored ``ok`` on what was left."""
+    verdict = judge(_run(duration_s=10.0, recorded_duration_s=2.24), band_rad=BAND)
+    assert verdict.reasons == ("its recording covers 2.24 s of its 10 s: the rest is not judged",)
+    assert judge(_run(duration_s=10.0, recorded_duration_s=9.99), band_rad=BAND).ok  # the last period: whole
+    assert judge(_run(duration_s=5.0, recorded_duration_s=5.09), band_rad=BAND).ok  # the wall clock's tail
