@@ -39,33 +39,50 @@ MIN_EXPLAINED = 0.25
 #: long beside ADAPT_S, so a true rotor, confirmed whenever the joint moves, is kept through a pause
 FORGET_S = 30.0
 
-# The fit's products of the fast parts [a, s, d], in the sums' order: a², a·s, s², a·d, s·d, d².
-_FIRST, _SECOND = np.array([0, 0, 1, 0, 1, 2]), np.array([0, 1, 1, 2, 2, 2])
+
+def fit(sums: tuple[float, ...]) -> tuple[float, float]:
+    """One joint's least-squares fit ``d = −δ·a − f·s`` from its averaged sums (a², a·s, s², a·d, s·d, d² of the fast
+    parts): δ, kg·m² beyond the model, and the share of the torque's energy the fit explains, within [0, 1]."""
+    aa, a_s, ss, ad, sd, dd = sums
+    aa, ss = aa + 1e-6, ss + 1e-6  # (a little ridge keeps a still joint's 2 × 2 normal equations solvable)
+    det = aa * ss - a_s * a_s
+    beyond = -(ss * ad - a_s * sd) / det
+    friction = -(aa * sd - a_s * ad) / det
+    explained = (-beyond * ad - friction * sd) / max(dd, 1e-12)  # (−δ·ad − f·sd) / dd
+    return beyond, min(max(explained, 0.0), 1.0)
 
 
 class InertiaEstimate:
     """Per joint, the inertia (kg·m²) the arm has beyond its model, between 0 and ``max_ratio`` × ``own_inertia``
     (never below the URDF's links). It moves only on evidence: the joint excited, its readings disagreeing with the
     filter, the fit explaining at least MIN_EXPLAINED; it is kept while the joint moves and its readings agree,
-    and decays over FORGET_S otherwise. A ``blocked`` reading restarts the evidence (nothing moves for SETTLE_S)."""
+    and decays over FORGET_S otherwise. A ``blocked`` reading restarts the evidence (nothing moves for SETTLE_S).
+
+    Its signals and sums are Python's floats, joint by joint: a few values each, where a NumPy call costs more than
+    its arithmetic (tanh and exp are NumPy's, on every joint at once)."""
 
     def __init__(self, own_inertia: np.ndarray, max_ratio: float = MAX_EXTRA_RATIO) -> None:
         own = np.asarray(own_inertia, dtype=float)
-        self._dead_zone = DEAD_ZONE * own
+        self._dead_zone = (DEAD_ZONE * own).tolist()
         self.bound = max_ratio * own  #: kg·m² per joint, the most the estimate holds
-        joint_count = len(own)
+        self._bound = self.bound.tolist()
+        self._joint_count = joint_count = len(own)
         self.extra = np.zeros(joint_count)  #: kg·m² per joint, the estimate
         self.explained = np.zeros(joint_count)  #: per joint, the share of the observer's fast torque the fit explains
         self._time_s: float | None = None  #: the last reading's (forgetting runs on it through blocked readings)
-        self._last: tuple[float, np.ndarray] | None = None  #: (time s, velocity) of the last reading
-        self._slow: np.ndarray | None = None  #: (n, 3): the slow parts of acceleration, friction's sign, torque
+        self._last: tuple[float, list[float]] | None = None  #: (time s, velocity per joint) of the last reading
+        #: per joint, the slow parts of acceleration, friction's sign and torque
+        self._slow: list[tuple[float, float, float]] | None = None
         self._since_s = 0.0  #: when the signals started
-        self._sums = np.zeros((joint_count, 6))  #: per joint, averaged a², a·s, s², a·d, s·d, d² (the fast parts)
+        self._sums = self._no_sums()  #: per joint, averaged a², a·s, s², a·d, s·d, d² (the fast parts)
+
+    def _no_sums(self) -> list[tuple[float, ...]]:
+        return [(0.0,) * 6] * self._joint_count
 
     def restart(self) -> None:
         """Forget the evidence (the estimate stays, and decays unless new evidence supports it)."""
         self._last = self._slow = None
-        self._sums[:] = 0.0
+        self._sums = self._no_sums()
 
     def update(
         self,
@@ -81,48 +98,65 @@ class InertiaEstimate:
         previous_s, self._time_s = self._time_s, time_s
         elapsed = 0.0 if previous_s is None else min(max(time_s - previous_s, 0.0), MAX_GAP_S)
         velocity = np.asarray(velocity, dtype=float)
-        last, self._last = self._last, (time_s, velocity.copy())
+        last, self._last = self._last, (time_s, velocity.tolist())
+        nothing = [False] * self._joint_count
         if blocked or last is None or not 0.0 < time_s - last[0] < MAX_GAP_S:
             if blocked:
                 self.restart()
             else:
                 self._slow = None
-                self._sums[:] = 0.0
-            return self._forget(elapsed, np.zeros(len(self.extra), dtype=bool))
+                self._sums = self._no_sums()
+            return self._forget(elapsed, nothing)
         dt = time_s - last[0]
-        signals = np.empty((len(velocity), 3))  # (assigned by column: column_stack costs more than the arithmetic)
-        signals[:, 0] = (velocity - last[1]) / dt
-        signals[:, 1] = np.tanh(velocity / FRICTION_SPEED)
-        signals[:, 2] = torque
+        signals = list(  # per joint: acceleration, friction's sign, torque
+            zip(
+                [(v - before) / dt for v, before in zip(self._last[1], last[1], strict=True)],
+                np.tanh(velocity / FRICTION_SPEED).tolist(),
+                np.asarray(torque, dtype=float).tolist(),
+                strict=True,
+            )
+        )
         if self._slow is None:
-            self._slow, self._since_s = signals.copy(), time_s
-        self._slow += min(1.0, dt / HIGHPASS_S) * (signals - self._slow)
-        fast = signals - self._slow
-        w = min(1.0, dt / WINDOW_S)
-        self._sums += w * (fast[:, _FIRST] * fast[:, _SECOND] - self._sums)
-        aa, a_s, ss, ad, sd, dd = self._sums.T
-        # d = −δ·a − f·s: the 2 × 2 normal equations per joint (a little ridge keeps a still joint's solvable).
-        aa, ss = aa + 1e-6, ss + 1e-6
-        det = aa * ss - a_s * a_s
-        beyond = -(ss * ad - a_s * sd) / det
-        friction = -(aa * sd - a_s * ad) / det
-        # The least-squares fit's share of the torque's energy: (−δ·ad − f·sd) / dd, within [0, 1].
-        explained = (-beyond * ad - friction * sd) / np.maximum(dd, 1e-12)
-        self.explained = np.minimum(np.maximum(explained, 0.0), 1.0)  # np.clip, without its wrapper
+            self._slow, self._since_s = signals, time_s
+        follow, w = min(1.0, dt / HIGHPASS_S), min(1.0, dt / WINDOW_S)
+        slow, sums = [], []
+        for (a, s, d), (slow_a, slow_s, slow_d), (aa, a_s, ss, ad, sd, dd) in zip(
+            signals, self._slow, self._sums, strict=True
+        ):
+            slow_a += follow * (a - slow_a)
+            slow_s += follow * (s - slow_s)
+            slow_d += follow * (d - slow_d)
+            slow.append((slow_a, slow_s, slow_d))
+            a, s, d = a - slow_a, s - slow_s, d - slow_d  # the fast parts
+            aa, a_s, ss = aa + w * (a * a - aa), a_s + w * (a * s - a_s), ss + w * (s * s - ss)
+            ad, sd, dd = ad + w * (a * d - ad), sd + w * (s * d - sd), dd + w * (d * d - dd)
+            sums.append((aa, a_s, ss, ad, sd, dd))
+        self._slow, self._sums = slow, sums
+        fits = [fit(joint_sums) for joint_sums in sums]  # (δ, the share explained) per joint
+        self.explained = np.array([share for _, share in fits])
         if paused or time_s - self._since_s < SETTLE_S:
-            return self._forget(dt, np.zeros(len(self.extra), dtype=bool))
-        excited = self._sums[:, 0] > MIN_EXCITATION
-        disagreeing = np.asarray(disagreeing, dtype=bool)
-        # Up only while the readings disagree (an arm as heavy as its model is never touched); back down towards the
-        # model's own whenever the fit says the estimate is too much (it overshoots by its lag while it learns).
-        wanted = (disagreeing | (beyond < 0.0)) & (np.abs(beyond) > self._dead_zone)
-        moving = excited & wanted & (self.explained >= MIN_EXPLAINED)
-        supported = moving | (excited & ~disagreeing)  # a joint that moves as its model (with the estimate) says
-        self.extra = np.where(moving, self.extra + (dt / ADAPT_S) * beyond, self.extra)
-        return self._forget(dt, supported)
+            return self._forget(dt, nothing)
+        rate, extra, supported = dt / ADAPT_S, self.extra.tolist(), []
+        joints = zip(fits, sums, np.asarray(disagreeing, dtype=bool).tolist(), self._dead_zone, strict=True)
+        for j, ((beyond, share), joint_sums, against, dead_zone) in enumerate(joints):
+            excited = joint_sums[0] > MIN_EXCITATION
+            # Up only while the readings disagree (an arm as heavy as its model is never touched); back down towards
+            # the model's own whenever the fit says the estimate is too much (it overshoots by its lag while it learns).
+            wanted = (against or beyond < 0.0) and abs(beyond) > dead_zone
+            moving = excited and wanted and share >= MIN_EXPLAINED
+            if moving:
+                extra[j] += rate * beyond
+            supported.append(moving or (excited and not against))  # a joint that moves as its model says
+        return self._forget(dt, supported, extra)
 
-    def _forget(self, dt: float, supported: np.ndarray) -> np.ndarray:
-        """Decay what nothing supports over FORGET_S; keep the estimate within [0, bound]."""
-        decayed = self.extra * np.exp(-dt / FORGET_S)
-        self.extra = np.minimum(np.maximum(np.where(supported, self.extra, decayed), 0.0), self.bound)  # (np.clip)
+    def _forget(self, dt: float, supported: list[bool], extra: list[float] | None = None) -> np.ndarray:
+        """Decay what nothing supports over FORGET_S (``extra``: the estimate moved, else :attr:`extra`); keep the
+        estimate within [0, bound]. A new array each reading (a caller compares it with the last)."""
+        decay = float(np.exp(-dt / FORGET_S))
+        extra = self.extra.tolist() if extra is None else extra
+        kept = [
+            min(max(value if keep else value * decay, 0.0), bound)
+            for value, keep, bound in zip(extra, supported, self._bound, strict=True)
+        ]
+        self.extra = np.array(kept)
         return self.extra

@@ -68,7 +68,7 @@ def test_blocked_readings_restart_the_evidence_and_what_nothing_supports_is_forg
     # Pushed: nothing moves, the evidence starts again, and the estimate decays over FORGET_S.
     apparent(estimate, 3.0, 1.0, start_s=4.0, blocked=True)
     assert estimate.extra[0] == pytest.approx(learnt * np.exp(-3.0 / FORGET_S), rel=0.01)
-    assert not estimate._sums.any()
+    assert not any(map(any, estimate._sums))
     # After a restart the first SETTLE_S moves nothing, even on a torque that says "heavier" at once.
     before = estimate.extra[0]
     apparent(estimate, SETTLE_S - 0.05, 1.0, start_s=7.0)
