@@ -20,6 +20,7 @@ from functools import lru_cache
 
 import numpy as np
 from numpy._core.multiarray import c_einsum  # np.einsum's own C function, without its Python wrapper
+from numpy.linalg import _umath_linalg  # np.linalg's own LAPACK gufuncs, without their wrappers' checks
 
 import robot_controller.core.estimation.innovation as innovation
 from robot_controller.core.errors import ConfigError
@@ -57,10 +58,16 @@ def process_noise(
     b = np.asarray(acceleration_per_nm, dtype=float).reshape(-1)
     sigma_a = config.acceleration_noise_std if acceleration_noise_std is None else acceleration_noise_std
     sigma_d = config.disturbance_noise_std if disturbance_noise_std is None else disturbance_noise_std
+    return observer_noise(dt, b, np.square(sigma_d), np.square(sigma_a))
+
+
+def observer_noise(dt: float, b: np.ndarray, disturbance_variance, acceleration_variance) -> np.ndarray:
+    """:func:`process_noise` with the observer, ``(n, 3, 3)``, from ``b`` (n,) and the variances (σ², per joint or
+    one for all)."""
     # Per joint, Q = σa²·A + w·b²·B + w·b·C + w·D (w = σd²): one product with the templates.
     weights = np.empty((b.size, 4))
-    weights[:, 0] = np.square(sigma_a)
-    weights[:, 3] = w = np.square(sigma_d)
+    weights[:, 0] = acceleration_variance
+    weights[:, 3] = w = disturbance_variance
     weights[:, 2] = wb = w * b
     weights[:, 1] = wb * b
     return weights.dot(_noise_templates(dt)).reshape(b.size, 3, 3)
@@ -167,10 +174,10 @@ class JointKalmanFilter:
         self.restart_count = np.zeros(n, dtype=int)  #: per joint, readings no torque within the limit explains
         #: per joint, the innovation's squared Mahalanobis distance, averaged (2 while readings agree)
         self._distance_sq_average = np.full(n, innovation.UNPROVEN_DISTANCE_SQ)
-        #: the σs (disturbance N·m/√s, acceleration rad/s²) while every joint agrees
-        self._agreeing_sigmas = (
-            config.disturbance_noise_std * self._torque_scale,
-            np.full(n, config.acceleration_noise_std),
+        #: the variances (disturbance (N·m)²/s, acceleration (rad/s²)²) while every joint agrees: its σs squared
+        self._agreeing_variances = (
+            np.square(config.disturbance_noise_std * self._torque_scale),
+            np.square(np.full(n, config.acceleration_noise_std)),
         )
         self._reading = np.empty((n, 2))  #: the latest reading, per joint (q, v)
         self._external: np.ndarray | None = None  #: :meth:`_disturbance_torque` of the state as it is
@@ -219,8 +226,9 @@ class JointKalmanFilter:
     def _set_mass(self, position: np.ndarray) -> None:
         """The mass matrix and its inverse's diagonal at ``position``."""
         self._external = None
-        self._mass = M = np.asarray(self.mass_matrix(np.asarray(position, float)), dtype=float)
-        self._own_inverse_mass = (1.0 / M if M.shape == (1, 1) else np.linalg.inv(M)).diagonal().copy()
+        self._mass = M = self.mass_matrix(position)
+        # (M is symmetric positive definite: np.linalg.inv's checks for a singular one never fire)
+        self._own_inverse_mass = (1.0 / M if M.shape == (1, 1) else _umath_linalg.inv(M, signature="d->d")).diagonal()
 
     def update(
         self,
@@ -259,12 +267,12 @@ class JointKalmanFilter:
         if observer or timing_uncertain:
             self._set_mass(q)
             b = self._own_inverse_mass  # rad/s² per N·m on each joint's own axis
-        sigma_d, sigma_a = self._noise_in_force()
+        variance_d, variance_a = self._noise_variances()
         if observer:
-            Q = process_noise(config, dt, b, sigma_d, sigma_a)
+            Q = observer_noise(dt, b, variance_d, variance_a)
         else:
             G = np.array([0.5 * dt * dt, dt])
-            Q = np.outer(G, G) * (sigma_a**2)[:, None, None]
+            Q = np.outer(G, G) * variance_a[:, None, None]
         if timing_uncertain:  # a velocity step of unknown size (the change acting sooner or later)
             sigma_v = np.abs(torque_change) * config.command_timing_uncertainty_s * b
             Q[:, :2, :2] += timing_noise_template(dt) * (sigma_v**2)[:, None, None]
@@ -307,7 +315,9 @@ class JointKalmanFilter:
         else:
             S = P_pred[(slice(None), *at.readings)] if k == 1 else P_pred.take(at.flat_readings).reshape(1, 2 * k, -1)
             S += self._R_all
-            K = (inverse_2x2(S) @ P_read if k == 1 else np.linalg.solve(S, P_read)).transpose(0, 2, 1)
+            # (S is a covariance, positive definite: np.linalg.solve's checks for a singular one never fire)
+            K = inverse_2x2(S) @ P_read if k == 1 else _umath_linalg.solve(S, P_read, signature="dd->d")
+            K = K.transpose(0, 2, 1)
         gain = np.matmul(K, surprise.reshape(g, 2 * k, 1))[:, :, 0]
         self.x = x = (x_pred.reshape(g, k * m) + gain).reshape(n, m)
         P = P_pred - np.matmul(K, P_read)
@@ -364,12 +374,13 @@ class JointKalmanFilter:
         self._distance_sq_average[joints] = innovation.UNPROVEN_DISTANCE_SQ
         self._external = None
 
-    def _noise_in_force(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per joint, the σ in force this period (disturbance N·m/√s, acceleration rad/s²)."""
+    def _noise_variances(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per joint, the variances in force this period (disturbance (N·m)²/s, acceleration (rad/s²)²): the σs
+        squared."""
         if all((self._distance_sq_average <= innovation.MISMATCH_FROM).tolist()):  # every joint agrees
-            return self._agreeing_sigmas
+            return self._agreeing_variances
         sigma_d, sigma_a = innovation.noise_in_force(self._distance_sq_average, self._agreeing_std, self._mismatch_std)
-        return sigma_d * self._torque_scale, sigma_a
+        return np.square(sigma_d * self._torque_scale), np.square(sigma_a)
 
     def predict(
         self, position: np.ndarray, velocity: np.ndarray, torque: np.ndarray, horizon_s: float

@@ -50,7 +50,7 @@ def track(dynamics, kf, seconds, *, push_at_s=None, push_nm=2.0, seed=1, plant_u
             plant.set_disturbance(np.array([push_nm]), 30.0)
         q_meas, v_meas = measure(SENSOR, *plant.state(), rng)
         q_est, _ = kf.update(t, q_meas, v_meas, torque)
-        rows.append((t, kf.disturbance[0], plant.state()[0][0] - q_est[0], kf._noise_in_force()[1][0]))
+        rows.append((t, kf.disturbance[0], plant.state()[0][0] - q_est[0], np.sqrt(kf._noise_variances()[1][0])))
         # A torque the filter knows: a stiff PD on the TRUE state about a slow sine, with the model's
         # feedforward (the filter only watches; a push moves the arm 2 N·m / 30 N·m/rad off).
         q_true, v_true = plant.state()
