@@ -96,8 +96,9 @@ DIAGNOSTICS = Port("diagnostics", "/diagnostics", _DIAGNOSTICS, "pid_controller"
 COMMAND_RECEIPTS = Port(
     "command_receipts", "/motor/command_receipts", _FLOATS, "motor_node", partition=True, scored=True
 )
-#: 1 = a joint's brake engaged; why, in the label (``engaged:drive_timeout``)
-BRAKES = Port("brakes", "/sim/brakes", _FLOATS, "simulator", "latest", partition=True, scored=True)
+#: 1 = a joint's brake engaged; why, in the label (``engaged:drive_timeout``). Each change is an event kept in order
+#: (not the latest alone): a controller stopped while the brakes engaged and let go must still hear that they held.
+BRAKES = Port("brakes", "/sim/brakes", _FLOATS, "simulator", "control", partition=True, scored=True)
 #: the drive's brake request (a state, latched)
 BRAKE_REQUEST = Port("brake_request", "/sim/brake", _BOOL, "motor_node", "latched", "latched", partition=True)
 #: true = stop; outside every partition: a stop is heard from anyone
