@@ -276,16 +276,20 @@ class World:
         return written
 
     def set_brake(self, reason: str, on: bool) -> Written:
-        """Add or remove one reason for the brakes; the brakes' state if they engaged (cutting the effort) or
-        released by it."""
-        before = bool(self.brake_reasons)
-        (self.brake_reasons.add if on else self.brake_reasons.discard)(reason)
-        engaged = bool(self.brake_reasons)
-        if engaged == before:
+        """Add or remove one reason for the brakes; the brakes' state if their reasons changed: engaged (cutting the
+        effort), released, or held for another reason too. An e-stop that finds the brakes held already (the drive
+        heard it first and asked for them, or its efforts stopped first) is said all the same: a run is judged on the
+        reasons the brakes held for, and the e-stop's are asked for, never a fault."""
+        reasons = self.brake_reasons
+        if (reason in reasons) == on:
             return []
-        self.plant.set_brakes(np.full(self.joint_count, engaged), self.params["brake_torque_nm"])
-        if engaged:
-            self.effort = np.zeros(self.joint_count)
+        before = bool(reasons)
+        (reasons.add if on else reasons.discard)(reason)
+        engaged = bool(reasons)
+        if engaged != before:
+            self.plant.set_brakes(np.full(self.joint_count, engaged), self.params["brake_torque_nm"])
+            if engaged:
+                self.effort = np.zeros(self.joint_count)
         return self.brakes_state()
 
     def take_brake_request(self, on: bool) -> Written:

@@ -59,6 +59,18 @@ def test_the_estop_ignores_efforts_and_its_release_holds_the_brakes_until_the_dr
     assert block.take_effort(np.array([3.0]))[-1][1].label == "engaged:" and block.effort.tolist() == [3.0]
 
 
+def test_an_estop_that_finds_the_brakes_held_is_said_all_the_same():
+    # The drive hears the e-stop first and asks for the brakes (or its efforts stop and the drive timeout brakes):
+    # the e-stop coming after must reach the brakes' label, or the run counts its stop as a fault.
+    block, _ = world()
+    block.step(0.01, {"effort": effort(2.0)})
+    assert block.take_brake_request(True)[-1][1].label == "engaged:requested"
+    assert block.take_estop(True)[-1][1].label == "engaged:estop,requested"
+    assert block.take_brake_request(False)[-1][1].label == "engaged:estop"
+    assert block.take_brake_request(False) == [] and block.set_brake("start", False) == []  # nothing changes
+    assert block.effort.tolist() == [0.0] and block.estopped
+
+
 def test_a_disturbance_acts_for_its_duration_and_is_said_once_more_zero_after():
     block, _ = world()
     block.step(0.01, {"effort": effort(0.0)})
