@@ -131,7 +131,8 @@ class JointController:
     @property
     def law_fault(self) -> LawFault | None:
         """What the plugin law did wrong, once it has (it is then never called again)."""
-        return None if self.plugin is None else self.plugin.fault
+        law = self.law
+        return None if law is self.stop_law else law.fault
 
     @property
     def estimator(self) -> JointKalmanFilter | None:
@@ -340,16 +341,22 @@ class JointController:
         answered at once with the stop on the built-in law."""
         disturbance = self._state.disturbance()
         state = self._law_state(position, velocity, disturbance)
-        law = self.stop_law if self.law_fault is not None else self.law
+        stop_law, law = self.stop_law, self.law
+        if law is not stop_law and law.fault is not None:
+            law = stop_law
         law.update(now_s, state, reference)
-        if law is not self.stop_law and self.law_fault is not None:  # the user's law failed on this tick
-            law = self.stop_law
+        if law is not stop_law and law.fault is not None:  # the user's law failed on this tick
+            law = stop_law
             law.reset(state)
             reference = self._reference.stop(now_s, ReferenceSource.LAW_STOP, position, self.config, reference)
             law.update(now_s, state, reference)
-        t = law.terms()
         self._gap_braked = False  # this command releases the drive's brakes
-        terms = PidTerms(t["command"], t["p"], t["i"], t["d"], t["feedforward"], t["saturated"])
+        if law is stop_law:  # the PID's own terms, as they are
+            terms, law_terms = law.last_terms, None
+        else:
+            t = law.terms()
+            terms = PidTerms(t["command"], t["p"], t["i"], t["d"], t["feedforward"], t["saturated"])
+            law_terms = {name: t[name] for name in law.extra_terms}
         self._state.remember_command(now_s, terms.command)
         return ControlOutput(
             now_s,
@@ -359,7 +366,7 @@ class JointController:
             terms,
             self._reference.source,
             disturbance,
-            None if law is self.stop_law else {name: t[name] for name in law.extra_terms},
+            law_terms,
         )
 
     def _law_state(self, position: np.ndarray, velocity: np.ndarray, disturbance: np.ndarray | None) -> State:

@@ -7,7 +7,7 @@ fails, and a blend from where the arm is back onto the trajectory, each named wi
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -26,17 +26,19 @@ MAX_AHEAD_S = 1.0
 MAX_UPCOMING = 100
 
 
-def _minmod(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Per element, the smaller in magnitude of ``a`` and ``b`` where they agree in sign, else 0 (a slope limiter)."""
-    sign = np.sign(a)
-    limited = sign * np.minimum(np.abs(a), np.abs(b))
-    limited[sign != np.sign(b)] = 0.0
-    return limited
+def _minmod(a: list[float], b: list[float]) -> np.ndarray:
+    """Per element, the smaller in magnitude of ``a`` and ``b`` where they agree in sign, else 0 (a slope limiter).
+    On Python's floats: a few joints, where each NumPy call costs more than its arithmetic."""
+    return np.array(
+        [
+            min(x, y) if x > 0.0 and y > 0.0 else max(x, y) if x < 0.0 and y < 0.0 else 0.0
+            for x, y in zip(a, b, strict=True)
+        ]
+    )
 
 
-@dataclass(frozen=True)
-class TrajectoryPoint:
-    """The planner's trajectory at one tick."""
+class TrajectoryPoint(NamedTuple):
+    """The planner's trajectory at one tick (a named tuple: one is made every tick, and a tuple is made fastest)."""
 
     position: np.ndarray  #: rad
     velocity: np.ndarray  #: rad/s
@@ -56,7 +58,7 @@ class PlannerReference:
         #: rad/s³, the trajectory's jerk as the last three samples' accelerations agree on it (0 where
         #: they do not: an acceleration that jumps, as a shaped step's does on a sample, has none)
         self.jerk: np.ndarray | None = None
-        self._acceleration_slope: np.ndarray | None = None  #: rad/s³, between the last two samples
+        self._acceleration_slope: list[float] | None = None  #: rad/s³, between the last two samples
         #: samples stamped ahead of their receipt, oldest first: (time_s, position, velocity, acceleration)
         self._upcoming: deque[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = deque(maxlen=MAX_UPCOMING)
 
@@ -84,10 +86,12 @@ class PlannerReference:
 
     def _take(self, time_s: float, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> None:
         if self.sample is not None and time_s > self.time_s:
-            self.period_s = time_s - self.time_s
+            self.period_s = period_s = time_s - self.time_s
             # The jerk, from the planner's own samples only (not a hold written in before it spoke).
-            previous = self.sample[2]
-            slope = (np.asarray(acceleration, dtype=float) - previous) / self.period_s if self.spoke else None
+            slope = None
+            if self.spoke:
+                now, before = np.asarray(acceleration, dtype=float).tolist(), self.sample[2].tolist()
+                slope = [(a - b) / period_s for a, b in zip(now, before, strict=True)]
             self.jerk = (
                 None if slope is None or self._acceleration_slope is None else _minmod(slope, self._acceleration_slope)
             )
@@ -146,11 +150,16 @@ class PlannerReference:
         if not extrapolate:
             return position, velocity, acceleration
         s = min(max(float(now_s + 0.5 * period_s - self.time_s), 0.0), MAX_EXTRAPOLATION_S)
-        jerk = np.zeros(np.shape(acceleration)) if self.jerk is None else self.jerk
+        half_s2, sixth_s3 = s * s / 2, s**3 / 6
+        # On Python's floats, joint by joint (a NumPy call costs more than its arithmetic on a few joints).
+        q, v, a = position.tolist(), velocity.tolist(), acceleration.tolist()
+        jerk = [0.0] * len(a) if self.jerk is None else self.jerk.tolist()
         return (
-            position + velocity * s + acceleration * (s * s / 2) + jerk * (s**3 / 6),
-            velocity + acceleration * s + jerk * (s * s / 2),
-            acceleration + jerk * s,
+            np.array(
+                [qj + vj * s + aj * half_s2 + jj * sixth_s3 for qj, vj, aj, jj in zip(q, v, a, jerk, strict=True)]
+            ),
+            np.array([vj + aj * s + jj * half_s2 for vj, aj, jj in zip(v, a, jerk, strict=True)]),
+            np.array([aj + jj * s for aj, jj in zip(a, jerk, strict=True)]),
         )
 
 

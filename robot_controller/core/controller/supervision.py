@@ -12,7 +12,7 @@ from collections import deque
 from dataclasses import dataclass
 from enum import StrEnum
 from statistics import median
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -142,9 +142,8 @@ class Readings:
             self.received_s += gap_s - period_s
 
 
-@dataclass(frozen=True)
-class Tick:
-    """When this tick falls relative to the previous one."""
+class Tick(NamedTuple):
+    """When this tick falls relative to the previous one (a named tuple: one is made every tick)."""
 
     dt_s: float  #: s, the period the law integrates over (the gap, at most REACQUIRE_GAP_PERIODS periods)
     gap_s: float  #: s since the previous tick (0 for the first, or a tick not later than it)

@@ -106,30 +106,30 @@ class StateAtTick:
         and velocity, on the model under the torque applied, so a stale velocity does not eat the D term's phase
         margin. With the filter, the velocity at the tick's instant is returned; :attr:`latest` keeps the model's."""
         position, velocity = readings.latest
-        if self.kalman is not None:
-            if readings.stamp_s != self._filtered_stamp_s:
+        kalman, stamp_s = self.kalman, readings.stamp_s
+        if kalman is not None:
+            if stamp_s != self._filtered_stamp_s:
                 # The torque that acted since the last reading: the last command issued before it; how
                 # much it changed matters only to a filter unsure when a command takes effect.
+                command = self.command_before(stamp_s)
                 change = None
-                if self.kalman.config.command_timing_uncertainty_s > 0:
-                    change = self.command_change(self._filtered_stamp_s, readings.stamp_s)
-                self._filtered = self.kalman.update(
-                    readings.stamp_s, position, velocity, self.command_before(readings.stamp_s), change
-                )
-                self._filtered_stamp_s = readings.stamp_s
-                self._average_disturbance(readings.stamp_s)
+                if kalman.config.command_timing_uncertainty_s > 0:
+                    change = self.command_change(self._filtered_stamp_s, stamp_s)
+                self._filtered = kalman.update(stamp_s, position, velocity, command, change)
+                self._filtered_stamp_s = stamp_s
+                self._average_disturbance(stamp_s)
                 if self.inertia is not None:
-                    self.inertia.after_reading(readings.stamp_s, self.kalman, self.command_before(readings.stamp_s))
+                    self.inertia.after_reading(stamp_s, kalman, command)
             position, velocity = self._filtered
         if latency_compensation:
-            age_s = clipped_age_s(now_s, readings.stamp_s)
+            age_s = clipped_age_s(now_s, stamp_s)
             if self.dynamics is not None:
                 position, velocity = self.predict(position, velocity, now_s - age_s, now_s)
             else:
                 position = position + velocity * age_s
         self.latest = (position, velocity, now_s)
-        if self.kalman is not None:  # the filter's model step velocity → the velocity at the tick
-            velocity = self.kalman.velocity_at_instant(position, velocity, self.last_command())
+        if kalman is not None:  # the filter's model step velocity → the velocity at the tick
+            velocity = kalman.velocity_at_instant(position, velocity, self.last_command())
             self._coasting = False
         return position, velocity
 

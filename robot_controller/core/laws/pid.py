@@ -242,7 +242,7 @@ def decoupling_map(decoupling: bool, dynamics: ArmDynamics | None, position: np.
     if not decoupling or dynamics is None or np.size(position) < 2:
         return None
     mass = dynamics.mass_matrix(position)
-    return mass / np.diag(mass)[None, :]
+    return mass / mass.diagonal()  # (each column by its joint's own inertia: the diagonal broadcast along rows)
 
 
 #: the most a rated payload raises a joint's LQR design inertia (and gains) over the arm's own: the unloaded loop's
@@ -340,6 +340,12 @@ class BuiltinLaw(ControlLaw):
 
     def terms(self) -> dict[str, np.ndarray]:
         return {} if self._terms is None else dict(vars(self._terms))  # command, p, i, d, feedforward, saturated
+
+    @property
+    def last_terms(self) -> PidTerms | None:
+        """The last update's :class:`PidTerms` as the PID made them (None before any): what :meth:`terms` names,
+        without a dict made of them each tick."""
+        return self._terms
 
     def describe(self, observer: str = "") -> str:
         """One line: the law, the gains in force, the torque limit, the feedforward and ``observer`` (a clause on
