@@ -132,14 +132,14 @@ class StandInWorld:
 class StandInLoop:
     """The loop's processes as ``ros.loop_processes`` reads them, scripted: one ``Usage`` a call."""
 
-    def __init__(self, *usages) -> None:
-        self.usages = list(usages)
+    def __init__(self, *usages, stopped: bool = False) -> None:
+        self.usages, self.stopped = list(usages), stopped
 
     def usage(self):
         return self.usages.pop(0) if self.usages else None
 
     def any_stopped(self) -> bool:
-        return False
+        return self.stopped
 
 
 def paced_at_100_hz():
@@ -316,8 +316,11 @@ class ScriptedWait:
         self.calls += 1
 
 
-def scripted_wait(monkeypatch, gaps: dict[int, float], busy: bool) -> tuple[int, int, int]:
-    """The time waited for an effort that never comes, the wall time that took, and the gaps seen (ns, ns, count)."""
+def scripted_wait(
+    monkeypatch, gaps: dict[int, float], busy: bool, *, host_froze: bool = False, stopped: bool = False
+) -> tuple[int, int, int]:
+    """The time waited for an effort that never comes (the world woken by a freeze of the host's if ``host_froze``;
+    a process of the loop ``stopped`` meanwhile), the wall time that took, and the gaps seen (ns, ns, count)."""
     from types import SimpleNamespace
 
     from robot_controller.ros.clocks import paced as paced_module
@@ -326,8 +329,8 @@ def scripted_wait(monkeypatch, gaps: dict[int, float], busy: bool) -> tuple[int,
     monkeypatch.setattr(paced_module, "time", SimpleNamespace(monotonic_ns=lambda: script.now_ns))
     monkeypatch.setattr(paced_module, "process_run_wait_s", lambda: script.run_wait_s)
     paced = paced_at_100_hz()
-    paced.effort_arrived = script
-    waited_ns = paced.wait_for_effort(0)
+    paced.effort_arrived, paced.loop = script, StandInLoop(stopped=stopped)
+    waited_ns = paced.wait_for_effort(0, host_froze)
     return waited_ns, script.now_ns, paced.freezes.count
 
 
@@ -350,3 +353,11 @@ def test_a_freeze_once_the_effort_is_late_is_excused_and_no_more(monkeypatch):
     """The controller already 20 ms late when everything stops: its stall was its own before the freeze."""
     waited_ns, wall_ns, gaps = scripted_wait(monkeypatch, {2: 50.0}, busy=False)
     assert (waited_ns, wall_ns, gaps) == (50_000_000, 100_000_000, 1)
+
+
+def test_a_controller_stopped_just_after_a_freeze_of_the_host_is_timed_as_its_own_stall(monkeypatch):
+    """The world woke late from the host's freeze (two drive timeouts to wait), and the controller was stopped just
+    then: seen stopped at the first slice, its stall is its own and the world brakes after one drive timeout. The
+    second timeout once let an 80 ms stall through (1 brake in 3, once in 13 runs)."""
+    assert scripted_wait(monkeypatch, {}, busy=False, host_froze=True, stopped=True) == (50_000_000, 50_000_000, 0)
+    assert scripted_wait(monkeypatch, {}, busy=False, host_froze=True) == (100_000_000, 100_000_000, 0)
