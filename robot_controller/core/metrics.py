@@ -130,8 +130,16 @@ def peak_torque(command: np.ndarray, units: list[str] | None = None) -> dict[str
 
 
 STALL_S = 0.030
-#: A loop period longer than this many nominal periods is a missed cycle.
+#: A loop period longer than this many nominal periods missed a cycle: as many as the ticks it lacks (a 30 ms period of
+#: a 100 Hz loop, two), so that the count and the rate agree.
 MISSED_PERIODS = 1.5
+
+
+def missed_ticks(periods_s: np.ndarray, nominal_period_s: float) -> int:
+    """The ticks the long periods among ``periods_s`` lack: each over ``MISSED_PERIODS`` periods, at least one."""
+    long_s = np.asarray(periods_s, dtype=float)
+    long_s = long_s[long_s > MISSED_PERIODS * nominal_period_s]
+    return int(np.sum(np.maximum(np.rint(long_s / nominal_period_s) - 1.0, 1.0)))
 
 
 def rate_metrics(tick_time_s: np.ndarray, nominal_period_s: float) -> dict[str, float]:
@@ -146,7 +154,7 @@ def rate_metrics(tick_time_s: np.ndarray, nominal_period_s: float) -> dict[str, 
         "jitter_p50_ms": float(np.percentile(jitter_ms, 50)),
         "jitter_p99_ms": float(np.percentile(jitter_ms, 99)),
         "jitter_max_ms": float(np.max(jitter_ms)),
-        "missed_cycles": int(np.count_nonzero(periods > MISSED_PERIODS * nominal_period_s)),
+        "missed_cycles": missed_ticks(periods, nominal_period_s),
         # a gap long enough to matter to an arm: three periods of a 100 Hz loop
         "stalls_30ms": int(np.count_nonzero(periods > STALL_S)),
         "longest_period_ms": float(np.max(periods) * 1e3),
@@ -161,6 +169,20 @@ def periods_ending_within(ends_s: Sequence[float], tick_time_s: np.ndarray) -> i
         return 0
     ends = np.asarray(ends_s, dtype=float)
     return int(np.count_nonzero((ends > t[0]) & (ends <= t[-1])))
+
+
+def missed_ticks_ending_at(ends_s: Sequence[float], tick_time_s: np.ndarray, nominal_period_s: float) -> int:
+    """The ticks lacking (:func:`missed_ticks`) in the periods of ``tick_time_s`` that end at ``ends_s`` (s; within
+    half a period of a tick after the first): the missed cycles among them a cause of their own (the host) made."""
+    t = np.asarray(tick_time_s, dtype=float)
+    ends = np.asarray(ends_s, dtype=float)
+    if len(t) < 2 or ends.size == 0:
+        return 0
+    index = np.clip(np.searchsorted(t, ends), 1, len(t) - 1)
+    nearer_before = (index > 1) & (np.abs(t[index - 1] - ends) < np.abs(t[index] - ends))
+    index = np.where(nearer_before, index - 1, index)
+    matched = np.unique(index[np.abs(t[index] - ends) < 0.5 * nominal_period_s])
+    return missed_ticks(t[matched] - t[matched - 1], nominal_period_s)
 
 
 def latency_metrics(latency_s: np.ndarray, prefix: str = "latency") -> dict[str, float]:

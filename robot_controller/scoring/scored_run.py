@@ -118,7 +118,8 @@ def score_launched(checked: CheckedRun, result: RunResult) -> ScoredRun:
     else:  # a paced world's freezes and its loop's late efforts, or the wall clock's
         values.update(result.world_clock)
         ticks = recording.state["time_s"]
-        missed = core_metrics.periods_ending_within(result.host_missed_ends_s, ticks)
+        period_s = 1.0 / params["pid_controller"]["control_rate_hz"]
+        missed = core_metrics.missed_ticks_ending_at(result.host_missed_ends_s, ticks, period_s)
         set_host_share_apart(values, missed, core_metrics.periods_ending_within(result.host_watchdog_s, ticks))
         values.update(result.clocks)  # a split run's hosts' clock offset
         values["realtime_requested"] = options.realtime

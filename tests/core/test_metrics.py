@@ -38,9 +38,10 @@ def test_metrics_are_invariant_to_a_time_shift():
 
 def test_rate_metrics():
     t = np.arange(0, 10, 0.01)
-    t[500:] += 0.02  # one late tick: a 30 ms period
+    t[500:] += 0.02  # one late tick: a 30 ms period, two ticks lacking
     out = metrics.rate_metrics(t, 0.01)
-    assert out["missed_cycles"] == 1
+    assert out["missed_cycles"] == 2  # as the rate says: 999 periods where 1001 fit
+    assert round(out["control_rate_hz"] * (t[-1] - t[0])) + out["missed_cycles"] == round((t[-1] - t[0]) / 0.01)
     assert out["jitter_max_ms"] == pytest.approx(20.0)
     assert out["control_rate_hz"] == pytest.approx(999 / (9.99 + 0.02))
 
@@ -51,6 +52,17 @@ def test_only_the_host_misses_among_the_scored_periods_are_counted():
     count = metrics.periods_ending_within([0.5, 1.0, 1.5, ticks[-1], 2.5], ticks)
     assert count == 2 and type(count) is int  # (a NumPy integer is no JSON)
     assert metrics.periods_ending_within([1.5], ticks[:1]) == 0
+
+
+def test_a_period_a_little_long_misses_one_tick_and_the_hosts_are_matched_to_their_periods():
+    t = np.arange(0, 1, 0.01)
+    t[10:] += 0.006  # 16 ms: one tick lacking
+    t[50:] += 0.025  # 35 ms: the 45 ms period lacks 3 (rounded: 3.5 periods over)
+    assert metrics.rate_metrics(t, 0.01)["missed_cycles"] == 1 + 3
+    # The host made the 35 ms one (its end said to within a jitter); an end at no tick of the recording counts nothing.
+    assert metrics.missed_ticks_ending_at([t[50] + 0.002], t, 0.01) == 3
+    assert metrics.missed_ticks_ending_at([t[30] + 0.005, 5.0], t, 0.01) == 0
+    assert metrics.missed_ticks_ending_at([t[50], t[50]], t, 0.01) == 3  # said twice: once
 
 
 def test_step_metrics_on_a_second_order_system():
