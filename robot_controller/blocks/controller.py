@@ -20,10 +20,10 @@ from robot_controller.blocks.controller_timing import LoopTiming
 from robot_controller.blocks.values import (
     Array,
     JointSample,
+    at_tick,
     brakes_label,
     check_joint_state,
     check_trajectory,
-    tick_label,
 )
 from robot_controller.core.controller import (
     ControllerConfig,
@@ -276,7 +276,7 @@ class Controller:
         outputs: dict[str, Any] = {}
         command = None
         if out.status.commanding:
-            outputs["command"] = Array(out.command, tick_label(t_s))
+            outputs["command"] = at_tick(out.command, t_s)
             command = tuple(out.command.tolist())
         self.timing.note_tick(t_s, command)
         reports.say_saturation(out)

@@ -12,7 +12,7 @@ import numpy as np
 
 from robot_controller import resources
 from robot_controller.blocks.block import Log
-from robot_controller.blocks.values import Array, check_effort, labelled_tick_s, tick_label
+from robot_controller.blocks.values import Array, check_effort
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.metrics import EFFORT_UNITS, in_units
 from robot_controller.core.model import Actuator, effort_limits, joint_names, load_model
@@ -97,7 +97,7 @@ class Drive:
             return {}
         if self.estop:
             return {}
-        tick_s = labelled_tick_s(command.label)
+        tick_s = command.tick_s
         self.receipts += [now_s, *command.data.tolist()]  # a late command too: its delay is what the controller learns
         max_age_s = self.params["max_command_age_s"]
         if tick_s is not None and now_s - tick_s > max_age_s:
@@ -123,7 +123,8 @@ class Drive:
         self.last_command_s = now_s
         self.excused_s = 0.0
         # The tick goes on: a paced world drops an effort come too late.
-        out["effort"] = Array(self.actuator.apply(checked, dt), "" if tick_s is None else tick_label(tick_s))
+        # (Labelled with its command's own label and tick: neither formatted again nor read.)
+        out["effort"] = Array(self.actuator.apply(checked, dt), "" if tick_s is None else command.label, None, tick_s)
         return out
 
     def check_timeout(self, now_s: float) -> dict[str, Any]:

@@ -10,7 +10,10 @@ from dataclasses import dataclass
 import numpy as np
 
 
-@dataclass(frozen=True)
+# The values below are made several times a tick: plain slotted dataclasses, cheaper to make than frozen ones (whose
+# fields are each set through ``object.__setattr__``). A value on a port is never written into, neither its fields
+# nor its arrays: each reader may keep it as it is.
+@dataclass(slots=True)
 class JointSample:
     """The arm's joints at one instant: the true state, or a reading of it."""
 
@@ -19,6 +22,12 @@ class JointSample:
     position: np.ndarray  #: rad (m on a prismatic joint)
     velocity: np.ndarray  #: rad/s (m/s)
     effort: np.ndarray | None = None  #: N·m applied (N), if said
+
+
+def all_finite(values: np.ndarray) -> bool:
+    """``np.isfinite(values).all()``, on Python's floats: for the few values a port carries (one per joint, each
+    tick) cheaper than a numpy reduction."""
+    return all(map(math.isfinite, values.ravel().tolist()))
 
 
 def check_joint_state(
@@ -46,7 +55,7 @@ def check_joint_state(
             return f"missing joint(s) {missing}"
         order = [index[name] for name in expected_names]
         position, velocity = position[order], velocity[order]
-    if not (np.isfinite(position).all() and np.isfinite(velocity).all()):
+    if not (all_finite(position) and all_finite(velocity)):
         return "non-finite position or velocity"
     return position.copy(), velocity.copy()
 
@@ -74,7 +83,7 @@ def check_trajectory(data: Sequence[float], joint_count: int) -> TrajectorySampl
             f"expected {3 * n} values ([position, velocity, acceleration] per joint) "
             f"or {3 * n + 1} (with the sample time), got {np.asarray(data).size + (sample_time is not None)}"
         )
-    if not np.isfinite(data).all() or (sample_time is not None and not math.isfinite(sample_time)):
+    if not all_finite(data) or (sample_time is not None and not math.isfinite(sample_time)):
         return "non-finite value in trajectory"
     return p, v, a, sample_time
 
@@ -83,19 +92,26 @@ def check_effort(data: Sequence[float], joint_count: int) -> np.ndarray | str:
     data = np.asarray(data, dtype=float)
     if data.size != joint_count:
         return f"expected {joint_count} torque value(s), got {data.size}"
-    if not np.isfinite(data).all():
+    if not all_finite(data):
         return "non-finite torque"
     return data
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Array:
     """A flat array with the label of its first dimension (where our messages say what they carry beyond the
-    numbers: a command's tick, the brakes' reasons); a table's ``row`` (its label and size) as the second dimension."""
+    numbers: a command's tick, the brakes' reasons); a table's ``row`` (its label and size) as the second dimension.
+    The label is what goes on the wire; the tick it says, if any, is kept beside it as a number (``tick_s``), read
+    from the label once when the array is made (:func:`at_tick` gives both, reading nothing)."""
 
     data: np.ndarray
     label: str = ""
     row: tuple[str, int] | None = None
+    tick_s: float | None = None  #: s, the tick the label says (None: it says none)
+
+    def __post_init__(self) -> None:
+        if self.tick_s is None and self.label:
+            self.tick_s = labelled_tick_s(self.label)
 
 
 #: A command's label: the tick it was computed for, ``tick_ns:<ns of the loop's clock>`` (a ``Float64MultiArray``
@@ -105,6 +121,11 @@ TICK_LABEL_PREFIX = "tick_ns:"
 
 def tick_label(tick_s: float) -> str:
     return f"{TICK_LABEL_PREFIX}{round(tick_s * 1e9)}"
+
+
+def at_tick(data: np.ndarray, tick_s: float) -> Array:
+    """``data`` labelled with the tick (s) it was computed for (a command)."""
+    return Array(data, tick_label(tick_s), None, tick_s)
 
 
 def labelled_tick_s(label: str) -> float | None:

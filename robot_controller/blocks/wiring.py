@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller.blocks.block import Block
-from robot_controller.blocks.values import Array, JointSample, tick_label
+from robot_controller.blocks.values import JointSample, at_tick
 from robot_controller.blocks.world import World
 from robot_controller.core import metrics
 from robot_controller.core.controller import JointController, Status
@@ -112,7 +112,7 @@ def run_loop(
             inputs["brake_request"] = True  # as the drive's command timeout asks the graph's world
             braked = True
         given = command if command_gain == 1.0 else command_gain * command
-        written = drive.step(t, {"command": Array(given, tick_label(t))}).get("effort")
+        written = drive.step(t, {"command": at_tick(given, t)}).get("effort")
         if written is not None:
             effort = written.data
             inputs["effort"] = written

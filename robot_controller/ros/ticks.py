@@ -24,7 +24,6 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 
 from robot_controller.blocks import spec
 from robot_controller.blocks.block import Block
-from robot_controller.blocks.values import labelled_tick_s
 from robot_controller.ros.messages import clock_s, stamp_to_s
 from robot_controller.ros.qos import CONTROL_QOS
 
@@ -85,7 +84,7 @@ class OnInput:
         self.publish(self.block.start())
 
     def take(self, port: str, value: Any) -> None:
-        tick_s = labelled_tick_s(getattr(value, "label", "")) if self.world_waits else None
+        tick_s = getattr(value, "tick_s", None) if self.world_waits else None
         self.publish(self.block.step(clock_s(self.node) if tick_s is None else tick_s, {port: value}))
 
     def finish(self) -> None:

@@ -7,6 +7,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from robot_controller.blocks.values import (
     Array,
+    at_tick,
     brake_reasons,
     brakes_label,
     check_effort,
@@ -61,6 +62,12 @@ def test_a_stamped_command_says_its_tick_and_keeps_its_data():
     assert list(msg.data) == [1.5, -2.0] and msg.layout.dim[0].size == 2
     encode(Array(np.array([1.5, -2.0]), tick_label(12.0)), msg)  # the message is reused tick after tick
     assert command_tick_s(msg) == 12.0 and len(msg.layout.dim) == 1
+
+
+def test_a_command_carries_its_tick_as_a_number_beside_its_label():
+    value = decode(encode(at_tick(np.array([1.0]), 12.345), Float64MultiArray()))  # read from the label once
+    assert value.label == tick_label(12.345) and value.tick_s == labelled_tick_s(value.label) == pytest.approx(12.345)
+    assert Array(np.zeros(1), brakes_label({"estop"})).tick_s is None and Array(np.zeros(1)).tick_s is None
 
 
 def test_a_command_without_the_stamp_says_nothing():

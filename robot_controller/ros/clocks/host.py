@@ -12,7 +12,6 @@ from dataclasses import dataclass
 from typing import Any
 
 from robot_controller.blocks.block import Log
-from robot_controller.blocks.values import labelled_tick_s
 from robot_controller.blocks.world import Written
 from robot_controller.ros import scheduling
 from robot_controller.ros.process import WORLD_CLOCK_FILE
@@ -46,7 +45,7 @@ def take(clock: Any, port: str, value: Any) -> None:
     if port == "effort":
         effort = world.check_effort(value)
         if effort is not None:
-            tick_s = labelled_tick_s(value.label)  # the drive passes the controller's tick on
+            tick_s = value.tick_s  # the drive passes the controller's tick on
             clock.take_effort(effort, None if tick_s is None else round(tick_s * 1e9))
     elif port == "brake_request":
         with clock.lock:
