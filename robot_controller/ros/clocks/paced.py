@@ -127,7 +127,8 @@ class PacedClock:
         before the first effort, nor while the brakes hold for its absence unless a stale effort showed the loop
         alive); the time waited, ns. A gap of this process (woken over two periods late) is not counted. A freeze
         of the whole host (``host_froze``) that began before the effort was late adds a drive timeout: the loop's
-        messages may then wait for DDS's repair (its 50 ms heartbeat); not once a process of the loop is stopped."""
+        messages may then wait for DDS's repair (its 50 ms heartbeat). While a process of the loop is stopped,
+        neither: all of the wait is counted, up to one drive timeout."""
         ticks = self.ticks
         braked_for_absence = self.world.braked_for("drive_timeout") and not self.loop_heard
         if not ticks.efforts_applied or ticks.ended or braked_for_absence:
@@ -139,13 +140,14 @@ class PacedClock:
         while not self.effort_in and waited_ns < budget_ns and not self.pacing.stopping.is_set():
             run_wait_s, slice_ns = process_run_wait_s(), min(self.period_ns, budget_ns - waited_ns)
             self.effort_arrived.wait(slice_ns * 1e-9)
-            if budget_ns > self.timeout_ns and self.loop.any_stopped():
-                # A process of the loop stopped since the freeze was judged the host's (a SIGSTOP just after this
-                # thread's own hiccup): its stall is its own, and the extra drive timeout would hide it.
-                budget_ns = self.timeout_ns
             now_ns = time.monotonic_ns()
             gap_ns, last_ns = now_ns - last_ns, now_ns
-            if gap_ns > 2 * self.period_ns:
+            if self.loop.any_stopped():
+                # A process of the loop is stopped (SIGSTOP, a debugger): all of the wait is its stall. No drive
+                # timeout is added for a freeze judged the host's just before, and this thread's own gap is not
+                # excused: its messages to the stopped reader are what may hold it up (seen: 28 ms).
+                budget_ns = self.timeout_ns
+            elif gap_ns > 2 * self.period_ns:
                 self.freezes.note(gap_ns)  # frozen while it waited: the simulator's time, not the loop's
                 if budget_ns == self.timeout_ns and waited_ns <= self.late_ns and self.host_froze(gap_ns, run_wait_s):
                     budget_ns += self.timeout_ns
