@@ -70,9 +70,9 @@ class InertiaAdaptation:
         self._said = np.ones(n)  #: the factor last said in a note
         self._notes: list[str] = []
         self._jumps: list[int] | None = None  #: the filter's jump and restart counts at the last reading
-        self._before_push: np.ndarray | None = None  #: the observer's torque before the last jump, while it acts
-        #: the observer's torque averaged over PUSH_AVERAGE_S, and when
-        self._slow_torque: tuple[np.ndarray, float] | None = None
+        self._before_push: list[float] | None = None  #: the observer's torque before the last jump, while it acts
+        #: the observer's torque per joint averaged over PUSH_AVERAGE_S, and when
+        self._slow_torque: tuple[list[float], float] | None = None
 
     @classmethod
     def build(
@@ -159,16 +159,16 @@ class InertiaAdaptation:
         self._jumps = counts
         last = self._slow_torque
         if last is None:
-            self._slow_torque = (torque.copy(), time_s)
-        else:
+            self._slow_torque = (torque.tolist(), time_s)
+        else:  # (on Python's floats: a few joints, where a NumPy call costs more than its arithmetic)
             weight = min(max(time_s - last[1], 0.0) / PUSH_AVERAGE_S, 1.0)
-            self._slow_torque = (last[0] + weight * (torque - last[0]), time_s)
+            self._slow_torque = ([s + weight * (x - s) for s, x in zip(last[0], torque.tolist(), strict=True)], time_s)
         if jumped and self._before_push is None and last is not None:
             self._before_push = last[0]
         if self._before_push is None:
             return False
         limit = np.asarray(self._config().pid.output_limit, float)
-        if np.all(np.abs(self._slow_torque[0] - self._before_push) <= PUSH_SHARE * limit):
+        if np.all(np.abs(np.subtract(self._slow_torque[0], self._before_push)) <= PUSH_SHARE * limit):
             self._before_push = None  # none that stays (an oscillation's), or gone: the evidence starts again from here
             return False
         return True

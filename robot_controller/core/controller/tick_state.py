@@ -217,14 +217,16 @@ class StateAtTick:
     def command_change(self, from_s: float, to_s: float) -> np.ndarray:
         """How much the commands issued in ``[from_s, to_s)`` changed the command (N·m per joint, root sum of
         squares of each change)."""
-        squared = np.zeros(self.joint_count)
+        squared = [0.0] * self.joint_count  # (Python's floats: a change or two per reading, on a few joints)
         before: np.ndarray | None = None
+        start_s, end_s = from_s - TIME_EPS_S, to_s - TIME_EPS_S
         for issued_s, command in self._commands:
-            if issued_s < from_s - TIME_EPS_S:
+            if issued_s < start_s:
                 before = command
-            elif issued_s < to_s - TIME_EPS_S:
+            elif issued_s < end_s:
                 if before is not None:
-                    squared += (command - before) ** 2
+                    change = [c - b for c, b in zip(command.tolist(), before.tolist(), strict=True)]
+                    squared = [s + d * d for s, d in zip(squared, change, strict=True)]
                 before = command
         return np.sqrt(squared)
 
