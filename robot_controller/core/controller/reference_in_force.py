@@ -134,8 +134,11 @@ class PlannerReference:
         if extrapolate:
             age_s = clipped_age_s(now_s, self.time_s)
             if age_s > 0:  # (a sample of the tick's own instant is the trajectory there)
-                position = position + velocity * age_s + 0.5 * acceleration * age_s * age_s
-                velocity = velocity + acceleration * age_s
+                q, v, a = position.tolist(), velocity.tolist(), acceleration.tolist()  # (as in over_period)
+                position = np.array(
+                    [qj + vj * age_s + 0.5 * aj * age_s * age_s for qj, vj, aj in zip(q, v, a, strict=True)]
+                )
+                velocity = np.array([vj + aj * age_s for vj, aj in zip(v, a, strict=True)])
                 source = ReferenceSource.EXTRAPOLATED
         return TrajectoryPoint(position, velocity, acceleration, fresh, source)
 

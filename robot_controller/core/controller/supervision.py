@@ -220,8 +220,9 @@ COMMAND_MEMORY_S = 2.5
 CLEAR_AFTER_S = 1.0
 
 
-@dataclass(frozen=True)
-class LatencyState:
+class LatencyState(NamedTuple):
+    """The latency guard's verdict at a tick (a named tuple: one is made every tick on the wall clock)."""
+
     late: bool
     delay_s: float  #: the loop's unaccounted delay now (s): readings' part + commands' part
     tolerated_s: float  #: what the gains survive (s)
