@@ -77,13 +77,15 @@ class Drive:
         self.actuator = self._make_actuator(params)
 
     def step(self, t_s: float, inputs: Mapping[str, Any]) -> dict[str, Any]:
-        out: dict[str, Any] = {}
-        if "estop" in inputs:
-            out.update(self.take_estop(bool(inputs["estop"])))
-        if "command" in inputs:
-            out.update(self.take_command(t_s, inputs["command"]))
+        # Each of the take methods returns a new dict: the step's own, added to, not copied.
         if not inputs:
-            out.update(self.check_timeout(t_s))
+            out = self.check_timeout(t_s)
+        elif "estop" in inputs:
+            out = self.take_estop(bool(inputs["estop"]))
+            if "command" in inputs:
+                out.update(self.take_command(t_s, inputs["command"]))
+        else:  # a command alone, each tick's
+            out = self.take_command(t_s, inputs["command"]) if "command" in inputs else {}
         if self.next_receipts_s is None or t_s >= self.next_receipts_s:
             if self.next_receipts_s is not None:
                 out.update(self.finish())

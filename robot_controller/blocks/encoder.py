@@ -4,6 +4,7 @@ robot_state_publisher does), for ROS clients such as MoveIt."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -77,9 +78,9 @@ class Encoder:
         if isinstance(checked, str):
             self.log.warn("true_state", f"true state unusable: {checked}")
             return {}
-        # Next grid point after this stamp (skips ahead if the world published sparsely).
-        grid_index = np.floor((stamp_s + _GRID_EPS_S) / self.period_s)
-        self.next_sample_s = (grid_index + 1) * self.period_s
+        # Next grid point after this stamp (skips ahead if the world published sparsely). A Python float, as the
+        # stamps are: numpy's scalars cost more in each step's comparisons.
+        self.next_sample_s = (math.floor((stamp_s + _GRID_EPS_S) / self.period_s) + 1) * self.period_s
         position, velocity = checked
         if self.sensor.delay_s > 0:
             stamp_s, position, velocity = self.delay_line.push(stamp_s, position, velocity)

@@ -33,8 +33,9 @@ def all_finite(values: np.ndarray) -> bool:
 def check_joint_state(
     names: Sequence[str], position: Sequence[float], velocity: Sequence[float], expected_names: Sequence[str]
 ) -> tuple[np.ndarray, np.ndarray] | str:
-    """Copies of ``position`` and ``velocity`` in the order of ``expected_names`` (the arm's joints), or the reason
-    they cannot be used. Without names (as the tutorial's sensor sends them), one value per joint in the arm's order."""
+    """``position`` and ``velocity`` as float arrays in the order of ``expected_names`` (the arm's joints), or the
+    reason they cannot be used. Without names (as the tutorial's sensor sends them), one value per joint in the arm's
+    order. Arrays in that order already are returned as they are, not copied: a port's value is never written into."""
     n = len(expected_names)
     position = np.asarray(position, dtype=float)
     velocity = np.asarray(velocity, dtype=float)
@@ -57,7 +58,7 @@ def check_joint_state(
         position, velocity = position[order], velocity[order]
     if not (all_finite(position) and all_finite(velocity)):
         return "non-finite position or velocity"
-    return position.copy(), velocity.copy()
+    return position, velocity
 
 
 TrajectorySample = tuple[np.ndarray, np.ndarray, np.ndarray, float | None]

@@ -84,21 +84,22 @@ def run_loop(
     braked = False
     position = np.zeros(n)
     effort = np.zeros(n)
-    true_state = world.true_state(0.0)
     for k, t in enumerate(times.tolist()):  # Python floats: the controller's scalar time arithmetic is cheaper
         if k % planner_every == 0:
             sample = planner.step(t, {})["reference"].data
             controller.set_reference(t, sample[:n], sample[n : 2 * n], sample[2 * n : 3 * n])
+        # The state the last physics steps left, stamped with the tick: port ``true_state``'s value as it is.
+        true_state = world.true_state(t)
         true_position, true_velocity = true_state.position, true_state.velocity
+        stamp = t
         if delay_steps:
             history.append((t, true_position, true_velocity))
             stamp, seen_q, seen_v = history[max(0, len(history) - 1 - delay_steps)]
             del history[: max(0, len(history) - 1 - delay_steps)]
-        else:
-            stamp, seen_q, seen_v = t, true_position, true_velocity
+            true_state = JointSample(t, world.joint_names, seen_q, seen_v)
         # The sensor reads, at the tick, what reaches it (late by the transport's delay); its reading is of the
         # state at ``stamp``, that much older than the stamp it gives (unless it cannot tell: ``delay_unstamped``).
-        reading = sensor.step(t, {"true_state": JointSample(t, names, seen_q, seen_v)}).get("reading")
+        reading = sensor.step(t, {"true_state": true_state}).get("reading")
         if reading is not None:
             position = reading.position
             sample_s = (
@@ -125,7 +126,6 @@ def run_loop(
                     history.append((state.stamp_s, state.position, state.velocity))
         else:
             world.advance(n_steps)
-        true_state = world.true_state(world.time_s)
         reference_rows[k] = out.reference
         measured_rows[k] = position
         true_position_rows[k] = true_position
