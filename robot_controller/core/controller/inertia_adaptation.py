@@ -178,7 +178,9 @@ class InertiaAdaptation:
         ``inertia`` holds."""
         config, designed = self._config(), self._designed
         needed = config.min_delay_margin_periods
-        changed = np.flatnonzero((wanted != self._scale) | every)
+        # A factor of 1 is the design itself, which nothing cuts back (the search between 1 and 1 ends at 1): its
+        # margins are not worked out (on the Panda, 14 Riccati equations at the first reading, the estimate still 0).
+        changed = np.flatnonzero(((wanted != self._scale) | every) & (wanted != 1.0))
         if needed <= 0 or not changed.size:
             return wanted
         scale = wanted.copy()
