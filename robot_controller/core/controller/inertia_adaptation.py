@@ -63,6 +63,7 @@ class InertiaAdaptation:
         self._model, self._dofs = model, model.jnt_dofadr[:n]
         self._armature = model.dof_armature[self._dofs].copy()  #: the URDF's (or model_inertia's)
         self._own, self._payload_bound = np.asarray(own_inertia, float), np.asarray(payload_bound, float)
+        self._own_design = self._design(self._own)  #: kg·m² per joint, what the designed gains are for
         self._pid, self._config = pid, config
         self._designed: PidConfig | None = None  #: the gains as designed, before any scaling
         self._scaled: PidConfig | None = None  #: the gains last set here
@@ -146,7 +147,7 @@ class InertiaAdaptation:
         redesigned = pid.config is not self._scaled
         if redesigned:  # new gains (set at run time, designed on the nominal model): the design, scaled from here
             self._designed = pid.config
-        wanted = self._design(self._own + extra) / self._design(self._own)
+        wanted = self._design(self._own + extra) / self._own_design
         if not redesigned and np.all(np.abs(wanted - self._scale) <= GAIN_STEP * self._scale):
             return
         self._set(pid, self._within_margin(wanted, self._own + extra, redesigned))
