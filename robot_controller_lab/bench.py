@@ -205,7 +205,7 @@ def _loop_floor(run: Run) -> dict[str, Any]:
     figures: dict[str, Any] = {}
     for robot in ("one_dof", "panda"):
         timed = campaign_bench.loop_floor(cfg.load_stack(robot=robot), run.duration_s)
-        figures.update({f"loop_floor_{robot}_{k}": timed[k] for k in ("loop_s", "mujoco_s", "loop_vs_floor")})
+        figures.update({f"loop_floor_{robot}_{k}": timed[k] for k in LOOP_FLOOR_FIGURES})
     return figures
 
 
@@ -215,9 +215,8 @@ CAMPAIGN_KEYS = tuple(
     "campaign_scaling_2w campaign_ray_connect_s "
     "campaign_ray_overhead_ms_per_run".split()
 )
-LOOP_FLOOR_KEYS = tuple(
-    f"loop_floor_{robot}_{k}" for robot in ("one_dof", "panda") for k in ("loop_s", "mujoco_s", "loop_vs_floor")
-)
+LOOP_FLOOR_FIGURES = ("loop_s", "mujoco_s", "loop_vs_floor", "physics_s", "loop_vs_physics", "controller_share")
+LOOP_FLOOR_KEYS = tuple(f"loop_floor_{robot}_{k}" for robot in ("one_dof", "panda") for k in LOOP_FLOOR_FIGURES)
 CPU_KEYS = tuple(f"cpu_pct_{name}" for name in ("total", "recorder", "launcher", *NODE_NAMES))
 _TIMING_KEYS = tuple(TIMING)
 SCENARIOS = (

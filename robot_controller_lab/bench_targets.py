@@ -43,6 +43,8 @@ TARGETS = (
     Target("core_steps_per_s_panda", 1_000.0, False, "in-process loop, the 7-joint Panda: ≥ 1,000 steps per wall s"),
     Target("campaign_scaling_2w", 1.8, False, "campaign: 2 local workers ≥ 1.8× the runs/s of 1"),
     Target("loop_floor_panda_loop_vs_floor", 2.0, True, "in-process loop, Panda: ≤ 2× its MuJoCo calls' time"),
+    Target("loop_floor_panda_loop_vs_physics", 2.0, True, "in-process loop, Panda: ≤ 2× the world's physics steps"),
+    Target("loop_floor_one_dof_loop_vs_physics", 3.0, True, "in-process loop, one joint: ≤ 3× its physics steps"),
 )
 
 

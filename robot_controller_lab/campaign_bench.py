@@ -20,6 +20,8 @@ from typing import Any
 import mujoco
 import yaml
 
+from robot_controller.core.controller.controller import JointController
+from robot_controller.core.model.mujoco_plant import MujocoPlant
 from robot_controller.experiments import inprocess
 from robot_controller.experiments.campaign import executors
 from robot_controller.experiments.campaign.campaign import contenders, tasks
@@ -115,8 +117,9 @@ def ray_head(cpus: int) -> Iterator[str]:
 
 
 def loop_floor(params: dict, duration_s: float) -> dict[str, float]:
-    """The in-process loop's wall time over ``duration_s`` sim s, and the time of its MuJoCo calls alone, timed in
-    the same run (each call wrapped by a timer, whose own cost lands in the loop's time, not the floor's)."""
+    """The in-process loop's wall time over ``duration_s`` sim s, and, timed in a second run (each call wrapped by a
+    timer, whose own cost lands in the loop's time): its MuJoCo calls alone (the world's and the controller's model's),
+    the world's physics steps alone (the steps the loop must make), and the controller's ticks' share of the loop."""
     inprocess.prepare(params, duration_s=min(duration_s, 0.5), seed=0)()  # warm-up: imports, first calls
     bare = inprocess.prepare(params, duration_s=duration_s, seed=0)
     start = time.perf_counter()
@@ -136,9 +139,25 @@ def loop_floor(params: dict, duration_s: float) -> dict[str, float]:
 
         return wrapper
 
+    parts = {"physics": 0.0, "controller": 0.0}
+    methods = {"physics": (MujocoPlant, "step"), "controller": (JointController, "update")}
+    unwrapped = {part: getattr(owner, name) for part, (owner, name) in methods.items()}
+
+    def timed_part(part, method):
+        def wrapper(*args, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return method(*args, **kwargs)
+            finally:
+                parts[part] += time.perf_counter() - t0
+
+        return wrapper
+
     run = inprocess.prepare(params, duration_s=duration_s, seed=0)
     for name, call in originals.items():
         setattr(mujoco, name, timed(call))
+    for part, (owner, name) in methods.items():
+        setattr(owner, name, timed_part(part, unwrapped[part]))
     try:
         start = time.perf_counter()
         run()
@@ -146,10 +165,16 @@ def loop_floor(params: dict, duration_s: float) -> dict[str, float]:
     finally:
         for name, call in originals.items():
             setattr(mujoco, name, call)
+        for part, (owner, name) in methods.items():
+            setattr(owner, name, unwrapped[part])
+    physics_s = parts["physics"]
     return {
         "loop_s": bare_s,
         "loop_timed_s": timed_s,
         "mujoco_s": spent["s"],
         "mujoco_calls": spent["calls"],
         "loop_vs_floor": bare_s / spent["s"] if spent["s"] else float("nan"),
+        "physics_s": physics_s,
+        "loop_vs_physics": bare_s / physics_s if physics_s else float("nan"),
+        "controller_share": parts["controller"] / timed_s if timed_s else float("nan"),
     }

@@ -231,6 +231,8 @@ def test_bench_quick_writes_every_key(tmp_path, ros_domain):
         "soak_rss_growth_mb",
         "cpu_pct_total",
         "cpu_pct_recorder",
+        "loop_floor_panda_loop_vs_physics",
+        "loop_floor_one_dof_controller_share",
         *(
             f"cpu_pct_{node}"
             for node in ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
