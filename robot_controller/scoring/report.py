@@ -128,17 +128,29 @@ def braked_at(recording: Recording, t: np.ndarray) -> np.ndarray:
     return (index >= 0) & held[np.clip(index, 0, None)]
 
 
+#: A span of the brakes an e-stop joined this soon after they engaged is the e-stop's (s); later, a fault the e-stop
+#: found: the drive hears the e-stop first (its brake request, its efforts stopped) and the world the e-stop last.
+ESTOP_JOIN_S = 0.5
+
+
 def brake_metrics(recording: Recording, start_s: float, end_s: float, grace_s: float = 0.02) -> dict[str, Any]:
     """How often the brakes went on between ``start_s`` and ``end_s`` (and ``grace_s`` past it: the stop that ended a
     failed run), and for how long in all (sim s); of those, the ones an e-stop held (``…_estop``): asked for."""
     t, held = recording.brakes_time_s, np.any(recording.brakes > 0.5, axis=1)
     if not len(t):
         return {"brake_engagements": 0, "braked_s": 0.0, "brake_engagements_estop": 0, "braked_s_estop": 0.0}
-    # Each span the brakes held without a break, and whether an e-stop held it at some time.
+    # Each span the brakes held without a break, and whether it was an e-stop's: one joined it within ESTOP_JOIN_S of
+    # its start (what the e-stop sets off, the drive's brake request and the world's drive timeout, may come first).
     span_id = np.cumsum(held & ~np.concatenate(([False], held[:-1])))
     reasons = recording.brakes_reasons if len(recording.brakes_reasons) == len(t) else [frozenset()] * len(t)
-    estop = np.array([held[k] and "estop" in said for k, said in enumerate(reasons)])
-    estop_spans = set(span_id[estop].tolist())
+    span_start_s: dict[int, float] = {}
+    for k in np.flatnonzero(held):
+        span_start_s.setdefault(int(span_id[k]), float(t[k]))
+    estop_spans = {
+        int(span_id[k])
+        for k, said in enumerate(reasons)
+        if held[k] and "estop" in said and t[k] - span_start_s[int(span_id[k])] <= ESTOP_JOIN_S
+    }
     by_estop = np.isin(span_id, list(estop_spans)) & held
     engaged = np.flatnonzero(held[1:] & ~held[:-1]) + 1
     engaged = engaged[(t[engaged] > start_s) & (t[engaged] <= end_s + grace_s)]

@@ -84,6 +84,19 @@ def test_brakes_an_estop_held_are_counted_as_asked_for():
     assert brake_metrics(recording, 0.0, 2.0)["brake_engagements_estop"] == 0
 
 
+def test_a_span_an_estop_joins_at_once_is_its_and_one_it_joins_late_is_a_fault():
+    """The drive hears the e-stop first: the world brakes for its missing efforts, then the e-stop's own reason comes
+    (0.19 s later here): the e-stop's. A fault braked for 0.7 s before someone pressed the e-stop stays a fault."""
+    recording = _stalled_then_braked()
+    recording.brakes_time_s = np.array([0.0, 0.5, 0.69, 1.5])
+    recording.brakes = np.array([[0.0], [1.0], [1.0], [0.0]])
+    recording.brakes_reasons = [frozenset(), frozenset({"drive_timeout"}), frozenset({"drive_timeout", "estop"})]
+    recording.brakes_reasons.append(frozenset())
+    assert brake_metrics(recording, 0.0, 2.0)["brake_engagements_estop"] == 1
+    recording.brakes_time_s = np.array([0.0, 0.5, 1.2, 1.5])
+    assert brake_metrics(recording, 0.0, 2.0)["brake_engagements_estop"] == 0
+
+
 def _state_message(joint_count, names, blocks):
     """A /controller/state message as the node labels it: the standard blocks, then ``names``' blocks."""
     values = {name: np.zeros(joint_count) for name in state_layout.FIELDS}
