@@ -21,6 +21,7 @@ from rclpy.parameter_service import ParameterService
 
 from robot_controller.blocks.controller import designed_margin
 from robot_controller.core.errors import ConfigError
+from robot_controller.ros.scheduling import yield_to_the_loop
 from robot_controller.runner.forking import die_with_parent
 
 if TYPE_CHECKING:
@@ -96,9 +97,15 @@ def _start_worker(dynamics: ArmDynamics | None, node_pid: int) -> None:
     global _dynamics
     _dynamics = dynamics
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C is the node's to act on; the worker ends with it
+    yield_to_the_loop()  # forked from the controller, it would share its CPU and its priority
     # A node killed (SIGKILL, the launcher's last resort) never shuts the pool down: the worker would wait on its
     # call queue for ever, an orphan (44 of them were seen on a busy host).
     die_with_parent(signal.SIGKILL, node_pid)
+
+
+def _load_the_design_libraries() -> None:
+    """In the worker, at its start: what a design imports on first use (scipy.linalg: 0.2 s of CPU)."""
+    import scipy.linalg  # noqa: F401
 
 
 def _check(config: ControllerConfig, joint_count: int) -> tuple[int | None, str | None]:
@@ -117,7 +124,7 @@ class Designer:
         self._dynamics, self._joint_count = dynamics, joint_count
         context = multiprocessing.get_context("fork")
         self._pool = ProcessPoolExecutor(1, context, initializer=_start_worker, initargs=(dynamics, os.getpid()))
-        self._pool.submit(int)  # the fork now, at the start, not at the first change
+        self._pool.submit(_load_the_design_libraries)  # the fork now, and the imports, not at the first change
 
     def margin(self, config: ControllerConfig) -> int | None:
         """:func:`designed_margin` of ``config``, waited for (the caller's thread lets go of the interpreter)."""

@@ -75,6 +75,23 @@ def apply_in_child(place: Placement) -> None:
             pass
 
 
+def yield_to_the_loop() -> None:
+    """In a helper process forked from a loop node (the law designer): the least urgent nice, and off the loop's CPU
+    when the node was pinned to it, so its tens of ms of arithmetic never delay a tick; best effort. The session's
+    autogroup is the node's too and is left as it is."""
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, 19)
+    except OSError:
+        pass
+    pinned = os.sched_getaffinity(0)
+    others = set(range(os.cpu_count() or 1)) - pinned
+    if len(pinned) == 1 and others:
+        try:
+            os.sched_setaffinity(0, others)
+        except OSError:
+            pass  # a cpuset that allows only the loop's CPU: the nice alone
+
+
 def realtime_thread_requested() -> int | None:
     value = os.environ.get(PACING_RT_ENV, "")
     try:
