@@ -105,6 +105,10 @@ class Controller:
         if model_overridden(params):
             self.log.info(self.dynamics.describe())
         self.controller: JointController | None = None
+        # Every built-in law found now: the first lookup reads every installed package's entry points (6 ms), which a
+        # switch of law at a tick would otherwise pay on the loop's thread.
+        for law in registry.BUILTIN_LAWS:
+            registry.resolve(law)
         self.check_params(params)
         # A law of one's own is held to its law_budget_s: where the world waits, on its thread's CPU time (a call
         # blocked for BLOCKED_S of wall time is abandoned); on the wall clock, on wall time less what the host took
