@@ -91,9 +91,10 @@ def write_run_profile(path: Path, partition: str, base: Path | None = None, peer
     return _write(path, base, partition, peers=peers, public_writers=f";{partition}")
 
 
-def write_observer_profile(path: Path, base: Path | None = None) -> Path:
-    """A profile for a process that should hear every run and the default partition alike."""
-    return _write(path, base, _EVERY_PARTITION)
+def write_observer_profile(path: Path, base: Path | None = None, *, loopback_udp: bool = False) -> Path:
+    """A profile for a process that should hear every run and the default partition alike; ``loopback_udp``: speaking
+    UDP on this host's loopback only, no shared memory (a short-lived tool: see ``tools.graph``)."""
+    return _write(path, base, _EVERY_PARTITION, peers=[LOCALHOST] if loopback_udp else None)
 
 
 def _write(

@@ -42,18 +42,43 @@ class ToolError(Exception):
 
 # Fast DDS reads its XML profiles once per process, at the first participant: the profile is needed until then.
 _participant_made = False
+# Whether this process's tool participants speak UDP on loopback (decided with the profile, at the first).
+_loopback_udp = False
 
 
 def _prepare_environment() -> Path | None:
     """Name the observer profile in this process's environment; its directory, to remove later (None: nothing)."""
     from robot_controller.ros import partition
 
+    global _loopback_udp
     os.environ.setdefault(DISCOVERY_RANGE_ENV, "LOCALHOST")
     if _participant_made or partition.PROFILES_ENV in os.environ:
         return None
+    # On this host a tool speaks UDP on loopback, never shared memory: with the tools on shared memory, a loop process
+    # was seen blocked 200-330 ms in a publish while a `param set`'s participant came and went (1 run in 6 of the
+    # live-gain test, braking the arm); with them on UDP, in none of 14.
+    _loopback_udp = os.environ[DISCOVERY_RANGE_ENV] == "LOCALHOST"
     directory = Path(tempfile.mkdtemp(prefix="robot-controller-tools-"))
-    os.environ[partition.PROFILES_ENV] = str(partition.write_observer_profile(directory / "observer.xml"))
+    profile = partition.write_observer_profile(directory / "observer.xml", loopback_udp=_loopback_udp)
+    os.environ[partition.PROFILES_ENV] = str(profile)
     return directory
+
+
+@contextlib.contextmanager
+def _discovery_range_for_participant() -> Iterator[None]:
+    """While a participant is made: with the loopback profile, rmw must leave transports and discovery to it (its
+    LOCALHOST range would add shared memory); the process's own range is back afterwards, for its children."""
+    from robot_controller.ros import partition
+
+    if not _loopback_udp:
+        yield
+        return
+    given = os.environ[DISCOVERY_RANGE_ENV]
+    os.environ[DISCOVERY_RANGE_ENV] = partition.PEERS_DISCOVERY_RANGE
+    try:
+        yield
+    finally:
+        os.environ[DISCOVERY_RANGE_ENV] = given
 
 
 def _remove_profile(directory: Path) -> None:
@@ -248,10 +273,11 @@ def open_graph(tool: str) -> Iterator[Graph]:
         from rclpy.signals import SignalHandlerOptions
 
         context = rclpy.Context()
-        rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
         # Hidden (a leading underscore), as ros2cli's own nodes: graph listings leave it out.
         name = f"_robot_controller_{''.join(c if c.isalnum() else '_' for c in tool)}_{os.getpid()}"
-        node = Node(name, context=context, start_parameter_services=False, enable_rosout=False)
+        with _discovery_range_for_participant():
+            rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+            node = Node(name, context=context, start_parameter_services=False, enable_rosout=False)
         global _participant_made
         _participant_made = True  # the first participant has read the profile: remove it
         if profile_dir is not None:

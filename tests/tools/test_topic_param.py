@@ -69,9 +69,9 @@ def test_the_tools_hear_every_partition_through_a_profile_of_their_own_that_they
     done = tool(
         "import os\nfrom robot_controller.ros import partition\n"
         "seen = {}\nwrite = partition.write_observer_profile\n"
-        "def spy(path, base=None):\n"
+        "def spy(path, base=None, **options):\n"
         "    seen['path'] = path\n"
-        "    seen['text'] = write(path, base).read_text()\n"
+        "    seen['text'] = write(path, base, **options).read_text()\n"
         "    return path\n"
         "partition.write_observer_profile = spy\n"
         "with graph.open_graph('check') as g:\n"
@@ -85,6 +85,9 @@ def test_the_tools_hear_every_partition_through_a_profile_of_their_own_that_they
     )
     assert done.returncode == 0, done.stderr[-3000:]
     assert "<name>partitions</name>" in done.stdout and "<value>;*</value>" in done.stdout  # every partition, read
+    # On this host: UDP on loopback, no shared memory (a loop process must never wait on a tool's).
+    assert "<useBuiltinTransports>false</useBuiltinTransports>" in done.stdout and "<type>UDPv4</type>" in done.stdout
+    assert "<address>127.0.0.1</address>" in done.stdout
 
 
 # --- against the run ------------------------------------------------------------
