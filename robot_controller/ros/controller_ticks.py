@@ -35,6 +35,9 @@ Tick = Callable[[float], dict[str, Any]]
 
 # The parameters the timer's period follows.
 TIMING_KEYS = ("control_rate_hz", "trigger", "watchdog_periods")
+#: s; on the wall clock the loop's usage (``loop_processes``, about 0.1 ms to read) is read at a tick at most this
+#: often, and at every tick that ends a long period or a silence: at 1 kHz, each tick's read was a tenth of the loop.
+USAGE_EVERY_S = 0.005
 # How long (wall s) a paired tick waits for its reference sample before using the latest.
 REFERENCE_WAIT_S = 0.3
 # How long (wall) a tick waits for a reading before going on with the latest, until the sensor's period is known: long
@@ -58,7 +61,9 @@ class HostMisses:
     def __init__(self, control_period_s: Callable[[], float], watchdog_periods: Callable[[], int]) -> None:
         self.control_period_s, self.watchdog_periods = control_period_s, watchdog_periods
         self.loop = LoopProcesses(run_folder())
-        self.last_tick: tuple[float, Sample | None] | None = None  #: (time s, the loop's usage) at the last tick
+        self.last_tick_s: float | None = None
+        self.sampled: Sample | None = None  #: the loop's usage when last read (at a tick, at most USAGE_EVERY_S ago)
+        self.sampled_s = -np.inf  #: when (tick s) it was read
         self.missed_for_host: list[float] = []  #: when (tick s) each missed period the host made ended
         # The watchdog's silence, timed from the latest accepted reading's arrival (s) and the loop's usage at the
         # first tick since (the same instant when readings drive the loop).
@@ -74,21 +79,24 @@ class HostMisses:
         """Count the period that ends at ``now_s`` as the host's miss if the host took from the loop all it ran over
         (``loop_processes.host_kept_waiting``); a watchdog tick on the same terms, over the readings' silence past
         the watchdog's window."""
-        usage = self.loop.usage()
+        period_s = self.control_period_s()
+        late_s = -1.0 if self.last_tick_s is None else now_s - self.last_tick_s - metrics.MISSED_PERIODS * period_s
+        silent_s = -1.0
+        if watchdog and self.reading_s is not None:
+            silent_s = now_s - self.reading_s - self.watchdog_periods() * period_s
+        # The usage before the period judged is the one read last: up to USAGE_EVERY_S older, its window is wider.
+        before = self.sampled
+        if late_s > 0 or silent_s > 0 or now_s - self.sampled_s >= USAGE_EVERY_S:
+            self.sampled, self.sampled_s = self.loop.usage(), now_s
+        usage = self.sampled
         if self.reading_unsampled:
             self.usage_at_reading, self.reading_unsampled = usage, False
-        period_s = self.control_period_s()
-        if watchdog and self.reading_s is not None and usage is not None and self.usage_at_reading is not None:
-            over_s = now_s - self.reading_s - self.watchdog_periods() * period_s
-            if over_s > 0 and host_kept_waiting(usage - self.usage_at_reading, round(over_s * 1e9)):
-                self.watchdog_for_host.append(now_s)
-        if self.last_tick is not None:
-            last_s, last_usage = self.last_tick
-            over_s = now_s - last_s - metrics.MISSED_PERIODS * period_s
-            measured = over_s > 0 and usage is not None and last_usage is not None
-            if measured and host_kept_waiting(usage - last_usage, round(over_s * 1e9)):
-                self.missed_for_host.append(now_s)
-        self.last_tick = (now_s, usage)
+        at_reading = self.usage_at_reading
+        if silent_s > 0 and usage and at_reading and host_kept_waiting(usage - at_reading, round(silent_s * 1e9)):
+            self.watchdog_for_host.append(now_s)
+        if late_s > 0 and usage and before and host_kept_waiting(usage - before, round(late_s * 1e9)):
+            self.missed_for_host.append(now_s)
+        self.last_tick_s = now_s
 
     def leave(self) -> None:
         host_made = {"ends_s": self.missed_for_host, "watchdog_s": self.watchdog_for_host}

@@ -28,7 +28,8 @@ class ScriptedLoop:
 def timing_at_100_hz(*usages: tuple[int, ...] | None) -> HostMisses:
     timing = object.__new__(HostMisses)  # the counting only: no scratch folder
     timing.control_period_s, timing.watchdog_periods = lambda: 0.01, lambda: 5
-    timing.loop, timing.last_tick, timing.missed_for_host = ScriptedLoop(*usages), None, []
+    timing.loop, timing.last_tick_s, timing.missed_for_host = ScriptedLoop(*usages), None, []
+    timing.sampled, timing.sampled_s = None, -float("inf")
     timing.reading_s, timing.usage_at_reading, timing.reading_unsampled = None, None, False
     timing.watchdog_for_host = []
     return timing
@@ -88,3 +89,28 @@ def test_a_loop_that_keeps_its_own_processes_waiting_is_late_by_its_own_fault(mo
     for now_s in (0.0, 0.035, 0.07, 0.105):
         timing.note_tick(now_s)
     assert timing.missed_for_host == [0.07]
+
+
+class CountingLoop(ScriptedLoop):
+    def __init__(self, *usages: tuple[int, ...] | None) -> None:
+        super().__init__(*usages)
+        self.reads = 0
+
+    def usage(self) -> Sample | None:
+        self.reads += 1
+        return super().usage()
+
+
+def test_at_1_khz_the_loops_usage_is_read_every_5_ms_and_at_every_long_period(monkeypatch):
+    """Reading it costs about 0.1 ms: at every 1 ms tick it was a tenth of the loop. A long period is still judged,
+    from the usage read last before it."""
+    monkeypatch.setattr(loop_processes, "_CPUS", 2)
+    monkeypatch.setattr(loop_processes, "_TICK_NS", 10_000_000)
+    timing = timing_at_100_hz()
+    timing.control_period_s = lambda: 0.001
+    timing.loop = CountingLoop(*[(k * MS // 10, 0, 0) for k in range(3)], (MS, 30 * MS, 0))
+    ticks_s = [k * 0.001 for k in range(13)] + [0.040]  # 13 on time, then a 28 ms period: 30 ms waiting for a CPU
+    for now_s in ticks_s:
+        timing.note_tick(now_s)
+    assert timing.loop.reads == 3 + 1  # at 0, 5 and 10 ms, and at the long period's end
+    assert timing.missed_for_host == [0.040]
