@@ -256,3 +256,32 @@ def test_the_fingerprint_names_each_part_that_changed(laws, tmp_path):
     assert store.changed(other_code, after) == [
         f"robot_controller: 0.0.1 (source 0, mujoco 3) then, {after[store.CODE]} now"
     ]
+
+
+def test_a_workers_warm_up_that_fails_or_overruns_is_abandoned_and_made_once(monkeypatch):
+    """The warm-up runs in the worker itself, unguarded by a fork: past its limit it is given up, as is one that
+    raises; either way once per worker, and the runs go on."""
+    from robot_controller.experiments.campaign import executors
+
+    calls = []
+
+    def spins(*args):
+        calls.append(args)
+        while True:
+            time.sleep(0.01)
+
+    monkeypatch.setattr(executors, "_warmed", False)
+    monkeypatch.setattr(executors, "WARM_UP_TIMEOUT_S", 0.3)
+    monkeypatch.setattr(executors, "figures", spins)
+    task = executors.Task(0, "", {}, {}, 1, 1.0)
+    start = time.monotonic()
+    executors.warm_up(task)
+    executors.warm_up(task)
+    assert len(calls) == 1 and time.monotonic() - start < 5.0
+
+    def raises(*args):
+        raise RuntimeError("a world the stack refuses")
+
+    monkeypatch.setattr(executors, "_warmed", False)
+    monkeypatch.setattr(executors, "figures", raises)
+    executors.warm_up(task)  # nothing raised
