@@ -91,10 +91,11 @@ class HostMisses:
         usage = self.sampled
         if self.reading_unsampled:
             self.usage_at_reading, self.reading_unsampled = usage, False
-        at_reading = self.usage_at_reading
-        if silent_s > 0 and usage and at_reading and host_kept_waiting(usage - at_reading, round(silent_s * 1e9)):
+        silent_judged = silent_s > 0 and usage is not None and self.usage_at_reading is not None
+        if silent_judged and host_kept_waiting(usage - self.usage_at_reading, round(silent_s * 1e9)):
             self.watchdog_for_host.append(now_s)
-        if late_s > 0 and usage and before and host_kept_waiting(usage - before, round(late_s * 1e9)):
+        late_judged = late_s > 0 and usage is not None and before is not None
+        if late_judged and host_kept_waiting(usage - before, round(late_s * 1e9)):
             self.missed_for_host.append(now_s)
         self.last_tick_s = now_s
 

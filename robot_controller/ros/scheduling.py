@@ -77,8 +77,8 @@ def apply_in_child(place: Placement) -> None:
 
 def yield_to_the_loop() -> None:
     """In a helper process forked from a loop node (the law designer): the least urgent nice, and off the loop's CPU
-    when the node was pinned to it, so its tens of ms of arithmetic never delay a tick; best effort. The session's
-    autogroup is the node's too and is left as it is."""
+    when the node was pinned to it, so its designs (ms of arithmetic each) never delay a tick; best effort. The
+    session's autogroup is the node's too and is left as it is."""
     try:
         os.setpriority(os.PRIO_PROCESS, 0, 19)
     except OSError:

@@ -56,7 +56,7 @@ def _prepare_environment() -> Path | None:
         return None
     # On this host a tool speaks UDP on loopback, never shared memory: with the tools on shared memory, a loop process
     # was seen blocked 200-330 ms in a publish while a `param set`'s participant came and went (1 run in 6 of the
-    # live-gain test, braking the arm); with them on UDP, in none of 14.
+    # live-gain test, braking the arm); with them on UDP, in none of 26.
     _loopback_udp = os.environ[DISCOVERY_RANGE_ENV] == "LOCALHOST"
     directory = Path(tempfile.mkdtemp(prefix="robot-controller-tools-"))
     profile = partition.write_observer_profile(directory / "observer.xml", loopback_udp=_loopback_udp)
