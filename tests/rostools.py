@@ -18,7 +18,6 @@ from rclpy.node import Node
 
 from robot_controller.ros import partition as dds_partition
 
-
 DISCOVERY_RANGE_ENV = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 
 

@@ -222,6 +222,7 @@ def test_bench_quick_writes_every_key(tmp_path, ros_domain):
         "wall100_loaded_missed",
         "hop_limit_rtf",
         "lockstep_rtf_vs_hop_limit",
+        "hop_message_cpu_us",
         "soak_missed",
         "soak_stalls_30ms",
         "soak_watchdog_ticks",
