@@ -63,3 +63,14 @@ stress-ng:
 .PHONY: faketime
 faketime:
 	command -v faketime >/dev/null || (apt-get update && apt-get install -y --no-install-recommends faketime)
+
+# franka-sim, a stand-in Franka robot speaking libfranka's protocol on port 1337 (MuJoCo inside), for pylibfranka's
+# client side (robot_controller/hardware/franka_server.py, tests/hardware). It pins numpy and mujoco below ours, so it
+# lives in a venv of its own, made once (again when this file changes: a new pin).
+FRANKA_SIM_VENV ?= build/franka-sim-venv
+.PHONY: franka-sim
+franka-sim: $(FRANKA_SIM_VENV)/.installed
+$(FRANKA_SIM_VENV)/.installed: Makefile
+	test -x $(FRANKA_SIM_VENV)/bin/python || $(PYTHON) -m venv $(FRANKA_SIM_VENV)
+	$(FRANKA_SIM_VENV)/bin/python -m pip install --quiet --disable-pip-version-check franka-sim==1.1.7
+	touch $@
