@@ -193,6 +193,14 @@ class Planner:
             f"({gap[j]:.3g} {self.dynamics.joint_units[j]} away)"
         )
 
+    def start_from(self, position: np.ndarray, t_s: float) -> None:
+        """The arm starts where it stands (a real one, left wherever it was jogged): the motion's time 0 is ``t_s``,
+        blended in from ``position`` held, within the torque and speed limits (no jump)."""
+        self.start_s = self.origin_s = self.last_step_s = t_s
+        held = np.array(position, float)
+        still = np.zeros_like(held)
+        self.blend_from(lambda _time_s: (held, still, still), t_s)
+
     def motion_in_force(self) -> Motion:
         """The reference as a function of the planner's time (s): the blend under way, a joint trajectory's, else
         the parameters' motion."""

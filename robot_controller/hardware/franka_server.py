@@ -10,6 +10,8 @@ module's servers, and a foreign process on the port makes the server exit, which
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import fcntl
 import os
 import signal
@@ -22,24 +24,40 @@ from typing import IO
 
 import mujoco
 
+from robot_controller.hardware.franka_arm import ROTOR_INERTIA_KGM2
 from robot_controller.robots.description import describe
 
 HOST = "127.0.0.1"
 COMMAND_PORT = 1337  # libfranka's command port: a client cannot pick another
-#: kg·m² on every joint: the rotors' inertia reflected through the gears, which the Panda's URDF leaves out and the
-#: MuJoCo Menagerie's FR3 (the model franka-sim's servo gains are tuned on) carries. Without it the server's idle hold,
-#: a PD on the joint torques computed explicitly (450 N·m·s/rad on joints 1 and 2 at a 1 ms step), is numerically
-#: unstable on the Panda's light links: the held arm chatters at 0.4-2.4 rad/s and drifts once torque control starts.
-ARMATURE_KGM2 = 0.195
+#: kg·m² on every joint (``franka_arm.ROTOR_INERTIA_KGM2``). Without it the server's idle hold, a PD on the joint
+#: torques computed explicitly (450 N·m·s/rad on joints 1 and 2 at a 1 ms step), is numerically unstable on the
+#: Panda's light links: the held arm chatters at 0.4-2.4 rad/s and drifts once torque control starts.
+ARMATURE_KGM2 = ROTOR_INERTIA_KGM2
 PROBE_S = 2.0  # one readiness probe's budget: a server that dies while starting is noticed this soon
 STOP_GRACE_S = 10.0  # a stop takes well under a second; the server's own shutdown watchdog gives up at 15 s
 TAIL_LINES = 3
+PR_SET_PDEATHSIG = 1
+STAND_IN_NICENESS = -10  # (the loop's own processes run at 0 unless pinned and raised)
 # The server's own entry point (run-franka-sim-server's), with Ctrl+C restored first: a shell that starts a job in
 # the background ignores SIGINT for it, its children inherit that, and SIGINT is the server's clean shutdown.
 LAUNCH = (
     "import signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
     "sys.argv[0] = 'run-franka-sim-server'; from franka_sim.run_server import main; main()"
 )
+
+
+def _ahead_of_its_clients() -> None:
+    """Run in the stand-in's process before it starts. A real robot is a machine of its own: its clock never waits
+    for ours. franka-sim's physics keeps wall time by dropping the steps it falls behind on while its state stream
+    goes on at 1 kHz, so a stand-in kept from a CPU by its client would feed the client states whose time runs ahead
+    of its physics (seen: 15 ms behind for good after one stall, every joint then lagging its reference by that
+    much). It runs ahead of ordinary processes where the host lets it (root)."""
+    with contextlib.suppress(OSError):
+        os.setpriority(os.PRIO_PROCESS, 0, STAND_IN_NICENESS)
+    # Gone with the process that started it (a test killed on its timeout, a run ended by SIGKILL): SIGINT, its clean
+    # shutdown, when the parent dies. Linux's prctl(PR_SET_PDEATHSIG).
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGINT)
 
 
 class FrankaServerError(RuntimeError):
@@ -191,7 +209,13 @@ class FrankaServer:
         # Its own session: a Ctrl+C at our terminal reaches us, and we stop it.
         with self.log.open("w") as log:
             self.process = subprocess.Popen(
-                command, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True
+                command,
+                stdin=subprocess.DEVNULL,
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                env=env,
+                start_new_session=True,
+                preexec_fn=_ahead_of_its_clients,
             )
         self._launched = time.monotonic()
 

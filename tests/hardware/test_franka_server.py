@@ -6,9 +6,7 @@ The server takes libfranka's fixed port 1337 for the test's ~3 s: the module's l
 host (another worker, another checkout) instead of letting them clash."""
 
 import socket
-import subprocess
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,19 +15,10 @@ from robot_controller.core.model.joint_limits import joint_limits
 from robot_controller.hardware import franka_server
 from robot_controller.robots.description import describe
 from robot_controller.runner.processes import sample
+from tests.hardware.stand_in import stand_in_venv
 
-REPO = Path(__file__).resolve().parents[2]
 CYCLES = 2000
 STILL_RAD = 0.05  # gravity compensated and nothing commanded: the arm holds far closer than this
-
-
-def _stand_in_venv() -> Path:
-    venv = franka_server.default_venv()
-    if not (venv / ".installed").is_file():
-        made = subprocess.run(["make", "-C", str(REPO), "franka-sim"], capture_output=True, text=True, timeout=900)
-        if not (venv / ".installed").is_file():
-            pytest.skip(f"franka-sim's venv is missing and `make franka-sim` could not make it: {made.stderr[-300:]}")
-    return venv
 
 
 def _port_open(host: str, port: int) -> bool:
@@ -40,7 +29,7 @@ def _port_open(host: str, port: int) -> bool:
 
 def test_pylibfranka_holds_the_stand_in_panda_under_zero_torque(tmp_path):
     pylibfranka = pytest.importorskip("pylibfranka", reason="the franka extra: pip install -e '.[dev]'")
-    venv = _stand_in_venv()
+    venv = stand_in_venv()
     limits = joint_limits(describe("panda").path)
     mjcf = franka_server.write_panda_mjcf(tmp_path)
     zero = pylibfranka.Torques([0.0] * 7)
