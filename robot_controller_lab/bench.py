@@ -21,7 +21,7 @@ from typing import Any
 
 from robot_controller import parameters as cfg
 from robot_controller.scoring import report
-from robot_controller_lab import campaign_bench, hop_bench
+from robot_controller_lab import campaign_bench, franka_bench, hop_bench
 from robot_controller_lab.bench_runs import (
     BusyCore,
     HostFreezes,
@@ -336,6 +336,14 @@ SCENARIOS = (
 SCENARIOS += (
     Scenario("campaign", "campaign: runs/s on 1 and 2 workers, Ray's overhead", 5.0, 1.0, CAMPAIGN_KEYS, _campaign),
     Scenario("loop_floor", "in-process loop against its MuJoCo calls", 10.0, 2.0, LOOP_FLOOR_KEYS, _loop_floor),
+    Scenario(
+        "franka",
+        "the Panda through libfranka on the stand-in Franka, 1 kHz on its clock, in process",
+        60.0,
+        5.0,
+        franka_bench.FIGURES,
+        lambda run: franka_bench.franka_run(cfg.load_stack(robot="panda"), run.out, run.duration_s),
+    ),
 )
 _DECLARED = {key for scenario in SCENARIOS for key in scenario.keys}
 assert all(target.key in _DECLARED for target in TARGETS), "a target names a key no scenario measures"

@@ -43,6 +43,9 @@ TARGETS = (
     Target("core_steps_per_s_panda", 1_000.0, False, "in-process loop, the 7-joint Panda: ≥ 1,000 steps per wall s"),
     Target("campaign_scaling_2w", 1.8, False, "campaign: 2 local workers ≥ 1.8× the runs/s of 1"),
     Target("loop_floor_panda_loop_vs_floor", 2.0, True, "in-process loop, Panda: ≤ 2× its MuJoCo calls' time"),
+    Target("franka_success_rate_min", 0.999, False, "Panda on the stand-in Franka: the robot's success rate ≥ 0.999"),
+    Target("franka_tick_p99_ms", 1.0, True, "… a tick's own time p99 within the robot's 1 ms"),
+    Target("franka_tracking_rms_rad", 0.002, True, "… worst joint within 2 mrad RMS after the start"),
     Target("loop_floor_panda_loop_vs_physics", 2.0, True, "in-process loop, Panda: ≤ 2× the world's physics steps"),
     Target("loop_floor_one_dof_loop_vs_physics", 3.0, True, "in-process loop, one joint: ≤ 3× its physics steps"),
 )

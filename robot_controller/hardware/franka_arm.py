@@ -8,6 +8,8 @@ exception; here it is a :class:`RobotFault` naming the reflexes, in the words li
 from __future__ import annotations
 
 import contextlib
+import queue
+import threading
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -20,6 +22,7 @@ SCHEME = "franka"
 #: MuJoCo Menagerie's FR3 carries (the model franka-sim's servo gains are tuned on). The stand-in's arm has it; the
 #: controller's model is given it on a Franka (``robot_loop``).
 ROTOR_INERTIA_KGM2 = 0.195
+CONNECT_TIMEOUT_S = 10.0  # a robot answers a connect in milliseconds
 
 
 class RobotFault(Exception):
@@ -75,7 +78,7 @@ def error_names(errors: Any) -> list[str]:
 class FrankaArm:
     """The robot at ``host`` in torque control, through pylibfranka (imported here: the ``franka`` extra)."""
 
-    def __init__(self, host: str, period_s: float = 0.001) -> None:
+    def __init__(self, host: str, period_s: float = 0.001, connect_timeout_s: float = CONNECT_TIMEOUT_S) -> None:
         import pylibfranka
 
         self._franka = pylibfranka
@@ -83,13 +86,33 @@ class FrankaArm:
         self._failures = tuple(getattr(pylibfranka, name) for name in dir(pylibfranka) if name.endswith("Exception"))
         self.host = host
         self.period_s = period_s
-        try:
-            self.robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
-        except self._failures as exc:
-            raise RobotFault([], f"cannot reach the Franka at {host}: {exc}") from None
+        self.robot = self._connect(connect_timeout_s)
         self._control: Any = None
         self.time_s = 0.0  #: the robot's own time since control started (its states counted)
         self._started_s: float | None = None  # time.monotonic() at the first state
+
+    def _connect(self, timeout_s: float) -> Any:
+        """libfranka's ``Robot``, or a fault within ``timeout_s``. Its connect has no timeout of its own: a robot
+        busy with another client keeps it waiting for good, so it waits on a thread of its own, left behind (a daemon)
+        if it never returns."""
+        franka, made = self._franka, queue.Queue(maxsize=1)
+
+        def connect() -> None:
+            try:
+                made.put(franka.Robot(self.host, franka.RealtimeConfig.kIgnore))
+            except self._failures as exc:
+                made.put(exc)
+
+        threading.Thread(target=connect, name=f"franka connect {self.host}", daemon=True).start()
+        try:
+            robot = made.get(timeout=timeout_s)
+        except queue.Empty:
+            raise RobotFault(
+                [], f"the Franka at {self.host} did not answer in {timeout_s:g} s (it serves one client: is another?)"
+            ) from None
+        if isinstance(robot, Exception):
+            raise RobotFault([], f"cannot reach the Franka at {self.host}: {robot}")
+        return robot
 
     def position(self) -> np.ndarray:
         """Where the arm stands now, rad (read outside any control)."""

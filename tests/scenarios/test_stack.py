@@ -13,6 +13,7 @@ import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
+from tests.hardware.stand_in import stand_in_venv
 from tests.rostools import run_said
 
 pytestmark = pytest.mark.ros
@@ -200,6 +201,7 @@ def _descendants(pid: int) -> list[int]:
 
 @pytest.mark.slow
 def test_bench_quick_writes_every_key(tmp_path, ros_domain):
+    stand_in_venv()  # the Franka scenario drives the stand-in robot: made here if missing
     out = tmp_path / "bench"
     proc = subprocess.run(
         [sys.executable, "-m", "robot_controller.cli", "bench", "--quick", "--out", str(out)],
@@ -223,6 +225,9 @@ def test_bench_quick_writes_every_key(tmp_path, ros_domain):
         "hop_limit_rtf",
         "lockstep_rtf_vs_hop_limit",
         "hop_message_cpu_us",
+        "franka_tick_p99_ms",
+        "franka_success_rate_min",
+        "franka_tracking_rms_rad",
         "soak_missed",
         "soak_stalls_30ms",
         "soak_watchdog_ticks",
