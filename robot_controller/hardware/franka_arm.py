@@ -8,9 +8,9 @@ exception; here it is a :class:`RobotFault` naming the reflexes, in the words li
 from __future__ import annotations
 
 import contextlib
-import queue
-import threading
+import os
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 from urllib.parse import urlparse
@@ -22,7 +22,6 @@ SCHEME = "franka"
 #: MuJoCo Menagerie's FR3 carries (the model franka-sim's servo gains are tuned on). The stand-in's arm has it; the
 #: controller's model is given it on a Franka (``robot_loop``).
 ROTOR_INERTIA_KGM2 = 0.195
-CONNECT_TIMEOUT_S = 10.0  # a robot answers a connect in milliseconds
 
 
 class RobotFault(Exception):
@@ -70,6 +69,20 @@ def parse_hardware(text: str) -> str:
     return parsed.hostname
 
 
+@contextlib.contextmanager
+def scheduling_kept() -> Iterator[None]:
+    """The calling thread's scheduling as it was, whatever libfranka does meanwhile. Its ``Robot`` raises the thread
+    that makes it to SCHED_FIFO 99 wherever it may (``RealtimeConfig.kIgnore`` only ignores a refusal): as root the
+    test session's main thread became real-time, and every process it started after inherited it: a split run's nodes
+    spun at priority 99, starving the host for 13 minutes. Real-time here is chosen (``--realtime``), never caught."""
+    policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
+    try:
+        yield
+    finally:
+        with contextlib.suppress(OSError):
+            os.sched_setscheduler(0, policy, param)
+
+
 def error_names(errors: Any) -> list[str]:
     """The names of the errors set in a libfranka ``Errors`` (empty: none)."""
     return [name for name in dir(errors) if not name.startswith("_") and getattr(errors, name) is True]
@@ -78,7 +91,7 @@ def error_names(errors: Any) -> list[str]:
 class FrankaArm:
     """The robot at ``host`` in torque control, through pylibfranka (imported here: the ``franka`` extra)."""
 
-    def __init__(self, host: str, period_s: float = 0.001, connect_timeout_s: float = CONNECT_TIMEOUT_S) -> None:
+    def __init__(self, host: str, period_s: float = 0.001) -> None:
         import pylibfranka
 
         self._franka = pylibfranka
@@ -86,33 +99,16 @@ class FrankaArm:
         self._failures = tuple(getattr(pylibfranka, name) for name in dir(pylibfranka) if name.endswith("Exception"))
         self.host = host
         self.period_s = period_s
-        self.robot = self._connect(connect_timeout_s)
+        # (libfranka's connect has no timeout, and pylibfranka holds the interpreter while it waits: a robot busy
+        # with another client keeps this waiting; a thread cannot bound it)
+        try:
+            with scheduling_kept():
+                self.robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
+        except self._failures as exc:
+            raise RobotFault([], f"cannot reach the Franka at {host}: {exc}") from None
         self._control: Any = None
         self.time_s = 0.0  #: the robot's own time since control started (its states counted)
         self._started_s: float | None = None  # time.monotonic() at the first state
-
-    def _connect(self, timeout_s: float) -> Any:
-        """libfranka's ``Robot``, or a fault within ``timeout_s``. Its connect has no timeout of its own: a robot
-        busy with another client keeps it waiting for good, so it waits on a thread of its own, left behind (a daemon)
-        if it never returns."""
-        franka, made = self._franka, queue.Queue(maxsize=1)
-
-        def connect() -> None:
-            try:
-                made.put(franka.Robot(self.host, franka.RealtimeConfig.kIgnore))
-            except self._failures as exc:
-                made.put(exc)
-
-        threading.Thread(target=connect, name=f"franka connect {self.host}", daemon=True).start()
-        try:
-            robot = made.get(timeout=timeout_s)
-        except queue.Empty:
-            raise RobotFault(
-                [], f"the Franka at {self.host} did not answer in {timeout_s:g} s (it serves one client: is another?)"
-            ) from None
-        if isinstance(robot, Exception):
-            raise RobotFault([], f"cannot reach the Franka at {self.host}: {robot}")
-        return robot
 
     def position(self) -> np.ndarray:
         """Where the arm stands now, rad (read outside any control)."""
@@ -135,7 +131,8 @@ class FrankaArm:
     def start(self) -> RobotReading:
         """Torque control from now; the first state (time 0)."""
         try:
-            self._control = self.robot.start_torque_control()
+            with scheduling_kept():
+                self._control = self.robot.start_torque_control()
         except self._failures as exc:
             raise self._fault(exc) from None
         self.time_s, self._started_s = 0.0, None

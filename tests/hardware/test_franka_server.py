@@ -13,6 +13,7 @@ import pytest
 
 from robot_controller.core.model.joint_limits import joint_limits
 from robot_controller.hardware import franka_server
+from robot_controller.hardware.franka_arm import scheduling_kept
 from robot_controller.robots.description import describe
 from robot_controller.runner.processes import sample
 from tests.hardware.stand_in import stand_in_venv
@@ -35,8 +36,9 @@ def test_pylibfranka_holds_the_stand_in_panda_under_zero_torque(tmp_path):
     zero = pylibfranka.Torques([0.0] * 7)
     q, rates, stamps = np.empty((CYCLES, 7)), np.empty(CYCLES), np.empty(CYCLES)
     with franka_server.FrankaServer(mjcf, venv=venv) as server:
-        robot = pylibfranka.Robot(server.host, pylibfranka.RealtimeConfig.kIgnore)
-        control = robot.start_torque_control()
+        with scheduling_kept():  # (libfranka would leave this thread SCHED_FIFO 99, and every process after it)
+            robot = pylibfranka.Robot(server.host, pylibfranka.RealtimeConfig.kIgnore)
+            control = robot.start_torque_control()
         before = sample(server.pid)
         try:
             for k in range(CYCLES):

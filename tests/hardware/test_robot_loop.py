@@ -2,6 +2,8 @@
 trajectory at 1 kHz from wherever it stood; a runaway torque is kept short of the robot's reflexes by our guard; a
 reflex the robot does raise is named, and recovered from."""
 
+import os
+
 import numpy as np
 import pytest
 
@@ -32,6 +34,8 @@ def test_the_panda_tracks_its_trajectory_on_the_robots_clock_from_where_it_stood
     run = loop.run(arm, DURATION_S)
     said = f"{run.fault and run.fault.describe()}, {run.ended_by}; the stand-in's output ends: {stand_in.tail(6)}"
     assert run.fault is None and run.ended_by is None, said
+    # libfranka made this thread SCHED_FIFO 99 where it could: put back, or every process started after inherits it
+    assert os.sched_getscheduler(0) == os.SCHED_OTHER
     result = run.loop
     assert result.tick_time_s.size == round(DURATION_S * 1000)
     assert abs(np.median(np.diff(result.tick_time_s)) - 0.001) < 5e-5  # the robot's states came at its 1 kHz
