@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
 import subprocess
 import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import rclpy
@@ -18,45 +17,24 @@ from rclpy.node import Node
 
 from robot_controller.ros import partition as dds_partition
 
-DISCOVERY_RANGE_ENV = "ROS_AUTOMATIC_DISCOVERY_RANGE"
-
 
 # Fast DDS reads its XML profiles once per process, when the first participant
 # is made, so they are loaded here, at collection, before any test makes one:
 # every probe (and any other participant of the test process) then hears, and
 # may speak into, every run's partition and the default one, as an observer
 # tool of ours would. Processes the tests start do not inherit the setting.
-# A probe speaks UDP on loopback, as the tools do (tools.graph): a peer on
-# shared memory joining or leaving was seen to block a loop process's publish
-# for 200-330 ms, braking the arm of the run under test.
 def _load_observer_profile() -> None:
-    directory = Path(tempfile.mkdtemp(prefix="probe-dds-"))
-    profile = dds_partition.write_observer_profile(directory / "observer.xml", loopback_udp=True)
+    profile = dds_partition.write_observer_profile(Path(tempfile.mkdtemp(prefix="probe-dds-")) / "observer.xml")
     before = dict(os.environ)
-    os.environ[dds_partition.PROFILES_ENV] = str(profile)
+    os.environ.update({dds_partition.PROFILES_ENV: str(profile), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
     context = rclpy.Context()
     try:
-        with _profile_in_charge_of_discovery():
-            rclpy.init(context=context, domain_id=0)
-            Node("profile_loader", context=context).destroy_node()
+        rclpy.init(context=context, domain_id=0)
+        Node("profile_loader", context=context).destroy_node()
     finally:
         rclpy.try_shutdown(context=context)
         os.environ.clear()
         os.environ.update(before)
-
-
-@contextlib.contextmanager
-def _profile_in_charge_of_discovery() -> Iterator[None]:
-    """While a probe's participant is made: rmw's LOCALHOST range would add shared memory to the loopback profile."""
-    given = os.environ.get(DISCOVERY_RANGE_ENV)
-    os.environ[DISCOVERY_RANGE_ENV] = dds_partition.PEERS_DISCOVERY_RANGE
-    try:
-        yield
-    finally:
-        if given is None:
-            os.environ.pop(DISCOVERY_RANGE_ENV, None)
-        else:
-            os.environ[DISCOVERY_RANGE_ENV] = given
 
 
 _load_observer_profile()
@@ -67,9 +45,8 @@ class RosProbe:
 
     def __init__(self, domain: int, name: str = "test_probe") -> None:
         self.context = rclpy.Context()
-        with _profile_in_charge_of_discovery():
-            rclpy.init(context=self.context, domain_id=domain)
-            self.node = Node(name, context=self.context)
+        rclpy.init(context=self.context, domain_id=domain)
+        self.node = Node(name, context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.lock = threading.Lock()

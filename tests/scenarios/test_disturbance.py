@@ -42,12 +42,14 @@ def disturb(torque_nm, duration_s, joint=None, wait_s=10.0):
 
 def test_a_push_is_applied_recorded_and_rejected(tmp_path, ros_domain):
     out = tmp_path / "run"
+    # The peer joins before the run starts, not during it: a participant on Fast DDS's shared memory joining a
+    # running loop can hold a loop process's publish up 200-330 ms (docs/design.md §6), and the brakes then hold.
+    probe = RosProbe(ros_domain, "careless_peer")
+    # What the simulator must drop, each with a reason: too short, NaN, a negative or too long duration.
+    bad = probe.node.create_publisher(Float64MultiArray, "/sim/disturbance", 10)
     run = start_run(out)
     loop_started = time.monotonic()
-    probe = RosProbe(ros_domain, "careless_peer")
     try:
-        # What the simulator must drop, each with a reason: too short, NaN, a negative or too long duration.
-        bad = probe.node.create_publisher(Float64MultiArray, "/sim/disturbance", 10)
         # The tool's own wait: both sides of discovery settled, the recorder's too (a writer that has matched a
         # reader may still be unknown to it: a sample sent then is lost to that reader).
         since = time.monotonic()
