@@ -74,3 +74,8 @@ $(FRANKA_SIM_VENV)/.installed: Makefile
 	test -x $(FRANKA_SIM_VENV)/bin/python || $(PYTHON) -m venv $(FRANKA_SIM_VENV)
 	$(FRANKA_SIM_VENV)/bin/python -m pip install --quiet --disable-pip-version-check franka-sim==1.1.7
 	touch $@
+
+# The stand-in robot served on 127.0.0.1 until Ctrl-C (robot-controller run --robot panda --hardware franka://127.0.0.1).
+.PHONY: franka-sim-serve
+franka-sim-serve: $(STAMP) franka-sim
+	$(BIN)/python -m robot_controller.hardware.franka_server build/franka-sim

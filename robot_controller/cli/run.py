@@ -68,12 +68,17 @@ def register(sub) -> None:
         "ok (default: the robot's, 0.02)"
     )
     p.add_argument("--tracking-band", dest="tracking_band_rad", type=positive_float, metavar="RAD", help=band_help)
+    hardware_help = (
+        "run on a robot instead of the simulator: franka://HOST, a Franka arm through libfranka in torque control at "
+        "1 kHz (a stand-in: make franka-sim; docs/hardware.md)"
+    )
+    p.add_argument("--hardware", metavar="URL", help=hardware_help)
     wait_help = "give up if the whole graph is not there within S seconds (default 60)"
     p.add_argument("--wait", dest="wait_s", type=positive_seconds, default=60.0, metavar="S", help=wait_help)
 
 
 def _run(args: argparse.Namespace) -> int:
-    paced = not (args.sim_time or args.wall_clock)
+    paced = not (args.sim_time or args.wall_clock or args.hardware)
     return run(replace(RunOptions.from_args(args), paced=paced), args.out)
 
 

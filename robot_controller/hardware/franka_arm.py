@@ -50,6 +50,7 @@ class RobotReading:
     count ran up to 3 % behind its physics and every joint lagged its reference by that much."""
 
     time_s: float
+    arrived_s: float  #: ``time.monotonic()`` when it arrived
     robot_time_s: float
     missed: int
     position: np.ndarray
@@ -57,6 +58,10 @@ class RobotReading:
     torque_nm: np.ndarray
     commanded_nm: np.ndarray  #: the torque the robot last took from us (tau_J_d), gravity left out
     success_rate: float
+
+
+#: s a read must wait for its state to be taken as arriving on its return (shorter: it was there already)
+WAITED_S = 50e-6
 
 
 def parse_hardware(text: str) -> str:
@@ -109,6 +114,7 @@ class FrankaArm:
         self._control: Any = None
         self.time_s = 0.0  #: the robot's own time since control started (its states counted)
         self._started_s: float | None = None  # time.monotonic() at the first state
+        self._last_arrived_s = 0.0
 
     def position(self) -> np.ndarray:
         """Where the arm stands now, rad (read outside any control)."""
@@ -140,17 +146,27 @@ class FrankaArm:
 
     def read(self) -> RobotReading:
         """The robot's next state (blocks until it comes)."""
+        called_s = time.monotonic()
         try:
             state, duration = self._control.readOnce()
         except self._failures as exc:
             raise self._fault(exc) from None
-        arrived_s = time.monotonic()
+        returned_s = time.monotonic()
+        elapsed_s = duration.to_sec()
+        if self._started_s is None or returned_s - called_s > WAITED_S:
+            arrived_s = returned_s  # it came while we waited for it
+        else:
+            # It was waiting for us (this host kept us late): it came when the robot sent it, its period after the
+            # last, and no later than we asked. Stamped on its return, the state would be older than its stamp by
+            # our lateness, and every moving joint would seem to lag its reference by that much.
+            arrived_s = max(min(called_s, self._last_arrived_s + elapsed_s), self._last_arrived_s + 1e-6)
         if self._started_s is None:
             self._started_s = arrived_s
-        elapsed_s = duration.to_sec()
+        self._last_arrived_s = arrived_s
         self.time_s += elapsed_s
         return RobotReading(
             time_s=arrived_s - self._started_s,
+            arrived_s=arrived_s,
             robot_time_s=self.time_s,
             missed=max(0, round(elapsed_s / self.period_s) - 1),
             position=np.array(state.q),

@@ -85,6 +85,7 @@ def write_panda_mjcf(directory: str | Path) -> Path:
         joint.armature = ARMATURE_KGM2
     spec.compile()  # to_xml writes a compiled spec only
     path = Path(directory) / "panda.xml"
+    path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(spec.to_xml())
     return path
 
@@ -246,3 +247,29 @@ class FrankaServer:
             f"franka-sim on {self.host}:{self.port} {what} (FR3_MJCF={self.mjcf}; last probe: {probe}; "
             f"output in {self.log}): {self.tail()}"
         )
+
+
+def main(args: list[str] | None = None) -> int:
+    """``python -m robot_controller.hardware.franka_server [DIR]``: the stand-in Panda served on 127.0.0.1 until
+    Ctrl-C, its communication constraints and motion limits enforced as a real robot's are (its MJCF and log in DIR,
+    default ``build/franka-sim``)."""
+    import signal
+    import sys
+
+    argv = list(sys.argv[1:] if args is None else args)
+    directory = Path(argv[0] if argv else "build/franka-sim")
+    flags = ("--enforce-comm-constraints", "--enforce-motion-limits")
+    try:
+        with FrankaServer(write_panda_mjcf(directory), flags=flags) as server:
+            print(f"franka-sim: the Panda served at franka://{server.host} (log: {server.log}); Ctrl-C stops it")
+            stops = {signal.SIGINT, signal.SIGTERM}
+            signal.pthread_sigmask(signal.SIG_BLOCK, stops)  # (after the server started: it keeps its own mask)
+            signal.sigwait(stops)
+    except FrankaServerError as exc:
+        print(f"franka-sim: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

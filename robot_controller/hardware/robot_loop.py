@@ -15,6 +15,7 @@ import contextlib
 import gc
 import os
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -39,7 +40,10 @@ from robot_controller.parameters.builders import arm_model, given
 from robot_controller.parameters.torque_limits import torque_limit
 from robot_controller.ros.scheduling import LOOP_NICE
 
-#: s the controller holds the arm where it stands before the motion is blended in (see ``RobotLoop.run``)
+#: s the controller holds the arm where it stands before the motion is blended in. A robot's first periods under
+#: torque control are its least regular (the stand-in's came 1.2-2.3 ms apart and it skipped late commands), and the
+#: controller's first ticks its slowest: a torque that barely changes there has nothing to lose. (Blended in at once,
+#: the torque ramped at the rate limit through them, and the robot refused a step.)
 HOLD_S = 0.3
 #: commands libfranka's ``control_command_success_rate`` is taken over: before as many, it counts the start's
 SUCCESS_WINDOW = 100
@@ -95,77 +99,61 @@ class RobotLoop:
     dynamics: Any  #: the controller's arm model (its ``gravity(q)`` is what the robot adds back)
     joint_names: list[str]
 
+    def command(self, t_s: float, reading: RobotReading) -> Tick:
+        """The tick at ``t_s`` on ``reading`` (its reference given already): the controller's output, the torque it
+        asks for (gravity included) and what goes to the robot (through the guard, gravity left out)."""
+        self.controller.set_measurement(t_s, t_s, reading.position, reading.velocity)
+        out = self.controller.update(t_s)
+        gravity = self.dynamics.gravity(reading.position)
+        inertia = self.dynamics.mass_matrix(reading.position).diagonal()
+        total = np.asarray(out.command if out.command is not None else gravity, float)
+        sent = self.guard(total, gravity, reading.position, reading.velocity, inertia, reading.commanded_nm)
+        return Tick(out, total, sent, gravity)
+
     def run(self, robot: Robot, duration_s: float) -> RobotRun:
-        """``duration_s`` s of the robot's time, a tick per state it sends."""
+        """``duration_s`` s of the robot's time, a tick per state it sends, the planner stepped here."""
         ticks = int(round(duration_s / self.controller.config.control_period_s))
         n = len(self.joint_names)
         rows = np.full((len(RECORDED), ticks, n), np.nan)
         reference_rows, measured_rows, position_rows, velocity_rows, command_rows, applied_rows = rows
         times, compute, rates = np.full(ticks, np.nan), np.zeros(ticks), np.zeros(ticks)
         missed, fault, ended_by, k = 0, None, None, 0
-        # No garbage collector pass in the loop: over a large heap (a test session's) one took over 20 ms, 20 periods
-        # without a command, and the robot stopped (communication_constraints_violation). The loop makes no cycles of
-        # its own; what the heap holds now is frozen out of the collector's way, and it runs again after.
-        collecting = gc.isenabled()
-        gc.disable()
-        gc.freeze()
-        # The robot's clock waits for nobody: this thread runs as the graph's loop processes do (nice -10, where the
-        # host lets it), ahead of ordinary work. (At nice 0 beside a busy test session, 20 late commands in a row
-        # stopped the robot.) Put back after.
-        niceness = os.getpriority(os.PRIO_PROCESS, 0)
-        with contextlib.suppress(OSError):
-            os.setpriority(os.PRIO_PROCESS, 0, min(niceness, LOOP_NICE))
-        try:
-            # The controller holds the arm where it stands for HOLD_S, then the motion is blended in from there
-            # (planned now, before the robot's clock starts: it takes a few ms). A robot's first periods under torque
-            # control are its least regular (the stand-in's came 1.2-2.3 ms apart and it skipped late commands), and
-            # the controller's first ticks its slowest: a torque that barely changes there has nothing to lose. (Blended
-            # in at once, the torque ramped at the rate limit through them, and the robot refused a step.)
-            standing = robot.position()
-            still = np.zeros(n)
-            self.planner.start_from(standing, HOLD_S)
-            reading = robot.start()
-            while k < ticks:
-                arrived = time.perf_counter()
-                t = reading.time_s
-                missed += reading.missed
-                if t < HOLD_S:
-                    sample = np.concatenate((standing, still, still, [t]))
-                else:
-                    sample = self.planner.step(t, {})["reference"].data  # (at the robot's rate: every tick)
-                self.controller.set_reference(t, sample[:n], sample[n : 2 * n], sample[2 * n : 3 * n])
-                self.controller.set_measurement(t, t, reading.position, reading.velocity)
-                out = self.controller.update(t)
-                gravity = self.dynamics.gravity(reading.position)
-                inertia = self.dynamics.mass_matrix(reading.position).diagonal()
-                total = np.asarray(out.command if out.command is not None else gravity, float)
-                sent = self.guard(total, gravity, reading.position, reading.velocity, inertia, reading.commanded_nm)
-                robot.write(sent)
-                compute[k] = time.perf_counter() - arrived
-                times[k], rates[k] = t, reading.success_rate
-                measured_rows[k] = position_rows[k] = reading.position
-                velocity_rows[k] = reading.velocity
-                reference_rows[k] = sample[:n]
-                command_rows[k] = total
-                applied_rows[k] = sent + gravity
-                k += 1
-                if out.status in BRAKING_STATUSES:
-                    ended_by = str(out.status)
-                    break
-                reading = robot.read()
-        except RobotFault as exc:
-            # Kept without its traceback: its frames hold the robot's connection open, and libfranka's next connect
-            # to the robot would wait for it for good.
-            fault = exc.with_traceback(None)
-            fault.__context__ = None
-        finally:
-            if fault is None:
-                robot.finish()
-            gc.unfreeze()
-            if collecting:
-                gc.enable()
-            with contextlib.suppress(OSError):
-                os.setpriority(os.PRIO_PROCESS, 0, niceness)
+        with loop_thread():
+            try:
+                # The controller holds the arm where it stands for HOLD_S, then the motion is blended in from there
+                # (planned now, before the robot's clock starts: it takes a few ms). See HOLD_S.
+                standing = robot.position()
+                still = np.zeros(n)
+                self.planner.start_from(standing, HOLD_S)
+                reading = robot.start()
+                while k < ticks:
+                    arrived = time.perf_counter()
+                    t = reading.time_s
+                    missed += reading.missed
+                    if t < HOLD_S:
+                        sample = np.concatenate((standing, still, still, [t]))
+                    else:
+                        sample = self.planner.step(t, {})["reference"].data  # (at the robot's rate: every tick)
+                    self.controller.set_reference(t, sample[:n], sample[n : 2 * n], sample[2 * n : 3 * n])
+                    tick = self.command(t, reading)
+                    robot.write(tick.sent_nm)
+                    compute[k] = time.perf_counter() - arrived
+                    times[k], rates[k] = t, reading.success_rate
+                    measured_rows[k] = position_rows[k] = reading.position
+                    velocity_rows[k] = reading.velocity
+                    reference_rows[k] = sample[:n]
+                    command_rows[k] = tick.total_nm
+                    applied_rows[k] = tick.sent_nm + tick.gravity_nm
+                    k += 1
+                    if tick.out.status in BRAKING_STATUSES:
+                        ended_by = str(tick.out.status)
+                        break
+                    reading = robot.read()
+            except RobotFault as exc:
+                fault = without_frames(exc)
+            finally:
+                if fault is None:
+                    robot.finish()
         loop = LoopResult(
             tick_time_s=times[:k],
             reference=reference_rows[:k],
@@ -180,6 +168,50 @@ class RobotLoop:
             adapted_armature_kgm2=[0.0] * n,
         )
         return RobotRun(loop, compute[:k], missed, rates[:k], self.guard.acted.tolist(), fault, ended_by)
+
+
+@dataclass
+class Tick:
+    """One tick's output (``out``), the torque it asks for (``total_nm``, gravity included), what goes to the robot
+    (``sent_nm``: through the guard, gravity left out) and the gravity the robot adds (``gravity_nm``)."""
+
+    out: Any
+    total_nm: np.ndarray
+    sent_nm: np.ndarray
+    gravity_nm: np.ndarray
+
+
+def without_frames(fault: RobotFault) -> RobotFault:
+    """``fault`` without its traceback: its frames hold the robot's connection open, and libfranka's next connect to
+    the robot would wait for it for good."""
+    fault = fault.with_traceback(None)
+    fault.__context__ = None
+    return fault
+
+
+@contextlib.contextmanager
+def loop_thread() -> Iterator[None]:
+    """The calling thread made fit for the robot's clock, and put back after:
+
+    - no garbage collector pass: over a large heap (a test session's) one took over 20 ms, 20 periods without a
+      command, and the robot stopped (communication_constraints_violation). The loop makes no cycles of its own; what
+      the heap holds now is frozen out of the collector's way;
+    - nice -10 (where the host lets it), as the graph's loop processes run: the robot's clock waits for nobody (at
+      nice 0 beside a busy test session, 20 late commands in a row stopped the robot)."""
+    collecting = gc.isenabled()
+    gc.disable()
+    gc.freeze()
+    niceness = os.getpriority(os.PRIO_PROCESS, 0)
+    with contextlib.suppress(OSError):
+        os.setpriority(os.PRIO_PROCESS, 0, min(niceness, LOOP_NICE))
+    try:
+        yield
+    finally:
+        gc.unfreeze()
+        if collecting:
+            gc.enable()
+        with contextlib.suppress(OSError):
+            os.setpriority(os.PRIO_PROCESS, 0, niceness)
 
 
 def robot_loop(params: cfg.Params, rotor_inertia_kgm2: float, period_s: float = 0.001) -> RobotLoop:

@@ -23,6 +23,10 @@ from robot_controller.core.errors import ConfigError
 LAW_STOPPED_EXIT_CODE = 3
 # Where in the run's scratch folder (COUNTS_DIR_ENV) the controller writes the law's fault, one line.
 LAW_FAULT_FILE = "law_fault.txt"
+#: a robot's fault, or its drive's death (``nodes.robot_node``): the run's failure line
+ROBOT_FAULT_FILE = "robot_fault.txt"
+#: the robot's timing over a run (``hardware.robot_timing``'s figures, JSON)
+ROBOT_TIMING_FILE = "robot_timing.json"
 #: A paced world's figures (host freezes, late efforts), written by the simulator at its end for metrics.json.
 WORLD_CLOCK_FILE = "simulator.world_clock"
 #: The controller's missed cycles the host caused (wall clock), written at its end for metrics.json.

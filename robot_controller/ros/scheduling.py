@@ -32,6 +32,19 @@ PACING_RT_ENV = "ROBOT_CONTROLLER_PACING_RT_PRIORITY"
 AFFINITY_ENV = "ROBOT_CONTROLLER_AFFINITY"
 
 
+#: processes that place their parts themselves: a robot's drive takes the loop's CPU, its ROS side the others
+SELF_PLACED = ("robot",)
+
+
+def loop_cpus() -> tuple[frozenset[int], frozenset[int]] | None:
+    """The loop's CPU (the last allowed) and the others, or None where nothing is pinned (one CPU, or
+    ``AFFINITY_ENV=0``)."""
+    allowed = sorted(os.sched_getaffinity(0))
+    if len(allowed) < 2 or os.environ.get(AFFINITY_ENV, "1") == "0":
+        return None
+    return frozenset(allowed[-1:]), frozenset(allowed[:-1])
+
+
 @dataclass(frozen=True)
 class Placement:
     nice: int
@@ -47,10 +60,8 @@ def placement(process_name: str, wall_clock: bool = True) -> Placement:
     if not wall_clock:
         return Placement(nice=SIM_TIME_NICE.get(process_name, 0))
     cpus = None
-    allowed = sorted(os.sched_getaffinity(0))
-    if len(allowed) >= 2 and os.environ.get(AFFINITY_ENV, "1") != "0":
-        loop_cpu = allowed[-1]
-        cpus = frozenset({loop_cpu}) if process_name in LOOP_PROCESSES else frozenset(allowed[:-1])
+    if (split := loop_cpus()) is not None and process_name not in SELF_PLACED:
+        cpus = split[0] if process_name in LOOP_PROCESSES else split[1]
     nice = NICE.get(process_name, 0)
     return Placement(nice=nice, cpus=cpus, group_nice=nice < 0)
 

@@ -15,7 +15,14 @@ from pathlib import Path
 
 from robot_controller.blocks import spec
 from robot_controller.nodes import recorder as rec
-from robot_controller.ros.process import HOST_MISSED_FILE, LAW_FAULT_FILE, TEARDOWN_HUNG_SIGNAL, WORLD_CLOCK_FILE
+from robot_controller.ros.process import (
+    HOST_MISSED_FILE,
+    LAW_FAULT_FILE,
+    ROBOT_FAULT_FILE,
+    ROBOT_TIMING_FILE,
+    TEARDOWN_HUNG_SIGNAL,
+    WORLD_CLOCK_FILE,
+)
 from robot_controller.runner import forking, supervise
 from robot_controller.runner.plan import CheckedRun, plan
 from robot_controller.runner.processes import ProcessGroup, say
@@ -87,6 +94,12 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
         if fault_file.is_file() and (law_fault := fault_file.read_text().strip()):
             # The controller stopped the arm and ended itself (or the run ended first): say why, in one line.
             result.failure = f"the control law failed: {law_fault}"
+        robot_fault_file = run.counts_dir / ROBOT_FAULT_FILE  # a robot's reflex, or its drive's death
+        if robot_fault_file.is_file() and (robot_fault := robot_fault_file.read_text().strip()):
+            result.failure = robot_fault
+        robot_timing_file = run.counts_dir / ROBOT_TIMING_FILE
+        if robot_timing_file.is_file():
+            result.robot_timing = json.loads(robot_timing_file.read_text())
         if hung := sorted(n for n, c in codes.items() if c == -TEARDOWN_HUNG_SIGNAL):
             # Their counts were written and their messages acknowledged: the run is whole.
             say(f"WARNING: the DDS teardown of {', '.join(hung)} hung after its work was done (ended by its alarm)")

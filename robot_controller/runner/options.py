@@ -34,6 +34,7 @@ class RunOptions:
     wait_s: float = 60.0  #: how long to wait for the whole graph of a split run
     domain_id: int | None = None  #: the graph's ROS_DOMAIN_ID (default: this process's)
     tracking_band_rad: float | None = None  #: the band the run is judged by (None: the robot's)
+    hardware: str | None = None  #: a robot in place of the simulated arm (``franka://HOST``): ``nodes.robot_node``
 
     @classmethod
     def from_args(cls, args: Any) -> RunOptions:

@@ -79,6 +79,55 @@ def world_waits_params(params: cfg.Params) -> cfg.Params:
     return out
 
 
+#: rad/s² of the blend from where a robot stands onto the trajectory: a blend of 1 rad peaks at 0.8 rad/s, well
+#: inside the Panda's 2.2-2.6 rad/s (the simulated arm's 20 would ask 3.5 rad/s of it)
+HARDWARE_REACQUIRE_ACCELERATION = 2.0
+#: rad/s² of a robot's controlled stops (the run's end, an e-stop): a torque within the rate limit follows it (0.4 kg·m²
+#: of a Panda's elbow takes 1.6 N·m of it, 6 ms at 250 N·m/s); the simulated arm's 20 rang the elbow up at its end
+HARDWARE_STOP_DECELERATION = 4.0
+#: Hz: a robot's own clock (the FCI's 1 kHz) steps its controller
+HARDWARE_RATE_HZ = 1000.0
+
+
+def on_hardware(params: cfg.Params, options: RunOptions) -> tuple[RunOptions, cfg.Params]:
+    """A run on a robot: its own clock (the wall clock's), every node here, the controller at the robot's rate and
+    the start's blend within the robot's speed. ``ConfigError`` for what a robot cannot do."""
+    from robot_controller.hardware.franka_arm import parse_hardware
+
+    try:
+        parse_hardware(options.hardware)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+    refused = {
+        "--sim-time": options.sim_time,
+        "--single-process": options.single_process,
+        "--respawn": options.respawn,
+        "--nodes": options.nodes not in (None, NODE_ORDER),
+        "--peers": bool(options.peers),
+        "--realtime": options.realtime,
+    }
+    if said := [flag for flag, given in refused.items() if given]:
+        raise ConfigError(f"--hardware: {', '.join(said)} needs the simulator (a robot keeps its own clock)")
+    ctrl = params["pid_controller"]
+    acceleration = min(float(ctrl["reacquire_acceleration"]), HARDWARE_REACQUIRE_ACCELERATION)
+    deceleration = min(float(ctrl["stop_deceleration"]), HARDWARE_STOP_DECELERATION)
+    # The robot is the world, the sensor and the drive: its state comes at its own rate, each state a tick.
+    rate = HARDWARE_RATE_HZ
+    params = cfg.merge(
+        params,
+        {
+            "pid_controller": {
+                "control_rate_hz": rate,
+                "reacquire_acceleration": acceleration,
+                "stop_deceleration": deceleration,
+            },
+            "simulator": {"control_rate_hz": rate, "publish_rate_hz": rate},
+            "sensor_node": {"rate_hz": rate},
+        },
+    )
+    return replace(options, paced=False), params
+
+
 @dataclass(frozen=True)
 class CheckedRun:
     """A run's parameters as its nodes get them, checked whole for its options (made by :func:`check`)."""
@@ -108,6 +157,8 @@ def check(params: cfg.Params, options: RunOptions) -> CheckedRun:
             partition.check_run_id(options.run_id)
         except ValueError as exc:
             raise ConfigError(f"--run-id: {exc}") from None
+    if options.hardware is not None:
+        options, params = on_hardware(params, options)
     params = consistency.with_controller_model(params)
     if options.paced and (split or options.peers or options.respawn):
         # Across hosts the drive keeps its host's clock, as on hardware; a respawned simulator would restart time.
@@ -163,11 +214,16 @@ def plan(run: CheckedRun, out_dir: Path) -> RunPlan:
     if options.realtime:
         node_env[scheduling.PACING_RT_ENV] = str(scheduling.PACING_RT_PRIORITY)
     node_args = ["--ros-args", "--params-file", str(params_file)]
-    processes = (
-        [Process("stack", "all_in_one", node_args, node_env)]
-        if options.single_process
-        else [Process(name, name, node_args, node_env) for name in local]
-    )
+    if options.hardware is not None:  # the robot in place of the simulator, the motor, the sensor, the controller
+        planner = "trajectory_planner"
+        processes = [
+            Process("robot", "robot_node", [options.hardware, *node_args], node_env),
+            Process(planner, planner, node_args, node_env),
+        ]
+    elif options.single_process:
+        processes = [Process("stack", "all_in_one", node_args, node_env)]
+    else:
+        processes = [Process(name, name, node_args, node_env) for name in local]
     recorder = None
     if RECORDING_NODE in local:
         recorder = Process("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] * options.world_waits), env)

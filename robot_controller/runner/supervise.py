@@ -226,6 +226,7 @@ class RunResult:
     #: when (tick s) each watchdog tick the host caused fell (its processes kept from a CPU past the window)
     host_watchdog_s: list[float] = field(default_factory=list)
     clocks: dict[str, float] = field(default_factory=dict)  #: a split run's clock offset and round trip, ms
+    robot_timing: dict[str, float] = field(default_factory=dict)  #: a robot's clock over the run (``hardware``)
     #: sim time: ``(monotonic s, world s)`` at each tick the recorder reported (about every 0.1 s)
     clock_marks: list[tuple[float, float]] = field(default_factory=list)
 

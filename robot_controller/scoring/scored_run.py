@@ -122,6 +122,9 @@ def score_launched(checked: CheckedRun, result: RunResult) -> ScoredRun:
         missed = core_metrics.missed_ticks_ending_at(result.host_missed_ends_s, ticks, period_s)
         set_host_share_apart(values, missed, core_metrics.periods_ending_within(result.host_watchdog_s, ticks))
         values.update(result.clocks)  # a split run's hosts' clock offset
+        values.update(result.robot_timing)  # a robot's own clock
+        if options.hardware is not None:
+            values["hardware"] = options.hardware
         values["realtime_requested"] = options.realtime
         values.update(result.usage)
     if clock == PACED:

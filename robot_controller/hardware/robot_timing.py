@@ -1,0 +1,55 @@
+"""How the robot's clock went over a run, from each tick's record: the controller's time per tick against the robot's
+period (p50, p99, max), the periods the robot counted without a command, its ``control_command_success_rate`` (the
+share of the last 100 commands it took in time: its low once 100 have gone), and the share of the time the
+hypervisor took from this host (steal) meanwhile."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from robot_controller.hardware.robot_loop import SUCCESS_WINDOW
+
+
+def steal_ticks() -> tuple[int, int]:
+    """The host's CPU time so far, (stolen by the hypervisor, all), in clock ticks (``/proc/stat``)."""
+    try:
+        with open("/proc/stat") as stat:
+            fields = [int(x) for x in stat.readline().split()[1:]]
+    except (OSError, ValueError):
+        return 0, 0
+    return (fields[7] if len(fields) > 7 else 0), sum(fields)
+
+
+class RobotTiming:
+    """Each tick's compute time, the robot's success rate and the periods it missed, taken as they come."""
+
+    def __init__(self, period_s: float) -> None:
+        self.period_s = period_s
+        self._compute: list[float] = []
+        self._rates: list[float] = []
+        self.missed = 0
+        self._steal_start = steal_ticks()
+
+    def take(self, compute_s: float, success_rate: float, missed: float) -> None:
+        self._compute.append(compute_s)
+        self._rates.append(success_rate)
+        self.missed += int(missed)
+
+    def figures(self) -> dict[str, float]:
+        """The run's figures (NaN before any tick): ``tick_compute_{p50,p99,max}_ms``, ``robot_missed_cycles``,
+        ``command_success_rate`` (the ticks' share of the robot's periods), ``command_success_rate_min`` (libfranka's,
+        its low), ``host_steal_pct``."""
+        ms = np.asarray(self._compute) * 1e3
+        rates = np.asarray(self._rates)[SUCCESS_WINDOW:]
+        ticks = ms.size
+        stolen, total = (b - a for a, b in zip(self._steal_start, steal_ticks(), strict=True))
+        nan = float("nan")
+        return {
+            "tick_compute_p50_ms": float(np.percentile(ms, 50)) if ticks else nan,
+            "tick_compute_p99_ms": float(np.percentile(ms, 99)) if ticks else nan,
+            "tick_compute_max_ms": float(ms.max()) if ticks else nan,
+            "robot_missed_cycles": float(self.missed),
+            "command_success_rate": ticks / (ticks + self.missed) if ticks else nan,
+            "command_success_rate_min": float(rates.min()) if rates.size else nan,
+            "host_steal_pct": 100.0 * stolen / total if total > 0 else nan,
+        }

@@ -1,0 +1,127 @@
+"""robot_node: the arm of a run on a robot (``run --hardware franka://HOST``), in place of the simulator, the motor,
+the sensor and the controller. It forks the drive (``hardware.robot_drive``: the robot's connection and the
+controller, stepped by the robot's clock, no ROS) before ROS starts, and is the drive's face to the graph
+(``robot_drive``): the planner's ``/trajectory`` and ``/estop`` to it, its ticks to ``/controller/state`` (every
+tick), the robot's own state to ``/sim/joint_states`` and ``/joint_states`` (every ``TELEMETRY_EVERY`` ticks),
+``/sim/brakes`` (released while the robot is under torque control; held after an e-stop or a fault) and the robot's
+timing to ``/diagnostics``.
+
+Two processes, not a thread: a Python thread of the drive's interpreter holds it from the GIL for up to its
+switch interval (5 ms) at a time; the robot stops after 20 late commands. They share memory
+(``hardware.robot_link``) and the drive never waits on it."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import sys
+import time
+from typing import Any
+
+from robot_controller import parameters as cfg
+from robot_controller.blocks.block import Lines
+from robot_controller.blocks.controller_reports import Reports
+from robot_controller.core.errors import ConfigError
+from robot_controller.hardware.franka_arm import ROTOR_INERTIA_KGM2, FrankaArm, RobotFault, parse_hardware
+from robot_controller.hardware.robot_drive import Drive, parent_watch, stopped_row, wait_for_go
+from robot_controller.hardware.robot_link import END, RobotLink
+from robot_controller.hardware.robot_loop import robot_loop
+from robot_controller.ros import scheduling
+from robot_controller.ros.process import ROBOT_FAULT_FILE
+from robot_controller.ros.publishing import leave
+
+NODE_NAME = "robot_drive"
+#: the drive's exit code when the robot stopped itself (a reflex, a lost link)
+ROBOT_FAULT_EXIT = 3
+#: s the drive waits for the graph (the recorder matched) before its first tick
+GO_TIMEOUT_S = 60.0
+
+
+def _drive_process(host: str, loop, link: RobotLink, reports: Reports, stop_deceleration: float) -> int:
+    """The forked drive: connect, recover a reflex left from before (one line), wait for the graph, run."""
+    import setproctitle
+
+    setproctitle.setproctitle(f"robot_controller robot drive (franka://{host})")
+    # The run's end reaches the drive from its ROS side, once the arm is brought to rest: the launcher's SIGINT to the
+    # whole process group must not cut it short. SIGTERM asks the same.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, lambda *_: link.request(END))
+    parent_alive = parent_watch()
+    try:
+        arm = FrankaArm(host)
+        if errors := arm.errors():
+            print(f"the robot reports {', '.join(errors)} (left from before): recovering it", flush=True)
+            arm.recover()
+    except RobotFault as fault:
+        return _failed(link, fault.describe())
+    if not wait_for_go(link, parent_alive, GO_TIMEOUT_S):
+        arm.close()
+        return 0
+    # Ticks on the graph's clock (ROS time, the system clock): the planner's samples and the recorder's stamps.
+    offset_s = time.time() - time.monotonic()
+    drive = Drive(loop, arm, link, reports, offset_s, stop_deceleration, parent_alive)
+    end = drive.run()
+    if end.fault is not None:
+        return _failed(link, f"{end.fault.describe()} at {end.at_s - drive.started_s:.2f} s")
+    if end.why == "estop":
+        link.say_phase("estopped")
+        print("e-stop: the robot stopped under control, then by libfranka's stop (its brakes)", flush=True)
+        drive.stand(stopped_row(reports, len(loop.joint_names)))
+    elif end.why != "end":
+        print(f"the controller ended the motion ({end.why})", flush=True)
+        link.say_phase("ended")
+    else:
+        link.say_phase("ended")
+    arm.close()
+    return 0
+
+
+def _failed(link: RobotLink, line: str) -> int:
+    link.say_phase("fault")
+    leave(ROBOT_FAULT_FILE, line)
+    print(f"the robot stopped: {line}", file=sys.stderr, flush=True)
+    return ROBOT_FAULT_EXIT
+
+
+def _fork_drive(host: str, params: cfg.Params) -> tuple[int, RobotLink, Any, Reports]:
+    """The drive forked (before any ROS in this process), with the link to it."""
+    loop = robot_loop(params, ROTOR_INERTIA_KGM2)
+    reports = Reports(Lines(), loop.controller, world_waits=False)
+    state_size = sum(size for _, size in reports.state_blocks)
+    link = RobotLink(len(loop.joint_names), state_size)
+    stop_deceleration = float(params["pid_controller"]["stop_deceleration"])
+    sys.stdout.flush()
+    cpus = scheduling.loop_cpus()
+    pid = os.fork()
+    if cpus is not None:  # the drive on the loop's CPU, alone; the ROS side on the others (ros.scheduling)
+        with contextlib.suppress(OSError):
+            os.sched_setaffinity(0, cpus[0] if pid == 0 else cpus[1])
+    if pid == 0:
+        code = 1
+        try:
+            code = _drive_process(host, loop, link, reports, stop_deceleration)
+        finally:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(code)
+    return pid, link, loop, reports
+
+
+def main(args: list[str] | None = None) -> int:
+    """``robot_node franka://HOST --ros-args --params-file FILE`` (``args``: the program's name first, as rclpy's)."""
+    argv = list(sys.argv if args is None else args)
+    try:
+        host = parse_hardware(argv[1] if len(argv) > 1 else "")
+        params = cfg.read_params_file(argv[argv.index("--params-file") + 1])
+    except (ValueError, ConfigError, IndexError) as exc:
+        print(f"error: {exc}", file=sys.stderr, flush=True)
+        return 2
+    pid, link, loop, reports = _fork_drive(host, params)
+    from robot_controller.nodes.robot_bridge import serve  # rclpy: in this process only, after the fork
+
+    return serve([argv[0], *argv[2:]], pid, link, list(loop.joint_names), list(reports.state_blocks))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
