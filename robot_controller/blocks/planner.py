@@ -12,6 +12,7 @@ back. What the arm does goes to its ``arm`` watch (``blocks.arm_watch``), which 
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -26,6 +27,7 @@ from robot_controller.blocks.values import Array, WaypointRequest
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.metrics import EFFORT_UNITS, in_units
 from robot_controller.core.model import joint_limits
+from robot_controller.core.model.velocity_envelope import ENVELOPES, position_range
 from robot_controller.core.reference import (
     Accepted,
     Crossfade,
@@ -41,12 +43,15 @@ from robot_controller.core.reference.crossfade import Motion
 from robot_controller.core.reference.joint_trajectory import check_waypoints, complete_joints, joint_names_problem
 from robot_controller.core.reference.stop import stop_path
 from robot_controller.core.reference.tolerances import INVALID_GOAL, INVALID_JOINTS, OLD_HEADER_TIMESTAMP
-from robot_controller.parameters.builders import TRAJECTORY_SHAPE_KEYS, arm_model, model_overridden
+from robot_controller.parameters.builders import TRAJECTORY_SHAPE_KEYS, arm_model, given, model_overridden
 from robot_controller.parameters.torque_limits import torque_limit
 
 #: A controller name as a ROS name segment.
 _CONTROLLER_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 #: A change of these brings the parameters' motion back in place of a joint trajectory.
+#: of the speed a trajectory may reach, what the blend from where a robot stands may: a gentle start (at the full
+#: speed the blend took 60 N·m on the Panda's base, a push the torque's rate limit cannot take back in time)
+START_SPEED_SHARE = 0.3
 SHAPE_KEYS = frozenset(("mode", *TRAJECTORY_SHAPE_KEYS))
 #: The ports a joint trajectory comes on.
 WAYPOINT_PORTS = ("waypoints", "controller_waypoints")
@@ -108,6 +113,8 @@ class Planner:
             return {}
         if self.start_s is None:
             self.start_s = self.origin_s = t_s
+            if given(self.params["start_position"]):  # a robot, left where it was jogged
+                self.start_from(np.asarray(self.params["start_position"], float), t_s)
         self.last_step_s = t_s
         position, velocity, acceleration = self.reference_at(t_s)
         # Written into one new array (the port's value, kept by its readers): cheaper than concatenating four.
@@ -160,8 +167,9 @@ class Planner:
                 policy=params["feasibility"],
                 what=params["mode"],
                 joint_names=self.dynamics.joint_names,
-                velocity_limit=self.limits.velocity,
-                position_range=(self.limits.lower, self.limits.upper),
+                velocity_limit=params["velocity_share"] * self.limits.velocity,
+                position_range=position_range(self.limits, params),
+                envelope=ENVELOPES.get(params["velocity_envelope"]),
             )
             self._plan_key = key
         assert self._plan is not None
@@ -180,12 +188,14 @@ class Planner:
             return ""
         return f", slowed in time ×{plan.result.scale:.2f} to fit the torque limit"
 
-    def blend_from(self, before: Motion, now_s: float) -> None:
-        """A live change starts from the reference in force, blended into the new motion (no jump)."""
+    def blend_from(self, before: Motion, now_s: float, speed_share: float = 1.0) -> None:
+        """A live change starts from the reference in force, blended into the new motion (no jump), within
+        ``speed_share`` of the speed the trajectory may reach."""
         params = self.params
         usable = torque_limit(params, len(self.limits.joint_names)) * (1.0 - params["feasibility_margin"])
         self.crossfade = None  # (a blend under way is ``before``)
-        self.crossfade = crossfade(before, self.motion_in_force(), now_s, self.dynamics, usable, self.limits.velocity)
+        speeds = speed_share * params["velocity_share"] * self.limits.velocity
+        self.crossfade = crossfade(before, self.motion_in_force(), now_s, self.dynamics, usable, speeds)
         gap = np.abs(before(now_s)[0] - self.crossfade.new(now_s)[0])
         j = int(np.argmax(gap))
         self.log.info(
@@ -199,7 +209,7 @@ class Planner:
         self.start_s = self.origin_s = self.last_step_s = t_s
         held = np.array(position, float)
         still = np.zeros_like(held)
-        self.blend_from(lambda _time_s: (held, still, still), t_s)
+        self.blend_from(lambda _time_s: (held, still, still), t_s, START_SPEED_SHARE)
 
     def motion_in_force(self) -> Motion:
         """The reference as a function of the planner's time (s): the blend under way, a joint trajectory's, else
@@ -243,7 +253,7 @@ class Planner:
         accepted = accept_joint_trajectory(
             *points,
             start=self.reference_at(now_s),
-            limits=self.limits,
+            limits=dataclasses.replace(self.limits, velocity=self.params["velocity_share"] * self.limits.velocity),
             dynamics=self.dynamics,
             torque_limit_nm=torque_limit(self.params, len(self.limits.joint_names)),
             margin=self.params["feasibility_margin"],

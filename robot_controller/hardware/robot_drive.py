@@ -33,6 +33,9 @@ REST_RAD_S = 0.02
 REST_TICKS = 50
 #: s a stop may take at most before the motion ends regardless (a joint that cannot settle)
 STOP_LIMIT_S = 5.0
+#: ticks in a row the guard may brake a joint before the motion is stopped: its reference asks more than the robot
+#: allows there, and a controller fighting the brake winds up (released, it swings the joint past its limit)
+GUARD_TICKS = 20
 #: s between readings of where a stopped robot stands (outside control)
 STANDING_PERIOD_S = 0.01
 
@@ -74,6 +77,10 @@ class Drive:
         controller, link, n = self.loop.controller, self.link, self.joint_count
         stop: ControlledStop | None = None
         why, at_rest, t = None, 0, 0.0
+        guard = self.loop.guard
+        braked_ticks = np.zeros(n, dtype=int)
+        damping, damped_since = False, 0.0  # the guard's stop: the controller left out, every joint damped to rest
+        stopped = stopped_row(self.reports, n)
         last_reference: np.ndarray | None = None
         reference_velocity = np.zeros(n)
         with loop_thread():
@@ -84,7 +91,7 @@ class Drive:
                 while True:
                     arrived = time.perf_counter()
                     t = reading.arrived_s + self.clock_offset_s
-                    if stop is None and (asked := self._asked()):
+                    if stop is None and not damping and (asked := self._asked()):
                         why = asked
                         start = last_reference if last_reference is not None else reading.position
                         stop = ControlledStop(t, start, reference_velocity, self.stop_deceleration)
@@ -95,8 +102,26 @@ class Drive:
                     elif t - started_s >= HOLD_S and (new := link.new_reference()) is not None:
                         sample_s, sample = new
                         controller.set_reference(t, sample[:n], sample[n : 2 * n], sample[2 * n :], sample_s)
+                    if damping:
+                        self.robot.write(self.loop.damp(reading))
+                        compute_s = time.perf_counter() - arrived
+                        link.record(t, compute_s, reading.success_rate, reading.missed, reading.position,
+                                    reading.velocity, reading.torque_nm, stopped(t, reading.position))  # fmt: skip
+                        at_rest = at_rest + 1 if float(np.max(np.abs(reading.velocity))) < REST_RAD_S else 0
+                        if at_rest >= REST_TICKS or t - damped_since > STOP_LIMIT_S:
+                            return self._finish(DriveEnd(why, at_s=damped_since))
+                        reading = self.robot.read()
+                        continue
                     tick = self.loop.command(t, reading)
                     self.robot.write(tick.sent_nm)
+                    braked_ticks = np.where(guard.braking, braked_ticks + 1, 0)
+                    if braked_ticks.max() >= GUARD_TICKS:
+                        # The reference asks more than the robot allows where the joint is, and a controller fighting
+                        # the brake winds up: every joint is damped to rest instead (category 1), the controller
+                        # left out.
+                        why = f"guard:{self.loop.joint_names[int(np.argmax(braked_ticks))]}"
+                        damping, damped_since, at_rest = True, t, 0
+                        link.say_phase("stopping")
                     compute_s = time.perf_counter() - arrived
                     out = tick.out
                     # After the command has gone: what the graph records, and the controller's lines.

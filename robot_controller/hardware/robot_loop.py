@@ -28,6 +28,7 @@ from robot_controller.blocks.planner import Planner
 from robot_controller.blocks.wiring import BRAKING_STATUSES, RECORDED, LoopResult
 from robot_controller.core.controller import JointController
 from robot_controller.core.model import joint_limits
+from robot_controller.core.model.velocity_envelope import FR3_VELOCITY_ENVELOPE
 from robot_controller.hardware.franka_arm import RobotFault, RobotReading
 from robot_controller.hardware.torque_guard import (
     CONTROLLER_RATE_SHARE,
@@ -109,6 +110,15 @@ class RobotLoop:
         total = np.asarray(out.command if out.command is not None else gravity, float)
         sent = self.guard(total, gravity, reading.position, reading.velocity, inertia, reading.commanded_nm)
         return Tick(out, total, sent, gravity)
+
+    def damp(self, reading: RobotReading) -> np.ndarray:
+        """The torque to send that brings every joint to rest from ``reading`` (damped, the robot holding gravity),
+        through the guard: a stop that cannot speed any joint up."""
+        gravity = self.dynamics.gravity(reading.position)
+        inertia = self.dynamics.mass_matrix(reading.position).diagonal()
+        settings = self.guard.settings
+        brake = np.clip(-settings.braking_nms * reading.velocity, -self.guard.brake_nm, self.guard.brake_nm)
+        return self.guard(gravity + brake, gravity, reading.position, reading.velocity, inertia, reading.commanded_nm)
 
     def run(self, robot: Robot, duration_s: float) -> RobotRun:
         """``duration_s`` s of the robot's time, a tick per state it sends, the planner stepped here."""
@@ -240,11 +250,14 @@ def robot_loop(params: cfg.Params, rotor_inertia_kgm2: float, period_s: float = 
     planner = Planner(consistency.with_controller_model(params)["trajectory_planner"], Lines())
     planner.start()
     limits = joint_limits(resources.resolve_urdf(ctrl["urdf_path"]))
+    envelope = FR3_VELOCITY_ENVELOPE
     robot_limits = RobotLimits(
         torque_nm=np.asarray(torque_limit(ctrl, n), float),
         velocity_rad_s=limits.velocity,
-        lower_rad=limits.lower,
-        upper_rad=limits.upper,
+        # The URDF's range within the robot's own (its reflexes judge by theirs)
+        lower_rad=np.maximum(limits.lower, envelope.lower_rad),
+        upper_rad=np.minimum(limits.upper, envelope.upper_rad),
+        envelope=envelope,
     )
     guard = TorqueGuard(robot_limits, period_s)
     return RobotLoop(planner, controller, guard, dynamics, list(limits.joint_names))

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robot_controller.core.model.velocity_envelope import VelocityEnvelope
+
 #: N·m/s: the FCI's limit on the commanded torque's rate (libfranka's ``kMaxTorqueRate``).
 FRANKA_TORQUE_RATE_NM_S = 1000.0
 #: Of the robot's torque rate limit, the controller's own slew limit: inside the guard's (gravity's own change, about
@@ -22,14 +24,16 @@ CONTROLLER_RATE_SHARE = 0.25
 
 @dataclass(frozen=True)
 class RobotLimits:
-    """Per joint: the torque range (N·m, symmetric), the speed limit (rad/s), the position range (rad); and the
-    commanded torque's rate limit (N·m/s, every joint)."""
+    """Per joint: the torque range (N·m, symmetric), the speed limit (rad/s), the position range (rad), a speed
+    envelope near the position limits if the robot has one; and the commanded torque's rate limit (N·m/s, every
+    joint)."""
 
     torque_nm: np.ndarray
     velocity_rad_s: np.ndarray
     lower_rad: np.ndarray
     upper_rad: np.ndarray
     torque_rate_nm_s: float = FRANKA_TORQUE_RATE_NM_S
+    envelope: VelocityEnvelope | None = None
 
 
 @dataclass(frozen=True)
@@ -90,6 +94,8 @@ class TorqueGuard:
         self.highest_rad = limits.upper_rad - settings.position_margin_rad
         self.last_sent = np.zeros(limits.torque_nm.size)
         self.acted = np.zeros(limits.torque_nm.size, dtype=int)  #: per joint, the ticks the guard changed the torque
+        #: per joint, whether the last tick braked it (headed past its speed share or into its position margin)
+        self.braking = np.zeros(limits.torque_nm.size, dtype=bool)
 
     def __call__(
         self,
@@ -112,10 +118,14 @@ class TorqueGuard:
         along = np.where(moving, np.sign(velocity), np.sign(self.last_sent))  # the way each joint goes (or is pushed)
         speed = np.abs(velocity)
         distance, peak = stopping_distance(speed, along * self.last_sent, self.rate_nm_s, self.brake_nm, inertia_kgm2)
+        allowed = self.allowed_rad_s
+        if self.limits.envelope is not None:  # the speed it may have where it would stop, the way it goes
+            towards_lower, towards_upper = self.limits.envelope.speeds(position + along * distance)
+            allowed = np.minimum(allowed, settings.velocity_share * np.where(along > 0, towards_upper, towards_lower))
         # Headed past its speed share: nothing pushes it on, and it is braked.
-        fast = peak > self.allowed_rad_s
+        fast = peak > allowed
         if fast.any():
-            brake = -settings.braking_nms * (peak[fast] - self.allowed_rad_s[fast])
+            brake = -settings.braking_nms * (peak[fast] - allowed[fast])
             net[fast] = along[fast] * np.minimum(along[fast] * net[fast], brake)
         # Headed inside its position margin: braked with all the guard counts on.
         room = np.where(along > 0, self.highest_rad - position, position - self.lowest_rad)
@@ -125,6 +135,7 @@ class TorqueGuard:
         # Inside the margin all the same: a spring and a damper push it back out.
         below, above = position - self.lowest_rad, position - self.highest_rad
         low, high = below < 0.0, above > 0.0
+        self.braking = fast | closing | low | high
         k, c = settings.stiffness_nm_rad, settings.damping_nms
         if low.any():
             net[low] -= k * below[low] + c * np.minimum(velocity[low], 0.0)

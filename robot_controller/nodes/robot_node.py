@@ -24,7 +24,7 @@ from robot_controller.blocks.block import Lines
 from robot_controller.blocks.controller_reports import Reports
 from robot_controller.core.errors import ConfigError
 from robot_controller.hardware.franka_arm import ROTOR_INERTIA_KGM2, FrankaArm, RobotFault, parse_hardware
-from robot_controller.hardware.robot_drive import Drive, parent_watch, stopped_row, wait_for_go
+from robot_controller.hardware.robot_drive import GUARD_TICKS, Drive, parent_watch, stopped_row, wait_for_go
 from robot_controller.hardware.robot_link import END, RobotLink
 from robot_controller.hardware.robot_loop import robot_loop
 from robot_controller.ros import scheduling
@@ -68,6 +68,15 @@ def _drive_process(host: str, loop, link: RobotLink, reports: Reports, stop_dece
         link.say_phase("estopped")
         print("e-stop: the robot stopped under control, then by libfranka's stop (its brakes)", flush=True)
         drive.stand(stopped_row(reports, len(loop.joint_names)))
+    elif end.why.startswith("guard:"):
+        joint = end.why.split(":", 1)[1]
+        line = (
+            f"our guard braked {joint} for {GUARD_TICKS} ms at {end.at_s - drive.started_s:.2f} s: its reference asks "
+            "more than the robot allows there (its speed, near a position limit); the motion was stopped under control"
+        )
+        link.say_phase("ended")
+        arm.close()
+        return _failed(link, line)
     elif end.why != "end":
         print(f"the controller ended the motion ({end.why})", flush=True)
         link.say_phase("ended")
@@ -80,7 +89,7 @@ def _drive_process(host: str, loop, link: RobotLink, reports: Reports, stop_dece
 def _failed(link: RobotLink, line: str) -> int:
     link.say_phase("fault")
     leave(ROBOT_FAULT_FILE, line)
-    print(f"the robot stopped: {line}", file=sys.stderr, flush=True)
+    print(line, file=sys.stderr, flush=True)
     return ROBOT_FAULT_EXIT
 
 

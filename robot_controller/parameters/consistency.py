@@ -15,6 +15,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import law_parameters
 from robot_controller.core.model import joint_limits, urdf_velocity_limits
 from robot_controller.core.model.plant_variation import PlantVariation
+from robot_controller.core.model.velocity_envelope import ENVELOPES, position_range
 from robot_controller.parameters import files, law_params
 from robot_controller.parameters.builders import ARM_MODEL_KEYS, arm_model, given
 from robot_controller.parameters.torque_limits import torque_limit
@@ -218,8 +219,10 @@ def trajectory_plan(params: cfg.Params) -> Plan:
             policy=planner["feasibility"],
             what=planner["mode"],
             joint_names=dynamics.joint_names,
-            velocity_limit=urdf_velocity_limits(resources.resolve_urdf(planner["urdf_path"]), dynamics.joint_names),
-            position_range=(limits.lower, limits.upper),  # as the planner checks every live change
+            velocity_limit=planner["velocity_share"]
+            * urdf_velocity_limits(resources.resolve_urdf(planner["urdf_path"]), dynamics.joint_names),
+            position_range=position_range(limits, planner),  # as the planner checks every live change
+            envelope=ENVELOPES.get(planner["velocity_envelope"]),
         )
     except ConfigError as exc:
         raise ConfigError(f"trajectory_planner: {exc}") from None

@@ -85,13 +85,16 @@ HARDWARE_REACQUIRE_ACCELERATION = 2.0
 #: rad/s² of a robot's controlled stops (the run's end, an e-stop): a torque within the rate limit follows it (0.4 kg·m²
 #: of a Panda's elbow takes 1.6 N·m of it, 6 ms at 250 N·m/s); the simulated arm's 20 rang the elbow up at its end
 HARDWARE_STOP_DECELERATION = 4.0
+#: of each joint's URDF speed limit a robot's trajectory may reach: inside its guard's 85 %
+HARDWARE_VELOCITY_SHARE = 0.8
 #: Hz: a robot's own clock (the FCI's 1 kHz) steps its controller
 HARDWARE_RATE_HZ = 1000.0
 
 
 def on_hardware(params: cfg.Params, options: RunOptions) -> tuple[RunOptions, cfg.Params]:
-    """A run on a robot: its own clock (the wall clock's), every node here, the controller at the robot's rate and
-    the start's blend within the robot's speed. ``ConfigError`` for what a robot cannot do."""
+    """A run on a robot: its own clock (the wall clock's), every node here, the controller at the robot's rate, the
+    start's blend and the stops gentle, the trajectory within 80 % of each joint's speed limit. ``ConfigError`` for
+    what a robot cannot do."""
     from robot_controller.hardware.franka_arm import parse_hardware
 
     try:
@@ -108,6 +111,9 @@ def on_hardware(params: cfg.Params, options: RunOptions) -> tuple[RunOptions, cf
     }
     if said := [flag for flag, given in refused.items() if given]:
         raise ConfigError(f"--hardware: {', '.join(said)} needs the simulator (a robot keeps its own clock)")
+    standing = robot_standing(options.hardware)
+    if params["trajectory_planner"]["feasibility"] == "warn":
+        raise ConfigError("--hardware: feasibility warn would send a robot past its limits: scale or refuse")
     ctrl = params["pid_controller"]
     acceleration = min(float(ctrl["reacquire_acceleration"]), HARDWARE_REACQUIRE_ACCELERATION)
     deceleration = min(float(ctrl["stop_deceleration"]), HARDWARE_STOP_DECELERATION)
@@ -123,9 +129,33 @@ def on_hardware(params: cfg.Params, options: RunOptions) -> tuple[RunOptions, cf
             },
             "simulator": {"control_rate_hz": rate, "publish_rate_hz": rate},
             "sensor_node": {"rate_hz": rate},
+            "trajectory_planner": {
+                "velocity_share": min(params["trajectory_planner"]["velocity_share"], HARDWARE_VELOCITY_SHARE),
+                "start_position": [float(q) for q in standing],
+                "velocity_envelope": "fr3",
+            },
         },
     )
     return replace(options, paced=False), params
+
+
+def robot_standing(url: str) -> list[float]:
+    """Where the robot at ``url`` stands (its motion starts there), after recovering it, in one line, from a reflex
+    a last run left (its drive killed, a fault). ``ConfigError``: it cannot be reached."""
+    from robot_controller.hardware.franka_arm import FrankaArm, RobotFault, parse_hardware
+    from robot_controller.runner.processes import say
+
+    try:
+        arm = FrankaArm(parse_hardware(url))
+        try:
+            if errors := arm.errors():
+                say(f"the robot reports {', '.join(errors)} (from before): recovering it (automatic error recovery)")
+                arm.recover()
+            return [float(q) for q in arm.position()]
+        finally:
+            arm.close()
+    except RobotFault as fault:
+        raise ConfigError(f"--hardware {url}: {fault.describe()}") from None
 
 
 @dataclass(frozen=True)

@@ -249,6 +249,11 @@ class JointController:
     def has_measurement(self) -> bool:
         return self._readings.latest is not None
 
+    def restart_from_arm(self) -> None:
+        """The arm was moved by something else (a guard's brake): at the next tick, start again from the measurement
+        (estimator, integral) and lead the arm from there onto the reference."""
+        self._reference.request_reacquire()
+
     def halt(self, halted: bool) -> None:
         """An e-stop holds the drive: command nothing; when it is released, re-acquire from the measurement."""
         if halted and not self._halted:

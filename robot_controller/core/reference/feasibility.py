@@ -21,6 +21,7 @@ from typing import Protocol
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.model.velocity_envelope import VelocityEnvelope
 from robot_controller.core.reference.trajectory import (
     Chirp,
     Hold,
@@ -258,18 +259,21 @@ def plan_trajectory(
     joint_names: Sequence[str] | None = None,
     velocity_limit: np.ndarray | None = None,
     position_range: tuple[np.ndarray, np.ndarray] | None = None,
+    envelope: VelocityEnvelope | None = None,
 ) -> Plan:
     """Check ``trajectory`` against each joint's ``position_range`` (lower, upper; leaving it is refused under
     every policy), the torque, and each joint's ``velocity_limit`` (rad/s), and act as ``policy`` says: ``scale``
     slows a path that does not fit until it does, ``refuse`` refuses it, ``ignore`` runs it with a warning. A
     path no slowing makes fit (gravity alone is too much) is refused under ``scale`` and ``refuse``. ``what``
-    names the path in the messages (the planner's ``mode``); a refusal is a one-line ``ConfigError``."""
+    names the path in the messages (the planner's ``mode``); a refusal is a one-line ``ConfigError``. ``envelope``:
+    the robot's speed limits near its position limits (a robot's own), within the same share of them as of
+    ``velocity_limit`` where both are given."""
     if position_range is not None:
         _within_range(trajectory, *position_range, what, joint_names)
     torque_plan = _torque_plan(trajectory, dynamics, limit_nm, margin, policy, what, joint_names)
     if velocity_limit is None:
         return torque_plan
-    return _within_velocity_limits(torque_plan, np.asarray(velocity_limit, float), policy, what, joint_names)
+    return _within_velocity_limits(torque_plan, np.asarray(velocity_limit, float), policy, what, joint_names, envelope)
 
 
 def _within_range(
@@ -289,34 +293,43 @@ def _within_range(
 
 
 def _within_velocity_limits(
-    planned: Plan, velocity_limit: np.ndarray, policy: str, what: str, joint_names: Sequence[str] | None
+    planned: Plan,
+    velocity_limit: np.ndarray,
+    policy: str,
+    what: str,
+    joint_names: Sequence[str] | None,
+    envelope: VelocityEnvelope | None = None,
 ) -> Plan:
     """The plan slowed further, refused or run with a warning when its path goes faster than a joint's URDF
-    velocity limit."""
+    velocity limit (or, with an ``envelope``, than the robot allows where the joint is)."""
 
-    def fastest(trajectory: Trajectory) -> tuple[np.ndarray, int, float]:
-        speed = np.max(np.abs(_path(trajectory)[1]), axis=0)
-        ratio = speed / velocity_limit
-        worst = int(np.argmax(ratio))
-        return speed, worst, float(ratio[worst])
+    def fastest(trajectory: Trajectory) -> tuple[int, float, float, float]:
+        """The joint furthest over its limit: its index, its ratio to the limit, its speed and the limit there."""
+        q, v, _ = _path(trajectory)
+        limit = np.broadcast_to(velocity_limit, v.shape)
+        if envelope is not None:  # as far inside the envelope as inside the top speed
+            limit = np.minimum(limit, velocity_limit / envelope.max_rad_s * envelope.limit(q, v))
+        speed = np.abs(v)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratios = np.where(speed > 1e-9, speed / limit, 0.0)
+        k, j = np.unravel_index(int(np.argmax(ratios)), ratios.shape)
+        return int(j), float(ratios[k, j]), float(speed[k, j]), float(limit[k, j])
 
-    speed, j, ratio = fastest(planned.trajectory)
+    j, ratio, speed, limit = fastest(planned.trajectory)
     if ratio <= 1.0 + 1e-9:
         return planned
     name = joint_names[j] if joint_names is not None else f"joint {j + 1}"
-    need = (
-        f"the {what} moves {name} at {speed[j]:.3g} rad/s, beyond its URDF velocity limit "
-        f"{velocity_limit[j]:.3g} rad/s"
-    )
+    where = "its URDF velocity limit" if envelope is None else "the speed the robot allows it there"
+    need = f"the {what} moves {name} at {speed:.3g} rad/s, beyond {where} {limit:.3g} rad/s"
     earlier = "" if planned.warning is None else planned.warning + "; "
     if policy == "ignore":
         return Plan(planned.trajectory, planned.result, f"{earlier}{need}; running it as it is (feasibility: ignore)")
-    if policy == "refuse" or not _scalable(planned.trajectory):
+    if policy == "refuse" or not _scalable(planned.trajectory) or not np.isfinite(ratio):
         raise ConfigError(f"{need}; slow it down or lower the amplitude")
     factor = ratio
     while factor <= MAX_SCALE:
         scaled = time_scaled(planned.trajectory, factor)
-        if fastest(scaled)[2] <= 1.0 + 1e-9:
+        if fastest(scaled)[1] <= 1.0 + 1e-9:
             return Plan(
                 scaled,
                 planned.result,
