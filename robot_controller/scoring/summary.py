@@ -258,7 +258,23 @@ def _run_line(values: dict[str, Any]) -> str:
     return text
 
 
+def _robot_rate_line(values: dict[str, Any]) -> str:
+    """A robot's clock: its periods without a command by its own count, the commands it took, our time per tick
+    against its period, and what the hypervisor took from this host meanwhile."""
+    taken, low = _num(values.get("command_success_rate"), ".4f"), _num(values.get("command_success_rate_min"), ".2f")
+    p50, p99, most = (_num(values.get(f"tick_compute_{k}_ms"), ".2f") for k in ("p50", "p99", "max"))
+    text = (
+        f"{_count(int(values.get('robot_missed_cycles', 0)), 'period')} missed by the robot's count: it took {taken} "
+        f"of the commands in time (its 100-command low {low}); our tick {p50} ms p50, {p99} p99, {most} max of its 1 ms"
+    )
+    if finite(steal := values.get("host_steal_pct")):
+        text += f"; the hypervisor took {steal:.2f} % of this host"
+    return text
+
+
 def _rate_line(values: dict[str, Any]) -> str:
+    if values.get("hardware"):
+        return _robot_rate_line(values)
     text = f"{values['control_rate_hz']:.1f} Hz, {_count(values.get('missed_cycles', 0), 'missed cycle')}"
     if host_missed := values.get("missed_cycles_host"):
         text += f" ({host_missed} more the host made, not counted)"
