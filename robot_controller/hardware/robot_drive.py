@@ -35,7 +35,7 @@ REST_TICKS = 50
 STOP_LIMIT_S = 5.0
 #: ticks in a row the guard may brake a joint before the motion is stopped: its reference asks more than the robot
 #: allows there, and a controller fighting the brake winds up (released, it swings the joint past its limit)
-GUARD_TICKS = 20
+GUARD_TICKS = 50
 #: s between readings of where a stopped robot stands (outside control)
 STANDING_PERIOD_S = 0.01
 

@@ -19,7 +19,7 @@ from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 
 from robot_controller.blocks import spec
 from robot_controller.blocks.values import brakes_label, check_trajectory
-from robot_controller.hardware.robot_link import END, ESTOP, GO, RobotLink, TickRow
+from robot_controller.hardware.robot_link import END, ESTOP, GO, TELEMETRY_EVERY, RobotLink, TickRow
 from robot_controller.hardware.robot_timing import RobotTiming
 from robot_controller.ros import process
 from robot_controller.ros.process import ROBOT_FAULT_FILE, ROBOT_TIMING_FILE
@@ -27,9 +27,6 @@ from robot_controller.ros.publishing import GatedPublisher, leave, write_publish
 from robot_controller.ros.qos import ESTOP_QOS, LATEST_QOS
 
 NODE_NAME = "robot_drive"
-#: the robot's state is published every this many ticks (100 Hz at the robot's 1 kHz; every tick's controller state
-#: is): a message costs this side about 0.1 ms of CPU
-TELEMETRY_EVERY = 10
 PUMP_PERIOD_S = 0.01
 #: s the drive may take to stop after the run's end, past which it is killed (the robot's own watchdog stops it)
 END_TIMEOUT_S = 7.0
@@ -109,9 +106,9 @@ class RobotBridge(Node):
 
     def _publish(self, row: TickRow) -> None:
         self.timing.take(row.compute_s, row.success_rate, row.missed)
-        self.state_msg.data = row.state.tolist()
-        self.gates["state"].publish(self.state_msg)
         if self.ticks % TELEMETRY_EVERY == 0:
+            self.state_msg.data = row.state.tolist()
+            self.gates["state"].publish(self.state_msg)
             stamp = divmod(round(row.time_s * 1e9), 1_000_000_000)
             true_state = JointState(name=self.joint_names, position=row.position.tolist())
             true_state.velocity, true_state.effort = row.velocity.tolist(), row.torque_nm.tolist()

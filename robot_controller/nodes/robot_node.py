@@ -1,8 +1,8 @@
 """robot_node: the arm of a run on a robot (``run --hardware franka://HOST``), in place of the simulator, the motor,
 the sensor and the controller. It forks the drive (``hardware.robot_drive``: the robot's connection and the
 controller, stepped by the robot's clock, no ROS) before ROS starts, and is the drive's face to the graph
-(``robot_drive``): the planner's ``/trajectory`` and ``/estop`` to it, its ticks to ``/controller/state`` (every
-tick), the robot's own state to ``/sim/joint_states`` and ``/joint_states`` (every ``TELEMETRY_EVERY`` ticks),
+(``robot_drive``): the planner's ``/trajectory`` and ``/estop`` to it, its ticks to ``/controller/state``, the
+robot's own state to ``/sim/joint_states`` and ``/joint_states`` (every ``robot_bridge.TELEMETRY_EVERY`` ticks),
 ``/sim/brakes`` (released while the robot is under torque control; held after an e-stop or a fault) and the robot's
 timing to ``/diagnostics``.
 
@@ -34,6 +34,8 @@ from robot_controller.ros.publishing import leave
 NODE_NAME = "robot_drive"
 #: the drive's exit code when the robot stopped itself (a reflex, a lost link)
 ROBOT_FAULT_EXIT = 3
+#: the drive's SCHED_FIFO priority: under the kernel's interrupt threads (50), over everything else of the stack
+DRIVE_RT_PRIORITY = 40
 #: s the drive waits for the graph (the recorder matched) before its first tick
 GO_TIMEOUT_S = 60.0
 
@@ -58,6 +60,11 @@ def _drive_process(host: str, loop, link: RobotLink, reports: Reports, stop_dece
     if not wait_for_go(link, parent_alive, GO_TIMEOUT_S):
         arm.close()
         return 0
+    # Real-time, as libfranka asks of its control loop (its own default enforces it): SCHED_FIFO on the loop's CPU,
+    # within a CPU budget per wake-up. At nice -10 a tool starting beside it (goto, estop: a second of CPU) held it
+    # back for 20 periods, and the robot stopped.
+    scheduling.install_rt_budget()
+    print(_realtime_note(scheduling.make_current_thread_realtime(DRIVE_RT_PRIORITY)), flush=True)
     # Ticks on the graph's clock (ROS time, the system clock): the planner's samples and the recorder's stamps.
     offset_s = time.time() - time.monotonic()
     drive = Drive(loop, arm, link, reports, offset_s, stop_deceleration, parent_alive)
@@ -84,6 +91,10 @@ def _drive_process(host: str, loop, link: RobotLink, reports: Reports, stop_dece
         link.say_phase("ended")
     arm.close()
     return 0
+
+
+def _realtime_note(note: str) -> str:
+    return note.replace("pacing thread", "the drive")
 
 
 def _failed(link: RobotLink, line: str) -> int:

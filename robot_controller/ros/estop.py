@@ -27,6 +27,11 @@ RESEND_FOR_S = 1.5
 RESEND_EVERY_S = 0.25
 
 
+def _simulated(node) -> bool:
+    """Whether a simulator hears the e-stop (its service answers too), not a robot's drive."""
+    return any(info.node_name == "simulator" for info in node.get_subscriptions_info_by_topic(spec.ESTOP.topic))
+
+
 def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, str]:
     """Engage (or release) the e-stop. Returns (someone obeyed, a one-line report)."""
     with open_graph("estop") as graph:
@@ -40,12 +45,18 @@ def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, st
             matched = publisher.get_subscription_count()
             if matched != last or matched < len(node.get_subscriptions_info_by_topic(spec.ESTOP.topic)):
                 settled_since, last = time.monotonic(), matched
-            elif matched > 0 and client.service_is_ready() and time.monotonic() - settled_since >= SETTLE_S:
+            elif (
+                matched > 0
+                and time.monotonic() - settled_since >= SETTLE_S
+                and (
+                    client.service_is_ready() or not _simulated(node)  # a robot's run has no simulator to answer
+                )
+            ):
                 break
             time.sleep(0.05)
         listeners = sorted({info.node_name for info in node.get_subscriptions_info_by_topic(spec.ESTOP.topic)})
         publisher.publish(Bool(data=engage))
-        service_note = "the simulator's service did not answer"
+        service_note = "the simulator's service did not answer" if _simulated(node) else "no simulator (a robot)"
         if client.service_is_ready():
             future = client.call_async(SetBool.Request(data=engage))
             end = time.monotonic() + timeout_s
@@ -60,7 +71,7 @@ def send(engage: bool, timeout_s: float = DISCOVERY_TIMEOUT_S) -> tuple[bool, st
         # Deliver before the node goes: every matched reader acknowledges.
         publisher.wait_for_all_acked(Duration(seconds=ACK_WAIT_S))
     what = "e-stop ENGAGED" if engage else "e-stop released"
-    if not listeners and service_note.startswith("the simulator's service did not"):
+    if not listeners and not service_note.startswith("simulator:"):
         return (
             False,
             f"{what}, but no node is listening on {spec.ESTOP.topic} (is the stack running on this ROS_DOMAIN_ID?)",

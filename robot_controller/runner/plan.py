@@ -132,6 +132,7 @@ def on_hardware(params: cfg.Params, options: RunOptions) -> tuple[RunOptions, cf
             "trajectory_planner": {
                 "velocity_share": min(params["trajectory_planner"]["velocity_share"], HARDWARE_VELOCITY_SHARE),
                 "start_position": [float(q) for q in standing],
+                "stop_deceleration": min(params["trajectory_planner"]["stop_deceleration"], deceleration),
                 "velocity_envelope": "fr3",
             },
         },

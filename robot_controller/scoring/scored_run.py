@@ -94,7 +94,7 @@ def score_launched(checked: CheckedRun, result: RunResult) -> ScoredRun:
     judged_s = result.control_seconds if result.interrupted or not sim else None
     values = report.score(
         recording,
-        nominal_period_s=1.0 / params["pid_controller"]["control_rate_hz"],
+        nominal_period_s=recorded_period_s(params, options),
         window_s=options.duration_s if sim else None,
         units=report.arm_units(params["simulator"]["urdf_path"]),
         receipts=clock != SIM_TIME,
@@ -118,7 +118,7 @@ def score_launched(checked: CheckedRun, result: RunResult) -> ScoredRun:
     else:  # a paced world's freezes and its loop's late efforts, or the wall clock's
         values.update(result.world_clock)
         ticks = recording.state["time_s"]
-        period_s = 1.0 / params["pid_controller"]["control_rate_hz"]
+        period_s = recorded_period_s(params, options)
         missed = core_metrics.missed_ticks_ending_at(result.host_missed_ends_s, ticks, period_s)
         set_host_share_apart(values, missed, core_metrics.periods_ending_within(result.host_watchdog_s, ticks))
         values.update(result.clocks)  # a split run's hosts' clock offset
@@ -136,6 +136,17 @@ def score_launched(checked: CheckedRun, result: RunResult) -> ScoredRun:
     limits = effort_limits(params, recording.joint_count)
     timing = host if clock == SIM_TIME else {}
     return ScoredRun(recording, values, judged, band_rad, timing=timing, effort_limits=limits)
+
+
+def recorded_period_s(params, options) -> float:
+    """The period of the controller's recorded ticks: each tick's, or on a robot every ``TELEMETRY_EVERY``-th (its
+    1 kHz is the drive's to count)."""
+    period_s = 1.0 / params["pid_controller"]["control_rate_hz"]
+    if options.hardware is not None:
+        from robot_controller.hardware.robot_link import TELEMETRY_EVERY
+
+        period_s *= TELEMETRY_EVERY
+    return period_s
 
 
 def rescore(run_dir: Path) -> ScoredRun:

@@ -264,7 +264,8 @@ def _robot_rate_line(values: dict[str, Any]) -> str:
     taken, low = _num(values.get("command_success_rate"), ".4f"), _num(values.get("command_success_rate_min"), ".2f")
     p50, p99, most = (_num(values.get(f"tick_compute_{k}_ms"), ".2f") for k in ("p50", "p99", "max"))
     text = (
-        f"{_count(int(values.get('robot_missed_cycles', 0)), 'period')} missed by the robot's count: it took {taken} "
+        f"1 kHz by the robot's clock (recorded at {values['control_rate_hz']:.0f} Hz), "
+        f"{_count(int(values.get('robot_missed_cycles', 0)), 'period')} missed by its count: it took {taken} "
         f"of the commands in time (its 100-command low {low}); our tick {p50} ms p50, {p99} p99, {most} max of its 1 ms"
     )
     if finite(steal := values.get("host_steal_pct")):
