@@ -5,7 +5,8 @@ samples, an e-stop, the end) and what it leaves for it (each tick's record) pass
 
 Its motion: held where the arm stands for ``HOLD_S``, then the planner's samples as they come, the controller
 blending from the arm onto them (within ``reacquire_acceleration``). An e-stop or the run's end brings the reference
-to rest at ``stop_deceleration`` from where it is (category 2, the arm tracking it under torque); then the run's end
+to rest from where it is, smoothly (no torque step) within ``stop_deceleration`` (category 2, the arm tracking it
+under torque); then the run's end
 lets the robot go holding, an e-stop calls libfranka's ``stop`` (the robot's brakes) and the drive goes on reading
 where the arm stands until the end. A reflex or a lost link ends it at once: the robot has stopped itself."""
 
@@ -22,7 +23,7 @@ import numpy as np
 from robot_controller.blocks.controller_reports import Reports
 from robot_controller.blocks.wiring import BRAKING_STATUSES
 from robot_controller.core.controller import Status
-from robot_controller.core.controller.safe_motion import ControlledStop
+from robot_controller.core.controller.safe_motion import SmoothStop
 from robot_controller.hardware.franka_arm import RobotFault
 from robot_controller.hardware.robot_link import END, ESTOP, GO, RobotLink
 from robot_controller.hardware.robot_loop import HOLD_S, Robot, RobotLoop, loop_thread, without_frames
@@ -75,7 +76,7 @@ class Drive:
     def run(self) -> DriveEnd:
         """Torque control until the run's end, an e-stop, a stop of the controller's, or the robot's fault."""
         controller, link, n = self.loop.controller, self.link, self.joint_count
-        stop: ControlledStop | None = None
+        stop: SmoothStop | None = None
         why, at_rest, t = None, 0, 0.0
         guard = self.loop.guard
         braked_ticks = np.zeros(n, dtype=int)
@@ -83,6 +84,7 @@ class Drive:
         stopped = stopped_row(self.reports, n)
         last_reference: np.ndarray | None = None
         reference_velocity = np.zeros(n)
+        sample_acceleration = np.zeros(n)  # the planner's last sample's
         with loop_thread():
             try:
                 reading = self.robot.start()
@@ -91,16 +93,12 @@ class Drive:
                 while True:
                     arrived = time.perf_counter()
                     t = reading.arrived_s + self.clock_offset_s
-                    if stop is None and not damping and (asked := self._asked()):
-                        why = asked
-                        start = last_reference if last_reference is not None else reading.position
-                        stop = ControlledStop(t, start, reference_velocity, self.stop_deceleration)
-                        link.say_phase("stopping")
                     if stop is not None:
                         q, v, a = stop.at(t)
                         controller.set_reference(t, q, v, a, t)
                     elif t - started_s >= HOLD_S and (new := link.new_reference()) is not None:
                         sample_s, sample = new
+                        sample_acceleration = sample[2 * n :]
                         controller.set_reference(t, sample[:n], sample[n : 2 * n], sample[2 * n :], sample_s)
                     if damping:
                         self.robot.write(self.loop.damp(reading))
@@ -128,6 +126,13 @@ class Drive:
                     if last_reference is not None:
                         reference_velocity = (out.reference - last_reference) / max(t - self._last_s, 1e-4)
                     last_reference, self._last_s = out.reference, t
+                    if stop is None and not damping and (asked := self._asked()) is not None:
+                        # From the next tick: planned after this one's command went (it takes a fraction of a period)
+                        why = asked
+                        stop = SmoothStop.starting(
+                            t, out.reference, reference_velocity, sample_acceleration, self.stop_deceleration
+                        )
+                        link.say_phase("stopping")
                     state = self.reports.state_row(out)
                     link.record(t, compute_s, reading.success_rate, reading.missed, reading.position,
                                 reading.velocity, reading.torque_nm, state)  # fmt: skip

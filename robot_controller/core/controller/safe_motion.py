@@ -32,6 +32,64 @@ class ControlledStop:
         return bool(np.all(time_s - self.start_s >= np.abs(self.velocity) / self.deceleration))
 
 
+@dataclass(frozen=True)
+class SmoothStop:
+    """To rest from ``(position, velocity, acceleration)`` at ``start_s`` along a quintic per joint (position, speed and
+    acceleration continuous: no torque step, which a drive's rate limit would smear into a tracking error), its
+    acceleration within ``deceleration`` (or the one it starts with, if more); held after ``duration_s``."""
+
+    start_s: float
+    position: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    duration_s: float
+
+    @classmethod
+    def starting(
+        cls, start_s: float, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray, deceleration: float
+    ) -> SmoothStop:
+        v0, a0 = np.asarray(velocity, float), np.asarray(acceleration, float)
+        duration = max(MIN_STOP_S, 1.5 * float(np.max(np.abs(v0))) / deceleration)
+        probe = np.linspace(0.0, 1.0, 41)[:, None]
+        bound = np.maximum(deceleration, np.abs(a0)) + 1e-9
+        stop = cls(start_s, np.asarray(position, float), v0, a0, duration)
+        for _ in range(40):  # ×1.25 each: ends
+            stop = cls(start_s, stop.position, v0, a0, duration)
+            if np.all(np.abs(stop._at(probe * duration)[2]) <= bound):
+                break
+            duration *= 1.25
+        return stop
+
+    def _at(self, tau):
+        """Position, velocity, acceleration ``tau`` s into the stop (a float, or a column of them)."""
+        T, p0, v0, a0 = self.duration_s, self.position, self.velocity, self.acceleration
+        # The quintic with p(0)=p0, v(0)=v0, a(0)=a0, v(T)=a(T)=0, its end where a constant jerk would bring it:
+        # p(T) = p0 + v0·T/2 + a0·T²/12.
+        end = p0 + v0 * T / 2 + a0 * T**2 / 12
+        s = np.clip(tau / T, 0.0, 1.0)
+        d = end - p0 - v0 * T - a0 * T**2 / 2  # what the quintic's last three terms must add
+        dv, da = -v0 - a0 * T, -a0  # at T, the velocity and acceleration they must cancel
+        c3 = (10 * d - 4 * dv * T + da * T**2 / 2) / T**3
+        c4 = (-15 * d + 7 * dv * T - da * T**2) / T**4
+        c5 = (6 * d - 3 * dv * T + da * T**2 / 2) / T**5
+        t = s * T
+        position = p0 + v0 * t + a0 * t**2 / 2 + c3 * t**3 + c4 * t**4 + c5 * t**5
+        velocity = v0 + a0 * t + 3 * c3 * t**2 + 4 * c4 * t**3 + 5 * c5 * t**4
+        acceleration = a0 + 6 * c3 * t + 12 * c4 * t**2 + 20 * c5 * t**3
+        return position, velocity, acceleration
+
+    def at(self, time_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(position, velocity, acceleration)`` at ``time_s``."""
+        return self._at(time_s - self.start_s)
+
+    def at_rest(self, time_s: float) -> bool:
+        return time_s - self.start_s >= self.duration_s
+
+
+#: s the shortest smooth stop takes
+MIN_STOP_S = 0.1
+
+
 def _quintic(
     p0: np.ndarray, v0: np.ndarray, duration_s: float, tau: float | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
