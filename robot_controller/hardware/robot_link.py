@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 #: the robot's state and the controller's are published every this many ticks: 100 Hz at the robot's 1 kHz, as the
-#: simulated loop's (every tick's figures are the drive's, in ``/diagnostics`` and the timing file). At 1 kHz the
+#: simulated loop's (every tick's figures are the drive's, in its diagnostics and the timing file). At 1 kHz the
 #: planner, which hears the controller's state during a goal, fell behind on its samples and the goal's reference
 #: came in steps; and each message costs its publisher and every reader about 0.1 ms of CPU.
 TELEMETRY_EVERY = 10
@@ -38,7 +38,7 @@ class TickRow:
     position: np.ndarray
     velocity: np.ndarray
     torque_nm: np.ndarray  #: measured, gravity included
-    state: np.ndarray  #: the controller's ``/controller/state`` row
+    state: np.ndarray  #: the controller's state row (port ``state``)
 
 
 class RobotLink:

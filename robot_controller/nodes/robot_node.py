@@ -1,10 +1,10 @@
 """robot_node: the arm of a run on a robot (``run --hardware franka://HOST``), in place of the simulator, the motor,
 the sensor and the controller. It forks the drive (``hardware.robot_drive``: the robot's connection and the
 controller, stepped by the robot's clock, no ROS) before ROS starts, and is the drive's face to the graph
-(``robot_drive``): the planner's ``/trajectory`` and ``/estop`` to it, its ticks to ``/controller/state``, the
-robot's own state to ``/sim/joint_states`` and ``/joint_states`` (every ``robot_bridge.TELEMETRY_EVERY`` ticks),
-``/sim/brakes`` (released while the robot is under torque control; held after an e-stop or a fault) and the robot's
-timing to ``/diagnostics``.
+(``robot_drive``): the planner's samples (port ``reference``) and the e-stop (``estop``) to it; its ticks (``state``),
+the robot's own state as the arm's (``true_state``) and as the readings (``reading``), every
+``robot_link.TELEMETRY_EVERY``-th tick; the brakes (``brakes``: released while the robot is under torque control,
+held after an e-stop or a fault) and the robot's timing (``diagnostics``).
 
 Two processes, not a thread: a Python thread of the drive's interpreter holds it from the GIL for up to its
 switch interval (5 ms) at a time; the robot stops after 20 late commands. They share memory

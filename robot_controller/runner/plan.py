@@ -87,6 +87,8 @@ HARDWARE_REACQUIRE_ACCELERATION = 2.0
 HARDWARE_STOP_DECELERATION = 4.0
 #: of each joint's URDF speed limit a robot's trajectory may reach: inside its guard's 85 %
 HARDWARE_VELOCITY_SHARE = 0.8
+#: the arm model a franka:// robot runs with
+FRANKA_ROBOT = "panda"
 #: Hz: a robot's own clock (the FCI's 1 kHz) steps its controller
 HARDWARE_RATE_HZ = 1000.0
 
@@ -111,9 +113,11 @@ def on_hardware(params: cfg.Params, options: RunOptions) -> tuple[RunOptions, cf
     }
     if said := [flag for flag, given in refused.items() if given]:
         raise ConfigError(f"--hardware: {', '.join(said)} needs the simulator (a robot keeps its own clock)")
+    if options.robot != FRANKA_ROBOT:
+        raise ConfigError(f"--hardware {options.hardware}: a Franka arm is --robot {FRANKA_ROBOT}, not {options.robot}")
+    if params["trajectory_planner"]["feasibility"] == "ignore":
+        raise ConfigError("--hardware: feasibility ignore would send a robot past its limits: scale or refuse")
     standing = robot_standing(options.hardware)
-    if params["trajectory_planner"]["feasibility"] == "warn":
-        raise ConfigError("--hardware: feasibility warn would send a robot past its limits: scale or refuse")
     ctrl = params["pid_controller"]
     acceleration = min(float(ctrl["reacquire_acceleration"]), HARDWARE_REACQUIRE_ACCELERATION)
     deceleration = min(float(ctrl["stop_deceleration"]), HARDWARE_STOP_DECELERATION)

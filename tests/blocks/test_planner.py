@@ -109,3 +109,13 @@ def test_a_refused_plan_is_a_config_error_and_a_slowed_one_is_said_at_start():
     block, log = planner(mode="chirp", end_frequency_hz=3.0, torque_max=[10.0])
     assert len(log.lines) == 1 and "scaled in time ×" in log.lines[0]
     assert "slowed in time ×" in block.summary()
+
+
+def test_a_robot_standing_elsewhere_is_led_from_where_it_stands_onto_the_motion():
+    block, log = planner(start_position=[0.7])
+    first = block.step(5.0, {})["reference"].data
+    assert first[0] == pytest.approx(0.7) and first[1] == pytest.approx(0.0)  # where it stands, at rest
+    assert "blended in" in "\n".join(log.lines)
+    trajectory = trajectory_plan(cfg.load_stack()).trajectory
+    after = [block.step(5.0 + t, {})["reference"].data for t in (np.arange(1, 1001) * PERIOD_S).tolist()]
+    assert after[-1][0] == pytest.approx(trajectory.sample(10.0)[0][0], abs=1e-9), "on the motion after the blend"

@@ -97,3 +97,26 @@ def test_the_stopping_distance_and_peak_speed_of_a_push_ramped_down():
     # At rest, nothing pushing: it goes nowhere.
     still, _ = stopping_distance(np.array([0.0]), np.array([0.0]), rate, np.array([50.0]), inertia)
     assert still[0] == 0.0
+
+
+def test_near_a_position_limit_the_robot_s_envelope_is_the_speed_limit():
+    from robot_controller.core.model.velocity_envelope import VelocityEnvelope
+
+    envelope = VelocityEnvelope(
+        max_rad_s=np.full(N, 2.6),
+        offset_rad_s=np.full(N, 0.3),
+        deceleration_rad_s2=np.full(N, 4.0),
+        lower_rad=np.full(N, -2.0),
+        upper_rad=np.full(N, 2.0),
+    )
+    limits = RobotLimits(LIMITS.torque_nm, LIMITS.velocity_rad_s, LIMITS.lower_rad, LIMITS.upper_rad, envelope=envelope)
+    # Every joint at 1 rad/s, unpushed: far from its limits (joint 1), 0.25 rad from its upper limit heading to it
+    # (joint 2: the envelope allows sqrt(2·4·0.25) − 0.3 = 1.11 rad/s there, of which the guard keeps 85 %: braked),
+    # and the same heading away from it (joint 3).
+    position = np.array([0.0, 1.75, 1.75])
+    velocity = np.array([1.0, 1.0, -1.0])
+    sent = TorqueGuard(limits, PERIOD_S)(np.zeros(N), STILL, position, velocity, INERTIA)
+    assert sent[0] == 0.0 and sent[2] == 0.0
+    assert sent[1] < 0.0, "braked towards the limit it nears too fast for the robot"
+    plain = TorqueGuard(LIMITS, PERIOD_S)(np.zeros(N), STILL, position, velocity, INERTIA)
+    assert plain[1] == 0.0, "the constant limits alone let it go on"

@@ -180,3 +180,16 @@ def test_a_run_with_pushes_says_what_the_band_judged_and_the_start_what_it_did()
     assert rows["start"] == "max 1.55 mrad in the first 2 s, no worse than after it (band 6 mrad)"
     rows = dict(summary.run_rows(values | {"start_transient_end_s": 1.25}))
     assert rows["start"] == "max 1.55 mrad in the first 2 s, no worse than after it from 1.25 s (band 6 mrad)"
+
+
+def test_on_a_robot_the_rate_is_its_own_count_and_our_time_per_tick():
+    robot = LOCKSTEP | {"clock": "wall", "hardware": "franka://127.0.0.1", "control_rate_hz": 99.9}
+    robot |= {"robot_missed_cycles": 3.0, "command_success_rate": 0.99951, "command_success_rate_min": 0.97}
+    robot |= {"tick_compute_p50_ms": 0.46, "tick_compute_p99_ms": 0.83, "tick_compute_max_ms": 2.1}
+    robot |= {"host_steal_pct": 0.012}
+    rows = dict(summary.run_rows(robot))
+    assert rows["rate"] == (
+        "1 kHz by the robot's clock (recorded at 100 Hz), 3 periods missed by its count: it took 0.9995 of the "
+        "commands in time (its 100-command low 0.97); our tick 0.46 ms p50, 0.83 p99, 2.10 max of its 1 ms; the "
+        "hypervisor took 0.01 % of this host"
+    )
