@@ -30,6 +30,7 @@ from robot_controller.core.controller import JointController
 from robot_controller.core.model import joint_limits
 from robot_controller.core.model.velocity_envelope import FR3_VELOCITY_ENVELOPE
 from robot_controller.hardware.franka_arm import RobotFault, RobotReading
+from robot_controller.hardware.robot_timing import timing_figures
 from robot_controller.hardware.torque_guard import (
     CONTROLLER_RATE_SHARE,
     FRANKA_TORQUE_RATE_NM_S,
@@ -46,8 +47,6 @@ from robot_controller.ros.scheduling import LOOP_NICE
 #: controller's first ticks its slowest: a torque that barely changes there has nothing to lose. (Blended in at once,
 #: the torque ramped at the rate limit through them, and the robot refused a step.)
 HOLD_S = 0.3
-#: commands libfranka's ``control_command_success_rate`` is taken over: before as many, it counts the start's
-SUCCESS_WINDOW = 100
 
 
 class Robot(Protocol):
@@ -77,17 +76,9 @@ class RobotRun:
     ended_by: str | None  #: a controller status that ended the motion, if one did
 
     def timing(self) -> dict[str, float]:
-        """The tick's own time against the period (ms: p50, p99, max), missed cycles, the success rate's low once a
-        window of commands has gone."""
-        ms = self.tick_compute_s * 1e3
-        rate = self.success_rate[SUCCESS_WINDOW:]  # (libfranka's rate is over the last 100 commands)
-        return {
-            "tick_compute_p50_ms": float(np.percentile(ms, 50)) if ms.size else float("nan"),
-            "tick_compute_p99_ms": float(np.percentile(ms, 99)) if ms.size else float("nan"),
-            "tick_compute_max_ms": float(ms.max()) if ms.size else float("nan"),
-            "missed_cycles": float(self.missed),
-            "success_rate_min": float(rate.min()) if rate.size else float("nan"),
-        }
+        """The tick's own time against the period, the periods missed and the commands the robot took in time
+        (``robot_timing.timing_figures``)."""
+        return timing_figures(self.tick_compute_s, self.success_rate, self.missed)
 
 
 @dataclass

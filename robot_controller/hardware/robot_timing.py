@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_controller.hardware.robot_loop import SUCCESS_WINDOW
+#: commands libfranka's ``control_command_success_rate`` is taken over: before as many, it counts the start's
+SUCCESS_WINDOW = 100
 
 
 def steal_ticks() -> tuple[int, int]:
@@ -36,20 +37,25 @@ class RobotTiming:
         self.missed += int(missed)
 
     def figures(self) -> dict[str, float]:
-        """The run's figures (NaN before any tick): ``tick_compute_{p50,p99,max}_ms``, ``robot_missed_cycles``,
-        ``command_success_rate`` (the ticks' share of the robot's periods), ``command_success_rate_min`` (libfranka's,
-        its low), ``host_steal_pct``."""
-        ms = np.asarray(self._compute) * 1e3
-        rates = np.asarray(self._rates)[SUCCESS_WINDOW:]
-        ticks = ms.size
+        """The run's figures so far (:func:`timing_figures`) and ``host_steal_pct``."""
         stolen, total = (b - a for a, b in zip(self._steal_start, steal_ticks(), strict=True))
-        nan = float("nan")
-        return {
-            "tick_compute_p50_ms": float(np.percentile(ms, 50)) if ticks else nan,
-            "tick_compute_p99_ms": float(np.percentile(ms, 99)) if ticks else nan,
-            "tick_compute_max_ms": float(ms.max()) if ticks else nan,
-            "robot_missed_cycles": float(self.missed),
-            "command_success_rate": ticks / (ticks + self.missed) if ticks else nan,
-            "command_success_rate_min": float(rates.min()) if rates.size else nan,
-            "host_steal_pct": 100.0 * stolen / total if total > 0 else nan,
-        }
+        figures = timing_figures(np.asarray(self._compute), np.asarray(self._rates), self.missed)
+        figures["host_steal_pct"] = 100.0 * stolen / total if total > 0 else float("nan")
+        return figures
+
+
+def timing_figures(compute_s: np.ndarray, success_rates: np.ndarray, missed: int) -> dict[str, float]:
+    """From each tick's compute time and the robot's success rate, and the periods it missed (NaN before any tick):
+    ``tick_compute_{p50,p99,max}_ms``, ``robot_missed_cycles``, ``command_success_rate`` (the ticks' share of the
+    robot's periods), ``command_success_rate_min`` (libfranka's, its low once a window of commands has gone)."""
+    ms = compute_s * 1e3
+    rates = success_rates[SUCCESS_WINDOW:]
+    ticks, nan = ms.size, float("nan")
+    return {
+        "tick_compute_p50_ms": float(np.percentile(ms, 50)) if ticks else nan,
+        "tick_compute_p99_ms": float(np.percentile(ms, 99)) if ticks else nan,
+        "tick_compute_max_ms": float(ms.max()) if ticks else nan,
+        "robot_missed_cycles": float(missed),
+        "command_success_rate": ticks / (ticks + missed) if ticks else nan,
+        "command_success_rate_min": float(rates.min()) if rates.size else nan,
+    }
