@@ -261,7 +261,7 @@ def _run_line(values: dict[str, Any]) -> str:
 def _robot_rate_line(values: dict[str, Any]) -> str:
     """A robot's clock: its periods without a command by its own count, the commands it took, our time per tick
     against its period, and what the hypervisor took from this host meanwhile."""
-    taken, low = _num(values.get("command_success_rate"), ".4f"), _num(values.get("command_success_rate_min"), ".2f")
+    taken, low = _num(values.get("command_success_rate"), ".5f"), _num(values.get("command_success_rate_min"), ".2f")
     p50, p99, most = (_num(values.get(f"tick_compute_{k}_ms"), ".2f") for k in ("p50", "p99", "max"))
     text = (
         f"1 kHz by the robot's clock (recorded at {values['control_rate_hz']:.0f} Hz), "
