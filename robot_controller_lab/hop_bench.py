@@ -101,13 +101,8 @@ def round_trips_per_s(duration_s: float = 5.0, domain_id: int | None = None, exe
         env=child_env,
         preexec_fn=lambda: os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0)),
     )
-    context = rclpy.Context()
-    node = spinner = None
     try:
-        with _like_the_nodes():
-            rclpy.init(context=context, domain_id=domain_id)
-            node = rclpy.create_node("hop_bench_ping", context=context)
-            pub = node.create_publisher(Float64MultiArray, PING, QOS)
+        with _bench_node("hop_bench_ping", domain_id, executor) as (node, pub, spinner):
             state = {"seq": 0, "done": 0}
             msg = Float64MultiArray()
 
@@ -122,8 +117,6 @@ def round_trips_per_s(duration_s: float = 5.0, domain_id: int | None = None, exe
                     send()
 
             node.create_subscription(Float64MultiArray, PONG, on_pong, QOS)
-            spinner = _executor(executor, context)
-            spinner.add_node(node)
             give_up = time.monotonic() + MATCH_TIMEOUT_S
             while state["done"] == 0:  # matched both ways once an echo comes back
                 if time.monotonic() > give_up or echo.poll() is not None:
@@ -144,11 +137,6 @@ def round_trips_per_s(duration_s: float = 5.0, domain_id: int | None = None, exe
         except subprocess.TimeoutExpired:
             echo.kill()
             echo.wait()
-        if spinner is not None:
-            spinner.shutdown(timeout_sec=1.0)
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown(context=context)
 
 
 def message_cpu_s(duration_s: float = 5.0, domain_id: int | None = None, period_s: float = 0.001) -> float:
@@ -161,33 +149,41 @@ def message_cpu_s(duration_s: float = 5.0, domain_id: int | None = None, period_
     apart from its arithmetic."""
     if domain_id is None:
         domain_id = int(os.environ.get("ROS_DOMAIN_ID", "0") or 0)
+    with _bench_node("hop_bench_self", domain_id, "events") as (node, pub, spinner):
+        state = {"heard": 0}
+        msg = Float64MultiArray(data=[0.0, 0.0, 0.0])
+
+        def on_ping(_: Float64MultiArray) -> None:
+            state["heard"] += 1
+
+        node.create_subscription(Float64MultiArray, PING, on_ping, QOS)
+        node.create_timer(period_s, lambda: pub.publish(msg))
+        give_up = time.monotonic() + MATCH_TIMEOUT_S
+        while state["heard"] == 0:  # its own reader matched once a message comes back
+            if time.monotonic() > give_up:
+                raise RuntimeError(f"the process did not hear itself within {MATCH_TIMEOUT_S} s")
+            spinner.spin_once(timeout_sec=PING_PERIOD_S)
+        for seconds in (WARMUP_S, duration_s):  # the last pass is the timed one
+            start, cpu0, heard0 = time.perf_counter(), time.process_time(), state["heard"]
+            while time.perf_counter() < start + seconds:
+                spinner.spin_once(timeout_sec=0.1)
+        return (time.process_time() - cpu0) / max(1, state["heard"] - heard0)
+
+
+@contextlib.contextmanager
+def _bench_node(name: str, domain_id: int, executor: str):
+    """A node of ``name`` on its own context (made as the loop's nodes are), its publisher on ``PING`` and its
+    spinning executor; all torn down after."""
     context = rclpy.Context()
     node = spinner = None
     try:
         with _like_the_nodes():
             rclpy.init(context=context, domain_id=domain_id)
-            node = rclpy.create_node("hop_bench_self", context=context)
+            node = rclpy.create_node(name, context=context)
             pub = node.create_publisher(Float64MultiArray, PING, QOS)
-            state = {"heard": 0}
-            msg = Float64MultiArray(data=[0.0, 0.0, 0.0])
-
-            def on_ping(_: Float64MultiArray) -> None:
-                state["heard"] += 1
-
-            node.create_subscription(Float64MultiArray, PING, on_ping, QOS)
-            node.create_timer(period_s, lambda: pub.publish(msg))
-            spinner = _executor("events", context)
+            spinner = _executor(executor, context)
             spinner.add_node(node)
-            give_up = time.monotonic() + MATCH_TIMEOUT_S
-            while state["heard"] == 0:  # its own reader matched once a message comes back
-                if time.monotonic() > give_up:
-                    raise RuntimeError(f"the process did not hear itself within {MATCH_TIMEOUT_S} s")
-                spinner.spin_once(timeout_sec=PING_PERIOD_S)
-            for seconds in (WARMUP_S, duration_s):  # the last pass is the timed one
-                start, cpu0, heard0 = time.perf_counter(), time.process_time(), state["heard"]
-                while time.perf_counter() < start + seconds:
-                    spinner.spin_once(timeout_sec=0.1)
-            return (time.process_time() - cpu0) / max(1, state["heard"] - heard0)
+            yield node, pub, spinner
     finally:
         if spinner is not None:
             spinner.shutdown(timeout_sec=1.0)
