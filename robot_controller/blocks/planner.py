@@ -49,6 +49,10 @@ from robot_controller.parameters.torque_limits import torque_limit
 #: A controller name as a ROS name segment.
 _CONTROLLER_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 #: A change of these brings the parameters' motion back in place of a joint trajectory.
+#: s a robot is held where it stands before the blend begins: its drive takes the planner's samples from its first
+#: tick, which comes up to a few hundred ms after the planner's (a blend already under way then had to be caught up
+#: with, and the catching up took the elbow past the speed its envelope allows)
+START_HOLD_S = 1.0
 #: of the speed a trajectory may reach, what the blend from where a robot stands may: a gentle start (at the full
 #: speed the blend took 60 N·m on the Panda's base, a push the torque's rate limit cannot take back in time)
 START_SPEED_SHARE = 0.3
@@ -114,7 +118,7 @@ class Planner:
         if self.start_s is None:
             self.start_s = self.origin_s = t_s
             if given(self.params["start_position"]):  # a robot, left where it was jogged
-                self.start_from(np.asarray(self.params["start_position"], float), t_s)
+                self.start_from(np.asarray(self.params["start_position"], float), t_s + START_HOLD_S)
         self.last_step_s = t_s
         position, velocity, acceleration = self.reference_at(t_s)
         # Written into one new array (the port's value, kept by its readers): cheaper than concatenating four.
@@ -194,8 +198,16 @@ class Planner:
         params = self.params
         usable = torque_limit(params, len(self.limits.joint_names)) * (1.0 - params["feasibility_margin"])
         self.crossfade = None  # (a blend under way is ``before``)
-        speeds = speed_share * params["velocity_share"] * self.limits.velocity
-        self.crossfade = crossfade(before, self.motion_in_force(), now_s, self.dynamics, usable, speeds)
+        shared = params["velocity_share"] * self.limits.velocity
+        speeds = speed_share * shared
+        envelope = ENVELOPES.get(params["velocity_envelope"])
+        speed_at = None
+        if envelope is not None:  # the trajectory's share of the robot's envelope, wherever the blend goes
+
+            def speed_at(position: np.ndarray, velocity: np.ndarray) -> np.ndarray:
+                return shared / envelope.max_rad_s * envelope.limit(position, velocity)
+
+        self.crossfade = crossfade(before, self.motion_in_force(), now_s, self.dynamics, usable, speeds, speed_at)
         gap = np.abs(before(now_s)[0] - self.crossfade.new(now_s)[0])
         j = int(np.argmax(gap))
         self.log.info(

@@ -3,12 +3,13 @@ the process that holds the robot's connection, with no ROS in it. What it needs 
 samples, an e-stop, the end) and what it leaves for it (each tick's record) pass through a
 :class:`~robot_controller.hardware.robot_link.RobotLink`, which it never waits on.
 
-Its motion: held where the arm stands for ``HOLD_S``, then the planner's samples as they come, the controller
-blending from the arm onto them (within ``reacquire_acceleration``). An e-stop or the run's end brings the reference
-to rest from where it is, smoothly (no torque step) within ``stop_deceleration`` (category 2, the arm tracking it
-under torque); then the run's end
-lets the robot go holding, an e-stop calls libfranka's ``stop`` (the robot's brakes) and the drive goes on reading
-where the arm stands until the end. A reflex or a lost link ends it at once: the robot has stopped itself."""
+Its motion: the planner's samples as they come (the planner holds the arm where it stands, then blends its motion
+in: ``start_position``), the controller leading the arm onto them (within ``reacquire_acceleration``). An e-stop or
+the run's end brings the reference to rest from where it is, smoothly (no torque step) within ``stop_deceleration``
+(category 2, the arm tracking it under torque); then the run's end lets the robot go holding, an e-stop calls
+libfranka's ``stop`` (the robot's brakes) and the drive goes on reading where the arm stands until the end. A reflex
+or a lost link ends it at once: the robot has stopped itself. A joint the guard brakes for ``GUARD_TICKS`` running
+ends the motion with every joint damped to rest."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -24,9 +26,10 @@ from robot_controller.blocks.controller_reports import Reports
 from robot_controller.blocks.wiring import BRAKING_STATUSES
 from robot_controller.core.controller import Status
 from robot_controller.core.controller.safe_motion import SmoothStop
+from robot_controller.core.errors import ConfigError
 from robot_controller.hardware.franka_arm import RobotFault
 from robot_controller.hardware.robot_link import END, ESTOP, GO, RobotLink
-from robot_controller.hardware.robot_loop import HOLD_S, Robot, RobotLoop, loop_thread, without_frames
+from robot_controller.hardware.robot_loop import Robot, RobotLoop, loop_thread, without_frames
 
 #: rad/s: below this on every joint, with the stop's reference at rest, the arm is at rest
 REST_RAD_S = 0.02
@@ -64,8 +67,12 @@ class Drive:
         clock_offset_s: float,
         stop_deceleration: float,
         parent_alive: Callable[[], bool] = lambda: True,
+        new_gains: Callable[[], tuple[Any, int | None] | None] = lambda: None,
     ) -> None:
+        """:param new_gains: a checked change of the controller's configuration and its delay margin, if one came
+        (it never waits): taken after the tick's command has gone, in force from the next."""
         self.loop, self.robot, self.link, self.reports = loop, robot, link, reports
+        self.new_gains = new_gains
         self.clock_offset_s = clock_offset_s
         self.stop_deceleration = stop_deceleration
         self.parent_alive = parent_alive
@@ -96,7 +103,7 @@ class Drive:
                     if stop is not None:
                         q, v, a = stop.at(t)
                         controller.set_reference(t, q, v, a, t)
-                    elif t - started_s >= HOLD_S and (new := link.new_reference()) is not None:
+                    elif (new := link.new_reference()) is not None:
                         sample_s, sample = new
                         sample_acceleration = sample[2 * n :]
                         controller.set_reference(t, sample[:n], sample[n : 2 * n], sample[2 * n :], sample_s)
@@ -138,6 +145,8 @@ class Drive:
                                 reading.velocity, reading.torque_nm, state)  # fmt: skip
                     if out.status is not self.reports.last_status:
                         self.reports.status_changed(out.status, started_s)
+                    if (change := self.new_gains()) is not None:
+                        self._take_gains(*change)
                     if out.status in BRAKING_STATUSES:
                         return self._finish(DriveEnd(str(out.status), at_s=t))
                     if stop is not None:
@@ -148,6 +157,16 @@ class Drive:
                     reading = self.robot.read()
             except RobotFault as exc:
                 return DriveEnd("fault", without_frames(exc), at_s=t)
+
+    def _take_gains(self, config: Any, margin: int | None) -> None:
+        """A live change of the controller's gains (bumpless: the PID keeps its I term in N·m), said as the simulated
+        controller says it; refused by the controller, the law in force stays, said."""
+        try:
+            self.loop.controller.set_config(config)
+        except ConfigError as exc:
+            self.reports.log.warning(f"the law in force stays: the change was refused ({exc})")
+            return
+        self.reports.log_gains(margin, 1.0 / config.control_period_s)
 
     def _asked(self) -> str | None:
         """Why the motion should stop now, if it should: an e-stop, the run's end, or the graph gone."""

@@ -120,8 +120,9 @@ class TorqueGuard:
         distance, peak = stopping_distance(speed, along * self.last_sent, self.rate_nm_s, self.brake_nm, inertia_kgm2)
         allowed = self.allowed_rad_s
         if self.limits.envelope is not None:  # the speed it may have where it would stop, the way it goes
+            # (all of it: the robot allows 0.1 rad/s past it, and trajectories keep within two thirds of it)
             towards_lower, towards_upper = self.limits.envelope.speeds(position + along * distance)
-            allowed = np.minimum(allowed, settings.velocity_share * np.where(along > 0, towards_upper, towards_lower))
+            allowed = np.minimum(allowed, np.where(along > 0, towards_upper, towards_lower))
         # Headed past its speed share: nothing pushes it on, and it is braked.
         fast = peak > allowed
         if fast.any():

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import threading
 import time
 from typing import Any
 
@@ -21,6 +22,7 @@ from robot_controller.blocks import spec
 from robot_controller.blocks.values import brakes_label, check_trajectory
 from robot_controller.hardware.robot_link import END, ESTOP, GO, TELEMETRY_EVERY, RobotLink, TickRow
 from robot_controller.hardware.robot_timing import RobotTiming
+from robot_controller.nodes.robot_gains import gains_node
 from robot_controller.ros import process
 from robot_controller.ros.process import ROBOT_FAULT_FILE, ROBOT_TIMING_FILE
 from robot_controller.ros.publishing import GatedPublisher, leave, write_publish_counts
@@ -147,12 +149,21 @@ class RobotBridge(Node):
         leave(ROBOT_TIMING_FILE, json.dumps(self.timing.figures()))
 
 
-def serve(ros_args: list[str], drive_pid: int, link: RobotLink, joint_names: list[str], state_blocks: list) -> int:
-    """Spin until the drive has ended (after the run's end asked it to, or on its own); its exit code."""
+def serve(
+    ros_args: list[str], drive_pid: int, link: RobotLink, joint_names: list[str], state_blocks: list, send_gains
+) -> int:
+    """Spin until the drive has ended (after the run's end asked it to, or on its own); its exit code. Beside the
+    bridge, the controller's parameters (``robot_gains``): a checked change goes to the drive through ``send_gains``."""
     process.init_with_own_signals(ros_args)
     node = RobotBridge(drive_pid, link, joint_names, state_blocks)
+    gains = gains_node(send_gains)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
+    # The gains on a thread of their own: a change waits for its design (in a worker process), and the planner's
+    # samples must go on reaching the drive meanwhile.
+    gains_executor = SingleThreadedExecutor()
+    gains_executor.add_node(gains)
+    threading.Thread(target=process.spin, args=(gains_executor,), name="gains", daemon=True).start()
     ending_since: float | None = None
     try:
         while node.exit_code is None:
@@ -172,6 +183,8 @@ def serve(ros_args: list[str], drive_pid: int, link: RobotLink, joint_names: lis
         write_publish_counts(NODE_NAME, list(node.gates.values()))
     finally:
         executor.shutdown(timeout_sec=1.0)
+        gains_executor.shutdown(timeout_sec=1.0)
+        gains.destroy_node()
         node.destroy_node()
         rclpy.try_shutdown()
     code = node.exit_code or 0

@@ -13,14 +13,15 @@ switch interval (5 ms) at a time; the robot stops after 20 late commands. They s
 from __future__ import annotations
 
 import contextlib
+import multiprocessing
 import os
 import signal
 import sys
 import time
+from multiprocessing.connection import Connection
 from typing import Any
 
 from robot_controller import parameters as cfg
-from robot_controller.blocks.block import Lines
 from robot_controller.blocks.controller_reports import Reports
 from robot_controller.core.errors import ConfigError
 from robot_controller.hardware.franka_arm import ROTOR_INERTIA_KGM2, FrankaArm, RobotFault, parse_hardware
@@ -40,7 +41,9 @@ DRIVE_RT_PRIORITY = 40
 GO_TIMEOUT_S = 60.0
 
 
-def _drive_process(host: str, loop, link: RobotLink, reports: Reports, stop_deceleration: float) -> int:
+def _drive_process(
+    host: str, loop, link: RobotLink, reports: Reports, stop_deceleration: float, gains: Connection
+) -> int:
     """The forked drive: connect, recover a reflex left from before (one line), wait for the graph, run."""
     import setproctitle
 
@@ -67,7 +70,8 @@ def _drive_process(host: str, loop, link: RobotLink, reports: Reports, stop_dece
     print(_realtime_note(scheduling.make_current_thread_realtime(DRIVE_RT_PRIORITY)), flush=True)
     # Ticks on the graph's clock (ROS time, the system clock): the planner's samples and the recorder's stamps.
     offset_s = time.time() - time.monotonic()
-    drive = Drive(loop, arm, link, reports, offset_s, stop_deceleration, parent_alive)
+    new_gains = lambda: gains.recv() if gains.poll() else None  # noqa: E731 (a non-blocking look, every tick)
+    drive = Drive(loop, arm, link, reports, offset_s, stop_deceleration, parent_alive, new_gains)
     end = drive.run()
     if end.fault is not None:
         return _failed(link, f"{end.fault.describe()} at {end.at_s - drive.started_s:.2f} s")
@@ -84,9 +88,12 @@ def _drive_process(host: str, loop, link: RobotLink, reports: Reports, stop_dece
         link.say_phase("ended")
         arm.close()
         return _failed(link, line)
-    elif end.why != "end":
-        print(f"the controller ended the motion ({end.why})", flush=True)
-        link.say_phase("ended")
+    elif end.why != "end":  # the controller stopped the motion itself (a law of one's own failed, …)
+        arm.close()
+        fault = loop.controller.law_fault
+        return _failed(
+            link, f"the control law failed: {fault.line()}" if fault else f"the controller stopped: {end.why}"
+        )
     else:
         link.say_phase("ended")
     arm.close()
@@ -104,13 +111,36 @@ def _failed(link: RobotLink, line: str) -> int:
     return ROBOT_FAULT_EXIT
 
 
-def _fork_drive(host: str, params: cfg.Params) -> tuple[int, RobotLink, Any, Reports]:
-    """The drive forked (before any ROS in this process), with the link to it."""
+class _Said:
+    """The drive's lines (the controller's status changes, the law in force), printed: the launcher relays them under
+    the process's name. A keyed warning once a key."""
+
+    def __init__(self) -> None:
+        self._warned: set[str] = set()
+
+    def info(self, message: str) -> None:
+        print(message, flush=True)
+
+    def warn(self, key: str, message: str) -> None:
+        if key not in self._warned:
+            self._warned.add(key)
+            print(f"WARNING: {message}", flush=True)
+
+    def warning(self, message: str) -> None:
+        print(f"WARNING: {message}", flush=True)
+
+    error = warning
+
+
+def _fork_drive(host: str, params: cfg.Params) -> tuple[int, RobotLink, Any, Reports, Connection]:
+    """The drive forked (before any ROS in this process), with the link to it and the end gain changes go in at."""
     loop = robot_loop(params, ROTOR_INERTIA_KGM2)
-    reports = Reports(Lines(), loop.controller, world_waits=False)
+    reports = Reports(_Said(), loop.controller, world_waits=False)
     state_size = sum(size for _, size in reports.state_blocks)
     link = RobotLink(len(loop.joint_names), state_size)
     stop_deceleration = float(params["pid_controller"]["stop_deceleration"])
+    # Gain changes, rare and small: a pipe the drive looks into each tick without waiting.
+    gains_out, gains_in = multiprocessing.Pipe(duplex=False)
     sys.stdout.flush()
     cpus = scheduling.loop_cpus()
     pid = os.fork()
@@ -120,12 +150,14 @@ def _fork_drive(host: str, params: cfg.Params) -> tuple[int, RobotLink, Any, Rep
     if pid == 0:
         code = 1
         try:
-            code = _drive_process(host, loop, link, reports, stop_deceleration)
+            gains_in.close()
+            code = _drive_process(host, loop, link, reports, stop_deceleration, gains_out)
         finally:
             sys.stdout.flush()
             sys.stderr.flush()
             os._exit(code)
-    return pid, link, loop, reports
+    gains_out.close()
+    return pid, link, loop, reports, gains_in
 
 
 def main(args: list[str] | None = None) -> int:
@@ -137,10 +169,11 @@ def main(args: list[str] | None = None) -> int:
     except (ValueError, ConfigError, IndexError) as exc:
         print(f"error: {exc}", file=sys.stderr, flush=True)
         return 2
-    pid, link, loop, reports = _fork_drive(host, params)
+    pid, link, loop, reports, gains = _fork_drive(host, params)
     from robot_controller.nodes.robot_bridge import serve  # rclpy: in this process only, after the fork
 
-    return serve([argv[0], *argv[2:]], pid, link, list(loop.joint_names), list(reports.state_blocks))
+    send_gains = lambda config, margin: gains.send((config, margin))  # noqa: E731
+    return serve([argv[0], *argv[2:]], pid, link, list(loop.joint_names), list(reports.state_blocks), send_gains)
 
 
 if __name__ == "__main__":

@@ -7,7 +7,7 @@ import pytest
 
 from robot_controller import parameters as cfg
 from robot_controller.blocks.block import Lines, make_block
-from robot_controller.blocks.planner import Planner
+from robot_controller.blocks.planner import START_HOLD_S, Planner
 from robot_controller.blocks.values import WaypointRequest
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.reference.tolerances import INVALID_GOAL, INVALID_JOINTS
@@ -118,4 +118,6 @@ def test_a_robot_standing_elsewhere_is_led_from_where_it_stands_onto_the_motion(
     assert "blended in" in "\n".join(log.lines)
     trajectory = trajectory_plan(cfg.load_stack()).trajectory
     after = [block.step(5.0 + t, {})["reference"].data for t in (np.arange(1, 1001) * PERIOD_S).tolist()]
-    assert after[-1][0] == pytest.approx(trajectory.sample(10.0)[0][0], abs=1e-9), "on the motion after the blend"
+    assert after[:50][-1][0] == pytest.approx(0.7), "held where it stands at first (its drive comes up meanwhile)"
+    # the motion's time 0 once the hold is over, on it after the blend
+    assert after[-1][0] == pytest.approx(trajectory.sample(10.0 - START_HOLD_S)[0][0], abs=1e-9)

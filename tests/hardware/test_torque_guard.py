@@ -110,10 +110,10 @@ def test_near_a_position_limit_the_robot_s_envelope_is_the_speed_limit():
         upper_rad=np.full(N, 2.0),
     )
     limits = RobotLimits(LIMITS.torque_nm, LIMITS.velocity_rad_s, LIMITS.lower_rad, LIMITS.upper_rad, envelope=envelope)
-    # Every joint at 1 rad/s, unpushed: far from its limits (joint 1), 0.25 rad from its upper limit heading to it
-    # (joint 2: the envelope allows sqrt(2·4·0.25) − 0.3 = 1.11 rad/s there, of which the guard keeps 85 %: braked),
-    # and the same heading away from it (joint 3).
-    position = np.array([0.0, 1.75, 1.75])
+    # Every joint at 1 rad/s, unpushed: far from its limits (joint 1), 0.16 rad from its upper limit heading to it
+    # (joint 2: the envelope allows sqrt(2·4·0.16) − 0.3 = 0.83 rad/s there: braked), and the same heading away from
+    # it (joint 3).
+    position = np.array([0.0, 1.84, 1.84])
     velocity = np.array([1.0, 1.0, -1.0])
     sent = TorqueGuard(limits, PERIOD_S)(np.zeros(N), STILL, position, velocity, INERTIA)
     assert sent[0] == 0.0 and sent[2] == 0.0

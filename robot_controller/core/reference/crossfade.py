@@ -43,22 +43,35 @@ class Crossfade:
 
 
 def crossfade(
-    old: Motion, new: Motion, start_s: float, dynamics: InverseDynamics, usable_nm, velocity_limit
+    old: Motion,
+    new: Motion,
+    start_s: float,
+    dynamics: InverseDynamics,
+    usable_nm,
+    velocity_limit,
+    speed_at: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
 ) -> Crossfade:
     """The shortest blend (from ``MIN_CROSSFADE_S``, ×1.25, at most ``MAX_CROSSFADE_S``) whose sampled torque and
-    speed stay within ``usable_nm`` and ``velocity_limit`` (arrays; or the two motions' own peaks, if higher)."""
+    speed stay within ``usable_nm`` and ``velocity_limit`` (arrays; or the two motions' own peaks, if higher), and,
+    given ``speed_at`` (position, velocity → the speed each joint may have there, a robot's envelope), within it
+    everywhere: the blend goes where neither motion does."""
 
-    def peaks(at: Motion, duration_s: float) -> tuple[np.ndarray, np.ndarray]:
-        samples = [at(start_s + t) for t in np.linspace(0.0, duration_s, 50)]
+    def sampled(at: Motion, duration_s: float) -> list:
+        return [at(start_s + t) for t in np.linspace(0.0, duration_s, 50)]
+
+    def peaks(samples: list) -> tuple[np.ndarray, np.ndarray]:
         torque = np.max([np.abs(dynamics.torque(*sample)) for sample in samples], axis=0)
         return torque, np.max([np.abs(sample[1]) for sample in samples], axis=0)
 
     duration = MIN_CROSSFADE_S
     while True:
         blend = Crossfade(old, new, start_s, duration)
-        (torque, speed), before, after = (peaks(motion, duration) for motion in (blend.at, old, new))
+        samples = sampled(blend.at, duration)
+        (torque, speed), before, after = peaks(samples), peaks(sampled(old, duration)), peaks(sampled(new, duration))
         fits = torque <= np.maximum.reduce([usable_nm, before[0], after[0]]) + 1e-9
         fits &= speed <= np.maximum.reduce([velocity_limit, before[1], after[1]]) + 1e-9
+        if speed_at is not None:
+            fits &= np.all([np.abs(v) <= speed_at(q, v) + 1e-9 for q, v, _ in samples], axis=0)
         if np.all(fits) or duration * 1.25 > MAX_CROSSFADE_S:
             return blend
         duration *= 1.25
