@@ -30,6 +30,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.hardware.franka_arm import RobotFault
 from robot_controller.hardware.robot_link import END, ESTOP, GO, RobotLink
 from robot_controller.hardware.robot_loop import Robot, RobotLoop, loop_thread, without_frames
+from robot_controller.hardware.robot_timing import SUCCESS_WINDOW
 
 #: rad/s: below this on every joint, with the stop's reference at rest, the arm is at rest
 REST_RAD_S = 0.02
@@ -37,6 +38,10 @@ REST_RAD_S = 0.02
 REST_TICKS = 50
 #: s a stop may take at most before the motion ends regardless (a joint that cannot settle)
 STOP_LIMIT_S = 5.0
+#: the robot's success rate (its last 100 commands) below which the motion is stopped under control: the link or this
+#: host cannot hold its 1 kHz, and the robot's own stop (20 late in a row) would come without a controlled stop first.
+#: (A good 60 s run's low was 0.76: scattered late commands cost nothing.)
+SUCCESS_RATE_FLOOR = 0.5
 #: ticks in a row the guard may brake a joint before the motion is stopped: its reference asks more than the robot
 #: allows there, and a controller fighting the brake winds up (released, it swings the joint past its limit)
 GUARD_TICKS = 50
@@ -79,6 +84,7 @@ class Drive:
         self.joint_count = len(loop.joint_names)
         self._last_s = 0.0  # the last tick's time
         self.started_s = 0.0  #: the first tick's time
+        self.success_rate_low = 1.0  #: the robot's success rate that stopped the motion, if one did
 
     def run(self) -> DriveEnd:
         """Torque control until the run's end, an e-stop, a stop of the controller's, or the robot's fault."""
@@ -92,6 +98,7 @@ class Drive:
         last_reference: np.ndarray | None = None
         reference_velocity = np.zeros(n)
         sample_acceleration = np.zeros(n)  # the planner's last sample's
+        ticks = 0
         with loop_thread():
             try:
                 reading = self.robot.start()
@@ -133,7 +140,8 @@ class Drive:
                     if last_reference is not None:
                         reference_velocity = (out.reference - last_reference) / max(t - self._last_s, 1e-4)
                     last_reference, self._last_s = out.reference, t
-                    if stop is None and not damping and (asked := self._asked()) is not None:
+                    ticks += 1
+                    if stop is None and not damping and (asked := self._asked(reading, ticks)) is not None:
                         # From the next tick: planned after this one's command went (it takes a fraction of a period)
                         why = asked
                         stop = SmoothStop.starting(
@@ -168,12 +176,16 @@ class Drive:
             return
         self.reports.log_gains(margin, 1.0 / config.control_period_s)
 
-    def _asked(self) -> str | None:
-        """Why the motion should stop now, if it should: an e-stop, the run's end, or the graph gone."""
+    def _asked(self, reading: Any, ticks: int) -> str | None:
+        """Why the motion should stop now, if it should: an e-stop, the run's end, the graph gone, or the robot taking
+        too few of our commands in time (its ``control_command_success_rate``, once a window of them has gone)."""
         if self.link.requested(ESTOP):
             return "estop"
         if self.link.requested(END) or not self.parent_alive():
             return "end"
+        if ticks > SUCCESS_WINDOW and reading.success_rate < SUCCESS_RATE_FLOOR:
+            self.success_rate_low = reading.success_rate
+            return "link"
         return None
 
     def _finish(self, end: DriveEnd) -> DriveEnd:

@@ -88,6 +88,14 @@ def _drive_process(
         link.say_phase("ended")
         arm.close()
         return _failed(link, line)
+    elif end.why == "link":
+        arm.close()
+        line = (
+            f"the robot took only {drive.success_rate_low:.2f} of our last 100 commands in time at "
+            f"{end.at_s - drive.started_s:.2f} s: the motion was stopped under control (the link to it, or this host, "
+            "cannot hold its 1 kHz)"
+        )
+        return _failed(link, line)
     elif end.why != "end":  # the controller stopped the motion itself (a law of one's own failed, …)
         arm.close()
         fault = loop.controller.law_fault
