@@ -24,8 +24,7 @@ def steal_ticks() -> tuple[int, int]:
 class RobotTiming:
     """Each tick's compute time, the robot's success rate and the periods it missed, taken as they come."""
 
-    def __init__(self, period_s: float) -> None:
-        self.period_s = period_s
+    def __init__(self) -> None:
         self._compute: list[float] = []
         self._rates: list[float] = []
         self.missed = 0

@@ -37,11 +37,13 @@ HELD_BY = {"estopped": {"estop"}, "fault": {"robot_fault"}, "ended": {"end"}}
 
 
 class RobotBridge(Node):
+    """The drive's face to the graph (see the module): its inputs to the link, its record to the topics."""
+
     def __init__(self, drive_pid: int, link: RobotLink, joint_names: list[str], state_blocks: list) -> None:
         super().__init__(NODE_NAME)
         self.drive_pid, self.link, self.joint_names = drive_pid, link, joint_names
         self.exit_code: int | None = None  #: the drive's, once it has ended
-        self.timing = RobotTiming(0.001)
+        self.timing = RobotTiming()
         self.ticks = 0
         self.phase = "starting"
         self._lost_said = 0.0
@@ -73,9 +75,9 @@ class RobotBridge(Node):
         if isinstance(checked, str):
             self.get_logger().warning(f"{spec.REFERENCE.topic} dropped: {checked}", throttle_duration_sec=2.0)
             return
-        position, velocity, acceleration, sample_s = checked
+        *values, sample_s = checked  # the tutorial's samples have no time: taken as of their arrival
         now_s = self.get_clock().now().nanoseconds * 1e-9
-        self.link.offer_reference(sample_s if sample_s is not None else now_s, np.concatenate(checked[:3]))
+        self.link.offer_reference(sample_s if sample_s is not None else now_s, np.concatenate(values))
 
     def _on_estop(self, msg: Bool) -> None:
         if msg.data and not self.link.requested(ESTOP):
