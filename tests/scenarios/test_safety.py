@@ -170,7 +170,11 @@ def test_a_killed_node_is_respawned_and_the_loop_recovers(tmp_path, ros_domain):
 
     code, output = run_while(out, kill_the_controller, "--respawn", duration="10")
     assert code == 1, run_said(output)  # the drive braked the arm for the fault: the run says so
-    assert "the brakes held the arm once for a fault" in output.splitlines()[-1], run_said(output)
+    metrics = json.loads((out / "metrics.json").read_text())
+    # Once for the kill; where the host froze the loop as well (on the wall clock, the loop's fault: the drive brakes
+    # again, its defined reaction), once or more.
+    held = "the brakes held the arm once for a fault" if not metrics.get("host_freezes") else "the brakes held the arm"
+    assert held in output.splitlines()[-1], run_said(output)
     assert "pid_controller died (exit code -9): respawning" in output
     # Nothing of the run outlives it: the killed controller's designer process died with it (it was left behind).
     left = subprocess.run(["pgrep", "-f", str(out / "params.yaml")], capture_output=True, text=True).stdout.split()
