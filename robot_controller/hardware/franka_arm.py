@@ -10,7 +10,7 @@ from __future__ import annotations
 import contextlib
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 from urllib.parse import urlparse
@@ -133,6 +133,12 @@ class FrankaArm:
             self.robot.automatic_error_recovery()
         except self._failures as exc:
             raise RobotFault([], f"the Franka's error recovery failed: {exc}") from None
+
+    def recover_if_needed(self, say: Callable[[str], None]) -> None:
+        """A reflex a last run left (its drive killed, a fault) cleared, said in one line; nothing said if none."""
+        if errors := self.errors():
+            say(f"the robot reports {', '.join(errors)} (from before): recovering it (automatic error recovery)")
+            self.recover()
 
     def start(self) -> RobotReading:
         """Torque control from now; the first state (time 0)."""

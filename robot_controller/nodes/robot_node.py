@@ -55,9 +55,7 @@ def _drive_process(
     parent_alive = parent_watch()
     try:
         arm = FrankaArm(host)
-        if errors := arm.errors():
-            print(f"the robot reports {', '.join(errors)} (left from before): recovering it", flush=True)
-            arm.recover()
+        arm.recover_if_needed(lambda line: print(line, flush=True))
     except RobotFault as fault:
         return _failed(link, fault.describe())
     if not wait_for_go(link, parent_alive, GO_TIMEOUT_S):

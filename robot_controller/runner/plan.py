@@ -153,9 +153,7 @@ def robot_standing(url: str) -> list[float]:
     try:
         arm = FrankaArm(parse_hardware(url))
         try:
-            if errors := arm.errors():
-                say(f"the robot reports {', '.join(errors)} (from before): recovering it (automatic error recovery)")
-                arm.recover()
+            arm.recover_if_needed(say)
             return [float(q) for q in arm.position()]
         finally:
             arm.close()
