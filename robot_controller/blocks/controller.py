@@ -69,6 +69,43 @@ class GainChange:
     margin: int | None
 
 
+def ordered(values: np.ndarray, names: list[str], joint_names: list[str]) -> np.ndarray | None:
+    """Per-joint ``values`` given in the order ``names`` (none: the arm's) in the arm's order, or None."""
+    values = np.asarray(values, dtype=float)
+    if values.size != len(joint_names):
+        return None
+    if not names or list(names) == joint_names:
+        return values
+    index = {name: k for k, name in enumerate(names)}
+    return values[[index[name] for name in joint_names]]
+
+
+class UnseenJoints:
+    """Which joints the readings say nothing of (a camera's: no marker it sees constrains them): each runs on the
+    arm's model while so, said once when it starts and once when it ends."""
+
+    def __init__(self, joint_names: list[str], log: Log) -> None:
+        self.joint_names, self.log = joint_names, log
+        self.unseen: dict[str, float] = {}  #: joint → the stamp since which the readings say nothing of it
+        self.episodes: list[tuple[str, float, float]] = []  #: (joint, from s, to s) of each episode ended
+
+    def take(self, stamp_s: float, position_std: np.ndarray | None) -> None:
+        if position_std is None:
+            if self.unseen:
+                position_std = np.zeros(len(self.joint_names))
+            else:
+                return
+        for name, sigma in zip(self.joint_names, position_std.tolist(), strict=True):
+            blind = not np.isfinite(sigma)
+            if blind and name not in self.unseen:
+                self.unseen[name] = stamp_s
+                self.log.warning(f"{name}: no marker in the camera's view constrains it: it runs on the arm's model")
+            elif not blind and name in self.unseen:
+                since_s = self.unseen.pop(name)
+                self.episodes.append((name, since_s, stamp_s))
+                self.log.info(f"{name}: seen again after {stamp_s - since_s:.2f} s on the arm's model")
+
+
 def _same(params: Mapping[str, Any], other: Mapping[str, Any]) -> bool:
     try:
         return dict(params) == dict(other)
@@ -77,7 +114,7 @@ def _same(params: Mapping[str, Any], other: Mapping[str, Any]) -> bool:
 
 
 class Controller:
-    inputs = ("reading", "reference", "estop", "brakes", "command_receipts")
+    inputs = ("reading", "camera_reading", "reference", "estop", "brakes", "command_receipts")
     outputs = ("command", "state", "diagnostics")
 
     def __init__(
@@ -140,6 +177,7 @@ class Controller:
         self.exit_code: int | None = None  #: set once the block has ended (a failed law's stop is over)
         self.mismatch_since: float | None = None
         self.log_schedule = LogSchedule(params["log_period_s"])
+        self.unseen = UnseenJoints(self.joint_names, self.log)
         self.reports.log_gains(self.checked.margin, params["control_rate_hz"])
 
     def check_params(self, params: Mapping[str, Any]) -> None:
@@ -196,7 +234,13 @@ class Controller:
         if isinstance(checked, str):
             self.log.warn(spec.READING.topic, f"{spec.READING.topic} dropped: {checked}")
             return None
-        return JointSample(sample.stamp_s, self.joint_names, *checked)
+        position_std = sample.position_std
+        if position_std is not None:
+            position_std = ordered(position_std, sample.names, self.joint_names)
+            if position_std is None:
+                self.log.warn(spec.READING.topic, f"{spec.READING.topic} dropped: one position σ per joint expected")
+                return None
+        return JointSample(sample.stamp_s, self.joint_names, *checked, position_std=position_std)
 
     def check_names(self, names: list[str], wall_s: float) -> None:
         """Readings naming other joints than this arm's, none usable since start, for ``CONFIG_MISMATCH_S`` of the
@@ -217,6 +261,8 @@ class Controller:
         for port, value in inputs.items():
             if port == "reading":
                 accepted = self._take_reading(t_s, value)
+            elif port == "camera_reading":
+                self._take_camera_reading(t_s, value)
             elif port == "reference":
                 self._take_reference(t_s, value)
             elif port == "estop":
@@ -231,11 +277,26 @@ class Controller:
         checked = self.checked_reading(sample)
         if checked is None:
             return False
-        refused = self.controller.set_measurement(checked.stamp_s, t_s, checked.position, checked.velocity)
+        refused = self.controller.set_measurement(
+            checked.stamp_s, t_s, checked.position, checked.velocity, checked.position_std
+        )
         if refused:
             self.log.warn("joint_states_age", f"{spec.READING.topic} dropped: {refused}")
             return False
+        self.unseen.take(checked.stamp_s, checked.position_std)
         return True
+
+    def _take_camera_reading(self, t_s: float, sample: JointSample) -> None:
+        """A camera's reading beside the encoder's (``--sensing both``): its positions, each with its σ."""
+        checked = self.checked_reading(sample)
+        if checked is None:
+            return
+        if checked.position_std is None:
+            self.log.warn("camera_reading", f"{spec.CAMERA_READING.topic} dropped: it says no position σ")
+            return
+        refused = self.controller.set_second_measurement(checked.stamp_s, t_s, checked.position, checked.position_std)
+        if refused:
+            self.log.warn("camera_reading_age", f"{spec.CAMERA_READING.topic} dropped: {refused}")
 
     def _take_reference(self, t_s: float, value: Array) -> None:
         checked = check_trajectory(value.data, self.joint_count)

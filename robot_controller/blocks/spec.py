@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 #: The QoS classes a port may name; ``ros.qos.profile`` maps each to its profile in each clock mode, and says why.
-QOS_CLASSES = ("control", "latest", "loop", "readings", "latched", "readings_writer", "clock")
+QOS_CLASSES = ("control", "latest", "loop", "readings", "latched", "readings_writer", "clock", "frames")
 
 #: When the recorder records a port.
 NEVER, ALWAYS, SIM_TIME = "never", "always", "sim_time"
@@ -79,6 +79,28 @@ REFERENCE = Port("reference", "/trajectory", _FLOATS, "trajectory_planner", "loo
 #: the sensor's noisy readings, stamped with the sample time
 READING = Port(
     "reading", "/joint_states", _JOINT_STATE, "sensor_node", "readings", "readings_writer", public=True, scored=True
+)
+#: a camera's joint positions (``--sensing both``), stamped with the exposure, each σ in ``header.frame_id``
+#: (``blocks.values.position_std_label``)
+CAMERA_READING = Port(
+    "camera_reading", "/vision/joint_states", _JOINT_STATE, "vision_node", "readings", "readings_writer", partition=True
+)
+#: the camera's image of the arm, RGB, stamped with its exposure (never recorded: 0.9 MB a frame)
+IMAGE = Port(
+    "image",
+    "/camera/image_raw",
+    "sensor_msgs/msg/Image",
+    "camera_node",
+    "frames",
+    "frames",
+    partition=True,
+    recorded=NEVER,
+)
+#: the camera's intrinsics, with each image (as image pipelines expect)
+CAMERA_INFO = Port("camera_info", "/camera/camera_info", "sensor_msgs/msg/CameraInfo", "camera_node", partition=True)
+#: the image with the markers found outlined, JPEG, a few a second: what the view shows and the bag keeps
+DETECTIONS = Port(
+    "detections", "/camera/detections/compressed", "sensor_msgs/msg/CompressedImage", "vision", partition=True
 )
 #: the controller's torque, N·m per joint (its tick's stamp in the layout's first dimension)
 COMMAND = Port("command", "/joint_commands", _FLOATS, "pid_controller", "loop", partition=True)
@@ -194,5 +216,8 @@ BLOCKS: dict[str, dict[str, str]] = {
     "sensor_node": {
         "encoder": "robot_controller.blocks.encoder:Encoder",
         "every_other_tick": "robot_controller.blocks.every_other_tick:EveryOtherTick",
+        "vision": "robot_controller.blocks.vision:Vision",
     },
+    "camera_node": {"camera": "robot_controller.blocks.camera:Camera"},
+    "vision_node": {"vision": "robot_controller.blocks.vision:VisionBeside"},
 }

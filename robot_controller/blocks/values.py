@@ -22,6 +22,60 @@ class JointSample:
     position: np.ndarray  #: rad (m on a prismatic joint)
     velocity: np.ndarray  #: rad/s (m/s)
     effort: np.ndarray | None = None  #: N·m applied (N), if said
+    #: rad (m), each position's σ where the sensor says it (a camera's: ``inf`` for a joint no marker constrains);
+    #: None: the controller's own ``position_noise_std``. A reading that says it carries no velocity.
+    position_std: np.ndarray | None = None
+
+
+#: A reading's per-joint σ on the wire: a ``JointState`` has no field for it, so its ``header.frame_id`` says it,
+#: ``position_std:<σ>,<σ>,…`` (rad, ``inf`` for none), as a command's tick is said in its layout's label.
+POSITION_STD_PREFIX = "position_std:"
+
+
+def position_std_label(position_std: np.ndarray) -> str:
+    return POSITION_STD_PREFIX + ",".join(f"{sigma:.6g}" for sigma in position_std.tolist())
+
+
+def labelled_position_std(label: str) -> np.ndarray | None:
+    """The per-joint σ a reading's frame id says (None: it says none, or nothing readable; NaN or a negative σ is
+    read as none for that joint: ``inf``)."""
+    if not label.startswith(POSITION_STD_PREFIX):
+        return None
+    try:
+        sigmas = np.array([float(text) for text in label[len(POSITION_STD_PREFIX) :].split(",")])
+    except ValueError:
+        return None
+    return np.where(sigmas >= 0, sigmas, np.inf)  # (NaN ≥ 0 is False)
+
+
+@dataclass(slots=True)
+class CameraFrame:
+    """One camera image: ``pixels`` (height, width, 3) RGB, 8 bits, exposed at ``stamp_s``."""
+
+    stamp_s: float
+    pixels: np.ndarray
+    frame_id: str = "camera"
+
+
+@dataclass(slots=True)
+class CompressedFrame:
+    """An image compressed (``format``: ``jpeg``), for the view and the bag."""
+
+    stamp_s: float
+    data: bytes
+    format: str = "jpeg"
+    frame_id: str = "camera"
+
+
+@dataclass(slots=True)
+class CameraCalibration:
+    """A camera's intrinsics as ``CameraInfo`` says them: the image size and the 3 × 3 matrix K (pixels)."""
+
+    stamp_s: float
+    width_px: int
+    height_px: int
+    k: np.ndarray
+    frame_id: str = "camera"
 
 
 def all_finite(values: np.ndarray) -> bool:

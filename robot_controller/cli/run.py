@@ -73,8 +73,18 @@ def register(sub) -> None:
         "1 kHz (a stand-in: make franka-sim; docs/hardware.md)"
     )
     p.add_argument("--hardware", metavar="URL", help=hardware_help)
+    sensing_help = (
+        "what the controller measures the arm with: encoders (the sensor_node's, default), camera (a rendered camera "
+        "and markers on every link: camera_node, and the vision in sensor_node), or both (the camera's readings "
+        "fused with the encoders' by the controller's filter; docs/camera.md)"
+    )
+    p.add_argument("--sensing", choices=SENSING, help=sensing_help)
     wait_help = "give up if the whole graph is not there within S seconds (default 60)"
     p.add_argument("--wait", dest="wait_s", type=positive_seconds, default=60.0, metavar="S", help=wait_help)
+
+
+#: ``--sensing``'s choices (``runner.sensing``)
+SENSING = ("encoders", "camera", "both")
 
 
 def _run(args: argparse.Namespace) -> int:

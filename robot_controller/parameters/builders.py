@@ -167,3 +167,20 @@ def kalman_config(values: Mapping[str, Any]) -> KalmanConfig:
     if world_waits(values):
         return config
     return replace(config.at_mismatch(), jump_detection_sigma=0.0)
+
+
+def camera_model(values: Mapping[str, Any], model: Any) -> Any:
+    """The camera the placement parameters say (``camera_position_m``, ``camera_target_m``, the image's size and field
+    of view), the default one for the arm ``model`` (a MuJoCo model) where they give no place."""
+    from robot_controller.core.vision.camera_model import CameraModel, default_camera
+
+    width, height = int(values["image_width"]), int(values["image_height"])
+    camera = default_camera(model, width, height)
+    position, target = values.get("camera_position_m"), values.get("camera_target_m")
+    return CameraModel(
+        np.asarray(position, dtype=float) if given(position) else camera.position_m,
+        np.asarray(target, dtype=float) if given(target) else camera.target_m,
+        width,
+        height,
+        float(values["camera_fovy_deg"]),
+    )

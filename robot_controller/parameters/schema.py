@@ -128,6 +128,26 @@ MOTOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
 # fmt: on
 
 
+# Where the camera stands and what it images: the camera renders with them and the vision solves with them (its
+# calibration), so every node that declares them takes one value (LOOP_WIDE).
+# fmt: off
+CAMERA_PLACEMENT_PARAMS: tuple[ParamSpec, ...] = (
+    ParamSpec("camera_position_m", float, [], "where the camera stands, world frame, m [x, y, z] (empty: a default that sees the arm's whole reach, along its joints' axes for a planar arm)", length=3, allow_empty=True, read_only=True),
+    ParamSpec("camera_target_m", float, [], "the point the camera looks at, world frame, m [x, y, z] (empty: the default's)", length=3, allow_empty=True, read_only=True),
+    ParamSpec("image_width", int, 640, "image width, px", minimum=16, maximum=4096, read_only=True),
+    ParamSpec("image_height", int, 480, "image height, px", minimum=16, maximum=4096, read_only=True),
+    ParamSpec("camera_fovy_deg", float, 45.0, "the camera's vertical field of view, degrees", minimum=1.0, maximum=170.0, read_only=True),
+)
+# The vision: markers found, the arm's joints solved over its chain (a sensor_node block, or vision_node beside the encoder).
+VISION_PARAMS: tuple[ParamSpec, ...] = (
+    ParamSpec("marker_calibration_error_m", float, 0.0, "σ of the error in where the vision believes each marker sits on its link, m (0: it knows exactly; a test of calibration)", minimum=0.0, maximum=0.05, read_only=True),
+    ParamSpec("marker_calibration_error_rad", float, 0.0, "σ of the error in each marker's believed orientation on its link, rad", minimum=0.0, maximum=0.2, read_only=True),
+    ParamSpec("corner_std_px", float, 0.3, "σ of a detected marker corner, px: the per-joint σ each reading says is worked out from it", **POSITIVE, maximum=10.0),
+    ParamSpec("detections_rate_hz", float, 5.0, f"how often the image with its detections is published on {spec.DETECTIONS.topic} (JPEG) for the view and the bag, Hz (0: never)", minimum=0.0, maximum=100.0),
+)
+# fmt: on
+
+
 # The sensor: its rate and the noise, bias, quantisation and delay of its readings.
 # fmt: off
 SENSOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
@@ -140,7 +160,34 @@ SENSOR_NODE_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("quantization", float, 0.0, "position quantisation step, rad (0 = none)", minimum=0.0),
     ParamSpec("seed", int, 0, "random seed of the noise; -1 draws one from the OS", minimum=-1),
     ParamSpec("delay_s", float, 0.0, "each reading is published this late, stamped with its sample time, s (a slow encoder or bus)", minimum=0.0, maximum=1.0),
+    *CAMERA_PLACEMENT_PARAMS,
+    *VISION_PARAMS,
     world_waits_spec(f"on the sim's clock: {spec.READING.topic} is transient local, so a controller that matches late still gets the reading its tick waits for"),
+)
+# fmt: on
+
+
+# The camera: it renders the arm, with markers on every moving link, as a fixed camera sees it.
+# fmt: off
+CAMERA_NODE_PARAMS: tuple[ParamSpec, ...] = (
+    URDF,
+    ParamSpec("block", str, "camera", "the camera block it runs (fixed at start)", choices=tuple(BLOCKS["camera_node"]), read_only=True),
+    ParamSpec("camera_rate_hz", float, 30.0, "frames a second, Hz: each frame is exposed at one of the world's states, so the rate is the nearest whole number of them (30 Hz on a 100 Hz world: every 3rd, 33.3 Hz)", minimum=1.0, maximum=100.0, read_only=True),
+    *CAMERA_PLACEMENT_PARAMS,
+    ParamSpec("latency_s", float, 0.02, "processing latency: each image is published this long after its exposure (rounded up to the world's states), s", minimum=0.0, maximum=0.2, read_only=True),
+    ParamSpec("pixel_noise_std", float, 2.0, "Gaussian noise on each pixel's intensity, levels of 255", minimum=0.0, maximum=50.0),
+    ParamSpec("occluded_link", str, "", "a link whose markers are hidden (something between it and the camera) during occlusion_s; empty: none"),
+    ParamSpec("occlusion_s", float, [], "when occluded_link is hidden: [from_s, duration_s] of the world's time (empty: all along)", length=2, allow_empty=True),
+    ParamSpec("seed", int, 0, "random seed of the pixel noise; -1 draws one from the OS", minimum=-1),
+    world_waits_spec(f"on the sim's clock: every {spec.IMAGE.topic} frame is kept for the vision (each is a tick's reading)"),
+)
+VISION_NODE_PARAMS: tuple[ParamSpec, ...] = (
+    URDF,
+    ParamSpec("block", str, "vision", "the vision block it runs (fixed at start)", choices=tuple(BLOCKS["vision_node"]), read_only=True),
+    *CAMERA_PLACEMENT_PARAMS,
+    *VISION_PARAMS,
+    ParamSpec("seed", int, 0, "random seed of the calibration error; -1 draws one from the OS", minimum=-1),
+    world_waits_spec(f"on the sim's clock: {spec.CAMERA_READING.topic} is transient local, as the readings are"),
 )
 # fmt: on
 
@@ -241,7 +288,7 @@ TRAJECTORY_PLANNER_PARAMS: tuple[ParamSpec, ...] = (
 # fmt: on
 
 
-NODES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
+NODES = ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner", "camera_node", "vision_node")
 # Parameters rclpy declares on every node by itself.
 ROS_BUILTIN = ("use_sim_time", "start_type_description_service")
 # Parameters a node declares to report something it works out (read-only in effect); a parameter file
@@ -250,7 +297,10 @@ REPORTED = ("law_in_force",)
 # Parameters of the whole loop that several nodes declare: one value for all of them. A parameter file names them
 # on any of these nodes (or under /**); the launcher hands the value to each (``files.load_stack``), and the
 # whole-configuration check refuses two nodes that disagree (``consistency``).
-LOOP_WIDE: dict[str, tuple[str, ...]] = {"control_rate_hz": ("simulator", "pid_controller")}
+LOOP_WIDE: dict[str, tuple[str, ...]] = {
+    "control_rate_hz": ("simulator", "pid_controller"),
+    **{p.name: ("camera_node", "sensor_node", "vision_node") for p in CAMERA_PLACEMENT_PARAMS},
+}
 
 SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
     "simulator": SIMULATOR_PARAMS,
@@ -258,6 +308,8 @@ SCHEMA: dict[str, tuple[ParamSpec, ...]] = {
     "sensor_node": SENSOR_NODE_PARAMS,
     "pid_controller": PID_CONTROLLER_PARAMS,
     "trajectory_planner": TRAJECTORY_PLANNER_PARAMS,
+    "camera_node": CAMERA_NODE_PARAMS,
+    "vision_node": VISION_NODE_PARAMS,
 }
 
 

@@ -134,7 +134,9 @@ class BlockNode(Node):
             msg_type = message_class(port.msg_type)
             qos = profile(port.writer_qos, world_waits=self.mode.world_waits)
             if port.partition:
-                publisher = self.gated_publisher(msg_type, port.topic, consumer=self.extras.consumer(port), qos=qos)
+                kept = port in spec.recorded_ports(self.mode.world_waits)
+                consumer = self.extras.consumer(port)
+                publisher = self.gated_publisher(msg_type, port.topic, consumer=consumer, qos=qos, kept=kept)
             else:
                 publisher = self.create_publisher(msg_type, port.topic, qos)
             msg = msg_type()
@@ -249,8 +251,11 @@ class BlockNode(Node):
         finally:
             self._reporting = None
 
-    def gated_publisher(self, msg_type: Any, topic: str, *, consumer: bool = True, qos: Any = None) -> GatedPublisher:
-        gated = GatedPublisher(self, msg_type, topic, world_waits=self.mode.world_waits, consumer=consumer, qos=qos)
+    def gated_publisher(
+        self, msg_type: Any, topic: str, *, consumer: bool = True, qos: Any = None, kept: bool = True
+    ) -> GatedPublisher:
+        world_waits = self.mode.world_waits
+        gated = GatedPublisher(self, msg_type, topic, world_waits=world_waits, consumer=consumer, qos=qos, kept=kept)
         self._gated_publishers.append(gated)
         return gated
 

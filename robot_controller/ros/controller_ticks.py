@@ -113,6 +113,10 @@ def take(ticks: TimerTicks | PairedTicks, port: str, value: Any) -> None:
         ticks.take_reference(value)
     elif port == "command_receipts":
         ticks.block.take(clock_s(ticks.node), {port: value})
+    elif port == "camera_reading":  # aged on arrival: where the world waits, at its latest clock
+        ticks.block.take(
+            max(ticks.clock_s, 0.0) if isinstance(ticks, PairedTicks) else clock_s(ticks.node), {port: value}
+        )
     else:
         ticks.block.take(0.0, {port: value})
 
@@ -242,8 +246,10 @@ class PairedTicks:
         if self.reading.stamp_s > self.clock_s + 1e-9:
             return  # the reading is for a tick whose clock has not arrived yet
         reading, self.reading = self.reading, None
-        if self.paired_stamp_s is not None and reading.stamp_s > self.paired_stamp_s:
-            self.reading_period_s = reading.stamp_s - self.paired_stamp_s  # the sensor's own, however late they came
+        if self.paired_stamp_s is not None and self.clock_s > self.paired_s:
+            # The sensor's period in the world's ticks it answers (its lateness is the same every time): a camera's
+            # reading repeated between its frames (the same stamp) answers every tick.
+            self.reading_period_s = self.clock_s - self.paired_s
         self.paired_s, self.paired_stamp_s = self.clock_s, reading.stamp_s
         self.block.take(self.clock_s, {"reading": reading})  # a refused one is said; the tick goes on
         self.tick_s = self.clock_s

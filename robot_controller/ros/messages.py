@@ -9,11 +9,23 @@ from typing import Any
 
 import numpy as np
 from rclpy.node import Node
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from trajectory_msgs.msg import JointTrajectory
 
-from robot_controller.blocks.values import Array, JointSample, WaypointRequest
+from robot_controller.blocks.values import (
+    Array,
+    CameraCalibration,
+    CameraFrame,
+    CompressedFrame,
+    JointSample,
+    WaypointRequest,
+    labelled_position_std,
+    position_std_label,
+)
+
+#: ``sensor_msgs/Image`` encodings a camera frame is taken in (3 channels of 8 bits)
+IMAGE_ENCODINGS = {"rgb8": False, "bgr8": True}  # → whether its channels come reversed
 
 
 def stamp_to_s(stamp: Any) -> float:
@@ -40,7 +52,18 @@ def decode(msg: Any) -> Any:
     if isinstance(msg, JointState):
         effort = np.asarray(msg.effort, dtype=float) if len(msg.effort) else None
         position, velocity = np.asarray(msg.position, dtype=float), np.asarray(msg.velocity, dtype=float)
-        return JointSample(stamp_to_s(msg.header.stamp), list(msg.name), position, velocity, effort)
+        position_std = labelled_position_std(msg.header.frame_id) if msg.header.frame_id else None
+        if position_std is not None and velocity.size == 0:  # a camera's: no velocity measured
+            velocity = np.zeros_like(position)
+        stamp_s = stamp_to_s(msg.header.stamp)
+        return JointSample(stamp_s, list(msg.name), position, velocity, effort, position_std)
+    if isinstance(msg, Image):
+        return decode_image(msg)
+    if isinstance(msg, CompressedImage):
+        return CompressedFrame(stamp_to_s(msg.header.stamp), bytes(msg.data), msg.format, msg.header.frame_id)
+    if isinstance(msg, CameraInfo):
+        k = np.asarray(msg.k, dtype=float).reshape(3, 3)
+        return CameraCalibration(stamp_to_s(msg.header.stamp), msg.width, msg.height, k, msg.header.frame_id)
     if isinstance(msg, Float64MultiArray):
         return Array(np.asarray(msg.data, dtype=float), msg.layout.dim[0].label if msg.layout.dim else "")
     if isinstance(msg, JointTrajectory):
@@ -56,15 +79,56 @@ def decode(msg: Any) -> Any:
     return msg.data  # Bool, String
 
 
+def decode_image(msg: Image) -> CameraFrame | str:
+    """An image as a frame, or why it cannot be used (an encoding other than 8-bit RGB or BGR, sizes that disagree)."""
+    if msg.encoding not in IMAGE_ENCODINGS:
+        return f"image encoding {msg.encoding!r}: expected one of {', '.join(IMAGE_ENCODINGS)}"
+    expected = msg.height * msg.step
+    if msg.width == 0 and msg.height == 0 and len(msg.data) == 0:  # no frame at this tick (blocks.camera)
+        return CameraFrame(stamp_to_s(msg.header.stamp), np.zeros((0, 0, 3), dtype=np.uint8), msg.header.frame_id)
+    if msg.step < 3 * msg.width or len(msg.data) != expected:
+        return f"image {msg.width}×{msg.height}, step {msg.step}: {len(msg.data)} bytes, expected {expected}"
+    rows = np.frombuffer(bytes(msg.data), dtype=np.uint8).reshape(msg.height, msg.step)
+    pixels = rows[:, : 3 * msg.width].reshape(msg.height, msg.width, 3)
+    if IMAGE_ENCODINGS[msg.encoding]:
+        pixels = pixels[:, :, ::-1]
+    return CameraFrame(stamp_to_s(msg.header.stamp), pixels, msg.header.frame_id)
+
+
+def _stamp(msg: Any, stamp_s: float) -> None:
+    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(round(stamp_s * 1e9), 1_000_000_000)
+
+
 def encode(value: Any, msg: Any) -> Any:
     """``value`` written into ``msg`` (reused: a loop's message is built once)."""
     if isinstance(msg, JointState):
-        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(round(value.stamp_s * 1e9), 1_000_000_000)
+        _stamp(msg, value.stamp_s)
         msg.name = list(value.names)
         msg.position = value.position.tolist()
-        msg.velocity = value.velocity.tolist()
+        if value.position_std is not None:  # a camera's: position alone, each with its σ
+            msg.header.frame_id = position_std_label(value.position_std)
+            msg.velocity = []
+        else:
+            msg.velocity = value.velocity.tolist()
         if value.effort is not None:
             msg.effort = value.effort.tolist()
+    elif isinstance(msg, Image):
+        _stamp(msg, value.stamp_s)
+        msg.header.frame_id = value.frame_id
+        msg.height, msg.width = value.pixels.shape[:2]
+        msg.encoding, msg.is_bigendian, msg.step = "rgb8", 0, 3 * msg.width
+        msg.data = np.ascontiguousarray(value.pixels, dtype=np.uint8).tobytes()
+    elif isinstance(msg, CompressedImage):
+        _stamp(msg, value.stamp_s)
+        msg.header.frame_id, msg.format, msg.data = value.frame_id, value.format, value.data
+    elif isinstance(msg, CameraInfo):
+        _stamp(msg, value.stamp_s)
+        msg.header.frame_id = value.frame_id
+        msg.width, msg.height = value.width_px, value.height_px
+        msg.distortion_model, msg.d = "plumb_bob", [0.0] * 5
+        msg.k = value.k.reshape(-1).tolist()
+        msg.r = np.eye(3).reshape(-1).tolist()
+        msg.p = np.hstack([value.k, np.zeros((3, 1))]).reshape(-1).tolist()
     elif isinstance(msg, Float64MultiArray):
         msg.data = value.data.tolist()
         size = len(msg.data)

@@ -58,12 +58,23 @@ class GatedPublisher:
     has matched, then publishes; counts what it published. ``consumer=False``: telemetry."""
 
     def __init__(
-        self, node: Node, msg_type: Any, topic: str, *, world_waits: bool, consumer: bool = True, qos: QoSProfile = None
+        self,
+        node: Node,
+        msg_type: Any,
+        topic: str,
+        *,
+        world_waits: bool,
+        consumer: bool = True,
+        qos: QoSProfile = None,
+        kept: bool = True,
     ) -> None:
+        """``kept``: the recorder records the topic (a camera's raw frames it does not: the gate never waits for it,
+        and its count is not checked against the bag)."""
         self.node, self.topic = node, topic
         self.publisher = node.create_publisher(msg_type, topic, qos or CONTROL_QOS)
         self.consumer = consumer
-        self.recorder = recorded()
+        self.kept = kept
+        self.recorder = recorded() and kept
         self.open = not consumer and not self.recorder
         # Held until open: every message for telemetry and where the world waits (each is a tick, and the bag
         # must hold them all), only the newest for a wall-clock consumer (an old torque is worth nothing).
@@ -113,6 +124,6 @@ class GatedPublisher:
 def write_publish_counts(node_name: str, gates: list[GatedPublisher]) -> None:
     """How many messages ``gates`` published, per topic, for the launcher to check the bag against."""
     counts: dict[str, int] = {}
-    for gated in gates:
+    for gated in (gate for gate in gates if gate.kept):
         counts[gated.topic] = counts.get(gated.topic, 0) + gated.count
     leave(f"{node_name}.json", json.dumps(counts))

@@ -35,6 +35,10 @@ LATCHED_QOS = _keep_last(1, latched=True)
 CLOCK_QOS = _keep_last(1000, latched=True)
 # The e-stop: volatile readers, so `ros2 topic pub` on it matches; the nodes that obey it latch it, not DDS.
 ESTOP_QOS = LATEST_QOS
+# A camera's frames (0.9 MB each): the newest few on the wall clock; where the world waits, every one (each is a tick's
+# reading to be), which the world's waiting keeps to a few in flight.
+FRAMES_QOS = _keep_last(3)
+SIM_TIME_FRAMES_QOS = _keep_last(10)
 # An observer (the viewer): best effort, short queues; no writer waits for it or resends to it.
 OBSERVER_QOS = _keep_last(50, reliable=False)
 
@@ -59,5 +63,6 @@ def profile(qos_class: str, *, world_waits: bool) -> QoSProfile:
         "readings_writer": SIM_TIME_READINGS_QOS if world_waits else CONTROL_QOS,
         "latched": LATCHED_QOS,
         "clock": CLOCK_QOS,
+        "frames": SIM_TIME_FRAMES_QOS if world_waits else FRAMES_QOS,
     }
     return profiles[qos_class]

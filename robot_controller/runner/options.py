@@ -35,6 +35,7 @@ class RunOptions:
     domain_id: int | None = None  #: the graph's ROS_DOMAIN_ID (default: this process's)
     tracking_band_rad: float | None = None  #: the band the run is judged by (None: the robot's)
     hardware: str | None = None  #: a robot in place of the simulated arm (``franka://HOST``): ``nodes.robot_node``
+    sensing: str = "encoders"  #: ``encoders``, ``camera`` or ``both`` (``runner.sensing``)
 
     @classmethod
     def from_args(cls, args: Any) -> RunOptions:

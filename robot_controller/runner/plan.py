@@ -17,6 +17,7 @@ from robot_controller.parameters import consistency
 from robot_controller.parameters.schema import LOCKSTEP_END_MARGIN_S
 from robot_controller.ros import partition, scheduling
 from robot_controller.ros.publishing import COUNTS_DIR_ENV, RECORDED_ENV
+from robot_controller.runner import sensing
 from robot_controller.runner.options import NODE_ORDER, RunOptions, check_nodes
 from robot_controller.runner.processes import Process
 from robot_controller.view import serve as view_serve
@@ -74,7 +75,14 @@ def world_waits_params(params: cfg.Params) -> cfg.Params:
     out = cfg.merge(params, {})
     for node in cfg.NODES:
         out[node]["use_sim_time"] = False
-    for node in ("simulator", "pid_controller", "trajectory_planner", "motor_node", "sensor_node"):
+    for node in (
+        "simulator",
+        "pid_controller",
+        "trajectory_planner",
+        "motor_node",
+        "sensor_node",
+        *sensing.CAMERA_NODES,
+    ):
         out[node][cfg.WORLD_WAITS] = True
     return out
 
@@ -193,6 +201,11 @@ def check(params: cfg.Params, options: RunOptions) -> CheckedRun:
     if options.hardware is not None:
         options, params = on_hardware(params, options)
     params = consistency.with_controller_model(params)
+    if options.sensing != "encoders":
+        refused = {"--hardware": options.hardware, "--single-process": options.single_process, "--nodes": split}
+        if said := [flag for flag, given in refused.items() if given]:
+            raise ConfigError(f"--sensing {options.sensing}: not with {', '.join(said)} (its camera is simulated)")
+        params = sensing.with_sensing(params, options.sensing)
     if options.paced and (split or options.peers or options.respawn):
         # Across hosts the drive keeps its host's clock, as on hardware; a respawned simulator would restart time.
         options = replace(options, paced=False)
@@ -256,6 +269,7 @@ def plan(run: CheckedRun, out_dir: Path) -> RunPlan:
     elif options.single_process:
         processes = [Process("stack", "all_in_one", node_args, node_env)]
     else:
+        local = (*local, *sensing.EXTRA_NODES[options.sensing])
         processes = [Process(name, name, node_args, node_env) for name in local]
     recorder = None
     if RECORDING_NODE in local:

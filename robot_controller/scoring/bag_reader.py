@@ -19,7 +19,7 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
 from robot_controller.blocks import spec
-from robot_controller.blocks.values import brake_reasons
+from robot_controller.blocks.values import POSITION_STD_PREFIX, brake_reasons, labelled_position_std
 from robot_controller.core import metrics
 from robot_controller.core.controller import state_layout
 
@@ -41,6 +41,9 @@ class Recording:
     motor_latency_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: stamp → command at the motor
     reading_stamp_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: the sensor's readings' stamps
     reading_position: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))  #: the raw, noisy readings
+    camera_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: a camera's frames' exposures, s
+    #: each camera frame's σ per joint (``inf``: no marker seen constrains it); no rows: no camera
+    camera_position_std: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
     #: the planner's samples: their time (its stamp, else when recorded) and positions
     planned_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     planned_position: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
@@ -94,6 +97,10 @@ class Recording:
         return [f"joint{k + 1}" for k in range(self.joint_count)]
 
 
+def stamp_of(msg: Any) -> float:
+    return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+
 def read_recording(bag_dir: Path) -> Recording:
     """A message that cannot be decoded, or whose sizes do not fit the run (anyone on the domain could have
     published it), is skipped and counted in ``malformed``."""
@@ -144,7 +151,23 @@ def read_recording(bag_dir: Path) -> Recording:
         decoded[TRUE_STATE],
         lambda r: joint_state_fits(r) and len(r[1].effort) == joint_count,
     )
-    readings = keep(READING, decoded[READING], joint_state_fits)
+
+    def reading_fits(row: tuple[int, Any]) -> bool:  # a camera's says each position's σ and no velocity
+        msg = row[1]
+        said = msg.header.frame_id.startswith(POSITION_STD_PREFIX) and len(msg.velocity) == 0
+        return joint_state_fits(row) or (
+            said and len(msg.position) == joint_count and np.all(np.isfinite(msg.position))
+        )
+
+    readings = keep(READING, decoded[READING], reading_fits)
+    # One camera reading per frame (where the world waits the last is repeated at ticks between frames: skipped).
+    seen_stamps: set[float] = set()
+    camera_std = []
+    for _, msg in readings:
+        sigmas = labelled_position_std(msg.header.frame_id)
+        if sigmas is not None and sigmas.size == joint_count and stamp_of(msg) not in seen_stamps:
+            seen_stamps.add(stamp_of(msg))
+            camera_std.append((stamp_of(msg), sigmas))
     if not state_rows or not true:
         raise ValueError(f"{bag_dir}: no usable {STATE} or {TRUE_STATE} recorded")
     state = state_layout.decode(np.vstack(state_rows), joint_count)
@@ -182,8 +205,7 @@ def read_recording(bag_dir: Path) -> Recording:
     if len(receipts):
         latency = motor_latency_s(state, receipts).tolist()
 
-    def stamp(msg: Any) -> float:
-        return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+    stamp = stamp_of
 
     diagnostics = []
     for _, msg in decoded[spec.DIAGNOSTICS.topic]:
@@ -207,6 +229,8 @@ def read_recording(bag_dir: Path) -> Recording:
         motor_latency_s=np.asarray(latency, dtype=float),
         reading_stamp_s=np.array([stamp(m) for _, m in readings]),
         reading_position=rows([np.asarray(m.position, float) for _, m in readings]),
+        camera_time_s=np.array([t for t, _ in camera_std]),
+        camera_position_std=rows([sigma for _, sigma in camera_std]),
         planned_time_s=np.array([t for t, _, _ in planned]),
         planned_position=rows([q for _, q, _ in planned]),
         planned_velocity=rows([v for _, _, v in planned]),

@@ -13,7 +13,7 @@ from robot_controller import resources
 from robot_controller.core import metrics
 from robot_controller.core.controller import state_layout
 from robot_controller.core.controller.supervision import Status
-from robot_controller.core.model.mujoco_model import joint_units, load_model
+from robot_controller.core.model.mujoco_model import joint_names, joint_units, load_model
 from robot_controller.scoring import summary
 from robot_controller.scoring.bag_reader import (  # noqa: F401 - what scores a run reads first, importable here
     Recording,
@@ -25,6 +25,11 @@ from robot_controller.scoring.bag_reader import (  # noqa: F401 - what scores a 
 def arm_units(urdf_path: str) -> list[str]:
     """Each joint's position unit, ``"rad"`` or ``"m"``, of the arm at ``urdf_path`` ("": the reference arm)."""
     return joint_units(load_model(resources.resolve_urdf(urdf_path)))
+
+
+def arm_joint_names(urdf_path: str) -> list[str]:
+    """The joints of the arm at ``urdf_path`` ("": the reference arm), in its order."""
+    return joint_names(load_model(resources.resolve_urdf(urdf_path)))
 
 
 def score(

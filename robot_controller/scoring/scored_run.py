@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 from robot_controller.core import metrics as core_metrics
 from robot_controller.scoring import plots, report, summary, verdict
 from robot_controller.scoring.bag_reader import Recording
+from robot_controller.scoring.camera_figures import camera_figures
 
 if TYPE_CHECKING:
     from robot_controller.runner.plan import CheckedRun
@@ -106,7 +107,10 @@ def score_launched(checked: CheckedRun, result: RunResult) -> ScoredRun:
     robot = robots.arm_name(options.robot, params["simulator"]["urdf_path"])
     values.update(duration_s=round(recorded_s, 3), interrupted=result.interrupted, preset=options.preset, robot=robot)
     values.update(seed=options.seed, mode="single_process" if options.single_process else "multi_process")
-    values.update(clock=clock)
+    values.update(clock=clock, sensing=options.sensing)
+    if options.sensing != "encoders":
+        joint_names = report.arm_joint_names(params["simulator"]["urdf_path"])
+        values.update(camera_figures(recording.camera_time_s, recording.camera_position_std, joint_names))
     if options.nodes is not None and len(result.local_nodes) < 5:  # a split run: what ran here (the rest elsewhere)
         values["nodes_here"] = ",".join(result.local_nodes)
     # Wall-clock figures of a ``--sim-time`` run differ run to run: kept out of metrics.json.

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from robot_controller.core.metrics import EFFORT_UNITS, WARMUP_S
+from robot_controller.scoring.camera_figures import camera_line
 
 Row = tuple[str, str]  #: (label, text)
 
@@ -64,6 +65,8 @@ def run_rows(
         rows.append(("peak effort", effort))
     if values.get("clock") in ("wall", "sim_paced") and finite(values.get("control_rate_hz")):
         rows.append(("rate", _rate_line(values)))
+    if sensing := camera_line(values):
+        rows.append(("sensing", sensing))
     rows += _trouble_rows(values)
     if out is not None:
         rows.append(("files", f"{out}/: summary.md, tracking.png, metrics.json, bag/"))

@@ -228,17 +228,38 @@ class JointController:
         return self._readings.stamp_s
 
     def set_measurement(
-        self, stamp_s: float, received_s: float, position: np.ndarray, velocity: np.ndarray
+        self,
+        stamp_s: float,
+        received_s: float,
+        position: np.ndarray,
+        velocity: np.ndarray,
+        position_std: np.ndarray | None = None,
     ) -> str | None:
-        """Take a reading stamped ``stamp_s`` that arrived at ``received_s``; returns why it was refused (it is then no
-        sign of life for the watchdog either), or None."""
-        refused = self._readings.accept(stamp_s, received_s, position, velocity, self.config.max_reading_age_s)
+        """Take a reading stamped ``stamp_s`` that arrived at ``received_s`` (``position_std``: its own σ per joint, a
+        camera's, its velocity unmeasured); returns why it was refused (it is then no sign of life for the watchdog
+        either), or None."""
+        max_age_s = self.config.max_reading_age_s
+        refused = self._readings.accept(stamp_s, received_s, position, velocity, max_age_s, position_std)
         age_s = received_s - stamp_s
         if self._latency is not None and (refused is None or age_s > 0):
             # A reading refused as too old is weighed too: those kept are at most max_reading_age_s old, all of which
             # the latency compensation accounts for.
             self._latency.reading(age_s)
         return refused
+
+    def set_second_measurement(
+        self, stamp_s: float, received_s: float, position: np.ndarray, position_std: np.ndarray
+    ) -> str | None:
+        """A second sensor's reading of the positions (a camera's beside the encoder), each with its σ: fused by the
+        filter at the next tick; returns why it was refused (too old, or no filter to fuse it), or None."""
+        age_s = received_s - stamp_s
+        if abs(age_s) > self.config.max_reading_age_s:
+            when = "old" if age_s > 0 else "in the future"
+            return f"reading stamped {abs(age_s):.3f} s {when} (max_reading_age_s {self.config.max_reading_age_s:g})"
+        if self._state.kalman is None:
+            return "a second sensor is fused by the filter: set estimator kalman"
+        self._state.take_second(stamp_s, position, position_std)
+        return None
 
     def command_delay(self, receipt_s: float, delay_s: float) -> None:
         """A command reached the drive ``delay_s`` after its tick (the drive's receipt at ``receipt_s``)."""

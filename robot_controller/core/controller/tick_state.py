@@ -21,6 +21,8 @@ from robot_controller.core.model import ArmDynamics
 MAX_EXTRAPOLATION_S = 0.1
 TIME_EPS_S = 1e-6
 _COMMAND_HISTORY = 16
+# Filtered positions kept (one per reading): 0.5 s of a 100 Hz sensor, longer than any camera reading may be late.
+_FILTERED_HISTORY = 50
 # Coasting, the observer's estimate held is its average over this long (s): open loop, a transient
 # in it is a torque on the arm for as long as readings stay away; the average keeps a payload's
 # torque (96 % of one that came a second before) and drops transients (a 50 ms one to a fifth).
@@ -84,6 +86,10 @@ class StateAtTick:
         self._disturbance_average: list[float] | None = None
         self._average_s = 0.0
         self._coasting = False  #: the model coasts on the average: readings are missing
+        #: (stamp s, filtered position) after each reading, newest last: where a late camera's reading is brought from
+        self._history: deque[tuple[float, np.ndarray]] = deque(maxlen=_FILTERED_HISTORY)
+        #: a second sensor's late reading (stamp s, position, σ per joint) waiting for the next tick
+        self._second: tuple[float, np.ndarray, np.ndarray] | None = None
         #: keeps the model's and the gains' inertia the arm's, after each reading (None: they stay as designed)
         self.inertia: InertiaAdaptation | None = None
 
@@ -100,6 +106,8 @@ class StateAtTick:
             self.inertia.interrupted()
         self._filtered_stamp_s = -np.inf
         self._disturbance_average, self._coasting = None, False
+        self._history.clear()
+        self._second = None
 
     def at_tick(self, now_s: float, readings: Readings, latency_compensation: bool) -> tuple[np.ndarray, np.ndarray]:
         """The reading, filtered, then (with ``latency_compensation``) brought from its stamp to ``now_s``, position
@@ -111,12 +119,19 @@ class StateAtTick:
             if stamp_s != self._filtered_stamp_s:
                 # The torque that acted since the last reading: the last command issued before it; how
                 # much it changed matters only to a filter unsure when a command takes effect.
+                if readings.position_std is not None:
+                    # A camera's reading comes slower than the commands: each acts over its own span.
+                    for issued_s, _ in self.commands_between(self._filtered_stamp_s, stamp_s):
+                        kalman.advance(issued_s, self.command_before(issued_s))
                 command = self.command_before(stamp_s)
                 change = None
                 if kalman.config.command_timing_uncertainty_s > 0:
                     change = self.command_change(self._filtered_stamp_s, stamp_s)
-                self._filtered = kalman.update(stamp_s, position, velocity, command, change)
+                self._filtered = kalman.update(stamp_s, position, velocity, command, change, readings.position_std)
                 self._filtered_stamp_s = stamp_s
+                self._history.append((stamp_s, self._filtered[0]))
+            if self._second is not None:
+                self._fuse_second()
                 self._average_disturbance(stamp_s)
                 if self.inertia is not None:
                     self.inertia.after_reading(stamp_s, kalman, command)
@@ -132,6 +147,27 @@ class StateAtTick:
             velocity = kalman.velocity_at_instant(position, velocity, self.last_command())
             self._coasting = False
         return position, velocity
+
+    def take_second(self, stamp_s: float, position: np.ndarray, position_std: np.ndarray) -> None:
+        """A second sensor's reading of the positions alone (a camera's beside the encoder), later than the filter's
+        readings: fused at the next tick."""
+        self._second = (stamp_s, position, position_std)
+
+    def _fuse_second(self) -> None:
+        """The second sensor's reading brought to the filter's time by the filter's own motion since its stamp (the
+        filtered position then, from the history), then fused on the positions alone. One older than the history, or
+        from before the filter's first reading, is dropped."""
+        stamp_s, position, position_std = self._second
+        self._second = None
+        then = None
+        for filtered_s, filtered in reversed(self._history):
+            if filtered_s <= stamp_s + TIME_EPS_S:
+                then = filtered
+                break
+        if then is None or self.kalman.x is None:
+            return
+        moved = self._filtered[0] - then
+        self._filtered = self.kalman.correct_position(position + moved, position_std)
 
     def _average_disturbance(self, now_s: float) -> None:
         """Fold the observer's state after a reading into its running average (first order, on floats)."""
@@ -213,6 +249,10 @@ class StateAtTick:
             if issued_s < time_s - TIME_EPS_S:
                 return command
         return np.zeros(self.joint_count)
+
+    def commands_between(self, from_s: float, to_s: float) -> list[tuple[float, np.ndarray]]:
+        """The commands issued strictly between ``from_s`` and ``to_s`` (s), oldest first."""
+        return [(t, c) for t, c in self._commands if from_s + TIME_EPS_S < t < to_s - TIME_EPS_S]
 
     def command_change(self, from_s: float, to_s: float) -> np.ndarray:
         """How much the commands issued in ``[from_s, to_s)`` changed the command (N·m per joint, root sum of

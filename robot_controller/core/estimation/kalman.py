@@ -35,6 +35,11 @@ Transition = Callable[[np.ndarray, np.ndarray, np.ndarray, float, float], np.nda
 MassMatrix = Callable[[np.ndarray], np.ndarray]
 
 
+#: rad, rad/s: the σ a reading that says nothing of a joint's position (a camera that sees no marker constraining it)
+#: or velocity (a camera measures none) is taken with: finite, so the algebra stays the same, and so large that the
+#: filter runs that joint on its model
+UNMEASURED_STD = 1e3
+
 _ADJUGATE, _ADJUGATE_SIGN = np.array([3, 1, 2, 0]), np.array([1.0, -1.0, -1.0, 1.0])
 
 
@@ -101,6 +106,16 @@ def timing_noise_template(dt: float) -> np.ndarray:
     return template
 
 
+def reading_noise(position_std: np.ndarray) -> np.ndarray:
+    """A position-only reading's R per joint, (n, 2, 2): its σ (``inf``: :data:`UNMEASURED_STD`), its velocity
+    unmeasured."""
+    sigma = np.minimum(np.asarray(position_std, dtype=float), UNMEASURED_STD)
+    R = np.zeros((sigma.size, 2, 2))
+    R[:, 0, 0] = np.square(sigma)
+    R[:, 1, 1] = UNMEASURED_STD**2
+    return R
+
+
 def clearly_within(distance_sq: np.ndarray, sigma: float) -> bool:
     """Whether every joint's surprise is clearly within ``sigma`` σ: then neither of innovation's tests can hold."""
     return all((distance_sq < innovation.CLEAR_SHARE * sigma * sigma).tolist())
@@ -163,6 +178,7 @@ class JointKalmanFilter:
         self.P = np.zeros((g, k * m, k * m))  #: per group, joint by joint: [q1, v1, (d1), q2, v2, ...]
         self.R = np.diag([config.position_noise_std**2, config.velocity_noise_std**2])
         self._R_all = np.kron(np.eye(k), self.R)
+        self._R_joint: np.ndarray | None = None  #: (n, 2, 2) the latest reading's own R, when it said its σs
         self._index = at = StateIndex(k, m)
         self._F = np.zeros((g, k * m, k * m))  #: the transition, rewritten in place each period
         if self.estimates_disturbance:
@@ -237,15 +253,18 @@ class JointKalmanFilter:
         velocity: np.ndarray,
         torque: np.ndarray,
         torque_change: np.ndarray | None = None,
+        position_std: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Take a reading stamped ``time_s``, ``torque`` (N·m) having acted since the last; returns the filtered
         ``(position, velocity)``. ``torque_change``: how much the command changed about the start of that span,
-        when the instant it took effect is uncertain (``command_timing_uncertainty_s``)."""
+        when the instant it took effect is uncertain (``command_timing_uncertainty_s``). ``position_std``: the
+        reading's own σ per joint (a camera's; ``inf``: it says nothing of that joint), its velocity unmeasured."""
         n, m = self.joint_count, self.size
         g, k = self._groups, self._per_group
         observer = self.estimates_disturbance
         z = self._reading  # the reading, per joint
         z[:, 0], z[:, 1] = position, velocity
+        self._R_joint = None if position_std is None else reading_noise(position_std)
         if self.x is None or self.time_s is None or not (0 < time_s - self.time_s < 1.0):
             self.x = np.zeros((n, m))
             self.P = np.zeros((g, k * m, k * m))
@@ -287,7 +306,7 @@ class JointKalmanFilter:
             P_pred.reshape(-1)[at.flat_blocks] += Q.reshape(-1)  # each joint's own process noise
             own = P_pred.take(at.flat_own_readings)
         surprise = z - x_pred[:, :2]  # the innovation, per joint
-        S_joint = own.reshape(n, 2, 2) + self.R
+        S_joint = own.reshape(n, 2, 2) + (self.R if self._R_joint is None else self._R_joint)
         S_inv = inverse_2x2(S_joint)
         distance_sq = c_einsum("ni,nij,nj->n", surprise, S_inv, surprise)  # (innovation.quadratic)
         jumped = None
@@ -314,7 +333,10 @@ class JointKalmanFilter:
             K = np.matmul(S_inv, P_read).transpose(0, 2, 1)  # (g, m, 2)
         else:
             S = P_pred[(slice(None), *at.readings)] if k == 1 else P_pred.take(at.flat_readings).reshape(1, 2 * k, -1)
-            S += self._R_all
+            if self._R_joint is None:
+                S += self._R_all
+            else:  # each joint's own (diagonal) R on the diagonal
+                S.reshape(S.shape[0], -1)[:, :: 2 * k + 1] += self._R_joint.diagonal(axis1=1, axis2=2).reshape(-1)
             # (S is a covariance, positive definite: np.linalg.solve's checks for a singular one never fire)
             K = inverse_2x2(S) @ P_read if k == 1 else _umath_linalg.solve(S, P_read, signature="dd->d")
             K = K.transpose(0, 2, 1)
@@ -332,6 +354,58 @@ class JointKalmanFilter:
                     self._start(unexplainable, z)
                     self.restart_count += unexplainable
         return x[:, 0].copy(), x[:, 1].copy()
+
+    def advance(self, time_s: float, torque: np.ndarray) -> None:
+        """The prediction alone, to ``time_s`` under ``torque`` (N·m): where a command changed between two readings
+        further apart than the commands (a camera's), each command acts over its own span. Nothing before the first
+        reading, or backwards."""
+        if self.x is None or self.time_s is None or not (0 < time_s - self.time_s < 1.0):
+            return
+        dt = time_s - self.time_s
+        self.time_s = time_s
+        q, v = self.x[:, 0], self.x[:, 1]
+        F = self._transition(q, v, torque, dt)
+        external = self._disturbance_torque()
+        q_pred, v_pred = self.predictor(q, v, torque, dt, max_step_s=self.config.model_step_s, external_nm=external)
+        variance_d, variance_a = self._noise_variances()
+        if self.estimates_disturbance:
+            self._set_mass(q)
+            Q = observer_noise(dt, self._own_inverse_mass, variance_d, variance_a)
+        else:
+            G = np.array([0.5 * dt * dt, dt])
+            Q = np.outer(G, G) * variance_a[:, None, None]
+        P = np.matmul(np.matmul(F, self.P), F.transpose(0, 2, 1))
+        at, m = self._index, self.size
+        if at.block_shape == (m, m):
+            P += Q
+        else:
+            P.reshape(-1)[at.flat_blocks] += Q.reshape(-1)
+        self.P = 0.5 * (P + P.transpose(0, 2, 1))
+        self.x[:, 0], self.x[:, 1] = q_pred, v_pred
+        self._external = None
+
+    def correct_position(self, position: np.ndarray, position_std: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A second reading of the position alone at the filter's own time (a late camera's, brought to it by the
+        filter's own motion since its stamp), each joint with its σ (``inf``: none): the update on ``q`` alone.
+        Returns the filtered ``(position, velocity)``."""
+        if self.x is None:
+            raise ValueError("correct_position: the filter has no state yet")
+        g, k, m = self._groups, self._per_group, self.size
+        q_at = np.asarray(self._index.q).reshape(-1)
+        variance = np.square(np.minimum(np.asarray(position_std, dtype=float), UNMEASURED_STD))
+        x = self.x.reshape(g, k * m)
+        P = self.P
+        P_q = P[:, q_at, :]  # (g, k, km)
+        S = P_q[:, :, q_at] + variance.reshape(g, 1, k) * np.eye(k)
+        K = np.linalg.solve(S, P_q).transpose(0, 2, 1)  # (g, km, k)
+        surprise = np.asarray(position, dtype=float).reshape(g, k) - x[:, q_at]
+        x += np.matmul(K, surprise[:, :, None])[:, :, 0]
+        P = P - np.matmul(K, P_q)
+        self.P = 0.5 * (P + P.transpose(0, 2, 1))
+        self._external = None
+        if self.estimates_disturbance:
+            self.x[:, 2] = np.clip(self.x[:, 2], -self.disturbance_limit, self.disturbance_limit)
+        return self.x[:, 0].copy(), self.x[:, 1].copy()
 
     def _transition(self, q: np.ndarray, v: np.ndarray, torque: np.ndarray, dt: float) -> np.ndarray:
         """The model linearised at ``(q, v)`` over ``dt`` (per group, km × km); ``d`` moves its own joint as a
@@ -364,6 +438,8 @@ class JointKalmanFilter:
         if self.estimates_disturbance:
             prior[2, 2] = DISTURBANCE_PRIOR_STD_NM**2
         for j in np.flatnonzero(joints):
+            if self._R_joint is not None:  # the reading's own σs: a camera's unmeasured velocity is not known
+                prior[:2, :2] = self._R_joint[j]
             group, first = divmod(j, k)
             own = slice(first * m, (first + 1) * m)
             self.P[group, own, :] = 0.0
