@@ -54,6 +54,7 @@ class Camera:
         self.check_params(params)
         self.params = dict(params)
         self.renderer = Renderer(urdf, self.layout, self.camera)
+        self.renderer.render(np.zeros(len(self.joint_names)))  # the first render sets up the GL context: not on a tick
         self.world_period_s: float | None = None
         self.last_stamp_s: float | None = None
         self.next_frame_s: float | None = None

@@ -28,6 +28,9 @@ class Vision:
     outputs = ("reading", "detections")
     #: the port its readings leave by
     reading_port = "reading"
+    #: where the world waits, answer a tick with no frame with the last reading again: the loop's sensor, whose
+    #: reading each tick waits for
+    repeats = True
 
     def __init__(self, params: Mapping[str, Any], log: Log, *, world_waits: bool = False) -> None:
         from robot_controller.core.vision.detection import MarkerDetector
@@ -84,7 +87,7 @@ class Vision:
             self.log.warn("image", f"image dropped: {frame}")
             return {}
         if frame.pixels.size == 0:  # no frame at this tick: the last reading again (it adds nothing to the filter)
-            return {self.reading_port: self.last} if self.world_waits and self.last is not None else {}
+            return {self.reading_port: self.last} if self.repeats and self.world_waits and self.last is not None else {}
         started = time.perf_counter()
         detections = self.detector.detect(frame.pixels)
         solution = self.solver.solve(detections, self.guess) if detections else None
@@ -124,6 +127,7 @@ class VisionBeside(Vision):
 
     outputs = ("camera_reading", "detections")
     reading_port = "camera_reading"
+    repeats = False  # the controller knows when its next reading is due
 
 
 def jpeg(pixels: np.ndarray) -> bytes:

@@ -142,7 +142,7 @@ CAMERA_PLACEMENT_PARAMS: tuple[ParamSpec, ...] = (
 VISION_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("marker_calibration_error_m", float, 0.0, "σ of the error in where the vision believes each marker sits on its link, m (0: it knows exactly; a test of calibration)", minimum=0.0, maximum=0.05, read_only=True),
     ParamSpec("marker_calibration_error_rad", float, 0.0, "σ of the error in each marker's believed orientation on its link, rad", minimum=0.0, maximum=0.2, read_only=True),
-    ParamSpec("corner_std_px", float, 0.3, "σ of a detected marker corner, px: the per-joint σ each reading says is worked out from it", **POSITIVE, maximum=10.0),
+    ParamSpec("corner_std_px", float, 1.0, "σ of a detected marker corner, px: the per-joint σ each reading says is worked out from it", **POSITIVE, maximum=10.0),
     ParamSpec("detections_rate_hz", float, 5.0, f"how often the image with its detections is published on {spec.DETECTIONS.topic} (JPEG) for the view and the bag, Hz (0: never)", minimum=0.0, maximum=100.0),
 )
 # fmt: on

@@ -114,9 +114,10 @@ def take(ticks: TimerTicks | PairedTicks, port: str, value: Any) -> None:
     elif port == "command_receipts":
         ticks.block.take(clock_s(ticks.node), {port: value})
     elif port == "camera_reading":  # aged on arrival: where the world waits, at its latest clock
-        ticks.block.take(
-            max(ticks.clock_s, 0.0) if isinstance(ticks, PairedTicks) else clock_s(ticks.node), {port: value}
-        )
+        if isinstance(ticks, PairedTicks):
+            ticks.take_second_reading(value)
+        else:
+            ticks.block.take(clock_s(ticks.node), {port: value})
     else:
         ticks.block.take(0.0, {port: value})
 
@@ -183,6 +184,55 @@ class TimerTicks:
         self.misses.leave()
 
 
+#: wall s a tick waits for a camera's reading due beside the encoder's before it goes on without
+SECOND_WAIT_S = 0.3
+#: wall s a tick waits for it before its period is known (its second frame): the ticks between its first two
+SECOND_START_WAIT_S = 0.1
+
+
+class SecondReadings:
+    """When a second sensor's reading (a camera's, beside the encoder's) is due at the world's clock: its frames
+    come every ``period`` and arrive ``lateness`` after their stamps, both learnt from its readings."""
+
+    def __init__(self) -> None:
+        self.last_stamp_s: float | None = None
+        self.period_s: float | None = None
+        self.lateness_s = 0.0
+        self.given_up = False  # said once: a camera that stopped is not waited for again until it comes back
+
+    def arrived(self, stamp_s: float, clock_s: float) -> None:
+        if self.last_stamp_s is not None and stamp_s > self.last_stamp_s:
+            # Its own lateness is the least it has come (its latency): later than that it lagged, the world waits
+            # for it from now. The first frame comes at once.
+            late_s = max(clock_s - stamp_s, 0.0)
+            self.lateness_s = late_s if self.period_s is None else min(self.lateness_s, late_s)
+            self.period_s = stamp_s - self.last_stamp_s
+        if self.last_stamp_s is None or stamp_s > self.last_stamp_s:
+            self.last_stamp_s = stamp_s
+            self.given_up = False
+
+    def due(self, tick_s: float) -> bool:
+        """Whether a reading is due by ``tick_s``: until its second frame teaches its period and latency, every tick
+        waits a little for one (so the camera starts in step with the world, not behind it)."""
+        if self.last_stamp_s is None or self.given_up:
+            return False
+        if self.period_s is None:
+            return True
+        return tick_s >= self.last_stamp_s + self.period_s + self.lateness_s - 1e-9
+
+    def waited_out(self, waiting_since: float, log: Any) -> bool:
+        if self.period_s is None:
+            return time.monotonic() - waiting_since > SECOND_START_WAIT_S
+        if time.monotonic() - waiting_since <= SECOND_WAIT_S:
+            return False
+        self.given_up = True
+        log.warning(
+            f"sim time: the camera's {spec.CAMERA_READING.topic} due by now did not come within {SECOND_WAIT_S:g} s: "
+            "going on on the encoder alone until it comes"
+        )
+        return True
+
+
 class PairedTicks:
     """Where the world waits for each command, each reading is a tick at the world's clock it pairs with, computed
     once the reference sample due by then has arrived (or, from a planner slower than the control rate, after
@@ -202,6 +252,7 @@ class PairedTicks:
         self.paired_stamp_s: float | None = None  # and that reading's stamp
         self.clock_seen = time.monotonic()  # when the world's clock last moved on
         self.reading_period_s: float | None = None  # s between the last two readings' stamps
+        self.second = SecondReadings()  # a camera's beside the encoder's (``--sensing both``)
 
     def start(self) -> None:
         self.node.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -226,6 +277,14 @@ class PairedTicks:
             return
         self.reading = checked
         self.pair()
+
+    def take_second_reading(self, sample: JointSample) -> None:
+        """A camera's reading beside the encoder's: taken at the world's latest clock; a tick it is due for waits
+        for it (so the same run fuses it at the same tick), at most ``SECOND_WAIT_S``."""
+        clock_s = max(self.clock_s, 0.0)
+        self.block.take(clock_s, {"camera_reading": sample})
+        self.second.arrived(sample.stamp_s, clock_s)
+        self.try_tick()
 
     def take_reference(self, value: Any) -> None:
         # Received at the tick in force (the world's latest clock, so a sample sent a tick early waits for it).
@@ -272,6 +331,8 @@ class PairedTicks:
         tick_s = self.tick_s
         if tick_s is None or not self.block.controller.reference_ready(tick_s):
             return
+        if self.second.due(tick_s) and not self.second.waited_out(self.waiting_since, self.block.log):
+            return
         self.tick_s = None
         self._tick(tick_s)
         self.pair()
@@ -279,6 +340,10 @@ class PairedTicks:
     def reference_wait_check(self) -> None:
         """A planner slower than the control rate leaves ticks with no sample due, a sensor slower than it ticks with no
         reading due; until their periods are learned from two samples, do not wait forever."""
+        if self.tick_s is not None and self.second.due(self.tick_s):
+            if self.second.waited_out(self.waiting_since, self.block.log):
+                self.try_tick()
+            return
         if self.tick_s is None:
             waited = self.clock_s > self.block.last_tick_s and time.monotonic() - self.clock_seen > READING_WAIT_S
             if waited and self.reading_period_s is None and self.paired_s is not None and self.reading is None:

@@ -163,7 +163,7 @@ def read_recording(bag_dir: Path) -> Recording:
     # One camera reading per frame (where the world waits the last is repeated at ticks between frames: skipped).
     seen_stamps: set[float] = set()
     camera_std = []
-    for _, msg in readings:
+    for _, msg in [*readings, *decoded[spec.CAMERA_READING.topic]]:  # the camera's, in the loop or beside it
         sigmas = labelled_position_std(msg.header.frame_id)
         if sigmas is not None and sigmas.size == joint_count and stamp_of(msg) not in seen_stamps:
             seen_stamps.add(stamp_of(msg))
@@ -248,7 +248,7 @@ def read_recording(bag_dir: Path) -> Recording:
 
 
 #: What scoring reads back (``blocks.spec``'s scored ports), and the diagnostics the view draws.
-WANTED_TOPICS = (*spec.scored_topics(), spec.DIAGNOSTICS.topic)
+WANTED_TOPICS = (*spec.scored_topics(), spec.DIAGNOSTICS.topic, spec.CAMERA_READING.topic)
 
 
 def _brake_reasons(msg: Any) -> frozenset[str]:

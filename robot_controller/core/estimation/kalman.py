@@ -40,6 +40,10 @@ MassMatrix = Callable[[np.ndarray], np.ndarray]
 #: filter runs that joint on its model
 UNMEASURED_STD = 1e3
 
+#: rad/s: how uncertain a joint's velocity is when the filter starts it from a reading that has none (the model's
+#: prediction, or rest at the start)
+UNREAD_VELOCITY_START_STD = 0.5
+
 _ADJUGATE, _ADJUGATE_SIGN = np.array([3, 1, 2, 0]), np.array([1.0, -1.0, -1.0, 1.0])
 
 
@@ -297,6 +301,8 @@ class JointKalmanFilter:
             Q[:, :2, :2] += timing_noise_template(dt) * (sigma_v**2)[:, None, None]
         x_pred = self.x.copy()
         x_pred[:, 0], x_pred[:, 1] = q_pred, v_pred
+        if self._R_joint is not None:  # no velocity read: none to be surprised by, nor to restart a joint from
+            z[:, 1] = v_pred
         P_pred = np.matmul(np.matmul(F, self.P), F.transpose(0, 2, 1))
         at = self._index
         if at.block_shape == (m, m):  # each joint its own group: its process noise is the whole block
@@ -438,8 +444,9 @@ class JointKalmanFilter:
         if self.estimates_disturbance:
             prior[2, 2] = DISTURBANCE_PRIOR_STD_NM**2
         for j in np.flatnonzero(joints):
-            if self._R_joint is not None:  # the reading's own σs: a camera's unmeasured velocity is not known
-                prior[:2, :2] = self._R_joint[j]
+            if self._R_joint is not None:  # the reading's own σ; its velocity is the prediction's, unread
+                prior[0, 0] = self._R_joint[j, 0, 0]
+                prior[1, 1] = UNREAD_VELOCITY_START_STD**2
             group, first = divmod(j, k)
             own = slice(first * m, (first + 1) * m)
             self.P[group, own, :] = 0.0
