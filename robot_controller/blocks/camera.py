@@ -1,4 +1,5 @@
-"""The camera (the graph's ``camera_node``): it renders the arm as a fixed camera sees it, with fiducial markers on
+"""The camera (the graph's ``camera_node``): it renders the arm as a fixed monochrome camera sees it (as marker
+tracking uses: a third of the bytes, a third of the noise to draw), with fiducial markers on
 every moving link, from the world's true state. Each frame is exposed at one of the world's states (every few of them:
 ``camera_rate_hz`` rounded to a whole number of the world's periods, so a run on the sim's clock repeats), noised, and
 published ``latency_s`` after its exposure, stamped with it, beside its intrinsics (``CameraInfo``); the first frame
@@ -8,10 +9,13 @@ for one (which would stall the world)."""
 
 from __future__ import annotations
 
+import threading
 from collections import deque
 from collections.abc import Mapping
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
+import cv2
 import numpy as np
 
 from robot_controller import resources
@@ -20,12 +24,48 @@ from robot_controller.blocks.values import CameraCalibration, CameraFrame, Joint
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.model import load_model
 from robot_controller.core.model.mujoco_model import joint_names
+from robot_controller.core.vision.scene import add_pixel_noise
 from robot_controller.parameters.builders import camera_model
 
 #: An image with no pixels: where the world waits, "no frame at this state".
-NO_PIXELS = np.zeros((0, 0, 3), dtype=np.uint8)
+NO_PIXELS = np.zeros((0, 0), dtype=np.uint8)
 # Stamps within this of a due time count as due (float ns rounding).
 _EPS_S = 1e-6
+
+
+class Darkroom:
+    """Renders on a thread of its own (which holds the GL context), so a frame is made while its latency passes and
+    the world's next ticks go on (MuJoCo lets go of the GIL while it renders); a frame is waited for only when it is
+    due out."""
+
+    def __init__(self, urdf: Any, layout: Any, camera: Any, joint_count: int, rng: np.random.Generator) -> None:
+        self._local = threading.local()
+        self.rng = rng  # drawn from on its thread alone, frame after frame: a run repeats
+        self._thread = ThreadPoolExecutor(1, thread_name_prefix="camera_render")
+        self._thread.submit(self._open, urdf, layout, camera).result()
+        self._thread.submit(self._render, np.zeros(joint_count), [], 0.0).result()  # GL's set-up: not at a tick
+
+    def _open(self, urdf: Any, layout: Any, camera: Any) -> None:
+        from robot_controller.core.vision.scene import Renderer
+
+        self._local.renderer = Renderer(urdf, layout, camera)
+
+    def render(self, position: np.ndarray, hidden: list[int], noise_std: float) -> Future:
+        """The arm at ``position`` with the markers ``hidden`` hidden and pixel noise of ``noise_std`` levels, to come
+        (RGB pixels)."""
+        return self._thread.submit(self._render, np.array(position, dtype=float), list(hidden), noise_std)
+
+    def _render(self, position: np.ndarray, hidden: list[int], noise_std: float) -> np.ndarray:
+        renderer = self._local.renderer
+        renderer.show_all()
+        if hidden:
+            renderer.hide(hidden)
+        gray = cv2.cvtColor(renderer.render(position), cv2.COLOR_RGB2GRAY)
+        return add_pixel_noise(gray, noise_std, self.rng) if noise_std > 0 else gray
+
+    def close(self) -> None:
+        self._thread.submit(lambda: self._local.renderer.close()).result()
+        self._thread.shutdown()
 
 
 def frame_ticks(rate_hz: float, world_period_s: float) -> int:
@@ -39,7 +79,6 @@ class Camera:
 
     def __init__(self, params: Mapping[str, Any], log: Log, *, world_waits: bool = False) -> None:
         from robot_controller.core.vision.markers import place_markers
-        from robot_controller.core.vision.scene import Renderer
 
         self.log = log
         self.world_waits = world_waits
@@ -53,12 +92,11 @@ class Camera:
         self.layout = place_markers(model, self.camera)
         self.check_params(params)
         self.params = dict(params)
-        self.renderer = Renderer(urdf, self.layout, self.camera)
-        self.renderer.render(np.zeros(len(self.joint_names)))  # the first render sets up the GL context: not on a tick
+        self.darkroom = Darkroom(urdf, self.layout, self.camera, len(self.joint_names), self.rng)
         self.world_period_s: float | None = None
         self.last_stamp_s: float | None = None
         self.next_frame_s: float | None = None
-        self.pending: deque[CameraFrame] = deque()  # exposed, waiting out their latency
+        self.pending: deque[tuple[float, Future]] = deque()  # exposed (stamp s, its render), waiting out the latency
         self.hidden = False
         self.frames = 0
         self.calibration_k = self.camera.intrinsics()
@@ -88,7 +126,7 @@ class Camera:
         self.params = dict(params)
 
     def close(self) -> None:
-        self.renderer.close()
+        self.darkroom.close()
 
     def occluded_ids(self, stamp_s: float) -> list[int]:
         """The markers hidden at ``stamp_s`` (the occluded link's, within its window)."""
@@ -117,8 +155,9 @@ class Camera:
                 return {}
             self.expose(stamp_s, checked[0])
         latency_s = 0.0 if first else self.params["latency_s"]
-        if self.pending and stamp_s >= self.pending[0].stamp_s + latency_s - _EPS_S:
-            frame = self.pending.popleft()
+        if self.pending and stamp_s >= self.pending[0][0] + latency_s - _EPS_S:
+            exposed_s, render = self.pending.popleft()
+            frame = CameraFrame(exposed_s, render.result())
             info = CameraCalibration(frame.stamp_s, self.camera.width_px, self.camera.height_px, self.calibration_k)
             return {"image": frame, "camera_info": info}
         if self.world_waits:
@@ -131,14 +170,7 @@ class Camera:
             self.hidden = bool(hidden)
             what = f"{self.params['occluded_link']}'s markers"
             self.log.info(f"camera: {what} {'hidden' if hidden else 'in view again'} at {stamp_s:.2f} s")
-            if hidden:
-                self.renderer.hide(hidden)
-            else:
-                self.renderer.show_all()
-        from robot_controller.core.vision.scene import add_pixel_noise
-
-        pixels = add_pixel_noise(self.renderer.render(position), self.params["pixel_noise_std"], self.rng)
-        self.pending.append(CameraFrame(stamp_s, pixels))
+        self.pending.append((stamp_s, self.darkroom.render(position, hidden, self.params["pixel_noise_std"])))
         self.frames += 1
         self.exposed_s = stamp_s
         self.next_frame_s = None if self.world_period_s is None else stamp_s + self.frame_period_s()

@@ -50,7 +50,7 @@ def labelled_position_std(label: str) -> np.ndarray | None:
 
 @dataclass(slots=True)
 class CameraFrame:
-    """One camera image: ``pixels`` (height, width, 3) RGB, 8 bits, exposed at ``stamp_s``."""
+    """One camera image: ``pixels`` (height, width) mono or (height, width, 3) RGB, 8 bits, exposed at ``stamp_s``."""
 
     stamp_s: float
     pixels: np.ndarray

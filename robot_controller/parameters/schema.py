@@ -174,7 +174,7 @@ CAMERA_NODE_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("block", str, "camera", "the camera block it runs (fixed at start)", choices=tuple(BLOCKS["camera_node"]), read_only=True),
     ParamSpec("camera_rate_hz", float, 30.0, "frames a second, Hz: each frame is exposed at one of the world's states, so the rate is the nearest whole number of them (30 Hz on a 100 Hz world: every 3rd, 33.3 Hz)", minimum=1.0, maximum=100.0, read_only=True),
     *CAMERA_PLACEMENT_PARAMS,
-    ParamSpec("latency_s", float, 0.02, "processing latency: each image is published this long after its exposure (rounded up to the world's states), s", minimum=0.0, maximum=0.2, read_only=True),
+    ParamSpec("latency_s", float, 0.03, "processing latency: each image is published this long after its exposure (rounded up to the world's states), s", minimum=0.0, maximum=0.2, read_only=True),
     ParamSpec("pixel_noise_std", float, 2.0, "Gaussian noise on each pixel's intensity, levels of 255", minimum=0.0, maximum=50.0),
     ParamSpec("occluded_link", str, "", "a link whose markers are hidden (something between it and the camera) during occlusion_s; empty: none"),
     ParamSpec("occlusion_s", float, [], "when occluded_link is hidden: [from_s, duration_s] of the world's time (empty: all along)", length=2, allow_empty=True),

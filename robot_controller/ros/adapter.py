@@ -178,6 +178,8 @@ class BlockNode(Node):
 
     def destroy_node(self) -> None:
         self.extras.destroy()
+        if close := getattr(self.block, "close", None):  # a block holding more than memory (a camera's GL context)
+            close()
         super().destroy_node()
 
     def _declare(self, specs: tuple[cfg.ParamSpec, ...]) -> None:

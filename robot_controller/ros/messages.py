@@ -24,8 +24,8 @@ from robot_controller.blocks.values import (
     position_std_label,
 )
 
-#: ``sensor_msgs/Image`` encodings a camera frame is taken in (3 channels of 8 bits)
-IMAGE_ENCODINGS = {"rgb8": False, "bgr8": True}  # → whether its channels come reversed
+#: ``sensor_msgs/Image`` encodings a camera frame is taken in: (channels, whether they come reversed)
+IMAGE_ENCODINGS = {"mono8": (1, False), "rgb8": (3, False), "bgr8": (3, True)}
 
 
 def stamp_to_s(stamp: Any) -> float:
@@ -85,12 +85,13 @@ def decode_image(msg: Image) -> CameraFrame | str:
         return f"image encoding {msg.encoding!r}: expected one of {', '.join(IMAGE_ENCODINGS)}"
     expected = msg.height * msg.step
     if msg.width == 0 and msg.height == 0 and len(msg.data) == 0:  # no frame at this tick (blocks.camera)
-        return CameraFrame(stamp_to_s(msg.header.stamp), np.zeros((0, 0, 3), dtype=np.uint8), msg.header.frame_id)
-    if msg.step < 3 * msg.width or len(msg.data) != expected:
+        return CameraFrame(stamp_to_s(msg.header.stamp), np.zeros((0, 0), dtype=np.uint8), msg.header.frame_id)
+    channels, reversed_ = IMAGE_ENCODINGS[msg.encoding]
+    if msg.step < channels * msg.width or len(msg.data) != expected:
         return f"image {msg.width}×{msg.height}, step {msg.step}: {len(msg.data)} bytes, expected {expected}"
-    rows = np.frombuffer(bytes(msg.data), dtype=np.uint8).reshape(msg.height, msg.step)
-    pixels = rows[:, : 3 * msg.width].reshape(msg.height, msg.width, 3)
-    if IMAGE_ENCODINGS[msg.encoding]:
+    rows = np.frombuffer(msg.data, dtype=np.uint8).reshape(msg.height, msg.step)[:, : channels * msg.width]
+    pixels = rows if channels == 1 else rows.reshape(msg.height, msg.width, channels)
+    if reversed_:
         pixels = pixels[:, :, ::-1]
     return CameraFrame(stamp_to_s(msg.header.stamp), pixels, msg.header.frame_id)
 
@@ -116,7 +117,8 @@ def encode(value: Any, msg: Any) -> Any:
         _stamp(msg, value.stamp_s)
         msg.header.frame_id = value.frame_id
         msg.height, msg.width = value.pixels.shape[:2]
-        msg.encoding, msg.is_bigendian, msg.step = "rgb8", 0, 3 * msg.width
+        channels = 1 if value.pixels.ndim == 2 else 3
+        msg.encoding, msg.is_bigendian, msg.step = ("mono8" if channels == 1 else "rgb8"), 0, channels * msg.width
         msg.data = np.ascontiguousarray(value.pixels, dtype=np.uint8).tobytes()
     elif isinstance(msg, CompressedImage):
         _stamp(msg, value.stamp_s)
