@@ -17,8 +17,9 @@ OBSERVER_NICE = 10
 LOOP_PROCESSES = frozenset({"simulator", "motor_node", "sensor_node", "pid_controller", "stack"})
 NICE = {**dict.fromkeys(LOOP_PROCESSES, LOOP_NICE), "trajectory_planner": PLANNER_NICE, "recorder": OBSERVER_NICE}
 
-# Sim time: a tick is a chain (simulator → sensor → controller → motor → simulator); planner and recorder yield to it.
-SIM_TIME_NICE = {"trajectory_planner": 5, "recorder": 10}
+# Sim time: a tick is a chain (simulator → sensor → controller → motor → simulator); planner and recorder yield to it,
+# and so does a camera, whose frames render while their latency passes (its answer to each tick is a message alone).
+SIM_TIME_NICE = {"trajectory_planner": 5, "recorder": 10, "camera_node": 5, "vision_node": 5}
 
 #: SCHED_FIFO priority of the simulator's pacing thread under ``--realtime``.
 PACING_RT_PRIORITY = 30
