@@ -91,6 +91,8 @@ class Vision:
         started = time.perf_counter()
         detections = self.detector.detect(frame.pixels)
         solution = self.solver.solve(detections, self.guess) if detections else None
+        if solution is not None and self.solved == 0:  # the first from afar: once more from where it got to
+            solution = self.solver.solve(detections, solution.position) or solution
         n = len(self.joint_names)
         if solution is None:
             position, position_std = self.guess, np.full(n, np.inf)

@@ -105,7 +105,8 @@ def run_loop(
             sample_s = (
                 reading.stamp_s if stamp == t else stamp if reading.stamp_s == t else reading.stamp_s - (t - stamp)
             )
-            controller.set_measurement(t if delay_unstamped else sample_s, t, position, reading.velocity)
+            stamp_s = t if delay_unstamped else sample_s
+            controller.set_measurement(stamp_s, t, position, reading.velocity, reading.position_std)
         out = controller.update(t)
         command = out.command
         inputs: dict[str, Any] = {}

@@ -80,7 +80,13 @@ def prepare(
     controller_config = cfg.controller_config({**ctrl, cfg.WORLD_WAITS: True}, n)  # each command acts from its tick
     controller = contained_controller(controller_config, n, dynamics)
     # The graph's sensor and drive, as their nodes' configuration chooses them; the loop's clock waits for each.
-    sensor_block = make_block("sensor_node", dict(sensor, seed=seed), Lines(), world_waits=True)
+    if sensor["block"] == "vision":  # a camera's (``--sensing camera``): the camera and the vision chained
+        from robot_controller.blocks.camera_chain import CameraChain
+
+        camera = dict(params["camera_node"], seed=seed)
+        sensor_block = CameraChain(camera, dict(sensor, seed=seed), Lines(), world_waits=True)
+    else:
+        sensor_block = make_block("sensor_node", dict(sensor, seed=seed), Lines(), world_waits=True)
     drive_block = make_block("motor_node", motor, Lines(), world_waits=True)
     planner_params = consistency.with_controller_model(params)["trajectory_planner"]  # as ``run`` gives them
     planner_block = make_block("trajectory_planner", planner_params, Lines(), world_waits=True)

@@ -42,6 +42,7 @@ UNMEASURED_STD = 1e3
 
 #: rad/s: how uncertain a joint's velocity is when the filter starts it from a reading that has none (the model's
 #: prediction, or rest at the start)
+UNREAD_DISTURBANCE_START_STD = 0.2
 UNREAD_VELOCITY_START_STD = 0.5
 
 _ADJUGATE, _ADJUGATE_SIGN = np.array([3, 1, 2, 0]), np.array([1.0, -1.0, -1.0, 1.0])
@@ -447,6 +448,8 @@ class JointKalmanFilter:
             if self._R_joint is not None:  # the reading's own σ; its velocity is the prediction's, unread
                 prior[0, 0] = self._R_joint[j, 0, 0]
                 prior[1, 1] = UNREAD_VELOCITY_START_STD**2
+                if self.estimates_disturbance:
+                    prior[2, 2] = UNREAD_DISTURBANCE_START_STD**2
             group, first = divmod(j, k)
             own = slice(first * m, (first + 1) * m)
             self.P[group, own, :] = 0.0
@@ -454,7 +457,9 @@ class JointKalmanFilter:
             self.P[group, own, own] = prior
             if self.estimates_disturbance:
                 self.P[group, first * m + 2, first * m + 2] *= self._torque_scale[j] ** 2
-        self._distance_sq_average[joints] = innovation.UNPROVEN_DISTANCE_SQ
+        self._distance_sq_average[joints] = (
+            innovation.UNPROVEN_DISTANCE_SQ if self._R_joint is None else innovation.MISMATCH_FROM
+        )
         self._external = None
 
     def _noise_variances(self) -> tuple[np.ndarray, np.ndarray]:
