@@ -457,9 +457,7 @@ class JointKalmanFilter:
             self.P[group, own, own] = prior
             if self.estimates_disturbance:
                 self.P[group, first * m + 2, first * m + 2] *= self._torque_scale[j] ** 2
-        self._distance_sq_average[joints] = (
-            innovation.UNPROVEN_DISTANCE_SQ if self._R_joint is None else innovation.MISMATCH_FROM
-        )
+        self._distance_sq_average[joints] = innovation.UNPROVEN_DISTANCE_SQ
         self._external = None
 
     def _noise_variances(self) -> tuple[np.ndarray, np.ndarray]:
