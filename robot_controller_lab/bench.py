@@ -21,7 +21,7 @@ from typing import Any
 
 from robot_controller import parameters as cfg
 from robot_controller.scoring import report
-from robot_controller_lab import campaign_bench, franka_bench, hop_bench
+from robot_controller_lab import camera_bench, campaign_bench, franka_bench, hop_bench
 from robot_controller_lab.bench_runs import (
     BusyCore,
     HostFreezes,
@@ -343,6 +343,14 @@ SCENARIOS += (
         6.0,
         franka_bench.FIGURES,
         lambda run: franka_bench.franka_run(run.out, run.duration_s),
+    ),
+    Scenario(
+        "camera",
+        "camera frames, no ROS: render, detect, solve at 640×480, one joint and the Panda (each for the duration)",
+        10.0,
+        2.0,
+        camera_bench.KEYS,
+        lambda run: camera_bench.camera_figures(run.duration_s),
     ),
 )
 _DECLARED = {key for scenario in SCENARIOS for key in scenario.keys}

@@ -234,13 +234,16 @@ class Controller:
         if isinstance(checked, str):
             self.log.warn(spec.READING.topic, f"{spec.READING.topic} dropped: {checked}")
             return None
-        position_std = sample.position_std
+        position_std, correlation = sample.position_std, sample.position_correlation
         if position_std is not None:
             position_std = ordered(position_std, sample.names, self.joint_names)
             if position_std is None:
                 self.log.warn(spec.READING.topic, f"{spec.READING.topic} dropped: one position σ per joint expected")
                 return None
-        return JointSample(sample.stamp_s, self.joint_names, *checked, position_std=position_std)
+            if correlation is not None:
+                rows = ordered(np.arange(len(self.joint_names)), sample.names, self.joint_names).astype(int)
+                correlation = correlation[np.ix_(rows, rows)] if correlation.shape == (rows.size,) * 2 else None
+        return JointSample(sample.stamp_s, self.joint_names, *checked, None, position_std, correlation)
 
     def check_names(self, names: list[str], wall_s: float) -> None:
         """Readings naming other joints than this arm's, none usable since start, for ``CONFIG_MISMATCH_S`` of the
@@ -278,7 +281,7 @@ class Controller:
         if checked is None:
             return False
         refused = self.controller.set_measurement(
-            checked.stamp_s, t_s, checked.position, checked.velocity, checked.position_std
+            checked.stamp_s, t_s, checked.position, checked.velocity, checked.position_std, checked.position_correlation
         )
         if refused:
             self.log.warn("joint_states_age", f"{spec.READING.topic} dropped: {refused}")
@@ -294,7 +297,9 @@ class Controller:
         if checked.position_std is None:
             self.log.warn("camera_reading", f"{spec.CAMERA_READING.topic} dropped: it says no position σ")
             return
-        refused = self.controller.set_second_measurement(checked.stamp_s, t_s, checked.position, checked.position_std)
+        refused = self.controller.set_second_measurement(
+            checked.stamp_s, t_s, checked.position, checked.position_std, checked.position_correlation
+        )
         if refused:
             self.log.warn("camera_reading_age", f"{spec.CAMERA_READING.topic} dropped: {refused}")
 

@@ -25,15 +25,24 @@ class JointSample:
     #: rad (m), each position's σ where the sensor says it (a camera's: ``inf`` for a joint no marker constrains);
     #: None: the controller's own ``position_noise_std``. A reading that says it carries no velocity.
     position_std: np.ndarray | None = None
+    #: (joints, joints) how the positions' errors go together, where the sensor says it (a camera's: joints whose
+    #: axes are near parallel err together); None: independent
+    position_correlation: np.ndarray | None = None
 
 
 #: A reading's per-joint σ on the wire: a ``JointState`` has no field for it, so its ``header.frame_id`` says it,
-#: ``position_std:<σ>,<σ>,…`` (rad, ``inf`` for none), as a command's tick is said in its layout's label.
+#: ``position_std:<σ>,<σ>,…`` (rad, ``inf`` for none), then ``;correlation:`` and the correlations above the
+#: diagonal row by row, as a command's tick is said in its layout's label.
 POSITION_STD_PREFIX = "position_std:"
+CORRELATION_PREFIX = ";correlation:"
 
 
-def position_std_label(position_std: np.ndarray) -> str:
-    return POSITION_STD_PREFIX + ",".join(f"{sigma:.6g}" for sigma in position_std.tolist())
+def position_std_label(position_std: np.ndarray, correlation: np.ndarray | None = None) -> str:
+    label = POSITION_STD_PREFIX + ",".join(f"{sigma:.6g}" for sigma in position_std.tolist())
+    if correlation is not None and correlation.shape[0] > 1:
+        above = correlation[np.triu_indices(correlation.shape[0], 1)]
+        label += CORRELATION_PREFIX + ",".join(f"{r:.4f}" for r in above.tolist())
+    return label
 
 
 def labelled_position_std(label: str) -> np.ndarray | None:
@@ -42,10 +51,32 @@ def labelled_position_std(label: str) -> np.ndarray | None:
     if not label.startswith(POSITION_STD_PREFIX):
         return None
     try:
-        sigmas = np.array([float(text) for text in label[len(POSITION_STD_PREFIX) :].split(",")])
+        text = label[len(POSITION_STD_PREFIX) :].partition(CORRELATION_PREFIX)[0]
+        sigmas = np.array([float(part) for part in text.split(",")])
     except ValueError:
         return None
     return np.where(sigmas >= 0, sigmas, np.inf)  # (NaN ≥ 0 is False)
+
+
+def labelled_correlation(label: str, joint_count: int) -> np.ndarray | None:
+    """The correlation matrix a reading's frame id says, or None (none said, or not one that can be: each within
+    [-1, 1] and the whole positive semi-definite)."""
+    _, found, text = label.partition(CORRELATION_PREFIX)
+    if not found or joint_count < 2:
+        return None
+    try:
+        above = np.array([float(part) for part in text.split(",")])
+    except ValueError:
+        return None
+    upper = np.triu_indices(joint_count, 1)
+    if above.size != upper[0].size or not all_finite(above) or np.any(np.abs(above) > 1.0):
+        return None
+    correlation = np.eye(joint_count)
+    correlation[upper] = above
+    correlation.T[upper] = above
+    if np.linalg.eigvalsh(correlation)[0] < -1e-3:
+        return None
+    return correlation
 
 
 @dataclass(slots=True)

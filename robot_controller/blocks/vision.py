@@ -94,16 +94,17 @@ class Vision:
         if solution is not None and self.solved == 0:  # the first from afar: once more from where it got to
             solution = self.solver.solve(detections, solution.position) or solution
         n = len(self.joint_names)
+        correlation = None
         if solution is None:
             position, position_std = self.guess, np.full(n, np.inf)
         else:
-            position, position_std = solution.position, solution.std
+            position, position_std, correlation = solution.position, solution.std, solution.correlation
             self.guess = position
             self.solved += 1
         self.frames += 1
         self.cost_s += time.perf_counter() - started
         self.say_unseen(position_std)
-        self.last = JointSample(frame.stamp_s, self.joint_names, position, np.zeros(n), position_std=position_std)
+        self.last = JointSample(frame.stamp_s, self.joint_names, position, np.zeros(n), None, position_std, correlation)
         out: dict[str, Any] = {self.reading_port: self.last}
         rate_hz = self.params["detections_rate_hz"]
         if rate_hz > 0 and frame.stamp_s >= self.next_detections_s:

@@ -43,7 +43,7 @@ class Viewer:
     def __init__(self, context, joint_names: list[str]) -> None:
         from diagnostic_msgs.msg import DiagnosticArray
         from rclpy.node import Node
-        from sensor_msgs.msg import JointState
+        from sensor_msgs.msg import CompressedImage, JointState
         from std_msgs.msg import Float64MultiArray
 
         self.feed = None  #: set before the first spin
@@ -60,6 +60,7 @@ class Viewer:
         self.node.create_subscription(JointState, spec.TRUE_STATE.topic, self._true, self.qos, raw=True)
         self.node.create_subscription(JointState, spec.READING.topic, self._measured, self.qos, raw=True)
         self.node.create_subscription(Float64MultiArray, spec.REFERENCE.topic, self._planned, self.qos, raw=True)
+        self.node.create_subscription(CompressedImage, spec.DETECTIONS.topic, self._detections, self.qos, raw=True)
 
     # The callbacks take raw CDR (rosbags decodes it faster than rclpy; unreadable: dropped).
 
@@ -115,6 +116,11 @@ class Viewer:
         values = self._array(data)
         if values is not None:
             self.feed.receipts(values)
+
+    def _detections(self, data: bytes) -> None:
+        msg = decode(data, "sensor_msgs/msg/CompressedImage")
+        if msg is not None:
+            self.feed.detections(stamp_to_s(msg.header.stamp), msg.data.tobytes(), msg.format)
 
     def _diagnostics(self, msg) -> None:
         for status in msg.status:

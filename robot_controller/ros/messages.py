@@ -20,6 +20,7 @@ from robot_controller.blocks.values import (
     CompressedFrame,
     JointSample,
     WaypointRequest,
+    labelled_correlation,
     labelled_position_std,
     position_std_label,
 )
@@ -53,10 +54,13 @@ def decode(msg: Any) -> Any:
         effort = np.asarray(msg.effort, dtype=float) if len(msg.effort) else None
         position, velocity = np.asarray(msg.position, dtype=float), np.asarray(msg.velocity, dtype=float)
         position_std = labelled_position_std(msg.header.frame_id) if msg.header.frame_id else None
-        if position_std is not None and velocity.size == 0:  # a camera's: no velocity measured
-            velocity = np.zeros_like(position)
+        correlation = None
+        if position_std is not None:
+            correlation = labelled_correlation(msg.header.frame_id, position_std.size)
+            if velocity.size == 0:  # a camera's: no velocity measured
+                velocity = np.zeros_like(position)
         stamp_s = stamp_to_s(msg.header.stamp)
-        return JointSample(stamp_s, list(msg.name), position, velocity, effort, position_std)
+        return JointSample(stamp_s, list(msg.name), position, velocity, effort, position_std, correlation)
     if isinstance(msg, Image):
         return decode_image(msg)
     if isinstance(msg, CompressedImage):
@@ -107,7 +111,7 @@ def encode(value: Any, msg: Any) -> Any:
         msg.name = list(value.names)
         msg.position = value.position.tolist()
         if value.position_std is not None:  # a camera's: position alone, each with its σ
-            msg.header.frame_id = position_std_label(value.position_std)
+            msg.header.frame_id = position_std_label(value.position_std, value.position_correlation)
             msg.velocity = []
         else:
             msg.velocity = value.velocity.tolist()

@@ -1,7 +1,8 @@
 """The loop's signals turned into what the view logs, at a rate a browser takes: ``ViewFeed`` collects raw samples
 (live topics or a bag's arrays); ``flush`` thins them (``Decimator``: series at most ``SERIES_HZ``, poses ``POSE_HZ``,
 by time buckets, errors and timing keeping each bucket's largest so that a spike is never thinned away) into rerun
-columns held by an ``Outlet`` per recording stream (the live browser, the saved file)."""
+columns held by an ``Outlet`` per recording stream (the live browser, the saved file). The camera's image with its
+detections (JPEG, a few a second) is logged as it is, each at its exposure."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from robot_controller.view.arm import Arm
 SERIES_HZ = 50.0
 POSE_HZ = 20.0
 MAX_PENDING = 5000  # per input: 50 s of a 100 Hz topic
+MAX_PENDING_IMAGES = 25  # the camera's images waiting for the first tick (5 s at 5 Hz): the newest kept
 TICK_TAIL = 400  # controller ticks kept to pair true samples and motor receipts with (4 s at 100 Hz)
 OTHER_CLOCK_S = 60.0  # a diagnostics stamp this far outside the ticks' span is on another clock
 STATUS_NAMES = {code: name for name, code in state_layout.STATUS_CODES.items()}
@@ -82,6 +84,17 @@ class Outlet:
         self.rec.set_time(layout.TIMELINE, duration=t)
         self.rec.log(path, rr.TextLog(text, level=level))
 
+    def image(self, path: str, t: float, data: bytes, media_type: str) -> None:
+        """An encoded image (``image/jpeg``…) at ``t``, logged now (a few a second: nothing to gather)."""
+        import rerun as rr
+
+        self.rec.set_time(layout.TIMELINE, duration=t)
+        self.rec.log(path, rr.EncodedImage(contents=data, media_type=media_type))
+
+    def show(self, blueprint) -> None:
+        """Lay the view out anew (the camera's image came): the layout a reset goes back to, too."""
+        self.rec.send_blueprint(blueprint, make_active=True, make_default=True)
+
     def pump(self, now: float, *, force: bool = False) -> None:
         """Send what is held if its period has passed since the last send (or ``force``)."""
         import rerun as rr
@@ -125,6 +138,8 @@ class ViewFeed:
         pending = (lambda: deque(maxlen=MAX_PENDING)) if live else list
         self.true_in, self.measured_in, self.state_in = pending(), pending(), pending()
         self.planned_in, self.receipts_in, self.diagnostics_in = pending(), pending(), pending()
+        self.images_in = deque(maxlen=MAX_PENDING_IMAGES) if live else []
+        self.camera_shown = not live  #: live, the layout gains the camera's view when its first image comes
         self.decimators: dict[str, Decimator] = {}
         # The controller's recent ticks: time, status, reference, command, reading stamp.
         self.ticks = np.zeros(0)
@@ -164,6 +179,11 @@ class ViewFeed:
 
     def diagnostics(self, t: float, jitter_p99_ms: float) -> None:
         self.diagnostics_in.append((t, jitter_p99_ms))
+
+    def detections(self, t: float, data: bytes, image_format: str = "jpeg") -> None:
+        """The camera's image with its detections drawn, compressed (``image_format``: ``jpeg`` or ``png``)."""
+        if data:
+            self.images_in.append((t, bytes(data), media_type(image_format)))
 
     def _decimate(
         self, key: str, rate_hz: float, t: np.ndarray, v: np.ndarray, *, extreme: bool = False, final: bool = False
@@ -245,6 +265,7 @@ class ViewFeed:
         receipts = self._drain(self.receipts_in, 1 + n)
         if receipts is not None and len(self.ticks):
             self._latency(receipts, final)
+        self._images()
         diagnostics = self._drain(self.diagnostics_in, 2)
         if diagnostics is not None and len(self.ticks):
             # Stamped on another clock than the ticks (the wall clock's, on sim time): left out, or plots span years.
@@ -252,6 +273,17 @@ class ViewFeed:
             near = (t >= self.t0 - OTHER_CLOCK_S) & (t <= self.ticks[-1] + OTHER_CLOCK_S)
             if np.any(near):
                 self._series("jitter_p99", self.joints[0], t[near], diagnostics[near, 1], final=True)
+
+    def _images(self) -> None:
+        images = list(self.images_in)
+        self.images_in.clear()
+        if images and not self.camera_shown:
+            self.camera_shown = True
+            for outlet in self.outlets:
+                outlet.show(layout.blueprint(self.arm, live=self.live, camera=True))
+        for t, data, kind in images:
+            for outlet in self.outlets:
+                outlet.image(layout.DETECTIONS, t - self.t0, data, kind)
 
     def _controller(self, states: np.ndarray, final: bool) -> None:
         s = state_layout.decode(states, self.n)
@@ -299,3 +331,9 @@ class ViewFeed:
         if len(t):
             order = np.argsort(t)
             self._series("latency", self.joints[0], t[order], 1e3 * latency[order], extreme=True, final=final)
+
+
+def media_type(image_format: str) -> str:
+    """The media type of a ``sensor_msgs/CompressedImage`` of ``format`` (``jpeg``, ``png``, or cv_bridge's
+    ``bgr8; jpeg compressed bgr8``)."""
+    return "image/png" if "png" in image_format.lower() else "image/jpeg"

@@ -1,11 +1,12 @@
 """The view of a saved run, built from its bag: the same scene, series and layout as the live view (``DIR/view.rrd``),
-so any run can be looked at again, including runs recorded without ``--view``."""
+so any run can be looked at again, including runs recorded without ``--view``; a run with a camera, its images with the
+markers found too."""
 
 from __future__ import annotations
 
 import signal
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -39,6 +40,29 @@ class SavedRun:
     arm: Arm
     period_s: float
     recording: Recording
+    images: list[tuple[float, bytes, str]] = field(default_factory=list)  #: the camera's, with its detections
+
+
+def detection_images(bag_dir: Path) -> list[tuple[float, bytes, str]]:
+    """The camera's images with the markers found (``spec.DETECTIONS``) in the bag: (exposure s, data, format), in
+    order of exposure; an image that cannot be decoded is skipped."""
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys import Stores, get_typestore
+
+    from robot_controller.blocks import spec
+    from robot_controller.scoring.bag_reader import stamp_of
+
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    images = []
+    with Reader(bag_dir) as reader:
+        connections = [c for c in reader.connections if c.topic == spec.DETECTIONS.topic]
+        for connection, _, raw in reader.messages(connections=connections) if connections else ():
+            try:
+                msg = typestore.deserialize_cdr(raw, connection.msgtype)
+            except Exception:  # noqa: BLE001 - any undecodable bytes: skipped, as scoring skips them
+                continue
+            images.append((stamp_of(msg), bytes(msg.data), msg.format))
+    return sorted(images, key=lambda image: image[0])
 
 
 def load_run(run_dir: Path) -> SavedRun:
@@ -50,7 +74,7 @@ def load_run(run_dir: Path) -> SavedRun:
     arm = Arm(urdf)
     if len(arm.joint_names) != recording.joint_count:
         raise ValueError(f"{run_dir}: the bag has {recording.joint_count} joint(s), {urdf} {len(arm.joint_names)}")
-    return SavedRun(arm, period, recording)
+    return SavedRun(arm, period, recording, detection_images(run_dir / "bag"))
 
 
 def log_run(rec, run: SavedRun) -> None:
@@ -74,6 +98,8 @@ def log_run(rec, run: SavedRun) -> None:
     feed.receipts(recording.receipts)
     for t, jitter in recording.diagnostics:
         feed.diagnostics(t, jitter)
+    for t, data, image_format in run.images:
+        feed.detections(t, data, image_format)
     feed.flush(final=True)
 
 
@@ -89,7 +115,9 @@ def build_view_from_bag(run_dir: Path, port: int = serving.DEFAULT_PORT, serve: 
     run = load_run(run_dir)
     out = run_dir / RRD_NAME
     rec = serving.open_recording()
-    uri = serving.set_sinks(rec, rrd=out, serve=serve, blueprint=layout.blueprint(run.arm, live=False))
+    uri = serving.set_sinks(
+        rec, rrd=out, serve=serve, blueprint=layout.blueprint(run.arm, live=False, camera=bool(run.images))
+    )
     try:
         log_run(rec, run)
         rec.flush()

@@ -1,6 +1,7 @@
 """What the view shows and where: entity paths, colours, series styles, and the blueprint (the arm in 3-D on the left,
 time series on the right), for the live view and the one from a bag. With several joints the plots are in tabs: "all
-joints" (error, position and torque of every joint, a colour per joint), then one per joint."""
+joints" (error, position and torque of every joint, a colour per joint), then one per joint. A run with a camera has its
+image with the markers found (``DETECTIONS``) under the arm."""
 
 from __future__ import annotations
 
@@ -23,6 +24,7 @@ POSES = {  # pose → (colour RGBA, radius factor), in instance order: the true 
 }
 POSITION, ERROR, TORQUE, TIMING = "plots/position", "plots/error", "plots/torque", "plots/timing"
 STATUS_LOG = "log/status"
+DETECTIONS = "camera/detections"  #: the camera's image with the markers found outlined (spec.DETECTIONS)
 
 # series → (view, label, colour, width); the labels are tracking.png's (``{q}``: angle, or position on a chain
 # with a slide). "measured" is the sensor's readings, "error_controller" the controller's own error.
@@ -97,9 +99,10 @@ def log_scene(rec, arm: Arm) -> None:
     arm.log_static(rec, ARM, list(POSES.values()))
 
 
-def blueprint(arm: Arm, *, live: bool):
+def blueprint(arm: Arm, *, live: bool, camera: bool = False):
     """The saved layout: 3-D view left, time series right (position, tracking error, torque, timing). Live, the plots
-    scroll over the last ``LIVE_WINDOW_S``; built from a bag, they show the whole run."""
+    scroll over the last ``LIVE_WINDOW_S``; built from a bag, they show the whole run. ``camera``: the camera's image
+    with its detections under the 3-D view."""
     import rerun.blueprint as rrb
 
     # From the front (−y: the reference arm moves in the x-z plane), a little above and aside, the whole sweep in view.
@@ -160,6 +163,9 @@ def blueprint(arm: Arm, *, live: bool):
         )
     arm_name = "arm: true (solid), sensor reading (blue), reference (green)"
     arm_view = rrb.Spatial3DView(origin=WORLD, name=arm_name, eye_controls=eye)
+    if camera:
+        image_view = rrb.Spatial2DView(origin=DETECTIONS, name=f"camera: markers found ({spec.DETECTIONS.topic})")
+        arm_view = rrb.Vertical(arm_view, image_view, row_shares=[3, 2])
     return rrb.Blueprint(
         rrb.Horizontal(arm_view, plots, column_shares=[2, 3]),
         rrb.BlueprintPanel(state="collapsed"),

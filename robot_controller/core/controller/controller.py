@@ -234,12 +234,14 @@ class JointController:
         position: np.ndarray,
         velocity: np.ndarray,
         position_std: np.ndarray | None = None,
+        position_correlation: np.ndarray | None = None,
     ) -> str | None:
         """Take a reading stamped ``stamp_s`` that arrived at ``received_s`` (``position_std``: its own σ per joint, a
-        camera's, its velocity unmeasured); returns why it was refused (it is then no sign of life for the watchdog
-        either), or None."""
+        camera's, its velocity unmeasured; ``position_correlation``: how those errors go together); returns why it
+        was refused (it is then no sign of life for the watchdog either), or None."""
         max_age_s = self.config.max_reading_age_s
-        refused = self._readings.accept(stamp_s, received_s, position, velocity, max_age_s, position_std)
+        noise = None if position_std is None else (position_std, position_correlation)
+        refused = self._readings.accept(stamp_s, received_s, position, velocity, max_age_s, noise)
         age_s = received_s - stamp_s
         if self._latency is not None and (refused is None or age_s > 0):
             # A reading refused as too old is weighed too: those kept are at most max_reading_age_s old, all of which
@@ -248,7 +250,12 @@ class JointController:
         return refused
 
     def set_second_measurement(
-        self, stamp_s: float, received_s: float, position: np.ndarray, position_std: np.ndarray
+        self,
+        stamp_s: float,
+        received_s: float,
+        position: np.ndarray,
+        position_std: np.ndarray,
+        position_correlation: np.ndarray | None = None,
     ) -> str | None:
         """A second sensor's reading of the positions (a camera's beside the encoder), each with its σ: fused by the
         filter at the next tick; returns why it was refused (too old, or no filter to fuse it), or None."""
@@ -258,7 +265,7 @@ class JointController:
             return f"reading stamped {abs(age_s):.3f} s {when} (max_reading_age_s {self.config.max_reading_age_s:g})"
         if self._state.kalman is None:
             return "a second sensor is fused by the filter: set estimator kalman"
-        self._state.take_second(stamp_s, position, position_std)
+        self._state.take_second(stamp_s, position, position_std, position_correlation)
         return None
 
     def command_delay(self, receipt_s: float, delay_s: float) -> None:

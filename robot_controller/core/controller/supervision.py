@@ -113,7 +113,8 @@ class Readings:
 
     def __init__(self) -> None:
         self.latest: tuple[np.ndarray, np.ndarray] | None = None  #: (position rad, velocity rad/s)
-        self.position_std: np.ndarray | None = None  #: the latest reading's own σ per joint, if it said them
+        #: the latest reading's own σ per joint and their correlation (or None), if it said them
+        self.noise: tuple[np.ndarray, np.ndarray | None] | None = None
         self.stamp_s = 0.0
         self.received_s = -np.inf
 
@@ -124,7 +125,7 @@ class Readings:
         position: np.ndarray,
         velocity: np.ndarray,
         max_age_s: float,
-        position_std: np.ndarray | None = None,
+        noise: tuple[np.ndarray, np.ndarray | None] | None = None,
     ) -> str | None:
         """Keep the reading unless it is more than ``max_age_s`` old when it arrives (or stamped that far ahead):
         after a pause, a sensor's first sample can be from before it, and acting on it swings the arm. Returns
@@ -134,7 +135,7 @@ class Readings:
             when = "old" if age_s > 0 else "in the future"
             return f"reading stamped {abs(age_s):.3f} s {when} (max_reading_age_s {max_age_s:g})"
         self.latest = (position, velocity)
-        self.position_std = position_std
+        self.noise = noise
         self.stamp_s = stamp_s
         self.received_s = received_s
         return None

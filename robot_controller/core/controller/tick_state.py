@@ -88,8 +88,8 @@ class StateAtTick:
         self._coasting = False  #: the model coasts on the average: readings are missing
         #: (stamp s, filtered position) after each reading, newest last: where a late camera's reading is brought from
         self._history: deque[tuple[float, np.ndarray]] = deque(maxlen=_FILTERED_HISTORY)
-        #: a second sensor's late reading (stamp s, position, σ per joint) waiting for the next tick
-        self._second: tuple[float, np.ndarray, np.ndarray] | None = None
+        #: a second sensor's late reading (stamp s, position, σ per joint, their correlation) waiting for the next tick
+        self._second: tuple[float, np.ndarray, np.ndarray, np.ndarray | None] | None = None
         #: keeps the model's and the gains' inertia the arm's, after each reading (None: they stay as designed)
         self.inertia: InertiaAdaptation | None = None
 
@@ -119,7 +119,7 @@ class StateAtTick:
             if stamp_s != self._filtered_stamp_s:
                 # The torque that acted since the last reading: the last command issued before it; how
                 # much it changed matters only to a filter unsure when a command takes effect.
-                if readings.position_std is not None:
+                if readings.noise is not None:
                     # A camera's reading comes slower than the commands: each acts over its own span.
                     for issued_s, _ in self.commands_between(self._filtered_stamp_s, stamp_s):
                         kalman.advance(issued_s, self.command_before(issued_s))
@@ -127,7 +127,7 @@ class StateAtTick:
                 change = None
                 if kalman.config.command_timing_uncertainty_s > 0:
                     change = self.command_change(self._filtered_stamp_s, stamp_s)
-                self._filtered = kalman.update(stamp_s, position, velocity, command, change, readings.position_std)
+                self._filtered = kalman.update(stamp_s, position, velocity, command, change, readings.noise)
                 self._filtered_stamp_s = stamp_s
                 self._history.append((stamp_s, self._filtered[0]))
             if self._second is not None:
@@ -148,16 +148,18 @@ class StateAtTick:
             self._coasting = False
         return position, velocity
 
-    def take_second(self, stamp_s: float, position: np.ndarray, position_std: np.ndarray) -> None:
+    def take_second(
+        self, stamp_s: float, position: np.ndarray, position_std: np.ndarray, correlation: np.ndarray | None
+    ) -> None:
         """A second sensor's reading of the positions alone (a camera's beside the encoder), later than the filter's
         readings: fused at the next tick."""
-        self._second = (stamp_s, position, position_std)
+        self._second = (stamp_s, position, position_std, correlation)
 
     def _fuse_second(self) -> None:
         """The second sensor's reading brought to the filter's time by the filter's own motion since its stamp (the
         filtered position then, from the history), then fused on the positions alone. One older than the history, or
         from before the filter's first reading, is dropped."""
-        stamp_s, position, position_std = self._second
+        stamp_s, position, position_std, correlation = self._second
         self._second = None
         then = None
         for filtered_s, filtered in reversed(self._history):
@@ -167,7 +169,7 @@ class StateAtTick:
         if then is None or self.kalman.x is None:
             return
         moved = self._filtered[0] - then
-        self._filtered = self.kalman.correct_position(position + moved, position_std)
+        self._filtered = self.kalman.correct_position(position + moved, position_std, correlation)
 
     def _average_disturbance(self, now_s: float) -> None:
         """Fold the observer's state after a reading into its running average (first order, on floats)."""

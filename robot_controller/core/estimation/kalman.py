@@ -111,6 +111,20 @@ def timing_noise_template(dt: float) -> np.ndarray:
     return template
 
 
+def position_covariance(position_std: np.ndarray, correlation: np.ndarray | None) -> np.ndarray:
+    """The positions' error covariance (n, n) from their σs (``inf``: :data:`UNMEASURED_STD`, uncorrelated) and
+    correlation (None: independent)."""
+    sigma = np.minimum(np.asarray(position_std, dtype=float), UNMEASURED_STD)
+    if correlation is None:
+        return np.diag(np.square(sigma))
+    rho = np.array(correlation, dtype=float)
+    blind = sigma >= UNMEASURED_STD
+    rho[blind, :] = 0.0
+    rho[:, blind] = 0.0
+    np.fill_diagonal(rho, 1.0)
+    return rho * np.outer(sigma, sigma)
+
+
 def reading_noise(position_std: np.ndarray) -> np.ndarray:
     """A position-only reading's R per joint, (n, 2, 2): its σ (``inf``: :data:`UNMEASURED_STD`), its velocity
     unmeasured."""
@@ -258,18 +272,20 @@ class JointKalmanFilter:
         velocity: np.ndarray,
         torque: np.ndarray,
         torque_change: np.ndarray | None = None,
-        position_std: np.ndarray | None = None,
+        noise: tuple[np.ndarray, np.ndarray | None] | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Take a reading stamped ``time_s``, ``torque`` (N·m) having acted since the last; returns the filtered
         ``(position, velocity)``. ``torque_change``: how much the command changed about the start of that span,
-        when the instant it took effect is uncertain (``command_timing_uncertainty_s``). ``position_std``: the
-        reading's own σ per joint (a camera's; ``inf``: it says nothing of that joint), its velocity unmeasured."""
+        when the instant it took effect is uncertain (``command_timing_uncertainty_s``). ``noise``: the reading's own
+        σ per joint (a camera's; ``inf``: it says nothing of that joint) and their correlation (or None), its velocity
+        unmeasured."""
         n, m = self.joint_count, self.size
         g, k = self._groups, self._per_group
         observer = self.estimates_disturbance
         z = self._reading  # the reading, per joint
         z[:, 0], z[:, 1] = position, velocity
-        self._R_joint = None if position_std is None else reading_noise(position_std)
+        self._R_joint = None if noise is None else reading_noise(noise[0])
+        correlated = noise is not None and noise[1] is not None and k > 1
         if self.x is None or self.time_s is None or not (0 < time_s - self.time_s < 1.0):
             self.x = np.zeros((n, m))
             self.P = np.zeros((g, k * m, k * m))
@@ -342,8 +358,12 @@ class JointKalmanFilter:
             S = P_pred[(slice(None), *at.readings)] if k == 1 else P_pred.take(at.flat_readings).reshape(1, 2 * k, -1)
             if self._R_joint is None:
                 S += self._R_all
-            else:  # each joint's own (diagonal) R on the diagonal
+            else:  # each joint's own R on the diagonal, and how the positions' errors go together
                 S.reshape(S.shape[0], -1)[:, :: 2 * k + 1] += self._R_joint.diagonal(axis1=1, axis2=2).reshape(-1)
+                if correlated:
+                    between = position_covariance(*noise)
+                    np.fill_diagonal(between, 0.0)  # (the diagonal is in already)
+                    S[0, 0::2, 0::2] += between
             # (S is a covariance, positive definite: np.linalg.solve's checks for a singular one never fire)
             K = inverse_2x2(S) @ P_read if k == 1 else _umath_linalg.solve(S, P_read, signature="dd->d")
             K = K.transpose(0, 2, 1)
@@ -391,7 +411,9 @@ class JointKalmanFilter:
         self.x[:, 0], self.x[:, 1] = q_pred, v_pred
         self._external = None
 
-    def correct_position(self, position: np.ndarray, position_std: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def correct_position(
+        self, position: np.ndarray, position_std: np.ndarray, correlation: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """A second reading of the position alone at the filter's own time (a late camera's, brought to it by the
         filter's own motion since its stamp), each joint with its σ (``inf``: none): the update on ``q`` alone.
         Returns the filtered ``(position, velocity)``."""
@@ -399,11 +421,11 @@ class JointKalmanFilter:
             raise ValueError("correct_position: the filter has no state yet")
         g, k, m = self._groups, self._per_group, self.size
         q_at = np.asarray(self._index.q).reshape(-1)
-        variance = np.square(np.minimum(np.asarray(position_std, dtype=float), UNMEASURED_STD))
+        covariance = position_covariance(position_std, correlation if k > 1 else None)
         x = self.x.reshape(g, k * m)
         P = self.P
         P_q = P[:, q_at, :]  # (g, k, km)
-        S = P_q[:, :, q_at] + variance.reshape(g, 1, k) * np.eye(k)
+        S = P_q[:, :, q_at] + (covariance if k > 1 else np.diagonal(covariance).reshape(g, 1, 1))
         K = np.linalg.solve(S, P_q).transpose(0, 2, 1)  # (g, km, k)
         surprise = np.asarray(position, dtype=float).reshape(g, k) - x[:, q_at]
         x += np.matmul(K, surprise[:, :, None])[:, :, 0]

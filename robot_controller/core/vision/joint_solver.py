@@ -14,7 +14,7 @@ import numpy as np
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.model.mujoco_model import load_model, position_ranges
 from robot_controller.core.vision.camera_model import CameraModel
-from robot_controller.core.vision.marker_kinematics import MarkerChain, joint_std
+from robot_controller.core.vision.marker_kinematics import MarkerChain, joint_correlation, joint_std
 from robot_controller.core.vision.markers import MarkerLayout
 
 #: px, a marker whose corners' RMS residual exceeds this after a solve is an outlier (a misdetection, a marker
@@ -39,6 +39,8 @@ class JointSolution:
     std: np.ndarray
     residual_px: float
     markers_used: tuple[int, ...]
+    #: (joints, joints) the correlation of the joints' errors (identity where unknown)
+    correlation: np.ndarray | None = None
 
 
 class JointSolver:
@@ -81,9 +83,10 @@ class JointSolver:
         if not used:
             return None
         _, jacobian = self.chain.project(used)  # at the solution: _residual posed it
-        std = joint_std(jacobian.reshape(-1, self.joint_count), self.pixel_std_px)
+        rows = jacobian.reshape(-1, self.joint_count)
+        std = joint_std(rows, self.pixel_std_px)
         rms_px = float(np.sqrt(np.mean(residual**2)))
-        return JointSolution(position, std, rms_px, tuple(used))
+        return JointSolution(position, std, rms_px, tuple(used), joint_correlation(rows))
 
     def _residual(self, used: list[int], observed: np.ndarray, position: np.ndarray) -> np.ndarray:
         self.chain.pose(position)

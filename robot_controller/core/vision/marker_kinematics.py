@@ -100,6 +100,26 @@ class MarkerChain:
         return np.einsum("ki,ki->k", self.normals_world(marker_ids), rays)
 
 
+def joint_correlation(jacobian: np.ndarray, rank_tolerance: float = 1e-9) -> np.ndarray:
+    """The correlation of the joints' errors, from the Gauss-Newton covariance (JᵀJ)⁺ on the directions the pixels
+    see (joints, joints; 0 off the diagonal for a joint they do not): joints whose axes are nearly parallel err
+    together, which a filter told only each joint's σ takes for motion."""
+    information = jacobian.T @ jacobian
+    eigenvalues, vectors = np.linalg.eigh(information)
+    n = jacobian.shape[1]
+    if eigenvalues[-1] <= 0:
+        return np.eye(n)
+    seen = eigenvalues > rank_tolerance * eigenvalues[-1]
+    covariance = (vectors[:, seen] / eigenvalues[seen]) @ vectors[:, seen].T
+    blind = np.any(np.abs(vectors[:, ~seen]) > 1e-6, axis=1)
+    scale = np.sqrt(np.where(blind, 1.0, np.diagonal(covariance)))
+    correlation = covariance / np.outer(scale, scale)
+    correlation[blind, :] = 0.0
+    correlation[:, blind] = 0.0
+    np.fill_diagonal(correlation, 1.0)
+    return np.clip(correlation, -1.0, 1.0)
+
+
 def joint_std(jacobian: np.ndarray, pixel_std_px: float, rank_tolerance: float = 1e-9) -> np.ndarray:
     """Per-joint standard deviation from the Gauss-Newton covariance pixel_std² (JᵀJ)⁻¹, J (rows, joints): a
     joint with a part in a direction the pixels do not see (an eigenvalue under the tolerance) gets inf."""
