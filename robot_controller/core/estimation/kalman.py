@@ -479,7 +479,10 @@ class JointKalmanFilter:
             self.P[group, own, own] = prior
             if self.estimates_disturbance:
                 self.P[group, first * m + 2, first * m + 2] *= self._torque_scale[j] ** 2
-        self._distance_sq_average[joints] = innovation.UNPROVEN_DISTANCE_SQ
+        # Unproven: the filter follows its readings until they agree with it; a camera's, a few a control period and
+        # with no velocity, it follows only as far as they disagree (followed, their noise is the estimate's).
+        unproven = innovation.UNPROVEN_DISTANCE_SQ if self._R_joint is None else innovation.MISMATCH_FROM
+        self._distance_sq_average[joints] = unproven
         self._external = None
 
     def _noise_variances(self) -> tuple[np.ndarray, np.ndarray]:
