@@ -179,6 +179,7 @@ CAMERA_NODE_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("occluded_link", str, "", "a link whose markers are hidden (something between it and the camera) during occlusion_s; empty: none"),
     ParamSpec("occlusion_s", float, [], "when occluded_link is hidden: [from_s, duration_s] of the world's time (empty: all along)", length=2, allow_empty=True),
     ParamSpec("seed", int, 0, "random seed of the pixel noise; -1 draws one from the OS", minimum=-1),
+    ParamSpec("every_state", bool, True, f"where the world waits, take every {spec.TRUE_STATE.topic} state in turn (the loop's sensor: each is a tick); false: only the latest, a frame dropped when the camera cannot keep up (beside the encoder in the paced world, which does not wait for it)", read_only=True),
     world_waits_spec(f"on the sim's clock: every {spec.IMAGE.topic} frame is kept for the vision (each is a tick's reading)"),
 )
 VISION_NODE_PARAMS: tuple[ParamSpec, ...] = (
@@ -237,6 +238,7 @@ PID_CONTROLLER_PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("slew_rate_limit", float, 0.0, "maximum rate of change of the command, N·m/s (0 = off)", minimum=0.0),
     ParamSpec("reference_extrapolation", bool, True, "evaluate the latest reference at the tick time with its velocity and acceleration"),
     ParamSpec("latency_compensation", bool, True, "advance the measurement from its stamp to the tick time with its velocity"),
+    ParamSpec("camera_wait_s", float, 0.0, f"on sim time, how long (wall s) a tick waits for a camera's {spec.CAMERA_READING.topic} it knows is due beside the encoder's (--sensing both: run sets it, so a run fuses each frame at the same tick every time); 0: never waits (the paced world keeps pace with the wall clock and does not wait for a second sensor)", minimum=0.0, maximum=1.0, read_only=True),
     ParamSpec("watchdog_periods", int, 5, "control periods without valid sensor data before a controlled stop on the arm model's estimate (category 2); at most 20 (what a 1 kHz loop needs over 100 Hz readings; at 100 Hz the law acts on its last reading for 0.2 s)", minimum=1, maximum=20, **SAFETY),
     ParamSpec("sensor_timeout_s", float, 1.0, "readings missing this long end the controlled stop: no command, the drive's brake holds (category 1), s; at most 1 s: the stop runs open loop on the arm model that long", **POSITIVE, maximum=1.0, **SAFETY),
     ParamSpec("max_reading_age_s", float, 0.1, "a reading older than this when it arrives (or stamped this far in the future) is dropped and does not count as a sign of life, s; at most 0.2 s, the watchdog's longest window at 100 Hz", **POSITIVE, maximum=0.2, **SAFETY),

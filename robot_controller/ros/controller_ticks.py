@@ -185,8 +185,8 @@ class TimerTicks:
 
 
 #: wall s a tick waits for a camera's reading due beside the encoder's before it goes on without
-SECOND_WAIT_S = 0.3
-#: wall s a tick waits for it before its period is known (its second frame): the ticks between its first two
+#: wall s a tick waits for a camera's reading before its period is known (its second frame): the ticks between its first
+#: two (``camera_wait_s`` 0: none)
 SECOND_START_WAIT_S = 0.1
 
 
@@ -194,7 +194,8 @@ class SecondReadings:
     """When a second sensor's reading (a camera's, beside the encoder's) is due at the world's clock: its frames
     come every ``period`` and arrive ``lateness`` after their stamps, both learnt from its readings."""
 
-    def __init__(self) -> None:
+    def __init__(self, wait_s: float) -> None:
+        self.wait_s = wait_s  #: wall s a due reading is waited for (0: never)
         self.last_stamp_s: float | None = None
         self.period_s: float | None = None
         self.lateness_s = 0.0
@@ -214,7 +215,7 @@ class SecondReadings:
     def due(self, tick_s: float) -> bool:
         """Whether a reading is due by ``tick_s``: until its second frame teaches its period and latency, every tick
         waits a little for one (so the camera starts in step with the world, not behind it)."""
-        if self.last_stamp_s is None or self.given_up:
+        if self.last_stamp_s is None or self.given_up or self.wait_s <= 0:
             return False
         if self.period_s is None:
             return True
@@ -223,11 +224,11 @@ class SecondReadings:
     def waited_out(self, waiting_since: float, log: Any) -> bool:
         if self.period_s is None:
             return time.monotonic() - waiting_since > SECOND_START_WAIT_S
-        if time.monotonic() - waiting_since <= SECOND_WAIT_S:
+        if time.monotonic() - waiting_since <= self.wait_s:
             return False
         self.given_up = True
         log.warning(
-            f"sim time: the camera's {spec.CAMERA_READING.topic} due by now did not come within {SECOND_WAIT_S:g} s: "
+            f"sim time: the camera's {spec.CAMERA_READING.topic} due by now did not come within {self.wait_s:g} s: "
             "going on on the encoder alone until it comes"
         )
         return True
@@ -252,7 +253,7 @@ class PairedTicks:
         self.paired_stamp_s: float | None = None  # and that reading's stamp
         self.clock_seen = time.monotonic()  # when the world's clock last moved on
         self.reading_period_s: float | None = None  # s between the last two readings' stamps
-        self.second = SecondReadings()  # a camera's beside the encoder's (``--sensing both``)
+        self.second = SecondReadings(block.params["camera_wait_s"])  # a camera's beside the encoder's
 
     def start(self) -> None:
         self.node.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -280,7 +281,7 @@ class PairedTicks:
 
     def take_second_reading(self, sample: JointSample) -> None:
         """A camera's reading beside the encoder's: taken at the world's latest clock; a tick it is due for waits
-        for it (so the same run fuses it at the same tick), at most ``SECOND_WAIT_S``."""
+        for it (so the same run fuses it at the same tick), at most ``camera_wait_s``."""
         clock_s = max(self.clock_s, 0.0)
         self.block.take(clock_s, {"camera_reading": sample})
         self.second.arrived(sample.stamp_s, clock_s)

@@ -205,7 +205,7 @@ def check(params: cfg.Params, options: RunOptions) -> CheckedRun:
         refused = {"--hardware": options.hardware, "--single-process": options.single_process, "--nodes": split}
         if said := [flag for flag, given in refused.items() if given]:
             raise ConfigError(f"--sensing {options.sensing}: not with {', '.join(said)} (its camera is simulated)")
-        params = sensing.with_sensing(params, options.sensing)
+        params = sensing.with_sensing(params, options.sensing, sim_time=options.sim_time)
     if options.paced and (split or options.peers or options.respawn):
         # Across hosts the drive keeps its host's clock, as on hardware; a respawned simulator would restart time.
         options = replace(options, paced=False)

@@ -27,7 +27,11 @@ READING_AGE_MARGIN_S = 0.05
 CHECKED_POSES = 24
 
 
-def with_sensing(params: cfg.Params, sensing: str) -> cfg.Params:
+#: wall s a sim-time tick waits for a camera's reading due beside the encoder's (``camera_wait_s``)
+CAMERA_WAIT_S = 0.3
+
+
+def with_sensing(params: cfg.Params, sensing: str, sim_time: bool = False) -> cfg.Params:
     """The parameters for ``sensing``; ``ConfigError`` for a camera that cannot close the loop."""
     if sensing == "encoders":
         return params
@@ -64,6 +68,8 @@ def with_sensing(params: cfg.Params, sensing: str) -> cfg.Params:
         out["sensor_node"]["urdf_path"] = urdf
     else:
         ctrl["max_reading_age_s"] = max(float(ctrl["max_reading_age_s"]), round(age_s, 3))
+        ctrl["camera_wait_s"] = CAMERA_WAIT_S if sim_time else 0.0
+        camera["every_state"] = sim_time  # beside the encoder in the paced world: the latest state, frames dropped
         out["vision_node"]["urdf_path"] = urdf
         out["vision_node"]["seed"] = out["sensor_node"]["seed"]
     check_view(out)
