@@ -33,6 +33,7 @@ from robot_controller.core.controller import (
     delay_margin_periods,
     law_config,
 )
+from robot_controller.core.controller.supervision import PositionNoise
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.laws import law_parameters, registry
 from robot_controller.core.laws.containment import BLOCKED_S
@@ -67,6 +68,13 @@ class GainChange:
     params: dict[str, Any]
     changed: set[str]
     margin: int | None
+
+
+def position_noise(sample: JointSample) -> PositionNoise | None:
+    """What a reading says of its positions' errors, if anything (a camera's)."""
+    if sample.position_std is None:
+        return None
+    return PositionNoise(sample.position_std, sample.position_correlation)
 
 
 def ordered(values: np.ndarray, names: list[str], joint_names: list[str]) -> np.ndarray | None:
@@ -281,7 +289,7 @@ class Controller:
         if checked is None:
             return False
         refused = self.controller.set_measurement(
-            checked.stamp_s, t_s, checked.position, checked.velocity, checked.position_std, checked.position_correlation
+            checked.stamp_s, t_s, checked.position, checked.velocity, position_noise(checked)
         )
         if refused:
             self.log.warn("joint_states_age", f"{spec.READING.topic} dropped: {refused}")
@@ -298,7 +306,7 @@ class Controller:
             self.log.warn("camera_reading", f"{spec.CAMERA_READING.topic} dropped: it says no position σ")
             return
         refused = self.controller.set_second_measurement(
-            checked.stamp_s, t_s, checked.position, checked.position_std, checked.position_correlation
+            checked.stamp_s, t_s, checked.position, position_noise(checked)
         )
         if refused:
             self.log.warn("camera_reading_age", f"{spec.CAMERA_READING.topic} dropped: {refused}")

@@ -106,8 +106,8 @@ def run_loop(
                 reading.stamp_s if stamp == t else stamp if reading.stamp_s == t else reading.stamp_s - (t - stamp)
             )
             stamp_s = t if delay_unstamped else sample_s
-            noise = reading.position_std, reading.position_correlation
-            controller.set_measurement(stamp_s, t, position, reading.velocity, *noise)
+            noise = None if reading.position_std is None else (reading.position_std, reading.position_correlation)
+            controller.set_measurement(stamp_s, t, position, reading.velocity, noise)
         out = controller.update(t)
         command = out.command
         inputs: dict[str, Any] = {}

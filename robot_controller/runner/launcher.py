@@ -104,9 +104,12 @@ def launch(checked: CheckedRun, out_dir: Path, watcher: Watcher | None = None) -
             # Their counts were written and their messages acknowledged: the run is whole.
             say(f"WARNING: the DDS teardown of {', '.join(hung)} hung after its work was done (ended by its alarm)")
         bad = {n: c for n, c in codes.items() if c not in (0, -signal.SIGINT, 130, -TEARDOWN_HUNG_SIGNAL)}
-        from robot_controller.scoring import bag_reader  # rosbags: preloaded while the nodes ran
+        from robot_controller.scoring import (  # noqa: F401 - rosbags: preloaded while the nodes ran
+            bag_reader,
+            bag_recovery,
+        )
 
-        if salvaged := run.records and bag_reader.needs_recovery(run.bag_dir):
+        if salvaged := run.records and bag_recovery.needs_recovery(run.bag_dir):
             result.failure = result.failure or _salvage(run.bag_dir, bad.pop("recorder", None))
         if bad and result.failure is None:  # the run's data was complete: a warning
             said = ", ".join(f"{n} ({c})" for n, c in bad.items())
@@ -155,7 +158,7 @@ def _salvage(bag_dir: Path, code: int | None) -> str | None:
     """The recorder ended (``code``) before closing its bag: its messages up to its last whole chunk into a
     complete bag, said in one line; a failure line if even that cannot be read."""
     try:
-        from robot_controller.scoring.bag_reader import recover
+        from robot_controller.scoring.bag_recovery import recover
 
         count = recover(bag_dir)
     except (OSError, ValueError) as exc:

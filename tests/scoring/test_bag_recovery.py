@@ -10,7 +10,7 @@ from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from robot_controller.nodes.recorder import Recorder
-from robot_controller.scoring import bag_reader
+from robot_controller.scoring import bag_recovery as bag_reader
 
 TYPE = "std_msgs/msg/Float64MultiArray"
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)

@@ -11,15 +11,18 @@ import numpy as np
 
 from robot_controller.core.controller.config import ControllerConfig, law_config
 from robot_controller.core.controller.inertia_adaptation import InertiaAdaptation
+from robot_controller.core.controller.law_build import arm_of, builtin_law, hold_to_limits, plugin_law
 from robot_controller.core.controller.reference_in_force import ReferenceAtTick
 from robot_controller.core.controller.supervision import (
     ControlOutput,
     LatencyGuard,
     LatencyState,
+    PositionNoise,
     Readings,
     ReferenceSource,
     Status,
     TickClock,
+    age_refusal,
     check_health,
     delay_margin_periods,
 )
@@ -27,7 +30,6 @@ from robot_controller.core.controller.tick_state import MAX_EXTRAPOLATION_S, Sta
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation import JointKalmanFilter
 from robot_controller.core.laws import (
-    Arm,
     BuiltinLaw,
     ContainedLaw,
     FeedforwardMode,
@@ -40,7 +42,6 @@ from robot_controller.core.laws import (
     registry,
 )
 from robot_controller.core.model import ArmDynamics
-from robot_controller.core.model.mujoco_model import position_ranges
 
 # How long the arm is held at rest after a controlled stop before the torque goes off and the brakes hold (category 2,
 # then 1), and the status then: on the built-in law after a plugin law failed; on the model (open loop it drifts: held
@@ -95,28 +96,11 @@ class JointController:
         #: the latency guard's latest verdict (None without a guard, or before its first tick)
         self.latency: LatencyState | None = None
 
-    def _arm(self, config: ControllerConfig) -> Arm:
-        """What a law is told about the arm: the controller's model of it (None: no model) and its limits."""
-        dynamics, joint_count = self.dynamics, self.joint_count
-        model = getattr(dynamics, "model", None)  # a MuJoCo model knows the joints' ranges
-        limits = np.tile([-np.inf, np.inf], (joint_count, 1)) if model is None else position_ranges(model)[:joint_count]
-        names = tuple(dynamics.joint_names if dynamics is not None else (f"joint {j + 1}" for j in range(joint_count)))
-        return Arm(dynamics, names, np.array(config.pid.output_limit, dtype=float), limits)
-
     def _builtin(self, config: ControllerConfig) -> BuiltinLaw:
-        law_class = registry.resolve(config.builtin_law)  # pid or lqr, by their entry points
-        return law_class(self._arm(config), config.control_period_s, config.law_params())
+        return builtin_law(config, arm_of(config, self.dynamics, self.joint_count))
 
     def _plugin(self, config: ControllerConfig) -> ContainedLaw:
-        arm, period_s, given = self._arm(config), config.control_period_s, config.law_parameters
-        law = ContainedLaw.build(config.controller_type, arm, period_s, given, *self._law_clocks)
-        self._hold_to_limits(law, config)
-        return law
-
-    @staticmethod
-    def _hold_to_limits(law: ContainedLaw, c: ControllerConfig) -> None:
-        limits = (c.law_budget_s, c.law_error_max_rad, c.stop_deceleration)
-        law.set_limits(c.pid.output_limit, c.pid.slew_rate_limit, *limits)
+        return plugin_law(config, arm_of(config, self.dynamics, self.joint_count), *self._law_clocks)
 
     @property
     def plugin(self) -> ContainedLaw | None:
@@ -181,7 +165,7 @@ class JointController:
         if self.plugin is not None:
             if config.law_parameters != self.config.law_parameters:
                 self.plugin.set_params(config.law_parameters)
-            self._hold_to_limits(self.plugin, config)
+            hold_to_limits(self.plugin, config)
         if config.estimator != self.config.estimator or config.observes_disturbance != self.config.observes_disturbance:
             self._state.kalman = make_estimator(config, self.dynamics, self.joint_count)
         elif self._state.kalman is not None:
@@ -233,14 +217,12 @@ class JointController:
         received_s: float,
         position: np.ndarray,
         velocity: np.ndarray,
-        position_std: np.ndarray | None = None,
-        position_correlation: np.ndarray | None = None,
+        noise: PositionNoise | None = None,
     ) -> str | None:
-        """Take a reading stamped ``stamp_s`` that arrived at ``received_s`` (``position_std``: its own σ per joint, a
-        camera's, its velocity unmeasured; ``position_correlation``: how those errors go together); returns why it
-        was refused (it is then no sign of life for the watchdog either), or None."""
+        """Take a reading stamped ``stamp_s`` that arrived at ``received_s`` (``noise``: what a camera's says of its
+        own errors, its velocity unmeasured); returns why it was refused (it is then no sign of life for the watchdog
+        either), or None."""
         max_age_s = self.config.max_reading_age_s
-        noise = None if position_std is None else (position_std, position_correlation)
         refused = self._readings.accept(stamp_s, received_s, position, velocity, max_age_s, noise)
         age_s = received_s - stamp_s
         if self._latency is not None and (refused is None or age_s > 0):
@@ -250,22 +232,15 @@ class JointController:
         return refused
 
     def set_second_measurement(
-        self,
-        stamp_s: float,
-        received_s: float,
-        position: np.ndarray,
-        position_std: np.ndarray,
-        position_correlation: np.ndarray | None = None,
+        self, stamp_s: float, received_s: float, position: np.ndarray, noise: PositionNoise
     ) -> str | None:
-        """A second sensor's reading of the positions (a camera's beside the encoder), each with its σ: fused by the
-        filter at the next tick; returns why it was refused (too old, or no filter to fuse it), or None."""
-        age_s = received_s - stamp_s
-        if abs(age_s) > self.config.max_reading_age_s:
-            when = "old" if age_s > 0 else "in the future"
-            return f"reading stamped {abs(age_s):.3f} s {when} (max_reading_age_s {self.config.max_reading_age_s:g})"
+        """A second sensor's reading of the positions (a camera's beside the encoder): fused by the filter at the
+        next tick; returns why it was refused (too old, or no filter to fuse it), or None."""
+        if refused := age_refusal(stamp_s, received_s, self.config.max_reading_age_s):
+            return refused
         if self._state.kalman is None:
             return "a second sensor is fused by the filter: set estimator kalman"
-        self._state.take_second(stamp_s, position, position_std, position_correlation)
+        self._state.take_second(stamp_s, position, noise)
         return None
 
     def command_delay(self, receipt_s: float, delay_s: float) -> None:

@@ -107,14 +107,31 @@ class ControlOutput:
 REACQUIRE_GAP_PERIODS = 5
 
 
+class PositionNoise(NamedTuple):
+    """What a reading says of its positions' errors (a camera's): each joint's σ (rad; ``inf``: it says nothing
+    of that joint) and how they go together (None: independent)."""
+
+    std: np.ndarray
+    correlation: np.ndarray | None = None
+
+
+def age_refusal(stamp_s: float, received_s: float, max_age_s: float) -> str | None:
+    """Why a reading stamped ``stamp_s`` that arrived at ``received_s`` is refused (older than ``max_age_s``, or
+    stamped that far ahead), or None."""
+    age_s = received_s - stamp_s
+    if abs(age_s) <= max_age_s:
+        return None
+    when = "old" if age_s > 0 else "in the future"
+    return f"reading stamped {abs(age_s):.3f} s {when} (max_reading_age_s {max_age_s:g})"
+
+
 class Readings:
     """The latest accepted reading, when it was taken (``stamp_s``) and when it arrived (``received_s``, what
     the watchdog counts silence from)."""
 
     def __init__(self) -> None:
         self.latest: tuple[np.ndarray, np.ndarray] | None = None  #: (position rad, velocity rad/s)
-        #: the latest reading's own σ per joint and their correlation (or None), if it said them
-        self.noise: tuple[np.ndarray, np.ndarray | None] | None = None
+        self.noise: PositionNoise | None = None  #: what the latest reading said of its own errors, if anything
         self.stamp_s = 0.0
         self.received_s = -np.inf
 
@@ -125,15 +142,13 @@ class Readings:
         position: np.ndarray,
         velocity: np.ndarray,
         max_age_s: float,
-        noise: tuple[np.ndarray, np.ndarray | None] | None = None,
+        noise: PositionNoise | None = None,
     ) -> str | None:
         """Keep the reading unless it is more than ``max_age_s`` old when it arrives (or stamped that far ahead):
         after a pause, a sensor's first sample can be from before it, and acting on it swings the arm. Returns
         why it was refused (it is then no sign of life either), or None."""
-        age_s = received_s - stamp_s
-        if abs(age_s) > max_age_s:
-            when = "old" if age_s > 0 else "in the future"
-            return f"reading stamped {abs(age_s):.3f} s {when} (max_reading_age_s {max_age_s:g})"
+        if refused := age_refusal(stamp_s, received_s, max_age_s):
+            return refused
         self.latest = (position, velocity)
         self.noise = noise
         self.stamp_s = stamp_s

@@ -11,7 +11,7 @@ import numpy as np
 
 from robot_controller.core.controller.config import ControllerConfig
 from robot_controller.core.controller.inertia_adaptation import InertiaAdaptation
-from robot_controller.core.controller.supervision import Readings
+from robot_controller.core.controller.supervision import PositionNoise, Readings
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation import JointKalmanFilter
 from robot_controller.core.laws.pid import Pid
@@ -88,8 +88,8 @@ class StateAtTick:
         self._coasting = False  #: the model coasts on the average: readings are missing
         #: (stamp s, filtered position) after each reading, newest last: where a late camera's reading is brought from
         self._history: deque[tuple[float, np.ndarray]] = deque(maxlen=_FILTERED_HISTORY)
-        #: a second sensor's late reading (stamp s, position, σ per joint, their correlation) waiting for the next tick
-        self._second: tuple[float, np.ndarray, np.ndarray, np.ndarray | None] | None = None
+        #: a second sensor's late reading (stamp s, position, what it says of its errors) waiting for the next tick
+        self._second: tuple[float, np.ndarray, PositionNoise] | None = None
         #: keeps the model's and the gains' inertia the arm's, after each reading (None: they stay as designed)
         self.inertia: InertiaAdaptation | None = None
 
@@ -130,11 +130,11 @@ class StateAtTick:
                 self._filtered = kalman.update(stamp_s, position, velocity, command, change, readings.noise)
                 self._filtered_stamp_s = stamp_s
                 self._history.append((stamp_s, self._filtered[0]))
-            if self._second is not None:
-                self._fuse_second()
                 self._average_disturbance(stamp_s)
                 if self.inertia is not None:
                     self.inertia.after_reading(stamp_s, kalman, command)
+            if self._second is not None:
+                self._fuse_second()
             position, velocity = self._filtered
         if latency_compensation:
             age_s = clipped_age_s(now_s, stamp_s)
@@ -148,18 +148,16 @@ class StateAtTick:
             self._coasting = False
         return position, velocity
 
-    def take_second(
-        self, stamp_s: float, position: np.ndarray, position_std: np.ndarray, correlation: np.ndarray | None
-    ) -> None:
+    def take_second(self, stamp_s: float, position: np.ndarray, noise: PositionNoise) -> None:
         """A second sensor's reading of the positions alone (a camera's beside the encoder), later than the filter's
         readings: fused at the next tick."""
-        self._second = (stamp_s, position, position_std, correlation)
+        self._second = (stamp_s, position, noise)
 
     def _fuse_second(self) -> None:
         """The second sensor's reading brought to the filter's time by the filter's own motion since its stamp (the
         filtered position then, from the history), then fused on the positions alone. One older than the history, or
         from before the filter's first reading, is dropped."""
-        stamp_s, position, position_std, correlation = self._second
+        stamp_s, position, noise = self._second
         self._second = None
         then = None
         for filtered_s, filtered in reversed(self._history):
@@ -169,7 +167,7 @@ class StateAtTick:
         if then is None or self.kalman.x is None:
             return
         moved = self._filtered[0] - then
-        self._filtered = self.kalman.correct_position(position + moved, position_std, correlation)
+        self._filtered = self.kalman.correct_position(position + moved, *noise)
 
     def _average_disturbance(self, now_s: float) -> None:
         """Fold the observer's state after a reading into its running average (first order, on floats)."""

@@ -3,8 +3,10 @@ process noise (:mod:`.kalman`), its tuning (:mod:`.config`), what it makes of a 
 surprises it (:mod:`.innovation`), and one joint's filter at rest on the linear arm (:mod:`.linear`)."""
 
 from robot_controller.core.estimation.config import KalmanConfig
-from robot_controller.core.estimation.kalman import JointKalmanFilter, inverse_2x2, process_noise
+from robot_controller.core.estimation.innovation import inverse_2x2
+from robot_controller.core.estimation.kalman import JointKalmanFilter
 from robot_controller.core.estimation.linear import steady_state_gain
+from robot_controller.core.estimation.process_noise import process_noise
 
 __all__ = [
     "JointKalmanFilter",

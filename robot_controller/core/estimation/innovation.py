@@ -85,3 +85,19 @@ def updated_average(average: np.ndarray, distance_sq: np.ndarray, jumped: np.nda
     if jumped is not None:
         updated[jumped] = average[jumped]
     return updated
+
+
+_ADJUGATE, _ADJUGATE_SIGN = np.array([3, 1, 2, 0]), np.array([1.0, -1.0, -1.0, 1.0])
+
+
+def inverse_2x2(A: np.ndarray) -> np.ndarray:
+    """The inverses of a stack of 2 × 2 matrices ``(..., 2, 2)``: adjugate over determinant, in C order
+    (a quadratic form by ``einsum`` sums in its operands' memory order)."""
+    flat = A.reshape(-1, 4)  # a, b, c, d
+    det = flat[:, 0] * flat[:, 3] - flat[:, 1] * flat[:, 2]
+    return (flat.take(_ADJUGATE, axis=1) / (det[:, None] * _ADJUGATE_SIGN)).reshape(A.shape)  # (x/−y = −x/y)
+
+
+def clearly_within(distance_sq: np.ndarray, sigma: float) -> bool:
+    """Whether every joint's surprise is clearly within ``sigma`` σ: then neither of innovation's tests can hold."""
+    return all((distance_sq < CLEAR_SHARE * sigma * sigma).tolist())

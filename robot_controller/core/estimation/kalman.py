@@ -16,7 +16,6 @@ mismatch) is in :mod:`.innovation`.
 from __future__ import annotations
 
 from collections.abc import Callable
-from functools import lru_cache
 
 import numpy as np
 from numpy._core.multiarray import c_einsum  # np.einsum's own C function, without its Python wrapper
@@ -25,6 +24,15 @@ from numpy.linalg import _umath_linalg  # np.linalg's own LAPACK gufuncs, withou
 import robot_controller.core.estimation.innovation as innovation
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation.config import DISTURBANCE_PRIOR_STD_NM, KalmanConfig, StateIndex
+from robot_controller.core.estimation.innovation import MISMATCH_FROM, clearly_within, inverse_2x2
+from robot_controller.core.estimation.position_readings import (
+    UNREAD_DISTURBANCE_START_STD,
+    UNREAD_VELOCITY_START_STD,
+    position_covariance,
+    positions_update,
+    reading_noise,
+)
+from robot_controller.core.estimation.process_noise import observer_noise, timing_noise_template
 
 # (q, v, torque, horizon_s, max_step_s=, external_nm=) → predicted (q, v): an arm model's ``predict``
 Predictor = Callable[..., tuple[np.ndarray, np.ndarray]]
@@ -33,111 +41,6 @@ Transition = Callable[[np.ndarray, np.ndarray, np.ndarray, float, float], np.nda
 
 # q → the arm's mass matrix M(q), (n, n), kg·m²
 MassMatrix = Callable[[np.ndarray], np.ndarray]
-
-
-#: rad, rad/s: the σ a reading that says nothing of a joint's position (a camera that sees no marker constraining it)
-#: or velocity (a camera measures none) is taken with: finite, so the algebra stays the same, and so large that the
-#: filter runs that joint on its model
-UNMEASURED_STD = 1e3
-
-#: rad/s: how uncertain a joint's velocity is when the filter starts it from a reading that has none (the model's
-#: prediction, or rest at the start)
-UNREAD_DISTURBANCE_START_STD = 0.2
-UNREAD_VELOCITY_START_STD = 0.5
-
-_ADJUGATE, _ADJUGATE_SIGN = np.array([3, 1, 2, 0]), np.array([1.0, -1.0, -1.0, 1.0])
-
-
-def inverse_2x2(A: np.ndarray) -> np.ndarray:
-    """The inverses of a stack of 2 × 2 matrices ``(..., 2, 2)``: adjugate over determinant, in C order
-    (a quadratic form by ``einsum`` sums in its operands' memory order)."""
-    flat = A.reshape(-1, 4)  # a, b, c, d
-    det = flat[:, 0] * flat[:, 3] - flat[:, 1] * flat[:, 2]
-    return (flat.take(_ADJUGATE, axis=1) / (det[:, None] * _ADJUGATE_SIGN)).reshape(A.shape)  # (x/−y = −x/y)
-
-
-def process_noise(
-    config: KalmanConfig, dt: float, acceleration_per_nm=None, disturbance_noise_std=None, acceleration_noise_std=None
-) -> np.ndarray:
-    """The process noise over ``dt`` s: ``(2, 2)`` on ``[q, v]`` from the white unmodelled acceleration; with
-    ``acceleration_per_nm`` (rad/s² per N·m on each joint's own axis: the observer) ``(n, 3, 3)`` on ``[q, v, d]``,
-    adding ``d``'s random walk. The σs per joint, None: the config's."""
-    G = (0.5 * dt * dt, dt)
-    if acceleration_per_nm is None:
-        return np.outer(G, G) * config.acceleration_noise_std**2
-    b = np.asarray(acceleration_per_nm, dtype=float).reshape(-1)
-    sigma_a = config.acceleration_noise_std if acceleration_noise_std is None else acceleration_noise_std
-    sigma_d = config.disturbance_noise_std if disturbance_noise_std is None else disturbance_noise_std
-    return observer_noise(dt, b, np.square(sigma_d), np.square(sigma_a))
-
-
-def observer_noise(dt: float, b: np.ndarray, disturbance_variance, acceleration_variance) -> np.ndarray:
-    """:func:`process_noise` with the observer, ``(n, 3, 3)``, from ``b`` (n,) and the variances (σ², per joint or
-    one for all)."""
-    # Per joint, Q = σa²·A + w·b²·B + w·b·C + w·D (w = σd²): one product with the templates.
-    weights = np.empty((b.size, 4))
-    weights[:, 0] = acceleration_variance
-    weights[:, 3] = w = disturbance_variance
-    weights[:, 2] = wb = w * b
-    weights[:, 1] = wb * b
-    return weights.dot(_noise_templates(dt)).reshape(b.size, 3, 3)
-
-
-@lru_cache(maxsize=64)  # a filter's periods are a handful of roundings of one period
-def _noise_templates(dt: float) -> np.ndarray:
-    """The process noise's four parts over ``dt`` s, (4, 9), read only: the white acceleration, and ``d``'s random
-    walk in ``[q, v]``, between ``[q, v]`` and ``d``, and in ``d``."""
-    g0, g1 = 0.5 * dt * dt, dt
-    qq, qv, vv = dt**5 / 20, dt**4 / 8, dt**3 / 3
-    qd, vd = dt**3 / 6, dt**2 / 2
-    templates = np.array(
-        [
-            [g0 * g0, g0 * g1, 0.0, g0 * g1, g1 * g1, 0.0, 0.0, 0.0, 0.0],
-            [qq, qv, 0.0, qv, vv, 0.0, 0.0, 0.0, 0.0],
-            [0.0, 0.0, qd, 0.0, 0.0, vd, qd, vd, 0.0],
-            [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt],
-        ]
-    )
-    templates.flags.writeable = False
-    return templates
-
-
-@lru_cache(maxsize=64)
-def timing_noise_template(dt: float) -> np.ndarray:
-    """``G·Gᵀ``, G = [dt, 1], read only: a velocity step of unknown size at the start of the period."""
-    G = np.array([dt, 1.0])
-    template = np.outer(G, G)
-    template.flags.writeable = False
-    return template
-
-
-def position_covariance(position_std: np.ndarray, correlation: np.ndarray | None) -> np.ndarray:
-    """The positions' error covariance (n, n) from their σs (``inf``: :data:`UNMEASURED_STD`, uncorrelated) and
-    correlation (None: independent)."""
-    sigma = np.minimum(np.asarray(position_std, dtype=float), UNMEASURED_STD)
-    if correlation is None:
-        return np.diag(np.square(sigma))
-    rho = np.array(correlation, dtype=float)
-    blind = sigma >= UNMEASURED_STD
-    rho[blind, :] = 0.0
-    rho[:, blind] = 0.0
-    np.fill_diagonal(rho, 1.0)
-    return rho * np.outer(sigma, sigma)
-
-
-def reading_noise(position_std: np.ndarray) -> np.ndarray:
-    """A position-only reading's R per joint, (n, 2, 2): its σ (``inf``: :data:`UNMEASURED_STD`), its velocity
-    unmeasured."""
-    sigma = np.minimum(np.asarray(position_std, dtype=float), UNMEASURED_STD)
-    R = np.zeros((sigma.size, 2, 2))
-    R[:, 0, 0] = np.square(sigma)
-    R[:, 1, 1] = UNMEASURED_STD**2
-    return R
-
-
-def clearly_within(distance_sq: np.ndarray, sigma: float) -> bool:
-    """Whether every joint's surprise is clearly within ``sigma`` σ: then neither of innovation's tests can hold."""
-    return all((distance_sq < innovation.CLEAR_SHARE * sigma * sigma).tolist())
 
 
 class JointKalmanFilter:
@@ -296,37 +199,14 @@ class JointKalmanFilter:
             return position.copy(), velocity.copy()
         dt = time_s - self.time_s
         self.time_s = time_s
-        q, v = self.x[:, 0], self.x[:, 1]
-        F = self._transition(q, v, torque, dt)
+        x_pred, P_pred, b = self._predict(torque, dt, torque_change)
         config = self.config
-        timing_uncertain = (
-            torque_change is not None and config.command_timing_uncertainty_s > 0 and self.mass_matrix is not None
-        )
-        external = self._disturbance_torque()  # of the last estimate
-        q_pred, v_pred = self.predictor(q, v, torque, dt, max_step_s=config.model_step_s, external_nm=external)
-        if observer or timing_uncertain:
-            self._set_mass(q)
-            b = self._own_inverse_mass  # rad/s² per N·m on each joint's own axis
-        variance_d, variance_a = self._noise_variances()
-        if observer:
-            Q = observer_noise(dt, b, variance_d, variance_a)
-        else:
-            G = np.array([0.5 * dt * dt, dt])
-            Q = np.outer(G, G) * variance_a[:, None, None]
-        if timing_uncertain:  # a velocity step of unknown size (the change acting sooner or later)
-            sigma_v = np.abs(torque_change) * config.command_timing_uncertainty_s * b
-            Q[:, :2, :2] += timing_noise_template(dt) * (sigma_v**2)[:, None, None]
-        x_pred = self.x.copy()
-        x_pred[:, 0], x_pred[:, 1] = q_pred, v_pred
         if self._R_joint is not None:  # no velocity read: none to be surprised by, nor to restart a joint from
-            z[:, 1] = v_pred
-        P_pred = np.matmul(np.matmul(F, self.P), F.transpose(0, 2, 1))
+            z[:, 1] = x_pred[:, 1]
         at = self._index
         if at.block_shape == (m, m):  # each joint its own group: its process noise is the whole block
-            P_pred += Q
             own = P_pred[(slice(None), *at.own_readings)]
         else:  # one group (matmul's product is contiguous: the flat array is a view)
-            P_pred.reshape(-1)[at.flat_blocks] += Q.reshape(-1)  # each joint's own process noise
             own = P_pred.take(at.flat_own_readings)
         surprise = z - x_pred[:, :2]  # the innovation, per joint
         S_joint = own.reshape(n, 2, 2) + (self.R if self._R_joint is None else self._R_joint)
@@ -382,55 +262,65 @@ class JointKalmanFilter:
                     self.restart_count += unexplainable
         return x[:, 0].copy(), x[:, 1].copy()
 
+    def _predict(
+        self, torque: np.ndarray, dt: float, torque_change: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """The state and its covariance ``dt`` s on under ``torque``, and each joint's own acceleration per N·m where
+        it was needed (the observer, an uncertain command instant; else None)."""
+        q, v = self.x[:, 0], self.x[:, 1]
+        F = self._transition(q, v, torque, dt)
+        config = self.config
+        timing_uncertain = (
+            torque_change is not None and config.command_timing_uncertainty_s > 0 and self.mass_matrix is not None
+        )
+        external = self._disturbance_torque()  # of the last estimate
+        q_pred, v_pred = self.predictor(q, v, torque, dt, max_step_s=config.model_step_s, external_nm=external)
+        b = None
+        if self.estimates_disturbance or timing_uncertain:
+            self._set_mass(q)
+            b = self._own_inverse_mass  # rad/s² per N·m on each joint's own axis
+        variance_d, variance_a = self._noise_variances()
+        if self.estimates_disturbance:
+            Q = observer_noise(dt, b, variance_d, variance_a)
+        else:
+            G = np.array([0.5 * dt * dt, dt])
+            Q = np.outer(G, G) * variance_a[:, None, None]
+        if timing_uncertain:  # a velocity step of unknown size (the change acting sooner or later)
+            sigma_v = np.abs(torque_change) * config.command_timing_uncertainty_s * b
+            Q[:, :2, :2] += timing_noise_template(dt) * (sigma_v**2)[:, None, None]
+        x_pred = self.x.copy()
+        x_pred[:, 0], x_pred[:, 1] = q_pred, v_pred
+        P_pred = np.matmul(np.matmul(F, self.P), F.transpose(0, 2, 1))
+        at, m = self._index, self.size
+        if at.block_shape == (m, m):  # each joint its own group: its process noise is the whole block
+            P_pred += Q
+        else:  # one group (matmul's product is contiguous: the flat array is a view)
+            P_pred.reshape(-1)[at.flat_blocks] += Q.reshape(-1)  # each joint's own process noise
+        return x_pred, P_pred, b
+
     def advance(self, time_s: float, torque: np.ndarray) -> None:
         """The prediction alone, to ``time_s`` under ``torque`` (N·m): where a command changed between two readings
         further apart than the commands (a camera's), each command acts over its own span. Nothing before the first
         reading, or backwards."""
         if self.x is None or self.time_s is None or not (0 < time_s - self.time_s < 1.0):
             return
-        dt = time_s - self.time_s
-        self.time_s = time_s
-        q, v = self.x[:, 0], self.x[:, 1]
-        F = self._transition(q, v, torque, dt)
-        external = self._disturbance_torque()
-        q_pred, v_pred = self.predictor(q, v, torque, dt, max_step_s=self.config.model_step_s, external_nm=external)
-        variance_d, variance_a = self._noise_variances()
-        if self.estimates_disturbance:
-            self._set_mass(q)
-            Q = observer_noise(dt, self._own_inverse_mass, variance_d, variance_a)
-        else:
-            G = np.array([0.5 * dt * dt, dt])
-            Q = np.outer(G, G) * variance_a[:, None, None]
-        P = np.matmul(np.matmul(F, self.P), F.transpose(0, 2, 1))
-        at, m = self._index, self.size
-        if at.block_shape == (m, m):
-            P += Q
-        else:
-            P.reshape(-1)[at.flat_blocks] += Q.reshape(-1)
+        dt, self.time_s = time_s - self.time_s, time_s
+        self.x, P, _ = self._predict(torque, dt)
         self.P = 0.5 * (P + P.transpose(0, 2, 1))
-        self.x[:, 0], self.x[:, 1] = q_pred, v_pred
         self._external = None
 
     def correct_position(
         self, position: np.ndarray, position_std: np.ndarray, correlation: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """A second reading of the position alone at the filter's own time (a late camera's, brought to it by the
-        filter's own motion since its stamp), each joint with its σ (``inf``: none): the update on ``q`` alone.
-        Returns the filtered ``(position, velocity)``."""
+        filter's own motion since its stamp), each joint with its σ (``inf``: none) and their correlation: the
+        update on ``q`` alone. Returns the filtered ``(position, velocity)``."""
         if self.x is None:
             raise ValueError("correct_position: the filter has no state yet")
         g, k, m = self._groups, self._per_group, self.size
-        q_at = np.asarray(self._index.q).reshape(-1)
         covariance = position_covariance(position_std, correlation if k > 1 else None)
-        x = self.x.reshape(g, k * m)
-        P = self.P
-        P_q = P[:, q_at, :]  # (g, k, km)
-        S = P_q[:, :, q_at] + (covariance if k > 1 else np.diagonal(covariance).reshape(g, 1, 1))
-        K = np.linalg.solve(S, P_q).transpose(0, 2, 1)  # (g, km, k)
-        surprise = np.asarray(position, dtype=float).reshape(g, k) - x[:, q_at]
-        x += np.matmul(K, surprise[:, :, None])[:, :, 0]
-        P = P - np.matmul(K, P_q)
-        self.P = 0.5 * (P + P.transpose(0, 2, 1))
+        x, self.P = positions_update(self.x.reshape(g, k * m), self.P, self._index.q, position, covariance)
+        self.x = x.reshape(self.joint_count, m)
         self._external = None
         if self.estimates_disturbance:
             self.x[:, 2] = np.clip(self.x[:, 2], -self.disturbance_limit, self.disturbance_limit)
@@ -479,10 +369,8 @@ class JointKalmanFilter:
             self.P[group, own, own] = prior
             if self.estimates_disturbance:
                 self.P[group, first * m + 2, first * m + 2] *= self._torque_scale[j] ** 2
-        # Unproven: the filter follows its readings until they agree with it; a camera's, a few a control period and
-        # with no velocity, it follows only as far as they disagree (followed, their noise is the estimate's).
-        unproven = innovation.UNPROVEN_DISTANCE_SQ if self._R_joint is None else innovation.MISMATCH_FROM
-        self._distance_sq_average[joints] = unproven
+        # Unproven: followed until they agree; a camera's (no velocity, slower) as agreeing: followed, its noise swings
+        self._distance_sq_average[joints] = innovation.UNPROVEN_DISTANCE_SQ if self._R_joint is None else MISMATCH_FROM
         self._external = None
 
     def _noise_variances(self) -> tuple[np.ndarray, np.ndarray]:

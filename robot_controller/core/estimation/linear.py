@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from robot_controller.core.estimation.config import KalmanConfig
-from robot_controller.core.estimation.kalman import process_noise
+from robot_controller.core.estimation.process_noise import process_noise
 
 
 def steady_state_gain(
