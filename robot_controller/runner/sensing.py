@@ -20,7 +20,7 @@ EXTRA_NODES = {"encoders": (), "camera": ("camera_node",), "both": ("camera_node
 #: every node a sensing may add
 CAMERA_NODES = ("camera_node", "vision_node")
 #: how many of a camera's frame periods the controller's watchdog waits out (a lost frame is not a lost camera)
-WATCHDOG_FRAMES = 2.5
+WATCHDOG_FRAMES = 2.0
 #: s beyond a frame's period and latency a camera's reading may be old when it arrives (the render and the vision)
 READING_AGE_MARGIN_S = 0.05
 #: poses along the planned motion the camera must see every joint at

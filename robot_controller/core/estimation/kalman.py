@@ -1,7 +1,5 @@
-"""The Kalman filter on each joint's position and velocity, with the applied torque as input,
-and optionally the disturbance observer (:class:`JointKalmanFilter`), with its process noise.
-
-Per joint the state is ``x = [q, v]``. The prediction steps the arm model over the period under
+"""The Kalman filter on each joint's position and velocity, the applied torque its input, optionally with the
+disturbance observer (:class:`JointKalmanFilter`); its process noise in :mod:`.process_noise`. Per joint the state is ``x = [q, v]``. The prediction steps the arm model over the period under
 the torque commanded last, in steps of at most ``model_step_s`` (semi-implicitly, as the plant:
 a velocity state is the arm's velocity half a model step before its position's instant); its
 covariance uses the model linearised about the filtered state, with white acceleration noise.
@@ -10,11 +8,11 @@ N·m/√s: each joint's ``d_j`` is the acceleration its readings show beyond the
 torque units on its own axis (``α_j / (M⁻¹)_jj``), so no joint's estimate moves another's
 prediction; ``M(q)·α`` (:attr:`~JointKalmanFilter.disturbance`) is the external torque. ``d`` stays
 within ``±disturbance_limit`` and starts from 0. What a surprising reading does (jumps, restarts,
-mismatch) is in :mod:`.innovation`.
-"""
+mismatch) is in :mod:`.innovation`; a camera's readings of the positions alone in :mod:`.position_readings`."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -260,13 +258,16 @@ class JointKalmanFilter:
                 if any(unexplainable.tolist()):
                     self._start(unexplainable, z)
                     self.restart_count += unexplainable
-        return x[:, 0].copy(), x[:, 1].copy()
+        if not all(map(math.isfinite, self.x.ravel().tolist())):  # a model pushed past what it integrates: restart
+            self.x, self.P = np.zeros((n, m)), np.zeros((g, k * m, k * m))
+            self._start(np.ones(n, dtype=bool), z)
+            self.restart_count += 1
+        return self.x[:, 0].copy(), self.x[:, 1].copy()
 
     def _predict(
         self, torque: np.ndarray, dt: float, torque_change: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """The state and its covariance ``dt`` s on under ``torque``, and each joint's own acceleration per N·m where
-        it was needed (the observer, an uncertain command instant; else None)."""
+        """The state and covariance ``dt`` s on under ``torque``, and each joint's acceleration per N·m (or None)."""
         q, v = self.x[:, 0], self.x[:, 1]
         F = self._transition(q, v, torque, dt)
         config = self.config
@@ -299,9 +300,8 @@ class JointKalmanFilter:
         return x_pred, P_pred, b
 
     def advance(self, time_s: float, torque: np.ndarray) -> None:
-        """The prediction alone, to ``time_s`` under ``torque`` (N·m): where a command changed between two readings
-        further apart than the commands (a camera's), each command acts over its own span. Nothing before the first
-        reading, or backwards."""
+        """The prediction alone, to ``time_s`` under ``torque`` (N·m): between readings slower than the commands (a
+        camera's) each command acts over its own span."""
         if self.x is None or self.time_s is None or not (0 < time_s - self.time_s < 1.0):
             return
         dt, self.time_s = time_s - self.time_s, time_s
@@ -312,9 +312,8 @@ class JointKalmanFilter:
     def correct_position(
         self, position: np.ndarray, position_std: np.ndarray, correlation: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
-        """A second reading of the position alone at the filter's own time (a late camera's, brought to it by the
-        filter's own motion since its stamp), each joint with its σ (``inf``: none) and their correlation: the
-        update on ``q`` alone. Returns the filtered ``(position, velocity)``."""
+        """A second reading of the positions alone at the filter's time (a late camera's, brought to it by the filter's
+        motion since its stamp), with their σs (``inf``: none) and correlation; returns the filtered (q, q̇)."""
         if self.x is None:
             raise ValueError("correct_position: the filter has no state yet")
         g, k, m = self._groups, self._per_group, self.size
