@@ -1,5 +1,6 @@
 """The Kalman filter on each joint's position and velocity, the applied torque its input, optionally with the
-disturbance observer (:class:`JointKalmanFilter`); its process noise in :mod:`.process_noise`. Per joint the state is ``x = [q, v]``. The prediction steps the arm model over the period under
+disturbance observer (:class:`JointKalmanFilter`); its process noise in :mod:`.process_noise`.
+Per joint the state is ``x = [q, v]``. The prediction steps the arm model over the period under
 the torque commanded last, in steps of at most ``model_step_s`` (semi-implicitly, as the plant:
 a velocity state is the arm's velocity half a model step before its position's instant); its
 covariance uses the model linearised about the filtered state, with white acceleration noise.
