@@ -185,45 +185,32 @@ class TimerTicks:
 
 
 #: wall s a tick waits for a camera's reading due beside the encoder's before it goes on without
-#: wall s a tick waits for a camera's reading before its period is known (its second frame): the ticks between its first
-#: two (``camera_wait_s`` 0: none)
-SECOND_START_WAIT_S = 0.1
 
 
 class SecondReadings:
     """When a second sensor's reading (a camera's, beside the encoder's) is due at the world's clock: its frames
-    come every ``period`` and arrive ``lateness`` after their stamps, both learnt from its readings."""
+    come every ``period_s`` and are published ``latency_s`` after their exposure (its first at once)."""
 
-    def __init__(self, wait_s: float) -> None:
+    def __init__(self, wait_s: float, period_s: float, latency_s: float) -> None:
         self.wait_s = wait_s  #: wall s a due reading is waited for (0: never)
+        self.period_s, self.lateness_s = period_s, latency_s
         self.last_stamp_s: float | None = None
-        self.period_s: float | None = None
-        self.lateness_s = 0.0
         self.given_up = False  # said once: a camera that stopped is not waited for again until it comes back
 
-    def arrived(self, stamp_s: float, clock_s: float) -> None:
-        if self.last_stamp_s is not None and stamp_s > self.last_stamp_s:
-            # Its own lateness is the least it has come (its latency): later than that it lagged, the world waits
-            # for it from now. The first frame comes at once.
-            late_s = max(clock_s - stamp_s, 0.0)
-            self.lateness_s = late_s if self.period_s is None else min(self.lateness_s, late_s)
-            self.period_s = stamp_s - self.last_stamp_s
+    def arrived(self, stamp_s: float) -> None:
         if self.last_stamp_s is None or stamp_s > self.last_stamp_s:
             self.last_stamp_s = stamp_s
             self.given_up = False
 
     def due(self, tick_s: float) -> bool:
-        """Whether a reading is due by ``tick_s``: until its second frame teaches its period and latency, every tick
-        waits a little for one (so the camera starts in step with the world, not behind it)."""
-        if self.last_stamp_s is None or self.given_up or self.wait_s <= 0:
+        """Whether a reading is due by ``tick_s`` (its first, published at once, at the first tick)."""
+        if self.given_up or self.wait_s <= 0:
             return False
-        if self.period_s is None:
+        if self.last_stamp_s is None:
             return True
         return tick_s >= self.last_stamp_s + self.period_s + self.lateness_s - 1e-9
 
     def waited_out(self, waiting_since: float, log: Any) -> bool:
-        if self.period_s is None:
-            return time.monotonic() - waiting_since > SECOND_START_WAIT_S
         if time.monotonic() - waiting_since <= self.wait_s:
             return False
         self.given_up = True
@@ -253,7 +240,8 @@ class PairedTicks:
         self.paired_stamp_s: float | None = None  # and that reading's stamp
         self.clock_seen = time.monotonic()  # when the world's clock last moved on
         self.reading_period_s: float | None = None  # s between the last two readings' stamps
-        self.second = SecondReadings(block.params["camera_wait_s"])  # a camera's beside the encoder's
+        params = block.params  # a camera's readings beside the encoder's: when they are due
+        self.second = SecondReadings(params["camera_wait_s"], params["camera_period_s"], params["camera_latency_s"])
 
     def start(self) -> None:
         self.node.create_timer(0.1, self.reference_wait_check, clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -284,7 +272,7 @@ class PairedTicks:
         for it (so the same run fuses it at the same tick), at most ``camera_wait_s``."""
         clock_s = max(self.clock_s, 0.0)
         self.block.take(clock_s, {"camera_reading": sample})
-        self.second.arrived(sample.stamp_s, clock_s)
+        self.second.arrived(sample.stamp_s)
         self.try_tick()
 
     def take_reference(self, value: Any) -> None:

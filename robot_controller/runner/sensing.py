@@ -62,6 +62,7 @@ def with_sensing(params: cfg.Params, sensing: str, sim_time: bool = False) -> cf
             f"may coast on its model between readings ({watchdog_max} periods, readings at most {age_max:g} s old)"
         )
     if sensing == "camera":
+        ctrl["trigger"] = "timer"  # on the wall clock the loop keeps its rate; the readings come a third as often
         ctrl["watchdog_periods"] = max(int(ctrl["watchdog_periods"]), watchdog)
         ctrl["max_reading_age_s"] = max(float(ctrl["max_reading_age_s"]), round(age_s, 3))
         out["sensor_node"]["block"] = "vision"
@@ -69,6 +70,7 @@ def with_sensing(params: cfg.Params, sensing: str, sim_time: bool = False) -> cf
     else:
         ctrl["max_reading_age_s"] = max(float(ctrl["max_reading_age_s"]), round(age_s, 3))
         ctrl["camera_wait_s"] = CAMERA_WAIT_S if sim_time else 0.0
+        ctrl["camera_period_s"], ctrl["camera_latency_s"] = frame_period_s, camera["latency_s"]
         camera["every_state"] = sim_time  # beside the encoder in the paced world: the latest state, frames dropped
         out["vision_node"]["urdf_path"] = urdf
         out["vision_node"]["seed"] = out["sensor_node"]["seed"]
