@@ -137,7 +137,9 @@ def one_value_for_the_loop(params: Params, layers: list[tuple[str, Params]]) -> 
         for where, layer in layers:
             given = {node: layer[node][key] for node in nodes if key in layer.get(node, {})}
             if len({repr(v) for v in given.values()}) > 1:  # (a list's repr: lists are not hashable)
-                said = " but ".join(f"{node}.{key} {v}" for node, v in given.items())
+                said = " but ".join(
+                    f"{node}.{key} {v:g}" if isinstance(v, float) else f"{node}.{key} {v}" for node, v in given.items()
+                )
                 prefix = f"{where}: " if where else ""
                 raise ConfigError(f"{prefix}{said}: the loop has one {key}; set it once (on one node, or under /**)")
             value = next(iter(given.values()), value)
