@@ -21,19 +21,19 @@ $(STAMP): pyproject.toml setup.py
 control_msgs: $(STAMP)
 	$(BIN)/python tools/build_control_msgs.py
 
-run: $(STAMP) control_msgs
+run: $(STAMP) control_msgs egl
 	$(BIN)/robot-controller run $(ARGS)
 
 # Every test but the long experiments (marked slow), which `make test-slow` runs; CI runs both.
 # The 15 slowest are listed at the end: the suite is meant to stay within a few minutes.
-test: $(STAMP) lint control_msgs
+test: $(STAMP) lint control_msgs egl
 	$(BIN)/python -m pytest -q -m "not slow" --durations=15 $(ARGS)
 
-test-slow: $(STAMP) control_msgs
+test-slow: $(STAMP) control_msgs egl
 	$(BIN)/python -m pytest -q -m slow $(ARGS)
 
 # The suite beside a one-core CPU hog (a busy host is not a fault): it must pass all the same.
-test-busy: $(STAMP) lint control_msgs stress-ng
+test-busy: $(STAMP) lint control_msgs egl stress-ng
 	stress-ng --cpu 1 --quiet & HOG=$$!; \
 	$(BIN)/python -m pytest -q -m "not slow" $(ARGS); CODE=$$?; kill $$HOG; exit $$CODE
 
@@ -43,6 +43,11 @@ lint: $(STAMP)
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache
+
+# Debian's EGL and Mesa, for MuJoCo's offscreen rendering (MUJOCO_GL=egl): the camera of run --sensing camera.
+.PHONY: egl
+egl:
+	ldconfig -p | grep -q libEGL_mesa || (apt-get update && apt-get install -y --no-install-recommends libegl1 libegl-mesa0 libgl1)
 
 # Debian's chromium, for the live view's headless browser test (tests/view).
 .PHONY: chromium
