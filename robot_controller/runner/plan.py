@@ -269,8 +269,8 @@ def plan(run: CheckedRun, out_dir: Path) -> RunPlan:
     elif options.single_process:
         processes = [Process("stack", "all_in_one", node_args, node_env)]
     else:
-        local = (*local, *sensing.EXTRA_NODES[options.sensing])
-        processes = [Process(name, name, node_args, node_env) for name in local]
+        started = (*local, *sensing.EXTRA_NODES[options.sensing])
+        processes = [Process(name, name, node_args, node_env) for name in started]
     recorder = None
     if RECORDING_NODE in local:
         recorder = Process("recorder", "recorder", [str(bag_dir)] + (["--sim-time"] * options.world_waits), env)

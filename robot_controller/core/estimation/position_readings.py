@@ -13,7 +13,7 @@ UNMEASURED_STD = 1e3
 #: rad/s: how uncertain a joint's velocity is when the filter starts it from a reading that has none (the model's
 #: prediction, or rest at the start)
 UNREAD_DISTURBANCE_START_STD = 0.2
-UNREAD_VELOCITY_START_STD = 0.5
+UNREAD_VELOCITY_START_STD = 0.1
 
 
 def position_covariance(position_std: np.ndarray, correlation: np.ndarray | None) -> np.ndarray:
