@@ -18,3 +18,19 @@ def stand_in_venv() -> Path:
         if not (venv / ".installed").is_file():
             pytest.skip(f"franka-sim's venv is missing and `make franka-sim` could not make it: {made.stderr[-300:]}")
     return venv
+
+
+#: ms: a tick's 99th percentile beyond the robot's 1 ms period is a host that cannot keep the robot's clock
+SLOW_TICK_P99_MS = 1.0
+
+
+def skip_on_a_host_too_slow(said: str, tick_p99_ms: float | None) -> None:
+    """Skip, saying why, when the robot stopped the run for late commands (communication_constraints_violation, its
+    defined reaction) and our tick's 99th percentile passed its period: this host cannot keep 1 kHz (2026-12-06's
+    kept it, p99 0.78-0.84 ms; tick time is the bench's to judge, never a test's)."""
+    if "communication_constraints_violation" in said and tick_p99_ms is not None and tick_p99_ms > SLOW_TICK_P99_MS:
+        pytest.skip(
+            f"this host computed our tick in {tick_p99_ms:.2f} ms (99th percentile), past the robot's 1 ms, and the "
+            "robot stopped the run for late commands (communication_constraints_violation), as it must: a host that "
+            "keeps 1 kHz runs this test"
+        )

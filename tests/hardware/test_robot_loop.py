@@ -10,6 +10,7 @@ import pytest
 from robot_controller.hardware.franka_arm import ROTOR_INERTIA_KGM2, FrankaArm, RobotFault
 from robot_controller.hardware.robot_loop import robot_loop
 from robot_controller.parameters.files import load_stack
+from tests.hardware.stand_in import skip_on_a_host_too_slow
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -33,6 +34,8 @@ def test_the_panda_tracks_its_trajectory_on_the_robots_clock_from_where_it_stood
     loop = robot_loop(load_stack(robot="panda"), ROTOR_INERTIA_KGM2)
     run = loop.run(arm, DURATION_S)
     said = f"{run.fault and run.fault.describe()}, {run.ended_by}; the stand-in's output ends: {stand_in.tail(6)}"
+    if run.fault is not None:
+        skip_on_a_host_too_slow(said, run.timing()["tick_compute_p99_ms"])
     assert run.fault is None and run.ended_by is None, said
     # libfranka made this thread SCHED_FIFO 99 where it could: put back, or every process started after inherits it
     assert os.sched_getscheduler(0) == os.SCHED_OTHER
