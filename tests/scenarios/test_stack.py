@@ -13,7 +13,7 @@ import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
-from tests.hardware.stand_in import stand_in_venv
+from tests.hardware.stand_in import SLOW_TICK_P99_MS, stand_in_venv
 from tests.rostools import run_said
 
 pytestmark = pytest.mark.ros
@@ -199,6 +199,13 @@ def _descendants(pid: int) -> list[int]:
     return found
 
 
+def robot_stopped_a_slow_host(figures: dict) -> bool:
+    """The stand-in robot stopped the franka scenario's run for late commands, our tick's 99th percentile past its
+    1 ms (a host too slow for the robot's clock: ``tests.hardware.stand_in``)."""
+    failure, p99 = figures.get("franka_failure") or "", figures.get("franka_tick_p99_ms")
+    return "communication_constraints_violation" in failure and isinstance(p99, float) and p99 > SLOW_TICK_P99_MS
+
+
 @pytest.mark.slow
 def test_bench_quick_writes_every_key(tmp_path, ros_domain):
     stand_in_venv()  # the Franka scenario drives the stand-in robot: made here if missing
@@ -245,6 +252,8 @@ def test_bench_quick_writes_every_key(tmp_path, ros_domain):
             for node in ("simulator", "motor_node", "sensor_node", "pid_controller", "trajectory_planner")
         ),
     ):
+        if key == "franka_tracking_rms_rad" and robot_stopped_a_slow_host(figures):
+            continue  # the robot stopped the run before its 2 s start was over: nothing to score
         assert isinstance(figures[key], (int, float)), key
     assert figures["lockstep_rtf_multi"] > 0 and figures["batch_sim_s_per_s"] > 0
     assert "| target | figure | met? |" in (out / "bench.md").read_text()
