@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller.blocks.block import Block
+from robot_controller.blocks.controller import position_noise
 from robot_controller.blocks.values import JointSample, at_tick
 from robot_controller.blocks.world import World
 from robot_controller.core import metrics
@@ -106,8 +107,7 @@ def run_loop(
                 reading.stamp_s if stamp == t else stamp if reading.stamp_s == t else reading.stamp_s - (t - stamp)
             )
             stamp_s = t if delay_unstamped else sample_s
-            noise = None if reading.position_std is None else (reading.position_std, reading.position_correlation)
-            controller.set_measurement(stamp_s, t, position, reading.velocity, noise)
+            controller.set_measurement(stamp_s, t, position, reading.velocity, position_noise(reading))
         out = controller.update(t)
         command = out.command
         inputs: dict[str, Any] = {}
