@@ -5,6 +5,7 @@ and gravity, so the feedback acts on the tracking error, ``J ë + b ė = u_fb`` 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import lru_cache
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -38,12 +39,18 @@ def discretise(inertia: float, damping: float, dt: float) -> tuple[np.ndarray, n
 
 
 def design(inertia: float, damping: float, dt: float, q_weights: np.ndarray, r_weight: float) -> LqrDesign:
-    """Solve the discrete Riccati equation; raise if the result does not stabilise."""
+    """Solve the discrete Riccati equation; raise if the result does not stabilise. The design is kept for the same
+    numbers: a live change is checked off the loop's thread, and the tick that takes it over finds it solved."""
     q_weights = np.asarray(q_weights, dtype=float)
     if q_weights.shape != (3,) or np.any(q_weights < 0) or not np.all(np.isfinite(q_weights)):
         raise ConfigError(f"lqr_q: expected three finite weights >= 0 (integral, position, velocity), got {q_weights}")
     if not np.isfinite(r_weight) or r_weight <= 0:
         raise ConfigError(f"lqr_r: must be > 0, got {r_weight}")
+    return _solved(float(inertia), float(damping), float(dt), tuple(q_weights.tolist()), float(r_weight))
+
+
+@lru_cache(maxsize=256)  # an arm's joints times the handful of weights a session tries
+def _solved(inertia: float, damping: float, dt: float, q_weights: tuple[float, ...], r_weight: float) -> LqrDesign:
     A, B = discretise(inertia, damping, dt)
     Q, R = np.diag(q_weights), np.array([[r_weight]])
     from scipy.linalg import solve_discrete_are
@@ -53,6 +60,8 @@ def design(inertia: float, damping: float, dt: float, q_weights: np.ndarray, r_w
     radius = float(np.max(np.abs(np.linalg.eigvals(A - B @ K))))
     if not radius < 1.0:
         raise ConfigError(f"LQR design does not stabilise the arm (spectral radius {radius:.4f})")
+    for shared in (A, B, K, P):  # one design serves every caller: none may change it
+        shared.setflags(write=False)
     return LqrDesign(A, B, K, P, radius)
 
 
