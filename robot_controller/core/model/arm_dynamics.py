@@ -11,6 +11,7 @@ import mujoco
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.model.friction import coulomb_torque, make_friction_stick
 from robot_controller.core.model.mujoco_model import effort_limits, joint_names, joint_units, load_model
 from robot_controller.core.model.payload import Payload
 
@@ -39,7 +40,8 @@ def matrix_power(a: np.ndarray, k: int) -> np.ndarray:
 
 
 class ArmDynamics:
-    """The arm's coupled dynamics. ``torque(q, v, a)``: M(q)·a + Coriolis + damping·v + gravity (``mj_inverse``),
+    """The arm's coupled dynamics. ``torque(q, v, a)``: M(q)·a + Coriolis + damping·v + gravity (``mj_inverse``), plus
+    dry friction given over the URDF's (:func:`~.friction.coulomb_torque`),
     over one step of the plant's integrator (``step_s``) wherever a joint's damping acts within a step (step·D over
     ``STIFF_DAMPING_SHARE`` of its inertia: implicit in damping, such a wrist takes (M + step·D)·a), in continuous
     time elsewhere. ``predict`` steps the arm as the plant does (``mj_step``: the same numbers), ``step_jacobian``
@@ -65,6 +67,10 @@ class ArmDynamics:
         #: kg·m² per joint, the armature the controller learnt at run time and holds in ``model.dof_armature`` on top of
         #: the model's own (the inertia adaptation's): designs take it away, so gains are designed on the nominal model
         self.learnt_armature = np.zeros(len(self.joint_names))
+        #: N·m per joint, the dry friction given over the URDF's (:meth:`adjusted`), which sticks as a real arm's does
+        #: and ``torque`` carries itself (:func:`~.friction.coulomb_torque`); None: the URDF's own, MuJoCo's soft
+        #: friction as the simulator has it
+        self.coulomb_friction: np.ndarray | None = None
 
     def _choose_inverse(self) -> None:
         """Invert the plant's step where a joint's damping acts within it, else continuous time."""
@@ -86,8 +92,15 @@ class ArmDynamics:
         self._qacc[:] = acceleration
         if self.step_s is not None:
             self._option.timestep = self.step_s
+        friction = self.coulomb_friction
+        if friction is None:
+            mujoco.mj_inverse(self.model, self._data)
+            return self._qfrc_inverse.copy()
+        frictionloss = self.model.dof_frictionloss  # (the forward prediction's: out of the inverse for the call)
+        frictionloss[self._dofs] = 0.0
         mujoco.mj_inverse(self.model, self._data)
-        return self._qfrc_inverse.copy()
+        frictionloss[self._dofs] = friction
+        return self._qfrc_inverse + coulomb_torque(friction, velocity)
 
     def gravity(self, position: np.ndarray) -> np.ndarray:
         zero = np.zeros(self.model.nv)
@@ -191,7 +204,11 @@ class ArmDynamics:
         if damping is not None:
             self.model.dof_damping[dofs] = damping
         if coulomb_friction is not None:
-            self.model.dof_frictionloss[dofs] = coulomb_friction
+            self.coulomb_friction = np.array(coulomb_friction, dtype=float)
+            self._dofs = dofs
+            self.model.dof_frictionloss[dofs] = self.coulomb_friction
+            # Friction given (identified) is a real arm's: it sticks, as the filter's prediction must have it
+            make_friction_stick(self.model, dofs[self.coulomb_friction > 0], self.model.opt.timestep)
         self._choose_inverse()
         self.adjustments = {
             name: value

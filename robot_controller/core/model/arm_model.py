@@ -12,6 +12,7 @@ import numpy as np
 
 from robot_controller.core.errors import ConfigError
 from robot_controller.core.model.arm_dynamics import step_count
+from robot_controller.core.model.friction import coulomb_torque
 
 # The model parameters, in the order of the regression (identification) and of the parameters.
 PARAMETERS = ("inertia", "damping", "coulomb_friction", "gravity_torque")
@@ -96,7 +97,7 @@ class JointArmModel:
         return (
             self.inertia * np.asarray(acceleration, dtype=float)
             + self.damping * velocity
-            + self.coulomb_friction * np.sign(velocity)
+            + coulomb_torque(self.coulomb_friction, velocity)
             + self.gravity(position)
         )
 

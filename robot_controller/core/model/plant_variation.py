@@ -12,6 +12,7 @@ import mujoco
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.model.friction import make_friction_stick
 from robot_controller.core.model.payload import BODY_NAME as PAYLOAD_BODY
 from robot_controller.core.model.payload import Payload
 
@@ -25,9 +26,6 @@ KEYS = (
     "payload_kg",
     "payload_offset_m",
 )
-#: The added friction's constraint: its time constant in physics steps, and its impedance (MuJoCo's solref, solimp)
-STICTION_TIME_STEPS = 2
-STICTION_IMPEDANCE = 0.99
 
 
 @dataclass(frozen=True)
@@ -78,12 +76,7 @@ class PlantVariation:
         values = self.per_joint(count)
         dofs = model.jnt_dofadr[:count]
         model.dof_frictionloss[dofs] += values["joint_friction_nm"]
-        # MuJoCo's friction is a soft constraint: at its defaults a joint held below breakaway creeps at about
-        # 1e-3 s times the acceleration the torque alone would give (0.1 rad/s on the Panda's wrist under 0.5 N·m).
-        # The friction added here sticks: as stiff as a brake, it creeps a hundred times slower.
-        rough = dofs[values["joint_friction_nm"] > 0]
-        model.dof_solref[rough] = [STICTION_TIME_STEPS * model.opt.timestep, 1.0]
-        model.dof_solimp[rough, :2] = STICTION_IMPEDANCE
+        make_friction_stick(model, dofs[values["joint_friction_nm"] > 0], model.opt.timestep)
         model.dof_damping[dofs] += values["joint_damping_nms"]
         model.dof_armature[dofs] += values["armature_kgm2"]
         scale = _body_scale(model, values["link_mass_scale"])
