@@ -4,6 +4,7 @@ identification, and the simulated drive and encoder."""
 from robot_controller.core.model.actuator import Actuator
 from robot_controller.core.model.arm_dynamics import ArmDynamics, matrix_power
 from robot_controller.core.model.arm_model import PARAMETERS, JointArmModel
+from robot_controller.core.model.chain_identification import ChainFit, ChainJointFit, fit_chain
 from robot_controller.core.model.identification import IdentificationError, JointFit, identify
 from robot_controller.core.model.joint_limits import JointLimits, joint_limits, urdf_velocity_limits
 from robot_controller.core.model.mujoco_model import (
@@ -29,6 +30,8 @@ __all__ = [
     "PARAMETERS",
     "Actuator",
     "ArmDynamics",
+    "ChainFit",
+    "ChainJointFit",
     "DelayLine",
     "IdentificationError",
     "JointArmModel",
@@ -42,6 +45,7 @@ __all__ = [
     "can_collide",
     "check_disturbance",
     "effort_limits",
+    "fit_chain",
     "fit_payload",
     "identify",
     "joint_limits",
