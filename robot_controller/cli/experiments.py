@@ -75,7 +75,10 @@ def register(sub) -> None:
     controller_option(p)  # a law of one's own: its gain=True parameters, searched on the in-process loop
     p.add_argument("--quick", action="store_true", help="a short search and short checks")
 
-    identify_help = "identify the arm's inertia, damping, friction and gravity; writes identified.yaml"
+    identify_help = (
+        "identify the arm's inertia, damping and friction (one joint: and gravity; a chain: and a payload on the "
+        "last link); writes identified.yaml"
+    )
     p = verb(sub, "identify", identify_help, identify)
     out_option(p, "runs/identify")
     stack_options(p)
@@ -185,7 +188,7 @@ def identify(a: argparse.Namespace) -> int:
     def fit(progress) -> dict:
         return experiments.identify(params, out, duration_s=a.duration, seed=options.seed, progress=progress)
 
-    return run_experiment("identify", 4, fit, out / "identification.md", hint)
+    return run_experiment("identify", experiments.steps(params), fit, out / "identification.md", hint)
 
 
 def faults(a: argparse.Namespace) -> int:
