@@ -74,6 +74,13 @@ def register(sub) -> None:
     stack_options(p, seed=False)
     controller_option(p)  # a law of one's own: its gain=True parameters, searched on the in-process loop
     p.add_argument("--quick", action="store_true", help="a short search and short checks")
+    p.add_argument(
+        "--target",
+        choices=("tracking", "robust", "effort"),
+        default="tracking",
+        help="on a chain of joints, what each joint's design is for: tracking (the fastest feedback with 2 control "
+        "periods of delay margin), robust (4 periods), effort (half that bandwidth, less torque and noise)",
+    )
 
     identify_help = (
         "identify the arm's inertia, damping and friction (one joint: and gravity; a chain: and a payload on the "
@@ -161,17 +168,27 @@ def tune(a: argparse.Namespace) -> int:
     params = laws.with_controller(RunOptions.from_args(a).params(), a.controller)
     consistency.check_stack(params)
     controller_type = params["pid_controller"]["controller_type"]
-    if registry.is_builtin(controller_type.strip()) and params["trajectory_planner"]["joint_count"] > 1:
+    joint_count = params["trajectory_planner"]["joint_count"]
+    if joint_count > 1 and not registry.is_builtin(controller_type.strip()):
         raise UsageError(
-            f"--robot {a.robot}: tune designs one joint's gains; on a chain of joints the LQR's weights serve "
-            "every joint, each scaled by its own inertia (lqr_q, lqr_r, reference_inertia)"
+            f"--controller {controller_type}: on a chain of joints tune designs the built-in LQR's weight on each "
+            "joint; a law of one's own is tuned on one joint"
         )
+    if joint_count == 1 and a.target != "tracking":
+        raise UsageError(f"--target {a.target}: on one joint tune searches for the best tracking within the margins")
     say_arm(a.robot)
     out = output_dir(a.out, Path("runs/tune"))
-    steps, hint = autotune.steps(a.quick, controller_type), f"use it with --config {out / 'tuned.yaml'}"
-    return run_experiment(
-        "tune", steps, lambda p: autotune.tune(params, out, quick=a.quick, progress=p), out / "report.md", hint
-    )
+    steps = autotune.steps(a.quick, controller_type, joint_count)
+
+    def hint() -> str:
+        if (out / "tuned.yaml").exists():
+            return f"use it with --config {out / 'tuned.yaml'}"
+        return "nothing better than the gains in force was found: nothing written to use"
+
+    def design(progress) -> dict:
+        return autotune.tune(params, out, quick=a.quick, progress=progress, target=a.target)
+
+    return run_experiment("tune", steps, design, out / "report.md", hint)
 
 
 def identify(a: argparse.Namespace) -> int:

@@ -104,10 +104,11 @@ def run_experiment(
     steps: int,
     body: Callable[[StepProgress], object],
     report: Path,
-    hint: str | None = None,
+    hint: str | Callable[[], str | None] | None = None,
     show: Callable[[], None] | None = None,
 ) -> int:
-    """``body(progress)`` with a progress line, then the report it wrote (or ``show()``) and a ``hint`` on using it.
+    """``body(progress)`` with a progress line, then the report it wrote (or ``show()``) and a ``hint`` on using it
+    (a callable: asked once the body has run).
     An experiment that fails is one line, exit 1; Ctrl-C ends it with 130."""
     try:
         with StepProgress(verb, steps) as progress:
@@ -124,8 +125,9 @@ def run_experiment(
         show()
     else:
         print(report.read_text())
-    if hint is not None:
-        print(f"robot-controller: {hint}")
+    said = hint() if callable(hint) else hint  # (a hint may depend on what the experiment found)
+    if said is not None:
+        print(f"robot-controller: {said}")
     return 0
 
 

@@ -107,6 +107,11 @@ def pid_config(values: Mapping[str, Any], joint_count: int) -> PidConfig:
     )
 
 
+def one_or_each(values: np.ndarray) -> float | tuple[float, ...]:
+    """One number where every joint has the same, else one per joint (as a config compares and a line says it)."""
+    return float(values[0]) if np.all(values == values[0]) else tuple(values.tolist())
+
+
 def controller_config(values: Mapping[str, Any], joint_count: int) -> ControllerConfig:
     """The controller's config: each field from the parameter of its name, the few below worked out from theirs."""
     from robot_controller.core.controller import ControllerConfig
@@ -118,6 +123,7 @@ def controller_config(values: Mapping[str, Any], joint_count: int) -> Controller
         pid=pid_config(values, joint_count),
         law_parameters={key[len(LAW_PREFIX) :]: value for key, value in values.items() if key.startswith(LAW_PREFIX)},
         lqr_q=tuple(float(w) for w in values["lqr_q"]),  # three weights: the schema checks the length
+        lqr_r=one_or_each(per_joint("lqr_r", values["lqr_r"], joint_count)),
         # A payload's allowance makes the observer faster than a delay the stamps do not show allows: only where the
         # world waits for each command (sim time, the paced world).
         world_waits=world_waits(values),

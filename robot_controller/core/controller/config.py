@@ -38,7 +38,7 @@ class ControllerConfig:
     law_error_max_rad: float
     stop_law: str
     lqr_q: tuple[float, float, float]
-    lqr_r: float
+    lqr_r: float | tuple[float, ...]  #: one for every joint, or one per joint
     reference_inertia: float
     rated_payload_kg: float
     estimator: KalmanConfig | None

@@ -4,6 +4,7 @@ and gravity, so the feedback acts on the tracking error, ``J ë + b ė = u_fb`` 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import TYPE_CHECKING, ClassVar
@@ -79,7 +80,7 @@ def designed_gains(
     joint_count: int,
     period_s: float,
     lqr_q: tuple[float, float, float],
-    lqr_r: float,
+    lqr_r: float | Sequence[float],
     reference_inertia: float = 0.0,
     design_position: tuple[float, ...] | None = None,
     payload_kg: float = 0.0,
@@ -89,6 +90,7 @@ def designed_gains(
     if dynamics is None:
         raise ConfigError("controller_type lqr: needs the arm model (urdf_path)")
     inertia = design_inertia(dynamics, joint_count, design_position, payload_kg)
+    torque_weights = np.broadcast_to(np.asarray(lqr_r, dtype=float), (joint_count,))
     gains = np.array(
         [
             design(
@@ -96,7 +98,7 @@ def designed_gains(
                 dynamics.damping[j],
                 period_s,
                 np.array(lqr_q),
-                torque_weight(lqr_r, reference_inertia, inertia[j]),
+                torque_weight(float(torque_weights[j]), reference_inertia, inertia[j]),
             ).K[0]
             for j in range(joint_count)
         ]

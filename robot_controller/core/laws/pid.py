@@ -10,7 +10,7 @@ The integral is stored as the I term itself (N·m), so a new ``ki`` while runnin
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from enum import StrEnum
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -364,11 +364,15 @@ class BuiltinLaw(ControlLaw):
         if self.kind == "lqr":
             load = f", for a {p['rated_payload_kg']:g} kg payload" if p.get("rated_payload_kg") else ""
             return (
-                f"LQR (q={in_units(p['lqr_q'], spec='.3g')}, r={p['lqr_r']:g}, designed at "
+                f"LQR (q={in_units(p['lqr_q'], spec='.3g')}, r={_weights(p['lqr_r'])}, designed at "
                 f"{1.0 / self.period_s:g} Hz{load}): {in_force}; the kp/ki/kd parameters are unused"
             )
         scaled = "/".join(p.get("scaled_gains", ()))  # one value each, for reference_inertia
         return f"PID{f' ({scaled} × each joint inertia / reference_inertia)' if scaled else ''}: {in_force}"
+
+
+def _weights(lqr_r: float | Sequence[float]) -> str:
+    return f"{lqr_r:g}" if np.ndim(lqr_r) == 0 else "[" + ", ".join(f"{r:.3g}" for r in lqr_r) + "]"
 
 
 class PidLaw(BuiltinLaw):

@@ -57,7 +57,7 @@ class AnalyticProblem:
         self.torque_max = float(min(np.min(ctrl["torque_max"]), np.min(motor["torque_max"])))
         self.feedforward = ctrl["feedforward"]
         self.kalman = cfg.controller_config(ctrl, 1).estimator  # None without the filter
-        self.lqr_r = float(ctrl["lqr_r"])
+        self.lqr_r = float(np.atleast_1d(ctrl["lqr_r"])[0])  # one joint
         planner = params["trajectory_planner"]
         sine = {key: planner[key] for key in ("amplitude", "frequency_hz", "offset")}
         self.sine = make_trajectory("sine", joint_count=1, **sine)
