@@ -25,6 +25,13 @@ ROWS = (
     ("coulomb_friction", "coulomb_friction", "nm", "Coulomb friction", "N·m"),
 )
 PAYLOAD_NAMES = ("mass_kg", "x_m", "y_m", "z_m")
+# Why a value fitted below 0 is set to 0 (beyond its noise, a sign the URDF is off where the fit cannot follow).
+WHY = {
+    "armature": " (the chain's model adds inertia to its links, never takes theirs away; beyond the noise, its links "
+    "turn more easily than the URDF says)",
+    "damping": "",
+    "coulomb_friction": "",
+}
 
 
 def rounded_up(value: float) -> float:
@@ -96,7 +103,7 @@ def _value(joint: ChainJointFit, field: str) -> tuple[str, str]:
     value, err = getattr(joint, field), getattr(joint, f"{field}_stderr")
     if not joint.identified:
         return f"{value:.4g} (the URDF's)", "—"
-    clipped = " (fitted below 0: set to 0)" if field in joint.clipped else ""
+    clipped = f" ({joint.below_zero(field)}: set to 0)" if field in joint.clipped else ""
     return f"{value:.4g}{clipped}", f"{err:.2g}"
 
 
@@ -114,13 +121,8 @@ def limits(fit: ChainFit) -> list[str]:
     ]
     said += [f"`{j.name}` not identified: {j.reason}; the URDF's values kept." for j in fit.joints if not j.identified]
     for joint in fit.joints:
-        if "armature" in joint.clipped:
-            said.append(
-                f"`{joint.name}`'s armature fitted below 0: set to 0 (the chain's model adds inertia to its links, "
-                "never takes theirs away); its links may be lighter than the URDF says."
-            )
-        if other := [name for name in joint.clipped if name != "armature"]:
-            said.append(f"`{joint.name}`'s {', '.join(other)} fitted below 0: set to 0.")
+        for name in joint.clipped:
+            said.append(f"`{joint.name}`'s {name.replace('_', ' ')} {joint.below_zero(name)}: set to 0{WHY[name]}.")
     if fit.payload_found and fit.payload.unidentifiable:
         said.append(
             f"The payload's {', '.join(fit.payload.unidentifiable)} moves no joint's torque in this motion: set to 0."
@@ -222,7 +224,7 @@ def progress_lines(fit: ChainFit) -> list[str]:
             f"{readable} {getattr(joint, field):.4g} ± {getattr(joint, field + '_stderr'):.2g} {unit}"
             for field, _, _, readable, unit in ROWS
         )
-        clipped = f" ({', '.join(joint.clipped)} fitted below 0: set to 0)" if joint.clipped else ""
+        clipped = "".join(f" ({name.replace('_', ' ')} {joint.below_zero(name)}: set to 0)" for name in joint.clipped)
         lines.append(
             f"identify: {joint.name}: {values}{clipped}; residual {joint.residual_rms_nm:.3g} N·m RMS over "
             f"{joint.samples} samples"

@@ -75,6 +75,16 @@ class ChainJointFit:
     identified: bool = True
     reason: str = ""  #: why not identified
     clipped: tuple[str, ...] = ()  #: names in ``JOINT_PARAMETERS`` fitted below 0, set to 0
+    fitted: tuple[float, ...] = ()  #: the least squares' values of ``JOINT_PARAMETERS`` before any was set to 0
+
+    def below_zero(self, name: str) -> str:
+        """How far below 0 ``name`` was fitted, in words ("" if it was not)."""
+        if name not in self.clipped:
+            return ""
+        value = self.fitted[JOINT_PARAMETERS.index(name)]
+        err = getattr(self, f"{name}_stderr")
+        noise = "within" if -value <= 3.0 * err else "beyond"
+        return f"fitted {value:.2g} ± {err:.2g}, {noise} 3 standard errors of 0"
 
     @property
     def inertia_stderr(self) -> float:
@@ -302,6 +312,7 @@ def fit_chain(
                 residual_rms_nm=float(np.sqrt(np.mean(residual**2))),
                 **common,
                 clipped=tuple(name for name, value in zip(JOINT_PARAMETERS, beta, strict=True) if value < 0),
+                fitted=tuple(float(value) for value in beta),
             )
         )
     final = np.concatenate([residual for _, _, residual in solved])

@@ -154,5 +154,7 @@ def test_an_armature_below_the_urdfs_links_is_clipped_to_zero_and_said(arm3, tmp
     wrist = fit.joints[2]
     assert wrist.identified and wrist.clipped == ("armature",)
     assert wrist.armature == 0.0 and wrist.inertia == pytest.approx(wrist.urdf_inertia)
+    assert wrist.fitted[0] == pytest.approx(-0.0004, rel=0.2)  # the URDF's hand is 0.0004 kg·m² too heavy
+    assert "beyond 3 standard errors of 0" in wrist.below_zero("armature") and wrist.below_zero("damping") == ""
     assert wrist.coulomb_friction == pytest.approx(0.3, abs=0.05)
     assert not fit.payload_found
