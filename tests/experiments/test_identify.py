@@ -6,6 +6,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from robot_controller import parameters as cfg
@@ -64,3 +65,39 @@ def test_identify_recovers_the_heavy_arm_through_the_graph(tmp_path, ros_domain)
     right = inprocess.simulate(params, duration_s=8.0, seed=3).tracking_metrics()
     assert right["tracking_rms_rad"] <= 0.003
     assert wrong["tracking_rms_rad"] > 10 * right["tracking_rms_rad"]
+
+
+def test_identify_recovers_each_joint_and_the_payload_of_a_chain_through_the_graph(tmp_path, ros_domain):
+    """planar2 with friction, damping and rotor inertia its URDF lacks, and a payload: each joint within the promise
+    (friction ±0.05 N·m, damping and armature ±20 %), the payload found, the overlay loadable."""
+    friction, added_damping, armature = [0.5, 0.3], [0.3, 0.1], [0.05, 0.01]
+    plant = tmp_path / "plant.yaml"
+    values = {"joint_friction_nm": friction, "joint_damping_nms": added_damping, "armature_kgm2": armature}
+    cfg.write_params_file({"simulator": {**values, "payload": [0.8, 0.05, 0.0, 0.1]}}, plant)
+    out = tmp_path / "identify"
+    code = (
+        "from pathlib import Path; from robot_controller import parameters as cfg; "
+        "from robot_controller.experiments.identify import identify; "
+        f"identify(cfg.load_stack('default', [{str(plant)!r}], robot='planar2'), Path({str(out)!r}), "
+        f"duration_s={DURATION_S}, seed=1)"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, run_said(proc.stdout) + proc.stderr[-2000:]
+
+    overlay = out / "identified.yaml"
+    identified = cfg.read_params_file(overlay)["pid_controller"]
+    assert set(identified) == {"model_inertia", "model_damping", "model_coulomb_friction", "model_payload"}
+    results = json.loads((out / "identification.json").read_text())
+    urdf = ArmDynamics(resources.resolve_urdf(cfg.load_stack(robot="planar2")["simulator"]["urdf_path"]))
+    for j, joint in enumerate(("shoulder", "elbow")):
+        assert results[f"{joint}_coulomb_friction_nm"] == pytest.approx(friction[j], abs=0.05), joint
+        total = urdf.damping[j] + added_damping[j]
+        assert results[f"{joint}_damping_nm_s_per_rad"] == pytest.approx(total, rel=0.2), joint
+        assert results[f"{joint}_armature_kg_m2"] == pytest.approx(armature[j], rel=0.2), joint
+    assert results["payload_found"] and results["payload_mass_kg"] == pytest.approx(0.8, rel=0.02)
+    assert results["payload_unidentifiable"] == ["y_m"]  # both axes along it
+    assert identified["model_payload"] == pytest.approx([0.8, 0.05, 0.0, 0.1], abs=0.01)
+
+    params = cfg.load_stack("default", [plant, overlay], robot="planar2")
+    consistency.check_stack(params)
+    np.testing.assert_allclose(arm_model(params["pid_controller"]).model.dof_armature[:2], armature, rtol=0.2)
