@@ -28,8 +28,13 @@ class Verification:
     duration_s: float
 
     @property
+    def unchanged(self) -> bool:
+        """The design is the configuration in force: nothing was run."""
+        return not self.before_rad
+
+    @property
     def improvement_rad(self) -> float:
-        return float(np.mean(np.subtract(self.before_rad, self.after_rad)))
+        return float(np.mean(np.subtract(self.before_rad, self.after_rad))) if self.before_rad else 0.0
 
     @property
     def stderr_rad(self) -> float:
@@ -39,11 +44,15 @@ class Verification:
 
     @property
     def recommended(self) -> bool:
+        if self.unchanged or not self.after_ok:
+            return False
         improvement = self.improvement_rad
-        return bool(self.after_ok and improvement > SIGNIFICANCE * self.stderr_rad and improvement > 0)
+        return bool(improvement > SIGNIFICANCE * self.stderr_rad and improvement > 0)
 
     def verdict(self) -> str:
         """One line: the figures before and after and whether to use the design."""
+        if self.unchanged:
+            return "the design is the configuration in force: nothing better found, nothing written to use"
         before, after = np.mean(self.before_rad) * 1e3, np.mean(self.after_rad) * 1e3
         figures = (
             f"the real graph's sine RMS (worst joint, {len(self.seeds)} seeds of {self.duration_s:g} s) goes from "
@@ -56,6 +65,8 @@ class Verification:
         return f"{figures}: not recommended ({why}); nothing better found, nothing written to use"
 
     def as_values(self) -> dict[str, Any]:
+        if self.unchanged:
+            return {"verified_seeds": 0, "unchanged": 1, "recommended": 0}
         values: dict[str, Any] = {
             "verified_seeds": len(self.seeds),
             "verified_duration_s": self.duration_s,
@@ -79,7 +90,10 @@ def verify(
     out: Path,
     progress: Callable[[str], None],
 ) -> Verification:
-    """Run ``before`` and ``after`` on sim time with each of ``seeds`` (in ``out/real_{before,after}_seed{N}``)."""
+    """Run ``before`` and ``after`` on sim time with each of ``seeds`` (in ``out/real_{before,after}_seed{N}``); no
+    run where they are the same configuration."""
+    if before == after:
+        return Verification(tuple(seeds), (), (), True, duration_s)
     figures: dict[str, list[float]] = {"before": [], "after": []}
     after_ok = True
     for seed in seeds:

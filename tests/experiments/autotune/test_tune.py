@@ -82,10 +82,13 @@ def test_robustness_cases_see_a_pd_too_fast_for_two_periods_of_delay():
     assert problem.push_decay(np.array([3.0, 1.0]), delay)["ok"]
 
 
+@ros
 @pytest.mark.slow
-def test_tune_of_a_plugin_law_writes_its_gains(tmp_path, capsys):
-    out = tmp_path / "tune"
-    assert cli.main(["tune", "--controller", PD, "--quick", "--out", str(out)]) == 0
+def test_tune_of_a_plugin_law_writes_its_gains(tmp_path, ros_domain):
+    """From a slow start (1 Hz): the design found beats it on the real graph, so it is written to use."""
+    out, slow = tmp_path / "tune", tmp_path / "slow.yaml"
+    cfg.write_params_file({"pid_controller": {"controller_type": PD, "law.natural_frequency_hz": 1.0}}, slow)
+    assert cli.main(["tune", "--controller", PD, "--config", str(slow), "--quick", "--out", str(out)]) == 0
     tuned = yaml.safe_load((out / "tuned.yaml").read_text())["pid_controller"]["ros__parameters"]
     assert set(tuned) == {"controller_type", "law.natural_frequency_hz", "law.damping_ratio"}
     assert tuned["controller_type"] == PD
@@ -95,3 +98,5 @@ def test_tune_of_a_plugin_law_writes_its_gains(tmp_path, capsys):
     assert 0.5 <= values["after_natural_frequency_hz"] <= 30.0
     assert values["after_check_rms_rad"] < 0.02
     assert "# Automatic gain design" in (out / "report.md").read_text()
+    assert values["verification_recommended"] == 1
+    assert values["verification_real_rms_after_rad"] < values["verification_real_rms_before_rad"]

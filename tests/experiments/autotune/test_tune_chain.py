@@ -64,6 +64,15 @@ def test_a_design_is_recommended_only_past_twice_its_standard_error(before, afte
     assert checked.as_values()["recommended"] == int(recommended)
 
 
+def test_a_design_that_is_the_configuration_in_force_is_not_run_and_not_advice(tmp_path):
+    from robot_controller.experiments.autotune.verification import verify
+
+    params = cfg.load_stack("default")
+    checked = verify(params, cfg.merge(params, {}), seeds=(0, 1, 2), duration_s=6.0, out=tmp_path, progress=print)
+    assert checked.unchanged and not checked.recommended and not any(tmp_path.iterdir())
+    assert "the design is the configuration in force" in checked.verdict()
+
+
 @pytest.mark.ros
 def test_tune_on_a_chain_designs_every_joint_and_writes_it_only_if_it_is_better(tmp_path, ros_domain, capfd):
     out = tmp_path / "tune"
