@@ -17,6 +17,10 @@ from robot_controller.core.errors import ConfigError
 Sample = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 MODES = ("sine", "step", "square", "chirp", "hold")
+#: s: a time this close to a step's instant (its start, a shaped step's switch or end) is at it. Two clocks reach one
+#: sample instant through different float sums (the graph's from nanosecond stamps, ``0.59 + 0.01``; the in-process
+#: loop's ``k·period``), an ulp either side; a nanosecond is the ROS clock's resolution, a million ulps wide.
+INSTANT_S = 1e-9
 
 
 class Trajectory(Protocol):
@@ -56,7 +60,7 @@ class Step:
 
     def sample(self, t: float) -> Sample:
         zero = np.zeros_like(self.offset)
-        position = self.offset + (self.amplitude if t >= self.step_time_s else zero)
+        position = self.offset + (self.amplitude if t >= self.step_time_s - INSTANT_S else zero)
         return position, zero, zero.copy()
 
 
@@ -65,7 +69,8 @@ class MinTimeStep:
     """A step shaped into the fastest move within an acceleration limit (bang-bang), so the arm can follow it
     inside its torque limit and stop without overshoot. Each half lasts ``sqrt(|amplitude| / max_acceleration)``
     rounded up to whole ``grid_s``, so the acceleration switches on a sample instant and is constant over every
-    sample period (a torque held over a period then matches it exactly)."""
+    sample period (a torque held over a period then matches it exactly): sampled at a switch (within
+    :data:`INSTANT_S`), it gives the acceleration of the period that follows."""
 
     amplitude: np.ndarray
     step_time_s: float
@@ -92,11 +97,13 @@ class MinTimeStep:
         half = self.half_s
         a = np.divide(distance, half * half, out=np.zeros_like(distance), where=half > 0)
         tau = t - self.step_time_s
-        if tau < 0:
+        if tau < -INSTANT_S:
             zero = np.zeros_like(self.offset)
             return self.offset.copy(), zero, zero.copy()
-        accelerating = tau < half
-        moving = tau < 2 * half
+        tau = max(tau, 0.0)
+        # Which part of the move a sample is in, its instant taken as the part that starts there (``INSTANT_S``).
+        accelerating = tau + INSTANT_S < half
+        moving = tau + INSTANT_S < 2 * half
         first = 0.5 * a * tau * tau
         second = distance - 0.5 * a * (2 * half - tau) ** 2
         progress = np.where(accelerating, first, np.where(moving, second, distance))

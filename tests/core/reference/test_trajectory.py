@@ -1,5 +1,7 @@
 """Trajectories: values, self-consistency, the shaped step, refused settings (no ROS)."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -60,3 +62,33 @@ def test_min_time_step_reaches_the_target_within_the_acceleration_limit():
     samples = np.array([traj.sample(t) for t in times])[:, :, 0]
     assert np.max(np.abs(samples[:, 2])) <= 50.0 and np.all(np.diff(samples[:, 0]) >= -1e-12)
     np.testing.assert_allclose(np.gradient(samples[:, 0], times), samples[:, 1], atol=0.05)
+
+
+@pytest.mark.parametrize("ulps", [-1, 0, 1])
+@pytest.mark.parametrize("instant_s, acceleration", [(0.5, 50.0), (0.6, -50.0), (0.7, 0.0)])
+def test_a_shaped_step_sampled_at_a_switch_gives_the_acceleration_of_the_period_after(instant_s, acceleration, ulps):
+    # 0.5 rad at 0.5 s on the 10 ms grid: up over [0.5, 0.6), down over [0.6, 0.7). Two clocks reach an instant an ulp
+    # apart, and the torque held over the period after must be the same.
+    traj = make_trajectory(
+        "step", joint_count=1, amplitude=0.5, step_time_s=0.5, step_shaping="min_time", sample_period_s=0.01
+    )
+    t = instant_s
+    for _ in range(abs(ulps)):
+        t = math.nextafter(t, math.copysign(math.inf, ulps))
+    assert traj.sample(t)[2][0] == pytest.approx(acceleration)
+
+
+def test_a_shaped_step_switches_alike_on_either_clocks_time():
+    traj = make_trajectory(
+        "step", joint_count=1, amplitude=0.5, step_time_s=0.5, step_shaping="min_time", sample_period_s=0.01
+    )
+    # The in-process loop's tick 60; the graph planner's sample for the tick after its clock's 0.59 s (ns stamps).
+    clock_s, previous_s = 590_000_000 * 1e-9, 580_000_000 * 1e-9
+    in_process, graph = 60 * 0.01, clock_s + (clock_s - previous_s)
+    assert in_process - 0.5 < 0.1 < graph - 0.5  # an ulp either side of the switch, 0.1 s into the move
+    assert traj.sample(in_process)[2][0] == traj.sample(graph)[2][0] == pytest.approx(-50.0)
+
+
+def test_a_jump_step_sampled_an_ulp_before_its_instant_has_stepped():
+    step = make_trajectory("step", joint_count=1, amplitude=0.5, step_time_s=0.3)
+    assert step.sample(math.nextafter(0.3, 0.0))[0][0] == 0.5 and step.sample(0.29)[0][0] == 0.0
