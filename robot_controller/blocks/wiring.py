@@ -5,7 +5,7 @@ ticks): each value reaches its reader at the tick it was written, as in the grap
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -16,6 +16,7 @@ from robot_controller.blocks.values import JointSample, at_tick
 from robot_controller.blocks.world import World
 from robot_controller.core import metrics
 from robot_controller.core.controller import JointController, Status
+from robot_controller.core.controller.state_layout import STATUS_CODES
 from robot_controller.core.model import steps_per_period
 
 # Ticks that command nothing once a controlled stop is over: the drive brakes the arm.
@@ -39,6 +40,8 @@ class LoopResult:
     joint_units: list[str]  #: "rad" or "m" per joint
     law_fault: str | None  #: what a plugin law did wrong (its one line), if it did
     adapted_armature_kgm2: list[float]  #: kg·m² per joint, what the inertia adaptation had learnt at the end
+    #: each tick's status, its code on the state topic (``state_layout.STATUS_CODES``); empty: not recorded
+    status_code: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def tracking_metrics(self, warmup_s: float = metrics.WARMUP_S) -> dict[str, Any]:
         """Tracking per joint and the worst joint's, with ``joint_names``, as ``metrics.json`` has them."""
@@ -82,6 +85,7 @@ def run_loop(
     # Each record's rows bound once: a row written from its array, not a tuple of six converted each tick.
     reference_rows, measured_rows, true_position_rows, true_velocity_rows, command_rows, applied_rows = rows
     times = np.arange(ticks) * control_period_s
+    status_codes = np.zeros(ticks)
     braked = False
     position = np.zeros(n)
     effort = np.zeros(n)
@@ -134,6 +138,7 @@ def run_loop(
         true_velocity_rows[k] = true_velocity
         command_rows[k] = command
         applied_rows[k] = effort
+        status_codes[k] = STATUS_CODES[out.status]
     fault, inertia = controller.law_fault, getattr(controller, "inertia", None)  # (a stand-in may have none)
     return LoopResult(
         tick_time_s=times,
@@ -141,5 +146,6 @@ def run_loop(
         joint_units=list(world.plant.joint_units),
         law_fault=None if fault is None else fault.line(),
         adapted_armature_kgm2=[0.0] * n if inertia is None else inertia.armature.tolist(),
+        status_code=status_codes,
         **dict(zip(RECORDED, rows, strict=True)),
     )

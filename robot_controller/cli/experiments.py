@@ -57,7 +57,8 @@ def register(sub) -> None:
         help="the entries compared: configurations (default, tutorial, pid, pid_ff, pid_ff_kf, lqr) or laws "
         "(module:Class, path/to/file.py:Class, an installed law) with the default stack (default: the configurations)",
     )
-    p.add_argument("--in-process", action="store_true", help="on the in-process loop (no ROS): seconds, not minutes")
+    in_process_help = "on the in-process loop (no ROS): the graph's figures, in seconds"
+    p.add_argument("--in-process", action="store_true", help=in_process_help)
     out_option(p, "runs/compare")
     p.add_argument("--seeds", type=positive_int, default=5)
     p.add_argument("--duration", type=positive_seconds, default=10.0, help="sine duration, sim s (default 10)")

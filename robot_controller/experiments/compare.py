@@ -26,12 +26,14 @@ from robot_controller.experiments.reporting import pyplot
 from robot_controller.experiments.reporting import table as markdown_table
 from robot_controller.experiments.step import (
     STEP_AFTER_S,
+    STEP_LEAD_S,
     check_step,
     run_and_score,
     step_params,
     step_response,
     tick_step_figures,
 )
+from robot_controller.parameters.schema import LOCKSTEP_END_MARGIN_S
 from robot_controller.scoring import report
 
 #: (contender, seed) pairs run side by side by ``compare``: three keep two cores busy.
@@ -40,9 +42,6 @@ COMPARED = {
     "sine": ("tracking_rms_rad", "tracking_max_rad", "start_tracking_max_rad"),
     "step": ("overshoot_pct", "settling_time_s", "rise_time_s", "peak_torque_nm", "steady_state_error_rad"),
 }
-#: In process the step comes after 1.5 s at rest, not ``step.STEP_LEAD_S`` (0.5 s): the loop starts with
-#: its first tick there, and the default's filter and observer settle within 1.5 s, not within 0.5 s.
-IN_PROCESS_STEP_LEAD_S = 1.5
 
 
 @dataclass(frozen=True)
@@ -186,18 +185,24 @@ def run_pair(
 
 
 def run_pair_in_process(contender: Contender, seed: int, sine_duration_s: float, amplitude: float) -> dict[str, float]:
-    """:func:`run_pair` on the in-process loop: the same parameters, the sim-time graph's computation, no ROS."""
+    """:func:`run_pair` on the in-process loop: the same parameters, the sim-time graph's computation, no ROS, scored
+    as the graph's runs are. Its first tick is the graph's first (the arm's start, the filter's first reading, the
+    planner's time 0 alike), so the step comes as the graph's does, ``step.STEP_LEAD_S`` after it; each run lasts as
+    long as the graph records its run (the state at the sine's end is scored, as the bag holds it; a step late on a
+    slow planner's grid is scored over its whole ``STEP_AFTER_S``)."""
     from robot_controller.experiments import inprocess
+    from robot_controller.scoring import loop_scoring
 
     base = contender.params()
-    sine = inprocess.simulate(base, duration_s=sine_duration_s, seed=seed).tracking_metrics()
-    lead = {"trajectory_planner": {"step_time_s": IN_PROCESS_STEP_LEAD_S}}
-    stepped = cfg.merge(step_params(base, amplitude, "min_time"), lead)
-    result = inprocess.simulate(stepped, duration_s=IN_PROCESS_STEP_LEAD_S + STEP_AFTER_S, seed=seed)
+    period_s = 1.0 / base["pid_controller"]["control_rate_hz"]
+    sine_run = inprocess.simulate(base, duration_s=sine_duration_s + period_s, seed=seed)
+    sine = loop_scoring.tracking(sine_run, sine_duration_s, period_s)
+    stepped = step_params(base, amplitude, "min_time")
+    result = inprocess.simulate(stepped, duration_s=STEP_LEAD_S + STEP_AFTER_S + LOCKSTEP_END_MARGIN_S, seed=seed)
     offset = cfg.per_joint("offset", stepped["trajectory_planner"]["offset"], result.reference.shape[1])
     try:
         step = tick_step_figures(
-            result.tick_time_s, result.reference, result.true_position, result.command, amplitude, offset
+            result.tick_time_s, result.reference, result.true_position, result.command, amplitude, offset, STEP_AFTER_S
         )
     except ValueError as exc:
         raise RuntimeError(f"the in-process step run of {contender.name}: {exc}") from None
@@ -218,11 +223,7 @@ def render_compare(
     in_process: bool = False,
 ) -> str:
     names = {c.name: c.description for c in (chosen or CONTENDERS)}
-    how = (
-        f"the in-process loop (no ROS; the sim-time graph's computation; the step after {IN_PROCESS_STEP_LEAD_S:g} s)"
-        if in_process
-        else "sim time"
-    )
+    how = "the in-process loop (no ROS; the sim-time graph's runs, scored alike)" if in_process else "sim time"
     columns = [
         ("sine_tracking_rms_rad", "sine RMS, true [rad]", "{:.5f}"),
         ("sine_tracking_max_rad", "sine max [rad]", "{:.4f}"),
