@@ -170,16 +170,15 @@ def tune(a: argparse.Namespace) -> int:
     consistency.check_stack(params)
     controller_type = params["pid_controller"]["controller_type"]
     joint_count = params["trajectory_planner"]["joint_count"]
-    if joint_count > 1 and not registry.is_builtin(controller_type.strip()):
+    per_joint = joint_count > 1 and registry.is_builtin(controller_type.strip())
+    if not per_joint and a.target != "tracking":
         raise UsageError(
-            f"--controller {controller_type}: on a chain of joints tune designs the built-in LQR's weight on each "
-            "joint; a law of one's own is tuned on one joint"
+            f"--target {a.target}: only a chain's built-in law is designed per joint for a target; here tune searches "
+            "for the best tracking within the margins"
         )
-    if joint_count == 1 and a.target != "tracking":
-        raise UsageError(f"--target {a.target}: on one joint tune searches for the best tracking within the margins")
     say_arm(a.robot)
     out = output_dir(a.out, Path("runs/tune"))
-    steps = autotune.steps(a.quick, controller_type, joint_count)
+    steps = autotune.steps(a.quick, controller_type, joint_count if per_joint else 1)
 
     def hint() -> str:
         if (out / "tuned.yaml").exists():

@@ -38,7 +38,7 @@ def steps(quick: bool = False, controller_type: str = "pid", joint_count: int = 
     """How many times :func:`tune` calls ``progress``: the design (each search round, then its checks), then each
     verifying run."""
     verifying = 2 * VERIFY_SEEDS[quick]
-    if joint_count > 1:
+    if joint_count > 1 and registry.is_builtin(controller_type.strip()):
         return 1 + verifying
     problem_class = _kind(controller_type)[0]
     return 1 + len(problem_class.plan(quick).rounds) + problem_class.check_steps + verifying
@@ -59,7 +59,8 @@ def tune(
     :raises RuntimeError: no candidate met the margins
     """
     out.mkdir(parents=True, exist_ok=True)
-    if params["trajectory_planner"]["joint_count"] > 1:
+    chain_law = registry.is_builtin(params["pid_controller"]["controller_type"].strip())
+    if params["trajectory_planner"]["joint_count"] > 1 and chain_law:
         return _tune_chain(params, out, quick=quick, progress=progress, seed=seed, target=target)
     started = time.perf_counter()
     problem_class, figures, writer = _kind(params["pid_controller"]["controller_type"])
