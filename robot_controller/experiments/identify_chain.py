@@ -14,7 +14,8 @@ import numpy as np
 
 from robot_controller import parameters as cfg
 from robot_controller import resources
-from robot_controller.core.model.chain_identification import ChainFit, ChainJointFit
+from robot_controller.core.model.chain_identification import JOINT_PARAMETERS, ChainFit, ChainJointFit
+from robot_controller.core.model.chain_parsimony import FRICTION_FLOOR_SHARE
 from robot_controller.scoring import report
 
 # Per joint, the values reported: (field, key's stem, key's unit, readable name, readable unit).
@@ -80,6 +81,9 @@ def flat_results(fit: ChainFit) -> dict[str, Any]:
         out[f"{joint.name}_identified"] = joint.identified
         out[f"{joint.name}_not_identified_why"] = joint.reason or None
         out[f"{joint.name}_clipped_to_zero"] = list(joint.clipped)
+        out[f"{joint.name}_kept_urdf"] = list(joint.kept)  # not told from the URDF's: its value in the overlay
+        for name, value in zip(JOINT_PARAMETERS, joint.fitted, strict=True):
+            out[f"{joint.name}_{name}_fitted_{dict((r[0], r[2]) for r in ROWS)[name]}"] = value
         out[f"{joint.name}_residual_rms_nm"] = joint.residual_rms_nm
         out[f"{joint.name}_samples"] = joint.samples
         for why in ("braked", "saturated", "slow", "other"):
@@ -104,12 +108,28 @@ def _value(joint: ChainJointFit, field: str) -> tuple[str, str]:
     if not joint.identified:
         return f"{value:.4g} (the URDF's)", "—"
     clipped = f" ({joint.below_zero(field)}: set to 0)" if field in joint.clipped else ""
+    if field in joint.kept:
+        clipped = f" (fitted {joint.fitted[JOINT_PARAMETERS.index(field)]:.2g}: not told from the URDF's)"
     return f"{value:.4g}{clipped}", f"{err:.2g}"
 
 
 def _urdf(joint: ChainJointFit, field: str) -> float:
     return {"inertia": joint.urdf_inertia, "armature": 0.0, "damping": joint.urdf_damping}.get(
         field, joint.urdf_coulomb_friction
+    )
+
+
+def _kept(joint: ChainJointFit) -> str:
+    """The values kept at the URDF's, and what fitting each would have saved."""
+    each = ", ".join(
+        f"{name.replace('_', ' ')} (fitted {joint.fitted[i]:.2g}, the URDF's {_urdf(joint, name):.2g}: "
+        f"{100 * joint.kept_cost[i]:.0f} % more residual than all three fitted)"
+        for i, name in enumerate(JOINT_PARAMETERS)
+        if name in joint.kept
+    )
+    return (
+        f"not told from the URDF's: {each}; the URDF's values kept (or none, a friction under "
+        f"{100 * FRICTION_FLOOR_SHARE:g} % of the effort limit)"
     )
 
 
@@ -121,6 +141,8 @@ def limits(fit: ChainFit) -> list[str]:
     ]
     said += [f"`{j.name}` not identified: {j.reason}; the URDF's values kept." for j in fit.joints if not j.identified]
     for joint in fit.joints:
+        if joint.kept:
+            said.append(f"`{joint.name}`: {_kept(joint)}.")
         for name in joint.clipped:
             said.append(f"`{joint.name}`'s {name.replace('_', ' ')} {joint.below_zero(name)}: set to 0{WHY[name]}.")
     if fit.payload_found and fit.payload.unidentifiable:
@@ -225,6 +247,7 @@ def progress_lines(fit: ChainFit) -> list[str]:
             for field, _, _, readable, unit in ROWS
         )
         clipped = "".join(f" ({name.replace('_', ' ')} {joint.below_zero(name)}: set to 0)" for name in joint.clipped)
+        clipped += f" ({_kept(joint)})" if joint.kept else ""
         lines.append(
             f"identify: {joint.name}: {values}{clipped}; residual {joint.residual_rms_nm:.3g} N·m RMS over "
             f"{joint.samples} samples"

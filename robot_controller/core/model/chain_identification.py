@@ -17,6 +17,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from robot_controller.core.model.chain_parsimony import FRICTION_FLOOR_SHARE, parsimonious
 from robot_controller.core.model.identification import (
     MAX_GAP_RATIO,
     MIN_SPEED,
@@ -75,7 +76,11 @@ class ChainJointFit:
     identified: bool = True
     reason: str = ""  #: why not identified
     clipped: tuple[str, ...] = ()  #: names in ``JOINT_PARAMETERS`` fitted below 0, set to 0
-    fitted: tuple[float, ...] = ()  #: the least squares' values of ``JOINT_PARAMETERS`` before any was set to 0
+    fitted: tuple[float, ...] = ()  #: the least squares' values of ``JOINT_PARAMETERS``, all free, none set to 0
+    kept: tuple[
+        str, ...
+    ] = ()  #: names in ``JOINT_PARAMETERS`` not told from the URDF's: its values (:mod:`.chain_parsimony`)
+    kept_cost: tuple[float, ...] = ()  #: per parameter, the share of residual RMS its URDF value added when decided
 
     def below_zero(self, name: str) -> str:
         """How far below 0 ``name`` was fitted, in words ("" if it was not)."""
@@ -159,15 +164,15 @@ class _Projection:
         left = self.left(theta)
         return np.concatenate([left[rows, j] - basis @ (basis.T @ left[rows, j]) for j, rows, basis in self.fitted])
 
-    def solve(self, theta: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """Per fitted joint at payload ``theta``: ``(parameters, standard errors, residual)``."""
+    def solve(self, theta: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+        """Per fitted joint at payload ``theta``: ``(parameters, standard errors, columns, torque left)``."""
         left, out = self.left(theta), []
         for j, rows, _ in self.fitted:
             X, y = self.columns(j, rows), left[rows, j]
             beta, *_ = np.linalg.lstsq(X, y, rcond=None)
             residual = y - X @ beta
             sigma2 = float(residual @ residual) / max(1, len(y) - X.shape[1])
-            out.append((beta, np.sqrt(np.diag(sigma2 * np.linalg.inv(X.T @ X))), residual))
+            out.append((beta, np.sqrt(np.diag(sigma2 * np.linalg.inv(X.T @ X))), X, y))
         return out
 
 
@@ -269,7 +274,7 @@ def fit_chain(
     urdf_model = load_model(urdf_path)
     urdf_damping, urdf_friction = urdf_model.dof_damping[dofs], urdf_model.dof_frictionloss[dofs]
     fitted = {j: fit for (j, _, _), fit in zip(projection.fitted, solved, strict=True)}
-    joints = []
+    joints, residuals = [], {}
     for j in range(n):
         common = dict(
             name=names[j],
@@ -298,8 +303,12 @@ def fit_chain(
                 )
             )
             continue
-        beta, stderr, residual = fitted[j]
-        armature, damping, friction = (max(0.0, float(value)) for value in beta)
+        beta, stderr, X, y = fitted[j]
+        reference = np.array([0.0, urdf_damping[j], urdf_friction[j]])
+        floor = FRICTION_FLOOR_SHARE * limit[j] if np.isfinite(limit[j]) else 0.0
+        chosen = parsimonious(X, y, reference, friction_column=2, friction_floor_nm=floor)
+        residuals[j] = residual = chosen.residual
+        armature, damping, friction = (max(0.0, float(value)) for value in chosen.values)
         joints.append(
             ChainJointFit(
                 armature=armature,
@@ -311,11 +320,13 @@ def fit_chain(
                 coulomb_friction_stderr=float(stderr[2]),
                 residual_rms_nm=float(np.sqrt(np.mean(residual**2))),
                 **common,
-                clipped=tuple(name for name, value in zip(JOINT_PARAMETERS, beta, strict=True) if value < 0),
+                clipped=tuple(name for name, value in zip(JOINT_PARAMETERS, chosen.values, strict=True) if value < 0),
                 fitted=tuple(float(value) for value in beta),
+                kept=tuple(name for name, kept in zip(JOINT_PARAMETERS, chosen.kept, strict=True) if kept),
+                kept_cost=chosen.cost,
             )
         )
-    final = np.concatenate([residual for _, _, residual in solved])
+    final = np.concatenate([residuals[j] for j, _, _ in projection.fitted])
     left = projection.left(zero)
     urdf_alone = np.concatenate(
         [
