@@ -96,6 +96,12 @@ def _joint_figures(
     return kp, kd, int(margin), kp * noise[0] + kd * noise[1]
 
 
+def in_force(params: cfg.Params, designs: list[JointDesign]) -> bool:
+    """Whether the design is the configuration in force: the LQR, each joint at the weight it has."""
+    same = all(d.lqr_r == d.in_force_r for d in designs)
+    return same and params["pid_controller"]["controller_type"] == "lqr"
+
+
 def overlay(designs: list[JointDesign]) -> dict[str, Any]:
     """The controller's parameters the design sets: the law and each joint's torque weight."""
     return {"controller_type": "lqr", "lqr_r": [float(f"{d.lqr_r:.4g}") for d in designs]}

@@ -113,7 +113,7 @@ def _tune_chain(
     for line in lines:
         print(f"tune: {line}", flush=True)
     overlay = chain.overlay(designs)
-    tuned = cfg.merge(params, {"pid_controller": overlay})
+    tuned = params if chain.in_force(params, designs) else cfg.merge(params, {"pid_controller": overlay})
     duration_s = CHAIN_CHECK_S[quick]
     checked = verify(params, tuned, seeds=_seeds(seed, quick), duration_s=duration_s, out=out, progress=progress)
     values: dict[str, Any] = {"quick": int(quick), "seed": seed, "target": target, "joint_count": len(designs)}

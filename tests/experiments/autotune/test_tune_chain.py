@@ -71,6 +71,11 @@ def test_a_design_that_is_the_configuration_in_force_is_not_run_and_not_advice(t
     checked = verify(params, cfg.merge(params, {}), seeds=(0, 1, 2), duration_s=6.0, out=tmp_path, progress=print)
     assert checked.unchanged and not checked.recommended and not any(tmp_path.iterdir())
     assert "the design is the configuration in force" in checked.verdict()
+    panda = cfg.load_stack("default", None, "panda")
+    designs = chain.design_joints(panda, "tracking")  # the Panda's default: each joint at its fastest already
+    assert chain.in_force(panda, designs)
+    light = cfg.load_stack("default", None, str(ARM))
+    assert not chain.in_force(light, chain.design_joints(light, "tracking"))  # its elbow and wrist go faster
 
 
 @pytest.mark.ros
