@@ -98,7 +98,10 @@ def test_a_reflex_is_named_and_the_robot_recovers(arm):
     torque = np.zeros(7)
     with pytest.raises(RobotFault) as raised:
         for _ in range(5000):
-            torque[6] = min(torque[6] + 1.0, 12.0)  # within the rate limit: the speed is what trips
+            # Half the robot's torque-rate limit a period, so a period this host misses (two steps in one) stays
+            # within it too (at 1 N·m a period one missed period tripped controller_torque_discontinuity here):
+            # the speed is what trips.
+            torque[6] = min(torque[6] + 0.5, 12.0)
             arm.write(torque)
             arm.read()
     assert raised.value.reflexes == ["joint_velocity_violation"], raised.value.message
