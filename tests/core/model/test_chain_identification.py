@@ -2,6 +2,8 @@
 rotor inertia its URDF lacks (and a payload), driven through a chirp, fitted back from the true state and the applied
 torque. The tolerances are the ones a user is promised: friction within 0.05 N·m, damping and armature within 20 %."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -9,30 +11,8 @@ from robot_controller.core.model import ArmDynamics, MujocoPlant, Payload, Plant
 from robot_controller.core.reference import Chirp
 
 # A user's arm: shoulder and elbow about -y (gravity on both), a continuous wrist about x with a light hand.
-ARM3 = """<?xml version="1.0"?>
-<robot name="user_arm3">
-  <link name="base"><inertial><mass value="3.0"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>
-  </inertial></link>
-  <joint name="shoulder" type="revolute">
-    <parent link="base"/><child link="upper"/><origin xyz="0 0 0.8"/><axis xyz="0 -1 0"/>
-    <limit lower="-2.8" upper="2.8" effort="40" velocity="4"/><dynamics damping="0.2" friction="0.0"/>
-  </joint>
-  <link name="upper"><inertial><origin xyz="0.17 0 0"/><mass value="1.4"/>
-    <inertia ixx="0.0005" ixy="0" ixz="0" iyy="0.014" iyz="0" izz="0.014"/></inertial></link>
-  <joint name="elbow" type="revolute">
-    <parent link="upper"/><child link="fore"/><origin xyz="0.34 0 0"/><axis xyz="0 -1 0"/>
-    <limit lower="-2.5" upper="2.5" effort="15" velocity="5"/><dynamics damping="0.08" friction="0.0"/>
-  </joint>
-  <link name="fore"><inertial><origin xyz="0.14 0 0"/><mass value="0.6"/>
-    <inertia ixx="0.0002" ixy="0" ixz="0" iyy="0.004" iyz="0" izz="0.004"/></inertial></link>
-  <joint name="wrist" type="continuous">
-    <parent link="fore"/><child link="hand"/><origin xyz="0.28 0 0"/><axis xyz="1 0 0"/>
-    <limit effort="3" velocity="8"/><dynamics damping="0.002" friction="0.0"/>
-  </joint>
-  <link name="hand"><inertial><origin xyz="0.03 0 0"/><mass value="0.25"/>
-    <inertia ixx="0.0002" ixy="0" ixz="0" iyy="0.0003" iyz="0" izz="0.0003"/></inertial></link>
-</robot>
-"""
+ARM3_PATH = Path(__file__).parent / "arms" / "light_wrist_arm.urdf"
+ARM3 = ARM3_PATH.read_text()
 URDF_DAMPING = np.array([0.2, 0.08, 0.002])  # N·m·s/rad, the URDF's own
 FRICTION_NM = (0.5, 0.4, 0.3)
 DAMPING_NMS = (0.4, 0.15, 0.004)  # added to the URDF's
@@ -42,10 +22,8 @@ DURATION_S = 20.0
 
 
 @pytest.fixture(scope="module")
-def arm3(tmp_path_factory):
-    path = tmp_path_factory.mktemp("arm3") / "arm3.urdf"
-    path.write_text(ARM3)
-    return path
+def arm3():
+    return ARM3_PATH
 
 
 @pytest.fixture(scope="module")
