@@ -18,6 +18,7 @@ from robot_controller import parameters as cfg
 from robot_controller import resources
 from robot_controller.core.model import PARAMETERS, JointArmModel, JointFit
 from robot_controller.core.model import identify as fit_joints
+from robot_controller.experiments.identify_drive import add_drive_lag, graph_commands_and_efforts
 from robot_controller.experiments.step import run_and_score
 from robot_controller.parameters.builders import MODEL_KEYS
 from robot_controller.parameters.torque_limits import torque_limit as node_torque_limit
@@ -236,12 +237,17 @@ def identify(
         from robot_controller.experiments.identify_chain import identify_chain
 
         motion, left_out = fit_inputs(run_params, recording, len(names))
-        return identify_chain(run_params, out, motion, left_out, {**facts, "amplitude_rad": amplitude}, progress)
-    facts["amplitude_rad"] = float(amplitude_rad)
-    return identify_joints(run_params, out, recording, names, facts, progress)
+        results = identify_chain(run_params, out, motion, left_out, {**facts, "amplitude_rad": amplitude}, progress)
+    else:
+        facts["amplitude_rad"] = float(amplitude_rad)
+        results = identify_joints(run_params, out, recording, names, facts, progress)
+    period_s = 1.0 / run_params["pid_controller"]["control_rate_hz"]
+    drive = graph_commands_and_efforts(recording, period_s)
+    return {**results, **add_drive_lag(out, *drive, period_s, progress)}
 
 
 def steps(params: cfg.Params) -> int:
-    """The progress lines ``identify`` says: the run, the fit, one per joint, (on a chain) the payload, the files."""
+    """The progress lines ``identify`` says: the run, the fit, one per joint, (on a chain) the payload, the files, the
+    drive's lag."""
     joints = int(params["trajectory_planner"]["joint_count"])
-    return 3 + joints + (joints > 1)
+    return 4 + joints + (joints > 1)

@@ -41,6 +41,7 @@ CONTROLLER = {
     "lqr_r": 1e-2,
     "reference_inertia": 0.0,
     "rated_payload_kg": 0.0,
+    "model_drive_lag_s": 0.0,
     "estimator": None,
     "disturbance_observer": False,
     "inertia_adaptation": False,

@@ -42,7 +42,8 @@ def test_identify_recovers_the_heavy_arm_through_the_graph(tmp_path, ros_domain)
     overlay = out / "identified.yaml"
     identified = cfg.read_params_file(overlay)
     assert set(identified) == {"pid_controller"}
-    assert set(identified["pid_controller"]) == set(MODEL_KEYS)
+    assert set(identified["pid_controller"]) == {*MODEL_KEYS, "model_drive_lag_s"}
+    assert identified["pid_controller"]["model_drive_lag_s"] == 0.0  # the default drive has none
     # ... within 10 % of the heavy arm's truth, as MuJoCo computes it from its URDF.
     true = JointArmModel.over_urdf(ArmDynamics(HEAVY_URDF))
     for key, name in zip(MODEL_KEYS, PARAMETERS, strict=True):
@@ -68,12 +69,14 @@ def test_identify_recovers_the_heavy_arm_through_the_graph(tmp_path, ros_domain)
 
 
 def test_identify_recovers_each_joint_and_the_payload_of_a_chain_through_the_graph(tmp_path, ros_domain):
-    """planar2 with friction, damping and rotor inertia its URDF lacks, and a payload: each joint within the promise
-    (friction ±0.05 N·m, damping and armature ±20 %), the payload found, the overlay loadable."""
+    """planar2 with friction, damping and rotor inertia its URDF lacks, a payload and a drive of 15 ms lag: each
+    joint within the promise (friction ±0.05 N·m, damping and armature ±20 %), the payload and the lag found, the
+    overlay loadable."""
     friction, added_damping, armature = [0.5, 0.3], [0.3, 0.1], [0.05, 0.01]
     plant = tmp_path / "plant.yaml"
     values = {"joint_friction_nm": friction, "joint_damping_nms": added_damping, "armature_kgm2": armature}
-    cfg.write_params_file({"simulator": {**values, "payload": [0.8, 0.05, 0.0, 0.1]}}, plant)
+    world = {"simulator": {**values, "payload": [0.8, 0.05, 0.0, 0.1]}, "motor_node": {"lag_time_constant_s": 0.015}}
+    cfg.write_params_file(world, plant)
     out = tmp_path / "identify"
     code = (
         "from pathlib import Path; from robot_controller import parameters as cfg; "
@@ -86,7 +89,9 @@ def test_identify_recovers_each_joint_and_the_payload_of_a_chain_through_the_gra
 
     overlay = out / "identified.yaml"
     identified = cfg.read_params_file(overlay)["pid_controller"]
-    assert set(identified) == {"model_inertia", "model_damping", "model_coulomb_friction", "model_payload"}
+    keys = {"model_inertia", "model_damping", "model_coulomb_friction", "model_payload", "model_drive_lag_s"}
+    assert set(identified) == keys
+    assert identified["model_drive_lag_s"] == pytest.approx(0.015, rel=1e-3)
     results = json.loads((out / "identification.json").read_text())
     urdf = ArmDynamics(resources.resolve_urdf(cfg.load_stack(robot="planar2")["simulator"]["urdf_path"]))
     for j, joint in enumerate(("shoulder", "elbow")):

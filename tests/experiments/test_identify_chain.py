@@ -24,7 +24,7 @@ def test_a_chains_overlay_report_and_figures(tmp_path, payload):
     plant_values |= {"armature_kgm2": [0.02, 0.008, 0.0001], "payload": payload.as_values() if payload else []}
     cfg.write_params_file({"simulator": plant_values}, plant)
     params = cfg.load_stack("default", [plant], robot=str(urdf))
-    assert identify.steps(params) == 7  # the run, the fit, three joints, the payload, the files
+    assert identify.steps(params) == 8  # the run, the fit, three joints, the payload, the files, the lag
 
     controller_urdf = resources.resolve_urdf(params["pid_controller"]["urdf_path"])
     time_s, q, v, tau, limit = record(controller_urdf, variation(payload))

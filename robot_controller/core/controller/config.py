@@ -41,6 +41,7 @@ class ControllerConfig:
     lqr_r: float | tuple[float, ...]  #: one for every joint, or one per joint
     reference_inertia: float
     rated_payload_kg: float
+    model_drive_lag_s: float
     estimator: KalmanConfig | None
     disturbance_observer: bool
     inertia_adaptation: bool

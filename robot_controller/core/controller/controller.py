@@ -6,6 +6,7 @@ stop: one torque command."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
@@ -365,17 +366,10 @@ class JointController:
             t = law.terms()
             terms = PidTerms(t["command"], t["p"], t["i"], t["d"], t["feedforward"], t["saturated"])
             law_terms = {name: t[name] for name in law.extra_terms}
-        self._state.remember_command(now_s, terms.command)
-        return ControlOutput(
-            now_s,
-            self._reference.status,
-            reference.position,
-            position,
-            terms,
-            self._reference.source,
-            disturbance,
-            law_terms,
-        )
+        if (command := self._state.issue(now_s, terms.command, self.config.control_period_s)) is not terms.command:
+            terms = replace(terms, command=command)  # (the drive's lag inverted: the law's torque is what acts)
+        status, source = self._reference.status, self._reference.source
+        return ControlOutput(now_s, status, reference.position, position, terms, source, disturbance, law_terms)
 
     def _law_state(self, position: np.ndarray, velocity: np.ndarray, disturbance: np.ndarray | None) -> State:
         """What a law is told of the arm: the estimate, the latest reading and the observer's torque."""
@@ -391,7 +385,7 @@ class JointController:
         else:  # SENSOR_LOST, LAW_STOPPED, LATE_STOPPED: the stop is over; torque off, the brake holds
             position = self._state.last_position(self._readings)
         zeros = np.zeros(self.joint_count)
-        self._state.remember_command(now_s, zeros)
+        self._state.drive_stopped(now_s)
         # Nothing commanded, nothing to learn from: the filter starts afresh (d̂ = 0) with the
         # re-acquisition that every way back to commanding goes through.
         self._state.reset_filter()

@@ -16,6 +16,7 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.core.estimation import JointKalmanFilter
 from robot_controller.core.laws.pid import Pid
 from robot_controller.core.model import ArmDynamics
+from robot_controller.core.model.drive_lag import LagInversion
 
 # Extrapolating further than this (s) is guessing, not compensating.
 MAX_EXTRAPOLATION_S = 0.1
@@ -66,6 +67,8 @@ def make_state(
     (``config_in_force``: the configuration its gains are checked with, None: ``config``)."""
     state = StateAtTick(joint_count, dynamics, make_estimator(config, dynamics, joint_count))
     state.inertia = InertiaAdaptation.build(config, dynamics, joint_count, pid, config_in_force)
+    if config.model_drive_lag_s > 0:
+        state.drive_lag = LagInversion(config.model_drive_lag_s, np.broadcast_to(config.pid.output_limit, joint_count))
     return state
 
 
@@ -92,6 +95,8 @@ class StateAtTick:
         self._second: tuple[float, np.ndarray, PositionNoise] | None = None
         #: keeps the model's and the gains' inertia the arm's, after each reading (None: they stay as designed)
         self.inertia: InertiaAdaptation | None = None
+        #: the drive's lag, inverted: each command is what makes the torque applied the law's (None: no lag known)
+        self.drive_lag: LagInversion | None = None
 
     def reset(self) -> None:
         """Start again from the next reading: filter re-initialised, no estimate carried over."""
@@ -239,6 +244,26 @@ class StateAtTick:
     def remember_command(self, now_s: float, command: np.ndarray) -> None:
         """Record the torque (N·m) issued at ``now_s``."""
         self._commands.append((now_s, np.array(command, dtype=float)))
+
+    def issue(self, now_s: float, wanted: np.ndarray, period_s: float) -> np.ndarray:
+        """The command that makes the drive apply ``wanted`` (N·m per joint) from ``now_s``: itself, or through the
+        drive's lag inverted (``period_s``: since the last command, the first's nominal); the torque applied is what
+        is remembered (the filter's input)."""
+        lag = self.drive_lag
+        if lag is None:
+            self.remember_command(now_s, wanted)
+            return wanted
+        if self._commands and now_s > self._commands[-1][0]:
+            period_s = now_s - self._commands[-1][0]
+        command = lag.command(wanted, period_s)
+        self.remember_command(now_s, lag.applied)
+        return command
+
+    def drive_stopped(self, now_s: float) -> None:
+        """No command: the drive's torque goes (its timeout, a brake), and with it its lag's state."""
+        if self.drive_lag is not None:
+            self.drive_lag.reset()
+        self.remember_command(now_s, np.zeros(self.joint_count))
 
     def last_command(self) -> np.ndarray:
         return self._commands[-1][1] if self._commands else np.zeros(self.joint_count)
