@@ -9,7 +9,7 @@ import json
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -56,7 +56,8 @@ def tasks(
         seed = run_seed(spec.seed, run_id)
         for c in chosen:
             if (c.label, run_id) not in done:
-                out.append(Task(run_id, c.label, stacks[c.label], drawn, seed, spec.duration_s, timeout_s))
+                task = Task(run_id, c.label, stacks[c.label], drawn, seed, spec.duration_s, timeout_s)
+                out.append(replace(task, identify=spec.identify, tune=spec.tune))
     return out
 
 
@@ -189,11 +190,19 @@ def replay_row(folder: Path, run_id: int, controller: str | None) -> tuple[Campa
 
 
 def replay_layer(spec: CampaignSpec, run_id: int, controller_type: str | None) -> cfg.Params:
-    """The parameter layer that makes a run of the graph run ``run_id``: its draws, its noise seed, the controller."""
-    overlay = layer(draw(spec, run_id))
-    overlay.setdefault("sensor_node", {})["seed"] = run_seed(spec.seed, run_id)
+    """The parameter layer that makes a run of the graph run ``run_id``: its draws, its noise seed, the controller
+    (and, where the campaign identified each world, the model and gains it ran with, found again in process)."""
+    drawn, seed = draw(spec, run_id), run_seed(spec.seed, run_id)
+    overlay = layer(drawn)
+    overlay.setdefault("sensor_node", {})["seed"] = seed
     if controller_type is not None:
         overlay.setdefault("pid_controller", {})["controller_type"] = controller_type
+    if spec.identify:
+        world = executors.run_params(spec.base_params(controller_type), drawn, seed)
+        task = Task(run_id, "", world, drawn, seed, spec.duration_s, identify=True, tune=spec.tune)
+        ran = executors.prepared(world, task, {})["pid_controller"]
+        found = {key: value for key, value in ran.items() if world["pid_controller"].get(key) != value}
+        overlay.setdefault("pid_controller", {}).update(found)
     return overlay
 
 

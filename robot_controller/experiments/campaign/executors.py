@@ -65,6 +65,8 @@ class Task:
     seed: int
     duration_s: float
     timeout_s: float = math.inf  #: the run's wall-time limit, s (``executors`` holds it to it)
+    identify: bool = False  #: the world identified before the run (:mod:`.identified_world`)
+    tune: str = ""  #: and its gains tuned for this target ("": not)
 
 
 def head(task: Task) -> dict[str, Any]:
@@ -79,12 +81,35 @@ def in_process_row(task: Task) -> dict[str, Any]:
     row = head(task)
     start, cpu_start = time.perf_counter(), time.process_time()
     try:
-        row.update(figures(run_params(task.params, task.drawn, task.seed), task.duration_s, task.seed))
+        params = run_params(task.params, task.drawn, task.seed)
+        if task.identify:
+            params = prepared(params, task, row)
+        row.update(figures(params, task.duration_s, task.seed))
     except Exception as exc:  # noqa: BLE001 - a world the stack refuses or a loop that breaks: a row, not a crash
         row.update(status="failed", reason=" ".join(f"{type(exc).__name__}: {exc}".split())[:300])
     row["wall_s"] = time.perf_counter() - start
     row["cpu_s"] = time.process_time() - cpu_start  # beside wall_s: how much of the core the host gave the run
     return row
+
+
+def prepared(params: cfg.Params, task: Task, row: dict[str, Any]) -> cfg.Params:
+    """The world identified (and tuned) as its user would before the run; what that found goes into ``row``
+    (``identified_drive_lag_s``, ``tuned``, ``prepare_s``)."""
+    from robot_controller.experiments.campaign import identified_world
+
+    start = time.perf_counter()
+    params, found = identified_world.identified(params, task.seed)
+    if task.tune:
+        params, tuned = identified_world.tuned(params, task.tune, task.seed, _score)
+        found |= tuned
+    row.update(found, prepare_s=time.perf_counter() - start)
+    return params
+
+
+def _score(params: cfg.Params, duration_s: float, seed: int) -> tuple[float, bool]:
+    """One run's worst-joint tracking RMS (rad) and whether it ended without a stop."""
+    out = figures(cfg.merge(params, {"sensor_node": {"seed": seed}}), duration_s, seed)
+    return out["tracking_rms_rad"], out["faults"] == 0
 
 
 def run_params(params: cfg.Params, drawn: dict[str, Any], seed: int) -> cfg.Params:

@@ -74,6 +74,12 @@ def write_report(spec: CampaignSpec, rows: list[dict[str, Any]], out: Path, cont
     lines = [f"# Campaign: {spec.runs} runs of {spec.duration_s:g} s on {spec.robot}", ""]
     lines += [f"Seed {spec.seed}; each run's draws and noise seed follow from it and the run's id alone.", ""]
     lines += ["Varied:", ""] + [f"- `{v.key}`: {_describe(v)}" for v in spec.vary] + [""]
+    if spec.identify:
+        tuned = f", then its gains designed for `{spec.tune}` and kept where verified better" if spec.tune else ""
+        lines += [
+            f"Each world identified before its run, as its user would (`identify`'s fits, in process){tuned}.",
+            "",
+        ]
     lines += _figures_table(groups, target)
     lines += _pass_section(spec, groups)
     if len(controllers) == 2:

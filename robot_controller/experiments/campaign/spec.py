@@ -12,6 +12,8 @@ its own, so adding a key leaves the others'.
     runs: 200
     seed: 1
     run_timeout_s: 160               # optional: a run's wall-time limit (default 60 s + 10 x duration_s)
+    identify: true                   # optional: each world identified before its run, as its user would
+    tune: tracking                   # optional, with identify: and tuned for tracking, robust or effort
     vary:
       sensor_node.delay_s: {uniform: [0.0, 0.02]}
       sensor_node.position_noise_std: {loguniform: [0.001, 0.01]}
@@ -37,7 +39,9 @@ from robot_controller.core.errors import ConfigError
 from robot_controller.experiments import laws
 
 KINDS = ("uniform", "normal", "loguniform", "choice")
-TOP_KEYS = ("robot", "controller", "config", "duration_s", "runs", "seed", "vary", "pass", "run_timeout_s")
+TOP_KEYS = (
+    "robot", "controller", "config", "duration_s", "runs", "seed", "vary", "pass", "run_timeout_s", "identify", "tune",
+)  # fmt: skip
 #: A run's wall-time limit when the spec gives none: this, plus RUN_TIMEOUT_PER_S per simulated second. A 10 s run of
 #: the reference arm takes about 0.7 s of a core, the Panda's a few: the default is far beyond a sound run on a
 #: busy host, and a run past it is stuck.
@@ -85,6 +89,8 @@ class CampaignSpec:
     text: str = ""  #: the file as read (kept beside the results)
     path: Path = Path("campaign.yaml")  #: where it was read (a relative config is beside it)
     run_timeout_s: float | None = None  #: a run's wall-time limit, s (None: the default, :attr:`timeout_s`)
+    identify: bool = False  #: each world identified before its run (``identify`` in process)
+    tune: str = ""  #: with ``identify``, each world's gains then designed for this target and verified ("": not)
 
     @property
     def timeout_s(self) -> float:
@@ -168,6 +174,7 @@ def parse_spec(raw: Any, path: Path, text: str = "") -> CampaignSpec:
     if timeout_s is not None and not (_is_number(timeout_s) and timeout_s > 0):
         raise refuse("run_timeout_s", f"expected a run's wall-time limit, seconds > 0, got {timeout_s!r}")
     spec = replace(spec, vary=vary, pass_bounds=_pass_bounds(raw.get("pass"), refuse), joint_count=joint_count)
+    spec = replace(spec, **_preparation(raw, refuse))
     return replace(spec, text=text, path=path.resolve(), run_timeout_s=None if timeout_s is None else float(timeout_s))
 
 
@@ -224,6 +231,22 @@ def _vary(key: str, body: Any, refuse) -> Vary:
         for value in (a, b):
             _check_value(spec, value, f"{where}.{kind}", refuse)
     return Vary(key, kind, (a, b), per_joint, spec.minimum, spec.maximum)
+
+
+def _preparation(raw: dict[str, Any], refuse) -> dict[str, Any]:
+    """``identify`` and ``tune``: what is done to each world before its run, as its user would."""
+    from robot_controller.experiments.autotune.chain import TARGETS
+
+    identify, tune = raw.get("identify", False), raw.get("tune")
+    if not isinstance(identify, bool):
+        raise refuse("identify", f"expected true or false, got {identify!r}")
+    if tune is None:
+        return {"identify": identify}
+    if tune not in TARGETS:
+        raise refuse("tune", f"expected one of {', '.join(TARGETS)}, got {tune!r}")
+    if not identify:
+        raise refuse("tune", "tunes the world identified: give identify: true with it")
+    return {"identify": True, "tune": tune}
 
 
 def _is_number(value: Any) -> bool:
