@@ -155,9 +155,10 @@ class StepProgress:
         return self
 
     def __call__(self, text: str) -> None:
-        """A new step starts: the previous one is done."""
+        """A new step starts: the previous one is done (past the total said, the total grows: a step repeated)."""
+        self.total = max(self.total, self.done + 1)
         if self._bar is not None:
-            self._bar.update(self._task, completed=self.done, description=text)
+            self._bar.update(self._task, total=self.total, completed=self.done, description=text)
         else:
             print(f"[{self.verb}] {self.done + 1}/{self.total} {text}", flush=True)
         self.done += 1

@@ -28,6 +28,10 @@ from robot_controller.scoring import report
 AMPLITUDE_RAD = 0.8
 START_HZ = 0.1
 END_HZ = 0.5
+#: rad: an arm that followed the chirp worse than this with the model it had is identified once more with the model
+#: found (a light joint that sticks and slips on a model without its friction is excited unevenly: on the light-wrist
+#: arm, a second chirp takes the campaign's median from 2.4 to 0.9 mrad)
+REFINE_ABOVE_RAD = 0.005
 
 
 def excitation_params(
@@ -215,18 +219,44 @@ def identify(
     end_hz: float = END_HZ,
     domain_id: int | None = None,
 ) -> dict[str, Any]:
-    """Excite the arm through the whole stack, fit its model, write the results into ``out``.
+    """Excite the arm through the whole stack, fit its model, write the results into ``out``; where the arm followed
+    the chirp worse than REFINE_ABOVE_RAD with the model it had, once more with the model found (in ``out/run_again``).
 
     :returns: what ``identification.json`` holds
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    chirp = {"amplitude_rad": amplitude_rad, "start_hz": start_hz, "end_hz": end_hz}
+    results = _identify_once(params, out, out / "run", duration_s, seed, progress, domain_id, **chirp)
+    if (results.get("run_tracking_rms_rad") or 0.0) > REFINE_ABOVE_RAD:
+        progress(
+            f"identify: the chirp was followed at {results['run_tracking_rms_rad'] * 1e3:.3g} mrad RMS with the model "
+            "it had: once more, with the model found"
+        )
+        found = cfg.merge(params, cfg.read_params_file(out / "identified.yaml"))
+        results = _identify_once(found, out, out / "run_again", duration_s, seed, progress, domain_id, **chirp)
+    return results
+
+
+def _identify_once(
+    params: cfg.Params,
+    out: Path,
+    run_dir: Path,
+    duration_s: float,
+    seed: int,
+    progress: Callable[[str], None],
+    domain_id: int | None,
+    *,
+    amplitude_rad: float,
+    start_hz: float,
+    end_hz: float,
+) -> dict[str, Any]:
+    """One chirp run in ``run_dir`` and the fits of it, written into ``out``."""
     run_params = excitation_params(params, duration_s, amplitude_rad=amplitude_rad, start_hz=start_hz, end_hz=end_hz)
     run_params["sensor_node"]["seed"] = seed
     amplitude = [float(a) for a in run_params["trajectory_planner"]["amplitude"]]
     said = f"{amplitude[0]:g}" if len(amplitude) == 1 else f"[{', '.join(f'{a:g}' for a in amplitude)}]"
     chirp = f"{duration_s:g} sim s of a chirp, {said} rad, {start_hz:g} → {end_hz:g} Hz"
-    run_dir = out / "run"
     progress(f"identify: {chirp} (sim time, run in {run_dir})")
     scored, recording = run_and_score(run_params, run_dir, duration_s=duration_s, sim_time=True, domain_id=domain_id)
     names = joint_names(run_params)

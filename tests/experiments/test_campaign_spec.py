@@ -76,6 +76,9 @@ def test_a_bad_vary_entry_is_refused_naming_its_key_and_why(tmp_path, vary, name
         ({"config": "missing.yaml"}, "config", "no such file"),
         ({"pass": {"tracking_rms": 0.005}}, "pass.tracking_rms", "not a run's figure"),
         ({"varry": {}}, "varry", "did you mean 'vary'"),
+        ({"identify": "yes"}, "identify", "expected true or false"),
+        ({"identify": True, "tune": "fast"}, "tune", "expected one of tracking, robust, effort"),
+        ({"tune": "tracking"}, "tune", "give identify: true with it"),
     ],
 )
 def test_a_bad_top_level_key_is_refused(tmp_path, changes, named, reason):

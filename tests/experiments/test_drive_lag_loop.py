@@ -8,7 +8,7 @@ import pytest
 from robot_controller import parameters as cfg
 from robot_controller.experiments.inprocess import simulate
 
-LIGHT_ARM = str(Path(__file__).parents[1] / "core" / "model" / "arms" / "light_wrist_arm.urdf")
+LIGHT_ARM = str(Path(__file__).resolve().parents[2] / "examples" / "light_wrist_arm.urdf")
 
 
 def rms_mrad(robot: str, lag_s: float, told_s: float) -> float:

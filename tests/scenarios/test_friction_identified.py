@@ -14,7 +14,7 @@ from tests.rostools import run_said
 
 pytestmark = pytest.mark.ros
 
-ARM = Path(__file__).resolve().parents[1] / "core" / "model" / "arms" / "light_wrist_arm.urdf"
+ARM = Path(__file__).resolve().parents[2] / "examples" / "light_wrist_arm.urdf"
 PLANT = {
     "joint_friction_nm": [0.5, 0.4, 0.3],
     "joint_damping_nms": [0.4, 0.15, 0.004],

@@ -61,6 +61,17 @@ def loop_recording(result: LoopResult, params: cfg.Params) -> SimpleNamespace:
 
 
 def identified(params: cfg.Params, seed: int) -> tuple[cfg.Params, dict[str, Any]]:
+    """``params`` with the controller's model as ``identify`` finds it on this world (seed ``seed``'s noise; once more
+    from the model found where the chirp was followed worse than ``REFINE_ABOVE_RAD``, as ``identify`` does), and
+    what it found of the drive (``identified_drive_lag_s``) and how many chirps it took (``identify_runs``)."""
+    found, (facts, followed_rad) = _identified_once(params, seed)
+    if followed_rad <= identification.REFINE_ABOVE_RAD:
+        return found, {**facts, "identify_runs": 1}
+    found, (facts, _) = _identified_once(cfg.merge(params, {"pid_controller": found["pid_controller"]}), seed)
+    return found, {**facts, "identify_runs": 2}
+
+
+def _identified_once(params: cfg.Params, seed: int) -> tuple[cfg.Params, tuple[dict[str, Any], float]]:
     """``params`` with the controller's model as ``identify`` finds it on this world (seed ``seed``'s noise), and
     what it found of the drive (``identified_drive_lag_s``)."""
     run_params = identification.excitation_params(params, EXCITATION_S)
@@ -87,7 +98,8 @@ def identified(params: cfg.Params, seed: int) -> tuple[cfg.Params, dict[str, Any
         add_drive_lag(out, result.command, result.applied, period_s, _quiet)
         overlay = cfg.read_params_file(out / "identified.yaml")
         found = json.loads((out / "identification.json").read_text())
-    return cfg.merge(params, overlay), {"identified_drive_lag_s": float(found["drive_lag_s"])}
+    drive = {"identified_drive_lag_s": float(found["drive_lag_s"])}
+    return cfg.merge(params, overlay), (drive, float(metrics["tracking_rms_rad"]))
 
 
 def tuned(params: cfg.Params, target: str, seed: int, score: Scorer) -> tuple[cfg.Params, dict[str, Any]]:

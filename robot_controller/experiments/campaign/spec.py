@@ -142,6 +142,8 @@ def parse_spec(raw: Any, path: Path, text: str = "") -> CampaignSpec:
     robot = raw["robot"]
     if not isinstance(robot, str):
         raise refuse("robot", f"expected a robot's name, got {robot!r}")
+    if robot.endswith(".urdf") and (path.parent / robot).is_file():  # a URDF beside the spec, as its config is
+        robot = str((path.parent / robot).resolve())
     duration_s = raw["duration_s"]
     if isinstance(duration_s, bool) or not isinstance(duration_s, (int, float)) or not 0 < duration_s < math.inf:
         raise refuse("duration_s", f"expected seconds > 0, got {duration_s!r}")

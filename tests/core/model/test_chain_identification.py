@@ -11,7 +11,7 @@ from robot_controller.core.model import ArmDynamics, MujocoPlant, Payload, Plant
 from robot_controller.core.reference import Chirp
 
 # A user's arm: shoulder and elbow about -y (gravity on both), a continuous wrist about x with a light hand.
-ARM3_PATH = Path(__file__).parent / "arms" / "light_wrist_arm.urdf"
+ARM3_PATH = Path(__file__).resolve().parents[3] / "examples" / "light_wrist_arm.urdf"
 ARM3 = ARM3_PATH.read_text()
 URDF_DAMPING = np.array([0.2, 0.08, 0.002])  # N·m·s/rad, the URDF's own
 FRICTION_NM = (0.5, 0.4, 0.3)

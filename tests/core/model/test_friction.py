@@ -11,7 +11,7 @@ import pytest
 from robot_controller.core.model import ArmDynamics, PlantVariation, load_model
 from robot_controller.core.model.friction import COULOMB_SMOOTH_RAD_S, coulomb_torque
 
-ARM = Path(__file__).parent / "arms" / "light_wrist_arm.urdf"
+ARM = Path(__file__).resolve().parents[3] / "examples" / "light_wrist_arm.urdf"
 FRICTION_NM = np.array([0.5, 0.4, 0.3])
 
 

@@ -16,7 +16,7 @@ from robot_controller.experiments.autotune import chain
 from robot_controller.experiments.autotune.verification import Verification
 from robot_controller.parameters.builders import arm_model
 
-ARM = Path(__file__).resolve().parents[2] / "core" / "model" / "arms" / "light_wrist_arm.urdf"
+ARM = Path(__file__).resolve().parents[3] / "examples" / "light_wrist_arm.urdf"
 
 
 def test_each_joint_gets_its_own_weight_within_its_margin_and_noise():
