@@ -154,6 +154,10 @@ class StepProgress:
             self._task = self._bar.add_task("", total=self.total)
         return self
 
+    def more(self, steps: int) -> None:
+        """``steps`` more than were said (a pass repeated)."""
+        self.total += steps
+
     def __call__(self, text: str) -> None:
         """A new step starts: the previous one is done (past the total said, the total grows: a step repeated)."""
         self.total = max(self.total, self.done + 1)

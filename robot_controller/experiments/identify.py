@@ -229,6 +229,8 @@ def identify(
     chirp = {"amplitude_rad": amplitude_rad, "start_hz": start_hz, "end_hz": end_hz}
     results = _identify_once(params, out, out / "run", duration_s, seed, progress, domain_id, **chirp)
     if (results.get("run_tracking_rms_rad") or 0.0) > REFINE_ABOVE_RAD:
+        if (more := getattr(progress, "more", None)) is not None:
+            more(steps(params) + 1)  # (a progress bar's: this line and the pass again)
         progress(
             f"identify: the chirp was followed at {results['run_tracking_rms_rad'] * 1e3:.3g} mrad RMS with the model "
             "it had: once more, with the model found"
