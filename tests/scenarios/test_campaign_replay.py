@@ -80,3 +80,20 @@ def test_replay_of_a_run_the_campaign_does_not_hold_is_one_line(tmp_path):
     )
     assert proc.returncode == 2 and "RUN_ID 5: the campaign's runs are 0 to 0" in proc.stderr, proc.stderr
     assert not (tmp_path / "r").exists()
+
+
+def test_a_replayed_run_of_an_identified_world_runs_with_what_was_found(tmp_path, ros_domain):
+    """With ``identify: true``, the replay finds the world's model again (the drive's lag among it) and the graph runs
+    with it: the campaign's figures."""
+    spec = tmp_path / "spec.yaml"
+    lag = {"motor_node.lag_time_constant_s": {"uniform": [0.01, 0.02]}}
+    lagged = {**SPEC, "runs": 1, "identify": True, "vary": lag}
+    spec.write_text(yaml.safe_dump(lagged))
+    cli("campaign", spec, "--out", tmp_path / "c", "--workers", 1)
+    row = pq.read_table(tmp_path / "c" / "results.parquet").to_pylist()[0]
+    said = cli("campaign", "replay", tmp_path / "c", 0, "--out", tmp_path / "r")
+    controller = yaml.safe_load((tmp_path / "r" / "params.yaml").read_text())["pid_controller"]["ros__parameters"]
+    assert controller["model_drive_lag_s"] == pytest.approx(row["identified_drive_lag_s"])
+    assert controller["model_drive_lag_s"] == pytest.approx(row["motor_node.lag_time_constant_s"], rel=0.01)
+    metrics = json.loads((tmp_path / "r" / "metrics.json").read_text())
+    assert metrics["tracking_rms_rad"] == pytest.approx(row["tracking_rms_rad"], rel=1e-3), said

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from robot_controller.core.errors import ConfigError
+from robot_controller.core.laws.collection_time import collected_s
 from robot_controller.core.laws.interface import Arm, ControlLaw, Reference, State
 from robot_controller.core.laws.law_parameters import values as parameter_values
 from robot_controller.core.laws.pid import limited
@@ -97,10 +98,11 @@ class LawWorker:
         return None
 
     def cpu_s(self) -> float:
-        """The CPU time the worker's thread has used, s (its schedstat; 0 where that cannot be read)."""
+        """The CPU time the worker's thread has used, s (its schedstat; 0 where that cannot be read), less its garbage
+        collections' (:mod:`.collection_time`)."""
         try:
             with open(f"/proc/self/task/{self._thread.native_id}/schedstat", "rb") as f:
-                return int(f.read().split()[0]) * 1e-9
+                return int(f.read().split()[0]) * 1e-9 - collected_s(self._thread.ident)
         except (OSError, IndexError, ValueError):
             return 0.0
 
@@ -366,12 +368,13 @@ class ContainedLaw(ControlLaw):
         assert self.clock is not None
         clock, run_wait = self.clock, self.run_wait or (lambda: 0.0)
 
-        def timed() -> Any:
-            started_s, waited_s = clock(), run_wait()
+        def timed() -> Any:  # (less the thread's garbage collections: the interpreter's, not the law's)
+            started_s, waited_s, collecting_s = clock(), run_wait(), collected_s()
             try:
                 return call()
             finally:
-                spent_s.append(max(0.0, clock() - started_s - (run_wait() - waited_s)))
+                waited_s, collecting_s = run_wait() - waited_s, collected_s() - collecting_s
+                spent_s.append(max(0.0, clock() - started_s - waited_s - collecting_s))
 
         return timed
 

@@ -18,7 +18,7 @@ import yaml
 from robot_controller import parameters as cfg
 from robot_controller.core.errors import ConfigError
 from robot_controller.experiments import laws
-from robot_controller.experiments.campaign import executors
+from robot_controller.experiments.campaign import executors, identified_world
 from robot_controller.experiments.campaign.executors import Task
 from robot_controller.experiments.campaign.spec import FIGURES, CampaignSpec, draw, layer, parse_spec, run_seed
 from robot_controller.experiments.campaign.store import CAMPAIGN, RESULTS, ResultStore, parts, read_rows
@@ -199,8 +199,7 @@ def replay_layer(spec: CampaignSpec, run_id: int, controller_type: str | None) -
         overlay.setdefault("pid_controller", {})["controller_type"] = controller_type
     if spec.identify:
         world = executors.run_params(spec.base_params(controller_type), drawn, seed)
-        task = Task(run_id, "", world, drawn, seed, spec.duration_s, identify=True, tune=spec.tune)
-        ran = executors.prepared(world, task, {})["pid_controller"]
+        ran = identified_world.prepared(world, seed, spec.tune, {})["pid_controller"]
         found = {key: value for key, value in ran.items() if world["pid_controller"].get(key) != value}
         overlay.setdefault("pid_controller", {}).update(found)
     return overlay

@@ -21,29 +21,13 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, replace
 from typing import Any
 
-import numpy as np
-
 from robot_controller import parameters as cfg
-from robot_controller.core.controller.supervision import Status
 from robot_controller.core.errors import ConfigError, RunFailed
-from robot_controller.experiments.campaign.spec import FIGURES, columns, layer
+from robot_controller.experiments.campaign import identified_world
+from robot_controller.experiments.campaign.run_figures import figures
+from robot_controller.experiments.campaign.spec import columns, layer
 from robot_controller.runner.forking import die_with_parent
 
-#: The statuses of a tick the controller spends stopping or stopped rather than tracking.
-STOP_STATUSES = frozenset(
-    (
-        Status.WATCHDOG,
-        Status.SENSOR_LOST,
-        Status.REFERENCE_LOST,
-        Status.STOPPED,
-        Status.LAW_FAULT,
-        Status.LAW_STOPPED,
-        Status.LATE,
-        Status.LATE_STOPPED,
-    )
-)
-#: An applied torque this close to its limit (as a fraction of it) counts as saturated.
-SATURATED_FRACTION = 0.999
 #: The row's columns that are the host's, not the run's: left out when two campaigns' figures are compared.
 HOST_COLUMNS = ("wall_s", "cpu_s", "attempts", "first_failure")
 #: Tries of a run beyond its first, when it fails or times out.
@@ -83,33 +67,13 @@ def in_process_row(task: Task) -> dict[str, Any]:
     try:
         params = run_params(task.params, task.drawn, task.seed)
         if task.identify:
-            params = prepared(params, task, row)
+            params = identified_world.prepared(params, task.seed, task.tune, row)
         row.update(figures(params, task.duration_s, task.seed))
     except Exception as exc:  # noqa: BLE001 - a world the stack refuses or a loop that breaks: a row, not a crash
         row.update(status="failed", reason=" ".join(f"{type(exc).__name__}: {exc}".split())[:300])
     row["wall_s"] = time.perf_counter() - start
     row["cpu_s"] = time.process_time() - cpu_start  # beside wall_s: how much of the core the host gave the run
     return row
-
-
-def prepared(params: cfg.Params, task: Task, row: dict[str, Any]) -> cfg.Params:
-    """The world identified (and tuned) as its user would before the run; what that found goes into ``row``
-    (``identified_drive_lag_s``, ``tuned``, ``prepare_s``)."""
-    from robot_controller.experiments.campaign import identified_world
-
-    start = time.perf_counter()
-    params, found = identified_world.identified(params, task.seed)
-    if task.tune:
-        params, tuned = identified_world.tuned(params, task.tune, task.seed, _score)
-        found |= tuned
-    row.update(found, prepare_s=time.perf_counter() - start)
-    return params
-
-
-def _score(params: cfg.Params, duration_s: float, seed: int) -> tuple[float, bool]:
-    """One run's worst-joint tracking RMS (rad) and whether it ended without a stop."""
-    out = figures(cfg.merge(params, {"sensor_node": {"seed": seed}}), duration_s, seed)
-    return out["tracking_rms_rad"], out["faults"] == 0
 
 
 def run_params(params: cfg.Params, drawn: dict[str, Any], seed: int) -> cfg.Params:
@@ -119,59 +83,6 @@ def run_params(params: cfg.Params, drawn: dict[str, Any], seed: int) -> cfg.Para
         for name, value in values.items():
             values[name] = cfg.spec_of(node, name).validate(value)
     return cfg.merge(params, drawn_layer, {"sensor_node": {"seed": seed}})
-
-
-def figures(params: cfg.Params, duration_s: float, seed: int) -> dict[str, Any]:
-    """The figures of one in-process run of ``params``: the worst joint's tracking (RMS and largest, on the true
-    angle), the peak commanded effort (and against the limit), the ticks the drive's torque is at its limit, the
-    controller's stops."""
-    from robot_controller.experiments import inprocess
-    from robot_controller.parameters.torque_limits import torque_limit
-
-    loop = inprocess.prepare(params, duration_s=duration_s, seed=seed)  # the sensor block delays its readings
-    watched = _StatusWatch(loop.keywords["controller"])
-    result = loop(controller=watched)
-    if not np.all(np.isfinite(result.true_position)):
-        raise RuntimeError("the arm's state went non-finite (the physics diverged)")
-    tracking = result.tracking_metrics()
-    n = result.applied.shape[1]
-    limit = torque_limit(params["motor_node"], n)
-    effort = np.abs(result.command)  # what the controller asked (a run's peak_torque_nm is of its commands)
-    out: dict[str, Any] = {"status": "ok", "reason": ""}
-    for key in FIGURES:  # the worst joint's tracking, and of the start (the others are set below)
-        if key in tracking:
-            out[key] = float(tracking[key])
-    worst = int(np.argmax(tracking["tracking_rms_per_joint"]))
-    out["worst_joint"] = tracking["joint_names"][worst]
-    out["peak_effort"] = float(effort.max())
-    out["peak_effort_ratio"] = float((effort.max(axis=0) / limit).max())
-    at_limit = np.abs(result.applied) >= SATURATED_FRACTION * limit  # the drive's torque, at its limit
-    out["saturated_ticks"] = int(np.count_nonzero(np.any(at_limit, axis=1)))
-    out["stopped_ticks"] = watched.stopped_ticks
-    out["faults"] = watched.stops + (1 if result.law_fault and not watched.stops else 0)
-    out["law_fault"] = result.law_fault or ""
-    return out
-
-
-class _StatusWatch:
-    """The controller as the loop uses it, counting the ticks it spends stopping and how often a stop begins."""
-
-    def __init__(self, controller) -> None:
-        self._controller = controller
-        self.stopped_ticks = 0
-        self.stops = 0
-        self._stopping = False
-
-    def update(self, now_s: float):
-        out = self._controller.update(now_s)
-        stopping = out.status in STOP_STATUSES
-        self.stopped_ticks += stopping
-        self.stops += stopping and not self._stopping
-        self._stopping = stopping
-        return out
-
-    def __getattr__(self, name: str):
-        return getattr(self._controller, name)
 
 
 #: s of simulated time of the run a worker makes once, in itself, before its first forked run (past the scoring's

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import tempfile
+import time
 from collections.abc import Callable
 from pathlib import Path
 from types import SimpleNamespace
@@ -25,6 +26,7 @@ from robot_controller.experiments import inprocess
 from robot_controller.experiments.autotune import chain
 from robot_controller.experiments.autotune.procedure import CHAIN_CHECK_S, VERIFY_SEEDS
 from robot_controller.experiments.autotune.verification import Verification
+from robot_controller.experiments.campaign.run_figures import figures
 from robot_controller.experiments.identify_drive import add_drive_lag
 
 #: s of sim time of the chirp each world is identified from (``identify``'s own)
@@ -120,3 +122,21 @@ def tuned(params: cfg.Params, target: str, seed: int, score: Scorer) -> tuple[cf
         duration_s,
     )
     return (after, {"tuned": 1}) if checked.recommended else (params, {"tuned": 0})
+
+
+def prepared(params: cfg.Params, seed: int, tune: str, row: dict[str, Any]) -> cfg.Params:
+    """The world identified (and with ``tune``, tuned for it) as its user would before its run of seed ``seed``; what
+    that found goes into ``row`` (``identified_drive_lag_s``, ``identify_runs``, ``tuned``, ``prepare_s``)."""
+    start = time.perf_counter()
+    params, found = identified(params, seed)
+    if tune:
+        params, tuned_here = tuned(params, tune, seed, _score)
+        found |= tuned_here
+    row.update(found, prepare_s=time.perf_counter() - start)
+    return params
+
+
+def _score(params: cfg.Params, duration_s: float, seed: int) -> tuple[float, bool]:
+    """One run's worst-joint tracking RMS (rad) and whether it ended without a stop."""
+    out = figures(cfg.merge(params, {"sensor_node": {"seed": seed}}), duration_s, seed)
+    return out["tracking_rms_rad"], out["faults"] == 0

@@ -5,6 +5,7 @@ the host kept it from a CPU. Small budgets; behaviour, not timings."""
 
 from __future__ import annotations
 
+import gc
 import threading
 import time
 
@@ -12,6 +13,7 @@ import numpy as np
 import pytest
 
 from robot_controller.core.laws import Arm
+from robot_controller.core.laws.collection_time import collected_s
 from robot_controller.core.laws.containment import ContainedLaw
 
 ARM = Arm(None, ("joint 1",), np.array([np.inf]), np.array([[-np.inf, np.inf]]))
@@ -212,3 +214,23 @@ def test_where_the_world_waits_a_law_that_computes_past_its_budget_three_ticks_r
     for t in (0.0, 0.005, 0.01):
         held.update(t, None, None)
     assert "ms in update() on 3 ticks running, over its budget of 1 ms (law_budget_s)" in held.fault.line()
+
+
+def test_where_the_world_waits_the_interpreters_garbage_collection_is_not_the_laws_time():
+    """A full collection due while the law allocates runs on the law's thread; over a large process it takes far more
+    than the law's budget (0.2 s, as seen in CI), and it is the interpreter's, not the law's."""
+    heap = [[k] for k in range(1_500_000)]  # (a large process: a full collection takes tens of ms or more)
+
+    class CollectedOn:
+        def update(self, time_s, state, reference):
+            gc.collect()  # (a collection that comes due during the call)
+            return np.ones(1)
+
+    held = world_waits(CollectedOn(), abandon_s=0.5)
+    started_s = collected_s()
+    gc.collect()
+    assert collected_s() > started_s  # (this thread's own collection, counted)
+    for t in (0.0, 0.005, 0.01, 0.015):
+        assert held.update(t, None, None).tolist() == [1.0]
+    assert held.fault is None
+    del heap
