@@ -6,7 +6,8 @@ from pathlib import Path
 import pytest
 
 from robot_controller import parameters as cfg
-from robot_controller.experiments.inprocess import simulate
+from robot_controller.experiments.inprocess import contained_controller, simulate
+from robot_controller.parameters.builders import arm_model
 
 LIGHT_ARM = str(Path(__file__).resolve().parents[2] / "examples" / "light_wrist_arm.urdf")
 
@@ -22,3 +23,9 @@ def test_a_lag_told_is_as_no_lag(robot):
     none, untold, told = rms_mrad(robot, 0.0, 0.0), rms_mrad(robot, 0.02, 0.0), rms_mrad(robot, 0.02, 0.02)
     assert untold > 2.5 * none  # 20 ms at 100 Hz: two periods of phase
     assert told == pytest.approx(none, rel=0.05)
+
+
+def test_the_law_in_force_says_the_lag_it_inverts():
+    ctrl = cfg.merge(cfg.load_stack(), {"pid_controller": {"model_drive_lag_s": 0.012}})["pid_controller"]
+    controller = contained_controller(cfg.controller_config({**ctrl, cfg.WORLD_WAITS: True}, 1), 1, arm_model(ctrl))
+    assert controller.law_in_force().endswith("; the drive's lag of 12 ms inverted")

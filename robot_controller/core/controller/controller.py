@@ -140,7 +140,9 @@ class JointController:
         sigma = self.config.estimator.disturbance_noise_std if self.config.observes_disturbance else None
         observer = "" if sigma is None else f", disturbance observer (σ {sigma:g} N·m/√s, estimate subtracted)"
         builtin = self.stop_law.describe(observer) + ("" if self.inertia is None else self.inertia.describe())
-        return builtin if self.plugin is None else f"{self.plugin.describe()}; stops on the built-in {builtin}"
+        said = builtin if self.plugin is None else f"{self.plugin.describe()}; stops on the built-in {builtin}"
+        lag_s = self.config.model_drive_lag_s  # (whichever law: its torque is what the drive applies)
+        return said + (f"; the drive's lag of {lag_s * 1e3:.3g} ms inverted" if lag_s > 0 else "")
 
     def delay_margin_periods(self) -> int | None:
         """Whole control periods of unaccounted delay the built-in law's feedback survives on the worst joint
