@@ -261,20 +261,34 @@ def _identify_once(
     chirp = f"{duration_s:g} sim s of a chirp, {said} rad, {start_hz:g} → {end_hz:g} Hz"
     progress(f"identify: {chirp} (sim time, run in {run_dir})")
     scored, recording = run_and_score(run_params, run_dir, duration_s=duration_s, sim_time=True, domain_id=domain_id)
-    names = joint_names(run_params)
-    progress(f"identify: fitting {len(recording.true_time_s)} samples of {', '.join(names)}")
+    progress(f"identify: fitting {len(recording.true_time_s)} samples of {', '.join(joint_names(run_params))}")
     facts = {"duration_s": float(duration_s), "seed": int(seed), "start_hz": float(start_hz), "end_hz": float(end_hz)}
     facts.update({key: scored.get(key) for key in ("tracking_rms_rad", "peak_torque_nm", "saturated_ticks")})
+    period_s = 1.0 / run_params["pid_controller"]["control_rate_hz"]
+    return fit_run(run_params, out, recording, facts, graph_commands_and_efforts(recording, period_s), progress)
+
+
+def fit_run(
+    run_params: cfg.Params,
+    out: Path,
+    recording: Any,
+    facts: dict[str, Any],
+    drive: tuple[np.ndarray, np.ndarray],
+    progress: Callable[[str], None],
+) -> dict[str, Any]:
+    """The fits of a chirp run of ``run_params`` (its ``recording`` as a bag reads, ``drive``: its commands and the
+    torques applied, a row per period), written into ``out``: each joint's four numbers, or on a chain each joint's
+    armature, damping and friction and a payload; then the drive's lag."""
+    names = joint_names(run_params)
+    amplitude = [float(a) for a in run_params["trajectory_planner"]["amplitude"]]
     if len(names) > 1:
         from robot_controller.experiments.identify_chain import identify_chain
 
         motion, left_out = fit_inputs(run_params, recording, len(names))
         results = identify_chain(run_params, out, motion, left_out, {**facts, "amplitude_rad": amplitude}, progress)
     else:
-        facts["amplitude_rad"] = float(amplitude_rad)
-        results = identify_joints(run_params, out, recording, names, facts, progress)
+        results = identify_joints(run_params, out, recording, names, {**facts, "amplitude_rad": amplitude[0]}, progress)
     period_s = 1.0 / run_params["pid_controller"]["control_rate_hz"]
-    drive = graph_commands_and_efforts(recording, period_s)
     return {**results, **add_drive_lag(out, *drive, period_s, progress)}
 
 

@@ -9,7 +9,6 @@ payload the model is not told of asks something else: how far a model may be off
 
 from __future__ import annotations
 
-import json
 import tempfile
 import time
 from collections.abc import Callable
@@ -27,7 +26,6 @@ from robot_controller.experiments.autotune import chain
 from robot_controller.experiments.autotune.procedure import CHAIN_CHECK_S, VERIFY_SEEDS
 from robot_controller.experiments.autotune.verification import Verification
 from robot_controller.experiments.campaign.run_figures import figures
-from robot_controller.experiments.identify_drive import add_drive_lag
 
 #: s of sim time of the chirp each world is identified from (``identify``'s own)
 EXCITATION_S = 20.0
@@ -79,27 +77,15 @@ def _identified_once(params: cfg.Params, seed: int) -> tuple[cfg.Params, tuple[d
     run_params = identification.excitation_params(params, EXCITATION_S)
     run_params = cfg.merge(run_params, {"sensor_node": {"seed": seed}})
     result = inprocess.simulate(run_params, duration_s=EXCITATION_S, seed=seed)
-    recording = loop_recording(result, run_params)
-    names = identification.joint_names(run_params)
     metrics = result.tracking_metrics()
     facts: dict[str, Any] = {"duration_s": EXCITATION_S, "seed": seed, "start_hz": identification.START_HZ}
     facts |= {"end_hz": identification.END_HZ, "tracking_rms_rad": metrics["tracking_rms_rad"]}
     facts |= {"peak_torque_nm": float(np.abs(result.command).max()), "saturated_ticks": 0}
-    period_s = 1.0 / run_params["pid_controller"]["control_rate_hz"]
     with tempfile.TemporaryDirectory() as folder:
         out = Path(folder)
-        if len(names) > 1:
-            from robot_controller.experiments.identify_chain import identify_chain
-
-            motion, left_out = identification.fit_inputs(run_params, recording, len(names))
-            amplitude = [float(a) for a in run_params["trajectory_planner"]["amplitude"]]
-            identify_chain(run_params, out, motion, left_out, {**facts, "amplitude_rad": amplitude}, _quiet)
-        else:
-            facts["amplitude_rad"] = identification.AMPLITUDE_RAD
-            identification.identify_joints(run_params, out, recording, names, facts, _quiet)
-        add_drive_lag(out, result.command, result.applied, period_s, _quiet)
+        recording = loop_recording(result, run_params)
+        found = identification.fit_run(run_params, out, recording, facts, (result.command, result.applied), _quiet)
         overlay = cfg.read_params_file(out / "identified.yaml")
-        found = json.loads((out / "identification.json").read_text())
     drive = {"identified_drive_lag_s": float(found["drive_lag_s"])}
     return cfg.merge(params, overlay), (drive, float(metrics["tracking_rms_rad"]))
 
